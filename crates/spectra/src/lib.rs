@@ -1,0 +1,1 @@
+//! gloam-spectra
