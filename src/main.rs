@@ -1,1 +1,56 @@
-fn main() {}
+//! `gloam`: the command line. Thin by design — argument parsing, progress and
+//! output files live here; all behaviour lives in the `crates/` libraries.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+/// Low-light-level imaging: spectral ray tracer, intensified camera chain,
+/// frame grabbers and calibration.
+#[derive(Parser)]
+#[command(name = "gloam", version, about, propagate_version = true)]
+struct Cli {
+    /// Log detail for diagnostics (also settable with RUST_LOG).
+    #[arg(long, global = true, default_value = "warn")]
+    log: String,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print the effect plan of a scene: which effects are simulated and why.
+    Plan(cmd::plan::PlanArgs),
+    /// The built-in spectral library and band integrals.
+    #[command(subcommand)]
+    Spectra(cmd::spectra::SpectraCommand),
+    // New subcommands: add a variant here and its arm in `run` below; the
+    // implementation lives in `src/cmd/<name>.rs`.
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Plan(args) => cmd::plan::run(args),
+        Command::Spectra(c) => cmd::spectra::run(c),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(&cli.log));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // Plain `error: cause: cause…` on stderr, never a backtrace.
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! One module per subcommand. Each exposes its clap arguments and a
+//! `run(args) -> anyhow::Result<()>`.
+
+pub mod output;
+pub mod plan;
+pub mod spectra;
