@@ -1,0 +1,1 @@
+//! Exact irradiance from polygonal emitters (Lambert, Arvo 1995).

@@ -1,0 +1,1 @@
+//! Sampling directions uniformly in the solid angle of triangles and rectangles.
