@@ -1,0 +1,123 @@
+//! The `FrameGrabber` interface and the types that cross it.
+
+use serde::{Deserialize, Serialize};
+
+/// Whether a frame arrived whole. Only `Ok` frames are ever returned as good
+/// by [`FrameGrabber::grab`]; damaged frames are reported as errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrameStatus {
+    Ok,
+    /// The device flagged the frame (e.g. sensor overrun) but its bytes are whole.
+    DeviceWarning,
+}
+
+/// Metadata that travels with every frame: the settings actually in effect
+/// when it was captured (not the ones last requested).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameMeta {
+    /// Sequence number assigned by the camera (gaps mean lost frames).
+    pub seq: u64,
+    /// Capture time, microseconds since the stream started.
+    pub timestamp_us: u64,
+    /// Tube (or system) gain in effect, as the camera reports it.
+    pub gain: f64,
+    /// True when AGC was servoing the gain for this frame.
+    pub agc: bool,
+    /// Digitizer bit depth (8, 12 or 16); pixel values lie in `0..2^bits`.
+    pub bits: u8,
+    pub width: u32,
+    pub height: u32,
+    /// CRC-32C (Castagnoli) of the pixels as little-endian u16 bytes.
+    pub pixels_crc32c: u32,
+    pub status: FrameStatus,
+}
+
+/// One digitised frame: row-major `height × width` digital counts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub meta: FrameMeta,
+    pub pixels: Vec<u16>,
+}
+
+/// What a calibration source presents to the camera.
+///
+/// Real hardware ignores stimuli (the operator sets the lab source and says
+/// so); simulated cameras and the device emulator render them. Calibration
+/// flows always call [`FrameGrabber::present`], so they run unchanged on both.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum Stimulus {
+    /// Capped lens / no light.
+    Dark,
+    /// A uniform field (integrating-sphere port filling the view) of band
+    /// radiance `radiance_w_m2_sr` over 400–1000 nm with the relative
+    /// spectrum of the built-in lamp `spectrum`.
+    Uniform {
+        radiance_w_m2_sr: f64,
+        spectrum: String,
+    },
+    /// A sinusoidal bar target: radiance `mean·(1 + modulation·cos(2π f x'))`
+    /// with `x'` along the direction `angle_deg` from the row axis and `f` in
+    /// cycles per pixel.
+    Sine {
+        mean_radiance_w_m2_sr: f64,
+        modulation: f64,
+        cycles_per_pixel: f64,
+        angle_deg: f64,
+        spectrum: String,
+    },
+    /// A straight edge between two radiances, tilted by `angle_deg` from the
+    /// column axis (ISO 12233 slanted edge, typically ~5°).
+    Edge {
+        dark_radiance_w_m2_sr: f64,
+        bright_radiance_w_m2_sr: f64,
+        angle_deg: f64,
+        spectrum: String,
+    },
+}
+
+/// Controls a grabber accepts. Every setter returns the value actually
+/// applied (a device may clamp or round).
+pub trait FrameGrabber {
+    /// A one-line description (model, transport, firmware version).
+    fn describe(&self) -> String;
+    /// Frame size (width, height) in pixels.
+    fn frame_size(&self) -> (u32, u32);
+    /// Fixes a manual gain and turns AGC off (override).
+    fn set_gain(&mut self, gain: f64) -> Result<f64, GrabError>;
+    /// Turns AGC on (gain then servoes toward the set-point).
+    fn set_agc(&mut self, on: bool) -> Result<bool, GrabError>;
+    /// Digitizer depth: 8, 12 or 16 bits.
+    fn set_bits(&mut self, bits: u8) -> Result<u8, GrabError>;
+    /// Exposure (CCD integration or intensifier gate), seconds.
+    fn set_exposure_s(&mut self, exposure_s: f64) -> Result<f64, GrabError>;
+    /// Presents a stimulus. Returns false where the grabber cannot render it
+    /// (real hardware: the operator sets the source).
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError>;
+    /// The next whole frame. Damaged or lost frames are never returned as
+    /// good: they come back as [`GrabError::FrameDamaged`] / [`GrabError::FramesLost`]
+    /// and the caller may simply grab again.
+    fn grab(&mut self) -> Result<Frame, GrabError>;
+}
+
+/// Everything that can go wrong talking to a grabber.
+#[derive(Debug, thiserror::Error)]
+pub enum GrabError {
+    #[error("{0}")]
+    Unsupported(String),
+    #[error("invalid setting: {0}")]
+    InvalidSetting(String),
+    #[error("timed out after {after_ms} ms waiting for {what}")]
+    Timeout { what: String, after_ms: u64 },
+    #[error("frame {seq} damaged: {reason}")]
+    FrameDamaged { seq: u64, reason: String },
+    #[error("{count} frame(s) lost before frame {next_seq}")]
+    FramesLost { count: u64, next_seq: u64 },
+    #[error("device disconnected: {0}")]
+    Disconnected(String),
+    #[error("device error: {0}")]
+    Device(String),
+    #[error("{0}")]
+    Other(String),
+}
