@@ -26,6 +26,8 @@
 // grouping, which clippy finds inconsistent.
 #![allow(clippy::inconsistent_digit_grouping)]
 
+use serde::Serialize;
+
 use crate::error::{Result, SkyError, check_range};
 use crate::time::UtcInstant;
 
@@ -39,7 +41,7 @@ const EARTH_AXIS_RATIO: f64 = 0.996_647_19;
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
 /// An observing site on the Earth (geodetic coordinates).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Site {
     /// Geodetic latitude, degrees north (−90..=90).
     pub latitude_deg: f64,
@@ -80,7 +82,7 @@ impl Site {
 }
 
 /// How to correct elevations for atmospheric refraction.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum Refraction {
     /// Geometric (airless) topocentric elevation.
     None,
@@ -168,7 +170,7 @@ pub fn refraction_bennett_deg(apparent_elevation_deg: f64) -> f64 {
 }
 
 /// Geocentric apparent ecliptic coordinates (equinox and ecliptic of date).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct EclipticPosition {
     /// Apparent ecliptic longitude, degrees in [0, 360).
     pub longitude_deg: f64,
@@ -180,7 +182,7 @@ pub struct EclipticPosition {
 
 /// Nutation in longitude Δψ and obliquity Δε plus the true obliquity ε,
 /// all degrees (Meeus ch. 22, main terms; mean obliquity eq. 22.2).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Nutation {
     /// Δψ, degrees.
     pub longitude_deg: f64,
@@ -371,7 +373,7 @@ pub fn sun_geocentric(jd_tt: f64) -> EclipticPosition {
 }
 
 /// Apparent topocentric horizontal position of a body.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct HorizontalPosition {
     /// Apparent elevation above the horizon including refraction (equal
     /// to `elevation_geometric_deg` with [`Refraction::None`]), degrees.
@@ -415,7 +417,7 @@ pub fn elevation_azimuth_from_enu(v: [f64; 3]) -> Result<(f64, f64)> {
 }
 
 /// Everything `gloam ephem` reports for one instant and site.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Ephemeris {
     /// The instant (UTC).
     pub instant: UtcInstant,

@@ -272,6 +272,13 @@ impl fmt::Display for UtcInstant {
     }
 }
 
+/// Serialised as the ISO-8601 string of [`UtcInstant::to_iso8601`].
+impl serde::Serialize for UtcInstant {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(&self.to_iso8601())
+    }
+}
+
 impl FromStr for UtcInstant {
     type Err = SkyError;
     fn from_str(s: &str) -> Result<Self> {
