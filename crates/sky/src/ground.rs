@@ -394,6 +394,33 @@ mod tests {
     }
 
     #[test]
+    fn full_moon_at_moderate_elevation_is_typical() {
+        // scan the night of the 2024-12-15 full moon for the Moon at 40–50°
+        let site = Site::new(32.2, -110.95, 750.0).unwrap();
+        let start = t("2024-12-15T01:00:00Z");
+        let mut checked = 0;
+        for k in 0..48 {
+            let when = start.plus_seconds(k as f64 * 900.0);
+            let g = ground_illuminance(when, &site, 23.0, Cloud::Clear, false).unwrap();
+            let el = g.ephemeris.moon.elevation_deg;
+            if (40.0..=50.0).contains(&el) {
+                let l = g.illuminance_lux;
+                println!(
+                    "moon el {el:.1}°: total {:.3} lux (direct {:.3}, sky {:.3})",
+                    l.total, l.moon_direct, l.moon_sky
+                );
+                assert!((0.1..=0.3).contains(&l.total), "{l:?}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 0);
+        // JSON for the CLI
+        let g = ground_illuminance(start, &site, 23.0, Cloud::Clear, true).unwrap();
+        let j = serde_json::to_string(&g).unwrap();
+        assert!(j.contains("\"moon_direct\"") && j.contains("2024-12-15T01:00:00.000Z"));
+    }
+
+    #[test]
     fn overcast_and_moonless() {
         let site = Site::new(32.2, -110.95, 750.0).unwrap();
         let clear = ground_illuminance(t("2024-12-15T07:20:00Z"), &site, 40.0, Cloud::Clear, false)
