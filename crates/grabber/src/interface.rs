@@ -116,8 +116,30 @@ pub enum GrabError {
     FramesLost { count: u64, next_seq: u64 },
     #[error("device disconnected: {0}")]
     Disconnected(String),
+    /// The stream was interrupted (link lost, port closed, device reset) and
+    /// has been restarted. `frames_lost` is the number of frames the device
+    /// produced that never arrived, when the device could tell (`None`: it
+    /// was reset, so the count is unknown). The caller may simply grab again.
+    #[error("stream interrupted ({reason}); {} lost, stream restarted", match frames_lost { Some(n) => format!("{n} frame(s)"), None => "an unknown number of frames".to_string() })]
+    Interrupted {
+        reason: String,
+        frames_lost: Option<u64>,
+    },
     #[error("device error: {0}")]
     Device(String),
     #[error("{0}")]
     Other(String),
+}
+
+impl GrabError {
+    /// True for errors that only report lost or damaged frames: the grabber
+    /// is still usable and the caller may grab again.
+    pub fn is_frame_loss(&self) -> bool {
+        matches!(
+            self,
+            GrabError::FrameDamaged { .. }
+                | GrabError::FramesLost { .. }
+                | GrabError::Interrupted { .. }
+        )
+    }
 }
