@@ -1,1 +1,342 @@
-//! gloam-scene
+//! gloam-scene: the scene file format (TOML, with geometry inline or from OBJ
+//! files), validated into a [`Scene`] with file/line errors, and the
+//! [effect plan](plan) that decides what a render has to simulate.
+//!
+//! Geometry stays in the scene's declared units (`m` or `ft`, see
+//! [`Scene::meters_per_unit`]); all radiometry is SI: emitter radiance in
+//! W m⁻² sr⁻¹ nm⁻¹, point-source intensity in W sr⁻¹ nm⁻¹, wavelengths in nm.
+//! The format is documented in `docs/scene-format.md`.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+pub use gloam_spectra::Spectrum;
+
+mod build;
+mod error;
+mod geometry;
+pub mod plan;
+mod raw;
+
+pub use error::SceneError;
+pub use geometry::{PLANARITY_TOLERANCE, check_facet};
+
+/// Reads and validates a scene file. Relative paths inside it (CSV spectra,
+/// OBJ files, sensor files) are resolved against the scene file's directory.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_str(&text, path)
+}
+
+/// Parses and validates scene text; `path` names the file in errors and is
+/// the base for relative paths (it need not exist).
+pub fn parse_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    build::build(text, path)
+}
+
+/// Length unit of a scene's geometry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Units {
+    Meters,
+    Feet,
+}
+
+impl Units {
+    /// Metres per scene unit (exactly 0.3048 for feet).
+    pub fn meters_per_unit(self) -> f64 {
+        match self {
+            Units::Meters => 1.0,
+            Units::Feet => 0.3048,
+        }
+    }
+
+    /// The spelling used in scene files: `m` or `ft`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Units::Meters => "m",
+            Units::Feet => "ft",
+        }
+    }
+}
+
+/// A validated scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene file (as given to [`load`]/[`parse_str`]).
+    pub path: PathBuf,
+    pub units: Units,
+    /// Metres per scene unit: multiply lengths by this, areas by its square.
+    pub meters_per_unit: f64,
+    /// Materials in file order; [`Facet::material`] indexes this.
+    pub materials: Vec<Material>,
+    /// Every facet of every object, in file order.
+    pub facets: Vec<Facet>,
+    pub point_sources: Vec<PointSource>,
+    pub camera: Camera,
+    /// Bands in file order (at least one).
+    pub bands: Vec<Band>,
+    pub sky: Option<SkyConfig>,
+    /// A sensor preset name, or a path (resolved against the scene's
+    /// directory when it names an existing file).
+    pub sensor: Option<String>,
+}
+
+impl Scene {
+    /// The material of a facet.
+    pub fn material_of(&self, facet: &Facet) -> &Material {
+        &self.materials[facet.material]
+    }
+
+    /// The material called `name`, with its index.
+    pub fn material_by_name(&self, name: &str) -> Option<(usize, &Material)> {
+        self.materials
+            .iter()
+            .enumerate()
+            .find(|(_, m)| m.name == name)
+    }
+
+    /// Indices of the facets whose material emits (the area sources).
+    pub fn emitting_facets(&self) -> Vec<usize> {
+        self.facets
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| self.materials[f.material].emission.is_some())
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// The band called `name`.
+    pub fn band(&self, name: &str) -> Option<&Band> {
+        self.bands.iter().find(|b| b.name == name)
+    }
+
+    /// The directory relative paths in the scene are resolved against.
+    pub fn base_dir(&self) -> &Path {
+        base_dir(&self.path)
+    }
+}
+
+pub(crate) fn base_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// A surface material.
+///
+/// Reflection: `reflectance` is the total (directional-hemispherical)
+/// reflectance ρ(λ) in 0..1; the fraction `specular_fraction` of it is
+/// mirror-like and the rest, `(1 − specular_fraction)·ρ(λ)`, is Lambertian.
+/// Transmission τ(λ) lets light straight through (a leaf, a screen): rays
+/// crossing the surface keep their direction and are weighted by τ.
+/// Energy conservation `ρ(λ) + τ(λ) ≤ 1` is checked at load time.
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    /// Total reflectance, 0..1 (see the type docs for the diffuse/specular split).
+    pub reflectance: Spectrum,
+    /// Fraction of the reflectance that is specular, 0..1.
+    pub specular_fraction: f64,
+    /// Straight-through transmission, 0..1; `None` for opaque materials.
+    pub transmission: Option<Spectrum>,
+    /// Set when facets of this material are area sources.
+    pub emission: Option<Emission>,
+}
+
+impl Material {
+    /// Lambertian part of the reflectance at `wavelength_nm`.
+    pub fn diffuse_reflectance(&self, wavelength_nm: f64) -> f64 {
+        (1.0 - self.specular_fraction) * self.reflectance.eval(wavelength_nm)
+    }
+
+    /// Specular part of the reflectance at `wavelength_nm`.
+    pub fn specular_reflectance(&self, wavelength_nm: f64) -> f64 {
+        self.specular_fraction * self.reflectance.eval(wavelength_nm)
+    }
+
+    /// True when the material lets any light through.
+    pub fn is_transmissive(&self) -> bool {
+        self.transmission
+            .as_ref()
+            .is_some_and(|t| t.integral() > 0.0)
+    }
+
+    /// True when the material has a specular lobe that reflects anything.
+    pub fn is_specular(&self) -> bool {
+        self.specular_fraction > 0.0 && self.reflectance.integral() > 0.0
+    }
+}
+
+/// Emission of an area source: radiance `L(λ) cos^m(alpha)` about the facet
+/// normal, emitted from the front side only.
+#[derive(Clone, Debug)]
+pub struct Emission {
+    /// Radiance along the normal, W m⁻² sr⁻¹ nm⁻¹ (lines in W m⁻² sr⁻¹).
+    pub radiance_w_m2_sr_nm: Spectrum,
+    /// m in `cos^m(alpha)`; 0 is Lambertian.
+    pub shape_exponent: f64,
+}
+
+/// A planar, convex triangle or quad.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Facet {
+    /// 3 or 4 vertices in scene units, counter-clockwise seen from the front.
+    pub vertices: Vec<DVec3>,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+    /// The name of the scene object the facet belongs to.
+    pub object: String,
+}
+
+impl Facet {
+    /// Newell's vector: twice the vector area (normal × area).
+    fn newell(&self) -> DVec3 {
+        geometry::newell(&self.vertices)
+    }
+
+    /// Unit normal of the front side (right-hand rule on the vertex order);
+    /// zero for a degenerate facet (which loading rejects).
+    pub fn normal(&self) -> DVec3 {
+        self.newell().normalize_or_zero()
+    }
+
+    /// Area in scene units² (exact for planar polygons).
+    pub fn area(&self) -> f64 {
+        0.5 * self.newell().length()
+    }
+
+    /// Area centroid (for a quad, the area-weighted mean of its two triangles).
+    pub fn centroid(&self) -> DVec3 {
+        geometry::centroid(&self.vertices)
+    }
+}
+
+/// A point source: intensity `I_s(λ) cos^m(alpha)` about `direction`
+/// (zero behind it for m > 0; m = 0 is isotropic).
+#[derive(Clone, Debug)]
+pub struct PointSource {
+    pub name: String,
+    /// Scene units.
+    pub position: DVec3,
+    /// Unit vector.
+    pub direction: DVec3,
+    pub shape_exponent: f64,
+    /// I_s, W sr⁻¹ nm⁻¹ (lines in W sr⁻¹).
+    pub intensity_w_sr_nm: Spectrum,
+}
+
+impl PointSource {
+    /// True for shaped sources (m > 0).
+    pub fn is_shaped(&self) -> bool {
+        self.shape_exponent > 0.0
+    }
+}
+
+/// A pinhole camera.
+///
+/// Image convention: pixel (column, row) with row 0 at the top; continuous
+/// coordinates `(px, py)` run over `0..width`, `0..height` and pixel `(i, j)`
+/// has its centre at `(i + 0.5, j + 0.5)`. Pixels are square, so the vertical
+/// field is `2·atan(tan(fov/2)·height/width)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub position: DVec3,
+    pub look_at: DVec3,
+    pub up: DVec3,
+    /// Horizontal field of view, degrees (0 < fov < 180).
+    pub fov_deg: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Camera {
+    /// Orthonormal (right, true up, forward) basis.
+    pub fn basis(&self) -> (DVec3, DVec3, DVec3) {
+        let f = (self.look_at - self.position).normalize();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        (r, u, f)
+    }
+
+    /// tan of the half fields of view (horizontal, vertical).
+    pub fn tan_half_fov(&self) -> (f64, f64) {
+        let th = (self.fov_deg.to_radians() * 0.5).tan();
+        (th, th * self.height as f64 / self.width as f64)
+    }
+
+    /// Unit direction of the ray through continuous pixel coordinates
+    /// `(px, py)` (see the type docs).
+    pub fn pixel_direction(&self, px: f64, py: f64) -> DVec3 {
+        let (r, u, f) = self.basis();
+        let (th, tv) = self.tan_half_fov();
+        let x = (2.0 * px / self.width as f64 - 1.0) * th;
+        let y = (1.0 - 2.0 * py / self.height as f64) * tv;
+        (f + x * r + y * u).normalize()
+    }
+
+    /// Continuous pixel coordinates of a scene point, or `None` when it is
+    /// behind the camera. Points outside the image give coordinates outside
+    /// `0..width`, `0..height`.
+    pub fn project(&self, p: DVec3) -> Option<(f64, f64)> {
+        let (r, u, f) = self.basis();
+        let d = p - self.position;
+        let z = d.dot(f);
+        if z <= 0.0 {
+            return None;
+        }
+        let (th, tv) = self.tan_half_fov();
+        let x = d.dot(r) / (z * th);
+        let y = d.dot(u) / (z * tv);
+        Some((
+            (x + 1.0) * 0.5 * self.width as f64,
+            (1.0 - y) * 0.5 * self.height as f64,
+        ))
+    }
+
+    /// True when the point projects inside the image (in front of the camera).
+    pub fn sees_point(&self, p: DVec3) -> bool {
+        self.project(p).is_some_and(|(x, y)| {
+            (0.0..=self.width as f64).contains(&x) && (0.0..=self.height as f64).contains(&y)
+        })
+    }
+
+    /// True when any part of the polygon lies inside the viewing frustum
+    /// (occlusion is not considered).
+    pub fn frustum_overlaps(&self, polygon: &[DVec3]) -> bool {
+        geometry::frustum_overlaps(self, polygon)
+    }
+}
+
+/// A spectral band of the render.
+#[derive(Clone, Debug)]
+pub struct Band {
+    pub name: String,
+    /// Response curve: a 0/1 rectangle over `lo_nm..hi_nm` for rectangular
+    /// bands, otherwise the given response clipped to `lo_nm..hi_nm`.
+    pub response: Spectrum,
+    /// Support of the response, nm.
+    pub lo_nm: f64,
+    pub hi_nm: f64,
+}
+
+/// The optional `[sky]` block (outdoor scenes); parsed now, simulated by the
+/// sky crate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyConfig {
+    /// ISO-8601 date and time, UTC (e.g. `2024-03-14T22:30:00Z`).
+    pub utc: String,
+    pub latitude_deg: f64,
+    /// East positive.
+    pub longitude_deg: f64,
+    /// Observer height above sea level, m.
+    pub height_m: f64,
+    /// Horizontal meteorological visibility, km.
+    pub visibility_km: f64,
+    pub moon: bool,
+    pub night_sky: bool,
+    pub overcast: bool,
+}

@@ -1,0 +1,853 @@
+//! From the raw TOML structs to a validated [`Scene`]: units, spectra,
+//! materials, geometry, sources, camera, bands and sky, each check naming the
+//! field it rejects.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::DVec3;
+use gloam_spectra::{Spectrum, library};
+
+use crate::error::{FieldPath, Locator};
+use crate::geometry::{box_faces, check_facet, quad_vertices};
+use crate::raw::*;
+use crate::{
+    Band, Camera, Emission, Facet, Material, PointSource, Scene, SceneError, SkyConfig, Units,
+    base_dir,
+};
+
+/// Support of a flat spectrum given as a plain number or `value`, nm.
+pub const FLAT_LO_NM: f64 = 200.0;
+/// See [`FLAT_LO_NM`].
+pub const FLAT_HI_NM: f64 = 2500.0;
+
+type R<T> = Result<T, SceneError>;
+
+struct Ctx<'a> {
+    loc: Locator<'a>,
+    path: &'a Path,
+}
+
+impl Ctx<'_> {
+    fn err(&self, field: &FieldPath, msg: impl Into<String>) -> SceneError {
+        self.loc.error(field, msg)
+    }
+
+    /// Entries of a keyed table (`[materials.NAME]` …) in file order.
+    fn ordered<'m, T>(
+        &self,
+        field: &FieldPath,
+        map: &'m BTreeMap<String, T>,
+    ) -> Vec<(&'m str, &'m T)> {
+        let mut out: Vec<(&str, &T)> = Vec::with_capacity(map.len());
+        for k in self.loc.keys_in_file_order(field) {
+            if let Some((k, v)) = map.get_key_value(&k) {
+                out.push((k.as_str(), v));
+            }
+        }
+        if out.len() != map.len() {
+            out = map.iter().map(|(k, v)| (k.as_str(), v)).collect();
+        }
+        out
+    }
+
+    fn resolve(&self, rel: &str) -> std::path::PathBuf {
+        let p = Path::new(rel);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            base_dir(self.path).join(p)
+        }
+    }
+
+    fn finite(&self, field: &FieldPath, v: f64) -> R<f64> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(field, format!("{v} is not a finite number")))
+        }
+    }
+
+    fn vec3(&self, field: &FieldPath, v: V3) -> R<DVec3> {
+        for (i, c) in v.iter().enumerate() {
+            if !c.is_finite() {
+                return Err(self.err(
+                    &field.index(i),
+                    format!("coordinate {c} is not a finite number"),
+                ));
+            }
+        }
+        Ok(DVec3::from_array(v))
+    }
+}
+
+pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
+    let cx = Ctx {
+        loc: Locator::new(text, path),
+        path,
+    };
+    let raw: RawScene = toml::from_str(text).map_err(|e| cx.loc.error_at(e.span(), e.message()))?;
+    let root = FieldPath::root();
+
+    let units = match raw.units.as_str() {
+        "m" => Units::Meters,
+        "ft" => Units::Feet,
+        other => {
+            return Err(cx.err(
+                &root.key("units"),
+                format!("unknown units '{other}': use \"m\" or \"ft\""),
+            ));
+        }
+    };
+
+    // Materials.
+    let mut materials = Vec::new();
+    let mf = root.key("materials");
+    for (name, m) in cx.ordered(&mf, &raw.materials) {
+        materials.push(material(&cx, &mf.key(name), name, m)?);
+    }
+
+    // Objects → facets.
+    let mut facets = Vec::new();
+    let of = root.key("objects");
+    for (name, o) in cx.ordered(&of, &raw.objects) {
+        object(&cx, &of.key(name), name, o, &materials, &mut facets)?;
+    }
+
+    // Point sources.
+    let mut point_sources = Vec::new();
+    let pf = root.key("point_sources");
+    for (name, p) in cx.ordered(&pf, &raw.point_sources) {
+        point_sources.push(point_source(&cx, &pf.key(name), name, p)?);
+    }
+
+    let camera = camera(&cx, &root.key("camera"), &raw.camera)?;
+
+    let mut bands = Vec::new();
+    let bf = root.key("bands");
+    for (name, b) in cx.ordered(&bf, &raw.bands) {
+        bands.push(band(&cx, &bf.key(name), name, b)?);
+    }
+    if bands.is_empty() {
+        return Err(cx.err(
+            &bf,
+            "a scene needs at least one band, e.g. [bands.vis] lo_nm = 400, hi_nm = 700",
+        ));
+    }
+
+    let sky = match &raw.sky {
+        Some(s) => Some(sky(&cx, &root.key("sky"), s)?),
+        None => None,
+    };
+
+    let sensor = match &raw.sensor {
+        None => None,
+        Some(s) if s.trim().is_empty() => {
+            return Err(cx.err(&root.key("sensor"), "empty sensor reference"));
+        }
+        Some(s) => {
+            let p = cx.resolve(s);
+            if p.is_file() {
+                Some(p.to_string_lossy().into_owned())
+            } else {
+                Some(s.clone())
+            }
+        }
+    };
+
+    Ok(Scene {
+        path: path.to_path_buf(),
+        units,
+        meters_per_unit: units.meters_per_unit(),
+        materials,
+        facets,
+        point_sources,
+        camera,
+        bands,
+        sky,
+        sensor,
+    })
+}
+
+/// What a spectrum is, for messages and range checks.
+#[derive(Clone, Copy, PartialEq)]
+enum Kind {
+    Reflectance,
+    Transmission,
+    Radiance,
+    Intensity,
+    Response,
+}
+
+impl Kind {
+    fn word(self) -> &'static str {
+        match self {
+            Kind::Reflectance => "reflectance",
+            Kind::Transmission => "transmission",
+            Kind::Radiance => "radiance",
+            Kind::Intensity => "intensity",
+            Kind::Response => "response",
+        }
+    }
+}
+
+/// A built-in name or a CSV path relative to the scene.
+fn named_spectrum(cx: &Ctx, field: &FieldPath, name: &str) -> R<Spectrum> {
+    if let Some(s) = library::get(name) {
+        return Ok(s);
+    }
+    let p = cx.resolve(name);
+    if p.is_file() {
+        return gloam_spectra::read_csv(&p)
+            .map_err(|e| cx.err(field, format!("spectrum file: {e}")));
+    }
+    Err(cx.err(
+        field,
+        format!(
+            "unknown spectrum '{name}': not a built-in name (see `gloam spectra list`) and no file {}",
+            p.display()
+        ),
+    ))
+}
+
+fn flat(cx: &Ctx, field: &FieldPath, v: f64, kind: Kind) -> R<Spectrum> {
+    if !v.is_finite() {
+        return Err(cx.err(field, format!("{} {v} is not a finite number", kind.word())));
+    }
+    if v < 0.0 {
+        return Err(cx.err(field, format!("negative {} {v} (must be ≥ 0)", kind.word())));
+    }
+    Spectrum::constant(FLAT_LO_NM, FLAT_HI_NM, v).map_err(|e| cx.err(field, e.to_string()))
+}
+
+/// Builds a spectrum from its parts: `spectrum` (name/CSV) or `value` (flat),
+/// then `scale`, then `normalize`.
+fn spectrum_parts(
+    cx: &Ctx,
+    field: &FieldPath,
+    spectrum: Option<&str>,
+    value: Option<f64>,
+    scale: Option<f64>,
+    normalize: Option<&RawNormalize>,
+    kind: Kind,
+) -> R<Spectrum> {
+    let mut s = match (spectrum, value) {
+        (Some(name), None) => named_spectrum(cx, &field.key("spectrum"), name)?,
+        (None, Some(v)) => flat(cx, &field.key("value"), v, kind)?,
+        (Some(_), Some(_)) => {
+            return Err(cx.err(
+                &field.key("value"),
+                "give either `spectrum` (a name or CSV file) or `value` (flat), not both",
+            ));
+        }
+        (None, None) => {
+            return Err(cx.err(
+                field,
+                "missing `spectrum` (a built-in name or CSV file) or `value` (a flat spectrum)",
+            ));
+        }
+    };
+    if let Some(k) = scale {
+        let f = field.key("scale");
+        if !(k.is_finite() && k >= 0.0) {
+            return Err(cx.err(&f, format!("scale {k} must be a finite number ≥ 0")));
+        }
+        s = s.scaled(k).map_err(|e| cx.err(&f, e.to_string()))?;
+    }
+    if let Some(n) = normalize {
+        let f = field.key("normalize");
+        if !(n.lo_nm.is_finite() && n.hi_nm.is_finite() && n.lo_nm >= 0.0 && n.hi_nm > n.lo_nm) {
+            return Err(cx.err(
+                &f,
+                format!(
+                    "band {}–{} nm must have 0 ≤ lo_nm < hi_nm",
+                    n.lo_nm, n.hi_nm
+                ),
+            ));
+        }
+        if !(n.value.is_finite() && n.value >= 0.0) {
+            return Err(cx.err(
+                &f.key("value"),
+                format!(
+                    "normalisation value {} must be a finite number ≥ 0",
+                    n.value
+                ),
+            ));
+        }
+        s = s
+            .normalized_to_band(n.lo_nm, n.hi_nm, n.value)
+            .map_err(|e| cx.err(&f, e.to_string()))?;
+    }
+    Ok(s)
+}
+
+fn spectrum(cx: &Ctx, field: &FieldPath, raw: &RawSpectrum, kind: Kind) -> R<Spectrum> {
+    match raw {
+        RawSpectrum::Flat(v) => flat(cx, field, *v, kind),
+        RawSpectrum::Name(n) => named_spectrum(cx, field, n),
+        RawSpectrum::Table(t) => spectrum_parts(
+            cx,
+            field,
+            t.spectrum.as_deref(),
+            t.value,
+            t.scale,
+            t.normalize.as_ref(),
+            kind,
+        ),
+    }
+}
+
+/// Reflectance and transmission: continuum only, every value within 0..1.
+fn check_fraction(cx: &Ctx, field: &FieldPath, s: &Spectrum, kind: Kind) -> R<()> {
+    if !s.lines().is_empty() {
+        return Err(cx.err(
+            field,
+            format!(
+                "a {} has no emission lines (this spectrum has {}); use a continuum",
+                kind.word(),
+                s.lines().len()
+            ),
+        ));
+    }
+    for (&w, &v) in s.wavelengths_nm().iter().zip(s.values()) {
+        if v > 1.0 + 1e-12 {
+            return Err(cx.err(field, format!("{} {v} at {w} nm exceeds 1", kind.word())));
+        }
+    }
+    Ok(())
+}
+
+fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Material> {
+    let emission = match &m.emission {
+        None => None,
+        Some(e) => {
+            let f = field.key("emission");
+            let radiance = spectrum_parts(
+                cx,
+                &f,
+                e.spectrum.as_deref(),
+                e.value,
+                e.scale,
+                e.normalize.as_ref(),
+                Kind::Radiance,
+            )?;
+            let m_exp = e.shape_exponent.unwrap_or(0.0);
+            if !(m_exp.is_finite() && m_exp >= 0.0) {
+                return Err(cx.err(
+                    &f.key("shape_exponent"),
+                    format!("shape exponent {m_exp} must be a finite number ≥ 0"),
+                ));
+            }
+            Some(Emission {
+                radiance_w_m2_sr_nm: radiance,
+                shape_exponent: m_exp,
+            })
+        }
+    };
+    let rf = field.key("reflectance");
+    let reflectance = match &m.reflectance {
+        Some(r) => spectrum(cx, &rf, r, Kind::Reflectance)?,
+        None if emission.is_some() => Spectrum::constant(FLAT_LO_NM, FLAT_HI_NM, 0.0)
+            .map_err(|e| cx.err(&rf, e.to_string()))?,
+        None => {
+            return Err(cx.err(
+                field,
+                "missing `reflectance` (a number 0..1, a spectrum name/CSV, or a table)",
+            ));
+        }
+    };
+    check_fraction(cx, &rf, &reflectance, Kind::Reflectance)?;
+    let sf = field.key("specular_fraction");
+    let specular_fraction = m.specular_fraction.unwrap_or(0.0);
+    if !(0.0..=1.0).contains(&specular_fraction) {
+        return Err(cx.err(
+            &sf,
+            format!("specular fraction {specular_fraction} must be within 0..1"),
+        ));
+    }
+    let tf = field.key("transmission");
+    let transmission = match &m.transmission {
+        Some(t) => {
+            let t = spectrum(cx, &tf, t, Kind::Transmission)?;
+            check_fraction(cx, &tf, &t, Kind::Transmission)?;
+            // ρ + τ ≤ 1: both are piecewise linear, so checking at the nodes
+            // of both grids is exact.
+            let mut grid: Vec<f64> = reflectance
+                .wavelengths_nm()
+                .iter()
+                .chain(t.wavelengths_nm())
+                .copied()
+                .collect();
+            grid.sort_by(f64::total_cmp);
+            for w in grid {
+                let sum = reflectance.eval(w) + t.eval(w);
+                if sum > 1.0 + 1e-9 {
+                    return Err(cx.err(
+                        &tf,
+                        format!(
+                            "reflectance {} + transmission {} = {sum} at {w} nm exceeds 1 \
+                             (a surface cannot return more light than it receives)",
+                            reflectance.eval(w),
+                            t.eval(w)
+                        ),
+                    ));
+                }
+            }
+            Some(t)
+        }
+        None => None,
+    };
+    Ok(Material {
+        name: name.to_string(),
+        reflectance,
+        specular_fraction,
+        transmission,
+        emission,
+    })
+}
+
+fn object(
+    cx: &Ctx,
+    field: &FieldPath,
+    name: &str,
+    o: &RawObject,
+    materials: &[Material],
+    facets: &mut Vec<Facet>,
+) -> R<()> {
+    let material = materials
+        .iter()
+        .position(|m| m.name == o.material)
+        .ok_or_else(|| {
+            let known: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            cx.err(
+                &field.key("material"),
+                format!(
+                    "unknown material '{}' (defined: {})",
+                    o.material,
+                    if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
+            )
+        })?;
+
+    let translate = match o.translate {
+        Some(t) => cx.vec3(&field.key("translate"), t)?,
+        None => DVec3::ZERO,
+    };
+    let sfield = field.key("scale");
+    let scale = match &o.scale {
+        None => DVec3::ONE,
+        Some(RawScale::Uniform(s)) => DVec3::splat(*s),
+        Some(RawScale::PerAxis(v)) => DVec3::from_array(*v),
+    };
+    if !(scale.is_finite() && scale.min_element() > 0.0) {
+        return Err(cx.err(
+            &sfield,
+            format!("scale {scale} must be finite and > 0 on every axis"),
+        ));
+    }
+    let xf = |p: DVec3| p * scale + translate;
+
+    let kinds = [
+        o.vertices.is_some() || o.faces.is_some(),
+        o.box_.is_some(),
+        o.quad.is_some(),
+        o.obj.is_some(),
+    ];
+    match kinds.iter().filter(|&&k| k).count() {
+        1 => {}
+        0 => {
+            return Err(cx.err(
+                field,
+                "no geometry: give `vertices` + `faces`, `box`, `quad` or `obj`",
+            ));
+        }
+        _ => {
+            return Err(cx.err(
+                field,
+                "more than one kind of geometry: give only one of `vertices` + `faces`, `box`, `quad`, `obj` per object",
+            ));
+        }
+    }
+    let mut push = |verts: Vec<DVec3>, at: &FieldPath| -> R<()> {
+        check_facet(&verts).map_err(|m| cx.err(at, m))?;
+        facets.push(Facet {
+            vertices: verts,
+            material,
+            object: name.to_string(),
+        });
+        Ok(())
+    };
+
+    if o.vertices.is_some() || o.faces.is_some() {
+        let vf = field.key("vertices");
+        let ff = field.key("faces");
+        let (Some(vs), Some(fs)) = (&o.vertices, &o.faces) else {
+            return Err(cx.err(
+                if o.vertices.is_none() { &ff } else { &vf },
+                "inline geometry needs both `vertices` and `faces`",
+            ));
+        };
+        let mut pts = Vec::with_capacity(vs.len());
+        for (i, v) in vs.iter().enumerate() {
+            pts.push(xf(cx.vec3(&vf.index(i), *v)?));
+        }
+        if fs.is_empty() {
+            return Err(cx.err(&ff, "no faces"));
+        }
+        for (i, face) in fs.iter().enumerate() {
+            let at = ff.index(i);
+            if !(face.len() == 3 || face.len() == 4) {
+                return Err(cx.err(
+                    &at,
+                    format!(
+                        "a face has 3 or 4 vertex indices, this one has {}",
+                        face.len()
+                    ),
+                ));
+            }
+            let mut verts = Vec::with_capacity(4);
+            for &k in face {
+                let p = pts.get(k).ok_or_else(|| {
+                    cx.err(
+                        &at,
+                        format!(
+                            "vertex index {k} is out of range (there are {} vertices, indexed from 0)",
+                            pts.len()
+                        ),
+                    )
+                })?;
+                verts.push(*p);
+            }
+            push(verts, &at)?;
+        }
+    } else if let Some(b) = &o.box_ {
+        let bf = field.key("box");
+        let min = cx.vec3(&bf.key("min"), b.min)?;
+        let max = cx.vec3(&bf.key("max"), b.max)?;
+        if !(max.cmpgt(min).all()) {
+            return Err(cx.err(
+                &bf.key("max"),
+                format!("box max {max} must exceed min {min} on every axis (zero-volume box)"),
+            ));
+        }
+        const NAMES: [&str; 8] = ["-x", "+x", "-y", "+y", "-z", "+z", "bottom", "top"];
+        for (i, s) in b.omit.iter().enumerate() {
+            if !NAMES.contains(&s.as_str()) {
+                return Err(cx.err(
+                    &bf.key("omit").index(i),
+                    format!("unknown box face '{s}' (use -x, +x, -y, +y, -z/bottom, +z/top)"),
+                ));
+            }
+        }
+        let omitted = |n: &str| {
+            b.omit
+                .iter()
+                .any(|s| s == n || (s == "bottom" && n == "-z") || (s == "top" && n == "+z"))
+        };
+        for (face, q) in box_faces(min, max, b.inward) {
+            if !omitted(face) {
+                push(q.iter().map(|&p| xf(p)).collect(), &bf)?;
+            }
+        }
+    } else if let Some(q) = &o.quad {
+        let qf = field.key("quad");
+        let c = cx.vec3(&qf.key("center"), q.center)?;
+        let n = cx.vec3(&qf.key("normal"), q.normal)?;
+        let wa = match q.width_axis {
+            Some(a) => Some(cx.vec3(&qf.key("width_axis"), a)?),
+            None => None,
+        };
+        let [w, h] = q.size;
+        for (i, s) in q.size.iter().enumerate() {
+            cx.finite(&qf.key("size").index(i), *s)?;
+            if *s <= 0.0 {
+                return Err(cx.err(
+                    &qf.key("size").index(i),
+                    format!("size {s} must be > 0 (zero area)"),
+                ));
+            }
+        }
+        let verts = quad_vertices(c, w, h, n, wa).map_err(|m| cx.err(&qf, m))?;
+        push(verts.iter().map(|&p| xf(p)).collect(), &qf)?;
+    } else if let Some(file) = &o.obj {
+        let at = field.key("obj");
+        let p = cx.resolve(file);
+        let opts = tobj::LoadOptions {
+            triangulate: false,
+            single_index: false,
+            ignore_points: true,
+            ignore_lines: true,
+            ..Default::default()
+        };
+        let (models, _mtl) = tobj::load_obj(&p, &opts)
+            .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
+        let mut count = 0usize;
+        for model in &models {
+            let mesh = &model.mesh;
+            let pos = |k: u32| -> Option<DVec3> {
+                let k = k as usize * 3;
+                let s = mesh.positions.get(k..k + 3)?;
+                Some(DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64))
+            };
+            let arities: Vec<usize> = if mesh.face_arities.is_empty() {
+                vec![3; mesh.indices.len() / 3]
+            } else {
+                mesh.face_arities.iter().map(|&a| a as usize).collect()
+            };
+            let mut start = 0usize;
+            for (fi, &n) in arities.iter().enumerate() {
+                let idx = mesh.indices.get(start..start + n).unwrap_or(&[]);
+                start += n;
+                let what = format!("{} (model '{}', face {fi})", p.display(), model.name);
+                if !(n == 3 || n == 4) {
+                    return Err(cx.err(
+                        &at,
+                        format!("{what}: a face has 3 or 4 vertices, this one has {n}; split it"),
+                    ));
+                }
+                let mut verts = Vec::with_capacity(n);
+                for &k in idx {
+                    let v = pos(k).ok_or_else(|| {
+                        cx.err(&at, format!("{what}: vertex index {k} is out of range"))
+                    })?;
+                    verts.push(xf(v));
+                }
+                check_facet(&verts).map_err(|m| cx.err(&at, format!("{what}: {m}")))?;
+                push(verts, &at)?;
+                count += 1;
+            }
+        }
+        if count == 0 {
+            return Err(cx.err(&at, format!("OBJ file {} has no faces", p.display())));
+        }
+    }
+    Ok(())
+}
+
+fn point_source(cx: &Ctx, field: &FieldPath, name: &str, p: &RawPointSource) -> R<PointSource> {
+    let position = cx.vec3(&field.key("position"), p.position)?;
+    let df = field.key("direction");
+    let direction = match p.direction {
+        Some(d) => cx
+            .vec3(&df, d)?
+            .try_normalize()
+            .ok_or_else(|| cx.err(&df, "direction is a zero vector"))?,
+        None => DVec3::NEG_Z,
+    };
+    let m = p.shape_exponent.unwrap_or(0.0);
+    if !(m.is_finite() && m >= 0.0) {
+        return Err(cx.err(
+            &field.key("shape_exponent"),
+            format!("shape exponent {m} must be a finite number ≥ 0"),
+        ));
+    }
+    let intensity = spectrum_parts(
+        cx,
+        field,
+        p.spectrum.as_deref(),
+        p.value,
+        p.scale,
+        p.normalize.as_ref(),
+        Kind::Intensity,
+    )?;
+    Ok(PointSource {
+        name: name.to_string(),
+        position,
+        direction,
+        shape_exponent: m,
+        intensity_w_sr_nm: intensity,
+    })
+}
+
+fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {
+    let position = cx.vec3(&field.key("position"), c.position)?;
+    let look_at = cx.vec3(&field.key("look_at"), c.look_at)?;
+    let up = match c.up {
+        Some(u) => cx.vec3(&field.key("up"), u)?,
+        None => DVec3::Z,
+    };
+    let view = look_at - position;
+    if view.length() == 0.0 {
+        return Err(cx.err(&field.key("look_at"), "look_at equals the camera position"));
+    }
+    if view.normalize().cross(up).length() < 1e-9 {
+        return Err(cx.err(
+            &field.key("up"),
+            format!("up {up} is zero or parallel to the view direction"),
+        ));
+    }
+    let fov = cx.finite(&field.key("fov_deg"), c.fov_deg)?;
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(cx.err(
+            &field.key("fov_deg"),
+            format!("horizontal field of view {fov}° must be within (0, 180)"),
+        ));
+    }
+    for (k, v) in [("width", c.width), ("height", c.height)] {
+        if v == 0 {
+            return Err(cx.err(&field.key(k), format!("{k} must be at least 1 pixel")));
+        }
+    }
+    Ok(Camera {
+        position,
+        look_at,
+        up,
+        fov_deg: fov,
+        width: c.width,
+        height: c.height,
+    })
+}
+
+fn band(cx: &Ctx, field: &FieldPath, name: &str, b: &RawBand) -> R<Band> {
+    let check_edges = |lo: f64, hi: f64| -> R<()> {
+        if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo) {
+            return Err(cx.err(
+                &field.key("hi_nm"),
+                format!("band {lo}–{hi} nm must have 0 ≤ lo_nm < hi_nm"),
+            ));
+        }
+        Ok(())
+    };
+    let rect = |lo: f64, hi: f64| {
+        Spectrum::constant(lo, hi, 1.0).map_err(|e| cx.err(field, e.to_string()))
+    };
+    match (&b.response, b.lo_nm, b.hi_nm) {
+        (None, Some(lo), Some(hi)) => {
+            check_edges(lo, hi)?;
+            Ok(Band {
+                name: name.to_string(),
+                response: rect(lo, hi)?,
+                lo_nm: lo,
+                hi_nm: hi,
+            })
+        }
+        (None, _, _) => Err(cx.err(
+            field,
+            "a band needs `lo_nm` and `hi_nm` (rectangular) or a `response` spectrum",
+        )),
+        (Some(r), lo, hi) => {
+            let rf = field.key("response");
+            let s = spectrum(cx, &rf, r, Kind::Response)?;
+            let (slo, shi) = s
+                .support_nm()
+                .ok_or_else(|| cx.err(&rf, "the response spectrum is empty"))?;
+            let (lo, hi) = (lo.unwrap_or(slo), hi.unwrap_or(shi));
+            check_edges(lo, hi)?;
+            let s = if lo > slo || hi < shi {
+                s.product(&rect(lo, hi)?)
+            } else {
+                s
+            };
+            if s.integral() <= 0.0 {
+                return Err(cx.err(&rf, format!("the response is zero over {lo}–{hi} nm")));
+            }
+            Ok(Band {
+                name: name.to_string(),
+                response: s,
+                lo_nm: lo,
+                hi_nm: hi,
+            })
+        }
+    }
+}
+
+/// Accepts `YYYY-MM-DDTHH:MM[:SS[.fff]]` with an optional `Z` or `+00:00`
+/// (or a space for `T`).
+fn iso8601_utc(s: &str) -> Result<(), String> {
+    let b = s.as_bytes();
+    let digits = |r: std::ops::Range<usize>| {
+        b.get(r.clone())
+            .is_some_and(|x| x.iter().all(u8::is_ascii_digit))
+    };
+    let num =
+        |r: std::ops::Range<usize>| s.get(r).and_then(|x| x.parse::<u32>().ok()).unwrap_or(99);
+    let shape = digits(0..4)
+        && b.get(4) == Some(&b'-')
+        && digits(5..7)
+        && b.get(7) == Some(&b'-')
+        && digits(8..10)
+        && matches!(b.get(10), Some(b'T' | b't' | b' '))
+        && digits(11..13)
+        && b.get(13) == Some(&b':')
+        && digits(14..16);
+    if !shape {
+        return Err(format!(
+            "'{s}' is not an ISO-8601 date-time such as 2024-03-14T22:30:00Z"
+        ));
+    }
+    let mut rest = &s[16..];
+    if let Some(r) = rest.strip_prefix(':') {
+        let sec_len = r
+            .bytes()
+            .take_while(|c| c.is_ascii_digit() || *c == b'.')
+            .count();
+        if sec_len < 2 {
+            return Err(format!("'{s}': seconds must have two digits"));
+        }
+        rest = &r[sec_len..];
+    }
+    if !matches!(rest, "" | "Z" | "z" | "+00:00" | "-00:00") {
+        return Err(format!(
+            "'{s}': the time must be UTC (end with Z or nothing), not '{rest}'"
+        ));
+    }
+    let (mo, d, h, mi) = (num(5..7), num(8..10), num(11..13), num(14..16));
+    if !((1..=12).contains(&mo) && (1..=31).contains(&d) && h <= 23 && mi <= 59) {
+        return Err(format!("'{s}': month, day, hour or minute out of range"));
+    }
+    Ok(())
+}
+
+fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {
+    let uf = field.key("utc");
+    let utc = match &s.utc {
+        toml::Value::String(x) => x.clone(),
+        toml::Value::Datetime(d) => d.to_string(),
+        other => {
+            return Err(cx.err(
+                &uf,
+                format!(
+                    "expected an ISO-8601 UTC date-time, found a {}",
+                    other.type_str()
+                ),
+            ));
+        }
+    };
+    iso8601_utc(&utc).map_err(|m| cx.err(&uf, m))?;
+    let lat = cx.finite(&field.key("latitude_deg"), s.latitude_deg)?;
+    if !(-90.0..=90.0).contains(&lat) {
+        return Err(cx.err(
+            &field.key("latitude_deg"),
+            format!("latitude {lat}° must be within -90..90"),
+        ));
+    }
+    let lon = cx.finite(&field.key("longitude_deg"), s.longitude_deg)?;
+    if !(-180.0..=360.0).contains(&lon) {
+        return Err(cx.err(
+            &field.key("longitude_deg"),
+            format!("longitude {lon}° must be within -180..360 (east positive)"),
+        ));
+    }
+    let height_m = cx.finite(&field.key("height_m"), s.height_m.unwrap_or(0.0))?;
+    let vis = cx.finite(&field.key("visibility_km"), s.visibility_km.unwrap_or(23.0))?;
+    if vis <= 0.0 {
+        return Err(cx.err(
+            &field.key("visibility_km"),
+            format!("visibility {vis} km must be > 0"),
+        ));
+    }
+    Ok(SkyConfig {
+        utc,
+        latitude_deg: lat,
+        longitude_deg: lon,
+        height_m,
+        visibility_km: vis,
+        moon: s.moon.unwrap_or(true),
+        night_sky: s.night_sky.unwrap_or(true),
+        overcast: s.overcast.unwrap_or(false),
+    })
+}

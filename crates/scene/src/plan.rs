@@ -1,0 +1,423 @@
+//! The effect plan: which effects a render of a scene has to simulate, and
+//! why. Simulate only what the scene calls for — no area sources, no area
+//! sampling; no specular materials, no recursion; no `[sky]`, no moon.
+//!
+//! The plan is an ordered list of [`Effect`]s with stable names (see
+//! [`names`]); later stages (the sensor chain) append their own effects with
+//! [`EffectPlan::extend`] or [`plan_with`].
+
+use std::fmt;
+
+use serde::Serialize;
+
+use crate::Scene;
+
+/// Stable effect names.
+pub mod names {
+    pub const AREA_SOURCES: &str = "area-sources";
+    pub const SHAPED_POINT_SOURCES: &str = "shaped-point-sources";
+    pub const POINT_SOURCES: &str = "point-sources";
+    pub const TRANSMISSIVE_OCCLUDERS: &str = "transmissive-occluders";
+    pub const SPECULAR_RECURSION: &str = "specular-recursion";
+    pub const DIRECT_VIEW: &str = "direct-view";
+    pub const MOON: &str = "moon";
+    pub const NIGHT_SKY: &str = "night-sky";
+    pub const ATMOSPHERE: &str = "atmosphere";
+    pub const SENSOR: &str = "sensor";
+}
+
+/// One effect: whether it is simulated and why.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Effect {
+    pub name: String,
+    pub enabled: bool,
+    pub reason: String,
+}
+
+impl Effect {
+    pub fn new(name: impl Into<String>, enabled: bool, reason: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            enabled,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// The plan: effects in a fixed order. Serialises as
+/// `{"effects":[{"name":…,"enabled":…,"reason":…}]}`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct EffectPlan {
+    pub effects: Vec<Effect>,
+}
+
+impl EffectPlan {
+    /// True when the effect is in the plan and enabled.
+    pub fn is_enabled(&self, name: &str) -> bool {
+        self.get(name).is_some_and(|e| e.enabled)
+    }
+
+    /// The effect called `name`.
+    pub fn get(&self, name: &str) -> Option<&Effect> {
+        self.effects.iter().find(|e| e.name == name)
+    }
+
+    /// Adds effects; one with the name of an existing effect replaces it in
+    /// place (so a later stage can refine a decision, e.g. "sensor").
+    pub fn extend(&mut self, extra: impl IntoIterator<Item = Effect>) {
+        for e in extra {
+            match self.effects.iter_mut().find(|x| x.name == e.name) {
+                Some(x) => *x = e,
+                None => self.effects.push(e),
+            }
+        }
+    }
+
+    /// Names of the enabled effects, in plan order.
+    pub fn enabled(&self) -> Vec<&str> {
+        self.effects
+            .iter()
+            .filter(|e| e.enabled)
+            .map(|e| e.name.as_str())
+            .collect()
+    }
+}
+
+/// A readable table: `effect  on/off  reason`.
+impl fmt::Display for EffectPlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = self
+            .effects
+            .iter()
+            .map(|e| e.name.len())
+            .max()
+            .unwrap_or(6)
+            .max(6);
+        writeln!(f, "{:<w$}  {:<3}  reason", "effect", "on")?;
+        writeln!(f, "{:-<w$}  ---  {:-<40}", "", "")?;
+        for e in &self.effects {
+            writeln!(
+                f,
+                "{:<w$}  {:<3}  {}",
+                e.name,
+                if e.enabled { "yes" } else { "no" },
+                e.reason
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// `n thing(s)`.
+fn count(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// A name list, shortened after a few entries.
+fn list<S: AsRef<str>>(items: &[S]) -> String {
+    const MAX: usize = 6;
+    let mut s: Vec<&str> = items.iter().take(MAX).map(|x| x.as_ref()).collect();
+    let more;
+    if items.len() > MAX {
+        more = format!("… {} more", items.len() - MAX);
+        s.push(&more);
+    }
+    s.join(", ")
+}
+
+fn fmt_num(x: f64) -> String {
+    if x == x.trunc() && x.abs() < 1e9 {
+        format!("{}", x as i64)
+    } else {
+        format!("{x}")
+    }
+}
+
+/// Which materials are actually on facets.
+fn used_materials(scene: &Scene) -> Vec<bool> {
+    let mut used = vec![false; scene.materials.len()];
+    for f in &scene.facets {
+        used[f.material] = true;
+    }
+    used
+}
+
+/// The effect plan of a scene (scene effects only; see [`plan_with`]).
+pub fn plan(scene: &Scene) -> EffectPlan {
+    let mut effects = Vec::new();
+    let used = used_materials(scene);
+
+    // Area sources: facets whose material emits.
+    let emitting = scene.emitting_facets();
+    let mut emitting_objects: Vec<&str> = Vec::new();
+    for &i in &emitting {
+        let o = scene.facets[i].object.as_str();
+        if !emitting_objects.contains(&o) {
+            emitting_objects.push(o);
+        }
+    }
+    effects.push(if emitting.is_empty() {
+        Effect::new(names::AREA_SOURCES, false, "no emitting facets")
+    } else {
+        let shaped: Vec<String> = scene
+            .materials
+            .iter()
+            .enumerate()
+            .filter(|(i, m)| {
+                used[*i] && m.emission.as_ref().is_some_and(|e| e.shape_exponent > 0.0)
+            })
+            .map(|(_, m)| {
+                format!(
+                    "{} m = {}",
+                    m.name,
+                    fmt_num(m.emission.as_ref().map_or(0.0, |e| e.shape_exponent))
+                )
+            })
+            .collect();
+        let shape = if shaped.is_empty() {
+            "Lambertian".to_string()
+        } else {
+            format!("shaped: {}", list(&shaped))
+        };
+        Effect::new(
+            names::AREA_SOURCES,
+            true,
+            format!(
+                "{} ({}); {shape}",
+                count(emitting.len(), "emitting facet", "emitting facets"),
+                list(&emitting_objects)
+            ),
+        )
+    });
+
+    // Point sources, shaped and isotropic.
+    let shaped: Vec<String> = scene
+        .point_sources
+        .iter()
+        .filter(|p| p.is_shaped())
+        .map(|p| format!("{} m = {}", p.name, fmt_num(p.shape_exponent)))
+        .collect();
+    effects.push(if shaped.is_empty() {
+        Effect::new(
+            names::SHAPED_POINT_SOURCES,
+            false,
+            "no point sources with shape exponent m > 0",
+        )
+    } else {
+        Effect::new(
+            names::SHAPED_POINT_SOURCES,
+            true,
+            format!(
+                "{} with m > 0 ({})",
+                count(shaped.len(), "point source", "point sources"),
+                list(&shaped)
+            ),
+        )
+    });
+    let iso: Vec<&str> = scene
+        .point_sources
+        .iter()
+        .filter(|p| !p.is_shaped())
+        .map(|p| p.name.as_str())
+        .collect();
+    effects.push(if iso.is_empty() {
+        Effect::new(
+            names::POINT_SOURCES,
+            false,
+            "no isotropic point sources (m = 0)",
+        )
+    } else {
+        Effect::new(
+            names::POINT_SOURCES,
+            true,
+            format!(
+                "{} ({})",
+                count(
+                    iso.len(),
+                    "isotropic point source",
+                    "isotropic point sources"
+                ),
+                list(&iso)
+            ),
+        )
+    });
+
+    // Transmissive occluders and specular recursion: only materials on facets.
+    let transmissive: Vec<&str> = scene
+        .materials
+        .iter()
+        .enumerate()
+        .filter(|(i, m)| used[*i] && m.is_transmissive())
+        .map(|(_, m)| m.name.as_str())
+        .collect();
+    effects.push(if transmissive.is_empty() {
+        Effect::new(
+            names::TRANSMISSIVE_OCCLUDERS,
+            false,
+            "no transmissive materials on any facet",
+        )
+    } else {
+        Effect::new(
+            names::TRANSMISSIVE_OCCLUDERS,
+            true,
+            format!(
+                "{} let light through ({}): shadow rays are attenuated, not stopped",
+                count(transmissive.len(), "material", "materials"),
+                list(&transmissive)
+            ),
+        )
+    });
+    let specular: Vec<String> = scene
+        .materials
+        .iter()
+        .enumerate()
+        .filter(|(i, m)| used[*i] && m.is_specular())
+        .map(|(_, m)| format!("{} {}", m.name, fmt_num(m.specular_fraction)))
+        .collect();
+    effects.push(if specular.is_empty() {
+        Effect::new(
+            names::SPECULAR_RECURSION,
+            false,
+            "all materials on facets are purely diffuse",
+        )
+    } else {
+        Effect::new(
+            names::SPECULAR_RECURSION,
+            true,
+            format!(
+                "{} with a specular fraction > 0 ({})",
+                count(specular.len(), "material", "materials"),
+                list(&specular)
+            ),
+        )
+    });
+
+    // Direct view: an emitter or point source in the camera frustum, seen
+    // from the side it emits to (occlusion is not checked).
+    let cam = &scene.camera;
+    let mut seen: Vec<String> = Vec::new();
+    let mut seen_facets = 0usize;
+    for &i in &emitting {
+        let f = &scene.facets[i];
+        let front = (cam.position - f.centroid()).dot(f.normal()) > 0.0;
+        if front && cam.frustum_overlaps(&f.vertices) {
+            seen_facets += 1;
+            if !seen.contains(&f.object) {
+                seen.push(f.object.clone());
+            }
+        }
+    }
+    let mut seen_points = 0usize;
+    for p in &scene.point_sources {
+        let toward = (cam.position - p.position).dot(p.direction) > 0.0;
+        if (!p.is_shaped() || toward) && cam.sees_point(p.position) {
+            seen_points += 1;
+            seen.push(p.name.clone());
+        }
+    }
+    effects.push(if seen.is_empty() {
+        Effect::new(
+            names::DIRECT_VIEW,
+            false,
+            "no emitter or point source faces the camera inside its field of view",
+        )
+    } else {
+        let mut what = Vec::new();
+        if seen_facets > 0 {
+            what.push(count(seen_facets, "emitting facet", "emitting facets"));
+        }
+        if seen_points > 0 {
+            what.push(count(seen_points, "point source", "point sources"));
+        }
+        Effect::new(
+            names::DIRECT_VIEW,
+            true,
+            format!(
+                "{} in the camera's field of view ({}): rendered as seen directly",
+                what.join(" and "),
+                list(&seen)
+            ),
+        )
+    });
+
+    // Sky terms.
+    match &scene.sky {
+        None => {
+            let why = "no [sky] block (indoor scene)";
+            effects.push(Effect::new(names::MOON, false, why));
+            effects.push(Effect::new(names::NIGHT_SKY, false, why));
+            effects.push(Effect::new(
+                names::ATMOSPHERE,
+                false,
+                format!("{why}: no atmospheric path"),
+            ));
+        }
+        Some(s) => {
+            let when = format!(
+                "{} at {:.3}°, {:.3}°",
+                s.utc, s.latitude_deg, s.longitude_deg
+            );
+            effects.push(if s.moon {
+                Effect::new(
+                    names::MOON,
+                    true,
+                    format!(
+                        "moon = true in [sky] ({when}){}; its elevation and phase decide the level",
+                        if s.overcast { ", overcast" } else { "" }
+                    ),
+                )
+            } else {
+                Effect::new(names::MOON, false, "moon = false in [sky]")
+            });
+            effects.push(if s.night_sky {
+                Effect::new(
+                    names::NIGHT_SKY,
+                    true,
+                    format!("night_sky = true in [sky] ({when})"),
+                )
+            } else {
+                Effect::new(names::NIGHT_SKY, false, "night_sky = false in [sky]")
+            });
+            effects.push(if s.moon || s.night_sky {
+                Effect::new(
+                    names::ATMOSPHERE,
+                    true,
+                    format!(
+                        "sky light crosses the atmosphere (visibility {} km{})",
+                        fmt_num(s.visibility_km),
+                        if s.overcast { ", overcast" } else { "" }
+                    ),
+                )
+            } else {
+                Effect::new(
+                    names::ATMOSPHERE,
+                    false,
+                    "[sky] has neither moon nor night sky enabled",
+                )
+            });
+        }
+    }
+
+    effects.push(match &scene.sensor {
+        None => Effect::new(
+            names::SENSOR,
+            false,
+            "no sensor in the scene: the output is at-aperture radiance",
+        ),
+        Some(s) => Effect::new(
+            names::SENSOR,
+            true,
+            format!("sensor '{s}' (its stages are planned by the sensor crate)"),
+        ),
+    });
+
+    EffectPlan { effects }
+}
+
+/// The scene's plan followed by `extra` effects (e.g. the sensor chain's
+/// stages); an extra effect with an existing name replaces it in place.
+pub fn plan_with(scene: &Scene, extra: impl IntoIterator<Item = Effect>) -> EffectPlan {
+    let mut p = plan(scene);
+    p.extend(extra);
+    p
+}
