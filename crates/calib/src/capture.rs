@@ -1,0 +1,125 @@
+//! Grabbing frames robustly and reducing them to statistics.
+
+use gloam_grabber::{Frame, FrameGrabber, GrabError};
+
+use crate::error::CalibError;
+
+/// How many damaged or lost frames in a row are tolerated before giving up.
+pub const MAX_CONSECUTIVE_BAD_FRAMES: usize = 20;
+
+/// The next good frame: damaged and lost frames are skipped (they are never
+/// good data) up to [`MAX_CONSECUTIVE_BAD_FRAMES`] in a row.
+pub fn grab_good(grabber: &mut dyn FrameGrabber) -> Result<Frame, CalibError> {
+    let mut bad = 0;
+    loop {
+        match grabber.grab() {
+            Ok(f) => {
+                let n = f.meta.width as usize * f.meta.height as usize;
+                if f.pixels.len() != n || n == 0 {
+                    return Err(CalibError::Invalid(format!(
+                        "frame {} holds {} pixels but its metadata says {}×{}",
+                        f.meta.seq,
+                        f.pixels.len(),
+                        f.meta.width,
+                        f.meta.height
+                    )));
+                }
+                return Ok(f);
+            }
+            Err(e @ (GrabError::FrameDamaged { .. } | GrabError::FramesLost { .. })) => {
+                bad += 1;
+                if bad >= MAX_CONSECUTIVE_BAD_FRAMES {
+                    return Err(CalibError::Grab(e));
+                }
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+}
+
+/// `n` good frames of the same size.
+pub fn grab_frames(grabber: &mut dyn FrameGrabber, n: usize) -> Result<Vec<Frame>, CalibError> {
+    let mut out: Vec<Frame> = Vec::with_capacity(n);
+    for _ in 0..n {
+        let f = grab_good(grabber)?;
+        if let Some(first) = out.first()
+            && (first.meta.width, first.meta.height) != (f.meta.width, f.meta.height)
+        {
+            return Err(CalibError::Invalid(format!(
+                "frame size changed mid-capture from {}×{} to {}×{}",
+                first.meta.width, first.meta.height, f.meta.width, f.meta.height
+            )));
+        }
+        out.push(f);
+    }
+    Ok(out)
+}
+
+/// Statistics of a stack of frames taken at one setting.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StackStats {
+    /// Mean over pixels and frames, DN.
+    pub mean_dn: f64,
+    /// Temporal standard deviation: sqrt of the pixel-averaged variance
+    /// across frames (unbiased), DN. Zero with a single frame.
+    pub temporal_std_dn: f64,
+    /// Fraction of pixel samples at the digitizer's maximum.
+    pub clipped_fraction: f64,
+    /// Largest code the digitizer can output.
+    pub max_dn: f64,
+    /// Per-pixel temporal mean (row-major).
+    pub mean_image: Vec<f64>,
+    pub width: usize,
+    pub height: usize,
+    /// Gain in effect per frame, as reported.
+    pub gains: Vec<f64>,
+}
+
+/// Reduces a non-empty stack of equally sized frames.
+pub fn stack_stats(frames: &[Frame]) -> Result<StackStats, CalibError> {
+    let first = frames
+        .first()
+        .ok_or_else(|| CalibError::InsufficientData("no frames captured".into()))?;
+    let n = first.pixels.len();
+    let k = frames.len() as f64;
+    let max_dn = ((1u64 << first.meta.bits.min(16)) - 1) as f64;
+    let mut sum = vec![0.0f64; n];
+    let mut sum2 = vec![0.0f64; n];
+    let mut clipped = 0usize;
+    for f in frames {
+        for (i, &p) in f.pixels.iter().enumerate() {
+            let v = p as f64;
+            sum[i] += v;
+            sum2[i] += v * v;
+            if v >= max_dn {
+                clipped += 1;
+            }
+        }
+    }
+    let mean_image: Vec<f64> = sum.iter().map(|s| s / k).collect();
+    let mean_dn = mean_image.iter().sum::<f64>() / n as f64;
+    let temporal_var = if frames.len() > 1 {
+        sum.iter()
+            .zip(&sum2)
+            .map(|(s, s2)| ((s2 - s * s / k) / (k - 1.0)).max(0.0))
+            .sum::<f64>()
+            / n as f64
+    } else {
+        0.0
+    };
+    Ok(StackStats {
+        mean_dn,
+        temporal_std_dn: temporal_var.sqrt(),
+        clipped_fraction: clipped as f64 / (n as f64 * k),
+        max_dn,
+        mean_image,
+        width: first.meta.width as usize,
+        height: first.meta.height as usize,
+        gains: frames.iter().map(|f| f.meta.gain).collect(),
+    })
+}
+
+/// Mean of one frame's pixels, DN.
+pub fn frame_mean(f: &Frame) -> f64 {
+    f.pixels.iter().map(|&p| p as f64).sum::<f64>() / f.pixels.len().max(1) as f64
+}

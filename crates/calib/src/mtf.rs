@@ -1,0 +1,475 @@
+//! Modulation transfer: sine-wave targets, USAF 1951 bar targets with
+//! Coltman's square→sine conversion, and the ISO 12233 slanted edge.
+//! Frequencies are in cycles per pixel (Nyquist = 0.5).
+
+use gloam_grabber::{FrameGrabber, Stimulus};
+use serde::Serialize;
+
+use crate::capture::{grab_frames, stack_stats};
+use crate::error::CalibError;
+
+/// MTF samples with the summary frequencies.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MtfCurve {
+    pub method: String,
+    pub frequencies_cy_per_px: Vec<f64>,
+    pub mtf: Vec<f64>,
+    /// Frequency where the MTF first falls to 0.5 (None: never, in range).
+    pub mtf50: Option<f64>,
+    /// Limiting resolution: where the MTF first falls to 0.1.
+    pub mtf10: Option<f64>,
+}
+
+impl MtfCurve {
+    pub fn new(method: &str, f: Vec<f64>, m: Vec<f64>) -> Self {
+        let mtf50 = crossing(&f, &m, 0.5);
+        let mtf10 = crossing(&f, &m, 0.1);
+        Self {
+            method: method.into(),
+            frequencies_cy_per_px: f,
+            mtf: m,
+            mtf50,
+            mtf10,
+        }
+    }
+}
+
+/// First frequency where `m` falls to `level`, linearly interpolated.
+pub fn crossing(f: &[f64], m: &[f64], level: f64) -> Option<f64> {
+    for i in 1..f.len().min(m.len()) {
+        if m[i - 1] >= level && m[i] < level {
+            let t = (m[i - 1] - level) / (m[i - 1] - m[i]);
+            return Some(f[i - 1] + t * (f[i] - f[i - 1]));
+        }
+    }
+    None
+}
+
+/// USAF 1951 resolving power of a group and element, line pairs per mm:
+/// `2^(group + (element − 1)/6)`.
+pub fn usaf_lp_per_mm(group: i32, element: i32) -> f64 {
+    2f64.powf(group as f64 + (element as f64 - 1.0) / 6.0)
+}
+
+fn factorize_squarefree(mut k: u64) -> Option<u32> {
+    // Number of prime factors of k, or None when one repeats.
+    let mut count = 0;
+    let mut p = 2;
+    while p * p <= k {
+        if k % p == 0 {
+            k /= p;
+            if k % p == 0 {
+                return None;
+            }
+            count += 1;
+        }
+        p += 1;
+    }
+    if k > 1 {
+        count += 1;
+    }
+    Some(count)
+}
+
+/// Coefficient of `C(kf)/k` in Coltman's inversion (k odd):
+/// `0` when k has a repeated prime factor, else `(−1)^m (−1)^((k−1)/2)` with
+/// m the number of prime factors. Gives + + − + 0 + − − − + + for k = 1, 3, 5,
+/// 7, 9, 11, 13, 15, 17, 19, 21.
+pub fn coltman_coefficient(k: u64) -> i32 {
+    if k % 2 == 0 {
+        return 0;
+    }
+    if k == 1 {
+        return 1;
+    }
+    match factorize_squarefree(k) {
+        None => 0,
+        Some(m) => {
+            let a = if m % 2 == 0 { 1 } else { -1 };
+            let b = if ((k - 1) / 2) % 2 == 0 { 1 } else { -1 };
+            a * b
+        }
+    }
+}
+
+/// Square-wave response (CTF) of a system with sine MTF `mtf`, by Coltman's
+/// forward series `C(f) = (4/π) Σ_{k odd} (−1)^((k−1)/2) M(kf)/k`, summed
+/// while `kf ≤ f_max` (above it the MTF is taken as zero).
+pub fn coltman_square_from_sine(f: f64, mtf: impl Fn(f64) -> f64, f_max: f64) -> f64 {
+    let mut s = 0.0;
+    let mut k = 1u64;
+    while (k as f64) * f <= f_max && k < 100_000 {
+        let sign = if ((k - 1) / 2) % 2 == 0 { 1.0 } else { -1.0 };
+        s += sign * mtf(k as f64 * f) / k as f64;
+        k += 2;
+    }
+    4.0 / std::f64::consts::PI * s
+}
+
+/// Sine MTF from a square-wave response by Coltman's inversion
+/// `M(f) = (π/4) Σ_{k odd} B_k C(kf)/k`, summed while `kf ≤ f_max`.
+pub fn coltman_sine_from_square(f: f64, ctf: impl Fn(f64) -> f64, f_max: f64) -> f64 {
+    let mut s = 0.0;
+    let mut k = 1u64;
+    while (k as f64) * f <= f_max && k < 100_000 {
+        let b = coltman_coefficient(k);
+        if b != 0 {
+            s += b as f64 * ctf(k as f64 * f) / k as f64;
+        }
+        k += 2;
+    }
+    std::f64::consts::PI / 4.0 * s
+}
+
+/// Coltman's inversion over measured CTF samples (frequencies increasing):
+/// C between samples is interpolated linearly and taken as zero above the
+/// highest measured frequency (bars finer than that were not resolved).
+pub fn coltman_sine_from_square_samples(f: &[f64], ctf: &[f64]) -> Result<Vec<f64>, CalibError> {
+    if f.len() != ctf.len() || f.is_empty() {
+        return Err(CalibError::InsufficientData("CTF samples are empty or uneven".into()));
+    }
+    if f.windows(2).any(|w| !(w[1] > w[0])) || f.iter().chain(ctf).any(|v| !v.is_finite()) {
+        return Err(CalibError::Invalid("CTF frequencies must increase and be finite".into()));
+    }
+    let fmax = *f.last().expect("non-empty");
+    let interp = |x: f64| -> f64 {
+        if x > fmax {
+            return 0.0;
+        }
+        if x <= f[0] {
+            return ctf[0];
+        }
+        let j = f.partition_point(|&v| v < x).min(f.len() - 1);
+        let t = (x - f[j - 1]) / (f[j] - f[j - 1]);
+        ctf[j - 1] + t * (ctf[j] - ctf[j - 1])
+    };
+    Ok(f.iter().map(|&x| coltman_sine_from_square(x, interp, fmax)).collect())
+}
+
+/// Settings of the sine-target measurement.
+#[derive(Clone, Debug)]
+pub struct SineOptions {
+    pub frequencies_cy_per_px: Vec<f64>,
+    pub mean_radiance_w_m2_sr: f64,
+    pub modulation: f64,
+    pub angle_deg: f64,
+    pub spectrum: String,
+    pub frames: usize,
+}
+
+/// Sine-target MTF. A grey-scale calibration (dark and a uniform field at
+/// the target's mean radiance) maps DN to radiance linearly; each target's
+/// averaged frame is fitted with `a + b cos(2πf x') + c sin(2πf x')` in
+/// radiance space, and `MTF = √(b²+c²)/a / modulation`.
+pub fn sine_mtf(
+    grabber: &mut dyn FrameGrabber,
+    opts: &SineOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<MtfCurve, CalibError> {
+    if !(opts.modulation > 0.0 && opts.modulation <= 1.0) {
+        return Err(CalibError::Invalid("modulation must lie in (0, 1]".into()));
+    }
+    let frames = opts.frames.max(1);
+    let total = opts.frequencies_cy_per_px.len() + 2;
+    grabber.present(&Stimulus::Dark)?;
+    let dark = stack_stats(&grab_frames(grabber, frames)?)?;
+    progress(1, total);
+    grabber.present(&Stimulus::Uniform {
+        radiance_w_m2_sr: opts.mean_radiance_w_m2_sr,
+        spectrum: opts.spectrum.clone(),
+    })?;
+    let flat = stack_stats(&grab_frames(grabber, frames)?)?;
+    progress(2, total);
+    let span = flat.mean_dn - dark.mean_dn;
+    if !(span > 6.0 * flat.temporal_std_dn.max(1e-9) / (frames as f64).sqrt()) || span <= 0.0 {
+        return Err(CalibError::InsufficientData(format!(
+            "the grey-scale calibration shows no signal ({:.3} DN above dark): raise the radiance",
+            span
+        )));
+    }
+    if flat.clipped_fraction > 0.0 {
+        return Err(CalibError::InsufficientData(
+            "the uniform field at the mean radiance clips: lower the radiance or the gain".into(),
+        ));
+    }
+    let to_l = |dn: f64| (dn - dark.mean_dn) / span * opts.mean_radiance_w_m2_sr;
+    let (ca, sa) = {
+        let a = opts.angle_deg.to_radians();
+        (a.cos(), a.sin())
+    };
+    let mut out = Vec::new();
+    for (i, &f) in opts.frequencies_cy_per_px.iter().enumerate() {
+        grabber.present(&Stimulus::Sine {
+            mean_radiance_w_m2_sr: opts.mean_radiance_w_m2_sr,
+            modulation: opts.modulation,
+            cycles_per_pixel: f,
+            angle_deg: opts.angle_deg,
+            spectrum: opts.spectrum.clone(),
+        })?;
+        let st = stack_stats(&grab_frames(grabber, frames)?)?;
+        let (w, h) = (st.width, st.height);
+        // Normal equations for [1, cos, sin].
+        let mut ata = [[0.0f64; 3]; 3];
+        let mut aty = [0.0f64; 3];
+        for r in 0..h {
+            for c in 0..w {
+                let x = c as f64 * ca + r as f64 * sa;
+                let ph = 2.0 * std::f64::consts::PI * f * x;
+                let v = [1.0, ph.cos(), ph.sin()];
+                let y = to_l(st.mean_image[r * w + c]);
+                for p in 0..3 {
+                    aty[p] += v[p] * y;
+                    for q in 0..3 {
+                        ata[p][q] += v[p] * v[q];
+                    }
+                }
+            }
+        }
+        let sol = solve3(ata, aty).ok_or_else(|| {
+            CalibError::SingularFit(format!(
+                "sine target at {f} cy/px cannot be fitted (frequency 0 or exactly aliased onto the pixel grid)"
+            ))
+        })?;
+        let m_out = (sol[1] * sol[1] + sol[2] * sol[2]).sqrt() / sol[0];
+        out.push(m_out / opts.modulation);
+        progress(i + 3, total);
+    }
+    Ok(MtfCurve::new("sine", opts.frequencies_cy_per_px.clone(), out))
+}
+
+fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    for col in 0..3 {
+        let piv = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[piv][col].abs() <= 1e-10 * scale {
+            return None;
+        }
+        a.swap(col, piv);
+        b.swap(col, piv);
+        for r in 0..3 {
+            if r != col {
+                let k = a[r][col] / a[col][col];
+                for c in 0..3 {
+                    a[r][c] -= k * a[col][c];
+                }
+                b[r] -= k * b[col];
+            }
+        }
+    }
+    Some([b[0] / a[0][0], b[1] / a[1][1], b[2] / a[2][2]])
+}
+
+/// Settings of the slanted-edge measurement.
+#[derive(Clone, Debug)]
+pub struct EdgeOptions {
+    pub dark_radiance_w_m2_sr: f64,
+    pub bright_radiance_w_m2_sr: f64,
+    pub angle_deg: f64,
+    pub spectrum: String,
+    pub frames: usize,
+}
+
+/// ISO 12233 slanted-edge MTF from a grabber (presents the edge and a dark
+/// frame, then [`slanted_edge_mtf`]).
+pub fn edge_mtf(
+    grabber: &mut dyn FrameGrabber,
+    opts: &EdgeOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<MtfCurve, CalibError> {
+    let frames = opts.frames.max(1);
+    grabber.present(&Stimulus::Dark)?;
+    let dark = stack_stats(&grab_frames(grabber, frames)?)?;
+    progress(1, 2);
+    grabber.present(&Stimulus::Edge {
+        dark_radiance_w_m2_sr: opts.dark_radiance_w_m2_sr,
+        bright_radiance_w_m2_sr: opts.bright_radiance_w_m2_sr,
+        angle_deg: opts.angle_deg,
+        spectrum: opts.spectrum.clone(),
+    })?;
+    let st = stack_stats(&grab_frames(grabber, frames)?)?;
+    progress(2, 2);
+    if st.clipped_fraction > 0.0 {
+        return Err(CalibError::InsufficientData(
+            "the edge image clips: lower the bright radiance or the gain".into(),
+        ));
+    }
+    let img: Vec<f64> = st.mean_image.iter().map(|v| v - dark.mean_dn).collect();
+    slanted_edge_mtf(&img, st.width, st.height)
+}
+
+/// ISO 12233 slanted-edge analysis of a linear (dark-subtracted) image of a
+/// near-vertical edge:
+/// 1. per row, the centroid of the derivative along the row locates the edge;
+/// 2. a line `x = a + b·row` is fitted to the centroids;
+/// 3. every pixel is projected onto the edge normal (perpendicular distance,
+///    so the frequencies are along the normal) and binned at 1/4 pixel into
+///    the edge-spread function;
+/// 4. its central difference is Hamming-windowed and Fourier transformed;
+///    the transform is normalised at zero frequency and divided by the
+///    central difference's own response `sinc(2fΔ)`.
+pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, CalibError> {
+    if w < 8 || h < 8 || img.len() != w * h {
+        return Err(CalibError::Invalid(format!(
+            "edge image {w}×{h} is too small (need ≥ 8×8)"
+        )));
+    }
+    let mut rows = Vec::new();
+    let mut cents = Vec::new();
+    let mut contrast = 0.0f64;
+    for r in 0..h {
+        let row = &img[r * w..(r + 1) * w];
+        let d: Vec<f64> = (0..w - 1).map(|c| row[c + 1] - row[c]).collect();
+        let s: f64 = d.iter().sum();
+        contrast = contrast.max(s.abs());
+        if s.abs() <= 0.0 {
+            continue;
+        }
+        let cm: f64 = d.iter().enumerate().map(|(c, v)| (c as f64 + 0.5) * v).sum::<f64>() / s;
+        if cm.is_finite() && cm > 1.0 && cm < (w - 2) as f64 {
+            rows.push(r as f64);
+            cents.push(cm);
+        }
+    }
+    let noise = {
+        let m = img.iter().sum::<f64>() / img.len() as f64;
+        let spread = img.iter().map(|v| (v - m).abs()).fold(0.0, f64::max);
+        spread
+    };
+    if rows.len() < h / 2 || contrast <= 1e-9 * noise.max(1e-300) || contrast == 0.0 {
+        return Err(CalibError::InsufficientData(
+            "no edge found in the image (flat field, or the edge is not near-vertical)".into(),
+        ));
+    }
+    let fit = crate::stats::weighted_linear_fit(&rows, &cents, &vec![1.0; rows.len()])?;
+    let (a, b) = (fit.intercept, fit.slope);
+    let cos = 1.0 / (1.0 + b * b).sqrt();
+    let dx = 0.25;
+    let half = (w as f64 / 2.0).min(16.0);
+    let nb = (2.0 * half / dx) as usize;
+    let mut sum = vec![0.0; nb];
+    let mut cnt = vec![0usize; nb];
+    for r in 0..h {
+        let xe = a + b * r as f64;
+        for c in 0..w {
+            let d = (c as f64 - xe) * cos;
+            let k = ((d + half) / dx).floor();
+            if k >= 0.0 && (k as usize) < nb {
+                sum[k as usize] += img[r * w + c];
+                cnt[k as usize] += 1;
+            }
+        }
+    }
+    // Fill empty bins by linear interpolation between filled neighbours.
+    let filled: Vec<usize> = (0..nb).filter(|&i| cnt[i] > 0).collect();
+    if filled.len() < nb / 2 {
+        return Err(CalibError::InsufficientData(
+            "the edge is too close to vertical or horizontal to oversample (use ~5°)".into(),
+        ));
+    }
+    let mut esf = vec![0.0; nb];
+    for i in 0..nb {
+        if cnt[i] > 0 {
+            esf[i] = sum[i] / cnt[i] as f64;
+        }
+    }
+    for i in 0..nb {
+        if cnt[i] == 0 {
+            let lo = filled.iter().rev().find(|&&j| j < i);
+            let hi = filled.iter().find(|&&j| j > i);
+            esf[i] = match (lo, hi) {
+                (Some(&l), Some(&u)) => {
+                    esf[l] + (esf[u] - esf[l]) * (i - l) as f64 / (u - l) as f64
+                }
+                (Some(&l), None) => esf[l],
+                (None, Some(&u)) => esf[u],
+                _ => 0.0,
+            };
+        }
+    }
+    // LSF by central difference.
+    let mut lsf = vec![0.0; nb];
+    for i in 1..nb - 1 {
+        lsf[i] = (esf[i + 1] - esf[i - 1]) / 2.0;
+    }
+    // Hamming window centred on the LSF centroid.
+    let tot: f64 = lsf.iter().sum();
+    if tot.abs() <= 0.0 {
+        return Err(CalibError::InsufficientData("the edge-spread function is flat".into()));
+    }
+    let cen = lsf.iter().enumerate().map(|(i, v)| i as f64 * v).sum::<f64>() / tot;
+    let hw = (cen.min(nb as f64 - 1.0 - cen)).max(4.0);
+    for (i, v) in lsf.iter_mut().enumerate() {
+        let t = (i as f64 - cen) / hw;
+        *v *= if t.abs() <= 1.0 {
+            0.54 + 0.46 * (std::f64::consts::PI * t).cos()
+        } else {
+            0.0
+        };
+    }
+    // DFT up to 1 cy/px.
+    let n = nb as f64;
+    let mut freqs = Vec::new();
+    let mut mtf = Vec::new();
+    let dc: f64 = lsf.iter().sum();
+    let mut k = 0usize;
+    loop {
+        let f = k as f64 / (n * dx);
+        if f > 1.0 {
+            break;
+        }
+        let (mut re, mut im) = (0.0, 0.0);
+        for (i, v) in lsf.iter().enumerate() {
+            let ph = -2.0 * std::f64::consts::PI * k as f64 * (i as f64 - cen) / n;
+            re += v * ph.cos();
+            im += v * ph.sin();
+        }
+        let x = 2.0 * std::f64::consts::PI * f * dx;
+        let corr = if x > 1e-12 { x.sin() / x } else { 1.0 };
+        freqs.push(f);
+        mtf.push((re * re + im * im).sqrt() / dc.abs() / corr.max(0.1));
+        k += 1;
+    }
+    Ok(MtfCurve::new("slanted-edge", freqs, mtf))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn usaf_values() {
+        assert_eq!(usaf_lp_per_mm(0, 1), 1.0);
+        assert!((usaf_lp_per_mm(2, 3) - 2f64.powf(2.0 + 2.0 / 6.0)).abs() < 1e-12);
+        assert!((usaf_lp_per_mm(-2, 1) - 0.25).abs() < 1e-12);
+        assert!((usaf_lp_per_mm(7, 6) - 228.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn coltman_signs() {
+        let got: Vec<i32> = (0..10).map(|i| coltman_coefficient(2 * i + 1)).collect();
+        // k = 1 3 5 7 9 11 13 15 17 19
+        assert_eq!(got, vec![1, 1, -1, 1, 0, 1, -1, -1, -1, 1]);
+        assert_eq!(coltman_coefficient(21), 1); // 3·7: m = 2, (k−1)/2 = 10
+        assert_eq!(coltman_coefficient(25), 0);
+        assert_eq!(coltman_coefficient(45), 0);
+    }
+
+    #[test]
+    fn coltman_inverts_forward_series() {
+        let m = |f: f64| (-2.0 * std::f64::consts::PI.powi(2) * 0.49 * f * f).exp();
+        let fmax = 50.0;
+        let ctf = |f: f64| coltman_square_from_sine(f, m, fmax);
+        for f in [0.02, 0.05, 0.1, 0.2, 0.3, 0.45] {
+            let back = coltman_sine_from_square(f, ctf, fmax);
+            assert!((back - m(f)).abs() < 1e-6, "f {f}: {back} vs {}", m(f));
+            // A square wave's response exceeds the sine's at low frequency.
+            assert!(ctf(f) >= m(f) - 1e-12);
+        }
+    }
+
+    #[test]
+    fn crossing_interpolates() {
+        assert_eq!(crossing(&[0.0, 1.0], &[1.0, 0.0], 0.5), Some(0.5));
+        assert_eq!(crossing(&[0.0, 1.0], &[1.0, 0.9], 0.5), None);
+    }
+}

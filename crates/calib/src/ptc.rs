@@ -1,0 +1,417 @@
+//! Photon transfer after EMVA 1288 Release 4.0, linear module.
+//!
+//! The sweep: a dark pair, then ≥ 50 (configurable) irradiance levels equally
+//! spaced from dark to beyond saturation, two frames A, B at each; then L
+//! frames dark and L frames at ~50 % of saturation for the spatial
+//! non-uniformities. From the pairs:
+//!
+//! * `μ_y = mean((A+B)/2)`, `σ²_y = mean((A−B)²)/2 − (μ_A−μ_B)²/2`;
+//! * saturation: the level of maximum temporal variance;
+//! * system gain K: slope of `σ²_y − σ²_y.dark` on `μ_y − μ_y.dark` over
+//!   0–70 % of the saturation signal;
+//! * responsivity R: slope of `μ_y − μ_y.dark` on `μ_p` (photons per pixel)
+//!   over the same range; quantum efficiency `η = R / K`;
+//! * temporal dark noise `σ_d = σ_y.dark / K` e⁻ (Release 4.0 keeps the
+//!   quantisation noise in; Release 3 subtracted 1/12 DN² first);
+//! * saturation capacity `μ_e.sat = (μ_y.sat − μ_y.dark)/K`;
+//! * SNR_max = `√μ_e.sat`; absolute sensitivity threshold
+//!   `μ_p.min = (½ + √(¼ + σ²_y.dark/K²))/η` (SNR = 1); DR = μ_p.sat/μ_p.min;
+//! * linearity error: fit `μ_y − μ_y.dark` on `μ_p` over 5–95 % of the
+//!   saturation signal, δ_i = relative deviation in %, LE = (max δ − min δ)/2;
+//! * DSNU_1288 = s_y.dark/K e⁻, PRNU_1288 = √(s²_y.50 − s²_y.dark)/(μ_y.50 −
+//!   μ_y.dark) %, with `s²` the spatial variance of the L-frame averages less
+//!   the residual temporal variance σ²_y/L.
+//!
+//! Photons per pixel come from the source's spectral radiance and the rig
+//! (pixel pitch, f-number, optics transmission, exposure); without a rig the
+//! flow still reports K, noise in e⁻, saturation, DSNU and PRNU, and leaves
+//! QE, responsivity and the photon-based figures out.
+
+use std::path::Path;
+
+use gloam_grabber::{Frame, FrameGrabber};
+use serde::Serialize;
+
+use crate::capture::{grab_frames, stack_stats};
+use crate::error::CalibError;
+use crate::source::CalibrationSource;
+use crate::stats::weighted_linear_fit;
+
+/// Settings of a photon-transfer run.
+#[derive(Clone, Debug)]
+pub struct PtcOptions {
+    /// Fixed gain for the run (AGC off).
+    pub gain: f64,
+    pub exposure_s: Option<f64>,
+    /// Frames averaged for DSNU/PRNU (EMVA: L ≥ 16 recommended).
+    pub spatial_frames: usize,
+    /// Write the EMVA 1288 descriptor dataset (images + descriptor file) here.
+    pub dataset_dir: Option<std::path::PathBuf>,
+}
+
+impl Default for PtcOptions {
+    fn default() -> Self {
+        Self {
+            gain: 1.0,
+            exposure_s: None,
+            spatial_frames: 16,
+            dataset_dir: None,
+        }
+    }
+}
+
+/// One point of the photon-transfer sweep.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PtcPoint {
+    pub band_radiance_w_m2_sr: f64,
+    /// Mean photons per pixel, if a rig was given.
+    pub photons_per_pixel: Option<f64>,
+    pub mean_dn: f64,
+    pub temporal_var_dn2: f64,
+}
+
+/// EMVA 1288 figures (keys are the CLI's `ptc.json` contract).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PtcResult {
+    pub gain: f64,
+    pub system_gain_dn_per_e: f64,
+    pub quantum_efficiency: Option<f64>,
+    pub responsivity_dn_per_photon: Option<f64>,
+    pub dark_noise_e: f64,
+    pub dark_noise_dn: f64,
+    pub dark_mean_dn: f64,
+    pub saturation_capacity_e: f64,
+    pub saturation_dn: f64,
+    /// False when the variance was still rising at the last level: the
+    /// saturation figures are then lower bounds.
+    pub saturation_reached: bool,
+    pub snr_max: f64,
+    pub snr_max_db: f64,
+    pub absolute_sensitivity_threshold_photons: Option<f64>,
+    pub absolute_sensitivity_threshold_e: f64,
+    pub dynamic_range: f64,
+    pub dynamic_range_db: f64,
+    pub linearity_error_percent: Option<f64>,
+    pub dsnu_e: f64,
+    pub dsnu_dn: f64,
+    pub prnu_percent: f64,
+    pub k_fit_points: usize,
+    /// Relative deviations (%) of the linearity fit at each point used.
+    pub linearity_residuals_percent: Vec<(f64, f64)>,
+    pub points: Vec<PtcPoint>,
+    pub warnings: Vec<String>,
+}
+
+fn pair_stats(a: &Frame, b: &Frame) -> (f64, f64) {
+    let n = a.pixels.len() as f64;
+    let (mut sa, mut sb, mut sd2) = (0.0, 0.0, 0.0);
+    for (&x, &y) in a.pixels.iter().zip(&b.pixels) {
+        let (x, y) = (x as f64, y as f64);
+        sa += x;
+        sb += y;
+        sd2 += (x - y) * (x - y);
+    }
+    let (ma, mb) = (sa / n, sb / n);
+    let mean = 0.5 * (ma + mb);
+    let var = 0.5 * (sd2 / n - (ma - mb) * (ma - mb));
+    (mean, var.max(0.0))
+}
+
+fn spatial_var(avg: &[f64], temporal_var: f64, frames: usize) -> f64 {
+    let n = avg.len() as f64;
+    let m = avg.iter().sum::<f64>() / n;
+    let s2 = avg.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0).max(1.0);
+    (s2 - temporal_var / frames as f64).max(0.0)
+}
+
+/// Runs the EMVA 1288 sweep over the source's levels (give it ≥ 50 levels,
+/// linear in radiance, reaching past saturation).
+pub fn photon_transfer(
+    grabber: &mut dyn FrameGrabber,
+    source: &mut dyn CalibrationSource,
+    opts: &PtcOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<PtcResult, CalibError> {
+    let n = source.levels();
+    if n == 0 {
+        return Err(CalibError::InsufficientData(
+            "a dark-only capture has no photon transfer: the source has no illuminated levels"
+                .into(),
+        ));
+    }
+    grabber.set_agc(false)?;
+    let gain = grabber.set_gain(opts.gain)?;
+    if let Some(t) = opts.exposure_s {
+        grabber.set_exposure_s(t)?;
+    }
+    let total = n + 3;
+    let mut warnings = Vec::new();
+    if n < 50 {
+        warnings.push(format!(
+            "{n} levels: EMVA 1288 asks for at least 50 equally spaced levels"
+        ));
+    }
+    let mut dataset = opts
+        .dataset_dir
+        .as_deref()
+        .map(DatasetWriter::new)
+        .transpose()?;
+    let dark = source.set_dark()?;
+    grabber.present(&dark.stimulus)?;
+    let dp = grab_frames(grabber, 2)?;
+    let (dark_mean, dark_var) = pair_stats(&dp[0], &dp[1]);
+    if let Some(d) = dataset.as_mut() {
+        d.add_block('d', None, &dp)?;
+    }
+    progress(1, total);
+    let rig = source.rig().cloned();
+    let band = source.camera().band_nm;
+    let mut points = Vec::new();
+    let mut levels = Vec::new();
+    for i in 0..n {
+        let lv = source.set_level(i)?;
+        grabber.present(&lv.stimulus)?;
+        let fr = grab_frames(grabber, 2)?;
+        let (m, v) = pair_stats(&fr[0], &fr[1]);
+        let mu_p = rig
+            .as_ref()
+            .map(|r| r.photons_per_pixel(&lv.spectral_radiance, band));
+        if let Some(d) = dataset.as_mut() {
+            d.add_block('b', Some(mu_p.unwrap_or(f64::NAN)), &fr)?;
+        }
+        points.push(PtcPoint {
+            band_radiance_w_m2_sr: lv.band_radiance_w_m2_sr,
+            photons_per_pixel: mu_p,
+            mean_dn: m,
+            temporal_var_dn2: v,
+        });
+        levels.push(lv);
+        progress(i + 2, total);
+    }
+    // Saturation: maximum temporal variance.
+    let (isat, _) = points
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.temporal_var_dn2.total_cmp(&b.1.temporal_var_dn2))
+        .expect("n > 0");
+    let saturation_reached = isat + 1 < points.len();
+    if !saturation_reached {
+        warnings.push(
+            "the variance still rises at the last level: saturation not reached, saturation figures are lower bounds"
+                .into(),
+        );
+    }
+    let sat_sig = points[isat].mean_dn - dark_mean;
+    if !(sat_sig > 0.0) {
+        return Err(CalibError::InsufficientData(
+            "no level rises above the dark signal: nothing to fit (is the source on?)".into(),
+        ));
+    }
+    // K over 0–70 % of saturation.
+    let sel: Vec<usize> = (0..=isat)
+        .filter(|&i| {
+            let s = points[i].mean_dn - dark_mean;
+            s > 0.0 && s <= 0.7 * sat_sig
+        })
+        .collect();
+    if sel.len() < 3 {
+        return Err(CalibError::InsufficientData(format!(
+            "the sweep saturates early: {} level(s) lie below 70 % of saturation (level {} of {n}); EMVA 1288 fits need more — use finer levels or less light",
+            sel.len(),
+            isat + 1
+        )));
+    }
+    let xs: Vec<f64> = sel.iter().map(|&i| points[i].mean_dn - dark_mean).collect();
+    let ys: Vec<f64> = sel
+        .iter()
+        .map(|&i| points[i].temporal_var_dn2 - dark_var)
+        .collect();
+    let kfit = weighted_linear_fit(&xs, &ys, &vec![1.0; xs.len()])?;
+    let k = kfit.slope;
+    if !(k > 0.0) {
+        return Err(CalibError::SingularFit(format!(
+            "the photon transfer slope K = {k} DN/e⁻ is not positive"
+        )));
+    }
+    // Responsivity & QE.
+    let (resp, qe, lin_err, lin_res, mu_p_sat) = match rig {
+        Some(_) => {
+            let px: Vec<f64> = sel
+                .iter()
+                .map(|&i| points[i].photons_per_pixel.unwrap_or(0.0))
+                .collect();
+            let rfit = weighted_linear_fit(&px, &xs, &vec![1.0; px.len()])?;
+            let r = rfit.slope;
+            // Linearity over 5–95 %.
+            let lsel: Vec<usize> = (0..=isat)
+                .filter(|&i| {
+                    let s = points[i].mean_dn - dark_mean;
+                    s >= 0.05 * sat_sig && s <= 0.95 * sat_sig
+                })
+                .collect();
+            let (le, res) = if lsel.len() >= 3 {
+                let lx: Vec<f64> = lsel
+                    .iter()
+                    .map(|&i| points[i].photons_per_pixel.unwrap_or(0.0))
+                    .collect();
+                let ly: Vec<f64> = lsel.iter().map(|&i| points[i].mean_dn - dark_mean).collect();
+                let f = weighted_linear_fit(&lx, &ly, &vec![1.0; lx.len()])?;
+                let d: Vec<(f64, f64)> = lx
+                    .iter()
+                    .zip(&ly)
+                    .map(|(&x, &y)| {
+                        let m = f.slope * x + f.intercept;
+                        (x, 100.0 * (y - m) / m)
+                    })
+                    .collect();
+                let mx = d.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+                let mn = d.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+                (Some((mx - mn) / 2.0), d)
+            } else {
+                warnings.push("fewer than 3 levels in 5–95 % of saturation: no linearity error".into());
+                (None, Vec::new())
+            };
+            (
+                Some(r),
+                Some(r / k),
+                le,
+                res,
+                points[isat].photons_per_pixel,
+            )
+        }
+        None => {
+            warnings.push(
+                "no [rig] in the source file: photon counts unknown, so no QE, responsivity, linearity error or photon-based DR".into(),
+            );
+            (None, None, None, Vec::new(), None)
+        }
+    };
+    let dark_noise_dn = dark_var.sqrt();
+    let sigma_d_e = dark_noise_dn / k;
+    let mu_e_sat = sat_sig / k;
+    let mu_e_min = 0.5 + (0.25 + sigma_d_e * sigma_d_e).sqrt();
+    let snr_max = mu_e_sat.sqrt();
+    let dr = mu_e_sat / mu_e_min;
+    let _ = mu_p_sat;
+    // Spatial: L frames dark and at ~50 % saturation.
+    let l = opts.spatial_frames.max(2);
+    grabber.present(&dark.stimulus)?;
+    let dframes = grab_frames(grabber, l)?;
+    let ds = stack_stats(&dframes)?;
+    progress(n + 2, total);
+    let i50 = (0..=isat)
+        .min_by(|&a, &b| {
+            let da = (points[a].mean_dn - dark_mean - 0.5 * sat_sig).abs();
+            let db = (points[b].mean_dn - dark_mean - 0.5 * sat_sig).abs();
+            da.total_cmp(&db)
+        })
+        .expect("non-empty");
+    let lv50 = source.set_level(i50)?;
+    grabber.present(&lv50.stimulus)?;
+    let bframes = grab_frames(grabber, l)?;
+    let bs = stack_stats(&bframes)?;
+    progress(n + 3, total);
+    if let Some(d) = dataset.as_mut() {
+        d.add_block('b', Some(points[i50].photons_per_pixel.unwrap_or(f64::NAN)), &bframes)?;
+        d.add_block('d', None, &dframes)?;
+        d.finish(
+            ds.width,
+            ds.height,
+            bframes[0].meta.bits,
+            opts.exposure_s,
+        )?;
+    }
+    let s2_dark = spatial_var(&ds.mean_image, ds.temporal_std_dn.powi(2), l);
+    let s2_50 = spatial_var(&bs.mean_image, bs.temporal_std_dn.powi(2), l);
+    let dsnu_dn = s2_dark.sqrt();
+    let prnu = 100.0 * (s2_50 - s2_dark).max(0.0).sqrt() / (bs.mean_dn - ds.mean_dn);
+    Ok(PtcResult {
+        gain,
+        system_gain_dn_per_e: k,
+        quantum_efficiency: qe,
+        responsivity_dn_per_photon: resp,
+        dark_noise_e: sigma_d_e,
+        dark_noise_dn,
+        dark_mean_dn: dark_mean,
+        saturation_capacity_e: mu_e_sat,
+        saturation_dn: points[isat].mean_dn,
+        saturation_reached,
+        snr_max,
+        snr_max_db: 20.0 * snr_max.log10(),
+        absolute_sensitivity_threshold_photons: qe.map(|q| mu_e_min / q),
+        absolute_sensitivity_threshold_e: mu_e_min,
+        dynamic_range: dr,
+        dynamic_range_db: 20.0 * dr.log10(),
+        linearity_error_percent: lin_err,
+        dsnu_e: dsnu_dn / k,
+        dsnu_dn,
+        prnu_percent: prnu,
+        k_fit_points: sel.len(),
+        linearity_residuals_percent: lin_res,
+        points,
+        warnings,
+    })
+}
+
+/// Writes frames as 16-bit TIFFs and an EMVA 1288 descriptor file
+/// (`emva1288_descriptor.txt`) in the syntax of the EMVA reference
+/// implementation: `v`, `n bits width height`, then blocks `b exposure_ns
+/// photons` / `d exposure_ns` each followed by `i image` lines (2 images =
+/// temporal, more = spatial).
+struct DatasetWriter {
+    dir: std::path::PathBuf,
+    blocks: Vec<(char, Option<f64>, Vec<String>)>,
+    counter: usize,
+}
+
+impl DatasetWriter {
+    fn new(dir: &Path) -> Result<Self, CalibError> {
+        std::fs::create_dir_all(dir.join("images")).map_err(|e| CalibError::file(dir, e))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            blocks: Vec::new(),
+            counter: 0,
+        })
+    }
+
+    fn add_block(&mut self, kind: char, photons: Option<f64>, frames: &[Frame]) -> Result<(), CalibError> {
+        let mut names = Vec::new();
+        for f in frames {
+            let name = format!("images/{kind}_{:04}.tif", self.counter);
+            self.counter += 1;
+            let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(
+                f.meta.width,
+                f.meta.height,
+                f.pixels.clone(),
+            )
+            .ok_or_else(|| CalibError::Invalid("frame size does not match its pixels".into()))?;
+            let p = self.dir.join(&name);
+            img.save_with_format(&p, image::ImageFormat::Tiff)
+                .map_err(|e| CalibError::file(&p, e))?;
+            names.push(name);
+        }
+        self.blocks.push((kind, photons, names));
+        Ok(())
+    }
+
+    fn finish(&self, w: usize, h: usize, bits: u8, exposure_s: Option<f64>) -> Result<(), CalibError> {
+        let texp_ns = exposure_s.unwrap_or(0.0) * 1e9;
+        let mut s = String::new();
+        s.push_str("# EMVA 1288 dataset written by gloam calibrate ptc\n");
+        s.push_str("# Release 4.0 linear module; descriptor syntax of the EMVA 1288 reference implementation\n");
+        s.push_str("# irradiance sweep at constant exposure; photons = mean photons per pixel\n");
+        s.push_str("v 3.1\n");
+        s.push_str(&format!("n {bits} {w} {h}\n"));
+        for (kind, photons, names) in &self.blocks {
+            match kind {
+                'b' => s.push_str(&format!("b {texp_ns:.1} {:.6}\n", photons.unwrap_or(f64::NAN))),
+                _ => s.push_str(&format!("d {texp_ns:.1}\n")),
+            }
+            for n in names {
+                s.push_str(&format!("i {n}\n"));
+            }
+        }
+        let p = self.dir.join("emva1288_descriptor.txt");
+        std::fs::write(&p, s).map_err(|e| CalibError::file(&p, e))
+    }
+}

@@ -1,0 +1,321 @@
+//! Radiance calibration: per gain, a radiance staircase → `L = g·DC + b`
+//! fitted over the linear range, saved as a look-up table across gains, and
+//! applied to digital-count images.
+
+use gloam_grabber::FrameGrabber;
+use serde::{Deserialize, Serialize};
+
+use crate::capture::{grab_frames, stack_stats};
+use crate::error::CalibError;
+use crate::source::CalibrationSource;
+use crate::stats::weighted_linear_fit;
+
+/// Settings of a radiance calibration run.
+#[derive(Clone, Debug)]
+pub struct RadianceOptions {
+    /// Gains to calibrate (each set with AGC off).
+    pub gains: Vec<f64>,
+    /// Frames captured per level.
+    pub frames: usize,
+    /// Exposure to set, s (`None`: leave the grabber's).
+    pub exposure_s: Option<f64>,
+    /// A level counts as saturated when more than this fraction of its pixel
+    /// samples sit at the digitizer maximum.
+    pub clip_tolerance: f64,
+}
+
+impl Default for RadianceOptions {
+    fn default() -> Self {
+        Self {
+            gains: vec![1.0],
+            frames: 8,
+            exposure_s: None,
+            clip_tolerance: 1e-3,
+        }
+    }
+}
+
+/// One measured level.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LevelPoint {
+    pub label: String,
+    pub band_radiance_w_m2_sr: f64,
+    pub mean_dn: f64,
+    pub temporal_std_dn: f64,
+    pub clipped_fraction: f64,
+    /// Used in the fit (inside the linear range).
+    pub in_fit: bool,
+    /// `L_measured − (g·DC + b)`, W m⁻² sr⁻¹ (fitted points only).
+    pub residual_w_m2_sr: Option<f64>,
+}
+
+/// The calibration of one gain: `L = g·DC + b`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GainCalibration {
+    /// Gain actually applied, as the grabber reported it.
+    pub gain: f64,
+    pub g_w_m2_sr_per_dn: f64,
+    pub b_w_m2_sr: f64,
+    pub r_squared: f64,
+    /// Lowest and highest mean DC in the fit.
+    pub fit_range_dn: [f64; 2],
+    pub dark_dn: f64,
+    pub dark_std_dn: f64,
+    /// Mean DC of the first saturated level, if one was reached.
+    pub saturation_dn: Option<f64>,
+    pub n_fit_points: usize,
+    pub max_abs_residual_percent: f64,
+    pub levels: Vec<LevelPoint>,
+    /// Anything the operator should know (e.g. "only 2 points").
+    pub warnings: Vec<String>,
+}
+
+/// A radiance look-up table across gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Lut {
+    pub grabber: String,
+    pub source: String,
+    pub band_nm: [f64; 2],
+    pub digitizer_max_dn: f64,
+    pub gains: Vec<GainCalibration>,
+}
+
+/// Runs the radiance calibration. `progress(done, total)` is called after
+/// every captured level.
+pub fn calibrate_radiance(
+    grabber: &mut dyn FrameGrabber,
+    source: &mut dyn CalibrationSource,
+    opts: &RadianceOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Lut, CalibError> {
+    if opts.gains.is_empty() {
+        return Err(CalibError::Invalid("no gains given".into()));
+    }
+    if opts.frames == 0 {
+        return Err(CalibError::Invalid("frames per level must be ≥ 1".into()));
+    }
+    let n_levels = source.levels();
+    if n_levels == 0 {
+        return Err(CalibError::InsufficientData(
+            "the source has no illuminated levels: a dark-only capture cannot calibrate radiance"
+                .into(),
+        ));
+    }
+    grabber.set_agc(false)?;
+    if let Some(t) = opts.exposure_s {
+        grabber.set_exposure_s(t)?;
+    }
+    let total = opts.gains.len() * (n_levels + 1);
+    let mut done = 0;
+    let mut out = Vec::new();
+    let mut max_dn = 0.0;
+    for &g_req in &opts.gains {
+        let gain = grabber.set_gain(g_req)?;
+        let dark = source.set_dark()?;
+        grabber.present(&dark.stimulus)?;
+        let ds = stack_stats(&grab_frames(grabber, opts.frames)?)?;
+        max_dn = ds.max_dn;
+        done += 1;
+        progress(done, total);
+        let mut pts = Vec::new();
+        for i in 0..n_levels {
+            let lv = source.set_level(i)?;
+            grabber.present(&lv.stimulus)?;
+            let st = stack_stats(&grab_frames(grabber, opts.frames)?)?;
+            pts.push(LevelPoint {
+                label: lv.label,
+                band_radiance_w_m2_sr: lv.band_radiance_w_m2_sr,
+                mean_dn: st.mean_dn,
+                temporal_std_dn: st.temporal_std_dn,
+                clipped_fraction: st.clipped_fraction,
+                in_fit: false,
+                residual_w_m2_sr: None,
+            });
+            done += 1;
+            progress(done, total);
+        }
+        out.push(fit_gain(
+            gain,
+            ds.mean_dn,
+            ds.temporal_std_dn,
+            pts,
+            opts,
+            opts.frames,
+            ds.mean_image.len(),
+        )?);
+    }
+    let band = source.camera().band_nm;
+    Ok(Lut {
+        grabber: grabber.describe(),
+        source: source.describe(),
+        band_nm: [band.0, band.1],
+        digitizer_max_dn: max_dn,
+        gains: out,
+    })
+}
+
+/// Chooses the linear range of one gain's staircase and fits it.
+///
+/// The dark point (L = 0) is always in the fit. Levels are dropped from the
+/// top while they are clipped (more than `clip_tolerance` of samples at the
+/// digitizer max) or no longer rise (full-well saturation below the
+/// digitizer max shows as a flat or falling mean).
+pub fn fit_gain(
+    gain: f64,
+    dark_dn: f64,
+    dark_std_dn: f64,
+    mut pts: Vec<LevelPoint>,
+    opts: &RadianceOptions,
+    frames: usize,
+    pixels: usize,
+) -> Result<GainCalibration, CalibError> {
+    let mut warnings = Vec::new();
+    // Sort by radiance so "from the top" is meaningful.
+    pts.sort_by(|a, b| a.band_radiance_w_m2_sr.total_cmp(&b.band_radiance_w_m2_sr));
+    let mut saturation_dn = None;
+    let mut last_ok = None;
+    let mut prev_dn = dark_dn;
+    let noise_floor = 3.0 * dark_std_dn / ((frames * pixels).max(1) as f64).sqrt();
+    for (i, p) in pts.iter().enumerate() {
+        let clipped = p.clipped_fraction > opts.clip_tolerance;
+        let not_rising = p.band_radiance_w_m2_sr > 0.0 && i > 0 && p.mean_dn <= prev_dn + noise_floor;
+        if clipped || (not_rising && last_ok.is_some()) {
+            saturation_dn = Some(p.mean_dn);
+            break;
+        }
+        last_ok = Some(i);
+        prev_dn = p.mean_dn;
+    }
+    let n_ok = last_ok.map_or(0, |i| i + 1);
+    // Levels with zero radiance add nothing beyond the dark point.
+    let lit: Vec<usize> = (0..n_ok)
+        .filter(|&i| pts[i].band_radiance_w_m2_sr > 0.0)
+        .collect();
+    if lit.is_empty() {
+        return Err(CalibError::InsufficientData(format!(
+            "gain {gain}: no illuminated level below saturation (the first level already saturates{}); lower the radiance or the gain",
+            saturation_dn.map_or(String::new(), |d| format!(" at {d:.1} DN"))
+        )));
+    }
+    if lit.len() < 2 {
+        warnings.push(format!(
+            "only {} illuminated level in the linear range: the line is fixed by it and the dark point, so R² says nothing",
+            lit.len()
+        ));
+    }
+    if saturation_dn.is_some_and(|_| n_ok < pts.len() / 2) {
+        warnings.push(format!(
+            "the sweep saturates early: only {n_ok} of {} levels are linear",
+            pts.len()
+        ));
+    }
+    // Fit L = g·DC + b with weights 1/σ²(DC mean) (in DC; the line is
+    // regressed on DC, so the weights follow the DC noise of each point).
+    let mut x = vec![dark_dn];
+    let mut y = vec![0.0];
+    let sem = |s: f64| (s * s / (frames * pixels).max(1) as f64).max(1e-12);
+    let mut w = vec![1.0 / sem(dark_std_dn)];
+    for &i in &lit {
+        x.push(pts[i].mean_dn);
+        y.push(pts[i].band_radiance_w_m2_sr);
+        w.push(1.0 / sem(pts[i].temporal_std_dn));
+    }
+    // Normalise weights for conditioning.
+    let wmax = w.iter().cloned().fold(0.0, f64::max);
+    w.iter_mut().for_each(|v| *v /= wmax);
+    let fit = weighted_linear_fit(&x, &y, &w).map_err(|e| match e {
+        CalibError::SingularFit(m) => CalibError::SingularFit(format!(
+            "gain {gain}: {m} (the camera's output does not change with radiance)"
+        )),
+        e => e,
+    })?;
+    if !(fit.slope > 0.0) {
+        return Err(CalibError::SingularFit(format!(
+            "gain {gain}: the fitted g = {} W m⁻² sr⁻¹/DN is not positive (output falls with radiance)",
+            fit.slope
+        )));
+    }
+    let top = x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let lmax = y.iter().cloned().fold(0.0, f64::max);
+    let mut max_res = 0.0f64;
+    for (k, &i) in lit.iter().enumerate() {
+        let r = fit.residuals[k + 1];
+        pts[i].in_fit = true;
+        pts[i].residual_w_m2_sr = Some(r);
+        max_res = max_res.max((r / lmax).abs() * 100.0);
+    }
+    Ok(GainCalibration {
+        gain,
+        g_w_m2_sr_per_dn: fit.slope,
+        b_w_m2_sr: fit.intercept,
+        r_squared: fit.r_squared,
+        fit_range_dn: [dark_dn, top],
+        dark_dn,
+        dark_std_dn,
+        saturation_dn,
+        n_fit_points: x.len(),
+        max_abs_residual_percent: max_res,
+        levels: pts,
+        warnings,
+    })
+}
+
+impl Lut {
+    /// Slope and offset for `gain`: exact at a calibrated gain; between two
+    /// calibrated gains the responsivity `1/g` (DN per radiance) and the
+    /// dark level `−b/g` are interpolated linearly in gain (they are what a
+    /// camera's gain changes linearly). Outside the calibrated range → error.
+    pub fn coefficients(&self, gain: f64) -> Result<(f64, f64), CalibError> {
+        let mut g: Vec<&GainCalibration> = self.gains.iter().collect();
+        g.sort_by(|a, b| a.gain.total_cmp(&b.gain));
+        let tol = |a: f64| 1e-6 * a.abs().max(1e-12);
+        if let Some(c) = g.iter().find(|c| (c.gain - gain).abs() <= tol(c.gain)) {
+            return Ok((c.g_w_m2_sr_per_dn, c.b_w_m2_sr));
+        }
+        let hi = g.iter().position(|c| c.gain > gain);
+        match hi {
+            Some(j) if j > 0 => {
+                let (a, b) = (g[j - 1], g[j]);
+                let t = (gain - a.gain) / (b.gain - a.gain);
+                let ra = 1.0 / a.g_w_m2_sr_per_dn;
+                let rb = 1.0 / b.g_w_m2_sr_per_dn;
+                let da = -a.b_w_m2_sr / a.g_w_m2_sr_per_dn;
+                let db = -b.b_w_m2_sr / b.g_w_m2_sr_per_dn;
+                let r = ra + t * (rb - ra);
+                let d = da + t * (db - da);
+                Ok((1.0 / r, -d / r))
+            }
+            _ => Err(CalibError::Invalid(format!(
+                "gain {gain} lies outside the calibrated gains {:?}; calibrate it or pass a calibrated gain",
+                g.iter().map(|c| c.gain).collect::<Vec<_>>()
+            ))),
+        }
+    }
+
+    /// Converts digital counts to band radiance (W m⁻² sr⁻¹) with the LUT
+    /// for `gain`. Pixels at or above the saturation level of the nearest
+    /// calibrated gain (or the digitizer maximum) become NaN: their radiance
+    /// is unknown.
+    pub fn apply(&self, gain: f64, pixels: &[u16]) -> Result<Vec<f32>, CalibError> {
+        let (g, b) = self.coefficients(gain)?;
+        let nearest = self
+            .gains
+            .iter()
+            .min_by(|a, c| (a.gain - gain).abs().total_cmp(&(c.gain - gain).abs()));
+        let sat = nearest
+            .and_then(|c| c.saturation_dn)
+            .unwrap_or(f64::INFINITY)
+            .min(if self.digitizer_max_dn > 0.0 {
+                self.digitizer_max_dn
+            } else {
+                f64::INFINITY
+            });
+        Ok(pixels
+            .iter()
+            .map(|&p| {
+                let v = p as f64;
+                if v >= sat { f32::NAN } else { (g * v + b) as f32 }
+            })
+            .collect())
+    }
+}

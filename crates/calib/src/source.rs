@@ -1,0 +1,830 @@
+//! Calibration light sources behind one interface, and the source file (TOML)
+//! that describes them. The format is documented in `docs/calibration.md`.
+//!
+//! * [`SphereSource`]: a simulated integrating sphere. The lamp's flux `Φ(λ)`
+//!   enters a sphere of inner area `A = π d²`, wall reflectance `ρ` and port
+//!   fraction `f`; the exit-port radiance is `L(λ) = Φ(λ) M / (π A)` with the
+//!   sphere multiplier `M = ρ / (1 − ρ(1 − f))`. It is dimmed either by
+//!   neutral-density filters in front of the camera (`T = 10^−D`, or a
+//!   spectral transmission curve) or by an aperture at the source, which
+//!   scales the flux and leaves the spectrum unchanged.
+//! * [`ManualSource`]: the lab. The operator is prompted for each level and
+//!   the spectrometer's measured exit-port radiance is read from a CSV file.
+//!
+//! The band radiance the camera sees is
+//! `L = ∫ L_src(λ) β(λ) τ_ND(λ) τ_BP(λ) dλ` over the camera band, with β the
+//! camera's relative spectral response (peak 1) and τ_BP an optional bandpass.
+
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+
+use gloam_grabber::Stimulus;
+use gloam_spectra::{Spectrum, photons_per_joule};
+use serde::Deserialize;
+
+use crate::error::CalibError;
+
+/// Band over which [`Stimulus::Uniform`] radiance is defined (nm).
+pub const STIMULUS_BAND_NM: (f64, f64) = (400.0, 1000.0);
+
+/// One level of a calibration source as the camera sees it.
+#[derive(Clone, Debug)]
+pub struct Level {
+    /// Human-readable description ("aperture 40 %", "ND 0.6").
+    pub label: String,
+    /// What to present to a grabber that can render stimuli.
+    pub stimulus: Stimulus,
+    /// Spectral radiance at the camera (after ND filters), W m⁻² sr⁻¹ nm⁻¹.
+    pub spectral_radiance: Spectrum,
+    /// `∫ L β τ_BP dλ` over the camera band, W m⁻² sr⁻¹: what the LUT maps to.
+    pub band_radiance_w_m2_sr: f64,
+}
+
+/// A light source a calibration flow can step through.
+pub trait CalibrationSource {
+    /// One-line description for reports.
+    fn describe(&self) -> String;
+    /// Number of illuminated levels (the dark level is extra).
+    fn levels(&self) -> usize;
+    /// Sets level `i` (0-based, increasing radiance) and returns what the
+    /// camera sees. A manual source prompts the operator here.
+    fn set_level(&mut self, i: usize) -> Result<Level, CalibError>;
+    /// Capped lens / lamp off.
+    fn set_dark(&mut self) -> Result<Level, CalibError> {
+        Ok(Level {
+            label: "dark".into(),
+            stimulus: Stimulus::Dark,
+            spectral_radiance: Spectrum::default(),
+            band_radiance_w_m2_sr: 0.0,
+        })
+    }
+    /// The camera's spectral weighting (β, τ_BP, band).
+    fn camera(&self) -> &CameraBand;
+    /// Pixel and optics geometry for photon counts, if the file gave it.
+    fn rig(&self) -> Option<&Rig>;
+    /// Name of the lamp spectrum passed to simulated cameras.
+    fn lamp_name(&self) -> &str;
+}
+
+/// The camera's spectral weighting.
+#[derive(Clone, Debug)]
+pub struct CameraBand {
+    /// β(λ), normalised to peak 1; `None` = flat.
+    pub response: Option<Spectrum>,
+    /// τ_BP(λ); `None` = no filter.
+    pub bandpass: Option<Spectrum>,
+    /// Integration limits, nm.
+    pub band_nm: (f64, f64),
+}
+
+impl Default for CameraBand {
+    fn default() -> Self {
+        Self {
+            response: None,
+            bandpass: None,
+            band_nm: STIMULUS_BAND_NM,
+        }
+    }
+}
+
+impl CameraBand {
+    /// `∫ L(λ) β(λ) τ_BP(λ) dλ` over the band (τ_ND is already in `L`).
+    pub fn band_radiance(&self, radiance_at_camera: &Spectrum) -> f64 {
+        let mut s = radiance_at_camera.clone();
+        if let Some(b) = &self.response {
+            s = s.product(b);
+        }
+        if let Some(t) = &self.bandpass {
+            s = s.product(t);
+        }
+        s.integrate_band(self.band_nm.0, self.band_nm.1)
+    }
+}
+
+/// Geometry that turns radiance into photons per pixel (EMVA 1288 needs the
+/// photon count for quantum efficiency).
+#[derive(Clone, Debug, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rig {
+    /// Pixel pitch (square pixels), µm; pixel area = pitch².
+    pub pixel_pitch_um: f64,
+    /// f-number of the cone that reaches the sensor: a lens's working f/#,
+    /// or in the lensless EMVA set-up distance / port diameter.
+    pub f_number: f64,
+    /// Transmission of the optics (1 for the lensless set-up).
+    #[serde(default = "one")]
+    pub optics_transmission: f64,
+    /// Exposure (integration or gate) time, s.
+    pub exposure_s: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl Rig {
+    /// On-axis irradiance from a uniform radiance through a cone of f-number
+    /// N: `E = τ π L / (1 + 4N²)` (exact for a disk source; EMVA 1288).
+    pub fn irradiance_factor(&self) -> f64 {
+        self.optics_transmission * std::f64::consts::PI
+            / (1.0 + 4.0 * self.f_number * self.f_number)
+    }
+
+    /// Mean photons per pixel per exposure over `band_nm`:
+    /// `μ_p = A t ∫ E(λ) λ/(hc) dλ`.
+    pub fn photons_per_pixel(&self, radiance_at_camera: &Spectrum, band_nm: (f64, f64)) -> f64 {
+        let area_m2 = (self.pixel_pitch_um * 1e-6).powi(2);
+        let photon_radiance = radiance_at_camera.map_all(|w, v| v * photons_per_joule(w));
+        area_m2
+            * self.exposure_s
+            * self.irradiance_factor()
+            * photon_radiance.integrate_band(band_nm.0, band_nm.1)
+    }
+
+    fn validate(&self) -> Result<(), CalibError> {
+        let ok = |v: f64| v.is_finite() && v > 0.0;
+        if !(ok(self.pixel_pitch_um)
+            && self.f_number.is_finite()
+            && self.f_number >= 0.0
+            && ok(self.optics_transmission)
+            && self.optics_transmission <= 1.0
+            && ok(self.exposure_s))
+        {
+            return Err(CalibError::Source(format!(
+                "[rig] needs pixel_pitch_um > 0, f_number ≥ 0, 0 < optics_transmission ≤ 1 and exposure_s > 0 (got {self:?})"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A simulated integrating sphere.
+#[derive(Clone, Debug)]
+pub struct IntegratingSphere {
+    pub lamp_name: String,
+    /// Lamp flux spectrum into the sphere, W nm⁻¹ (already scaled to the flux).
+    pub lamp_flux: Spectrum,
+    pub reflectance: f64,
+    pub port_fraction: f64,
+    pub diameter_m: f64,
+}
+
+impl IntegratingSphere {
+    /// Sphere multiplier `M = ρ / (1 − ρ(1 − f))`.
+    pub fn multiplier(&self) -> f64 {
+        sphere_multiplier(self.reflectance, self.port_fraction)
+    }
+
+    /// Inner surface area `π d²`, m².
+    pub fn area_m2(&self) -> f64 {
+        std::f64::consts::PI * self.diameter_m * self.diameter_m
+    }
+
+    /// Exit-port spectral radiance with the flux scaled by `flux_fraction`
+    /// (an aperture at the source): `L(λ) = Φ(λ) M / (π A)`.
+    pub fn exit_radiance(&self, flux_fraction: f64) -> Spectrum {
+        let k = flux_fraction * self.multiplier() / (std::f64::consts::PI * self.area_m2());
+        self.lamp_flux.map_all(|_, v| v * k)
+    }
+}
+
+/// `M = ρ / (1 − ρ(1 − f))`.
+pub fn sphere_multiplier(reflectance: f64, port_fraction: f64) -> f64 {
+    reflectance / (1.0 - reflectance * (1.0 - port_fraction))
+}
+
+/// One neutral-density filter.
+#[derive(Clone, Debug)]
+pub enum NdFilter {
+    /// Spectrally flat, `T = 10^−D`.
+    Density(f64),
+    /// A measured transmission curve.
+    Curve { name: String, transmission: Spectrum },
+}
+
+impl NdFilter {
+    fn apply(&self, l: &Spectrum) -> Spectrum {
+        match self {
+            NdFilter::Density(d) => {
+                let t = 10f64.powf(-d);
+                l.map_all(|_, v| v * t)
+            }
+            NdFilter::Curve { transmission, .. } => l.product(transmission),
+        }
+    }
+    fn label(&self) -> String {
+        match self {
+            NdFilter::Density(d) => format!("ND {d:.3}"),
+            NdFilter::Curve { name, .. } => format!("ND curve {name}"),
+        }
+    }
+}
+
+/// How a sphere is dimmed from level to level.
+#[derive(Clone, Debug)]
+pub enum Dimming {
+    /// ND filters in front of the camera, one per level.
+    Nd(Vec<NdFilter>),
+    /// An aperture at the source: the flux fraction per level.
+    Aperture(Vec<f64>),
+}
+
+/// An integrating sphere stepped through ND filters or aperture settings.
+pub struct SphereSource {
+    pub sphere: IntegratingSphere,
+    pub dimming: Dimming,
+    pub camera: CameraBand,
+    pub rig: Option<Rig>,
+}
+
+impl CalibrationSource for SphereSource {
+    fn describe(&self) -> String {
+        let how = match &self.dimming {
+            Dimming::Nd(f) => format!("{} ND filters", f.len()),
+            Dimming::Aperture(a) => format!("{} aperture settings", a.len()),
+        };
+        format!(
+            "simulated integrating sphere ({}, ρ = {}, f = {}, M = {:.3}), {how}",
+            self.sphere.lamp_name,
+            self.sphere.reflectance,
+            self.sphere.port_fraction,
+            self.sphere.multiplier()
+        )
+    }
+    fn levels(&self) -> usize {
+        match &self.dimming {
+            Dimming::Nd(f) => f.len(),
+            Dimming::Aperture(a) => a.len(),
+        }
+    }
+    fn set_level(&mut self, i: usize) -> Result<Level, CalibError> {
+        let n = self.levels();
+        if i >= n {
+            return Err(CalibError::Invalid(format!(
+                "level {i} out of range (source has {n})"
+            )));
+        }
+        let (l, label) = match &self.dimming {
+            Dimming::Nd(f) => (f[i].apply(&self.sphere.exit_radiance(1.0)), f[i].label()),
+            Dimming::Aperture(a) => (
+                self.sphere.exit_radiance(a[i]),
+                format!("aperture {:.2} %", 100.0 * a[i]),
+            ),
+        };
+        Ok(make_level(label, l, &self.camera, &self.sphere.lamp_name))
+    }
+    fn camera(&self) -> &CameraBand {
+        &self.camera
+    }
+    fn rig(&self) -> Option<&Rig> {
+        self.rig.as_ref()
+    }
+    fn lamp_name(&self) -> &str {
+        &self.sphere.lamp_name
+    }
+}
+
+fn make_level(label: String, l: Spectrum, camera: &CameraBand, lamp: &str) -> Level {
+    let stim = l.integrate_band(STIMULUS_BAND_NM.0, STIMULUS_BAND_NM.1);
+    Level {
+        label,
+        stimulus: Stimulus::Uniform {
+            radiance_w_m2_sr: stim,
+            spectrum: lamp.to_string(),
+        },
+        band_radiance_w_m2_sr: camera.band_radiance(&l),
+        spectral_radiance: l,
+    }
+}
+
+/// One level of a manual source.
+#[derive(Clone, Debug)]
+pub struct ManualLevel {
+    pub label: String,
+    /// The spectrometer's CSV for this level; `None` = ask the operator.
+    pub spectrum_csv: Option<PathBuf>,
+}
+
+/// The lab source: the operator sets each level, the spectrometer measures
+/// the exit port, and its CSV (W m⁻² sr⁻¹ nm⁻¹) gives the radiance.
+pub struct ManualSource {
+    pub levels: Vec<ManualLevel>,
+    pub lamp_name: String,
+    pub camera: CameraBand,
+    pub rig: Option<Rig>,
+    /// Directory relative paths are resolved against.
+    pub base_dir: PathBuf,
+    input: Box<dyn BufRead>,
+    output: Box<dyn Write>,
+}
+
+impl ManualSource {
+    /// A manual source talking to the operator through `input`/`output`
+    /// (stdin/stderr in the CLI; buffers in tests).
+    pub fn new(
+        levels: Vec<ManualLevel>,
+        lamp_name: String,
+        camera: CameraBand,
+        rig: Option<Rig>,
+        base_dir: PathBuf,
+        input: Box<dyn BufRead>,
+        output: Box<dyn Write>,
+    ) -> Self {
+        Self {
+            levels,
+            lamp_name,
+            camera,
+            rig,
+            base_dir,
+            input,
+            output,
+        }
+    }
+
+    fn ask(&mut self, prompt: &str) -> Result<String, CalibError> {
+        write!(self.output, "{prompt}").map_err(|e| CalibError::Io(e.to_string()))?;
+        self.output
+            .flush()
+            .map_err(|e| CalibError::Io(e.to_string()))?;
+        let mut line = String::new();
+        let n = self
+            .input
+            .read_line(&mut line)
+            .map_err(|e| CalibError::Io(e.to_string()))?;
+        let t = line.trim().to_string();
+        if n == 0 {
+            return Err(CalibError::Aborted(format!(
+                "'{}' (end of input)",
+                prompt.trim()
+            )));
+        }
+        if t.eq_ignore_ascii_case("q") || t.eq_ignore_ascii_case("quit") {
+            return Err(CalibError::Aborted(format!("'{}'", prompt.trim())));
+        }
+        Ok(t)
+    }
+}
+
+impl CalibrationSource for ManualSource {
+    fn describe(&self) -> String {
+        format!(
+            "manual lab source ({} levels, spectrometer-measured)",
+            self.levels.len()
+        )
+    }
+    fn levels(&self) -> usize {
+        self.levels.len()
+    }
+    fn set_level(&mut self, i: usize) -> Result<Level, CalibError> {
+        let lv = self
+            .levels
+            .get(i)
+            .cloned()
+            .ok_or_else(|| CalibError::Invalid(format!("level {i} out of range")))?;
+        let n = self.levels.len();
+        let path = match lv.spectrum_csv {
+            Some(p) => {
+                self.ask(&format!(
+                    "Level {}/{n} ({}): set the source, then press Enter (q to abort): ",
+                    i + 1,
+                    lv.label
+                ))?;
+                p
+            }
+            None => PathBuf::from(self.ask(&format!(
+                "Level {}/{n} ({}): set the source, measure the exit port, and type the spectrometer CSV path (q to abort): ",
+                i + 1,
+                lv.label
+            ))?),
+        };
+        let path = if path.is_absolute() {
+            path
+        } else {
+            self.base_dir.join(path)
+        };
+        let l = gloam_spectra::read_csv(&path).map_err(|e| CalibError::file(&path, e))?;
+        Ok(make_level(lv.label, l, &self.camera, &self.lamp_name))
+    }
+    fn set_dark(&mut self) -> Result<Level, CalibError> {
+        self.ask("Dark: cap the lens or switch the source off, then press Enter (q to abort): ")?;
+        Ok(Level {
+            label: "dark".into(),
+            stimulus: Stimulus::Dark,
+            spectral_radiance: Spectrum::default(),
+            band_radiance_w_m2_sr: 0.0,
+        })
+    }
+    fn camera(&self) -> &CameraBand {
+        &self.camera
+    }
+    fn rig(&self) -> Option<&Rig> {
+        self.rig.as_ref()
+    }
+    fn lamp_name(&self) -> &str {
+        &self.lamp_name
+    }
+}
+
+// ---------------------------------------------------------------- file format
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileToml {
+    source: SourceToml,
+    #[serde(default)]
+    dimming: Option<DimmingToml>,
+    #[serde(default)]
+    camera: Option<CameraToml>,
+    #[serde(default)]
+    rig: Option<Rig>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SourceToml {
+    kind: String,
+    #[serde(default = "default_lamp")]
+    lamp: String,
+    lamp_flux_w: Option<f64>,
+    flux_band_nm: Option<[f64; 2]>,
+    sphere_diameter_m: Option<f64>,
+    reflectance: Option<f64>,
+    port_fraction: Option<f64>,
+    #[serde(default)]
+    levels: Vec<ManualLevelToml>,
+}
+
+fn default_lamp() -> String {
+    "tungsten-halogen-3200k".into()
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ManualLevelToml {
+    #[serde(default)]
+    label: Option<String>,
+    #[serde(default)]
+    spectrum_csv: Option<PathBuf>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DimmingToml {
+    method: String,
+    #[serde(default)]
+    densities: Option<Vec<f64>>,
+    #[serde(default)]
+    transmission_csv: Option<Vec<PathBuf>>,
+    #[serde(default)]
+    fractions: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraToml {
+    #[serde(default)]
+    response: Option<String>,
+    #[serde(default)]
+    bandpass: Option<String>,
+    #[serde(default)]
+    band_nm: Option<[f64; 2]>,
+}
+
+/// A parsed source file, ready to be opened as a [`CalibrationSource`].
+pub struct SourceFile {
+    parsed: FileToml,
+    base_dir: PathBuf,
+    label: String,
+}
+
+impl SourceFile {
+    /// Reads and checks a source file.
+    pub fn load(path: &Path) -> Result<Self, CalibError> {
+        let text = std::fs::read_to_string(path).map_err(|e| CalibError::file(path, e))?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Self::parse(&text, &base, &path.display().to_string())
+    }
+
+    /// Parses source-file text; relative paths resolve against `base_dir`.
+    pub fn parse(text: &str, base_dir: &Path, label: &str) -> Result<Self, CalibError> {
+        let parsed: FileToml = toml::from_str(text).map_err(|e| CalibError::file(label, e))?;
+        Ok(Self {
+            parsed,
+            base_dir: base_dir.to_path_buf(),
+            label: label.to_string(),
+        })
+    }
+
+    /// True for `kind = "manual"`.
+    pub fn is_manual(&self) -> bool {
+        self.parsed.source.kind == "manual"
+    }
+
+    fn err(&self, m: impl std::fmt::Display) -> CalibError {
+        CalibError::file(&self.label, m)
+    }
+
+    fn spectrum(&self, name: &str) -> Result<Spectrum, CalibError> {
+        let p = self.base_dir.join(name);
+        let key = if !Path::new(name).is_absolute() && p.exists() {
+            p.display().to_string()
+        } else {
+            name.to_string()
+        };
+        gloam_spectra::lookup(&key).map_err(|e| self.err(e))
+    }
+
+    fn camera(&self) -> Result<CameraBand, CalibError> {
+        let Some(c) = &self.parsed.camera else {
+            return Ok(CameraBand::default());
+        };
+        let response = match &c.response {
+            Some(n) => {
+                let s = self.spectrum(n)?;
+                let peak = s
+                    .values()
+                    .iter()
+                    .chain(s.lines().iter().map(|l| &l.value))
+                    .fold(0.0f64, |a, &b| a.max(b));
+                if peak <= 0.0 {
+                    return Err(self.err(format!("camera response '{n}' is zero everywhere")));
+                }
+                Some(s.scaled(1.0 / peak).map_err(|e| self.err(e))?)
+            }
+            None => None,
+        };
+        let bandpass = match &c.bandpass {
+            Some(n) => Some(self.spectrum(n)?),
+            None => None,
+        };
+        let band_nm = match c.band_nm {
+            Some([a, b]) if a.is_finite() && b.is_finite() && a > 0.0 && b > a => (a, b),
+            Some(b) => return Err(self.err(format!("camera.band_nm {b:?} is not an increasing pair"))),
+            None => STIMULUS_BAND_NM,
+        };
+        Ok(CameraBand {
+            response,
+            bandpass,
+            band_nm,
+        })
+    }
+
+    fn rig(&self) -> Result<Option<Rig>, CalibError> {
+        match &self.parsed.rig {
+            Some(r) => {
+                r.validate().map_err(|e| self.err(e))?;
+                Ok(Some(r.clone()))
+            }
+            None => Ok(None),
+        }
+    }
+
+    /// Opens a sphere source. `levels`: when the file lists no explicit
+    /// densities/fractions, generate this many levels linear in radiance
+    /// (`i/N`, i = 1..N: aperture fraction i/N or ND density −log10(i/N));
+    /// when it does, `levels` must match the list (or be `None`).
+    pub fn open_sphere(&self, levels: Option<usize>) -> Result<SphereSource, CalibError> {
+        let s = &self.parsed.source;
+        if s.kind != "sphere" {
+            return Err(self.err(format!(
+                "source.kind is '{}'; expected \"sphere\" (or open it as a manual source)",
+                s.kind
+            )));
+        }
+        let need = |v: Option<f64>, name: &str| {
+            v.filter(|x| x.is_finite())
+                .ok_or_else(|| self.err(format!("source.{name} is missing or not a number")))
+        };
+        let flux = need(s.lamp_flux_w, "lamp_flux_w")?;
+        let rho = need(s.reflectance, "reflectance")?;
+        let f = need(s.port_fraction, "port_fraction")?;
+        let d = need(s.sphere_diameter_m, "sphere_diameter_m")?;
+        if !(flux > 0.0 && rho > 0.0 && rho < 1.0 && f > 0.0 && f < 1.0 && d > 0.0) {
+            return Err(self.err(
+                "need lamp_flux_w > 0, 0 < reflectance < 1, 0 < port_fraction < 1, sphere_diameter_m > 0",
+            ));
+        }
+        let band = s.flux_band_nm.unwrap_or([STIMULUS_BAND_NM.0, STIMULUS_BAND_NM.1]);
+        let lamp = self.spectrum(&s.lamp)?;
+        let lamp_flux = lamp
+            .normalized_to_band(band[0], band[1], flux)
+            .map_err(|e| self.err(format!("lamp '{}': {e}", s.lamp)))?;
+        let sphere = IntegratingSphere {
+            lamp_name: s.lamp.clone(),
+            lamp_flux,
+            reflectance: rho,
+            port_fraction: f,
+            diameter_m: d,
+        };
+        let dim = self
+            .parsed
+            .dimming
+            .as_ref()
+            .ok_or_else(|| self.err("a sphere source needs a [dimming] table"))?;
+        let check_n = |len: usize| match levels {
+            Some(n) if n != len => Err(self.err(format!(
+                "--levels {n} but the file lists {len} dimming steps"
+            ))),
+            _ => Ok(()),
+        };
+        let generated = |n: Option<usize>| -> Result<Vec<f64>, CalibError> {
+            let n = n.ok_or_else(|| {
+                self.err("[dimming] lists no steps and no level count was given (--levels)")
+            })?;
+            if n == 0 {
+                return Err(self.err("zero levels requested"));
+            }
+            Ok((1..=n).map(|i| i as f64 / n as f64).collect())
+        };
+        let dimming = match dim.method.as_str() {
+            "aperture" => {
+                let fr = match &dim.fractions {
+                    Some(v) => {
+                        check_n(v.len())?;
+                        v.clone()
+                    }
+                    None => generated(levels)?,
+                };
+                if fr.iter().any(|&x| !(x > 0.0 && x <= 1.0)) {
+                    return Err(self.err("aperture fractions must lie in (0, 1]"));
+                }
+                Dimming::Aperture(fr)
+            }
+            "nd" => {
+                let mut filters = Vec::new();
+                if let Some(ds) = &dim.densities {
+                    for &d in ds {
+                        if !(d.is_finite() && d >= 0.0) {
+                            return Err(self.err(format!("ND density {d} must be ≥ 0")));
+                        }
+                        filters.push(NdFilter::Density(d));
+                    }
+                }
+                if let Some(cs) = &dim.transmission_csv {
+                    for c in cs {
+                        let p = self.base_dir.join(c);
+                        let t = gloam_spectra::read_csv(&p).map_err(|e| self.err(e))?;
+                        filters.push(NdFilter::Curve {
+                            name: c.display().to_string(),
+                            transmission: t,
+                        });
+                    }
+                }
+                if filters.is_empty() {
+                    filters = generated(levels)?
+                        .into_iter()
+                        .map(|t| NdFilter::Density(-t.log10()))
+                        .collect();
+                } else {
+                    check_n(filters.len())?;
+                }
+                Dimming::Nd(filters)
+            }
+            m => {
+                return Err(self.err(format!(
+                    "dimming.method '{m}' is not \"nd\" or \"aperture\""
+                )));
+            }
+        };
+        Ok(SphereSource {
+            sphere,
+            dimming,
+            camera: self.camera()?,
+            rig: self.rig()?,
+        })
+    }
+
+    /// Opens a manual source prompting through `input`/`output`.
+    pub fn open_manual(
+        &self,
+        levels: Option<usize>,
+        input: Box<dyn BufRead>,
+        output: Box<dyn Write>,
+    ) -> Result<ManualSource, CalibError> {
+        let s = &self.parsed.source;
+        if s.kind != "manual" {
+            return Err(self.err(format!("source.kind is '{}', not \"manual\"", s.kind)));
+        }
+        let mut lv: Vec<ManualLevel> = s
+            .levels
+            .iter()
+            .enumerate()
+            .map(|(i, l)| ManualLevel {
+                label: l.label.clone().unwrap_or_else(|| format!("level {}", i + 1)),
+                spectrum_csv: l.spectrum_csv.clone(),
+            })
+            .collect();
+        match (levels, lv.len()) {
+            (Some(n), 0) => {
+                lv = (0..n)
+                    .map(|i| ManualLevel {
+                        label: format!("level {}", i + 1),
+                        spectrum_csv: None,
+                    })
+                    .collect()
+            }
+            (Some(n), m) if n != m => {
+                return Err(self.err(format!("--levels {n} but the file lists {m} levels")));
+            }
+            (None, 0) => return Err(self.err("a manual source needs [[source.levels]] or --levels")),
+            _ => {}
+        }
+        Ok(ManualSource::new(
+            lv,
+            s.lamp.clone(),
+            self.camera()?,
+            self.rig()?,
+            self.base_dir.clone(),
+            input,
+            output,
+        ))
+    }
+
+    /// Opens whichever kind the file describes; a manual source prompts on
+    /// stdin/stderr.
+    pub fn open(&self, levels: Option<usize>) -> Result<Box<dyn CalibrationSource>, CalibError> {
+        if self.is_manual() {
+            Ok(Box::new(self.open_manual(
+                levels,
+                Box::new(std::io::BufReader::new(std::io::stdin())),
+                Box::new(std::io::stderr()),
+            )?))
+        } else {
+            Ok(Box::new(self.open_sphere(levels)?))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_multiplier_and_radiance() {
+        // ρ = 0.98, f = 0.02: M = 0.98 / (1 − 0.98·0.98) = 24.75.
+        let m = sphere_multiplier(0.98, 0.02);
+        assert!((m - 0.98 / (1.0 - 0.9604)).abs() < 1e-12);
+        let sph = IntegratingSphere {
+            lamp_name: "flat".into(),
+            lamp_flux: Spectrum::constant(400.0, 1000.0, 10.0 / 600.0).unwrap(),
+            reflectance: 0.98,
+            port_fraction: 0.02,
+            diameter_m: 0.5,
+        };
+        // L = Φ M / (π · π d²)
+        let l = sph.exit_radiance(1.0).integrate_band(400.0, 1000.0);
+        let want = 10.0 * m / (std::f64::consts::PI * std::f64::consts::PI * 0.25);
+        assert!((l / want - 1.0).abs() < 1e-12);
+        let half = sph.exit_radiance(0.5).integrate_band(400.0, 1000.0);
+        assert!((half / want - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nd_density_and_band_weighting() {
+        let text = r#"
+[source]
+kind = "sphere"
+lamp = "tungsten-halogen-3200k"
+lamp_flux_w = 1.0
+sphere_diameter_m = 0.3
+reflectance = 0.95
+port_fraction = 0.05
+[dimming]
+method = "nd"
+densities = [0.0, 1.0]
+"#;
+        let f = SourceFile::parse(text, Path::new("."), "t.toml").unwrap();
+        let mut s = f.open_sphere(None).unwrap();
+        let a = s.set_level(0).unwrap();
+        let b = s.set_level(1).unwrap();
+        assert!((b.band_radiance_w_m2_sr / a.band_radiance_w_m2_sr - 0.1).abs() < 1e-12);
+        assert!(f.open_sphere(Some(3)).is_err());
+    }
+
+    #[test]
+    fn manual_source_prompts_and_reads_csv() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("l1.csv"), "wavelength_nm,radiance\n400,0.001\n1000,0.001\n")
+            .unwrap();
+        let text = r#"
+[source]
+kind = "manual"
+[[source.levels]]
+label = "lamp 1"
+spectrum_csv = "l1.csv"
+[[source.levels]]
+label = "lamp 2"
+"#;
+        let f = SourceFile::parse(text, dir.path(), "m.toml").unwrap();
+        let input = format!("\n{}\n", dir.path().join("l1.csv").display());
+        let mut s = f
+            .open_manual(None, Box::new(std::io::Cursor::new(input)), Box::new(Vec::new()))
+            .unwrap();
+        let a = s.set_level(0).unwrap();
+        assert!((a.band_radiance_w_m2_sr - 0.6).abs() < 1e-12);
+        let b = s.set_level(1).unwrap();
+        assert!((b.band_radiance_w_m2_sr - 0.6).abs() < 1e-12);
+        // End of input: a clear abort, not a hang or panic.
+        assert!(matches!(s.set_level(0), Err(CalibError::Aborted(_))));
+    }
+}

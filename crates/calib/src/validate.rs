@@ -1,0 +1,144 @@
+//! Validation metrics: Spearman rank correlation and RMS radiance difference
+//! over ground-control regions, and the no-imaging sanity check.
+
+use gloam_spectra::Spectrum;
+use serde::{Deserialize, Serialize};
+
+use crate::error::CalibError;
+use crate::stats::{rms_difference, spearman_rho};
+
+/// A rectangular ground-control region, pixel coordinates (x = column).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    #[serde(default)]
+    pub name: String,
+    pub x: usize,
+    pub y: usize,
+    pub width: usize,
+    pub height: usize,
+}
+
+/// The comparison's figures (the `gloam compare --json` contract).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Comparison {
+    pub spearman_rho: f64,
+    pub rms: f64,
+    pub regions: Vec<RegionValues>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RegionValues {
+    pub name: String,
+    pub truth: f64,
+    pub synthetic: f64,
+}
+
+/// Mean of a region of a row-major `w × h` image, ignoring NaN pixels.
+pub fn region_mean(img: &[f64], w: usize, h: usize, r: &Region) -> Result<f64, CalibError> {
+    if r.width == 0 || r.height == 0 || r.x + r.width > w || r.y + r.height > h {
+        return Err(CalibError::Invalid(format!(
+            "region '{}' ({}+{}, {}+{}) is empty or leaves the {w}×{h} image",
+            r.name, r.x, r.width, r.y, r.height
+        )));
+    }
+    let (mut s, mut n) = (0.0, 0usize);
+    for row in r.y..r.y + r.height {
+        for v in &img[row * w + r.x..row * w + r.x + r.width] {
+            if v.is_finite() {
+                s += v;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        return Err(CalibError::InsufficientData(format!(
+            "region '{}' holds no finite pixel",
+            r.name
+        )));
+    }
+    Ok(s / n as f64)
+}
+
+/// Compares two equally sized images over regions: Spearman ρ of the region
+/// means (ties get average ranks) and the RMS of their differences.
+pub fn compare_images(
+    truth: &[f64],
+    synthetic: &[f64],
+    w: usize,
+    h: usize,
+    regions: &[Region],
+) -> Result<Comparison, CalibError> {
+    if truth.len() != w * h || synthetic.len() != w * h {
+        return Err(CalibError::Invalid("the two images differ in size".into()));
+    }
+    if regions.len() < 2 {
+        return Err(CalibError::InsufficientData(
+            "rank correlation needs at least 2 regions".into(),
+        ));
+    }
+    let mut rv = Vec::new();
+    for (i, r) in regions.iter().enumerate() {
+        rv.push(RegionValues {
+            name: if r.name.is_empty() { format!("region {}", i + 1) } else { r.name.clone() },
+            truth: region_mean(truth, w, h, r)?,
+            synthetic: region_mean(synthetic, w, h, r)?,
+        });
+    }
+    let t: Vec<f64> = rv.iter().map(|r| r.truth).collect();
+    let s: Vec<f64> = rv.iter().map(|r| r.synthetic).collect();
+    Ok(Comparison {
+        spearman_rho: spearman_rho(&t, &s)?,
+        rms: rms_difference(&t, &s)?,
+        regions: rv,
+    })
+}
+
+/// No-imaging sanity check: the radiance of a Lambertian panel of spectral
+/// reflectance `R(λ)` lit by a lamp of spectral intensity `I(λ)`
+/// (W sr⁻¹ nm⁻¹) at distance `r_m` and incidence `theta_deg`:
+/// `L = cos θ / (π r²) ∫ I(λ) R(λ) dλ` over `band_nm`, W m⁻² sr⁻¹.
+pub fn panel_radiance_no_imaging(
+    intensity_w_sr_nm: &Spectrum,
+    reflectance: &Spectrum,
+    r_m: f64,
+    theta_deg: f64,
+    band_nm: (f64, f64),
+) -> Result<f64, CalibError> {
+    if !(r_m > 0.0 && r_m.is_finite() && theta_deg.is_finite()) {
+        return Err(CalibError::Invalid(format!(
+            "distance {r_m} m must be positive and the angle finite"
+        )));
+    }
+    let c = theta_deg.to_radians().cos().max(0.0);
+    let i = intensity_w_sr_nm.product(reflectance).integrate_band(band_nm.0, band_nm.1);
+    Ok(c / (std::f64::consts::PI * r_m * r_m) * i)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn no_imaging_flat_spectra() {
+        let i = Spectrum::constant(400.0, 700.0, 0.01).unwrap();
+        let r = Spectrum::constant(300.0, 1100.0, 0.5).unwrap();
+        let l = panel_radiance_no_imaging(&i, &r, 2.0, 60.0, (400.0, 700.0)).unwrap();
+        let want = 0.5 / (std::f64::consts::PI * 4.0) * (0.01 * 300.0 * 0.5);
+        assert!((l - want).abs() < 1e-12 * want);
+        assert_eq!(panel_radiance_no_imaging(&i, &r, 2.0, 120.0, (400.0, 700.0)).unwrap(), 0.0);
+    }
+
+    #[test]
+    fn compare_with_ties() {
+        // 5 regions of 1 pixel each along a 5×1 image: the scipy example.
+        let t = [1.0, 2.0, 3.0, 4.0, 5.0];
+        let s = [5.0, 6.0, 7.0, 8.0, 7.0];
+        let regions: Vec<Region> = (0..5)
+            .map(|x| Region { name: String::new(), x, y: 0, width: 1, height: 1 })
+            .collect();
+        let c = compare_images(&t, &s, 5, 1, &regions).unwrap();
+        assert!((c.spearman_rho - 0.820_782_681_668_123_3).abs() < 1e-12);
+        assert!((c.rms - (16.0f64 * 4.0 + 4.0) .sqrt() / 5f64.sqrt()).abs() < 1e-12);
+    }
+}
