@@ -50,6 +50,21 @@ pub(crate) fn find_zero(s: &[u8]) -> Option<usize> {
         .map(|p| p + base)
 }
 
+/// Exact zero-byte mask: `0x80` in every byte of `x` that is `0x00`, `0`
+/// elsewhere (no borrow-propagation false positives, unlike the cheaper
+/// test in [`find_zero`]).
+#[inline]
+const fn zero_mask(x: u64) -> u64 {
+    const M: u64 = 0x7F7F_7F7F_7F7F_7F7F;
+    !(((x & M).wrapping_add(M)) | x | M)
+}
+
+#[inline]
+fn load_word(bytes: &[u8]) -> Option<u64> {
+    let w: [u8; 8] = bytes.get(..8)?.try_into().ok()?;
+    Some(u64::from_le_bytes(w))
+}
+
 /// Incremental COBS encoder writing into a caller-provided buffer.
 ///
 /// Lets a message be encoded from several pieces (header, pixel data
@@ -84,6 +99,10 @@ impl<'o> CobsEncoder<'o> {
 
     /// Append the bytes of `data` to the encoded stream.
     pub fn push(&mut self, mut data: &[u8]) {
+        if !self.overflowed {
+            let used = self.push_words(data);
+            data = &data[used..];
+        }
         while !data.is_empty() {
             if self.run_len == MAX_RUN_LEN {
                 // Full block and more data follows: close it with 0xFF (no
@@ -107,6 +126,56 @@ impl<'o> CobsEncoder<'o> {
                 }
             }
         }
+    }
+
+    /// Fast path: eight input bytes per step, stored as one word; each zero
+    /// byte in the word then only costs a code-byte write. Near the 254-byte
+    /// block limit a word is done byte by byte. Stops (returning the bytes
+    /// consumed) when fewer than 8 input bytes remain or the output might not
+    /// hold the next word; [`Self::push`] finishes with the general path.
+    fn push_words(&mut self, data: &[u8]) -> usize {
+        let out = &mut *self.out;
+        let mut pos = self.pos;
+        let mut code = self.code_idx;
+        let mut used = 0;
+        for w in data.chunks_exact(8) {
+            // Worst case this word needs 8 bytes plus one 0xFF split.
+            if pos + 9 > out.len() {
+                break;
+            }
+            if pos - code <= MAX_RUN_LEN + 1 - 8 {
+                out[pos..pos + 8].copy_from_slice(w);
+                let mut z = load_word(w).map_or(0, zero_mask);
+                while z != 0 {
+                    let zp = pos + (z.trailing_zeros() / 8) as usize;
+                    // zp - code <= 254 here, the finished block's code.
+                    out[code] = (zp - code) as u8;
+                    code = zp;
+                    z &= z - 1;
+                }
+                pos += 8;
+            } else {
+                for &b in w {
+                    if pos - code == MAX_RUN_LEN + 1 {
+                        out[code] = 0xFF;
+                        code = pos;
+                        pos += 1;
+                    }
+                    out[pos] = b;
+                    if b == 0 {
+                        out[code] = (pos - code) as u8;
+                        code = pos;
+                    }
+                    pos += 1;
+                }
+            }
+            used += 8;
+        }
+        self.pos = pos;
+        self.code_idx = code;
+        self.run_len = pos - code - 1;
+        self.needed_len = self.needed_len.max(pos);
+        used
     }
 
     fn copy(&mut self, bytes: &[u8]) {
@@ -250,6 +319,79 @@ impl<B: AsMut<[u8]>> CobsAccumulator<B> {
         }
     }
 
+    /// Fast path from a code byte up to the next `0x00` (or the end of
+    /// `input`). That stretch is known to hold no delimiter, so no per-block
+    /// zero checks are needed, and it decodes to the very same bytes with
+    /// each code byte replaced by the block's implied `0x00` — except code
+    /// bytes that follow a `0xFF` block (or start the frame), which are
+    /// dropped. So the bytes are moved in large windows with
+    /// `copy_from_slice` under a running input→output offset, and one walk
+    /// of the code chain writes the zeros and adjusts the offset at each
+    /// dropped code byte. Returns the input consumed.
+    fn decode_segment(&mut self, input: &[u8]) -> usize {
+        /// Copy-ahead window: ≥ 255 so one copy always covers the next code.
+        const WINDOW_LEN: usize = 512;
+        let buf = self.buf.as_mut();
+        // A segment decodes to at most its own length, so limiting it to the
+        // free space keeps the fast path overrun-free (and bounds the scan).
+        let room = buf.len().saturating_sub(self.len + 1);
+        let window = &input[..input.len().min(room)];
+        let seg_len = find_zero(window).unwrap_or(window.len());
+        let seg = &input[..seg_len];
+        if seg.is_empty() {
+            return 0;
+        }
+        // Mapping: input index `x` (>= src_start) goes to output
+        // `out_base + x - src_start`.
+        let mut out_base = self.len;
+        let mut src_start = usize::from(!self.zero_pending);
+        let mut copied_to = src_start;
+        let mut k = 0usize; // current code byte
+        let mut zero_at_k = self.zero_pending;
+        loop {
+            while copied_to <= k.max(src_start) && copied_to < seg_len {
+                let end = (copied_to + WINDOW_LEN).min(seg_len);
+                let dst = out_base + copied_to - src_start;
+                buf[dst..dst + end - copied_to].copy_from_slice(&seg[copied_to..end]);
+                copied_to = end;
+            }
+            if zero_at_k {
+                buf[out_base + k - src_start] = 0;
+            }
+            let code = usize::from(seg[k]);
+            let next = k + code;
+            if next >= seg_len {
+                // Last block of the segment: move the rest of its bytes.
+                if copied_to < seg_len {
+                    let dst = out_base + copied_to - src_start;
+                    buf[dst..dst + seg_len - copied_to].copy_from_slice(&seg[copied_to..]);
+                }
+                self.block_remaining = next - seg_len;
+                self.zero_pending = code != 0xFF;
+                break;
+            }
+            if code == 0xFF {
+                // Finish this block under the current offset...
+                if copied_to < next {
+                    let dst = out_base + copied_to - src_start;
+                    buf[dst..dst + next - copied_to].copy_from_slice(&seg[copied_to..next]);
+                }
+                // ...then the code byte at `next` produces no output: shift by one.
+                out_base += next - src_start;
+                src_start = next + 1;
+                // Re-copy anything already moved under the old offset.
+                copied_to = src_start;
+                zero_at_k = false;
+            } else {
+                zero_at_k = true;
+            }
+            k = next;
+        }
+        self.len = out_base + seg_len.max(src_start) - src_start;
+        self.in_frame = true;
+        seg_len
+    }
+
     /// Drop any partial frame (e.g. after a link timeout).
     pub fn reset(&mut self) {
         self.len = 0;
@@ -276,6 +418,11 @@ impl<B: AsMut<[u8]>> CobsAccumulator<B> {
                 }
             }
             if self.block_remaining == 0 {
+                let used = self.decode_segment(rest);
+                if used > 0 {
+                    i += used;
+                    continue;
+                }
                 let code = rest[0];
                 i += 1;
                 if code == 0 {
@@ -298,6 +445,26 @@ impl<B: AsMut<[u8]>> CobsAccumulator<B> {
                 self.block_remaining = usize::from(code) - 1;
                 self.zero_pending = code != 0xFF;
                 continue;
+            }
+            // Fast path: move up to 8 block bytes as one word (over-copying
+            // into buffer slack that later bytes overwrite), checking the
+            // block's part of the word for a stray delimiter.
+            if let Some(x) = load_word(rest) {
+                let n = self.block_remaining.min(8);
+                let keep = if n == 8 {
+                    u64::MAX
+                } else {
+                    (1u64 << (8 * n)) - 1
+                };
+                if zero_mask(x) & keep == 0 {
+                    if let Some(dst) = self.buf.as_mut().get_mut(self.len..self.len + 8) {
+                        dst.copy_from_slice(&x.to_le_bytes());
+                        self.len += n;
+                        self.block_remaining -= n;
+                        i += n;
+                        continue;
+                    }
+                }
             }
             let take = self.block_remaining.min(rest.len());
             let window = &rest[..take];

@@ -97,6 +97,51 @@ proptest! {
         }
     }
 
+    /// Streaming decode of frames with every zero density (long 0xFF runs
+    /// included), under arbitrary chunking and with a buffer that is exactly
+    /// big enough — or one byte short, which must be an overrun.
+    #[test]
+    fn cobs_stream_round_trips(len in 0usize..3000,
+                               zero_every in prop_oneof![Just(0usize), 1usize..4, 200usize..400],
+                               seed in any::<u64>(),
+                               sizes in proptest::collection::vec(1usize..700, 1..6)) {
+        let mut x = seed | 1;
+        let data: Vec<u8> = (0..len).map(|_| {
+            x ^= x << 13; x ^= x >> 7; x ^= x << 17;
+            if zero_every > 0 && (x as usize) % zero_every == 0 { 0 } else { (x >> 8) as u8 | 1 }
+        }).collect();
+        let mut wire = vec![0u8; cobs::max_encoded_len(len) + 1];
+        let n = cobs::encode_frame(&data, &mut wire).unwrap();
+        let mut stream = vec![0u8, 0u8];
+        stream.extend_from_slice(&wire[..n]);
+        stream.extend_from_slice(&wire[..n]);
+        for (cap, expect_ok) in [(len, true), (len.wrapping_sub(1), false)] {
+            if cap > len || (len == 0) { continue; }
+            let mut buf = vec![0u8; cap];
+            let mut acc = CobsAccumulator::new(&mut buf[..]);
+            let mut frames = 0;
+            let mut errors = 0;
+            let mut pos = 0;
+            let mut i = 0;
+            while pos < stream.len() {
+                let end = (pos + sizes[i % sizes.len()]).min(stream.len());
+                i += 1;
+                let mut piece = &stream[pos..end];
+                pos = end;
+                while !piece.is_empty() {
+                    let (used, feed) = acc.feed(piece);
+                    piece = &piece[used..];
+                    match feed {
+                        Feed::Frame(f) => { prop_assert_eq!(f, &data[..]); frames += 1; }
+                        Feed::Error(e) => { prop_assert_eq!(e, FrameError::Overrun); errors += 1; }
+                        Feed::NeedMore => {}
+                    }
+                }
+            }
+            if expect_ok { prop_assert_eq!((frames, errors), (2, 0)); } else { prop_assert_eq!((frames, errors), (0, 2)); }
+        }
+    }
+
     /// Corrupt a valid stream (flip, drop, insert bytes): every message that
     /// still decodes must be byte-identical to one that was sent, and the
     /// receiver recovers all messages after the damage.
