@@ -26,6 +26,10 @@ enum Command {
     /// The built-in spectral library and band integrals.
     #[command(subcommand)]
     Spectra(cmd::spectra::SpectraCommand),
+    /// Moon and Sun positions and lunar phase; good collection nights (--find).
+    Ephem(cmd::ephem::EphemArgs),
+    /// Ground illuminance from the Moon and the night sky (lux, spectra).
+    Sky(cmd::sky::SkyArgs),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -34,6 +38,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Spectra(c) => cmd::spectra::run(c),
+        Command::Ephem(args) => cmd::ephem::run(args),
+        Command::Sky(args) => cmd::sky::run(args),
     }
 }
 
