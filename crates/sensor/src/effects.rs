@@ -1,0 +1,207 @@
+//! The sensor's part of the effect plan: which stages run and why.
+
+use crate::config::{CouplingKind, SensorConfig, SensorKind};
+use crate::kernel::Kernel;
+use crate::stages::Chain;
+
+/// `(stage name, enabled, reason)` for every stage of the chain, in order.
+/// A stage at identity or with its noise off is listed as disabled with the
+/// reason; it costs nothing at capture.
+pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)> {
+    let mut v: Vec<(&'static str, bool, String)> = Vec::new();
+    let chain = match Chain::new(config) {
+        Ok(c) => c,
+        Err(e) => {
+            v.push(("sensor", false, format!("invalid configuration: {e}")));
+            return v;
+        }
+    };
+    let kind = config.kind;
+    let g = chain.reference_gain;
+    let o = &config.optics;
+    v.push((
+        "optics: camera equation",
+        true,
+        format!("f/{}, τ = {}", o.f_number, o.transmission),
+    ));
+    v.push((
+        "optics: cos⁴θ fall-off",
+        o.vignetting,
+        if o.vignetting {
+            format!("focal length {} mm", o.focal_length_mm)
+        } else {
+            "optics.vignetting = false".into()
+        },
+    ));
+    let stages = chain.stages_at(g);
+    let pre: Vec<_> = stages.iter().filter(|s| !s.after_noise).collect();
+    let post: Vec<_> = stages.iter().filter(|s| s.after_noise).collect();
+    let kpre = Kernel::from_mtf(|f| pre.iter().map(|s| s.term.at(f)).product());
+    let kpost = Kernel::from_mtf(|f| post.iter().map(|s| s.term.at(f)).product());
+    let names =
+        |s: &[&crate::stages::MtfStage]| s.iter().map(|s| s.name).collect::<Vec<_>>().join(", ");
+    v.push((
+        "MTF before shot noise",
+        kpre.is_some(),
+        match &kpre {
+            Some(k) => format!("{} (kernel radius {})", names(&pre), k.radius),
+            None => "identity to 0.1 % up to Nyquist".into(),
+        },
+    ));
+    let intens = kind != SensorKind::Ccd;
+    v.push((
+        "photocathode",
+        intens,
+        if intens {
+            "intensified camera".into()
+        } else {
+            "plain CCD detects the scene directly".into()
+        },
+    ));
+    let ebi = chain.ebi_pe(g);
+    v.push((
+        "dark emission (EBI)",
+        ebi > 0.0,
+        if ebi > 0.0 {
+            format!("{ebi:.3e} photoelectrons/pixel/frame at the configured gain")
+        } else {
+            "no EBI configured".into()
+        },
+    ));
+    let iccd = kind == SensorKind::Iccd;
+    let why_not_iccd = || format!("kind = {kind:?}: no MCP or phosphor");
+    v.push((
+        "MCP gain",
+        iccd,
+        if iccd {
+            format!(
+                "gamma shape {}, open area {}",
+                chain.gain_shape, chain.open_area
+            )
+        } else {
+            why_not_iccd()
+        },
+    ));
+    v.push((
+        "MCP saturation",
+        chain.mcp_saturation_e.is_some(),
+        match chain.mcp_saturation_e {
+            Some(q) => format!("soft knee at {q:.3e} e⁻/pixel/frame"),
+            None if iccd => "no output current limit configured".into(),
+            None => why_not_iccd(),
+        },
+    ));
+    v.push((
+        "phosphor screen",
+        iccd,
+        if iccd {
+            format!("{:.0} photons/e⁻", chain.phosphor_photons_per_e)
+        } else {
+            why_not_iccd()
+        },
+    ));
+    v.push((
+        "phosphor persistence",
+        chain.lag_fraction > 0.0,
+        if chain.lag_fraction > 0.0 {
+            format!("{} of a frame's light in later frames", chain.lag_fraction)
+        } else if iccd {
+            "lag fraction 0".into()
+        } else {
+            why_not_iccd()
+        },
+    ));
+    let coupling = config.coupling.as_ref();
+    v.push((
+        "coupling",
+        coupling.is_some(),
+        match coupling {
+            Some(c) => format!(
+                "{:?}, {:.3} of the screen light",
+                c.kind, chain.coupling_fraction
+            ),
+            None => "no phosphor to couple".into(),
+        },
+    ));
+    let cw = coupling.is_some_and(|c| {
+        c.kind != CouplingKind::RelayLens
+            && c.chicken_wire_cell_um > 0.0
+            && c.chicken_wire_depth > 0.0
+    });
+    v.push((
+        "chicken-wire pattern",
+        cw,
+        if cw {
+            "multifibre boundaries of the fibre optic".into()
+        } else {
+            "no fibre optic or chicken_wire_depth = 0".into()
+        },
+    ));
+    let eb = kind == SensorKind::Ebccd;
+    v.push((
+        "electron bombardment",
+        eb,
+        if eb {
+            "EBCCD: Fano and backscatter gain noise".into()
+        } else {
+            format!("kind = {kind:?}")
+        },
+    ));
+    v.push((
+        "MTF after gain noise",
+        kpost.is_some(),
+        match &kpost {
+            Some(k) => format!("{} (kernel radius {})", names(&post), k.radius),
+            None => "identity to 0.1 % up to Nyquist or no stage".into(),
+        },
+    ));
+    let c = &config.ccd;
+    let noise = config.noise.enabled;
+    v.push((
+        "temporal noise",
+        noise,
+        if noise {
+            format!("seed {}", config.noise.seed)
+        } else {
+            "noise.enabled = false (deterministic means)".into()
+        },
+    ));
+    v.push((
+        "CCD dark current",
+        c.dark_current_e_s > 0.0,
+        format!("{} e⁻/s", c.dark_current_e_s),
+    ));
+    v.push(("PRNU", c.prnu > 0.0, format!("{} rms", c.prnu)));
+    v.push(("DSNU", c.dsnu_e > 0.0, format!("{} e⁻ rms", c.dsnu_e)));
+    v.push((
+        "blooming",
+        c.blooming,
+        format!("full well {} e⁻", c.full_well_e),
+    ));
+    v.push((
+        "read noise",
+        noise && chain.read_noise_e > 0.0,
+        format!("{:.2} e⁻ rms", chain.read_noise_e),
+    ));
+    let agc = config.agc.as_ref().is_some_and(|a| a.enabled);
+    v.push((
+        "AGC",
+        agc,
+        if agc {
+            "closed loop on mean brightness".into()
+        } else {
+            "fixed gain (override or no AGC)".into()
+        },
+    ));
+    v.push((
+        "analogue video",
+        config.video.is_some(),
+        if config.video.is_some() {
+            "1 V p-p composite".into()
+        } else {
+            "direct digital readout".into()
+        },
+    ));
+    v.push(("digitizer", true, format!("{} bits", config.digitizer.bits)));
+    v
+}
