@@ -70,8 +70,10 @@ pub fn polygon_irradiance_factor(
 ///
 /// Both recurrences only ever multiply earlier values by factors below one
 /// (`(n−1)/(n+1)` and `(k−1)/k·C²`), so rounding errors are damped rather than
-/// amplified and the forward recurrence is stable for any `m`; cost is
-/// O(m × edges) (m = 10 000 on a quad: ~40 000 short steps). For large `m`
+/// amplified and the forward recurrence is stable for any `m`; only the
+/// parity of `m` is needed, so the cost is m/2 steps of O(edges) (m = 10 000
+/// on a quad: 5 000 steps, ~0.1 ms), and the loop stops as soon as every
+/// term has underflowed. For large `m`
 /// the result tends to the collimated limit `2π (v·w)/(m+2)` when the axis
 /// through the point hits the polygon well inside, and underflows
 /// gracefully to 0 when it misses.
@@ -188,50 +190,68 @@ fn prepare_edges(poly: &[DVec3], w: DVec3, v: DVec3, inward: f64) -> Vec<Edge> {
 
 /// D_m = ∫ (w·u)^m (v·u) dω over the spherical polygon with vertex
 /// directions `poly` (un-normalised), edges inward-oriented by `inward`.
+///
+/// Only one parity is needed: D_m uses T_{m−1} and F^m, T_{m−1} uses
+/// S_{m−2}, S_{m−4}, … and F^k steps by two, so the loop runs over
+/// k ≡ m (mod 2) only (m/2 steps). Reciprocals are formed off the
+/// dependency chains.
 fn double_axis_moment(poly: &[DVec3], w: DVec3, v: DVec3, m: u32, inward: f64) -> f64 {
     let edges = prepare_edges(poly, w, v, inward);
     if m == 0 {
         return 0.5 * edges.iter().map(|e| e.theta * e.v_gamma).sum::<f64>();
     }
-    let solid_angle = polygon_solid_angle(DVec3::ZERO, poly);
-    let ne = edges.len();
-    // Per-edge state: F^{k-2}, F^{k-1}, h0^{k-1}, h1^{k-1}.
-    let mut f_km2 = vec![0.0f64; ne];
-    let mut f_km1: Vec<f64> = edges.iter().map(|e| e.theta).collect(); // F^0
-    let mut p0 = vec![1.0f64; ne]; // h0^{k-1} at k = 1
-    let mut p1 = vec![1.0f64; ne];
-    // S_{k} = Σ (w·Γ) F^k ; T recurrence needs S_{n-1}.
-    let mut t_nm2 = 0.0; // T_{n-2}
-    let mut t_nm1 = solid_angle; // T_{n-1}, start at n = 1: T_0
-    let mut s_prev: f64 = edges.iter().map(|e| e.w_gamma * e.theta).sum(); // S_0
-    // Loop over n = 1..m-1 computing T_n; also maintains F^k up to k = n.
-    // After the loop we need T_{m-1} and F^m.
-    for k in 1..=m {
-        // T_k from T_{k-2} and S_{k-1} (only needed for k ≤ m − 1).
-        if k < m {
-            let kf = k as f64;
-            let t_k = ((kf - 1.0) * t_nm2 + s_prev) / (kf + 1.0);
-            t_nm2 = t_nm1;
-            t_nm1 = t_k;
+    let odd = m % 2 == 1;
+    // T_{k0−1}: T_0 = Ω for odd m; for even m the coefficient k0 = 0 kills it.
+    let mut t_prev = if odd {
+        polygon_solid_angle(DVec3::ZERO, poly)
+    } else {
+        0.0
+    };
+    // F^{k0} and h^{k0+1} at both ends of every edge.
+    let mut f: Vec<f64> = edges
+        .iter()
+        .map(|e| if odd { e.g1 - e.g0 } else { e.theta })
+        .collect();
+    let mut pw: Vec<(f64, f64)> = edges
+        .iter()
+        .map(|e| {
+            if odd {
+                (e.h0 * e.h0, e.h1 * e.h1)
+            } else {
+                (e.h0, e.h1)
+            }
+        })
+        .collect();
+    let mut k = u32::from(odd);
+    loop {
+        let s_k: f64 = edges.iter().zip(&f).map(|(e, fk)| e.w_gamma * fk).sum();
+        if k == m {
+            break;
         }
-        // F^k for every edge.
-        let kf = k as f64;
-        let mut s_k = 0.0;
-        for (j, e) in edges.iter().enumerate() {
-            let boundary = (p1[j] * e.g1 - p0[j] * e.g0) / kf;
-            let f_k = boundary + (kf - 1.0) / kf * e.c2 * f_km2[j];
-            f_km2[j] = f_km1[j];
-            f_km1[j] = f_k;
-            p0[j] *= e.h0;
-            p1[j] *= e.h1;
-            s_k += e.w_gamma * f_k;
+        let kf = f64::from(k);
+        // T_{k+1} = (k T_{k−1} + S_k) / (k + 2)
+        t_prev = (kf * t_prev + s_k) * (1.0 / (kf + 2.0));
+        k += 2;
+        let kf = f64::from(k);
+        let inv_k = 1.0 / kf;
+        let carry = (kf - 1.0) * inv_k;
+        let mut all_zero = t_prev == 0.0;
+        for ((e, fk), (p0, p1)) in edges.iter().zip(f.iter_mut()).zip(pw.iter_mut()) {
+            // F^k = [h^{k−1} g]_0^Θ / k + (k−1)/k · C² F^{k−2}
+            *fk = (*p1 * e.g1 - *p0 * e.g0) * inv_k + carry * e.c2 * *fk;
+            *p0 *= e.h0 * e.h0;
+            *p1 *= e.h1 * e.h1;
+            all_zero &= *fk == 0.0 && *p0 == 0.0 && *p1 == 0.0;
         }
-        s_prev = s_k;
+        if all_zero {
+            // Everything has underflowed: the beam misses the polygon entirely.
+            return 0.0;
+        }
     }
-    // Now t_nm1 = T_{m-1} and f_km1 = F^m.
-    let r_m: f64 = edges.iter().zip(&f_km1).map(|(e, f)| e.v_gamma * f).sum();
-    let mf = m as f64;
-    (mf * w.dot(v) * t_nm1 + r_m) / (mf + 2.0)
+    // Now t_prev = T_{m−1} and f = F^m.
+    let r_m: f64 = edges.iter().zip(&f).map(|(e, fk)| e.v_gamma * fk).sum();
+    let mf = f64::from(m);
+    (mf * w.dot(v) * t_prev + r_m) / (mf + 2.0)
 }
 
 /// Newell's polygon normal from edge differences (twice the vector area).
