@@ -1,6 +1,14 @@
 //! Frame grabbers: one interface for the simulated camera, the device
 //! emulator and real hardware, so calibration flows never know which one
 //! they talk to.
+//!
+//! - [`open`] a grabber by URI: `sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH]`,
+//!   `serial:PATH[?baud=N]`, `usb:VID:PID[:SERIAL]`;
+//! - [`list_grabbers`]: serial ports, USB devices and simulated cameras;
+//! - [`SimGrabber`]: the sensor chain in-process; [`ProtocolGrabber`]: the
+//!   wire protocol over a [`Transport`] (serial, USB, in-memory);
+//! - [`emulator`]: the firmware state machine with a simulated camera as
+//!   its hardware (behind `gloam device --pty`).
 
 mod interface;
 
@@ -8,12 +16,19 @@ pub mod client;
 pub mod emulator;
 pub mod faults;
 pub mod memory;
+pub mod serial;
+pub mod sim;
 pub mod source;
 pub mod transport;
+pub mod uri;
+pub mod usb;
 
 pub use client::{ClientOptions, ClientStats, ProtocolGrabber};
 pub use interface::*;
+pub use sim::{SensorSource, SimGrabber};
+pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
+pub use uri::GrabberUri;
 
 /// CRC-32C (Castagnoli, `crc::CRC_32_ISCSI`) of pixels as little-endian
 /// `u16` bytes: [`FrameMeta::pixels_crc32c`].
@@ -28,4 +43,97 @@ pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
         d.update(&buf[..block.len() * 2]);
     }
     d.finalize()
+}
+
+/// Options for [`open_with`].
+#[derive(Clone, Debug, Default)]
+pub struct OpenOptions {
+    /// Noise seed for `sim:` grabbers (overrides `?seed=`); ignored by
+    /// hardware (the emulator takes its seed on its own command line).
+    pub seed: Option<u64>,
+    /// Protocol client tuning for `serial:` and `usb:`.
+    pub client: ClientOptions,
+}
+
+/// Open a grabber by URI (see the crate docs and `docs/hardware.md`).
+pub fn open(uri: &str) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    open_with(uri, &OpenOptions::default())
+}
+
+/// [`open`] with options.
+pub fn open_with(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    match GrabberUri::parse(uri)? {
+        GrabberUri::Sim {
+            preset,
+            rig,
+            seed,
+            size,
+        } => {
+            let seed = opts.seed.unwrap_or(seed);
+            Ok(Box::new(SimGrabber::from_preset(
+                &preset, &rig, seed, size,
+            )?))
+        }
+        GrabberUri::Serial { path, baud } => {
+            let t = serial::SerialTransport::open(&path, baud).map_err(|e| match e {
+                LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
+            })?;
+            Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
+        }
+        GrabberUri::Usb(sel) => {
+            let t = usb::UsbTransport::open(sel).map_err(|e| match e {
+                LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
+            })?;
+            Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
+        }
+    }
+}
+
+/// One simulated camera in [`GrabberList`].
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct SimInfo {
+    pub uri: String,
+    pub description: String,
+}
+
+/// Everything [`list_grabbers`] found.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct GrabberList {
+    pub serial: Vec<serial::SerialPortInfo>,
+    /// Why serial ports could not be listed, if they could not.
+    pub serial_error: Option<String>,
+    pub usb: Vec<usb::UsbDeviceInfo>,
+    /// Why USB devices could not be listed (e.g. "no USB bus available").
+    pub usb_error: Option<String>,
+    pub sim: Vec<SimInfo>,
+}
+
+/// Serial ports, USB devices (or why there are none) and the simulated cameras.
+pub fn list_grabbers() -> GrabberList {
+    let (serial, serial_error) = match serial::list_ports() {
+        Ok(p) => (p, None),
+        Err(e) => (Vec::new(), Some(e)),
+    };
+    let (usb, usb_error) = match usb::list_usb() {
+        Ok(d) => (d, None),
+        Err(e) => (Vec::new(), Some(e)),
+    };
+    let mut sim: Vec<SimInfo> = gloam_sensor::presets()
+        .into_iter()
+        .map(|(name, description)| SimInfo {
+            uri: format!("sim:{name}"),
+            description,
+        })
+        .collect();
+    sim.extend(sim::RIGS.iter().map(|(name, d)| SimInfo {
+        uri: format!("sim:{name}"),
+        description: format!("rig: {d} (sensor {})", uri::DEFAULT_SIM_PRESET),
+    }));
+    GrabberList {
+        serial,
+        serial_error,
+        usb,
+        usb_error,
+        sim,
+    }
 }
