@@ -1,7 +1,90 @@
 //! gloam's spectral ray tracer.
 //!
-//! `closed_form` and `sampling` hold the exact irradiance formulas and the
-//! solid-angle samplers the area-source estimators are built on.
+//! [`render`] turns a [`gloam_scene::Scene`] into band radiance at the
+//! camera's entrance pupil (W m⁻² sr⁻¹, band × row × column);
+//! [`probe_point`] reports the irradiance at any point; [`Tracer`] keeps a
+//! prepared scene for repeated queries. Every approximation is a named
+//! setting in [`RenderSettings`] (see [`settings`] for the table of keys and
+//! defaults). `closed_form` and `sampling` hold the exact irradiance formulas
+//! and the solid-angle samplers the area-source estimators are built on.
+//!
+//! # Radiometry
+//!
+//! - Scene units are converted to metres only where a distance is squared
+//!   against a physical quantity: point sources, `E = I cos^m(α) cos θ / R²`
+//!   with `R` in metres. Area-source factors (∫ cos cos dω, `A/R²`) are
+//!   dimensionless.
+//! - A Lambertian surface reflects `L = ρ_d E / π` with `ρ_d = (1 − s) ρ`;
+//!   the specular part `s ρ` is followed by recursion (`recursion` = 1:
+//!   direct light only; 2: one mirror bounce; …).
+//! - Spectral values are carried at a continuum grid plus every emission line
+//!   and integrated into the scene's bands at the end ([`spectral`]).
+//!
+//! # Point sources seen directly
+//!
+//! A point source in the field of view with a clear line of sight to the
+//! camera deposits its flux into the pixel it projects to:
+//! `L_pixel += I_s cos^m(α) τ / (R² Ω_pixel)`, with `R` the camera–lamp
+//! distance in metres, `α` the angle between the lamp's axis and the
+//! direction to the camera, `τ` the transmission of transmissive facets in
+//! between and `Ω_pixel = (2 tan(h/2)/W)(2 tan(v/2)/H) cos³θ` the solid
+//! angle of that pixel (θ off the optical axis). Summed over the pixel's
+//! solid angle this returns exactly the irradiance `I/R²` the lamp puts on
+//! the entrance pupil. (Lamps seen in mirrors are not deposited.)
+//!
+//! # Area sources: three estimators
+//!
+//! - `analytic` (default): the exact unoccluded irradiance from the closed
+//!   form (Lambert's polygon formula, Arvo's double-axis moments for integer
+//!   m > 0), corrected for occlusion with `area_samples` shadow rays as a
+//!   control variate: `E = E_closed + (MC_occluded − MC_unoccluded)` with the
+//!   same solid-angle samples, so it is exact wherever the source is
+//!   unoccluded and unbiased in penumbra (a fully occluded point reads
+//!   zero only on average; `occlusion=ratio` makes it exactly zero at the
+//!   cost of an O(1/N) bias in penumbra). Sources are never dropped: a
+//!   source whose closed-form share of the irradiance at the hit point is
+//!   below `source_roulette_fraction` has its shadow rays traced with
+//!   probability proportional to its share and its correction reweighted by
+//!   the inverse probability (Russian roulette on the correction, unbiased).
+//!   A non-integer shape exponent has no closed form here; such sources fall
+//!   back to the `solid-angle` estimator (unbiased), rather than rounding m.
+//! - `solid-angle`: `area_samples` directions uniform in the solid angle the
+//!   facet subtends (spherical rectangles, Ureña et al. 2013, for true
+//!   rectangles; spherical triangles, Arvo 1995, otherwise, a quad being two
+//!   triangles picked by solid angle), weight `Ω cos^m θ_e cos θ_r / N`. It
+//!   falls back to uniform area sampling (weight `A cos θ_e / R²`) where the
+//!   samplers decline (solid angle below 1e-6 sr, degenerate input) or the
+//!   point lies within 1e-10·√A of the emitter's plane.
+//! - `dirsig2001`: the published 2001 method, faithfully: M = area ×
+//!   SAMPLE_AREA_DENSITY points per source (1 … MAX_SAMPLE_POINTS, drawn
+//!   once per render from the seed); at each hit point the solid angle is
+//!   estimated from the angles φ the sides subtend (quad:
+//!   `((φ1+φ3)/2)((φ2+φ4)/2)`, triangle: `φ_min φ_max / 2`); the source is
+//!   skipped below SOLID_ANGLE_THRESHOLD or when `L Ω cos θ_c cos^m α` is
+//!   below IRRADIANCE_THRESHOLD; otherwise N = ⌈Ω × SOLID_ANGLE_DENSITY⌉
+//!   (≤ MAX_SOURCE_SAMPLES) shadow rays go to points drawn from the M set and
+//!   `E = cos^m(α) (1/N) Σ L cos²θ_j A / R_j² τ_j`, θ_j the angle at the
+//!   receiver (the published cos² stands for cos θ_r cos θ_e, equal only when
+//!   source and receiver are parallel).
+//!
+//! **Shaping, 2001 vs gloam.** The 2001 equation evaluates `cos^m(α)` once
+//! per source and hit point, with α measured at the source's centre, and
+//! multiplies the whole source by it. gloam's estimators shape every surface
+//! element: radiance `L cos^m(θ_e)` with θ_e the emission angle of each
+//! sampled point, which is what Arvo's closed form integrates. The two agree
+//! when the source is small seen from the hit point (or m = 0) and differ
+//! most for large sources, large m and hit points close to the source: there
+//! the 2001 shaping over-weights the parts of the source seen at steeper
+//! angles than its centre and under-weights the rest.
 
 pub mod closed_form;
+pub mod geometry;
+pub mod render;
 pub mod sampling;
+pub mod settings;
+pub mod spectral;
+pub mod tracer;
+
+pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
+pub use settings::{Dirsig2001Settings, Estimator, Occlusion, RenderSettings, SettingsError};
+pub use tracer::{RayCounts, TraceError, Tracer};

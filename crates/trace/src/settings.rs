@@ -1,0 +1,290 @@
+//! Render settings: every approximation is a named setting with a default.
+//!
+//! | key | default | meaning |
+//! |---|---|---|
+//! | `spp` | 4 | camera samples per pixel (Latin-hypercube stratified within the pixel) |
+//! | `seed` | 0 | seed of every random stream (per pixel: `(seed, pixel index)`) |
+//! | `estimator` | `analytic` | area-source estimator: `analytic`, `solid-angle`, `dirsig2001` |
+//! | `recursion` | 3 | 1 = direct lighting only, 2 = one specular bounce, … |
+//! | `diffuse_bounces` | 0 | diffuse path-tracing bounces (0 = off) |
+//! | `rr_start` | 1 | diffuse bounces before Russian roulette starts |
+//! | `spectral_step_nm` | 5 | continuum grid step within the bands' support |
+//! | `area_samples` | 16 | shadow rays per area source per hit (`analytic`, `solid-angle`) |
+//! | `occlusion` | `cv` | `analytic` occlusion correction: `cv` (control variate, unbiased) or `ratio` (self-normalised: exact at full visibility *and* full occlusion, O(1/N) bias in penumbra) |
+//! | `source_roulette_fraction` | 0.01 | `analytic`: a source whose closed-form irradiance is below this fraction of the total at the hit point has its shadow rays traced with probability ∝ its share (correction reweighted by 1/p — unbiased) |
+//! | `SAMPLE_AREA_DENSITY` | 1 | `dirsig2001`: sample points per scene unit² of source |
+//! | `MAX_SAMPLE_POINTS` | 500 | `dirsig2001`: cap on points per source |
+//! | `MAX_SOURCE_SAMPLES` | 100 | `dirsig2001`: cap on shadow rays per source per hit |
+//! | `SOLID_ANGLE_THRESHOLD` | 1e-6 sr | `dirsig2001`: skip sources subtending less |
+//! | `SOLID_ANGLE_DENSITY` | 1e3 /sr | `dirsig2001`: shadow rays per steradian |
+//! | `IRRADIANCE_THRESHOLD` | 1e-10 W/m² | `dirsig2001`: skip sources whose unoccluded estimate is below |
+//!
+//! `threads` (not a `--set` key) picks the rayon pool size; results do not
+//! depend on it.
+
+use serde::Serialize;
+
+/// How extended (area) sources are estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Estimator {
+    /// Closed-form unoccluded irradiance + shadow-ray occlusion correction.
+    Analytic,
+    /// Uniform solid-angle sampling (spherical triangles / rectangles).
+    SolidAngle,
+    /// The published 2001 DIRSIG method, for comparison.
+    Dirsig2001,
+}
+
+impl std::str::FromStr for Estimator {
+    type Err = SettingsError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().replace('_', "-").as_str() {
+            "analytic" => Ok(Self::Analytic),
+            "solid-angle" => Ok(Self::SolidAngle),
+            "dirsig2001" | "dirsig-2001" => Ok(Self::Dirsig2001),
+            _ => Err(SettingsError::BadValue {
+                key: "estimator".into(),
+                value: s.into(),
+                expected: "analytic, solid-angle or dirsig2001",
+            }),
+        }
+    }
+}
+
+impl std::fmt::Display for Estimator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Analytic => "analytic",
+            Self::SolidAngle => "solid-angle",
+            Self::Dirsig2001 => "dirsig2001",
+        })
+    }
+}
+
+/// Occlusion correction used by the analytic estimator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Occlusion {
+    /// `E = E_closed + (MC_occluded − MC_unoccluded)`, same samples.
+    Cv,
+    /// `E = E_closed · MC_occluded / MC_unoccluded`.
+    Ratio,
+}
+
+/// The six settings of the 2001 method, with the published defaults.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[allow(non_snake_case)]
+pub struct Dirsig2001Settings {
+    pub SAMPLE_AREA_DENSITY: f64,
+    pub MAX_SAMPLE_POINTS: u32,
+    pub MAX_SOURCE_SAMPLES: u32,
+    pub SOLID_ANGLE_THRESHOLD: f64,
+    pub SOLID_ANGLE_DENSITY: f64,
+    pub IRRADIANCE_THRESHOLD: f64,
+}
+
+impl Default for Dirsig2001Settings {
+    fn default() -> Self {
+        Self {
+            SAMPLE_AREA_DENSITY: 1.0,
+            MAX_SAMPLE_POINTS: 500,
+            MAX_SOURCE_SAMPLES: 100,
+            SOLID_ANGLE_THRESHOLD: 1e-6,
+            SOLID_ANGLE_DENSITY: 1e3,
+            IRRADIANCE_THRESHOLD: 1e-10,
+        }
+    }
+}
+
+/// Everything a render or probe needs besides the scene.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RenderSettings {
+    pub spp: u32,
+    pub seed: u64,
+    pub estimator: Estimator,
+    /// Rayon threads (None: rayon's default). Never changes the result.
+    pub threads: Option<usize>,
+    pub recursion: u32,
+    pub diffuse_bounces: u32,
+    pub rr_start: u32,
+    pub spectral_step_nm: f64,
+    pub area_samples: u32,
+    pub occlusion: Occlusion,
+    pub source_roulette_fraction: f64,
+    pub dirsig2001: Dirsig2001Settings,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            spp: 4,
+            seed: 0,
+            estimator: Estimator::Analytic,
+            threads: None,
+            recursion: 3,
+            diffuse_bounces: 0,
+            rr_start: 1,
+            spectral_step_nm: 5.0,
+            area_samples: 16,
+            occlusion: Occlusion::Cv,
+            source_roulette_fraction: 0.01,
+            dirsig2001: Dirsig2001Settings::default(),
+        }
+    }
+}
+
+/// A `--set KEY=VALUE` that could not be applied.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SettingsError {
+    #[error("unknown setting `{0}` (known: {known})", known = RenderSettings::KEYS.join(", "))]
+    UnknownKey(String),
+    #[error("setting `{key}`: `{value}` is not valid ({expected})")]
+    BadValue {
+        key: String,
+        value: String,
+        expected: &'static str,
+    },
+    #[error("expected KEY=VALUE, got `{0}`")]
+    NotKeyValue(String),
+}
+
+fn parse<T: std::str::FromStr>(
+    key: &str,
+    value: &str,
+    expected: &'static str,
+    ok: impl Fn(&T) -> bool,
+) -> Result<T, SettingsError> {
+    value
+        .trim()
+        .parse::<T>()
+        .ok()
+        .filter(|v| ok(v))
+        .ok_or_else(|| SettingsError::BadValue {
+            key: key.into(),
+            value: value.into(),
+            expected,
+        })
+}
+
+impl RenderSettings {
+    /// Every key accepted by [`RenderSettings::set`].
+    pub const KEYS: &'static [&'static str] = &[
+        "spp",
+        "seed",
+        "estimator",
+        "recursion",
+        "diffuse_bounces",
+        "rr_start",
+        "spectral_step_nm",
+        "area_samples",
+        "occlusion",
+        "source_roulette_fraction",
+        "SAMPLE_AREA_DENSITY",
+        "MAX_SAMPLE_POINTS",
+        "MAX_SOURCE_SAMPLES",
+        "SOLID_ANGLE_THRESHOLD",
+        "SOLID_ANGLE_DENSITY",
+        "IRRADIANCE_THRESHOLD",
+    ];
+
+    /// Applies `KEY=VALUE`.
+    pub fn set_pair(&mut self, pair: &str) -> Result<(), SettingsError> {
+        let (k, v) = pair
+            .split_once('=')
+            .ok_or_else(|| SettingsError::NotKeyValue(pair.into()))?;
+        self.set(k.trim(), v.trim())
+    }
+
+    /// Sets one named setting (keys are case-insensitive).
+    pub fn set(&mut self, key: &str, value: &str) -> Result<(), SettingsError> {
+        const POS_INT: &str = "an integer ≥ 1";
+        const NONNEG_INT: &str = "an integer ≥ 0";
+        const POS: &str = "a finite number > 0";
+        const NONNEG: &str = "a finite number ≥ 0";
+        let pos = |x: &f64| x.is_finite() && *x > 0.0;
+        let nonneg = |x: &f64| x.is_finite() && *x >= 0.0;
+        let d = &mut self.dirsig2001;
+        match key.to_ascii_lowercase().as_str() {
+            "spp" => self.spp = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "seed" => self.seed = parse(key, value, NONNEG_INT, |_: &u64| true)?,
+            "estimator" => self.estimator = value.parse()?,
+            "recursion" => self.recursion = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "diffuse_bounces" => {
+                self.diffuse_bounces = parse(key, value, NONNEG_INT, |_: &u32| true)?
+            }
+            "rr_start" => self.rr_start = parse(key, value, NONNEG_INT, |_: &u32| true)?,
+            "spectral_step_nm" => self.spectral_step_nm = parse(key, value, POS, pos)?,
+            "area_samples" => self.area_samples = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "occlusion" => {
+                self.occlusion = match value.to_ascii_lowercase().as_str() {
+                    "cv" | "control-variate" => Occlusion::Cv,
+                    "ratio" => Occlusion::Ratio,
+                    _ => {
+                        return Err(SettingsError::BadValue {
+                            key: key.into(),
+                            value: value.into(),
+                            expected: "cv or ratio",
+                        });
+                    }
+                }
+            }
+            "source_roulette_fraction" => {
+                self.source_roulette_fraction =
+                    parse(key, value, "a number in [0, 1]", |x: &f64| {
+                        (0.0..=1.0).contains(x)
+                    })?
+            }
+            "sample_area_density" => d.SAMPLE_AREA_DENSITY = parse(key, value, POS, pos)?,
+            "max_sample_points" => {
+                d.MAX_SAMPLE_POINTS = parse(key, value, POS_INT, |&x: &u32| x >= 1)?
+            }
+            "max_source_samples" => {
+                d.MAX_SOURCE_SAMPLES = parse(key, value, POS_INT, |&x: &u32| x >= 1)?
+            }
+            "solid_angle_threshold" => d.SOLID_ANGLE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
+            "solid_angle_density" => d.SOLID_ANGLE_DENSITY = parse(key, value, POS, pos)?,
+            "irradiance_threshold" => d.IRRADIANCE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
+            _ => return Err(SettingsError::UnknownKey(key.into())),
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_known_and_reject_unknown() {
+        let mut s = RenderSettings::default();
+        s.set_pair("SOLID_ANGLE_DENSITY=2000").unwrap();
+        s.set_pair("recursion=1").unwrap();
+        s.set_pair("estimator=solid-angle").unwrap();
+        assert_eq!(s.dirsig2001.SOLID_ANGLE_DENSITY, 2000.0);
+        assert_eq!(s.recursion, 1);
+        assert_eq!(s.estimator, Estimator::SolidAngle);
+        assert!(matches!(
+            s.set_pair("nope=1"),
+            Err(SettingsError::UnknownKey(_))
+        ));
+        assert!(matches!(
+            s.set_pair("spp=0"),
+            Err(SettingsError::BadValue { .. })
+        ));
+        assert!(matches!(
+            s.set_pair("spp"),
+            Err(SettingsError::NotKeyValue(_))
+        ));
+        for k in RenderSettings::KEYS {
+            // every documented key is accepted by `set` with some value
+            let v = match *k {
+                "estimator" => "analytic",
+                "occlusion" => "ratio",
+                "source_roulette_fraction" => "0.5",
+                _ => "3",
+            };
+            s.set(k, v).unwrap();
+        }
+    }
+}

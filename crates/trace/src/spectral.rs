@@ -1,0 +1,151 @@
+//! The wavelengths a render carries, and integration into the scene's bands.
+//!
+//! A spectral value is a `Vec<f64>` with one slot per carried wavelength:
+//! first the continuum grid (a density, per nm), then one slot per distinct
+//! emission-line wavelength of any source (an integrated value: the line's
+//! power). Reflectances and transmissions are evaluated at every slot, so
+//! products slot by slot carry both the continuum and the lines exactly.
+//!
+//! The continuum grid spans the union of the bands' `[lo_nm, hi_nm]` with
+//! step `spectral_step_nm`, plus every band edge. A band value is
+//! `∫_lo^hi R(λ) L(λ) dλ` by the trapezoid rule on that grid (exact for a
+//! flat or piecewise-linear product on the grid) plus `Σ R(λ_l) L_l` over
+//! lines with `lo ≤ λ_l < hi` (exact).
+
+use gloam_scene::Scene;
+use gloam_spectra::Spectrum;
+
+/// The wavelength slots of a render and the band integration weights.
+#[derive(Clone, Debug)]
+pub struct Wavelengths {
+    /// Every slot's wavelength: the continuum nodes, then line wavelengths.
+    pub nm: Vec<f64>,
+    /// How many leading slots are continuum nodes.
+    pub n_continuum: usize,
+    /// Band names, in scene order.
+    pub band_names: Vec<String>,
+    /// `weights[b][k]`: band `b` value = Σ_k weights[b][k] · value[k].
+    pub weights: Vec<Vec<f64>>,
+}
+
+impl Wavelengths {
+    /// Slots for `scene` with continuum step `step_nm`.
+    pub fn for_scene(scene: &Scene, step_nm: f64) -> Self {
+        let lo = scene
+            .bands
+            .iter()
+            .map(|b| b.lo_nm)
+            .fold(f64::INFINITY, f64::min);
+        let hi = scene
+            .bands
+            .iter()
+            .map(|b| b.hi_nm)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let mut grid = Vec::new();
+        if lo < hi {
+            let step = step_nm.max(1e-3);
+            let n = ((hi - lo) / step).ceil() as usize;
+            for i in 0..=n {
+                grid.push((lo + step * i as f64).min(hi));
+            }
+            for b in &scene.bands {
+                grid.push(b.lo_nm);
+                grid.push(b.hi_nm);
+            }
+        }
+        grid.sort_by(f64::total_cmp);
+        grid.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+
+        let mut lines: Vec<f64> = Vec::new();
+        let mut add_lines = |s: &Spectrum| {
+            for l in s.lines() {
+                if l.wavelength_nm >= lo && l.wavelength_nm < hi {
+                    lines.push(l.wavelength_nm);
+                }
+            }
+        };
+        for m in &scene.materials {
+            if let Some(e) = &m.emission {
+                add_lines(&e.radiance_w_m2_sr_nm);
+            }
+        }
+        for p in &scene.point_sources {
+            add_lines(&p.intensity_w_sr_nm);
+        }
+        lines.sort_by(f64::total_cmp);
+        lines.dedup();
+
+        let n_continuum = grid.len();
+        let mut weights = Vec::with_capacity(scene.bands.len());
+        for b in &scene.bands {
+            let mut w = vec![0.0; n_continuum + lines.len()];
+            for j in 1..n_continuum {
+                let (x0, x1) = (grid[j - 1], grid[j]);
+                if x0 >= b.lo_nm - 1e-9 && x1 <= b.hi_nm + 1e-9 {
+                    let h = 0.5 * (x1 - x0);
+                    w[j - 1] += h * b.response.eval(x0);
+                    w[j] += h * b.response.eval(x1);
+                }
+            }
+            for (i, &l) in lines.iter().enumerate() {
+                if l >= b.lo_nm && l < b.hi_nm {
+                    w[n_continuum + i] = b.response.eval(l);
+                }
+            }
+            weights.push(w);
+        }
+        let mut nm = grid;
+        nm.extend(lines);
+        Self {
+            nm,
+            n_continuum,
+            band_names: scene.bands.iter().map(|b| b.name.clone()).collect(),
+            weights,
+        }
+    }
+
+    /// Number of slots.
+    pub fn len(&self) -> usize {
+        self.nm.len()
+    }
+
+    /// True when no wavelength is carried.
+    pub fn is_empty(&self) -> bool {
+        self.nm.is_empty()
+    }
+
+    /// An emitted quantity: the continuum density at the grid nodes, and in
+    /// each line slot the summed power of the spectrum's lines there.
+    pub fn emission(&self, s: &Spectrum) -> Vec<f64> {
+        let mut v: Vec<f64> = self.nm[..self.n_continuum]
+            .iter()
+            .map(|&w| s.eval(w))
+            .collect();
+        v.extend(self.nm[self.n_continuum..].iter().map(|&w| {
+            s.lines()
+                .iter()
+                .filter(|l| l.wavelength_nm == w)
+                .map(|l| l.value)
+                .sum::<f64>()
+        }));
+        v
+    }
+
+    /// A dimensionless factor (reflectance, transmission) at every slot.
+    pub fn factor(&self, s: &Spectrum) -> Vec<f64> {
+        self.nm.iter().map(|&w| s.eval(w)).collect()
+    }
+
+    /// The band values of a spectral value.
+    pub fn integrate(&self, v: &[f64]) -> Vec<f64> {
+        self.weights
+            .iter()
+            .map(|w| w.iter().zip(v).map(|(a, b)| a * b).sum())
+            .collect()
+    }
+
+    /// Sum over every band of the band value (a scalar size for choosing).
+    pub fn total(&self, v: &[f64]) -> f64 {
+        self.integrate(v).iter().sum()
+    }
+}

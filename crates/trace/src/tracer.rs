@@ -1,0 +1,939 @@
+//! The prepared scene and everything that happens along a ray: direct
+//! lighting from point and area sources (three estimators), directly viewed
+//! emitters, specular recursion, diffuse path tracing.
+
+use glam::DVec3;
+use gloam_scene::Scene;
+use rand::Rng;
+use rand_pcg::Pcg64Mcg;
+
+use crate::closed_form;
+use crate::geometry::{Geometry, Visibility};
+use crate::sampling::{SphericalRectangle, SphericalTriangle, sample_triangle_area};
+use crate::settings::{Estimator, Occlusion, RenderSettings};
+use crate::spectral::Wavelengths;
+
+/// Why a scene cannot be traced.
+#[derive(Debug, thiserror::Error)]
+pub enum TraceError {
+    #[error("the scene defines no band to render into")]
+    NoBands,
+    #[error("band `{0}` is not defined by the scene (bands: {1})")]
+    UnknownBand(String, String),
+    #[error("pixel ({0}, {1}) is outside the {2}×{3} image")]
+    PixelOutside(u32, u32, u32, u32),
+    #[error("{0}")]
+    BadInput(String),
+}
+
+/// Ray counters (summed over threads; integers, so deterministic).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RayCounts {
+    /// Camera rays.
+    pub primary: u64,
+    /// Closest-hit rays after the camera ray (specular, diffuse, through
+    /// transmissive facets).
+    pub secondary: u64,
+    /// Occlusion (shadow) rays.
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    pub fn add(&mut self, o: &RayCounts) {
+        self.primary += o.primary;
+        self.secondary += o.secondary;
+        self.shadow += o.shadow;
+    }
+    pub fn total(&self) -> u64 {
+        self.primary + self.secondary + self.shadow
+    }
+}
+
+/// Per-material spectral factors at the carried wavelengths.
+#[derive(Clone, Debug)]
+struct MatSpec {
+    /// Lambertian albedo (1 − s)ρ.
+    kd: Vec<f64>,
+    /// Specular reflectance sρ (empty when none).
+    ks: Vec<f64>,
+    /// Straight-through transmission.
+    trans: Option<Vec<f64>>,
+    has_diffuse: bool,
+}
+
+/// How an area source is sampled in solid angle.
+#[derive(Clone, Debug)]
+enum Shape {
+    /// corner + [0,1]ex + [0,1]ey (a true rectangle).
+    Rect { corner: DVec3, ex: DVec3, ey: DVec3 },
+    /// One or two triangles.
+    Tris(Vec<[DVec3; 3]>),
+}
+
+/// An emitting facet.
+#[derive(Clone, Debug)]
+pub(crate) struct AreaSource {
+    facet: u32,
+    verts: Vec<DVec3>,
+    normal: DVec3,
+    centroid: DVec3,
+    /// Scene units².
+    area: f64,
+    m: f64,
+    /// `Some` when m is an integer the closed form handles.
+    m_int: Option<u32>,
+    /// Spectral radiance along the normal (emission slots).
+    radiance: Vec<f64>,
+    /// Σ over bands of the band radiance: a scalar size for choosing.
+    size: f64,
+    shape: Shape,
+    /// Triangles for area sampling, with cumulative area fractions.
+    tris: Vec<[DVec3; 3]>,
+    tri_cdf: Vec<f64>,
+    /// The 2001 method's pre-drawn sample points.
+    dirsig_points: Vec<DVec3>,
+}
+
+/// A shaped point source.
+#[derive(Clone, Debug)]
+pub(crate) struct PointLight {
+    pub(crate) pos: DVec3,
+    dir: DVec3,
+    m: f64,
+    pub(crate) intensity: Vec<f64>,
+}
+
+/// One light sample toward an area source: unit direction, distance (scene
+/// units), and weight `f(ω)/(pdf·N)` with `f = cos^m θ_e cos θ_r`.
+#[derive(Clone, Copy)]
+struct LightSample {
+    dir: DVec3,
+    dist: f64,
+    w: f64,
+}
+
+/// A scene prepared for tracing with given settings.
+pub struct Tracer {
+    pub settings: RenderSettings,
+    pub wl: Wavelengths,
+    pub geom: Geometry,
+    pub(crate) mpu: f64,
+    facet_mat: Vec<u32>,
+    facet_normal: Vec<DVec3>,
+    facet_verts: Vec<Vec<DVec3>>,
+    facet_source: Vec<u32>,
+    mats: Vec<MatSpec>,
+    pub(crate) area: Vec<AreaSource>,
+    pub(crate) points: Vec<PointLight>,
+    /// Camera in centred coordinates.
+    pub(crate) camera: gloam_scene::Camera,
+    pub(crate) ones: Vec<f64>,
+    /// Seconds spent building the BVH and spectral tables.
+    pub build_seconds: f64,
+}
+
+/// SplitMix64 finaliser: decorrelates (seed, index) into a stream seed.
+pub(crate) fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The random stream of item `index` (a pixel, a probe repetition) under `seed`.
+pub(crate) fn stream(seed: u64, domain: u64, index: u64) -> Pcg64Mcg {
+    let a = mix64(seed ^ mix64(domain));
+    let b = mix64(a ^ index);
+    Pcg64Mcg::new(((a as u128) << 64) | b as u128 | 1)
+}
+
+/// `n` stratified points in [0,1)² (Latin hypercube: each row and column
+/// stratum holds exactly one point).
+pub(crate) fn latin_hypercube(n: usize, rng: &mut Pcg64Mcg, out: &mut Vec<[f64; 2]>) {
+    out.clear();
+    let mut perm: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        let j = rng.random_range(0..=i);
+        perm.swap(i, j);
+    }
+    let inv = 1.0 / n as f64;
+    for (i, &p) in perm.iter().enumerate() {
+        let a: f64 = rng.random();
+        let b: f64 = rng.random();
+        out.push([
+            ((i as f64 + a) * inv).min(1.0 - f64::EPSILON),
+            ((p as f64 + b) * inv).min(1.0 - f64::EPSILON),
+        ]);
+    }
+}
+
+fn shaping(cos: f64, m: f64) -> f64 {
+    if m == 0.0 {
+        1.0
+    } else if cos <= 0.0 {
+        0.0
+    } else {
+        cos.powf(m)
+    }
+}
+
+fn orthonormal(n: DVec3) -> (DVec3, DVec3) {
+    let a = if n.x.abs() > 0.9 { DVec3::Y } else { DVec3::X };
+    let t = n.cross(a).normalize();
+    (t, n.cross(t))
+}
+
+impl Tracer {
+    /// Prepares `scene` (BVH, spectral tables, sources) for `settings`.
+    pub fn new(scene: &Scene, settings: &RenderSettings) -> Result<Self, TraceError> {
+        let t0 = std::time::Instant::now();
+        if scene.bands.is_empty() {
+            return Err(TraceError::NoBands);
+        }
+        let wl = Wavelengths::for_scene(scene, settings.spectral_step_nm);
+
+        // Scene-centred origin: centre of the box around facets, camera, lamps.
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        let mut grow = |p: DVec3| {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        };
+        for f in &scene.facets {
+            f.vertices.iter().for_each(|&v| grow(v));
+        }
+        grow(scene.camera.position);
+        scene.point_sources.iter().for_each(|p| grow(p.position));
+        let origin = 0.5 * (lo + hi);
+        let extent = 0.5 * (hi - lo).length();
+
+        let mats: Vec<MatSpec> = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let rho = wl.factor(&m.reflectance);
+                let s = m.specular_fraction.clamp(0.0, 1.0);
+                let kd: Vec<f64> = rho.iter().map(|r| (1.0 - s) * r).collect();
+                let ks: Vec<f64> = if s > 0.0 {
+                    rho.iter().map(|r| s * r).collect()
+                } else {
+                    Vec::new()
+                };
+                MatSpec {
+                    has_diffuse: kd.iter().any(|&k| k > 0.0),
+                    kd,
+                    ks: if ks.iter().any(|&k| k > 0.0) {
+                        ks
+                    } else {
+                        Vec::new()
+                    },
+                    trans: m
+                        .transmission
+                        .as_ref()
+                        .filter(|_| m.is_transmissive())
+                        .map(|t| wl.factor(t)),
+                }
+            })
+            .collect();
+
+        let facet_verts: Vec<Vec<DVec3>> = scene
+            .facets
+            .iter()
+            .map(|f| f.vertices.iter().map(|&v| v - origin).collect())
+            .collect();
+        let facet_mat: Vec<u32> = scene.facets.iter().map(|f| f.material as u32).collect();
+        let facet_normal: Vec<DVec3> = scene.facets.iter().map(|f| f.normal()).collect();
+        let transmissive: Vec<bool> = facet_mat
+            .iter()
+            .map(|&m| mats[m as usize].trans.is_some())
+            .collect();
+        let geom = Geometry::new(origin, extent, &facet_verts, transmissive);
+
+        let mut facet_source = vec![u32::MAX; scene.facets.len()];
+        let mut area = Vec::new();
+        let mut rng = stream(settings.seed, 0xD125_1620_01, 0);
+        for (i, f) in scene.facets.iter().enumerate() {
+            let Some(e) = &scene.materials[f.material].emission else {
+                continue;
+            };
+            let verts = facet_verts[i].clone();
+            let normal = facet_normal[i];
+            let m = e.shape_exponent.max(0.0);
+            let m_int = (m.fract() == 0.0 && m <= u32::MAX as f64).then_some(m as u32);
+            let radiance = wl.emission(&e.radiance_w_m2_sr_nm);
+            let size = wl.total(&radiance);
+            let tris: Vec<[DVec3; 3]> = (1..verts.len() - 1)
+                .map(|k| [verts[0], verts[k], verts[k + 1]])
+                .collect();
+            let tri_areas: Vec<f64> = tris
+                .iter()
+                .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length())
+                .collect();
+            let total: f64 = tri_areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+            let mut acc = 0.0;
+            let tri_cdf = tri_areas
+                .iter()
+                .map(|a| {
+                    acc += a / total;
+                    acc
+                })
+                .collect();
+            let shape = rect_of(&verts).unwrap_or_else(|| Shape::Tris(tris.clone()));
+            let area_su = f.area();
+            let mut src = AreaSource {
+                facet: i as u32,
+                centroid: f.centroid() - origin,
+                verts,
+                normal,
+                area: area_su,
+                m,
+                m_int,
+                radiance,
+                size,
+                shape,
+                tris,
+                tri_cdf,
+                dirsig_points: Vec::new(),
+            };
+            if settings.estimator == Estimator::Dirsig2001 {
+                let d = &settings.dirsig2001;
+                let n = ((area_su * d.SAMPLE_AREA_DENSITY).round() as u64)
+                    .clamp(1, d.MAX_SAMPLE_POINTS as u64);
+                src.dirsig_points = (0..n)
+                    .map(|_| src.area_point([rng.random(), rng.random()]))
+                    .collect();
+            }
+            facet_source[i] = area.len() as u32;
+            area.push(src);
+        }
+
+        let points = scene
+            .point_sources
+            .iter()
+            .map(|p| PointLight {
+                pos: p.position - origin,
+                dir: p.direction.normalize_or_zero(),
+                m: p.shape_exponent.max(0.0),
+                intensity: wl.emission(&p.intensity_w_sr_nm),
+            })
+            .collect();
+
+        let mut camera = scene.camera.clone();
+        camera.position -= origin;
+        camera.look_at -= origin;
+        let ones = vec![1.0; wl.len()];
+        Ok(Self {
+            settings: settings.clone(),
+            wl,
+            geom,
+            mpu: scene.meters_per_unit,
+            facet_mat,
+            facet_normal,
+            facet_verts,
+            facet_source,
+            mats,
+            area,
+            points,
+            camera,
+            ones,
+            build_seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Index of the band called `name` (or the first band for `None`).
+    pub fn band_index(&self, name: Option<&str>) -> Result<usize, TraceError> {
+        match name {
+            None => Ok(0),
+            Some(n) => self
+                .wl
+                .band_names
+                .iter()
+                .position(|b| b == n)
+                .ok_or_else(|| TraceError::UnknownBand(n.into(), self.wl.band_names.join(", "))),
+        }
+    }
+
+    /// The facet whose polygon contains `p` (centred coordinates), if any.
+    pub(crate) fn facet_at(&self, p: DVec3) -> Option<u32> {
+        let tol = 1e-9 * (self.geom.extent + p.abs().max_element());
+        self.facet_verts.iter().enumerate().find_map(|(i, v)| {
+            let n = self.facet_normal[i];
+            if (p - v[0]).dot(n).abs() > tol {
+                return None;
+            }
+            let k = v.len();
+            let inside = (0..k).all(|j| {
+                let a = v[j];
+                let b = v[(j + 1) % k];
+                (b - a).cross(p - a).dot(n) >= -tol * (b - a).length()
+            });
+            inside.then_some(i as u32)
+        })
+    }
+
+    /// Diffuse albedo of facet `f` at every slot.
+    pub(crate) fn kd(&self, f: u32) -> &[f64] {
+        &self.mats[self.facet_mat[f as usize] as usize].kd
+    }
+
+    /// Transmission from `p` along unit `dir` over `dist`: `None` when
+    /// blocked, `Some(None)` when clear, `Some(Some(τ))` through
+    /// transmissive facets.
+    pub(crate) fn shadow(
+        &self,
+        p: DVec3,
+        dir: DVec3,
+        dist: f64,
+        ignore: [u32; 2],
+        c: &mut RayCounts,
+    ) -> Option<Option<Vec<f64>>> {
+        c.shadow += 1;
+        let eps = self.geom.epsilon(p);
+        let tmax = dist * (1.0 - 1e-9) - eps;
+        if tmax <= eps {
+            return Some(None);
+        }
+        match self.geom.visibility(p, dir, eps, tmax, ignore) {
+            Visibility::Blocked => None,
+            Visibility::Clear(list) if list.is_empty() => Some(None),
+            Visibility::Clear(list) => {
+                let mut t = self.ones.clone();
+                for f in list {
+                    if let Some(tr) = &self.mats[self.facet_mat[f as usize] as usize].trans {
+                        t.iter_mut().zip(tr).for_each(|(a, b)| *a *= b);
+                    }
+                }
+                Some(Some(t))
+            }
+        }
+    }
+
+    /// Spectral irradiance (W m⁻² nm⁻¹ at continuum slots, W m⁻² at line
+    /// slots) at `p` (centred) with unit normal `n`, added to `out`.
+    /// `ignore` is the facet `p` lies on (or `u32::MAX`).
+    pub(crate) fn irradiance(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
+        for l in &self.points {
+            self.point_irradiance(l, p, n, ignore, c, out);
+        }
+        if self.area.is_empty() {
+            return;
+        }
+        match self.settings.estimator {
+            Estimator::Analytic => self.analytic(p, n, ignore, rng, c, out),
+            Estimator::SolidAngle => {
+                for s in &self.area {
+                    if s.facet != ignore {
+                        self.solid_angle(s, p, n, ignore, 1.0, rng, c, out);
+                    }
+                }
+            }
+            Estimator::Dirsig2001 => {
+                for s in &self.area {
+                    if s.facet != ignore {
+                        self.dirsig2001(s, p, n, ignore, rng, c, out);
+                    }
+                }
+            }
+        }
+    }
+
+    fn point_irradiance(
+        &self,
+        l: &PointLight,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
+        let v = l.pos - p;
+        let r = v.length();
+        if r <= 0.0 {
+            return;
+        }
+        let w = v / r;
+        let cos_r = w.dot(n);
+        if cos_r <= 0.0 {
+            return;
+        }
+        let shape = shaping(l.dir.dot(-w), l.m);
+        if shape == 0.0 {
+            return;
+        }
+        let r_m = r * self.mpu;
+        let g = shape * cos_r / (r_m * r_m);
+        match self.shadow(p, w, r, [ignore, u32::MAX], c) {
+            None => {}
+            Some(None) => out
+                .iter_mut()
+                .zip(&l.intensity)
+                .for_each(|(o, i)| *o += g * i),
+            Some(Some(t)) => out
+                .iter_mut()
+                .zip(&l.intensity)
+                .zip(&t)
+                .for_each(|((o, i), t)| *o += g * i * t),
+        }
+    }
+
+    /// Draws `area_samples` light samples of `s` seen from `p` (normal `n`),
+    /// uniform in solid angle where possible, else uniform in area. Samples
+    /// below either horizon get weight 0 but still count. Returns false
+    /// when the point is behind or in the emitter's plane (no light).
+    fn light_samples(
+        &self,
+        s: &AreaSource,
+        p: DVec3,
+        n: DVec3,
+        rng: &mut Pcg64Mcg,
+        out: &mut Vec<LightSample>,
+    ) -> bool {
+        out.clear();
+        let h = (p - s.centroid).dot(s.normal);
+        if h <= 1e-14 * (self.geom.extent + p.abs().max_element()) {
+            return false;
+        }
+        let nsamp = self.settings.area_samples.max(1) as usize;
+        let mut u = Vec::with_capacity(nsamp);
+        latin_hypercube(nsamp, rng, &mut u);
+        let inv_n = 1.0 / nsamp as f64;
+        let weight = |x: DVec3, per_sr: Option<f64>| -> LightSample {
+            let v = x - p;
+            let d2 = v.length_squared();
+            let dist = d2.sqrt();
+            if !(dist > 0.0) {
+                return LightSample {
+                    dir: s.normal,
+                    dist: 0.0,
+                    w: 0.0,
+                };
+            }
+            let dir = v / dist;
+            let cos_e = -dir.dot(s.normal);
+            let cos_r = dir.dot(n);
+            let f = if cos_e > 0.0 && cos_r > 0.0 {
+                cos_r * shaping(cos_e, s.m)
+            } else {
+                0.0
+            };
+            let w = match per_sr {
+                Some(omega) => f * omega * inv_n,
+                None => f * s.area * cos_e / d2 * inv_n,
+            };
+            LightSample { dir, dist, w }
+        };
+        // Practically in the emitter's plane: area sampling (the solid-angle
+        // samplers also decline there, and below 1e-6 sr).
+        let grazing = h < 1e-10 * s.area.sqrt();
+        if !grazing {
+            match &s.shape {
+                Shape::Rect { corner, ex, ey } => {
+                    if let Some(sr) = SphericalRectangle::new(p, *corner, *ex, *ey) {
+                        let omega = sr.solid_angle();
+                        out.extend(u.iter().map(|&uv| weight(sr.sample(uv), Some(omega))));
+                        return true;
+                    }
+                }
+                Shape::Tris(tris) => {
+                    let st: Option<Vec<SphericalTriangle>> = tris
+                        .iter()
+                        .map(|t| SphericalTriangle::new(p, t[0], t[1], t[2]))
+                        .collect();
+                    if let Some(st) = st {
+                        let omegas: Vec<f64> = st.iter().map(|t| t.solid_angle()).collect();
+                        let total: f64 = omegas.iter().sum();
+                        for &[u0, u1] in &u {
+                            // Pick a triangle by solid angle, reuse u0.
+                            let mut x = u0 * total;
+                            let mut k = 0;
+                            while k + 1 < st.len() && x >= omegas[k] {
+                                x -= omegas[k];
+                                k += 1;
+                            }
+                            let u0k = (x / omegas[k]).clamp(0.0, 1.0 - f64::EPSILON);
+                            let dir = st[k].sample([u0k, u1]);
+                            // Point on the emitter plane along `dir`.
+                            let denom = dir.dot(s.normal);
+                            let t = if denom < 0.0 { h / -denom } else { 0.0 };
+                            out.push(weight(p + dir * t, Some(total)));
+                        }
+                        return true;
+                    }
+                }
+            }
+        }
+        out.extend(u.iter().map(|&uv| weight(s.area_point(uv), None)));
+        true
+    }
+
+    /// Occluded MC sum over `samples` times L: adds
+    /// `scale · L(λ) Σ_j w_j V_j τ_j(λ)` to `out`; returns `Σ_j w_j` (unoccluded MC).
+    #[allow(clippy::too_many_arguments)]
+    fn occluded_sum(
+        &self,
+        s: &AreaSource,
+        p: DVec3,
+        ignore: u32,
+        samples: &[LightSample],
+        scale: f64,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) -> f64 {
+        let mut sum_w = 0.0;
+        let mut vis_scalar = 0.0;
+        let mut vis_spec: Option<Vec<f64>> = None;
+        for ls in samples {
+            if ls.w <= 0.0 {
+                continue;
+            }
+            sum_w += ls.w;
+            match self.shadow(p, ls.dir, ls.dist, [ignore, s.facet], c) {
+                None => {}
+                Some(None) => vis_scalar += ls.w,
+                Some(Some(t)) => {
+                    let v = vis_spec.get_or_insert_with(|| vec![0.0; t.len()]);
+                    v.iter_mut().zip(&t).for_each(|(a, b)| *a += ls.w * b);
+                }
+            }
+        }
+        match vis_spec {
+            None => {
+                let g = scale * vis_scalar;
+                if g != 0.0 {
+                    out.iter_mut()
+                        .zip(&s.radiance)
+                        .for_each(|(o, l)| *o += g * l);
+                }
+            }
+            Some(v) => out
+                .iter_mut()
+                .zip(&s.radiance)
+                .zip(&v)
+                .for_each(|((o, l), v)| *o += scale * l * (vis_scalar + v)),
+        }
+        sum_w
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn solid_angle(
+        &self,
+        s: &AreaSource,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        scale: f64,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
+        let mut samples = Vec::new();
+        if self.light_samples(s, p, n, rng, &mut samples) {
+            self.occluded_sum(s, p, ignore, &samples, scale, c, out);
+        }
+    }
+
+    fn analytic(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
+        // Closed-form unoccluded factor of each source (None: non-integer m).
+        let factors: Vec<Option<f64>> = self
+            .area
+            .iter()
+            .map(|s| {
+                if s.facet == ignore {
+                    return Some(0.0);
+                }
+                s.m_int.map(|m| {
+                    closed_form::shaped_polygon_irradiance_factor(p, n, &s.verts, s.normal, m)
+                })
+            })
+            .collect();
+        let total: f64 = self
+            .area
+            .iter()
+            .zip(&factors)
+            .map(|(s, f)| f.unwrap_or(0.0) * s.size)
+            .sum();
+        let frac = self.settings.source_roulette_fraction;
+        let mut samples = Vec::new();
+        let mut occ = vec![0.0; out.len()];
+        for (s, f) in self.area.iter().zip(&factors) {
+            let Some(factor) = *f else {
+                // Non-integer shape exponent: no closed form; sample it.
+                if s.facet != ignore {
+                    self.solid_angle(s, p, n, ignore, 1.0, rng, c, out);
+                }
+                continue;
+            };
+            if factor <= 0.0 {
+                continue;
+            }
+            // Unoccluded part, exact.
+            out.iter_mut()
+                .zip(&s.radiance)
+                .for_each(|(o, l)| *o += factor * l);
+            // Occlusion correction, traced with probability p_test ∝ share.
+            let share = factor * s.size;
+            let p_test = if frac > 0.0 && total > 0.0 {
+                (share / (frac * total)).min(1.0)
+            } else {
+                1.0
+            };
+            if p_test < 1.0 && rng.random::<f64>() >= p_test {
+                continue;
+            }
+            if !self.light_samples(s, p, n, rng, &mut samples) {
+                continue;
+            }
+            occ.iter_mut().for_each(|x| *x = 0.0);
+            let sum_w = self.occluded_sum(s, p, ignore, &samples, 1.0, c, &mut occ);
+            let inv_p = 1.0 / p_test;
+            match self.settings.occlusion {
+                Occlusion::Cv => {
+                    // E = E_closed + (MC_occ − MC_unocc), same samples.
+                    out.iter_mut()
+                        .zip(&occ)
+                        .zip(&s.radiance)
+                        .for_each(|((o, mo), l)| *o += inv_p * (mo - sum_w * l));
+                }
+                Occlusion::Ratio => {
+                    if sum_w > 0.0 {
+                        let k = factor / sum_w;
+                        out.iter_mut()
+                            .zip(&occ)
+                            .zip(&s.radiance)
+                            .for_each(|((o, mo), l)| *o += inv_p * (k * mo - factor * l));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The published 2001 method (see the crate docs).
+    #[allow(clippy::too_many_arguments)]
+    fn dirsig2001(
+        &self,
+        s: &AreaSource,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
+        let d = &self.settings.dirsig2001;
+        let to_p = p - s.centroid;
+        let h = to_p.dot(s.normal);
+        if h <= 0.0 || s.dirsig_points.is_empty() {
+            return;
+        }
+        // Solid angle from the angles the sides subtend at p.
+        let k = s.verts.len();
+        let phi: Vec<f64> = (0..k)
+            .map(|i| {
+                let a = s.verts[i] - p;
+                let b = s.verts[(i + 1) % k] - p;
+                a.cross(b).length().atan2(a.dot(b))
+            })
+            .collect();
+        let omega = if k == 4 {
+            0.5 * (phi[0] + phi[2]) * 0.5 * (phi[1] + phi[3])
+        } else {
+            let mn = phi.iter().copied().fold(f64::INFINITY, f64::min);
+            let mx = phi.iter().copied().fold(0.0, f64::max);
+            mn * mx / 2.0
+        };
+        if omega < d.SOLID_ANGLE_THRESHOLD {
+            return;
+        }
+        // cos^m(alpha) once, alpha at the source centre.
+        let shape = shaping(h / to_p.length(), s.m);
+        let cos_r_c = (-to_p.normalize()).dot(n).max(0.0);
+        if s.size * omega * cos_r_c * shape < d.IRRADIANCE_THRESHOLD {
+            return;
+        }
+        let nrays =
+            ((omega * d.SOLID_ANGLE_DENSITY).ceil() as u64).clamp(1, d.MAX_SOURCE_SAMPLES as u64);
+        let inv_n = 1.0 / nrays as f64;
+        let mut samples = Vec::with_capacity(nrays as usize);
+        for _ in 0..nrays {
+            let x = s.dirsig_points[rng.random_range(0..s.dirsig_points.len())];
+            let v = x - p;
+            let r2 = v.length_squared();
+            let dist = r2.sqrt();
+            let dir = v / dist;
+            let cos_t = dir.dot(n);
+            let w = if cos_t > 0.0 && -dir.dot(s.normal) > 0.0 && r2 > 0.0 {
+                cos_t * cos_t * s.area / r2 * inv_n
+            } else {
+                0.0
+            };
+            samples.push(LightSample { dir, dist, w });
+        }
+        self.occluded_sum(s, p, ignore, &samples, shape, c, out);
+    }
+
+    /// Spectral radiance arriving along the unit ray `(o, d)` (centred), times
+    /// `thr`, added to `acc`. `spec_depth` is 1 for camera rays; `diffuse`
+    /// counts diffuse bounces taken; `after_diffuse` suppresses emitter
+    /// hits (already counted by next-event estimation).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn trace(
+        &self,
+        mut o: DVec3,
+        d: DVec3,
+        mut ignore: u32,
+        thr: &[f64],
+        spec_depth: u32,
+        diffuse: u32,
+        after_diffuse: bool,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        acc: &mut [f64],
+    ) {
+        let mut thr = thr.to_vec();
+        // Straight-through passes across transmissive facets.
+        for pass in 0..64 {
+            if pass > 0 || spec_depth > 1 || after_diffuse {
+                c.secondary += 1;
+            }
+            let eps = if ignore == u32::MAX {
+                0.0
+            } else {
+                self.geom.epsilon(o)
+            };
+            let Some(hit) = self.geom.intersect(o, d, eps, f64::INFINITY, ignore) else {
+                return;
+            };
+            let f = hit.facet;
+            let p = o + d * hit.t;
+            let ng = self.facet_normal[f as usize];
+            let front = d.dot(ng) < 0.0;
+            let ns = if front { ng } else { -ng };
+            let mat = &self.mats[self.facet_mat[f as usize] as usize];
+
+            // Emitter seen along the ray: L cos^m(alpha) from the front.
+            let src = self.facet_source[f as usize];
+            if src != u32::MAX && front && !after_diffuse {
+                let s = &self.area[src as usize];
+                let g = shaping(-d.dot(ng), s.m);
+                acc.iter_mut()
+                    .zip(&thr)
+                    .zip(&s.radiance)
+                    .for_each(|((a, t), l)| *a += g * t * l);
+            }
+
+            // Direct lighting of the Lambertian part: L = kd E / π.
+            if mat.has_diffuse {
+                let mut e = vec![0.0; acc.len()];
+                self.irradiance(p, ns, f, rng, c, &mut e);
+                let inv_pi = std::f64::consts::FRAC_1_PI;
+                for (((a, t), k), e) in acc.iter_mut().zip(&thr).zip(&mat.kd).zip(&e) {
+                    *a += t * k * e * inv_pi;
+                }
+            }
+
+            // Specular recursion.
+            if !mat.ks.is_empty() && spec_depth < self.settings.recursion {
+                let r = d - 2.0 * d.dot(ns) * ns;
+                let t2: Vec<f64> = thr.iter().zip(&mat.ks).map(|(a, b)| a * b).collect();
+                self.trace(p, r, f, &t2, spec_depth + 1, diffuse, false, rng, c, acc);
+            }
+
+            // Diffuse bounce with Russian roulette.
+            if mat.has_diffuse && diffuse < self.settings.diffuse_bounces {
+                let mut t2: Vec<f64> = thr.iter().zip(&mat.kd).map(|(a, b)| a * b).collect();
+                let mut alive = true;
+                if diffuse >= self.settings.rr_start {
+                    let q = mat.kd.iter().copied().fold(0.0, f64::max).clamp(0.05, 0.95);
+                    if rng.random::<f64>() < q {
+                        t2.iter_mut().for_each(|x| *x /= q);
+                    } else {
+                        alive = false;
+                    }
+                }
+                if alive {
+                    let (tx, ty) = orthonormal(ns);
+                    let u1: f64 = rng.random();
+                    let u2: f64 = rng.random();
+                    let r = u1.sqrt();
+                    let phi = 2.0 * std::f64::consts::PI * u2;
+                    let dir = (tx * (r * phi.cos())
+                        + ty * (r * phi.sin())
+                        + ns * (1.0 - u1).max(0.0).sqrt())
+                    .normalize();
+                    self.trace(p, dir, f, &t2, spec_depth, diffuse + 1, true, rng, c, acc);
+                }
+            }
+
+            // Straight through a transmissive facet.
+            match &mat.trans {
+                Some(tr) => {
+                    thr.iter_mut().zip(tr).for_each(|(a, b)| *a *= b);
+                    if thr.iter().all(|&x| x == 0.0) {
+                        return;
+                    }
+                    o = p;
+                    ignore = f;
+                }
+                None => return,
+            }
+        }
+    }
+}
+
+impl PointLight {
+    /// `cos^m(alpha)` toward unit direction `w` (from the lamp).
+    pub(crate) fn shape_toward(&self, w: DVec3) -> f64 {
+        shaping(self.dir.dot(w), self.m)
+    }
+}
+
+impl AreaSource {
+    /// A point uniform in area, `u ∈ [0,1)²`.
+    fn area_point(&self, u: [f64; 2]) -> DVec3 {
+        let mut k = 0;
+        while k + 1 < self.tris.len() && u[0] >= self.tri_cdf[k] {
+            k += 1;
+        }
+        let lo = if k == 0 { 0.0 } else { self.tri_cdf[k - 1] };
+        let width = (self.tri_cdf[k] - lo).max(f64::MIN_POSITIVE);
+        let u0 = ((u[0] - lo) / width).clamp(0.0, 1.0);
+        let t = &self.tris[k];
+        sample_triangle_area(t[0], t[1], t[2], [u0, u[1]])
+    }
+}
+
+/// A quad that is a true rectangle, as corner + two perpendicular edges.
+fn rect_of(v: &[DVec3]) -> Option<Shape> {
+    if v.len() != 4 {
+        return None;
+    }
+    let ex = v[1] - v[0];
+    let ey = v[3] - v[0];
+    let tol = 1e-9 * (ex.length() + ey.length());
+    if ex.normalize_or_zero().dot(ey.normalize_or_zero()).abs() > 1e-9
+        || (v[0] + ex + ey - v[2]).length() > tol
+    {
+        return None;
+    }
+    Some(Shape::Rect {
+        corner: v[0],
+        ex,
+        ey,
+    })
+}

@@ -1,0 +1,493 @@
+//! The tracer against closed forms, through the public API, on scenes built
+//! in code. Images are tiny: these run in the dev profile.
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use glam::DVec3;
+use gloam_scene::Scene;
+use gloam_trace::closed_form::{
+    point_source_irradiance, polygon_irradiance_factor, rectangle_center_irradiance,
+    shaped_polygon_irradiance_factor,
+};
+use gloam_trace::{Estimator, RenderSettings, Tracer};
+
+const L_PANEL: f64 = 15.058;
+
+fn scene(text: &str) -> Scene {
+    gloam_scene::parse_str(text, Path::new("test.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Floor ρ = 0.9 at z = 0, a 4×2 emitting panel facing down at z = 9
+/// (offset by `o`), shape exponent `m`, plus `extra` TOML.
+fn panel_scene(o: [f64; 3], m: f64, extra: &str) -> String {
+    format!(
+        r#"
+units = "ft"
+[camera]
+position = [{cx}, {cy}, {cz}]
+look_at = [{ox}, {oy}, {oz}]
+up = [0, 1, 0]
+fov_deg = 10
+width = 8
+height = 8
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.floor]
+reflectance = 0.9
+[materials.panel]
+reflectance = 0.0
+emission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = {L_PANEL} }}, shape_exponent = {m} }}
+[objects.floor]
+material = "floor"
+quad = {{ center = [{ox}, {oy}, {oz}], size = [60, 60], normal = [0, 0, 1] }}
+[objects.panel]
+material = "panel"
+quad = {{ center = [{ox}, {oy}, {pz}], size = [4, 2], normal = [0, 0, -1], width_axis = [1, 0, 0] }}
+{extra}
+"#,
+        ox = o[0],
+        oy = o[1],
+        oz = o[2],
+        pz = o[2] + 9.0,
+        cx = o[0],
+        cy = o[1],
+        cz = o[2] + 5.0,
+    )
+}
+
+fn panel_verts(o: DVec3) -> Vec<DVec3> {
+    [(-2.0, -1.0), (2.0, -1.0), (2.0, 1.0), (-2.0, 1.0)]
+        .iter()
+        .map(|&(x, y)| o + DVec3::new(x, y, 9.0))
+        .collect()
+}
+
+fn settings(est: Estimator) -> RenderSettings {
+    RenderSettings {
+        estimator: est,
+        ..Default::default()
+    }
+}
+
+fn probe(s: &Scene, set: &RenderSettings, p: DVec3, n: DVec3, k: u32) -> (f64, f64, Option<f64>) {
+    let r = Tracer::new(s, set)
+        .unwrap()
+        .probe_point(p, n, Some("vis"), k)
+        .unwrap();
+    (r.irradiance_w_m2, r.std_error_w_m2, r.radiance_w_m2_sr)
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn floor_under_panel_matches_closed_form_for_all_estimators() {
+    let s = scene(&panel_scene([0.0; 3], 0.0, ""));
+    let truth = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
+    // analytic: exact (unoccluded), radiance ρE/π.
+    let (e, se, l) = probe(&s, &settings(Estimator::Analytic), DVec3::ZERO, DVec3::Z, 4);
+    assert!(rel(e, truth) < 1e-9, "{e} vs {truth}");
+    assert_eq!(se, 0.0);
+    assert!(rel(l.unwrap(), 0.9 * truth / PI) < 1e-9);
+    // solid-angle: stated tolerance 1 % with 16 × 16 samples.
+    let (e, se, _) = probe(
+        &s,
+        &settings(Estimator::SolidAngle),
+        DVec3::ZERO,
+        DVec3::Z,
+        16,
+    );
+    assert!(rel(e, truth) < 0.01, "{e} ± {se} vs {truth}");
+    // dirsig2001: 8 fixed points on an 8 ft² panel; stated tolerance 5 %.
+    let (e, _, _) = probe(
+        &s,
+        &settings(Estimator::Dirsig2001),
+        DVec3::ZERO,
+        DVec3::Z,
+        16,
+    );
+    assert!(rel(e, truth) < 0.05, "{e} vs {truth}");
+}
+
+#[test]
+fn off_axis_tilted_and_shaped_receivers_match_closed_form() {
+    let verts = panel_verts(DVec3::ZERO);
+    for &m in &[0.0, 1.0, 2.0, 5.0, 20.0] {
+        let s = scene(&panel_scene([0.0; 3], m, ""));
+        for (p, n) in [
+            (DVec3::new(3.0, 1.0, 0.0), DVec3::Z),
+            (
+                DVec3::new(-1.0, 2.0, 3.0),
+                DVec3::new(0.3, -0.2, 1.0).normalize(),
+            ),
+            // grazing: receiver normal almost in the horizontal plane
+            (
+                DVec3::new(6.0, 0.0, 4.0),
+                DVec3::new(-1.0, 0.0, 0.02).normalize(),
+            ),
+        ] {
+            let truth =
+                L_PANEL * shaped_polygon_irradiance_factor(p, n, &verts, -DVec3::Z, m as u32);
+            let (e, _, _) = probe(&s, &settings(Estimator::Analytic), p, n, 2);
+            assert!(rel(e, truth) < 1e-9, "m={m} p={p}: {e} vs {truth}");
+            let (e, se, _) = probe(&s, &settings(Estimator::SolidAngle), p, n, 16);
+            let tol = 0.02 * truth + 4.0 * se;
+            assert!(
+                (e - truth).abs() < tol,
+                "m={m} p={p}: {e} ± {se} vs {truth}"
+            );
+        }
+    }
+}
+
+#[test]
+fn triangle_emitter_matches_closed_form() {
+    let tri = "[objects.tri]\nmaterial = \"panel\"\nvertices = [[-1, -1, 6], [1, 2, 6], [2, -1, 6]]\nfaces = [[0, 1, 2]]\n";
+    // A scene with only the triangle emitting: re-use the panel material,
+    // drop the panel by moving it far below the floor facing down.
+    let text =
+        panel_scene([0.0; 3], 0.0, tri).replace("center = [0, 0, 9]", "center = [0, 0, -50]");
+    let s = scene(&text);
+    let v = vec![
+        DVec3::new(-1.0, -1.0, 6.0),
+        DVec3::new(1.0, 2.0, 6.0),
+        DVec3::new(2.0, -1.0, 6.0),
+    ];
+    let n_e = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+    assert!(n_e.z < 0.0, "triangle must face down for this test");
+    let p = DVec3::new(0.5, 0.2, 0.0);
+    let truth = L_PANEL * polygon_irradiance_factor(p, DVec3::Z, &v, n_e);
+    let (e, _, _) = probe(&s, &settings(Estimator::Analytic), p, DVec3::Z, 1);
+    assert!(rel(e, truth) < 1e-9, "{e} vs {truth}");
+    let (e, _, _) = probe(&s, &settings(Estimator::SolidAngle), p, DVec3::Z, 16);
+    assert!(rel(e, truth) < 0.01, "{e} vs {truth}");
+    let mut d = settings(Estimator::Dirsig2001);
+    d.dirsig2001.SAMPLE_AREA_DENSITY = 50.0;
+    let (e, _, _) = probe(&s, &d, p, DVec3::Z, 16);
+    assert!(rel(e, truth) < 0.05, "{e} vs {truth}");
+}
+
+fn lamp(pos: [f64; 3], dir: [f64; 3], m: f64, value: f64) -> String {
+    format!(
+        "[point_sources.lamp]\nposition = [{}, {}, {}]\ndirection = [{}, {}, {}]\nshape_exponent = {m}\nvalue = {value}\n",
+        pos[0], pos[1], pos[2], dir[0], dir[1], dir[2]
+    )
+}
+
+/// A dark scene (no emitting panel) with floor, optional extra objects.
+fn dark_scene(extra: &str) -> String {
+    panel_scene([0.0; 3], 0.0, extra).replace("value = 15.058", "value = 0.0")
+}
+
+#[test]
+fn transmissive_occluder_halves_point_source_exactly() {
+    let extra = format!(
+        "{}[materials.leaf]\nreflectance = 0.2\ntransmission = 0.5\n[objects.leaf]\nmaterial = \"leaf\"\nquad = {{ center = [0, 0, 3], size = [2, 2], normal = [0, 0, 1] }}\n",
+        lamp([0.0, 0.0, 6.0], [0.0, 0.0, -1.0], 3.0, 1e-3)
+    );
+    let s = scene(&dark_scene(&extra));
+    let p = DVec3::new(0.2, 0.1, 0.0);
+    let mpu = s.meters_per_unit;
+    let open = point_source_irradiance(
+        p * mpu,
+        DVec3::Z,
+        DVec3::new(0.0, 0.0, 6.0) * mpu,
+        -DVec3::Z,
+        1e-3,
+        3.0,
+    ) * 300.0;
+    let (e, se, _) = probe(&s, &settings(Estimator::Analytic), p, DVec3::Z, 1);
+    assert!(rel(e, 0.5 * open) < 1e-12, "{e} vs {}", 0.5 * open);
+    assert_eq!(se, 0.0);
+}
+
+#[test]
+fn transmissive_sheet_under_area_source() {
+    // A sheet covering the whole floor region under the panel, τ = 0.5.
+    let extra = "[materials.leaf]\nreflectance = 0.0\ntransmission = 0.5\n[objects.leaf]\nmaterial = \"leaf\"\nquad = { center = [0, 0, 4], size = [200, 200], normal = [0, 0, 1] }\n";
+    let s = scene(&panel_scene([0.0; 3], 0.0, extra));
+    let truth = 0.5 * rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
+    let mut set = settings(Estimator::Analytic);
+    set.occlusion = gloam_trace::Occlusion::Ratio;
+    let (e, _, _) = probe(&s, &set, DVec3::ZERO, DVec3::Z, 2);
+    assert!(rel(e, truth) < 1e-12, "ratio: {e} vs {truth}");
+    for est in [Estimator::Analytic, Estimator::SolidAngle] {
+        let (e, se, _) = probe(&s, &settings(est), DVec3::ZERO, DVec3::Z, 16);
+        assert!(rel(e, truth) < 0.01, "{est}: {e} ± {se} vs {truth}");
+    }
+}
+
+#[test]
+fn fully_occluded_point_reads_zero() {
+    // An opaque slab between panel/lamp and the floor point.
+    let extra = format!(
+        "{}[materials.slab]\nreflectance = 0.5\n[objects.slab]\nmaterial = \"slab\"\nquad = {{ center = [0, 0, 5], size = [40, 40], normal = [0, 0, -1] }}\n",
+        lamp([0.0, 0.0, 7.0], [0.0, 0.0, -1.0], 1.0, 1.0)
+    );
+    let s = scene(&panel_scene([0.0; 3], 0.0, &extra));
+    let mut ratio = settings(Estimator::Analytic);
+    ratio.occlusion = gloam_trace::Occlusion::Ratio;
+    for set in [
+        ratio,
+        settings(Estimator::SolidAngle),
+        settings(Estimator::Dirsig2001),
+    ] {
+        let (e, _, l) = probe(&s, &set, DVec3::ZERO, DVec3::Z, 4);
+        assert_eq!(e, 0.0, "{}", set.estimator);
+        assert_eq!(l, Some(0.0));
+    }
+    // The default control variate is zero on average: |E| within noise.
+    let unocc = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
+    let (e, se, _) = probe(
+        &s,
+        &settings(Estimator::Analytic),
+        DVec3::ZERO,
+        DVec3::Z,
+        32,
+    );
+    assert!(
+        e.abs() < 0.01 * unocc && e.abs() < 4.0 * se + 1e-12,
+        "{e} ± {se}"
+    );
+}
+
+#[test]
+fn mirror_shows_the_panel_with_recursion_and_nothing_without() {
+    // Camera looks down at a mirror on the floor; above the camera, the
+    // panel faces down. The mirror pixel reads ρ_s × L.
+    let text = format!(
+        r#"
+units = "m"
+[camera]
+position = [0, 0, 2]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 5
+width = 4
+height = 4
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.mirror]
+reflectance = 0.8
+specular_fraction = 1.0
+[materials.panel]
+reflectance = 0.0
+emission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = {L_PANEL} }} }}
+[objects.mirror]
+material = "mirror"
+quad = {{ center = [0, 0, 0], size = [4, 4], normal = [0, 0, 1] }}
+[objects.panel]
+material = "panel"
+quad = {{ center = [0, 0, 3], size = [10, 10], normal = [0, 0, -1] }}
+"#
+    );
+    let s = scene(&text);
+    let out = gloam_trace::render(&s, &RenderSettings::default()).unwrap();
+    for v in out.radiance.iter() {
+        assert!(rel(*v, 0.8 * L_PANEL) < 1e-12, "{v}");
+    }
+    let mut direct = RenderSettings::default();
+    direct.recursion = 1;
+    let out = gloam_trace::render(&s, &direct).unwrap();
+    assert!(out.radiance.iter().all(|&v| v == 0.0));
+}
+
+#[test]
+fn shaped_point_source_through_the_renderer() {
+    // Camera straight down at the floor; lamp tilted, m = 4. Each pixel's
+    // footprint is tiny, so pixel radiance = ρ E(centre) / π to 1e-4.
+    let extra = lamp([1.0, 0.5, 6.0], [0.2, 0.0, -1.0], 4.0, 2e-3);
+    let text = dark_scene(&extra)
+        .replace("position = [0, 0, 5]", "position = [0, 0, 8]")
+        .replace("fov_deg = 10", "fov_deg = 2");
+    let s = scene(&text);
+    let t = Tracer::new(&s, &RenderSettings::default()).unwrap();
+    let out = t.render(&|_, _| {}).unwrap();
+    let mpu = s.meters_per_unit;
+    let cam = &s.camera;
+    for (row, col) in [(0usize, 0usize), (3, 4), (7, 7)] {
+        // floor point seen through the pixel centre
+        let d = cam.pixel_direction(col as f64 + 0.5, row as f64 + 0.5);
+        let p = cam.position + d * (cam.position.z / -d.z);
+        let e = point_source_irradiance(
+            p * mpu,
+            DVec3::Z,
+            DVec3::new(1.0, 0.5, 6.0) * mpu,
+            DVec3::new(0.2, 0.0, -1.0),
+            2e-3,
+            4.0,
+        ) * 300.0;
+        let truth = 0.9 * e / PI;
+        let v = out.radiance[[0, row, col]];
+        assert!(rel(v, truth) < 5e-4, "({col},{row}) {v} vs {truth}");
+    }
+}
+
+#[test]
+fn starlight_floor_next_to_directly_viewed_lamp() {
+    // A 1e-9 W/m² floor (isotropic point source above) and a bright
+    // emitting panel (L = 100 W m⁻² sr⁻¹) in the same image.
+    let i = 1e-9 * (8.0f64 * 0.3048).powi(2) / 300.0;
+    let extra = format!(
+        "{}[materials.lamp]\nreflectance = 0.0\nemission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = 100 }} }}\n[objects.lamp]\nmaterial = \"lamp\"\nquad = {{ center = [0.5, 0, 0.01], size = [0.5, 2], normal = [0, 0, 1] }}\n",
+        lamp([0.0, 0.0, 8.0], [0.0, 0.0, -1.0], 0.0, i)
+    );
+    let s = scene(&dark_scene(&extra));
+    let cam = &s.camera;
+    let d = cam.pixel_direction(0.5, 4.5);
+    let p = cam.position + d * (cam.position.z / -d.z);
+    let mpu = s.meters_per_unit;
+    let e = point_source_irradiance(
+        p * mpu,
+        DVec3::Z,
+        DVec3::new(0.0, 0.0, 8.0) * mpu,
+        -DVec3::Z,
+        i * 300.0,
+        0.0,
+    );
+    assert!(rel(e, 1e-9) < 0.01);
+    let out = gloam_trace::render(&s, &RenderSettings::default()).unwrap();
+    let img = out.radiance.index_axis(ndarray::Axis(0), 0);
+    let max = img.iter().copied().fold(0.0, f64::max);
+    assert!(rel(max, 100.0) < 1e-9, "lamp pixel {max}");
+    // Leftmost column sees only floor, lit at ≈1e-9 W/m².
+    let floor = img[[4, 0]];
+    let truth = 0.9 * e / PI;
+    assert!(rel(floor, truth) < 1e-3, "floor {floor} vs {truth}");
+    assert!(img.iter().all(|v| v.is_finite() && *v >= 0.0));
+}
+
+#[test]
+fn geometry_far_from_the_origin() {
+    let o = [1e5, -1e5, 1e5];
+    let s = scene(&panel_scene(o, 0.0, ""));
+    let od = DVec3::from_array(o);
+    let truth = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
+    let (e, _, l) = probe(&s, &settings(Estimator::Analytic), od, DVec3::Z, 1);
+    assert!(rel(e, truth) < 1e-7, "{e} vs {truth}");
+    assert!(rel(l.unwrap(), 0.9 * truth / PI) < 1e-7);
+    let (e, _, _) = probe(&s, &settings(Estimator::SolidAngle), od, DVec3::Z, 16);
+    assert!(rel(e, truth) < 0.01, "{e} vs {truth}");
+    // Looking up from the floor at the panel: every pixel reads L exactly.
+    let text = panel_scene(o, 0.0, "").replace(
+        &format!("look_at = [{}, {}, {}]", o[0], o[1], o[2]),
+        &format!("look_at = [{}, {}, {}]", o[0], o[1], o[2] + 9.0),
+    );
+    let out = gloam_trace::render(&scene(&text), &RenderSettings::default()).unwrap();
+    assert!(out.radiance.iter().all(|&v| rel(v, L_PANEL) < 1e-9));
+}
+
+#[test]
+fn receiver_on_or_next_to_the_emitter_edge() {
+    let s = scene(&panel_scene([0.0; 3], 0.0, ""));
+    let verts = panel_verts(DVec3::ZERO);
+    for est in [
+        Estimator::Analytic,
+        Estimator::SolidAngle,
+        Estimator::Dirsig2001,
+    ] {
+        // In the emitter's plane, on its edge, facing it: no light, finite.
+        let (e, _, _) = probe(&s, &settings(est), DVec3::new(2.0, 0.0, 9.0), -DVec3::X, 4);
+        assert_eq!(e, 0.0, "{est}");
+        // 1e-6 in front of an edge midpoint, facing the panel: finite.
+        let p = DVec3::new(2.0, 0.0, 9.0 - 1e-6);
+        let n = DVec3::Z;
+        let truth = L_PANEL * polygon_irradiance_factor(p, n, &verts, -DVec3::Z);
+        let (e, se, _) = probe(&s, &settings(est), p, n, 16);
+        assert!(e.is_finite() && se.is_finite(), "{est}");
+        if est != Estimator::Dirsig2001 {
+            assert!(rel(e, truth) < 0.02, "{est}: {e} ± {se} vs {truth}");
+        }
+    }
+}
+
+#[test]
+fn huge_exponent_tiny_and_huge_solid_angles() {
+    // m = 10 000: closed form exact; solid-angle finite and close.
+    let s = scene(&panel_scene([0.0; 3], 10000.0, ""));
+    let verts = panel_verts(DVec3::ZERO);
+    let truth =
+        L_PANEL * shaped_polygon_irradiance_factor(DVec3::ZERO, DVec3::Z, &verts, -DVec3::Z, 10000);
+    let (e, _, _) = probe(&s, &settings(Estimator::Analytic), DVec3::ZERO, DVec3::Z, 1);
+    assert!(rel(e, truth) < 1e-9, "{e} vs {truth}");
+    let (e, _, _) = probe(
+        &s,
+        &settings(Estimator::SolidAngle),
+        DVec3::ZERO,
+        DVec3::Z,
+        4,
+    );
+    assert!(e.is_finite() && e >= 0.0);
+    // Tiny solid angle: 4×2 ft seen from 9e4 ft (≈1e-9 sr); floor moved out of the way.
+    let s = scene(&panel_scene([0.0; 3], 0.0, "").replace(
+        "center = [0, 0, 0], size = [60, 60]",
+        "center = [0, 0, -2e5], size = [60, 60]",
+    ));
+    let p = DVec3::new(0.0, 0.0, 9.0 - 9e4);
+    let truth = L_PANEL * polygon_irradiance_factor(p, DVec3::Z, &verts, -DVec3::Z);
+    for est in [Estimator::Analytic, Estimator::SolidAngle] {
+        let (e, _, _) = probe(&s, &settings(est), p, DVec3::Z, 2);
+        assert!(rel(e, truth) < 1e-3, "{est} tiny: {e} vs {truth}");
+    }
+    // Near 2π: 1e-4 ft below the panel centre.
+    let s = scene(&panel_scene([0.0; 3], 0.0, ""));
+    let p = DVec3::new(0.0, 0.0, 9.0 - 1e-4);
+    let truth = L_PANEL * polygon_irradiance_factor(p, DVec3::Z, &verts, -DVec3::Z);
+    assert!(rel(truth, PI * L_PANEL) < 1e-3);
+    for est in [Estimator::Analytic, Estimator::SolidAngle] {
+        let (e, _, _) = probe(&s, &settings(est), p, DVec3::Z, 4);
+        assert!(rel(e, truth) < 0.01, "{est} 2π: {e} vs {truth}");
+    }
+}
+
+#[test]
+fn same_seed_same_image_at_any_thread_count() {
+    let extra = lamp([1.0, 0.5, 6.0], [0.0, 0.0, -1.0], 2.0, 1e-3)
+        + "[materials.box]\nreflectance = 0.5\nspecular_fraction = 0.3\n[objects.box]\nmaterial = \"box\"\nbox = { min = [-1, -1, 0.5], max = [0, 0, 2] }\n";
+    let s = scene(
+        &panel_scene([0.0; 3], 0.0, &extra)
+            .replace("width = 8\nheight = 8", "width = 24\nheight = 20"),
+    );
+    let mut a = RenderSettings::default();
+    a.diffuse_bounces = 2;
+    a.seed = 7;
+    a.threads = Some(1);
+    let mut b = a.clone();
+    b.threads = Some(2);
+    let ra = gloam_trace::render(&s, &a).unwrap();
+    let rb = gloam_trace::render(&s, &b).unwrap();
+    assert_eq!(ra.radiance, rb.radiance);
+    assert_eq!(ra.stats.rays, rb.stats.rays);
+    let mut c = a.clone();
+    c.seed = 8;
+    assert_ne!(gloam_trace::render(&s, &c).unwrap().radiance, ra.radiance);
+}
+
+#[test]
+fn emission_line_integrates_exactly_on_a_coarse_grid() {
+    // A panel emitting the sodium D lines (no continuum) seen directly,
+    // grid step 50 nm: the lines are carried exactly.
+    let text = panel_scene([0.0; 3], 0.0, "")
+        .replace(
+            &format!("emission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = {L_PANEL} }}, shape_exponent = 0 }}"),
+            "emission = { spectrum = \"lps\", normalize = { lo_nm = 400, hi_nm = 700, value = 2.0 }, shape_exponent = 0 }",
+        )
+        .replace("look_at = [0, 0, 0]", "look_at = [0, 0, 9]");
+    let s = scene(&text);
+    let mut set = RenderSettings::default();
+    set.spectral_step_nm = 50.0;
+    let out = gloam_trace::render(&s, &set).unwrap();
+    let truth = s.materials[s.facets.last().unwrap().material]
+        .emission
+        .as_ref()
+        .unwrap()
+        .radiance_w_m2_sr_nm
+        .integrate_band(400.0, 700.0);
+    for v in out.radiance.iter() {
+        assert!(rel(*v, truth) < 1e-12, "{v} vs {truth}");
+    }
+}
