@@ -340,3 +340,6 @@ pub struct SkyConfig {
     pub night_sky: bool,
     pub overcast: bool,
 }
+
+#[cfg(test)]
+mod tests;

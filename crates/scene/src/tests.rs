@@ -1,0 +1,765 @@
+//! Unit tests: every error class names file, line and field; geometry helpers
+//! against closed forms; the plan for synthetic scenes.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+use crate::plan::{Effect, names, plan, plan_with};
+use crate::{Facet, SceneError, parse_str};
+
+/// A valid scene; line numbers below are relative to this text.
+const BASE: &str = r#"units = "m"
+
+[camera]
+position = [0.0, -5.0, 1.5]
+look_at = [0.0, 0.0, 1.0]
+fov_deg = 60.0
+width = 64
+height = 48
+
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+
+[materials.grey]
+reflectance = 0.5
+
+[objects.floor]
+material = "grey"
+quad = { center = [0.0, 0.0, 0.0], size = [10.0, 10.0], normal = [0.0, 0.0, 1.0] }
+"#;
+
+/// Line number of the first line of `extra` when appended to BASE.
+fn next_line() -> usize {
+    BASE.lines().count() + 1
+}
+
+fn scene_path(dir: &Path) -> PathBuf {
+    dir.join("scene.toml")
+}
+
+fn parse(text: &str) -> Result<crate::Scene, SceneError> {
+    parse_str(text, Path::new("dir/scene.toml"))
+}
+
+/// Parses `text` and checks the error names `dir/scene.toml`, `line` and
+/// `field`, and that the message contains `needle`.
+#[track_caller]
+fn expect_err(text: &str, line: usize, field: &str, needle: &str) -> String {
+    expect_err_at(text, Path::new("dir/scene.toml"), line, field, needle)
+}
+
+#[track_caller]
+fn expect_err_at(text: &str, path: &Path, line: usize, field: &str, needle: &str) -> String {
+    let e = match parse_str(text, path) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e,
+    };
+    let msg = e.to_string();
+    let prefix = format!("{}:{line}: {field}: ", path.display());
+    assert!(
+        msg.starts_with(&prefix),
+        "error\n  {msg}\ndoes not start with\n  {prefix}"
+    );
+    assert!(
+        msg.contains(needle),
+        "error\n  {msg}\ndoes not mention '{needle}'"
+    );
+    assert_eq!(e.line(), line);
+    assert_eq!(e.field(), field);
+    msg
+}
+
+#[test]
+fn base_scene_parses() {
+    let s = parse(BASE).unwrap();
+    assert_eq!(s.units, crate::Units::Meters);
+    assert_eq!(s.meters_per_unit, 1.0);
+    assert_eq!(s.facets.len(), 1);
+    assert_eq!(s.bands[0].name, "vis");
+    assert_eq!(s.camera.up, DVec3::Z);
+}
+
+// --- syntax, unknown keys, types ---------------------------------------------
+
+#[test]
+fn toml_syntax_error_names_line() {
+    let text = format!("{BASE}\n[materials.bad\nreflectance = 0.5\n");
+    expect_err(&text, next_line() + 1, "(toml syntax)", "");
+}
+
+#[test]
+fn unknown_key_in_header_table() {
+    let text = format!("{BASE}[materials.paint]\nreflectance = 0.5\nshine = 2.0\n");
+    expect_err(&text, next_line() + 2, "materials.paint.shine", "unknown field `shine`");
+}
+
+#[test]
+fn unknown_key_in_inline_table() {
+    let text = format!(
+        "{BASE}[objects.q]\nmaterial = \"grey\"\nquad = {{ center = [0.0, 0.0, 1.0], size = [1.0, 1.0], normal = [0.0, 0.0, 1.0], colour = 3 }}\n"
+    );
+    expect_err(&text, next_line() + 2, "objects.q.quad.colour", "unknown field `colour`");
+}
+
+#[test]
+fn unknown_top_level_key() {
+    let text = BASE.replace("units = \"m\"\n", "units = \"m\"\nlights = 3\n");
+    expect_err(&text, 2, "lights", "unknown field `lights`");
+    // Appended after a table header, the key belongs to that table.
+    let text = format!("{BASE}lights = 3\n");
+    expect_err(&text, next_line(), "objects.floor.lights", "unknown field `lights`");
+}
+
+#[test]
+fn wrong_type_names_field() {
+    let text = BASE.replace("fov_deg = 60.0", "fov_deg = \"wide\"");
+    expect_err(&text, 6, "camera.fov_deg", "");
+}
+
+// --- units ---------------------------------------------------------------------
+
+#[test]
+fn bad_units() {
+    let text = BASE.replace("units = \"m\"", "units = \"yd\"");
+    expect_err(&text, 1, "units", "unknown units 'yd'");
+}
+
+#[test]
+fn feet_units() {
+    let s = parse(&BASE.replace("units = \"m\"", "units = \"ft\"")).unwrap();
+    assert_eq!(s.units, crate::Units::Feet);
+    assert_eq!(s.meters_per_unit, 0.3048);
+}
+
+// --- references ----------------------------------------------------------------
+
+#[test]
+fn unknown_material() {
+    let text = BASE.replace("material = \"grey\"", "material = \"gray\"");
+    expect_err(&text, 18, "objects.floor.material", "unknown material 'gray'");
+}
+
+#[test]
+fn unknown_spectrum() {
+    let text = format!(
+        "{BASE}[materials.lamp]\nemission = {{ spectrum = \"sodium-xyz\", shape_exponent = 0 }}\n"
+    );
+    expect_err(
+        &text,
+        next_line() + 1,
+        "materials.lamp.emission.spectrum",
+        "unknown spectrum 'sodium-xyz'",
+    );
+}
+
+#[test]
+fn unknown_reflectance_spectrum() {
+    let text = BASE.replace("reflectance = 0.5", "reflectance = \"paint.csv\"");
+    expect_err(&text, 15, "materials.grey.reflectance", "unknown spectrum 'paint.csv'");
+}
+
+#[test]
+fn csv_spectrum_relative_to_scene_and_its_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("paint.csv"),
+        "wavelength_nm,value\n400,0.2\n700,0.4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("bad.csv"),
+        "wavelength_nm,value\n400,0.2\n700,oops\n",
+    )
+    .unwrap();
+    let path = scene_path(dir.path());
+    let s = parse_str(&BASE.replace("reflectance = 0.5", "reflectance = \"paint.csv\""), &path)
+        .unwrap();
+    assert!((s.materials[0].reflectance.eval(550.0) - 0.3).abs() < 1e-12);
+    let msg = expect_err_at(
+        &BASE.replace("reflectance = 0.5", "reflectance = \"bad.csv\""),
+        &path,
+        15,
+        "materials.grey.reflectance",
+        "bad.csv:3",
+    );
+    assert!(msg.contains("spectrum file"));
+}
+
+// --- geometry ------------------------------------------------------------------
+
+fn inline_object(vertices: &str, faces: &str) -> String {
+    format!(
+        "{BASE}[objects.thing]\nmaterial = \"grey\"\nvertices = {vertices}\nfaces = {faces}\n"
+    )
+}
+
+#[test]
+fn zero_area_triangle() {
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]]",
+        "[[0, 1, 2]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "zero area");
+}
+
+#[test]
+fn coincident_vertices() {
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
+        "[[0, 1, 2], [0, 1, 1]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[1]", "coincide");
+}
+
+#[test]
+fn collinear_quad_vertices() {
+    // Vertices 0, 1, 2 lie on a line: a triangle posing as a quad.
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0], [1.0, 1.0, 1.0]]",
+        "[[0, 1, 2, 3]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "collinear");
+}
+
+#[test]
+fn non_planar_quad() {
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.2], [0.0, 1.0, 1.0]]",
+        "[[0, 1, 2, 3]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "non-planar");
+}
+
+#[test]
+fn slightly_non_planar_quad_within_tolerance_is_accepted() {
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.000001], [0.0, 1.0, 1.0]]",
+        "[[0, 1, 2, 3]]",
+    );
+    parse(&text).unwrap();
+}
+
+#[test]
+fn non_convex_quad() {
+    // An arrowhead (dart): vertex 3 pushed inside the triangle 0-1-2.
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [2.0, 0.0, 1.0], [1.0, 2.0, 1.0], [1.0, 0.5, 1.0]]",
+        "[[0, 1, 2, 3]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "non-convex");
+    // A bow-tie (self-intersecting).
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [1.0, 1.0, 1.0]]",
+        "[[0, 1, 2, 3]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "");
+}
+
+#[test]
+fn face_index_out_of_range_and_bad_arity() {
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
+        "[[0, 1, 3]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "out of range");
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
+        "[[0, 1]]",
+    );
+    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "3 or 4");
+}
+
+#[test]
+fn nan_and_infinite_coordinates() {
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, nan, 1.0], [0.0, 1.0, 1.0]]",
+        "[[0, 1, 2]]",
+    );
+    expect_err(&text, next_line() + 2, "objects.thing.vertices[1][1]", "not a finite");
+    let text = BASE.replace("position = [0.0, -5.0, 1.5]", "position = [0.0, -inf, 1.5]");
+    expect_err(&text, 4, "camera.position[1]", "not a finite");
+    let text = BASE.replace("center = [0.0, 0.0, 0.0]", "center = [0.0, 0.0, nan]");
+    expect_err(&text, 19, "objects.floor.quad.center[2]", "not a finite");
+}
+
+#[test]
+fn geometry_kinds_are_exclusive_and_required() {
+    let text = format!("{BASE}[objects.none]\nmaterial = \"grey\"\n");
+    expect_err(&text, next_line(), "objects.none", "no geometry");
+    let text = format!(
+        "{BASE}[objects.two]\nmaterial = \"grey\"\nbox = {{ min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0] }}\nobj = \"x.obj\"\n"
+    );
+    expect_err(&text, next_line(), "objects.two", "more than one kind");
+}
+
+#[test]
+fn zero_volume_box_and_zero_size_quad() {
+    let text = format!(
+        "{BASE}[objects.b]\nmaterial = \"grey\"\nbox = {{ min = [0.0, 0.0, 0.0], max = [1.0, 0.0, 1.0] }}\n"
+    );
+    expect_err(&text, next_line() + 2, "objects.b.box.max", "zero-volume");
+    let text = BASE.replace("size = [10.0, 10.0]", "size = [10.0, 0.0]");
+    expect_err(&text, 19, "objects.floor.quad.size[1]", "zero area");
+}
+
+#[test]
+fn obj_file_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_path(dir.path());
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"missing.obj\"\n");
+    expect_err_at(&text, &path, next_line() + 2, "objects.m.obj", "cannot load OBJ");
+    std::fs::write(
+        dir.path().join("warped.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"warped.obj\"\n");
+    expect_err_at(&text, &path, next_line() + 2, "objects.m.obj", "non-planar");
+    std::fs::write(
+        dir.path().join("penta.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1.5 1 0\nv 0.5 2 0\nv -0.5 1 0\nf 1 2 3 4 5\n",
+    )
+    .unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"penta.obj\"\n");
+    expect_err_at(&text, &path, next_line() + 2, "objects.m.obj", "this one has 5");
+}
+
+#[test]
+fn obj_quads_kept_and_transformed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_path(dir.path());
+    std::fs::write(
+        dir.path().join("sq.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n",
+    )
+    .unwrap();
+    let text = format!(
+        "{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"sq.obj\"\nscale = 2.0\ntranslate = [10.0, 0.0, 0.0]\n"
+    );
+    let s = parse_str(&text, &path).unwrap();
+    let quads: Vec<&Facet> = s.facets.iter().filter(|f| f.object == "m").collect();
+    assert_eq!(quads.len(), 2);
+    assert_eq!(quads[0].vertices.len(), 4);
+    assert_eq!(quads[0].vertices[2], DVec3::new(12.0, 2.0, 0.0));
+    assert!((quads[0].area() - 4.0).abs() < 1e-12);
+    assert_eq!(quads[1].vertices.len(), 3);
+}
+
+// --- radiometry ----------------------------------------------------------------
+
+#[test]
+fn negative_reflectance() {
+    let text = BASE.replace("reflectance = 0.5", "reflectance = -0.1");
+    expect_err(&text, 15, "materials.grey.reflectance", "negative reflectance");
+}
+
+#[test]
+fn reflectance_above_one() {
+    let text = BASE.replace("reflectance = 0.5", "reflectance = 1.2");
+    expect_err(&text, 15, "materials.grey.reflectance", "exceeds 1");
+    // A lamp spectrum used as a reflectance has lines and large values.
+    let text = BASE.replace("reflectance = 0.5", "reflectance = \"mercury-clear\"");
+    expect_err(&text, 15, "materials.grey.reflectance", "emission lines");
+}
+
+#[test]
+fn transmission_above_one() {
+    let text = BASE.replace(
+        "reflectance = 0.5",
+        "reflectance = 0.0\ntransmission = { value = 0.5, scale = 2.5 }",
+    );
+    expect_err(&text, 16, "materials.grey.transmission", "transmission 1.25");
+}
+
+#[test]
+fn reflectance_plus_transmission_above_one() {
+    let text = BASE.replace("reflectance = 0.5", "reflectance = 0.5\ntransmission = 0.6");
+    expect_err(&text, 16, "materials.grey.transmission", "exceeds 1");
+    // A leaf: ρ + τ ≤ 1 is fine.
+    let s = parse(&BASE.replace("reflectance = 0.5", "reflectance = 0.4\ntransmission = 0.5"))
+        .unwrap();
+    assert!(s.materials[0].is_transmissive());
+}
+
+#[test]
+fn specular_fraction_range() {
+    let text = BASE.replace("reflectance = 0.5", "reflectance = 0.5\nspecular_fraction = 1.5");
+    expect_err(&text, 16, "materials.grey.specular_fraction", "within 0..1");
+}
+
+#[test]
+fn emission_normalisation_and_errors() {
+    let text = format!(
+        "{BASE}[materials.panel]\nemission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = 15.058 }}, shape_exponent = 2 }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let (_, m) = s.material_by_name("panel").unwrap();
+    let e = m.emission.as_ref().unwrap();
+    assert!((e.radiance_w_m2_sr_nm.integrate_band(400.0, 700.0) - 15.058).abs() < 1e-12);
+    assert!((e.radiance_w_m2_sr_nm.eval(550.0) - 15.058 / 300.0).abs() < 1e-14);
+    assert_eq!(e.shape_exponent, 2.0);
+    assert_eq!(m.reflectance.integral(), 0.0);
+
+    // A library spectrum with no power in the band cannot be normalised there.
+    let text = format!(
+        "{BASE}[materials.panel]\nemission = {{ spectrum = \"lps\", normalize = {{ lo_nm = 300, hi_nm = 380, value = 1.0 }} }}\n"
+    );
+    expect_err(&text, next_line() + 1, "materials.panel.emission.normalize", "integrates to zero");
+
+    let text = format!("{BASE}[materials.panel]\nemission = {{ value = 1.0, shape_exponent = -1 }}\n");
+    expect_err(&text, next_line() + 1, "materials.panel.emission.shape_exponent", "≥ 0");
+
+    let text = format!("{BASE}[materials.panel]\nemission = {{ spectrum = \"hps\", value = 1.0 }}\n");
+    expect_err(&text, next_line() + 1, "materials.panel.emission.value", "not both");
+}
+
+#[test]
+fn point_source_parsing_and_errors() {
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\ndirection = [0.0, 0.0, -2.0]\nshape_exponent = 4\nspectrum = \"hps\"\nnormalize = {{ lo_nm = 400, hi_nm = 700, value = 100.0 }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let p = &s.point_sources[0];
+    assert_eq!(p.direction, DVec3::NEG_Z);
+    assert!((p.intensity_w_sr_nm.integrate_band(400.0, 700.0) - 100.0).abs() < 1e-9);
+    assert!(p.is_shaped());
+
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\ndirection = [0.0, 0.0, 0.0]\nvalue = 1.0\n"
+    );
+    expect_err(&text, next_line() + 2, "point_sources.lamp.direction", "zero vector");
+    let text = format!("{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\n");
+    expect_err(&text, next_line(), "point_sources.lamp", "missing `spectrum`");
+}
+
+// --- camera, bands, sky ------------------------------------------------------------
+
+#[test]
+fn camera_errors() {
+    let text = BASE.replace("fov_deg = 60.0", "fov_deg = 180.0");
+    expect_err(&text, 6, "camera.fov_deg", "(0, 180)");
+    let text = BASE.replace("look_at = [0.0, 0.0, 1.0]", "look_at = [0.0, -5.0, 1.5]");
+    expect_err(&text, 5, "camera.look_at", "equals the camera position");
+    let text = BASE.replace("width = 64", "width = 0");
+    expect_err(&text, 7, "camera.width", "at least 1");
+}
+
+#[test]
+fn band_errors_and_response_bands() {
+    let text = BASE.replace("hi_nm = 700", "hi_nm = 300");
+    expect_err(&text, 12, "bands.vis.hi_nm", "lo_nm < hi_nm");
+    let text = format!("{BASE}[bands.s20]\nresponse = \"qe-s20\"\nhi_nm = 900\n");
+    let s = parse(&text).unwrap();
+    let b = s.band("s20").unwrap();
+    assert_eq!(b.hi_nm, 900.0);
+    assert_eq!(b.response.eval(950.0), 0.0);
+    assert!(b.response.eval(500.0) > 0.0);
+    let r = s.band("vis").unwrap();
+    assert_eq!(r.response.eval(550.0), 1.0);
+    assert_eq!(r.response.eval(750.0), 0.0);
+    // File order, not alphabetical.
+    let text = format!("{BASE}[bands.blue]\nlo_nm = 400\nhi_nm = 500\n");
+    let s = parse(&text).unwrap();
+    assert_eq!(s.bands[0].name, "vis");
+    assert_eq!(s.bands[1].name, "blue");
+}
+
+const SKY: &str = "[sky]\nutc = \"2024-03-14T22:30:00Z\"\nlatitude_deg = 32.2\nlongitude_deg = -110.9\nheight_m = 800\n";
+
+#[test]
+fn sky_parsing_and_errors() {
+    let s = parse(&format!("{BASE}{SKY}")).unwrap();
+    let sky = s.sky.unwrap();
+    assert!(sky.moon && sky.night_sky && !sky.overcast);
+    assert_eq!(sky.visibility_km, 23.0);
+    // A native TOML datetime works too.
+    let s = parse(&format!("{BASE}{}", SKY.replace("\"2024-03-14T22:30:00Z\"", "2024-03-14T22:30:00Z")))
+        .unwrap();
+    assert_eq!(s.sky.unwrap().utc, "2024-03-14T22:30:00Z");
+    let text = format!("{BASE}{}", SKY.replace("2024-03-14T22:30:00Z", "14/03/2024 22:30"));
+    expect_err(&text, next_line() + 1, "sky.utc", "ISO-8601");
+    let text = format!("{BASE}{}", SKY.replace("32.2", "95.0"));
+    expect_err(&text, next_line() + 2, "sky.latitude_deg", "-90..90");
+}
+
+#[test]
+fn file_order_of_materials_and_objects() {
+    let text = format!(
+        "{BASE}[materials.alpha]\nreflectance = 0.1\n[objects.aardvark]\nmaterial = \"alpha\"\nbox = {{ min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0] }}\n"
+    );
+    let s = parse(&text).unwrap();
+    assert_eq!(s.materials[0].name, "grey");
+    assert_eq!(s.materials[1].name, "alpha");
+    assert_eq!(s.facets[0].object, "floor");
+    assert_eq!(s.facets[1].object, "aardvark");
+    assert_eq!(s.facets[1].material, 1);
+}
+
+#[test]
+fn unreadable_file() {
+    let e = crate::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
+    assert!(e.to_string().starts_with("/nonexistent/scene.toml:1: "));
+}
+
+// --- geometry helpers against closed forms ---------------------------------------
+
+#[test]
+fn facet_area_normal_centroid() {
+    let f = |v: &[[f64; 3]]| Facet {
+        vertices: v.iter().map(|&a| DVec3::from_array(a)).collect(),
+        material: 0,
+        object: "t".into(),
+    };
+    // Right triangle with legs 3 and 4 in the xy plane: area 6, normal +z.
+    let t = f(&[[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [0.0, 4.0, 0.0]]);
+    assert!((t.area() - 6.0).abs() < 1e-12);
+    assert!((t.normal() - DVec3::Z).length() < 1e-15);
+    assert!((t.centroid() - DVec3::new(1.0, 4.0 / 3.0, 0.0)).length() < 1e-12);
+    // Reversed winding flips the normal.
+    let r = f(&[[0.0, 0.0, 0.0], [0.0, 4.0, 0.0], [3.0, 0.0, 0.0]]);
+    assert!((r.normal() + DVec3::Z).length() < 1e-15);
+    // Tilted parallelogram: a = (2,0,0), b = (1,3,4): area |a×b| = 2·5 = 10.
+    let p = f(&[[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 3.0, 4.0], [1.0, 3.0, 4.0]]);
+    assert!((p.area() - 10.0).abs() < 1e-12);
+    assert!((p.normal() - DVec3::new(0.0, -0.8, 0.6)).length() < 1e-12);
+    assert!((p.centroid() - DVec3::new(1.5, 1.5, 2.0)).length() < 1e-12);
+    // Trapezoid (parallel sides 4 and 2, height 2): area 6; centroid height
+    // h(2a+b)/(3(a+b)) above the longer side = 2·(2·2+4)/(3·6)... from the
+    // side of length 4: h(a + 2b)/(3(a+b)) with a = 4, b = 2 → 2·8/18.
+    let z = f(&[[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [3.0, 2.0, 0.0], [1.0, 2.0, 0.0]]);
+    assert!((z.area() - 6.0).abs() < 1e-12);
+    assert!((z.centroid() - DVec3::new(2.0, 16.0 / 18.0, 0.0)).length() < 1e-12);
+    // Far from the origin the area stays exact.
+    let far = f(&[[1e6, 1e6, 5.0], [1e6 + 1.0, 1e6, 5.0], [1e6, 1e6 + 1.0, 5.0]]);
+    assert!((far.area() - 0.5).abs() < 1e-9);
+}
+
+#[test]
+fn quad_helper_orientation() {
+    let text = format!(
+        "{BASE}[objects.panel]\nmaterial = \"grey\"\nquad = {{ center = [1.0, 2.0, 3.0], size = [4.0, 2.0], normal = [0.0, 0.0, -1.0] }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let p = s.facets.iter().find(|f| f.object == "panel").unwrap();
+    assert!((p.normal() - DVec3::NEG_Z).length() < 1e-15);
+    assert!((p.area() - 8.0).abs() < 1e-12);
+    assert!((p.centroid() - DVec3::new(1.0, 2.0, 3.0)).length() < 1e-12);
+    // Long side along x by default.
+    let xs: Vec<f64> = p.vertices.iter().map(|v| v.x).collect();
+    let ys: Vec<f64> = p.vertices.iter().map(|v| v.y).collect();
+    assert_eq!(xs.iter().cloned().fold(f64::MIN, f64::max), 3.0);
+    assert_eq!(ys.iter().cloned().fold(f64::MIN, f64::max), 3.0);
+    // A wall facing +x defaults its width along y.
+    let text = format!(
+        "{BASE}[objects.wall]\nmaterial = \"grey\"\nquad = {{ center = [0.0, 0.0, 1.0], size = [4.0, 2.0], normal = [1.0, 0.0, 0.0] }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let w = s.facets.iter().find(|f| f.object == "wall").unwrap();
+    assert!((w.normal() - DVec3::X).length() < 1e-15);
+    assert_eq!(w.vertices.iter().map(|v| v.y).fold(f64::MIN, f64::max), 2.0);
+}
+
+#[test]
+fn box_helper_faces_outward_and_inward() {
+    for inward in [false, true] {
+        let text = format!(
+            "{BASE}[objects.b]\nmaterial = \"grey\"\nbox = {{ min = [1.0, 2.0, 3.0], max = [3.0, 5.0, 7.0], inward = {inward} }}\n"
+        );
+        let s = parse(&text).unwrap();
+        let faces: Vec<&Facet> = s.facets.iter().filter(|f| f.object == "b").collect();
+        assert_eq!(faces.len(), 6);
+        let centre = DVec3::new(2.0, 3.5, 5.0);
+        let total: f64 = faces.iter().map(|f| f.area()).sum();
+        assert!((total - 2.0 * (2.0 * 3.0 + 2.0 * 4.0 + 3.0 * 4.0)).abs() < 1e-12);
+        for f in faces {
+            let out = (f.centroid() - centre).dot(f.normal()) > 0.0;
+            assert_eq!(out, !inward);
+        }
+    }
+    let text = format!(
+        "{BASE}[objects.b]\nmaterial = \"grey\"\nbox = {{ min = [1.0, 2.0, 3.0], max = [3.0, 5.0, 7.0], omit = [\"bottom\", \"+x\"] }}\n"
+    );
+    let s = parse(&text).unwrap();
+    assert_eq!(s.facets.iter().filter(|f| f.object == "b").count(), 4);
+    let text = text.replace("\"+x\"", "\"east\"");
+    expect_err(&text, next_line() + 2, "objects.b.box.omit[1]", "unknown box face 'east'");
+}
+
+#[test]
+fn camera_projection_round_trip_and_frustum() {
+    let s = parse(BASE).unwrap();
+    let c = &s.camera;
+    // The look-at point is the image centre.
+    let (x, y) = c.project(c.look_at).unwrap();
+    assert!((x - 32.0).abs() < 1e-9 && (y - 24.0).abs() < 1e-9);
+    for (px, py) in [(0.5, 0.5), (63.5, 10.0), (20.0, 47.5)] {
+        let p = c.position + 7.0 * c.pixel_direction(px, py);
+        let (qx, qy) = c.project(p).unwrap();
+        assert!((qx - px).abs() < 1e-9 && (qy - py).abs() < 1e-9);
+    }
+    // Behind the camera.
+    assert!(c.project(DVec3::new(0.0, -10.0, 1.5)).is_none());
+    // A polygon straddling the frustum edge, with no vertex inside, overlaps.
+    let big = [
+        DVec3::new(-100.0, 0.0, -1.0),
+        DVec3::new(100.0, 0.0, -1.0),
+        DVec3::new(100.0, 0.0, 100.0),
+        DVec3::new(-100.0, 0.0, 100.0),
+    ];
+    assert!(big.iter().all(|&v| !c.sees_point(v)));
+    assert!(c.frustum_overlaps(&big));
+    // Entirely behind.
+    let behind: Vec<DVec3> = big.iter().map(|v| *v - DVec3::new(0.0, 20.0, 0.0)).collect();
+    assert!(!c.frustum_overlaps(&behind));
+}
+
+// --- the effect plan -----------------------------------------------------------------
+
+const OUTDOOR: &str = r#"units = "m"
+sensor = "gen3-iccd"
+
+[camera]
+position = [0.0, -20.0, 1.7]
+look_at = [0.0, 0.0, 3.0]
+fov_deg = 40.0
+width = 64
+height = 48
+
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+
+[materials.ground]
+reflectance = 0.1
+
+[materials.leaf]
+reflectance = 0.3
+transmission = 0.4
+
+[materials.glass]
+reflectance = 0.08
+specular_fraction = 0.9
+
+[materials.unused-mirror]
+reflectance = 0.9
+specular_fraction = 1.0
+
+[objects.ground]
+material = "ground"
+quad = { center = [0.0, 0.0, 0.0], size = [100.0, 100.0], normal = [0.0, 0.0, 1.0] }
+
+[objects.hedge]
+material = "leaf"
+quad = { center = [5.0, 0.0, 1.0], size = [4.0, 2.0], normal = [0.0, -1.0, 0.0] }
+
+[objects.window]
+material = "glass"
+quad = { center = [-5.0, 5.0, 1.5], size = [2.0, 1.5], normal = [0.0, -1.0, 0.0] }
+
+[point_sources.streetlight]
+position = [0.0, 0.0, 6.0]
+direction = [0.0, 0.0, -1.0]
+shape_exponent = 3
+spectrum = "hps"
+normalize = { lo_nm = 400, hi_nm = 700, value = 50.0 }
+
+[point_sources.porch]
+position = [-5.0, 5.0, 2.5]
+value = 0.01
+
+[sky]
+utc = "2024-03-14T04:30:00Z"
+latitude_deg = 32.2
+longitude_deg = -110.9
+night_sky = false
+"#;
+
+#[test]
+fn plan_outdoor_scene() {
+    let s = parse(OUTDOOR).unwrap();
+    let p = plan(&s);
+    let names: Vec<&str> = p.effects.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            names::AREA_SOURCES,
+            names::SHAPED_POINT_SOURCES,
+            names::POINT_SOURCES,
+            names::TRANSMISSIVE_OCCLUDERS,
+            names::SPECULAR_RECURSION,
+            names::DIRECT_VIEW,
+            names::MOON,
+            names::NIGHT_SKY,
+            names::ATMOSPHERE,
+            names::SENSOR,
+        ]
+    );
+    assert!(!p.is_enabled("area-sources"));
+    assert_eq!(p.get("area-sources").unwrap().reason, "no emitting facets");
+    assert!(p.is_enabled("shaped-point-sources"));
+    assert!(p.get("shaped-point-sources").unwrap().reason.contains("streetlight m = 3"));
+    assert!(p.is_enabled("point-sources"));
+    assert!(p.get("point-sources").unwrap().reason.contains("porch"));
+    assert!(p.is_enabled("transmissive-occluders"));
+    assert!(p.get("transmissive-occluders").unwrap().reason.contains("leaf"));
+    assert!(p.is_enabled("specular-recursion"));
+    let spec = &p.get("specular-recursion").unwrap().reason;
+    assert!(spec.contains("glass 0.9") && !spec.contains("unused-mirror"), "{spec}");
+    // The porch light (isotropic) is in view; the streetlight points down,
+    // away from the camera at 1.7 m... the camera is below it, so it is seen too.
+    let dv = &p.get("direct-view").unwrap().reason;
+    assert!(p.is_enabled("direct-view"));
+    assert!(dv.contains("porch"), "{dv}");
+    assert!(p.is_enabled("moon"));
+    assert!(!p.is_enabled("night-sky"));
+    assert!(p.is_enabled("atmosphere"));
+    assert!(p.get("atmosphere").unwrap().reason.contains("23 km"));
+    assert!(p.is_enabled("sensor"));
+    assert!(p.get("sensor").unwrap().reason.contains("gen3-iccd"));
+    assert!(!p.is_enabled("no-such-effect"));
+}
+
+#[test]
+fn plan_direct_view_respects_facing_and_frustum() {
+    // A down-facing panel seen from below is in view; seen from above it is not.
+    let panel = "[materials.lamp]\nemission = { value = 1.0 }\n[objects.panel]\nmaterial = \"lamp\"\nquad = { center = [0.0, 0.0, 2.0], size = [1.0, 1.0], normal = [0.0, 0.0, -1.0] }\n";
+    let s = parse(&format!("{BASE}{panel}")).unwrap();
+    assert!(plan(&s).is_enabled("direct-view"));
+    let above = BASE.replace("position = [0.0, -5.0, 1.5]", "position = [0.0, -5.0, 6.0]");
+    let s = parse(&format!("{above}{panel}")).unwrap();
+    let p = plan(&s);
+    assert!(p.is_enabled("area-sources"));
+    assert!(!p.is_enabled("direct-view"), "{}", p);
+    // Behind the camera.
+    let behind = panel.replace("center = [0.0, 0.0, 2.0]", "center = [0.0, -10.0, 2.0]");
+    let s = parse(&format!("{BASE}{behind}")).unwrap();
+    assert!(!plan(&s).is_enabled("direct-view"));
+    // A shaped point source pointing away from the camera is not seen directly.
+    let away = "[point_sources.spot]\nposition = [0.0, 0.0, 1.0]\ndirection = [0.0, 1.0, 0.0]\nshape_exponent = 2\nvalue = 1.0\n";
+    let s = parse(&format!("{BASE}{away}")).unwrap();
+    assert!(!plan(&s).is_enabled("direct-view"));
+    let toward = away.replace("direction = [0.0, 1.0, 0.0]", "direction = [0.0, -1.0, 0.0]");
+    let s = parse(&format!("{BASE}{toward}")).unwrap();
+    assert!(plan(&s).is_enabled("direct-view"));
+}
+
+#[test]
+fn plan_is_extensible() {
+    let s = parse(BASE).unwrap();
+    let p = plan_with(
+        &s,
+        [
+            Effect::new("sensor", true, "ICCD preset"),
+            Effect::new("mcp-gain", true, "ICCD has an MCP"),
+        ],
+    );
+    assert_eq!(p.effects.len(), 11);
+    assert_eq!(p.effects[9].name, "sensor");
+    assert_eq!(p.effects[9].reason, "ICCD preset");
+    assert_eq!(p.effects[10].name, "mcp-gain");
+    assert_eq!(p.enabled(), ["sensor", "mcp-gain"]);
+    let table = p.to_string();
+    assert!(table.lines().any(|l| l.starts_with("mcp-gain") && l.contains("yes")));
+}
