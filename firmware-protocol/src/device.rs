@@ -365,17 +365,7 @@ impl<'a, H: Hal> Device<'a, H> {
                     f.len()
                 }
                 Feed::Error(_) => {
-                    self.rx_errors = self.rx_errors.wrapping_add(1);
-                    let r = self.reply(
-                        UNSOLICITED_TAG,
-                        Message::Nak {
-                            request_kind: 0,
-                            code: ErrorCode::CORRUPT_REQUEST,
-                            detail: 0,
-                        },
-                        sink,
-                    );
-                    result = result.and(r);
+                    result = result.and(self.corrupt_request(sink));
                     continue;
                 }
             };
@@ -391,22 +381,10 @@ impl<'a, H: Hal> Device<'a, H> {
         match decode_message(bytes) {
             Ok(p) => self.handle_packet(&p, sink),
             Err(
-                e @ (DecodeError::TooShort { .. }
+                DecodeError::TooShort { .. }
                 | DecodeError::TooLong { .. }
-                | DecodeError::BadCrc { .. }),
-            ) => {
-                let _ = e;
-                self.rx_errors = self.rx_errors.wrapping_add(1);
-                self.reply(
-                    UNSOLICITED_TAG,
-                    Message::Nak {
-                        request_kind: 0,
-                        code: ErrorCode::CORRUPT_REQUEST,
-                        detail: 0,
-                    },
-                    sink,
-                )
-            }
+                | DecodeError::BadCrc { .. },
+            ) => self.corrupt_request(sink),
             Err(e) => {
                 // CRC passed, so the header is authentic: answer on its tag.
                 let kind = bytes.first().copied().unwrap_or(0);
@@ -754,17 +732,7 @@ impl<'a, H: Hal> Device<'a, H> {
                 }
             }
         };
-        let tx = &mut *self.tx;
-        let send = |tx: &mut [u8],
-                    sink: &mut dyn FnMut(&[u8]) -> Result<(), SinkError>,
-                    p: &Packet<'_>| {
-            match encode_for(self.transport, p, tx) {
-                Ok(n) => sink(&tx[..n]),
-                // Cannot happen: tx was sized for the largest message.
-                Err(_) => Err(SinkError),
-            }
-        };
-        let mut out = |bytes: &[u8]| sink.send(bytes);
+        let (transport, tx) = (self.transport, &mut *self.tx);
         let result = match f.phase {
             Phase::Leader => {
                 f.phase = if f.valid_len > 0 {
@@ -772,9 +740,10 @@ impl<'a, H: Hal> Device<'a, H> {
                 } else {
                     Phase::Trailer
                 };
-                send(
+                emit(
+                    transport,
                     tx,
-                    &mut out,
+                    sink,
                     &Packet::new(UNSOLICITED_TAG, Message::FrameLeader(f.leader)),
                 )
             }
@@ -786,9 +755,10 @@ impl<'a, H: Hal> Device<'a, H> {
                     offset_bytes: f.sent_len as u32,
                     data,
                 };
-                let r = send(
+                let r = emit(
+                    transport,
                     tx,
-                    &mut out,
+                    sink,
                     &Packet::new(UNSOLICITED_TAG, Message::FrameChunk(chunk)),
                 );
                 f.crc.update(data);
@@ -805,9 +775,10 @@ impl<'a, H: Hal> Device<'a, H> {
                     valid_len_bytes: f.sent_len as u32,
                     crc32c: f.crc.value(),
                 };
-                let r = send(
+                let r = emit(
+                    transport,
                     tx,
-                    &mut out,
+                    sink,
                     &Packet::new(UNSOLICITED_TAG, Message::FrameTrailer(trailer)),
                 );
                 self.frames_sent = self.frames_sent.wrapping_add(1);
@@ -821,6 +792,21 @@ impl<'a, H: Hal> Device<'a, H> {
         stream.in_flight = Some(f);
         self.stream = Some(stream);
         result.map(|()| Activity::Busy)
+    }
+
+    /// A request frame failed framing/length/CRC checks: its tag cannot be
+    /// trusted, so answer on tag 0 and let the host resend.
+    fn corrupt_request(&mut self, sink: &mut impl Sink) -> Result<(), SinkError> {
+        self.rx_errors = self.rx_errors.wrapping_add(1);
+        self.reply(
+            UNSOLICITED_TAG,
+            Message::Nak {
+                request_kind: 0,
+                code: ErrorCode::CORRUPT_REQUEST,
+                detail: 0,
+            },
+            sink,
+        )
     }
 
     fn ack(&mut self, tag: u16, request_kind: u8, sink: &mut impl Sink) -> Result<(), SinkError> {
@@ -852,10 +838,22 @@ impl<'a, H: Hal> Device<'a, H> {
         message: Message<'_>,
         sink: &mut impl Sink,
     ) -> Result<(), SinkError> {
-        match encode_for(self.transport, &Packet::new(tag, message), self.tx) {
-            Ok(n) => sink.send(&self.tx[..n]),
-            Err(_) => Err(SinkError),
-        }
+        emit(self.transport, self.tx, sink, &Packet::new(tag, message))
+    }
+}
+
+/// Encode `p` for `transport` into `tx` and hand it to `sink`.
+fn emit(
+    transport: Transport,
+    tx: &mut [u8],
+    sink: &mut impl Sink,
+    p: &Packet<'_>,
+) -> Result<(), SinkError> {
+    match encode_for(transport, p, tx) {
+        Ok(n) => sink.send(&tx[..n]),
+        // Unreachable in practice: `tx` was sized for the largest message
+        // and chunks are cut to fit it. Reported as a lost message.
+        Err(_) => Err(SinkError),
     }
 }
 

@@ -17,6 +17,62 @@
 //! - [`device`]: [`Device`], the sans-IO firmware core over a [`Hal`].
 //! - [`fuzzing`]: entry points shared by the fuzzers and the corpus-replay test.
 //!
+//! A host talking to a device over serial, end to end (the device here is
+//! the crate's own state machine behind a trivial HAL):
+//!
+//! ```
+//! use firmware_protocol::*;
+//!
+//! # struct NullHal;
+//! # impl Hal for NullHal {
+//! #     fn now_us(&mut self) -> u64 { 0 }
+//! #     fn read_temperature_milli_c(&mut self) -> Option<i32> { None }
+//! #     fn set_gain(&mut self, _: u32) -> Result<(), ErrorCode> { Ok(()) }
+//! #     fn apply_control(&mut self, _: Control, _: u32, _: &Settings) -> Result<Applied, ErrorCode> {
+//! #         Ok(Applied::Done)
+//! #     }
+//! #     fn capture_frame(&mut self, _: &Settings, _: &mut [u8]) -> Result<Option<CaptureInfo>, ErrorCode> {
+//! #         Ok(None)
+//! #     }
+//! # }
+//! # struct Wire([u8; 256], usize);
+//! # impl Sink for Wire {
+//! #     fn send(&mut self, b: &[u8]) -> Result<(), SinkError> {
+//! #         self.0[self.1..self.1 + b.len()].copy_from_slice(b);
+//! #         self.1 += b.len();
+//! #         Ok(())
+//! #     }
+//! # }
+//! # let config = DeviceConfig {
+//! #     max_width_px: 64, max_height_px: 64, bit_depths: bit_depths::MONO16, features: 0,
+//! #     firmware_version: 1, serial_number: 1, max_gain_milli: 10_000,
+//! #     max_mcp_voltage_mv: 0, max_exposure_us: 1_000_000, initial_settings: Settings::default(),
+//! # };
+//! let (mut tx, mut frame) = ([0u8; 512], [0u8; 64 * 64 * 2]);
+//! let buffers = DeviceBuffers { tx: &mut tx, frame: &mut frame };
+//! let mut device = Device::new(NullHal, config, Transport::Serial, buffers).unwrap();
+//!
+//! // Host: encode a request as a COBS frame and "send" it.
+//! let hello = Packet::new(1, Message::Hello(Hello {
+//!     version_major: PROTOCOL_VERSION_MAJOR,
+//!     version_minor: PROTOCOL_VERSION_MINOR,
+//!     host_max_message_len: MAX_MESSAGE_LEN as u16,
+//! }));
+//! let mut request = [0u8; 32];
+//! let n = hello.encode_cobs(&mut request).unwrap();
+//! let mut link = Wire([0; 256], 0);
+//! device.handle_bytes(&request[..n], &mut link).unwrap();
+//!
+//! // Host: accumulate whatever bytes arrive, decode each frame.
+//! let mut rx_buf = [0u8; 64];
+//! let mut rx = CobsAccumulator::new(&mut rx_buf[..]);
+//! let (_, feed) = rx.feed(&link.0[..link.1]);
+//! let Feed::Frame(bytes) = feed else { panic!("no reply") };
+//! let reply = decode_message(bytes).unwrap();
+//! assert_eq!(reply.tag, 1);
+//! assert!(matches!(reply.message, Message::Capabilities(c) if c.version_major == 1));
+//! ```
+//!
 //! For throughput measurement (`gloam bench throughput`) time
 //! [`Packet::encode_cobs`] and [`CobsAccumulator::feed`] + [`decode_message`]
 //! on a full [`MAX_CHUNK_DATA_LEN`] chunk, as `benches/codec.rs` does.
