@@ -1,8 +1,11 @@
-//! `gloam plan SCENE [--json]` (implemented with the scene crate).
+//! `gloam plan SCENE [--json]`: which effects a render of the scene simulates
+//! and why (see `gloam_scene::plan`).
 
 use std::path::PathBuf;
 
 use clap::Args;
+
+use super::output::print_json;
 
 #[derive(Args)]
 pub struct PlanArgs {
@@ -14,5 +17,22 @@ pub struct PlanArgs {
 }
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
-    anyhow::bail!("{}: scene loading is not built yet", args.scene.display())
+    // The scene error already reads `file:line: field: message`.
+    let scene = gloam_scene::load(&args.scene)?;
+    let plan = gloam_scene::plan::plan(&scene);
+    if args.json {
+        print_json(&plan)?;
+    } else {
+        println!(
+            "{}: {} facets, {} point sources, {} bands, units {}",
+            args.scene.display(),
+            scene.facets.len(),
+            scene.point_sources.len(),
+            scene.bands.len(),
+            scene.units.as_str()
+        );
+        println!();
+        print!("{plan}");
+    }
+    Ok(())
 }
