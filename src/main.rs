@@ -30,6 +30,16 @@ enum Command {
     Ephem(cmd::ephem::EphemArgs),
     /// Ground illuminance from the Moon and the night sky (lux, spectra).
     Sky(cmd::sky::SkyArgs),
+    /// Render band radiance images of a scene (TIFF, NPY, PNG preview, report).
+    Render(cmd::render::RenderArgs),
+    /// Irradiance at a point, or one pixel's radiance, without a full render.
+    Probe(cmd::probe::ProbeArgs),
+    /// Emulate a camera/frame-grabber device on a pseudo-terminal.
+    Device(cmd::device::DeviceArgs),
+    /// Capture frames from a grabber into PNGs and frames.jsonl.
+    Capture(cmd::capture::CaptureArgs),
+    /// List serial ports, USB devices and simulated cameras.
+    Grabbers(cmd::grabbers::GrabbersArgs),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -37,9 +47,14 @@ enum Command {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Device(args) => cmd::device::run(args),
+        Command::Capture(args) => cmd::capture::run(args),
+        Command::Grabbers(args) => cmd::grabbers::run(args),
         Command::Spectra(c) => cmd::spectra::run(c),
         Command::Ephem(args) => cmd::ephem::run(args),
         Command::Sky(args) => cmd::sky::run(args),
+        Command::Render(args) => cmd::render::run(args),
+        Command::Probe(args) => cmd::probe::run(args),
     }
 }
 

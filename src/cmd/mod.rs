@@ -1,8 +1,13 @@
 //! One module per subcommand. Each exposes its clap arguments and a
 //! `run(args) -> anyhow::Result<()>`.
 
+pub mod capture;
+pub mod device;
 pub mod ephem;
+pub mod grabbers;
 pub mod output;
 pub mod plan;
+pub mod probe;
+pub mod render;
 pub mod sky;
 pub mod spectra;

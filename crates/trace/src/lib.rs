@@ -85,6 +85,7 @@ pub mod settings;
 pub mod spectral;
 pub mod tracer;
 
+pub use glam::DVec3;
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{Dirsig2001Settings, Estimator, Occlusion, RenderSettings, SettingsError};
 pub use tracer::{RayCounts, TraceError, Tracer};

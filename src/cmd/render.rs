@@ -1,0 +1,238 @@
+//! `gloam render SCENE --out DIR …`: spectral radiance images of a scene.
+//!
+//! Writes `DIR/radiance.tiff` (float32, one page per band),
+//! `DIR/radiance.npy` (float64, band × row × column, W m⁻² sr⁻¹),
+//! `DIR/preview.png` (tone-mapped first band, for people) and
+//! `DIR/report.json` (settings, effect plan, timings, rays, rays/s), each
+//! atomically.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use gloam_trace::{RenderOutput, RenderSettings, Tracer};
+use ndarray::Array3;
+
+use super::output::{write_atomic, write_atomic_with};
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Camera samples per pixel (default 4).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Seed of every random stream (default 0).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Area-source estimator: analytic (default), solid-angle or dirsig2001.
+    #[arg(long)]
+    pub estimator: Option<String>,
+    /// Any setting, KEY=VALUE (repeatable), e.g. --set recursion=2
+    /// --set MAX_SOURCE_SAMPLES=200. See `crates/trace/README.md`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Settings from `--set` pairs, then the dedicated flags.
+pub fn settings_from(
+    set: &[String],
+    spp: Option<u32>,
+    seed: Option<u64>,
+    estimator: Option<&str>,
+    threads: Option<usize>,
+) -> anyhow::Result<RenderSettings> {
+    let mut s = RenderSettings::default();
+    for pair in set {
+        s.set_pair(pair)?;
+    }
+    if let Some(v) = spp {
+        s.set("spp", &v.to_string())?;
+    }
+    if let Some(v) = seed {
+        s.seed = v;
+    }
+    if let Some(e) = estimator {
+        s.estimator = e.parse()?;
+    }
+    if let Some(t) = threads {
+        anyhow::ensure!(t >= 1, "--threads must be at least 1");
+        s.threads = Some(t);
+    }
+    Ok(s)
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let t_load = Instant::now();
+    let scene = gloam_scene::load(&args.scene)?;
+    let load_s = t_load.elapsed().as_secs_f64();
+    let settings = settings_from(
+        &args.set,
+        args.spp,
+        args.seed,
+        args.estimator.as_deref(),
+        args.threads,
+    )?;
+    let plan = gloam_scene::plan::plan(&scene);
+    let tracer = Tracer::new(&scene, &settings)?;
+
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        b
+    });
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let out = tracer.render(&progress)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+
+    let t_write = Instant::now();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    write_tiff(&args.out.join("radiance.tiff"), &out.radiance)?;
+    write_npy(&args.out.join("radiance.npy"), &out.radiance)?;
+    write_preview(&args.out.join("preview.png"), &out.radiance)?;
+    let write_s = t_write.elapsed().as_secs_f64();
+    let report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    write_atomic(
+        &args.out.join("report.json"),
+        serde_json::to_string_pretty(&report)?.as_bytes(),
+    )?;
+    eprintln!(
+        "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",
+        out.stats.width,
+        out.stats.height,
+        out.stats.bands,
+        out.stats.trace_seconds,
+        out.stats.rays.total(),
+        out.stats.rays_per_second,
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn report_json(
+    scene_path: &Path,
+    scene: &gloam_scene::Scene,
+    plan: &gloam_scene::plan::EffectPlan,
+    out: &RenderOutput,
+    load_s: f64,
+    write_s: f64,
+) -> serde_json::Value {
+    let band_means: serde_json::Map<String, serde_json::Value> = out
+        .band_names
+        .iter()
+        .enumerate()
+        .map(|(b, name)| {
+            let img = out.radiance.index_axis(ndarray::Axis(0), b);
+            let mean = img.mean().unwrap_or(0.0);
+            let max = img.iter().copied().fold(0.0, f64::max);
+            (
+                name.clone(),
+                serde_json::json!({"mean_radiance_w_m2_sr": mean, "max_radiance_w_m2_sr": max}),
+            )
+        })
+        .collect();
+    serde_json::json!({
+        "scene": scene_path.display().to_string(),
+        "units": scene.units.as_str(),
+        "meters_per_unit": scene.meters_per_unit,
+        "image": {"width": out.stats.width, "height": out.stats.height, "bands": out.band_names},
+        "outputs": {
+            "radiance.tiff": "float32, one page per band, W m^-2 sr^-1",
+            "radiance.npy": "float64, band x row x column, W m^-2 sr^-1",
+            "preview.png": "first band, scaled to its 99.5th percentile, gamma 2.2",
+        },
+        "settings": out.settings,
+        "effect_plan": plan,
+        "timings_s": {
+            "load": load_s,
+            "prepare": out.stats.prepare_seconds,
+            "trace": out.stats.trace_seconds,
+            "write": write_s,
+        },
+        "rays": out.stats.rays,
+        "rays_total": out.stats.rays.total(),
+        "rays_per_second": out.stats.rays_per_second,
+        "threads": out.stats.threads,
+        "wavelengths": out.stats.wavelengths,
+        "emission_lines": out.stats.emission_lines,
+        "triangles": out.stats.triangles,
+        "area_sources": out.stats.area_sources,
+        "point_sources": out.stats.point_sources,
+        "bands": band_means,
+    })
+}
+
+fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+    let (nb, h, w) = radiance.dim();
+    write_atomic_with(path, |f| {
+        let mut enc = tiff::encoder::TiffEncoder::new(f)?;
+        for b in 0..nb {
+            let page: Vec<f32> = radiance
+                .index_axis(ndarray::Axis(0), b)
+                .iter()
+                .map(|&v| v as f32)
+                .collect();
+            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, &page)?;
+        }
+        Ok(())
+    })
+}
+
+fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+    use ndarray_npy::WriteNpyExt;
+    write_atomic_with(path, |f| {
+        radiance.write_npy(std::io::BufWriter::new(f))?;
+        Ok(())
+    })
+}
+
+/// First band, divided by its 99.5th percentile, gamma 1/2.2, 8 bits.
+fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+    let (_, h, w) = radiance.dim();
+    let img = radiance.index_axis(ndarray::Axis(0), 0);
+    let mut sorted: Vec<f64> = img.iter().copied().filter(|v| *v > 0.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    let scale = if sorted.is_empty() {
+        1.0
+    } else {
+        sorted[((sorted.len() - 1) as f64 * 0.995) as usize]
+    };
+    let pixels: Vec<u8> = img
+        .iter()
+        .map(|&v| {
+            let x = (v / scale).clamp(0.0, 1.0).powf(1.0 / 2.2);
+            (x * 255.0).round() as u8
+        })
+        .collect();
+    let gray = image::GrayImage::from_raw(w as u32, h as u32, pixels)
+        .context("preview buffer size")?;
+    write_atomic_with(path, |f| {
+        gray.write_to(
+            &mut std::io::BufWriter::new(f),
+            image::ImageFormat::Png,
+        )?;
+        Ok(())
+    })
+}
