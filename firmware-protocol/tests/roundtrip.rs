@@ -180,3 +180,44 @@ fn usb_transfer_round_trip() {
         assert_eq!(decode_message(&out.unwrap()).unwrap(), p);
     }
 }
+
+/// The sizes quoted in PROTOCOL.md §3.
+#[test]
+fn documented_constants() {
+    assert_eq!(MAX_MESSAGE_LEN, 16_399);
+    assert_eq!(MAX_COBS_FRAME_LEN, 16_465);
+    assert_eq!(MAX_CHUNK_DATA_LEN, 16_384);
+    assert_eq!(MAX_REQUEST_LEN, 16);
+    let doc = include_str!("../PROTOCOL.md");
+    for needle in [
+        "| `MAX_MESSAGE_LEN` | 16 399 |",
+        "| `MAX_COBS_FRAME_LEN` | 16 465 |",
+        "| `MAX_CHUNK_DATA_LEN` | 16 384 |",
+        "| `MAX_REQUEST_LEN` | 16 |",
+        "`REPLY_TIMEOUT_MS` = 250 ms",
+        "PENDING_GRACE_MS` (500 ms)",
+        "`FRAME_IDLE_TIMEOUT_MS` (1000 ms)",
+    ] {
+        assert!(doc.contains(needle), "PROTOCOL.md lacks {needle:?}");
+    }
+    assert_eq!(REPLY_TIMEOUT_MS, 250);
+    assert_eq!(PENDING_GRACE_MS, 500);
+    assert_eq!(FRAME_IDLE_TIMEOUT_MS, 1000);
+    // Body lengths in the §4 table.
+    for (kind, len) in [
+        (Kind::Hello, 4),
+        (Kind::GetControl, 1),
+        (Kind::SetControl, 5),
+        (Kind::StartStream, 4),
+        (Kind::Capabilities, 22),
+        (Kind::Nak, 6),
+        (Kind::Status, 21),
+        (Kind::FrameLeader, 43),
+        (Kind::FrameTrailer, 13),
+    ] {
+        let row = format!("| `{:#04x}` |", kind as u8);
+        let line = doc.lines().find(|l| l.starts_with(&row)).unwrap();
+        assert!(line.contains(&format!("| {len} |")), "{line}");
+        assert_eq!(kind.body_len(), Some(len));
+    }
+}
