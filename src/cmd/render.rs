@@ -226,13 +226,10 @@ fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
             (x * 255.0).round() as u8
         })
         .collect();
-    let gray = image::GrayImage::from_raw(w as u32, h as u32, pixels)
-        .context("preview buffer size")?;
+    let gray =
+        image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
     write_atomic_with(path, |f| {
-        gray.write_to(
-            &mut std::io::BufWriter::new(f),
-            image::ImageFormat::Png,
-        )?;
+        gray.write_to(&mut std::io::BufWriter::new(f), image::ImageFormat::Png)?;
         Ok(())
     })
 }

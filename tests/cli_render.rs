@@ -1,0 +1,167 @@
+//! End-to-end tests of `gloam render` and `gloam probe` through the binary.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_gloam");
+
+fn gloam(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .output()
+        .expect("running the gloam binary")
+}
+
+fn ok(args: &[&str]) -> Output {
+    let out = gloam(args);
+    assert!(
+        out.status.success(),
+        "gloam {args:?} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn panel_scene() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("sims/panel-validation/scene.toml")
+        .display()
+        .to_string()
+}
+
+/// A small copy of the panel scene (64 × 48) so the CLI test stays quick.
+fn small_scene(dir: &Path) -> String {
+    let text = std::fs::read_to_string(panel_scene())
+        .unwrap()
+        .replace("width = 320", "width = 64")
+        .replace("height = 240", "height = 48");
+    let p = dir.join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn render_writes_all_outputs_and_a_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_scene(dir.path());
+    let out = dir.path().join("out");
+    let out_s = out.display().to_string();
+    ok(&[
+        "render",
+        &scene,
+        "--out",
+        &out_s,
+        "--spp",
+        "2",
+        "--seed",
+        "3",
+        "--estimator",
+        "solid-angle",
+        "--set",
+        "area_samples=4",
+        "--set",
+        "recursion=2",
+        "--threads",
+        "2",
+    ]);
+    for f in [
+        "radiance.tiff",
+        "radiance.npy",
+        "preview.png",
+        "report.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["settings"]["spp"], 2);
+    assert_eq!(report["settings"]["seed"], 3);
+    assert_eq!(report["settings"]["estimator"], "solid-angle");
+    assert_eq!(report["settings"]["area_samples"], 4);
+    assert_eq!(report["settings"]["recursion"], 2);
+    assert_eq!(report["settings"]["dirsig2001"]["MAX_SAMPLE_POINTS"], 500);
+    assert!(report["rays_per_second"].as_f64().unwrap() > 0.0);
+    assert!(report["rays"]["primary"].as_u64().unwrap() == 64 * 48 * 2);
+    assert!(report["effect_plan"]["effects"].as_array().unwrap().len() > 3);
+    assert!(report["timings_s"]["trace"].as_f64().is_some());
+
+    // NPY: band × row × column header; TIFF: a float32 page of 64 × 48.
+    let npy = std::fs::read(out.join("radiance.npy")).unwrap();
+    let header = String::from_utf8_lossy(&npy[..128]);
+    assert!(header.contains("(1, 48, 64)"), "{header}");
+    let mut dec = tiff::decoder::Decoder::new(std::io::Cursor::new(
+        std::fs::read(out.join("radiance.tiff")).unwrap(),
+    ))
+    .unwrap();
+    assert_eq!(dec.dimensions().unwrap(), (64, 48));
+    match dec.read_image().unwrap() {
+        tiff::decoder::DecodingResult::F32(v) => {
+            let max = v.iter().copied().fold(0.0f32, f32::max);
+            assert!((max - 15.058).abs() < 1e-3, "{max}");
+        }
+        other => panic!("not float32: {:?}", std::mem::discriminant(&other)),
+    }
+    assert!(!dec.more_images());
+}
+
+#[test]
+fn render_is_identical_across_thread_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_scene(dir.path());
+    let a = dir.path().join("a").display().to_string();
+    let b = dir.path().join("b").display().to_string();
+    ok(&["render", &scene, "--out", &a, "--threads", "1"]);
+    ok(&["render", &scene, "--out", &b, "--threads", "2"]);
+    let fa = std::fs::read(Path::new(&a).join("radiance.npy")).unwrap();
+    let fb = std::fs::read(Path::new(&b).join("radiance.npy")).unwrap();
+    assert_eq!(fa, fb);
+}
+
+#[test]
+fn probe_point_and_pixel_print_json() {
+    let scene = panel_scene();
+    let out = ok(&[
+        "probe", &scene, "--point", "0,0,0", "--normal", "0,0,1", "--json",
+    ]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["band"], "vis");
+    let e = v["irradiance_w_m2"].as_f64().unwrap();
+    assert!((e - 1.428_783).abs() < 1e-5, "{e}");
+    assert_eq!(v["std_error_w_m2"].as_f64().unwrap(), 0.0);
+    assert!(v["radiance_w_m2_sr"].as_f64().is_some());
+    // Off every surface: no radiance key.
+    let out = ok(&[
+        "probe", &scene, "--point", "0,0,-1", "--normal", "0,0,1", "--json",
+    ]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v.get("radiance_w_m2_sr").is_none());
+
+    let dir = tempfile::tempdir().unwrap();
+    let small = small_scene(dir.path());
+    let out = ok(&["probe", &small, "--pixel", "32,5", "--json"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["radiance_w_m2_sr"].as_f64().is_some());
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let scene = panel_scene();
+    for args in [
+        vec!["probe", &scene, "--point", "0,0", "--normal", "0,0,1"],
+        vec!["probe", &scene, "--point", "0,0,0", "--normal", "0,0,0"],
+        vec![
+            "probe", &scene, "--point", "0,0,0", "--normal", "0,0,1", "--band", "nir",
+        ],
+        vec!["probe", &scene, "--pixel", "9999,0"],
+        vec!["render", &scene, "--out", "/tmp/x", "--set", "nope=1"],
+        vec!["render", &scene, "--out", "/tmp/x", "--estimator", "magic"],
+    ] {
+        let out = gloam(&args);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("error"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
