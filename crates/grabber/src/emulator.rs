@@ -127,6 +127,9 @@ pub struct SourceHal<'s, S: FrameSource> {
     pixels: Vec<u16>,
     mcp_target: Option<(u32, Instant)>,
     captures: u64,
+    /// Device clock at the start of the current stream (frame timestamps
+    /// count from here).
+    stream_start_us: u64,
 }
 
 impl<'s, S: FrameSource> SourceHal<'s, S> {
@@ -137,6 +140,7 @@ impl<'s, S: FrameSource> SourceHal<'s, S> {
             pixels: Vec::new(),
             mcp_target: None,
             captures: 0,
+            stream_start_us: 0,
         }
     }
 }
@@ -190,7 +194,7 @@ impl<S: FrameSource> Hal for SourceHal<'_, S> {
         settings: &Settings,
         frame: &mut [u8],
     ) -> Result<Option<CaptureInfo>, ErrorCode> {
-        let timestamp_us = self.now_us();
+        let timestamp_us = self.now_us().saturating_sub(self.stream_start_us);
         self.captures += 1;
         let c = from_wire_settings(settings);
         let n = (c.width as usize) * (c.height as usize);
@@ -455,6 +459,7 @@ pub trait RestartSource {
 
 impl<S: FrameSource> RestartSource for SourceHal<'_, S> {
     fn restart_source(&mut self) {
+        self.stream_start_us = self.now_us();
         self.source.restart();
     }
 }

@@ -1,0 +1,204 @@
+//! `gloam capture`: grab frames from any grabber into PNGs + frames.jsonl.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use serde::Serialize;
+
+use gloam_grabber::{Frame, FrameStatus, GrabError, OpenOptions};
+
+use super::output::write_atomic;
+
+#[derive(Args)]
+pub struct CaptureArgs {
+    /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH],
+    /// serial:PATH[?baud=N], usb:VID:PID[:SERIAL].
+    #[arg(long)]
+    pub grabber: String,
+    /// Good frames to capture.
+    #[arg(long, default_value_t = 1)]
+    pub frames: u64,
+    /// Output directory (frame-NNNNNN.png + frames.jsonl).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Fixed gain (turns AGC off).
+    #[arg(long, conflicts_with = "agc")]
+    pub gain: Option<f64>,
+    /// Turn AGC on.
+    #[arg(long)]
+    pub agc: bool,
+    /// Digitizer bit depth.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["8", "12", "16"]))]
+    pub bits: Option<String>,
+    /// Exposure / gate time, seconds.
+    #[arg(long)]
+    pub exposure_s: Option<f64>,
+    /// Noise seed for sim: grabbers (the emulator takes its own --seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Give up after this many lost/damaged frames in a row.
+    #[arg(long, default_value_t = 1000)]
+    pub max_consecutive_failures: u64,
+}
+
+/// One line of frames.jsonl.
+#[derive(Serialize)]
+struct FrameRecord {
+    index: u64,
+    file: String,
+    seq: u64,
+    /// Device clock, µs since the stream started.
+    timestamp: u64,
+    gain: f64,
+    agc: bool,
+    bits: u8,
+    width: u32,
+    height: u32,
+    pixels_crc32c: u32,
+    status: FrameStatus,
+}
+
+fn png_bytes(f: &Frame) -> anyhow::Result<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut bytes = Vec::with_capacity(f.pixels.len() * 2 + 1024);
+    // PNG stores 16-bit samples big-endian.
+    let be: Vec<u8> = f.pixels.iter().flat_map(|p| p.to_be_bytes()).collect();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(
+            &be,
+            f.meta.width,
+            f.meta.height,
+            image::ExtendedColorType::L16,
+        )
+        .context("encoding PNG")?;
+    Ok(bytes)
+}
+
+#[derive(Default)]
+struct Losses {
+    damaged: u64,
+    lost: u64,
+    interruptions: u64,
+    unknown: u64,
+}
+
+pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let opts = OpenOptions {
+        seed: args.seed,
+        ..OpenOptions::default()
+    };
+    let mut g = gloam_grabber::open_with(&args.grabber, &opts)
+        .with_context(|| format!("opening {}", args.grabber))?;
+    eprintln!("capturing from {}", g.describe());
+    if let Some(b) = &args.bits {
+        g.set_bits(b.parse().expect("validated"))?;
+    }
+    if let Some(e) = args.exposure_s {
+        g.set_exposure_s(e)?;
+    }
+    if let Some(gain) = args.gain {
+        let applied = g.set_gain(gain)?;
+        if (applied - gain).abs() > 1e-9 * gain.abs().max(1.0) {
+            eprintln!("note: gain {gain} applied as {applied}");
+        }
+    }
+    if args.agc {
+        g.set_agc(true)?;
+    }
+    let bar = if std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(args.frames);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let mut records = Vec::new();
+    let mut losses = Losses::default();
+    let mut consecutive = 0u64;
+    let jsonl_path = args.out.join("frames.jsonl");
+    let write_jsonl = |records: &[FrameRecord]| -> anyhow::Result<()> {
+        let mut text = String::new();
+        for r in records {
+            text.push_str(&serde_json::to_string(r)?);
+            text.push('\n');
+        }
+        write_atomic(&jsonl_path, text.as_bytes())
+    };
+    let result: anyhow::Result<()> = (|| {
+        while (records.len() as u64) < args.frames {
+            match g.grab() {
+                Ok(f) => {
+                    consecutive = 0;
+                    let index = records.len() as u64;
+                    let file = format!("frame-{index:06}.png");
+                    write_atomic(&args.out.join(&file), &png_bytes(&f)?)?;
+                    records.push(FrameRecord {
+                        index,
+                        file,
+                        seq: f.meta.seq,
+                        timestamp: f.meta.timestamp_us,
+                        gain: f.meta.gain,
+                        agc: f.meta.agc,
+                        bits: f.meta.bits,
+                        width: f.meta.width,
+                        height: f.meta.height,
+                        pixels_crc32c: f.meta.pixels_crc32c,
+                        status: f.meta.status,
+                    });
+                    bar.inc(1);
+                }
+                Err(e) if e.is_frame_loss() => {
+                    consecutive += 1;
+                    match &e {
+                        GrabError::FrameDamaged { .. } => losses.damaged += 1,
+                        GrabError::FramesLost { count, .. } => losses.lost += count,
+                        GrabError::Interrupted { frames_lost, .. } => {
+                            losses.interruptions += 1;
+                            match frames_lost {
+                                Some(n) => losses.lost += n,
+                                None => losses.unknown += 1,
+                            }
+                        }
+                        _ => {}
+                    }
+                    bar.suspend(|| eprintln!("warning: {e}"));
+                    bar.set_message(format!("{} damaged, {} lost", losses.damaged, losses.lost));
+                    if consecutive >= args.max_consecutive_failures {
+                        bail!("{consecutive} lost or damaged frames in a row; giving up");
+                    }
+                }
+                Err(e) => return Err(e).context("grabbing"),
+            }
+        }
+        Ok(())
+    })();
+    bar.finish_and_clear();
+    write_jsonl(&records)?;
+    let mut summary = format!(
+        "captured {} frame(s) into {}; {} damaged, {} lost",
+        records.len(),
+        args.out.display(),
+        losses.damaged,
+        losses.lost
+    );
+    if losses.interruptions > 0 {
+        summary.push_str(&format!(
+            ", {} interruption(s) ({} with an unknown number of lost frames)",
+            losses.interruptions, losses.unknown
+        ));
+    }
+    eprintln!("{summary}");
+    result
+}

@@ -1,0 +1,131 @@
+//! `gloam device --pty`: the device emulator on a pseudo-terminal.
+
+use std::io::Write;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use clap::Args;
+
+use gloam_grabber::emulator::{DEFAULT_BAUD, EmulatorConfig, EmulatorStats, run_emulator};
+use gloam_grabber::faults::FaultConfig;
+use gloam_grabber::sim::DEFAULT_RIG_SIZE;
+use gloam_grabber::uri::parse_size;
+use gloam_grabber::{SensorSource, serial::PtyDevice};
+
+#[derive(Args)]
+pub struct DeviceArgs {
+    /// Expose the emulated device on a pseudo-terminal; its path (the side a
+    /// client opens) is the first line of stdout.
+    #[arg(long)]
+    pub pty: bool,
+    /// Sensor preset (or sensor TOML file) behind the HAL.
+    #[arg(long, default_value = "gen2-s20-iccd")]
+    pub sensor: String,
+    /// Scene the camera looks at (rendering a scene in the emulator is not
+    /// available yet; use --rig).
+    #[arg(long, conflicts_with = "rig")]
+    pub scene: Option<String>,
+    /// Calibration rig the camera looks at: uniform, sine, edge, dark.
+    #[arg(long)]
+    pub rig: Option<String>,
+    /// Line rate to emulate (PTYs ignore baud, so the emulator paces itself,
+    /// 8N1 = 10 bits per byte).
+    #[arg(long, default_value_t = DEFAULT_BAUD)]
+    pub baud: u32,
+    /// Noise seed of the simulated sensor.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Image size WxH.
+    #[arg(long, value_parser = parse_size_arg)]
+    pub size: Option<(u32, u32)>,
+    /// Serial number reported in the handshake.
+    #[arg(long, default_value_t = 1)]
+    pub serial_number: u32,
+    /// Fault injection: probability of dropping each outgoing message.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub fault_drop: f64,
+    /// Fault injection: probability of flipping a bit in each outgoing message.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub fault_corrupt: f64,
+    /// Fault injection: probability of truncating each outgoing message.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub fault_truncate: f64,
+    /// Fault injection: stall the link this long before a message…
+    #[arg(long, default_value_t = 0)]
+    pub fault_delay_ms: u64,
+    /// …with this probability per message.
+    #[arg(long, default_value_t = 0.01, value_parser = probability)]
+    pub fault_delay_p: f64,
+    /// Fault injection: power-cycle the device in the middle of every N-th frame.
+    #[arg(long)]
+    pub fault_reset_every: Option<u64>,
+    /// Seed of the fault generator.
+    #[arg(long, default_value_t = 1)]
+    pub fault_seed: u64,
+}
+
+fn parse_size_arg(s: &str) -> Result<(u32, u32), String> {
+    parse_size(s).ok_or_else(|| format!("'{s}' is not WxH with 1..4096 each"))
+}
+
+fn probability(s: &str) -> Result<f64, String> {
+    let p: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if (0.0..=1.0).contains(&p) {
+        Ok(p)
+    } else {
+        Err(format!("{p} is not a probability in 0..=1"))
+    }
+}
+
+pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
+    if !args.pty {
+        bail!("only --pty is supported: the emulator runs on a pseudo-terminal");
+    }
+    if args.scene.is_some() {
+        bail!(
+            "--scene: rendering a scene inside the emulator is not available yet; use --rig uniform|sine|edge|dark"
+        );
+    }
+    if args.baud == 0 {
+        bail!("--baud must be positive");
+    }
+    let rig = args
+        .rig
+        .as_deref()
+        .unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
+    let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
+    let mut source = SensorSource::new(&args.sensor, rig, args.seed, size)
+        .with_context(|| format!("sensor '{}'", args.sensor))?;
+    let pty = PtyDevice::open().context("opening a pseudo-terminal")?;
+    let path = pty.slave_path().to_string();
+    {
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "{path}")?;
+        out.flush()?;
+    }
+    eprintln!(
+        "gloam device: emulating {} (rig '{rig}', seed {}, {}×{}) at {} baud on {path}; connect with --grabber serial:{path} — Ctrl-C to stop",
+        args.sensor, args.seed, size.0, size.1, args.baud
+    );
+    let config = EmulatorConfig {
+        baud: Some(args.baud),
+        faults: FaultConfig {
+            drop: args.fault_drop,
+            corrupt: args.fault_corrupt,
+            truncate: args.fault_truncate,
+            delay_p: if args.fault_delay_ms > 0 {
+                args.fault_delay_p
+            } else {
+                0.0
+            },
+            delay: Duration::from_millis(args.fault_delay_ms),
+            seed: args.fault_seed,
+        },
+        reset_every: args.fault_reset_every.filter(|n| *n > 0),
+        serial_number: args.serial_number,
+    };
+    let stats = EmulatorStats::default();
+    let stop = AtomicBool::new(false);
+    run_emulator(pty, &mut source, &config, &stats, &stop).map_err(|e| anyhow::anyhow!(e))
+}

@@ -1,0 +1,52 @@
+//! `gloam grabbers`: serial ports, USB devices and simulated cameras.
+
+use clap::Args;
+
+#[derive(Args)]
+pub struct GrabbersArgs {
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: GrabbersArgs) -> anyhow::Result<()> {
+    let list = gloam_grabber::list_grabbers();
+    if args.json {
+        return super::output::print_json(&list);
+    }
+    println!("serial ports:");
+    match &list.serial_error {
+        Some(e) => println!("  (cannot list serial ports: {e})"),
+        None if list.serial.is_empty() => println!("  (none)"),
+        None => {
+            for p in &list.serial {
+                let mut extra = vec![p.kind.clone()];
+                extra.extend(p.vid_pid.clone());
+                extra.extend(p.product.clone());
+                extra.extend(p.serial_number.as_ref().map(|s| format!("serial {s}")));
+                println!("  {:<32} {}", p.uri, extra.join(", "));
+            }
+        }
+    }
+    println!("USB devices:");
+    match &list.usb_error {
+        Some(e) => println!("  {e}"),
+        None if list.usb.is_empty() => println!("  (none)"),
+        None => {
+            for d in &list.usb {
+                let name = [d.manufacturer.as_deref(), d.product.as_deref()]
+                    .into_iter()
+                    .flatten()
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                println!("  {:<32} bus {} addr {} {name}", d.uri, d.bus, d.address);
+            }
+        }
+    }
+    println!("simulated cameras:");
+    for s in &list.sim {
+        println!("  {:<32} {}", s.uri, s.description);
+    }
+    println!("(emulated devices: run `gloam device --pty` and use the serial: URI it prints)");
+    Ok(())
+}
