@@ -455,6 +455,28 @@ fn point_on_or_next_to_an_edge_gives_the_correct_limit() {
 }
 
 #[test]
+fn point_just_outside_an_edge() {
+    // Point δ beyond the edge x = 1 of the 2×2 square, at height h, facing
+    // down: the panel is [−1, 1+δ] minus [1, 1+δ] seen from the corner line.
+    let verts = square(0.0, 0.0, 1.0);
+    for &(d, h) in &[(1e-6, 1e-6), (1e-6, 1e-3), (1e-3, 1e-6), (1e-9, 1e-9)] {
+        let p = DVec3::new(1.0 + d, 0.0, h);
+        let got = polygon_irradiance_factor(p, -DVec3::Z, &verts, DVec3::Z);
+        let d = p.x - 1.0; // the offset actually represented (exact subtraction)
+        let want = 2.0 * (corner_factor(2.0 + d, 1.0, h) - corner_factor(d, 1.0, h));
+        let e = rel_err(got, want);
+        println!("δ={d:e} outside the edge, h={h:e}: {got:.12e} vs {want:.12e} rel {e:.1e}");
+        assert!(got.is_finite() && e < 1e-8, "{e}");
+        // In the plane just beside the edge: edge-on, nothing.
+        let q = DVec3::new(1.0 + d, 0.0, 0.0);
+        assert_eq!(
+            polygon_irradiance_factor(q, -DVec3::Z, &verts, DVec3::Z),
+            0.0
+        );
+    }
+}
+
+#[test]
 fn huge_exponent_is_finite_and_collimated() {
     let m = 10_000u32;
     let mf = m as f64;
