@@ -20,6 +20,23 @@ pub struct Throughput {
     pub threads: usize,
     /// Mean photoelectrons per pixel per frame of the test scene.
     pub mean_photoelectrons: f64,
+    /// Process CPU time over the timed frames (Linux `/proc/self/stat`), s.
+    pub cpu_seconds: Option<f64>,
+    /// Frames per CPU-second: on n dedicated cores expect up to n × this
+    /// (the wall-clock figure drops when other work shares the cores).
+    pub frames_per_cpu_s: Option<f64>,
+}
+
+/// User + system CPU time of this process, s (Linux only).
+fn cpu_time_s() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are
+    // fields 14 and 15 (1-based), in clock ticks (100 Hz on Linux).
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ut: f64 = f.get(11)?.parse().ok()?;
+    let st: f64 = f.get(12)?.parse().ok()?;
+    Some((ut + st) / 100.0)
 }
 
 /// A test scene: a starlit field (`level` photoelectrons/pixel/frame) with
@@ -54,12 +71,17 @@ pub fn throughput(
     let scene = test_scene(width, height, level);
     cam.capture_photoelectrons(scene.view())
         .expect("valid test scene");
+    let cpu0 = cpu_time_s();
     let t = Instant::now();
     for _ in 0..frames {
         cam.capture_photoelectrons(scene.view())
             .expect("valid test scene");
     }
     let seconds = t.elapsed().as_secs_f64();
+    let cpu_seconds = match (cpu0, cpu_time_s()) {
+        (Some(a), Some(b)) => Some(b - a),
+        _ => None,
+    };
     Ok(Throughput {
         preset: preset.to_string(),
         width,
@@ -69,5 +91,7 @@ pub fn throughput(
         frames_per_s: frames as f64 / seconds,
         threads: rayon::current_num_threads(),
         mean_photoelectrons: level,
+        cpu_seconds,
+        frames_per_cpu_s: cpu_seconds.filter(|&c| c > 0.0).map(|c| frames as f64 / c),
     })
 }

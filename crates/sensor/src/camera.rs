@@ -79,6 +79,7 @@ struct Patterns {
     vignette: Option<Vec<f32>>,
     chicken_wire: Option<Vec<f32>>,
     prnu: Option<Vec<f32>>,
+    prnu_max: f64,
     dsnu: Option<Vec<f32>>,
 }
 
@@ -362,12 +363,16 @@ impl Camera {
             .then(|| gauss_pattern(Pass::Prnu, &|z| (1.0 + prnu_amp * z).max(0.0) as f32));
         let dsnu_amp = cfg.ccd.dsnu_e;
         let dsnu = (dsnu_amp > 0.0).then(|| gauss_pattern(Pass::Dsnu, &|z| (dsnu_amp * z) as f32));
+        let prnu_max = prnu
+            .as_ref()
+            .map_or(1.0, |p| p.iter().copied().fold(0f32, f32::max) as f64);
         self.patterns = Some(Patterns {
             rows,
             cols,
             vignette,
             chicken_wire,
             prnu,
+            prnu_max,
             dsnu,
         });
     }
@@ -466,13 +471,8 @@ impl Camera {
         if let Some(k) = kpost {
             k.apply(&mut pe, &mut self.tmp, rows, cols);
         }
-        if let Some(cw) = &pat.chicken_wire {
-            pe.par_iter_mut()
-                .zip(cw.par_iter())
-                .for_each(|(p, &w)| *p *= w);
-        }
-
-        // CCD: conversion, PRNU, shot and dark noise.
+        // CCD: conversion, chicken wire, PRNU, shot and dark noise; then read
+        // noise, DSNU, video and digitizer.
         let conv = match chain.kind {
             SensorKind::Iccd => chain.ccd_e_per_mcp_e,
             _ => 1.0,
@@ -480,18 +480,83 @@ impl Camera {
         let shot_at_ccd = chain.kind != SensorKind::Ebccd;
         let dark = chain.dark_e_per_frame;
         let prnu = pat.prnu.as_deref();
+        let cw = pat.chicken_wire.as_deref();
         let full_well = chain.config.ccd.full_well_e;
-        let row_max: Vec<f32> = pe
-            .par_chunks_mut(cols)
-            .enumerate()
-            .map(|(r, row)| {
-                let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
-                let mut mx = 0f32;
-                for (c, p) in row.iter_mut().enumerate() {
-                    let mut m = (*p).max(0.0) as f64 * conv;
-                    if let Some(pr) = prnu {
-                        m *= pr[r * cols + c] as f64;
+        let read = chain.read_noise_e;
+        let dn_per_e = chain.dn_per_ccd_electron(g);
+        let black = chain.black_dn(g);
+        let clip = chain.clip_dn(g);
+        let max_code = chain.max_code;
+        let sat_dn = chain.saturation_dn(g);
+        let dsnu = pat.dsnu.as_deref();
+        let mean_e = |r: usize, c: usize, p: f32| -> f64 {
+            let mut m = p.max(0.0) as f64 * conv;
+            if let Some(w) = cw {
+                m *= w[r * cols + c] as f64;
+            }
+            if let Some(pr) = prnu {
+                m *= pr[r * cols + c] as f64;
+            }
+            m
+        };
+        let digitize = move |v: f64| -> f64 {
+            let dn = (black + v * dn_per_e).min(clip).clamp(0.0, max_code);
+            (dn + 0.5) as i32 as f64
+        };
+        let mut pixels = Array2::<u16>::zeros((rows, cols));
+        let out_rows = pixels.as_slice_mut().expect("standard layout");
+
+        // Can any pixel reach full well? (Upper bound: the blur and
+        // patterns cannot raise the maximum by more than a few per cent.)
+        let max_q = pe.par_iter().copied().reduce(|| 0f32, f32::max) as f64;
+        let bound = max_q * conv * 1.1 * pat.prnu_max + dark;
+        let bound = bound + 8.0 * bound.sqrt() + 10.0;
+        let blooming = chain.config.ccd.blooming;
+        let fw = full_well;
+        let stats: Vec<(f64, usize)> = if !blooming || bound < full_well {
+            // Fast path: no charge moves between pixels, so shot, dark and
+            // read noise are drawn in one pass (one Gaussian N(m, m + σ_read²)
+            // where the shot noise is Gaussian and full well is out of reach).
+            out_rows
+                .par_chunks_mut(cols)
+                .zip(pe.par_chunks(cols))
+                .enumerate()
+                .map(|(r, (out, row))| {
+                    let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
+                    let mut sum = 0f64;
+                    let mut nsat = 0usize;
+                    for (c, (o, &p)) in out.iter_mut().zip(row).enumerate() {
+                        let m = mean_e(r, c, p);
+                        let mut v = if !noise_on {
+                            (m + dark).min(fw)
+                        } else if shot_at_ccd {
+                            let t = m + dark;
+                            if t > ga && t + 8.0 * t.sqrt() < fw {
+                                t + (t + read * read).sqrt() * noise::normal(&mut rng)
+                            } else {
+                                noise::poisson(&mut rng, t, ga).min(fw)
+                                    + read * noise::normal(&mut rng)
+                            }
+                        } else {
+                            (m + noise::poisson(&mut rng, dark, ga)).min(fw)
+                                + read * noise::normal(&mut rng)
+                        };
+                        if let Some(d) = dsnu {
+                            v += d[r * cols + c] as f64;
+                        }
+                        let dn = digitize(v);
+                        *o = dn as u16;
+                        sum += dn;
+                        nsat += (dn >= sat_dn) as usize;
                     }
+                    (sum, nsat)
+                })
+                .collect()
+        } else {
+            pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
+                let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
+                for (c, p) in row.iter_mut().enumerate() {
+                    let m = mean_e(r, c, *p);
                     let e = if !noise_on {
                         m + dark
                     } else if shot_at_ccd {
@@ -500,60 +565,34 @@ impl Camera {
                         m + noise::poisson(&mut rng, dark, ga)
                     };
                     *p = e as f32;
-                    mx = mx.max(*p);
                 }
-                mx
-            })
-            .collect();
-        let max_e = row_max.iter().copied().fold(0f32, f32::max) as f64;
-        if max_e > full_well {
-            if chain.config.ccd.blooming {
-                bloom(&mut pe, rows, cols, full_well as f32);
-            } else {
-                pe.par_iter_mut().for_each(|p| *p = p.min(full_well as f32));
-            }
-        }
-
-        // Read noise, DSNU, video and digitizer.
-        let read = chain.read_noise_e;
-        let dn_per_e = chain.dn_per_ccd_electron(g);
-        let black = chain.black_dn(g);
-        let clip = chain.clip_dn(g);
-        let max_code = chain.max_code;
-        let sat_dn = chain.saturation_dn(g);
-        let dsnu = pat.dsnu.as_deref();
-        let mut pixels = Array2::<u16>::zeros((rows, cols));
-        let stats: Vec<(f64, usize)> = pixels
-            .as_slice_mut()
-            .expect("standard layout")
-            .par_chunks_mut(cols)
-            .zip(pe.par_chunks(cols))
-            .enumerate()
-            .map(|(r, (out, row))| {
-                let mut rng = noise::stream(seed, frame, Pass::Read, r);
-                let mut sum = 0f64;
-                let mut nsat = 0usize;
-                for (c, (o, &e)) in out.iter_mut().zip(row).enumerate() {
-                    let mut v = e as f64;
-                    if let Some(d) = dsnu {
-                        v += d[r * cols + c] as f64;
+            });
+            bloom(&mut pe, rows, cols, full_well as f32);
+            out_rows
+                .par_chunks_mut(cols)
+                .zip(pe.par_chunks(cols))
+                .enumerate()
+                .map(|(r, (out, row))| {
+                    let mut rng = noise::stream(seed, frame, Pass::Read, r);
+                    let mut sum = 0f64;
+                    let mut nsat = 0usize;
+                    for (c, (o, &e)) in out.iter_mut().zip(row).enumerate() {
+                        let mut v = e as f64;
+                        if let Some(d) = dsnu {
+                            v += d[r * cols + c] as f64;
+                        }
+                        if noise_on && read > 0.0 {
+                            v += read * noise::normal(&mut rng);
+                        }
+                        let dn = digitize(v);
+                        *o = dn as u16;
+                        sum += dn;
+                        nsat += (dn >= sat_dn) as usize;
                     }
-                    if noise_on && read > 0.0 {
-                        v += read * noise::normal(&mut rng);
-                    }
-                    let dn = (black + v * dn_per_e)
-                        .min(clip)
-                        .round()
-                        .clamp(0.0, max_code);
-                    *o = dn as u16;
-                    sum += dn;
-                    if dn >= sat_dn {
-                        nsat += 1;
-                    }
-                }
-                (sum, nsat)
-            })
-            .collect();
+                    (sum, nsat)
+                })
+                .collect()
+        };
         self.buf = pe;
         let n = (rows * cols) as f64;
         let mean_dn = stats.iter().map(|s| s.0).sum::<f64>() / n;

@@ -20,7 +20,7 @@ pub mod config;
 mod effects;
 mod error;
 pub mod kernel;
-mod noise;
+pub mod noise;
 pub mod stages;
 
 pub use analytic::Description;

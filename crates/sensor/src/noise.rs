@@ -47,6 +47,17 @@ pub fn normal(rng: &mut Pcg64Mcg) -> f64 {
     rng.sample(StandardNormal)
 }
 
+/// 1/k for the inversion loop (a multiply instead of a divide per step).
+static RECIP: [f64; 64] = {
+    let mut t = [0.0; 64];
+    let mut k = 1;
+    while k < 64 {
+        t[k] = 1.0 / k as f64;
+        k += 1;
+    }
+    t
+};
+
 /// A Poisson draw with mean `lambda` ≥ 0: exact sequential-search inversion
 /// below `gaussian_above`, else a rounded Gaussian with the same mean and
 /// variance (clamped at 0).
@@ -56,25 +67,44 @@ pub fn poisson(rng: &mut Pcg64Mcg, lambda: f64, gaussian_above: f64) -> f64 {
         return 0.0;
     }
     if lambda > gaussian_above {
-        return (lambda + lambda.sqrt() * normal(rng)).round().max(0.0);
+        return round_non_negative(lambda + lambda.sqrt() * normal(rng));
     }
     let u = uniform(rng);
     let mut p = (-lambda).exp();
     let mut cdf = p;
-    let mut k = 0.0;
-    while u > cdf && k < 1000.0 {
-        k += 1.0;
-        p *= lambda / k;
+    let mut k = 0usize;
+    while u > cdf && k < 1000 {
+        k += 1;
+        p *= lambda
+            * if k < RECIP.len() {
+                RECIP[k]
+            } else {
+                1.0 / k as f64
+            };
         cdf += p;
         if p == 0.0 {
             break;
         }
     }
-    k
+    k as f64
+}
+
+/// `x` rounded to the nearest integer, negative values to 0 (no libm call).
+#[inline]
+pub fn round_non_negative(x: f64) -> f64 {
+    if x <= 0.0 {
+        0.0
+    } else {
+        (x + 0.5) as i64 as f64
+    }
 }
 
 /// Sum of `n` independent Gamma(shape, mean/shape) draws, i.e.
 /// Gamma(n·shape, mean/shape), of mean `n·mean`.
+///
+/// Marsaglia & Tsang (ACM TOMS 26 (2000) 363) inline for total shape ≥ 1
+/// (one normal, one uniform, one square root per draw, a logarithm only on
+/// the rare squeeze failure); `rand_distr` below that.
 #[inline]
 pub fn gamma_sum(rng: &mut Pcg64Mcg, n: f64, shape: f64, mean: f64) -> f64 {
     if n <= 0.0 {
@@ -83,9 +113,28 @@ pub fn gamma_sum(rng: &mut Pcg64Mcg, n: f64, shape: f64, mean: f64) -> f64 {
     if !shape.is_finite() {
         return n * mean;
     }
-    match Gamma::new(n * shape, mean / shape) {
-        Ok(g) => g.sample(rng),
-        Err(_) => n * mean,
+    let a = n * shape;
+    let scale = mean / shape;
+    if a < 1.0 {
+        return match Gamma::new(a, scale) {
+            Ok(g) => g.sample(rng),
+            Err(_) => n * mean,
+        };
+    }
+    let d = a - 1.0 / 3.0;
+    let c = 1.0 / (9.0 * d).sqrt();
+    loop {
+        let x = normal(rng);
+        let v = 1.0 + c * x;
+        if v <= 0.0 {
+            continue;
+        }
+        let v = v * v * v;
+        let u = uniform(rng);
+        let x2 = x * x;
+        if u < 1.0 - 0.0331 * x2 * x2 || u.ln() < 0.5 * x2 + d * (1.0 - v + v.ln()) {
+            return d * v * scale;
+        }
     }
 }
 

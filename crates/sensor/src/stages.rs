@@ -762,7 +762,15 @@ impl Chain {
     /// MCP soft saturation of a charge `q` (e⁻).
     pub fn mcp_compress(&self, q: f64) -> f64 {
         match self.mcp_saturation_e {
-            Some(s) => q / (1.0 + (q / s).powi(2)).sqrt(),
+            Some(s) => {
+                let x2 = (q / s) * (q / s);
+                if x2 < 1e-3 {
+                    // Series of 1/√(1+x²); error < 4e-7 relative.
+                    q * (1.0 - 0.5 * x2)
+                } else {
+                    q / (1.0 + x2).sqrt()
+                }
+            }
             None => q,
         }
     }
