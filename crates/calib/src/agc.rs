@@ -165,7 +165,10 @@ pub fn agc_linearisation(
                     t90 = Some(i);
                 }
             }
-            let peak = a.iter().map(|x| frac(x.gain)).fold(f64::NEG_INFINITY, f64::max);
+            let peak = a
+                .iter()
+                .map(|x| frac(x.gain))
+                .fold(f64::NEG_INFINITY, f64::max);
             over = Some(100.0 * (peak - 1.0).max(0.0));
         } else if settled {
             over = Some(0.0);
@@ -195,7 +198,11 @@ pub fn agc_linearisation(
     }
     let all_settled = steps.iter().all(|s| s.settled);
     if !all_settled && !opts.allow_unsettled {
-        let bad: Vec<usize> = steps.iter().filter(|s| !s.settled).map(|s| s.step).collect();
+        let bad: Vec<usize> = steps
+            .iter()
+            .filter(|s| !s.settled)
+            .map(|s| s.step)
+            .collect();
         return Err(CalibError::NotSettled(format!(
             "the AGC gain was still moving by more than {:.1} % at the end of step(s) {bad:?} ({per} frames each): lengthen the steps (--frames) or check the AGC loop",
             100.0 * opts.settle_tolerance
@@ -204,10 +211,22 @@ pub fn agc_linearisation(
     // Hysteresis: step s (up) vs its mirror 2(n−1)−s (down).
     let mut hg: f64 = 0.0;
     let mut hd: f64 = 0.0;
-    let gspan = steps.iter().map(|s| s.final_gain).fold(f64::NEG_INFINITY, f64::max)
-        - steps.iter().map(|s| s.final_gain).fold(f64::INFINITY, f64::min);
-    let dspan = steps.iter().map(|s| s.fixed_mean_dn).fold(f64::NEG_INFINITY, f64::max)
-        - steps.iter().map(|s| s.fixed_mean_dn).fold(f64::INFINITY, f64::min);
+    let gspan = steps
+        .iter()
+        .map(|s| s.final_gain)
+        .fold(f64::NEG_INFINITY, f64::max)
+        - steps
+            .iter()
+            .map(|s| s.final_gain)
+            .fold(f64::INFINITY, f64::min);
+    let dspan = steps
+        .iter()
+        .map(|s| s.fixed_mean_dn)
+        .fold(f64::NEG_INFINITY, f64::max)
+        - steps
+            .iter()
+            .map(|s| s.fixed_mean_dn)
+            .fold(f64::INFINITY, f64::min);
     for s in 0..n - 1 {
         let m = 2 * (n - 1) - s;
         if gspan > 0.0 {

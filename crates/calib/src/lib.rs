@@ -7,6 +7,10 @@
 //! `grabber.present(&stimulus)` (simulated cameras render it; real hardware
 //! returns false and the operator sets the source) and then grabs.
 
+// `!(x > 0.0)` is deliberate throughout: it is true for NaN as well, so a
+// non-finite input is rejected instead of slipping through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod agc;
 pub mod capture;
 mod error;

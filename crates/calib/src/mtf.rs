@@ -126,10 +126,14 @@ pub fn coltman_sine_from_square(f: f64, ctf: impl Fn(f64) -> f64, f_max: f64) ->
 /// highest measured frequency (bars finer than that were not resolved).
 pub fn coltman_sine_from_square_samples(f: &[f64], ctf: &[f64]) -> Result<Vec<f64>, CalibError> {
     if f.len() != ctf.len() || f.is_empty() {
-        return Err(CalibError::InsufficientData("CTF samples are empty or uneven".into()));
+        return Err(CalibError::InsufficientData(
+            "CTF samples are empty or uneven".into(),
+        ));
     }
     if f.windows(2).any(|w| !(w[1] > w[0])) || f.iter().chain(ctf).any(|v| !v.is_finite()) {
-        return Err(CalibError::Invalid("CTF frequencies must increase and be finite".into()));
+        return Err(CalibError::Invalid(
+            "CTF frequencies must increase and be finite".into(),
+        ));
     }
     let fmax = *f.last().expect("non-empty");
     let interp = |x: f64| -> f64 {
@@ -143,7 +147,9 @@ pub fn coltman_sine_from_square_samples(f: &[f64], ctf: &[f64]) -> Result<Vec<f6
         let t = (x - f[j - 1]) / (f[j] - f[j - 1]);
         ctf[j - 1] + t * (ctf[j] - ctf[j - 1])
     };
-    Ok(f.iter().map(|&x| coltman_sine_from_square(x, interp, fmax)).collect())
+    Ok(f.iter()
+        .map(|&x| coltman_sine_from_square(x, interp, fmax))
+        .collect())
 }
 
 /// Settings of the sine-target measurement.
@@ -234,7 +240,11 @@ pub fn sine_mtf(
         out.push(m_out / opts.modulation);
         progress(i + 3, total);
     }
-    Ok(MtfCurve::new("sine", opts.frequencies_cy_per_px.clone(), out))
+    Ok(MtfCurve::new(
+        "sine",
+        opts.frequencies_cy_per_px.clone(),
+        out,
+    ))
 }
 
 fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
@@ -246,11 +256,12 @@ fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
         }
         a.swap(col, piv);
         b.swap(col, piv);
+        let pivot_row = a[col];
         for r in 0..3 {
             if r != col {
-                let k = a[r][col] / a[col][col];
-                for c in 0..3 {
-                    a[r][c] -= k * a[col][c];
+                let k = a[r][col] / pivot_row[col];
+                for (x, p) in a[r].iter_mut().zip(pivot_row) {
+                    *x -= k * p;
                 }
                 b[r] -= k * b[col];
             }
@@ -324,7 +335,12 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
         if s.abs() <= 0.0 {
             continue;
         }
-        let cm: f64 = d.iter().enumerate().map(|(c, v)| (c as f64 + 0.5) * v).sum::<f64>() / s;
+        let cm: f64 = d
+            .iter()
+            .enumerate()
+            .map(|(c, v)| (c as f64 + 0.5) * v)
+            .sum::<f64>()
+            / s;
         if cm.is_finite() && cm > 1.0 && cm < (w - 2) as f64 {
             rows.push(r as f64);
             cents.push(cm);
@@ -332,8 +348,7 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
     }
     let noise = {
         let m = img.iter().sum::<f64>() / img.len() as f64;
-        let spread = img.iter().map(|v| (v - m).abs()).fold(0.0, f64::max);
-        spread
+        img.iter().map(|v| (v - m).abs()).fold(0.0, f64::max)
     };
     if rows.len() < h / 2 || contrast <= 1e-9 * noise.max(1e-300) || contrast == 0.0 {
         return Err(CalibError::InsufficientData(
@@ -394,9 +409,16 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
     // Hamming window centred on the LSF centroid.
     let tot: f64 = lsf.iter().sum();
     if tot.abs() <= 0.0 {
-        return Err(CalibError::InsufficientData("the edge-spread function is flat".into()));
+        return Err(CalibError::InsufficientData(
+            "the edge-spread function is flat".into(),
+        ));
     }
-    let cen = lsf.iter().enumerate().map(|(i, v)| i as f64 * v).sum::<f64>() / tot;
+    let cen = lsf
+        .iter()
+        .enumerate()
+        .map(|(i, v)| i as f64 * v)
+        .sum::<f64>()
+        / tot;
     let hw = (cen.min(nb as f64 - 1.0 - cen)).max(4.0);
     for (i, v) in lsf.iter_mut().enumerate() {
         let t = (i as f64 - cen) / hw;

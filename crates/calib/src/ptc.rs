@@ -254,7 +254,10 @@ pub fn photon_transfer(
                     .iter()
                     .map(|&i| points[i].photons_per_pixel.unwrap_or(0.0))
                     .collect();
-                let ly: Vec<f64> = lsel.iter().map(|&i| points[i].mean_dn - dark_mean).collect();
+                let ly: Vec<f64> = lsel
+                    .iter()
+                    .map(|&i| points[i].mean_dn - dark_mean)
+                    .collect();
                 let f = weighted_linear_fit(&lx, &ly, &vec![1.0; lx.len()])?;
                 let d: Vec<(f64, f64)> = lx
                     .iter()
@@ -268,7 +271,8 @@ pub fn photon_transfer(
                 let mn = d.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
                 (Some((mx - mn) / 2.0), d)
             } else {
-                warnings.push("fewer than 3 levels in 5–95 % of saturation: no linearity error".into());
+                warnings
+                    .push("fewer than 3 levels in 5–95 % of saturation: no linearity error".into());
                 (None, Vec::new())
             };
             (
@@ -312,14 +316,13 @@ pub fn photon_transfer(
     let bs = stack_stats(&bframes)?;
     progress(n + 3, total);
     if let Some(d) = dataset.as_mut() {
-        d.add_block('b', Some(points[i50].photons_per_pixel.unwrap_or(f64::NAN)), &bframes)?;
-        d.add_block('d', None, &dframes)?;
-        d.finish(
-            ds.width,
-            ds.height,
-            bframes[0].meta.bits,
-            opts.exposure_s,
+        d.add_block(
+            'b',
+            Some(points[i50].photons_per_pixel.unwrap_or(f64::NAN)),
+            &bframes,
         )?;
+        d.add_block('d', None, &dframes)?;
+        d.finish(ds.width, ds.height, bframes[0].meta.bits, opts.exposure_s)?;
     }
     let s2_dark = spatial_var(&ds.mean_image, ds.temporal_std_dn.powi(2), l);
     let s2_50 = spatial_var(&bs.mean_image, bs.temporal_std_dn.powi(2), l);
@@ -374,7 +377,12 @@ impl DatasetWriter {
         })
     }
 
-    fn add_block(&mut self, kind: char, photons: Option<f64>, frames: &[Frame]) -> Result<(), CalibError> {
+    fn add_block(
+        &mut self,
+        kind: char,
+        photons: Option<f64>,
+        frames: &[Frame],
+    ) -> Result<(), CalibError> {
         let mut names = Vec::new();
         for f in frames {
             let name = format!("images/{kind}_{:04}.tif", self.counter);
@@ -394,7 +402,13 @@ impl DatasetWriter {
         Ok(())
     }
 
-    fn finish(&self, w: usize, h: usize, bits: u8, exposure_s: Option<f64>) -> Result<(), CalibError> {
+    fn finish(
+        &self,
+        w: usize,
+        h: usize,
+        bits: u8,
+        exposure_s: Option<f64>,
+    ) -> Result<(), CalibError> {
         let texp_ns = exposure_s.unwrap_or(0.0) * 1e9;
         let mut s = String::new();
         s.push_str("# EMVA 1288 dataset written by gloam calibrate ptc\n");
@@ -404,7 +418,10 @@ impl DatasetWriter {
         s.push_str(&format!("n {bits} {w} {h}\n"));
         for (kind, photons, names) in &self.blocks {
             match kind {
-                'b' => s.push_str(&format!("b {texp_ns:.1} {:.6}\n", photons.unwrap_or(f64::NAN))),
+                'b' => s.push_str(&format!(
+                    "b {texp_ns:.1} {:.6}\n",
+                    photons.unwrap_or(f64::NAN)
+                )),
                 _ => s.push_str(&format!("d {texp_ns:.1}\n")),
             }
             for n in names {

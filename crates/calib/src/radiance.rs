@@ -22,6 +22,9 @@ pub struct RadianceOptions {
     /// A level counts as saturated when more than this fraction of its pixel
     /// samples sit at the digitizer maximum.
     pub clip_tolerance: f64,
+    /// A level is past the knee when its step slope (ΔDN/ΔL) falls below
+    /// this fraction of the mean slope from dark to the previous level.
+    pub knee_slope_ratio: f64,
 }
 
 impl Default for RadianceOptions {
@@ -31,6 +34,7 @@ impl Default for RadianceOptions {
             frames: 8,
             exposure_s: None,
             clip_tolerance: 1e-3,
+            knee_slope_ratio: 0.9,
         }
     }
 }
@@ -156,10 +160,12 @@ pub fn calibrate_radiance(
 
 /// Chooses the linear range of one gain's staircase and fits it.
 ///
-/// The dark point (L = 0) is always in the fit. Levels are dropped from the
-/// top while they are clipped (more than `clip_tolerance` of samples at the
-/// digitizer max) or no longer rise (full-well saturation below the
-/// digitizer max shows as a flat or falling mean).
+/// The dark point (L = 0) is always in the fit. Walking up the staircase,
+/// the linear range ends at the first level that is clipped (more than
+/// `clip_tolerance` of samples at the digitizer max), no longer rises, has
+/// a step slope below `knee_slope_ratio` of the mean slope so far, or whose
+/// temporal variance collapses (full-well saturation below the digitizer
+/// max); that level's DC is reported as `saturation_dn`.
 pub fn fit_gain(
     gain: f64,
     dark_dn: f64,
@@ -176,15 +182,35 @@ pub fn fit_gain(
     let mut last_ok = None;
     let mut prev_dn = dark_dn;
     let noise_floor = 3.0 * dark_std_dn / ((frames * pixels).max(1) as f64).sqrt();
+    let mut prev_l = 0.0;
+    let mut flat_after = false;
+    let mut prev_var = dark_std_dn * dark_std_dn;
     for (i, p) in pts.iter().enumerate() {
         let clipped = p.clipped_fraction > opts.clip_tolerance;
-        let not_rising = p.band_radiance_w_m2_sr > 0.0 && i > 0 && p.mean_dn <= prev_dn + noise_floor;
-        if clipped || (not_rising && last_ok.is_some()) {
+        let not_rising =
+            p.band_radiance_w_m2_sr > 0.0 && i > 0 && p.mean_dn <= prev_dn + noise_floor;
+        // The knee: the step's slope falls below `knee_slope_ratio` of the
+        // average slope from dark to the previous good level, or the
+        // temporal variance collapses (full well reached below the
+        // digitizer maximum).
+        let knee = last_ok.is_some() && {
+            let avg = (prev_dn - dark_dn) / prev_l;
+            let step = (p.mean_dn - prev_dn) / (p.band_radiance_w_m2_sr - prev_l);
+            let var = p.temporal_std_dn * p.temporal_std_dn;
+            (p.band_radiance_w_m2_sr > prev_l && avg > 0.0 && step < opts.knee_slope_ratio * avg)
+                || (prev_var > 0.0 && var < 0.5 * prev_var)
+        };
+        if clipped || knee || (not_rising && last_ok.is_some()) {
             saturation_dn = Some(p.mean_dn);
+            flat_after = not_rising;
             break;
         }
-        last_ok = Some(i);
-        prev_dn = p.mean_dn;
+        if p.band_radiance_w_m2_sr > 0.0 {
+            last_ok = Some(i);
+            prev_dn = p.mean_dn;
+            prev_l = p.band_radiance_w_m2_sr;
+            prev_var = p.temporal_std_dn * p.temporal_std_dn;
+        }
     }
     let n_ok = last_ok.map_or(0, |i| i + 1);
     // Levels with zero radiance add nothing beyond the dark point.
@@ -195,6 +221,11 @@ pub fn fit_gain(
         return Err(CalibError::InsufficientData(format!(
             "gain {gain}: no illuminated level below saturation (the first level already saturates{}); lower the radiance or the gain",
             saturation_dn.map_or(String::new(), |d| format!(" at {d:.1} DN"))
+        )));
+    }
+    if lit.len() == 1 && flat_after {
+        return Err(CalibError::InsufficientData(format!(
+            "gain {gain}: the output stops rising after the first illuminated level, so that level may already be saturated and no linear range can be established; lower the radiance or the gain"
         )));
     }
     if lit.len() < 2 {
@@ -314,7 +345,11 @@ impl Lut {
             .iter()
             .map(|&p| {
                 let v = p as f64;
-                if v >= sat { f32::NAN } else { (g * v + b) as f32 }
+                if v >= sat {
+                    f32::NAN
+                } else {
+                    (g * v + b) as f32
+                }
             })
             .collect())
     }

@@ -37,15 +37,28 @@ fn opt(v: Option<f64>, digits: usize) -> String {
 pub fn write_radiance_report(dir: &Path, lut: &Lut) -> Result<(), CalibError> {
     write_json(&dir.join("lut.json"), lut)?;
     let mut md = String::new();
-    let _ = writeln!(md, "# Radiance calibration\n\n- grabber: {}\n- source: {}\n- band: {:.0}–{:.0} nm\n", lut.grabber, lut.source, lut.band_nm[0], lut.band_nm[1]);
-    let _ = writeln!(md, "| gain | g (W m⁻² sr⁻¹/DN) | b (W m⁻² sr⁻¹) | R² | fit range (DN) | saturation (DN) | max residual (%) |");
+    let _ = writeln!(
+        md,
+        "# Radiance calibration\n\n- grabber: {}\n- source: {}\n- band: {:.0}–{:.0} nm\n",
+        lut.grabber, lut.source, lut.band_nm[0], lut.band_nm[1]
+    );
+    let _ = writeln!(
+        md,
+        "| gain | g (W m⁻² sr⁻¹/DN) | b (W m⁻² sr⁻¹) | R² | fit range (DN) | saturation (DN) | max residual (%) |"
+    );
     let _ = writeln!(md, "|---|---|---|---|---|---|---|");
     for g in &lut.gains {
         let _ = writeln!(
             md,
             "| {} | {:.6e} | {:.6e} | {:.6} | {:.1}–{:.1} | {} | {:.3} |",
-            g.gain, g.g_w_m2_sr_per_dn, g.b_w_m2_sr, g.r_squared, g.fit_range_dn[0], g.fit_range_dn[1],
-            opt(g.saturation_dn, 1), g.max_abs_residual_percent
+            g.gain,
+            g.g_w_m2_sr_per_dn,
+            g.b_w_m2_sr,
+            g.r_squared,
+            g.fit_range_dn[0],
+            g.fit_range_dn[1],
+            opt(g.saturation_dn, 1),
+            g.max_abs_residual_percent
         );
     }
     for g in &lut.gains {
@@ -53,7 +66,10 @@ pub fn write_radiance_report(dir: &Path, lut: &Lut) -> Result<(), CalibError> {
             let _ = writeln!(md, "\n> gain {}: {w}", g.gain);
         }
     }
-    let _ = writeln!(md, "\n![fit](radiance_fit.png)\n![residuals](linearity_residuals.png)");
+    let _ = writeln!(
+        md,
+        "\n![fit](radiance_fit.png)\n![residuals](linearity_residuals.png)"
+    );
     write_text(&dir.join("radiance.md"), &md)?;
     let fit: Vec<Series> = lut
         .gains
@@ -61,17 +77,31 @@ pub fn write_radiance_report(dir: &Path, lut: &Lut) -> Result<(), CalibError> {
         .map(|g| {
             Series::new(
                 &format!("gain {}", g.gain),
-                g.levels.iter().map(|p| (p.mean_dn, p.band_radiance_w_m2_sr)).collect(),
+                g.levels
+                    .iter()
+                    .map(|p| (p.mean_dn, p.band_radiance_w_m2_sr))
+                    .collect(),
                 Mark::LinePoints,
             )
         })
         .collect();
-    xy_plot(&dir.join("radiance_fit.png"), "Radiance vs digital count", "mean DC (DN)", "band radiance (W m^-2 sr^-1)", &fit)?;
+    xy_plot(
+        &dir.join("radiance_fit.png"),
+        "Radiance vs digital count",
+        "mean DC (DN)",
+        "band radiance (W m^-2 sr^-1)",
+        &fit,
+    )?;
     let res: Vec<Series> = lut
         .gains
         .iter()
         .map(|g| {
-            let lmax = g.levels.iter().map(|p| p.band_radiance_w_m2_sr).fold(0.0, f64::max).max(1e-300);
+            let lmax = g
+                .levels
+                .iter()
+                .map(|p| p.band_radiance_w_m2_sr)
+                .fold(0.0, f64::max)
+                .max(1e-300);
             Series::new(
                 &format!("gain {}", g.gain),
                 g.levels
@@ -82,23 +112,41 @@ pub fn write_radiance_report(dir: &Path, lut: &Lut) -> Result<(), CalibError> {
             )
         })
         .collect();
-    xy_plot(&dir.join("linearity_residuals.png"), "Linearity residuals", "mean DC (DN)", "residual (% of max radiance)", &res)
+    xy_plot(
+        &dir.join("linearity_residuals.png"),
+        "Linearity residuals",
+        "mean DC (DN)",
+        "residual (% of max radiance)",
+        &res,
+    )
 }
 
 /// `ptc.json`, `ptc.md`, `photon_transfer.png`, `ptc_linearity.png`.
 pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     write_json(&dir.join("ptc.json"), r)?;
     let mut md = String::new();
-    let _ = writeln!(md, "# Photon transfer (EMVA 1288 Release 4.0, linear module)\n");
+    let _ = writeln!(
+        md,
+        "# Photon transfer (EMVA 1288 Release 4.0, linear module)\n"
+    );
     let _ = writeln!(md, "| quantity | value |\n|---|---|");
     let rows: Vec<(&str, String)> = vec![
         ("gain setting", format!("{}", r.gain)),
-        ("system gain K (DN/e⁻)", format!("{:.5}", r.system_gain_dn_per_e)),
+        (
+            "system gain K (DN/e⁻)",
+            format!("{:.5}", r.system_gain_dn_per_e),
+        ),
         ("quantum efficiency", opt(r.quantum_efficiency, 4)),
         ("temporal dark noise (e⁻)", format!("{:.3}", r.dark_noise_e)),
-        ("saturation capacity (e⁻)", format!("{:.1}", r.saturation_capacity_e)),
+        (
+            "saturation capacity (e⁻)",
+            format!("{:.1}", r.saturation_capacity_e),
+        ),
         ("SNR max (dB)", format!("{:.2}", r.snr_max_db)),
-        ("absolute sensitivity threshold (e⁻)", format!("{:.3}", r.absolute_sensitivity_threshold_e)),
+        (
+            "absolute sensitivity threshold (e⁻)",
+            format!("{:.3}", r.absolute_sensitivity_threshold_e),
+        ),
         ("dynamic range (dB)", format!("{:.2}", r.dynamic_range_db)),
         ("linearity error (%)", opt(r.linearity_error_percent, 3)),
         ("DSNU (e⁻)", format!("{:.3}", r.dsnu_e)),
@@ -110,17 +158,33 @@ pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     for w in &r.warnings {
         let _ = writeln!(md, "\n> {w}");
     }
-    let _ = writeln!(md, "\nThe EMVA 1288 dataset (descriptor + images) is in `emva1288/`.\n\n![PTC](photon_transfer.png)\n![linearity](ptc_linearity.png)");
+    let _ = writeln!(
+        md,
+        "\nThe EMVA 1288 dataset (descriptor + images) is in `emva1288/`.\n\n![PTC](photon_transfer.png)\n![linearity](ptc_linearity.png)"
+    );
     write_text(&dir.join("ptc.md"), &md)?;
-    let pts: Vec<(f64, f64)> = r.points.iter().map(|p| (p.mean_dn - r.dark_mean_dn, p.temporal_var_dn2)).collect();
+    let pts: Vec<(f64, f64)> = r
+        .points
+        .iter()
+        .map(|p| (p.mean_dn - r.dark_mean_dn, p.temporal_var_dn2))
+        .collect();
     let smax = r.saturation_dn - r.dark_mean_dn;
-    let fit = vec![(0.0, r.dark_noise_dn.powi(2)), (0.7 * smax, r.dark_noise_dn.powi(2) + 0.7 * smax * r.system_gain_dn_per_e)];
+    let fit = vec![
+        (0.0, r.dark_noise_dn.powi(2)),
+        (
+            0.7 * smax,
+            r.dark_noise_dn.powi(2) + 0.7 * smax * r.system_gain_dn_per_e,
+        ),
+    ];
     xy_plot(
         &dir.join("photon_transfer.png"),
         "Photon transfer curve",
         "mean signal above dark (DN)",
         "temporal variance (DN^2)",
-        &[Series::new("measured", pts, Mark::Points), Series::new("K fit", fit, Mark::Line)],
+        &[
+            Series::new("measured", pts, Mark::Points),
+            Series::new("K fit", fit, Mark::Line),
+        ],
     )?;
     if !r.linearity_residuals_percent.is_empty() {
         xy_plot(
@@ -128,14 +192,22 @@ pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
             "Linearity deviation",
             "photons per pixel",
             "deviation (%)",
-            &[Series::new("δ", r.linearity_residuals_percent.clone(), Mark::LinePoints)],
+            &[Series::new(
+                "δ",
+                r.linearity_residuals_percent.clone(),
+                Mark::LinePoints,
+            )],
         )?;
     }
     Ok(())
 }
 
 /// `mtf.json` (frequencies, MTF values, mtf50, mtf10), `mtf.md`, `mtf.png`.
-pub fn write_mtf_report(dir: &Path, curves: &[MtfCurve], extra: serde_json::Value) -> Result<(), CalibError> {
+pub fn write_mtf_report(
+    dir: &Path,
+    curves: &[MtfCurve],
+    extra: serde_json::Value,
+) -> Result<(), CalibError> {
     let first = curves
         .first()
         .ok_or_else(|| CalibError::InsufficientData("no MTF curve".into()))?;
@@ -149,9 +221,16 @@ pub fn write_mtf_report(dir: &Path, curves: &[MtfCurve], extra: serde_json::Valu
         "details": extra,
     });
     write_json(&dir.join("mtf.json"), &json)?;
-    let mut md = String::from("# MTF\n\n| method | MTF50 (cy/px) | MTF10 (cy/px) |\n|---|---|---|\n");
+    let mut md =
+        String::from("# MTF\n\n| method | MTF50 (cy/px) | MTF10 (cy/px) |\n|---|---|---|\n");
     for c in curves {
-        let _ = writeln!(md, "| {} | {} | {} |", c.method, opt(c.mtf50, 4), opt(c.mtf10, 4));
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} |",
+            c.method,
+            opt(c.mtf50, 4),
+            opt(c.mtf10, 4)
+        );
     }
     let _ = writeln!(md, "\n![MTF](mtf.png)");
     write_text(&dir.join("mtf.md"), &md)?;
@@ -160,12 +239,22 @@ pub fn write_mtf_report(dir: &Path, curves: &[MtfCurve], extra: serde_json::Valu
         .map(|c| {
             Series::new(
                 &c.method,
-                c.frequencies_cy_per_px.iter().copied().zip(c.mtf.iter().copied()).collect(),
+                c.frequencies_cy_per_px
+                    .iter()
+                    .copied()
+                    .zip(c.mtf.iter().copied())
+                    .collect(),
                 Mark::LinePoints,
             )
         })
         .collect();
-    xy_plot(&dir.join("mtf.png"), "MTF", "spatial frequency (cycles/pixel)", "MTF", &series)
+    xy_plot(
+        &dir.join("mtf.png"),
+        "MTF",
+        "spatial frequency (cycles/pixel)",
+        "MTF",
+        &series,
+    )
 }
 
 /// `agc.json`, `agc.md`, `agc_step.png`, `agc_hysteresis.png`.
@@ -173,41 +262,113 @@ pub fn write_agc_report(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
     write_json(&dir.join("agc.json"), r)?;
     let mut md = String::from("# AGC linearisation\n\n| quantity | value |\n|---|---|\n");
     let _ = writeln!(md, "| all steps settled | {} |", r.all_settled);
-    let _ = writeln!(md, "| max settling time 10–90 % (µs) | {} |", opt(r.max_settling_time_us, 0));
-    let _ = writeln!(md, "| max overshoot (%) | {} |", opt(r.max_overshoot_percent, 2));
-    let _ = writeln!(md, "| hysteresis, AGC gain (%) | {:.3} |", r.hysteresis_gain_percent);
-    let _ = writeln!(md, "| hysteresis, overridden output (%) | {:.3} |", r.hysteresis_dn_percent);
-    let _ = writeln!(md, "| linearity error, overridden (%) | {:.3} |", r.linearity_error_percent);
-    let _ = writeln!(md, "| linearised AGC RMS error (%) | {} |", opt(r.linearised_rms_error_percent, 3));
-    let _ = writeln!(md, "| linearised AGC max error (%) | {} |", opt(r.linearised_max_error_percent, 3));
-    let _ = writeln!(md, "\n![step](agc_step.png)\n![hysteresis](agc_hysteresis.png)");
+    let _ = writeln!(
+        md,
+        "| max settling time 10–90 % (µs) | {} |",
+        opt(r.max_settling_time_us, 0)
+    );
+    let _ = writeln!(
+        md,
+        "| max overshoot (%) | {} |",
+        opt(r.max_overshoot_percent, 2)
+    );
+    let _ = writeln!(
+        md,
+        "| hysteresis, AGC gain (%) | {:.3} |",
+        r.hysteresis_gain_percent
+    );
+    let _ = writeln!(
+        md,
+        "| hysteresis, overridden output (%) | {:.3} |",
+        r.hysteresis_dn_percent
+    );
+    let _ = writeln!(
+        md,
+        "| linearity error, overridden (%) | {:.3} |",
+        r.linearity_error_percent
+    );
+    let _ = writeln!(
+        md,
+        "| linearised AGC RMS error (%) | {} |",
+        opt(r.linearised_rms_error_percent, 3)
+    );
+    let _ = writeln!(
+        md,
+        "| linearised AGC max error (%) | {} |",
+        opt(r.linearised_max_error_percent, 3)
+    );
+    let _ = writeln!(
+        md,
+        "\n![step](agc_step.png)\n![hysteresis](agc_hysteresis.png)"
+    );
     write_text(&dir.join("agc.md"), &md)?;
-    let idx = |v: &[crate::agc::AgcSample], f: fn(&crate::agc::AgcSample) -> f64| -> Vec<(f64, f64)> {
-        v.iter().enumerate().map(|(i, s)| (i as f64, f(s))).collect()
-    };
-    let gmax = r.agc_series.iter().map(|s| s.gain).fold(0.0, f64::max).max(1e-300);
-    let dmax = r.agc_series.iter().map(|s| s.mean_dn).fold(0.0, f64::max).max(1e-300);
-    let lmax = r.agc_series.iter().map(|s| s.band_radiance_w_m2_sr).fold(0.0, f64::max).max(1e-300);
-    let norm = |v: Vec<(f64, f64)>, m: f64| v.into_iter().map(|(x, y)| (x, y / m)).collect::<Vec<_>>();
+    let idx =
+        |v: &[crate::agc::AgcSample], f: fn(&crate::agc::AgcSample) -> f64| -> Vec<(f64, f64)> {
+            v.iter()
+                .enumerate()
+                .map(|(i, s)| (i as f64, f(s)))
+                .collect()
+        };
+    let gmax = r
+        .agc_series
+        .iter()
+        .map(|s| s.gain)
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let dmax = r
+        .agc_series
+        .iter()
+        .map(|s| s.mean_dn)
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let lmax = r
+        .agc_series
+        .iter()
+        .map(|s| s.band_radiance_w_m2_sr)
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let norm =
+        |v: Vec<(f64, f64)>, m: f64| v.into_iter().map(|(x, y)| (x, y / m)).collect::<Vec<_>>();
     xy_plot(
         &dir.join("agc_step.png"),
         "AGC staircase (normalised)",
         "frame",
         "relative value",
         &[
-            Series::new("radiance", norm(idx(&r.agc_series, |s| s.band_radiance_w_m2_sr), lmax), Mark::Line),
-            Series::new("AGC gain", norm(idx(&r.agc_series, |s| s.gain), gmax), Mark::Line),
-            Series::new("output DN", norm(idx(&r.agc_series, |s| s.mean_dn), dmax), Mark::Line),
+            Series::new(
+                "radiance",
+                norm(idx(&r.agc_series, |s| s.band_radiance_w_m2_sr), lmax),
+                Mark::Line,
+            ),
+            Series::new(
+                "AGC gain",
+                norm(idx(&r.agc_series, |s| s.gain), gmax),
+                Mark::Line,
+            ),
+            Series::new(
+                "output DN",
+                norm(idx(&r.agc_series, |s| s.mean_dn), dmax),
+                Mark::Line,
+            ),
         ],
     )?;
     let n = r.steps.len().div_ceil(2);
-    let up: Vec<(f64, f64)> = r.steps[..n].iter().map(|s| (s.band_radiance_w_m2_sr, s.final_gain)).collect();
-    let down: Vec<(f64, f64)> = r.steps[n - 1..].iter().map(|s| (s.band_radiance_w_m2_sr, s.final_gain)).collect();
+    let up: Vec<(f64, f64)> = r.steps[..n]
+        .iter()
+        .map(|s| (s.band_radiance_w_m2_sr, s.final_gain))
+        .collect();
+    let down: Vec<(f64, f64)> = r.steps[n - 1..]
+        .iter()
+        .map(|s| (s.band_radiance_w_m2_sr, s.final_gain))
+        .collect();
     xy_plot(
         &dir.join("agc_hysteresis.png"),
         "AGC hysteresis loop",
         "band radiance (W m^-2 sr^-1)",
         "settled gain",
-        &[Series::new("up", up, Mark::LinePoints), Series::new("down", down, Mark::LinePoints)],
+        &[
+            Series::new("up", up, Mark::LinePoints),
+            Series::new("down", down, Mark::LinePoints),
+        ],
     )
 }

@@ -199,7 +199,10 @@ pub enum NdFilter {
     /// Spectrally flat, `T = 10^−D`.
     Density(f64),
     /// A measured transmission curve.
-    Curve { name: String, transmission: Spectrum },
+    Curve {
+        name: String,
+        transmission: Spectrum,
+    },
 }
 
 impl NdFilter {
@@ -559,7 +562,9 @@ impl SourceFile {
         };
         let band_nm = match c.band_nm {
             Some([a, b]) if a.is_finite() && b.is_finite() && a > 0.0 && b > a => (a, b),
-            Some(b) => return Err(self.err(format!("camera.band_nm {b:?} is not an increasing pair"))),
+            Some(b) => {
+                return Err(self.err(format!("camera.band_nm {b:?} is not an increasing pair")));
+            }
             None => STIMULUS_BAND_NM,
         };
         Ok(CameraBand {
@@ -604,7 +609,9 @@ impl SourceFile {
                 "need lamp_flux_w > 0, 0 < reflectance < 1, 0 < port_fraction < 1, sphere_diameter_m > 0",
             ));
         }
-        let band = s.flux_band_nm.unwrap_or([STIMULUS_BAND_NM.0, STIMULUS_BAND_NM.1]);
+        let band = s
+            .flux_band_nm
+            .unwrap_or([STIMULUS_BAND_NM.0, STIMULUS_BAND_NM.1]);
         let lamp = self.spectrum(&s.lamp)?;
         let lamp_flux = lamp
             .normalized_to_band(band[0], band[1], flux)
@@ -710,7 +717,10 @@ impl SourceFile {
             .iter()
             .enumerate()
             .map(|(i, l)| ManualLevel {
-                label: l.label.clone().unwrap_or_else(|| format!("level {}", i + 1)),
+                label: l
+                    .label
+                    .clone()
+                    .unwrap_or_else(|| format!("level {}", i + 1)),
                 spectrum_csv: l.spectrum_csv.clone(),
             })
             .collect();
@@ -726,7 +736,9 @@ impl SourceFile {
             (Some(n), m) if n != m => {
                 return Err(self.err(format!("--levels {n} but the file lists {m} levels")));
             }
-            (None, 0) => return Err(self.err("a manual source needs [[source.levels]] or --levels")),
+            (None, 0) => {
+                return Err(self.err("a manual source needs [[source.levels]] or --levels"));
+            }
             _ => {}
         }
         Ok(ManualSource::new(
@@ -804,8 +816,11 @@ densities = [0.0, 1.0]
     #[test]
     fn manual_source_prompts_and_reads_csv() {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("l1.csv"), "wavelength_nm,radiance\n400,0.001\n1000,0.001\n")
-            .unwrap();
+        std::fs::write(
+            dir.path().join("l1.csv"),
+            "wavelength_nm,radiance\n400,0.001\n1000,0.001\n",
+        )
+        .unwrap();
         let text = r#"
 [source]
 kind = "manual"
@@ -818,7 +833,11 @@ label = "lamp 2"
         let f = SourceFile::parse(text, dir.path(), "m.toml").unwrap();
         let input = format!("\n{}\n", dir.path().join("l1.csv").display());
         let mut s = f
-            .open_manual(None, Box::new(std::io::Cursor::new(input)), Box::new(Vec::new()))
+            .open_manual(
+                None,
+                Box::new(std::io::Cursor::new(input)),
+                Box::new(Vec::new()),
+            )
             .unwrap();
         let a = s.set_level(0).unwrap();
         assert!((a.band_radiance_w_m2_sr - 0.6).abs() < 1e-12);

@@ -31,13 +31,7 @@ pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit,
             w.len()
         )));
     }
-    if x
-        .iter()
-        .chain(y)
-        .chain(w)
-        .any(|v| !v.is_finite())
-        || w.iter().any(|&v| v < 0.0)
-    {
+    if x.iter().chain(y).chain(w).any(|v| !v.is_finite()) || w.iter().any(|&v| v < 0.0) {
         return Err(CalibError::Invalid(
             "fit input holds a non-finite value or a negative weight".into(),
         ));
@@ -73,7 +67,11 @@ pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit,
     let ybar = y.iter().sum::<f64>() / y.len() as f64;
     let ss_tot: f64 = y.iter().map(|v| (v - ybar) * (v - ybar)).sum();
     let ss_res: f64 = residuals.iter().map(|r| r * r).sum();
-    let r_squared = if ss_tot > 0.0 { 1.0 - ss_res / ss_tot } else { 1.0 };
+    let r_squared = if ss_tot > 0.0 {
+        1.0 - ss_res / ss_tot
+    } else {
+        1.0
+    };
     Ok(LinearFit {
         slope,
         intercept,
@@ -115,7 +113,9 @@ pub fn pearson(x: &[f64], y: &[f64]) -> Result<f64, CalibError> {
         )));
     }
     if x.iter().chain(y).any(|v| !v.is_finite()) {
-        return Err(CalibError::Invalid("correlation input is not finite".into()));
+        return Err(CalibError::Invalid(
+            "correlation input is not finite".into(),
+        ));
     }
     let n = x.len() as f64;
     let mx = x.iter().sum::<f64>() / n;

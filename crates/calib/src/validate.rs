@@ -80,7 +80,11 @@ pub fn compare_images(
     let mut rv = Vec::new();
     for (i, r) in regions.iter().enumerate() {
         rv.push(RegionValues {
-            name: if r.name.is_empty() { format!("region {}", i + 1) } else { r.name.clone() },
+            name: if r.name.is_empty() {
+                format!("region {}", i + 1)
+            } else {
+                r.name.clone()
+            },
             truth: region_mean(truth, w, h, r)?,
             synthetic: region_mean(synthetic, w, h, r)?,
         });
@@ -111,7 +115,9 @@ pub fn panel_radiance_no_imaging(
         )));
     }
     let c = theta_deg.to_radians().cos().max(0.0);
-    let i = intensity_w_sr_nm.product(reflectance).integrate_band(band_nm.0, band_nm.1);
+    let i = intensity_w_sr_nm
+        .product(reflectance)
+        .integrate_band(band_nm.0, band_nm.1);
     Ok(c / (std::f64::consts::PI * r_m * r_m) * i)
 }
 
@@ -126,7 +132,10 @@ mod tests {
         let l = panel_radiance_no_imaging(&i, &r, 2.0, 60.0, (400.0, 700.0)).unwrap();
         let want = 0.5 / (std::f64::consts::PI * 4.0) * (0.01 * 300.0 * 0.5);
         assert!((l - want).abs() < 1e-12 * want);
-        assert_eq!(panel_radiance_no_imaging(&i, &r, 2.0, 120.0, (400.0, 700.0)).unwrap(), 0.0);
+        assert_eq!(
+            panel_radiance_no_imaging(&i, &r, 2.0, 120.0, (400.0, 700.0)).unwrap(),
+            0.0
+        );
     }
 
     #[test]
@@ -135,10 +144,16 @@ mod tests {
         let t = [1.0, 2.0, 3.0, 4.0, 5.0];
         let s = [5.0, 6.0, 7.0, 8.0, 7.0];
         let regions: Vec<Region> = (0..5)
-            .map(|x| Region { name: String::new(), x, y: 0, width: 1, height: 1 })
+            .map(|x| Region {
+                name: String::new(),
+                x,
+                y: 0,
+                width: 1,
+                height: 1,
+            })
             .collect();
         let c = compare_images(&t, &s, 5, 1, &regions).unwrap();
         assert!((c.spearman_rho - 0.820_782_681_668_123_3).abs() < 1e-12);
-        assert!((c.rms - (16.0f64 * 4.0 + 4.0) .sqrt() / 5f64.sqrt()).abs() < 1e-12);
+        assert!((c.rms - (16.0f64 * 4.0 + 4.0).sqrt() / 5f64.sqrt()).abs() < 1e-12);
     }
 }
