@@ -124,7 +124,11 @@ fn ephem_json_matches_the_library() {
         e.sun.elevation_deg,
         "sun el",
     );
-    close(num(&v, &["sun", "azimuth_deg"]), e.sun.azimuth_deg, "sun az");
+    close(
+        num(&v, &["sun", "azimuth_deg"]),
+        e.sun.azimuth_deg,
+        "sun az",
+    );
     // the scenario's numbers, as recorded in docs/night-sky.md
     assert!((num(&v, &["moon", "elevation_deg"]) - 54.37).abs() < 0.01);
     assert!(num(&v, &["moon", "illuminated_fraction"]) > 0.999);
@@ -136,14 +140,25 @@ fn ephem_text_output_is_readable() {
     let out = gloam(&["ephem", "--lat", LAT, "--lon", LON, "--utc", HALF]);
     assert!(out.status.success());
     let s = String::from_utf8_lossy(&out.stdout);
-    for w in ["moon", "elevation", "azimuth", "illuminated", "waning", "sun"] {
+    for w in [
+        "moon",
+        "elevation",
+        "azimuth",
+        "illuminated",
+        "waning",
+        "sun",
+    ] {
         assert!(s.contains(w), "missing {w:?} in:\n{s}");
     }
 }
 
 #[test]
 fn sky_json_matches_the_library_and_the_anchors() {
-    for (utc, lo, hi) in [(FULL, 0.05, 0.4), (HALF, 0.005, 0.06), (NEW, 0.9e-3, 1.1e-3)] {
+    for (utc, lo, hi) in [
+        (FULL, 0.05, 0.4),
+        (HALF, 0.005, 0.06),
+        (NEW, 0.9e-3, 1.1e-3),
+    ] {
         let v = ok_json(&[
             "sky",
             "--lat",
@@ -197,7 +212,8 @@ fn sky_overcast_and_text_output() {
         "--json",
     ]);
     assert_eq!(num(&oc, &["illuminance_lux", "moon_direct"]), 0.0);
-    let ratio = num(&oc, &["illuminance_lux", "total"]) / num(&clear, &["illuminance_lux", "total"]);
+    let ratio =
+        num(&oc, &["illuminance_lux", "total"]) / num(&clear, &["illuminance_lux", "total"]);
     assert!((0.09..0.11).contains(&ratio), "overcast/clear {ratio}");
     let out = gloam(&["sky", "--lat", LAT, "--lon", LON, "--utc", NEW]);
     assert!(out.status.success());
@@ -403,7 +419,10 @@ fn the_six_night_scenes_load_and_plan() {
         assert_eq!(p.is_enabled(names::MOON), moon, "{name}: moon\n{p}");
         assert!(p.is_enabled(names::NIGHT_SKY), "{name}: night sky\n{p}");
         assert!(p.is_enabled(names::ATMOSPHERE), "{name}\n{p}");
-        assert!(p.is_enabled(names::SPECULAR_RECURSION), "{name}: aluminium\n{p}");
+        assert!(
+            p.is_enabled(names::SPECULAR_RECURSION),
+            "{name}: aluminium\n{p}"
+        );
         assert_eq!(
             p.is_enabled(names::SHAPED_POINT_SOURCES),
             lamps,
@@ -415,12 +434,18 @@ fn the_six_night_scenes_load_and_plan() {
         let t = UtcInstant::parse_iso8601(&sky.utc).unwrap();
         let s = Site::new(sky.latitude_deg, sky.longitude_deg, sky.height_m).unwrap();
         let e = ephemeris(t, &s, Refraction::STANDARD);
-        assert!(e.sun.elevation_deg < -18.0, "{name}: not astronomical night");
+        assert!(
+            e.sun.elevation_deg < -18.0,
+            "{name}: not astronomical night"
+        );
         let k = e.illuminated_fraction;
         if name.contains("full") {
             assert!(k > 0.99 && e.moon.elevation_deg > 40.0, "{name}");
         } else if name.contains("half") {
-            assert!((k - 0.5).abs() < 0.1 && e.moon.elevation_deg > 40.0, "{name}");
+            assert!(
+                (k - 0.5).abs() < 0.1 && e.moon.elevation_deg > 40.0,
+                "{name}"
+            );
         } else {
             assert!(k < 0.01 && e.moon.elevation_deg < 0.0, "{name}");
         }

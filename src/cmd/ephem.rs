@@ -68,10 +68,10 @@ pub struct EphemArgs {
     #[arg(long, default_value_t = -18.0, allow_negative_numbers = true)]
     pub max_sun_elevation_deg: f64,
     /// --find: tolerance on the illuminated fraction for full/half.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub fraction_tolerance: f64,
     /// --find: shortest usable run worth reporting, hours.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub min_hours: f64,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -28,7 +28,7 @@ pub struct SkyArgs {
     #[arg(long)]
     pub utc: String,
     /// Meteorological visibility, km (Koschmieder; sets the aerosol load).
-    #[arg(long, default_value_t = 23.0)]
+    #[arg(long, default_value_t = 23.0, allow_negative_numbers = true)]
     pub visibility_km: f64,
     /// Complete overcast: no direct beam; 10 % of the clear-sky moonlight
     /// and night-sky light passes the cloud deck as a uniform dome.
@@ -149,10 +149,7 @@ pub fn run(args: SkyArgs) -> anyhow::Result<()> {
                 cloud,
                 height_m: args.height_m,
             },
-            spectra_out: args
-                .spectra_out
-                .as_ref()
-                .map(|p| p.display().to_string()),
+            spectra_out: args.spectra_out.as_ref().map(|p| p.display().to_string()),
         });
     }
     println!(
