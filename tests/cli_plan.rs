@@ -96,7 +96,10 @@ fn plan_table_output() {
                 .to_string()
         };
         let area_row = row("area-sources");
-        assert!(area_row.contains("yes") && area_row.contains(area), "{area_row}");
+        assert!(
+            area_row.contains("yes") && area_row.contains(area),
+            "{area_row}"
+        );
         assert!(row("moon").contains(" no "), "{text}");
         assert!(row("sensor").contains(" no "), "{text}");
         for e in ALL {
@@ -123,7 +126,11 @@ fn plan_broken_scene_fails_with_file_and_line() {
     assert!(err.contains("exceeds 1"), "{err}");
 
     // A file that does not exist.
-    let out = gloam(&["plan", dir.path().join("nope.toml").to_str().unwrap(), "--json"]);
+    let out = gloam(&[
+        "plan",
+        dir.path().join("nope.toml").to_str().unwrap(),
+        "--json",
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("nope.toml"));
 }

@@ -23,12 +23,13 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     if args.json {
         print_json(&plan)?;
     } else {
+        let n = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
         println!(
-            "{}: {} facets, {} point sources, {} bands, units {}",
+            "{}: {}, {}, {}, units {}",
             args.scene.display(),
-            scene.facets.len(),
-            scene.point_sources.len(),
-            scene.bands.len(),
+            n(scene.facets.len(), "facet"),
+            n(scene.point_sources.len(), "point source"),
+            n(scene.bands.len(), "band"),
             scene.units.as_str()
         );
         println!();

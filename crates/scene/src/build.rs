@@ -576,6 +576,9 @@ fn object(
     } else if let Some(file) = &o.obj {
         let at = field.key("obj");
         let p = cx.resolve(file);
+        // `..Default::default()` keeps this compiling if tobj's optional
+        // `merging`/`reordering` features (more fields) get enabled.
+        #[allow(clippy::needless_update)]
         let opts = tobj::LoadOptions {
             triangulate: false,
             single_index: false,

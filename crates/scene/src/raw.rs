@@ -149,11 +149,36 @@ pub(crate) struct RawObject {
     pub scale: Option<RawScale>,
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(untagged)]
+/// `scale = 2.0` or `scale = [sx, sy, sz]`.
+#[derive(Debug)]
 pub(crate) enum RawScale {
     Uniform(f64),
     PerAxis(V3),
+}
+
+impl<'de> Deserialize<'de> for RawScale {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RawScale;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number (uniform scale) or [sx, sy, sz]")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<RawScale, E> {
+                Ok(RawScale::Uniform(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<RawScale, E> {
+                Ok(RawScale::Uniform(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<RawScale, E> {
+                Ok(RawScale::Uniform(v as f64))
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(self, seq: A) -> Result<RawScale, A::Error> {
+                V3::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(RawScale::PerAxis)
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 #[derive(Debug, Deserialize)]

@@ -92,7 +92,12 @@ fn toml_syntax_error_names_line() {
 #[test]
 fn unknown_key_in_header_table() {
     let text = format!("{BASE}[materials.paint]\nreflectance = 0.5\nshine = 2.0\n");
-    expect_err(&text, next_line() + 2, "materials.paint.shine", "unknown field `shine`");
+    expect_err(
+        &text,
+        next_line() + 2,
+        "materials.paint.shine",
+        "unknown field `shine`",
+    );
 }
 
 #[test]
@@ -100,7 +105,12 @@ fn unknown_key_in_inline_table() {
     let text = format!(
         "{BASE}[objects.q]\nmaterial = \"grey\"\nquad = {{ center = [0.0, 0.0, 1.0], size = [1.0, 1.0], normal = [0.0, 0.0, 1.0], colour = 3 }}\n"
     );
-    expect_err(&text, next_line() + 2, "objects.q.quad.colour", "unknown field `colour`");
+    expect_err(
+        &text,
+        next_line() + 2,
+        "objects.q.quad.colour",
+        "unknown field `colour`",
+    );
 }
 
 #[test]
@@ -109,7 +119,12 @@ fn unknown_top_level_key() {
     expect_err(&text, 2, "lights", "unknown field `lights`");
     // Appended after a table header, the key belongs to that table.
     let text = format!("{BASE}lights = 3\n");
-    expect_err(&text, next_line(), "objects.floor.lights", "unknown field `lights`");
+    expect_err(
+        &text,
+        next_line(),
+        "objects.floor.lights",
+        "unknown field `lights`",
+    );
 }
 
 #[test]
@@ -138,7 +153,12 @@ fn feet_units() {
 #[test]
 fn unknown_material() {
     let text = BASE.replace("material = \"grey\"", "material = \"gray\"");
-    expect_err(&text, 18, "objects.floor.material", "unknown material 'gray'");
+    expect_err(
+        &text,
+        18,
+        "objects.floor.material",
+        "unknown material 'gray'",
+    );
 }
 
 #[test]
@@ -157,7 +177,12 @@ fn unknown_spectrum() {
 #[test]
 fn unknown_reflectance_spectrum() {
     let text = BASE.replace("reflectance = 0.5", "reflectance = \"paint.csv\"");
-    expect_err(&text, 15, "materials.grey.reflectance", "unknown spectrum 'paint.csv'");
+    expect_err(
+        &text,
+        15,
+        "materials.grey.reflectance",
+        "unknown spectrum 'paint.csv'",
+    );
 }
 
 #[test]
@@ -174,8 +199,11 @@ fn csv_spectrum_relative_to_scene_and_its_errors() {
     )
     .unwrap();
     let path = scene_path(dir.path());
-    let s = parse_str(&BASE.replace("reflectance = 0.5", "reflectance = \"paint.csv\""), &path)
-        .unwrap();
+    let s = parse_str(
+        &BASE.replace("reflectance = 0.5", "reflectance = \"paint.csv\""),
+        &path,
+    )
+    .unwrap();
     assert!((s.materials[0].reflectance.eval(550.0) - 0.3).abs() < 1e-12);
     let msg = expect_err_at(
         &BASE.replace("reflectance = 0.5", "reflectance = \"bad.csv\""),
@@ -190,9 +218,7 @@ fn csv_spectrum_relative_to_scene_and_its_errors() {
 // --- geometry ------------------------------------------------------------------
 
 fn inline_object(vertices: &str, faces: &str) -> String {
-    format!(
-        "{BASE}[objects.thing]\nmaterial = \"grey\"\nvertices = {vertices}\nfaces = {faces}\n"
-    )
+    format!("{BASE}[objects.thing]\nmaterial = \"grey\"\nvertices = {vertices}\nfaces = {faces}\n")
 }
 
 #[test]
@@ -201,7 +227,12 @@ fn zero_area_triangle() {
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]]",
         "[[0, 1, 2]]",
     );
-    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "zero area");
+    expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "zero area",
+    );
 }
 
 #[test]
@@ -220,7 +251,12 @@ fn collinear_quad_vertices() {
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0], [1.0, 1.0, 1.0]]",
         "[[0, 1, 2, 3]]",
     );
-    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "collinear");
+    expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "collinear",
+    );
 }
 
 #[test]
@@ -229,7 +265,12 @@ fn non_planar_quad() {
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.2], [0.0, 1.0, 1.0]]",
         "[[0, 1, 2, 3]]",
     );
-    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "non-planar");
+    expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "non-planar",
+    );
 }
 
 #[test]
@@ -248,7 +289,12 @@ fn non_convex_quad() {
         "[[0.0, 0.0, 1.0], [2.0, 0.0, 1.0], [1.0, 2.0, 1.0], [1.0, 0.5, 1.0]]",
         "[[0, 1, 2, 3]]",
     );
-    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "non-convex");
+    expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "non-convex",
+    );
     // A bow-tie (self-intersecting).
     let text = inline_object(
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [1.0, 1.0, 1.0]]",
@@ -263,7 +309,12 @@ fn face_index_out_of_range_and_bad_arity() {
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
         "[[0, 1, 3]]",
     );
-    expect_err(&text, next_line() + 3, "objects.thing.faces[0]", "out of range");
+    expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "out of range",
+    );
     let text = inline_object(
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
         "[[0, 1]]",
@@ -277,7 +328,12 @@ fn nan_and_infinite_coordinates() {
         "[[0.0, 0.0, 1.0], [1.0, nan, 1.0], [0.0, 1.0, 1.0]]",
         "[[0, 1, 2]]",
     );
-    expect_err(&text, next_line() + 2, "objects.thing.vertices[1][1]", "not a finite");
+    expect_err(
+        &text,
+        next_line() + 2,
+        "objects.thing.vertices[1][1]",
+        "not a finite",
+    );
     let text = BASE.replace("position = [0.0, -5.0, 1.5]", "position = [0.0, -inf, 1.5]");
     expect_err(&text, 4, "camera.position[1]", "not a finite");
     let text = BASE.replace("center = [0.0, 0.0, 0.0]", "center = [0.0, 0.0, nan]");
@@ -309,7 +365,13 @@ fn obj_file_errors() {
     let dir = tempfile::tempdir().unwrap();
     let path = scene_path(dir.path());
     let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"missing.obj\"\n");
-    expect_err_at(&text, &path, next_line() + 2, "objects.m.obj", "cannot load OBJ");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "cannot load OBJ",
+    );
     std::fs::write(
         dir.path().join("warped.obj"),
         "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nf 1 2 3 4\n",
@@ -323,7 +385,13 @@ fn obj_file_errors() {
     )
     .unwrap();
     let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"penta.obj\"\n");
-    expect_err_at(&text, &path, next_line() + 2, "objects.m.obj", "this one has 5");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "this one has 5",
+    );
 }
 
 #[test]
@@ -352,7 +420,12 @@ fn obj_quads_kept_and_transformed() {
 #[test]
 fn negative_reflectance() {
     let text = BASE.replace("reflectance = 0.5", "reflectance = -0.1");
-    expect_err(&text, 15, "materials.grey.reflectance", "negative reflectance");
+    expect_err(
+        &text,
+        15,
+        "materials.grey.reflectance",
+        "negative reflectance",
+    );
 }
 
 #[test]
@@ -370,7 +443,12 @@ fn transmission_above_one() {
         "reflectance = 0.5",
         "reflectance = 0.0\ntransmission = { value = 0.5, scale = 2.5 }",
     );
-    expect_err(&text, 16, "materials.grey.transmission", "transmission 1.25");
+    expect_err(
+        &text,
+        16,
+        "materials.grey.transmission",
+        "transmission 1.25",
+    );
 }
 
 #[test]
@@ -378,14 +456,17 @@ fn reflectance_plus_transmission_above_one() {
     let text = BASE.replace("reflectance = 0.5", "reflectance = 0.5\ntransmission = 0.6");
     expect_err(&text, 16, "materials.grey.transmission", "exceeds 1");
     // A leaf: ρ + τ ≤ 1 is fine.
-    let s = parse(&BASE.replace("reflectance = 0.5", "reflectance = 0.4\ntransmission = 0.5"))
-        .unwrap();
+    let s =
+        parse(&BASE.replace("reflectance = 0.5", "reflectance = 0.4\ntransmission = 0.5")).unwrap();
     assert!(s.materials[0].is_transmissive());
 }
 
 #[test]
 fn specular_fraction_range() {
-    let text = BASE.replace("reflectance = 0.5", "reflectance = 0.5\nspecular_fraction = 1.5");
+    let text = BASE.replace(
+        "reflectance = 0.5",
+        "reflectance = 0.5\nspecular_fraction = 1.5",
+    );
     expect_err(&text, 16, "materials.grey.specular_fraction", "within 0..1");
 }
 
@@ -406,13 +487,30 @@ fn emission_normalisation_and_errors() {
     let text = format!(
         "{BASE}[materials.panel]\nemission = {{ spectrum = \"lps\", normalize = {{ lo_nm = 300, hi_nm = 380, value = 1.0 }} }}\n"
     );
-    expect_err(&text, next_line() + 1, "materials.panel.emission.normalize", "integrates to zero");
+    expect_err(
+        &text,
+        next_line() + 1,
+        "materials.panel.emission.normalize",
+        "integrates to zero",
+    );
 
-    let text = format!("{BASE}[materials.panel]\nemission = {{ value = 1.0, shape_exponent = -1 }}\n");
-    expect_err(&text, next_line() + 1, "materials.panel.emission.shape_exponent", "≥ 0");
+    let text =
+        format!("{BASE}[materials.panel]\nemission = {{ value = 1.0, shape_exponent = -1 }}\n");
+    expect_err(
+        &text,
+        next_line() + 1,
+        "materials.panel.emission.shape_exponent",
+        "≥ 0",
+    );
 
-    let text = format!("{BASE}[materials.panel]\nemission = {{ spectrum = \"hps\", value = 1.0 }}\n");
-    expect_err(&text, next_line() + 1, "materials.panel.emission.value", "not both");
+    let text =
+        format!("{BASE}[materials.panel]\nemission = {{ spectrum = \"hps\", value = 1.0 }}\n");
+    expect_err(
+        &text,
+        next_line() + 1,
+        "materials.panel.emission.value",
+        "not both",
+    );
 }
 
 #[test]
@@ -429,9 +527,19 @@ fn point_source_parsing_and_errors() {
     let text = format!(
         "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\ndirection = [0.0, 0.0, 0.0]\nvalue = 1.0\n"
     );
-    expect_err(&text, next_line() + 2, "point_sources.lamp.direction", "zero vector");
+    expect_err(
+        &text,
+        next_line() + 2,
+        "point_sources.lamp.direction",
+        "zero vector",
+    );
     let text = format!("{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\n");
-    expect_err(&text, next_line(), "point_sources.lamp", "missing `spectrum`");
+    expect_err(
+        &text,
+        next_line(),
+        "point_sources.lamp",
+        "missing `spectrum`",
+    );
 }
 
 // --- camera, bands, sky ------------------------------------------------------------
@@ -475,10 +583,16 @@ fn sky_parsing_and_errors() {
     assert!(sky.moon && sky.night_sky && !sky.overcast);
     assert_eq!(sky.visibility_km, 23.0);
     // A native TOML datetime works too.
-    let s = parse(&format!("{BASE}{}", SKY.replace("\"2024-03-14T22:30:00Z\"", "2024-03-14T22:30:00Z")))
-        .unwrap();
+    let s = parse(&format!(
+        "{BASE}{}",
+        SKY.replace("\"2024-03-14T22:30:00Z\"", "2024-03-14T22:30:00Z")
+    ))
+    .unwrap();
     assert_eq!(s.sky.unwrap().utc, "2024-03-14T22:30:00Z");
-    let text = format!("{BASE}{}", SKY.replace("2024-03-14T22:30:00Z", "14/03/2024 22:30"));
+    let text = format!(
+        "{BASE}{}",
+        SKY.replace("2024-03-14T22:30:00Z", "14/03/2024 22:30")
+    );
     expect_err(&text, next_line() + 1, "sky.utc", "ISO-8601");
     let text = format!("{BASE}{}", SKY.replace("32.2", "95.0"));
     expect_err(&text, next_line() + 2, "sky.latitude_deg", "-90..90");
@@ -521,18 +635,32 @@ fn facet_area_normal_centroid() {
     let r = f(&[[0.0, 0.0, 0.0], [0.0, 4.0, 0.0], [3.0, 0.0, 0.0]]);
     assert!((r.normal() + DVec3::Z).length() < 1e-15);
     // Tilted parallelogram: a = (2,0,0), b = (1,3,4): area |a×b| = 2·5 = 10.
-    let p = f(&[[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 3.0, 4.0], [1.0, 3.0, 4.0]]);
+    let p = f(&[
+        [0.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [3.0, 3.0, 4.0],
+        [1.0, 3.0, 4.0],
+    ]);
     assert!((p.area() - 10.0).abs() < 1e-12);
     assert!((p.normal() - DVec3::new(0.0, -0.8, 0.6)).length() < 1e-12);
     assert!((p.centroid() - DVec3::new(1.5, 1.5, 2.0)).length() < 1e-12);
     // Trapezoid (parallel sides 4 and 2, height 2): area 6; centroid height
     // h(2a+b)/(3(a+b)) above the longer side = 2·(2·2+4)/(3·6)... from the
     // side of length 4: h(a + 2b)/(3(a+b)) with a = 4, b = 2 → 2·8/18.
-    let z = f(&[[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [3.0, 2.0, 0.0], [1.0, 2.0, 0.0]]);
+    let z = f(&[
+        [0.0, 0.0, 0.0],
+        [4.0, 0.0, 0.0],
+        [3.0, 2.0, 0.0],
+        [1.0, 2.0, 0.0],
+    ]);
     assert!((z.area() - 6.0).abs() < 1e-12);
     assert!((z.centroid() - DVec3::new(2.0, 16.0 / 18.0, 0.0)).length() < 1e-12);
     // Far from the origin the area stays exact.
-    let far = f(&[[1e6, 1e6, 5.0], [1e6 + 1.0, 1e6, 5.0], [1e6, 1e6 + 1.0, 5.0]]);
+    let far = f(&[
+        [1e6, 1e6, 5.0],
+        [1e6 + 1.0, 1e6, 5.0],
+        [1e6, 1e6 + 1.0, 5.0],
+    ]);
     assert!((far.area() - 0.5).abs() < 1e-9);
 }
 
@@ -584,7 +712,12 @@ fn box_helper_faces_outward_and_inward() {
     let s = parse(&text).unwrap();
     assert_eq!(s.facets.iter().filter(|f| f.object == "b").count(), 4);
     let text = text.replace("\"+x\"", "\"east\"");
-    expect_err(&text, next_line() + 2, "objects.b.box.omit[1]", "unknown box face 'east'");
+    expect_err(
+        &text,
+        next_line() + 2,
+        "objects.b.box.omit[1]",
+        "unknown box face 'east'",
+    );
 }
 
 #[test]
@@ -611,7 +744,10 @@ fn camera_projection_round_trip_and_frustum() {
     assert!(big.iter().all(|&v| !c.sees_point(v)));
     assert!(c.frustum_overlaps(&big));
     // Entirely behind.
-    let behind: Vec<DVec3> = big.iter().map(|v| *v - DVec3::new(0.0, 20.0, 0.0)).collect();
+    let behind: Vec<DVec3> = big
+        .iter()
+        .map(|v| *v - DVec3::new(0.0, 20.0, 0.0))
+        .collect();
     assert!(!c.frustum_overlaps(&behind));
 }
 
@@ -699,14 +835,27 @@ fn plan_outdoor_scene() {
     assert!(!p.is_enabled("area-sources"));
     assert_eq!(p.get("area-sources").unwrap().reason, "no emitting facets");
     assert!(p.is_enabled("shaped-point-sources"));
-    assert!(p.get("shaped-point-sources").unwrap().reason.contains("streetlight m = 3"));
+    assert!(
+        p.get("shaped-point-sources")
+            .unwrap()
+            .reason
+            .contains("streetlight m = 3")
+    );
     assert!(p.is_enabled("point-sources"));
     assert!(p.get("point-sources").unwrap().reason.contains("porch"));
     assert!(p.is_enabled("transmissive-occluders"));
-    assert!(p.get("transmissive-occluders").unwrap().reason.contains("leaf"));
+    assert!(
+        p.get("transmissive-occluders")
+            .unwrap()
+            .reason
+            .contains("leaf")
+    );
     assert!(p.is_enabled("specular-recursion"));
     let spec = &p.get("specular-recursion").unwrap().reason;
-    assert!(spec.contains("glass 0.9") && !spec.contains("unused-mirror"), "{spec}");
+    assert!(
+        spec.contains("glass 0.9") && !spec.contains("unused-mirror"),
+        "{spec}"
+    );
     // The porch light (isotropic) is in view; the streetlight points down,
     // away from the camera at 1.7 m... the camera is below it, so it is seen too.
     let dv = &p.get("direct-view").unwrap().reason;
@@ -740,7 +889,10 @@ fn plan_direct_view_respects_facing_and_frustum() {
     let away = "[point_sources.spot]\nposition = [0.0, 0.0, 1.0]\ndirection = [0.0, 1.0, 0.0]\nshape_exponent = 2\nvalue = 1.0\n";
     let s = parse(&format!("{BASE}{away}")).unwrap();
     assert!(!plan(&s).is_enabled("direct-view"));
-    let toward = away.replace("direction = [0.0, 1.0, 0.0]", "direction = [0.0, -1.0, 0.0]");
+    let toward = away.replace(
+        "direction = [0.0, 1.0, 0.0]",
+        "direction = [0.0, -1.0, 0.0]",
+    );
     let s = parse(&format!("{BASE}{toward}")).unwrap();
     assert!(plan(&s).is_enabled("direct-view"));
 }
@@ -761,5 +913,30 @@ fn plan_is_extensible() {
     assert_eq!(p.effects[10].name, "mcp-gain");
     assert_eq!(p.enabled(), ["sensor", "mcp-gain"]);
     let table = p.to_string();
-    assert!(table.lines().any(|l| l.starts_with("mcp-gain") && l.contains("yes")));
+    assert!(
+        table
+            .lines()
+            .any(|l| l.starts_with("mcp-gain") && l.contains("yes"))
+    );
+}
+
+#[test]
+fn documented_example_parses_and_enables_every_effect() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let start = doc.find("## A complete example").unwrap();
+    let body = &doc[start..];
+    let open = body.find("```toml\n").unwrap() + "```toml\n".len();
+    let close = body[open..].find("```").unwrap();
+    let text = &body[open..open + close];
+    let s = parse(text).unwrap_or_else(|e| panic!("{e}"));
+    let p = plan(&s);
+    for e in &p.effects {
+        assert!(e.enabled, "{}: {}", e.name, e.reason);
+    }
+    assert!(p.get("area-sources").unwrap().reason.contains("sign m = 1"));
+    let dv = &p.get("direct-view").unwrap().reason;
+    assert!(
+        dv.contains("sign") && dv.contains("streetlight") && dv.contains("porch"),
+        "{dv}"
+    );
 }

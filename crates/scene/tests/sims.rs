@@ -20,7 +20,10 @@ fn panel_validation_scene() {
     assert!(s.sky.is_none());
     assert!(s.point_sources.is_empty());
     assert_eq!(s.bands.len(), 1);
-    assert_eq!((s.bands[0].name.as_str(), s.bands[0].lo_nm, s.bands[0].hi_nm), ("vis", 400.0, 700.0));
+    assert_eq!(
+        (s.bands[0].name.as_str(), s.bands[0].lo_nm, s.bands[0].hi_nm),
+        ("vis", 400.0, 700.0)
+    );
 
     let emitting = s.emitting_facets();
     assert_eq!(emitting.len(), 1);
@@ -37,7 +40,10 @@ fn panel_validation_scene() {
     assert_eq!(e.shape_exponent, 0.0);
     let l = &e.radiance_w_m2_sr_nm;
     assert!((l.integrate_band(400.0, 700.0) - 15.058).abs() < 1e-12);
-    assert!((l.eval(450.0) - l.eval(650.0)).abs() < 1e-15, "flat spectrum");
+    assert!(
+        (l.eval(450.0) - l.eval(650.0)).abs() < 1e-15,
+        "flat spectrum"
+    );
 
     let floor = s.facets.iter().find(|f| f.object == "floor").unwrap();
     assert!((floor.normal() - DVec3::Z).length() < 1e-15);
@@ -48,11 +54,20 @@ fn panel_validation_scene() {
     // The documented image positions (scene.toml header comment).
     let c = &s.camera;
     let (x, y) = c.project(DVec3::ZERO).unwrap();
-    assert!((x - 160.0).abs() < 1e-9 && (y - 211.7).abs() < 0.05, "floor point at ({x}, {y})");
+    assert!(
+        (x - 160.0).abs() < 1e-9 && (y - 211.7).abs() < 0.05,
+        "floor point at ({x}, {y})"
+    );
     let (x, y) = c.project(DVec3::new(0.0, 0.0, 9.0)).unwrap();
-    assert!((x - 160.0).abs() < 1e-9 && (y - 30.8).abs() < 0.05, "panel centre at ({x}, {y})");
+    assert!(
+        (x - 160.0).abs() < 1e-9 && (y - 30.8).abs() < 0.05,
+        "panel centre at ({x}, {y})"
+    );
     assert!(c.frustum_overlaps(&panel.vertices));
-    assert!(panel.vertices.iter().all(|&v| c.sees_point(v)), "the whole panel is in view");
+    assert!(
+        panel.vertices.iter().all(|&v| c.sees_point(v)),
+        "the whole panel is in view"
+    );
 
     let p = plan(&s);
     assert_eq!(p.enabled(), ["area-sources", "direct-view"]);
@@ -67,7 +82,11 @@ fn panel_validation_scene() {
 fn office_room_scene() {
     let s = load(&sim("office-room")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.units, Units::Feet);
-    assert!(s.facets.len() > 50 && s.facets.len() < 500, "{} facets", s.facets.len());
+    assert!(
+        s.facets.len() > 50 && s.facets.len() < 500,
+        "{} facets",
+        s.facets.len()
+    );
     assert_eq!(
         s.bands.iter().map(|b| b.name.as_str()).collect::<Vec<_>>(),
         ["vis", "nir"]
@@ -89,11 +108,24 @@ fn office_room_scene() {
     // The room faces inward: every wall, floor and ceiling normal points at
     // the room's centre.
     let centre = DVec3::new(10.0, 7.5, 4.5);
-    for f in s.facets.iter().filter(|f| ["room", "floor", "ceiling"].contains(&f.object.as_str())) {
-        assert!((centre - f.centroid()).dot(f.normal()) > 0.0, "{} faces outward", f.object);
+    for f in s
+        .facets
+        .iter()
+        .filter(|f| ["room", "floor", "ceiling"].contains(&f.object.as_str()))
+    {
+        assert!(
+            (centre - f.centroid()).dot(f.normal()) > 0.0,
+            "{} faces outward",
+            f.object
+        );
     }
     // The table top is directly below the west panel.
-    let west = s.facets.iter().find(|f| f.object == "panel-west").unwrap().centroid();
+    let west = s
+        .facets
+        .iter()
+        .find(|f| f.object == "panel-west")
+        .unwrap()
+        .centroid();
     let top = s
         .facets
         .iter()
@@ -105,8 +137,16 @@ fn office_room_scene() {
     let person: Vec<_> = s.facets.iter().filter(|f| f.object == "person").collect();
     assert_eq!(person.len(), 36);
     assert!(person.iter().all(|f| f.vertices.len() == 4));
-    let zmin = person.iter().flat_map(|f| &f.vertices).map(|v| v.z).fold(f64::MAX, f64::min);
-    let zmax = person.iter().flat_map(|f| &f.vertices).map(|v| v.z).fold(f64::MIN, f64::max);
+    let zmin = person
+        .iter()
+        .flat_map(|f| &f.vertices)
+        .map(|v| v.z)
+        .fold(f64::MAX, f64::min);
+    let zmax = person
+        .iter()
+        .flat_map(|f| &f.vertices)
+        .map(|v| v.z)
+        .fold(f64::MIN, f64::max);
     assert!(zmin.abs() < 1e-6 && (zmax - 5.75).abs() < 1e-5);
     // Every box of the person has its faces pointing away from its centre:
     // summed vector area of a closed box is zero and each face points out.
@@ -123,6 +163,14 @@ fn office_room_scene() {
         p.get("area-sources").unwrap().reason,
         "2 emitting facets (panel-west, panel-east); Lambertian"
     );
-    assert!(p.get("direct-view").unwrap().reason.starts_with("2 emitting facets"));
-    assert_eq!(p.get("moon").unwrap().reason, "no [sky] block (indoor scene)");
+    assert!(
+        p.get("direct-view")
+            .unwrap()
+            .reason
+            .starts_with("2 emitting facets")
+    );
+    assert_eq!(
+        p.get("moon").unwrap().reason,
+        "no [sky] block (indoor scene)"
+    );
 }
