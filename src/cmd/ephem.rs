@@ -328,12 +328,12 @@ fn find(
         return Ok(());
     }
     println!(
-        "{:<10}  {:<20}  {:<20}  {:>5}  {:>6}  {:>7}  {:>8}",
+        "{:<10}  {:<24}  {:<24}  {:>5}  {:>6}  {:>7}  {:>8}",
         "evening", "usable from (UTC)", "usable to (UTC)", "hours", "illum", "phase", "max el"
     );
     for n in &nights {
         println!(
-            "{:<10}  {:<20}  {:<20}  {:>5.1}  {:>5.1}%  {:>6.1}°  {:>7.1}°",
+            "{:<10}  {:<24}  {:<24}  {:>5.1}  {:>5.1}%  {:>6.1}°  {:>7.1}°",
             n.evening_date,
             n.usable_start.to_iso8601(),
             n.usable_end.to_iso8601(),

@@ -92,6 +92,15 @@ pub fn spectra_csv(s: &GroundSpectra, header: &str) -> String {
     out
 }
 
+/// `0`, or four significant figures in scientific notation.
+fn fmt_lux(x: f64) -> String {
+    if x == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 pub fn run(args: SkyArgs) -> anyhow::Result<()> {
     let site = site_from_flags(args.lat, args.lon, args.height_m)?;
     let t = parse_instant("--utc", &args.utc)?;
@@ -166,11 +175,11 @@ pub fn run(args: SkyArgs) -> anyhow::Result<()> {
         100.0 * e.illuminated_fraction,
         e.sun.elevation_deg
     );
-    println!("ground illuminance (horizontal), lux:");
-    println!("  moon direct  {:.4e}", l.moon_direct);
-    println!("  moon sky     {:.4e}", l.moon_sky);
-    println!("  night sky    {:.4e}", l.night_sky);
-    println!("  total        {:.4e}", l.total);
+    println!("ground illuminance (horizontal):");
+    println!("  moon direct  {} lux", fmt_lux(l.moon_direct));
+    println!("  moon sky     {} lux", fmt_lux(l.moon_sky));
+    println!("  night sky    {} lux", fmt_lux(l.night_sky));
+    println!("  total        {} lux", fmt_lux(l.total));
     if let Some(p) = &args.spectra_out {
         println!("spectral irradiance written to {}", p.display());
     }
