@@ -16,7 +16,13 @@ use std::f64::consts::PI;
 /// 10⁻⁶ sr emitter (angular size ~10⁻³ rad) is a 10⁻⁵ relative placement error.
 pub const MIN_SOLID_ANGLE_SR: f64 = 1e-6;
 
-/// `a·b` clamped to [-1, 1] angle between unit vectors, robust near 0 and π.
+/// The spherical samplers decline (`None`) when the point's height above the
+/// emitter plane is below this fraction of its distance to the farthest
+/// vertex: at 10⁻¹⁰ rad elevation every direction is within rounding of the
+/// plane and the spherical construction (not the answer) loses meaning.
+pub const MIN_RELATIVE_HEIGHT: f64 = 1e-10;
+
+/// Angle between unit vectors, robust near 0 and π (atan2 form).
 fn angle_between(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b))
 }
@@ -50,29 +56,59 @@ impl SphericalTriangle {
     /// Precompute the sampler for triangle `(a, b, c)` seen from `point`.
     ///
     /// **Degenerate cases** → `None` (caller falls back to area sampling):
-    /// the point on a vertex or in the triangle's plane (including on an edge
-    /// or inside it), collinear vertices, non-finite input, or a solid angle
-    /// below [`MIN_SOLID_ANGLE_SR`]. Near-2π triangles (point just in front
+    /// the point on a vertex or in (within [`MIN_RELATIVE_HEIGHT`] of) the
+    /// triangle's plane, including on an edge or inside it, collinear
+    /// vertices, non-finite input, or a solid angle below
+    /// [`MIN_SOLID_ANGLE_SR`]. A point close to an edge (say 10⁻⁹ away, where
+    /// two vertex directions are antipodal to rounding) is handled by
+    /// labelling that pair (A, C), which keeps Arvo's construction
+    /// conditioned; samples stay unbiased there (tested down to 10⁻⁹). Near-2π triangles (point just in front
     /// of the interior) are handled: all angles are formed with `atan2`.
     pub fn new(point: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<Self> {
         if !(point.is_finite() && a.is_finite() && b.is_finite() && c.is_finite()) {
+            return None;
+        }
+        let plane_n = (b - a).cross(c - a).try_normalize()?;
+        let far = (a - point)
+            .length()
+            .max((b - point).length())
+            .max((c - point).length());
+        if (point - a).dot(plane_n).abs() < MIN_RELATIVE_HEIGHT * far {
             return None;
         }
         let solid_angle = polygon_solid_angle(point, &[a, b, c]);
         if solid_angle.is_nan() || solid_angle < MIN_SOLID_ANGLE_SR {
             return None;
         }
-        let (ra, rb, rc) = (a - point, b - point, c - point);
+        // Relabel (keeping the cyclic order) so that the most nearly antipodal
+        // vertex pair, which occurs when the point is close to an edge, is
+        // (A, C): Arvo's `cos c = A·B` step and the final arc B → C' then
+        // stay well conditioned, and the arc A → C is handled through its
+        // plane normal, which edge differences give to full precision.
+        let dirs = [a - point, b - point, c - point];
+        let verts = [a, b, c];
+        let unit = |v: DVec3| v.try_normalize();
+        let (u0, u1, u2) = (unit(dirs[0])?, unit(dirs[1])?, unit(dirs[2])?);
+        let dots = [u0.dot(u1), u1.dot(u2), u2.dot(u0)]; // pairs (0,1), (1,2), (2,0)
+        let worst = (0..3)
+            .min_by(|&i, &j| dots[i].total_cmp(&dots[j]))
+            .unwrap_or(0);
+        // Pair (i, i+1) should become (C, A): A = vertex i+1.
+        let ia = (worst + 1) % 3;
+        let (ib, ic) = ((ia + 1) % 3, (ia + 2) % 3);
+        let (a, b, c) = (verts[ia], verts[ib], verts[ic]);
+        let (ra, rb, rc) = (dirs[ia], dirs[ib], dirs[ic]);
         let ua = ra.try_normalize()?;
         let ub = rb.try_normalize()?;
-        let uc = rc.try_normalize()?;
         // Edge-plane normals from edge differences for precision.
         let n_ab = ra.cross(b - a).try_normalize()?;
         let _n_bc = rb.cross(c - b).try_normalize()?;
         let n_ca = rc.cross(a - c).try_normalize()?;
         // Interior angle at A: between the planes (A,B) and (A,C).
         let alpha = angle_between(n_ab, -n_ca);
-        let c_perp_a = orthonormal_part(uc, ua)?;
+        // Unit vector ⟂ A towards C in their plane: (A × C) × A with
+        // A × C = −n_ca (robust even when A and C are nearly antipodal).
+        let c_perp_a = (-n_ca).cross(ua).try_normalize()?;
         Some(Self {
             a: ua,
             b: ub,
@@ -152,7 +188,8 @@ impl SphericalRectangle {
     ///
     /// **Degenerate cases** → `None` (caller falls back to area sampling):
     /// zero-length or non-perpendicular edges (`|êx·êy| > 10⁻⁶`), the point
-    /// in the rectangle's plane (incl. on an edge), non-finite input, or a
+    /// in (within [`MIN_RELATIVE_HEIGHT`] of) the rectangle's plane, incl. on
+    /// an edge, non-finite input, or a
     /// solid angle below [`MIN_SOLID_ANGLE_SR`]. Near-2π rectangles are fine.
     pub fn new(point: DVec3, corner: DVec3, ex: DVec3, ey: DVec3) -> Option<Self> {
         if !(point.is_finite() && corner.is_finite() && ex.is_finite() && ey.is_finite()) {
@@ -175,7 +212,12 @@ impl SphericalRectangle {
             z = -z;
             z0 = -z0;
         }
-        if z0 == 0.0 {
+        let far = d
+            .length()
+            .max((d + ex + ey).length())
+            .max((d + ex).length())
+            .max((d + ey).length());
+        if -z0 < MIN_RELATIVE_HEIGHT * far {
             return None;
         }
         let solid_angle =
@@ -281,10 +323,15 @@ mod tests {
             DVec3::new(0.0, 1.0, 1.0),
         );
         let t = SphericalTriangle::new(p, a, b, c).unwrap();
-        // u1 = 0 → B; u0 = 0 → towards A side; u0 = 1, u1 = 1 → C.
-        assert!((t.sample([0.3, 0.0]) - b.normalize()).length() < 1e-12);
-        assert!((t.sample([1.0, 1.0]) - c.normalize()).length() < 1e-9);
-        assert!((t.sample([0.0, 1.0]) - a.normalize()).length() < 1e-9);
+        // u1 = 0 → B for any u0; (0, 1) → A; (1, 1) → C: the three vertices
+        // (whichever labelling the constructor chose).
+        let vb = t.sample([0.3, 0.0]);
+        assert!((t.sample([0.9, 0.0]) - vb).length() < 1e-12);
+        let hits = [vb, t.sample([0.0, 1.0]), t.sample([1.0, 1.0])];
+        for v in [a, b, c] {
+            let v = v.normalize();
+            assert!(hits.iter().any(|h| (*h - v).length() < 1e-9), "{v} not hit");
+        }
     }
 
     #[test]

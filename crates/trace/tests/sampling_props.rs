@@ -294,3 +294,61 @@ fn far_from_origin_small_emitters_sample_inside() {
         );
     }
 }
+
+#[test]
+fn points_next_to_an_edge_are_sampled_without_bias() {
+    // Hit points 1e-4 … 1e-9 from an emitter edge (above it, just outside,
+    // above the interior): the vertex directions are antipodal to rounding.
+    let (a, b, c) = (
+        DVec3::new(-1.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.5, 0.0),
+    );
+    let rect = [
+        a,
+        a + DVec3::X * 2.0,
+        a + DVec3::X * 2.0 + DVec3::Y * 1.5,
+        a + DVec3::Y * 1.5,
+    ];
+    let n = -DVec3::Z;
+    let mut rng = Pcg64::seed_from_u64(5);
+    let k = 40_000;
+    for &h in &[1e-4, 1e-6, 1e-9] {
+        for &p in &[
+            DVec3::new(0.1, 0.0, h),
+            DVec3::new(0.0, -h, h),
+            DVec3::new(-0.3, -1e-6, h),
+            DVec3::new(0.5, 0.7499, h),
+        ] {
+            let tri = SphericalTriangle::new(p, a, b, c).expect("triangle sampler");
+            let (mut s, mut s2) = (0.0, 0.0);
+            for _ in 0..k {
+                let f = n.dot(tri.sample([rng.random(), rng.random()])).max(0.0);
+                s += f;
+                s2 += f * f;
+            }
+            let (mean, var) = (s / k as f64, s2 / k as f64 - (s / k as f64).powi(2));
+            let se = tri.solid_angle() * (var.max(0.0) / k as f64).sqrt();
+            let exact = polygon_irradiance_factor(p, n, &[a, b, c], DVec3::Z);
+            let dev = (tri.solid_angle() * mean - exact) / se;
+            assert!(dev.abs() < 5.0, "triangle h={h} p={p}: {dev} s.e.");
+            let r = SphericalRectangle::new(p, a, DVec3::X * 2.0, DVec3::Y * 1.5).expect("rect");
+            let (mut s, mut s2) = (0.0, 0.0);
+            for _ in 0..k {
+                let q = r.sample([rng.random(), rng.random()]);
+                let f = n.dot((q - p).normalize()).max(0.0);
+                s += f;
+                s2 += f * f;
+            }
+            let (mean, var) = (s / k as f64, s2 / k as f64 - (s / k as f64).powi(2));
+            let se = r.solid_angle() * (var.max(0.0) / k as f64).sqrt();
+            let exact = polygon_irradiance_factor(p, n, &rect, DVec3::Z);
+            let dev = (r.solid_angle() * mean - exact) / se;
+            assert!(dev.abs() < 5.0, "rectangle h={h} p={p}: {dev} s.e.");
+        }
+    }
+    // 1e-12 from the plane: below MIN_RELATIVE_HEIGHT, the caller area-samples.
+    let p = DVec3::new(0.1, 0.2, 1e-12);
+    assert!(SphericalTriangle::new(p, a, b, c).is_none());
+    assert!(SphericalRectangle::new(p, a, DVec3::X * 2.0, DVec3::Y * 1.5).is_none());
+}
