@@ -130,9 +130,13 @@ impl Geometry {
         } else {
             f32::INFINITY
         };
+        // `+ 0.0` turns -0.0 (e.g. from `-DVec3::Z`, or an underflow in the
+        // f32 conversion) into +0.0: obvhs picks a zero component's inverse
+        // sign from the sign bit but its slab order from `< 0.0`, and the
+        // two disagree for -0.0, which makes the ray miss every box.
         Ray::new(
             Vec3A::new(o.x as f32, o.y as f32, o.z as f32),
-            Vec3A::new(d.x as f32, d.y as f32, d.z as f32),
+            Vec3A::new(d.x as f32 + 0.0, d.y as f32 + 0.0, d.z as f32 + 0.0),
             0.0,
             tmax,
         )
@@ -288,6 +292,25 @@ mod tests {
             [0, u32::MAX],
         );
         assert_eq!(v, Visibility::Clear(vec![2]));
+    }
+
+    #[test]
+    fn axis_aligned_rays_with_negative_zero_components_hit() {
+        // glam's `-DVec3::Z` is (-0.0, -0.0, -1.0): obvhs takes the sign of
+        // the inverse from the zero's sign bit but the slab order from
+        // `< 0.0`, so such rays missed every box before the +0.0 fix.
+        for n in 1..6 {
+            let facets: Vec<Vec<DVec3>> = (0..n).map(|i| quad(i as f64, 1.0)).collect();
+            let g = Geometry::new(DVec3::ZERO, 10.0, &facets, vec![false; n]);
+            for o in [DVec3::new(0.1, 0.1, 20.0), DVec3::new(0.0, 0.0, 20.0)] {
+                let h = g.intersect(o, -DVec3::Z, 0.0, f64::INFINITY, u32::MAX);
+                assert_eq!(h.map(|h| h.facet), Some(n as u32 - 1));
+                let v = g.visibility(o, -DVec3::Z, 0.0, 100.0, [u32::MAX; 2]);
+                assert_eq!(v, Visibility::Blocked);
+                let h = g.intersect(-o, DVec3::Z, 0.0, f64::INFINITY, u32::MAX);
+                assert_eq!(h.map(|h| h.facet), Some(0));
+            }
+        }
     }
 
     #[test]

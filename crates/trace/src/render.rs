@@ -316,6 +316,18 @@ impl Tracer {
         })
     }
 
+    /// The camera ray through continuous pixel coordinates `(px, py)`:
+    /// origin and unit direction in the tracer's centred frame (see
+    /// [`crate::geometry`]), ready for `self.geom`.
+    pub fn camera_ray(&self, px: f64, py: f64) -> (DVec3, DVec3) {
+        (self.camera.position, self.camera.pixel_direction(px, py))
+    }
+
+    /// Centroids of the emitting facets, in the centred frame.
+    pub fn emitter_centroids(&self) -> Vec<DVec3> {
+        self.area_centroids()
+    }
+
     /// Continuous pixel coordinates of a world-space point (None behind the camera).
     pub fn project(&self, point: DVec3) -> Option<(f64, f64)> {
         self.camera.project(point - self.geom.origin)

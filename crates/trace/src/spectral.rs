@@ -149,3 +149,56 @@ impl Wavelengths {
         self.integrate(v).iter().sum()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn band_weights_are_exact_for_flat_and_line_spectra() {
+        let text = r#"
+units = "m"
+[camera]
+position = [0, 0, 1]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 10
+width = 2
+height = 2
+[bands.a]
+lo_nm = 400
+hi_nm = 553
+[bands.b]
+lo_nm = 553
+hi_nm = 700
+[materials.lamp]
+reflectance = 0.0
+emission = { spectrum = "lps", scale = 1.0 }
+[objects.lamp]
+material = "lamp"
+quad = { center = [0, 0, 0], size = [1, 1], normal = [0, 0, 1] }
+"#;
+        let scene = gloam_scene::parse_str(text, std::path::Path::new("t.toml")).unwrap();
+        let wl = Wavelengths::for_scene(&scene, 7.0);
+        // Band edges are nodes; grid within [400, 700].
+        assert!(wl.nm[..wl.n_continuum].contains(&553.0));
+        assert_eq!(wl.nm[0], 400.0);
+        assert_eq!(wl.nm[wl.n_continuum - 1], 700.0);
+        // A flat continuum of 2 per nm integrates to 2 × width exactly.
+        let flat = Spectrum::constant(300.0, 800.0, 2.0).unwrap();
+        let v = wl.integrate(&wl.emission(&flat));
+        assert!(
+            (v[0] - 306.0).abs() < 1e-9 && (v[1] - 294.0).abs() < 1e-9,
+            "{v:?}"
+        );
+        // The sodium D lines land in band b, exactly.
+        let lps = &scene.materials[0]
+            .emission
+            .as_ref()
+            .unwrap()
+            .radiance_w_m2_sr_nm;
+        let v = wl.integrate(&wl.emission(lps));
+        assert!((v[1] - lps.integrate_band(553.0, 700.0)).abs() < 1e-12 * v[1]);
+        assert!((v[0] - lps.integrate_band(400.0, 553.0)).abs() < 1e-12 * v[1].max(1.0));
+    }
+}

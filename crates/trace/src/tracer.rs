@@ -371,6 +371,10 @@ impl Tracer {
         })
     }
 
+    pub(crate) fn area_centroids(&self) -> Vec<DVec3> {
+        self.area.iter().map(|s| s.centroid).collect()
+    }
+
     /// Diffuse albedo of facet `f` at every slot.
     pub(crate) fn kd(&self, f: u32) -> &[f64] {
         &self.mats[self.facet_mat[f as usize] as usize].kd

@@ -491,3 +491,47 @@ fn emission_line_integrates_exactly_on_a_coarse_grid() {
         assert!(rel(*v, truth) < 1e-12, "{v} vs {truth}");
     }
 }
+
+#[test]
+fn source_roulette_does_not_bias_the_analytic_estimator() {
+    // A dim second panel whose light reaches the floor point through a
+    // penumbra: its closed-form share is < 1 % of the total, so with
+    // `source_roulette_fraction` its shadow rays are traced only sometimes.
+    let extra = r#"
+[materials.dim]
+reflectance = 0.0
+emission = { value = 1.0, normalize = { lo_nm = 400, hi_nm = 700, value = 0.5 } }
+[objects.dim]
+material = "dim"
+quad = { center = [10, 0, 9], size = [1, 1], normal = [0, 0, -1] }
+[materials.slab]
+reflectance = 0.0
+[objects.slab]
+material = "slab"
+quad = { center = [5.72, 0, 4], size = [2.56, 6], normal = [0, 0, 1] }
+"#;
+    let s = scene(&panel_scene([0.0; 3], 0.0, extra));
+    let reps = 4000;
+    let mut reference = settings(Estimator::Analytic);
+    reference.source_roulette_fraction = 0.0;
+    let (e_ref, se_ref, _) = probe(&s, &reference, DVec3::ZERO, DVec3::Z, reps);
+    let mut roulette = settings(Estimator::Analytic);
+    roulette.source_roulette_fraction = 0.05;
+    let (e_rr, se_rr, _) = probe(&s, &roulette, DVec3::ZERO, DVec3::Z, reps);
+    // The occlusion correction of the dim panel, which dropping it would lose.
+    let dim = [(9.5, -0.5), (10.5, -0.5), (10.5, 0.5), (9.5, 0.5)]
+        .iter()
+        .map(|&(x, y)| DVec3::new(x, y, 9.0))
+        .collect::<Vec<_>>();
+    let e_dim = 0.5 * polygon_irradiance_factor(DVec3::ZERO, DVec3::Z, &dim, -DVec3::Z);
+    let main = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
+    assert!(e_dim / (main + e_dim) < 0.01);
+    let se = (se_ref * se_ref + se_rr * se_rr).sqrt();
+    assert!(se < 0.1 * e_dim, "test has no power: se {se} vs {e_dim}");
+    assert!((e_rr - e_ref).abs() < 4.0 * se, "{e_rr} vs {e_ref} ± {se}");
+    // And the dim panel really is in penumbra: between fully lit and dark.
+    assert!(
+        e_ref > main + 0.2 * e_dim && e_ref < main + 0.8 * e_dim,
+        "{e_ref}"
+    );
+}
