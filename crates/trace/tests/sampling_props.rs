@@ -121,7 +121,9 @@ proptest! {
             let q = hit_plane(p, d, a, b, c);
             prop_assert!(q.is_some(), "direction {d} misses the plane");
             let l = barycentric(q.unwrap(), a, b, c);
-            prop_assert!(l.iter().all(|&x| x > -1e-7), "barycentrics {l:?}, Ω = {omega}");
+            // Placement is good to ~1e-8 rad (the inverse-cosine steps), i.e. to
+            // ~1e-6 of the triangle's size at the 1e-6 sr threshold.
+            prop_assert!(l.iter().all(|&x| x > -1e-5), "barycentrics {l:?}, Ω = {omega}");
         }
         // (2) Ω·mean(cos θ_r) reproduces Lambert's formula, and Ω·mean(cos θ_e^3 cos θ_r)
         // the m = 3 double-axis moment.
@@ -168,7 +170,7 @@ proptest! {
             let s = r.dot(ex) / ex.length_squared();
             let t = r.dot(ey) / ey.length_squared();
             prop_assert!(off_plane < 1e-9 * size, "off plane by {off_plane}");
-            prop_assert!((-1e-7..=1.0 + 1e-7).contains(&s) && (-1e-7..=1.0 + 1e-7).contains(&t),
+            prop_assert!((-1e-5..=1.0 + 1e-5).contains(&s) && (-1e-5..=1.0 + 1e-5).contains(&t),
                 "local coords ({s}, {t}), Ω = {omega}");
         }
         // (2) unbiased irradiance estimates.
