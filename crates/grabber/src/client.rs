@@ -38,6 +38,9 @@ pub struct ClientOptions {
     pub reconnect_timeout: Duration,
     /// Stream silence after which a partial frame is dropped and the device probed.
     pub frame_idle_timeout: Duration,
+    /// Cap on the message size announced in `Hello` (sets the chunk size);
+    /// `None`: chosen from the line rate (≤ 100 ms per chunk), at most a full chunk.
+    pub max_message_len: Option<u16>,
 }
 
 impl Default for ClientOptions {
@@ -49,6 +52,7 @@ impl Default for ClientOptions {
             frame_idle_timeout: Duration::from_millis(u64::from(
                 firmware_protocol::FRAME_IDLE_TIMEOUT_MS,
             )),
+            max_message_len: None,
         }
     }
 }
@@ -122,6 +126,11 @@ pub struct ProtocolGrabber<T: Transport> {
     last_stream_rx: Instant,
     /// A link loss or device reset that still has to be reported.
     interrupted: Option<String>,
+    /// The device lost its state since the last stream start (power cycle,
+    /// re-enumeration): frames lost in between cannot be counted.
+    device_was_reset: bool,
+    /// Latest device clock seen in a `Status` (a jump back means a reset).
+    last_device_time_us: u64,
     stats: ClientStats,
     frame_size: (u32, u32),
 }
@@ -207,6 +216,8 @@ impl<T: Transport> ProtocolGrabber<T> {
             outcomes: VecDeque::new(),
             last_stream_rx: Instant::now(),
             interrupted: None,
+            device_was_reset: false,
+            last_device_time_us: 0,
             stats: ClientStats::default(),
             frame_size: (0, 0),
         };
@@ -223,6 +234,49 @@ impl<T: Transport> ProtocolGrabber<T> {
     /// The device's capabilities from the last handshake.
     pub fn capabilities(&self) -> Option<Capabilities> {
         self.caps
+    }
+
+    /// Stop streaming and account for the frames the device produced that
+    /// were never handed out (in flight when the stream stopped): returns
+    /// their number when the device could tell. Undelivered outcomes that
+    /// were still queued are discarded (and counted).
+    pub fn finish(&mut self) -> Result<Option<u64>, GrabError> {
+        let mut undelivered = 0u64;
+        for o in self.outcomes.drain(..) {
+            undelivered += match o {
+                Ok(_) | Err(GrabError::FrameDamaged { .. }) => 1,
+                Err(GrabError::FramesLost { count, .. }) => count,
+                Err(GrabError::Interrupted {
+                    frames_lost: Some(n),
+                    ..
+                }) => n,
+                Err(_) => 0,
+            };
+        }
+        if !self.streaming {
+            return Ok(Some(undelivered));
+        }
+        let Some(ep) = self.epoch.take() else {
+            return Ok(Some(undelivered));
+        };
+        self.streaming = false;
+        self.assembler.abort();
+        let stop = self.with_session(|g| g.request(Message::StopStream));
+        stop?;
+        let status = self.get_status()?;
+        let tail = match ep.base_frames_sent {
+            _ if self.device_was_reset => None,
+            Some(base)
+                if status.device_time_us >= ep.base_device_time_us
+                    && status.frames_sent >= base =>
+            {
+                Some(
+                    u64::from(status.frames_sent - base).saturating_sub(ep.accounted) + undelivered,
+                )
+            }
+            _ => None,
+        };
+        Ok(tail)
     }
 
     /// The transport.
@@ -243,7 +297,8 @@ impl<T: Transport> ProtocolGrabber<T> {
             Some(rate) => ((rate * 0.1) as usize).clamp(1024, MAX_MESSAGE_LEN),
             None => MAX_MESSAGE_LEN,
         };
-        cap.min(usize::from(u16::MAX)) as u16
+        let cap = cap.min(usize::from(u16::MAX)) as u16;
+        self.opts.max_message_len.map_or(cap, |m| m.clamp(64, cap))
     }
 
     fn send_packet(&mut self, p: &Packet<'_>) -> Result<(), GrabError> {
@@ -464,6 +519,11 @@ impl<T: Transport> ProtocolGrabber<T> {
     fn handshake(&mut self) -> Result<(), GrabError> {
         self.caps = None;
         self.streaming = false;
+        if self.interrupted.is_some() {
+            // Before `Hello` resets the session: did the device keep its
+            // state (link loss only) or was it reset?
+            self.get_status()?;
+        }
         let hello = Hello {
             version_major: firmware_protocol::PROTOCOL_VERSION_MAJOR,
             version_minor: firmware_protocol::PROTOCOL_VERSION_MINOR,
@@ -539,7 +599,15 @@ impl<T: Transport> ProtocolGrabber<T> {
 
     fn get_status(&mut self) -> Result<Status, GrabError> {
         match self.request(Message::GetStatus)? {
-            Message::Status(s) => Ok(s),
+            Message::Status(s) => {
+                let reset = s.device_time_us < self.last_device_time_us
+                    || (self.interrupted.is_some() && s.state == DeviceState::AwaitingHello);
+                if reset {
+                    self.device_was_reset = true;
+                }
+                self.last_device_time_us = s.device_time_us;
+                Ok(s)
+            }
             m => Err(GrabError::Device(format!(
                 "unexpected reply to GetStatus: {m:?}"
             ))),
@@ -554,6 +622,7 @@ impl<T: Transport> ProtocolGrabber<T> {
         }
         if let Some(reason) = self.interrupted.take() {
             let lost = match &self.epoch {
+                _ if self.device_was_reset => None,
                 Some(ep) => match ep.base_frames_sent {
                     Some(base)
                         if status.device_time_us >= ep.base_device_time_us
@@ -585,6 +654,15 @@ impl<T: Transport> ProtocolGrabber<T> {
             }
         }
         self.assembler.reset();
+        // Open the epoch before asking: if the link drops between the
+        // device starting and our seeing its Ack, the frames it streams
+        // meanwhile are still counted at the next recovery.
+        self.device_was_reset = false;
+        self.epoch = Some(Epoch {
+            base_frames_sent: Some(status.frames_sent),
+            base_device_time_us: status.device_time_us,
+            accounted: 0,
+        });
         match self.request(Message::StartStream { frame_count: 0 })? {
             Message::Ack { .. } => {}
             // A resent StartStream whose first copy already started the stream.
@@ -593,6 +671,7 @@ impl<T: Transport> ProtocolGrabber<T> {
                 ..
             } => {}
             Message::Nak { code, detail, .. } => {
+                self.epoch = None;
                 return Err(Self::nak_error("start stream", code, detail));
             }
             m => {
@@ -601,11 +680,6 @@ impl<T: Transport> ProtocolGrabber<T> {
                 )));
             }
         }
-        self.epoch = Some(Epoch {
-            base_frames_sent: Some(status.frames_sent),
-            base_device_time_us: status.device_time_us,
-            accounted: 0,
-        });
         self.streaming = true;
         self.last_stream_rx = Instant::now();
         Ok(())
@@ -630,7 +704,7 @@ impl<T: Transport> ProtocolGrabber<T> {
     /// The link or device went away: note the interruption, re-open the
     /// port (bounded by `reconnect_timeout`) and force a new handshake.
     fn recover(&mut self, reason: String) -> Result<(), GrabError> {
-        if self.streaming || self.interrupted.is_some() {
+        if self.streaming || self.epoch.is_some() || self.interrupted.is_some() {
             if let Some(seq) = self.assembler.abort() {
                 self.account(
                     u64::from(seq),
