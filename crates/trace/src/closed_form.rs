@@ -78,9 +78,18 @@ pub fn polygon_irradiance_factor(
 /// through the point hits the polygon well inside, and underflows
 /// gracefully to 0 when it misses.
 ///
+/// **Accuracy** (measured against 2D Gauss–Legendre quadrature, see
+/// `tests/closed_form.rs`): ~1e-14 relative when the axis through the point
+/// hits the polygon or passes near it (m up to 10 000). Where the axis misses
+/// by a wide margin the recurrence cancels and the error is absolute, ~1e-17
+/// of the unshaped value `D_0` (e.g. 1e-9 relative on a value 1e-8 of
+/// `D_0`); results are clamped to the rigorous bounds `[0, h_max^m D_0]`,
+/// `h_max` the largest `cos θ_e` over the polygon, which returns exact zeros
+/// for far misses and skips the loop when the bound underflows.
+///
 /// **Degenerate cases**: as [`polygon_irradiance_factor`] (point in or behind
 /// the emitter plane → 0; clipping against the receiver's horizon; edges
-/// that vanish contribute 0). The result is clamped to be ≥ 0.
+/// that vanish contribute 0).
 pub fn shaped_polygon_irradiance_factor(
     point: DVec3,
     normal: DVec3,
@@ -197,8 +206,36 @@ fn prepare_edges(poly: &[DVec3], w: DVec3, v: DVec3, inward: f64) -> Vec<Edge> {
 /// dependency chains.
 fn double_axis_moment(poly: &[DVec3], w: DVec3, v: DVec3, m: u32, inward: f64) -> f64 {
     let edges = prepare_edges(poly, w, v, inward);
+    let lambert = 0.5 * edges.iter().map(|e| e.theta * e.v_gamma).sum::<f64>();
     if m == 0 {
-        return 0.5 * edges.iter().map(|e| e.theta * e.v_gamma).sum::<f64>();
+        return lambert;
+    }
+    // Rigorous bound D_m ≤ h_max^m · D_0, with h_max the largest w·u over the
+    // polygon (1 if the axis passes through it, else the largest value on
+    // an edge arc). It removes rounding residue where the beam misses (the
+    // recurrence's absolute error is ~1e-17 of D_0) and skips the loop when
+    // the bound underflows.
+    let axis_inside = edges.iter().all(|e| e.w_gamma >= 0.0);
+    let h_max = if axis_inside {
+        1.0
+    } else {
+        edges
+            .iter()
+            .map(|e| {
+                // h(t) = A cos t + B sin t peaks at t = atan2(B, A) with value C.
+                let phi = (-e.g0).atan2(e.h0);
+                if (0.0..=e.theta).contains(&phi) {
+                    e.c2.sqrt()
+                } else {
+                    e.h0.max(e.h1)
+                }
+            })
+            .fold(0.0, f64::max)
+            .min(1.0)
+    };
+    let bound = h_max.powf(f64::from(m)) * lambert.max(0.0);
+    if bound == 0.0 {
+        return 0.0;
     }
     let odd = m % 2 == 1;
     // T_{k0−1}: T_0 = Ω for odd m; for even m the coefficient k0 = 0 kills it.
@@ -251,7 +288,7 @@ fn double_axis_moment(poly: &[DVec3], w: DVec3, v: DVec3, m: u32, inward: f64) -
     // Now t_prev = T_{m−1} and f = F^m.
     let r_m: f64 = edges.iter().zip(&f).map(|(e, fk)| e.v_gamma * fk).sum();
     let mf = f64::from(m);
-    (mf * w.dot(v) * t_prev + r_m) / (mf + 2.0)
+    ((mf * w.dot(v) * t_prev + r_m) / (mf + 2.0)).min(bound)
 }
 
 /// Newell's polygon normal from edge differences (twice the vector area).
