@@ -40,6 +40,11 @@ enum Command {
     Capture(cmd::capture::CaptureArgs),
     /// List serial ports, USB devices and simulated cameras.
     Grabbers(cmd::grabbers::GrabbersArgs),
+    /// Calibration flows over any grabber: radiance LUT, apply, AGC, photon transfer, MTF.
+    #[command(subcommand)]
+    Calibrate(cmd::calibrate::CalibrateCommand),
+    /// Compare two images over ground-control regions (Spearman rho, RMS).
+    Compare(cmd::compare::CompareArgs),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -47,6 +52,8 @@ enum Command {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Calibrate(c) => cmd::calibrate::run(c),
+        Command::Compare(args) => cmd::compare::run(args),
         Command::Device(args) => cmd::device::run(args),
         Command::Capture(args) => cmd::capture::run(args),
         Command::Grabbers(args) => cmd::grabbers::run(args),

@@ -1,7 +1,9 @@
 //! One module per subcommand. Each exposes its clap arguments and a
 //! `run(args) -> anyhow::Result<()>`.
 
+pub mod calibrate;
 pub mod capture;
+pub mod compare;
 pub mod device;
 pub mod ephem;
 pub mod grabbers;

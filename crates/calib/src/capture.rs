@@ -1,6 +1,6 @@
 //! Grabbing frames robustly and reducing them to statistics.
 
-use gloam_grabber::{Frame, FrameGrabber, GrabError};
+use gloam_grabber::{Frame, FrameGrabber, Stimulus};
 
 use crate::error::CalibError;
 
@@ -26,7 +26,7 @@ pub fn grab_good(grabber: &mut dyn FrameGrabber) -> Result<Frame, CalibError> {
                 }
                 return Ok(f);
             }
-            Err(e @ (GrabError::FrameDamaged { .. } | GrabError::FramesLost { .. })) => {
+            Err(e) if e.is_frame_loss() => {
                 bad += 1;
                 if bad >= MAX_CONSECUTIVE_BAD_FRAMES {
                     return Err(CalibError::Grab(e));
@@ -122,4 +122,59 @@ pub fn stack_stats(frames: &[Frame]) -> Result<StackStats, CalibError> {
 /// Mean of one frame's pixels, DN.
 pub fn frame_mean(f: &Frame) -> f64 {
     f.pixels.iter().map(|&p| p as f64).sum::<f64>() / f.pixels.len().max(1) as f64
+}
+
+/// Finds the uniform band radiance (W m⁻² sr⁻¹, relative spectrum
+/// `spectrum`) that puts the camera's mean output at `fraction` of its
+/// full scale above dark, at the current gain: decades upward from 1e-12
+/// until the signal is clearly above dark, then a linear scale-up and one
+/// refinement. Only for grabbers that render stimuli (returns an error on
+/// hardware, where the operator sets the source).
+pub fn auto_range(
+    grabber: &mut dyn FrameGrabber,
+    spectrum: &str,
+    fraction: f64,
+) -> Result<f64, CalibError> {
+    if !grabber.present(&Stimulus::Dark)? {
+        return Err(CalibError::Invalid(
+            "auto-ranging needs a grabber that renders stimuli (simulated camera or emulator)"
+                .into(),
+        ));
+    }
+    let dark = stack_stats(&grab_frames(grabber, 2)?)?;
+    let full = dark.max_dn - dark.mean_dn;
+    let signal = |g: &mut dyn FrameGrabber, l: f64| -> Result<(f64, f64), CalibError> {
+        g.present(&Stimulus::Uniform {
+            radiance_w_m2_sr: l,
+            spectrum: spectrum.to_string(),
+        })?;
+        let s = stack_stats(&grab_frames(g, 2)?)?;
+        Ok((s.mean_dn - dark.mean_dn, s.clipped_fraction))
+    };
+    let mut l = 1e-12;
+    for _ in 0..30 {
+        let (s, clip) = signal(grabber, l)?;
+        if clip > 0.01 {
+            // Overshot in one decade: back off and refine linearly below.
+            l /= 10.0;
+            continue;
+        }
+        if s > 0.02 * full {
+            let mut est = l * fraction * full / s;
+            for _ in 0..3 {
+                let (s2, clip2) = signal(grabber, est)?;
+                if clip2 > 0.01 || s2 <= 0.0 {
+                    est *= 0.7;
+                    continue;
+                }
+                est *= fraction * full / s2;
+            }
+            return Ok(est);
+        }
+        l *= 10.0;
+    }
+    Err(CalibError::InsufficientData(
+        "auto-ranging found no radiance between 1e-12 and 1e18 W m⁻² sr⁻¹ that the camera responds to"
+            .into(),
+    ))
 }

@@ -14,6 +14,7 @@
 pub mod agc;
 pub mod capture;
 mod error;
+pub mod io;
 pub mod mtf;
 pub mod plot;
 pub mod ptc;

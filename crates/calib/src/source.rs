@@ -188,6 +188,33 @@ impl IntegratingSphere {
     }
 }
 
+impl SphereSource {
+    /// Rescales the lamp flux so that the brightest level's stimulus
+    /// radiance (400–1000 nm, at the camera) equals `radiance_w_m2_sr`.
+    /// Used to fit a rehearsal to a camera's range (see `auto_range`).
+    pub fn scale_max_radiance(&mut self, radiance_w_m2_sr: f64) -> Result<(), CalibError> {
+        let n = self.levels();
+        let mut top = 0.0f64;
+        for i in 0..n {
+            if let Stimulus::Uniform {
+                radiance_w_m2_sr: l,
+                ..
+            } = self.set_level(i)?.stimulus
+            {
+                top = top.max(l);
+            }
+        }
+        if !(top > 0.0 && radiance_w_m2_sr > 0.0 && radiance_w_m2_sr.is_finite()) {
+            return Err(CalibError::Source(format!(
+                "cannot scale a source whose brightest level is {top} W m⁻² sr⁻¹ to {radiance_w_m2_sr}"
+            )));
+        }
+        let k = radiance_w_m2_sr / top;
+        self.sphere.lamp_flux = self.sphere.lamp_flux.map_all(|_, v| v * k);
+        Ok(())
+    }
+}
+
 /// `M = ρ / (1 − ρ(1 − f))`.
 pub fn sphere_multiplier(reflectance: f64, port_fraction: f64) -> f64 {
     reflectance / (1.0 - reflectance * (1.0 - port_fraction))

@@ -19,6 +19,27 @@ pub struct Region {
     pub height: usize,
 }
 
+/// Reads ground-control regions: a JSON array of
+/// `{"name", "x", "y", "width", "height"}` objects (`.json`), or TOML with
+/// `[[region]]` tables of the same keys (any other extension).
+pub fn load_regions(path: &std::path::Path) -> Result<Vec<Region>, CalibError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CalibError::file(path, e))?;
+    let is_json = path.extension().and_then(|e| e.to_str()) == Some("json");
+    let regions: Vec<Region> = if is_json {
+        serde_json::from_str(&text).map_err(|e| CalibError::file(path, e))?
+    } else {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct File {
+            region: Vec<Region>,
+        }
+        toml::from_str::<File>(&text)
+            .map_err(|e| CalibError::file(path, e))?
+            .region
+    };
+    Ok(regions)
+}
+
 /// The comparison's figures (the `gloam compare --json` contract).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Comparison {

@@ -1,0 +1,148 @@
+//! Image files for the CLI-facing flows: digital-count images (PNG/TIFF,
+//! 8 or 16 bit grey), float images (TIFF 32-bit float, or any of the
+//! former), 32-bit float TIFF output, and the per-frame gain recorded in
+//! `frames.jsonl` by `gloam capture`.
+
+use std::io::BufRead;
+use std::path::Path;
+
+use crate::error::CalibError;
+
+/// A grey image as f64, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GreyImage {
+    pub width: usize,
+    pub height: usize,
+    pub data: Vec<f64>,
+}
+
+fn is_tiff(path: &Path) -> bool {
+    matches!(
+        path.extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref(),
+        Some("tif" | "tiff")
+    )
+}
+
+/// Reads a grey image of any supported depth (u8, u16, f32 TIFF, …).
+pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
+    if is_tiff(path) {
+        let f = std::fs::File::open(path).map_err(|e| CalibError::file(path, e))?;
+        let mut d = tiff::decoder::Decoder::new(std::io::BufReader::new(f))
+            .map_err(|e| CalibError::file(path, e))?;
+        let (w, h) = d.dimensions().map_err(|e| CalibError::file(path, e))?;
+        let ct = d.colortype().map_err(|e| CalibError::file(path, e))?;
+        if !matches!(ct, tiff::ColorType::Gray(_)) {
+            return Err(CalibError::file(
+                path,
+                format!("expected a grey image, found {ct:?}"),
+            ));
+        }
+        use tiff::decoder::DecodingResult as R;
+        let data: Vec<f64> = match d.read_image().map_err(|e| CalibError::file(path, e))? {
+            R::U8(v) => v.into_iter().map(f64::from).collect(),
+            R::U16(v) => v.into_iter().map(f64::from).collect(),
+            R::U32(v) => v.into_iter().map(f64::from).collect(),
+            R::F32(v) => v.into_iter().map(f64::from).collect(),
+            R::F64(v) => v,
+            _ => return Err(CalibError::file(path, "unsupported TIFF sample format")),
+        };
+        if data.len() != w as usize * h as usize {
+            return Err(CalibError::file(
+                path,
+                "TIFF holds more than one sample per pixel",
+            ));
+        }
+        return Ok(GreyImage {
+            width: w as usize,
+            height: h as usize,
+            data,
+        });
+    }
+    let img = image::open(path).map_err(|e| CalibError::file(path, e))?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let data = match img {
+        image::DynamicImage::ImageLuma8(b) => b.into_raw().into_iter().map(f64::from).collect(),
+        image::DynamicImage::ImageLuma16(b) => b.into_raw().into_iter().map(f64::from).collect(),
+        other => {
+            return Err(CalibError::file(
+                path,
+                format!("expected a grey image, found {:?}", other.color()),
+            ));
+        }
+    };
+    Ok(GreyImage {
+        width: w,
+        height: h,
+        data,
+    })
+}
+
+/// Reads a digital-count image (integers 0..=65535).
+pub fn read_counts(path: &Path) -> Result<(usize, usize, Vec<u16>), CalibError> {
+    let g = read_grey(path)?;
+    let mut out = Vec::with_capacity(g.data.len());
+    for v in &g.data {
+        if !(v.fract() == 0.0 && (0.0..=65535.0).contains(v)) {
+            return Err(CalibError::file(
+                path,
+                format!("pixel value {v} is not a digital count (integer 0–65535)"),
+            ));
+        }
+        out.push(*v as u16);
+    }
+    Ok((g.width, g.height, out))
+}
+
+/// Writes a 32-bit float grey TIFF.
+pub fn write_tiff_f32(path: &Path, w: usize, h: usize, data: &[f32]) -> Result<(), CalibError> {
+    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
+    }
+    let tmp = path.with_extension("tmp~");
+    {
+        let f = std::fs::File::create(&tmp).map_err(|e| CalibError::file(&tmp, e))?;
+        let mut enc = tiff::encoder::TiffEncoder::new(std::io::BufWriter::new(f))
+            .map_err(|e| CalibError::file(path, e))?;
+        enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, data)
+            .map_err(|e| CalibError::file(path, e))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| CalibError::file(path, e))
+}
+
+/// The gain recorded for `image` in the `frames.jsonl` beside it (lines
+/// of JSON objects with at least `"file"` and `"gain"`), matched by file
+/// name.
+pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
+    let dir = image.parent().unwrap_or(Path::new("."));
+    let jl = dir.join("frames.jsonl");
+    let name = image
+        .file_name()
+        .and_then(|n| n.to_str())
+        .ok_or_else(|| CalibError::file(image, "no file name"))?;
+    let f = std::fs::File::open(&jl).map_err(|e| {
+        CalibError::file(
+            &jl,
+            format!("{e} (needed for the gain of {name}; pass --gain to override)"),
+        )
+    })?;
+    for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
+        let line = line.map_err(|e| CalibError::file(&jl, e))?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let v: serde_json::Value = serde_json::from_str(&line)
+            .map_err(|e| CalibError::file(&jl, format!("line {}: {e}", i + 1)))?;
+        if v.get("file").and_then(|f| f.as_str()) == Some(name) {
+            return v.get("gain").and_then(|g| g.as_f64()).ok_or_else(|| {
+                CalibError::file(&jl, format!("line {}: no numeric \"gain\"", i + 1))
+            });
+        }
+    }
+    Err(CalibError::file(
+        &jl,
+        format!("no line for \"{name}\" (pass --gain to override)"),
+    ))
+}

@@ -1,0 +1,528 @@
+//! `gloam calibrate …`: radiance LUTs, applying them, AGC linearisation,
+//! EMVA 1288 photon transfer and MTF — thin wrappers over `gloam-calib`
+//! (argument parsing, progress bars, output files). See docs/calibration.md.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand, ValueEnum};
+
+use gloam_calib::CalibError;
+use gloam_calib::agc::{AgcOptions, agc_linearisation};
+use gloam_calib::capture::auto_range;
+use gloam_calib::mtf::{
+    EdgeOptions, MtfCurve, SineOptions, coltman_sine_from_square_samples, edge_mtf, sine_mtf,
+    usaf_lp_per_mm,
+};
+use gloam_calib::ptc::{PtcOptions, photon_transfer};
+use gloam_calib::radiance::{Lut, RadianceOptions, calibrate_radiance};
+use gloam_calib::report;
+use gloam_calib::source::{CalibrationSource, SourceFile};
+use gloam_grabber::{FrameGrabber, OpenOptions};
+
+#[derive(Subcommand)]
+pub enum CalibrateCommand {
+    /// Radiance LUT across gains → OUT/lut.json, radiance.md, plots.
+    Radiance(RadianceArgs),
+    /// Turn a digital-count image into a radiance image (32-bit float TIFF).
+    Apply(ApplyArgs),
+    /// AGC staircase up and down, AGC on and overridden → OUT/agc.json.
+    Agc(AgcArgs),
+    /// EMVA 1288 photon transfer → OUT/ptc.json and OUT/emva1288/.
+    Ptc(PtcArgs),
+    /// MTF from sine targets, USAF 1951 bar contrasts or a slanted edge → OUT/mtf.json.
+    Mtf(MtfArgs),
+}
+
+#[derive(Args, Clone)]
+pub struct GrabberArgs {
+    /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], serial:PATH[?baud=N], usb:VID:PID[:SERIAL].
+    #[arg(long)]
+    pub grabber: String,
+    /// Noise seed for sim: grabbers.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Exposure / gate time, seconds.
+    #[arg(long)]
+    pub exposure_s: Option<f64>,
+}
+
+#[derive(Args, Clone)]
+pub struct SourceArgs {
+    /// Calibration source file (TOML; docs/calibration.md).
+    #[arg(long)]
+    pub source: PathBuf,
+    /// Number of radiance levels (generated linear in radiance when the file lists none).
+    #[arg(long)]
+    pub levels: Option<usize>,
+    /// Simulated cameras only: rescale a sphere source so its brightest level
+    /// puts the camera at this fraction of full scale (at the highest gain).
+    #[arg(long)]
+    pub auto_range: Option<f64>,
+}
+
+#[derive(Args)]
+pub struct RadianceArgs {
+    #[command(flatten)]
+    pub grabber: GrabberArgs,
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// Gains to calibrate, comma-separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub gains: Vec<f64>,
+    /// Frames per level.
+    #[arg(long, default_value_t = 8)]
+    pub frames: usize,
+    /// Output directory.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Args)]
+pub struct ApplyArgs {
+    /// The LUT written by `gloam calibrate radiance`.
+    #[arg(long)]
+    pub lut: PathBuf,
+    /// Gain of the input frame (default: its line in frames.jsonl beside it).
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Digital-count image (PNG or TIFF, 8/16-bit grey).
+    pub input: PathBuf,
+    /// Radiance image to write (32-bit float TIFF, W m⁻² sr⁻¹; saturated pixels NaN).
+    pub output: PathBuf,
+}
+
+#[derive(Args)]
+pub struct AgcArgs {
+    #[command(flatten)]
+    pub grabber: GrabberArgs,
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// Gain for the overridden (AGC off) staircase.
+    #[arg(long, default_value_t = 1.0)]
+    pub fixed_gain: f64,
+    /// Frames per staircase step.
+    #[arg(long, default_value_t = 40)]
+    pub frames: usize,
+    /// A LUT (lut.json) to linearise the AGC frames through.
+    #[arg(long)]
+    pub lut: Option<PathBuf>,
+    /// Report instead of failing when the AGC does not settle.
+    #[arg(long)]
+    pub allow_unsettled: bool,
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Args)]
+pub struct PtcArgs {
+    #[command(flatten)]
+    pub grabber: GrabberArgs,
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// Fixed gain for the sweep.
+    #[arg(long, default_value_t = 1.0)]
+    pub gain: f64,
+    /// Frames averaged for DSNU/PRNU.
+    #[arg(long, default_value_t = 16)]
+    pub spatial_frames: usize,
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Target {
+    Sine,
+    Usaf,
+    Edge,
+}
+
+#[derive(Args)]
+pub struct MtfArgs {
+    /// sine: sine targets (Stimulus::Sine); edge: ISO 12233 slanted edge;
+    /// usaf: bar contrasts read from --ctf, converted by Coltman's series.
+    #[arg(long, value_enum)]
+    pub target: Target,
+    /// Grabber URI (sine and edge).
+    #[arg(long)]
+    pub grabber: Option<String>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Fixed gain (sine and edge).
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Mean target radiance, W m⁻² sr⁻¹ (default: auto-ranged to 40 % of
+    /// full scale on simulated cameras).
+    #[arg(long)]
+    pub radiance: Option<f64>,
+    /// Sine modulation in radiance.
+    #[arg(long, default_value_t = 0.8)]
+    pub modulation: f64,
+    /// Target angle, degrees (sine: from the row axis, default 0; edge: from the column axis, default 5).
+    #[arg(long)]
+    pub angle_deg: Option<f64>,
+    /// Sine frequencies, cycles/pixel, comma-separated (default 0.02…0.48 step 0.02).
+    #[arg(long, value_delimiter = ',')]
+    pub frequencies: Vec<f64>,
+    /// Frames averaged per target.
+    #[arg(long, default_value_t = 8)]
+    pub frames: usize,
+    /// Relative spectrum of the targets (built-in name).
+    #[arg(long, default_value = "cie-a")]
+    pub spectrum: String,
+    /// usaf: CSV of `group,element,modulation` (measured bar contrast).
+    #[arg(long)]
+    pub ctf: Option<PathBuf>,
+    /// usaf: pixel pitch, µm.
+    #[arg(long)]
+    pub pixel_pitch_um: Option<f64>,
+    /// usaf: optical magnification (image size / chart size).
+    #[arg(long, default_value_t = 1.0)]
+    pub magnification: f64,
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
+    match cmd {
+        CalibrateCommand::Radiance(a) => radiance(a),
+        CalibrateCommand::Apply(a) => apply(a),
+        CalibrateCommand::Agc(a) => agc(a),
+        CalibrateCommand::Ptc(a) => ptc(a),
+        CalibrateCommand::Mtf(a) => mtf(a),
+    }
+}
+
+fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
+    let opts = OpenOptions {
+        seed: a.seed,
+        ..OpenOptions::default()
+    };
+    let mut g = gloam_grabber::open_with(&a.grabber, &opts)
+        .with_context(|| format!("opening {}", a.grabber))?;
+    if let Some(e) = a.exposure_s {
+        g.set_exposure_s(e)?;
+    }
+    eprintln!("grabber: {}", g.describe());
+    Ok(g)
+}
+
+/// Opens the source; auto-ranges a sphere at `gain` when asked.
+/// `range_scale` multiplies the auto-ranged radiance (PTC sweeps past saturation).
+fn open_source(
+    a: &SourceArgs,
+    g: &mut dyn FrameGrabber,
+    gain: f64,
+) -> anyhow::Result<Box<dyn CalibrationSource>> {
+    let file = SourceFile::load(&a.source)?;
+    if let Some(frac) = a.auto_range {
+        if file.is_manual() {
+            bail!("--auto-range only applies to a simulated sphere source");
+        }
+        if !(frac > 0.0 && frac.is_finite()) {
+            bail!("--auto-range must be a positive fraction of full scale");
+        }
+        let mut s = file.open_sphere(a.levels)?;
+        g.set_agc(false)?;
+        g.set_gain(gain)?;
+        // Aim at half scale (always reachable), then scale to the request.
+        let l50 = auto_range(g, s.lamp_name(), 0.5)?;
+        s.scale_max_radiance(l50 * frac / 0.5)?;
+        eprintln!(
+            "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at gain {gain})",
+            l50 * frac / 0.5,
+            100.0 * frac
+        );
+        return Ok(Box::new(s));
+    }
+    Ok(file.open(a.levels)?)
+}
+
+fn progress_bar(hidden: bool) -> indicatif::ProgressBar {
+    if hidden || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let b = indicatif::ProgressBar::new(1);
+    b.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} eta {eta}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    b
+}
+
+fn with_bar<T>(
+    hidden: bool,
+    msg: &str,
+    f: impl FnOnce(&mut dyn FnMut(usize, usize)) -> Result<T, CalibError>,
+) -> anyhow::Result<T> {
+    let bar = progress_bar(hidden);
+    bar.set_message(msg.to_string());
+    let r = f(&mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    });
+    bar.finish_and_clear();
+    Ok(r?)
+}
+
+fn is_manual(a: &SourceArgs) -> bool {
+    SourceFile::load(&a.source).is_ok_and(|f| f.is_manual())
+}
+
+fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
+    if a.gains.is_empty() {
+        bail!("--gains needs at least one gain");
+    }
+    let mut g = open_grabber(&a.grabber)?;
+    let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let mut src = open_source(&a.source, g.as_mut(), top)?;
+    let opts = RadianceOptions {
+        gains: a.gains.clone(),
+        frames: a.frames,
+        exposure_s: a.grabber.exposure_s,
+        ..Default::default()
+    };
+    let lut = with_bar(is_manual(&a.source), "levels", |p| {
+        calibrate_radiance(g.as_mut(), src.as_mut(), &opts, p)
+    })?;
+    report::write_radiance_report(&a.out, &lut)?;
+    for c in &lut.gains {
+        eprintln!(
+            "gain {}: L = {:.6e}·DC + {:.6e} W m⁻² sr⁻¹ (R² {:.6}, {} points, DC {:.1}–{:.1})",
+            c.gain,
+            c.g_w_m2_sr_per_dn,
+            c.b_w_m2_sr,
+            c.r_squared,
+            c.n_fit_points,
+            c.fit_range_dn[0],
+            c.fit_range_dn[1]
+        );
+        for w in &c.warnings {
+            eprintln!("warning: gain {}: {w}", c.gain);
+        }
+    }
+    eprintln!("wrote {}", a.out.join("lut.json").display());
+    Ok(())
+}
+
+fn load_lut(path: &Path) -> anyhow::Result<Lut> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: not a gloam LUT", path.display()))
+}
+
+fn apply(a: ApplyArgs) -> anyhow::Result<()> {
+    let lut = load_lut(&a.lut)?;
+    let gain = match a.gain {
+        Some(g) => g,
+        None => gloam_calib::io::gain_from_frames_jsonl(&a.input)?,
+    };
+    let (w, h, px) = gloam_calib::io::read_counts(&a.input)?;
+    let out = lut.apply(gain, &px)?;
+    gloam_calib::io::write_tiff_f32(&a.output, w, h, &out)?;
+    let nan = out.iter().filter(|v| v.is_nan()).count();
+    eprintln!(
+        "wrote {} ({w}×{h}, gain {gain}{})",
+        a.output.display(),
+        if nan > 0 {
+            format!(", {nan} saturated pixel(s) set to NaN")
+        } else {
+            String::new()
+        }
+    );
+    Ok(())
+}
+
+fn agc(a: AgcArgs) -> anyhow::Result<()> {
+    let lut = a.lut.as_deref().map(load_lut).transpose()?;
+    let mut g = open_grabber(&a.grabber)?;
+    let mut src = open_source(&a.source, g.as_mut(), a.fixed_gain)?;
+    let opts = AgcOptions {
+        fixed_gain: a.fixed_gain,
+        frames_per_step: a.frames,
+        allow_unsettled: a.allow_unsettled,
+        ..Default::default()
+    };
+    let r = with_bar(is_manual(&a.source), "steps", |p| {
+        agc_linearisation(g.as_mut(), src.as_mut(), &opts, lut.as_ref(), p)
+    })?;
+    report::write_agc_report(&a.out, &r)?;
+    eprintln!(
+        "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
+        r.all_settled,
+        r.max_settling_time_us
+            .map_or("—".into(), |v| format!("{v:.0}")),
+        r.max_overshoot_percent
+            .map_or("—".into(), |v| format!("{v:.2}")),
+        r.hysteresis_gain_percent,
+        r.linearity_error_percent
+    );
+    eprintln!("wrote {}", a.out.join("agc.json").display());
+    Ok(())
+}
+
+fn ptc(a: PtcArgs) -> anyhow::Result<()> {
+    let mut g = open_grabber(&a.grabber)?;
+    let mut sa = a.source.clone();
+    if sa.levels.is_none() {
+        sa.levels = Some(50);
+    }
+    let mut src = open_source(&sa, g.as_mut(), a.gain)?;
+    let opts = PtcOptions {
+        gain: a.gain,
+        exposure_s: a.grabber.exposure_s,
+        spatial_frames: a.spatial_frames,
+        dataset_dir: Some(a.out.join("emva1288")),
+    };
+    let r = with_bar(is_manual(&a.source), "levels", |p| {
+        photon_transfer(g.as_mut(), src.as_mut(), &opts, p)
+    })?;
+    report::write_ptc_report(&a.out, &r)?;
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
+    }
+    eprintln!(
+        "K = {:.5} DN/e⁻, dark noise {:.3} e⁻, saturation {:.0} e⁻, QE {}",
+        r.system_gain_dn_per_e,
+        r.dark_noise_e,
+        r.saturation_capacity_e,
+        r.quantum_efficiency
+            .map_or("— (no [rig])".into(), |q| format!("{q:.4}"))
+    );
+    eprintln!("wrote {}", a.out.join("ptc.json").display());
+    Ok(())
+}
+
+fn read_usaf_ctf(path: &Path) -> anyhow::Result<Vec<(i32, i32, f64)>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = l
+            .split([',', ';', '\t', ' '])
+            .filter(|s| !s.is_empty())
+            .collect();
+        let parsed = (|| -> Option<(i32, i32, f64)> {
+            if f.len() != 3 {
+                return None;
+            }
+            Some((f[0].parse().ok()?, f[1].parse().ok()?, f[2].parse().ok()?))
+        })();
+        match parsed {
+            Some((g, e, m)) if (1..=6).contains(&e) && m.is_finite() => out.push((g, e, m)),
+            Some(_) => bail!(
+                "{}:{}: element must be 1–6 and the modulation finite",
+                path.display(),
+                i + 1
+            ),
+            None if out.is_empty() => continue, // header
+            None => bail!(
+                "{}:{}: expected 'group,element,modulation'",
+                path.display(),
+                i + 1
+            ),
+        }
+    }
+    if out.is_empty() {
+        bail!("{}: no 'group,element,modulation' rows", path.display());
+    }
+    Ok(out)
+}
+
+fn mtf(a: MtfArgs) -> anyhow::Result<()> {
+    let hidden = false;
+    let (curves, details) = match a.target {
+        Target::Usaf => {
+            let ctf_path = a.ctf.as_ref().context("--target usaf needs --ctf FILE")?;
+            let pitch = a
+                .pixel_pitch_um
+                .context("--target usaf needs --pixel-pitch-um")?;
+            let mut rows = read_usaf_ctf(ctf_path)?;
+            rows.sort_by(|x, y| usaf_lp_per_mm(x.0, x.1).total_cmp(&usaf_lp_per_mm(y.0, y.1)));
+            // Chart lp/mm → image cycles per pixel.
+            let f: Vec<f64> = rows
+                .iter()
+                .map(|r| usaf_lp_per_mm(r.0, r.1) / a.magnification * pitch * 1e-3)
+                .collect();
+            let c: Vec<f64> = rows.iter().map(|r| r.2).collect();
+            let m = coltman_sine_from_square_samples(&f, &c)?;
+            let details = serde_json::json!({
+                "usaf": rows.iter().zip(&f).map(|(r, fp)| serde_json::json!({
+                    "group": r.0, "element": r.1, "lp_per_mm": usaf_lp_per_mm(r.0, r.1),
+                    "cycles_per_pixel": fp, "square_wave_modulation": r.2,
+                })).collect::<Vec<_>>(),
+            });
+            (
+                vec![
+                    MtfCurve::new("usaf-coltman", f.clone(), m),
+                    MtfCurve::new("usaf-square-wave", f, c),
+                ],
+                details,
+            )
+        }
+        Target::Sine | Target::Edge => {
+            let uri = a
+                .grabber
+                .clone()
+                .context("--target sine/edge needs --grabber")?;
+            let ga = GrabberArgs {
+                grabber: uri,
+                seed: a.seed,
+                exposure_s: None,
+            };
+            let mut g = open_grabber(&ga)?;
+            g.set_agc(false)?;
+            if let Some(gain) = a.gain {
+                g.set_gain(gain)?;
+            }
+            let level = match a.radiance {
+                Some(l) => l,
+                None => auto_range(g.as_mut(), &a.spectrum, 0.4)?,
+            };
+            let curve = if matches!(a.target, Target::Sine) {
+                let freqs = if a.frequencies.is_empty() {
+                    (1..=24).map(|i| 0.02 * i as f64).collect()
+                } else {
+                    a.frequencies.clone()
+                };
+                let o = SineOptions {
+                    frequencies_cy_per_px: freqs,
+                    mean_radiance_w_m2_sr: level,
+                    modulation: a.modulation,
+                    angle_deg: a.angle_deg.unwrap_or(0.0),
+                    spectrum: a.spectrum.clone(),
+                    frames: a.frames,
+                };
+                with_bar(hidden, "targets", |p| sine_mtf(g.as_mut(), &o, p))?
+            } else {
+                let o = EdgeOptions {
+                    dark_radiance_w_m2_sr: level * 0.2,
+                    bright_radiance_w_m2_sr: level * 1.8,
+                    angle_deg: a.angle_deg.unwrap_or(5.0),
+                    spectrum: a.spectrum.clone(),
+                    frames: a.frames,
+                };
+                with_bar(hidden, "edge", |p| edge_mtf(g.as_mut(), &o, p))?
+            };
+            (
+                vec![curve],
+                serde_json::json!({ "mean_radiance_w_m2_sr": level, "grabber": g.describe() }),
+            )
+        }
+    };
+    report::write_mtf_report(&a.out, &curves, details)?;
+    let c = &curves[0];
+    eprintln!(
+        "{}: MTF50 {} cy/px, MTF10 {} cy/px",
+        c.method,
+        c.mtf50.map_or("—".into(), |v| format!("{v:.4}")),
+        c.mtf10.map_or("—".into(), |v| format!("{v:.4}"))
+    );
+    eprintln!("wrote {}", a.out.join("mtf.json").display());
+    Ok(())
+}
