@@ -251,7 +251,7 @@ impl Tracer {
 
         let mut facet_source = vec![u32::MAX; scene.facets.len()];
         let mut area = Vec::new();
-        let mut rng = stream(settings.seed, 0xD125_1620_01, 0);
+        let mut rng = stream(settings.seed, 0x00D1_2516_2001, 0);
         for (i, f) in scene.facets.iter().enumerate() {
             let Some(e) = &scene.materials[f.material].emission else {
                 continue;
@@ -513,7 +513,7 @@ impl Tracer {
             let v = x - p;
             let d2 = v.length_squared();
             let dist = d2.sqrt();
-            if !(dist > 0.0) {
+            if dist.is_nan() || dist <= 0.0 {
                 return LightSample {
                     dir: s.normal,
                     dist: 0.0,

@@ -290,8 +290,10 @@ quad = {{ center = [0, 0, 3], size = [10, 10], normal = [0, 0, -1] }}
     for v in out.radiance.iter() {
         assert!(rel(*v, 0.8 * L_PANEL) < 1e-12, "{v}");
     }
-    let mut direct = RenderSettings::default();
-    direct.recursion = 1;
+    let direct = RenderSettings {
+        recursion: 1,
+        ..Default::default()
+    };
     let out = gloam_trace::render(&s, &direct).unwrap();
     assert!(out.radiance.iter().all(|&v| v == 0.0));
 }
@@ -452,10 +454,12 @@ fn same_seed_same_image_at_any_thread_count() {
         &panel_scene([0.0; 3], 0.0, &extra)
             .replace("width = 8\nheight = 8", "width = 24\nheight = 20"),
     );
-    let mut a = RenderSettings::default();
-    a.diffuse_bounces = 2;
-    a.seed = 7;
-    a.threads = Some(1);
+    let a = RenderSettings {
+        diffuse_bounces: 2,
+        seed: 7,
+        threads: Some(1),
+        ..Default::default()
+    };
     let mut b = a.clone();
     b.threads = Some(2);
     let ra = gloam_trace::render(&s, &a).unwrap();
@@ -478,8 +482,10 @@ fn emission_line_integrates_exactly_on_a_coarse_grid() {
         )
         .replace("look_at = [0, 0, 0]", "look_at = [0, 0, 9]");
     let s = scene(&text);
-    let mut set = RenderSettings::default();
-    set.spectral_step_nm = 50.0;
+    let set = RenderSettings {
+        spectral_step_nm: 50.0,
+        ..Default::default()
+    };
     let out = gloam_trace::render(&s, &set).unwrap();
     let truth = s.materials[s.facets.last().unwrap().material]
         .emission
@@ -534,4 +540,50 @@ quad = { center = [5.72, 0, 4], size = [2.56, 6], normal = [0, 0, 1] }
         e_ref > main + 0.2 * e_dim && e_ref < main + 0.8 * e_dim,
         "{e_ref}"
     );
+}
+
+#[test]
+fn diffuse_bounces_light_a_ceiling_that_sees_no_source() {
+    // Ceiling at z = 10 above the downward panel: no direct light. With one
+    // diffuse bounce it receives the floor's light; the truth is a
+    // quadrature over the floor of L_floor(x) cos θ_c cos θ_f / R², with
+    // L_floor = ρ E(x) / π from the closed form.
+    let extra = "[materials.ceiling]\nreflectance = 0.8\n[objects.ceiling]\nmaterial = \"ceiling\"\nquad = { center = [0, 0, 10], size = [60, 60], normal = [0, 0, -1] }\n";
+    let text = panel_scene([0.0; 3], 0.0, extra)
+        .replace("position = [0, 0, 5]", "position = [10, 0, 5]")
+        .replace("look_at = [0, 0, 0]", "look_at = [10, 0, 10]")
+        .replace("width = 8\nheight = 8", "width = 4\nheight = 4");
+    let s = scene(&text);
+    let dark = gloam_trace::render(&s, &RenderSettings::default()).unwrap();
+    assert!(dark.radiance.iter().all(|&v| v == 0.0));
+    let set = RenderSettings {
+        diffuse_bounces: 1,
+        spp: 256,
+        ..Default::default()
+    };
+    let lit = gloam_trace::render(&s, &set).unwrap();
+    let mean = lit.radiance.mean().unwrap();
+
+    let verts = panel_verts(DVec3::ZERO);
+    let c = DVec3::new(10.0, 0.0, 10.0);
+    let n = 240;
+    let h = 60.0 / n as f64;
+    let mut e_c = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = DVec3::new(
+                -30.0 + (i as f64 + 0.5) * h,
+                -30.0 + (j as f64 + 0.5) * h,
+                0.0,
+            );
+            let l_f =
+                0.9 * L_PANEL * polygon_irradiance_factor(x, DVec3::Z, &verts, -DVec3::Z) / PI;
+            let v = x - c;
+            let r2 = v.length_squared();
+            let cos = 10.0 / r2.sqrt();
+            e_c += l_f * cos * cos / r2 * h * h;
+        }
+    }
+    let truth = 0.8 * e_c / PI;
+    assert!(rel(mean, truth) < 0.05, "{mean} vs {truth}");
 }
