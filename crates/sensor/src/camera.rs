@@ -53,7 +53,8 @@ pub struct FrameMeta {
     pub height: usize,
     /// Mean DN of the frame.
     pub mean_dn: f64,
-    /// Fraction of pixels at or above the saturation DN.
+    /// Fraction of pixels at saturation (within 3 σ of read noise, at least
+    /// 1 DN, of [`crate::Chain::saturation_dn`]).
     pub saturated_fraction: f64,
     /// Temporal noise on.
     pub noise: bool,
@@ -487,7 +488,8 @@ impl Camera {
         let black = chain.black_dn(g);
         let clip = chain.clip_dn(g);
         let max_code = chain.max_code;
-        let sat_dn = chain.saturation_dn(g);
+        // "Saturated": within 3 σ of read noise (at least 1 DN) of saturation.
+        let sat_dn = chain.saturation_dn(g) - (3.0 * chain.read_noise_dn(g)).max(1.0);
         let dsnu = pat.dsnu.as_deref();
         let mean_e = |r: usize, c: usize, p: f32| -> f64 {
             let mut m = p.max(0.0) as f64 * conv;

@@ -224,14 +224,14 @@ pub fn bessel_j1(x: f64) -> f64 {
     } else {
         let z = 8.0 / ax;
         let y = z * z;
-        let xx = ax - 2.356194491;
+        let xx = ax - 3.0 * std::f64::consts::FRAC_PI_4;
         let a1 = 1.0
             + y * (0.183105e-2
                 + y * (-0.3516396496e-4 + y * (0.2457520174e-5 + y * (-0.240337019e-6))));
         let a2 = 0.04687499995
             + y * (-0.2002690873e-3
                 + y * (0.8449199096e-5 + y * (-0.88228987e-6 + y * 0.105787412e-6)));
-        let ans = (0.636619772 / ax).sqrt() * (xx.cos() * a1 - z * xx.sin() * a2);
+        let ans = (std::f64::consts::FRAC_2_PI / ax).sqrt() * (xx.cos() * a1 - z * xx.sin() * a2);
         if x < 0.0 { -ans } else { ans }
     }
 }
@@ -703,10 +703,12 @@ impl Chain {
         self.read_noise_e * self.dn_per_ccd_electron(g)
     }
 
-    /// The DN at which the output saturates (full well, video clip or the top code).
+    /// The DN at which the output saturates (full well, video clip or the
+    /// top code), as the digitizer rounds it. At full well, read noise still
+    /// spreads the output by ± [`Chain::read_noise_dn`].
     pub fn saturation_dn(&self, g: f64) -> f64 {
         let fw = self.black_dn(g) + self.config.ccd.full_well_e * self.dn_per_ccd_electron(g);
-        fw.min(self.clip_dn(g)).min(self.max_code).floor()
+        (fw.min(self.clip_dn(g)).min(self.max_code) + 0.5).floor()
     }
 
     /// Dark-emission photoelectrons per pixel per frame at gain `g`.
