@@ -547,6 +547,32 @@ fn huge_exponent_is_finite_and_collimated() {
 }
 
 #[test]
+fn missed_beams_stay_within_rigorous_bounds() {
+    // Beam axis missing the 4×4 panel by `miss` at unit height: the result
+    // must lie in [0, cos^m(atan miss) · D_0].
+    let verts = square(0.0, 0.0, 2.0);
+    let n = DVec3::new(0.3, 0.1, -1.0);
+    for m in [20u32, 100, 1000, 10_000] {
+        let mut prev = f64::INFINITY;
+        for miss in [0.003, 0.01, 0.03, 0.1, 0.3, 1.0] {
+            let p = DVec3::new(0.5, -2.0 - miss, 1.0);
+            let f = shaped_polygon_irradiance_factor(p, n, &verts, DVec3::Z, m);
+            let d0 = polygon_irradiance_factor(p, n, &verts, DVec3::Z);
+            let bound = (1.0 / (1.0 + miss * miss)).sqrt().powi(m as i32) * d0;
+            assert!(
+                f.is_finite() && f >= 0.0 && f <= bound,
+                "m={m} miss={miss}: {f} vs {bound}"
+            );
+            // Away from the rounding floor (~1e-17 D_0) it falls with the miss.
+            if f > 1e-15 * d0 {
+                assert!(f < prev, "m={m} miss={miss}");
+            }
+            prev = f;
+        }
+    }
+}
+
+#[test]
 fn far_from_origin_with_small_panels() {
     let off = DVec3::new(1e5, -1e5, 1e5);
     let (sx, sy, r) = (0.01, 0.02, 0.05);
