@@ -63,11 +63,11 @@ struct FrameRecord {
 fn png_bytes(f: &Frame) -> anyhow::Result<Vec<u8>> {
     use image::ImageEncoder;
     let mut bytes = Vec::with_capacity(f.pixels.len() * 2 + 1024);
-    // PNG stores 16-bit samples big-endian.
-    let be: Vec<u8> = f.pixels.iter().flat_map(|p| p.to_be_bytes()).collect();
+    // The encoder takes 16-bit samples in native byte order (PNG itself is big-endian).
+    let ne: Vec<u8> = f.pixels.iter().flat_map(|p| p.to_ne_bytes()).collect();
     image::codecs::png::PngEncoder::new(&mut bytes)
         .write_image(
-            &be,
+            &ne,
             f.meta.width,
             f.meta.height,
             image::ExtendedColorType::L16,

@@ -1,0 +1,191 @@
+//! `gloam capture` and `gloam grabbers` from the command line.
+
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_gloam");
+
+fn gloam(args: &[&str]) -> std::process::Output {
+    Command::new(BIN).args(args).output().expect("run gloam")
+}
+
+#[test]
+fn capture_from_sim_writes_pngs_and_jsonl() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cap");
+    let o = Command::new(BIN)
+        .args([
+            "capture",
+            "--grabber",
+            "sim:sine?size=40x30",
+            "--frames",
+            "4",
+            "--bits",
+            "12",
+            "--gain",
+            "800",
+            "--seed",
+            "3",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(out.join("frames.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 4);
+    for (i, r) in lines.iter().enumerate() {
+        for k in [
+            "seq",
+            "timestamp",
+            "gain",
+            "agc",
+            "bits",
+            "pixels_crc32c",
+            "status",
+        ] {
+            assert!(r.get(k).is_some(), "missing {k} in {r}");
+        }
+        assert_eq!(r["seq"], i as u64);
+        assert_eq!(r["bits"], 12);
+        assert_eq!(r["agc"], false);
+        assert_eq!(r["gain"], 800.0);
+        assert_eq!(r["status"], "ok");
+        let png = out.join(format!("frame-{i:06}.png"));
+        let img = image::open(&png).unwrap();
+        let img = img.as_luma16().expect("16-bit grey PNG");
+        assert_eq!(img.dimensions(), (40, 30));
+        let pixels: Vec<u16> = img.pixels().map(|p| p.0[0]).collect();
+        assert!(pixels.iter().all(|&p| p < 4096));
+        assert_eq!(
+            r["pixels_crc32c"],
+            u64::from(gloam_grabber::pixels_crc32c(&pixels))
+        );
+    }
+    // Same seed, same frames.
+    let out2 = dir.path().join("cap2");
+    let o = Command::new(BIN)
+        .args([
+            "capture",
+            "--grabber",
+            "sim:sine?size=40x30",
+            "--frames",
+            "4",
+            "--bits",
+            "12",
+            "--gain",
+            "800",
+            "--seed",
+            "3",
+            "--out",
+        ])
+        .arg(&out2)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert_eq!(
+        text,
+        std::fs::read_to_string(out2.join("frames.jsonl")).unwrap()
+    );
+}
+
+#[test]
+fn capture_rejects_bad_input_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    for (args, needle) in [
+        (
+            vec!["capture", "--grabber", "tcp:x", "--out", out],
+            "unknown scheme",
+        ),
+        (
+            vec!["capture", "--grabber", "sim:nope-preset", "--out", out],
+            "nope-preset",
+        ),
+        (
+            vec![
+                "capture",
+                "--grabber",
+                "serial:/dev/does-not-exist-gloam",
+                "--out",
+                out,
+            ],
+            "does-not-exist-gloam",
+        ),
+        (
+            vec!["capture", "--grabber", "usb:1d50:6018", "--out", out],
+            "usb",
+        ),
+        (
+            vec![
+                "capture",
+                "--grabber",
+                "sim:uniform",
+                "--bits",
+                "10",
+                "--out",
+                out,
+            ],
+            "10",
+        ),
+        (
+            vec![
+                "capture",
+                "--grabber",
+                "sim:uniform",
+                "--gain",
+                "2",
+                "--agc",
+                "--out",
+                out,
+            ],
+            "--agc",
+        ),
+    ] {
+        let o = gloam(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(
+            err.to_lowercase().contains(&needle.to_lowercase()),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn grabbers_lists_serial_usb_and_sim() {
+    let o = gloam(&["grabbers", "--json"]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["serial"].is_array());
+    assert!(v["usb"].is_array());
+    // Either USB devices are listed or we are told plainly why not.
+    if v["usb"].as_array().unwrap().is_empty() {
+        if let Some(e) = v["usb_error"].as_str() {
+            assert!(e.contains("no USB bus"), "{e}");
+        }
+    }
+    let sims: Vec<&str> = v["sim"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["uri"].as_str().unwrap())
+        .collect();
+    for p in [
+        "sim:gen2-s20-iccd",
+        "sim:gen3-gaas-iccd",
+        "sim:s25-ebccd",
+        "sim:scientific-ccd",
+        "sim:uniform",
+    ] {
+        assert!(sims.contains(&p), "{p} missing from {sims:?}");
+    }
+    let o = gloam(&["grabbers"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("USB devices:") && text.contains("serial ports:"));
+}
