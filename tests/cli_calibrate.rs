@@ -1,0 +1,284 @@
+//! End-to-end tests of `gloam calibrate …` and `gloam compare` against the
+//! simulated cameras.
+
+use std::path::Path;
+use std::process::Command;
+
+fn gloam() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gloam"))
+}
+
+fn run_ok(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("run gloam");
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "gloam failed: {stderr}");
+    stderr
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+const SPHERE: &str = r#"
+[source]
+kind = "sphere"
+lamp = "cie-a"
+lamp_flux_w = 1.0
+sphere_diameter_m = 0.5
+reflectance = 0.98
+port_fraction = 0.02
+
+[dimming]
+method = "aperture"
+
+[rig]
+pixel_pitch_um = 13.5
+f_number = 2.0
+exposure_s = 1.0
+"#;
+
+const CAM: &str = "sim:scientific-ccd?size=48x48&seed=3";
+
+/// The chain's true response, noise off: mean DN at two radiances.
+fn true_line(gain: f64, l1: f64, l2: f64) -> (f64, f64) {
+    let mut cam = gloam_sensor::Camera::from_preset_or_file("scientific-ccd").unwrap();
+    cam.set_noise(false);
+    cam.set_override_gain(Some(gain)).unwrap();
+    // Stimulus radiance is band radiance over 400–1000 nm: the shape the
+    // camera integrates is the lamp restricted to that band.
+    let shape = gloam_spectra::library::get("cie-a")
+        .unwrap()
+        .product(&gloam_spectra::Spectrum::constant(400.0, 1000.0, 1.0).unwrap());
+    let mut mean = |l: f64| {
+        let img = ndarray::Array2::from_elem((48, 48), l);
+        let f = cam.capture_mono(img.view(), &shape).unwrap();
+        f.pixels.iter().map(|&p| p as f64).sum::<f64>() / f.pixels.len() as f64
+    };
+    let (d1, d2) = (mean(l1), mean(l2));
+    let g = (l2 - l1) / (d2 - d1);
+    (g, l1 - g * d1)
+}
+
+#[test]
+fn radiance_lut_then_apply_recovers_radiance() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("sphere.toml");
+    std::fs::write(&src, SPHERE).unwrap();
+    let out = dir.path().join("cal");
+    run_ok(
+        gloam()
+            .args(["calibrate", "radiance", "--grabber", CAM, "--source"])
+            .arg(&src)
+            .args([
+                "--gains",
+                "1,2",
+                "--levels",
+                "8",
+                "--frames",
+                "4",
+                "--auto-range",
+                "0.8",
+                "--out",
+            ])
+            .arg(&out),
+    );
+    let lut = json(&out.join("lut.json"));
+    let gains = lut["gains"].as_array().unwrap();
+    assert_eq!(gains.len(), 2);
+    for k in [
+        "gain",
+        "g_w_m2_sr_per_dn",
+        "b_w_m2_sr",
+        "r_squared",
+        "fit_range_dn",
+    ] {
+        assert!(gains[0].get(k).is_some(), "missing {k}");
+    }
+    for png in ["radiance_fit.png", "linearity_residuals.png", "radiance.md"] {
+        assert!(out.join(png).exists());
+    }
+    // Against the chain's own noise-free response: within 0.5 %.
+    for g in gains {
+        let gain = g["gain"].as_f64().unwrap();
+        let top = g["levels"].as_array().unwrap().last().unwrap()["band_radiance_w_m2_sr"]
+            .as_f64()
+            .unwrap();
+        let (gt, bt) = true_line(gain, 0.2 * top, top);
+        let gm = g["g_w_m2_sr_per_dn"].as_f64().unwrap();
+        let bm = g["b_w_m2_sr"].as_f64().unwrap();
+        eprintln!(
+            "sim gain {gain}: g error {:.4} %, b error {:.4} % (of b) / {:.2e} of top radiance",
+            100.0 * (gm / gt - 1.0),
+            100.0 * (bm / bt - 1.0),
+            (bm - bt).abs() / top
+        );
+        assert!((gm / gt - 1.0).abs() < 0.005);
+        assert!((bm / bt - 1.0).abs() < 0.005 || (bm - bt).abs() < 1e-3 * top);
+    }
+
+    // Capture a frame and apply the LUT via frames.jsonl's gain.
+    let cap = dir.path().join("cap");
+    run_ok(
+        gloam()
+            .args([
+                "capture",
+                "--grabber",
+                CAM,
+                "--frames",
+                "1",
+                "--gain",
+                "2",
+                "--out",
+            ])
+            .arg(&cap),
+    );
+    let tif = dir.path().join("rad.tiff");
+    run_ok(
+        gloam()
+            .args(["calibrate", "apply", "--lut"])
+            .arg(out.join("lut.json"))
+            .arg(cap.join("frame-000000.png"))
+            .arg(&tif),
+    );
+    let img = gloam_calib::io::read_grey(&tif).unwrap();
+    assert_eq!((img.width, img.height), (48, 48));
+    assert!(img.data.iter().all(|v| v.is_finite()));
+    // A gain outside the LUT is refused.
+    let o = gloam()
+        .args(["calibrate", "apply", "--gain", "50", "--lut"])
+        .arg(out.join("lut.json"))
+        .arg(cap.join("frame-000000.png"))
+        .arg(&tif)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("outside the calibrated gains"));
+}
+
+#[test]
+fn ptc_writes_emva_figures_and_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("sphere.toml");
+    std::fs::write(&src, SPHERE).unwrap();
+    let out = dir.path().join("ptc");
+    run_ok(
+        gloam()
+            .args(["calibrate", "ptc", "--grabber", CAM, "--source"])
+            .arg(&src)
+            .args([
+                "--levels",
+                "50",
+                "--gain",
+                "1",
+                "--auto-range",
+                "1.4",
+                "--spatial-frames",
+                "8",
+                "--out",
+            ])
+            .arg(&out),
+    );
+    let v = json(&out.join("ptc.json"));
+    for k in [
+        "system_gain_dn_per_e",
+        "quantum_efficiency",
+        "dark_noise_e",
+        "saturation_capacity_e",
+        "linearity_error_percent",
+        "dsnu_e",
+        "prnu_percent",
+    ] {
+        assert!(v[k].is_number(), "missing {k}: {}", v[k]);
+    }
+    let desc = std::fs::read_to_string(out.join("emva1288/emva1288_descriptor.txt")).unwrap();
+    assert!(desc.contains("\nn 16 48 48\n"));
+    assert!(out.join("photon_transfer.png").exists());
+}
+
+#[test]
+fn mtf_sine_edge_and_usaf() {
+    let dir = tempfile::tempdir().unwrap();
+    for target in ["sine", "edge"] {
+        let out = dir.path().join(target);
+        run_ok(
+            gloam()
+                .args([
+                    "calibrate",
+                    "mtf",
+                    "--target",
+                    target,
+                    "--grabber",
+                    "sim:gen2-s20-iccd?size=96x96&seed=1",
+                    "--frames",
+                    "4",
+                    "--out",
+                ])
+                .arg(&out),
+        );
+        let v = json(&out.join("mtf.json"));
+        assert!(v["frequencies_cy_per_px"].is_array() && v["mtf"].is_array());
+        assert!(v.get("mtf50").is_some() && v.get("mtf10").is_some());
+        assert!(out.join("mtf.png").exists());
+    }
+    let ctf = dir.path().join("ctf.csv");
+    std::fs::write(
+        &ctf,
+        "group,element,modulation\n0,1,0.95\n1,1,0.85\n2,1,0.6\n3,1,0.3\n4,1,0.05\n",
+    )
+    .unwrap();
+    let out = dir.path().join("usaf");
+    run_ok(
+        gloam()
+            .args([
+                "calibrate",
+                "mtf",
+                "--target",
+                "usaf",
+                "--pixel-pitch-um",
+                "10",
+                "--ctf",
+            ])
+            .arg(&ctf)
+            .arg("--out")
+            .arg(&out),
+    );
+    let v = json(&out.join("mtf.json"));
+    // 16 lp/mm at 10 µm pixels = 0.16 cy/px.
+    assert!((v["frequencies_cy_per_px"][4].as_f64().unwrap() - 0.16).abs() < 1e-12);
+    assert!(v["mtf"][0].as_f64().unwrap() < 0.95 + 1e-9);
+}
+
+#[test]
+fn compare_reports_spearman_with_ties_and_rms() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two 5×1 16-bit images: scipy's tied example [1..5] vs [5,6,7,8,7].
+    let write = |name: &str, v: &[u16]| {
+        let img =
+            image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(5, 1, v.to_vec()).unwrap();
+        let p = dir.path().join(name);
+        img.save(&p).unwrap();
+        p
+    };
+    let t = write("t.png", &[1, 2, 3, 4, 5]);
+    let s = write("s.png", &[5, 6, 7, 8, 7]);
+    let regions = dir.path().join("r.json");
+    let r: Vec<serde_json::Value> = (0..5).map(|x| serde_json::json!({"name": format!("p{x}"), "x": x, "y": 0, "width": 1, "height": 1})).collect();
+    std::fs::write(&regions, serde_json::to_string(&r).unwrap()).unwrap();
+    let out = gloam()
+        .arg("compare")
+        .arg(&t)
+        .arg(&s)
+        .arg("--regions")
+        .arg(&regions)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((v["spearman_rho"].as_f64().unwrap() - 0.820_782_681_668_123_3).abs() < 1e-12);
+    assert!((v["rms"].as_f64().unwrap() - (68.0f64 / 5.0).sqrt()).abs() < 1e-12);
+}
