@@ -45,6 +45,12 @@ enum Command {
     Calibrate(cmd::calibrate::CalibrateCommand),
     /// Compare two images over ground-control regions (Spearman rho, RMS).
     Compare(cmd::compare::CompareArgs),
+    /// Benchmarks: accuracy against time (`accuracy`), throughput figures.
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCommand),
+    /// Sensor presets and their derived figures (DN per photoelectron, noise, saturation).
+    #[command(subcommand)]
+    Sensor(cmd::sensor::SensorCommand),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -52,6 +58,7 @@ enum Command {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Sensor(c) => cmd::sensor::run(c),
         Command::Calibrate(c) => cmd::calibrate::run(c),
         Command::Compare(args) => cmd::compare::run(args),
         Command::Device(args) => cmd::device::run(args),
@@ -62,6 +69,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sky(args) => cmd::sky::run(args),
         Command::Render(args) => cmd::render::run(args),
         Command::Probe(args) => cmd::probe::run(args),
+        Command::Bench(c) => cmd::bench::run(c),
     }
 }
 

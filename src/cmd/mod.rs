@@ -1,6 +1,7 @@
 //! One module per subcommand. Each exposes its clap arguments and a
 //! `run(args) -> anyhow::Result<()>`.
 
+pub mod bench;
 pub mod calibrate;
 pub mod capture;
 pub mod compare;
@@ -11,5 +12,6 @@ pub mod output;
 pub mod plan;
 pub mod probe;
 pub mod render;
+pub mod sensor;
 pub mod sky;
 pub mod spectra;
