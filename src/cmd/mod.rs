@@ -12,6 +12,5 @@ pub mod output;
 pub mod plan;
 pub mod probe;
 pub mod render;
-pub mod sensor;
 pub mod sky;
 pub mod spectra;
