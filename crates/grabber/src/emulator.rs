@@ -266,12 +266,18 @@ impl Pacer {
         let now = Instant::now();
         let begin = self.wire_free_at.max(now);
         self.wire_free_at = begin + Duration::from_secs_f64(n as f64 / rate);
-        // Sleep in coarse steps; precision comes from the accumulated clock.
+        // Stay up to SLACK ahead of the wire (a UART's transmit buffer), so
+        // the time spent capturing the next frame does not leave the line
+        // idle; the long-run rate is exact because the clock accumulates.
         let ahead = self.wire_free_at.saturating_duration_since(Instant::now());
-        if ahead > Duration::from_micros(200) {
-            thread::sleep(ahead);
+        if ahead > Self::SLACK {
+            thread::sleep(ahead - Self::SLACK);
         }
     }
+}
+
+impl Pacer {
+    const SLACK: Duration = Duration::from_millis(3);
 }
 
 struct EmuSink<'l, L: DeviceLink> {
@@ -441,10 +447,7 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
 
 /// Hand one un-framed message to the device; restart the source's stream
 /// when the message started one.
-fn deliver<H: Hal, K: Sink>(device: &mut Device<'_, H>, msg: &[u8], sink: &mut K)
-where
-    H: RestartSource,
-{
+fn deliver<H: Hal + RestartSource, K: Sink>(device: &mut Device<'_, H>, msg: &[u8], sink: &mut K) {
     let before = device.state();
     let _ = device.handle_message(msg, sink);
     if before != DeviceState::Streaming && device.state() == DeviceState::Streaming {

@@ -101,6 +101,33 @@ pub trait FrameGrabber {
     fn grab(&mut self) -> Result<Frame, GrabError>;
 }
 
+impl<G: FrameGrabber + ?Sized> FrameGrabber for Box<G> {
+    fn describe(&self) -> String {
+        (**self).describe()
+    }
+    fn frame_size(&self) -> (u32, u32) {
+        (**self).frame_size()
+    }
+    fn set_gain(&mut self, gain: f64) -> Result<f64, GrabError> {
+        (**self).set_gain(gain)
+    }
+    fn set_agc(&mut self, on: bool) -> Result<bool, GrabError> {
+        (**self).set_agc(on)
+    }
+    fn set_bits(&mut self, bits: u8) -> Result<u8, GrabError> {
+        (**self).set_bits(bits)
+    }
+    fn set_exposure_s(&mut self, exposure_s: f64) -> Result<f64, GrabError> {
+        (**self).set_exposure_s(exposure_s)
+    }
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
+        (**self).present(stimulus)
+    }
+    fn grab(&mut self) -> Result<Frame, GrabError> {
+        (**self).grab()
+    }
+}
+
 /// Everything that can go wrong talking to a grabber.
 #[derive(Debug, thiserror::Error)]
 pub enum GrabError {

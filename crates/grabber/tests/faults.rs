@@ -81,12 +81,8 @@ fn run(
     let (host, dev, ctl) = memory_link(link);
     let emu = EmulatorHandle::spawn(dev, SyntheticSource::new(W, H, SEED), emu);
     let t0 = Instant::now();
-    let mut g = loop {
-        match ProtocolGrabber::connect(host, options()) {
-            Ok(g) => break g,
-            Err(e) => panic!("connect over a faulty {framing:?} link failed: {e}"),
-        }
-    };
+    let mut g = ProtocolGrabber::connect(host, options())
+        .unwrap_or_else(|e| panic!("connect over a faulty {framing:?} link failed: {e}"));
     g.set_bits(16).unwrap();
     g.set_gain(1.25).unwrap();
     let mut reference = Reference::new(1250);
