@@ -425,14 +425,14 @@ impl Camera {
         match chain.kind {
             SensorKind::Iccd => {
                 let eta = chain.open_area;
-                let shape = chain.gain_shape;
+                let gamma = noise::GammaSums::new(chain.gain_shape);
                 pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
                     let mut rng = noise::stream(seed, frame, Pass::Photoelectrons, r);
                     for p in row.iter_mut() {
                         let lam = eta * ((*p).max(0.0) as f64 + ebi);
                         let q = if noise_on {
                             let n = noise::poisson(&mut rng, lam, ga);
-                            noise::gamma_sum(&mut rng, n, shape, g)
+                            gamma.sample(&mut rng, n, g)
                         } else {
                             lam * g
                         };

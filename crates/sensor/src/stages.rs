@@ -313,6 +313,7 @@ pub struct Chain {
     pub gain_shape: f64,
     /// MCP saturation charge per pixel per frame, e⁻ (None = no saturation).
     pub mcp_saturation_e: Option<f64>,
+    mcp_saturation_inv: f64,
     pub phosphor_photons_per_e: f64,
     pub coupling_fraction: f64,
     pub ccd_qe_at_phosphor: f64,
@@ -617,6 +618,7 @@ impl Chain {
             open_area,
             gain_shape,
             mcp_saturation_e,
+            mcp_saturation_inv: mcp_saturation_e.map_or(0.0, |s| 1.0 / s),
             phosphor_photons_per_e,
             coupling_fraction,
             ccd_qe_at_phosphor,
@@ -764,8 +766,9 @@ impl Chain {
     /// MCP soft saturation of a charge `q` (e⁻).
     pub fn mcp_compress(&self, q: f64) -> f64 {
         match self.mcp_saturation_e {
-            Some(s) => {
-                let x2 = (q / s) * (q / s);
+            Some(_) => {
+                let x = q * self.mcp_saturation_inv;
+                let x2 = x * x;
                 if x2 < 1e-3 {
                     // Series of 1/√(1+x²); error < 4e-7 relative.
                     q * (1.0 - 0.5 * x2)

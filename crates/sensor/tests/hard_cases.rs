@@ -77,24 +77,33 @@ fn saturated_lamp_beside_starlit_field() {
                 star
             }
         });
-        let f = cam.capture_photoelectrons(scene.view()).unwrap();
+        let frames: Vec<_> = (0..6)
+            .map(|_| cam.capture_photoelectrons(scene.view()).unwrap())
+            .collect();
+        let f = &frames[0];
         let sat = ch.saturation_dn(g) as u16;
         let tol = (6.0 * ch.read_noise_dn(g)).ceil() as u16 + 1;
         assert!(f.pixels[[62, 32]] + tol >= sat, "{name}: lamp saturates");
-        // Far from the lamp the starlit field is undisturbed.
+        // Far from the lamp the starlit field is undisturbed: its mean is
+        // within 4 standard errors of the analytic one (the noise is
+        // correlated over ~1/S² pixels by the post-gain blur).
         let mut far = Vec::new();
-        for r in 8..120 {
-            for c in 80..120 {
-                far.push(f.pixels[[r, c]] as f64);
+        for f in &frames {
+            for r in 8..120 {
+                for c in 80..120 {
+                    far.push(f.pixels[[r, c]] as f64);
+                }
             }
         }
         let expected = ch.expected_mean_dn_from_pe(star, g);
         let m = mean(&far);
+        let n_eff = far.len() as f64 * ch.post_noise_variance_factor(g);
+        let se = (ch.temporal_variance_dn2_from_pe(star, g) / n_eff).sqrt();
         println!(
-            "{name}: starlit field {m:.2} DN (analytic {expected:.2}), lamp {}",
+            "{name}: starlit field {m:.2} DN (analytic {expected:.2} ± {se:.2}), lamp {}",
             f.pixels[[62, 32]]
         );
-        assert!((m - expected).abs() < 0.05 * (expected - ch.black_dn(g)) + 1.0);
+        assert!((m - expected).abs() < 4.0 * se + 1.0);
         // Blooming runs along the lamp's columns, not across rows.
         let bloom_up = f.pixels[[50, 32]] as f64;
         let side = f.pixels[[62, 70]] as f64;
