@@ -48,6 +48,9 @@ enum Command {
     /// Benchmarks: accuracy against time (`accuracy`), throughput figures.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCommand),
+    /// Sensor presets and their derived figures (DN per photoelectron, noise, saturation).
+    #[command(subcommand)]
+    Sensor(cmd::sensor::SensorCommand),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -55,6 +58,7 @@ enum Command {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Sensor(c) => cmd::sensor::run(c),
         Command::Calibrate(c) => cmd::calibrate::run(c),
         Command::Compare(args) => cmd::compare::run(args),
         Command::Device(args) => cmd::device::run(args),

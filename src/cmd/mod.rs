@@ -12,5 +12,6 @@ pub mod output;
 pub mod plan;
 pub mod probe;
 pub mod render;
+pub mod sensor;
 pub mod sky;
 pub mod spectra;
