@@ -27,8 +27,8 @@
 //! `L_pixel += I_s cos^m(α) τ / (R² Ω_pixel)`, with `R` the camera–lamp
 //! distance in metres, `α` the angle between the lamp's axis and the
 //! direction to the camera, `τ` the transmission of transmissive facets in
-//! between and `Ω_pixel = (2 tan(h/2)/W)(2 tan(v/2)/H) cos³θ` the solid
-//! angle of that pixel (θ off the optical axis). Summed over the pixel's
+//! between and `Ω_pixel` the exact solid angle of that pixel (from its
+//! corners on the image plane). Summed over the pixel's
 //! solid angle this returns exactly the irradiance `I/R²` the lamp puts on
 //! the entrance pupil. (Lamps seen in mirrors are not deposited.)
 //!

@@ -126,7 +126,6 @@ impl Tracer {
     /// unoccluded source in the field of view (see the crate docs).
     fn point_deposits(&self, c: &mut RayCounts) -> Vec<(u32, u32, Vec<f64>)> {
         let cam = &self.camera;
-        let (th, tv) = cam.tan_half_fov();
         let (_, _, fwd) = cam.basis();
         let mut out = Vec::new();
         for l in &self.points {
@@ -149,11 +148,23 @@ impl Tracer {
             // Towards the lamp from the camera.
             let vis = self.shadow(cam.position, -w, r, [u32::MAX, u32::MAX], c);
             let Some(tau) = vis else { continue };
-            // Solid angle of the pixel: (pixel area on the unit-distance
-            // image plane) × cos³θ.
-            let a_px = (2.0 * th / cam.width as f64) * (2.0 * tv / cam.height as f64);
-            let cos = (-w).dot(fwd);
-            let omega = a_px * cos * cos * cos;
+            // The exact solid angle of that pixel: its corners on the
+            // unit-distance image plane.
+            let (c0, r0) = (px.floor(), py.floor());
+            let corner = |x: f64, y: f64| {
+                let d = cam.pixel_direction(x, y);
+                cam.position + d / d.dot(fwd)
+            };
+            let quad = [
+                corner(c0, r0),
+                corner(c0 + 1.0, r0),
+                corner(c0 + 1.0, r0 + 1.0),
+                corner(c0, r0 + 1.0),
+            ];
+            let omega = crate::closed_form::polygon_solid_angle(cam.position, &quad);
+            if omega.is_nan() || omega <= 0.0 {
+                continue;
+            }
             let r_m = r * self.mpu;
             let g = shape / (r_m * r_m * omega);
             let spec: Vec<f64> = match tau {

@@ -587,3 +587,67 @@ fn diffuse_bounces_light_a_ceiling_that_sees_no_source() {
     let truth = 0.8 * e_c / PI;
     assert!(rel(mean, truth) < 0.05, "{mean} vs {truth}");
 }
+
+#[test]
+fn lamp_in_view_deposits_its_pupil_irradiance_into_one_pixel() {
+    // L_pixel · Ω_pixel = I_s cos^m(α) / R² (R in metres), with Ω_pixel the
+    // exact solid angle of the pixel (computed here from its corners).
+    let extra = lamp([0.3, 0.2, 0.0], [0.0, 0.3, 1.0], 3.0, 1e-4);
+    let text = dark_scene(&extra)
+        .replace("width = 8\nheight = 8", "width = 16\nheight = 16")
+        .replace("units = \"ft\"", "units = \"m\"");
+    let s = scene(&text);
+    let out = gloam_trace::render(&s, &RenderSettings::default()).unwrap();
+    let img = out.radiance.index_axis(ndarray::Axis(0), 0);
+    // (The lamp sits in the floor's plane, which it lights only at rounding level.)
+    let max = img.iter().copied().fold(0.0, f64::max);
+    let lit: Vec<_> = img
+        .indexed_iter()
+        .filter(|(_, v)| **v > 1e-6 * max)
+        .collect();
+    assert_eq!(lit.len(), 1, "exactly one pixel holds the lamp");
+    let ((row, col), &l) = lit[0];
+    let cam = &s.camera;
+    let (px, py) = cam.project(DVec3::new(0.3, 0.2, 0.0)).unwrap();
+    assert_eq!((px as usize, py as usize), (col, row));
+    let f = (cam.look_at - cam.position).normalize();
+    let corner = |x: f64, y: f64| {
+        let d = cam.pixel_direction(x, y);
+        cam.position + d / d.dot(f)
+    };
+    let (c, r) = (col as f64, row as f64);
+    let quad = [
+        corner(c, r),
+        corner(c + 1.0, r),
+        corner(c + 1.0, r + 1.0),
+        corner(c, r + 1.0),
+    ];
+    let omega = gloam_trace::closed_form::polygon_solid_angle(cam.position, &quad);
+    let to_cam = (cam.position - DVec3::new(0.3, 0.2, 0.0)).normalize();
+    let cos_a = to_cam.dot(DVec3::new(0.0, 0.3, 1.0).normalize());
+    let r2 = (cam.position - DVec3::new(0.3, 0.2, 0.0)).length_squared();
+    let e_pupil = 1e-4 * 300.0 * cos_a.powi(3) / r2;
+    assert!(rel(l * omega, e_pupil) < 1e-9, "{} vs {e_pupil}", l * omega);
+}
+
+#[test]
+fn dirsig2001_thresholds_skip_sources() {
+    let s = scene(&panel_scene([0.0; 3], 0.0, ""));
+    for (key, value) in [
+        ("SOLID_ANGLE_THRESHOLD", "0.5"),
+        ("IRRADIANCE_THRESHOLD", "100"),
+    ] {
+        let mut set = settings(Estimator::Dirsig2001);
+        set.set(key, value).unwrap();
+        let (e, _, _) = probe(&s, &set, DVec3::ZERO, DVec3::Z, 2);
+        assert_eq!(e, 0.0, "{key}");
+    }
+    // MAX_SOURCE_SAMPLES = 1 is still an estimate of the right size.
+    let mut set = settings(Estimator::Dirsig2001);
+    set.set("MAX_SOURCE_SAMPLES", "1").unwrap();
+    let (e, _, _) = probe(&s, &set, DVec3::ZERO, DVec3::Z, 64);
+    assert!(
+        rel(e, rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0)) < 0.1,
+        "{e}"
+    );
+}
