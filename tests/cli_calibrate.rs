@@ -163,7 +163,13 @@ fn ptc_writes_emva_figures_and_dataset() {
     let out = dir.path().join("ptc");
     run_ok(
         gloam()
-            .args(["calibrate", "ptc", "--grabber", CAM, "--source"])
+            .args([
+                "calibrate",
+                "ptc",
+                "--grabber",
+                "sim:scientific-ccd?size=96x96&seed=8",
+                "--source",
+            ])
             .arg(&src)
             .args([
                 "--levels",
@@ -190,8 +196,23 @@ fn ptc_writes_emva_figures_and_dataset() {
     ] {
         assert!(v[k].is_number(), "missing {k}: {}", v[k]);
     }
+    // Against the chain: system gain K within 2 %, temporal dark noise (read
+    // noise, plus the cooled CCD's negligible dark-current shot noise) within 5 %.
+    let cam = gloam_sensor::Camera::from_preset_or_file("scientific-ccd").unwrap();
+    let chain = cam.chain();
+    let k_true = chain.mean_dn_per_photoelectron(1.0);
+    let rn_true = chain.read_noise_dn(1.0) / k_true;
+    let k = v["system_gain_dn_per_e"].as_f64().unwrap();
+    let rn = v["dark_noise_e"].as_f64().unwrap();
+    eprintln!(
+        "sim PTC: K {k:.5} vs {k_true:.5} ({:+.3} %), dark noise {rn:.3} vs {rn_true:.3} e ({:+.3} %)",
+        100.0 * (k / k_true - 1.0),
+        100.0 * (rn / rn_true - 1.0)
+    );
+    assert!((k / k_true - 1.0).abs() < 0.02);
+    assert!((rn / rn_true - 1.0).abs() < 0.05);
     let desc = std::fs::read_to_string(out.join("emva1288/emva1288_descriptor.txt")).unwrap();
-    assert!(desc.contains("\nn 16 48 48\n"));
+    assert!(desc.contains("\nn 16 96 96\n"));
     assert!(out.join("photon_transfer.png").exists());
 }
 
@@ -208,7 +229,7 @@ fn mtf_sine_edge_and_usaf() {
                     "--target",
                     target,
                     "--grabber",
-                    "sim:gen2-s20-iccd?size=96x96&seed=1",
+                    "sim:gen2-s20-iccd?size=96x96&seed=8",
                     "--frames",
                     "4",
                     "--out",

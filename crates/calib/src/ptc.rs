@@ -11,8 +11,10 @@
 //!   0–70 % of the saturation signal;
 //! * responsivity R: slope of `μ_y − μ_y.dark` on `μ_p` (photons per pixel)
 //!   over the same range; quantum efficiency `η = R / K`;
-//! * temporal dark noise `σ_d = σ_y.dark / K` e⁻ (Release 4.0 keeps the
-//!   quantisation noise in; Release 3 subtracted 1/12 DN² first);
+//! * temporal dark noise `σ_d = σ_y.dark / K` e⁻, with `σ²_y.dark` pooled
+//!   over the dark pair and the L-frame dark stack (quantisation noise is
+//!   not subtracted; Release 3.x subtracted 1/12 DN² first — negligible
+//!   unless σ_y.dark is below ~1 DN);
 //! * saturation capacity `μ_e.sat = (μ_y.sat − μ_y.dark)/K`;
 //! * SNR_max = `√μ_e.sat`; absolute sensitivity threshold
 //!   `μ_p.min = (½ + √(¼ + σ²_y.dark/K²))/η` (SNR = 1); DR = μ_p.sat/μ_p.min;
@@ -290,12 +292,6 @@ pub fn photon_transfer(
             (None, None, None, Vec::new(), None)
         }
     };
-    let dark_noise_dn = dark_var.sqrt();
-    let sigma_d_e = dark_noise_dn / k;
-    let mu_e_sat = sat_sig / k;
-    let mu_e_min = 0.5 + (0.25 + sigma_d_e * sigma_d_e).sqrt();
-    let snr_max = mu_e_sat.sqrt();
-    let dr = mu_e_sat / mu_e_min;
     let _ = mu_p_sat;
     // Spatial: L frames dark and at ~50 % saturation.
     let l = opts.spatial_frames.max(2);
@@ -303,6 +299,16 @@ pub fn photon_transfer(
     let dframes = grab_frames(grabber, l)?;
     let ds = stack_stats(&dframes)?;
     progress(n + 2, total);
+    // Temporal dark variance pooled over the dark pair (1 degree of freedom
+    // per pixel) and the L-frame dark stack (L − 1): same quantity, less
+    // sampling noise than the pair alone.
+    let pooled_dark_var = (dark_var + ds.temporal_std_dn.powi(2) * (l as f64 - 1.0)) / l as f64;
+    let dark_noise_dn = pooled_dark_var.sqrt();
+    let sigma_d_e = dark_noise_dn / k;
+    let mu_e_sat = sat_sig / k;
+    let mu_e_min = 0.5 + (0.25 + sigma_d_e * sigma_d_e).sqrt();
+    let snr_max = mu_e_sat.sqrt();
+    let dr = mu_e_sat / mu_e_min;
     let i50 = (0..=isat)
         .min_by(|&a, &b| {
             let da = (points[a].mean_dn - dark_mean - 0.5 * sat_sig).abs();
