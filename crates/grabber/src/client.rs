@@ -279,6 +279,18 @@ impl<T: Transport> ProtocolGrabber<T> {
         Ok(tail)
     }
 
+    /// Set any protocol control by its wire value (e.g. MCP voltage in mV,
+    /// AGC set-point in ppm, test pattern), waiting through `Pending`
+    /// replies; remembered only for the controls of [`FrameGrabber`].
+    pub fn set_control_raw(&mut self, control: Control, value: u32) -> Result<(), GrabError> {
+        self.with_session(|g| g.set_control(control, value, &format!("{control:?}")))
+    }
+
+    /// Read any protocol control's wire value.
+    pub fn get_control_raw(&mut self, control: Control) -> Result<u32, GrabError> {
+        self.with_session(|g| g.get_control(control, &format!("{control:?}")))
+    }
+
     /// The transport.
     pub fn transport(&self) -> &T {
         &self.link
@@ -556,7 +568,12 @@ impl<T: Transport> ProtocolGrabber<T> {
                 caps.version_major
             )));
         }
-        let buf_len = (caps.frame_buffer_len_bytes as usize).min(256 << 20);
+        // Never trust the device with our memory: a frame can be at most
+        // max width × max height × 2 bytes, whatever it claims to buffer.
+        let max_frame = usize::from(caps.max_width_px) * usize::from(caps.max_height_px) * 2;
+        let buf_len = (caps.frame_buffer_len_bytes as usize)
+            .min(max_frame)
+            .min(256 << 20);
         self.assembler = FrameAssembler::new(vec![0; buf_len]);
         self.caps = Some(caps);
         let d = self.desired;

@@ -24,6 +24,8 @@ pub mod uri;
 pub mod usb;
 
 pub use client::{ClientOptions, ClientStats, ProtocolGrabber};
+/// The wire protocol (message types, controls) the client speaks.
+pub use firmware_protocol;
 pub use interface::*;
 pub use sim::{SensorSource, SimGrabber};
 pub use source::{CaptureSettings, FrameSource, SyntheticSource};
@@ -86,6 +88,18 @@ pub fn open_with(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>,
             })?;
             Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
         }
+        #[cfg(feature = "rusb-backend")]
+        GrabberUri::UsbRusb(sel) => {
+            let t = usb::rusb_backend::RusbTransport::open(sel).map_err(|e| match e {
+                LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
+            })?;
+            Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
+        }
+        #[cfg(not(feature = "rusb-backend"))]
+        GrabberUri::UsbRusb(_) => Err(GrabError::Unsupported(
+            "usb:…?backend=rusb needs gloam built with the `gloam-grabber/rusb-backend` feature"
+                .into(),
+        )),
     }
 }
 

@@ -3,7 +3,7 @@
 //! ```text
 //! sim:PRESET_OR_RIG[?rig=RIG&seed=S&size=WxH]   in-process sensor chain + rig
 //! serial:PATH[?baud=N]                           protocol over a serial port
-//! usb:VID:PID[:SERIAL]                           protocol over USB bulk (hex ids)
+//! usb:VID:PID[:SERIAL][?backend=nusb|rusb]     protocol over USB bulk (hex ids)
 //! ```
 
 use crate::interface::GrabError;
@@ -29,6 +29,8 @@ pub enum GrabberUri {
         baud: u32,
     },
     Usb(UsbSelector),
+    /// `usb:…?backend=rusb`: the libusb backend (feature `rusb-backend`).
+    UsbRusb(UsbSelector),
 }
 
 fn bad(uri: &str, why: impl std::fmt::Display) -> GrabError {
@@ -122,8 +124,19 @@ impl GrabberUri {
                 })
             }
             "usb" => {
-                if !params.is_empty() {
-                    return Err(bad(uri, "usb: takes no parameters"));
+                let mut rusb = false;
+                for (k, v) in params {
+                    match (k, v) {
+                        ("backend", "nusb") => rusb = false,
+                        ("backend", "rusb") => rusb = true,
+                        ("backend", other) => {
+                            return Err(bad(
+                                uri,
+                                format!("unknown USB backend '{other}' (nusb or rusb)"),
+                            ));
+                        }
+                        _ => return Err(bad(uri, format!("unknown parameter '{k}'"))),
+                    }
                 }
                 let mut parts = body.splitn(3, ':');
                 let hex = |s: Option<&str>, what: &str| -> Result<u16, GrabError> {
@@ -136,11 +149,16 @@ impl GrabberUri {
                 let vendor_id = hex(parts.next(), "vendor id")?;
                 let product_id = hex(parts.next(), "product id")?;
                 let serial_number = parts.next().filter(|s| !s.is_empty()).map(str::to_string);
-                Ok(GrabberUri::Usb(UsbSelector {
+                let sel = UsbSelector {
                     vendor_id,
                     product_id,
                     serial_number,
-                }))
+                };
+                Ok(if rusb {
+                    GrabberUri::UsbRusb(sel)
+                } else {
+                    GrabberUri::Usb(sel)
+                })
             }
             other => Err(bad(uri, format!("unknown scheme '{other}'"))),
         }

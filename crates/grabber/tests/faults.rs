@@ -63,8 +63,8 @@ struct Tally {
 
 fn options() -> ClientOptions {
     ClientOptions {
-        reply_timeout: Duration::from_millis(40),
-        retries: 8,
+        reply_timeout: Duration::from_millis(100),
+        retries: 10,
         reconnect_timeout: Duration::from_secs(5),
         frame_idle_timeout: Duration::from_millis(60),
         // Small messages: several chunks per frame, so chunk loss is exercised.
