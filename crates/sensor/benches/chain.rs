@@ -6,12 +6,18 @@ use gloam_sensor::{Camera, SensorConfig, bench::test_scene};
 
 fn chain(c: &mut Criterion) {
     let (w, h) = (1024, 768);
-    // The throughput figure the CLI reports, printed once.
-    let t = gloam_sensor::throughput("gen3-gaas-iccd", w, h, 60).expect("preset");
-    println!(
-        "gen3-gaas-iccd {w}x{h}: {:.1} frames/s on {} threads ({} photoelectrons/pixel/frame scene)",
-        t.frames_per_s, t.threads, t.mean_photoelectrons
-    );
+    // The throughput figures `gloam bench throughput` reports, printed once:
+    // a heavy scene (2 photoelectrons/pixel/frame) and a starlit one (0.3).
+    for level in [2.0, 0.3] {
+        let t = gloam_sensor::throughput_at("gen3-gaas-iccd", w, h, 60, level).expect("preset");
+        println!(
+            "gen3-gaas-iccd {w}x{h} at {level} pe/pixel/frame: {:.1} frames/s on {} threads \
+             ({:.1} frames per CPU-second)",
+            t.frames_per_s,
+            t.threads,
+            t.frames_per_cpu_s.unwrap_or(f64::NAN)
+        );
+    }
 
     let cfg = SensorConfig::load_preset_or_file("gen3-gaas-iccd").expect("preset");
     let mut cam = Camera::new(cfg).expect("valid");

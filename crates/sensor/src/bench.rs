@@ -57,17 +57,30 @@ pub fn test_scene(width: usize, height: usize, level: f64) -> Array2<f64> {
 }
 
 /// Times `frames` captures of the full chain of `preset` (noise and MTF on)
-/// on a `width × height` test scene, after one warm-up frame.
+/// on a `width × height` test scene of 2 photoelectrons/pixel/frame (a
+/// heavy case for an ICCD: every pixel draws gain noise), after one
+/// warm-up frame.
 pub fn throughput(
     preset: &str,
     width: usize,
     height: usize,
     frames: usize,
 ) -> Result<Throughput, ConfigError> {
+    throughput_at(preset, width, height, frames, 2.0)
+}
+
+/// [`throughput`] at a chosen scene level, photoelectrons/pixel/frame
+/// (0.3 is a starlit scene at the Gen III preset's AGC set-point).
+pub fn throughput_at(
+    preset: &str,
+    width: usize,
+    height: usize,
+    frames: usize,
+    level: f64,
+) -> Result<Throughput, ConfigError> {
     let mut cfg = SensorConfig::load_preset_or_file(preset)?;
     cfg.noise.enabled = true;
     let mut cam = Camera::new(cfg)?;
-    let level = 2.0;
     let scene = test_scene(width, height, level);
     cam.capture_photoelectrons(scene.view())
         .expect("valid test scene");

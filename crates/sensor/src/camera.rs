@@ -428,10 +428,11 @@ impl Camera {
                 let gamma = noise::GammaSums::new(chain.gain_shape);
                 pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
                     let mut rng = noise::stream(seed, frame, Pass::Photoelectrons, r);
+                    let mut events = noise::PoissonRow::new(&mut rng, ga);
                     for p in row.iter_mut() {
                         let lam = eta * ((*p).max(0.0) as f64 + ebi);
                         let q = if noise_on {
-                            let n = noise::poisson(&mut rng, lam, ga);
+                            let n = events.draw(&mut rng, lam);
                             gamma.sample(&mut rng, n, g)
                         } else {
                             lam * g
@@ -456,10 +457,11 @@ impl Camera {
                 let e = chain.eb.expect("ebccd");
                 pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
                     let mut rng = noise::stream(seed, frame, Pass::Photoelectrons, r);
+                    let mut events = noise::PoissonRow::new(&mut rng, ga);
                     for p in row.iter_mut() {
                         let lam = (*p).max(0.0) as f64 + ebi;
                         *p = if noise_on {
-                            let n = noise::poisson(&mut rng, lam, ga);
+                            let n = events.draw(&mut rng, lam);
                             noise::eb_charge(&mut rng, n, g, e.backscatter, e.fano)
                         } else {
                             lam * g * (1.0 - 0.5 * e.backscatter)
@@ -525,6 +527,7 @@ impl Camera {
                 .enumerate()
                 .map(|(r, (out, row))| {
                     let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
+                    let mut events = noise::PoissonRow::new(&mut rng, ga);
                     let mut sum = 0f64;
                     let mut nsat = 0usize;
                     for (c, (o, &p)) in out.iter_mut().zip(row).enumerate() {
@@ -536,11 +539,10 @@ impl Camera {
                             if t > ga && t + 8.0 * t.sqrt() < fw {
                                 t + (t + read * read).sqrt() * noise::normal(&mut rng)
                             } else {
-                                noise::poisson(&mut rng, t, ga).min(fw)
-                                    + read * noise::normal(&mut rng)
+                                events.draw(&mut rng, t).min(fw) + read * noise::normal(&mut rng)
                             }
                         } else {
-                            (m + noise::poisson(&mut rng, dark, ga)).min(fw)
+                            (m + events.draw(&mut rng, dark)).min(fw)
                                 + read * noise::normal(&mut rng)
                         };
                         if let Some(d) = dsnu {
@@ -557,14 +559,15 @@ impl Camera {
         } else {
             pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
                 let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
+                let mut events = noise::PoissonRow::new(&mut rng, ga);
                 for (c, p) in row.iter_mut().enumerate() {
                     let m = mean_e(r, c, *p);
                     let e = if !noise_on {
                         m + dark
                     } else if shot_at_ccd {
-                        noise::poisson(&mut rng, m + dark, ga)
+                        events.draw(&mut rng, m + dark)
                     } else {
-                        m + noise::poisson(&mut rng, dark, ga)
+                        m + events.draw(&mut rng, dark)
                     };
                     *p = e as f32;
                 }

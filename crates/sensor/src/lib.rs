@@ -24,7 +24,7 @@ pub mod noise;
 pub mod stages;
 
 pub use analytic::Description;
-pub use bench::{Throughput, throughput};
+pub use bench::{Throughput, throughput, throughput_at};
 pub use camera::{AgcState, Camera, Frame, FrameMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::sensor_effects;

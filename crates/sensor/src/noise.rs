@@ -123,6 +123,47 @@ fn zig() -> &'static Ziggurat {
     })
 }
 
+/// Poisson counts for the pixels of a row, drawn as one unit-rate Poisson
+/// process over the row's cumulative mean: a pixel with mean λ owns the next
+/// λ of "time", and its count is the number of arrivals (exponential gaps)
+/// falling there. Counts are exactly Poisson and independent between pixels;
+/// the cost is one logarithm per *event* instead of an exponential per
+/// pixel, which suits photon-starved frames. Means above the Gaussian
+/// threshold are drawn as rounded Gaussians without advancing the process
+/// (it is memoryless).
+pub struct PoissonRow {
+    acc: f64,
+    next: f64,
+    gaussian_above: f64,
+}
+
+impl PoissonRow {
+    pub fn new(rng: &mut Pcg64Mcg, gaussian_above: f64) -> Self {
+        Self {
+            acc: 0.0,
+            next: -uniform(rng).ln(),
+            gaussian_above,
+        }
+    }
+
+    #[inline]
+    pub fn draw(&mut self, rng: &mut Pcg64Mcg, lambda: f64) -> f64 {
+        if lambda <= 0.0 {
+            return 0.0;
+        }
+        if lambda > self.gaussian_above {
+            return round_non_negative(lambda + lambda.sqrt() * normal(rng));
+        }
+        self.acc += lambda;
+        let mut n = 0.0;
+        while self.next <= self.acc {
+            n += 1.0;
+            self.next -= uniform(rng).ln();
+        }
+        n
+    }
+}
+
 /// 1/k for the inversion loop (a multiply instead of a divide per step).
 static RECIP: [f64; 64] = {
     let mut t = [0.0; 64];
@@ -326,6 +367,39 @@ mod tests {
         // P(|x| > 3) = 0.0026998.
         let p = tail as f64 / n;
         assert!((p - 0.0026998).abs() < 5.0 * (0.0027 / n).sqrt(), "{p}");
+    }
+
+    #[test]
+    fn poisson_row_counts_are_poisson() {
+        let mut r = seeded(5);
+        for lambda in [0.05, 0.7, 2.0, 9.0] {
+            let n = 200_000;
+            let mut row = PoissonRow::new(&mut r, 30.0);
+            let xs: Vec<f64> = (0..n).map(|_| row.draw(&mut r, lambda)).collect();
+            let m = xs.iter().sum::<f64>() / n as f64;
+            let v = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64;
+            assert!(
+                (m - lambda).abs() < 5.0 * (lambda / n as f64).sqrt(),
+                "λ={lambda} mean {m}"
+            );
+            let tol = 5.0 * ((1.0 + 2.0 * lambda) / (lambda * n as f64)).sqrt();
+            assert!((v / lambda - 1.0).abs() < tol, "λ={lambda} var {v}");
+            for k in 0..5 {
+                let pk = xs.iter().filter(|&&x| x == k as f64).count() as f64 / n as f64;
+                let exact = (-lambda).exp() * lambda.powi(k) / (1..=k).product::<i32>() as f64;
+                assert!(
+                    (pk - exact).abs() < 5.0 * (exact / n as f64).sqrt() + 1e-6,
+                    "λ={lambda} P({k})"
+                );
+            }
+            // Neighbouring counts are uncorrelated.
+            let c = xs.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / (n - 1) as f64;
+            assert!(
+                c.abs() / v < 5.0 / (n as f64).sqrt(),
+                "λ={lambda} lag-1 corr {}",
+                c / v
+            );
+        }
     }
 
     #[test]

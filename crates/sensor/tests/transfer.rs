@@ -45,7 +45,7 @@ fn temporal_variance_matches_noise_model_within_3_percent() {
         let field = uniform(200, 200, pe);
         // Photon-transfer style: var(A − B)/2 over frame pairs.
         let mut acc = 0.0;
-        let pairs = 5;
+        let pairs = 16;
         for _ in 0..pairs {
             let a = cam.capture_photoelectrons(field.view()).unwrap();
             let b = cam.capture_photoelectrons(field.view()).unwrap();
