@@ -75,6 +75,8 @@ pub struct ClientStats {
     pub retries: u64,
     /// Pixel payload bytes of good frames.
     pub payload_bytes_ok: u64,
+    /// Whole frames captured before the last `present` took effect, dropped.
+    pub frames_stale: u64,
 }
 
 /// Controls the user asked for; re-applied after a reconnect.
@@ -84,6 +86,13 @@ struct Desired {
     agc: Option<bool>,
     bits: Option<u8>,
     exposure_us: Option<u32>,
+}
+
+/// A request to send: a protocol message, or raw kind + body (extensions).
+#[derive(Clone, Copy)]
+enum Req<'b> {
+    Msg(Message<'static>),
+    Raw { kind: u8, body: &'b [u8] },
 }
 
 /// What one pass of the receive pump produced.
@@ -131,6 +140,13 @@ pub struct ProtocolGrabber<T: Transport> {
     device_was_reset: bool,
     /// Latest device clock seen in a `Status` (a jump back means a reset).
     last_device_time_us: u64,
+    /// Highest leader seq seen in the current stream.
+    last_leader_seq: Option<u32>,
+    /// Frames of the current stream below this seq were captured before
+    /// the last `present` took effect: dropped as stale, not as losses.
+    fresh_from_seq: u64,
+    /// Whether the device understands the emulator's stimulus request.
+    stimulus_supported: Option<bool>,
     stats: ClientStats,
     frame_size: (u32, u32),
 }
@@ -218,6 +234,9 @@ impl<T: Transport> ProtocolGrabber<T> {
             interrupted: None,
             device_was_reset: false,
             last_device_time_us: 0,
+            last_leader_seq: None,
+            fresh_from_seq: 0,
+            stimulus_supported: None,
             stats: ClientStats::default(),
             frame_size: (0, 0),
         };
@@ -393,6 +412,9 @@ impl<T: Transport> ProtocolGrabber<T> {
             // Leftovers of a stream we stopped ourselves: not a loss.
             return None;
         }
+        if let Message::FrameLeader(l) = &msg {
+            self.last_leader_seq = Some(self.last_leader_seq.map_or(l.seq, |s| s.max(l.seq)));
+        }
         let (seq, item) = match self.assembler.push(&msg) {
             AssemblyEvent::NotStream | AssemblyEvent::InProgress => return Some(Event::Stream),
             AssemblyEvent::Dropped { seq, reason } => (
@@ -455,6 +477,10 @@ impl<T: Transport> ProtocolGrabber<T> {
             }
             ep.accounted = ep.accounted.max(seq + 1);
         }
+        if matches!(&item, Ok(f) if f.meta.seq < self.fresh_from_seq) {
+            self.stats.frames_stale += 1;
+            return;
+        }
         match &item {
             Ok(f) => {
                 self.stats.frames_ok += 1;
@@ -469,13 +495,43 @@ impl<T: Transport> ProtocolGrabber<T> {
     /// Send `message` and wait for its reply, resending with a fresh tag on
     /// timeout or when the device reports a corrupt request.
     fn request(&mut self, message: Message<'static>) -> Result<Message<'static>, GrabError> {
-        let kind = message.kind();
+        self.request_any(Req::Msg(message))
+    }
+
+    fn send_raw(&mut self, tag: u16, kind: u8, body: &[u8]) -> Result<(), GrabError> {
+        let mut un = Vec::with_capacity(body.len() + 7);
+        un.push(kind);
+        un.extend_from_slice(&tag.to_le_bytes());
+        un.extend_from_slice(body);
+        un.extend_from_slice(&firmware_protocol::crc32c(&un).to_le_bytes());
+        let wire = match self.framing {
+            Framing::Cobs => {
+                let mut out = vec![0u8; firmware_protocol::cobs::max_encoded_len(un.len()) + 1];
+                let n = firmware_protocol::cobs::encode_frame(&un, &mut out)
+                    .map_err(|e| GrabError::Other(format!("encoding request: {e}")))?;
+                out.truncate(n);
+                out
+            }
+            Framing::UsbTransfers => un,
+        };
+        let timeout = self.opts.reply_timeout.max(Duration::from_millis(100));
+        self.link.send(&wire, timeout).map_err(link_err)
+    }
+
+    fn request_any(&mut self, req: Req<'_>) -> Result<Message<'static>, GrabError> {
+        let kind = match req {
+            Req::Msg(m) => format!("{:?}", m.kind()),
+            Req::Raw { kind, .. } => format!("request {kind:#04x}"),
+        };
         for attempt in 0..self.opts.retries.max(1) {
             if attempt > 0 {
                 self.stats.retries += 1;
             }
             let tag = self.tag();
-            self.send_packet(&Packet::new(tag, message))?;
+            match req {
+                Req::Msg(m) => self.send_packet(&Packet::new(tag, m))?,
+                Req::Raw { kind, body } => self.send_raw(tag, kind, body)?,
+            }
             let mut deadline = Instant::now() + self.opts.reply_timeout;
             loop {
                 match self.pump(deadline)? {
@@ -675,6 +731,8 @@ impl<T: Transport> ProtocolGrabber<T> {
         // device starting and our seeing its Ack, the frames it streams
         // meanwhile are still counted at the next recovery.
         self.device_was_reset = false;
+        self.last_leader_seq = None;
+        self.fresh_from_seq = 0;
         self.epoch = Some(Epoch {
             base_frames_sent: Some(status.frames_sent),
             base_device_time_us: status.device_time_us,
@@ -922,10 +980,50 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
         Ok(f64::from(us) / 1e6)
     }
 
-    fn present(&mut self, _stimulus: &Stimulus) -> Result<bool, GrabError> {
-        // The protocol has no stimulus message: the operator (or the
-        // emulator's --rig) sets the source.
-        Ok(false)
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
+        // Protocol 1.0 has no stimulus message: real hardware shows what the
+        // operator set up. The emulator understands its own extension
+        // request (`emulator::KIND_EMULATOR_STIMULUS`); others NAK it.
+        if self.stimulus_supported == Some(false) {
+            return Ok(false);
+        }
+        let body =
+            serde_json::to_vec(stimulus).map_err(|e| GrabError::InvalidSetting(e.to_string()))?;
+        if body.len() > crate::emulator::MAX_STIMULUS_JSON_LEN {
+            return Err(GrabError::InvalidSetting(
+                "stimulus description too long".into(),
+            ));
+        }
+        let kind = crate::emulator::KIND_EMULATOR_STIMULUS;
+        let reply = self.with_session(|g| g.request_any(Req::Raw { kind, body: &body }))?;
+        match reply {
+            Message::Ack { .. } => {
+                self.stimulus_supported = Some(true);
+                // Every frame whose leader we have already seen was
+                // captured before the stimulus changed: never hand it out
+                // as showing the new one.
+                self.fresh_from_seq = self.last_leader_seq.map_or(0, |s| u64::from(s) + 1);
+                let fresh = self.fresh_from_seq;
+                let before = self.outcomes.len();
+                self.outcomes
+                    .retain(|o| !matches!(o, Ok(f) if f.meta.seq < fresh));
+                self.stats.frames_stale += (before - self.outcomes.len()) as u64;
+                Ok(true)
+            }
+            Message::Nak {
+                code: ErrorCode::UNKNOWN_MESSAGE,
+                ..
+            } => {
+                self.stimulus_supported = Some(false);
+                Ok(false)
+            }
+            Message::Nak { code, .. } => Err(GrabError::InvalidSetting(format!(
+                "stimulus rejected by the device: {code}"
+            ))),
+            m => Err(GrabError::Device(format!(
+                "unexpected reply to the stimulus request: {m:?}"
+            ))),
+        }
     }
 
     fn grab(&mut self) -> Result<Frame, GrabError> {

@@ -16,6 +16,7 @@ use firmware_protocol::{
 
 pub use crate::faults::FaultCounts;
 use crate::faults::{FaultConfig, FaultInjector, FaultStats, Verdict};
+use crate::interface::Stimulus;
 use crate::source::{CaptureSettings, FrameSource, SourceInfo};
 use crate::transport::{DeviceLink, Framing, LinkError};
 
@@ -59,6 +60,15 @@ pub struct EmulatorStats {
     /// Faults injected on output units.
     pub faults: Arc<FaultStats>,
 }
+
+/// Emulator-only request kind (in the request range, unused by protocol
+/// 1.0): `EmulatorStimulus`, body = the [`Stimulus`] as JSON (≤ 1024
+/// bytes), reply `Ack { request_kind: 0x3F }` once the stimulus applies to
+/// every frame captured after it, or `Nak(MALFORMED)`. Real devices answer
+/// `Nak(UNKNOWN_MESSAGE)`, so hosts can probe for it.
+pub const KIND_EMULATOR_STIMULUS: u8 = 0x3F;
+/// Largest `EmulatorStimulus` body.
+pub const MAX_STIMULUS_JSON_LEN: usize = 1024;
 
 /// Firmware version the emulator reports (0.1.0).
 pub const FIRMWARE_VERSION: u32 = 0x00_01_00;
@@ -347,7 +357,8 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
     ];
     let mut frame = vec![0u8; frame_len];
     let mut rx = vec![0u8; 64 * 1024];
-    let mut cobs = CobsAccumulator::new([0u8; firmware_protocol::MAX_REQUEST_LEN * 4]);
+    // Room for the emulator's own (larger) stimulus request.
+    let mut cobs = CobsAccumulator::new(vec![0u8; MAX_STIMULUS_JSON_LEN + 16]);
     let mut pacer = Pacer::new(config.baud);
     let mut faults = FaultInjector::with_stats(config.faults.clone(), stats.faults.clone());
     let fault_stats = faults.stats();
@@ -397,7 +408,7 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
                     match framing {
                         Framing::UsbTransfers => {
                             if n > 0 {
-                                deliver(&mut device, input, &mut sink);
+                                deliver(&mut device, input, &mut sink, transport);
                             }
                         }
                         Framing::Cobs => {
@@ -408,10 +419,12 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
                                     Feed::NeedMore => {}
                                     Feed::Frame(f) => {
                                         let msg = f.to_vec();
-                                        deliver(&mut device, &msg, &mut sink);
+                                        deliver(&mut device, &msg, &mut sink, transport);
                                     }
                                     // Let the device count and NAK it.
-                                    Feed::Error(_) => deliver(&mut device, &[], &mut sink),
+                                    Feed::Error(_) => {
+                                        deliver(&mut device, &[], &mut sink, transport)
+                                    }
                                 }
                             }
                         }
@@ -445,9 +458,45 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
     }
 }
 
-/// Hand one un-framed message to the device; restart the source's stream
-/// when the message started one.
-fn deliver<H: Hal + RestartSource, K: Sink>(device: &mut Device<'_, H>, msg: &[u8], sink: &mut K) {
+/// Hand one un-framed message to the device (or, for the emulator's own
+/// `EmulatorStimulus` request, to the frame source); restart the source's
+/// stream when the message started one.
+fn deliver<H: Hal + RestartSource, K: Sink>(
+    device: &mut Device<'_, H>,
+    msg: &[u8],
+    sink: &mut K,
+    transport: firmware_protocol::Transport,
+) {
+    if msg.first() == Some(&KIND_EMULATOR_STIMULUS) && msg.len() >= 7 {
+        let (covered, crc) = msg.split_at(msg.len() - 4);
+        if firmware_protocol::crc32c(covered).to_le_bytes() == crc {
+            let tag = u16::from_le_bytes([covered[1], covered[2]]);
+            let ok = serde_json::from_slice::<Stimulus>(&covered[3..])
+                .ok()
+                .is_some_and(|st| device.hal_mut().present_stimulus(&st));
+            let reply = if ok {
+                firmware_protocol::Message::Ack {
+                    request_kind: KIND_EMULATOR_STIMULUS,
+                }
+            } else {
+                firmware_protocol::Message::Nak {
+                    request_kind: KIND_EMULATOR_STIMULUS,
+                    code: ErrorCode::MALFORMED,
+                    detail: 0,
+                }
+            };
+            let p = firmware_protocol::Packet::new(tag, reply);
+            let mut buf = [0u8; 64];
+            let n = match transport {
+                firmware_protocol::Transport::Serial => p.encode_cobs(&mut buf),
+                firmware_protocol::Transport::Usb => p.encode(&mut buf),
+            };
+            if let Ok(n) = n {
+                let _ = sink.send(&buf[..n]);
+            }
+            return;
+        }
+    }
     let before = device.state();
     let _ = device.handle_message(msg, sink);
     if before != DeviceState::Streaming && device.state() == DeviceState::Streaming {
@@ -458,9 +507,15 @@ fn deliver<H: Hal + RestartSource, K: Sink>(device: &mut Device<'_, H>, msg: &[u
 /// Lets [`deliver`] restart the frame source behind a HAL.
 pub trait RestartSource {
     fn restart_source(&mut self);
+    /// Apply a stimulus to every frame captured from now on.
+    fn present_stimulus(&mut self, stimulus: &Stimulus) -> bool;
 }
 
 impl<S: FrameSource> RestartSource for SourceHal<'_, S> {
+    fn present_stimulus(&mut self, stimulus: &Stimulus) -> bool {
+        self.source.present(stimulus).unwrap_or(false)
+    }
+
     fn restart_source(&mut self) {
         self.stream_start_us = self.now_us();
         self.source.restart();

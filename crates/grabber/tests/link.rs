@@ -62,8 +62,54 @@ fn pending_controls_and_naks() {
     );
     let e = g.set_gain(1e9).unwrap_err();
     assert!(e.to_string().contains("out of range"), "{e}");
-    assert!(!g.present(&gloam_grabber::Stimulus::Dark).unwrap());
+    // The emulator renders stimuli (its own extension request).
+    assert!(g.present(&gloam_grabber::Stimulus::Dark).unwrap());
     g.grab().unwrap();
+    drop(g);
+    emu.stop().unwrap();
+}
+
+/// `present` over the wire: the emulator renders the stimulus, and no frame
+/// captured before the change is ever handed out after `present` returns.
+#[test]
+fn present_over_the_wire_never_returns_stale_frames() {
+    use gloam_grabber::Stimulus;
+    let src = gloam_grabber::SyntheticSource::new(16, 12, 5);
+    let (host, dev, _ctl) = memory_link(MemoryOptions::new(Framing::Cobs));
+    let emu = EmulatorHandle::spawn(
+        dev,
+        src,
+        EmulatorConfig {
+            baud: None,
+            ..Default::default()
+        },
+    );
+    let mut g = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
+    g.set_gain(2.0).unwrap();
+    let bright = Stimulus::Uniform {
+        radiance_w_m2_sr: 1.0,
+        spectrum: "cie-a".into(),
+    };
+    let mean = |p: &[u16]| p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len() as f64;
+    for round in 0..30 {
+        let dark = round % 2 == 0;
+        assert!(
+            g.present(if dark { &Stimulus::Dark } else { &bright })
+                .unwrap()
+        );
+        for _ in 0..3 {
+            let f = g.grab().unwrap();
+            let m = mean(&f.pixels);
+            // Synthetic source: dark ≈ noise only (< 1 % FS), uniform ≈ 50 % FS at gain 2.
+            assert_eq!(
+                m < 2000.0,
+                dark,
+                "round {round}: frame {} mean {m} shows the old stimulus",
+                f.meta.seq
+            );
+        }
+    }
+    assert!(g.stats().frames_stale > 0, "{:?}", g.stats());
     drop(g);
     emu.stop().unwrap();
 }
