@@ -323,8 +323,9 @@ pub struct Noise {
     #[serde(default = "yes")]
     pub enabled: bool,
     pub seed: u64,
-    /// Poisson draws with a mean above this use a Gaussian with the same mean
-    /// and variance (accuracy dial: skewness 1/√mean is dropped).
+    /// Poisson draws with a mean above this use a rounded Gaussian with the
+    /// same mean and variance (accuracy dial, default 12: the skewness
+    /// 1/√mean ≤ 0.29 is dropped; exact inversion below).
     #[serde(default = "default_gaussian_above")]
     pub gaussian_above: f64,
 }
@@ -397,7 +398,7 @@ fn default_protect_factor() -> f64 {
     0.5
 }
 fn default_gaussian_above() -> f64 {
-    30.0
+    12.0
 }
 
 /// Built-in presets: (name, TOML text).

@@ -128,9 +128,9 @@ fn zig() -> &'static Ziggurat {
 /// λ of "time", and its count is the number of arrivals (exponential gaps)
 /// falling there. Counts are exactly Poisson and independent between pixels;
 /// the cost is one logarithm per *event* instead of an exponential per
-/// pixel, which suits photon-starved frames. Means above the Gaussian
-/// threshold are drawn as rounded Gaussians without advancing the process
-/// (it is memoryless).
+/// pixel, which suits photon-starved pixels. Busier pixels (mean above
+/// [`PoissonRow::PROCESS_BELOW`]) are drawn by [`poisson`] without advancing
+/// the process (it is memoryless).
 pub struct PoissonRow {
     acc: f64,
     next: f64,
@@ -138,6 +138,9 @@ pub struct PoissonRow {
 }
 
 impl PoissonRow {
+    /// Means up to this walk the process; above it, per-pixel inversion.
+    pub const PROCESS_BELOW: f64 = 0.5;
+
     pub fn new(rng: &mut Pcg64Mcg, gaussian_above: f64) -> Self {
         Self {
             acc: 0.0,
@@ -151,8 +154,10 @@ impl PoissonRow {
         if lambda <= 0.0 {
             return 0.0;
         }
-        if lambda > self.gaussian_above {
-            return round_non_negative(lambda + lambda.sqrt() * normal(rng));
+        if lambda > Self::PROCESS_BELOW {
+            // Busy pixels: inversion (or the Gaussian) is cheaper than
+            // walking many arrivals; the process just skips this pixel.
+            return poisson(rng, lambda, self.gaussian_above);
         }
         self.acc += lambda;
         let mut n = 0.0;
