@@ -163,43 +163,100 @@ pub struct SineOptions {
     pub frames: usize,
 }
 
-/// Sine-target MTF. A grey-scale calibration (dark and a uniform field at
-/// the target's mean radiance) maps DN to radiance linearly; each target's
-/// averaged frame is fitted with `a + b cos(2πf x') + c sin(2πf x')` in
-/// radiance space, and `MTF = √(b²+c²)/a / modulation`.
+/// Grey-scale steps of the sine flow, as multiples of the target's mean
+/// radiance (cover `mean·(1 ± modulation)` for modulation up to 0.9).
+pub const GREY_STEPS: [f64; 9] = [0.0, 0.1, 0.3, 0.6, 1.0, 1.3, 1.6, 1.8, 1.95];
+
+/// A measured grey scale: mean DN at known uniform radiances, increasing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GreyScale {
+    pub dn: Vec<f64>,
+    pub radiance_w_m2_sr: Vec<f64>,
+}
+
+impl GreyScale {
+    /// Uniform fields at [`GREY_STEPS`] × `unit` radiance (step 0 = dark).
+    /// Errors when a step clips or the scale does not rise.
+    pub fn measure(
+        grabber: &mut dyn FrameGrabber,
+        unit_w_m2_sr: f64,
+        spectrum: &str,
+        frames: usize,
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<Self, CalibError> {
+        let mut dn: Vec<f64> = Vec::new();
+        let mut rad = Vec::new();
+        for (i, &k) in GREY_STEPS.iter().enumerate() {
+            let l = k * unit_w_m2_sr;
+            if k == 0.0 {
+                grabber.present(&Stimulus::Dark)?;
+            } else {
+                grabber.present(&Stimulus::Uniform {
+                    radiance_w_m2_sr: l,
+                    spectrum: spectrum.to_string(),
+                })?;
+            }
+            let st = stack_stats(&grab_frames(grabber, frames)?)?;
+            if st.clipped_fraction > 0.0 {
+                return Err(CalibError::InsufficientData(format!(
+                    "the grey-scale step at {l:.4e} W m⁻² sr⁻¹ clips: lower the radiance or the gain"
+                )));
+            }
+            let sem = st.temporal_std_dn / ((frames * st.mean_image.len()) as f64).sqrt();
+            if let Some(&prev) = dn.last()
+                && !(st.mean_dn > prev + 3.0 * sem.max(1e-9))
+            {
+                return Err(CalibError::InsufficientData(format!(
+                    "the grey scale does not rise between {:.4e} and {l:.4e} W m⁻² sr⁻¹ ({prev:.3} → {:.3} DN): raise the radiance",
+                    rad.last().copied().unwrap_or(0.0),
+                    st.mean_dn
+                )));
+            }
+            dn.push(st.mean_dn);
+            rad.push(l);
+            progress(i + 1);
+        }
+        Ok(Self {
+            dn,
+            radiance_w_m2_sr: rad,
+        })
+    }
+
+    /// Radiance for a DN: piecewise linear, extrapolated from the end segments.
+    pub fn radiance(&self, dn: f64) -> f64 {
+        let n = self.dn.len();
+        let j = self.dn.partition_point(|&d| d < dn).clamp(1, n - 1);
+        let t = (dn - self.dn[j - 1]) / (self.dn[j] - self.dn[j - 1]);
+        self.radiance_w_m2_sr[j - 1] + t * (self.radiance_w_m2_sr[j] - self.radiance_w_m2_sr[j - 1])
+    }
+}
+
+/// Sine-target MTF. A grey-scale calibration — uniform fields at
+/// [`GREY_STEPS`] × the target's mean radiance — gives a monotone,
+/// piecewise-linear map from DN to radiance (the camera need not be
+/// linear); each target's averaged frame is mapped to radiance and fitted
+/// with `a + b cos(2πf x') + c sin(2πf x')`, and
+/// `MTF = √(b²+c²)/a / modulation`.
 pub fn sine_mtf(
     grabber: &mut dyn FrameGrabber,
     opts: &SineOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<MtfCurve, CalibError> {
-    if !(opts.modulation > 0.0 && opts.modulation <= 1.0) {
-        return Err(CalibError::Invalid("modulation must lie in (0, 1]".into()));
-    }
-    let frames = opts.frames.max(1);
-    let total = opts.frequencies_cy_per_px.len() + 2;
-    grabber.present(&Stimulus::Dark)?;
-    let dark = stack_stats(&grab_frames(grabber, frames)?)?;
-    progress(1, total);
-    grabber.present(&Stimulus::Uniform {
-        radiance_w_m2_sr: opts.mean_radiance_w_m2_sr,
-        spectrum: opts.spectrum.clone(),
-    })?;
-    let flat = stack_stats(&grab_frames(grabber, frames)?)?;
-    progress(2, total);
-    let span = flat.mean_dn - dark.mean_dn;
-    let sem = flat.temporal_std_dn / ((frames * flat.mean_image.len()) as f64).sqrt();
-    if !(span > 6.0 * sem.max(1e-9)) {
-        return Err(CalibError::InsufficientData(format!(
-            "the grey-scale calibration shows no signal ({:.3} DN above dark): raise the radiance",
-            span
-        )));
-    }
-    if flat.clipped_fraction > 0.0 {
-        return Err(CalibError::InsufficientData(
-            "the uniform field at the mean radiance clips: lower the radiance or the gain".into(),
+    if !(opts.modulation > 0.0 && opts.modulation <= 0.9) {
+        return Err(CalibError::Invalid(
+            "modulation must lie in (0, 0.9]".into(),
         ));
     }
-    let to_l = |dn: f64| (dn - dark.mean_dn) / span * opts.mean_radiance_w_m2_sr;
+    let frames = opts.frames.max(1);
+    let total = opts.frequencies_cy_per_px.len() + GREY_STEPS.len();
+    let grey = GreyScale::measure(
+        grabber,
+        opts.mean_radiance_w_m2_sr,
+        &opts.spectrum,
+        frames,
+        &mut |i| progress(i, total),
+    )?;
+    let to_l = |dn: f64| grey.radiance(dn);
     let (ca, sa) = {
         let a = opts.angle_deg.to_radians();
         (a.cos(), a.sin())
@@ -281,17 +338,27 @@ pub struct EdgeOptions {
     pub frames: usize,
 }
 
-/// ISO 12233 slanted-edge MTF from a grabber (presents the edge and a dark
-/// frame, then [`slanted_edge_mtf`]).
+/// ISO 12233 slanted-edge MTF from a grabber: a grey scale up to the bright
+/// radiance (the OECF) linearises the edge image, then [`slanted_edge_mtf`].
 pub fn edge_mtf(
     grabber: &mut dyn FrameGrabber,
     opts: &EdgeOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<MtfCurve, CalibError> {
     let frames = opts.frames.max(1);
-    grabber.present(&Stimulus::Dark)?;
-    let dark = stack_stats(&grab_frames(grabber, frames)?)?;
-    progress(1, 2);
+    if !(opts.bright_radiance_w_m2_sr > opts.dark_radiance_w_m2_sr
+        && opts.dark_radiance_w_m2_sr >= 0.0)
+    {
+        return Err(CalibError::Invalid(
+            "the edge needs bright radiance > dark radiance ≥ 0".into(),
+        ));
+    }
+    let total = GREY_STEPS.len() + 1;
+    // OECF: a grey scale up to the bright side linearises the edge image.
+    let unit = opts.bright_radiance_w_m2_sr / GREY_STEPS[GREY_STEPS.len() - 1];
+    let grey = GreyScale::measure(grabber, unit, &opts.spectrum, frames, &mut |i| {
+        progress(i, total)
+    })?;
     grabber.present(&Stimulus::Edge {
         dark_radiance_w_m2_sr: opts.dark_radiance_w_m2_sr,
         bright_radiance_w_m2_sr: opts.bright_radiance_w_m2_sr,
@@ -299,13 +366,13 @@ pub fn edge_mtf(
         spectrum: opts.spectrum.clone(),
     })?;
     let st = stack_stats(&grab_frames(grabber, frames)?)?;
-    progress(2, 2);
+    progress(total, total);
     if st.clipped_fraction > 0.0 {
         return Err(CalibError::InsufficientData(
             "the edge image clips: lower the bright radiance or the gain".into(),
         ));
     }
-    let img: Vec<f64> = st.mean_image.iter().map(|v| v - dark.mean_dn).collect();
+    let img: Vec<f64> = st.mean_image.iter().map(|&v| grey.radiance(v)).collect();
     slanted_edge_mtf(&img, st.width, st.height)
 }
 
