@@ -248,17 +248,7 @@ impl Camera {
             .collect::<Result<_, _>>()?;
         // Check the input (first bad value reported).
         for (b, plane) in radiance_w_m2_sr.axis_iter(Axis(0)).enumerate() {
-            if let Some(((r, c), &v)) = plane
-                .indexed_iter()
-                .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
-            {
-                return Err(CaptureError::BadRadiance {
-                    band: b,
-                    row: r,
-                    col: c,
-                    value: v,
-                });
-            }
+            check_input(plane, b)?;
         }
         let mut pe = std::mem::take(&mut self.buf);
         pe.clear();
@@ -296,20 +286,13 @@ impl Camera {
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
         }
-        if let Some(((r, c), &v)) = pe_per_pixel
-            .indexed_iter()
-            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
-        {
-            return Err(CaptureError::BadRadiance {
-                band: 0,
-                row: r,
-                col: c,
-                value: v,
-            });
-        }
+        check_input(pe_per_pixel, 0)?;
         let mut pe = std::mem::take(&mut self.buf);
         pe.clear();
-        pe.extend(pe_per_pixel.iter().map(|&v| v as f32));
+        match pe_per_pixel.as_slice() {
+            Some(sl) => pe.extend(sl.iter().map(|&v| v as f32)),
+            None => pe.extend(pe_per_pixel.iter().map(|&v| v as f32)),
+        }
         self.run(pe, rows, cols, false)
     }
 
@@ -668,6 +651,30 @@ impl Camera {
         self.gain = g;
         self.agc_state = state;
     }
+}
+
+/// The first value that is not finite and ≥ 0, as an error.
+fn check_input(img: ArrayView2<f64>, band: usize) -> Result<(), CaptureError> {
+    // Fast, vectorisable scan; the location is looked up only on failure.
+    let ok = match img.as_slice() {
+        Some(sl) => sl
+            .iter()
+            .fold(true, |a, v| a & (v.is_finite() & (*v >= 0.0))),
+        None => img.iter().all(|v| v.is_finite() && *v >= 0.0),
+    };
+    if ok {
+        return Ok(());
+    }
+    let ((row, col), &value) = img
+        .indexed_iter()
+        .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+        .expect("a bad value exists");
+    Err(CaptureError::BadRadiance {
+        band,
+        row,
+        col,
+        value,
+    })
 }
 
 /// Spills charge above `fw` along each column: half up, half down, filling
