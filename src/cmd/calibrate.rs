@@ -224,7 +224,7 @@ fn open_source(
             bail!("--auto-range must be a positive fraction of full scale");
         }
         let mut s = file.open_sphere(a.levels)?;
-        g.set_agc(false)?;
+        gloam_calib::capture::agc_off(g)?;
         g.set_gain(gain)?;
         // Aim at half scale (always reachable), then scale to the request.
         let l50 = auto_range(g, s.lamp_name(), 0.5)?;
@@ -476,7 +476,7 @@ fn mtf(a: MtfArgs) -> anyhow::Result<()> {
                 exposure_s: None,
             };
             let mut g = open_grabber(&ga)?;
-            g.set_agc(false)?;
+            gloam_calib::capture::agc_off(g.as_mut())?;
             if let Some(gain) = a.gain {
                 g.set_gain(gain)?;
             }

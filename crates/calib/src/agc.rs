@@ -134,11 +134,11 @@ pub fn agc_linearisation(
         Ok(out)
     };
     grabber.set_gain(opts.fixed_gain)?;
-    grabber.set_agc(false)?;
+    crate::capture::agc_off(grabber)?;
     let fixed = run(grabber, source, &mut done)?;
     grabber.set_agc(true)?;
     let agc = run(grabber, source, &mut done)?;
-    grabber.set_agc(false)?;
+    crate::capture::agc_off(grabber)?;
 
     let per = opts.frames_per_step;
     let tail = (per / 4).max(2);

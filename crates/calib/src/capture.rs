@@ -178,3 +178,11 @@ pub fn auto_range(
             .into(),
     ))
 }
+
+/// Turns AGC off; a camera without AGC (`Unsupported`) already is.
+pub fn agc_off(grabber: &mut dyn FrameGrabber) -> Result<(), CalibError> {
+    match grabber.set_agc(false) {
+        Ok(_) | Err(gloam_grabber::GrabError::Unsupported(_)) => Ok(()),
+        Err(e) => Err(e.into()),
+    }
+}

@@ -141,7 +141,7 @@ pub fn photon_transfer(
                 .into(),
         ));
     }
-    grabber.set_agc(false)?;
+    crate::capture::agc_off(grabber)?;
     let gain = grabber.set_gain(opts.gain)?;
     if let Some(t) = opts.exposure_s {
         grabber.set_exposure_s(t)?;

@@ -105,7 +105,7 @@ pub fn calibrate_radiance(
                 .into(),
         ));
     }
-    grabber.set_agc(false)?;
+    crate::capture::agc_off(grabber)?;
     if let Some(t) = opts.exposure_s {
         grabber.set_exposure_s(t)?;
     }
