@@ -704,6 +704,20 @@ fn other_plans(threads: Option<usize>, line_variant: Option<usize>) -> Vec<Plan>
             scene,
         });
     };
+    for x in ["1", "2", "5", "10", "20", "40"] {
+        push(Estimator::Analytic, "spectral_step_nm", x, line_variant);
+    }
+    for x in ["4", "64"] {
+        push(Estimator::Analytic, "area_samples", x, None);
+        push(Estimator::SolidAngle, "area_samples", x, None);
+    }
+    push(Estimator::Analytic, "occlusion", "ratio", None);
+    for x in ["1", "2", "6"] {
+        push(Estimator::Analytic, "recursion", x, None);
+    }
+    for x in ["1", "2"] {
+        push(Estimator::Analytic, "diffuse_bounces", x, None);
+    }
     for (key, vals) in [
         ("SAMPLE_AREA_DENSITY", &["4", "16", "64"][..]),
         ("MAX_SAMPLE_POINTS", &["4", "2000"][..]),
@@ -715,19 +729,6 @@ fn other_plans(threads: Option<usize>, line_variant: Option<usize>) -> Vec<Plan>
         for x in vals {
             push(Estimator::Dirsig2001, key, x, None);
         }
-    }
-    for x in ["4", "64"] {
-        push(Estimator::Analytic, "area_samples", x, None);
-        push(Estimator::SolidAngle, "area_samples", x, None);
-    }
-    for x in ["1", "2", "6"] {
-        push(Estimator::Analytic, "recursion", x, None);
-    }
-    for x in ["1", "2"] {
-        push(Estimator::Analytic, "diffuse_bounces", x, None);
-    }
-    for x in ["1", "2", "5", "10", "20", "40"] {
-        push(Estimator::Analytic, "spectral_step_nm", x, line_variant);
     }
     v
 }
@@ -773,6 +774,8 @@ struct Summary {
     /// Lowest error each estimator's spp ladder reached, and at what time.
     best: BTreeMap<String, Option<(f64, f64)>>,
     effect_plan: Option<serde_json::Value>,
+    /// What the `spectral_step_nm` rows were rendered on.
+    spectral_sweep: String,
     csv: String,
     png: String,
     summary_md: String,
@@ -890,67 +893,74 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
     );
 
     let mut rows: Vec<Row> = Vec::new();
-    let mut skipped = 0usize;
     // Time per spp unit, per estimator (predicts the next run's cost).
     let mut cost: BTreeMap<String, f64> = BTreeMap::new();
-    let mut exec =
-        |plan: &Plan, rows: &mut Vec<Row>, skipped: &mut usize| -> anyhow::Result<bool> {
-            let key = plan.estimator.to_string();
-            let predicted = cost.get(&key).map_or(0.0, |c| c * plan.settings.spp as f64);
-            if elapsed() + predicted > budget {
-                *skipped += 1;
-                return Ok(false);
-            }
-            let si = plan.scene.unwrap_or(0);
-            let (s, truth) = (&scenes[si], &truths[si.min(truths.len() - 1)]);
-            let t0 = Instant::now();
-            let out = Tracer::new(s, &plan.settings)?.render(&|_, _| {})?;
-            let dt = t0.elapsed().as_secs_f64();
-            if plan.setting == "spp" {
-                cost.insert(key.clone(), dt / plan.settings.spp as f64);
-            }
-            let (rms, max) = errors(&out.radiance, truth);
-            rows.push(Row {
-                estimator: key,
-                setting: plan.setting.to_string(),
-                value: plan.value.clone(),
-                spp: plan.settings.spp,
-                time_s: dt,
-                rel_rms_error: rms,
-                max_rel_error: max,
-            });
-            Ok(true)
-        };
+    // Runs only when `limit` (s since the start) is not predicted to pass.
+    let mut exec = |plan: &Plan, rows: &mut Vec<Row>, limit: f64| -> anyhow::Result<bool> {
+        let key = plan.estimator.to_string();
+        let predicted = cost.get(&key).map_or(0.0, |c| c * plan.settings.spp as f64);
+        if elapsed() + predicted > limit {
+            return Ok(false);
+        }
+        let si = plan.scene.unwrap_or(0);
+        let (s, truth) = (&scenes[si], &truths[si.min(truths.len() - 1)]);
+        let t0 = Instant::now();
+        let out = Tracer::new(s, &plan.settings)?.render(&|_, _| {})?;
+        let dt = t0.elapsed().as_secs_f64();
+        if plan.setting == "spp" {
+            cost.insert(key.clone(), dt / plan.settings.spp as f64);
+        }
+        let (rms, max) = errors(&out.radiance, truth);
+        rows.push(Row {
+            estimator: key,
+            setting: plan.setting.to_string(),
+            value: plan.value.clone(),
+            spp: plan.settings.spp,
+            time_s: dt,
+            rel_rms_error: rms,
+            max_rel_error: max,
+        });
+        Ok(true)
+    };
+    let ladder_plan = |est: Estimator, spp: u32| Plan {
+        estimator: est,
+        setting: "spp",
+        value: spp.to_string(),
+        settings: with(est, args.threads, |s| s.spp = spp),
+        scene: None,
+    };
+    let others = other_plans(args.threads, line_variant);
+    let planned = LADDER.len() * ESTIMATORS.len() + others.len() + 2;
 
-    // 1. Each estimator's spp ladder, rung by rung across estimators; an
-    //    estimator whose next rung does not fit stops climbing.
-    let mut climbing = [true; 3];
-    for spp in LADDER {
+    // 1. Each estimator's spp ladder, rung by rung across estimators, within
+    //    60 % of the budget; an estimator whose next rung does not fit stops
+    //    climbing.
+    let mut next_rung = [0usize; 3];
+    for (k, spp) in LADDER.iter().enumerate() {
         for (i, est) in ESTIMATORS.iter().enumerate() {
-            if !climbing[i] {
-                continue;
+            if next_rung[i] == k && exec(&ladder_plan(*est, *spp), &mut rows, 0.6 * budget)? {
+                next_rung[i] = k + 1;
             }
-            let plan = Plan {
-                estimator: *est,
-                setting: "spp",
-                value: spp.to_string(),
-                settings: with(*est, args.threads, |s| s.spp = spp),
-                scene: None,
-            };
-            climbing[i] = exec(&plan, &mut rows, &mut skipped)?;
         }
     }
     // 2. The other settings at the default spp.
-    for plan in other_plans(args.threads, line_variant) {
-        exec(&plan, &mut rows, &mut skipped)?;
+    for plan in &others {
+        exec(plan, &mut rows, budget)?;
     }
     // 3. Sensor noise on/off (the camera chain on the default render).
     if elapsed() < budget {
         rows.extend(sensor_noise_rows(&scene, args.threads, &truths[0])?);
-    } else {
-        skipped += 2;
     }
-    // 4. The effect plan against every effect forced on.
+    // 4. The rest of the ladders with what is left.
+    for (k, spp) in LADDER.iter().enumerate() {
+        for (i, est) in ESTIMATORS.iter().enumerate() {
+            if next_rung[i] == k && exec(&ladder_plan(*est, *spp), &mut rows, budget)? {
+                next_rung[i] = k + 1;
+            }
+        }
+    }
+    let skipped = planned.saturating_sub(rows.len());
+    // 5. The effect plan against every effect forced on.
     let effect_plan = if args.all_effects {
         Some(effect_plan_saving(&scenes[0], args.threads, &truths[0])?)
     } else {
@@ -1007,6 +1017,11 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
         elapsed_s: elapsed(),
         best,
         effect_plan,
+        spectral_sweep: if line_variant.is_some() {
+            "a copy of the scene with its emitters radiating clear mercury (lines), same first-band radiance".into()
+        } else {
+            "the scene itself".into()
+        },
         csv: csv_path.display().to_string(),
         png: png_path.display().to_string(),
         summary_md: md_path.display().to_string(),
@@ -1044,7 +1059,9 @@ fn sensor_noise_rows(
         .map(|(_, &v)| v)
         .fold(0.0, f64::max)
         .max(1e-300);
-    let pe = img.mapv(|v| (v / max * 5.0).min(50.0));
+    // (The analytic estimator's control variate can leave a pixel slightly
+    // negative in penumbra; the sensor takes no negative input.)
+    let pe = img.mapv(|v| (v / max * 5.0).clamp(0.0, 50.0));
     let mut frames = Vec::new();
     let mut times = Vec::new();
     for noise in [false, true] {
