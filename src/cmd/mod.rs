@@ -13,5 +13,6 @@ pub mod plan;
 pub mod probe;
 pub mod render;
 pub mod sensor;
+pub mod sensor_frames;
 pub mod sky;
 pub mod spectra;

@@ -42,3 +42,17 @@ pub fn print_json(value: &impl serde::Serialize) -> anyhow::Result<()> {
     println!("{}", serde_json::to_string_pretty(value)?);
     Ok(())
 }
+
+/// A 16-bit greyscale PNG of row-major `pixels` (any bit depth up to 16 is
+/// stored unscaled in the 16-bit container, so counts survive exactly).
+pub fn png16_bytes(width: u32, height: u32, pixels: &[u16]) -> anyhow::Result<Vec<u8>> {
+    use anyhow::Context;
+    use image::ImageEncoder;
+    let mut bytes = Vec::with_capacity(pixels.len() * 2 + 1024);
+    // The encoder takes 16-bit samples in native byte order (PNG itself is big-endian).
+    let ne: Vec<u8> = pixels.iter().flat_map(|p| p.to_ne_bytes()).collect();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(&ne, width, height, image::ExtendedColorType::L16)
+        .context("encoding PNG")?;
+    Ok(bytes)
+}

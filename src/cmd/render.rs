@@ -40,6 +40,23 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Also capture the render through this camera (preset name, see
+    /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
+    /// `sensor` entry, if any. Writes `frame-NNNNNN.png` and `frames.jsonl`.
+    #[arg(long, value_name = "PRESET_OR_FILE")]
+    pub sensor: Option<String>,
+    /// Number of frames to capture (AGC and phosphor lag evolve over them).
+    #[arg(long, default_value_t = 1)]
+    pub frames: u32,
+    /// Manual (override) tube gain: output linear in input flux.
+    #[arg(long, conflicts_with = "agc")]
+    pub gain: Option<f64>,
+    /// Let the camera's AGC servo the gain.
+    #[arg(long)]
+    pub agc: bool,
+    /// Turn the camera's temporal noise off (deterministic mean response).
+    #[arg(long)]
+    pub no_noise: bool,
 }
 
 /// Settings from `--set` pairs, then the dedicated flags.
@@ -118,6 +135,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &args.out.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
+    if let Some(sensor) = args.sensor.clone().or_else(|| scene.sensor.clone()) {
+        let capture = super::sensor_frames::FrameCapture {
+            sensor: &sensor,
+            frames: args.frames,
+            gain: args.gain,
+            agc: args.agc,
+            noise: !args.no_noise,
+            seed: settings.seed,
+        };
+        capture.run(&scene, &out, &args.out)?;
+    }
     eprintln!(
         "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",
         out.stats.width,
