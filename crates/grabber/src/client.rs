@@ -1027,8 +1027,11 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
     }
 
     fn grab(&mut self) -> Result<Frame, GrabError> {
-        let start = Instant::now();
+        let mut start = Instant::now();
         let mut recoveries = 0;
+        // A device that keeps accepting streams but never delivers must not
+        // keep a grab alive for ever.
+        let mut restarts = 0;
         loop {
             if let Some(o) = self.outcomes.pop_front() {
                 return o;
@@ -1040,32 +1043,46 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
                     after_ms: limit.as_millis() as u64,
                 });
             }
-            let step = (|| -> Result<(), GrabError> {
+            // Ok(true): the session or stream was (re)started just now.
+            let step = (|| -> Result<bool, GrabError> {
+                let mut restarted = false;
                 if self.caps.is_none() {
                     self.handshake()?;
+                    restarted = true;
                 }
                 if !self.streaming {
                     self.start_stream()?;
+                    restarted = true;
                     if !self.outcomes.is_empty() {
-                        return Ok(());
+                        return Ok(true);
                     }
                 }
                 match self.pump(Instant::now() + Duration::from_millis(100))? {
                     Event::Timeout if self.last_stream_rx.elapsed() > self.idle_timeout() => {
-                        self.on_silence()
+                        self.on_silence()?;
                     }
-                    _ => Ok(()),
+                    _ => {}
                 }
+                Ok(restarted)
             })();
             match step {
-                Ok(()) => {}
+                // The frame deadline counts from the stream (re)start.
+                Ok(true) if restarts < 5 => {
+                    restarts += 1;
+                    start = Instant::now();
+                }
+                Ok(_) => {}
+                // Recovery is bounded by `reconnect_timeout`; the frame
+                // deadline restarts once the link is back.
                 Err(GrabError::Disconnected(m)) if recoveries < 5 => {
                     recoveries += 1;
                     self.recover(m)?;
+                    start = Instant::now();
                 }
                 Err(GrabError::Timeout { what, after_ms }) if recoveries < 5 => {
                     recoveries += 1;
                     self.recover(format!("device stopped answering ({what}, {after_ms} ms)"))?;
+                    start = Instant::now();
                 }
                 Err(e) => return Err(e),
             }
