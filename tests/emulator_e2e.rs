@@ -112,7 +112,17 @@ fn compare(preset: &str, rig: &str, seed: &str, settings: &[&str], frames: usize
     let mut a: Vec<&str> = vec!["--grabber", &serial, "--frames", &n, "--seed", seed];
     a.extend_from_slice(settings);
     capture(&a, &wire, Duration::from_secs(60));
+    // The port closed and a new client opens it: same device, new session,
+    // the stream (and the camera) start afresh, so the frames repeat.
+    let again = dir.path().join("again");
+    capture(&a, &again, Duration::from_secs(60));
     drop(emu);
+    let (r1, r2) = (records(&wire), records(&again));
+    assert_eq!(
+        r1.iter().map(key).collect::<Vec<_>>(),
+        r2.iter().map(key).collect::<Vec<_>>(),
+        "second session differs"
+    );
     let sim_uri = format!("sim:{preset}?rig={rig}");
     let mut b: Vec<&str> = vec!["--grabber", &sim_uri, "--frames", &n, "--seed", seed];
     b.extend_from_slice(settings);
