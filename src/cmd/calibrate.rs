@@ -103,7 +103,7 @@ pub struct AgcArgs {
     #[arg(long, default_value_t = 1.0)]
     pub fixed_gain: f64,
     /// Frames per staircase step.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = 60)]
     pub frames: usize,
     /// A LUT (lut.json) to linearise the AGC frames through.
     #[arg(long)]

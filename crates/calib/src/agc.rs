@@ -4,8 +4,8 @@
 //! Per step with AGC on, the reported gain's transition gives the settling
 //! time (10 → 90 % of the change, frames and µs from frame timestamps) and
 //! the overshoot (% of the change beyond the final value); a step is settled
-//! when the gain over its last quarter stays within `settle_tolerance` of
-//! its final value. Hysteresis compares the settled output at the same
+//! when the gain over its last quarter spans no more than `settle_tolerance`
+//! of its final value. Hysteresis compares the settled output at the same
 //! radiance going up and coming down (% of the output span). Linearity
 //! error is the largest deviation of the overridden (fixed-gain) settled
 //! means from their straight line, % of span. With a LUT, every settled AGC
@@ -37,7 +37,7 @@ impl Default for AgcOptions {
     fn default() -> Self {
         Self {
             fixed_gain: 1.0,
-            frames_per_step: 40,
+            frames_per_step: 60,
             settle_tolerance: 0.02,
             allow_unsettled: false,
         }
@@ -149,9 +149,14 @@ pub fn agc_linearisation(
         let fx = &fixed[s * per..(s + 1) * per];
         let last = &a[per - tail..];
         let final_gain = last.iter().map(|x| x.gain).sum::<f64>() / tail as f64;
-        let settled = last
+        // Settled: over the last quarter the gain spans no more than the
+        // tolerance (a slow drift that stays near its mean is not settled).
+        let (gmin, gmax) = last
             .iter()
-            .all(|x| (x.gain - final_gain).abs() <= opts.settle_tolerance * final_gain.abs());
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x.gain), b.max(x.gain))
+            });
+        let settled = gmax - gmin <= opts.settle_tolerance * final_gain.abs();
         let start = prev_final.unwrap_or(a[0].gain);
         let delta = final_gain - start;
         let (mut t10, mut t90, mut over) = (None, None, None);

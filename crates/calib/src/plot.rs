@@ -98,8 +98,12 @@ pub fn xy_plot(
             .y_label_area_size(70)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|x| e(&x))?;
+        let fx = tick_format(x0, x1);
+        let fy = tick_format(y0, y1);
         chart
             .configure_mesh()
+            .x_label_formatter(&|v| fmt_tick(*v, fx))
+            .y_label_formatter(&|v| fmt_tick(*v, fy))
             .x_desc(x_label)
             .y_desc(y_label)
             .label_style(("sans-serif", 14))
@@ -138,4 +142,20 @@ pub fn xy_plot(
         .ok_or_else(|| CalibError::Io("plot buffer has the wrong size".into()))?;
     img.save_with_format(path, image::ImageFormat::Png)
         .map_err(|e| CalibError::file(path, e))
+}
+
+/// Scientific notation for axes spanning tiny or huge values, else plain.
+fn tick_format(lo: f64, hi: f64) -> bool {
+    let m = lo.abs().max(hi.abs());
+    m > 0.0 && !(1e-2..1e5).contains(&m)
+}
+
+fn fmt_tick(v: f64, sci: bool) -> String {
+    if sci {
+        format!("{v:.2e}")
+    } else {
+        let s = format!("{v:.3}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        if s == "-0" { "0".into() } else { s.to_string() }
+    }
 }
