@@ -38,16 +38,40 @@
 //!   form (Lambert's polygon formula, Arvo's double-axis moments for integer
 //!   m > 0), corrected for occlusion with `area_samples` shadow rays as a
 //!   control variate: `E = E_closed + (MC_occluded − MC_unoccluded)` with the
-//!   same solid-angle samples, so it is exact wherever the source is
-//!   unoccluded and unbiased in penumbra (a fully occluded point reads
-//!   zero only on average; `occlusion=ratio` makes it exactly zero at the
-//!   cost of an O(1/N) bias in penumbra). Sources are never dropped: a
-//!   source whose closed-form share of the irradiance at the hit point is
-//!   below `source_roulette_fraction` has its shadow rays traced with
-//!   probability proportional to its share and its correction reweighted by
-//!   the inverse probability (Russian roulette on the correction, unbiased).
-//!   A non-integer shape exponent has no closed form here; such sources fall
-//!   back to the `solid-angle` estimator (unbiased), rather than rounding m.
+//!   same solid-angle samples, under the occlusion rule below. Sources are
+//!   never dropped: a source whose closed-form share of the irradiance at the
+//!   hit point is below `source_roulette_fraction` gets proportionally fewer
+//!   shadow rays, `⌈area_samples · share / fraction⌉` but at least one; the
+//!   correction is unbiased for any number of samples, so this only trades
+//!   variance of dim sources for time. A non-integer shape exponent has no
+//!   closed form here; such sources fall back to the `solid-angle` estimator
+//!   (unbiased), rather than rounding m.
+//!
+//!   **Occlusion rule** (per source, hit point and wavelength slot):
+//!   * every shadow ray clear and unattenuated → exactly `E_closed` (the
+//!     correction cancels bit for bit);
+//!   * every shadow ray blocked (or transmission 0 at that wavelength) →
+//!     exactly 0, not `E_closed − MC_unoccluded` (which is 0 only on average);
+//!   * otherwise the control variate, unbiased.
+//!
+//!   The second case biases penumbra where all N samples happen to miss the
+//!   visible part: the bias is `−P(all blocked) · (E_closed − E[MC_unocc |
+//!   all blocked])`, which vanishes when the sample weights `cos θ_r
+//!   cos^m θ_e Ω` are uniform over the source (small or distant sources),
+//!   and falls with N as `P(all blocked)` does (≈ (1 − v)^N for a visible
+//!   solid-angle fraction v). It is deterministic in sign and size for a
+//!   given geometry (not noise), and zero outside penumbra. Finally the sum
+//!   of all area sources at a hit point is clamped at 0 per wavelength:
+//!   irradiance cannot be negative, and an unclamped control variate can
+//!   undershoot in deep penumbra (a sliver visible, `MC_unocc` above
+//!   `E_closed`). Clamping the *sum* at the hit point, rather than each
+//!   source or the pixel, is the least biased place that still makes every
+//!   reflected radiance, hence every pixel, non-negative (negative pieces of
+//!   one source are still offset by the others); its bias is
+//!   `E[max(0, −X)]`, non-zero only where the estimate X could go
+//!   negative. `occlusion=ratio` (`E = E_closed · MC_occ / MC_unocc`) is
+//!   the alternative: exact at both extremes and behind a uniform
+//!   transmitter, O(1/N) bias everywhere in penumbra.
 //! - `solid-angle`: `area_samples` directions uniform in the solid angle the
 //!   facet subtends (spherical rectangles, Ureña et al. 2013, for true
 //!   rectangles; spherical triangles, Arvo 1995, otherwise, a quad being two

@@ -10,8 +10,11 @@
 //! | `rr_start` | 1 | diffuse bounces before Russian roulette starts |
 //! | `spectral_step_nm` | 5 | continuum grid step within the bands' support |
 //! | `area_samples` | 16 | shadow rays per area source per hit (`analytic`, `solid-angle`) |
-//! | `occlusion` | `cv` | `analytic` occlusion correction: `cv` (control variate, unbiased) or `ratio` (self-normalised: exact at full visibility *and* full occlusion, O(1/N) bias in penumbra) |
-//! | `source_roulette_fraction` | 0.01 | `analytic`: a source whose closed-form irradiance is below this fraction of the total at the hit point has its shadow rays traced with probability ∝ its share (correction reweighted by 1/p — unbiased) |
+//! | `occlusion` | `cv` | `analytic` occlusion correction: `cv` (control variate: exact when every shadow ray is clear, exactly 0 when every one is blocked, unbiased otherwise; sum clamped ≥ 0) or `ratio` (self-normalised: exact at full visibility *and* full occlusion, O(1/N) bias in penumbra) |
+//! | `source_roulette_fraction` | 0.01 | `analytic`: a source whose closed-form irradiance is below this fraction of the total at the hit point gets proportionally fewer shadow rays, `⌈area_samples · share / fraction⌉ ≥ 1` (every count gives an unbiased correction, and umbra stays exactly 0) |
+//! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
+//! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
+//! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
 //! | `SAMPLE_AREA_DENSITY` | 1 | `dirsig2001`: sample points per scene unit² of source |
 //! | `MAX_SAMPLE_POINTS` | 500 | `dirsig2001`: cap on points per source |
 //! | `MAX_SOURCE_SAMPLES` | 100 | `dirsig2001`: cap on shadow rays per source per hit |
@@ -113,6 +116,12 @@ pub struct RenderSettings {
     pub occlusion: Occlusion,
     pub source_roulette_fraction: f64,
     pub dirsig2001: Dirsig2001Settings,
+    /// Cosine-weighted sky-dome samples (shadow rays) per hit point.
+    pub sky_samples: u32,
+    /// Scale factor on the camera resolution (1 = the scene's).
+    pub resolution_scale: f64,
+    /// Compute every effect, planned or not (benchmarking the plan).
+    pub all_effects: bool,
 }
 
 impl Default for RenderSettings {
@@ -130,6 +139,9 @@ impl Default for RenderSettings {
             occlusion: Occlusion::Cv,
             source_roulette_fraction: 0.01,
             dirsig2001: Dirsig2001Settings::default(),
+            sky_samples: 16,
+            resolution_scale: 1.0,
+            all_effects: false,
         }
     }
 }
@@ -186,6 +198,9 @@ impl RenderSettings {
         "SOLID_ANGLE_THRESHOLD",
         "SOLID_ANGLE_DENSITY",
         "IRRADIANCE_THRESHOLD",
+        "sky_samples",
+        "resolution_scale",
+        "all_effects",
     ];
 
     /// Applies `KEY=VALUE`.
@@ -245,6 +260,26 @@ impl RenderSettings {
             "solid_angle_threshold" => d.SOLID_ANGLE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
             "solid_angle_density" => d.SOLID_ANGLE_DENSITY = parse(key, value, POS, pos)?,
             "irradiance_threshold" => d.IRRADIANCE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
+            "sky_samples" => self.sky_samples = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "resolution_scale" => {
+                self.resolution_scale =
+                    parse(key, value, "a finite number in (0, 16]", |x: &f64| {
+                        x.is_finite() && *x > 0.0 && *x <= 16.0
+                    })?
+            }
+            "all_effects" => {
+                self.all_effects = match value.to_ascii_lowercase().as_str() {
+                    "true" | "1" | "yes" | "on" => true,
+                    "false" | "0" | "no" | "off" => false,
+                    _ => {
+                        return Err(SettingsError::BadValue {
+                            key: key.into(),
+                            value: value.into(),
+                            expected: "true or false",
+                        });
+                    }
+                }
+            }
             _ => return Err(SettingsError::UnknownKey(key.into())),
         }
         Ok(())
@@ -281,7 +316,8 @@ mod tests {
             let v = match *k {
                 "estimator" => "analytic",
                 "occlusion" => "ratio",
-                "source_roulette_fraction" => "0.5",
+                "source_roulette_fraction" | "resolution_scale" => "0.5",
+                "all_effects" => "true",
                 _ => "3",
             };
             s.set(k, v).unwrap();

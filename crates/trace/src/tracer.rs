@@ -488,7 +488,7 @@ impl Tracer {
         }
     }
 
-    /// Draws `area_samples` light samples of `s` seen from `p` (normal `n`),
+    /// Draws `nsamp` light samples (Latin-hypercube stratified) of `s` seen from `p` (normal `n`),
     /// uniform in solid angle where possible, else uniform in area. Samples
     /// below either horizon get weight 0 but still count. Returns false
     /// when the point is behind or in the emitter's plane (no light).
@@ -497,6 +497,7 @@ impl Tracer {
         s: &AreaSource,
         p: DVec3,
         n: DVec3,
+        nsamp: u32,
         rng: &mut Pcg64Mcg,
         out: &mut Vec<LightSample>,
     ) -> bool {
@@ -505,7 +506,7 @@ impl Tracer {
         if h <= 1e-14 * (self.geom.extent + p.abs().max_element()) {
             return false;
         }
-        let nsamp = self.settings.area_samples.max(1) as usize;
+        let nsamp = nsamp.max(1) as usize;
         let mut u = Vec::with_capacity(nsamp);
         latin_hypercube(nsamp, rng, &mut u);
         let inv_n = 1.0 / nsamp as f64;
@@ -639,11 +640,16 @@ impl Tracer {
         out: &mut [f64],
     ) {
         let mut samples = Vec::new();
-        if self.light_samples(s, p, n, rng, &mut samples) {
+        if self.light_samples(s, p, n, self.settings.area_samples, rng, &mut samples) {
             self.occluded_sum(s, p, ignore, &samples, scale, c, out);
         }
     }
 
+    /// The `analytic` estimator (see the crate docs, "Occlusion rule"):
+    /// per source, the closed form corrected by `n_s` shadow rays; a source
+    /// whose every sample is blocked at a wavelength contributes exactly 0
+    /// there, and the summed area-source irradiance at the hit point is
+    /// clamped at 0 per wavelength.
     fn analytic(
         &self,
         p: DVec3,
@@ -673,58 +679,70 @@ impl Tracer {
             .map(|(s, f)| f.unwrap_or(0.0) * s.size)
             .sum();
         let frac = self.settings.source_roulette_fraction;
+        let n_full = self.settings.area_samples.max(1);
         let mut samples = Vec::new();
         let mut occ = vec![0.0; out.len()];
+        // The area sources' sum at this point, clamped at 0 at the end.
+        let mut area = vec![0.0; out.len()];
         for (s, f) in self.area.iter().zip(&factors) {
             let Some(factor) = *f else {
                 // Non-integer shape exponent: no closed form; sample it.
                 if s.facet != ignore {
-                    self.solid_angle(s, p, n, ignore, 1.0, rng, c, out);
+                    self.solid_angle(s, p, n, ignore, 1.0, rng, c, &mut area);
                 }
                 continue;
             };
-            if factor <= 0.0 {
+            if factor <= 0.0 && !self.settings.all_effects {
                 continue;
             }
-            // Unoccluded part, exact.
-            out.iter_mut()
-                .zip(&s.radiance)
-                .for_each(|(o, l)| *o += factor * l);
-            // Occlusion correction, traced with probability p_test ∝ share.
+            // Shadow rays allocated by the source's share of the closed-form
+            // irradiance here: dim sources get fewer (at least one). Each
+            // count gives an unbiased correction, so this never biases.
             let share = factor * s.size;
-            let p_test = if frac > 0.0 && total > 0.0 {
-                (share / (frac * total)).min(1.0)
+            let n_s = if frac > 0.0 && total > 0.0 && share < frac * total {
+                ((n_full as f64 * share / (frac * total)).ceil() as u32).clamp(1, n_full)
             } else {
-                1.0
+                n_full
             };
-            if p_test < 1.0 && rng.random::<f64>() >= p_test {
-                continue;
-            }
-            if !self.light_samples(s, p, n, rng, &mut samples) {
-                continue;
-            }
+            let sampled = factor > 0.0 && self.light_samples(s, p, n, n_s, rng, &mut samples);
             occ.iter_mut().for_each(|x| *x = 0.0);
-            let sum_w = self.occluded_sum(s, p, ignore, &samples, 1.0, c, &mut occ);
-            let inv_p = 1.0 / p_test;
+            let sum_w = if sampled {
+                self.occluded_sum(s, p, ignore, &samples, 1.0, c, &mut occ)
+            } else {
+                0.0
+            };
+            if sum_w <= 0.0 {
+                // No sample carries weight: no visibility information, the
+                // closed form stands.
+                area.iter_mut()
+                    .zip(&s.radiance)
+                    .for_each(|(o, l)| *o += factor * l);
+                continue;
+            }
             match self.settings.occlusion {
                 Occlusion::Cv => {
-                    // E = E_closed + (MC_occ − MC_unocc), same samples.
-                    out.iter_mut()
+                    // E = E_closed + (MC_occ − MC_unocc), same samples;
+                    // exactly 0 where every sample is blocked (MC_occ = 0).
+                    area.iter_mut()
                         .zip(&occ)
                         .zip(&s.radiance)
-                        .for_each(|((o, mo), l)| *o += inv_p * (mo - sum_w * l));
+                        .for_each(|((o, mo), l)| {
+                            if *mo != 0.0 {
+                                *o += factor * l + (mo - sum_w * l);
+                            }
+                        });
                 }
                 Occlusion::Ratio => {
-                    if sum_w > 0.0 {
-                        let k = factor / sum_w;
-                        out.iter_mut()
-                            .zip(&occ)
-                            .zip(&s.radiance)
-                            .for_each(|((o, mo), l)| *o += inv_p * (k * mo - factor * l));
-                    }
+                    let k = factor / sum_w;
+                    area.iter_mut().zip(&occ).for_each(|(o, mo)| *o += k * mo);
                 }
             }
         }
+        // No negative irradiance (see the crate docs): the control variate
+        // can undershoot in deep penumbra.
+        out.iter_mut()
+            .zip(&area)
+            .for_each(|(o, a)| *o += a.max(0.0));
     }
 
     /// The published 2001 method (see the crate docs).

@@ -239,19 +239,70 @@ fn fully_occluded_point_reads_zero() {
         assert_eq!(e, 0.0, "{}", set.estimator);
         assert_eq!(l, Some(0.0));
     }
-    // The default control variate is zero on average: |E| within noise.
-    let unocc = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
-    let (e, se, _) = probe(
+    // The default estimator too: every shadow ray blocked, exactly zero.
+    let (e, se, l) = probe(
         &s,
         &settings(Estimator::Analytic),
         DVec3::ZERO,
         DVec3::Z,
         32,
     );
-    assert!(
-        e.abs() < 0.01 * unocc && e.abs() < 4.0 * se + 1e-12,
-        "{e} ± {se}"
+    assert_eq!((e, se, l), (0.0, 0.0, Some(0.0)));
+}
+
+#[test]
+fn fully_occluded_floor_renders_exactly_zero_and_penumbra_is_never_negative() {
+    // Slab at z = 6 between panel (z = 9) / lamp (z = 7) and the floor; the
+    // camera (z = 5) under it sees only fully occluded floor.
+    let extra = format!(
+        "{}[materials.slab]\nreflectance = 0.5\n[objects.slab]\nmaterial = \"slab\"\nquad = {{ center = [0, 0, 6], size = [40, 40], normal = [0, 0, -1] }}\n",
+        lamp([0.0, 0.0, 7.0], [0.0, 0.0, -1.0], 1.0, 1.0)
     );
+    let s = scene(&panel_scene([0.0; 3], 0.0, &extra));
+    let set = settings(Estimator::Analytic);
+    let out = gloam_trace::render(&s, &set).unwrap();
+    assert!(out.radiance.iter().all(|&v| v == 0.0), "{:?}", out.radiance);
+    let t = Tracer::new(&s, &set).unwrap();
+    assert_eq!(t.probe_pixel(3, 4).unwrap(), vec![0.0]);
+    for p in [
+        DVec3::ZERO,
+        DVec3::new(3.0, -2.0, 0.0),
+        DVec3::new(-5.0, 4.0, 0.0),
+    ] {
+        let (e, _, l) = probe(&s, &set, p, DVec3::Z, 8);
+        assert_eq!((e, l), (0.0, Some(0.0)), "{p}");
+    }
+
+    // Penumbra under a half-covering slab, few shadow rays: never negative,
+    // and still unbiased within noise against many shadow rays.
+    let extra = "[materials.slab]\nreflectance = 0.0\n[objects.slab]\nmaterial = \"slab\"\nquad = { center = [1.5, 0, 4], size = [3, 6], normal = [0, 0, 1] }\n";
+    let text = panel_scene([0.0; 3], 0.0, extra)
+        .replace("fov_deg = 10", "fov_deg = 60")
+        .replace("width = 8\nheight = 8", "width = 24\nheight = 16");
+    let s = scene(&text);
+    let mut few = settings(Estimator::Analytic);
+    few.area_samples = 2;
+    few.spp = 2;
+    let out = gloam_trace::render(&s, &few).unwrap();
+    assert!(out.radiance.iter().all(|&v| v >= 0.0 && v.is_finite()));
+    let many = RenderSettings {
+        area_samples: 1,
+        ..few.clone()
+    };
+    let (e_few, se_few, _) = probe(&s, &few, DVec3::new(0.3, 0.0, 0.0), DVec3::Z, 4000);
+    let (e_one, se_one, _) = probe(&s, &many, DVec3::new(0.3, 0.0, 0.0), DVec3::Z, 4000);
+    let mut exact = settings(Estimator::Analytic);
+    exact.area_samples = 256;
+    let (e_ref, se_ref, _) = probe(&s, &exact, DVec3::new(0.3, 0.0, 0.0), DVec3::Z, 200);
+    let unocc = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
+    assert!(
+        e_ref > 0.2 * unocc && e_ref < 0.8 * unocc,
+        "penumbra: {e_ref}"
+    );
+    for (e, se) in [(e_few, se_few), (e_one, se_one)] {
+        let tol = 4.0 * (se * se + se_ref * se_ref).sqrt() + 0.01 * e_ref;
+        assert!((e - e_ref).abs() < tol, "{e} ± {se} vs {e_ref} ± {se_ref}");
+    }
 }
 
 #[test]
