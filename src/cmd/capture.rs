@@ -7,9 +7,9 @@ use anyhow::{Context, bail};
 use clap::Args;
 use serde::Serialize;
 
-use gloam_grabber::{Frame, FrameStatus, GrabError, OpenOptions};
+use gloam_grabber::{FrameStatus, GrabError, OpenOptions};
 
-use super::output::write_atomic;
+use super::output::{png16_bytes, write_atomic};
 
 #[derive(Args)]
 pub struct CaptureArgs {
@@ -58,22 +58,6 @@ struct FrameRecord {
     height: u32,
     pixels_crc32c: u32,
     status: FrameStatus,
-}
-
-fn png_bytes(f: &Frame) -> anyhow::Result<Vec<u8>> {
-    use image::ImageEncoder;
-    let mut bytes = Vec::with_capacity(f.pixels.len() * 2 + 1024);
-    // The encoder takes 16-bit samples in native byte order (PNG itself is big-endian).
-    let ne: Vec<u8> = f.pixels.iter().flat_map(|p| p.to_ne_bytes()).collect();
-    image::codecs::png::PngEncoder::new(&mut bytes)
-        .write_image(
-            &ne,
-            f.meta.width,
-            f.meta.height,
-            image::ExtendedColorType::L16,
-        )
-        .context("encoding PNG")?;
-    Ok(bytes)
 }
 
 #[derive(Default)]
@@ -143,7 +127,7 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                     consecutive = 0;
                     let index = records.len() as u64;
                     let file = format!("frame-{index:06}.png");
-                    write_atomic(&args.out.join(&file), &png_bytes(&f)?)?;
+                    write_atomic(&args.out.join(&file), &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?)?;
                     records.push(FrameRecord {
                         index,
                         file,
