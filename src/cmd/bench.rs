@@ -326,11 +326,13 @@ fn is_emitter(scene: &Scene, facet: usize) -> bool {
 
 /// Pixels whose four corners and `k × k` interior sub-pixel primary rays
 /// all hit the same non-emitting facet (a convex facet then holds the
-/// pixel's whole footprint, so no camera sample of the pixel can land
-/// elsewhere).
+/// pixel's whole footprint), and none of whose eight neighbours shows an
+/// emitter at any of its test points (an emitter's corner can poke into a
+/// pixel between the test points; it then shows in a neighbour).
 fn receiver_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    let v: Vec<bool> = (0..w * h)
+    // (all on one non-emitting facet, any emitter seen)
+    let v: Vec<(bool, bool)> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (col, row) = (i % w, i / w);
@@ -342,17 +344,26 @@ fn receiver_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
                 )
             });
             let mut facet = None;
-            corners.into_iter().chain(inner).all(|(dx, dy)| {
+            let mut same = true;
+            let mut emitter = false;
+            for (dx, dy) in corners.into_iter().chain(inner) {
                 match primary_hit(scene, tracer, col as f64 + dx, row as f64 + dy) {
-                    Some((f, _, _)) if !is_emitter(scene, f as usize) => {
-                        *facet.get_or_insert(f) == f
+                    Some((f, _, _)) if is_emitter(scene, f as usize) => {
+                        emitter = true;
+                        same = false;
                     }
-                    _ => false,
+                    Some((f, _, _)) => same &= *facet.get_or_insert(f) == f,
+                    None => same = false,
                 }
-            })
+            }
+            (same, emitter)
         })
         .collect();
-    Array2::from_shape_vec((h, w), v).expect("mask shape")
+    Array2::from_shape_fn((h, w), |(r, c)| {
+        v[r * w + c].0
+            && (r.saturating_sub(1)..(r + 2).min(h))
+                .all(|rr| (c.saturating_sub(1)..(c + 2).min(w)).all(|cc| !v[rr * w + cc].1))
+    })
 }
 
 /// Why the scene has no closed form (None: it has one).
