@@ -106,10 +106,12 @@ pub mod geometry;
 pub mod render;
 pub mod sampling;
 pub mod settings;
+pub mod sky_light;
 pub mod spectral;
 pub mod tracer;
 
 pub use glam::DVec3;
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{Dirsig2001Settings, Estimator, Occlusion, RenderSettings, SettingsError};
-pub use tracer::{RayCounts, TraceError, Tracer};
+pub use sky_light::SkySummary;
+pub use tracer::{RayCounts, SkyProbeResult, TraceError, Tracer};

@@ -36,6 +36,9 @@ pub struct RenderStats {
     pub trace_seconds: f64,
     pub rays: RayCounts,
     pub rays_per_second: f64,
+    /// What the render took from the `[sky]` block (None: no sky light).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky: Option<crate::sky_light::SkySummary>,
 }
 
 /// A rendered radiance image.
@@ -251,6 +254,7 @@ impl Tracer {
                 trace_seconds,
                 rays,
                 rays_per_second: rays.total() as f64 / trace_seconds.max(1e-9),
+                sky: self.sky_summary().cloned(),
             },
         })
     }
