@@ -3,14 +3,25 @@
 //! the pixels, and the frames are exactly what the sensor library makes of
 //! the rendered radiance (the camera's physics is tested in `gloam-sensor`).
 
-use std::process::Command;
+use std::path::Path;
+use std::process::{Command, Output};
 
-fn gloam() -> Command {
+const SCENE: &str = "sims/panel-validation/scene.toml";
+
+/// Renders the panel scene at 1 spp through `sensor` into `out`.
+fn render_with_sensor(out: &Path, sensor: &str, extra: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_gloam"))
+        .args(["render", SCENE, "--out"])
+        .arg(out)
+        .args(["--spp", "1", "--sensor", sensor])
+        .args(extra)
+        .output()
+        .expect("run gloam")
 }
 
+/// Independent bitwise CRC-32C (Castagnoli, reflected 0x82F63B78) of the
+/// pixels as little-endian u16.
 fn crc32c(pixels: &[u16]) -> u32 {
-    // Independent bitwise CRC-32C (Castagnoli, reflected 0x82F63B78).
     let mut crc = !0u32;
     for b in pixels.iter().flat_map(|p| p.to_le_bytes()) {
         crc ^= b as u32;
@@ -25,35 +36,30 @@ fn crc32c(pixels: &[u16]) -> u32 {
     !crc
 }
 
-#[test]
-fn render_with_sensor_writes_frames_and_metadata() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path();
-    let st = gloam()
-        .args(["render", "sims/panel-validation/scene.toml", "--out"])
-        .arg(out)
-        .args([
-            "--spp",
-            "1",
-            "--sensor",
-            "scientific-ccd",
-            "--frames",
-            "2",
-            "--gain",
-            "1",
-            "--seed",
-            "7",
-        ])
-        .status()
-        .unwrap();
-    assert!(st.success());
-    let text = std::fs::read_to_string(out.join("frames.jsonl")).unwrap();
-    let lines: Vec<serde_json::Value> = text
+fn records(out: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join("frames.jsonl"))
+        .unwrap()
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
-    assert_eq!(lines.len(), 2);
-    for (i, rec) in lines.iter().enumerate() {
+        .collect()
+}
+
+fn crcs(recs: &[serde_json::Value]) -> Vec<u64> {
+    recs.iter()
+        .map(|r| r["pixels_crc32c"].as_u64().unwrap())
+        .collect()
+}
+
+#[test]
+fn render_with_sensor_writes_frames_and_metadata() {
+    let args = ["--frames", "2", "--gain", "1", "--seed", "7"];
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let o = render_with_sensor(out, "scientific-ccd", &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let recs = records(out);
+    assert_eq!(recs.len(), 2);
+    for (i, rec) in recs.iter().enumerate() {
         for key in [
             "seq",
             "timestamp",
@@ -77,53 +83,41 @@ fn render_with_sensor_writes_frames_and_metadata() {
         );
         assert_eq!(rec["width"].as_u64().unwrap(), u64::from(png.width()));
     }
-    // Noise differs frame to frame but the seed is explicit: rerun is identical.
+
+    // The seed is explicit: a rerun is identical, while temporal noise
+    // differs from frame to frame.
     let dir2 = tempfile::tempdir().unwrap();
-    let st = gloam()
-        .args(["render", "sims/panel-validation/scene.toml", "--out"])
-        .arg(dir2.path())
-        .args([
-            "--spp",
-            "1",
-            "--sensor",
-            "scientific-ccd",
-            "--frames",
-            "2",
-            "--gain",
-            "1",
-            "--seed",
-            "7",
-        ])
-        .status()
-        .unwrap();
-    assert!(st.success());
-    let again = std::fs::read_to_string(dir2.path().join("frames.jsonl")).unwrap();
-    let crcs = |t: &str| -> Vec<u64> {
-        t.lines()
-            .map(|l| {
-                serde_json::from_str::<serde_json::Value>(l).unwrap()["pixels_crc32c"]
-                    .as_u64()
-                    .unwrap()
-            })
-            .collect()
-    };
-    assert_eq!(crcs(&text), crcs(&again));
+    assert!(
+        render_with_sensor(dir2.path(), "scientific-ccd", &args)
+            .status
+            .success()
+    );
+    let first = crcs(&recs);
+    assert_eq!(first, crcs(&records(dir2.path())));
     assert_ne!(
-        crcs(&text)[0],
-        crcs(&text)[1],
+        first[0], first[1],
         "temporal noise should differ between frames"
     );
+
+    // The same radiance through the library camera gives the same frames.
+    let radiance: ndarray::Array3<f64> = ndarray_npy::read_npy(out.join("radiance.npy")).unwrap();
+    let scene = gloam_scene::load(Path::new(SCENE)).unwrap();
+    let shapes: Vec<_> = scene.bands.iter().map(|b| b.response.clone()).collect();
+    let mut config = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+    config.noise.seed = 7;
+    let mut cam = gloam_sensor::Camera::new(config).unwrap();
+    cam.set_override_gain(Some(1.0)).unwrap();
+    for want in first {
+        let f = cam.capture(radiance.view(), &shapes).unwrap();
+        let px: Vec<u16> = f.pixels.iter().copied().collect();
+        assert_eq!(u64::from(crc32c(&px)), want);
+    }
 }
 
 #[test]
 fn unknown_sensor_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
-    let o = gloam()
-        .args(["render", "sims/panel-validation/scene.toml", "--out"])
-        .arg(dir.path())
-        .args(["--spp", "1", "--sensor", "no-such-camera"])
-        .output()
-        .unwrap();
+    let o = render_with_sensor(dir.path(), "no-such-camera", &[]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no-such-camera"), "{err}");
