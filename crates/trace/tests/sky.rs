@@ -217,3 +217,70 @@ quad = { center = [0, 0, 0], size = [10, 10], normal = [0, 0, 1] }
     assert_eq!(out.stats.rays.shadow, 0);
     assert!(out.radiance.iter().all(|&v| v == 0.0));
 }
+
+#[test]
+fn all_effects_agrees_with_the_planned_render() {
+    // Outdoor: moon, sky, a specular box; all_effects adds zero-weight
+    // recursion, NEE on every hit, spectral transmission on every ray.
+    let s = scene(
+        FULL,
+        "m",
+        "[materials.box]\nreflectance = 0.5\nspecular_fraction = 0.3\n[objects.box]\nmaterial = \"box\"\nbox = { min = [-3, -3, 0], max = [1, 1, 2] }\n",
+    );
+    let planned = RenderSettings {
+        spp: 16,
+        ..Default::default()
+    };
+    let all = RenderSettings {
+        all_effects: true,
+        ..planned.clone()
+    };
+    let a = gloam_trace::render(&s, &planned).unwrap();
+    let b = gloam_trace::render(&s, &all).unwrap();
+    assert!(b.stats.rays.total() > a.stats.rays.total());
+    let (ma, mb) = (a.radiance.mean().unwrap(), b.radiance.mean().unwrap());
+    assert!((mb / ma - 1.0).abs() < 0.01, "{mb} vs {ma}");
+    assert!(b.radiance.iter().all(|v| v.is_finite() && *v >= 0.0));
+
+    // Indoor, no [sky]: the dark sky's paths run, and the unoccluded
+    // analytic floor is unchanged (to rounding).
+    let text = r#"
+units = "ft"
+[camera]
+position = [0, 0, 5]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 10
+width = 8
+height = 8
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.floor]
+reflectance = 0.9
+[materials.panel]
+reflectance = 0.0
+emission = { value = 1.0, normalize = { lo_nm = 400, hi_nm = 700, value = 15.058 } }
+[objects.floor]
+material = "floor"
+quad = { center = [0, 0, 0], size = [60, 60], normal = [0, 0, 1] }
+[objects.panel]
+material = "panel"
+quad = { center = [0, 0, 9], size = [4, 2], normal = [0, 0, -1] }
+"#;
+    let s = gloam_scene::parse_str(text, Path::new("panel.toml")).unwrap();
+    let a = gloam_trace::render(&s, &RenderSettings::default()).unwrap();
+    let b = gloam_trace::render(
+        &s,
+        &RenderSettings {
+            all_effects: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(a.stats.sky.is_none() && b.stats.sky.is_some());
+    assert!(b.stats.rays.shadow > a.stats.rays.shadow);
+    for (x, y) in a.radiance.iter().zip(b.radiance.iter()) {
+        assert!((x - y).abs() <= 1e-12 * x.abs(), "{x} vs {y}");
+    }
+}
