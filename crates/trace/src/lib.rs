@@ -13,7 +13,8 @@
 //! - Scene units are converted to metres only where a distance is squared
 //!   against a physical quantity: point sources, `E = I cos^m(α) cos θ / R²`
 //!   with `R` in metres. Area-source factors (∫ cos cos dω, `A/R²`) are
-//!   dimensionless.
+//!   dimensionless, and so are the Moon and the sky dome (directional: no
+//!   distance, no `R²`; their irradiance is W m⁻² whatever the units).
 //! - A Lambertian surface reflects `L = ρ_d E / π` with `ρ_d = (1 − s) ρ`;
 //!   the specular part `s ρ` is followed by recursion (`recursion` = 1:
 //!   direct light only; 2: one mirror bounce; …).
@@ -31,6 +32,52 @@
 //! corners on the image plane). Summed over the pixel's
 //! solid angle this returns exactly the irradiance `I/R²` the lamp puts on
 //! the entrance pupil. (Lamps seen in mirrors are not deposited.)
+//!
+//! # The night sky ([`sky_light`])
+//!
+//! Scenes with a `[sky]` block are lit by the Moon and the sky dome from
+//! [`gloam_sky::SkyModel`] (instant from `utc`, site from latitude,
+//! longitude and height, `visibility_km`, `overcast`), only as far as the
+//! effect plan enables `moon` / `night-sky` / `atmosphere`. Scene axes are
+//! +x east, +y north, +z up (the sky crate's ENU frame).
+//!
+//! - **Moon, direct**: a distant directional source along its apparent
+//!   direction, `E(λ) = E_n(λ) cos θ τ(λ)` with `E_n` the direct lunar
+//!   irradiance normal to the beam at the ground and one shadow ray to
+//!   infinity (transmissive facets attenuate). Exact; hard shadows (the
+//!   0.26° disk is ignored). Off when the Moon is down or overcast.
+//! - **Sky dome**: `E(λ) = ∫ L(ω, λ) V(ω) τ (n·ω) dω` by `sky_samples`
+//!   cosine-weighted directions (Latin-hypercube stratified) about the
+//!   normal, each adding `π L(ω) τ / N` when its shadow ray escapes;
+//!   directions below the horizon see no sky (and cast no ray). `L` is the
+//!   single-scattered moonlight (or the overcast deck) plus the uniform
+//!   starlight/airglow background, tabulated per wavelength on a 1.5° × 2.5°
+//!   elevation × azimuth grid ([`sky_light::RadianceTable`]; a uniform dome
+//!   is stored exactly).
+//! - **Seen directly**: a camera or specular ray that escapes upward returns
+//!   the dome's radiance in its direction (not after a diffuse bounce, whose
+//!   vertex already sampled the dome). Rays escaping below the horizon read
+//!   0 (there is no ground beyond the scene's geometry). The Moon's disk
+//!   itself is not drawn, and it is not seen in mirrors.
+//! - The sky has no emission lines: it fills the continuum slots only.
+//!
+//! [`Tracer::sky_probe`] reports the two terms separately at a point;
+//! `RenderStats::sky` ([`SkySummary`]) records what was used.
+//!
+//! # Forcing every effect
+//!
+//! `all_effects = true` runs every estimator path even where the effect
+//! plan says it is not needed, so a benchmark can show what the plan saves:
+//! the area-source loops run (empty without emitters); the sky paths run
+//! with a dark sky when the scene has none (moon shadow rays towards the
+//! Moon's geometric direction or the zenith carrying zero, dome samples of
+//! a zero dome); specular recursion goes to `recursion` on every hit with
+//! zero weight where a material has no specular part; next-event
+//! estimation runs on every hit, with zero albedo where a material has no
+//! diffuse part; every shadow ray builds its spectral transmission vector.
+//! All the extra terms are exact zeros, so the image agrees with the
+//! planned render within noise (the extra paths draw random numbers, so it
+//! is not bit-identical where light is sampled).
 //!
 //! # Area sources: three estimators
 //!

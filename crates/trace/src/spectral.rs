@@ -24,7 +24,7 @@ pub struct Wavelengths {
     pub n_continuum: usize,
     /// Band names, in scene order.
     pub band_names: Vec<String>,
-    /// `weights[b][k]`: band `b` value = Σ_k weights[b][k] · value[k].
+    /// `weights[b][k]`: band `b` value = `Σ_k weights[b][k] · value[k]`.
     pub weights: Vec<Vec<f64>>,
 }
 
