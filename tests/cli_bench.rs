@@ -99,3 +99,19 @@ fn throughput_json_has_every_figure() {
     assert_eq!(v["sensor"]["width"], 1024);
     assert_eq!(v["sensor"]["height"], 768);
 }
+
+#[test]
+fn plan_saving_on_the_panel_agrees_within_noise() {
+    let v = run_json(gloam().args([
+        "bench",
+        "plan",
+        "sims/panel-validation/scene.toml",
+        "--json",
+    ]));
+    let s = &v["scenes"][0];
+    for k in ["plan_s", "all_effects_s"] {
+        assert!(s[k].as_f64().is_some_and(|t| t > 0.0), "{k} in {v}");
+    }
+    assert_eq!(s["agree_within_noise"], true, "{v}");
+    assert!(v["total"]["saved_s"].as_f64().is_some(), "{v}");
+}

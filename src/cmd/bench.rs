@@ -47,6 +47,24 @@ pub enum BenchCommand {
     Accuracy(AccuracyArgs),
     /// Rays/s, sensor-chain frames/s and protocol codec GB/s.
     Throughput(ThroughputArgs),
+    /// Time the effect plan saves: each sim rendered with the plan and with
+    /// every effect forced on (`all_effects`), images checked to agree.
+    Plan(PlanBenchArgs),
+}
+
+#[derive(Args)]
+pub struct PlanBenchArgs {
+    /// Scene files (default: every `sims/*/scene.toml`).
+    pub scenes: Vec<PathBuf>,
+    /// Camera samples per pixel (default 1: the plan's saving per sample).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args)]
@@ -61,7 +79,7 @@ pub struct AccuracyArgs {
     #[arg(long, default_value_t = 120.0)]
     pub budget_s: f64,
     /// Also render with every effect forced on and report the time the
-    /// effect plan saves (needs the tracer's `force_all_effects` setting).
+    /// effect plan saves (the tracer's `all_effects` setting).
     #[arg(long)]
     pub all_effects: bool,
     /// Worker threads (default: all cores).
@@ -92,6 +110,7 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Accuracy(a) => accuracy(a),
         BenchCommand::Throughput(a) => throughput(a),
+        BenchCommand::Plan(a) => plan_bench(a),
     }
 }
 
@@ -103,6 +122,120 @@ fn find_path(p: &Path) -> PathBuf {
     }
     let alt = Path::new(env!("CARGO_MANIFEST_DIR")).join(p);
     if alt.exists() { alt } else { p.to_path_buf() }
+}
+
+// ---------------------------------------------------------------------------
+// plan
+
+/// `sqrt(Σ(a − b)² / Σ b²)` over every pixel and band.
+fn rel_rms_diff(a: &Array3<f64>, b: &Array3<f64>) -> f64 {
+    let (mut se, mut st) = (0.0, 0.0);
+    for (x, y) in a.iter().zip(b.iter()) {
+        se += (x - y) * (x - y);
+        st += y * y;
+    }
+    if st > 0.0 {
+        (se / st).sqrt()
+    } else {
+        se.sqrt()
+    }
+}
+
+fn plan_bench(args: PlanBenchArgs) -> anyhow::Result<()> {
+    let scenes: Vec<PathBuf> = if args.scenes.is_empty() {
+        let dir = find_path(Path::new("sims"));
+        let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .with_context(|| format!("listing {}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path().join("scene.toml")))
+            .filter(|p| p.exists())
+            .collect();
+        v.sort();
+        v
+    } else {
+        args.scenes.iter().map(|p| find_path(p)).collect()
+    };
+    let mut out = Vec::new();
+    let (mut t_plan, mut t_all) = (0.0, 0.0);
+    for path in &scenes {
+        let scene = gloam_scene::load(path)?;
+        let base = RenderSettings {
+            spp: args.spp,
+            threads: args.threads,
+            ..Default::default()
+        };
+        let mut forced = base.clone();
+        forced.set("all_effects", "true").map_err(|e| {
+            anyhow::anyhow!("gloam-trace has no setting to force every effect on ({e})")
+        })?;
+        let render = |s: &RenderSettings| -> anyhow::Result<(Array3<f64>, f64)> {
+            let t0 = Instant::now();
+            let o = Tracer::new(&scene, s)?.render(&|_, _| {})?;
+            Ok((o.radiance, t0.elapsed().as_secs_f64()))
+        };
+        let (a, ta) = render(&base)?;
+        let (b, tb) = render(&forced)?;
+        // The plan's own noise: the same render with another seed.
+        let (a2, _) = render(&RenderSettings {
+            seed: base.seed + 1,
+            ..base.clone()
+        })?;
+        let noise = rel_rms_diff(&a2, &a);
+        let diff = rel_rms_diff(&b, &a);
+        // Two independent renders differ by √2 σ; forced vs plan shares
+        // the seed, so agreement within noise is diff ≤ 1.5 × that + 1e-9.
+        let agree = diff <= 1.5 * noise + 1e-9;
+        t_plan += ta;
+        t_all += tb;
+        out.push(serde_json::json!({
+            "scene": path.display().to_string(),
+            "plan_s": ta,
+            "all_effects_s": tb,
+            "saved_s": tb - ta,
+            "saved_fraction": 1.0 - ta / tb.max(1e-12),
+            "rel_rms_difference": diff,
+            "rel_rms_noise_between_seeds": noise,
+            "agree_within_noise": agree,
+        }));
+    }
+    let all_agree = out.iter().all(|v| v["agree_within_noise"] == true);
+    let total = serde_json::json!({
+        "plan_s": t_plan,
+        "all_effects_s": t_all,
+        "saved_s": t_all - t_plan,
+        "saved_fraction": 1.0 - t_plan / f64::max(t_all, 1e-12),
+        "all_agree_within_noise": all_agree,
+    });
+    if args.json {
+        print_json(&serde_json::json!({"spp": args.spp, "scenes": out, "total": total}))?;
+    } else {
+        println!(
+            "| scene | plan (s) | all effects (s) | saved | rel RMS diff | noise (seed to seed) | agree |"
+        );
+        println!("|---|---|---|---|---|---|---|");
+        for v in &out {
+            println!(
+                "| {} | {:.3} | {:.3} | {:.0} % | {:.2e} | {:.2e} | {} |",
+                v["scene"].as_str().unwrap_or_default(),
+                v["plan_s"].as_f64().unwrap_or(f64::NAN),
+                v["all_effects_s"].as_f64().unwrap_or(f64::NAN),
+                100.0 * v["saved_fraction"].as_f64().unwrap_or(f64::NAN),
+                v["rel_rms_difference"].as_f64().unwrap_or(f64::NAN),
+                v["rel_rms_noise_between_seeds"]
+                    .as_f64()
+                    .unwrap_or(f64::NAN),
+                v["agree_within_noise"]
+            );
+        }
+        println!(
+            "| **total** | {t_plan:.3} | {t_all:.3} | {:.0} % | | | {all_agree} |",
+            100.0 * (1.0 - t_plan / t_all.max(1e-12))
+        );
+    }
+    anyhow::ensure!(
+        all_agree,
+        "rendering with every effect forced on changed an image beyond its noise"
+    );
+    Ok(())
 }
 
 // ---------------------------------------------------------------------------
@@ -1133,7 +1266,7 @@ fn sensor_noise_rows(
 }
 
 /// Renders with the effect plan and with every effect forced on (the
-/// tracer's `force_all_effects` setting), checks that the images agree
+/// tracer's `all_effects` setting), checks that the images agree
 /// within noise and reports the time the plan saves.
 fn effect_plan_saving(
     scene: &Scene,
@@ -1142,7 +1275,7 @@ fn effect_plan_saving(
 ) -> anyhow::Result<serde_json::Value> {
     let plan = with(Estimator::Analytic, threads, |_| {});
     let mut forced = plan.clone();
-    if let Err(e) = forced.set("force_all_effects", "true") {
+    if let Err(e) = forced.set("all_effects", "true") {
         return Ok(serde_json::json!({
             "available": false,
             "reason": format!("gloam-trace has no setting to force every effect on ({e})"),
