@@ -34,37 +34,24 @@ fn render(name: &'static str) -> Night {
         .join("sims")
         .join(name)
         .join("scene.toml");
-    let mut scene = gloam_scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
-    // SCENE ISSUE (reported): each lamp sits inside its closed housing box
-    // (`*-head`, e.g. z 7.70–8.00 around a lamp at 7.85), so every shadow
-    // ray from the lamp is blocked and the lamps light nothing. Until the
-    // scenes move the lamps out of (or open) the housings, drop the housing
-    // facets that enclose a lamp here, so the test checks the tracer.
+    let scene = gloam_scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    // A lamp inside a closed housing would light nothing: every lamp must
+    // sit outside every lamp-head box (they hang below open-bottomed heads).
     let lamps: Vec<DVec3> = scene.point_sources.iter().map(|p| p.position).collect();
-    let mut heads: Vec<String> = scene
-        .facets
-        .iter()
-        .filter(|f| f.object.ends_with("-head"))
-        .map(|f| f.object.clone())
-        .collect();
-    heads.dedup();
-    let enclosing: Vec<String> = heads
-        .into_iter()
-        .filter(|o| {
-            let vs: Vec<DVec3> = scene
-                .facets
-                .iter()
-                .filter(|f| &f.object == o)
-                .flat_map(|f| f.vertices.clone())
-                .collect();
-            let lo = vs.iter().fold(DVec3::INFINITY, |a, v| a.min(*v));
-            let hi = vs.iter().fold(DVec3::NEG_INFINITY, |a, v| a.max(*v));
-            lamps.iter().any(|l| l.cmpgt(lo).all() && l.cmplt(hi).all())
-        })
-        .collect();
-    if !enclosing.is_empty() {
-        eprintln!("{name}: lamps enclosed by {enclosing:?}; dropping those facets");
-        scene.facets.retain(|f| !enclosing.contains(&f.object));
+    for f in scene.facets.iter().filter(|f| f.object.ends_with("-head")) {
+        let vs: Vec<DVec3> = scene
+            .facets
+            .iter()
+            .filter(|g| g.object == f.object)
+            .flat_map(|g| g.vertices.clone())
+            .collect();
+        let lo = vs.iter().fold(DVec3::INFINITY, |a, v| a.min(*v));
+        let hi = vs.iter().fold(DVec3::NEG_INFINITY, |a, v| a.max(*v));
+        assert!(
+            !lamps.iter().any(|l| l.cmpgt(lo).all() && l.cmplt(hi).all()),
+            "{name}: a lamp sits inside housing '{}'",
+            f.object
+        );
     }
     let t0 = Instant::now();
     let tracer = Tracer::new(&scene, &settings()).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -172,7 +172,9 @@ def lamp_lines():
             f"# I_v = {lp['flux_lm']:.0f} lm x (m + 1) / 2pi = {i_cd:.0f} cd on axis "
             f"-> {i_w:.2f} W/sr over 380-780 nm.",
             f"[point_sources.{lp['name']}]",
-            f"position = [{x}, {y}, {z - 0.15:.2f}]",
+            # On a 0.55 m mast arm, just below the open-bottomed housing, so
+            # the lamp sees the ground (a lamp inside a closed box lights nothing).
+            f"position = [{x + 0.55:.2f}, {y}, {z - 0.35:.2f}]",
             f"direction = [{d[0]:.4f}, {d[1]:.4f}, {d[2]:.4f}]",
             f"shape_exponent = {lp['m']}",
             f'spectrum = "{lp["spectrum"]}"',
@@ -182,10 +184,10 @@ def lamp_lines():
             "",
             f"[objects.{lp['name']}-pole]",
             'material = "pole-steel"',
-            f"box = {{ min = [{x - 0.08}, {y - 0.08}, 0.0], max = [{x + 0.08}, {y + 0.08}, {z - 0.3:.2f}], omit = [\"bottom\"] }}",
+            f"box = {{ min = [{x - 0.08}, {y - 0.08}, 0.0], max = [{x + 0.08}, {y + 0.08}, {z:.2f}], omit = [\"bottom\"] }}",
             f"[objects.{lp['name']}-head]",
             'material = "pole-steel"',
-            f"box = {{ min = [{x - 0.25}, {y - 0.25}, {z - 0.3:.2f}], max = [{x + 0.25}, {y + 0.25}, {z:.2f}] }}",
+            f"box = {{ min = [{x + 0.08:.2f}, {y - 0.25}, {z - 0.3:.2f}], max = [{x + 0.8:.2f}, {y + 0.25}, {z:.2f}], omit = [\"bottom\"] }}",
         ]
     return out + objs
 

@@ -208,6 +208,7 @@ fn report_json(
         "triangles": out.stats.triangles,
         "area_sources": out.stats.area_sources,
         "point_sources": out.stats.point_sources,
+        "sky": out.stats.sky,
         "bands": band_means,
     })
 }
