@@ -1334,7 +1334,10 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
         m,
         "## Time to reach an RMS error (spp ladder, log–log interpolation)\n"
     );
-    let _ = writeln!(m, "| estimator | 1 % | 0.1 % | lowest error (at time) |");
+    let _ = writeln!(
+        m,
+        "| estimator | 1 % | 0.1 % | lowest rel RMS error (at time) |"
+    );
     let _ = writeln!(m, "|---|---|---|---|");
     for est in ESTIMATORS {
         let e = est.to_string();
@@ -1344,10 +1347,7 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
             "| {e} | {} | {} | {} |",
             fmt_opt(s.time_to_1pct_s.get(&e).copied().flatten()),
             fmt_opt(s.time_to_0_1pct_s.get(&e).copied().flatten()),
-            best.map_or("–".into(), |(err, t)| format!(
-                "{:.3} % ({t:.3} s)",
-                err * 100.0
-            ))
+            best.map_or("–".into(), |(err, t)| format!("{err:.3e} ({t:.3} s)"))
         );
     }
     let a = s.time_to_1pct_s.get("analytic").copied().flatten();
