@@ -127,7 +127,10 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                     consecutive = 0;
                     let index = records.len() as u64;
                     let file = format!("frame-{index:06}.png");
-                    write_atomic(&args.out.join(&file), &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?)?;
+                    write_atomic(
+                        &args.out.join(&file),
+                        &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?,
+                    )?;
                     records.push(FrameRecord {
                         index,
                         file,
