@@ -32,11 +32,11 @@ pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
 pub use uri::GrabberUri;
 
-/// CRC-32C (Castagnoli, `crc::CRC_32_ISCSI`) of pixels as little-endian
-/// `u16` bytes: [`FrameMeta::pixels_crc32c`].
+/// CRC-32C of pixels as little-endian `u16` bytes:
+/// [`FrameMeta::pixels_crc32c`]. The protocol's own engine, so the host and
+/// the device checksum frames with one implementation.
 pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
-    const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI);
-    let mut d = CRC.digest();
+    let mut d = firmware_protocol::Crc32c::new();
     let mut buf = [0u8; 4096];
     for block in pixels.chunks(buf.len() / 2) {
         for (o, p) in buf.chunks_exact_mut(2).zip(block) {
@@ -44,7 +44,7 @@ pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
         }
         d.update(&buf[..block.len() * 2]);
     }
-    d.finalize()
+    d.value()
 }
 
 /// Options for [`open_with`].
