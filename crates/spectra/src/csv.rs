@@ -40,7 +40,9 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
             .map(str::trim)
             .filter(|f| !f.is_empty())
             .collect();
-        let parsed: Vec<Option<f64>> = fields.iter().map(|f| parse_number(f)).collect();
+        // `str::parse` accepts `NaN`/`inf`, so those are reported as non-finite
+        // values below rather than mistaken for a header.
+        let parsed: Vec<Option<f64>> = fields.iter().map(|f| f.parse().ok()).collect();
         let numeric = parsed.iter().all(Option::is_some);
         if !numeric {
             if !seen_data_or_header {
@@ -106,12 +108,6 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
         });
     }
     Spectrum::new(wavelengths, values).map_err(|e| err(0, e.to_string()))
-}
-
-/// Parses a number, accepting `nan`/`inf` spellings so they are reported as
-/// non-finite values rather than as a stray header.
-fn parse_number(field: &str) -> Option<f64> {
-    field.parse::<f64>().ok()
 }
 
 #[cfg(test)]
