@@ -17,6 +17,11 @@ pub struct Throughput {
     pub frames: usize,
     pub seconds: f64,
     pub frames_per_s: f64,
+    /// Median wall time of one frame, ms: robust to other work stealing
+    /// the cores for part of the run.
+    pub median_frame_ms: f64,
+    /// 1000 / `median_frame_ms`.
+    pub median_frames_per_s: f64,
     pub threads: usize,
     /// Mean photoelectrons per pixel per frame of the test scene.
     pub mean_photoelectrons: f64,
@@ -86,11 +91,16 @@ pub fn throughput_at(
         .expect("valid test scene");
     let cpu0 = cpu_time_s();
     let t = Instant::now();
+    let mut frame_s = Vec::with_capacity(frames);
     for _ in 0..frames {
+        let t_frame = Instant::now();
         cam.capture_photoelectrons(scene.view())
             .expect("valid test scene");
+        frame_s.push(t_frame.elapsed().as_secs_f64());
     }
     let seconds = t.elapsed().as_secs_f64();
+    frame_s.sort_by(f64::total_cmp);
+    let median_frame_s = frame_s.get(frames / 2).copied().unwrap_or(f64::NAN);
     let cpu_seconds = match (cpu0, cpu_time_s()) {
         (Some(a), Some(b)) => Some(b - a),
         _ => None,
@@ -102,6 +112,8 @@ pub fn throughput_at(
         frames,
         seconds,
         frames_per_s: frames as f64 / seconds,
+        median_frame_ms: median_frame_s * 1e3,
+        median_frames_per_s: 1.0 / median_frame_s,
         threads: rayon::current_num_threads(),
         mean_photoelectrons: level,
         cpu_seconds,

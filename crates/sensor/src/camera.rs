@@ -251,9 +251,9 @@ impl Camera {
             check_input(plane, b)?;
         }
         let mut pe = std::mem::take(&mut self.buf);
-        pe.clear();
         pe.resize(rows * cols, 0.0);
         pe.par_chunks_mut(cols).enumerate().for_each(|(r, out)| {
+            out.fill(0.0);
             for (b, &kb) in k.iter().enumerate() {
                 let row = radiance_w_m2_sr.slice(ndarray::s![b, r, ..]);
                 for (o, &l) in out.iter_mut().zip(row.iter()) {
@@ -286,12 +286,35 @@ impl Camera {
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
         }
-        check_input(pe_per_pixel, 0)?;
         let mut pe = std::mem::take(&mut self.buf);
-        pe.clear();
         match pe_per_pixel.as_slice() {
-            Some(sl) => pe.extend(sl.iter().map(|&v| v as f32)),
-            None => pe.extend(pe_per_pixel.iter().map(|&v| v as f32)),
+            Some(sl) => {
+                // Convert and check in one pass (every element is
+                // overwritten, so no clearing first).
+                pe.resize(sl.len(), 0.0);
+                let ok = pe
+                    .par_chunks_mut(1 << 14)
+                    .zip(sl.par_chunks(1 << 14))
+                    .map(|(o, i)| {
+                        let mut ok = true;
+                        for (o, &v) in o.iter_mut().zip(i) {
+                            ok &= v.is_finite() & (v >= 0.0);
+                            *o = v as f32;
+                        }
+                        ok
+                    })
+                    .reduce(|| true, |a, b| a & b);
+                if !ok {
+                    self.buf = pe;
+                    check_input(pe_per_pixel, 0)?;
+                    unreachable!("check_input reports the bad value the scan saw");
+                }
+            }
+            None => {
+                check_input(pe_per_pixel, 0)?;
+                pe.clear();
+                pe.extend(pe_per_pixel.iter().map(|&v| v as f32));
+            }
         }
         self.run(pe, rows, cols, false)
     }
@@ -409,20 +432,37 @@ impl Camera {
             SensorKind::Iccd => {
                 let eta = chain.open_area;
                 let gamma = noise::GammaSums::new(chain.gain_shape);
-                pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
-                    let mut rng = noise::stream(seed, frame, Pass::Photoelectrons, r);
-                    let mut events = noise::PoissonRow::new(&mut rng, ga);
-                    for p in row.iter_mut() {
-                        let lam = eta * ((*p).max(0.0) as f64 + ebi);
-                        let q = if noise_on {
-                            let n = events.draw(&mut rng, lam);
-                            gamma.sample(&mut rng, n, g)
-                        } else {
-                            lam * g
-                        };
-                        *p = chain.mcp_compress(q) as f32;
-                    }
-                });
+                pe.par_chunks_mut(cols).enumerate().for_each_init(
+                    || (Vec::new(), Vec::new()),
+                    |(counts, hits): &mut (Vec<f64>, Vec<u32>), (r, row)| {
+                        let lam = |p: f32| eta * (p.max(0.0) as f64 + ebi);
+                        if !noise_on {
+                            for p in row.iter_mut() {
+                                *p = chain.mcp_compress(lam(*p) * g) as f32;
+                            }
+                            return;
+                        }
+                        // Counts for the whole row first, then a gain draw for
+                        // each pixel with events, listed without a
+                        // data-dependent branch: tight loops that predict well.
+                        let mut rng = noise::stream(seed, frame, Pass::Photoelectrons, r);
+                        let mut events = noise::PoissonRow::new(&mut rng, ga);
+                        counts.clear();
+                        counts.extend(row.iter().map(|&p| events.draw(&mut rng, lam(p))));
+                        hits.clear();
+                        hits.resize(cols, 0);
+                        let mut k = 0;
+                        for (c, &n) in counts.iter().enumerate() {
+                            hits[k] = c as u32;
+                            k += (n > 0.0) as usize;
+                        }
+                        row.fill(0.0);
+                        for &c in &hits[..k] {
+                            let q = gamma.sample(&mut rng, counts[c as usize], g);
+                            row[c as usize] = chain.mcp_compress(q) as f32;
+                        }
+                    },
+                );
                 let p = chain.lag_fraction;
                 if p > 0.0 {
                     match &mut self.lag {
@@ -476,19 +516,40 @@ impl Camera {
         // "Saturated": within 3 σ of read noise (at least 1 DN) of saturation.
         let sat_dn = chain.saturation_dn(g) - (3.0 * chain.read_noise_dn(g)).max(1.0);
         let dsnu = pat.dsnu.as_deref();
-        let mean_e = |r: usize, c: usize, p: f32| -> f64 {
-            let mut m = p.max(0.0) as f64 * conv;
+        // Mean CCD electrons of row `r` into `m` (whole-row passes vectorise).
+        let mean_row = |r: usize, row: &[f32], m: &mut Vec<f64>| {
+            let span = r * cols..(r + 1) * cols;
+            m.clear();
+            m.extend(row.iter().map(|&p| p.max(0.0) as f64 * conv));
             if let Some(w) = cw {
-                m *= w[r * cols + c] as f64;
+                for (x, &w) in m.iter_mut().zip(&w[span.clone()]) {
+                    *x *= w as f64;
+                }
             }
             if let Some(pr) = prnu {
-                m *= pr[r * cols + c] as f64;
+                for (x, &f) in m.iter_mut().zip(&pr[span]) {
+                    *x *= f as f64;
+                }
             }
-            m
         };
-        let digitize = move |v: f64| -> f64 {
-            let dn = (black + v * dn_per_e).min(clip).clamp(0.0, max_code);
-            (dn + 0.5) as i32 as f64
+        // DSNU, video and digitizer for row `r` of electrons `v`: its DN sum
+        // and saturated count.
+        let digitize_row = |r: usize, v: &mut [f64], out: &mut [u16]| -> (f64, usize) {
+            if let Some(d) = dsnu {
+                for (x, &d) in v.iter_mut().zip(&d[r * cols..(r + 1) * cols]) {
+                    *x += d as f64;
+                }
+            }
+            let mut sum = 0f64;
+            let mut nsat = 0usize;
+            for (o, &x) in out.iter_mut().zip(v.iter()) {
+                let dn = (black + x * dn_per_e).min(clip).clamp(0.0, max_code);
+                let dn = (dn + 0.5) as i32 as f64;
+                *o = dn as u16;
+                sum += dn;
+                nsat += (dn >= sat_dn) as usize;
+            }
+            (sum, nsat)
         };
         let mut pixels = Array2::<u16>::zeros((rows, cols));
         let out_rows = pixels.as_slice_mut().expect("standard layout");
@@ -500,6 +561,10 @@ impl Camera {
         let bound = bound + 8.0 * bound.sqrt() + 10.0;
         let blooming = chain.config.ccd.blooming;
         let fw = full_well;
+        // Shot noise is drawn as a Gaussian for ga < t < t_gauss, where
+        // t + 8√t stays below full well.
+        let t_gauss = ((16.0 + fw).sqrt() - 4.0).powi(2);
+        let read_var = read * read;
         let stats: Vec<(f64, usize)> = if !blooming || bound < full_well {
             // Fast path: no charge moves between pixels, so shot, dark and
             // read noise are drawn in one pass (one Gaussian N(m, m + σ_read²)
@@ -508,76 +573,61 @@ impl Camera {
                 .par_chunks_mut(cols)
                 .zip(pe.par_chunks(cols))
                 .enumerate()
-                .map(|(r, (out, row))| {
+                .map_init(Vec::new, |m, (r, (out, row))| {
+                    mean_row(r, row, m);
                     let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
                     let mut events = noise::PoissonRow::new(&mut rng, ga);
-                    let mut sum = 0f64;
-                    let mut nsat = 0usize;
-                    for (c, (o, &p)) in out.iter_mut().zip(row).enumerate() {
-                        let m = mean_e(r, c, p);
-                        let mut v = if !noise_on {
-                            (m + dark).min(fw)
+                    for x in m.iter_mut() {
+                        *x = if !noise_on {
+                            (*x + dark).min(fw)
                         } else if shot_at_ccd {
-                            let t = m + dark;
-                            if t > ga && t + 8.0 * t.sqrt() < fw {
-                                t + (t + read * read).sqrt() * noise::normal(&mut rng)
+                            let t = *x + dark;
+                            if t > ga && t < t_gauss {
+                                t + (t + read_var).sqrt() * noise::normal(&mut rng)
                             } else {
                                 events.draw(&mut rng, t).min(fw) + read * noise::normal(&mut rng)
                             }
                         } else {
-                            (m + events.draw(&mut rng, dark)).min(fw)
+                            (*x + events.draw(&mut rng, dark)).min(fw)
                                 + read * noise::normal(&mut rng)
                         };
-                        if let Some(d) = dsnu {
-                            v += d[r * cols + c] as f64;
-                        }
-                        let dn = digitize(v);
-                        *o = dn as u16;
-                        sum += dn;
-                        nsat += (dn >= sat_dn) as usize;
                     }
-                    (sum, nsat)
+                    digitize_row(r, m, out)
                 })
                 .collect()
         } else {
-            pe.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
-                let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
-                let mut events = noise::PoissonRow::new(&mut rng, ga);
-                for (c, p) in row.iter_mut().enumerate() {
-                    let m = mean_e(r, c, *p);
-                    let e = if !noise_on {
-                        m + dark
-                    } else if shot_at_ccd {
-                        events.draw(&mut rng, m + dark)
-                    } else {
-                        m + events.draw(&mut rng, dark)
-                    };
-                    *p = e as f32;
-                }
-            });
+            pe.par_chunks_mut(cols)
+                .enumerate()
+                .for_each_init(Vec::new, |m, (r, row)| {
+                    mean_row(r, row, m);
+                    let mut rng = noise::stream(seed, frame, Pass::Ccd, r);
+                    let mut events = noise::PoissonRow::new(&mut rng, ga);
+                    for (p, &m) in row.iter_mut().zip(m.iter()) {
+                        let e = if !noise_on {
+                            m + dark
+                        } else if shot_at_ccd {
+                            events.draw(&mut rng, m + dark)
+                        } else {
+                            m + events.draw(&mut rng, dark)
+                        };
+                        *p = e as f32;
+                    }
+                });
             bloom(&mut pe, rows, cols, full_well as f32);
             out_rows
                 .par_chunks_mut(cols)
                 .zip(pe.par_chunks(cols))
                 .enumerate()
-                .map(|(r, (out, row))| {
+                .map_init(Vec::new, |v: &mut Vec<f64>, (r, (out, row))| {
                     let mut rng = noise::stream(seed, frame, Pass::Read, r);
-                    let mut sum = 0f64;
-                    let mut nsat = 0usize;
-                    for (c, (o, &e)) in out.iter_mut().zip(row).enumerate() {
-                        let mut v = e as f64;
-                        if let Some(d) = dsnu {
-                            v += d[r * cols + c] as f64;
+                    v.clear();
+                    v.extend(row.iter().map(|&e| e as f64));
+                    if noise_on && read > 0.0 {
+                        for x in v.iter_mut() {
+                            *x += read * noise::normal(&mut rng);
                         }
-                        if noise_on && read > 0.0 {
-                            v += read * noise::normal(&mut rng);
-                        }
-                        let dn = digitize(v);
-                        *o = dn as u16;
-                        sum += dn;
-                        nsat += (dn >= sat_dn) as usize;
                     }
-                    (sum, nsat)
+                    digitize_row(r, v, out)
                 })
                 .collect()
         };
@@ -657,9 +707,10 @@ impl Camera {
 fn check_input(img: ArrayView2<f64>, band: usize) -> Result<(), CaptureError> {
     // Fast, vectorisable scan; the location is looked up only on failure.
     let ok = match img.as_slice() {
-        Some(sl) => sl
-            .iter()
-            .fold(true, |a, v| a & (v.is_finite() & (*v >= 0.0))),
+        Some(sl) => sl.par_chunks(1 << 14).all(|ch| {
+            ch.iter()
+                .fold(true, |a, v| a & (v.is_finite() & (*v >= 0.0)))
+        }),
         None => img.iter().all(|v| v.is_finite() && *v >= 0.0),
     };
     if ok {

@@ -59,6 +59,23 @@ pub fn normal(rng: &mut Pcg64Mcg) -> f64 {
     normal_slow(rng, hz, iz)
 }
 
+/// A standard normal and an independent uniform in (0, 1) of 25-bit
+/// resolution from the same 64-bit draw: the ziggurat uses bits 0–6 and
+/// 32–63, the uniform takes bits 7–31. Saves a generator call where a
+/// coarse uniform suffices (a rejection test).
+#[inline]
+pub fn normal_and_uniform(rng: &mut Pcg64Mcg) -> (f64, f64) {
+    let z = zig();
+    let u = rng.next_u64();
+    let spare = (((u >> 7) & 0x1FF_FFFF) as f64 + 0.5) * (1.0 / (1u64 << 25) as f64);
+    let hz = (u >> 32) as u32 as i32;
+    let iz = (u & 127) as usize;
+    if hz.unsigned_abs() < z.kn[iz] {
+        return (hz as f64 * z.wn[iz], spare);
+    }
+    (normal_slow(rng, hz, iz), spare)
+}
+
 #[cold]
 fn normal_slow(rng: &mut Pcg64Mcg, mut hz: i32, mut iz: usize) -> f64 {
     const R: f64 = 3.442_619_855_899;
@@ -192,9 +209,9 @@ pub fn poisson(rng: &mut Pcg64Mcg, lambda: f64, gaussian_above: f64) -> f64 {
         return round_non_negative(lambda + lambda.sqrt() * normal(rng));
     }
     let u = uniform(rng);
+    let p0 = (-lambda).exp();
     // The first four steps of the inversion without branches (most draws
     // at photon-starved levels end here), then the sequential search.
-    let p0 = (-lambda).exp();
     let p1 = p0 * lambda;
     let p2 = p1 * lambda * 0.5;
     let p3 = p2 * lambda * (1.0 / 3.0);
@@ -278,20 +295,22 @@ impl GammaSums {
                 Err(_) => n * mean,
             };
         }
-        let (d, c) = if (n as usize) < self.table.len() && n.fract() == 0.0 {
-            self.table[n as usize]
+        let i = n as usize;
+        let (d, c) = if i < self.table.len() && i as f64 == n {
+            self.table[i]
         } else {
             let d = a - 1.0 / 3.0;
             (d, 1.0 / (9.0 * d).sqrt())
         };
         loop {
-            let x = normal(rng);
+            // The acceptance test needs only a coarse uniform (its 25-bit
+            // resolution moves acceptance probabilities by < 3e-8).
+            let (x, u) = normal_and_uniform(rng);
             let v = 1.0 + c * x;
             if v <= 0.0 {
                 continue;
             }
             let v = v * v * v;
-            let u = uniform(rng);
             let x2 = x * x;
             if u < 1.0 - 0.0331 * x2 * x2 || u.ln() < 0.5 * x2 + d * (1.0 - v + v.ln()) {
                 return d * v * scale;
