@@ -433,8 +433,14 @@ impl Camera {
                 let eta = chain.open_area;
                 let gamma = noise::GammaSums::new(chain.gain_shape);
                 pe.par_chunks_mut(cols).enumerate().for_each_init(
-                    || (Vec::new(), Vec::new()),
-                    |(counts, hits): &mut (Vec<f64>, Vec<u32>), (r, row)| {
+                    RowScratch::default,
+                    |RowScratch {
+                         lams,
+                         counts,
+                         hits,
+                         exps,
+                     },
+                     (r, row)| {
                         let lam = |p: f32| eta * (p.max(0.0) as f64 + ebi);
                         if !noise_on {
                             for p in row.iter_mut() {
@@ -447,8 +453,9 @@ impl Camera {
                         // data-dependent branch: tight loops that predict well.
                         let mut rng = noise::stream(seed, frame, Pass::Photoelectrons, r);
                         let mut events = noise::PoissonRow::new(&mut rng, ga);
-                        counts.clear();
-                        counts.extend(row.iter().map(|&p| events.draw(&mut rng, lam(p))));
+                        lams.clear();
+                        lams.extend(row.iter().map(|&p| lam(p)));
+                        events.draw_row(&mut rng, lams, counts, exps);
                         hits.clear();
                         hits.resize(cols, 0);
                         let mut k = 0;
@@ -701,6 +708,19 @@ impl Camera {
         self.gain = g;
         self.agc_state = state;
     }
+}
+
+/// Per-thread buffers of the MCP pass, reused from row to row.
+#[derive(Default)]
+struct RowScratch {
+    /// Mean events per pixel.
+    lams: Vec<f64>,
+    /// Event counts.
+    counts: Vec<f64>,
+    /// Columns with at least one event.
+    hits: Vec<u32>,
+    /// e^{-λ} for the Poisson inversion.
+    exps: Vec<f64>,
 }
 
 /// The first value that is not finite and ≥ 0, as an error.
