@@ -337,11 +337,14 @@ fn throughput(args: ThroughputArgs) -> anyhow::Result<()> {
             render.rays_per_s
         );
         println!(
-            "sensor chain ({}, {}×{}, noise on): {:.1} frames/s ({} threads{})",
+            "sensor chain ({}, {}×{}, noise on): {:.1} frames/s, median frame {:.1} ms \
+             ({:.1} frames/s; target ≥ 60) ({} threads{})",
             sensor.preset,
             sensor.width,
             sensor.height,
             sensor.frames_per_s,
+            sensor.median_frame_ms,
+            sensor.median_frames_per_s,
             sensor.threads,
             sensor
                 .frames_per_cpu_s
