@@ -78,9 +78,10 @@ struct Patterns {
     rows: usize,
     cols: usize,
     vignette: Option<Vec<f32>>,
-    chicken_wire: Option<Vec<f32>>,
-    prnu: Option<Vec<f32>>,
-    prnu_max: f64,
+    /// Chicken wire × PRNU: the fixed gain pattern at the CCD, one map so
+    /// the CCD pass reads one array instead of two.
+    flat_field: Option<Vec<f32>>,
+    flat_field_max: f64,
     dsnu: Option<Vec<f32>>,
 }
 
@@ -370,16 +371,24 @@ impl Camera {
             .then(|| gauss_pattern(Pass::Prnu, &|z| (1.0 + prnu_amp * z).max(0.0) as f32));
         let dsnu_amp = cfg.ccd.dsnu_e;
         let dsnu = (dsnu_amp > 0.0).then(|| gauss_pattern(Pass::Dsnu, &|z| (dsnu_amp * z) as f32));
-        let prnu_max = prnu
+        let flat_field = match (chicken_wire, prnu) {
+            (Some(mut w), Some(p)) => {
+                w.par_iter_mut()
+                    .zip(p.par_iter())
+                    .for_each(|(w, &p)| *w *= p);
+                Some(w)
+            }
+            (w, p) => w.or(p),
+        };
+        let flat_field_max = flat_field
             .as_ref()
             .map_or(1.0, |p| p.iter().copied().fold(0f32, f32::max) as f64);
         self.patterns = Some(Patterns {
             rows,
             cols,
             vignette,
-            chicken_wire,
-            prnu,
-            prnu_max,
+            flat_field,
+            flat_field_max,
             dsnu,
         });
     }
@@ -512,8 +521,7 @@ impl Camera {
         };
         let shot_at_ccd = chain.kind != SensorKind::Ebccd;
         let dark = chain.dark_e_per_frame;
-        let prnu = pat.prnu.as_deref();
-        let cw = pat.chicken_wire.as_deref();
+        let flat_field = pat.flat_field.as_deref();
         let full_well = chain.config.ccd.full_well_e;
         let read = chain.read_noise_e;
         let dn_per_e = chain.dn_per_ccd_electron(g);
@@ -525,16 +533,10 @@ impl Camera {
         let dsnu = pat.dsnu.as_deref();
         // Mean CCD electrons of row `r` into `m` (whole-row passes vectorise).
         let mean_row = |r: usize, row: &[f32], m: &mut Vec<f64>| {
-            let span = r * cols..(r + 1) * cols;
             m.clear();
             m.extend(row.iter().map(|&p| p.max(0.0) as f64 * conv));
-            if let Some(w) = cw {
-                for (x, &w) in m.iter_mut().zip(&w[span.clone()]) {
-                    *x *= w as f64;
-                }
-            }
-            if let Some(pr) = prnu {
-                for (x, &f) in m.iter_mut().zip(&pr[span]) {
+            if let Some(ff) = flat_field {
+                for (x, &f) in m.iter_mut().zip(&ff[r * cols..(r + 1) * cols]) {
                     *x *= f as f64;
                 }
             }
@@ -564,7 +566,7 @@ impl Camera {
         // Can any pixel reach full well? (Upper bound: the blur and
         // patterns cannot raise the maximum by more than a few per cent.)
         let max_q = pe.par_iter().copied().reduce(|| 0f32, f32::max) as f64;
-        let bound = max_q * conv * 1.1 * pat.prnu_max + dark;
+        let bound = max_q * conv * 1.1 * pat.flat_field_max + dark;
         let bound = bound + 8.0 * bound.sqrt() + 10.0;
         let blooming = chain.config.ccd.blooming;
         let fw = full_well;
