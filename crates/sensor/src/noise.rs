@@ -144,9 +144,10 @@ fn zig() -> &'static Ziggurat {
 /// process over the row's cumulative mean: a pixel with mean λ owns the next
 /// λ of "time", and its count is the number of arrivals (exponential gaps)
 /// falling there. Counts are exactly Poisson and independent between pixels;
-/// the cost is one logarithm per *event* instead of an exponential per
-/// pixel, which suits photon-starved pixels. Busier pixels (mean above
-/// [`PoissonRow::PROCESS_BELOW`]) are drawn by [`poisson`] without advancing
+/// the cost is one exponential variate (a ziggurat draw, no logarithm) per
+/// *event* instead of an `e^{-λ}` per pixel, which suits photon-starved
+/// pixels. Busier pixels (mean above [`PoissonRow::PROCESS_BELOW`]) are
+/// drawn by inversion (or the Gaussian, as [`poisson`]) without advancing
 /// the process (it is memoryless).
 pub struct PoissonRow {
     acc: f64,
@@ -161,7 +162,7 @@ impl PoissonRow {
     pub fn new(rng: &mut Pcg64Mcg, gaussian_above: f64) -> Self {
         Self {
             acc: 0.0,
-            next: -uniform(rng).ln(),
+            next: rand_distr::Exp1.sample(rng),
             gaussian_above,
         }
     }
@@ -186,7 +187,10 @@ impl PoissonRow {
         scratch: &mut Vec<f64>,
     ) {
         scratch.resize(lambdas.len(), 0.0);
-        exp_neg_into(lambdas, scratch);
+        // Starlit rows walk the process only: skip the exponentials.
+        if lambdas.iter().any(|&l| l > Self::PROCESS_BELOW) {
+            exp_neg_into(lambdas, scratch);
+        }
         counts.clear();
         counts.extend(
             lambdas
@@ -215,7 +219,9 @@ impl PoissonRow {
         let mut n = 0.0;
         while self.next <= self.acc {
             n += 1.0;
-            self.next -= uniform(rng).ln();
+            // Exponential gaps from rand_distr's ziggurat: no logarithm.
+            let gap: f64 = rand_distr::Exp1.sample(rng);
+            self.next += gap;
         }
         n
     }
