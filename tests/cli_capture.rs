@@ -123,6 +123,20 @@ fn capture_rejects_bad_input_clearly() {
             vec![
                 "capture",
                 "--grabber",
+                "sim:gen3-gaas-iccd?scene=/no/such/scene-gloam.toml",
+                "--out",
+                out,
+            ],
+            "scene-gloam.toml",
+        ),
+        (
+            vec!["device", "--pty", "--scene", "/no/such/scene-gloam.toml"],
+            "scene-gloam.toml",
+        ),
+        (
+            vec![
+                "capture",
+                "--grabber",
                 "sim:uniform",
                 "--bits",
                 "10",

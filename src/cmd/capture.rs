@@ -76,6 +76,7 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let opts = OpenOptions {
         seed: args.seed,
+        scene_renderer: Some(super::scene_view::scene_renderer()),
         ..OpenOptions::default()
     };
     let mut g = gloam_grabber::open_with(&args.grabber, &opts)

@@ -22,8 +22,8 @@ pub struct DeviceArgs {
     /// Sensor preset (or sensor TOML file) behind the HAL.
     #[arg(long, default_value = "gen2-s20-iccd")]
     pub sensor: String,
-    /// Scene the camera looks at (rendering a scene in the emulator is not
-    /// available yet; use --rig).
+    /// Scene file the camera looks at: rendered once by the tracer (default
+    /// settings) at the scene camera's resolution, or at --size.
     #[arg(long, conflicts_with = "rig")]
     pub scene: Option<String>,
     /// Calibration rig the camera looks at: uniform, sine, edge, dark.
@@ -36,7 +36,8 @@ pub struct DeviceArgs {
     /// Noise seed of the simulated sensor.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Image size WxH.
+    /// Image size WxH (default 320×240 for a rig, the scene camera's for a
+    /// scene).
     #[arg(long, value_parser = parse_size_arg)]
     pub size: Option<(u32, u32)>,
     /// Serial number reported in the handshake.
@@ -82,21 +83,30 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
     if !args.pty {
         bail!("only --pty is supported: the emulator runs on a pseudo-terminal");
     }
-    if args.scene.is_some() {
-        bail!(
-            "--scene: rendering a scene inside the emulator is not available yet; use --rig uniform|sine|edge|dark"
-        );
-    }
     if args.baud == 0 {
         bail!("--baud must be positive");
     }
-    let rig = args
-        .rig
-        .as_deref()
-        .unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
-    let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
-    let mut source = SensorSource::new(&args.sensor, rig, args.seed, size)
-        .with_context(|| format!("sensor '{}'", args.sensor))?;
+    let (mut source, view, size) = match &args.scene {
+        Some(path) => {
+            eprintln!("gloam device: rendering {path} …");
+            let scene = super::scene_view::render_scene_view(path, args.size)
+                .with_context(|| format!("rendering scene '{path}'"))?;
+            let size = scene.size();
+            let source = SensorSource::with_scene(&args.sensor, scene, args.seed)
+                .with_context(|| format!("sensor '{}'", args.sensor))?;
+            (source, format!("scene '{path}'"), size)
+        }
+        None => {
+            let rig = args
+                .rig
+                .as_deref()
+                .unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
+            let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
+            let source = SensorSource::new(&args.sensor, rig, args.seed, size)
+                .with_context(|| format!("sensor '{}'", args.sensor))?;
+            (source, format!("rig '{rig}'"), size)
+        }
+    };
     let pty = PtyDevice::open().context("opening a pseudo-terminal")?;
     let path = pty.slave_path().to_string();
     {
@@ -105,7 +115,7 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
         out.flush()?;
     }
     eprintln!(
-        "gloam device: emulating {} (rig '{rig}', seed {}, {}×{}) at {} baud on {path}; connect with --grabber serial:{path} — Ctrl-C to stop",
+        "gloam device: emulating {} ({view}, seed {}, {}×{}) at {} baud on {path}; connect with --grabber serial:{path} — Ctrl-C to stop",
         args.sensor, args.seed, size.0, size.1, args.baud
     );
     let config = EmulatorConfig {

@@ -3,6 +3,7 @@
 //! they talk to.
 //!
 //! - [`open`] a grabber by URI: `sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH]`,
+//!   `sim:PRESET?scene=PATH` (with a [`SceneRenderer`]),
 //!   `serial:PATH[?baud=N]`, `usb:VID:PID[:SERIAL]`;
 //! - [`list_grabbers`]: serial ports, USB devices and simulated cameras;
 //! - [`SimGrabber`]: the sensor chain in-process; [`ProtocolGrabber`]: the
@@ -27,7 +28,7 @@ pub use client::{ClientOptions, ClientStats, ProtocolGrabber};
 /// The wire protocol (message types, controls) the client speaks.
 pub use firmware_protocol;
 pub use interface::*;
-pub use sim::{SensorSource, SimGrabber};
+pub use sim::{SceneView, SensorSource, SimGrabber};
 pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
 pub use uri::GrabberUri;
@@ -47,14 +48,32 @@ pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
     d.value()
 }
 
+/// Renders a scene file for `sim:…?scene=PATH` at an optional size
+/// (width, height; default the scene camera's). Supplied by the caller
+/// (the `gloam` CLI uses the tracer), so this crate stays free of tracing.
+pub type SceneRenderer =
+    std::sync::Arc<dyn Fn(&str, Option<(u32, u32)>) -> Result<SceneView, String> + Send + Sync>;
+
 /// Options for [`open_with`].
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Default)]
 pub struct OpenOptions {
     /// Noise seed for `sim:` grabbers (overrides `?seed=`); ignored by
     /// hardware (the emulator takes its seed on its own command line).
     pub seed: Option<u64>,
     /// Protocol client tuning for `serial:` and `usb:`.
     pub client: ClientOptions,
+    /// Renders `sim:…?scene=PATH` scenes; without one such URIs are an error.
+    pub scene_renderer: Option<SceneRenderer>,
+}
+
+impl std::fmt::Debug for OpenOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OpenOptions")
+            .field("seed", &self.seed)
+            .field("client", &self.client)
+            .field("scene_renderer", &self.scene_renderer.is_some())
+            .finish()
+    }
 }
 
 /// Open a grabber by URI (see the crate docs and `docs/hardware.md`).
@@ -70,11 +89,27 @@ pub fn open_with(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>,
             rig,
             seed,
             size,
+            scene,
         } => {
             let seed = opts.seed.unwrap_or(seed);
-            Ok(Box::new(SimGrabber::from_preset(
-                &preset, &rig, seed, size,
-            )?))
+            match scene {
+                Some(path) => {
+                    let render = opts.scene_renderer.as_ref().ok_or_else(|| {
+                        GrabError::Unsupported(format!(
+                            "'{uri}': scenes need a renderer (the gloam CLI provides one)"
+                        ))
+                    })?;
+                    let view = render(&path, size)
+                        .map_err(|e| GrabError::InvalidSetting(format!("scene '{path}': {e}")))?;
+                    Ok(Box::new(SimGrabber::from_scene(&preset, view, seed)?))
+                }
+                None => Ok(Box::new(SimGrabber::from_preset(
+                    &preset,
+                    &rig,
+                    seed,
+                    size.unwrap_or(sim::DEFAULT_RIG_SIZE),
+                )?)),
+            }
         }
         GrabberUri::Serial { path, baud } => {
             let t = serial::SerialTransport::open(&path, baud).map_err(|e| match e {

@@ -1,7 +1,8 @@
 //! The in-process simulated grabber: the sensor chain looking at a
-//! calibration rig that renders [`Stimulus`] into radiance.
+//! calibration rig that renders [`Stimulus`] into radiance, or at a traced
+//! scene ([`SceneView`], rendered by the caller: this crate does not trace).
 
-use ndarray::Array2;
+use ndarray::{Array2, Array3};
 
 use gloam_sensor::{Camera, SensorConfig};
 use gloam_spectra::Spectrum;
@@ -150,8 +151,76 @@ pub fn render_stimulus(
     Ok((img, shape))
 }
 
+/// A rendered scene as the camera sees it: per-band radiance at the
+/// entrance pupil and each band's spectral shape (any scale), as
+/// [`gloam_sensor::Camera::capture`] takes them.
+#[derive(Clone, Debug)]
+pub struct SceneView {
+    /// What was rendered (for descriptions), e.g. the scene path.
+    pub label: String,
+    /// Band radiance, W m⁻² sr⁻¹, band × row × column.
+    pub radiance_w_m2_sr: Array3<f64>,
+    /// Spectral shape of each band.
+    pub band_shapes: Vec<Spectrum>,
+}
+
+impl SceneView {
+    /// Checks the shapes agree and every radiance is finite and ≥ 0 (the
+    /// first bad value is named).
+    pub fn validate(&self) -> Result<(), GrabError> {
+        let (bands, rows, cols) = self.radiance_w_m2_sr.dim();
+        if bands == 0 || rows == 0 || cols == 0 {
+            return Err(GrabError::InvalidSetting(format!(
+                "scene '{}': empty radiance image ({bands} bands, {cols}×{rows})",
+                self.label
+            )));
+        }
+        if bands != self.band_shapes.len() {
+            return Err(GrabError::InvalidSetting(format!(
+                "scene '{}': {bands} radiance bands but {} band spectra",
+                self.label,
+                self.band_shapes.len()
+            )));
+        }
+        if rows > 4096 || cols > 4096 {
+            return Err(GrabError::InvalidSetting(format!(
+                "scene '{}': {cols}×{rows} is larger than 4096×4096",
+                self.label
+            )));
+        }
+        if let Some(((b, r, c), v)) = self
+            .radiance_w_m2_sr
+            .indexed_iter()
+            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+        {
+            return Err(GrabError::InvalidSetting(format!(
+                "scene '{}': radiance {v} at band {b}, row {r}, column {c} is not finite and ≥ 0",
+                self.label
+            )));
+        }
+        Ok(())
+    }
+
+    /// (width, height) in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        let (_, rows, cols) = self.radiance_w_m2_sr.dim();
+        (cols as u32, rows as u32)
+    }
+}
+
+/// What the simulated camera looks at.
+enum View {
+    /// A rig or a presented stimulus, rendered at the frame size on demand.
+    Stimulus {
+        stimulus: Stimulus,
+        radiance: Option<(u32, u32, Array2<f64>, Spectrum)>,
+    },
+    /// A traced scene, fixed at its rendered size.
+    Scene(SceneView),
+}
+
 /// The sensor chain as a [`FrameSource`]: a preset (or sensor TOML file)
-/// looking at a rig.
+/// looking at a rig or a scene.
 pub struct SensorSource {
     name: String,
     base: SensorConfig,
@@ -160,8 +229,7 @@ pub struct SensorSource {
     built: CaptureSettings,
     /// Mode applied to the camera: (agc, manual gain milli).
     mode: Option<(bool, u32)>,
-    stimulus: Stimulus,
-    radiance: Option<(u32, u32, Array2<f64>, Spectrum)>,
+    view: View,
     info: SourceInfo,
 }
 
@@ -227,10 +295,22 @@ impl SensorSource {
             base,
             camera,
             mode: None,
-            stimulus,
-            radiance: None,
+            view: View::Stimulus {
+                stimulus,
+                radiance: None,
+            },
             info,
         })
+    }
+
+    /// `preset` looking at a rendered scene: frames have the scene's size.
+    /// A stimulus presented later (calibration) replaces the scene.
+    pub fn with_scene(preset: &str, scene: SceneView, seed: u64) -> Result<Self, GrabError> {
+        scene.validate()?;
+        let size = scene.size();
+        let mut src = Self::new(preset, crate::uri::DEFAULT_RIG, seed, size)?;
+        src.view = View::Scene(scene);
+        Ok(src)
     }
 
     /// The preset or file this source was built from.
@@ -282,8 +362,10 @@ impl FrameSource for SensorSource {
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, String> {
         // Validate now so a bad stimulus fails at `present`, not at `grab`.
         render_stimulus(stimulus, 2, 2).map_err(|e| e.to_string())?;
-        self.stimulus = stimulus.clone();
-        self.radiance = None;
+        self.view = View::Stimulus {
+            stimulus: stimulus.clone(),
+            radiance: None,
+        };
         Ok(true)
     }
 
@@ -302,18 +384,34 @@ impl FrameSource for SensorSource {
             }
             self.mode = Some(mode);
         }
-        if !matches!(&self.radiance, Some((w, h, ..)) if (*w, *h) == (s.width, s.height)) {
-            let (img, shape) =
-                render_stimulus(&self.stimulus, s.width, s.height).map_err(|e| e.to_string())?;
-            self.radiance = Some((s.width, s.height, img, shape));
+        let frame = match &mut self.view {
+            View::Stimulus { stimulus, radiance } => {
+                if !matches!(radiance, Some((w, h, ..)) if (*w, *h) == (s.width, s.height)) {
+                    let (img, shape) =
+                        render_stimulus(stimulus, s.width, s.height).map_err(|e| e.to_string())?;
+                    *radiance = Some((s.width, s.height, img, shape));
+                }
+                let Some((_, _, img, shape)) = radiance else {
+                    return Err("no radiance image".into());
+                };
+                self.camera.capture_mono(img.view(), shape)
+            }
+            View::Scene(scene) => {
+                if scene.size() != (s.width, s.height) {
+                    return Err(format!(
+                        "scene '{}' was rendered at {}×{}, frames of {}×{} asked for",
+                        scene.label,
+                        scene.size().0,
+                        scene.size().1,
+                        s.width,
+                        s.height
+                    ));
+                }
+                self.camera
+                    .capture(scene.radiance_w_m2_sr.view(), &scene.band_shapes)
+            }
         }
-        let Some((_, _, img, shape)) = &self.radiance else {
-            return Err("no radiance image".into());
-        };
-        let frame = self
-            .camera
-            .capture_mono(img.view(), shape)
-            .map_err(|e| e.to_string())?;
+        .map_err(|e| e.to_string())?;
         if out.len() != frame.pixels.len() {
             return Err(format!(
                 "frame of {} pixels, buffer of {}",
@@ -384,6 +482,17 @@ impl SimGrabber<Box<dyn FrameSource>> {
                 size.0, size.1
             ),
         ))
+    }
+
+    /// The sensor chain of `preset` looking at a rendered scene.
+    pub fn from_scene(preset: &str, scene: SceneView, seed: u64) -> Result<Self, GrabError> {
+        let (w, h) = scene.size();
+        let label = format!(
+            "simulated {preset} looking at scene '{}' (seed {seed}, {w}×{h})",
+            scene.label
+        );
+        let src = SensorSource::with_scene(preset, scene, seed)?;
+        Ok(Self::new(Box::new(src) as Box<dyn FrameSource>, label))
     }
 }
 

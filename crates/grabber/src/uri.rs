@@ -2,12 +2,13 @@
 //!
 //! ```text
 //! sim:PRESET_OR_RIG[?rig=RIG&seed=S&size=WxH]   in-process sensor chain + rig
+//! sim:PRESET?scene=PATH[&seed=S&size=WxH]        … looking at a traced scene
 //! serial:PATH[?baud=N]                           protocol over a serial port
 //! usb:VID:PID[:SERIAL][?backend=nusb|rusb]     protocol over USB bulk (hex ids)
 //! ```
 
 use crate::interface::GrabError;
-use crate::sim::{DEFAULT_RIG_SIZE, RIGS};
+use crate::sim::RIGS;
 use crate::usb::UsbSelector;
 
 /// Sensor preset used when a `sim:` URI names only a rig.
@@ -22,7 +23,12 @@ pub enum GrabberUri {
         preset: String,
         rig: String,
         seed: u64,
-        size: (u32, u32),
+        /// `size=`; without it a rig is [`crate::sim::DEFAULT_RIG_SIZE`] and a scene
+        /// its camera's resolution.
+        size: Option<(u32, u32)>,
+        /// `scene=PATH`: look at this scene (rendered once by the tracer)
+        /// instead of a rig.
+        scene: Option<String>,
     },
     Serial {
         path: String,
@@ -35,7 +41,7 @@ pub enum GrabberUri {
 
 fn bad(uri: &str, why: impl std::fmt::Display) -> GrabError {
     GrabError::InvalidSetting(format!(
-        "grabber URI '{uri}': {why} (expected sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], serial:PATH[?baud=N] or usb:VID:PID[:SERIAL])"
+        "grabber URI '{uri}': {why} (expected sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], sim:PRESET?scene=PATH, serial:PATH[?baud=N] or usb:VID:PID[:SERIAL])"
     ))
 }
 
@@ -75,10 +81,20 @@ impl GrabberUri {
                 } else {
                     (body.to_string(), DEFAULT_RIG.to_string())
                 };
-                let (mut seed, mut size) = (0u64, DEFAULT_RIG_SIZE);
+                let (mut seed, mut size, mut scene) = (0u64, None, None);
+                let mut rig_named = is_rig;
                 for (k, v) in params {
                     match k {
-                        "rig" => rig = v.to_string(),
+                        "rig" => {
+                            rig = v.to_string();
+                            rig_named = true;
+                        }
+                        "scene" => {
+                            if v.is_empty() {
+                                return Err(bad(uri, "scene needs a path"));
+                            }
+                            scene = Some(v.to_string());
+                        }
                         "sensor" | "preset" => preset = v.to_string(),
                         "seed" => {
                             seed = v
@@ -86,9 +102,9 @@ impl GrabberUri {
                                 .map_err(|_| bad(uri, format!("seed '{v}' is not an integer")))?
                         }
                         "size" => {
-                            size = parse_size(v).ok_or_else(|| {
+                            size = Some(parse_size(v).ok_or_else(|| {
                                 bad(uri, format!("size '{v}' is not WxH (1..4096)"))
-                            })?
+                            })?)
                         }
                         _ => return Err(bad(uri, format!("unknown parameter '{k}'"))),
                     }
@@ -96,11 +112,15 @@ impl GrabberUri {
                 if !RIGS.iter().any(|r| r.0 == rig) {
                     return Err(bad(uri, format!("unknown rig '{rig}'")));
                 }
+                if scene.is_some() && rig_named {
+                    return Err(bad(uri, "give a rig or a scene, not both"));
+                }
                 Ok(GrabberUri::Sim {
                     preset,
                     rig,
                     seed,
                     size,
+                    scene,
                 })
             }
             "serial" => {
@@ -177,7 +197,8 @@ mod tests {
                 preset: "gen3-gaas-iccd".into(),
                 rig: "edge".into(),
                 seed: 7,
-                size: (64, 48)
+                size: Some((64, 48)),
+                scene: None,
             }
         );
         assert_eq!(
@@ -186,9 +207,28 @@ mod tests {
                 preset: DEFAULT_SIM_PRESET.into(),
                 rig: "sine".into(),
                 seed: 0,
-                size: DEFAULT_RIG_SIZE
+                size: None,
+                scene: None,
             }
         );
+        assert_eq!(
+            GrabberUri::parse("sim:gen3-gaas-iccd?scene=sims/a b/scene.toml&seed=2").unwrap(),
+            GrabberUri::Sim {
+                preset: "gen3-gaas-iccd".into(),
+                rig: DEFAULT_RIG.into(),
+                seed: 2,
+                size: None,
+                scene: Some("sims/a b/scene.toml".into()),
+            }
+        );
+        for bad_uri in [
+            "sim:gen3-gaas-iccd?scene=",
+            "sim:edge?scene=x.toml",
+            "sim:gen3-gaas-iccd?rig=sine&scene=x.toml",
+        ] {
+            let e = GrabberUri::parse(bad_uri).unwrap_err().to_string();
+            assert!(e.contains(bad_uri), "{e}");
+        }
         assert_eq!(
             GrabberUri::parse("serial:/dev/ttyUSB0?baud=115200").unwrap(),
             GrabberUri::Serial {

@@ -3,7 +3,8 @@
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::{
-    ClientOptions, FrameGrabber, Framing, ProtocolGrabber, SensorSource, SimGrabber, Stimulus, open,
+    ClientOptions, FrameGrabber, Framing, GrabError, OpenOptions, ProtocolGrabber, SceneView,
+    SensorSource, SimGrabber, Stimulus, open, open_with,
 };
 
 #[test]
@@ -65,4 +66,104 @@ fn same_seed_same_frames_in_process_and_over_the_link() {
         drop(wire);
         emu.stop().unwrap();
     }
+}
+
+/// A two-band scene: a bright left half and a dark right half in band 0,
+/// uniform in band 1.
+fn two_band_scene(w: usize, h: usize) -> SceneView {
+    let radiance = ndarray::Array3::from_shape_fn((2, h, w), |(b, _, c)| match b {
+        0 if c < w / 2 => 2e-4,
+        0 => 2e-5,
+        _ => 1e-5,
+    });
+    let band = |lo: f64, hi: f64| gloam_spectra::Spectrum::constant(lo, hi, 1.0).unwrap();
+    SceneView {
+        label: "two-band test scene".into(),
+        radiance_w_m2_sr: radiance,
+        band_shapes: vec![band(450.0, 550.0), band(550.0, 650.0)],
+    }
+}
+
+#[test]
+fn scene_view_is_grabbed_at_its_size_until_a_stimulus_replaces_it() {
+    let mut g = SimGrabber::from_scene("gen2-s20-iccd", two_band_scene(40, 30), 5).unwrap();
+    assert_eq!(g.frame_size(), (40, 30));
+    g.set_gain(300.0).unwrap();
+    let f = g.grab().unwrap();
+    assert_eq!(f.pixels.len(), 40 * 30);
+    let mean = |cols: std::ops::Range<usize>| {
+        let (mut s, mut n) = (0.0, 0.0);
+        for r in 0..30 {
+            for c in cols.clone() {
+                s += f64::from(f.pixels[r * 40 + c]);
+                n += 1.0;
+            }
+        }
+        s / n
+    };
+    // Away from the blurred edge, the bright half is brighter.
+    let (left, right) = (mean(2..16), mean(24..38));
+    assert!(left > 2.0 * right, "left {left} right {right}");
+
+    // Same scene, same seed: the same frame (the scene is data, not a draw).
+    let mut g2 = SimGrabber::from_scene("gen2-s20-iccd", two_band_scene(40, 30), 5).unwrap();
+    g2.set_gain(300.0).unwrap();
+    assert_eq!(g2.grab().unwrap().pixels, f.pixels);
+
+    // Presenting a stimulus (calibration) replaces the scene.
+    g.present(&Stimulus::Dark).unwrap();
+    let dark = g.grab().unwrap();
+    let dark_mean = dark.pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / 1200.0;
+    assert!(dark_mean < right, "dark {dark_mean} vs scene {right}");
+}
+
+#[test]
+fn bad_scenes_are_clear_errors() {
+    let mut nan = two_band_scene(8, 6);
+    nan.radiance_w_m2_sr[[1, 4, 3]] = f64::NAN;
+    let e = SimGrabber::from_scene("gen2-s20-iccd", nan, 0)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("band 1, row 4, column 3"), "{e}");
+
+    let mut neg = two_band_scene(8, 6);
+    neg.radiance_w_m2_sr[[0, 0, 0]] = -1.0;
+    let e = SimGrabber::from_scene("gen2-s20-iccd", neg, 0)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("row 0, column 0"), "{e}");
+
+    let mut shapes = two_band_scene(8, 6);
+    shapes.band_shapes.pop();
+    let e = SimGrabber::from_scene("gen2-s20-iccd", shapes, 0)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("2 radiance bands but 1 band spectra"), "{e}");
+
+    // A scene URI without a renderer says what is missing.
+    let e = open("sim:gen2-s20-iccd?scene=x.toml").err().unwrap();
+    assert!(matches!(e, GrabError::Unsupported(_)), "{e}");
+    // A renderer's failure names the scene.
+    let opts = OpenOptions {
+        scene_renderer: Some(std::sync::Arc::new(|_, _| Err("no such file".into()))),
+        ..OpenOptions::default()
+    };
+    let e = open_with("sim:gen2-s20-iccd?scene=x.toml", &opts)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("x.toml") && e.contains("no such file"), "{e}");
+    // The renderer is asked for the URI's size.
+    let opts = OpenOptions {
+        scene_renderer: Some(std::sync::Arc::new(|_, size| {
+            let (w, h) = size.unwrap_or((4, 4));
+            Ok(two_band_scene(w as usize, h as usize))
+        })),
+        ..OpenOptions::default()
+    };
+    let g = open_with("sim:gen2-s20-iccd?scene=x.toml&size=24x10", &opts).unwrap();
+    assert_eq!(g.frame_size(), (24, 10));
 }
