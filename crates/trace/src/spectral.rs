@@ -8,9 +8,17 @@
 //!
 //! The continuum grid spans the union of the bands' `[lo_nm, hi_nm]` with
 //! step `spectral_step_nm`, plus every band edge. A band value is
-//! `∫_lo^hi R(λ) L(λ) dλ` by the trapezoid rule on that grid (exact for a
-//! flat or piecewise-linear product on the grid) plus `Σ R(λ_l) L_l` over
-//! lines with `lo ≤ λ_l < hi` (exact).
+//! `∫_lo^hi R(λ) L(λ) dλ` by the trapezoid rule on that grid plus
+//! `Σ R(λ_l) L_l` over lines with `lo ≤ λ_l < hi` (exact).
+//!
+//! Emitted continua are not point-sampled at the nodes but averaged over
+//! each node's hat function (the trapezoid rule's basis), so the
+//! trapezoid sum of a flat band reproduces `∫ L dλ` exactly on any grid,
+//! however spiky `L` is between nodes (a triphosphor continuum on a 20 nm
+//! grid). A band edge inside the grid carries two slots at the same
+//! wavelength (the left and the right half of its hat), so each band is
+//! exact on its own. Reflectances and responses, which are smooth, are
+//! sampled.
 
 use gloam_scene::Scene;
 use gloam_spectra::Spectrum;
@@ -55,6 +63,23 @@ impl Wavelengths {
         }
         grid.sort_by(f64::total_cmp);
         grid.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        // A band edge inside the grid gets two slots at its wavelength: the
+        // band below integrates the emission averaged over the left half of
+        // the hat there, the band above over the right half.
+        if let (Some(&g_lo), Some(&g_hi)) = (grid.first(), grid.last()) {
+            let inner_edge = |x: f64| {
+                x > g_lo + 1e-9
+                    && x < g_hi - 1e-9
+                    && scene
+                        .bands
+                        .iter()
+                        .any(|b| (b.lo_nm - x).abs() < 1e-9 || (b.hi_nm - x).abs() < 1e-9)
+            };
+            grid = grid
+                .iter()
+                .flat_map(|&x| std::iter::repeat_n(x, if inner_edge(x) { 2 } else { 1 }))
+                .collect();
+        }
 
         let mut lines: Vec<f64> = Vec::new();
         let mut add_lines = |s: &Spectrum| {
@@ -114,12 +139,18 @@ impl Wavelengths {
         self.nm.is_empty()
     }
 
-    /// An emitted quantity: the continuum density at the grid nodes, and in
-    /// each line slot the summed power of the spectrum's lines there.
+    /// An emitted quantity: at each continuum node the density averaged
+    /// over the node's hat function, and in each line slot the summed power
+    /// of the spectrum's lines there.
     pub fn emission(&self, s: &Spectrum) -> Vec<f64> {
-        let mut v: Vec<f64> = self.nm[..self.n_continuum]
-            .iter()
-            .map(|&w| s.eval(w))
+        let grid = &self.nm[..self.n_continuum];
+        let mut v: Vec<f64> = (0..grid.len())
+            .map(|j| {
+                let c = grid[j];
+                let a = if j > 0 { grid[j - 1] } else { c };
+                let b = grid.get(j + 1).copied().unwrap_or(c);
+                hat_average(s, a, c, b)
+            })
             .collect();
         v.extend(self.nm[self.n_continuum..].iter().map(|&w| {
             s.lines()
@@ -148,6 +179,48 @@ impl Wavelengths {
     pub fn total(&self, v: &[f64]) -> f64 {
         self.integrate(v).iter().sum()
     }
+}
+
+/// `∫ s φ dλ / ∫ φ dλ` for the hat `φ` rising from `a` to 1 at `c` and
+/// falling to `b` (a half hat when `a = c` or `c = b`); `s(c)` when the hat
+/// has no width. Exact for the piecewise-linear continuum: the interval is
+/// split at every node of `s` and the product, quadratic on each piece, is
+/// integrated by Simpson's rule; pieces outside `s`'s support add nothing.
+fn hat_average(s: &Spectrum, a: f64, c: f64, b: f64) -> f64 {
+    if b <= a {
+        return s.eval(c);
+    }
+    let nodes = s.wavelengths_nm();
+    if nodes.len() < 2 {
+        // No extent: zero density almost everywhere, as `eval` has it.
+        return s.eval(c);
+    }
+    let (first, last) = (nodes[0], nodes[nodes.len() - 1]);
+    let mut cuts: Vec<f64> = vec![a, c, b];
+    cuts.extend(nodes.iter().copied().filter(|&x| x > a && x < b));
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    let hat = |x: f64| {
+        if x <= c {
+            if c > a { (x - a) / (c - a) } else { 1.0 }
+        } else if b > c {
+            (b - x) / (b - c)
+        } else {
+            1.0
+        }
+    };
+    let mut sum = 0.0;
+    for w in cuts.windows(2) {
+        let (x0, x1) = (w[0], w[1]);
+        let xm = 0.5 * (x0 + x1);
+        if !(xm > first && xm < last) {
+            continue;
+        }
+        // Inside the support: s is linear on [x0, x1] (its nodes are cuts).
+        let f = |x: f64| s.eval(x.clamp(first, last)) * hat(x);
+        sum += (x1 - x0) / 6.0 * (f(x0) + 4.0 * f(xm) + f(x1));
+    }
+    sum / (0.5 * (b - a))
 }
 
 #[cfg(test)]
@@ -200,5 +273,32 @@ quad = { center = [0, 0, 0], size = [1, 1], normal = [0, 0, 1] }
         let v = wl.integrate(&wl.emission(lps));
         assert!((v[1] - lps.integrate_band(553.0, 700.0)).abs() < 1e-12 * v[1]);
         assert!((v[0] - lps.integrate_band(400.0, 553.0)).abs() < 1e-12 * v[1].max(1.0));
+
+        // Continua that point-sampling on a 7 nm grid gets wrong: a 1 nm
+        // spike between nodes over a floor, a spike straddling the shared
+        // 553 nm edge, and a box whose ends fall inside cells.
+        let spiky = Spectrum::new(
+            vec![300.0, 500.0, 500.3, 500.8, 552.6, 553.0, 553.5, 800.0],
+            vec![0.1, 0.1, 100.0, 0.1, 0.1, 40.0, 0.1, 0.1],
+        )
+        .unwrap();
+        let boxed = Spectrum::new(vec![503.2, 620.7], vec![1.0, 1.0]).unwrap();
+        for s in [&spiky, &boxed] {
+            let v = wl.integrate(&wl.emission(s));
+            for (b, (lo, hi)) in [(0, (400.0, 553.0)), (1, (553.0, 700.0))] {
+                let exact = s.integrate_band(lo, hi);
+                assert!(
+                    (v[b] - exact).abs() < 1e-12 * exact.max(1.0),
+                    "band {b}: {} vs {exact}",
+                    v[b]
+                );
+            }
+        }
+        // The spike (a 0.8 nm triangle 100 high) holds ~40 of band a's ~55:
+        // sampling at the nodes (every 7 nm from 400) would miss all of it.
+        assert!(spiky.integrate_band(400.0, 553.0) > 54.0);
+        // A single-node continuum has no extent: zero, as before.
+        let dot = Spectrum::new(vec![500.0], vec![3.0]).unwrap();
+        assert_eq!(wl.integrate(&wl.emission(&dot)), vec![0.0, 0.0]);
     }
 }
