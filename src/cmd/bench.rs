@@ -1398,16 +1398,12 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
     m
 }
 
-/// Error against time, log–log (axes in decades), one curve per estimator's
-/// spp ladder, the other settings as points, the Pareto front marked.
+/// Error against time, log–log, one curve per estimator's spp ladder, the
+/// other settings as points, the Pareto front marked.
 fn plot(path: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
-    use gloam_calib::plot::{Mark, Series, xy_plot};
-    let lg = |r: &Row| {
-        (
-            r.time_s.max(1e-6).log10(),
-            r.rel_rms_error.max(1e-9).log10(),
-        )
-    };
+    use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
+    // An exact result (error 0) is drawn at 1e-9 rather than dropped.
+    let lg = |r: &Row| (r.time_s.max(1e-6), r.rel_rms_error.max(1e-9));
     let mut series = Vec::new();
     for est in ESTIMATORS {
         let e = est.to_string();
@@ -1434,7 +1430,7 @@ fn plot(path: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
     }
     let front: Vec<(f64, f64)> = pareto(rows)
         .into_iter()
-        .map(|(t, e)| (t.max(1e-6).log10(), e.max(1e-9).log10()))
+        .map(|(t, e)| (t.max(1e-6), e.max(1e-9)))
         .collect();
     if !front.is_empty() {
         series.push(Series::new("Pareto front", front, Mark::Line));
@@ -1444,11 +1440,11 @@ fn plot(path: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
         .and_then(|p| p.file_name())
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| scene.display().to_string());
-    xy_plot(
+    xy_plot_scaled(
         path,
         &format!("accuracy vs time: {name}"),
-        "log10 wall time (s)",
-        "log10 relative RMS error",
+        ("wall time (s)", Scale::Log10),
+        ("relative RMS error", Scale::Log10),
         &series,
     )
     .map_err(|e| anyhow::anyhow!("{e}"))
