@@ -738,7 +738,10 @@ fn reference_truth(
     let noise_mse = if n > 0 { acc / n as f64 } else { 0.0 };
     std::fs::create_dir_all(dir)?;
     write_atomic_with(&npy, |f| {
-        image.write_npy(std::io::BufWriter::new(f))?;
+        let mut w = std::io::BufWriter::new(f);
+        image.write_npy(&mut w)?;
+        // Flush here: a BufWriter dropped with unwritten data loses the error.
+        std::io::Write::flush(&mut w)?;
         Ok(())
     })?;
     let seconds = t0.elapsed().as_secs_f64();

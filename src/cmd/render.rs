@@ -232,7 +232,10 @@ fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
 fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     use ndarray_npy::WriteNpyExt;
     write_atomic_with(path, |f| {
-        radiance.write_npy(std::io::BufWriter::new(f))?;
+        let mut w = std::io::BufWriter::new(f);
+        radiance.write_npy(&mut w)?;
+        // Flush here: a BufWriter dropped with unwritten data loses the error.
+        std::io::Write::flush(&mut w)?;
         Ok(())
     })
 }
@@ -258,7 +261,9 @@ fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     let gray =
         image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
     write_atomic_with(path, |f| {
-        gray.write_to(&mut std::io::BufWriter::new(f), image::ImageFormat::Png)?;
+        let mut w = std::io::BufWriter::new(f);
+        gray.write_to(&mut w, image::ImageFormat::Png)?;
+        std::io::Write::flush(&mut w)?;
         Ok(())
     })
 }

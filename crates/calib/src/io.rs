@@ -101,15 +101,14 @@ pub fn write_tiff_f32(path: &Path, w: usize, h: usize, data: &[f32]) -> Result<(
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
     }
-    let tmp = path.with_extension("tmp~");
+    let mut buf = std::io::Cursor::new(Vec::new());
     {
-        let f = std::fs::File::create(&tmp).map_err(|e| CalibError::file(&tmp, e))?;
-        let mut enc = tiff::encoder::TiffEncoder::new(std::io::BufWriter::new(f))
-            .map_err(|e| CalibError::file(path, e))?;
+        let mut enc =
+            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
         enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, data)
             .map_err(|e| CalibError::file(path, e))?;
     }
-    std::fs::rename(&tmp, path).map_err(|e| CalibError::file(path, e))
+    crate::report::write_bytes(path, buf.get_ref())
 }
 
 /// The gain recorded for `image` in the `frames.jsonl` beside it (lines

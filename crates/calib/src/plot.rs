@@ -198,8 +198,10 @@ pub fn xy_plot_scaled(
     }
     let img = image::RgbImage::from_raw(w, h, buf)
         .ok_or_else(|| CalibError::Io("plot buffer has the wrong size".into()))?;
-    img.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| CalibError::file(path, e))
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|e| CalibError::file(path, e))?;
+    crate::report::write_bytes(path, png.get_ref())
 }
 
 /// Scientific notation for axes spanning tiny or huge values (on a log

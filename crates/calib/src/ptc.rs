@@ -400,8 +400,10 @@ impl DatasetWriter {
             )
             .ok_or_else(|| CalibError::Invalid("frame size does not match its pixels".into()))?;
             let p = self.dir.join(&name);
-            img.save_with_format(&p, image::ImageFormat::Tiff)
+            let mut tif = std::io::Cursor::new(Vec::new());
+            img.write_to(&mut tif, image::ImageFormat::Tiff)
                 .map_err(|e| CalibError::file(&p, e))?;
+            crate::report::write_bytes(&p, tif.get_ref())?;
             names.push(name);
         }
         self.blocks.push((kind, photons, names));
@@ -434,7 +436,6 @@ impl DatasetWriter {
                 s.push_str(&format!("i {n}\n"));
             }
         }
-        let p = self.dir.join("emva1288_descriptor.txt");
-        std::fs::write(&p, s).map_err(|e| CalibError::file(&p, e))
+        crate::report::write_text(&self.dir.join("emva1288_descriptor.txt"), &s)
     }
 }

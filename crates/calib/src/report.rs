@@ -21,11 +21,25 @@ pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), CalibError>
 
 /// Writes text atomically (temp file in the same directory + rename).
 pub fn write_text(path: &Path, text: &str) -> Result<(), CalibError> {
+    write_bytes(path, text.as_bytes())
+}
+
+/// Writes bytes atomically: a temporary file beside `path`, flushed to
+/// disk, then renamed over it, so an interrupted run never leaves a
+/// half-written report, plot or image.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CalibError> {
+    use std::io::Write;
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
     }
-    let tmp = path.with_extension("tmp~");
-    std::fs::write(&tmp, text).map_err(|e| CalibError::file(&tmp, e))?;
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp~");
+    let tmp = path.with_file_name(name);
+    let mut f = std::fs::File::create(&tmp).map_err(|e| CalibError::file(&tmp, e))?;
+    f.write_all(bytes)
+        .and_then(|_| f.sync_all())
+        .map_err(|e| CalibError::file(&tmp, e))?;
+    drop(f);
     std::fs::rename(&tmp, path).map_err(|e| CalibError::file(path, e))
 }
 
