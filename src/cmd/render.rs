@@ -99,7 +99,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         args.threads,
     )?;
     let plan = gloam_scene::plan::plan(&scene);
-    let tracer = Tracer::new(&scene, &settings)?;
+    // With a camera, the render also carries its detector-weighted band.
+    let sensor = args.sensor.clone().or_else(|| scene.sensor.clone());
+    let traced = match &sensor {
+        Some(s) => super::sensor_frames::with_detected_band(&scene, s)?,
+        None => scene.clone(),
+    };
+    let tracer = Tracer::new(&traced, &settings)?;
 
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(0);
@@ -118,7 +124,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let out = tracer.render(&progress)?;
+    let mut out = tracer.render(&progress)?;
+    let detected = match &sensor {
+        Some(_) => Some(super::sensor_frames::take_detected_band(&mut out)?),
+        None => None,
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -135,7 +145,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &args.out.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
-    if let Some(sensor) = args.sensor.clone().or_else(|| scene.sensor.clone()) {
+    if let (Some(sensor), Some(detected)) = (sensor, detected) {
         let capture = super::sensor_frames::FrameCapture {
             sensor: &sensor,
             frames: args.frames,
@@ -144,7 +154,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             noise: !args.no_noise,
             seed: settings.seed,
         };
-        capture.run(&scene, &out, &args.out)?;
+        capture.run(&detected, &args.out)?;
     }
     eprintln!(
         "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",

@@ -3,44 +3,44 @@
 //!
 //! The scene is rendered once, with default render settings (seed 0), so the
 //! emulator and the in-process grabber see bit-identical radiance. As in
-//! `render --sensor`, each band's response curve stands in for the spectrum
-//! inside the band.
+//! `render --sensor`, the render carries a band weighted by the camera's
+//! detector response, so the camera sees the detected-electron radiance,
+//! exact for any spectrum.
 
 use std::path::Path;
 use std::sync::Arc;
 
-use anyhow::Context;
-use gloam_grabber::{SceneRenderer, SceneView};
+use super::sensor_frames::{take_detected_band, with_detected_band};
+use gloam_grabber::{SceneImage, SceneRenderer, SceneView};
 use gloam_trace::{RenderSettings, Tracer};
 
-/// Renders `path` at `size` (width, height; default the scene camera's,
-/// keeping its horizontal field of view).
-pub fn render_scene_view(path: &str, size: Option<(u32, u32)>) -> anyhow::Result<SceneView> {
+/// Renders `path` for the camera `sensor` at `size` (width, height;
+/// default the scene camera's, keeping its horizontal field of view).
+pub fn render_scene_view(
+    path: &str,
+    sensor: &str,
+    size: Option<(u32, u32)>,
+) -> anyhow::Result<SceneView> {
     let mut scene = gloam_scene::load(Path::new(path))?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;
     }
-    let tracer = Tracer::new(&scene, &RenderSettings::default())?;
-    let out = tracer.render(&|_, _| {})?;
-    let band_shapes = out
-        .band_names
-        .iter()
-        .map(|name| {
-            scene
-                .band(name)
-                .map(|b| b.response.clone())
-                .with_context(|| format!("band '{name}' missing from the scene"))
-        })
-        .collect::<anyhow::Result<_>>()?;
+    let traced = with_detected_band(&scene, sensor)?;
+    let tracer = Tracer::new(&traced, &RenderSettings::default())?;
+    let mut out = tracer.render(&|_, _| {})?;
+    let detected = take_detected_band(&mut out)?;
     Ok(SceneView {
         label: path.to_string(),
-        radiance_w_m2_sr: out.radiance,
-        band_shapes,
+        image: SceneImage::Detected {
+            e_s_m2_sr: detected,
+        },
     })
 }
 
 /// [`render_scene_view`] as the grabber crate's [`SceneRenderer`].
 pub fn scene_renderer() -> SceneRenderer {
-    Arc::new(|path, size| render_scene_view(path, size).map_err(|e| format!("{e:#}")))
+    Arc::new(|path, sensor, size| {
+        render_scene_view(path, sensor, size).map_err(|e| format!("{e:#}"))
+    })
 }

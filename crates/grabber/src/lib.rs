@@ -28,7 +28,7 @@ pub use client::{ClientOptions, ClientStats, ProtocolGrabber};
 /// The wire protocol (message types, controls) the client speaks.
 pub use firmware_protocol;
 pub use interface::*;
-pub use sim::{SceneView, SensorSource, SimGrabber};
+pub use sim::{SceneImage, SceneView, SensorSource, SimGrabber};
 pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
 pub use uri::GrabberUri;
@@ -48,11 +48,14 @@ pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
     d.value()
 }
 
-/// Renders a scene file for `sim:…?scene=PATH` at an optional size
-/// (width, height; default the scene camera's). Supplied by the caller
-/// (the `gloam` CLI uses the tracer), so this crate stays free of tracing.
-pub type SceneRenderer =
-    std::sync::Arc<dyn Fn(&str, Option<(u32, u32)>) -> Result<SceneView, String> + Send + Sync>;
+/// Renders a scene file for `sim:PRESET?scene=PATH`: `(path, preset,
+/// size)`, the size (width, height) defaulting to the scene camera's; the
+/// preset lets the renderer weight by that camera's detector response.
+/// Supplied by the caller (the `gloam` CLI uses the tracer), so this crate
+/// stays free of tracing.
+pub type SceneRenderer = std::sync::Arc<
+    dyn Fn(&str, &str, Option<(u32, u32)>) -> Result<SceneView, String> + Send + Sync,
+>;
 
 /// Options for [`open_with`].
 #[derive(Clone, Default)]
@@ -99,7 +102,7 @@ pub fn open_with(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>,
                             "'{uri}': scenes need a renderer (the gloam CLI provides one)"
                         ))
                     })?;
-                    let view = render(&path, size)
+                    let view = render(&path, &preset, size)
                         .map_err(|e| GrabError::InvalidSetting(format!("scene '{path}': {e}")))?;
                     Ok(Box::new(SimGrabber::from_scene(&preset, view, seed)?))
                 }

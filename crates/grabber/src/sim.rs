@@ -151,59 +151,96 @@ pub fn render_stimulus(
     Ok((img, shape))
 }
 
-/// A rendered scene as the camera sees it: per-band radiance at the
-/// entrance pupil and each band's spectral shape (any scale), as
-/// [`gloam_sensor::Camera::capture`] takes them.
+/// A rendered scene as the camera sees it.
 #[derive(Clone, Debug)]
 pub struct SceneView {
     /// What was rendered (for descriptions), e.g. the scene path.
     pub label: String,
-    /// Band radiance, W m⁻² sr⁻¹, band × row × column.
-    pub radiance_w_m2_sr: Array3<f64>,
-    /// Spectral shape of each band.
-    pub band_shapes: Vec<Spectrum>,
+    pub image: SceneImage,
+}
+
+/// The radiance of a [`SceneView`].
+#[derive(Clone, Debug)]
+pub enum SceneImage {
+    /// Per-band radiance, W m⁻² sr⁻¹, band × row × column, with each band's
+    /// spectral shape (any scale): the camera integrates its QE over each
+    /// shape ([`gloam_sensor::Camera::capture`]).
+    Bands {
+        radiance_w_m2_sr: Array3<f64>,
+        band_shapes: Vec<Spectrum>,
+    },
+    /// Detected-electron radiance `∫ L QE λ/hc dλ` for this camera's
+    /// detector, e⁻ s⁻¹ m⁻² sr⁻¹, row × column: exact for any spectrum
+    /// ([`gloam_sensor::Camera::capture_detected`]).
+    Detected { e_s_m2_sr: Array2<f64> },
 }
 
 impl SceneView {
-    /// Checks the shapes agree and every radiance is finite and ≥ 0 (the
-    /// first bad value is named).
+    /// Checks the shapes agree and every value is finite and ≥ 0 (the first
+    /// bad value is named).
     pub fn validate(&self) -> Result<(), GrabError> {
-        let (bands, rows, cols) = self.radiance_w_m2_sr.dim();
-        if bands == 0 || rows == 0 || cols == 0 {
-            return Err(GrabError::InvalidSetting(format!(
-                "scene '{}': empty radiance image ({bands} bands, {cols}×{rows})",
+        let bad = |what: String| {
+            Err(GrabError::InvalidSetting(format!(
+                "scene '{}': {what}",
                 self.label
-            )));
-        }
-        if bands != self.band_shapes.len() {
-            return Err(GrabError::InvalidSetting(format!(
-                "scene '{}': {bands} radiance bands but {} band spectra",
-                self.label,
-                self.band_shapes.len()
-            )));
+            )))
+        };
+        let (bands, rows, cols) = match &self.image {
+            SceneImage::Bands {
+                radiance_w_m2_sr,
+                band_shapes,
+            } => {
+                let (b, r, c) = radiance_w_m2_sr.dim();
+                if b != band_shapes.len() {
+                    return bad(format!(
+                        "{b} radiance bands but {} band spectra",
+                        band_shapes.len()
+                    ));
+                }
+                (b, r, c)
+            }
+            SceneImage::Detected { e_s_m2_sr } => {
+                let (r, c) = e_s_m2_sr.dim();
+                (1, r, c)
+            }
+        };
+        if bands == 0 || rows == 0 || cols == 0 {
+            return bad(format!(
+                "empty radiance image ({bands} bands, {cols}×{rows})"
+            ));
         }
         if rows > 4096 || cols > 4096 {
-            return Err(GrabError::InvalidSetting(format!(
-                "scene '{}': {cols}×{rows} is larger than 4096×4096",
-                self.label
-            )));
+            return bad(format!("{cols}×{rows} is larger than 4096×4096"));
         }
-        if let Some(((b, r, c), v)) = self
-            .radiance_w_m2_sr
-            .indexed_iter()
-            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
-        {
-            return Err(GrabError::InvalidSetting(format!(
-                "scene '{}': radiance {v} at band {b}, row {r}, column {c} is not finite and ≥ 0",
-                self.label
-            )));
+        let first_bad = match &self.image {
+            SceneImage::Bands {
+                radiance_w_m2_sr, ..
+            } => radiance_w_m2_sr
+                .indexed_iter()
+                .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+                .map(|((b, r, c), v)| format!("radiance {v} at band {b}, row {r}, column {c}")),
+            SceneImage::Detected { e_s_m2_sr } => e_s_m2_sr
+                .indexed_iter()
+                .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+                .map(|((r, c), v)| format!("detected radiance {v} at row {r}, column {c}")),
+        };
+        match first_bad {
+            Some(what) => bad(format!("{what} is not finite and ≥ 0")),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// (width, height) in pixels.
     pub fn size(&self) -> (u32, u32) {
-        let (_, rows, cols) = self.radiance_w_m2_sr.dim();
+        let (rows, cols) = match &self.image {
+            SceneImage::Bands {
+                radiance_w_m2_sr, ..
+            } => {
+                let (_, r, c) = radiance_w_m2_sr.dim();
+                (r, c)
+            }
+            SceneImage::Detected { e_s_m2_sr } => e_s_m2_sr.dim(),
+        };
         (cols as u32, rows as u32)
     }
 }
@@ -407,8 +444,15 @@ impl FrameSource for SensorSource {
                         s.height
                     ));
                 }
-                self.camera
-                    .capture(scene.radiance_w_m2_sr.view(), &scene.band_shapes)
+                match &scene.image {
+                    SceneImage::Bands {
+                        radiance_w_m2_sr,
+                        band_shapes,
+                    } => self.camera.capture(radiance_w_m2_sr.view(), band_shapes),
+                    SceneImage::Detected { e_s_m2_sr } => {
+                        self.camera.capture_detected(e_s_m2_sr.view())
+                    }
+                }
             }
         }
         .map_err(|e| e.to_string())?;

@@ -3,8 +3,8 @@
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::{
-    ClientOptions, FrameGrabber, Framing, GrabError, OpenOptions, ProtocolGrabber, SceneView,
-    SensorSource, SimGrabber, Stimulus, open, open_with,
+    ClientOptions, FrameGrabber, Framing, GrabError, OpenOptions, ProtocolGrabber, SceneImage,
+    SceneView, SensorSource, SimGrabber, Stimulus, open, open_with,
 };
 
 #[test]
@@ -79,8 +79,10 @@ fn two_band_scene(w: usize, h: usize) -> SceneView {
     let band = |lo: f64, hi: f64| gloam_spectra::Spectrum::constant(lo, hi, 1.0).unwrap();
     SceneView {
         label: "two-band test scene".into(),
-        radiance_w_m2_sr: radiance,
-        band_shapes: vec![band(450.0, 550.0), band(550.0, 650.0)],
+        image: SceneImage::Bands {
+            radiance_w_m2_sr: radiance,
+            band_shapes: vec![band(450.0, 550.0), band(550.0, 650.0)],
+        },
     }
 }
 
@@ -119,8 +121,16 @@ fn scene_view_is_grabbed_at_its_size_until_a_stimulus_replaces_it() {
 
 #[test]
 fn bad_scenes_are_clear_errors() {
+    fn radiance(v: &mut SceneView) -> &mut ndarray::Array3<f64> {
+        match &mut v.image {
+            SceneImage::Bands {
+                radiance_w_m2_sr, ..
+            } => radiance_w_m2_sr,
+            SceneImage::Detected { .. } => unreachable!(),
+        }
+    }
     let mut nan = two_band_scene(8, 6);
-    nan.radiance_w_m2_sr[[1, 4, 3]] = f64::NAN;
+    radiance(&mut nan)[[1, 4, 3]] = f64::NAN;
     let e = SimGrabber::from_scene("gen2-s20-iccd", nan, 0)
         .err()
         .unwrap()
@@ -128,7 +138,7 @@ fn bad_scenes_are_clear_errors() {
     assert!(e.contains("band 1, row 4, column 3"), "{e}");
 
     let mut neg = two_band_scene(8, 6);
-    neg.radiance_w_m2_sr[[0, 0, 0]] = -1.0;
+    radiance(&mut neg)[[0, 0, 0]] = -1.0;
     let e = SimGrabber::from_scene("gen2-s20-iccd", neg, 0)
         .err()
         .unwrap()
@@ -136,19 +146,37 @@ fn bad_scenes_are_clear_errors() {
     assert!(e.contains("row 0, column 0"), "{e}");
 
     let mut shapes = two_band_scene(8, 6);
-    shapes.band_shapes.pop();
+    if let SceneImage::Bands { band_shapes, .. } = &mut shapes.image {
+        band_shapes.pop();
+    }
     let e = SimGrabber::from_scene("gen2-s20-iccd", shapes, 0)
         .err()
         .unwrap()
         .to_string();
     assert!(e.contains("2 radiance bands but 1 band spectra"), "{e}");
+    let mut detected = ndarray::Array2::from_elem((6, 8), 1e12);
+    detected[[5, 7]] = f64::INFINITY;
+    let e = SimGrabber::from_scene(
+        "gen2-s20-iccd",
+        SceneView {
+            label: "d".into(),
+            image: SceneImage::Detected {
+                e_s_m2_sr: detected,
+            },
+        },
+        0,
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("row 5, column 7"), "{e}");
 
     // A scene URI without a renderer says what is missing.
     let e = open("sim:gen2-s20-iccd?scene=x.toml").err().unwrap();
     assert!(matches!(e, GrabError::Unsupported(_)), "{e}");
     // A renderer's failure names the scene.
     let opts = OpenOptions {
-        scene_renderer: Some(std::sync::Arc::new(|_, _| Err("no such file".into()))),
+        scene_renderer: Some(std::sync::Arc::new(|_, _, _| Err("no such file".into()))),
         ..OpenOptions::default()
     };
     let e = open_with("sim:gen2-s20-iccd?scene=x.toml", &opts)
@@ -158,7 +186,7 @@ fn bad_scenes_are_clear_errors() {
     assert!(e.contains("x.toml") && e.contains("no such file"), "{e}");
     // The renderer is asked for the URI's size.
     let opts = OpenOptions {
-        scene_renderer: Some(std::sync::Arc::new(|_, size| {
+        scene_renderer: Some(std::sync::Arc::new(|_, _, size| {
             let (w, h) = size.unwrap_or((4, 4));
             Ok(two_band_scene(w as usize, h as usize))
         })),

@@ -265,6 +265,27 @@ impl Camera {
         self.run(pe, rows, cols, true)
     }
 
+    /// Captures from detected-electron radiance: per pixel `∫ L QE λ/hc dλ`
+    /// (e⁻ s⁻¹ m⁻² sr⁻¹ at the entrance pupil), e.g. a render band whose
+    /// response is [`Chain::detected_response_e_per_j`]. Unlike
+    /// [`Camera::capture`], nothing is assumed about the spectrum inside a
+    /// band, so the photoelectron rate is exact for any source.
+    pub fn capture_detected(
+        &mut self,
+        detected_e_s_m2_sr: ArrayView2<f64>,
+    ) -> Result<Frame, CaptureError> {
+        let (rows, cols) = detected_e_s_m2_sr.dim();
+        if rows == 0 || cols == 0 {
+            return Err(CaptureError::EmptyImage { rows, cols });
+        }
+        check_input(detected_e_s_m2_sr, 0)?;
+        let k = self.chain.etendue_m2_sr_s;
+        let mut pe = std::mem::take(&mut self.buf);
+        pe.clear();
+        pe.extend(detected_e_s_m2_sr.iter().map(|&v| (v * k) as f32));
+        self.run(pe, rows, cols, true)
+    }
+
     /// Captures a monochrome radiance image (W m⁻² sr⁻¹) of one spectral shape.
     pub fn capture_mono(
         &mut self,

@@ -763,6 +763,15 @@ impl Chain {
         Some(self.etendue_m2_sr_s * e_per_j)
     }
 
+    /// The detecting surface's response to radiance, electrons per joule:
+    /// QE(λ) · λ/(hc) (photocathode, or the CCD of a plain CCD). A band with
+    /// this response turns spectral radiance into the detected-electron
+    /// radiance `∫ L QE λ/hc dλ` (e⁻ s⁻¹ m⁻² sr⁻¹) that
+    /// [`crate::Camera::capture_detected`] takes, exact for any spectrum.
+    pub fn detected_response_e_per_j(&self) -> Spectrum {
+        self.detect_qe.map_all(|w, q| q * photons_per_joule(w))
+    }
+
     /// MCP soft saturation of a charge `q` (e⁻).
     pub fn mcp_compress(&self, q: f64) -> f64 {
         match self.mcp_saturation_e {

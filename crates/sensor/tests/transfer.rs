@@ -222,3 +222,57 @@ fn radiance_input_matches_photoelectron_input() {
         }
     }
 }
+
+#[test]
+fn detected_radiance_input_is_exact_for_any_spectrum() {
+    // A band whose response is the detector's QE·λ/hc yields ∫ L QE λ/hc dλ
+    // directly, so capture_detected needs no assumption about the spectrum
+    // inside a band: it must equal a capture told the exact shape.
+    for (name, lamp) in [
+        ("gen2-s20-iccd", "hps"),
+        ("gen2-s20-iccd", "tungsten-halogen-3200k"),
+        ("gen3-gaas-iccd", "fluorescent-f11"),
+        ("scientific-ccd", "mercury-clear"),
+    ] {
+        let mut cfg = clean(name);
+        cfg.noise.enabled = false;
+        let mut cam = camera(cfg, None);
+        let ch = cam.chain().clone();
+        let g = cam.gain();
+        let window = gloam_spectra::Spectrum::constant(400.0, 700.0, 1.0).unwrap();
+        let spectrum = gloam_spectra::library::get(lamp).unwrap().product(&window);
+        let band = spectrum.integrate_band(400.0, 700.0);
+        // Radiance giving ~30 % of range, with the exact shape.
+        let per = ch.photoelectrons_per_pixel(1.0, &spectrum);
+        let l =
+            0.3 * (ch.saturation_dn(g) - ch.black_dn(g)) / ch.mean_dn_per_photoelectron(g) / per;
+        let exact = cam
+            .capture_mono(Array2::from_elem((48, 64), l).view(), &spectrum)
+            .unwrap();
+        // The same light as detected-electron radiance.
+        let detected = spectrum.integrate_weighted(&ch.detected_response_e_per_j()) * l / band;
+        let f = cam
+            .capture_detected(Array2::from_elem((48, 64), detected).view())
+            .unwrap();
+        let (a, b) = (mean(&interior(&exact, 8)), mean(&interior(&f, 8)));
+        println!("{name} under {lamp}: shape-aware {a:.2} DN, detected {b:.2} DN");
+        // The two integrate QE·λ/hc against the spectrum on different
+        // piecewise-linear grids (≤ 0.6 % apart for HPS); allow 1 % + rounding.
+        let black = ch.black_dn(g);
+        assert!(
+            (a - b).abs() <= 0.51 + 0.01 * (a - black),
+            "{name} {lamp}: {a} vs {b}"
+        );
+        // A flat shape over the band (what a band-only render must assume)
+        // is off for structured spectra: S-20 under HPS or tungsten by tens
+        // of per cent, the reason to render the detected band instead.
+        let flat = cam
+            .capture_mono(Array2::from_elem((48, 64), l).view(), &window)
+            .unwrap();
+        let c = mean(&interior(&flat, 8));
+        println!("  flat-shape assumption: {c:.2} DN");
+        if name == "gen2-s20-iccd" {
+            assert!((c - black) / (a - black) > 1.1, "{lamp}: flat {c} vs {a}");
+        }
+    }
+}
