@@ -43,7 +43,9 @@ fn accuracy_on_the_panel_writes_csv_png_summary_and_json() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
-        Some("estimator,setting,value,spp,time_s,rel_rms_error,max_rel_error")
+        Some(
+            "estimator,setting,value,spp,time_s,rel_rms_error,max_rel_error,pixel_rms_error,prepare_s"
+        )
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert!(!rows.is_empty(), "no runs in the CSV");

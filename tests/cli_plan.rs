@@ -18,12 +18,13 @@ fn sim(name: &str) -> PathBuf {
         .join("scene.toml")
 }
 
-const ALL: [&str; 10] = [
+const ALL: [&str; 11] = [
     "area-sources",
     "shaped-point-sources",
     "point-sources",
     "transmissive-occluders",
     "specular-recursion",
+    "interreflection",
     "direct-view",
     "moon",
     "night-sky",
@@ -52,12 +53,17 @@ fn plan_json(scene: &Path) -> Vec<(String, bool, String)> {
         .collect()
 }
 
-fn check_indoor_panel_plan(effects: &[(String, bool, String)], area_reason: &str) {
+fn check_indoor_panel_plan(
+    effects: &[(String, bool, String)],
+    area_reason: &str,
+    interreflection: bool,
+) {
     let names: Vec<&str> = effects.iter().map(|e| e.0.as_str()).collect();
     assert_eq!(names, ALL);
     for (name, enabled, reason) in effects {
         assert!(!reason.is_empty(), "{name} has no reason");
-        let want = matches!(name.as_str(), "area-sources" | "direct-view");
+        let want = matches!(name.as_str(), "area-sources" | "direct-view")
+            || (name == "interreflection" && interreflection);
         assert_eq!(*enabled, want, "{name}: {reason}");
     }
     assert_eq!(effects[0].2, area_reason);
@@ -66,7 +72,9 @@ fn check_indoor_panel_plan(effects: &[(String, bool, String)], area_reason: &str
 #[test]
 fn plan_panel_validation_json() {
     let effects = plan_json(&sim("panel-validation"));
-    check_indoor_panel_plan(&effects, "1 emitting facet (panel); Lambertian");
+    // One floor under one panel: nothing reflects light back onto the
+    // floor, so the pilot measures a zero share and leaves it out.
+    check_indoor_panel_plan(&effects, "1 emitting facet (panel); Lambertian", false);
 }
 
 #[test]
@@ -75,8 +83,9 @@ fn plan_office_room_json() {
     check_indoor_panel_plan(
         &effects,
         "2 emitting facets (panel-west, panel-east); Lambertian",
+        true,
     );
-    assert!(effects[5].2.contains("panel-west"));
+    assert!(effects[6].2.contains("panel-west"));
 }
 
 #[test]

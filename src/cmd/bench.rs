@@ -447,9 +447,9 @@ struct Truth {
     image: Array3<f64>,
     /// Pixels that count.
     mask: Array2<bool>,
-    /// Mean squared noise of the reference per counted pixel-band (0 for
-    /// the closed form), subtracted from each run's mean squared error.
-    noise_mse: f64,
+    /// Variance of the reference per pixel and band (None for the closed
+    /// form), subtracted from each run's squared errors.
+    noise_var: Option<Array3<f64>>,
     /// Wall time spent making it (0 when cached).
     seconds: f64,
     note: String,
@@ -646,7 +646,7 @@ fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
         kind: "closed-form",
         image,
         mask,
-        noise_mse: 0.0,
+        noise_var: None,
         seconds: t0.elapsed().as_secs_f64(),
         note: format!(
             "closed form (Lambert/Arvo per source, {k}×{k} sub-pixel hits per pixel, exact band integrals)"
@@ -661,16 +661,28 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
+/// The reference: the scene's whole light by brute-force path tracing
+/// (`indirect = path`, 64 diffuse bounces, Russian roulette after 3 —
+/// unbiased; the truncated remainder of a ρ ≤ 0.9 room after 64 bounces is
+/// < 0.1 %), independent of the radiosity cache the default uses.
 fn reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
-    RenderSettings {
+    let mut s = RenderSettings {
         spp,
-        area_samples: 64,
-        spectral_step_nm: 1.0,
+        area_samples: 4,
         source_roulette_fraction: 0.0,
         threads,
         ..Default::default()
-    }
+    };
+    s.set("indirect", "path").expect("valid");
+    s.diffuse_bounces = 64;
+    s.rr_start = 3;
+    s
 }
+
+/// Pixels of the reference subset: at most `REFERENCE_PIXELS` of the mask,
+/// evenly strided (the per-pixel RMS over a uniform subset estimates the
+/// RMS over all of them without bias).
+const REFERENCE_PIXELS: usize = 1200;
 
 /// The high-sample reference, cached in `dir` (see the module docs).
 fn reference_truth(
@@ -693,53 +705,75 @@ fn reference_truth(
     );
     let npy = dir.join("reference.npy");
     let meta = dir.join("reference.json");
-    let mask = receiver_mask(scene, tracer, 4);
+    let full_mask = receiver_mask(scene, tracer, 4);
+    let (nb, h, w) = (
+        scene.bands.len(),
+        scene.camera.height as usize,
+        scene.camera.width as usize,
+    );
+    let from_stack = |stack: &ndarray::Array4<f64>| -> (Array3<f64>, Array3<f64>, Array2<bool>) {
+        let image = stack.index_axis(Axis(0), 0).to_owned();
+        let var = stack.index_axis(Axis(0), 1).to_owned();
+        let mask = Array2::from_shape_fn((h, w), |(r, c)| {
+            full_mask[[r, c]] && image[[0, r, c]].is_finite()
+        });
+        (image, var, mask)
+    };
     if let (Ok(m), Ok(f)) = (std::fs::read_to_string(&meta), std::fs::File::open(&npy)) {
         let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
         if m["key"] == key {
-            if let Ok(image) = Array3::<f64>::read_npy(std::io::BufReader::new(f)) {
-                let noise_mse = m["noise_mse"].as_f64().unwrap_or(0.0);
-                return Ok(Truth {
-                    kind: "reference",
-                    image,
-                    mask,
-                    noise_mse,
-                    seconds: 0.0,
-                    note: format!("cached reference ({npy}, key {key})", npy = npy.display()),
-                });
+            if let Ok(stack) = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)) {
+                if stack.dim() == (2, nb, h, w) {
+                    let (image, var, mask) = from_stack(&stack);
+                    return Ok(Truth {
+                        kind: "reference",
+                        image,
+                        mask,
+                        noise_var: Some(var),
+                        seconds: 0.0,
+                        note: format!("cached reference ({npy}, key {key})", npy = npy.display()),
+                    });
+                }
             }
         }
     }
-    // Two independent halves (seeds differ): their mean is the reference,
-    // their difference measures its noise.
-    let half = |seed: u64| -> anyhow::Result<Array3<f64>> {
+    // A strided subset of the counted pixels, each rendered in two
+    // independent halves (seeds differ): their mean is the reference,
+    // their difference measures its noise per pixel.
+    let pixels: Vec<(usize, usize)> = full_mask
+        .indexed_iter()
+        .filter(|(_, m)| **m)
+        .map(|(rc, _)| rc)
+        .collect();
+    let stride = pixels.len().div_ceil(REFERENCE_PIXELS).max(1);
+    let subset: Vec<(usize, usize)> = pixels.into_iter().step_by(stride).collect();
+    let half = |seed: u64| -> anyhow::Result<Vec<Vec<f64>>> {
         let s = RenderSettings {
             seed,
             spp: spp.div_ceil(2),
             ..reference_settings(threads, spp)
         };
-        Ok(Tracer::new(scene, &s)?.render(&|_, _| {})?.radiance)
+        let t = Tracer::new(scene, &s)?;
+        let v: Result<Vec<Vec<f64>>, _> = subset
+            .par_iter()
+            .map(|&(r, c)| t.probe_pixel(c as u32, r as u32))
+            .collect();
+        Ok(v?)
     };
     let a = half(1_000_001)?;
     let b = half(1_000_002)?;
-    let image = (&a + &b) * 0.5;
-    let mut acc = 0.0;
-    let mut n = 0usize;
-    for (bi, (pa, pb)) in a.axis_iter(Axis(0)).zip(b.axis_iter(Axis(0))).enumerate() {
-        let _ = bi;
-        for ((r, c), &m) in mask.indexed_iter() {
-            if m {
-                // Var(mean of two) = E[(a − b)²] / 4.
-                acc += (pa[[r, c]] - pb[[r, c]]).powi(2) / 4.0;
-                n += 1;
-            }
+    let mut stack = ndarray::Array4::<f64>::from_elem((2, nb, h, w), f64::NAN);
+    for (k, &(r, c)) in subset.iter().enumerate() {
+        for bi in 0..nb {
+            stack[[0, bi, r, c]] = 0.5 * (a[k][bi] + b[k][bi]);
+            // Var(mean of two) = E[(a − b)²] / 4.
+            stack[[1, bi, r, c]] = (a[k][bi] - b[k][bi]).powi(2) / 4.0;
         }
     }
-    let noise_mse = if n > 0 { acc / n as f64 } else { 0.0 };
     std::fs::create_dir_all(dir)?;
     write_atomic_with(&npy, |f| {
         let mut w = std::io::BufWriter::new(f);
-        image.write_npy(&mut w)?;
+        stack.write_npy(&mut w)?;
         // Flush here: a BufWriter dropped with unwritten data loses the error.
         std::io::Write::flush(&mut w)?;
         Ok(())
@@ -751,31 +785,52 @@ fn reference_truth(
             "key": key,
             "scene": scene_path.display().to_string(),
             "settings": base,
-            "noise_mse": noise_mse,
+            "pixels": subset.len(),
             "seconds": seconds,
         }))?
         .as_bytes(),
     )?;
+    let (image, var, mask) = from_stack(&stack);
     Ok(Truth {
         kind: "reference",
         image,
         mask,
-        noise_mse,
+        noise_var: Some(var),
         seconds,
         note: format!(
-            "reference render (analytic, spp {spp} in two halves, area_samples 64, 1 nm grid), cached in {}",
+            "reference: the whole light by brute-force path tracing (64 diffuse bounces, spp {spp} in two halves) on {} of the counted pixels, cached in {}",
+            subset.len(),
             npy.display()
         ),
     })
 }
 
-/// (rel_rms_error, max_rel_error) of `img` against the truth.
-fn errors(img: &Array3<f64>, truth: &Truth) -> (f64, f64) {
+/// Errors of a render against the truth, over the counted pixels, with the
+/// reference's own noise subtracted (per pixel and band).
+#[derive(Clone, Copy, Debug, Default)]
+struct Errors {
+    /// Energy-weighted: `sqrt(Σ(x−t)²/Σt²)` (bright pixels dominate).
+    energy: f64,
+    /// Per pixel: `sqrt(mean(((x−t)/t)²))` (penumbrae and dark walls count
+    /// as much as bright ones).
+    pixel: f64,
+    /// `max |x−t|/t` over pixels above 1 % of the band mean.
+    max_rel: f64,
+}
+
+fn errors(img: &Array3<f64>, truth: &Truth) -> Errors {
     let mut se = 0.0;
     let mut st = 0.0;
+    let mut sv = 0.0;
+    let mut rel2 = 0.0;
     let mut n = 0usize;
+    let mut nrel = 0usize;
     let mut max_rel: f64 = 0.0;
-    for (pi, pt) in img.axis_iter(Axis(0)).zip(truth.image.axis_iter(Axis(0))) {
+    for (b, (pi, pt)) in img
+        .axis_iter(Axis(0))
+        .zip(truth.image.axis_iter(Axis(0)))
+        .enumerate()
+    {
         let (mut sum_t, mut cnt) = (0.0, 0usize);
         for ((r, c), &m) in truth.mask.indexed_iter() {
             if m {
@@ -789,19 +844,67 @@ fn errors(img: &Array3<f64>, truth: &Truth) -> (f64, f64) {
                 continue;
             }
             let (x, t) = (pi[[r, c]], pt[[r, c]]);
+            let var = truth.noise_var.as_ref().map_or(0.0, |v| v[[b, r, c]]);
             se += (x - t).powi(2);
             st += t * t;
+            sv += var;
             n += 1;
+            if t > 0.0 {
+                rel2 += ((x - t).powi(2) - var) / (t * t);
+                nrel += 1;
+            }
             if t > floor && t > 0.0 {
                 max_rel = max_rel.max((x - t).abs() / t);
             }
         }
     }
     if n == 0 || st <= 0.0 {
-        return (f64::NAN, f64::NAN);
+        return Errors {
+            energy: f64::NAN,
+            pixel: f64::NAN,
+            max_rel: f64::NAN,
+        };
     }
-    let mse = (se / n as f64 - truth.noise_mse).max(0.0);
-    ((mse * n as f64 / st).sqrt(), max_rel)
+    Errors {
+        energy: ((se - sv).max(0.0) / st).sqrt(),
+        pixel: (rel2 / nrel.max(1) as f64).max(0.0).sqrt(),
+        max_rel,
+    }
+}
+
+/// For a target-error render: the fraction of counted pixels (first band)
+/// whose actual error `|x−t|` is within 2× the target (relative to
+/// `max(t, dark floor)`) and within 2× the render's own standard-error
+/// estimate (combined with the reference's noise).
+fn error_coverage(img: &Array3<f64>, se: &Array3<f64>, truth: &Truth, target: f64) -> (f64, f64) {
+    let (pi, ps, pt) = (
+        img.index_axis(Axis(0), 0),
+        se.index_axis(Axis(0), 0),
+        truth.image.index_axis(Axis(0), 0),
+    );
+    let mean_t = {
+        let v: Vec<f64> = pi.iter().copied().collect();
+        v.iter().sum::<f64>() / v.len().max(1) as f64
+    };
+    let floor = gloam_trace::render::DARK_FLOOR * mean_t;
+    let (mut n, mut a, mut b) = (0usize, 0usize, 0usize);
+    for ((r, c), &m) in truth.mask.indexed_iter() {
+        if !m {
+            continue;
+        }
+        let (x, t, s) = (pi[[r, c]], pt[[r, c]], ps[[r, c]]);
+        let var_ref = truth.noise_var.as_ref().map_or(0.0, |v| v[[0, r, c]]);
+        let err = (x - t).abs();
+        n += 1;
+        if err <= 2.0 * (target * t.max(floor)).hypot(var_ref.sqrt()) {
+            a += 1;
+        }
+        if err <= 2.0 * (s * s + var_ref).sqrt() {
+            b += 1;
+        }
+    }
+    let n = n.max(1) as f64;
+    (a as f64 / n, b as f64 / n)
 }
 
 // ---------------------------------------------------------------------------
@@ -816,6 +919,15 @@ struct Row {
     time_s: f64,
     rel_rms_error: f64,
     max_rel_error: f64,
+    /// Per-pixel RMS relative error (see [`Errors`]).
+    pixel_rms_error: f64,
+    /// Target-error rows: fraction of counted pixels whose actual error is
+    /// within 2× the stated target, and within 2× the render's own
+    /// per-pixel standard-error estimate.
+    within_2x_target: Option<f64>,
+    within_2x_estimate: Option<f64>,
+    /// Of `time_s`, the part spent preparing (BVH, pilot, radiosity cache).
+    prepare_s: f64,
 }
 
 /// One planned run.
@@ -875,8 +987,20 @@ fn other_plans(threads: Option<usize>, line_variant: Option<usize>) -> Vec<Plan>
     for x in ["1", "2", "6"] {
         push(Estimator::Analytic, "recursion", x, None);
     }
-    for x in ["1", "2"] {
+    // Interreflection: off (the first wave's default: direct light only),
+    // brute-force path tracing truncated at k bounces (the truncation bias
+    // against the whole-light reference), the cache read without and with
+    // more final-gather rays.
+    push(Estimator::Analytic, "indirect", "off", None);
+    for x in ["1", "2", "4"] {
         push(Estimator::Analytic, "diffuse_bounces", x, None);
+    }
+    for x in ["0", "4", "64"] {
+        push(Estimator::Analytic, "gather_rays", x, None);
+    }
+    // Renders to a stated error.
+    for x in ["0.1", "0.05", "0.02", "0.01"] {
+        push(Estimator::Analytic, "target_error", x, None);
     }
     for (key, vals) in [
         ("SAMPLE_AREA_DENSITY", &["4", "16", "64"][..]),
@@ -922,8 +1046,15 @@ fn has_lines(scene: &Scene) -> bool {
 
 #[derive(Serialize)]
 struct Summary {
+    /// Energy-weighted metric (`rel_rms_error`).
     time_to_1pct_s: BTreeMap<String, Option<f64>>,
     time_to_0_1pct_s: BTreeMap<String, Option<f64>>,
+    /// Per-pixel metric (`pixel_rms_error`).
+    time_to_1pct_pixel_s: BTreeMap<String, Option<f64>>,
+    time_to_0_1pct_pixel_s: BTreeMap<String, Option<f64>>,
+    /// The `--target-error` rows: time, achieved per-pixel error, where the
+    /// time went, and how well the error estimate held.
+    target_error: Vec<serde_json::Value>,
     scene: String,
     truth: String,
     truth_seconds: f64,
@@ -944,14 +1075,14 @@ struct Summary {
 /// Time at which the estimator's spp ladder first reaches `target`,
 /// interpolated log–log between the rungs that bracket it; the first rung's
 /// time when it is already below (an upper bound); None if never.
-fn time_to(rows: &[&Row], target: f64) -> Option<f64> {
+fn time_to(rows: &[&Row], target: f64, metric: fn(&Row) -> f64) -> Option<f64> {
     let mut prev: Option<&Row> = None;
     for r in rows {
-        if r.rel_rms_error.is_finite() && r.rel_rms_error <= target {
+        if metric(r).is_finite() && metric(r) <= target {
             return Some(match prev {
-                Some(p) if p.rel_rms_error > 0.0 && r.rel_rms_error > 0.0 && p.time_s > 0.0 => {
+                Some(p) if metric(p) > 0.0 && metric(r) > 0.0 && p.time_s > 0.0 => {
                     let (lt0, lt1) = (p.time_s.ln(), r.time_s.max(1e-12).ln());
-                    let (le0, le1) = (p.rel_rms_error.ln(), r.rel_rms_error.ln());
+                    let (le0, le1) = (metric(p).ln(), metric(r).ln());
                     if (le1 - le0).abs() < 1e-300 {
                         r.time_s
                     } else {
@@ -961,7 +1092,7 @@ fn time_to(rows: &[&Row], target: f64) -> Option<f64> {
                 _ => r.time_s,
             });
         }
-        if r.rel_rms_error.is_finite() {
+        if metric(r).is_finite() {
             prev = Some(r);
         }
     }
@@ -1023,17 +1154,21 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
             }
         }
         Some(_) => {
-            // Reference spp: a quarter of the budget at most, from a timed
-            // spp-1 render (8 … 64).
+            // Reference spp: about a third of the budget, from a timed
+            // pilot of the reference settings on 64 pixels (256 … 16384).
             let t0 = Instant::now();
-            let probe = with(Estimator::Analytic, args.threads, |s| {
-                s.spp = 1;
-                s.area_samples = 64;
-                s.spectral_step_nm = 1.0;
-            });
-            Tracer::new(&scene, &probe)?.render(&|_, _| {})?;
-            let per_spp = t0.elapsed().as_secs_f64().max(1e-3);
-            let spp = ((0.25 * budget / per_spp) as u32).clamp(8, 64) / 2 * 2;
+            let probe = reference_settings(args.threads, 16);
+            let t = Tracer::new(&scene, &probe)?;
+            let (w, h) = (scene.camera.width, scene.camera.height);
+            (0..64u32)
+                .into_par_iter()
+                .map(|k| t.probe_pixel((k * 37 + 5) % w, (k * 53 + 3) % h))
+                .collect::<Result<Vec<_>, _>>()?;
+            let per_sample_px = t0.elapsed().as_secs_f64().max(1e-3) / (64.0 * 16.0);
+            let spp = ((0.35 * budget / (per_sample_px * REFERENCE_PIXELS as f64)) as u32)
+                .clamp(256, 16384)
+                / 2
+                * 2;
             truths.push(reference_truth(
                 &scene_path,
                 &scene,
@@ -1065,20 +1200,34 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
         let si = plan.scene.unwrap_or(0);
         let (s, truth) = (&scenes[si], &truths[si.min(truths.len() - 1)]);
         let t0 = Instant::now();
-        let out = Tracer::new(s, &plan.settings)?.render(&|_, _| {})?;
+        let tracer = Tracer::new(s, &plan.settings)?;
+        let prepare_s = t0.elapsed().as_secs_f64();
+        let out = tracer.render(&|_, _| {})?;
         let dt = t0.elapsed().as_secs_f64();
         if plan.setting == "spp" {
             cost.insert(key.clone(), dt / plan.settings.spp as f64);
         }
-        let (rms, max) = errors(&out.radiance, truth);
+        let e = errors(&out.radiance, truth);
+        let (within_2x_target, within_2x_estimate) = match plan.settings.target_error {
+            Some(target) => {
+                let (a, b) = error_coverage(&out.radiance, &out.std_error, truth, target);
+                (Some(a), Some(b))
+            }
+            None => (None, None),
+        };
         rows.push(Row {
             estimator: key,
             setting: plan.setting.to_string(),
             value: plan.value.clone(),
-            spp: plan.settings.spp,
+            spp: out.spp.iter().map(|&n| n as u64).sum::<u64>() as u32
+                / out.spp.len().max(1) as u32,
             time_s: dt,
-            rel_rms_error: rms,
-            max_rel_error: max,
+            rel_rms_error: e.energy,
+            max_rel_error: e.max_rel,
+            pixel_rms_error: e.pixel,
+            within_2x_target,
+            within_2x_estimate,
+            prepare_s,
         });
         Ok(true)
     };
@@ -1129,12 +1278,22 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
 
     // Outputs.
     let csv_path = args.out.join("accuracy.csv");
-    let mut csv = String::from("estimator,setting,value,spp,time_s,rel_rms_error,max_rel_error\n");
+    let mut csv = String::from(
+        "estimator,setting,value,spp,time_s,rel_rms_error,max_rel_error,pixel_rms_error,prepare_s\n",
+    );
     for r in &rows {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{:.6},{:.6e},{:.6e}",
-            r.estimator, r.setting, r.value, r.spp, r.time_s, r.rel_rms_error, r.max_rel_error
+            "{},{},{},{},{:.6},{:.6e},{:.6e},{:.6e},{:.6}",
+            r.estimator,
+            r.setting,
+            r.value,
+            r.spp,
+            r.time_s,
+            r.rel_rms_error,
+            r.max_rel_error,
+            r.pixel_rms_error,
+            r.prepare_s
         );
     }
     write_atomic(&csv_path, csv.as_bytes())?;
@@ -1146,12 +1305,16 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
     };
     let mut t1 = BTreeMap::new();
     let mut t01 = BTreeMap::new();
+    let mut p1 = BTreeMap::new();
+    let mut p01 = BTreeMap::new();
     let mut best = BTreeMap::new();
     for est in ESTIMATORS {
         let name = est.to_string();
         let l = ladder(&name);
-        t1.insert(name.clone(), time_to(&l, 0.01));
-        t01.insert(name.clone(), time_to(&l, 0.001));
+        t1.insert(name.clone(), time_to(&l, 0.01, |r| r.rel_rms_error));
+        t01.insert(name.clone(), time_to(&l, 0.001, |r| r.rel_rms_error));
+        p1.insert(name.clone(), time_to(&l, 0.01, |r| r.pixel_rms_error));
+        p01.insert(name.clone(), time_to(&l, 0.001, |r| r.pixel_rms_error));
         best.insert(
             name,
             l.iter()
@@ -1168,6 +1331,27 @@ fn accuracy(args: AccuracyArgs) -> anyhow::Result<()> {
     let summary = Summary {
         time_to_1pct_s: t1,
         time_to_0_1pct_s: t01,
+        time_to_1pct_pixel_s: p1,
+        time_to_0_1pct_pixel_s: p01,
+        target_error: rows
+            .iter()
+            .filter(|r| r.setting == "target_error")
+            .map(|r| {
+                serde_json::json!({
+                    "target": r.value.parse::<f64>().ok(),
+                    "time_s": r.time_s,
+                    "prepare_s": r.prepare_s,
+                    "sampling_s": r.time_s - r.prepare_s,
+                    "mean_spp": r.spp,
+                    "pixel_rms_error": r.pixel_rms_error,
+                    "rel_rms_error": r.rel_rms_error,
+                    "within_2x_target": r.within_2x_target,
+                    "within_2x_estimate": r.within_2x_estimate,
+                    "goal_s_at_0_01": 18.0,
+                    "mitsuba3_multijitter_s_at_0_01": 91.0,
+                })
+            })
+            .collect(),
         scene: scene_path.display().to_string(),
         truth: truths[0].note.clone(),
         truth_seconds,
@@ -1268,6 +1452,10 @@ fn sensor_noise_rows(
             time_s: times[0],
             rel_rms_error: 0.0,
             max_rel_error: 0.0,
+            pixel_rms_error: 0.0,
+            within_2x_target: None,
+            within_2x_estimate: None,
+            prepare_s: 0.0,
         },
         Row {
             estimator: "sensor".into(),
@@ -1277,6 +1465,10 @@ fn sensor_noise_rows(
             time_s: times[1],
             rel_rms_error: rms,
             max_rel_error: max_rel,
+            pixel_rms_error: rms,
+            within_2x_target: None,
+            within_2x_estimate: None,
+            prepare_s: 0.0,
         },
     ])
 }
@@ -1303,8 +1495,8 @@ fn effect_plan_saving(
     let t0 = Instant::now();
     let b = Tracer::new(scene, &forced)?.render(&|_, _| {})?;
     let tb = t0.elapsed().as_secs_f64();
-    let (ea, _) = errors(&a.radiance, truth);
-    let (eb, _) = errors(&b.radiance, truth);
+    let ea = errors(&a.radiance, truth).energy;
+    let eb = errors(&b.radiance, truth).energy;
     // Agreement: the two renders differ by no more than their own errors
     // (3× the larger, plus 1e-9 for exact renders).
     let diff = {
@@ -1312,11 +1504,11 @@ fn effect_plan_saving(
             kind: "plan",
             image: a.radiance.clone(),
             mask: truth.mask.clone(),
-            noise_mse: 0.0,
+            noise_var: None,
             seconds: 0.0,
             note: String::new(),
         };
-        errors(&b.radiance, &t).0
+        errors(&b.radiance, &t).energy
     };
     let agree = diff <= 3.0 * ea.max(eb) * std::f64::consts::SQRT_2 + 1e-9;
     Ok(serde_json::json!({
@@ -1352,18 +1544,46 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
     );
     let _ = writeln!(
         m,
-        "| estimator | 1 % | 0.1 % | lowest rel RMS error (at time) |"
+        "| estimator | 1 % energy | 0.1 % energy | 1 % per pixel | 0.1 % per pixel | lowest rel RMS error (at time) |"
     );
-    let _ = writeln!(m, "|---|---|---|---|");
+    let _ = writeln!(m, "|---|---|---|---|---|---|");
     for est in ESTIMATORS {
         let e = est.to_string();
         let best = s.best.get(&e).copied().flatten();
         let _ = writeln!(
             m,
-            "| {e} | {} | {} | {} |",
+            "| {e} | {} | {} | {} | {} | {} |",
             fmt_opt(s.time_to_1pct_s.get(&e).copied().flatten()),
             fmt_opt(s.time_to_0_1pct_s.get(&e).copied().flatten()),
+            fmt_opt(s.time_to_1pct_pixel_s.get(&e).copied().flatten()),
+            fmt_opt(s.time_to_0_1pct_pixel_s.get(&e).copied().flatten()),
             best.map_or("–".into(), |(err, t)| format!("{err:.3e} ({t:.3} s)"))
+        );
+    }
+    if !s.target_error.is_empty() {
+        let _ = writeln!(
+            m,
+            "\n## Renders to a stated error (`--target-error`)\n\n\
+             | target | time (s) | of which prepare (s) | mean spp | per-pixel RMS error | energy RMS error | within 2× target | within 2× own estimate |\n|---|---|---|---|---|---|---|---|"
+        );
+        for t in &s.target_error {
+            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
+            let _ = writeln!(
+                m,
+                "| {} | {:.2} | {:.2} | {} | {:.3e} | {:.3e} | {:.1} % | {:.1} % |",
+                f("target"),
+                f("time_s"),
+                f("prepare_s"),
+                t["mean_spp"],
+                f("pixel_rms_error"),
+                f("rel_rms_error"),
+                100.0 * f("within_2x_target"),
+                100.0 * f("within_2x_estimate")
+            );
+        }
+        let _ = writeln!(
+            m,
+            "\nGoal at 0.01 on the office room, 2 threads: ≤ 18 s (Mitsuba 3 multijitter: ~91 s)."
         );
     }
     let a = s.time_to_1pct_s.get("analytic").copied().flatten();
@@ -1387,14 +1607,21 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
     let _ = writeln!(m, "## All runs\n");
     let _ = writeln!(
         m,
-        "| estimator | setting | value | spp | time (s) | rel RMS error | max rel error |"
+        "| estimator | setting | value | spp | time (s) | rel RMS error | per-pixel RMS error | max rel error |"
     );
-    let _ = writeln!(m, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(m, "|---|---|---|---|---|---|---|---|");
     for r in rows {
         let _ = writeln!(
             m,
-            "| {} | {} | {} | {} | {:.3} | {:.3e} | {:.3e} |",
-            r.estimator, r.setting, r.value, r.spp, r.time_s, r.rel_rms_error, r.max_rel_error
+            "| {} | {} | {} | {} | {:.3} | {:.3e} | {:.3e} | {:.3e} |",
+            r.estimator,
+            r.setting,
+            r.value,
+            r.spp,
+            r.time_s,
+            r.rel_rms_error,
+            r.pixel_rms_error,
+            r.max_rel_error
         );
     }
     let _ = writeln!(m, "\nFiles: `{}`, `{}`.", s.csv, s.png);

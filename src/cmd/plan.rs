@@ -14,12 +14,23 @@ pub struct PlanArgs {
     /// Print `{"effects":[{"name","enabled","reason"}]}`.
     #[arg(long)]
     pub json: bool,
+    /// The plan's tolerance: effects whose estimated share of the band
+    /// signal at the camera is below it are not simulated (default 0.005).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+    /// Render settings the plan is made for, KEY=VALUE (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     // The scene error already reads `file:line: field: message`.
     let scene = gloam_scene::load(&args.scene)?;
-    let plan = gloam_scene::plan::plan(&scene);
+    let mut settings = super::render::settings_from(&args.set, None, None, None, None)?;
+    if let Some(t) = args.tolerance {
+        settings.set("tolerance", &t.to_string())?;
+    }
+    let plan = gloam_trace::plan::effect_plan(&scene, &settings)?;
     if args.json {
         print_json(&plan)?;
     } else {

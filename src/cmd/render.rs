@@ -40,6 +40,14 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Sample each pixel adaptively until its estimated relative standard
+    /// error is below this (e.g. 0.01; dark pixels relative to 5 % of the
+    /// band mean). Same as `--set target_error=E`.
+    #[arg(long, value_name = "E")]
+    pub target_error: Option<f64>,
+    /// The effect plan's tolerance (default 0.005 of the band signal).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
     /// Also capture the render through this camera (preset name, see
     /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
     /// `sensor` entry, if any. Writes `frame-NNNNNN.png` and `frames.jsonl`.
@@ -98,7 +106,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         args.estimator.as_deref(),
         args.threads,
     )?;
-    let plan = gloam_scene::plan::plan(&scene);
+    let mut settings = settings;
+    if let Some(e) = args.target_error {
+        settings.set("target_error", &e.to_string())?;
+    }
+    if let Some(t) = args.tolerance {
+        settings.set("tolerance", &t.to_string())?;
+    }
+    let mut plan = gloam_scene::plan::plan(&scene);
     // With a camera, the render also carries its detector-weighted band.
     let sensor = args.sensor.clone().or_else(|| scene.sensor.clone());
     let traced = match &sensor {
@@ -106,6 +121,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         None => scene.clone(),
     };
     let tracer = Tracer::new(&traced, &settings)?;
+    plan.extend([gloam_trace::plan::interreflection_effect(
+        &tracer.interreflection,
+    )]);
 
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(0);
@@ -138,6 +156,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     write_tiff(&args.out.join("radiance.tiff"), &out.radiance)?;
     write_npy(&args.out.join("radiance.npy"), &out.radiance)?;
+    write_tiff(&args.out.join("stderr.tiff"), &out.std_error)?;
+    write_npy(&args.out.join("stderr.npy"), &out.std_error)?;
+    write_npy_u32(&args.out.join("spp.npy"), &out.spp)?;
     write_preview(&args.out.join("preview.png"), &out.radiance)?;
     let write_s = t_write.elapsed().as_secs_f64();
     let report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
@@ -200,7 +221,11 @@ fn report_json(
             "radiance.tiff": "float32, one page per band, W m^-2 sr^-1",
             "radiance.npy": "float64, band x row x column, W m^-2 sr^-1",
             "preview.png": "first band, scaled to its 99.5th percentile, gamma 2.2",
+            "stderr.npy": "float64, band x row x column, W m^-2 sr^-1: estimated standard error of each pixel",
+            "stderr.tiff": "float32, one page per band: the same standard error",
+            "spp.npy": "uint32, row x column: camera samples per pixel",
         },
+        "error": out.error,
         "settings": out.settings,
         "effect_plan": plan,
         "timings_s": {
@@ -219,6 +244,7 @@ fn report_json(
         "area_sources": out.stats.area_sources,
         "point_sources": out.stats.point_sources,
         "sky": out.stats.sky,
+        "interreflection": out.stats.interreflection,
         "bands": band_means,
     })
 }
@@ -245,6 +271,16 @@ fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
         let mut w = std::io::BufWriter::new(f);
         radiance.write_npy(&mut w)?;
         // Flush here: a BufWriter dropped with unwritten data loses the error.
+        std::io::Write::flush(&mut w)?;
+        Ok(())
+    })
+}
+
+fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
+    use ndarray_npy::WriteNpyExt;
+    write_atomic_with(path, |f| {
+        let mut w = std::io::BufWriter::new(f);
+        a.write_npy(&mut w)?;
         std::io::Write::flush(&mut w)?;
         Ok(())
     })

@@ -19,6 +19,7 @@ pub mod names {
     pub const POINT_SOURCES: &str = "point-sources";
     pub const TRANSMISSIVE_OCCLUDERS: &str = "transmissive-occluders";
     pub const SPECULAR_RECURSION: &str = "specular-recursion";
+    pub const INTERREFLECTION: &str = "interreflection";
     pub const DIRECT_VIEW: &str = "direct-view";
     pub const MOON: &str = "moon";
     pub const NIGHT_SKY: &str = "night-sky";
@@ -26,12 +27,18 @@ pub mod names {
     pub const SENSOR: &str = "sensor";
 }
 
-/// One effect: whether it is simulated and why.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+/// One effect: whether it is simulated and why, and — where a later stage
+/// has estimated it — what it is worth.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Effect {
     pub name: String,
     pub enabled: bool,
     pub reason: String,
+    /// The effect's estimated fraction of the band signal at the camera
+    /// (largest over bands; an upper bound where marked in `reason`), or
+    /// `null` where nothing has been estimated. The scene crate only reads
+    /// structure; the tracer's pilot fills this in (`gloam_trace::plan`).
+    pub estimated_share: Option<f64>,
 }
 
 impl Effect {
@@ -40,13 +47,20 @@ impl Effect {
             name: name.into(),
             enabled,
             reason: reason.into(),
+            estimated_share: None,
         }
+    }
+
+    /// The same effect with an estimated share.
+    pub fn with_share(mut self, share: f64) -> Self {
+        self.estimated_share = Some(share);
+        self
     }
 }
 
 /// The plan: effects in a fixed order. Serialises as
 /// `{"effects":[{"name":…,"enabled":…,"reason":…}]}`.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct EffectPlan {
     pub effects: Vec<Effect>,
 }
@@ -93,14 +107,21 @@ impl fmt::Display for EffectPlan {
             .max()
             .unwrap_or(6)
             .max(6);
-        writeln!(f, "{:<w$}  {:<3}  reason", "effect", "on")?;
-        writeln!(f, "{:-<w$}  ---  {:-<40}", "", "")?;
+        writeln!(f, "{:<w$}  {:<3}  {:>9}  reason", "effect", "on", "share")?;
+        writeln!(f, "{:-<w$}  ---  ---------  {:-<40}", "", "")?;
         for e in &self.effects {
+            let share = match e.estimated_share {
+                Some(0.0) => "0".to_string(),
+                Some(x) if x >= 1e-3 => format!("{:.1} %", 100.0 * x),
+                Some(x) => format!("{x:.1e}"),
+                None => "-".to_string(),
+            };
             writeln!(
                 f,
-                "{:<w$}  {:<3}  {}",
+                "{:<w$}  {:<3}  {:>9}  {}",
                 e.name,
                 if e.enabled { "yes" } else { "no" },
+                share,
                 e.reason
             )?;
         }
@@ -288,6 +309,44 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 "{} with a specular fraction > 0 ({})",
                 count(specular.len(), "material", "materials"),
                 list(&specular)
+            ),
+        )
+    });
+
+    // Interreflection: light reflected diffusely more than once. The scene
+    // crate can only say whether it is possible; the tracer's pilot
+    // estimates its share and decides (gloam_trace::plan).
+    let reflecting: Vec<&str> = scene
+        .materials
+        .iter()
+        .enumerate()
+        .filter(|(i, m)| {
+            used[*i] && m.specular_fraction < 1.0 && m.reflectance.values().iter().any(|&v| v > 0.0)
+        })
+        .map(|(_, m)| m.name.as_str())
+        .collect();
+    let lit = !emitting.is_empty()
+        || !scene.point_sources.is_empty()
+        || scene.sky.as_ref().is_some_and(|s| s.moon || s.night_sky);
+    effects.push(if reflecting.is_empty() || !lit {
+        Effect::new(
+            names::INTERREFLECTION,
+            false,
+            if lit {
+                "no material on a facet reflects diffusely"
+            } else {
+                "nothing lights the scene"
+            },
+        )
+        .with_share(0.0)
+    } else {
+        Effect::new(
+            names::INTERREFLECTION,
+            true,
+            format!(
+                "{} reflect diffusely ({}); the tracer's pilot estimates the share",
+                count(reflecting.len(), "material", "materials"),
+                list(&reflecting)
             ),
         )
     });

@@ -825,6 +825,7 @@ fn plan_outdoor_scene() {
             names::POINT_SOURCES,
             names::TRANSMISSIVE_OCCLUDERS,
             names::SPECULAR_RECURSION,
+            names::INTERREFLECTION,
             names::DIRECT_VIEW,
             names::MOON,
             names::NIGHT_SKY,
@@ -907,10 +908,10 @@ fn plan_is_extensible() {
             Effect::new("mcp-gain", true, "ICCD has an MCP"),
         ],
     );
-    assert_eq!(p.effects.len(), 11);
-    assert_eq!(p.effects[9].name, "sensor");
-    assert_eq!(p.effects[9].reason, "ICCD preset");
-    assert_eq!(p.effects[10].name, "mcp-gain");
+    assert_eq!(p.effects.len(), 12);
+    assert_eq!(p.effects[10].name, "sensor");
+    assert_eq!(p.effects[10].reason, "ICCD preset");
+    assert_eq!(p.effects[11].name, "mcp-gain");
     assert_eq!(p.enabled(), ["sensor", "mcp-gain"]);
     let table = p.to_string();
     assert!(

@@ -70,7 +70,12 @@ fn panel_validation_scene() {
     );
 
     let p = plan(&s);
-    assert_eq!(p.enabled(), ["area-sources", "direct-view"]);
+    // Interreflection is possible (the scene's materials reflect); the
+    // tracer's pilot decides whether it is worth simulating.
+    assert_eq!(
+        p.enabled(),
+        ["area-sources", "interreflection", "direct-view"]
+    );
     assert_eq!(
         p.get("area-sources").unwrap().reason,
         "1 emitting facet (panel); Lambertian"
@@ -158,7 +163,12 @@ fn office_room_scene() {
     }
 
     let p = plan(&s);
-    assert_eq!(p.enabled(), ["area-sources", "direct-view"]);
+    // Interreflection is possible (the scene's materials reflect); the
+    // tracer's pilot decides whether it is worth simulating.
+    assert_eq!(
+        p.enabled(),
+        ["area-sources", "interreflection", "direct-view"]
+    );
     assert_eq!(
         p.get("area-sources").unwrap().reason,
         "2 emitting facets (panel-west, panel-east); Lambertian"

@@ -150,6 +150,8 @@
 
 pub mod closed_form;
 pub mod geometry;
+pub mod indirect;
+pub mod plan;
 pub mod render;
 pub mod sampling;
 pub mod settings;
@@ -159,6 +161,8 @@ pub mod tracer;
 
 pub use glam::DVec3;
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
-pub use settings::{Dirsig2001Settings, Estimator, Occlusion, RenderSettings, SettingsError};
+pub use settings::{
+    Dirsig2001Settings, Estimator, Indirect, Occlusion, RenderSettings, SettingsError,
+};
 pub use sky_light::SkySummary;
 pub use tracer::{RayCounts, SkyProbeResult, TraceError, Tracer};

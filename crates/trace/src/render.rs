@@ -18,6 +18,95 @@ pub const TILE: u32 = 16;
 /// Random-stream domains (so pixels and probes never share a stream).
 const DOMAIN_PIXEL: u64 = 1;
 const DOMAIN_PROBE: u64 = 2;
+const DOMAIN_BATCH: u64 = 3;
+
+/// A pixel's running estimate: spectral sum, and per band the sum and sum
+/// of squares of the per-sample values (for its standard error).
+#[derive(Clone, Debug)]
+struct PixelEstimate {
+    n: u32,
+    spectral: Vec<f64>,
+    band_sum: Vec<f64>,
+    band_sq: Vec<f64>,
+}
+
+impl PixelEstimate {
+    fn new(nwl: usize, nb: usize) -> Self {
+        Self {
+            n: 0,
+            spectral: vec![0.0; nwl],
+            band_sum: vec![0.0; nb],
+            band_sq: vec![0.0; nb],
+        }
+    }
+
+    fn add(&mut self, spectral: &[f64], bands: &[f64]) {
+        self.n += 1;
+        self.spectral
+            .iter_mut()
+            .zip(spectral)
+            .for_each(|(a, b)| *a += b);
+        for (b, v) in bands.iter().enumerate() {
+            self.band_sum[b] += v;
+            self.band_sq[b] += v * v;
+        }
+    }
+
+    fn mean(&self, b: usize) -> f64 {
+        self.band_sum[b] / self.n.max(1) as f64
+    }
+
+    /// Standard error of the band mean from the per-sample variance (the
+    /// samples of a batch are stratified, so this errs on the high side).
+    fn std_error(&self, b: usize) -> f64 {
+        if self.n < 2 {
+            return 0.0;
+        }
+        let n = self.n as f64;
+        let m = self.band_sum[b] / n;
+        let var = ((self.band_sq[b] - n * m * m) / (n - 1.0)).max(0.0);
+        (var / n).sqrt()
+    }
+
+    /// Largest relative standard error over bands, each relative to
+    /// `max(|mean|, floor_b)`.
+    fn rel_error(&self, floor: &[f64]) -> f64 {
+        (0..self.band_sum.len())
+            .map(|b| {
+                let d = self.mean(b).abs().max(floor[b]);
+                if d > 0.0 { self.std_error(b) / d } else { 0.0 }
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Adaptive sampling: a pixel needs at least this many samples before its
+/// error estimate is trusted.
+pub const MIN_ADAPTIVE_SPP: u32 = 16;
+/// The dark-pixel floor of `target_error`: a pixel's error is taken
+/// relative to `max(|mean|, DARK_FLOOR × the band's image mean)`.
+pub const DARK_FLOOR: f64 = 0.05;
+
+/// What adaptive sampling achieved (in `report.json`).
+#[derive(Clone, Debug, Serialize, Default)]
+pub struct ErrorSummary {
+    /// The requested relative standard error (None: fixed spp).
+    pub target: Option<f64>,
+    pub dark_floor_fraction_of_mean: f64,
+    /// Percentiles of the per-pixel estimated relative standard error
+    /// (largest over bands, relative to max(|mean|, floor)).
+    pub rel_std_error_p50: f64,
+    pub rel_std_error_p90: f64,
+    pub rel_std_error_p99: f64,
+    pub rel_std_error_max: f64,
+    /// RMS over pixels of the estimated relative standard error.
+    pub rel_std_error_rms: f64,
+    /// Fraction of pixels at or below the target.
+    pub fraction_meeting_target: Option<f64>,
+    pub mean_spp: f64,
+    pub max_spp: u32,
+    pub rounds: u32,
+}
 
 /// Timings and ray counts of a render.
 #[derive(Clone, Debug, Serialize)]
@@ -36,6 +125,8 @@ pub struct RenderStats {
     pub trace_seconds: f64,
     pub rays: RayCounts,
     pub rays_per_second: f64,
+    /// How interreflection was decided and computed.
+    pub interreflection: crate::plan::InterreflectionDecision,
     /// What the render took from the `[sky]` block (None: no sky light).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sky: Option<crate::sky_light::SkySummary>,
@@ -46,6 +137,14 @@ pub struct RenderStats {
 pub struct RenderOutput {
     /// Band radiance at the entrance pupil, W m⁻² sr⁻¹, band × row × column.
     pub radiance: Array3<f64>,
+    /// Estimated standard error of each pixel's radiance, same units and
+    /// shape (from the per-sample variance; point sources seen directly
+    /// are exact and add none).
+    pub std_error: Array3<f64>,
+    /// Camera samples each pixel got.
+    pub spp: ndarray::Array2<u32>,
+    /// What the sampling achieved.
+    pub error: ErrorSummary,
     pub band_names: Vec<String>,
     pub settings: RenderSettings,
     pub stats: RenderStats,
@@ -93,18 +192,84 @@ fn with_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T
     }
 }
 
+/// Per band, the dark-pixel floor: [`DARK_FLOOR`] × the mean over pixels.
+fn band_floor(ests: &[PixelEstimate], nb: usize) -> Vec<f64> {
+    (0..nb)
+        .map(|b| {
+            let s: f64 = ests.iter().map(|e| e.mean(b).abs()).sum();
+            DARK_FLOOR * s / ests.len().max(1) as f64
+        })
+        .collect()
+}
+
+fn error_summary(
+    ests: &[PixelEstimate],
+    nb: usize,
+    target: Option<f64>,
+    rounds: u32,
+) -> ErrorSummary {
+    let floor = band_floor(ests, nb);
+    let mut rel: Vec<f64> = ests.iter().map(|e| e.rel_error(&floor)).collect();
+    rel.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        if rel.is_empty() {
+            0.0
+        } else {
+            rel[((p * (rel.len() - 1) as f64).round() as usize).min(rel.len() - 1)]
+        }
+    };
+    let n = rel.len().max(1) as f64;
+    ErrorSummary {
+        target,
+        dark_floor_fraction_of_mean: DARK_FLOOR,
+        rel_std_error_p50: q(0.5),
+        rel_std_error_p90: q(0.9),
+        rel_std_error_p99: q(0.99),
+        rel_std_error_max: rel.last().copied().unwrap_or(0.0),
+        rel_std_error_rms: (rel.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
+        fraction_meeting_target: target.map(|t| rel.iter().filter(|&&x| x <= t).count() as f64 / n),
+        mean_spp: ests.iter().map(|e| e.n as f64).sum::<f64>() / n,
+        max_spp: ests.iter().map(|e| e.n).max().unwrap_or(0),
+        rounds,
+    }
+}
+
 impl Tracer {
     /// Spectral radiance of pixel `(col, row)` averaged over `spp` camera
-    /// samples (without point sources seen directly).
+    /// samples (without point sources seen directly): the first batch of
+    /// [`Tracer::render`].
     fn pixel_spectral(&self, col: u32, row: u32, c: &mut RayCounts) -> Vec<f64> {
+        let mut est = PixelEstimate::new(self.wl.len(), self.wl.band_names.len());
+        self.pixel_batch(col, row, 0, self.settings.spp.max(1) as usize, &mut est, c);
+        let inv = 1.0 / est.n.max(1) as f64;
+        est.spectral.iter().map(|a| a * inv).collect()
+    }
+
+    /// Adds batch `batch` of `n` camera samples (Latin-hypercube stratified
+    /// in the pixel) to the pixel's estimate. Each batch has its own random
+    /// stream, so a pixel's result depends only on which batches it got.
+    fn pixel_batch(
+        &self,
+        col: u32,
+        row: u32,
+        batch: u32,
+        n: usize,
+        est: &mut PixelEstimate,
+        c: &mut RayCounts,
+    ) {
         let cam = &self.camera;
         let idx = row as u64 * cam.width as u64 + col as u64;
-        let mut rng = stream(self.settings.seed, DOMAIN_PIXEL, idx);
-        let spp = self.settings.spp.max(1) as usize;
-        let mut sub = Vec::with_capacity(spp);
-        latin_hypercube(spp, &mut rng, &mut sub);
+        let domain = if batch == 0 {
+            DOMAIN_PIXEL
+        } else {
+            DOMAIN_BATCH ^ ((batch as u64) << 32)
+        };
+        let mut rng = stream(self.settings.seed, domain, idx);
+        let mut sub = Vec::with_capacity(n);
+        latin_hypercube(n, &mut rng, &mut sub);
         let mut acc = vec![0.0; self.wl.len()];
         for [sx, sy] in sub {
+            acc.iter_mut().for_each(|a| *a = 0.0);
             let d = cam.pixel_direction(col as f64 + sx, row as f64 + sy);
             c.primary += 1;
             self.trace(
@@ -119,10 +284,8 @@ impl Tracer {
                 c,
                 &mut acc,
             );
+            est.add(&acc, &self.wl.integrate(&acc));
         }
-        let inv = 1.0 / spp as f64;
-        acc.iter_mut().for_each(|a| *a *= inv);
-        acc
     }
 
     /// Point sources seen directly: `(col, row, band radiances)` for each
@@ -180,53 +343,139 @@ impl Tracer {
     }
 
     /// Renders the whole image. `progress(done, total)` is called as tiles
-    /// finish (from worker threads).
+    /// finish (from worker threads); with `target_error`, further rounds
+    /// report on the pixels still sampling.
+    ///
+    /// Every pixel first gets one batch of `spp` samples. With
+    /// `target_error = E`, pixels whose estimated relative standard error
+    /// (see [`ErrorSummary`]) exceeds `E` get further batches, sized from
+    /// the error so far (at most 4× their count per round, at least
+    /// [`MIN_ADAPTIVE_SPP`] in all, at most `max_spp`), until every pixel
+    /// meets `E` or its cap. Batches have their own random streams, so the
+    /// image is bit-identical at any thread count.
     pub fn render(&self, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<RenderOutput, TraceError> {
         let cam = &self.camera;
         let (w, h) = (cam.width, cam.height);
         let nb = self.wl.band_names.len();
-        let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-            .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-            .collect();
-        let total = tiles.len() as u64;
-        let done = AtomicU64::new(0);
+        let nwl = self.wl.len();
+        let npix = w as usize * h as usize;
         let t0 = Instant::now();
         let threads = self.settings.threads;
-        let (results, threads_used) = with_pool(threads, || {
-            let res: Vec<(u32, u32, u32, u32, Vec<f64>, RayCounts)> = tiles
+        let spp = self.settings.spp.max(1);
+        let done = AtomicU64::new(0);
+        let (ests, rays, rounds, threads_used) = with_pool(threads, || {
+            // Round 0: every pixel, one batch of spp, tile by tile.
+            let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+                .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+                .collect();
+            let total = tiles.len() as u64;
+            let res: Vec<(Vec<(usize, PixelEstimate)>, RayCounts)> = tiles
                 .par_iter()
                 .map(|&(x0, y0)| {
                     let x1 = (x0 + TILE).min(w);
                     let y1 = (y0 + TILE).min(h);
                     let mut c = RayCounts::default();
-                    let mut buf = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize * nb);
+                    let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                     for row in y0..y1 {
                         for col in x0..x1 {
-                            let s = self.pixel_spectral(col, row, &mut c);
-                            buf.extend(self.wl.integrate(&s));
+                            let mut e = PixelEstimate::new(nwl, nb);
+                            self.pixel_batch(col, row, 0, spp as usize, &mut e, &mut c);
+                            out.push((row as usize * w as usize + col as usize, e));
                         }
                     }
                     let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(n, total);
-                    (x0, y0, x1, y1, buf, c)
+                    (out, c)
                 })
                 .collect();
-            (res, rayon::current_num_threads())
-        });
-        let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
-        let mut rays = RayCounts::default();
-        for (x0, y0, x1, y1, buf, c) in results {
-            rays.add(&c);
-            let mut k = 0;
-            for row in y0..y1 {
-                for col in x0..x1 {
-                    for b in 0..nb {
-                        radiance[[b, row as usize, col as usize]] = buf[k + b];
-                    }
-                    k += nb;
+            let mut rays = RayCounts::default();
+            let mut ests: Vec<Option<PixelEstimate>> = vec![None; npix];
+            for (tile, c) in res {
+                rays.add(&c);
+                for (i, e) in tile {
+                    ests[i] = Some(e);
                 }
             }
+            let mut ests: Vec<PixelEstimate> = ests
+                .into_iter()
+                .map(|e| e.unwrap_or_else(|| PixelEstimate::new(nwl, nb)))
+                .collect();
+            let mut rounds = 1u32;
+            if let Some(target) = self.settings.target_error {
+                let floor = band_floor(&ests, nb);
+                let cap = self.settings.max_spp.max(spp);
+                loop {
+                    let work: Vec<(usize, u32)> = ests
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(i, e)| {
+                            let rel = e.rel_error(&floor);
+                            let need_min = e.n < MIN_ADAPTIVE_SPP.min(cap);
+                            if e.n >= cap || (!need_min && rel <= target) {
+                                return None;
+                            }
+                            // n·(rel/E)² samples would meet the target.
+                            let want = (e.n as f64 * (rel / target).powi(2) * 1.1).ceil();
+                            let want = if want.is_finite() {
+                                want as u64
+                            } else {
+                                u64::MAX
+                            };
+                            let goal = want
+                                .max(MIN_ADAPTIVE_SPP as u64)
+                                .min(4 * e.n as u64)
+                                .min(cap as u64);
+                            let add = goal.saturating_sub(e.n as u64).max(1) as u32;
+                            Some((i, add.min(cap - e.n)))
+                        })
+                        .collect();
+                    if work.is_empty() {
+                        break;
+                    }
+                    let total = work.len() as u64;
+                    let done = AtomicU64::new(0);
+                    let batch = rounds;
+                    let updated: Vec<(usize, PixelEstimate, RayCounts)> = work
+                        .par_iter()
+                        .map(|&(i, add)| {
+                            let mut c = RayCounts::default();
+                            let mut e = ests[i].clone();
+                            let (col, row) = ((i % w as usize) as u32, (i / w as usize) as u32);
+                            self.pixel_batch(col, row, batch, add as usize, &mut e, &mut c);
+                            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                            if n % 1024 == 0 || n == total {
+                                progress(n, total);
+                            }
+                            (i, e, c)
+                        })
+                        .collect();
+                    for (i, e, c) in updated {
+                        ests[i] = e;
+                        rays.add(&c);
+                    }
+                    rounds += 1;
+                    if rounds > 64 {
+                        break;
+                    }
+                }
+            }
+            (ests, rays, rounds, rayon::current_num_threads())
+        });
+        let mut rays = rays;
+        let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
+        let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
+        let mut spp_map = ndarray::Array2::<u32>::zeros((h as usize, w as usize));
+        for (i, e) in ests.iter().enumerate() {
+            let (row, col) = (i / w as usize, i % w as usize);
+            let inv = 1.0 / e.n.max(1) as f64;
+            let mean: Vec<f64> = e.spectral.iter().map(|a| a * inv).collect();
+            for (b, v) in self.wl.integrate(&mean).into_iter().enumerate() {
+                radiance[[b, row, col]] = v;
+                std_error[[b, row, col]] = e.std_error(b);
+            }
+            spp_map[[row, col]] = e.n;
         }
+        let error = error_summary(&ests, nb, self.settings.target_error, rounds);
         let mut c = RayCounts::default();
         for (col, row, vals) in self.point_deposits(&mut c) {
             for (b, v) in vals.iter().enumerate() {
@@ -238,6 +487,9 @@ impl Tracer {
         let lines = self.wl.len() - self.wl.n_continuum;
         Ok(RenderOutput {
             radiance,
+            std_error,
+            spp: spp_map,
+            error,
             band_names: self.wl.band_names.clone(),
             settings: self.settings.clone(),
             stats: RenderStats {
@@ -255,6 +507,7 @@ impl Tracer {
                 rays,
                 rays_per_second: rays.total() as f64 / trace_seconds.max(1e-9),
                 sky: self.sky_summary().cloned(),
+                interreflection: self.interreflection.clone(),
             },
         })
     }

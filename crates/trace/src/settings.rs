@@ -65,6 +65,40 @@ impl std::fmt::Display for Estimator {
     }
 }
 
+/// How diffuse interreflection is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Indirect {
+    /// The effect plan decides: the radiosity cache when the pilot's
+    /// estimated share of interreflection exceeds `tolerance`, otherwise
+    /// off; an explicit `diffuse_bounces > 0` selects `path`.
+    Auto,
+    /// Direct light only (the first wave's default).
+    Off,
+    /// Radiosity cache + final gather (see [`crate::indirect`]).
+    Cache,
+    /// Brute-force path tracing to `diffuse_bounces` (chosen by the plan
+    /// when 0): the reference method.
+    Path,
+}
+
+impl std::str::FromStr for Indirect {
+    type Err = SettingsError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(Self::Auto),
+            "off" | "none" => Ok(Self::Off),
+            "cache" | "radiosity" => Ok(Self::Cache),
+            "path" | "path-tracing" => Ok(Self::Path),
+            _ => Err(SettingsError::BadValue {
+                key: "indirect".into(),
+                value: s.into(),
+                expected: "auto, off, cache or path",
+            }),
+        }
+    }
+}
+
 /// Occlusion correction used by the analytic estimator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -122,6 +156,27 @@ pub struct RenderSettings {
     pub resolution_scale: f64,
     /// Compute every effect, planned or not (benchmarking the plan).
     pub all_effects: bool,
+    /// Diffuse interreflection method.
+    pub indirect: Indirect,
+    /// Texel budget of the radiosity cache (both sides of every facet).
+    pub cache_texels: u32,
+    /// Gather rays per cache texel (the operator's estimate).
+    pub cache_rays: u32,
+    /// Stop the cache's bounce iteration when the estimated remainder is
+    /// below this fraction of the reflected light (the geometric tail is
+    /// then added).
+    pub cache_tolerance: f64,
+    /// Final-gather rays per camera sample reading the cache (0: read the
+    /// cached indirect irradiance by bilinear interpolation).
+    pub gather_rays: u32,
+    /// The effect plan's tolerance: an effect whose estimated share of the
+    /// band signal at the camera is below this is not simulated.
+    pub tolerance: f64,
+    /// Adaptive sampling: stop a pixel when its estimated relative standard
+    /// error is below this (None: fixed `spp`).
+    pub target_error: Option<f64>,
+    /// Adaptive sampling: the most camera samples any pixel gets.
+    pub max_spp: u32,
 }
 
 impl Default for RenderSettings {
@@ -142,6 +197,14 @@ impl Default for RenderSettings {
             sky_samples: 16,
             resolution_scale: 1.0,
             all_effects: false,
+            indirect: Indirect::Auto,
+            cache_texels: 16384,
+            cache_rays: 256,
+            cache_tolerance: 1e-4,
+            gather_rays: 16,
+            tolerance: 0.005,
+            target_error: None,
+            max_spp: 4096,
         }
     }
 }
@@ -201,6 +264,14 @@ impl RenderSettings {
         "sky_samples",
         "resolution_scale",
         "all_effects",
+        "indirect",
+        "cache_texels",
+        "cache_rays",
+        "cache_tolerance",
+        "gather_rays",
+        "tolerance",
+        "target_error",
+        "max_spp",
     ];
 
     /// Applies `KEY=VALUE`.
@@ -280,6 +351,49 @@ impl RenderSettings {
                     }
                 }
             }
+            "indirect" => self.indirect = value.parse()?,
+            "cache_texels" => {
+                self.cache_texels = parse(key, value, "an integer in [1, 4194304]", |&x: &u32| {
+                    (1..=1 << 22).contains(&x)
+                })?
+            }
+            "cache_rays" => {
+                self.cache_rays = parse(key, value, "an integer in [1, 65536]", |&x: &u32| {
+                    (1..=65536).contains(&x)
+                })?
+            }
+            "cache_tolerance" => {
+                self.cache_tolerance = parse(key, value, "a number in (0, 1)", |x: &f64| {
+                    *x > 0.0 && *x < 1.0
+                })?
+            }
+            "gather_rays" => {
+                self.gather_rays = parse(key, value, "an integer in [0, 65536]", |&x: &u32| {
+                    x <= 65536
+                })?
+            }
+            "tolerance" => {
+                self.tolerance = parse(key, value, "a number in [0, 1)", |x: &f64| {
+                    (0.0..1.0).contains(x)
+                })?
+            }
+            "target_error" => {
+                self.target_error = if value.eq_ignore_ascii_case("none") {
+                    None
+                } else {
+                    Some(parse(
+                        key,
+                        value,
+                        "a number in [1e-6, 1] or none",
+                        |x: &f64| (1e-6..=1.0).contains(x),
+                    )?)
+                }
+            }
+            "max_spp" => {
+                self.max_spp = parse(key, value, "an integer in [1, 1048576]", |&x: &u32| {
+                    (1..=1 << 20).contains(&x)
+                })?
+            }
             _ => return Err(SettingsError::UnknownKey(key.into())),
         }
         Ok(())
@@ -318,6 +432,8 @@ mod tests {
                 "occlusion" => "ratio",
                 "source_roulette_fraction" | "resolution_scale" => "0.5",
                 "all_effects" => "true",
+                "indirect" => "cache",
+                "cache_tolerance" | "tolerance" | "target_error" => "0.01",
                 _ => "3",
             };
             s.set(k, v).unwrap();

@@ -54,14 +54,14 @@ impl RayCounts {
 
 /// Per-material spectral factors at the carried wavelengths.
 #[derive(Clone, Debug)]
-struct MatSpec {
+pub(crate) struct MatSpec {
     /// Lambertian albedo (1 − s)ρ.
-    kd: Vec<f64>,
+    pub(crate) kd: Vec<f64>,
     /// Specular reflectance sρ (empty when none).
     ks: Vec<f64>,
     /// Straight-through transmission.
-    trans: Option<Vec<f64>>,
-    has_diffuse: bool,
+    pub(crate) trans: Option<Vec<f64>>,
+    pub(crate) has_diffuse: bool,
 }
 
 /// How an area source is sampled in solid angle.
@@ -121,11 +121,11 @@ pub struct Tracer {
     pub wl: Wavelengths,
     pub geom: Geometry,
     pub(crate) mpu: f64,
-    facet_mat: Vec<u32>,
-    facet_normal: Vec<DVec3>,
-    facet_verts: Vec<Vec<DVec3>>,
-    facet_source: Vec<u32>,
-    mats: Vec<MatSpec>,
+    pub(crate) facet_mat: Vec<u32>,
+    pub(crate) facet_normal: Vec<DVec3>,
+    pub(crate) facet_verts: Vec<Vec<DVec3>>,
+    pub(crate) facet_source: Vec<u32>,
+    pub(crate) mats: Vec<MatSpec>,
     pub(crate) area: Vec<AreaSource>,
     pub(crate) points: Vec<PointLight>,
     /// Camera in centred coordinates.
@@ -134,6 +134,10 @@ pub struct Tracer {
     /// The Moon and the sky dome, when the effect plan (or `all_effects`)
     /// calls for them.
     pub(crate) sky: Option<SkyState>,
+    /// The solved radiosity cache (`indirect = cache`).
+    pub(crate) cache: Option<crate::indirect::Cache>,
+    /// How interreflection was decided (method, pilot estimate, bounces).
+    pub interreflection: crate::plan::InterreflectionDecision,
     /// Seconds spent building the BVH and spectral tables.
     pub build_seconds: f64,
 }
@@ -306,8 +310,20 @@ fn orthonormal(n: DVec3) -> (DVec3, DVec3) {
 }
 
 impl Tracer {
-    /// Prepares `scene` (BVH, spectral tables, sources) for `settings`.
+    /// Prepares `scene` (BVH, spectral tables, sources, and — when the
+    /// effect plan calls for interreflection — the radiosity cache) for
+    /// `settings`.
     pub fn new(scene: &Scene, settings: &RenderSettings) -> Result<Self, TraceError> {
+        Self::prepare(scene, settings, true)
+    }
+
+    /// As [`Tracer::new`]; `solve` = false stops after the interreflection
+    /// decision (the pilot), without building the full cache (`gloam plan`).
+    pub fn prepare(
+        scene: &Scene,
+        settings: &RenderSettings,
+        solve: bool,
+    ) -> Result<Self, TraceError> {
         let t0 = std::time::Instant::now();
         if scene.bands.is_empty() {
             return Err(TraceError::NoBands);
@@ -450,7 +466,7 @@ impl Tracer {
         }
         let ones = vec![1.0; wl.len()];
         let sky = build_sky(scene, settings, &wl)?;
-        Ok(Self {
+        let mut tracer = Self {
             settings: settings.clone(),
             wl,
             geom,
@@ -465,8 +481,13 @@ impl Tracer {
             camera,
             ones,
             sky,
-            build_seconds: t0.elapsed().as_secs_f64(),
-        })
+            cache: None,
+            interreflection: Default::default(),
+            build_seconds: 0.0,
+        };
+        tracer.decide_interreflection(solve);
+        tracer.build_seconds = t0.elapsed().as_secs_f64();
+        Ok(tracer)
     }
 
     /// Index of the band called `name` (or the first band for `None`).
@@ -1151,6 +1172,21 @@ impl Tracer {
                 }
             }
 
+            // Diffuse interreflection from the radiosity cache (not after a
+            // path-traced diffuse bounce: the two methods are exclusive).
+            if let Some(cache) = &self.cache
+                && mat.has_diffuse
+                && !after_diffuse
+            {
+                let inv_pi = std::f64::consts::FRAC_1_PI;
+                let scale: Vec<f64> = thr
+                    .iter()
+                    .zip(&mat.kd)
+                    .map(|(t, k)| t * k * inv_pi)
+                    .collect();
+                self.cached_indirect(cache, p, ns, f, front, &scale, rng, c, acc);
+            }
+
             // Specular recursion.
             if (!mat.ks.is_empty() || all) && spec_depth < self.settings.recursion {
                 let r = d - 2.0 * d.dot(ns) * ns;
@@ -1212,6 +1248,11 @@ impl PointLight {
 }
 
 impl AreaSource {
+    /// Radiance at slot `slot` leaving at emission cosine `cos_e`.
+    pub(crate) fn radiance_at(&self, slot: usize, cos_e: f64) -> f64 {
+        shaping(cos_e, self.m) * self.radiance[slot]
+    }
+
     /// A point uniform in area, `u ∈ [0,1)²`.
     fn area_point(&self, u: [f64; 2]) -> DVec3 {
         let mut k = 0;

@@ -605,7 +605,9 @@ fn diffuse_bounces_light_a_ceiling_that_sees_no_source() {
         .replace("look_at = [0, 0, 0]", "look_at = [10, 0, 10]")
         .replace("width = 8\nheight = 8", "width = 4\nheight = 4");
     let s = scene(&text);
-    let dark = gloam_trace::render(&s, &RenderSettings::default()).unwrap();
+    let mut direct_only = RenderSettings::default();
+    direct_only.set("indirect", "off").unwrap();
+    let dark = gloam_trace::render(&s, &direct_only).unwrap();
     assert!(dark.radiance.iter().all(|&v| v == 0.0));
     let set = RenderSettings {
         diffuse_bounces: 1,

@@ -1,0 +1,264 @@
+//! The quantitative half of the effect plan: what each effect is worth at
+//! the camera, estimated by a cheap pilot, and the decision that follows.
+//!
+//! The scene crate's plan says which effects are *possible*; the tracer
+//! knows what they cost and can estimate what they bring. Interreflection
+//! is decided here: a pilot radiosity cache (`PILOT_TEXELS` texels,
+//! `PILOT_RAYS` gather rays each) and a coarse grid of camera rays give the
+//! indirect light's share of the band signal over the pixels that do not
+//! see an emitter (all pixels when every pixel does, as in a furnace); the
+//! effect is simulated when that share exceeds `tolerance`. The pilot's
+//! bounce ratio q (the enclosure's multiple-bounce albedo) also fixes how
+//! many bounces brute-force path tracing needs for its truncated remainder
+//! `share · q^k` to fall below the tolerance.
+
+use gloam_scene::Scene;
+use gloam_scene::plan::{EffectPlan, names};
+use serde::Serialize;
+
+use crate::indirect::{CacheSize, CacheSummary};
+use crate::settings::{Indirect, RenderSettings};
+use crate::tracer::{RayCounts, TraceError, Tracer, stream};
+
+/// Pilot cache size: coarse, but the share it estimates only decides.
+pub const PILOT_TEXELS: u32 = 1024;
+pub const PILOT_RAYS: u32 = 64;
+/// Pilot camera grid (at most; never finer than the image).
+pub const PILOT_COLS: u32 = 64;
+pub const PILOT_ROWS: u32 = 48;
+
+/// How interreflection was decided for a render (in `report.json`).
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct InterreflectionDecision {
+    /// `off`, `cache` or `path` (what ran).
+    pub method: String,
+    /// The pilot's estimated share per band, over non-emitter pixels.
+    pub estimated_share_by_band: Vec<(String, f64)>,
+    /// Largest over bands (`None` when no pilot ran).
+    pub estimated_share: Option<f64>,
+    /// Pilot bounce ratio q.
+    pub bounce_ratio: Option<f64>,
+    /// Path tracing: the bounces used.
+    pub diffuse_bounces: u32,
+    pub reason: String,
+    pub pilot_seconds: f64,
+    /// The full cache's solve (method `cache`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cache: Option<CacheSummary>,
+}
+
+/// What the pilot measured.
+struct Pilot {
+    share_by_band: Vec<f64>,
+    ratio: f64,
+    seconds: f64,
+}
+
+impl Tracer {
+    /// Decides interreflection (see the module docs); with `solve`, builds
+    /// the full cache when the decision is `cache`.
+    pub(crate) fn decide_interreflection(&mut self, solve: bool) {
+        let s = &self.settings;
+        let tol = s.tolerance;
+        let requested = match s.indirect {
+            Indirect::Auto if s.diffuse_bounces > 0 => Indirect::Path,
+            m => m,
+        };
+        let mut d = InterreflectionDecision::default();
+        let possible = self.mats.iter().any(|m| m.has_diffuse)
+            && (!self.area.is_empty() || !self.points.is_empty() || self.sky.is_some());
+        let pilot = (possible
+            && (requested == Indirect::Auto || self.settings.diffuse_bounces == 0))
+            .then(|| self.pilot());
+        if let Some(p) = &pilot {
+            let share = p.share_by_band.iter().copied().fold(0.0, f64::max);
+            d.estimated_share = Some(share);
+            d.estimated_share_by_band = self
+                .wl
+                .band_names
+                .iter()
+                .cloned()
+                .zip(p.share_by_band.iter().copied())
+                .collect();
+            d.bounce_ratio = Some(p.ratio);
+            d.pilot_seconds = p.seconds;
+        } else if !possible {
+            d.estimated_share = Some(0.0);
+        }
+        let share = d.estimated_share.unwrap_or(0.0);
+        let method = match requested {
+            Indirect::Auto if share > tol => {
+                d.reason = format!(
+                    "pilot: interreflection is {:.2} % of the signal (> tolerance {:.2} %): radiosity cache + final gather",
+                    100.0 * share,
+                    100.0 * tol
+                );
+                Indirect::Cache
+            }
+            Indirect::Auto => {
+                d.reason = if possible {
+                    format!(
+                        "pilot: interreflection is {:.2e} of the signal (≤ tolerance {:.2e}): not simulated",
+                        share, tol
+                    )
+                } else {
+                    "no diffusely reflecting material, or nothing lights the scene".into()
+                };
+                Indirect::Off
+            }
+            Indirect::Off => {
+                d.reason = "indirect = off (set by the user): direct light only".into();
+                Indirect::Off
+            }
+            Indirect::Cache => {
+                d.reason = "indirect = cache (set by the user)".into();
+                Indirect::Cache
+            }
+            Indirect::Path => {
+                d.reason = "brute-force path tracing (set by the user)".into();
+                Indirect::Path
+            }
+        };
+        if method == Indirect::Path {
+            if self.settings.diffuse_bounces == 0 {
+                // share · q^k ≤ tol.
+                let q = d.bounce_ratio.unwrap_or(0.5).clamp(1e-6, 0.999_999);
+                let k = if share > tol {
+                    ((tol / share).ln() / q.ln()).ceil() + 1.0
+                } else {
+                    1.0
+                };
+                self.settings.diffuse_bounces = (k as u32).clamp(1, 100_000);
+                d.reason.push_str(&format!(
+                    "; {} bounces so the truncated remainder share·q^k < tolerance (q = {q:.3})",
+                    self.settings.diffuse_bounces
+                ));
+            }
+            d.diffuse_bounces = self.settings.diffuse_bounces;
+        } else {
+            self.settings.diffuse_bounces = 0;
+        }
+        d.method = match method {
+            Indirect::Cache => "cache",
+            Indirect::Path => "path",
+            _ => "off",
+        }
+        .into();
+        if method == Indirect::Cache && solve {
+            let cache = self.build_cache(CacheSize {
+                texels: self.settings.cache_texels,
+                rays: self.settings.cache_rays,
+                tolerance: self.settings.cache_tolerance,
+                max_iterations: 200,
+            });
+            d.cache = Some(cache.summary.clone());
+            self.cache = Some(cache);
+        }
+        self.interreflection = d;
+    }
+
+    /// The pilot: a coarse cache and a coarse grid of camera rays.
+    fn pilot(&self) -> Pilot {
+        let t0 = std::time::Instant::now();
+        let cache = self.build_cache(CacheSize {
+            texels: PILOT_TEXELS,
+            rays: PILOT_RAYS,
+            tolerance: 1e-3,
+            max_iterations: 200,
+        });
+        let cam = &self.camera;
+        let cols = PILOT_COLS.min(cam.width).max(1);
+        let rows = PILOT_ROWS.min(cam.height).max(1);
+        let nwl = self.wl.len();
+        let mut c = RayCounts::default();
+        let mut rng = stream(self.settings.seed, 0x0009_1107, 0);
+        // Spectral sums: (indirect, total) over non-emitter pixels and over
+        // all pixels.
+        let mut ind = vec![0.0; nwl];
+        let mut tot = vec![0.0; nwl];
+        let mut ind_all = vec![0.0; nwl];
+        let mut tot_all = vec![0.0; nwl];
+        let mut plain_pixels = 0u32;
+        let inv_pi = std::f64::consts::FRAC_1_PI;
+        for j in 0..rows {
+            for i in 0..cols {
+                let x = (i as f64 + 0.5) * cam.width as f64 / cols as f64;
+                let y = (j as f64 + 0.5) * cam.height as f64 / rows as f64;
+                let d = cam.pixel_direction(x, y);
+                let Some((f, front, p, tau)) = self.gather_hit(cam.position, d, u32::MAX, &mut c)
+                else {
+                    continue;
+                };
+                let tau = tau.unwrap_or_else(|| self.ones.clone());
+                let ng = self.facet_normal[f as usize];
+                let ns = if front { ng } else { -ng };
+                let mat = &self.mats[self.facet_mat[f as usize] as usize];
+                let mut e_d = vec![0.0; nwl];
+                if mat.has_diffuse {
+                    self.irradiance(p, ns, f, &mut rng, &mut c, &mut e_d);
+                }
+                let mut e_i = vec![0.0; nwl];
+                cache.add_indirect_irradiance(f, front, p, &self.ones, &mut e_i);
+                let src = self.facet_source[f as usize];
+                let emitter = src != u32::MAX && front;
+                let mut pix_ind = vec![0.0; nwl];
+                let mut pix_tot = vec![0.0; nwl];
+                for s in 0..nwl {
+                    let k = mat.kd[s] * inv_pi * tau[s];
+                    pix_ind[s] = k * e_i[s];
+                    pix_tot[s] = k * (e_d[s] + e_i[s]);
+                    if emitter {
+                        let a = &self.area[src as usize];
+                        pix_tot[s] += tau[s] * a.radiance_at(s, -d.dot(ng));
+                    }
+                }
+                for s in 0..nwl {
+                    ind_all[s] += pix_ind[s];
+                    tot_all[s] += pix_tot[s];
+                    if !emitter {
+                        ind[s] += pix_ind[s];
+                        tot[s] += pix_tot[s];
+                    }
+                }
+                if !emitter {
+                    plain_pixels += 1;
+                }
+            }
+        }
+        let (ind, tot) = if plain_pixels > 0 {
+            (ind, tot)
+        } else {
+            (ind_all, tot_all)
+        };
+        let bi = self.wl.integrate(&ind);
+        let bt = self.wl.integrate(&tot);
+        let share_by_band = bi
+            .iter()
+            .zip(&bt)
+            .map(|(i, t)| if *t > 0.0 { i / t } else { 0.0 })
+            .collect();
+        Pilot {
+            share_by_band,
+            ratio: cache.summary.bounce_ratio,
+            seconds: t0.elapsed().as_secs_f64(),
+        }
+    }
+}
+
+/// The effect plan of `scene` as a render with `settings` would run it:
+/// the scene's structural plan with the tracer's pilot estimate and
+/// decision for interreflection.
+pub fn effect_plan(scene: &Scene, settings: &RenderSettings) -> Result<EffectPlan, TraceError> {
+    let mut plan = gloam_scene::plan::plan(scene);
+    let t = Tracer::prepare(scene, settings, false)?;
+    plan.extend([interreflection_effect(&t.interreflection)]);
+    Ok(plan)
+}
+
+/// The plan entry for a decision.
+pub fn interreflection_effect(d: &InterreflectionDecision) -> gloam_scene::plan::Effect {
+    let mut e =
+        gloam_scene::plan::Effect::new(names::INTERREFLECTION, d.method != "off", d.reason.clone());
+    e.estimated_share = d.estimated_share;
+    e
+}
