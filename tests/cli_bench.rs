@@ -50,7 +50,7 @@ fn accuracy_on_the_panel_writes_csv_png_summary_and_json() {
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert!(!rows.is_empty(), "no runs in the CSV");
     for r in &rows {
-        assert_eq!(r.len(), 7, "{r:?}");
+        assert_eq!(r.len(), 9, "{r:?}");
         for x in &r[3..] {
             assert!(x.parse::<f64>().is_ok(), "{r:?}");
         }

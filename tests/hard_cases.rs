@@ -440,3 +440,70 @@ proptest! {
         );
     }
 }
+
+// ---------------------------------------------------------------------------
+// Ray offsets relative to the local geometry
+
+/// A 2 × 2 m emitter (L = 4 W m⁻² sr⁻¹ in the band) 0.1 mm above a floor,
+/// both centred `x0` metres from the origin, the camera at the origin.
+fn far_gap_scene(x0: f64, gap_m: f64) -> gloam_scene::Scene {
+    scene(&format!(
+        r#"
+units = "m"
+[camera]
+position = [{xc}, 0, 5]
+look_at = [{x0}, 0, 0]
+up = [0, 0, 1]
+fov_deg = 10
+width = 4
+height = 4
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.panel]
+reflectance = 0.0
+emission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = 4.0 }} }}
+[materials.floor]
+reflectance = 0.5
+[objects.panel]
+material = "panel"
+quad = {{ center = [{x0}, 0, {gap_m}], size = [2, 2], normal = [0, 0, -1] }}
+[objects.floor]
+material = "floor"
+quad = {{ center = [{x0}, 0, 0], size = [4, 4], normal = [0, 0, 1] }}
+"#,
+        xc = x0 - 10.0
+    ))
+}
+
+#[test]
+fn receiver_a_tenth_of_a_millimetre_under_an_emitter_far_from_the_origin() {
+    // Under the centre of an emitter that fills nearly the whole hemisphere,
+    // E = L·π·(1 − O(gap²)): 12.566 W m⁻² at a 0.1 mm gap, wherever the pair
+    // sits. It used to read 0 at 1e5 m (offsets grew with |p|: the point was
+    // taken to lie on the emitter).
+    let want = polygon_irradiance_factor(
+        DVec3::ZERO,
+        DVec3::Z,
+        &[
+            DVec3::new(-1.0, -1.0, 1e-4),
+            DVec3::new(1.0, -1.0, 1e-4),
+            DVec3::new(1.0, 1.0, 1e-4),
+            DVec3::new(-1.0, 1.0, 1e-4),
+        ],
+        -DVec3::Z,
+    ) * 4.0;
+    assert!((want - 4.0 * std::f64::consts::PI).abs() < 1e-3);
+    for x0 in [0.0, 1e3, 1e5] {
+        let s = far_gap_scene(x0, 1e-4);
+        let t = Tracer::new(&s, &RenderSettings::default()).unwrap();
+        let p = t
+            .probe_point(DVec3::new(x0, 0.0, 0.0), DVec3::Z, Some("vis"), 4)
+            .unwrap();
+        assert!(
+            ((p.irradiance_w_m2 - want) / want).abs() < 1e-6,
+            "x0 = {x0}: {} vs {want}",
+            p.irradiance_w_m2
+        );
+    }
+}

@@ -124,6 +124,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     plan.extend([gloam_trace::plan::interreflection_effect(
         &tracer.interreflection,
     )]);
+    gloam_trace::plan::annotate_shares(&mut plan, &tracer.interreflection);
 
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(0);

@@ -118,10 +118,14 @@ impl Geometry {
         self.tris.len()
     }
 
-    /// Ray-start offset for a ray leaving `p` (centred coordinates): scales
-    /// with the magnitude of the coordinates so it stays above f64 rounding.
+    /// Ray-start offset for a ray leaving `p` (centred coordinates): a few
+    /// thousand ulps of the coordinates (f64 rounding of the hit point and
+    /// of the hit test), plus 1e-12 of the scene's extent — not a fixed
+    /// fraction of the absolute position, which once swallowed a 0.1 mm gap
+    /// beside an emitter 1e5 m from the origin. The facet a ray leaves is
+    /// ignored anyway; the offset only guards its neighbours.
     pub fn epsilon(&self, p: DVec3) -> f64 {
-        1e-9 * (self.extent + p.abs().max_element())
+        1e-12 * (self.extent + p.abs().max_element()) + 1e-300
     }
 
     fn f32_ray(o: DVec3, d: DVec3, tmax: f64) -> Ray {

@@ -592,6 +592,7 @@ impl Tracer {
         facet: u32,
         front: bool,
         scale: &[f64],
+        points: Option<&[[f64; 2]]>,
         rng: &mut rand_pcg::Pcg64Mcg,
         c: &mut RayCounts,
         acc: &mut [f64],
@@ -602,7 +603,10 @@ impl Tracer {
             return;
         }
         let mut u = Vec::with_capacity(k as usize);
-        latin_hypercube(k as usize, rng, &mut u);
+        match points {
+            Some(pts) if pts.len() == k as usize => u.extend_from_slice(pts),
+            _ => latin_hypercube(k as usize, rng, &mut u),
+        }
         let (tx, ty) = orthonormal_basis(ns);
         // E = π/K Σ L(y_j).
         let w = std::f64::consts::PI / k as f64;

@@ -42,6 +42,9 @@ pub struct InterreflectionDecision {
     pub diffuse_bounces: u32,
     pub reason: String,
     pub pilot_seconds: f64,
+    /// The pilot's shares of the other light terms (None: no pilot ran).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parts: Option<PartShares>,
     /// The full cache's solve (method `cache`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cache: Option<CacheSummary>,
@@ -52,6 +55,22 @@ struct Pilot {
     share_by_band: Vec<f64>,
     ratio: f64,
     seconds: f64,
+    /// Shares (largest over bands, over the pilot's pixels that do not see
+    /// an emitter, or all pixels when every one does) of the direct-light
+    /// terms and of emitters seen directly (over all pixels).
+    parts: PartShares,
+}
+
+/// The pilot's shares of the other light terms.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct PartShares {
+    pub area_sources: f64,
+    pub point_sources: f64,
+    pub shaped_point_sources: f64,
+    pub moon: f64,
+    pub night_sky: f64,
+    /// Emitters seen directly, share of the whole image's signal.
+    pub direct_view: f64,
 }
 
 impl Tracer {
@@ -82,6 +101,7 @@ impl Tracer {
                 .collect();
             d.bounce_ratio = Some(p.ratio);
             d.pilot_seconds = p.seconds;
+            d.parts = Some(p.parts.clone());
         } else if !possible {
             d.estimated_share = Some(0.0);
         }
@@ -179,6 +199,9 @@ impl Tracer {
         let mut ind_all = vec![0.0; nwl];
         let mut tot_all = vec![0.0; nwl];
         let mut plain_pixels = 0u32;
+        // Per term: (sum over plain pixels, sum over all pixels).
+        let mut part_sums = vec![(vec![0.0; nwl], vec![0.0; nwl]); 5];
+        let mut emitted_all = vec![0.0; nwl];
         let inv_pi = std::f64::consts::FRAC_1_PI;
         for j in 0..rows {
             for i in 0..cols {
@@ -194,13 +217,23 @@ impl Tracer {
                 let ns = if front { ng } else { -ng };
                 let mat = &self.mats[self.facet_mat[f as usize] as usize];
                 let mut e_d = vec![0.0; nwl];
+                let src = self.facet_source[f as usize];
+                let emitter = src != u32::MAX && front;
                 if mat.has_diffuse {
-                    self.irradiance(p, ns, f, &mut rng, &mut c, &mut e_d);
+                    let parts = self.irradiance_parts(p, ns, f, &mut rng, &mut c);
+                    for (k, part) in parts.iter().enumerate() {
+                        for s in 0..nwl {
+                            let l = mat.kd[s] * inv_pi * tau[s] * part[s];
+                            e_d[s] += part[s];
+                            part_sums[k].1[s] += l;
+                            if !emitter {
+                                part_sums[k].0[s] += l;
+                            }
+                        }
+                    }
                 }
                 let mut e_i = vec![0.0; nwl];
                 cache.add_indirect_irradiance(f, front, p, &self.ones, &mut e_i);
-                let src = self.facet_source[f as usize];
-                let emitter = src != u32::MAX && front;
                 let mut pix_ind = vec![0.0; nwl];
                 let mut pix_tot = vec![0.0; nwl];
                 for s in 0..nwl {
@@ -209,7 +242,9 @@ impl Tracer {
                     pix_tot[s] = k * (e_d[s] + e_i[s]);
                     if emitter {
                         let a = &self.area[src as usize];
-                        pix_tot[s] += tau[s] * a.radiance_at(s, -d.dot(ng));
+                        let le = tau[s] * a.radiance_at(s, -d.dot(ng));
+                        pix_tot[s] += le;
+                        emitted_all[s] += le;
                     }
                 }
                 for s in 0..nwl {
@@ -225,7 +260,48 @@ impl Tracer {
                 }
             }
         }
-        let (ind, tot) = if plain_pixels > 0 {
+        let max_share = |num: &[f64], den: &[f64]| -> f64 {
+            let (n, d) = (self.wl.integrate(num), self.wl.integrate(den));
+            n.iter()
+                .zip(&d)
+                .map(|(a, b)| if *b > 0.0 { a / b } else { 0.0 })
+                .fold(0.0, f64::max)
+        };
+        let plain = plain_pixels > 0;
+        let part = |k: usize| {
+            if plain {
+                max_share(&part_sums[k].0, &tot)
+            } else {
+                max_share(&part_sums[k].1, &tot_all)
+            }
+        };
+        let parts = PartShares {
+            area_sources: part(0),
+            point_sources: part(1),
+            shaped_point_sources: part(2),
+            moon: part(3),
+            night_sky: part(4),
+            direct_view: {
+                // Emitting facets seen (sampled on the pilot grid) plus
+                // point sources seen (deposited in one pixel each: their
+                // share of the image mean is deposit / pixel count).
+                let npilot = (cols * rows) as f64;
+                let npix = cam.width as f64 * cam.height as f64;
+                let mut dep = vec![0.0; self.wl.band_names.len()];
+                for (_, _, v) in self.point_deposits(&mut c) {
+                    dep.iter_mut().zip(&v).for_each(|(a, b)| *a += b / npix);
+                }
+                let (em, tot) = (self.wl.integrate(&emitted_all), self.wl.integrate(&tot_all));
+                (0..dep.len())
+                    .map(|b| {
+                        let seen = em[b] / npilot + dep[b];
+                        let all = tot[b] / npilot + dep[b];
+                        if all > 0.0 { seen / all } else { 0.0 }
+                    })
+                    .fold(0.0, f64::max)
+            },
+        };
+        let (ind, tot) = if plain {
             (ind, tot)
         } else {
             (ind_all, tot_all)
@@ -241,6 +317,7 @@ impl Tracer {
             share_by_band,
             ratio: cache.summary.bounce_ratio,
             seconds: t0.elapsed().as_secs_f64(),
+            parts,
         }
     }
 }
@@ -252,7 +329,29 @@ pub fn effect_plan(scene: &Scene, settings: &RenderSettings) -> Result<EffectPla
     let mut plan = gloam_scene::plan::plan(scene);
     let t = Tracer::prepare(scene, settings, false)?;
     plan.extend([interreflection_effect(&t.interreflection)]);
+    annotate_shares(&mut plan, &t.interreflection);
     Ok(plan)
+}
+
+/// Fills in `estimated_share` of the light terms the pilot measured. These
+/// terms stay as the scene plan decided (a term the scene has is simulated:
+/// the pilot reports its worth; a term it lacks is exactly 0).
+pub fn annotate_shares(plan: &mut EffectPlan, d: &InterreflectionDecision) {
+    let Some(p) = &d.parts else { return };
+    for e in &mut plan.effects {
+        let share = match e.name.as_str() {
+            names::AREA_SOURCES => p.area_sources,
+            names::POINT_SOURCES => p.point_sources,
+            names::SHAPED_POINT_SOURCES => p.shaped_point_sources,
+            names::MOON => p.moon,
+            names::NIGHT_SKY => p.night_sky,
+            names::DIRECT_VIEW => p.direct_view,
+            _ => continue,
+        };
+        if e.estimated_share.is_none() {
+            e.estimated_share = Some(share);
+        }
+    }
 }
 
 /// The plan entry for a decision.

@@ -268,8 +268,20 @@ impl Tracer {
         let mut sub = Vec::with_capacity(n);
         latin_hypercube(n, &mut rng, &mut sub);
         let mut acc = vec![0.0; self.wl.len()];
+        // Final-gather directions: one Owen-scrambled Sobol sequence per
+        // pixel, continued across batches (`est.n` samples so far), each
+        // sample taking the next block of `gather_rays` points.
+        let k = self.settings.gather_rays as usize;
+        let scramble =
+            crate::tracer::mix64(self.settings.seed ^ crate::tracer::mix64(idx ^ 0x6A7E));
+        let mut pts: Vec<[f64; 2]> = Vec::with_capacity(k);
         for [sx, sy] in sub {
             acc.iter_mut().for_each(|a| *a = 0.0);
+            pts.clear();
+            let first = est.n as u64 * k as u64;
+            pts.extend(
+                (0..k as u64).map(|i| crate::sampling::sobol_owen_2d((first + i) as u32, scramble)),
+            );
             let d = cam.pixel_direction(col as f64 + sx, row as f64 + sy);
             c.primary += 1;
             self.trace(
@@ -280,6 +292,7 @@ impl Tracer {
                 1,
                 0,
                 false,
+                Some(&pts),
                 &mut rng,
                 c,
                 &mut acc,
@@ -290,7 +303,7 @@ impl Tracer {
 
     /// Point sources seen directly: `(col, row, band radiances)` for each
     /// unoccluded source in the field of view (see the crate docs).
-    fn point_deposits(&self, c: &mut RayCounts) -> Vec<(u32, u32, Vec<f64>)> {
+    pub(crate) fn point_deposits(&self, c: &mut RayCounts) -> Vec<(u32, u32, Vec<f64>)> {
         let cam = &self.camera;
         let (_, _, fwd) = cam.basis();
         let mut out = Vec::new();

@@ -9,7 +9,7 @@
 //! | `diffuse_bounces` | 0 | diffuse path-tracing bounces (0 = off) |
 //! | `rr_start` | 1 | diffuse bounces before Russian roulette starts |
 //! | `spectral_step_nm` | 5 | continuum grid step within the bands' support |
-//! | `area_samples` | 16 | shadow rays per area source per hit (`analytic`, `solid-angle`) |
+//! | `area_samples` | 4 | shadow rays per area source per hit (`analytic`, `solid-angle`); 4 rather than 16 since the pixel's many samples stratify penumbrae anyway (office, 64 spp: per-pixel error 1.09 % vs 1.05 % at 44 % fewer rays) |
 //! | `occlusion` | `cv` | `analytic` occlusion correction: `cv` (control variate: exact when every shadow ray is clear, exactly 0 when every one is blocked, unbiased otherwise; sum clamped ≥ 0) or `ratio` (self-normalised: exact at full visibility *and* full occlusion, O(1/N) bias in penumbra) |
 //! | `source_roulette_fraction` | 0.01 | `analytic`: a source whose closed-form irradiance is below this fraction of the total at the hit point gets proportionally fewer shadow rays, `⌈area_samples · share / fraction⌉ ≥ 1` (every count gives an unbiased correction, and umbra stays exactly 0) |
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
@@ -190,7 +190,7 @@ impl Default for RenderSettings {
             diffuse_bounces: 0,
             rr_start: 1,
             spectral_step_nm: 5.0,
-            area_samples: 16,
+            area_samples: 4,
             occlusion: Occlusion::Cv,
             source_roulette_fraction: 0.01,
             dirsig2001: Dirsig2001Settings::default(),
