@@ -136,11 +136,97 @@ pub fn shaped_polygon_irradiance_factor(
     let inward = -winding_sign;
     let w = -ne;
     let moment = double_axis_moment(&clipped, w, v, m, inward);
-    if moment.is_finite() {
-        moment.max(0.0)
-    } else {
-        0.0
+    if !moment.is_finite() {
+        return 0.0;
     }
+    // Far in the tail the recurrence's absolute error (~1e-17 of D_0)
+    // swamps the value: below TAIL_FRACTION of D_0 the moment is
+    // integrated directly instead (smooth there: no beam, no horizon kink).
+    if m > 0 && moment < TAIL_FRACTION * polygon_irradiance_factor(point, v, vertices, ne) {
+        return tail_quadrature(&clipped, w, v, m).max(0.0);
+    }
+    moment.max(0.0)
+}
+
+/// Below this fraction of the unshaped moment D_0 a shaped moment is
+/// integrated by quadrature (the recurrence keeps ~1e-17 D_0 absolute).
+const TAIL_FRACTION: f64 = 1e-7;
+
+/// `D_m = ∫ (w·u)^m (w·u)(v·u) / r² dA` over the planar polygon `poly`
+/// (vertices relative to the receiving point, already clipped to its
+/// horizon): each fan triangle split in 16 (two 4-way midpoint splits),
+/// each piece by a 16 × 16 Gauss–Legendre rule on the collapsed square
+/// (Duffy). Used only in deep tails: the integrand `h^m` is smooth there
+/// but can fall by tens of e-folds across the polygon, so each piece spans
+/// a few e-folds at most for m ≈ 100.
+fn tail_quadrature(poly: &[DVec3], w: DVec3, v: DVec3, m: u32) -> f64 {
+    let gl = gauss_legendre_16();
+    let mut tris: Vec<[DVec3; 3]> = (1..poly.len().saturating_sub(1))
+        .map(|k| [poly[0], poly[k], poly[k + 1]])
+        .collect();
+    for _ in 0..2 {
+        tris = tris
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let (ab, bc, ca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
+                [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    let mut total = 0.0;
+    for [a, b, c] in tris {
+        let area2 = (b - a).cross(c - a).length();
+        if area2 == 0.0 {
+            continue;
+        }
+        let mut sum = 0.0;
+        for &(s, ws) in &gl {
+            for &(t, wt) in &gl {
+                // x = a + s (b − a) + s t (c − b), dA = s · 2A ds dt.
+                let x = a + (b - a) * s + (c - b) * (s * t);
+                let r2 = x.length_squared();
+                if r2 <= 0.0 {
+                    continue;
+                }
+                let r = r2.sqrt();
+                let h = w.dot(x) / r;
+                let cr = v.dot(x) / r;
+                if h <= 0.0 || cr <= 0.0 {
+                    continue;
+                }
+                sum += ws * wt * s * h.powi(m as i32 + 1) * cr / r2;
+            }
+        }
+        total += sum * area2;
+    }
+    total
+}
+
+/// 16-point Gauss–Legendre nodes and weights on [0, 1] (Newton on P_16).
+fn gauss_legendre_16() -> [(f64, f64); 16] {
+    let n = 16;
+    let mut out = [(0.0, 0.0); 16];
+    for (i, o) in out.iter_mut().enumerate() {
+        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, x);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+            let dx = p1 / dp;
+            x -= dx;
+            if dx.abs() < 1e-16 {
+                break;
+            }
+        }
+        let wgt = 2.0 / ((1.0 - x * x) * dp * dp);
+        *o = (0.5 * (x + 1.0), 0.5 * wgt);
+    }
+    out
 }
 
 /// One great-circle edge prepared for the moment recurrences.

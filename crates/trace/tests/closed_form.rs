@@ -743,3 +743,37 @@ fn tiny_shaped_panel_is_a_shaped_point_source() {
         }
     }
 }
+
+#[test]
+fn deep_tail_of_a_cos100_emitter_keeps_its_digits() {
+    // Receiver far off the beam of a cos^100 panel: E/E_peak ~ 1e-18, where
+    // the moment recurrence alone kept no digit (+358 %). The closed form
+    // falls back to quadrature there; check against brute force.
+    let verts = square(0.0, 0.0, 1.0);
+    let m = 100;
+    for p in [
+        DVec3::new(1.9, 0.0, 1.0),
+        DVec3::new(2.3, 0.4, 1.2),
+        DVec3::new(4.0, 0.0, 1.0),
+        DVec3::new(3.0, 2.5, 0.8),
+        DVec3::new(6.0, -1.0, 2.0),
+    ] {
+        let n = (DVec3::new(0.0, 0.0, 0.0) - p).normalize();
+        let got = shaped_polygon_irradiance_factor(p, n, &verts, DVec3::Z, m);
+        let want = brute_force(p, n, &verts, DVec3::Z, m as i32, 80);
+        let peak = shaped_polygon_irradiance_factor(
+            DVec3::new(0.0, 0.0, 1.0),
+            -DVec3::Z,
+            &verts,
+            DVec3::Z,
+            m,
+        );
+        let e = rel_err(got, want);
+        println!(
+            "tail at {p}: {got:.6e} vs {want:.6e} (E/E_peak {:.1e}) rel {e:.1e}",
+            want / peak
+        );
+        assert!(want / peak < 1e-8, "not a tail case");
+        assert!(e < 1e-6, "{p}: {got} vs {want}");
+    }
+}
