@@ -191,6 +191,46 @@ fn plan_bench(args: PlanBenchArgs) -> anyhow::Result<()> {
         })?;
         let noise = rel_rms_diff(&a2, &a);
         let diff = rel_rms_diff(&b, &a);
+        // Interreflection, both directions: flip the plan's decision and
+        // measure the change of the signal over the pixels that do not see
+        // an emitter (the pilot's own pixel set), against the tolerance.
+        let tracer = Tracer::prepare(&scene, &base, false)?;
+        let decision = tracer.interreflection.clone();
+        let kept = decision.method != "off";
+        let mut flipped = base.clone();
+        flipped.set("indirect", if kept { "off" } else { "cache" })?;
+        let (c, _) = render(&flipped)?;
+        let mask = receiver_mask(&scene, &tracer, 2);
+        let masked_mean = |img: &Array3<f64>| -> Vec<f64> {
+            img.axis_iter(Axis(0))
+                .map(|band| {
+                    let (s, n) = mask
+                        .indexed_iter()
+                        .filter(|(_, m)| **m)
+                        .fold((0.0, 0usize), |(s, n), ((r, cc), _)| {
+                            (s + band[[r, cc]], n + 1)
+                        });
+                    s / n.max(1) as f64
+                })
+                .collect()
+        };
+        let (ma, mc, ma2) = (masked_mean(&a), masked_mean(&c), masked_mean(&a2));
+        let with_ir = if kept { &ma } else { &mc };
+        let change = (0..ma.len())
+            .map(|b| {
+                let d = with_ir[b].abs().max(1e-300);
+                (ma[b] - mc[b]).abs() / d
+            })
+            .fold(0.0, f64::max);
+        let mean_noise = (0..ma.len())
+            .map(|b| (ma[b] - ma2[b]).abs() / ma[b].abs().max(1e-300))
+            .fold(0.0, f64::max);
+        let tol = base.tolerance;
+        let ir_ok = if kept {
+            change > tol
+        } else {
+            change <= tol + 3.0 * mean_noise
+        };
         // Two independent renders differ by √2 σ; forced vs plan shares
         // the seed, so agreement within noise is diff ≤ 1.5 × that + 1e-9.
         let agree = diff <= 1.5 * noise + 1e-9;
@@ -205,15 +245,27 @@ fn plan_bench(args: PlanBenchArgs) -> anyhow::Result<()> {
             "rel_rms_difference": diff,
             "rel_rms_noise_between_seeds": noise,
             "agree_within_noise": agree,
+            "interreflection": {
+                "decision": decision.method,
+                "estimated_share": decision.estimated_share,
+                "measured_share": change,
+                "tolerance": tol,
+                "mean_noise_between_seeds": mean_noise,
+                "consistent": ir_ok,
+            },
         }));
     }
     let all_agree = out.iter().all(|v| v["agree_within_noise"] == true);
+    let ir_consistent = out
+        .iter()
+        .all(|v| v["interreflection"]["consistent"] == true);
     let total = serde_json::json!({
         "plan_s": t_plan,
         "all_effects_s": t_all,
         "saved_s": t_all - t_plan,
         "saved_fraction": 1.0 - t_plan / f64::max(t_all, 1e-12),
         "all_agree_within_noise": all_agree,
+        "interreflection_decisions_consistent": ir_consistent,
     });
     if args.json {
         print_json(&serde_json::json!({"spp": args.spp, "scenes": out, "total": total}))?;
@@ -240,10 +292,30 @@ fn plan_bench(args: PlanBenchArgs) -> anyhow::Result<()> {
             "| **total** | {t_plan:.3} | {t_all:.3} | {:.0} % | | | {all_agree} |",
             100.0 * (1.0 - t_plan / t_all.max(1e-12))
         );
+        println!(
+            "\n| scene | interreflection | estimated share | measured share (flipped) | tolerance | consistent |"
+        );
+        println!("|---|---|---|---|---|---|");
+        for v in &out {
+            let ir = &v["interreflection"];
+            println!(
+                "| {} | {} | {:.3e} | {:.3e} | {} | {} |",
+                v["scene"].as_str().unwrap_or_default(),
+                ir["decision"].as_str().unwrap_or_default(),
+                ir["estimated_share"].as_f64().unwrap_or(f64::NAN),
+                ir["measured_share"].as_f64().unwrap_or(f64::NAN),
+                ir["tolerance"],
+                ir["consistent"]
+            );
+        }
     }
     anyhow::ensure!(
         all_agree,
         "rendering with every effect forced on changed an image beyond its noise"
+    );
+    anyhow::ensure!(
+        ir_consistent,
+        "an interreflection decision disagrees with its measured share (see the table)"
     );
     Ok(())
 }

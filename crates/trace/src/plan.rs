@@ -26,6 +26,8 @@ pub const PILOT_RAYS: u32 = 64;
 /// Pilot camera grid (at most; never finer than the image).
 pub const PILOT_COLS: u32 = 64;
 pub const PILOT_ROWS: u32 = 48;
+/// Final-gather rays per pilot pixel.
+pub const PILOT_GATHER: usize = 64;
 
 /// How interreflection was decided for a render (in `report.json`).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -232,8 +234,27 @@ impl Tracer {
                         }
                     }
                 }
+                // Indirect irradiance by a final gather on the pilot cache
+                // (reading the coarse cache directly misjudges small lit
+                // patches such as the pools under street lamps).
                 let mut e_i = vec![0.0; nwl];
-                cache.add_indirect_irradiance(f, front, p, &self.ones, &mut e_i);
+                if mat.has_diffuse {
+                    let mut u = Vec::with_capacity(PILOT_GATHER);
+                    crate::tracer::latin_hypercube(PILOT_GATHER, &mut rng, &mut u);
+                    let (tx, ty) = crate::sky_light::orthonormal_basis(ns);
+                    let w = vec![std::f64::consts::PI / PILOT_GATHER as f64; nwl];
+                    for uv in u {
+                        let l = crate::sky_light::cosine_hemisphere(uv);
+                        let dir = (tx * l.x + ty * l.y + ns * l.z).normalize_or_zero();
+                        if let Some((g, gf, y, tau)) = self.gather_hit(p, dir, f, &mut c) {
+                            let s: Vec<f64> = match tau {
+                                None => w.clone(),
+                                Some(t) => w.iter().zip(&t).map(|(a, b)| a * b).collect(),
+                            };
+                            cache.add_radiance(g, gf, y, &s, &mut e_i);
+                        }
+                    }
+                }
                 let mut pix_ind = vec![0.0; nwl];
                 let mut pix_tot = vec![0.0; nwl];
                 for s in 0..nwl {
