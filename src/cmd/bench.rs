@@ -1048,17 +1048,8 @@ fn other_plans(threads: Option<usize>, line_variant: Option<usize>) -> Vec<Plan>
             scene,
         });
     };
-    for x in ["1", "2", "5", "10", "20", "40"] {
-        push(Estimator::Analytic, "spectral_step_nm", x, line_variant);
-    }
-    for x in ["4", "64"] {
-        push(Estimator::Analytic, "area_samples", x, None);
-        push(Estimator::SolidAngle, "area_samples", x, None);
-    }
-    push(Estimator::Analytic, "occlusion", "ratio", None);
-    for x in ["1", "2", "6"] {
-        push(Estimator::Analytic, "recursion", x, None);
-    }
+    // First what this sweep is for: the whole light and renders to a
+    // stated error; then the finer settings.
     // Interreflection: off (the first wave's default: direct light only),
     // brute-force path tracing truncated at k bounces (the truncation bias
     // against the whole-light reference), the cache read without and with
@@ -1073,6 +1064,17 @@ fn other_plans(threads: Option<usize>, line_variant: Option<usize>) -> Vec<Plan>
     // Renders to a stated error.
     for x in ["0.1", "0.05", "0.02", "0.01"] {
         push(Estimator::Analytic, "target_error", x, None);
+    }
+    for x in ["1", "2", "5", "10", "20", "40"] {
+        push(Estimator::Analytic, "spectral_step_nm", x, line_variant);
+    }
+    for x in ["4", "64"] {
+        push(Estimator::Analytic, "area_samples", x, None);
+        push(Estimator::SolidAngle, "area_samples", x, None);
+    }
+    push(Estimator::Analytic, "occlusion", "ratio", None);
+    for x in ["1", "2", "6"] {
+        push(Estimator::Analytic, "recursion", x, None);
     }
     for (key, vals) in [
         ("SAMPLE_AREA_DENSITY", &["4", "16", "64"][..]),
