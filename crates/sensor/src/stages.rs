@@ -77,6 +77,14 @@ pub const ELEMENTARY_CHARGE_C: f64 = 1.602_176_634e-19;
 /// hc in eV nm.
 const HC_EV_NM: f64 = 1_239.841_984;
 
+/// Image-plane irradiance per unit scene radiance on axis, sr: the camera
+/// equation `E / L = π τ / (4 N²)` for a distant scene (working f-number N,
+/// optics transmission τ). The one place this factor is computed: the camera
+/// chain's étendue and the calibration rig's photon count both use it.
+pub fn image_irradiance_per_radiance(f_number: f64, transmission: f64) -> f64 {
+    std::f64::consts::PI * transmission / (4.0 * f_number * f_number)
+}
+
 /// Defaults of a phosphor type.
 #[derive(Clone, Copy, Debug)]
 pub struct PhosphorDefaults {
@@ -345,8 +353,9 @@ impl Chain {
         };
         let o = &cfg.optics;
         let a_pix_m2 = (pitch_cathode_mm * 1e-3).powi(2);
-        let etendue = std::f64::consts::PI * o.transmission * a_pix_m2 * cfg.timing.exposure_s
-            / (4.0 * o.f_number * o.f_number);
+        let etendue = image_irradiance_per_radiance(o.f_number, o.transmission)
+            * a_pix_m2
+            * cfg.timing.exposure_s;
 
         let detect_qe = match (&cfg.photocathode, kind) {
             (Some(p), _) => resolve_spectrum("photocathode.qe", &p.qe)?,
