@@ -99,9 +99,10 @@ pub struct AgcArgs {
     pub grabber: GrabberArgs,
     #[command(flatten)]
     pub source: SourceArgs,
-    /// Gain for the overridden (AGC off) staircase.
-    #[arg(long, default_value_t = 1.0)]
-    pub fixed_gain: f64,
+    /// Gain for the overridden (AGC off) staircase (default: the camera's
+    /// power-up gain).
+    #[arg(long)]
+    pub fixed_gain: Option<f64>,
     /// Frames per staircase step.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
@@ -209,12 +210,12 @@ fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
     Ok(g)
 }
 
-/// Opens the source; auto-ranges a sphere at `gain` when asked.
-/// `range_scale` multiplies the auto-ranged radiance (PTC sweeps past saturation).
+/// Opens the source; auto-ranges a sphere at `gain` (`None`: the camera's
+/// current gain) when asked.
 fn open_source(
     a: &SourceArgs,
     g: &mut dyn FrameGrabber,
-    gain: f64,
+    gain: Option<f64>,
 ) -> anyhow::Result<Box<dyn CalibrationSource>> {
     let file = SourceFile::load(&a.source)?;
     if let Some(frac) = a.auto_range {
@@ -226,14 +227,17 @@ fn open_source(
         }
         let mut s = file.open_sphere(a.levels)?;
         gloam_calib::capture::agc_off(g)?;
-        g.set_gain(gain)?;
+        if let Some(gain) = gain {
+            g.set_gain(gain)?;
+        }
         // Aim at half scale (always reachable), then scale to the request.
         let l50 = auto_range(g, s.lamp_name(), 0.5)?;
         s.scale_max_radiance(l50 * frac / 0.5)?;
         eprintln!(
-            "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at gain {gain})",
+            "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at {})",
             l50 * frac / 0.5,
-            100.0 * frac
+            100.0 * frac,
+            gain.map_or("the camera's power-up gain".into(), |g| format!("gain {g}"))
         );
         return Ok(Box::new(s));
     }
@@ -277,7 +281,7 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
     }
     let mut g = open_grabber(&a.grabber)?;
     let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let mut src = open_source(&a.source, g.as_mut(), top)?;
+    let mut src = open_source(&a.source, g.as_mut(), Some(top))?;
     let opts = RadianceOptions {
         gains: a.gains.clone(),
         frames: a.frames,
@@ -369,7 +373,7 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
     if sa.levels.is_none() {
         sa.levels = Some(50);
     }
-    let mut src = open_source(&sa, g.as_mut(), a.gain)?;
+    let mut src = open_source(&sa, g.as_mut(), Some(a.gain))?;
     if let Some(w) = rig_mismatch(&a.grabber.grabber, src.rig(), a.grabber.exposure_s) {
         eprintln!("warning: {w}");
     }

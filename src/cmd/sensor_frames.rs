@@ -73,6 +73,18 @@ pub fn take_detected_band(render: &mut RenderOutput) -> anyhow::Result<Array2<f6
 
 use super::output::{png16_bytes, write_atomic};
 
+/// Checks the sensor options of a capture (the sensor loads, `--gain` is
+/// in its range, at least one frame) before anything expensive runs.
+pub fn check_options(sensor: &str, gain: Option<f64>, frames: u32) -> anyhow::Result<()> {
+    anyhow::ensure!(frames >= 1, "--frames must be at least 1");
+    let mut camera = Camera::from_preset_or_file(sensor)
+        .with_context(|| format!("loading sensor '{sensor}'"))?;
+    if let Some(g) = gain {
+        camera.set_override_gain(Some(g)).context("--gain")?;
+    }
+    Ok(())
+}
+
 /// What to capture and how.
 pub struct FrameCapture<'a> {
     pub sensor: &'a str,

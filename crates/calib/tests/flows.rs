@@ -463,7 +463,7 @@ fn agc_settles_and_linearises_through_the_lut() {
         &mut cam,
         &mut src,
         &AgcOptions {
-            fixed_gain: 1.0,
+            fixed_gain: Some(1.0),
             frames_per_step: 30,
             ..Default::default()
         },

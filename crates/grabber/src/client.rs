@@ -940,6 +940,12 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
                 g.set_control(Control::AgcEnabled, 0, "AGC")?;
             }
             g.set_control(Control::GainMilli, milli, "gain")
+        })
+        .map_err(|e| match e {
+            GrabError::InvalidSetting(m) => GrabError::InvalidSetting(format!(
+                "gain {gain} refused by the device ({m}); it is outside the camera's range"
+            )),
+            e => e,
         })?;
         self.desired.gain_milli = Some(milli);
         if has_agc {

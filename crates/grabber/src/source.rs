@@ -57,7 +57,12 @@ pub struct SourceInfo {
     pub name: String,
     pub max_width: u32,
     pub max_height: u32,
+    /// Lowest manual gain, thousandths (a setting below it is refused).
+    pub min_gain_milli: u32,
     pub max_gain_milli: u32,
+    /// What sets the gain and over what range, for error messages
+    /// ("MCP 500–1000 V").
+    pub gain_control: String,
     pub max_exposure_us: u32,
     pub has_agc: bool,
     pub has_mcp: bool,
@@ -126,7 +131,9 @@ impl SyntheticSource {
                 name: "synthetic".into(),
                 max_width: width,
                 max_height: height,
+                min_gain_milli: 1,
                 max_gain_milli: 100_000,
+                gain_control: "synthetic gain".into(),
                 max_exposure_us: 10_000_000,
                 has_agc: true,
                 has_mcp: false,

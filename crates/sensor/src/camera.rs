@@ -175,6 +175,7 @@ impl Camera {
                         gain: g,
                         min: self.chain.gain_min,
                         max: self.chain.gain_max,
+                        camera: self.chain.config.name.clone(),
                     });
                 }
                 self.gain = g.clamp(self.chain.gain_min, self.chain.gain_max);
