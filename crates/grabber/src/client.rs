@@ -454,6 +454,7 @@ impl<T: Transport> ProtocolGrabber<T> {
                         height: u32::from(l.height_px),
                         pixels_crc32c: crate::pixels_crc32c(&pixels),
                         status: FrameStatus::Ok,
+                        levels: None,
                     };
                     (l.seq, Ok(Frame { meta, pixels }))
                 }

@@ -479,10 +479,17 @@ impl FrameSource for SensorSource {
         for (o, p) in out.iter_mut().zip(frame.pixels.iter()) {
             *o = *p;
         }
-        let gain_milli = (frame.meta.gain_in_effect * 1000.0)
-            .round()
-            .clamp(0.0, f64::from(u32::MAX)) as u32;
-        Ok(Rendered { gain_milli })
+        let g = frame.meta.gain_in_effect;
+        let gain_milli = (g * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
+        let chain = self.camera.chain();
+        Ok(Rendered {
+            gain_milli,
+            levels: Some(crate::interface::DnLevels {
+                black_dn: chain.black_dn(g),
+                saturation_dn: chain.saturation_dn(g),
+                saturated_at_dn: chain.saturated_threshold_dn(g),
+            }),
+        })
     }
 }
 
@@ -662,6 +669,7 @@ impl<S: FrameSource> FrameGrabber for SimGrabber<S> {
                 height: s.height,
                 pixels_crc32c: crate::pixels_crc32c(&pixels),
                 status: FrameStatus::Ok,
+                levels: r.levels,
             },
             pixels,
         })

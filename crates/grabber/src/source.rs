@@ -44,10 +44,12 @@ impl Default for CaptureSettings {
 }
 
 /// What a source reports with a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rendered {
     /// Gain actually in effect, thousandths (differs from the manual gain under AGC).
     pub gain_milli: u32,
+    /// Black and saturation levels at this frame's settings, if known.
+    pub levels: Option<crate::interface::DnLevels>,
 }
 
 /// Fixed facts about a source.
@@ -222,6 +224,9 @@ impl FrameSource for SyntheticSource {
             self.agc_gain_milli = Some(next.clamp(1.0, f64::from(self.info.max_gain_milli)) as u32);
         }
         self.index += 1;
-        Ok(Rendered { gain_milli })
+        Ok(Rendered {
+            gain_milli,
+            levels: None,
+        })
     }
 }

@@ -20,6 +20,7 @@ pub mod config;
 mod effects;
 mod error;
 pub mod kernel;
+pub mod levels;
 pub mod noise;
 pub mod stages;
 

@@ -722,6 +722,12 @@ impl Chain {
         (fw.min(self.clip_dn(g)).min(self.max_code) + 0.5).floor()
     }
 
+    /// The DN at and above which a pixel counts as saturated at gain `g`
+    /// ([`crate::levels::saturated_threshold_dn`]).
+    pub fn saturated_threshold_dn(&self, g: f64) -> f64 {
+        crate::levels::saturated_threshold_dn(self.saturation_dn(g), self.read_noise_dn(g))
+    }
+
     /// Dark-emission photoelectrons per pixel per frame at gain `g`.
     pub fn ebi_pe(&self, g: f64) -> f64 {
         if self.ebi_pe_ref == 0.0 {
