@@ -130,11 +130,14 @@ impl Rig {
     ) -> Result<Self, CalibError> {
         let chain = gloam_sensor::Chain::new(config)
             .map_err(|e| CalibError::Source(format!("[rig] camera '{label}': {e}")))?;
+        // An ND filter in the camera file is part of its optics; a gated
+        // cathode integrates only for the duty cycle.
+        let duty = config.photocathode.as_ref().map_or(1.0, |p| p.gate_duty);
         Ok(Self {
             pixel_pitch_um: chain.pitch_cathode_mm * 1e3,
             f_number: config.optics.f_number,
-            optics_transmission: config.optics.transmission,
-            exposure_s: config.timing.exposure_s,
+            optics_transmission: config.optics.transmission * 10f64.powf(-config.optics.nd_density),
+            exposure_s: config.timing.exposure_s * duty,
             camera: Some(label.to_string()),
         })
     }

@@ -300,8 +300,8 @@ pub struct Chain {
     pub pitch_cathode_mm: f64,
     /// Pixel pitch on the CCD, mm.
     pub pitch_ccd_mm: f64,
-    /// `π τ A_pix t / (4 N²)`, m² sr s: photons per pixel per frame per unit
-    /// spectral photon radiance.
+    /// `π τ 10^−D d A_pix t / (4 N²)` (ND density D, gate duty d), m² sr s:
+    /// photons per pixel per frame per unit spectral photon radiance.
     pub etendue_m2_sr_s: f64,
     /// QE of the first detecting surface (photocathode, or the CCD itself).
     pub detect_qe: Spectrum,
@@ -353,7 +353,12 @@ impl Chain {
         };
         let o = &cfg.optics;
         let a_pix_m2 = (pitch_cathode_mm * 1e-3).powi(2);
+        // Light reaching the detector per frame: the camera equation, the
+        // ND filter 10^−D and, for a gated cathode, the duty cycle.
+        let duty = cfg.photocathode.as_ref().map_or(1.0, |p| p.gate_duty);
         let etendue = image_irradiance_per_radiance(o.f_number, o.transmission)
+            * 10f64.powf(-o.nd_density)
+            * duty
             * a_pix_m2
             * cfg.timing.exposure_s;
 
@@ -414,7 +419,10 @@ impl Chain {
             let s = ELEMENTARY_CHARGE_C * electrons_per_w / lumens;
             luminous_sensitivity_a_lm = Some(s);
             let a_pix_cm2 = (pitch_cathode_mm * 0.1).powi(2);
-            ebi_pe_ref = p.ebi_lm_cm2 * s / ELEMENTARY_CHARGE_C * a_pix_cm2 * cfg.timing.exposure_s;
+            ebi_pe_ref = p.ebi_lm_cm2 * s / ELEMENTARY_CHARGE_C
+                * a_pix_cm2
+                * cfg.timing.exposure_s
+                * p.gate_duty;
             ebi_exponent = p.ebi_gain_exponent;
         }
 
