@@ -32,9 +32,7 @@ port_fraction = 0.02
 method = "aperture"
 
 [rig]
-pixel_pitch_um = 13.5
-f_number = 2.0
-exposure_s = 1.0
+camera = "scientific-ccd"
 "#;
 
 const CAM: &str = "sim:scientific-ccd?size=48x48&seed=3";
@@ -211,9 +209,89 @@ fn ptc_writes_emva_figures_and_dataset() {
     );
     assert!((k / k_true - 1.0).abs() < 0.02);
     assert!((rn / rn_true - 1.0).abs() < 0.05);
+    // QE: the rig takes the camera's own optics, so photon transfer recovers
+    // the preset's QE, photon-weighted over the stimulus (CIE A, 400–1000 nm).
+    let qe = v["quantum_efficiency"].as_f64().unwrap();
+    let qe_true = preset_qe_under_cie_a("scientific-ccd");
+    eprintln!(
+        "sim PTC: QE {qe:.5} vs preset {qe_true:.5} ({:+.3} %)",
+        100.0 * (qe / qe_true - 1.0)
+    );
+    assert!((qe / qe_true - 1.0).abs() < 0.015, "QE {qe} vs {qe_true}");
+    assert_eq!(v["rig"]["camera"], "scientific-ccd");
+    assert!((v["rig"]["optics_transmission"].as_f64().unwrap() - 0.9).abs() < 1e-12);
     let desc = std::fs::read_to_string(out.join("emva1288/emva1288_descriptor.txt")).unwrap();
     assert!(desc.contains("\nn 16 96 96\n"));
     assert!(out.join("photon_transfer.png").exists());
+}
+
+/// The photon-weighted mean QE `∫ P(λ) λ QE(λ) dλ / ∫ P(λ) λ dλ` over
+/// 400–1000 nm of a plain-CCD preset's QE table under CIE illuminant A,
+/// computed here from Planck's law (CIE A is a 2856 K Planckian radiator with
+/// c₂ = 1.435e7 nm K) and linear interpolation of the table: independent of
+/// the spectra crate and the camera chain.
+fn preset_qe_under_cie_a(preset: &str) -> f64 {
+    let cfg = gloam_sensor::load_preset_or_file(preset).unwrap();
+    let Some(gloam_sensor::config::SpectrumRef::Table {
+        wavelength_nm,
+        value,
+    }) = cfg.ccd.qe
+    else {
+        panic!("{preset}: QE is not a table");
+    };
+    let qe = |l: f64| {
+        let i = wavelength_nm
+            .partition_point(|&w| w <= l)
+            .clamp(1, wavelength_nm.len() - 1);
+        let (w0, w1) = (wavelength_nm[i - 1], wavelength_nm[i]);
+        value[i - 1] + (value[i] - value[i - 1]) * (l - w0) / (w1 - w0)
+    };
+    let planck = |l: f64| l.powi(-5) / ((1.435e7 / (l * 2856.0)).exp() - 1.0);
+    let (mut num, mut den) = (0.0, 0.0);
+    let n = 60_000;
+    for i in 0..=n {
+        let l = 400.0 + 600.0 * i as f64 / n as f64;
+        let w = if i == 0 || i == n { 0.5 } else { 1.0 };
+        let p = w * planck(l) * l;
+        num += p * qe(l);
+        den += p;
+    }
+    num / den
+}
+
+#[test]
+fn ptc_warns_when_the_rig_is_not_the_simulated_camera() {
+    // f/2 without τ (so τ = 1) in front of the scientific CCD, whose lens has
+    // τ = 0.9: the rig counts 1/0.9 − 1 = 11.1 % more photons.
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("sphere.toml");
+    std::fs::write(
+        &src,
+        SPHERE.replace(
+            "camera = \"scientific-ccd\"",
+            "pixel_pitch_um = 13.5\nf_number = 2.0\nexposure_s = 1.0",
+        ),
+    )
+    .unwrap();
+    let out = gloam()
+        .args([
+            "calibrate",
+            "ptc",
+            "--grabber",
+            "sim:scientific-ccd?size=32x32&seed=8",
+            "--source",
+        ])
+        .arg(&src)
+        .args(["--levels", "20", "--gain", "1", "--auto-range", "1.4"])
+        .args(["--spatial-frames", "2", "--out"])
+        .arg(dir.path().join("ptc"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("11.11 % more photons") && stderr.contains("camera = \"scientific-ccd\""),
+        "{stderr}"
+    );
 }
 
 #[test]

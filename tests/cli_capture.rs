@@ -203,3 +203,52 @@ fn grabbers_lists_serial_usb_and_sim() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("USB devices:") && text.contains("serial ports:"));
 }
+
+/// Captures one frame from `uri` at `gain` into a fresh directory; returns
+/// its frames.jsonl record and stderr.
+fn capture_one(uri: &str, gain: &str) -> (serde_json::Value, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cap");
+    let o = Command::new(BIN)
+        .args(["capture", "--grabber", uri, "--gain", gain, "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(o.status.success(), "{stderr}");
+    let text = std::fs::read_to_string(out.join("frames.jsonl")).unwrap();
+    (
+        serde_json::from_str(text.lines().next().unwrap()).unwrap(),
+        stderr,
+    )
+}
+
+#[test]
+fn capture_records_the_saturated_fraction_and_warns() {
+    // The scientific CCD's uniform rig: ~20 500 DN above its 500 DN black at
+    // gain 1 (saturation 63 000 DN: none saturated). At gain 4 that is
+    // ~82 000 DN, 40 σ past the top code 65 535 (which the 4 × 100 000 e⁻ /
+    // 1.6 e⁻/DN full well cannot reach first): all 24 × 16 pixels saturated.
+    let uri = "sim:scientific-ccd?size=24x16&seed=2";
+    let (rec, stderr) = capture_one(uri, "1");
+    assert_eq!(rec["saturated_fraction"].as_f64().unwrap(), 0.0, "{rec}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let (rec, stderr) = capture_one(uri, "4");
+    assert_eq!(rec["saturated_fraction"].as_f64().unwrap(), 1.0, "{rec}");
+    assert!(
+        stderr.contains("100.00 % of pixels saturated (warning above 1 %)")
+            && stderr.contains("near full scale"),
+        "{stderr}"
+    );
+    assert!(rec["warnings"].as_array().unwrap().len() == 2, "{rec}");
+    // A capped lens: the mean sits at the black level (offset 500 DN).
+    let (rec, stderr) = capture_one("sim:scientific-ccd?rig=dark&size=24x16", "1");
+    assert!(
+        (rec["mean_dn"].as_f64().unwrap() - 500.0).abs() < 1.0,
+        "{rec}"
+    );
+    assert!(
+        stderr.contains("within 4 DN of black (500.0 DN)"),
+        "{stderr}"
+    );
+}

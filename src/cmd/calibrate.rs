@@ -99,9 +99,10 @@ pub struct AgcArgs {
     pub grabber: GrabberArgs,
     #[command(flatten)]
     pub source: SourceArgs,
-    /// Gain for the overridden (AGC off) staircase.
-    #[arg(long, default_value_t = 1.0)]
-    pub fixed_gain: f64,
+    /// Gain for the overridden (AGC off) staircase (default: the camera's
+    /// power-up gain).
+    #[arg(long)]
+    pub fixed_gain: Option<f64>,
     /// Frames per staircase step.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
@@ -209,12 +210,12 @@ fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
     Ok(g)
 }
 
-/// Opens the source; auto-ranges a sphere at `gain` when asked.
-/// `range_scale` multiplies the auto-ranged radiance (PTC sweeps past saturation).
+/// Opens the source; auto-ranges a sphere at `gain` (`None`: the camera's
+/// current gain) when asked.
 fn open_source(
     a: &SourceArgs,
     g: &mut dyn FrameGrabber,
-    gain: f64,
+    gain: Option<f64>,
 ) -> anyhow::Result<Box<dyn CalibrationSource>> {
     let file = SourceFile::load(&a.source)?;
     if let Some(frac) = a.auto_range {
@@ -226,14 +227,17 @@ fn open_source(
         }
         let mut s = file.open_sphere(a.levels)?;
         gloam_calib::capture::agc_off(g)?;
-        g.set_gain(gain)?;
+        if let Some(gain) = gain {
+            g.set_gain(gain)?;
+        }
         // Aim at half scale (always reachable), then scale to the request.
         let l50 = auto_range(g, s.lamp_name(), 0.5)?;
         s.scale_max_radiance(l50 * frac / 0.5)?;
         eprintln!(
-            "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at gain {gain})",
+            "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at {})",
             l50 * frac / 0.5,
-            100.0 * frac
+            100.0 * frac,
+            gain.map_or("the camera's power-up gain".into(), |g| format!("gain {g}"))
         );
         return Ok(Box::new(s));
     }
@@ -277,7 +281,7 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
     }
     let mut g = open_grabber(&a.grabber)?;
     let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let mut src = open_source(&a.source, g.as_mut(), top)?;
+    let mut src = open_source(&a.source, g.as_mut(), Some(top))?;
     let opts = RadianceOptions {
         gains: a.gains.clone(),
         frames: a.frames,
@@ -369,7 +373,10 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
     if sa.levels.is_none() {
         sa.levels = Some(50);
     }
-    let mut src = open_source(&sa, g.as_mut(), a.gain)?;
+    let mut src = open_source(&sa, g.as_mut(), Some(a.gain))?;
+    if let Some(w) = rig_mismatch(&a.grabber.grabber, src.rig(), a.grabber.exposure_s) {
+        eprintln!("warning: {w}");
+    }
     let opts = PtcOptions {
         gain: a.gain,
         exposure_s: a.grabber.exposure_s,
@@ -393,6 +400,49 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
     );
     eprintln!("wrote {}", a.out.join("ptc.json").display());
     Ok(())
+}
+
+/// For a simulated camera: how far the source's `[rig]` photon count is
+/// from what that camera receives (its own lens, pixel and exposure), as a
+/// warning naming the QE bias; `None` when they agree within 0.1 % or the
+/// grabber is not simulated.
+fn rig_mismatch(
+    uri: &str,
+    rig: Option<&gloam_calib::source::Rig>,
+    exposure_s: Option<f64>,
+) -> Option<String> {
+    let rig = rig?;
+    let gloam_grabber::GrabberUri::Sim { preset, .. } =
+        gloam_grabber::GrabberUri::parse(uri).ok()?
+    else {
+        return None;
+    };
+    let mut cfg = gloam_sensor::load_preset_or_file(&preset).ok()?;
+    if let Some(e) = exposure_s {
+        cfg.timing.exposure_s = e;
+    }
+    let cam = gloam_calib::source::Rig::from_camera(&cfg, &preset).ok()?;
+    let photons = |r: &gloam_calib::source::Rig| {
+        (r.pixel_pitch_um * 1e-6).powi(2) * r.exposure_s * r.irradiance_factor()
+    };
+    let ratio = photons(rig) / photons(&cam);
+    ((ratio - 1.0).abs() > 1e-3).then(|| {
+        format!(
+            "the source's [rig] (pitch {} µm, f/{}, τ {}, {} s) counts {:.2} % {} photons than the simulated '{preset}' receives (pitch {:.4} µm, f/{}, τ {}, {} s): its QE will read {:.2} % {}; use camera = \"{preset}\" in [rig]",
+            rig.pixel_pitch_um,
+            rig.f_number,
+            rig.optics_transmission,
+            rig.exposure_s,
+            100.0 * (ratio - 1.0).abs(),
+            if ratio > 1.0 { "more" } else { "fewer" },
+            cam.pixel_pitch_um,
+            cam.f_number,
+            cam.optics_transmission,
+            cam.exposure_s,
+            100.0 * (1.0 / ratio - 1.0).abs(),
+            if ratio > 1.0 { "low" } else { "high" },
+        )
+    })
 }
 
 fn read_usaf_ctf(path: &Path) -> anyhow::Result<Vec<(i32, i32, f64)>> {

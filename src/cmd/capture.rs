@@ -58,6 +58,15 @@ struct FrameRecord {
     height: u32,
     pixels_crc32c: u32,
     status: FrameStatus,
+    mean_dn: f64,
+    /// Fraction of pixels at or above `saturated_at_dn`.
+    saturated_fraction: f64,
+    /// The camera's saturated level when it reports one (simulated
+    /// cameras), else the top code 2^bits − 1.
+    saturated_at_dn: f64,
+    /// Exposure warnings for this frame (also printed on stderr).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    warnings: Vec<String>,
 }
 
 #[derive(Default)]
@@ -112,6 +121,8 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     let mut records = Vec::new();
     let mut losses = Losses::default();
     let mut consecutive = 0u64;
+    let mut warned = std::collections::BTreeSet::new();
+    let mut frames_warned = 0u64;
     let jsonl_path = args.out.join("frames.jsonl");
     let write_jsonl = |records: &[FrameRecord]| -> anyhow::Result<()> {
         let mut text = String::new();
@@ -132,6 +143,16 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                         &args.out.join(&file),
                         &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?,
                     )?;
+                    let exposure = f.exposure();
+                    for (w, k) in exposure.warnings.iter().zip(&exposure.warning_kinds) {
+                        // Each kind once on stderr (every frame keeps its own in frames.jsonl).
+                        if warned.insert(*k) {
+                            bar.suspend(|| eprintln!("warning: frame {index}: {w}"));
+                        }
+                    }
+                    if !exposure.warnings.is_empty() {
+                        frames_warned += 1;
+                    }
                     records.push(FrameRecord {
                         index,
                         file,
@@ -144,6 +165,15 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                         height: f.meta.height,
                         pixels_crc32c: f.meta.pixels_crc32c,
                         status: f.meta.status,
+                        mean_dn: exposure.mean_dn,
+                        saturated_fraction: exposure.saturated_fraction,
+                        saturated_at_dn: f
+                            .meta
+                            .levels
+                            .map_or(f64::from((1u32 << f.meta.bits.min(16)) - 1), |l| {
+                                l.saturated_at_dn
+                            }),
+                        warnings: exposure.warnings,
                     });
                     bar.inc(1);
                 }
@@ -181,6 +211,11 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         losses.damaged,
         losses.lost
     );
+    if frames_warned > 0 {
+        summary.push_str(&format!(
+            "; {frames_warned} frame(s) with exposure warnings (see frames.jsonl)"
+        ));
+    }
     if losses.interruptions > 0 {
         summary.push_str(&format!(
             ", {} interruption(s) ({} with an unknown number of lost frames)",

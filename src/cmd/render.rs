@@ -116,6 +116,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut plan = gloam_scene::plan::plan(&scene);
     // With a camera, the render also carries its detector-weighted band.
     let sensor = args.sensor.clone().or_else(|| scene.sensor.clone());
+    // Refuse bad sensor options now, not after the whole trace.
+    if let Some(s) = &sensor {
+        super::sensor_frames::check_options(s, args.gain, args.frames)?;
+    }
     let traced = match &sensor {
         Some(s) => super::sensor_frames::with_detected_band(&scene, s)?,
         None => scene.clone(),

@@ -73,6 +73,34 @@ pub fn take_detected_band(render: &mut RenderOutput) -> anyhow::Result<Array2<f6
 
 use super::output::{png16_bytes, write_atomic};
 
+/// Checks the sensor options of a capture (the sensor loads, `--gain` is
+/// in its range, at least one frame) before anything expensive runs.
+pub fn check_options(sensor: &str, gain: Option<f64>, frames: u32) -> anyhow::Result<()> {
+    anyhow::ensure!(frames >= 1, "--frames must be at least 1");
+    let mut camera = Camera::from_preset_or_file(sensor)
+        .with_context(|| format!("loading sensor '{sensor}'"))?;
+    if let Some(g) = gain {
+        camera.set_override_gain(Some(g)).context("--gain")?;
+    }
+    Ok(())
+}
+
+/// Adds `sensor_capture` (per-frame mean, saturated fraction, warnings) to
+/// the render's `report.json` in `out`, when there is one.
+fn record_in_report(out: &Path, capture: serde_json::Value) -> anyhow::Result<()> {
+    let path = out.join("report.json");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(());
+    };
+    let mut report: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+    if let Some(obj) = report.as_object_mut() {
+        obj.insert("sensor_capture".into(), capture);
+        write_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    }
+    Ok(())
+}
+
 /// What to capture and how.
 pub struct FrameCapture<'a> {
     pub sensor: &'a str,
@@ -99,6 +127,12 @@ struct FrameRecord<'a> {
     height: usize,
     pixels_crc32c: u32,
     status: &'static str,
+    mean_dn: f64,
+    /// Fraction of pixels at or above `saturated_at_dn`.
+    saturated_fraction: f64,
+    saturated_at_dn: f64,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    warnings: Vec<String>,
     sensor: &'a gloam_sensor::FrameMeta,
 }
 
@@ -119,6 +153,8 @@ impl FrameCapture<'_> {
             camera.set_agc(true);
         }
         let mut jsonl = Vec::new();
+        let mut warned = std::collections::BTreeSet::new();
+        let mut per_frame = Vec::new();
         for i in 0..self.frames {
             let frame = camera
                 .capture_detected(detected.view())
@@ -128,6 +164,24 @@ impl FrameCapture<'_> {
             let file = format!("frame-{i:06}.png");
             write_atomic(&out.join(&file), &png16_bytes(w as u32, h as u32, &pixels)?)?;
             let m = &frame.meta;
+            let g = m.gain_in_effect;
+            let chain = camera.chain();
+            let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
+            let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
+            let warnings = gloam_sensor::levels::exposure_warnings(args.0, args.1, args.2, args.3);
+            let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
+            for (w, k) in warnings.iter().zip(&kinds) {
+                if warned.insert(*k) {
+                    eprintln!("warning: frame {i}: {w}");
+                }
+            }
+            per_frame.push(serde_json::json!({
+                "file": format!("frame-{i:06}.png"),
+                "gain": g,
+                "mean_dn": m.mean_dn,
+                "saturated_fraction": m.saturated_fraction,
+                "warnings": kinds,
+            }));
             let rec = FrameRecord {
                 index: i,
                 file,
@@ -140,6 +194,10 @@ impl FrameCapture<'_> {
                 height: h,
                 pixels_crc32c: gloam_grabber::pixels_crc32c(&pixels),
                 status: "ok",
+                mean_dn: m.mean_dn,
+                saturated_fraction: m.saturated_fraction,
+                saturated_at_dn: chain.saturated_threshold_dn(g),
+                warnings,
                 sensor: m,
             };
             serde_json::to_writer(&mut jsonl, &rec)?;
@@ -147,6 +205,18 @@ impl FrameCapture<'_> {
             // Rewritten after every frame so an interrupted run keeps what it captured.
             write_atomic(&out.join("frames.jsonl"), &jsonl)?;
         }
+        record_in_report(
+            out,
+            serde_json::json!({
+                "sensor": self.sensor,
+                "frames": per_frame,
+                "thresholds": {
+                    "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                    "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
+                    "near_black_dn": gloam_sensor::levels::NEAR_BLACK_DN,
+                },
+            }),
+        )?;
         eprintln!(
             "captured {} frame(s) through '{}' → {}",
             self.frames,

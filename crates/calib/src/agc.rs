@@ -23,8 +23,9 @@ use crate::stats::weighted_linear_fit;
 
 #[derive(Clone, Debug)]
 pub struct AgcOptions {
-    /// Gain used for the overridden (fixed) run.
-    pub fixed_gain: f64,
+    /// Gain used for the overridden (fixed) run; `None`: the camera's
+    /// current gain with AGC off.
+    pub fixed_gain: Option<f64>,
     /// Frames captured per staircase step.
     pub frames_per_step: usize,
     /// Relative tolerance on the final gain for "settled".
@@ -36,7 +37,7 @@ pub struct AgcOptions {
 impl Default for AgcOptions {
     fn default() -> Self {
         Self {
-            fixed_gain: 1.0,
+            fixed_gain: None,
             frames_per_step: 60,
             settle_tolerance: 0.02,
             allow_unsettled: false,
@@ -133,7 +134,9 @@ pub fn agc_linearisation(
         }
         Ok(out)
     };
-    grabber.set_gain(opts.fixed_gain)?;
+    if let Some(g) = opts.fixed_gain {
+        grabber.set_gain(g)?;
+    }
     crate::capture::agc_off(grabber)?;
     let fixed = run(grabber, source, &mut done)?;
     grabber.set_agc(true)?;

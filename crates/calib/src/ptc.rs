@@ -98,6 +98,8 @@ pub struct PtcResult {
     pub dsnu_dn: f64,
     pub prnu_percent: f64,
     pub k_fit_points: usize,
+    /// The pixel and optics geometry the photon counts came from.
+    pub rig: Option<crate::source::Rig>,
     /// Relative deviations (%) of the linearity fit at each point used.
     pub linearity_residuals_percent: Vec<(f64, f64)>,
     pub points: Vec<PtcPoint>,
@@ -167,6 +169,7 @@ pub fn photon_transfer(
     }
     progress(1, total);
     let rig = source.rig().cloned();
+    let rig_used = rig.clone();
     let band = source.camera().band_nm;
     let mut points = Vec::new();
     let mut levels = Vec::new();
@@ -356,6 +359,7 @@ pub fn photon_transfer(
         dsnu_dn,
         prnu_percent: prnu,
         k_fit_points: sel.len(),
+        rig: rig_used,
         linearity_residuals_percent: lin_res,
         points,
         warnings,

@@ -103,31 +103,53 @@ impl CameraBand {
 
 /// Geometry that turns radiance into photons per pixel (EMVA 1288 needs the
 /// photon count for quantum efficiency).
-#[derive(Clone, Debug, PartialEq, Deserialize, serde::Serialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Rig {
-    /// Pixel pitch (square pixels), µm; pixel area = pitch².
+    /// Pixel pitch at the detecting surface (square pixels), µm; pixel
+    /// area = pitch². For an intensified camera, the pitch referred to the
+    /// photocathode (CCD pitch / coupling magnification).
     pub pixel_pitch_um: f64,
-    /// f-number of the cone that reaches the sensor: a lens's working f/#,
-    /// or in the lensless EMVA set-up distance / port diameter.
+    /// Working f-number N of the lens in front of the sensor.
     pub f_number: f64,
     /// Transmission of the optics (1 for the lensless set-up).
-    #[serde(default = "one")]
     pub optics_transmission: f64,
     /// Exposure (integration or gate) time, s.
     pub exposure_s: f64,
-}
-
-fn one() -> f64 {
-    1.0
+    /// The sensor preset or file the optics and pixels were taken from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera: Option<String>,
 }
 
 impl Rig {
-    /// On-axis irradiance from a uniform radiance through a cone of f-number
-    /// N: `E = τ π L / (1 + 4N²)` (exact for a disk source; EMVA 1288).
+    /// The rig of a camera: its own lens (f-number, transmission), pixel
+    /// pitch at the detecting surface and exposure, so photon counts use
+    /// exactly the optics the camera chain models.
+    pub fn from_camera(
+        config: &gloam_sensor::SensorConfig,
+        label: &str,
+    ) -> Result<Self, CalibError> {
+        let chain = gloam_sensor::Chain::new(config)
+            .map_err(|e| CalibError::Source(format!("[rig] camera '{label}': {e}")))?;
+        // An ND filter in the camera file is part of its optics; a gated
+        // cathode integrates only for the duty cycle.
+        let duty = config.photocathode.as_ref().map_or(1.0, |p| p.gate_duty);
+        Ok(Self {
+            pixel_pitch_um: chain.pitch_cathode_mm * 1e3,
+            f_number: config.optics.f_number,
+            optics_transmission: config.optics.transmission * 10f64.powf(-config.optics.nd_density),
+            exposure_s: config.timing.exposure_s * duty,
+            camera: Some(label.to_string()),
+        })
+    }
+
+    /// On-axis image irradiance per unit radiance, sr: the camera equation
+    /// `E / L = π τ / (4 N²)` of the sensor chain
+    /// ([`gloam_sensor::image_irradiance_per_radiance`]), so a rig that
+    /// describes a simulated camera counts the photons that camera receives.
+    /// (A lensless EMVA set-up with a disk port of diameter D at distance d
+    /// has `π / (1 + 4 (d/D)²)`: give `f_number = sqrt((d/D)² + 1/4)`.)
     pub fn irradiance_factor(&self) -> f64 {
-        self.optics_transmission * std::f64::consts::PI
-            / (1.0 + 4.0 * self.f_number * self.f_number)
+        gloam_sensor::image_irradiance_per_radiance(self.f_number, self.optics_transmission)
     }
 
     /// Mean photons per pixel per exposure over `band_nm`:
@@ -144,18 +166,34 @@ impl Rig {
     fn validate(&self) -> Result<(), CalibError> {
         let ok = |v: f64| v.is_finite() && v > 0.0;
         if !(ok(self.pixel_pitch_um)
-            && self.f_number.is_finite()
-            && self.f_number >= 0.0
+            && ok(self.f_number)
             && ok(self.optics_transmission)
             && self.optics_transmission <= 1.0
             && ok(self.exposure_s))
         {
             return Err(CalibError::Source(format!(
-                "[rig] needs pixel_pitch_um > 0, f_number ≥ 0, 0 < optics_transmission ≤ 1 and exposure_s > 0 (got {self:?})"
+                "[rig] needs pixel_pitch_um > 0, f_number > 0, 0 < optics_transmission ≤ 1 and exposure_s > 0 (got {self:?})"
             )));
         }
         Ok(())
     }
+}
+
+/// The `[rig]` table: either every number, or `camera = "PRESET_OR_FILE"`
+/// (the numbers come from that sensor; any number given overrides it).
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigToml {
+    #[serde(default)]
+    camera: Option<String>,
+    #[serde(default)]
+    pixel_pitch_um: Option<f64>,
+    #[serde(default)]
+    f_number: Option<f64>,
+    #[serde(default)]
+    optics_transmission: Option<f64>,
+    #[serde(default)]
+    exposure_s: Option<f64>,
 }
 
 /// A simulated integrating sphere.
@@ -466,7 +504,7 @@ struct FileToml {
     #[serde(default)]
     camera: Option<CameraToml>,
     #[serde(default)]
-    rig: Option<Rig>,
+    rig: Option<RigToml>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -602,13 +640,53 @@ impl SourceFile {
     }
 
     fn rig(&self) -> Result<Option<Rig>, CalibError> {
-        match &self.parsed.rig {
-            Some(r) => {
-                r.validate().map_err(|e| self.err(e))?;
-                Ok(Some(r.clone()))
+        let Some(r) = &self.parsed.rig else {
+            return Ok(None);
+        };
+        let mut rig = match &r.camera {
+            Some(name) => {
+                // A relative sensor file resolves against the source file.
+                let p = self.base_dir.join(name);
+                let key = if gloam_sensor::SensorConfig::preset(name).is_none() && p.exists() {
+                    p.display().to_string()
+                } else {
+                    name.clone()
+                };
+                let cfg = gloam_sensor::load_preset_or_file(&key)
+                    .map_err(|e| self.err(format!("[rig] camera: {e}")))?;
+                Rig::from_camera(&cfg, name).map_err(|e| self.err(e))?
             }
-            None => Ok(None),
+            None => {
+                let need = |v: Option<f64>, name: &str| {
+                    v.ok_or_else(|| {
+                        self.err(format!(
+                            "[rig] needs {name} (or camera = \"PRESET_OR_FILE\" to take the camera's own optics)"
+                        ))
+                    })
+                };
+                Rig {
+                    pixel_pitch_um: need(r.pixel_pitch_um, "pixel_pitch_um")?,
+                    f_number: need(r.f_number, "f_number")?,
+                    optics_transmission: r.optics_transmission.unwrap_or(1.0),
+                    exposure_s: need(r.exposure_s, "exposure_s")?,
+                    camera: None,
+                }
+            }
+        };
+        if let Some(v) = r.pixel_pitch_um {
+            rig.pixel_pitch_um = v;
         }
+        if let Some(v) = r.f_number {
+            rig.f_number = v;
+        }
+        if let Some(v) = r.optics_transmission {
+            rig.optics_transmission = v;
+        }
+        if let Some(v) = r.exposure_s {
+            rig.exposure_s = v;
+        }
+        rig.validate().map_err(|e| self.err(e))?;
+        Ok(Some(rig))
     }
 
     /// Opens a sphere source. `levels`: when the file lists no explicit
@@ -838,6 +916,51 @@ densities = [0.0, 1.0]
         let b = s.set_level(1).unwrap();
         assert!((b.band_radiance_w_m2_sr / a.band_radiance_w_m2_sr - 0.1).abs() < 1e-12);
         assert!(f.open_sphere(Some(3)).is_err());
+    }
+
+    #[test]
+    fn rig_from_camera_counts_the_photons_the_chain_receives() {
+        let text = |rig: &str| {
+            format!(
+                "[source]\nkind = \"sphere\"\nlamp_flux_w = 1.0\nsphere_diameter_m = 0.5\nreflectance = 0.98\nport_fraction = 0.02\n[dimming]\nmethod = \"aperture\"\n[rig]\n{rig}\n"
+            )
+        };
+        for preset in ["scientific-ccd", "gen3-gaas-iccd"] {
+            let f = SourceFile::parse(
+                &text(&format!("camera = \"{preset}\"")),
+                Path::new("."),
+                "t.toml",
+            )
+            .unwrap();
+            let rig = f.rig().unwrap().unwrap();
+            let cfg = gloam_sensor::load_preset_or_file(preset).unwrap();
+            let chain = gloam_sensor::Chain::new(&cfg).unwrap();
+            // Étendue × exposure of the chain: π τ A t / (4 N²), written out.
+            let (n, tau) = (cfg.optics.f_number, cfg.optics.transmission);
+            let a = (chain.pitch_cathode_mm * 1e-3).powi(2);
+            let want = std::f64::consts::PI * tau * a * cfg.timing.exposure_s / (4.0 * n * n);
+            let got =
+                (rig.pixel_pitch_um * 1e-6).powi(2) * rig.exposure_s * rig.irradiance_factor();
+            assert!(
+                (got / want - 1.0).abs() < 1e-12,
+                "{preset}: {got} vs {want}"
+            );
+            assert!((chain.etendue_m2_sr_s / want - 1.0).abs() < 1e-12);
+        }
+        // A number given next to `camera` overrides the camera's.
+        let f = SourceFile::parse(
+            &text("camera = \"scientific-ccd\"\nexposure_s = 0.5"),
+            Path::new("."),
+            "t.toml",
+        )
+        .unwrap();
+        let rig = f.rig().unwrap().unwrap();
+        assert_eq!((rig.exposure_s, rig.optics_transmission), (0.5, 0.9));
+        // Missing numbers without a camera, and an unknown camera: errors.
+        let f = SourceFile::parse(&text("f_number = 2.0"), Path::new("."), "t.toml").unwrap();
+        assert!(f.rig().unwrap_err().to_string().contains("pixel_pitch_um"));
+        let f = SourceFile::parse(&text("camera = \"nope\""), Path::new("."), "t.toml").unwrap();
+        assert!(f.rig().is_err());
     }
 
     #[test]

@@ -36,7 +36,9 @@ method = "aperture"
 
 [rig]
 pixel_pitch_um = 10.0
-f_number = 2.0
+# √4.25: π/(4N²) = π/17, the photon count of a lensless f/2 port (the mock
+# camera's full well and the level counts below are set for it).
+f_number = 2.0615528128088303
 optics_transmission = 1.0
 exposure_s = 1e-5
 "#
@@ -461,7 +463,7 @@ fn agc_settles_and_linearises_through_the_lut() {
         &mut cam,
         &mut src,
         &AgcOptions {
-            fixed_gain: 1.0,
+            fixed_gain: Some(1.0),
             frames_per_step: 30,
             ..Default::default()
         },

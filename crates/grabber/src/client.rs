@@ -454,6 +454,7 @@ impl<T: Transport> ProtocolGrabber<T> {
                         height: u32::from(l.height_px),
                         pixels_crc32c: crate::pixels_crc32c(&pixels),
                         status: FrameStatus::Ok,
+                        levels: None,
                     };
                     (l.seq, Ok(Frame { meta, pixels }))
                 }
@@ -940,6 +941,12 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
                 g.set_control(Control::AgcEnabled, 0, "AGC")?;
             }
             g.set_control(Control::GainMilli, milli, "gain")
+        })
+        .map_err(|e| match e {
+            GrabError::InvalidSetting(m) => GrabError::InvalidSetting(format!(
+                "gain {gain} refused by the device ({m}); it is outside the camera's range"
+            )),
+            e => e,
         })?;
         self.desired.gain_milli = Some(milli);
         if has_agc {

@@ -167,8 +167,13 @@ impl<S: FrameSource> Hal for SourceHal<'_, S> {
         Some(21_500)
     }
 
-    fn set_gain(&mut self, _gain_milli: u32) -> Result<(), ErrorCode> {
-        Ok(())
+    fn set_gain(&mut self, gain_milli: u32) -> Result<(), ErrorCode> {
+        let info = self.source.info();
+        if (info.min_gain_milli..=info.max_gain_milli).contains(&gain_milli) {
+            Ok(())
+        } else {
+            Err(ErrorCode::OUT_OF_RANGE)
+        }
     }
 
     fn apply_control(

@@ -31,6 +31,62 @@ pub struct FrameMeta {
     /// CRC-32C (Castagnoli) of the pixels as little-endian u16 bytes.
     pub pixels_crc32c: u32,
     pub status: FrameStatus,
+    /// The camera's black and saturation levels for this frame, when it
+    /// knows them (simulated cameras); `None` over the wire.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<DnLevels>,
+}
+
+/// A camera's output levels at the settings of one frame, DN.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DnLevels {
+    /// Output with no light.
+    pub black_dn: f64,
+    /// Where the output saturates (full well, video clip or top code).
+    pub saturation_dn: f64,
+    /// Pixels at or above this count as saturated.
+    pub saturated_at_dn: f64,
+}
+
+/// Where a frame sits in its range ([`gloam_sensor::levels`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FrameExposure {
+    pub mean_dn: f64,
+    /// Fraction of pixels at or above the saturated level (the camera's,
+    /// else the top code `2^bits − 1`).
+    pub saturated_fraction: f64,
+    /// Exposure warnings (empty when well exposed) and their kinds.
+    pub warnings: Vec<String>,
+    pub warning_kinds: Vec<gloam_sensor::levels::WarningKind>,
+}
+
+impl Frame {
+    /// The frame's mean, saturated fraction and exposure warnings.
+    pub fn exposure(&self) -> FrameExposure {
+        let top = f64::from((1u32 << self.meta.bits.min(16)) - 1);
+        let (black, sat, at) = match self.meta.levels {
+            Some(l) => (Some(l.black_dn), l.saturation_dn, l.saturated_at_dn),
+            None => (None, top, top),
+        };
+        let mean_dn = gloam_sensor::levels::mean_dn(&self.pixels);
+        let saturated_fraction = gloam_sensor::levels::saturated_fraction(&self.pixels, at);
+        FrameExposure {
+            mean_dn,
+            saturated_fraction,
+            warnings: gloam_sensor::levels::exposure_warnings(
+                mean_dn,
+                saturated_fraction,
+                black,
+                sat,
+            ),
+            warning_kinds: gloam_sensor::levels::warning_kinds(
+                mean_dn,
+                saturated_fraction,
+                black,
+                sat,
+            ),
+        }
+    }
 }
 
 /// One digitised frame: row-major `height × width` digital counts.

@@ -295,9 +295,20 @@ impl SensorSource {
         };
         let stimulus = rig_stimulus(rig, level)?;
         let gain_max_milli = (chain.gain_max * 1000.0).min(f64::from(u32::MAX)).floor() as u32;
+        // The lowest setting in thousandths at or above the hardware minimum.
+        let gain_min_milli = ((chain.gain_min * 1000.0 - 1e-6).ceil().max(1.0))
+            .min(f64::from(gain_max_milli.max(1))) as u32;
+        let gain_control = match (&base.mcp, &base.ebccd) {
+            (Some(m), _) => format!("MCP {}–{} V", m.min_voltage_v, m.max_voltage_v),
+            (_, Some(e)) => format!(
+                "EB accelerating voltage {}–{} V",
+                e.min_voltage_v, e.max_voltage_v
+            ),
+            _ => "digitizer analogue gain".to_string(),
+        };
         let defaults = CaptureSettings {
             gain_milli: ((chain.reference_gain * 1000.0).round() as u32)
-                .clamp(1, gain_max_milli.max(1)),
+                .clamp(gain_min_milli, gain_max_milli.max(1)),
             agc: base.agc.as_ref().is_some_and(|a| a.enabled),
             agc_setpoint_ppm: base.agc.as_ref().map_or(500_000, |a| {
                 ((a.set_point_dn / full) * 1e6).round().clamp(0.0, 1e6) as u32
@@ -318,7 +329,9 @@ impl SensorSource {
             name: base.name.clone(),
             max_width: size.0,
             max_height: size.1,
+            min_gain_milli: gain_min_milli,
             max_gain_milli: gain_max_milli.max(1),
+            gain_control,
             max_exposure_us: ((1.0 / base.timing.frame_rate_hz) * 1e6).round().max(1.0) as u32
                 * 100,
             has_agc: base.agc.is_some(),
@@ -466,11 +479,32 @@ impl FrameSource for SensorSource {
         for (o, p) in out.iter_mut().zip(frame.pixels.iter()) {
             *o = *p;
         }
-        let gain_milli = (frame.meta.gain_in_effect * 1000.0)
-            .round()
-            .clamp(0.0, f64::from(u32::MAX)) as u32;
-        Ok(Rendered { gain_milli })
+        let g = frame.meta.gain_in_effect;
+        let gain_milli = (g * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
+        let chain = self.camera.chain();
+        Ok(Rendered {
+            gain_milli,
+            levels: Some(crate::interface::DnLevels {
+                black_dn: chain.black_dn(g),
+                saturation_dn: chain.saturation_dn(g),
+                saturated_at_dn: chain.saturated_threshold_dn(g),
+            }),
+        })
     }
+}
+
+/// The refusal of a manual gain outside a source's range (`milli` is the
+/// setting as it travels, thousandths), naming the range and the camera.
+pub fn gain_range_error(info: &SourceInfo, gain: f64, milli: u32) -> Option<GrabError> {
+    (milli < info.min_gain_milli || milli > info.max_gain_milli).then(|| {
+        GrabError::InvalidSetting(format!(
+            "gain {gain} is outside the range of '{}': {}–{} ({}); the camera is not run at a clamped gain",
+            info.name,
+            f64::from(info.min_gain_milli) / 1000.0,
+            f64::from(info.max_gain_milli) / 1000.0,
+            info.gain_control
+        ))
+    })
 }
 
 /// The in-process simulated grabber over any [`FrameSource`].
@@ -556,11 +590,8 @@ impl<S: FrameSource> FrameGrabber for SimGrabber<S> {
             )));
         }
         let milli = (gain * 1000.0).round().clamp(1.0, f64::from(u32::MAX)) as u32;
-        if milli > self.info.max_gain_milli {
-            return Err(GrabError::InvalidSetting(format!(
-                "gain {gain} above the maximum {}",
-                f64::from(self.info.max_gain_milli) / 1000.0
-            )));
+        if let Some(e) = gain_range_error(&self.info, gain, milli) {
+            return Err(e);
         }
         self.settings.gain_milli = milli;
         self.settings.agc = false;
@@ -638,6 +669,7 @@ impl<S: FrameSource> FrameGrabber for SimGrabber<S> {
                 height: s.height,
                 pixels_crc32c: crate::pixels_crc32c(&pixels),
                 status: FrameStatus::Ok,
+                levels: r.levels,
             },
             pixels,
         })

@@ -44,10 +44,12 @@ impl Default for CaptureSettings {
 }
 
 /// What a source reports with a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rendered {
     /// Gain actually in effect, thousandths (differs from the manual gain under AGC).
     pub gain_milli: u32,
+    /// Black and saturation levels at this frame's settings, if known.
+    pub levels: Option<crate::interface::DnLevels>,
 }
 
 /// Fixed facts about a source.
@@ -57,7 +59,12 @@ pub struct SourceInfo {
     pub name: String,
     pub max_width: u32,
     pub max_height: u32,
+    /// Lowest manual gain, thousandths (a setting below it is refused).
+    pub min_gain_milli: u32,
     pub max_gain_milli: u32,
+    /// What sets the gain and over what range, for error messages
+    /// ("MCP 500–1000 V").
+    pub gain_control: String,
     pub max_exposure_us: u32,
     pub has_agc: bool,
     pub has_mcp: bool,
@@ -126,7 +133,9 @@ impl SyntheticSource {
                 name: "synthetic".into(),
                 max_width: width,
                 max_height: height,
+                min_gain_milli: 1,
                 max_gain_milli: 100_000,
+                gain_control: "synthetic gain".into(),
                 max_exposure_us: 10_000_000,
                 has_agc: true,
                 has_mcp: false,
@@ -215,6 +224,9 @@ impl FrameSource for SyntheticSource {
             self.agc_gain_milli = Some(next.clamp(1.0, f64::from(self.info.max_gain_milli)) as u32);
         }
         self.index += 1;
-        Ok(Rendered { gain_milli })
+        Ok(Rendered {
+            gain_milli,
+            levels: None,
+        })
     }
 }

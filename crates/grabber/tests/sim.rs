@@ -48,7 +48,7 @@ fn same_seed_same_frames_in_process_and_over_the_link() {
         let mut wire = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
         for g in [&mut sim as &mut dyn FrameGrabber, &mut wire] {
             g.set_bits(16).unwrap();
-            g.set_gain(1.5).unwrap();
+            g.set_gain(150.0).unwrap();
         }
         for _ in 0..4 {
             let a = sim.grab().unwrap();
@@ -84,6 +84,45 @@ fn two_band_scene(w: usize, h: usize) -> SceneView {
             band_shapes: vec![band(450.0, 550.0), band(550.0, 650.0)],
         },
     }
+}
+
+#[test]
+fn out_of_range_gains_are_refused_in_process_and_by_the_emulator() {
+    // Gen III MCP: G = 1000 (V/800)^9 over 500–1000 V, so 14.552–7450.58.
+    let mut sim = SimGrabber::from_preset("gen3-gaas-iccd", "uniform", 1, (8, 8)).unwrap();
+    let src = SensorSource::new("gen3-gaas-iccd", "uniform", 1, (8, 8)).unwrap();
+    let (host, dev, _ctl) = memory_link(MemoryOptions::new(Framing::Cobs));
+    let emu = EmulatorHandle::spawn(
+        dev,
+        src,
+        EmulatorConfig {
+            baud: None,
+            ..Default::default()
+        },
+    );
+    let mut wire = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
+    for g in [&mut sim as &mut dyn FrameGrabber, &mut wire] {
+        for bad in [2.0, 14.551, 7451.0] {
+            let e = g.set_gain(bad).unwrap_err();
+            assert!(
+                matches!(e, GrabError::InvalidSetting(_)) && e.to_string().contains("range"),
+                "{bad}: {e}"
+            );
+        }
+        assert_eq!(g.set_gain(14.552).unwrap(), 14.552);
+        assert_eq!(g.set_gain(7450.58).unwrap(), 7450.58);
+        // The frame runs at the gain asked for, not a clamped one.
+        assert_eq!(g.grab().unwrap().meta.gain, 7450.58);
+    }
+    let e = sim.set_gain(2.0).unwrap_err().to_string();
+    assert!(
+        e.contains("'gen3-gaas-iccd'")
+            && e.contains("14.552–7450.58")
+            && e.contains("MCP 500–1000 V"),
+        "{e}"
+    );
+    drop(wire);
+    emu.stop().unwrap();
 }
 
 #[test]

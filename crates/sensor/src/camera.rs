@@ -175,6 +175,7 @@ impl Camera {
                         gain: g,
                         min: self.chain.gain_min,
                         max: self.chain.gain_max,
+                        camera: self.chain.config.name.clone(),
                     });
                 }
                 self.gain = g.clamp(self.chain.gain_min, self.chain.gain_max);
@@ -550,7 +551,7 @@ impl Camera {
         let clip = chain.clip_dn(g);
         let max_code = chain.max_code;
         // "Saturated": within 3 σ of read noise (at least 1 DN) of saturation.
-        let sat_dn = chain.saturation_dn(g) - (3.0 * chain.read_noise_dn(g)).max(1.0);
+        let sat_dn = chain.saturated_threshold_dn(g);
         let dsnu = pat.dsnu.as_deref();
         // Mean CCD electrons of row `r` into `m` (whole-row passes vectorise).
         let mean_row = |r: usize, row: &[f32], m: &mut Vec<f64>| {

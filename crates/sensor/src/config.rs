@@ -70,6 +70,10 @@ pub struct Optics {
     /// diameter `d = defocus / N`, geometric MTF `2 J1(π d ν) / (π d ν)`.
     #[serde(default)]
     pub defocus_um: f64,
+    /// Neutral-density filter in front of the lens, optical density D
+    /// (transmission `10^−D`, spectrally flat; 0 = no filter).
+    #[serde(default)]
+    pub nd_density: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -94,6 +98,10 @@ pub struct Photocathode {
     /// Transverse emission energy of photoelectrons, eV (sets the proximity
     /// spread `σ = L √(2 ε / V)`).
     pub emission_energy_ev: f64,
+    /// Gating duty cycle: the fraction of the exposure the cathode is gated
+    /// on (0–1, default 1). Signal and dark emission scale with it.
+    #[serde(default = "one")]
+    pub gate_duty: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -478,6 +486,7 @@ impl SensorConfig {
             o.diffraction_wavelength_nm,
         )?;
         non_negative("optics.defocus_um", o.defocus_um)?;
+        non_negative("optics.nd_density", o.nd_density)?;
 
         let intensified = matches!(self.kind, SensorKind::Iccd | SensorKind::Ebccd);
         match (&self.photocathode, intensified) {
@@ -487,6 +496,8 @@ impl SensorConfig {
                 non_negative("photocathode.ebi_gain_exponent", p.ebi_gain_exponent)?;
                 non_negative("photocathode.gap_mm", p.gap_mm)?;
                 non_negative("photocathode.emission_energy_ev", p.emission_energy_ev)?;
+                positive("photocathode.gate_duty", p.gate_duty)?;
+                fraction("photocathode.gate_duty", p.gate_duty)?;
                 if self.kind == SensorKind::Iccd {
                     positive("photocathode.gap_voltage_v", p.gap_voltage_v)?;
                 }

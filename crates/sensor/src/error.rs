@@ -49,6 +49,13 @@ pub enum CaptureError {
         col: usize,
         value: f64,
     },
-    #[error("gain {gain} is outside the camera's range {min}–{max}")]
-    GainOutOfRange { gain: f64, min: f64, max: f64 },
+    #[error(
+        "gain {gain} is outside the range of '{camera}': {min:.3}–{max:.3}; the camera is not run at a clamped gain"
+    )]
+    GainOutOfRange {
+        gain: f64,
+        min: f64,
+        max: f64,
+        camera: String,
+    },
 }

@@ -20,6 +20,7 @@ pub mod config;
 mod effects;
 mod error;
 pub mod kernel;
+pub mod levels;
 pub mod noise;
 pub mod stages;
 
@@ -29,7 +30,7 @@ pub use camera::{AgcState, Camera, Frame, FrameMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::sensor_effects;
 pub use error::{CaptureError, ConfigError};
-pub use stages::Chain;
+pub use stages::{Chain, image_irradiance_per_radiance};
 
 /// A built-in preset or a TOML file (see [`SensorConfig::load_preset_or_file`]).
 pub fn load_preset_or_file(name_or_path: &str) -> Result<SensorConfig, ConfigError> {

@@ -77,6 +77,14 @@ pub const ELEMENTARY_CHARGE_C: f64 = 1.602_176_634e-19;
 /// hc in eV nm.
 const HC_EV_NM: f64 = 1_239.841_984;
 
+/// Image-plane irradiance per unit scene radiance on axis, sr: the camera
+/// equation `E / L = π τ / (4 N²)` for a distant scene (working f-number N,
+/// optics transmission τ). The one place this factor is computed: the camera
+/// chain's étendue and the calibration rig's photon count both use it.
+pub fn image_irradiance_per_radiance(f_number: f64, transmission: f64) -> f64 {
+    std::f64::consts::PI * transmission / (4.0 * f_number * f_number)
+}
+
 /// Defaults of a phosphor type.
 #[derive(Clone, Copy, Debug)]
 pub struct PhosphorDefaults {
@@ -292,8 +300,8 @@ pub struct Chain {
     pub pitch_cathode_mm: f64,
     /// Pixel pitch on the CCD, mm.
     pub pitch_ccd_mm: f64,
-    /// `π τ A_pix t / (4 N²)`, m² sr s: photons per pixel per frame per unit
-    /// spectral photon radiance.
+    /// `π τ 10^−D d A_pix t / (4 N²)` (ND density D, gate duty d), m² sr s:
+    /// photons per pixel per frame per unit spectral photon radiance.
     pub etendue_m2_sr_s: f64,
     /// QE of the first detecting surface (photocathode, or the CCD itself).
     pub detect_qe: Spectrum,
@@ -345,8 +353,14 @@ impl Chain {
         };
         let o = &cfg.optics;
         let a_pix_m2 = (pitch_cathode_mm * 1e-3).powi(2);
-        let etendue = std::f64::consts::PI * o.transmission * a_pix_m2 * cfg.timing.exposure_s
-            / (4.0 * o.f_number * o.f_number);
+        // Light reaching the detector per frame: the camera equation, the
+        // ND filter 10^−D and, for a gated cathode, the duty cycle.
+        let duty = cfg.photocathode.as_ref().map_or(1.0, |p| p.gate_duty);
+        let etendue = image_irradiance_per_radiance(o.f_number, o.transmission)
+            * 10f64.powf(-o.nd_density)
+            * duty
+            * a_pix_m2
+            * cfg.timing.exposure_s;
 
         let detect_qe = match (&cfg.photocathode, kind) {
             (Some(p), _) => resolve_spectrum("photocathode.qe", &p.qe)?,
@@ -405,7 +419,10 @@ impl Chain {
             let s = ELEMENTARY_CHARGE_C * electrons_per_w / lumens;
             luminous_sensitivity_a_lm = Some(s);
             let a_pix_cm2 = (pitch_cathode_mm * 0.1).powi(2);
-            ebi_pe_ref = p.ebi_lm_cm2 * s / ELEMENTARY_CHARGE_C * a_pix_cm2 * cfg.timing.exposure_s;
+            ebi_pe_ref = p.ebi_lm_cm2 * s / ELEMENTARY_CHARGE_C
+                * a_pix_cm2
+                * cfg.timing.exposure_s
+                * p.gate_duty;
             ebi_exponent = p.ebi_gain_exponent;
         }
 
@@ -711,6 +728,12 @@ impl Chain {
     pub fn saturation_dn(&self, g: f64) -> f64 {
         let fw = self.black_dn(g) + self.config.ccd.full_well_e * self.dn_per_ccd_electron(g);
         (fw.min(self.clip_dn(g)).min(self.max_code) + 0.5).floor()
+    }
+
+    /// The DN at and above which a pixel counts as saturated at gain `g`
+    /// ([`crate::levels::saturated_threshold_dn`]).
+    pub fn saturated_threshold_dn(&self, g: f64) -> f64 {
+        crate::levels::saturated_threshold_dn(self.saturation_dn(g), self.read_noise_dn(g))
     }
 
     /// Dark-emission photoelectrons per pixel per frame at gain `g`.

@@ -225,6 +225,7 @@ impl FrameGrabber for MockCamera {
             height: self.h as u32,
             pixels_crc32c: 0,
             status: FrameStatus::Ok,
+            levels: None,
         };
         self.seq += 1;
         if self.agc_on
