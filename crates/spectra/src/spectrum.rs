@@ -81,10 +81,22 @@ impl Spectrum {
     }
 
     /// Adds emission lines (each with finite wavelength > 0 and value ≥ 0).
+    ///
+    /// A wavelength may carry one line only: a line at the wavelength of an
+    /// existing line or of an earlier one in `lines` is an error
+    /// ([`SpectrumError::DuplicateLine`]), since two entries for one line are
+    /// far more often a slip than a deliberate split of its value.
     pub fn with_lines(mut self, lines: Vec<EmissionLine>) -> Result<Self, SpectrumError> {
         for (i, l) in lines.iter().enumerate() {
             check_wavelength(l.wavelength_nm, i)?;
             check_value(l.value, i)?;
+            let mut earlier = self.lines.iter().chain(&lines[..i]);
+            if earlier.any(|e| e.wavelength_nm == l.wavelength_nm) {
+                return Err(SpectrumError::DuplicateLine {
+                    index: i,
+                    wavelength_nm: l.wavelength_nm,
+                });
+            }
         }
         self.lines.extend(lines);
         self.lines
@@ -608,6 +620,27 @@ mod tests {
         assert!(matches!(
             Spectrum::new(vec![400.0], vec![1.0, 2.0]),
             Err(SpectrumError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn a_wavelength_carries_one_line() {
+        let s = Spectrum::from_lines(vec![line(546.07, 1.0)]).unwrap();
+        assert_eq!(
+            s.clone()
+                .with_lines(vec![line(435.83, 1.0), line(546.07, 2.0)]),
+            Err(SpectrumError::DuplicateLine {
+                index: 1,
+                wavelength_nm: 546.07
+            })
+        );
+        assert!(matches!(
+            Spectrum::from_lines(vec![line(500.0, 1.0), line(600.0, 1.0), line(500.0, 1.0)]),
+            Err(SpectrumError::DuplicateLine { index: 2, .. })
+        ));
+        assert!(matches!(
+            s.with_lines(vec![line(f64::NAN, 1.0)]),
+            Err(SpectrumError::BadWavelength { index: 0, .. })
         ));
     }
 }
