@@ -1,7 +1,7 @@
 //! `gloam spectra list|integrate`.
 
 use clap::{Args, Subcommand};
-use gloam_spectra::{Spectrum, library, lookup};
+use gloam_spectra::{library, lookup};
 use serde::Serialize;
 
 use super::output::print_json;
@@ -20,12 +20,14 @@ pub enum SpectraCommand {
 
 #[derive(Args)]
 pub struct IntegrateArgs {
-    /// A built-in name (see `gloam spectra list`) or a CSV file.
+    /// A built-in name (see `gloam spectra list`) or a CSV file
+    /// (`wavelength_nm,value` rows, `line,wavelength_nm,value` for lines).
     pub spectrum: String,
     /// The band, `LO:HI` in nm (half-open: lines at HI are excluded).
     #[arg(long, value_parser = parse_band)]
     pub band: (f64, f64),
-    /// Weight by this response (built-in name or CSV), e.g. `v-photopic`.
+    /// Weight by this response (built-in name or CSV), e.g. `v-photopic`;
+    /// the product of the two is integrated exactly.
     #[arg(long)]
     pub weight: Option<String>,
     /// Print `{"integral": …, "units": …}`.
@@ -82,9 +84,10 @@ pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
         SpectraCommand::Integrate(a) => {
             let s = lookup(&a.spectrum)?;
             let (lo, hi) = a.band;
-            let banded = s.product(&Spectrum::constant(lo, hi, 1.0)?);
+            // Exact for both: the weighted integral integrates the quadratic
+            // product of the two continua, and both count lines in [LO, HI).
             let integral = match &a.weight {
-                Some(w) => banded.integrate_weighted(&lookup(w)?),
+                Some(w) => s.integrate_weighted_band(&lookup(w)?, lo, hi),
                 None => s.integrate_band(lo, hi),
             };
             let units = if a.weight.is_some() {

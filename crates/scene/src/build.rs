@@ -180,6 +180,16 @@ enum Kind {
 }
 
 impl Kind {
+    /// The unit of an emission line's value for emitters, `None` for the
+    /// kinds that cannot have lines.
+    fn line_unit(self) -> Option<&'static str> {
+        match self {
+            Kind::Radiance => Some("W m⁻² sr⁻¹"),
+            Kind::Intensity => Some("W sr⁻¹"),
+            Kind::Reflectance | Kind::Transmission | Kind::Response => None,
+        }
+    }
+
     fn word(self) -> &'static str {
         match self {
             Kind::Reflectance => "reflectance",
@@ -220,18 +230,31 @@ fn flat(cx: &Ctx, field: &FieldPath, v: f64, kind: Kind) -> R<Spectrum> {
     Spectrum::constant(FLAT_LO_NM, FLAT_HI_NM, v).map_err(|e| cx.err(field, e.to_string()))
 }
 
-/// Builds a spectrum from its parts: `spectrum` (name/CSV) or `value` (flat),
-/// then `scale`, then `normalize`.
-fn spectrum_parts(
-    cx: &Ctx,
-    field: &FieldPath,
-    spectrum: Option<&str>,
+/// The keys of a spectrum given by parts (a table, an emission, a point
+/// source).
+struct Parts<'a> {
+    spectrum: Option<&'a str>,
     value: Option<f64>,
+    lines: Option<&'a [Vec<f64>]>,
     scale: Option<f64>,
-    normalize: Option<&RawNormalize>,
-    kind: Kind,
-) -> R<Spectrum> {
-    let mut s = match (spectrum, value) {
+    normalize: Option<&'a RawNormalize>,
+}
+
+/// Builds a spectrum from its parts: `spectrum` (name/CSV) or `value` (flat)
+/// or neither (lines only), plus `lines`, then `scale`, then `normalize`.
+fn spectrum_parts(cx: &Ctx, field: &FieldPath, p: Parts, kind: Kind) -> R<Spectrum> {
+    let lf = field.key("lines");
+    if p.lines.is_some() && kind.line_unit().is_none() {
+        return Err(cx.err(
+            &lf,
+            format!(
+                "a {} has no emission lines: `lines` belong to emitters (`emission`, point sources)",
+                kind.word()
+            ),
+        ));
+    }
+    let has_lines = p.lines.is_some_and(|l| !l.is_empty());
+    let mut s = match (p.spectrum, p.value) {
         (Some(name), None) => named_spectrum(cx, &field.key("spectrum"), name)?,
         (None, Some(v)) => flat(cx, &field.key("value"), v, kind)?,
         (Some(_), Some(_)) => {
@@ -240,13 +263,26 @@ fn spectrum_parts(
                 "give either `spectrum` (a name or CSV file) or `value` (flat), not both",
             ));
         }
+        // Lines alone: a line spectrum with no continuum.
+        (None, None) if has_lines => Spectrum::default(),
         (None, None) => {
+            let or_lines = if kind.line_unit().is_some() {
+                " or `lines` (emission lines only)"
+            } else {
+                ""
+            };
             return Err(cx.err(
                 field,
-                "missing `spectrum` (a built-in name or CSV file) or `value` (a flat spectrum)",
+                format!(
+                    "missing `spectrum` (a built-in name or CSV file) or `value` (a flat spectrum){or_lines}"
+                ),
             ));
         }
     };
+    if let (Some(lines), Some(unit)) = (p.lines, kind.line_unit()) {
+        s = add_lines(cx, &lf, s, lines, p.spectrum, unit)?;
+    }
+    let (scale, normalize) = (p.scale, p.normalize);
     if let Some(k) = scale {
         let f = field.key("scale");
         if !(k.is_finite() && k >= 0.0) {
@@ -281,6 +317,69 @@ fn spectrum_parts(
     Ok(s)
 }
 
+/// Adds the emission lines written as `lines = [[wavelength_nm, value], …]`
+/// to `s`, checking each: wavelength finite and > 0, value finite and ≥ 0
+/// (in `unit`), and each wavelength given once — in the list and against the
+/// lines `s` already has from its `spectrum` (`named`).
+fn add_lines(
+    cx: &Ctx,
+    field: &FieldPath,
+    s: Spectrum,
+    lines: &[Vec<f64>],
+    named: Option<&str>,
+    unit: &str,
+) -> R<Spectrum> {
+    let mut out: Vec<gloam_spectra::EmissionLine> = Vec::with_capacity(lines.len());
+    for (i, entry) in lines.iter().enumerate() {
+        let at = field.index(i);
+        let &[w, v] = entry.as_slice() else {
+            return Err(cx.err(
+                &at,
+                format!(
+                    "an emission line is [wavelength_nm, value], found {} number{}",
+                    entry.len(),
+                    if entry.len() == 1 { "" } else { "s" }
+                ),
+            ));
+        };
+        if !(w.is_finite() && w > 0.0) {
+            return Err(cx.err(
+                &at.index(0),
+                format!("emission line wavelength {w} nm must be a finite number > 0"),
+            ));
+        }
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(cx.err(
+                &at.index(1),
+                format!("emission line value {v} {unit} at {w} nm must be a finite number ≥ 0"),
+            ));
+        }
+        if let Some(k) = out.iter().position(|l| l.wavelength_nm == w) {
+            return Err(cx.err(
+                &at,
+                format!(
+                    "a second emission line at {w} nm (the first is {field}[{k}]); give each line once, with the summed value"
+                ),
+            ));
+        }
+        if s.lines().iter().any(|l| l.wavelength_nm == w) {
+            return Err(cx.err(
+                &at,
+                format!(
+                    "spectrum '{}' already has an emission line at {w} nm; give each line once (change that spectrum's line instead)",
+                    named.unwrap_or("(given)")
+                ),
+            ));
+        }
+        out.push(gloam_spectra::EmissionLine {
+            wavelength_nm: w,
+            value: v,
+        });
+    }
+    // Checked above; any remaining refusal is still an error, not a panic.
+    s.with_lines(out).map_err(|e| cx.err(field, e.to_string()))
+}
+
 fn spectrum(cx: &Ctx, field: &FieldPath, raw: &RawSpectrum, kind: Kind) -> R<Spectrum> {
     match raw {
         RawSpectrum::Flat(v) => flat(cx, field, *v, kind),
@@ -288,10 +387,13 @@ fn spectrum(cx: &Ctx, field: &FieldPath, raw: &RawSpectrum, kind: Kind) -> R<Spe
         RawSpectrum::Table(t) => spectrum_parts(
             cx,
             field,
-            t.spectrum.as_deref(),
-            t.value,
-            t.scale,
-            t.normalize.as_ref(),
+            Parts {
+                spectrum: t.spectrum.as_deref(),
+                value: t.value,
+                lines: t.lines.as_deref(),
+                scale: t.scale,
+                normalize: t.normalize.as_ref(),
+            },
             kind,
         ),
     }
@@ -325,10 +427,13 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
             let radiance = spectrum_parts(
                 cx,
                 &f,
-                e.spectrum.as_deref(),
-                e.value,
-                e.scale,
-                e.normalize.as_ref(),
+                Parts {
+                    spectrum: e.spectrum.as_deref(),
+                    value: e.value,
+                    lines: e.lines.as_deref(),
+                    scale: e.scale,
+                    normalize: e.normalize.as_ref(),
+                },
                 Kind::Radiance,
             )?;
             let m_exp = e.shape_exponent.unwrap_or(0.0);
@@ -651,10 +756,13 @@ fn point_source(cx: &Ctx, field: &FieldPath, name: &str, p: &RawPointSource) -> 
     let intensity = spectrum_parts(
         cx,
         field,
-        p.spectrum.as_deref(),
-        p.value,
-        p.scale,
-        p.normalize.as_ref(),
+        Parts {
+            spectrum: p.spectrum.as_deref(),
+            value: p.value,
+            lines: p.lines.as_deref(),
+            scale: p.scale,
+            normalize: p.normalize.as_ref(),
+        },
         Kind::Intensity,
     )?;
     Ok(PointSource {

@@ -53,12 +53,19 @@ pub(crate) struct RawNormalize {
     pub value: f64,
 }
 
-/// `{ spectrum = "name-or-csv" | value = 0.5, scale = 2, normalize = {…} }`.
+/// Emission lines as written: `[[wavelength_nm, value], …]`. Each entry is
+/// read as a list and its length checked in `build.rs` (a fixed-size array
+/// would let toml drop a third number silently).
+pub(crate) type RawLines = Vec<Vec<f64>>;
+
+/// `{ spectrum = "name-or-csv" | value = 0.5, lines = [[nm, value], …],
+/// scale = 2, normalize = {…} }`.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawSpectrumTable {
     pub spectrum: Option<String>,
     pub value: Option<f64>,
+    pub lines: Option<RawLines>,
     pub scale: Option<f64>,
     pub normalize: Option<RawNormalize>,
 }
@@ -80,7 +87,7 @@ impl<'de> Deserialize<'de> for RawSpectrum {
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
                 f.write_str(
                     "a number (flat spectrum), a spectrum name or CSV path, or a table \
-                     { spectrum = \"…\" | value = …, scale = …, normalize = { lo_nm, hi_nm, value } }",
+                     { spectrum = \"…\" | value = …, lines = [[nm, value], …], scale = …, normalize = { lo_nm, hi_nm, value } }",
                 )
             }
             fn visit_f64<E: de::Error>(self, v: f64) -> Result<RawSpectrum, E> {
@@ -118,6 +125,7 @@ pub(crate) struct RawMaterial {
 pub(crate) struct RawEmission {
     pub spectrum: Option<String>,
     pub value: Option<f64>,
+    pub lines: Option<RawLines>,
     pub scale: Option<f64>,
     pub normalize: Option<RawNormalize>,
     pub shape_exponent: Option<f64>,
@@ -131,6 +139,7 @@ pub(crate) struct RawPointSource {
     pub shape_exponent: Option<f64>,
     pub spectrum: Option<String>,
     pub value: Option<f64>,
+    pub lines: Option<RawLines>,
     pub scale: Option<f64>,
     pub normalize: Option<RawNormalize>,
 }

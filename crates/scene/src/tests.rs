@@ -542,6 +542,214 @@ fn point_source_parsing_and_errors() {
     );
 }
 
+// --- emission lines ------------------------------------------------------------------
+
+#[test]
+fn point_source_lines_integrate_exactly_over_bands() {
+    // A user lamp: a coarse CSV continuum (W sr⁻¹ nm⁻¹) with one line row,
+    // plus two lines in the scene (W sr⁻¹).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("lamp.csv"),
+        "wavelength_nm,value\n400,0.01\n500,0.03\n600,0.02\n700,0.01\nline,589.0,0.2\n",
+    )
+    .unwrap();
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nspectrum = \"lamp.csv\"\nlines = [\n  [546.07, 0.12],\n  [435.83, 0.05],\n]\n"
+    );
+    let s = parse_str(&text, &scene_path(dir.path())).unwrap();
+    let i = &s.point_sources[0].intensity_w_sr_nm;
+    let lines: Vec<(f64, f64)> = i
+        .lines()
+        .iter()
+        .map(|l| (l.wavelength_nm, l.value))
+        .collect();
+    assert_eq!(lines, [(435.83, 0.05), (546.07, 0.12), (589.0, 0.2)]);
+    // Closed forms: the continuum is linear on each 100 nm piece.
+    let c = |w: f64| i.eval(w);
+    let trap = |a: f64, b: f64| 0.5 * (b - a) * (c(a) + c(b));
+    let cases = [
+        (540.0, 550.0, trap(540.0, 550.0) + 0.12),
+        (540.0, 546.07, trap(540.0, 546.07)), // the line sits on the open upper edge
+        (546.07, 600.0, trap(546.07, 600.0) + 0.12 + 0.2),
+        (400.0, 700.0, 6.0 + 0.37),
+    ];
+    for (lo, hi, want) in cases {
+        let got = i.integrate_band(lo, hi);
+        assert!(
+            (got - want).abs() <= 1e-14 * want,
+            "{lo}–{hi}: {got} vs {want}"
+        );
+    }
+    // Through a band response: the lines are weighted by the response at
+    // their wavelength, the continuum product is integrated exactly.
+    let response = gloam_spectra::Spectrum::new(vec![500.0, 600.0], vec![0.2, 0.6]).unwrap();
+    let r = |w: f64| response.eval(w);
+    // ∫_500^600 c·r dλ for two linear pieces: h/6 (2 c0 r0 + c0 r1 + c1 r0 + 2 c1 r1).
+    let cont = 100.0 / 6.0
+        * (2.0 * c(500.0) * r(500.0)
+            + c(500.0) * r(600.0)
+            + c(600.0) * r(500.0)
+            + 2.0 * c(600.0) * r(600.0));
+    let want = cont + 0.12 * r(546.07) + 0.2 * r(589.0);
+    let got = i.integrate_weighted(&response);
+    assert!((got - want).abs() <= 1e-14 * want, "{got} vs {want}");
+}
+
+#[test]
+fn lines_alone_with_value_scale_and_normalize() {
+    // Lines only (a low-pressure sodium panel), then scaled.
+    let text = format!(
+        "{BASE}[materials.sox]\nemission = {{ lines = [[588.995, 2.0], [589.592, 1.0]], scale = 0.5 }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let (_, m) = s.material_by_name("sox").unwrap();
+    let l = &m.emission.as_ref().unwrap().radiance_w_m2_sr_nm;
+    assert!(l.wavelengths_nm().is_empty());
+    assert_eq!(l.integral(), 1.5);
+    assert_eq!(l.integrate_band(589.0, 590.0), 0.5);
+    // A flat continuum plus a line, normalised as a whole: 300 nm × 0.01 + 1 = 4 → 8.
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nvalue = 0.01\nlines = [[546, 1]]\nnormalize = {{ lo_nm = 400, hi_nm = 700, value = 8.0 }}\n"
+    );
+    let s = parse(&text).unwrap();
+    let i = &s.point_sources[0].intensity_w_sr_nm;
+    assert!((i.integrate_band(400.0, 700.0) - 8.0).abs() < 1e-12);
+    assert!((i.lines()[0].value - 2.0).abs() < 1e-12);
+    // A line added to a built-in lamp; an empty list changes nothing.
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nspectrum = \"mercury-clear\"\nlines = [[1200.0, 0.5]]\n"
+    );
+    let s = parse(&text).unwrap();
+    let hg = gloam_spectra::library::get("mercury-clear").unwrap();
+    let i = &s.point_sources[0].intensity_w_sr_nm;
+    assert_eq!(i.lines().len(), hg.lines().len() + 1);
+    assert!((i.integral() - hg.integral() - 0.5).abs() < 1e-9);
+    let text = format!("{BASE}[materials.panel]\nemission = {{ value = 1.0, lines = [] }}\n");
+    assert!(parse(&text).is_ok());
+}
+
+#[test]
+fn line_errors_name_file_line_and_field() {
+    let n = next_line();
+    let src = |lines: &str| {
+        format!(
+            "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nvalue = 0.01\nlines = {lines}\n"
+        )
+    };
+    let f = "point_sources.lamp.lines";
+    expect_err(
+        &src("[[nan, 1.0]]"),
+        n + 3,
+        &format!("{f}[0][0]"),
+        "wavelength NaN nm must be a finite number > 0",
+    );
+    expect_err(
+        &src("[[546.0, 1.0], [-5.0, 1.0]]"),
+        n + 3,
+        &format!("{f}[1][0]"),
+        "wavelength -5 nm",
+    );
+    expect_err(
+        &src("[[0, 1.0]]"),
+        n + 3,
+        &format!("{f}[0][0]"),
+        "wavelength 0 nm",
+    );
+    expect_err(
+        &src("[[546.0, inf]]"),
+        n + 3,
+        &format!("{f}[0][1]"),
+        "value inf W sr⁻¹ at 546 nm must be a finite number ≥ 0",
+    );
+    expect_err(
+        &src("[[546.0, -0.1]]"),
+        n + 3,
+        &format!("{f}[0][1]"),
+        "value -0.1 W sr⁻¹",
+    );
+    let msg = expect_err(
+        &src("[\n  [546.0, 0.1],\n  [589.0, 0.1],\n  [546.0, 0.2],\n]"),
+        n + 6,
+        &format!("{f}[2]"),
+        "a second emission line at 546 nm",
+    );
+    assert!(msg.contains(&format!("the first is {f}[0]")), "{msg}");
+    // Wrong shape, at the element: one number, three numbers, no list, a string.
+    expect_err(
+        &src("[[546.0]]"),
+        n + 3,
+        &format!("{f}[0]"),
+        "an emission line is [wavelength_nm, value], found 1 number",
+    );
+    expect_err(
+        &src("[[589.0, 1.0], [546.0, 1, 2]]"),
+        n + 3,
+        &format!("{f}[1]"),
+        "found 3 numbers",
+    );
+    expect_err(&src("[[]]"), n + 3, &format!("{f}[0]"), "found 0 numbers");
+    expect_err(
+        &src("[546.0, 0.1]"),
+        n + 3,
+        &format!("{f}[0]"),
+        "invalid type",
+    );
+    expect_err(
+        &src("[[\"green\", 0.1]]"),
+        n + 3,
+        &format!("{f}[0][0]"),
+        "invalid type: string",
+    );
+    // Duplicate of a line the named spectrum already has.
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nspectrum = \"mercury-clear\"\nlines = [[546.074, 0.1]]\n"
+    );
+    expect_err(
+        &text,
+        n + 3,
+        &format!("{f}[0]"),
+        "spectrum 'mercury-clear' already has an emission line at 546.074 nm",
+    );
+    // Emission units in the message.
+    let text = format!("{BASE}[materials.panel]\nemission = {{ lines = [[546.0, -1.0]] }}\n");
+    expect_err(
+        &text,
+        n + 1,
+        "materials.panel.emission.lines[0][1]",
+        "W m⁻² sr⁻¹",
+    );
+    // An empty list is not a spectrum.
+    let text = format!("{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nlines = []\n");
+    expect_err(
+        &text,
+        n,
+        "point_sources.lamp",
+        "or `lines` (emission lines only)",
+    );
+    // Not for reflectances, transmissions or band responses.
+    let text = BASE.replace(
+        "reflectance = 0.5",
+        "reflectance = { value = 0.5, lines = [[546.0, 0.1]] }",
+    );
+    expect_err(
+        &text,
+        15,
+        "materials.grey.reflectance.lines",
+        "a reflectance has no emission lines",
+    );
+    let text = BASE.replace(
+        "lo_nm = 400\nhi_nm = 700",
+        "response = { value = 1.0, lines = [[546.0, 0.1]] }",
+    );
+    expect_err(
+        &text,
+        11,
+        "bands.vis.response.lines",
+        "a response has no emission lines",
+    );
+}
+
 // --- camera, bands, sky ------------------------------------------------------------
 
 #[test]
@@ -940,4 +1148,54 @@ fn documented_example_parses_and_enables_every_effect() {
         dv.contains("sign") && dv.contains("streetlight") && dv.contains("porch"),
         "{dv}"
     );
+}
+
+/// The fenced block of `lang` that follows `heading` in `doc`.
+fn doc_block<'a>(doc: &'a str, heading: &str, lang: &str) -> &'a str {
+    let body = &doc[doc.find(heading).expect("heading")..];
+    let fence = format!("```{lang}\n");
+    let open = body.find(&fence).expect("block") + fence.len();
+    let close = body[open..].find("```").expect("closing fence");
+    &body[open..open + close]
+}
+
+#[test]
+fn documented_emission_lines_parse_and_hold_the_stated_power() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let heading = "### Emission lines";
+    let toml = doc_block(doc, heading, "toml");
+    let csv = doc_block(doc, heading, "csv");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("yard-lamp.csv"), csv).unwrap();
+    let s = parse_str(&format!("{BASE}{toml}"), &scene_path(dir.path()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let lamp = &s.point_sources[0].intensity_w_sr_nm;
+    let lines: f64 = lamp.lines().iter().map(|l| l.value).sum();
+    assert!((lamp.integrate_band(400.0, 700.0) - 6.37).abs() < 1e-12);
+    assert!((lines - 0.37).abs() < 1e-12);
+    let (_, m) = s.material_by_name("sox_panel").unwrap();
+    let l = &m.emission.as_ref().unwrap().radiance_w_m2_sr_nm;
+    assert_eq!(l.integral(), 1.5);
+    assert_eq!(l.integrate_band(589.0, 590.0), 0.5);
+
+    // The documented error is what the scene reader says.
+    let section = &doc[doc.find(heading).unwrap()..];
+    let quoted = section
+        .split('`')
+        .find(|q| q.starts_with("scene.toml:"))
+        .expect("a documented error");
+    let (_, field_and_message) = quoted.split_once(": ").unwrap();
+    let bad = toml.replace("[546.07, 0.12]", "[546.07, -0.12]");
+    let e = parse_str(&format!("{BASE}{bad}"), &scene_path(dir.path())).unwrap_err();
+    assert_eq!(
+        format!("{}: {}", e.field(), message_of(&e)),
+        field_and_message
+    );
+}
+
+fn message_of(e: &SceneError) -> &str {
+    match e {
+        SceneError::Invalid { message, .. } => message,
+        SceneError::Io { .. } => "",
+    }
 }

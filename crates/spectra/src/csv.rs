@@ -1,13 +1,30 @@
-//! Reading spectra from two-column CSV files.
+//! Reading spectra from CSV files: a sampled continuum plus optional
+//! emission lines.
 //!
-//! Format: `wavelength_nm,value` per line; blank lines and lines starting
-//! with `#` are ignored; one header line (any non-numeric first row) is
-//! allowed; separators may be commas, semicolons, tabs or spaces.
+//! Format:
+//!
+//! * Continuum rows: `wavelength_nm,value` (value per nm, e.g.
+//!   W sr⁻¹ nm⁻¹), wavelengths strictly increasing; the continuum is linear
+//!   between rows and zero outside them.
+//! * Line rows: `line,wavelength_nm,value`, an emission line whose whole
+//!   power sits at `wavelength_nm`; `value` is its integrated value, in the
+//!   continuum's units × nm (W sr⁻¹ for a continuum in W sr⁻¹ nm⁻¹). Line
+//!   rows may stand anywhere in the file, in any order; each wavelength may
+//!   carry one line. A file may hold only line rows.
+//! * Blank lines and lines starting with `#` are ignored; one header line
+//!   (any non-numeric row before the first continuum row, e.g.
+//!   `wavelength_nm,value`) is allowed; separators may be commas,
+//!   semicolons, tabs or spaces.
+//!
+//! A row is a line row when its first field is `line` (any case) and some
+//! later field is a number, or when it starts with `line` after the header
+//! or the first continuum row; a first row such as `line,value` stays a
+//! header, so every file without line rows reads as it always did.
 
 use std::path::Path;
 
 use crate::error::CsvError;
-use crate::spectrum::Spectrum;
+use crate::spectrum::{EmissionLine, Spectrum};
 
 /// Reads a spectrum from a CSV file (see the module docs for the format).
 pub fn read_csv(path: &Path) -> Result<Spectrum, CsvError> {
@@ -28,6 +45,8 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     let mut wavelengths: Vec<f64> = Vec::new();
     let mut values: Vec<f64> = Vec::new();
     let mut rows: Vec<usize> = Vec::new();
+    let mut lines: Vec<EmissionLine> = Vec::new();
+    let mut line_rows: Vec<usize> = Vec::new();
     let mut seen_data_or_header = false;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
@@ -40,6 +59,24 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
             .map(str::trim)
             .filter(|f| !f.is_empty())
             .collect();
+        if is_line_row(&fields, seen_data_or_header) {
+            let l = parse_line_row(&fields).map_err(|m| err(line_no, m))?;
+            if let Some(k) = lines
+                .iter()
+                .position(|e| e.wavelength_nm == l.wavelength_nm)
+            {
+                return Err(err(
+                    line_no,
+                    format!(
+                        "duplicate emission line at {} nm (also on line {}); give each line once, with the summed value",
+                        l.wavelength_nm, line_rows[k]
+                    ),
+                ));
+            }
+            lines.push(l);
+            line_rows.push(line_no);
+            continue;
+        }
         // `str::parse` accepts `NaN`/`inf`, so those are reported as non-finite
         // values below rather than mistaken for a header.
         let parsed: Vec<Option<f64>> = fields.iter().map(|f| f.parse().ok()).collect();
@@ -102,17 +139,64 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
         values.push(v);
         rows.push(line_no);
     }
-    if wavelengths.is_empty() {
+    if wavelengths.is_empty() && lines.is_empty() {
         return Err(CsvError::Empty {
             path: path.to_path_buf(),
         });
     }
-    Spectrum::new(wavelengths, values).map_err(|e| err(0, e.to_string()))
+    // Every row was checked above, so these cannot fail; an error would
+    // still be reported, never a panic.
+    Spectrum::new(wavelengths, values)
+        .and_then(|s| s.with_lines(lines))
+        .map_err(|e| err(0, e.to_string()))
+}
+
+/// True for a `line,wavelength_nm,value` row (see the module docs): the
+/// first field is `line`, and either a header or a continuum row came
+/// before it or one of its other fields is a number (so that a first row
+/// such as `line,value` remains a header).
+fn is_line_row(fields: &[&str], seen_data_or_header: bool) -> bool {
+    fields
+        .first()
+        .is_some_and(|f| f.eq_ignore_ascii_case("line"))
+        && (seen_data_or_header || fields[1..].iter().any(|f| f.parse::<f64>().is_ok()))
+}
+
+/// Parses and checks the fields of a line row; the message names the field.
+fn parse_line_row(fields: &[&str]) -> Result<EmissionLine, String> {
+    if fields.len() != 3 {
+        return Err(format!(
+            "an emission line row is 'line,wavelength_nm,value', found {} columns",
+            fields.len()
+        ));
+    }
+    let number = |what: &str, f: &str| {
+        f.parse::<f64>()
+            .map_err(|_| format!("emission line {what} '{f}' is not a number"))
+    };
+    let w = number("wavelength_nm", fields[1])?;
+    let v = number("value", fields[2])?;
+    if !w.is_finite() || w <= 0.0 {
+        return Err(format!(
+            "emission line wavelength_nm {w} is not a finite positive number"
+        ));
+    }
+    if !v.is_finite() {
+        return Err(format!("emission line value {v} at {w} nm is not finite"));
+    }
+    if v < 0.0 {
+        return Err(format!("emission line value {v} at {w} nm is negative"));
+    }
+    Ok(EmissionLine {
+        wavelength_nm: w,
+        value: v,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use approx::assert_relative_eq;
     use std::path::PathBuf;
 
     fn parse(text: &str) -> Result<Spectrum, CsvError> {
@@ -173,6 +257,119 @@ mod tests {
             parse("# only\nwavelength,value\n"),
             Err(CsvError::Empty { .. })
         ));
+    }
+
+    #[test]
+    fn line_rows_add_emission_lines_anywhere_in_the_file() {
+        let s = parse(
+            "# a lamp with two lines\nline,546.07,0.12\nwavelength_nm,value\n400,1\nLINE;435.83;0.05\n500,2\n600\t3\nline 404.66 0\n",
+        )
+        .unwrap();
+        assert_eq!(s.wavelengths_nm(), &[400.0, 500.0, 600.0]);
+        assert_eq!(s.values(), &[1.0, 2.0, 3.0]);
+        let lines: Vec<(f64, f64)> = s
+            .lines()
+            .iter()
+            .map(|l| (l.wavelength_nm, l.value))
+            .collect();
+        assert_eq!(lines, [(404.66, 0.0), (435.83, 0.05), (546.07, 0.12)]);
+    }
+
+    #[test]
+    fn a_file_of_lines_only_is_a_line_spectrum() {
+        let s = parse("line,588.995,2\nline,589.592,1\n").unwrap();
+        assert!(s.wavelengths_nm().is_empty());
+        assert_eq!(s.integral(), 3.0);
+        assert_eq!(s.integrate_band(589.0, 590.0), 1.0);
+    }
+
+    #[test]
+    fn headers_starting_with_line_still_read_as_headers() {
+        // Before line rows existed these were headers; they still are.
+        for header in ["line,value", "Line name;intensity", "line"] {
+            let s = parse(&format!("{header}\n400,1\n500,2\n")).unwrap();
+            assert_eq!(s.values(), &[1.0, 2.0], "{header}");
+            assert!(s.lines().is_empty(), "{header}");
+        }
+    }
+
+    #[test]
+    fn line_row_errors_name_file_line_and_field() {
+        assert_eq!(
+            message("400,1\nline,546.07,0.1\nline,546.07,0.2\n"),
+            "lamp.csv:3: duplicate emission line at 546.07 nm (also on line 2); give each line once, with the summed value"
+        );
+        assert_eq!(
+            message("400,1\nline,546.07\n"),
+            "lamp.csv:2: an emission line row is 'line,wavelength_nm,value', found 2 columns"
+        );
+        assert_eq!(
+            message("400,1\nline,546.07,0.1,7\n"),
+            "lamp.csv:2: an emission line row is 'line,wavelength_nm,value', found 4 columns"
+        );
+        assert_eq!(
+            message("line,546.07,abc\n"),
+            "lamp.csv:1: emission line value 'abc' is not a number"
+        );
+        assert_eq!(
+            message("400,1\nline,green,0.1\n"),
+            "lamp.csv:2: emission line wavelength_nm 'green' is not a number"
+        );
+        assert_eq!(
+            message("line,0,0.1\n"),
+            "lamp.csv:1: emission line wavelength_nm 0 is not a finite positive number"
+        );
+        assert_eq!(
+            message("line,-546,0.1\n"),
+            "lamp.csv:1: emission line wavelength_nm -546 is not a finite positive number"
+        );
+        assert_eq!(
+            message("line,inf,0.1\n"),
+            "lamp.csv:1: emission line wavelength_nm inf is not a finite positive number"
+        );
+        assert_eq!(
+            message("400,1\nline,546.07,NaN\n"),
+            "lamp.csv:2: emission line value NaN at 546.07 nm is not finite"
+        );
+        assert_eq!(
+            message("400,1\nline,546.07,-0.1\n"),
+            "lamp.csv:2: emission line value -0.1 at 546.07 nm is negative"
+        );
+        // Lines do not take part in the continuum's ordering.
+        assert!(parse("500,1\nline,450,1\n600,1\n").is_ok());
+    }
+
+    #[test]
+    fn user_lamp_line_integrates_exactly_on_a_coarse_grid() {
+        // A user lamp: a continuum on a 100 nm grid (W sr⁻¹ nm⁻¹) and two
+        // lines (W sr⁻¹). Closed form over a band: the continuum's trapezoid
+        // area inside the band (exact, it is linear) plus the lines in it.
+        let s =
+            parse("400,0.01\n500,0.03\n600,0.02\n700,0.01\nline,546.07,0.12\nline,577.0,0.05\n")
+                .unwrap();
+        // 540–560 nm lies inside the 500–600 segment: c(λ) = 0.03 − 1e-4 (λ − 500).
+        let c = |w: f64| 0.03 - 1e-4 * (w - 500.0);
+        let continuum = 0.5 * 20.0 * (c(540.0) + c(560.0));
+        assert_relative_eq!(
+            s.integrate_band(540.0, 560.0),
+            continuum + 0.12,
+            max_relative = 1e-14
+        );
+        // 400–700 nm: the whole continuum (2 + 2.5 + 1.5 = 6 W sr⁻¹) plus both lines.
+        let whole = 100.0 * (0.02 + 0.025 + 0.015);
+        assert_relative_eq!(
+            s.integrate_band(400.0, 700.0),
+            whole + 0.17,
+            max_relative = 1e-14
+        );
+        // Against a flat 0.5 filter on 550–600 nm: only the 577 nm line is in.
+        let filter = Spectrum::constant(550.0, 600.0, 0.5).unwrap();
+        let cont = 0.5 * 50.0 * (c(550.0) + c(600.0)) * 0.5;
+        assert_relative_eq!(
+            s.integrate_weighted(&filter),
+            cont + 0.5 * 0.05,
+            max_relative = 1e-14
+        );
     }
 
     #[test]

@@ -24,6 +24,10 @@ pub enum SpectrumError {
     #[error("entry {index}: value {value} is negative (spectra are physical, non-negative)")]
     NegativeValue { index: usize, value: f64 },
     #[error(
+        "emission line {index}: a line at {wavelength_nm} nm is already present (give each line's wavelength once, with the summed value)"
+    )]
+    DuplicateLine { index: usize, wavelength_nm: f64 },
+    #[error(
         "the spectrum integrates to zero over {lo_nm}–{hi_nm} nm, so it cannot be normalised there"
     )]
     ZeroInBand { lo_nm: f64, hi_nm: f64 },

@@ -17,3 +17,8 @@ pub use error::{CsvError, LookupError, SpectrumError};
 pub use library::{LibraryEntry, lookup};
 pub use radiometry::*;
 pub use spectrum::{EmissionLine, Spectrum};
+
+/// The README's Rust example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

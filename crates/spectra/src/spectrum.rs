@@ -81,10 +81,22 @@ impl Spectrum {
     }
 
     /// Adds emission lines (each with finite wavelength > 0 and value ≥ 0).
+    ///
+    /// A wavelength may carry one line only: a line at the wavelength of an
+    /// existing line or of an earlier one in `lines` is an error
+    /// ([`SpectrumError::DuplicateLine`]), since two entries for one line are
+    /// far more often a slip than a deliberate split of its value.
     pub fn with_lines(mut self, lines: Vec<EmissionLine>) -> Result<Self, SpectrumError> {
         for (i, l) in lines.iter().enumerate() {
             check_wavelength(l.wavelength_nm, i)?;
             check_value(l.value, i)?;
+            let mut earlier = self.lines.iter().chain(&lines[..i]);
+            if earlier.any(|e| e.wavelength_nm == l.wavelength_nm) {
+                return Err(SpectrumError::DuplicateLine {
+                    index: i,
+                    wavelength_nm: l.wavelength_nm,
+                });
+            }
         }
         self.lines.extend(lines);
         self.lines
@@ -179,8 +191,11 @@ impl Spectrum {
     /// The product of two spectra, e.g. a lamp times a filter.
     ///
     /// The continuum is sampled on the union of both grids over their overlap
-    /// (zero elsewhere). A line in either factor is weighted by the other
-    /// factor's continuum at the line's wavelength. Line × line products are
+    /// (zero elsewhere) and is linear between those nodes, which the true
+    /// product (a quadratic on each interval) is not: to integrate a product,
+    /// use [`Spectrum::integrate_weighted_band`], which is exact. A line in
+    /// either factor is weighted by the other factor's continuum at the
+    /// line's wavelength. Line × line products are
     /// dropped: a product of two Dirac deltas has no physical meaning here.
     pub fn product(&self, other: &Spectrum) -> Spectrum {
         let mut grid = Vec::new();
@@ -259,9 +274,40 @@ impl Spectrum {
         sum
     }
 
-    /// ∫ S(λ) W(λ) dλ against a response or weighting curve `weight`.
+    /// ∫ S(λ) W(λ) dλ against a response or weighting curve `weight`, over
+    /// all wavelengths; see [`Spectrum::integrate_weighted_band`].
     pub fn integrate_weighted(&self, weight: &Spectrum) -> f64 {
-        self.product(weight).integral()
+        self.integrate_weighted_band(weight, f64::NEG_INFINITY, f64::INFINITY)
+    }
+
+    /// ∫ S(λ) W(λ) dλ from `lo_nm` to `hi_nm`, exactly.
+    ///
+    /// Both continua are piecewise linear, so their product is a quadratic
+    /// on each interval of the union of the two grids (clipped to the band
+    /// and to the overlap of the grids): each interval `[x0, x1]` contributes
+    /// `(x1 − x0)/6 · (2 s0 w0 + s0 w1 + s1 w0 + 2 s1 w1)`, the exact integral
+    /// of that quadratic. Sampling the product at the union nodes and
+    /// integrating it as piecewise linear instead overstates it wherever
+    /// both factors slope the same way (and understates it where they slope
+    /// against each other), by up to the whole integral on a coarse grid.
+    ///
+    /// A line of either factor with `lo_nm <= λ < hi_nm` (half-open, as in
+    /// [`Spectrum::integrate_band`]) adds its value times the other factor's
+    /// continuum at λ; line × line products are dropped, as in
+    /// [`Spectrum::product`]. Sums are accumulated in f64.
+    pub fn integrate_weighted_band(&self, weight: &Spectrum, lo_nm: f64, hi_nm: f64) -> f64 {
+        if lo_nm.is_nan() || hi_nm.is_nan() || hi_nm <= lo_nm {
+            return 0.0;
+        }
+        let mut sum = continuum_product_integral(self, weight, lo_nm, hi_nm);
+        let in_band = |w: f64| w >= lo_nm && w < hi_nm;
+        for l in self.lines.iter().filter(|l| in_band(l.wavelength_nm)) {
+            sum += l.value * weight.eval(l.wavelength_nm);
+        }
+        for l in weight.lines.iter().filter(|l| in_band(l.wavelength_nm)) {
+            sum += l.value * self.eval(l.wavelength_nm);
+        }
+        sum
     }
 
     /// This spectrum scaled so that its integral over `[lo_nm, hi_nm)` equals
@@ -285,6 +331,35 @@ impl Spectrum {
         let (y0, y1) = (self.value[j - 1], self.value[j]);
         y0 + (x - x0) / (x1 - x0) * (y1 - y0)
     }
+}
+
+/// ∫ a(λ) b(λ) dλ of two piecewise-linear continua over `[lo, hi]`, exact:
+/// the product is quadratic between consecutive nodes of the union grid.
+fn continuum_product_integral(a: &Spectrum, b: &Spectrum, lo: f64, hi: f64) -> f64 {
+    let (wa, wb) = (&a.wavelength_nm, &b.wavelength_nm);
+    if wa.len() < 2 || wb.len() < 2 {
+        // A single node has zero width: its continuum integrates to zero.
+        return 0.0;
+    }
+    let start = wa[0].max(wb[0]).max(lo);
+    let end = wa[wa.len() - 1].min(wb[wb.len() - 1]).min(hi);
+    if end <= start {
+        return 0.0;
+    }
+    let mut grid = merge_grids(wa, wb, start, end);
+    // The band edges split the intervals they fall in.
+    grid.push(start);
+    grid.push(end);
+    grid.sort_by(f64::total_cmp);
+    grid.dedup();
+    let mut sum = 0.0f64;
+    let (mut x0, mut a0, mut b0) = (grid[0], a.eval(grid[0]), b.eval(grid[0]));
+    for &x1 in &grid[1..] {
+        let (a1, b1) = (a.eval(x1), b.eval(x1));
+        sum += (x1 - x0) / 6.0 * (2.0 * a0 * b0 + a0 * b1 + a1 * b0 + 2.0 * a1 * b1);
+        (x0, a0, b0) = (x1, a1, b1);
+    }
+    sum
 }
 
 /// Sorted union of two grids restricted to `[lo, hi]`, duplicates removed.
@@ -400,6 +475,117 @@ mod tests {
         assert_relative_eq!(p.integral(), 105.0, max_relative = 1e-14);
     }
 
+    /// The old rule: sample the product at the union nodes, integrate it as
+    /// piecewise linear.
+    fn union_grid_trapezoid(a: &Spectrum, b: &Spectrum) -> f64 {
+        a.product(b).integral()
+    }
+
+    /// ∫ a b dλ by the trapezoid rule on `n` uniform steps over `[lo, hi]`,
+    /// from point values only (an answer independent of the union grid).
+    fn fine_trapezoid(a: &Spectrum, b: &Spectrum, lo: f64, hi: f64, n: usize) -> f64 {
+        let h = (hi - lo) / n as f64;
+        let f = |i: usize| {
+            let x = if i == n { hi } else { lo + h * i as f64 };
+            a.eval(x) * b.eval(x)
+        };
+        let inner: f64 = (1..n).map(f).sum();
+        h * (inner + 0.5 * (f(0) + f(n)))
+    }
+
+    #[test]
+    fn product_of_two_ramps_integrates_to_the_closed_form() {
+        // a = λ − 400 and b = 700 − λ on 400–700 nm, each one linear piece:
+        // ∫ (λ−400)(700−λ) dλ = ∫_0^300 t (300 − t) dt = 300³/6 = 4.5e6.
+        let a = Spectrum::new(vec![400.0, 700.0], vec![0.0, 300.0]).unwrap();
+        let b = Spectrum::new(vec![400.0, 700.0], vec![300.0, 0.0]).unwrap();
+        assert_relative_eq!(a.integrate_weighted(&b), 4.5e6, max_relative = 1e-14);
+        // The product sampled at the two nodes is 0 at both: all of it lost.
+        assert_eq!(union_grid_trapezoid(&a, &b), 0.0);
+        // Band 450–650 nm: ∫_50^250 t (300 − t) dt = 150 (250² − 50²) − (250³ − 50³)/3.
+        let band = 150.0 * (250.0f64.powi(2) - 50.0f64.powi(2))
+            - (250.0f64.powi(3) - 50.0f64.powi(3)) / 3.0;
+        assert_relative_eq!(
+            a.integrate_weighted_band(&b, 450.0, 650.0),
+            band,
+            max_relative = 1e-14
+        );
+        // Same-signed slopes: a² = (λ − 400)² over 400–700 nm is 300³/3 = 9e6,
+        // where the two-node trapezoid says 300 · 300²/2 = 1.35e7 (+50 %).
+        assert_relative_eq!(a.integrate_weighted(&a), 9e6, max_relative = 1e-14);
+        assert_relative_eq!(union_grid_trapezoid(&a, &a), 1.35e7, max_relative = 1e-14);
+        // Grids that only partly overlap: the product is zero outside 500–700.
+        let c = Spectrum::new(vec![500.0, 900.0], vec![1.0, 1.0]).unwrap();
+        // ∫_100^300 t dt = (300² − 100²)/2 = 40 000.
+        assert_relative_eq!(a.integrate_weighted(&c), 40_000.0, max_relative = 1e-14);
+    }
+
+    #[test]
+    fn coarse_irregular_pair_matches_a_fine_trapezoid() {
+        // A lamp and a response on unrelated, irregular, coarse grids.
+        let lamp = Spectrum::new(
+            vec![380.0, 410.0, 455.0, 530.0, 600.0, 690.0, 780.0],
+            vec![0.2, 1.4, 0.6, 2.5, 0.9, 3.0, 0.1],
+        )
+        .unwrap();
+        let qe = Spectrum::new(
+            vec![400.0, 430.0, 500.0, 515.0, 640.0, 720.0, 900.0],
+            vec![0.05, 0.30, 0.10, 0.45, 0.20, 0.35, 0.0],
+        )
+        .unwrap();
+        // 10⁵ steps of 3.8e-3 nm: the trapezoid's error on this product is
+        // O(h²) ≈ 1e-10 relative, far below the difference being tested.
+        let fine = fine_trapezoid(&lamp, &qe, 400.0, 780.0, 100_000);
+        let exact = lamp.integrate_weighted(&qe);
+        assert_relative_eq!(exact, fine, max_relative = 1e-8);
+        // Symmetric in its factors.
+        assert_relative_eq!(qe.integrate_weighted(&lamp), exact, max_relative = 1e-14);
+        // The old union-grid trapezoid is off by far more than that.
+        let old = union_grid_trapezoid(&lamp, &qe);
+        assert!((old / fine - 1.0).abs() > 1e-3, "old {old} fine {fine}");
+        // A band whose edges fall inside intervals of both grids.
+        let fine_band = fine_trapezoid(&lamp, &qe, 442.5, 611.25, 100_000);
+        assert_relative_eq!(
+            lamp.integrate_weighted_band(&qe, 442.5, 611.25),
+            fine_band,
+            max_relative = 1e-8
+        );
+    }
+
+    #[test]
+    fn weighted_band_is_half_open_for_lines_and_additive() {
+        let lamp = Spectrum::new(vec![400.0, 700.0], vec![1.0, 2.0])
+            .unwrap()
+            .with_lines(vec![line(500.0, 3.0), line(600.0, 5.0)])
+            .unwrap();
+        let weight = Spectrum::new(vec![450.0, 650.0], vec![0.5, 1.5])
+            .unwrap()
+            .with_lines(vec![line(550.0, 2.0)])
+            .unwrap();
+        // A line on the upper edge is out; one on the lower edge is in.
+        let lower = lamp.integrate_weighted_band(&weight, 450.0, 500.0);
+        let upper = lamp.integrate_weighted_band(&weight, 500.0, 650.0);
+        let whole = lamp.integrate_weighted(&weight);
+        assert_relative_eq!(lower + upper, whole, max_relative = 1e-14);
+        let w500 = weight.eval(500.0);
+        let no_lines = Spectrum::new(vec![400.0, 700.0], vec![1.0, 2.0]).unwrap();
+        let plain_weight = Spectrum::new(vec![450.0, 650.0], vec![0.5, 1.5]).unwrap();
+        assert_relative_eq!(
+            upper - no_lines.integrate_weighted_band(&plain_weight, 500.0, 650.0),
+            3.0 * w500 + 5.0 * weight.eval(600.0) + 2.0 * lamp.eval(550.0),
+            max_relative = 1e-12
+        );
+        assert_relative_eq!(
+            lower,
+            no_lines.integrate_weighted_band(&plain_weight, 450.0, 500.0),
+            max_relative = 1e-14
+        );
+        // Empty or reversed bands integrate to zero.
+        assert_eq!(lamp.integrate_weighted_band(&weight, 600.0, 600.0), 0.0);
+        assert_eq!(lamp.integrate_weighted_band(&weight, 700.0, 400.0), 0.0);
+        assert_eq!(lamp.integrate_weighted_band(&weight, f64::NAN, 700.0), 0.0);
+    }
+
     #[test]
     fn normalisation_hits_target() {
         let s = Spectrum::constant(380.0, 780.0, 1.0).unwrap();
@@ -434,6 +620,27 @@ mod tests {
         assert!(matches!(
             Spectrum::new(vec![400.0], vec![1.0, 2.0]),
             Err(SpectrumError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn a_wavelength_carries_one_line() {
+        let s = Spectrum::from_lines(vec![line(546.07, 1.0)]).unwrap();
+        assert_eq!(
+            s.clone()
+                .with_lines(vec![line(435.83, 1.0), line(546.07, 2.0)]),
+            Err(SpectrumError::DuplicateLine {
+                index: 1,
+                wavelength_nm: 546.07
+            })
+        );
+        assert!(matches!(
+            Spectrum::from_lines(vec![line(500.0, 1.0), line(600.0, 1.0), line(500.0, 1.0)]),
+            Err(SpectrumError::DuplicateLine { index: 2, .. })
+        ));
+        assert!(matches!(
+            s.with_lines(vec![line(f64::NAN, 1.0)]),
+            Err(SpectrumError::BadWavelength { index: 0, .. })
         ));
     }
 }
