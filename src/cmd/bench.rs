@@ -661,7 +661,10 @@ fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
                         .bands
                         .iter()
                         .map(|b| {
-                            prod.product(&b.response).integrate_band(b.lo_nm, b.hi_nm)
+                            // The last product integrated exactly (quadratic
+                            // pieces); `prod` is exact when ρ is flat, as on
+                            // the closed-form scenes.
+                            prod.integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
                                 * std::f64::consts::FRAC_1_PI
                         })
                         .collect();
