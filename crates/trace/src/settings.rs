@@ -204,7 +204,7 @@ impl Default for RenderSettings {
             gather_rays: 16,
             tolerance: 0.005,
             target_error: None,
-            max_spp: 4096,
+            max_spp: 1024,
         }
     }
 }
