@@ -597,15 +597,36 @@ impl Tracer {
         c: &mut RayCounts,
         acc: &mut [f64],
     ) {
-        let k = self.settings.gather_rays;
+        let k = self.settings.gather_rays as usize;
         if k == 0 {
             cache.add_indirect_irradiance(facet, front, p, scale, acc);
             return;
         }
-        let mut u = Vec::with_capacity(k as usize);
+        self.final_gather(cache, p, ns, facet, k, points, scale, rng, c, acc);
+    }
+
+    /// A final gather: `k` cosine-weighted rays from `p` (on `facet`, side
+    /// normal `ns`) along `points` (or a fresh Latin hypercube), each adding
+    /// `π/k · scale · τ ·` the cached outgoing radiance where it lands, so
+    /// `acc` gains `scale ·` the indirect irradiance.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn final_gather(
+        &self,
+        cache: &Cache,
+        p: DVec3,
+        ns: DVec3,
+        facet: u32,
+        k: usize,
+        points: Option<&[[f64; 2]]>,
+        scale: &[f64],
+        rng: &mut rand_pcg::Pcg64Mcg,
+        c: &mut RayCounts,
+        acc: &mut [f64],
+    ) {
+        let mut u = Vec::with_capacity(k);
         match points {
-            Some(pts) if pts.len() == k as usize => u.extend_from_slice(pts),
-            _ => latin_hypercube(k as usize, rng, &mut u),
+            Some(pts) if pts.len() == k => u.extend_from_slice(pts),
+            _ => latin_hypercube(k, rng, &mut u),
         }
         let (tx, ty) = orthonormal_basis(ns);
         // E = π/K Σ L(y_j).

@@ -239,21 +239,18 @@ impl Tracer {
                 // patches such as the pools under street lamps).
                 let mut e_i = vec![0.0; nwl];
                 if mat.has_diffuse {
-                    let mut u = Vec::with_capacity(PILOT_GATHER);
-                    crate::tracer::latin_hypercube(PILOT_GATHER, &mut rng, &mut u);
-                    let (tx, ty) = crate::sky_light::orthonormal_basis(ns);
-                    let w = vec![std::f64::consts::PI / PILOT_GATHER as f64; nwl];
-                    for uv in u {
-                        let l = crate::sky_light::cosine_hemisphere(uv);
-                        let dir = (tx * l.x + ty * l.y + ns * l.z).normalize_or_zero();
-                        if let Some((g, gf, y, tau)) = self.gather_hit(p, dir, f, &mut c) {
-                            let s: Vec<f64> = match tau {
-                                None => w.clone(),
-                                Some(t) => w.iter().zip(&t).map(|(a, b)| a * b).collect(),
-                            };
-                            cache.add_radiance(g, gf, y, &s, &mut e_i);
-                        }
-                    }
+                    self.final_gather(
+                        &cache,
+                        p,
+                        ns,
+                        f,
+                        PILOT_GATHER,
+                        None,
+                        &self.ones,
+                        &mut rng,
+                        &mut c,
+                        &mut e_i,
+                    );
                 }
                 let mut pix_ind = vec![0.0; nwl];
                 let mut pix_tot = vec![0.0; nwl];

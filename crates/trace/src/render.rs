@@ -271,7 +271,12 @@ impl Tracer {
         // Final-gather directions: one Owen-scrambled Sobol sequence per
         // pixel, continued across batches (`est.n` samples so far), each
         // sample taking the next block of `gather_rays` points.
-        let k = self.settings.gather_rays as usize;
+        // (Only when there is a cache to gather from.)
+        let k = if self.cache.is_some() {
+            self.settings.gather_rays as usize
+        } else {
+            0
+        };
         let scramble =
             crate::tracer::mix64(self.settings.seed ^ crate::tracer::mix64(idx ^ 0x6A7E));
         let mut pts: Vec<[f64; 2]> = Vec::with_capacity(k);
@@ -292,7 +297,7 @@ impl Tracer {
                 1,
                 0,
                 false,
-                Some(&pts),
+                (k > 0).then_some(pts.as_slice()),
                 &mut rng,
                 c,
                 &mut acc,

@@ -591,6 +591,20 @@ impl Tracer {
             self.moon_irradiance(sky, p, n, ignore, c, out);
             self.dome_irradiance(sky, p, n, ignore, rng, c, out);
         }
+        self.area_irradiance(p, n, ignore, rng, c, out);
+    }
+
+    /// The area sources' part of [`Tracer::irradiance`], by the chosen
+    /// estimator.
+    fn area_irradiance(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
         if self.area.is_empty() && !self.settings.all_effects {
             return;
         }
@@ -634,9 +648,7 @@ impl Tracer {
             self.moon_irradiance(sky, p, n, ignore, c, &mut parts[3]);
             self.dome_irradiance(sky, p, n, ignore, rng, c, &mut parts[4]);
         }
-        if !self.area.is_empty() {
-            self.analytic(p, n, ignore, rng, c, &mut parts[0]);
-        }
+        self.area_irradiance(p, n, ignore, rng, c, &mut parts[0]);
         parts
     }
 
