@@ -198,7 +198,7 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
 fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
     let opts = OpenOptions {
         seed: a.seed,
-        scene_renderer: Some(super::scene_view::scene_renderer()),
+        scene_renderer: Some(gloam_pipeline::scene_renderer()),
         ..OpenOptions::default()
     };
     let mut g = gloam_grabber::open_with(&a.grabber, &opts)

@@ -12,8 +12,6 @@ pub mod output;
 pub mod plan;
 pub mod probe;
 pub mod render;
-pub mod scene_view;
 pub mod sensor;
-pub mod sensor_frames;
 pub mod sky;
 pub mod spectra;

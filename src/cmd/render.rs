@@ -13,9 +13,8 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use gloam_trace::{RenderOutput, RenderSettings, Tracer};
-use ndarray::Array3;
 
-use super::output::{write_atomic, write_atomic_with};
+use super::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -118,10 +117,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let sensor = args.sensor.clone().or_else(|| scene.sensor.clone());
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(s) = &sensor {
-        super::sensor_frames::check_options(s, args.gain, args.frames)?;
+        gloam_pipeline::check_options(s, args.gain, args.frames)?;
     }
     let traced = match &sensor {
-        Some(s) => super::sensor_frames::with_detected_band(&scene, s)?,
+        Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
         None => scene.clone(),
     };
     let tracer = Tracer::new(&traced, &settings)?;
@@ -149,7 +148,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let mut out = tracer.render(&progress)?;
     let detected = match &sensor {
-        Some(_) => Some(super::sensor_frames::take_detected_band(&mut out)?),
+        Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
         None => None,
     };
     if let Some(b) = &bar {
@@ -172,7 +171,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     if let (Some(sensor), Some(detected)) = (sensor, detected) {
-        let capture = super::sensor_frames::FrameCapture {
+        let capture = gloam_pipeline::FrameCapture {
             sensor: &sensor,
             frames: args.frames,
             gain: args.gain,
@@ -251,70 +250,5 @@ fn report_json(
         "sky": out.stats.sky,
         "interreflection": out.stats.interreflection,
         "bands": band_means,
-    })
-}
-
-fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    let (nb, h, w) = radiance.dim();
-    write_atomic_with(path, |f| {
-        let mut enc = tiff::encoder::TiffEncoder::new(f)?;
-        for b in 0..nb {
-            let page: Vec<f32> = radiance
-                .index_axis(ndarray::Axis(0), b)
-                .iter()
-                .map(|&v| v as f32)
-                .collect();
-            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, &page)?;
-        }
-        Ok(())
-    })
-}
-
-fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        radiance.write_npy(&mut w)?;
-        // Flush here: a BufWriter dropped with unwritten data loses the error.
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
-}
-
-fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        a.write_npy(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
-}
-
-/// First band, divided by its 99.5th percentile, gamma 1/2.2, 8 bits.
-fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    let (_, h, w) = radiance.dim();
-    let img = radiance.index_axis(ndarray::Axis(0), 0);
-    let mut sorted: Vec<f64> = img.iter().copied().filter(|v| *v > 0.0).collect();
-    sorted.sort_by(f64::total_cmp);
-    let scale = if sorted.is_empty() {
-        1.0
-    } else {
-        sorted[((sorted.len() - 1) as f64 * 0.995) as usize]
-    };
-    let pixels: Vec<u8> = img
-        .iter()
-        .map(|&v| {
-            let x = (v / scale).clamp(0.0, 1.0).powf(1.0 / 2.2);
-            (x * 255.0).round() as u8
-        })
-        .collect();
-    let gray =
-        image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        gray.write_to(&mut w, image::ImageFormat::Png)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
     })
 }
