@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use gloam_grabber::{GrabError, OpenOptions};
 
-use gloam_pipeline::{FrameLog, FrameRecord};
+use gloam_pipeline::{FrameLog, FrameRecord, OutputSet, Provenance};
 
 use super::output::{png16_bytes, write_atomic};
 
@@ -41,6 +41,9 @@ pub struct CaptureArgs {
     /// Give up after this many lost/damaged frames in a row.
     #[arg(long, default_value_t = 1000)]
     pub max_consecutive_failures: u64,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Default)]
@@ -55,8 +58,11 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let provenance = Provenance::of_this_run();
+    // The frames appear at once with manifest.json; Ctrl-C stops the loop
+    // and publishes what was captured.
+    let set = OutputSet::begin(&args.out, args.force, true)?;
+    let dir = set.dir().to_path_buf();
     let opts = OpenOptions {
         seed: args.seed,
         scene_renderer: Some(gloam_pipeline::scene_renderer()),
@@ -99,16 +105,19 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     let mut frames_warned = 0u64;
     // Appended as frames are written: an interrupted capture lists every
     // frame it kept.
-    let mut log = FrameLog::create(&args.out)?;
+    let mut log = FrameLog::create(&dir)?;
     let result: anyhow::Result<()> = (|| {
         while (records.len() as u64) < args.frames {
+            if gloam_pipeline::output_set::interrupted() {
+                bail!("interrupted (Ctrl-C)");
+            }
             match g.grab() {
                 Ok(f) => {
                     consecutive = 0;
                     let index = records.len() as u64;
                     let file = format!("frame-{index:06}.png");
                     write_atomic(
-                        &args.out.join(&file),
+                        &dir.join(&file),
                         &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?,
                     )?;
                     let exposure = f.exposure();
@@ -152,6 +161,13 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         Ok(())
     })();
     bar.finish_and_clear();
+    // Nothing captured is lost: a run that stopped early publishes its
+    // whole frames, marked incomplete in manifest.json.
+    if !records.is_empty() || result.is_ok() {
+        let why = result.as_ref().err().map(|e| format!("{e:#}"));
+        drop(log);
+        set.publish(&provenance, why.as_deref())?;
+    }
     let mut summary = format!(
         "captured {} frame(s) into {}; {} damaged, {} lost",
         records.len(),

@@ -10,9 +10,10 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Context;
 use clap::Args;
 use gloam_trace::{RenderOutput, RenderSettings, Tracer};
+
+use gloam_pipeline::{OutputSet, Provenance};
 
 use super::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
 
@@ -64,6 +65,9 @@ pub struct RenderArgs {
     /// Turn the camera's temporal noise off (deterministic mean response).
     #[arg(long)]
     pub no_noise: bool,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Settings from `--set` pairs, then the dedicated flags.
@@ -95,6 +99,10 @@ pub fn settings_from(
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let provenance = Provenance::of_this_run();
+    // Refused up front when --out is in use; the files appear at once.
+    let set = OutputSet::begin(&args.out, args.force, false)?;
+    let dir = set.dir().to_path_buf();
     let t_load = Instant::now();
     let scene = gloam_scene::load(&args.scene)?;
     let load_s = t_load.elapsed().as_secs_f64();
@@ -156,18 +164,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
 
     let t_write = Instant::now();
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    write_tiff(&args.out.join("radiance.tiff"), &out.radiance)?;
-    write_npy(&args.out.join("radiance.npy"), &out.radiance)?;
-    write_tiff(&args.out.join("stderr.tiff"), &out.std_error)?;
-    write_npy(&args.out.join("stderr.npy"), &out.std_error)?;
-    write_npy_u32(&args.out.join("spp.npy"), &out.spp)?;
-    write_preview(&args.out.join("preview.png"), &out.radiance)?;
+    write_tiff(&dir.join("radiance.tiff"), &out.radiance)?;
+    write_npy(&dir.join("radiance.npy"), &out.radiance)?;
+    write_tiff(&dir.join("stderr.tiff"), &out.std_error)?;
+    write_npy(&dir.join("stderr.npy"), &out.std_error)?;
+    write_npy_u32(&dir.join("spp.npy"), &out.spp)?;
+    write_preview(&dir.join("preview.png"), &out.radiance)?;
     let write_s = t_write.elapsed().as_secs_f64();
-    let report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    let mut report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    report["provenance"] = serde_json::to_value(&provenance)?;
     write_atomic(
-        &args.out.join("report.json"),
+        &dir.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     if let (Some(sensor), Some(detected)) = (sensor, detected) {
@@ -179,8 +186,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             noise: !args.no_noise,
             seed: settings.seed,
         };
-        capture.run(&detected, &args.out)?;
+        capture.run(&detected, &dir)?;
     }
+    set.publish(&provenance, None)?;
     eprintln!(
         "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",
         out.stats.width,

@@ -24,7 +24,16 @@ pub fn write_atomic_with(
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+    // Mode 0666 less the umask, as `File::create` gives (tempfile's own
+    // default is 0600).
+    let mut builder = tempfile::Builder::new();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder
+        .tempfile_in(dir)
         .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
     fill(tmp.as_file_mut()).with_context(|| format!("writing {}", path.display()))?;
     tmp.as_file()
@@ -113,4 +122,18 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> 
         std::io::Write::flush(&mut w)?;
         Ok(())
     })
+}
+
+/// Adds `"provenance"` to the JSON object in `path` (a report or
+/// calibration file written by a library that does not know the run).
+pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> anyhow::Result<()> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+    if let Some(obj) = v.as_object_mut() {
+        obj.insert("provenance".into(), serde_json::to_value(provenance)?);
+        write_atomic(path, serde_json::to_string_pretty(&v)?.as_bytes())?;
+    }
+    Ok(())
 }
