@@ -683,16 +683,38 @@ fn object(
         let p = cx.resolve(file);
         // `..Default::default()` keeps this compiling if tobj's optional
         // `merging`/`reordering` features (more fields) get enabled.
+        // Points and lines are kept so that they can be reported: a face
+        // with fewer than three vertices is an error, not dropped.
         #[allow(clippy::needless_update)]
         let opts = tobj::LoadOptions {
             triangulate: false,
             single_index: false,
-            ignore_points: true,
-            ignore_lines: true,
+            ignore_points: false,
+            ignore_lines: false,
             ..Default::default()
         };
-        let (models, _mtl) = tobj::load_obj(&p, &opts)
-            .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
+        let bytes =
+            gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_MESH_FILE_BYTES)
+                .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
+        let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
+            // Materials come from the scene file, not from .mtl files.
+            Ok(Default::default())
+        })
+        .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
+        for model in &models {
+            let arities = &model.mesh.face_arities;
+            if let Some((k, n)) = arities.iter().enumerate().find(|(_, n)| **n < 3) {
+                return Err(cx.err(
+                    &at,
+                    format!(
+                        "OBJ file {}: object '{}' face {} has {n} vertex(es) (a point or line element); faces need at least 3",
+                        p.display(),
+                        model.name,
+                        k + 1
+                    ),
+                ));
+            }
+        }
         let mut count = 0usize;
         for model in &models {
             let mesh = &model.mesh;

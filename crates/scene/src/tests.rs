@@ -370,7 +370,39 @@ fn obj_file_errors() {
         &path,
         next_line() + 2,
         "objects.m.obj",
-        "cannot load OBJ",
+        "cannot read OBJ file",
+    );
+    // Line and point elements are reported, not dropped.
+    std::fs::write(
+        dir.path().join("lines.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nl 1 2\n",
+    )
+    .unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"lines.obj\"\n");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "line element",
+    );
+    // A directory or a device is named as such, never read.
+    std::fs::create_dir(dir.path().join("adir.obj")).unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"adir.obj\"\n");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "is a directory",
+    );
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"/dev/zero\"\n");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "not a regular file",
     );
     std::fs::write(
         dir.path().join("warped.obj"),

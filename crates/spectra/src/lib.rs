@@ -8,6 +8,7 @@
 
 mod csv;
 mod error;
+pub mod input;
 pub mod library;
 mod radiometry;
 mod spectrum;
