@@ -69,17 +69,30 @@ impl Ctx<'_> {
     }
 
     fn vec3(&self, field: &FieldPath, v: V3) -> R<DVec3> {
-        for (i, c) in v.iter().enumerate() {
+        for (i, c) in v.0.iter().enumerate() {
             if !c.is_finite() {
                 return Err(self.err(
                     &field.index(i),
                     format!("coordinate {c} is not a finite number"),
                 ));
             }
+            if c.abs() > MAX_COORDINATE {
+                return Err(self.err(
+                    &field.index(i),
+                    format!(
+                        "coordinate {c:e} is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)"
+                    ),
+                ));
+            }
         }
-        Ok(DVec3::from_array(v))
+        Ok(DVec3::from_array(v.0))
     }
 }
+
+/// Largest coordinate magnitude, scene units: beyond it, f64 geometry
+/// (cross products, squared lengths) loses the precision ray tracing needs
+/// long before it overflows.
+pub const MAX_COORDINATE: f64 = 1e12;
 
 pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     let cx = Ctx {
@@ -207,7 +220,9 @@ fn named_spectrum(cx: &Ctx, field: &FieldPath, name: &str) -> R<Spectrum> {
         return Ok(s);
     }
     let p = cx.resolve(name);
-    if p.is_file() {
+    // Anything on disk by that name is read (and a directory or device
+    // refused by name), not reported as missing.
+    if p.exists() {
         return gloam_spectra::read_csv(&p)
             .map_err(|e| cx.err(field, format!("spectrum file: {e}")));
     }
@@ -314,8 +329,30 @@ fn spectrum_parts(cx: &Ctx, field: &FieldPath, p: Parts, kind: Kind) -> R<Spectr
             .normalized_to_band(n.lo_nm, n.hi_nm, n.value)
             .map_err(|e| cx.err(&f, e.to_string()))?;
     }
+    if matches!(kind, Kind::Radiance | Kind::Intensity) {
+        // A source so bright that its band integrals (and the radiance they
+        // feed) overflow to inf would give a silently wrong image.
+        let peak = s
+            .values()
+            .iter()
+            .chain(s.lines().iter().map(|l| &l.value))
+            .fold(0.0f64, |m, &v| m.max(v.abs()));
+        if peak.is_nan() || peak > MAX_EMISSION {
+            return Err(cx.err(
+                field,
+                format!(
+                    "{} {peak:e} is out of range (at most {MAX_EMISSION:e} per nm; the Sun's surface is ~2e7 W m⁻² sr⁻¹ nm⁻¹)",
+                    kind.word()
+                ),
+            ));
+        }
+    }
     Ok(s)
 }
+
+/// Largest spectral radiance (W m⁻² sr⁻¹ nm⁻¹) or intensity (W sr⁻¹ nm⁻¹)
+/// a source may have, continuum or line.
+pub const MAX_EMISSION: f64 = 1e20;
 
 /// Adds the emission lines written as `lines = [[wavelength_nm, value], …]`
 /// to `s`, checking each: wavelength finite and > 0, value finite and ≥ 0
@@ -546,7 +583,7 @@ fn object(
     let scale = match &o.scale {
         None => DVec3::ONE,
         Some(RawScale::Uniform(s)) => DVec3::splat(*s),
-        Some(RawScale::PerAxis(v)) => DVec3::from_array(*v),
+        Some(RawScale::PerAxis(v)) => DVec3::from_array(v.0),
     };
     if !(scale.is_finite() && scale.min_element() > 0.0) {
         return Err(cx.err(
@@ -838,8 +875,14 @@ fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {
 fn band(cx: &Ctx, field: &FieldPath, name: &str, b: &RawBand) -> R<Band> {
     let check_edges = |lo: f64, hi: f64| -> R<()> {
         if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo) {
+            // Name the edge at fault: lo_nm when it alone is out of range.
+            let at = if !(lo.is_finite() && lo >= 0.0) {
+                "lo_nm"
+            } else {
+                "hi_nm"
+            };
             return Err(cx.err(
-                &field.key("hi_nm"),
+                &field.key(at),
                 format!("band {lo}–{hi} nm must have 0 ≤ lo_nm < hi_nm"),
             ));
         }

@@ -147,6 +147,17 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
             path: path.to_path_buf(),
         });
     }
+    if wavelengths.len() == 1 {
+        // One row spans no range: as a constant it would silently cover
+        // every wavelength, as a point it would integrate to nothing.
+        return Err(err(
+            rows[0],
+            format!(
+                "the only continuum row ({} nm): a spectrum needs at least two rows (or only `line` rows)",
+                wavelengths[0]
+            ),
+        ));
+    }
     // Every row was checked above, so these cannot fail; an error would
     // still be reported, never a panic.
     Spectrum::new(wavelengths, values)
