@@ -37,7 +37,31 @@ fn mean_dn_matches_analytic_transfer_within_half_percent() {
         let rel = (measured - expected) / (expected - black);
         println!("{name}: mean {measured:.2} DN, analytic {expected:.2} DN, rel {rel:+.5}");
         assert!(rel.abs() < 0.005, "{name}: {measured} vs {expected}");
+        // An independent figure, from the preset's numbers by hand:
+        if let Some(want) = hand_mean_dn(name, g, pe) {
+            let rel = (measured - want) / (want - black);
+            assert!(rel.abs() < 0.005, "{name}: {measured} vs by hand {want}");
+        }
     }
+}
+
+/// Mean DN of a uniform field worked out from the preset file alone (not
+/// the chain), where it is a short closed form.
+fn hand_mean_dn(name: &str, g: f64, pe: f64) -> Option<f64> {
+    match name {
+        // DN = offset + g (pe + dark t) / (e/DN): 500 + (pe + 0.001)/1.6.
+        "scientific-ccd" => Some(500.0 + g * (pe + 0.001 * 1.0) / 1.6),
+        // DN = offset + (pe G (1 − b/2) + dark t) / (e/DN), EBI (≈ 2e-3 pe,
+        // 1e-11 lm cm⁻² on a 16 µm pixel for 40 ms) neglected.
+        "s25-ebccd" => Some(100.0 + (pe * g * (1.0 - 0.5 * 0.17) + 50.0 * 0.04) / 50.0),
+        _ => None,
+    }
+}
+
+/// Temporal variance, DN², by hand for the plain CCD: shot + dark + read
+/// noise over (e/DN)², plus 1/12 DN² of quantisation.
+fn hand_variance_dn2(name: &str, pe: f64) -> Option<f64> {
+    (name == "scientific-ccd").then(|| (pe + 0.001 + 3.0 * 3.0) / (1.6 * 1.6) + 1.0 / 12.0)
 }
 
 #[test]
@@ -63,6 +87,10 @@ fn temporal_variance_matches_noise_model_within_3_percent() {
         let rel = measured / expected - 1.0;
         println!("{name}: variance {measured:.2} DN², model {expected:.2} DN², rel {rel:+.4}");
         assert!(rel.abs() < 0.03, "{name}: {measured} vs {expected}");
+        if let Some(want) = hand_variance_dn2(name, pe) {
+            let rel = measured / want - 1.0;
+            assert!(rel.abs() < 0.03, "{name}: {measured} vs by hand {want}");
+        }
     }
 }
 
