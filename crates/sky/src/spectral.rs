@@ -93,6 +93,17 @@ pub fn illuminance_lux(irradiance_w_m2_nm: &[(f64, f64)]) -> Result<f64> {
     Ok(K_M_LM_PER_W * integrate(&weighted))
 }
 
+/// `shape` scaled so that a photometric quantity of `per_unit` per unit
+/// scale becomes `target` (all zero when the shape has no such quantity).
+pub fn scaled_to(shape: Samples, target: f64, per_unit: f64) -> Samples {
+    let k = if per_unit > 0.0 {
+        target / per_unit
+    } else {
+        0.0
+    };
+    shape.into_iter().map(|(w, v)| (w, v * k)).collect()
+}
+
 /// Planck spectral radiance B(λ, T), W m⁻² sr⁻¹ nm⁻¹.
 pub use gloam_spectra::planck_radiance_w_m2_sr_nm as planck_w_m2_sr_nm;
 

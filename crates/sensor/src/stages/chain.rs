@@ -162,32 +162,30 @@ impl Chain {
             crate::config::Tube::Ccd { ccd_qe } => resolve_spectrum("ccd.qe", ccd_qe)?,
         };
 
+        // A gain law with the gains at its minimum, maximum and set voltages.
+        let law = |gc: GainControl, lo_v: f64, hi_v: f64, set_v: f64| {
+            (gc, gc.gain_at(lo_v), gc.gain_at(hi_v), gc.gain_at(set_v))
+        };
         let (gain_control, gain_min, gain_max, reference_gain) = match tube {
-            crate::config::Tube::Iccd { mcp: m, .. } => {
-                let gc = GainControl::Mcp {
+            crate::config::Tube::Iccd { mcp: m, .. } => law(
+                GainControl::Mcp {
                     g0: m.gain_ref,
                     v0: m.voltage_ref_v,
                     k: m.exponent,
-                };
-                (
-                    gc,
-                    gc.gain_at(m.min_voltage_v),
-                    gc.gain_at(m.max_voltage_v),
-                    gc.gain_at(m.voltage_v),
-                )
-            }
-            crate::config::Tube::Ebccd { ebccd: e, .. } => {
-                let gc = GainControl::Ebccd {
+                },
+                m.min_voltage_v,
+                m.max_voltage_v,
+                m.voltage_v,
+            ),
+            crate::config::Tube::Ebccd { ebccd: e, .. } => law(
+                GainControl::Ebccd {
                     dead_ev: e.dead_layer_ev,
                     pair_ev: e.pair_energy_ev,
-                };
-                (
-                    gc,
-                    gc.gain_at(e.min_voltage_v),
-                    gc.gain_at(e.max_voltage_v),
-                    gc.gain_at(e.voltage_v),
-                )
-            }
+                },
+                e.min_voltage_v,
+                e.max_voltage_v,
+                e.voltage_v,
+            ),
             crate::config::Tube::Ccd { .. } => {
                 let d = &cfg.digitizer;
                 (
