@@ -255,19 +255,13 @@ fn report_json(
 }
 
 fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    let (nb, h, w) = radiance.dim();
-    write_atomic_with(path, |f| {
-        let mut enc = tiff::encoder::TiffEncoder::new(f)?;
-        for b in 0..nb {
-            let page: Vec<f32> = radiance
-                .index_axis(ndarray::Axis(0), b)
-                .iter()
-                .map(|&v| v as f32)
-                .collect();
-            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, &page)?;
-        }
-        Ok(())
-    })
+    let (_, h, w) = radiance.dim();
+    let pages: Vec<Vec<f32>> = radiance
+        .outer_iter()
+        .map(|band| band.iter().map(|&v| v as f32).collect())
+        .collect();
+    let pages: Vec<&[f32]> = pages.iter().map(Vec::as_slice).collect();
+    Ok(gloam_calib::io::write_tiff_f32_pages(path, w, h, &pages)?)
 }
 
 fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
