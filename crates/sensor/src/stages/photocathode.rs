@@ -68,9 +68,8 @@ mod tests {
     }
 
     #[test]
-    fn flat_unit_qe_matches_the_luminous_efficacy_of_illuminant_a() {
-        // A cathode with QE 1 at every wavelength in 380–780 nm only would give
-        // q·(photons/W) / (lm/W); check the scaling: QE 0.5 gives half.
+    fn sensitivity_is_linear_in_qe() {
+        // S ∝ ∫ QE P_A λ/hc dλ: halving the QE halves the sensitivity.
         let one = Spectrum::constant(200.0, 1200.0, 1.0).unwrap();
         let half = Spectrum::constant(200.0, 1200.0, 0.5).unwrap();
         let r = luminous_sensitivity_a_lm(&half) / luminous_sensitivity_a_lm(&one);
