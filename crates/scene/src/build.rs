@@ -939,8 +939,6 @@ fn iso8601_utc(s: &str) -> Result<(), String> {
         b.get(r.clone())
             .is_some_and(|x| x.iter().all(u8::is_ascii_digit))
     };
-    let num =
-        |r: std::ops::Range<usize>| s.get(r).and_then(|x| x.parse::<u32>().ok()).unwrap_or(99);
     let shape = digits(0..4)
         && b.get(4) == Some(&b'-')
         && digits(5..7)
@@ -971,11 +969,12 @@ fn iso8601_utc(s: &str) -> Result<(), String> {
             "'{s}': the time must be UTC (end with Z or nothing), not '{rest}'"
         ));
     }
-    let (mo, d, h, mi) = (num(5..7), num(8..10), num(11..13), num(14..16));
-    if !((1..=12).contains(&mo) && (1..=31).contains(&d) && h <= 23 && mi <= 59) {
-        return Err(format!("'{s}': month, day, hour or minute out of range"));
-    }
-    Ok(())
+    // The calendar (month lengths, leap years, ranges) is the sky crate's
+    // parser's, the one the render uses: an impossible date fails here,
+    // with the file and line, rather than at render time.
+    gloam_sky::UtcInstant::parse_iso8601(s)
+        .map(|_| ())
+        .map_err(|e| format!("'{s}': {e}"))
 }
 
 fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {

@@ -834,6 +834,12 @@ fn sky_parsing_and_errors() {
         SKY.replace("2024-03-14T22:30:00Z", "14/03/2024 22:30")
     );
     expect_err(&text, next_line() + 1, "sky.utc", "ISO-8601");
+    // An impossible calendar date is caught at its line, not at render time.
+    let text = format!(
+        "{BASE}{}",
+        SKY.replace("2024-03-14T22:30:00Z", "2025-02-30T22:30:00Z")
+    );
+    expect_err(&text, next_line() + 1, "sky.utc", "2025-02-30");
     let text = format!("{BASE}{}", SKY.replace("32.2", "95.0"));
     expect_err(&text, next_line() + 2, "sky.latitude_deg", "-90..90");
 }
