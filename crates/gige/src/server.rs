@@ -54,6 +54,16 @@ impl ServerStats {
     }
 }
 
+/// One frame's packets on their way to the sender thread.
+struct Outgoing {
+    dest: SocketAddrV4,
+    packets: Vec<Vec<u8>>,
+    /// Wire time per byte, ns.
+    ns_per_byte: f64,
+    /// Extra delay after each packet (GevSCPD).
+    delay: Duration,
+}
+
 struct Shared {
     device: Device,
     store: ResendStore,
@@ -289,87 +299,29 @@ impl GigeServer {
         }
     }
 
-    fn stream_loop(&self, mut source: Box<dyn FrameSource>, stop: &AtomicBool, epoch: Instant) {
-        let (m, cv) = &*self.shared;
-        let mut faults = FaultInjector::new(self.config.faults);
-        let mut block_id: u16 = 1;
-        let mut next_due = Instant::now();
-        let mut frames_in_acquisition: u32 = 0;
-        let mut pixels: Vec<u16> = Vec::new();
-        let mut bytes: Vec<u8> = Vec::new();
-        let mut out: Vec<Vec<u8>> = Vec::new();
-        while !stop.load(Ordering::SeqCst) {
-            let mut sh = lock(m);
-            if sh.restart {
-                sh.restart = false;
-                sh.store.clear();
-                source.restart();
-                block_id = 1;
-                frames_in_acquisition = 0;
-                next_due = Instant::now();
-            }
-            if !sh.device.acquiring() {
-                let _ = cv.wait_timeout(sh, Duration::from_millis(50));
-                continue;
-            }
-            let now = Instant::now();
-            if sh.device.triggered() {
-                if sh.triggers == 0 {
-                    let _ = cv.wait_timeout(sh, Duration::from_millis(50));
-                    continue;
-                }
-                sh.triggers -= 1;
-            } else if now < next_due {
-                let wait = (next_due - now).min(Duration::from_millis(50));
-                let _ = cv.wait_timeout(sh, wait);
-                continue;
-            }
-            let generation = sh.generation;
-            let settings = sh.device.settings();
-            let pf = sh.device.pixel_format();
-            let stream = sh.device.stream();
-            let period = Duration::from_micros(sh.device.frame_period_us());
-            let limit = sh.device.frames_per_acquisition();
-            drop(sh);
+    fn stream_loop(&self, source: Box<dyn FrameSource>, stop: &AtomicBool, epoch: Instant) {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Outgoing>(2);
+        std::thread::scope(|scope| {
+            scope.spawn(move || self.send_loop(rx));
+            self.render_loop(source, stop, epoch, tx);
+        });
+    }
 
-            let Some(dest) = stream.destination else {
-                continue;
-            };
-            let start = Instant::now();
-            let timestamp_ticks = (start - epoch).as_nanos() as u64;
-            pixels.resize(settings.width as usize * settings.height as usize, 0);
-            let rendered = source.render(&settings, &mut pixels);
-            let rendered = match rendered {
-                Ok(r) => r,
-                Err(e) => {
-                    self.stats.render_errors.fetch_add(1, Ordering::Relaxed);
-                    eprintln!("gloam device: frame not rendered ({e}); acquisition stopped");
-                    let mut sh = lock(m);
-                    sh.device.acquisition_completed();
-                    continue;
-                }
-            };
-            gvsp::pixel_bytes(&pixels, pixel_format::bytes_per_pixel(pf), &mut bytes);
-            let info = ImageInfo {
-                timestamp_ticks,
-                pixel_format: pf,
-                width: settings.width,
-                height: settings.height,
-            };
-            let packets = gvsp::packetize(block_id, &info, &bytes, stream.packet_bytes as usize);
-            {
-                let mut sh = lock(m);
-                if sh.generation != generation || !sh.device.acquiring() {
-                    continue;
-                }
-                sh.store.insert(block_id, packets.clone());
-                sh.device.set_gain_in_effect(rendered.gain_milli);
-            }
+    /// Sends frames handed over by the render loop, paced, through the
+    /// fault injector.
+    fn send_loop(&self, rx: std::sync::mpsc::Receiver<Outgoing>) {
+        let mut faults = FaultInjector::new(self.config.faults);
+        let mut out: Vec<Vec<u8>> = Vec::new();
+        while let Ok(Outgoing {
+            dest,
+            packets,
+            ns_per_byte,
+            delay,
+        }) = rx.recv()
+        {
             let before = faults.dropped;
             let before_reordered = faults.reordered;
             let mut sent = 0u64;
-            let ns_per_byte = 8e9 / self.config.link_bits_per_s.max(1e6);
-            let delay = Duration::from_nanos(u64::from(stream.packet_delay_ns));
             let mut link_free_at = Instant::now();
             let pace = |bytes: usize, link_free_at: &mut Instant| {
                 // Wire time of this packet (IP/UDP headers included), then
@@ -406,6 +358,117 @@ impl GigeServer {
                 .packets_reordered
                 .fetch_add(faults.reordered - before_reordered, Ordering::Relaxed);
             self.stats.frames_sent.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn render_loop(
+        &self,
+        mut source: Box<dyn FrameSource>,
+        stop: &AtomicBool,
+        epoch: Instant,
+        tx: std::sync::mpsc::SyncSender<Outgoing>,
+    ) {
+        let (m, cv) = &*self.shared;
+        let mut block_id: u16 = 1;
+        let mut next_due = Instant::now();
+        let mut frames_in_acquisition: u32 = 0;
+        let mut pixels: Vec<u16> = Vec::new();
+        let mut bytes: Vec<u8> = Vec::new();
+        while !stop.load(Ordering::SeqCst) {
+            let mut sh = lock(m);
+            if sh.restart {
+                sh.restart = false;
+                sh.store.clear();
+                source.restart();
+                block_id = 1;
+                frames_in_acquisition = 0;
+                // Like a sensor, the first frame is read out one frame period
+                // after the acquisition starts (its exposure comes first); a
+                // frame sent at once can reach a client whose receive thread
+                // is not draining yet and overflow its socket buffer.
+                next_due = Instant::now() + Duration::from_micros(sh.device.frame_period_us());
+            }
+            if !sh.device.acquiring() {
+                let _ = cv.wait_timeout(sh, Duration::from_millis(50));
+                continue;
+            }
+            let now = Instant::now();
+            if sh.device.triggered() {
+                if sh.triggers == 0 {
+                    let _ = cv.wait_timeout(sh, Duration::from_millis(50));
+                    continue;
+                }
+                sh.triggers -= 1;
+            } else if now < next_due {
+                let wait = (next_due - now).min(Duration::from_millis(50));
+                let _ = cv.wait_timeout(sh, wait);
+                continue;
+            }
+            let generation = sh.generation;
+            let triggered = sh.device.triggered();
+            let settings = sh.device.settings();
+            let pf = sh.device.pixel_format();
+            let stream = sh.device.stream();
+            let period = Duration::from_micros(sh.device.frame_period_us());
+            let limit = sh.device.frames_per_acquisition();
+            drop(sh);
+
+            let Some(dest) = stream.destination else {
+                continue;
+            };
+            // The frame's exposure started on the schedule (the sensor's
+            // clock), however long the simulation takes to render it.
+            let exposure_start = if triggered {
+                Instant::now()
+            } else {
+                next_due.min(Instant::now())
+            };
+            let timestamp_ticks = exposure_start.saturating_duration_since(epoch).as_nanos() as u64;
+            pixels.resize(settings.width as usize * settings.height as usize, 0);
+            let rendered = source.render(&settings, &mut pixels);
+            let rendered = match rendered {
+                Ok(r) => r,
+                Err(e) => {
+                    self.stats.render_errors.fetch_add(1, Ordering::Relaxed);
+                    eprintln!("gloam device: frame not rendered ({e}); acquisition stopped");
+                    let mut sh = lock(m);
+                    sh.device.acquisition_completed();
+                    continue;
+                }
+            };
+            gvsp::pixel_bytes(&pixels, pixel_format::bytes_per_pixel(pf), &mut bytes);
+            let info = ImageInfo {
+                timestamp_ticks,
+                pixel_format: pf,
+                width: settings.width,
+                height: settings.height,
+            };
+            let packets = gvsp::packetize(block_id, &info, &bytes, stream.packet_bytes as usize);
+            {
+                let mut sh = lock(m);
+                if sh.generation != generation || !sh.device.acquiring() {
+                    continue;
+                }
+                sh.store.insert(block_id, packets.clone());
+                sh.device.set_gain_in_effect(rendered.gain_milli);
+            }
+            // Packets leave as the sensor reads out: spread over half the
+            // frame period (never faster than the link). A frame sent as one
+            // burst overflows the client's socket buffer whenever its receive
+            // thread is descheduled for a millisecond or two. The sender
+            // thread does this while the next frame renders.
+            let total_bytes: usize = packets.iter().map(|p| p.len() + 28).sum();
+            let ns_per_byte = (8e9 / self.config.link_bits_per_s.max(1e6))
+                .max(period.as_nanos() as f64 * 0.5 / total_bytes.max(1) as f64);
+            let outgoing = Outgoing {
+                dest,
+                packets,
+                ns_per_byte,
+                delay: Duration::from_nanos(u64::from(stream.packet_delay_ns)),
+            };
+            if tx.send(outgoing).is_err() {
+                break;
+            }
             block_id = gvsp::next_block_id(block_id);
             frames_in_acquisition += 1;
             // Paced to the frame period from the previous frame's due time;
