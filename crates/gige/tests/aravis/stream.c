@@ -3,7 +3,10 @@
  * buffer with the CRC-32C of its pixels as little-endian 16-bit values
  * (gloam's FrameMeta::pixels_crc32c), then Aravis's own statistics.
  *
- *   stream N_FRAMES [FEATURES]     FEATURES: "Name=Value Name=Value ..."
+ *   stream N_FRAMES [FEATURES [MAX_BUFFERS]]   FEATURES: "Name=Value Name=Value ..."
+ *
+ * Stops after N_FRAMES complete buffers, or after MAX_BUFFERS buffers of
+ * any status.
  *
  * Output:
  *   frame <frame_id> <status> <crc32c hex> <width> <height>
@@ -41,6 +44,7 @@ int main (int argc, char **argv)
 		return 2;
 	}
 	n_frames = atoi (argv[1]);
+	int max_seen = argc > 3 ? atoi (argv[3]) : -1;
 	crc_init ();
 
 	ArvCamera *camera = arv_camera_new (NULL, &error);
@@ -66,7 +70,7 @@ int main (int argc, char **argv)
 	gint64 t0 = g_get_monotonic_time ();
 	arv_camera_start_acquisition (camera, &error);
 	if (error) { fprintf (stderr, "start: %s\n", error->message); return 1; }
-	while (got < n_frames) {
+	while (got < n_frames && (max_seen < 0 || seen < max_seen)) {
 		ArvBuffer *buffer = arv_stream_timeout_pop_buffer (stream, 5000000);
 		if (buffer == NULL) {
 			fprintf (stderr, "timeout after %d good frames\n", got);
@@ -106,5 +110,5 @@ int main (int argc, char **argv)
 		seconds, got / seconds);
 	g_object_unref (stream);
 	g_object_unref (camera);
-	return got == n_frames ? 0 : 1;
+	return got == n_frames || (max_seen >= 0 && seen >= max_seen) ? 0 : 1;
 }
