@@ -337,7 +337,7 @@ impl Device {
                 }
                 let mut body = Vec::with_capacity(payload.len());
                 for a in payload.chunks_exact(4) {
-                    match self.read_register(be32(a), now_us) {
+                    match self.read_register(be32(a)) {
                         Ok(v) => body.extend_from_slice(&v.to_be_bytes()),
                         Err(s) => return ack(s, &body),
                     }
@@ -384,7 +384,7 @@ impl Device {
                 if addr % 4 != 0 {
                     return ack(Status::BadAlignment, &payload[..4]);
                 }
-                match self.read_memory(addr, count, now_us) {
+                match self.read_memory(addr, count) {
                     Ok(data) => {
                         let mut body = payload[..4].to_vec();
                         body.extend_from_slice(&data);
@@ -487,7 +487,7 @@ impl Device {
         let mut out = Vec::with_capacity(bs::DISCOVERY_DATA_END as usize);
         for a in (0..bs::DISCOVERY_DATA_END).step_by(4) {
             // Reserved words in the block read as zero.
-            out.extend_from_slice(&self.read_register(a, 0).unwrap_or(0).to_be_bytes());
+            out.extend_from_slice(&self.read_register(a).unwrap_or(0).to_be_bytes());
         }
         out
     }
@@ -509,7 +509,7 @@ impl Device {
     }
 
     /// Device memory `addr..addr + count` (both multiples of 4).
-    pub fn read_memory(&self, addr: u32, count: u32, now_us: u64) -> Result<Vec<u8>, Status> {
+    pub fn read_memory(&self, addr: u32, count: u32) -> Result<Vec<u8>, Status> {
         let end = addr.checked_add(count).ok_or(Status::InvalidAddress)?;
         let xml_end = features::XML_ADDRESS + self.xml.len().div_ceil(4) as u32 * 4;
         if addr >= features::XML_ADDRESS {
@@ -530,7 +530,7 @@ impl Device {
                 let o = (a - base) as usize;
                 out.extend_from_slice(&s[o..o + 4]);
             } else {
-                out.extend_from_slice(&self.read_register(a, now_us)?.to_be_bytes());
+                out.extend_from_slice(&self.read_register(a)?.to_be_bytes());
             }
             a += 4;
         }
@@ -545,7 +545,7 @@ impl Device {
     }
 
     /// One 4-byte register.
-    pub fn read_register(&self, a: u32, now_us: u64) -> Result<u32, Status> {
+    pub fn read_register(&self, a: u32) -> Result<u32, Status> {
         if a % 4 != 0 {
             return Err(Status::BadAlignment);
         }
@@ -622,10 +622,7 @@ impl Device {
             reg::PACKETS_DROPPED => self.counters.packets_dropped,
             reg::PACKETS_RESENT => self.counters.packets_resent,
             reg::RESEND_REQUESTS => self.counters.resend_requests,
-            _ => {
-                let _ = now_us;
-                return Err(Status::InvalidAddress);
-            }
+            _ => return Err(Status::InvalidAddress),
         })
     }
 
@@ -801,7 +798,7 @@ impl Device {
             }
             _ => {
                 // Known but read-only, or nothing there at all.
-                return Err(if self.read_register(a, 0).is_ok() {
+                return Err(if self.read_register(a).is_ok() {
                     Status::WriteProtect
                 } else {
                     Status::InvalidAddress
