@@ -107,12 +107,21 @@ fn bad_csv_lines_are_clear_errors() {
 }
 
 /// The fenced blocks of `lang` in `doc`, in order.
+/// The bodies of the fenced blocks whose info string starts with `lang`
+/// (`csv file=my-lamp.csv` counts as `csv`).
 fn blocks<'a>(doc: &'a str, lang: &str) -> Vec<&'a str> {
-    let fence = format!("```{lang}\n");
+    let fence = format!("```{lang}");
     let mut out = Vec::new();
     let mut rest = doc;
     while let Some(i) = rest.find(&fence) {
-        let body = &rest[i + fence.len()..];
+        let after = &rest[i + fence.len()..];
+        let Some(eol) = after.find('\n') else { break };
+        let info = &after[..eol];
+        if !(info.is_empty() || info.starts_with(' ')) {
+            rest = after;
+            continue;
+        }
+        let body = &after[eol + 1..];
         let Some(end) = body.find("```") else { break };
         out.push(&body[..end]);
         rest = &body[end + 3..];
