@@ -65,6 +65,11 @@ pub struct RenderArgs {
     /// Turn the camera's temporal noise off (deterministic mean response).
     #[arg(long)]
     pub no_noise: bool,
+    /// Render only tile K of N: rows ⌊(K−1)H/N⌋ to ⌊KH/N⌋ (horizontal
+    /// bands), radiance only, plus `tile.json`; `gloam merge` reassembles
+    /// the tiles bit-identically. See docs/sweep.md.
+    #[arg(long, value_name = "K/N", conflicts_with = "sensor")]
+    pub tile: Option<String>,
 }
 
 /// Settings from `--set` pairs, then the dedicated flags.
@@ -115,7 +120,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let mut plan = gloam_scene::plan::plan(&scene);
     // With a camera, the render also carries its detector-weighted band.
-    let sensor = args.sensor.clone().or_else(|| scene.sensor.clone());
+    let tile = (args.tile.as_deref())
+        .map(gloam_sweep::TileSpec::parse)
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
+    // A tile is radiance only (the scene's own camera is not captured).
+    let sensor = (args.sensor.clone().or_else(|| scene.sensor.clone())).filter(|_| tile.is_none());
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(s) = &sensor {
         super::sensor_frames::check_options(s, args.gain, args.frames)?;
@@ -147,7 +157,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let mut out = tracer.render(&progress)?;
+    let (full, mut rows) = (tracer.image_size(), 0..tracer.image_size().1);
+    if let Some(t) = tile {
+        rows = t.rows(full.1).map_err(anyhow::Error::msg)?;
+    }
+    let mut out = tracer.render_rows(rows.clone(), &progress)?;
     let detected = match &sensor {
         Some(_) => Some(super::sensor_frames::take_detected_band(&mut out)?),
         None => None,
@@ -165,6 +179,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     write_npy(&args.out.join("stderr.npy"), &out.std_error)?;
     write_npy_u32(&args.out.join("spp.npy"), &out.spp)?;
     write_preview(&args.out.join("preview.png"), &out.radiance)?;
+    if let Some(t) = tile {
+        super::merge::write_tile_info(&args.out, t, rows, full, &args.scene, &out)?;
+    }
     let write_s = t_write.elapsed().as_secs_f64();
     let report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
     write_atomic(
@@ -254,7 +271,7 @@ fn report_json(
     })
 }
 
-fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+pub(crate) fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     let (nb, h, w) = radiance.dim();
     write_atomic_with(path, |f| {
         let mut enc = tiff::encoder::TiffEncoder::new(f)?;
@@ -270,7 +287,7 @@ fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     })
 }
 
-fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+pub(crate) fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     use ndarray_npy::WriteNpyExt;
     write_atomic_with(path, |f| {
         let mut w = std::io::BufWriter::new(f);
@@ -281,7 +298,7 @@ fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     })
 }
 
-fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
+pub(crate) fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
     use ndarray_npy::WriteNpyExt;
     write_atomic_with(path, |f| {
         let mut w = std::io::BufWriter::new(f);
@@ -292,7 +309,7 @@ fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
 }
 
 /// First band, divided by its 99.5th percentile, gamma 1/2.2, 8 bits.
-fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+pub(crate) fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     let (_, h, w) = radiance.dim();
     let img = radiance.index_axis(ndarray::Axis(0), 0);
     let mut sorted: Vec<f64> = img.iter().copied().filter(|v| *v > 0.0).collect();
