@@ -153,8 +153,9 @@ impl Cluster {
                 ))
             }
         };
+        let bin = |c: &str| which(c).unwrap_or_else(|| PathBuf::from(c));
         run(
-            Command::new("munged")
+            Command::new(bin("munged"))
                 .arg(format!("--key-file={}", p("munge.key")))
                 .arg(format!("--socket={}", p("munge.sock")))
                 .arg(format!("--pid-file={}", p("munged.pid")))
@@ -163,10 +164,13 @@ impl Cluster {
             "munged",
         )?;
         run(
-            cluster.cmd("slurmctld").arg("-f").arg(&cluster.conf),
+            Command::new(bin("slurmctld")).arg("-f").arg(&cluster.conf),
             "slurmctld",
         )?;
-        run(cluster.cmd("slurmd").arg("-f").arg(&cluster.conf), "slurmd")?;
+        run(
+            Command::new(bin("slurmd")).arg("-f").arg(&cluster.conf),
+            "slurmd",
+        )?;
         // Idle within a bounded time.
         let t0 = Instant::now();
         loop {

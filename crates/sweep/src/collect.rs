@@ -34,6 +34,17 @@ fn outputs_hash(r: &TaskRecord) -> String {
     sha256_hex(text.as_bytes())
 }
 
+/// A scene's short name: its directory for `…/NAME/scene.toml`, else its file name.
+fn scene_label(s: &str) -> String {
+    let p = std::path::Path::new(s);
+    let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+    match (name.as_deref(), p.parent().and_then(|d| d.file_name())) {
+        (Some("scene.toml"), Some(dir)) => dir.to_string_lossy().into_owned(),
+        (Some(n), _) => n.trim_end_matches(".toml").to_string(),
+        _ => s.to_string(),
+    }
+}
+
 fn slug(s: &str) -> String {
     let mut out: String = s
         .chars()
@@ -162,7 +173,9 @@ fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> anyhow::Result<Vec<Pa
         if r.status != crate::run::Status::Done {
             continue;
         }
-        let scene = t.text("scene").unwrap_or_else(|| "uniform stimulus".into());
+        let scene = t
+            .text("scene")
+            .map_or_else(|| "uniform stimulus".into(), |s| scene_label(&s));
         let cam = t.text("sensor").unwrap_or_else(|| "camera".into());
         let e = acc
             .entry(scene)
