@@ -259,6 +259,14 @@ fn run_ok(cmd: &mut Command) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Straight to stderr: the test harness captures `eprintln!` of a passing
+/// test, and this notice must be seen.
+fn loud(msg: &str) {
+    use std::io::Write;
+    let bar = "!".repeat(msg.len().min(100));
+    let _ = writeln!(std::io::stderr(), "\n{bar}\n{msg}\n{bar}\n");
+}
+
 #[test]
 fn a_real_slurm_runs_the_sweep_and_a_tiled_render_like_the_local_run() {
     let missing: Vec<&str> = ["munged", "slurmctld", "slurmd", "sbatch", "sinfo"]
@@ -270,11 +278,7 @@ fn a_real_slurm_runs_the_sweep_and_a_tiled_render_like_the_local_run() {
             "SLURM TEST NOT RUN: {} not installed (apt-get install slurm-wlm munge; .ci/run does)",
             missing.join(", ")
         );
-        eprintln!(
-            "\n{}\n{msg}\n{}\n",
-            "!".repeat(msg.len()),
-            "!".repeat(msg.len())
-        );
+        loud(&msg);
         assert!(
             std::env::var("GLOAM_REQUIRE_SLURM").as_deref() != Ok("1"),
             "{msg}, and GLOAM_REQUIRE_SLURM=1"
@@ -285,7 +289,7 @@ fn a_real_slurm_runs_the_sweep_and_a_tiled_render_like_the_local_run() {
         Ok(c) => c,
         Err(e) => {
             let msg = format!("SLURM TEST NOT RUN: the one-node cluster did not start: {e}");
-            eprintln!("\n{msg}\n");
+            loud(&msg);
             assert!(
                 std::env::var("GLOAM_REQUIRE_SLURM").as_deref() != Ok("1"),
                 "{msg}"
