@@ -365,3 +365,50 @@ fn a_tile_axis_sweep_merges_into_the_untiled_render() {
         assert!(a == b, "{f} differs from the untiled render");
     }
 }
+
+#[test]
+fn a_capture_sweep_scales_with_gain_and_a_dry_run_writes_the_array_job() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sweep = tmp.path().join("cap.toml");
+    std::fs::write(
+        &sweep,
+        "[base]\nsensor = \"scientific-ccd\"\nsize = \"16x12\"\nframes = 3\n[axes]\ngain = [1, 2]\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("cap");
+    let err = run_ok(gloam().arg("sweep").arg(&sweep).arg("--out").arg(&out));
+    assert_eq!(counts(&err), (2, 0, 0), "{err}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    let s: Vec<f64> = rows
+        .iter()
+        .map(|r| r["signal_dn"].as_f64().unwrap())
+        .collect();
+    // A CCD's signal above black is linear in its gain (shot noise on
+    // ~20 000 DN over 192 pixels × 3 frames is far below 1 %).
+    assert!((s[1] / s[0] - 2.0).abs() < 0.01, "signal {s:?}");
+    assert!(
+        rows.iter().all(|r| r["snr"].as_f64().unwrap() > 10.0),
+        "{v:#}"
+    );
+
+    let dry = tmp.path().join("dry");
+    run_ok(
+        gloam()
+            .arg("sweep")
+            .arg(&sweep)
+            .arg("--out")
+            .arg(&dry)
+            .args(["--slurm", "--dry-run", "--max-parallel", "2", "--time", "5"]),
+    );
+    let script = std::fs::read_to_string(dry.join("sweep.sbatch")).unwrap();
+    assert!(script.contains("#SBATCH --array=0-1%2\n"), "{script}");
+    assert!(script.contains("#SBATCH --time=5\n"), "{script}");
+    assert!(script.contains("sweep run") && script.contains("--chunk \"$SLURM_ARRAY_TASK_ID\""));
+    assert!(
+        !dry.join("slurm.json").exists(),
+        "a dry run submitted nothing"
+    );
+    assert!(!dry.join("tasks/00000").exists());
+}

@@ -381,7 +381,7 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
             for k in t.keys() {
                 if !["from", "count", "step"].contains(&k.as_str()) {
                     return Err(format!(
-                        "unknown key '{k}' in a range (expected from, count, step)"
+                        "unknown key '{k}' in a range (expected from, count, step; a dotted scene key is quoted: \"camera.width\" = [...])"
                     ));
                 }
             }
@@ -426,6 +426,11 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
 
 /// Checks one value of `key` (in [base] or an axis).
 fn check_value(key: &str, v: &toml::Value) -> Result<(), String> {
+    if v.is_table() {
+        return Err(format!(
+            "a table; a dotted scene key is quoted: \"{key}.…\" = value"
+        ));
+    }
     let text = scalar_text(v).ok_or("expected a string, number or boolean")?;
     match key {
         "scene" | "sensor" => match v {
@@ -642,5 +647,68 @@ impl Task {
             src.push_str(&format!("{k}={}\n", scalar_text(v).unwrap_or_default()));
         }
         sha_hex(src.as_bytes())[..16].to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Sweep, SpecError> {
+        Sweep::parse(text, Path::new("t.toml"), Path::new("/base"))
+    }
+
+    const GRID: &str = r#"
+[base]
+scene = "s.toml"
+sensor = "gen3-gaas-iccd"
+[axes]
+gain = [20, 100, 500]
+spp = [1, 2]
+seed = { from = 7, count = 2 }
+"#;
+
+    #[test]
+    fn tasks_are_the_product_with_stable_ids_and_shared_renders() {
+        let s = parse(GRID).unwrap();
+        assert_eq!(s.tasks.len(), 3 * 2 * 2);
+        // The last axis varies fastest.
+        assert_eq!(s.tasks[1].axes[2], ("seed".to_string(), "8".to_string()));
+        assert_eq!(s.tasks[2].axes[1], ("spp".to_string(), "2".to_string()));
+        let ids: std::collections::BTreeSet<_> = s.tasks.iter().map(|t| &t.id).collect();
+        assert_eq!(ids.len(), 12);
+        let seeds: std::collections::BTreeSet<_> = s.tasks.iter().map(|t| t.seed).collect();
+        assert_eq!(seeds.len(), 12);
+        // Gains share a render: one chunk per (spp, seed).
+        assert_eq!(s.chunks.len(), 2 * 2);
+        assert!(s.chunks.iter().all(|c| c.len() == 3));
+        // Reordering the axes reorders the tasks but keeps each one's id and seed.
+        let swapped = GRID.replace(
+            "gain = [20, 100, 500]\nspp = [1, 2]",
+            "spp = [1, 2]\ngain = [20, 100, 500]",
+        );
+        let r = parse(&swapped).unwrap();
+        for t in &s.tasks {
+            let same = r.tasks.iter().find(|u| u.id == t.id).unwrap();
+            assert_eq!(same.seed, t.seed);
+            assert_eq!(same.render_key, t.render_key);
+        }
+        assert_ne!(r.tasks[1].id, s.tasks[1].id);
+    }
+
+    #[test]
+    fn mistakes_name_line_and_field() {
+        let e = parse("[base]\nscene = \"s.toml\"\n[axes]\n\nspp = [1, -2]\n").unwrap_err();
+        assert!(e.to_string().starts_with("t.toml:5: axes.spp[1]:"), "{e}");
+        let e = parse("[base]\nscene = \"s.toml\"\ncamera.width = 3\n").unwrap_err();
+        assert!(e.to_string().contains("quoted"), "{e}");
+        let e = parse("[axes]\nseed = { from = 0, count = 1000 }\nspp = { from = 1, count = 1000 }\n[base]\nscene = \"s\"\n").unwrap_err();
+        assert!(e.to_string().contains("exceeds 100000"), "{e}");
+        let e = parse("[base]\nsensor = \"x\"\nspp = 2\n").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("capture flow takes no render settings"),
+            "{e}"
+        );
     }
 }
