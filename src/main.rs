@@ -5,7 +5,38 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+/// `println!` that returns an error instead of panicking when stdout is
+/// closed (`gloam plan … | head -1`); `main` ends such a run quietly.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*).map_err($crate::StdoutClosed)?;
+    }};
+}
+
+/// `print!` counterpart of [`outln!`].
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($t)*).map_err($crate::StdoutClosed)?;
+    }};
+}
+
 mod cmd;
+
+/// A failed write to stdout. A closed pipe ends the command quietly with
+/// success, as `head` expects of the writer it cut off (ripgrep does the
+/// same); other write errors are reported.
+#[derive(Debug)]
+struct StdoutClosed(std::io::Error);
+
+impl std::fmt::Display for StdoutClosed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "writing to stdout: {}", self.0)
+    }
+}
+
+impl std::error::Error for StdoutClosed {}
 
 /// Low-light-level imaging: spectral ray tracer, intensified camera chain,
 /// frame grabbers and calibration.
@@ -89,6 +120,14 @@ fn main() -> ExitCode {
         .init();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e)
+            if e.chain().any(|c| {
+                c.downcast_ref::<StdoutClosed>()
+                    .is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe)
+            }) =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             // Plain `error: cause: cause…` on stderr, never a backtrace.
             eprintln!("error: {e:#}");

@@ -20,6 +20,7 @@ use gloam_calib::radiance::{Lut, RadianceOptions, calibrate_radiance};
 use gloam_calib::report;
 use gloam_calib::source::{CalibrationSource, SourceFile};
 use gloam_grabber::{FrameGrabber, OpenOptions};
+use gloam_pipeline::{OutputSet, Provenance};
 
 #[derive(Subcommand)]
 pub enum CalibrateCommand {
@@ -77,6 +78,9 @@ pub struct RadianceArgs {
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Args)]
@@ -114,6 +118,9 @@ pub struct AgcArgs {
     pub allow_unsettled: bool,
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Args)]
@@ -130,6 +137,9 @@ pub struct PtcArgs {
     pub spatial_frames: usize,
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -183,6 +193,9 @@ pub struct MtfArgs {
     pub magnification: f64,
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
@@ -198,7 +211,7 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
 fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
     let opts = OpenOptions {
         seed: a.seed,
-        scene_renderer: Some(super::scene_view::scene_renderer()),
+        scene_renderer: Some(gloam_pipeline::scene_renderer()),
         ..OpenOptions::default()
     };
     let mut g = gloam_grabber::open_with(&a.grabber, &opts)
@@ -279,6 +292,7 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
     if a.gains.is_empty() {
         bail!("--gains needs at least one gain");
     }
+    let set = OutputSet::begin(&a.out, a.force, false)?;
     let mut g = open_grabber(&a.grabber)?;
     let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let mut src = open_source(&a.source, g.as_mut(), Some(top))?;
@@ -291,7 +305,8 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
     let lut = with_bar(is_manual(&a.source), "levels", |p| {
         calibrate_radiance(g.as_mut(), src.as_mut(), &opts, p)
     })?;
-    report::write_radiance_report(&a.out, &lut)?;
+    report::write_radiance_report(set.dir(), &lut)?;
+    publish(set, "lut.json")?;
     for c in &lut.gains {
         eprintln!(
             "gain {}: L = {:.6e}·DC + {:.6e} W m⁻² sr⁻¹ (R² {:.6}, {} points, DC {:.1}–{:.1})",
@@ -309,6 +324,13 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
     }
     eprintln!("wrote {}", a.out.join("lut.json").display());
     Ok(())
+}
+
+/// Adds the run's provenance to the set's main JSON and publishes the set.
+fn publish(set: OutputSet, main_json: &str) -> anyhow::Result<()> {
+    let provenance = Provenance::of_this_run();
+    gloam_pipeline::output::add_provenance(&set.dir().join(main_json), &provenance)?;
+    set.publish(&provenance, None)
 }
 
 fn load_lut(path: &Path) -> anyhow::Result<Lut> {
@@ -341,6 +363,7 @@ fn apply(a: ApplyArgs) -> anyhow::Result<()> {
 
 fn agc(a: AgcArgs) -> anyhow::Result<()> {
     let lut = a.lut.as_deref().map(load_lut).transpose()?;
+    let set = OutputSet::begin(&a.out, a.force, false)?;
     let mut g = open_grabber(&a.grabber)?;
     let mut src = open_source(&a.source, g.as_mut(), a.fixed_gain)?;
     let opts = AgcOptions {
@@ -352,7 +375,8 @@ fn agc(a: AgcArgs) -> anyhow::Result<()> {
     let r = with_bar(is_manual(&a.source), "steps", |p| {
         agc_linearisation(g.as_mut(), src.as_mut(), &opts, lut.as_ref(), p)
     })?;
-    report::write_agc_report(&a.out, &r)?;
+    report::write_agc_report(set.dir(), &r)?;
+    publish(set, "agc.json")?;
     eprintln!(
         "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
         r.all_settled,
@@ -368,6 +392,7 @@ fn agc(a: AgcArgs) -> anyhow::Result<()> {
 }
 
 fn ptc(a: PtcArgs) -> anyhow::Result<()> {
+    let set = OutputSet::begin(&a.out, a.force, false)?;
     let mut g = open_grabber(&a.grabber)?;
     let mut sa = a.source.clone();
     if sa.levels.is_none() {
@@ -381,12 +406,13 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
         gain: a.gain,
         exposure_s: a.grabber.exposure_s,
         spatial_frames: a.spatial_frames,
-        dataset_dir: Some(a.out.join("emva1288")),
+        dataset_dir: Some(set.dir().join("emva1288")),
     };
     let r = with_bar(is_manual(&a.source), "levels", |p| {
         photon_transfer(g.as_mut(), src.as_mut(), &opts, p)
     })?;
-    report::write_ptc_report(&a.out, &r)?;
+    report::write_ptc_report(set.dir(), &r)?;
+    publish(set, "ptc.json")?;
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
@@ -486,6 +512,7 @@ fn read_usaf_ctf(path: &Path) -> anyhow::Result<Vec<(i32, i32, f64)>> {
 }
 
 fn mtf(a: MtfArgs) -> anyhow::Result<()> {
+    let set = OutputSet::begin(&a.out, a.force, false)?;
     let hidden = false;
     let (curves, details) = match a.target {
         Target::Usaf => {
@@ -566,7 +593,8 @@ fn mtf(a: MtfArgs) -> anyhow::Result<()> {
             )
         }
     };
-    report::write_mtf_report(&a.out, &curves, details)?;
+    report::write_mtf_report(set.dir(), &curves, details)?;
+    publish(set, "mtf.json")?;
     let c = &curves[0];
     eprintln!(
         "{}: MTF50 {} cy/px, MTF10 {} cy/px",

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use serde::Serialize;
+use gloam_grabber::{GrabError, OpenOptions};
 
-use gloam_grabber::{FrameStatus, GrabError, OpenOptions};
+use gloam_pipeline::{FrameLog, FrameRecord, OutputSet, Provenance};
 
 use super::output::{png16_bytes, write_atomic};
 
@@ -41,32 +41,9 @@ pub struct CaptureArgs {
     /// Give up after this many lost/damaged frames in a row.
     #[arg(long, default_value_t = 1000)]
     pub max_consecutive_failures: u64,
-}
-
-/// One line of frames.jsonl.
-#[derive(Serialize)]
-struct FrameRecord {
-    index: u64,
-    file: String,
-    seq: u64,
-    /// Device clock, µs since the stream started.
-    timestamp: u64,
-    gain: f64,
-    agc: bool,
-    bits: u8,
-    width: u32,
-    height: u32,
-    pixels_crc32c: u32,
-    status: FrameStatus,
-    mean_dn: f64,
-    /// Fraction of pixels at or above `saturated_at_dn`.
-    saturated_fraction: f64,
-    /// The camera's saturated level when it reports one (simulated
-    /// cameras), else the top code 2^bits − 1.
-    saturated_at_dn: f64,
-    /// Exposure warnings for this frame (also printed on stderr).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    warnings: Vec<String>,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Default)]
@@ -81,11 +58,14 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let provenance = Provenance::of_this_run();
+    // The frames appear at once with manifest.json; Ctrl-C stops the loop
+    // and publishes what was captured.
+    let set = OutputSet::begin(&args.out, args.force, true)?;
+    let dir = set.dir().to_path_buf();
     let opts = OpenOptions {
         seed: args.seed,
-        scene_renderer: Some(super::scene_view::scene_renderer()),
+        scene_renderer: Some(gloam_pipeline::scene_renderer()),
         ..OpenOptions::default()
     };
     let mut g = gloam_grabber::open_with(&args.grabber, &opts)
@@ -123,24 +103,21 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     let mut consecutive = 0u64;
     let mut warned = std::collections::BTreeSet::new();
     let mut frames_warned = 0u64;
-    let jsonl_path = args.out.join("frames.jsonl");
-    let write_jsonl = |records: &[FrameRecord]| -> anyhow::Result<()> {
-        let mut text = String::new();
-        for r in records {
-            text.push_str(&serde_json::to_string(r)?);
-            text.push('\n');
-        }
-        write_atomic(&jsonl_path, text.as_bytes())
-    };
+    // Appended as frames are written: an interrupted capture lists every
+    // frame it kept.
+    let mut log = FrameLog::create(&dir)?;
     let result: anyhow::Result<()> = (|| {
         while (records.len() as u64) < args.frames {
+            if gloam_pipeline::output_set::interrupted() {
+                bail!("interrupted (Ctrl-C)");
+            }
             match g.grab() {
                 Ok(f) => {
                     consecutive = 0;
                     let index = records.len() as u64;
                     let file = format!("frame-{index:06}.png");
                     write_atomic(
-                        &args.out.join(&file),
+                        &dir.join(&file),
                         &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?,
                     )?;
                     let exposure = f.exposure();
@@ -153,28 +130,9 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                     if !exposure.warnings.is_empty() {
                         frames_warned += 1;
                     }
-                    records.push(FrameRecord {
-                        index,
-                        file,
-                        seq: f.meta.seq,
-                        timestamp: f.meta.timestamp_us,
-                        gain: f.meta.gain,
-                        agc: f.meta.agc,
-                        bits: f.meta.bits,
-                        width: f.meta.width,
-                        height: f.meta.height,
-                        pixels_crc32c: f.meta.pixels_crc32c,
-                        status: f.meta.status,
-                        mean_dn: exposure.mean_dn,
-                        saturated_fraction: exposure.saturated_fraction,
-                        saturated_at_dn: f
-                            .meta
-                            .levels
-                            .map_or(f64::from((1u32 << f.meta.bits.min(16)) - 1), |l| {
-                                l.saturated_at_dn
-                            }),
-                        warnings: exposure.warnings,
-                    });
+                    let rec = FrameRecord::of_grab(index, file, &f, exposure.warnings);
+                    log.append(&rec)?;
+                    records.push(rec);
                     bar.inc(1);
                 }
                 Err(e) if e.is_frame_loss() => {
@@ -203,7 +161,13 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         Ok(())
     })();
     bar.finish_and_clear();
-    write_jsonl(&records)?;
+    // Nothing captured is lost: a run that stopped early publishes its
+    // whole frames, marked incomplete in manifest.json.
+    if !records.is_empty() || result.is_ok() {
+        let why = result.as_ref().err().map(|e| format!("{e:#}"));
+        drop(log);
+        set.publish(&provenance, why.as_deref())?;
+    }
     let mut summary = format!(
         "captured {} frame(s) into {}; {} damaged, {} lost",
         records.len(),

@@ -40,12 +40,12 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     if args.json {
         super::output::print_json(&c)?;
     } else {
-        println!("{:<24} {:>14} {:>14}", "region", "truth", "synthetic");
+        outln!("{:<24} {:>14} {:>14}", "region", "truth", "synthetic");
         for r in &c.regions {
-            println!("{:<24} {:>14.6e} {:>14.6e}", r.name, r.truth, r.synthetic);
+            outln!("{:<24} {:>14.6e} {:>14.6e}", r.name, r.truth, r.synthetic);
         }
-        println!("Spearman rho = {:.6}", c.spearman_rho);
-        println!("RMS difference = {:.6e}", c.rms);
+        outln!("Spearman rho = {:.6}", c.spearman_rho);
+        outln!("RMS difference = {:.6e}", c.rms);
     }
     Ok(())
 }

@@ -89,7 +89,7 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
     let (mut source, view, size) = match &args.scene {
         Some(path) => {
             eprintln!("gloam device: rendering {path} …");
-            let scene = super::scene_view::render_scene_view(path, &args.sensor, args.size)
+            let scene = gloam_pipeline::render_scene_view(path, &args.sensor, args.size)
                 .with_context(|| format!("rendering scene '{path}'"))?;
             let size = scene.size();
             let source = SensorSource::with_scene(&args.sensor, scene, args.seed)

@@ -227,19 +227,21 @@ fn one_instant(site: &Site, utc: &str, json: bool) -> anyhow::Result<()> {
             delta_t_s: e.delta_t_s,
         });
     }
-    println!("{} at {}", t.to_iso8601(), fmt_site(site));
-    println!(
+    outln!("{} at {}", t.to_iso8601(), fmt_site(site));
+    outln!(
         "moon  elevation {:7.3}°  azimuth {:7.3}°  distance {:.0} km",
-        e.moon.elevation_deg, e.moon.azimuth_deg, e.moon.distance_km
+        e.moon.elevation_deg,
+        e.moon.azimuth_deg,
+        e.moon.distance_km
     );
-    println!(
+    outln!(
         "      elongation {:.3}°  phase angle {:.3}°  illuminated {:.1} % ({})",
         e.elongation_deg,
         e.phase_angle_deg,
         100.0 * e.illuminated_fraction,
         if e.waxing { "waxing" } else { "waning" }
     );
-    println!(
+    outln!(
         "sun   elevation {:7.3}°  azimuth {:7.3}°{}",
         e.sun.elevation_deg,
         e.sun.azimuth_deg,
@@ -313,26 +315,34 @@ fn find(
             100.0 * search.new_max_fraction
         ),
     };
-    println!(
+    outln!(
         "{phase_name}-moon collection nights at {}, {} .. {}",
         fmt_site(site),
         from_t.to_iso8601(),
         to_t.to_iso8601()
     );
-    println!(
+    outln!(
         "criteria: {criterion}; Sun ≤ {}°; usable run ≥ {} h (sampled every {} min)",
-        search.max_sun_elevation_deg, search.min_usable_hours, search.step_minutes
+        search.max_sun_elevation_deg,
+        search.min_usable_hours,
+        search.step_minutes
     );
     if nights.is_empty() {
-        println!("no nights found");
+        outln!("no nights found");
         return Ok(());
     }
-    println!(
+    outln!(
         "{:<10}  {:<24}  {:<24}  {:>5}  {:>6}  {:>7}  {:>8}",
-        "evening", "usable from (UTC)", "usable to (UTC)", "hours", "illum", "phase", "max el"
+        "evening",
+        "usable from (UTC)",
+        "usable to (UTC)",
+        "hours",
+        "illum",
+        "phase",
+        "max el"
     );
     for n in &nights {
-        println!(
+        outln!(
             "{:<10}  {:<24}  {:<24}  {:>5.1}  {:>5.1}%  {:>6.1}°  {:>7.1}°",
             n.evening_date,
             n.usable_start.to_iso8601(),

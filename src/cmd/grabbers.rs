@@ -14,24 +14,24 @@ pub fn run(args: GrabbersArgs) -> anyhow::Result<()> {
     if args.json {
         return super::output::print_json(&list);
     }
-    println!("serial ports:");
+    outln!("serial ports:");
     match &list.serial_error {
-        Some(e) => println!("  (cannot list serial ports: {e})"),
-        None if list.serial.is_empty() => println!("  (none)"),
+        Some(e) => outln!("  (cannot list serial ports: {e})"),
+        None if list.serial.is_empty() => outln!("  (none)"),
         None => {
             for p in &list.serial {
                 let mut extra = vec![p.kind.clone()];
                 extra.extend(p.vid_pid.clone());
                 extra.extend(p.product.clone());
                 extra.extend(p.serial_number.as_ref().map(|s| format!("serial {s}")));
-                println!("  {:<32} {}", p.uri, extra.join(", "));
+                outln!("  {:<32} {}", p.uri, extra.join(", "));
             }
         }
     }
-    println!("USB devices:");
+    outln!("USB devices:");
     match &list.usb_error {
-        Some(e) => println!("  {e}"),
-        None if list.usb.is_empty() => println!("  (none)"),
+        Some(e) => outln!("  {e}"),
+        None if list.usb.is_empty() => outln!("  (none)"),
         None => {
             for d in &list.usb {
                 let name = [d.manufacturer.as_deref(), d.product.as_deref()]
@@ -39,14 +39,14 @@ pub fn run(args: GrabbersArgs) -> anyhow::Result<()> {
                     .flatten()
                     .collect::<Vec<_>>()
                     .join(" ");
-                println!("  {:<32} bus {} addr {} {name}", d.uri, d.bus, d.address);
+                outln!("  {:<32} bus {} addr {} {name}", d.uri, d.bus, d.address);
             }
         }
     }
-    println!("simulated cameras:");
+    outln!("simulated cameras:");
     for s in &list.sim {
-        println!("  {:<32} {}", s.uri, s.description);
+        outln!("  {:<32} {}", s.uri, s.description);
     }
-    println!("(emulated devices: run `gloam device --pty` and use the serial: URI it prints)");
+    outln!("(emulated devices: run `gloam device --pty` and use the serial: URI it prints)");
     Ok(())
 }

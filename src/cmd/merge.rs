@@ -4,8 +4,11 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, ensure};
+use anyhow::Context;
 use clap::Args;
+use gloam_pipeline::{OutputSet, Provenance};
+
+use super::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
 
 #[derive(Args)]
 pub struct MergeArgs {
@@ -13,70 +16,46 @@ pub struct MergeArgs {
     /// every tile of one render exactly once).
     #[arg(required = true)]
     pub tiles: Vec<PathBuf>,
-    /// Output directory (must not exist, or be empty); written whole, at once.
+    /// Output directory, published whole (refused when not empty, unless --force).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    let provenance = Provenance::of_this_run();
     let m = gloam_sweep::tile::merge(&args.tiles)?;
-    if args.out.exists() {
-        let empty = std::fs::read_dir(&args.out)
-            .with_context(|| format!("reading {}", args.out.display()))?
-            .next()
-            .is_none();
-        ensure!(
-            empty,
-            "{} exists and is not empty; merge into a new directory",
-            args.out.display()
-        );
+    let set = OutputSet::begin(&args.out, args.force, false)?;
+    let t = set.dir().to_path_buf();
+    write_tiff(&t.join("radiance.tiff"), &m.radiance)?;
+    write_npy(&t.join("radiance.npy"), &m.radiance)?;
+    write_tiff(&t.join("stderr.tiff"), &m.std_error)?;
+    write_npy(&t.join("stderr.npy"), &m.std_error)?;
+    write_npy_u32(&t.join("spp.npy"), &m.spp)?;
+    write_preview(&t.join("preview.png"), &m.radiance)?;
+    let mut tiles = Vec::new();
+    for d in &m.tiles {
+        let p = d.join("radiance.npy");
+        let bytes = std::fs::read(&p).with_context(|| format!("reading {}", p.display()))?;
+        tiles.push(serde_json::json!({
+            "dir": d.display().to_string(),
+            "radiance_npy_sha256": gloam_sweep::run::sha256_hex(&bytes),
+        }));
     }
-    let parent = match args.out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
-    let tmp = tempfile::Builder::new()
-        .prefix(".merge-")
-        .tempdir_in(&parent)
-        .with_context(|| format!("creating a temporary directory in {}", parent.display()))?;
-    let t = tmp.path();
-    super::render::write_tiff(&t.join("radiance.tiff"), &m.radiance)?;
-    super::render::write_npy(&t.join("radiance.npy"), &m.radiance)?;
-    super::render::write_tiff(&t.join("stderr.tiff"), &m.std_error)?;
-    super::render::write_npy(&t.join("stderr.npy"), &m.std_error)?;
-    super::render::write_npy_u32(&t.join("spp.npy"), &m.spp)?;
-    super::render::write_preview(&t.join("preview.png"), &m.radiance)?;
-    let tiles: Vec<serde_json::Value> = m
-        .tiles
-        .iter()
-        .map(|d| {
-            let bytes = std::fs::read(d.join("radiance.npy")).unwrap_or_default();
-            serde_json::json!({
-                "dir": d.display().to_string(),
-                "radiance_npy_sha256": gloam_sweep::run::sha256_hex(&bytes),
-            })
-        })
-        .collect();
     let report = serde_json::json!({
-        "gloam_version": env!("CARGO_PKG_VERSION"),
-        "command_line": std::env::args().collect::<Vec<_>>(),
         "scene": m.info.scene,
         "image": {"width": m.info.width, "height": m.info.height, "bands": m.info.band_names},
         "settings": m.info.settings,
         "merged_from": tiles,
+        "provenance": provenance,
     });
-    std::fs::write(
-        t.join("report.json"),
-        serde_json::to_string_pretty(&report)?,
+    write_atomic(
+        &t.join("report.json"),
+        serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
-    if args.out.exists() {
-        std::fs::remove_dir(&args.out)
-            .with_context(|| format!("replacing {}", args.out.display()))?;
-    }
-    let kept = tmp.keep();
-    std::fs::rename(&kept, &args.out)
-        .with_context(|| format!("renaming into {}", args.out.display()))?;
+    set.publish(&provenance, None)?;
     eprintln!(
         "merged {} tile(s) into {}×{} → {}",
         m.tiles.len(),
@@ -114,7 +93,7 @@ pub fn write_tile_info(
             s
         },
     };
-    super::output::write_atomic(
+    write_atomic(
         &dir.join(gloam_sweep::tile::TILE_FILE),
         serde_json::to_string_pretty(&info)?.as_bytes(),
     )

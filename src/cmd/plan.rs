@@ -35,7 +35,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         print_json(&plan)?;
     } else {
         let n = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
-        println!(
+        outln!(
             "{}: {}, {}, {}, units {}",
             args.scene.display(),
             n(scene.facets.len(), "facet"),
@@ -43,8 +43,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             n(scene.bands.len(), "band"),
             scene.units.as_str()
         );
-        println!();
-        print!("{plan}");
+        outln!();
+        out!("{plan}");
     }
     Ok(())
 }

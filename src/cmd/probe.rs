@@ -88,9 +88,11 @@ pub fn run(args: ProbeArgs) -> anyhow::Result<()> {
                 "radiance_w_m2_sr": vals[b],
             }))?;
         } else {
-            println!(
+            outln!(
                 "pixel ({}, {}) band {band}: radiance {:.6e} W m^-2 sr^-1",
-                parts[0], parts[1], vals[b]
+                parts[0],
+                parts[1],
+                vals[b]
             );
         }
         return Ok(());
@@ -101,12 +103,14 @@ pub fn run(args: ProbeArgs) -> anyhow::Result<()> {
     if args.json {
         print_json(&r)?;
     } else {
-        println!(
+        outln!(
             "band {}: irradiance {:.6e} ± {:.2e} W m^-2",
-            r.band, r.irradiance_w_m2, r.std_error_w_m2
+            r.band,
+            r.irradiance_w_m2,
+            r.std_error_w_m2
         );
         if let Some(l) = r.radiance_w_m2_sr {
-            println!("reflected radiance {l:.6e} W m^-2 sr^-1");
+            outln!("reflected radiance {l:.6e} W m^-2 sr^-1");
         }
     }
     Ok(())

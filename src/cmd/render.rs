@@ -10,12 +10,12 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Context;
 use clap::Args;
 use gloam_trace::{RenderOutput, RenderSettings, Tracer};
-use ndarray::Array3;
 
-use super::output::{write_atomic, write_atomic_with};
+use gloam_pipeline::{OutputSet, Provenance};
+
+use super::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -65,6 +65,9 @@ pub struct RenderArgs {
     /// Turn the camera's temporal noise off (deterministic mean response).
     #[arg(long)]
     pub no_noise: bool,
+    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    #[arg(long)]
+    pub force: bool,
     /// Render only tile K of N: rows ⌊(K−1)H/N⌋ to ⌊KH/N⌋ (horizontal
     /// bands), radiance only, plus `tile.json`; `gloam merge` reassembles
     /// the tiles bit-identically. See docs/sweep.md.
@@ -101,6 +104,10 @@ pub fn settings_from(
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let provenance = Provenance::of_this_run();
+    // Refused up front when --out is in use; the files appear at once.
+    let set = OutputSet::begin(&args.out, args.force, false)?;
+    let dir = set.dir().to_path_buf();
     let t_load = Instant::now();
     let scene = gloam_scene::load(&args.scene)?;
     let load_s = t_load.elapsed().as_secs_f64();
@@ -128,10 +135,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let sensor = (args.sensor.clone().or_else(|| scene.sensor.clone())).filter(|_| tile.is_none());
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(s) = &sensor {
-        super::sensor_frames::check_options(s, args.gain, args.frames)?;
+        gloam_pipeline::check_options(s, args.gain, args.frames)?;
     }
     let traced = match &sensor {
-        Some(s) => super::sensor_frames::with_detected_band(&scene, s)?,
+        Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
         None => scene.clone(),
     };
     let tracer = Tracer::new(&traced, &settings)?;
@@ -163,7 +170,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let mut out = tracer.render_rows(rows.clone(), &progress)?;
     let detected = match &sensor {
-        Some(_) => Some(super::sensor_frames::take_detected_band(&mut out)?),
+        Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
         None => None,
     };
     if let Some(b) = &bar {
@@ -171,25 +178,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
 
     let t_write = Instant::now();
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    write_tiff(&args.out.join("radiance.tiff"), &out.radiance)?;
-    write_npy(&args.out.join("radiance.npy"), &out.radiance)?;
-    write_tiff(&args.out.join("stderr.tiff"), &out.std_error)?;
-    write_npy(&args.out.join("stderr.npy"), &out.std_error)?;
-    write_npy_u32(&args.out.join("spp.npy"), &out.spp)?;
-    write_preview(&args.out.join("preview.png"), &out.radiance)?;
+    write_tiff(&dir.join("radiance.tiff"), &out.radiance)?;
+    write_npy(&dir.join("radiance.npy"), &out.radiance)?;
+    write_tiff(&dir.join("stderr.tiff"), &out.std_error)?;
+    write_npy(&dir.join("stderr.npy"), &out.std_error)?;
+    write_npy_u32(&dir.join("spp.npy"), &out.spp)?;
+    write_preview(&dir.join("preview.png"), &out.radiance)?;
     if let Some(t) = tile {
-        super::merge::write_tile_info(&args.out, t, rows, full, &args.scene, &out)?;
+        super::merge::write_tile_info(&dir, t, rows, full, &args.scene, &out)?;
     }
     let write_s = t_write.elapsed().as_secs_f64();
-    let report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    let mut report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    report["provenance"] = serde_json::to_value(&provenance)?;
     write_atomic(
-        &args.out.join("report.json"),
+        &dir.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     if let (Some(sensor), Some(detected)) = (sensor, detected) {
-        let capture = super::sensor_frames::FrameCapture {
+        let capture = gloam_pipeline::FrameCapture {
             sensor: &sensor,
             frames: args.frames,
             gain: args.gain,
@@ -197,8 +203,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             noise: !args.no_noise,
             seed: settings.seed,
         };
-        capture.run(&detected, &args.out)?;
+        capture.run(&detected, &dir)?;
     }
+    set.publish(&provenance, None)?;
     eprintln!(
         "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",
         out.stats.width,
@@ -268,70 +275,5 @@ fn report_json(
         "sky": out.stats.sky,
         "interreflection": out.stats.interreflection,
         "bands": band_means,
-    })
-}
-
-pub(crate) fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    let (nb, h, w) = radiance.dim();
-    write_atomic_with(path, |f| {
-        let mut enc = tiff::encoder::TiffEncoder::new(f)?;
-        for b in 0..nb {
-            let page: Vec<f32> = radiance
-                .index_axis(ndarray::Axis(0), b)
-                .iter()
-                .map(|&v| v as f32)
-                .collect();
-            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, &page)?;
-        }
-        Ok(())
-    })
-}
-
-pub(crate) fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        radiance.write_npy(&mut w)?;
-        // Flush here: a BufWriter dropped with unwritten data loses the error.
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
-}
-
-pub(crate) fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        a.write_npy(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
-}
-
-/// First band, divided by its 99.5th percentile, gamma 1/2.2, 8 bits.
-pub(crate) fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    let (_, h, w) = radiance.dim();
-    let img = radiance.index_axis(ndarray::Axis(0), 0);
-    let mut sorted: Vec<f64> = img.iter().copied().filter(|v| *v > 0.0).collect();
-    sorted.sort_by(f64::total_cmp);
-    let scale = if sorted.is_empty() {
-        1.0
-    } else {
-        sorted[((sorted.len() - 1) as f64 * 0.995) as usize]
-    };
-    let pixels: Vec<u8> = img
-        .iter()
-        .map(|&v| {
-            let x = (v / scale).clamp(0.0, 1.0).powf(1.0 / 2.2);
-            (x * 255.0).round() as u8
-        })
-        .collect();
-    let gray =
-        image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        gray.write_to(&mut w, image::ImageFormat::Png)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
     })
 }

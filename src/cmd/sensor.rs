@@ -58,7 +58,7 @@ pub fn run(cmd: SensorCommand) -> anyhow::Result<()> {
                 print_json(&rows)?;
             } else {
                 for r in rows {
-                    println!(
+                    outln!(
                         "{:<16} {:<6} {}",
                         r.name,
                         format!("{:?}", r.kind),
@@ -87,33 +87,36 @@ pub fn run(cmd: SensorCommand) -> anyhow::Result<()> {
             if a.json {
                 print_json(&d)?;
             } else {
-                println!("{} ({:?}) at gain {:.4}", d.name, d.kind, d.gain);
+                outln!("{} ({:?}) at gain {:.4}", d.name, d.kind, d.gain);
                 if let Some(v) = d.control_voltage_v {
-                    println!("  control voltage        {v:.1} V");
+                    outln!("  control voltage        {v:.1} V");
                 }
-                println!(
+                outln!(
                     "  gain range             {:.4} – {:.4}",
-                    d.gain_min, d.gain_max
+                    d.gain_min,
+                    d.gain_max
                 );
-                println!("  DN per photoelectron   {:.6}", d.dn_per_photoelectron);
-                println!("  excess noise factor    {:.4}", d.excess_noise_factor);
-                println!("  read noise             {:.3} DN", d.read_noise_dn);
-                println!("  black level            {:.2} DN", d.black_dn);
-                println!(
+                outln!("  DN per photoelectron   {:.6}", d.dn_per_photoelectron);
+                outln!("  excess noise factor    {:.4}", d.excess_noise_factor);
+                outln!("  read noise             {:.3} DN", d.read_noise_dn);
+                outln!("  black level            {:.2} DN", d.black_dn);
+                outln!(
                     "  saturation             {:.0} DN ({:.4} photoelectrons)",
-                    d.saturation_dn, d.saturation_photoelectrons
+                    d.saturation_dn,
+                    d.saturation_photoelectrons
                 );
-                println!("  bit depth              {}", d.bit_depth);
-                println!(
+                outln!("  bit depth              {}", d.bit_depth);
+                outln!(
                     "  EBI                    {:.3e} photoelectrons/pixel/frame",
                     d.ebi_photoelectrons_per_pixel
                 );
                 if let Some(s) = d.cathode_luminous_sensitivity_ua_lm {
-                    println!("  cathode sensitivity    {s:.0} µA/lm (2856 K)");
+                    outln!("  cathode sensitivity    {s:.0} µA/lm (2856 K)");
                 }
-                println!(
+                outln!(
                     "  MTF at 0.25 / 0.5 cy/px {:.3} / {:.3}",
-                    d.mtf_quarter_nyquist_half[0], d.mtf_quarter_nyquist_half[1]
+                    d.mtf_quarter_nyquist_half[0],
+                    d.mtf_quarter_nyquist_half[1]
                 );
             }
             Ok(())

@@ -161,27 +161,27 @@ pub fn run(args: SkyArgs) -> anyhow::Result<()> {
             spectra_out: args.spectra_out.as_ref().map(|p| p.display().to_string()),
         });
     }
-    println!(
+    outln!(
         "{} at {}; visibility {} km, {}",
         t.to_iso8601(),
         fmt_site(&site),
         args.visibility_km,
         if args.overcast { "overcast" } else { "clear" }
     );
-    println!(
+    outln!(
         "moon elevation {:.2}°, azimuth {:.2}°, {:.1} % illuminated; sun {:.2}°",
         e.moon.elevation_deg,
         e.moon.azimuth_deg,
         100.0 * e.illuminated_fraction,
         e.sun.elevation_deg
     );
-    println!("ground illuminance (horizontal):");
-    println!("  moon direct  {} lux", fmt_lux(l.moon_direct));
-    println!("  moon sky     {} lux", fmt_lux(l.moon_sky));
-    println!("  night sky    {} lux", fmt_lux(l.night_sky));
-    println!("  total        {} lux", fmt_lux(l.total));
+    outln!("ground illuminance (horizontal):");
+    outln!("  moon direct  {} lux", fmt_lux(l.moon_direct));
+    outln!("  moon sky     {} lux", fmt_lux(l.moon_sky));
+    outln!("  night sky    {} lux", fmt_lux(l.night_sky));
+    outln!("  total        {} lux", fmt_lux(l.total));
     if let Some(p) = &args.spectra_out {
-        println!("spectral irradiance written to {}", p.display());
+        outln!("spectral irradiance written to {}", p.display());
     }
     Ok(())
 }

@@ -70,13 +70,13 @@ pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
                 print_json(&library::ENTRIES)?;
             } else {
                 for e in library::ENTRIES {
-                    println!(
+                    outln!(
                         "{:<24} {:<13} {}",
                         e.name,
                         format!("{:?}", e.kind),
                         e.description
                     );
-                    println!("{:<24} {:<13} source: {}", "", "", e.provenance);
+                    outln!("{:<24} {:<13} source: {}", "", "", e.provenance);
                 }
             }
             Ok(())
@@ -105,7 +105,7 @@ pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
             if a.json {
                 print_json(&report)
             } else {
-                println!("{} ({})", report.integral, report.units);
+                outln!("{} ({})", report.integral, report.units);
                 Ok(())
             }
         }

@@ -145,7 +145,7 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
             &dir.join(slurm::SUBMISSION_FILE),
             serde_json::to_string_pretty(&sub)?.as_bytes(),
         )?;
-        println!("{job_id}");
+        outln!("{job_id}");
         eprintln!(
             "submitted job {job_id}: {n} tasks in {chunks} array indices; `gloam sweep status {}`",
             out.display()
@@ -270,7 +270,7 @@ fn status(s: StatusArgs) -> anyhow::Result<()> {
     if s.json {
         return print_json(&serde_json::json!({"tasks": states, "slurm": job}));
     }
-    println!(
+    outln!(
         "{} task(s): {} done, {} failed, {} pending{}",
         states.total,
         states.done,
@@ -286,11 +286,11 @@ fn status(s: StatusArgs) -> anyhow::Result<()> {
         }
     );
     for f in &states.failed {
-        println!("  failed: task {} ({}): {}", f.index, f.axes, f.error);
+        outln!("  failed: task {} ({}): {}", f.index, f.axes, f.error);
     }
     if let Some(j) = job {
         let st: Vec<String> = j.states.iter().map(|(k, v)| format!("{k} {v}")).collect();
-        println!(
+        outln!(
             "slurm job {} ({}): {}{}",
             j.job_id,
             j.source,
@@ -334,10 +334,10 @@ impl Executor for Exec {
         let sensor = sweep.sensor(task);
         // The gain is checked per task (it differs within a chunk).
         if let Some(s) = &sensor {
-            super::sensor_frames::check_options(s, None, task.frames())?;
+            gloam_pipeline::check_options(s, None, task.frames())?;
         }
         let traced = match &sensor {
-            Some(s) => super::sensor_frames::with_detected_band(&scene, s)?,
+            Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
             None => scene.clone(),
         };
         let tracer = Tracer::new(&traced, &settings)?;
@@ -348,7 +348,7 @@ impl Executor for Exec {
         };
         let mut out = tracer.render_rows(rows.clone(), &|_, _| {})?;
         let detected = match &sensor {
-            Some(_) => Some(super::sensor_frames::take_detected_band(&mut out)?),
+            Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
             None => None,
         };
         Ok(Shared::Render {
@@ -383,11 +383,11 @@ impl Executor for Exec {
                 scene,
             } => {
                 // Deterministic outputs only (no timings): their hashes are the task's.
-                super::render::write_npy(&out.join("radiance.npy"), &r.radiance)?;
-                super::render::write_tiff(&out.join("radiance.tiff"), &r.radiance)?;
-                super::render::write_npy(&out.join("stderr.npy"), &r.std_error)?;
-                super::render::write_npy_u32(&out.join("spp.npy"), &r.spp)?;
-                super::render::write_preview(&out.join("preview.png"), &r.radiance)?;
+                super::output::write_npy(&out.join("radiance.npy"), &r.radiance)?;
+                super::output::write_tiff(&out.join("radiance.tiff"), &r.radiance)?;
+                super::output::write_npy(&out.join("stderr.npy"), &r.std_error)?;
+                super::output::write_npy_u32(&out.join("spp.npy"), &r.spp)?;
+                super::output::write_preview(&out.join("preview.png"), &r.radiance)?;
                 if let Some(t) = task.tile() {
                     let label = task
                         .text("scene")

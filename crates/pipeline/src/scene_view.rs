@@ -10,7 +10,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use super::sensor_frames::{take_detected_band, with_detected_band};
+use crate::detected::{take_detected_band, with_detected_band};
 use gloam_grabber::{SceneImage, SceneRenderer, SceneView};
 use gloam_trace::{RenderSettings, Tracer};
 

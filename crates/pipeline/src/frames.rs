@@ -1,79 +1,103 @@
-//! Capturing a render through a simulated camera (`gloam render --sensor`,
-//! and the scenes of `gloam device --scene` / `sim:PRESET?scene=PATH`).
-//!
-//! A band value `∫ L R_b dλ` loses the spectrum inside the band, and the
-//! detector's QE varies across it (an S-20 cathode sees tungsten or HPS
-//! light ~27 % less efficiently than a flat spectrum of the same band
-//! power). So the render carries one extra band whose response is the
-//! camera's detector response QE(λ)·λ/hc over the scene's spectral range:
-//! its value is the detected-electron radiance `∫ L QE λ/hc dλ`, exact for
-//! any spectrum (lines included), which the camera captures directly. The
-//! extra band is not written to the radiance outputs.
+//! Frames to disk: the `frames.jsonl` record every command writes (one
+//! schema for `capture`, `render --sensor` and the calibration flows), and
+//! the capture of a render through a simulated camera.
 
 use std::io::Write;
 use std::path::Path;
 
 use anyhow::Context;
-use gloam_scene::{Band, Scene};
+use gloam_grabber::{Frame, FrameStatus};
 use gloam_sensor::Camera;
-use gloam_spectra::Spectrum;
-use gloam_trace::RenderOutput;
-use ndarray::{Array2, Axis, s};
+use ndarray::Array2;
 use serde::Serialize;
 
-/// Name of the band the sensor capture adds to a render.
-pub const DETECTED_BAND: &str = "sensor-detected";
+use crate::output::{png16_bytes, write_atomic};
 
-/// `scene` with one more band, [`DETECTED_BAND`], whose response is
-/// `sensor`'s detector response (QE·λ/hc, e⁻ J⁻¹) over the span of the
-/// scene's bands.
-pub fn with_detected_band(scene: &Scene, sensor: &str) -> anyhow::Result<Scene> {
-    anyhow::ensure!(
-        scene.band(DETECTED_BAND).is_none(),
-        "the scene already has a band named '{DETECTED_BAND}', which the sensor capture needs"
-    );
-    let camera = Camera::from_preset_or_file(sensor)
-        .with_context(|| format!("loading sensor '{sensor}'"))?;
-    let lo_nm = scene
-        .bands
-        .iter()
-        .map(|b| b.lo_nm)
-        .fold(f64::INFINITY, f64::min);
-    let hi_nm = scene
-        .bands
-        .iter()
-        .map(|b| b.hi_nm)
-        .fold(f64::NEG_INFINITY, f64::max);
-    anyhow::ensure!(lo_nm < hi_nm, "the scene has no spectral band to capture");
-    let window = Spectrum::constant(lo_nm, hi_nm, 1.0)?;
-    let mut with = scene.clone();
-    with.bands.push(Band {
-        name: DETECTED_BAND.into(),
-        response: camera.chain().detected_response_e_per_j().product(&window),
-        lo_nm,
-        hi_nm,
-    });
-    Ok(with)
+/// One line of `frames.jsonl`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRecord {
+    pub index: u64,
+    pub file: String,
+    pub seq: u64,
+    /// Device clock, µs since the stream started.
+    pub timestamp: u64,
+    pub gain: f64,
+    pub agc: bool,
+    pub bits: u8,
+    pub width: u32,
+    pub height: u32,
+    pub pixels_crc32c: u32,
+    pub status: FrameStatus,
+    pub mean_dn: f64,
+    /// Fraction of pixels at or above `saturated_at_dn`.
+    pub saturated_fraction: f64,
+    /// The camera's saturated level when it reports one (simulated
+    /// cameras), else the top code 2^bits − 1.
+    pub saturated_at_dn: f64,
+    /// Exposure warnings for this frame (also printed on stderr).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+    /// The simulated camera's own figures, when the frame came from one
+    /// in process.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<gloam_sensor::FrameMeta>,
 }
 
-/// Splits the [`DETECTED_BAND`] (the last band) off a render of a scene
-/// from [`with_detected_band`]: the render keeps the scene's own bands.
-pub fn take_detected_band(render: &mut RenderOutput) -> anyhow::Result<Array2<f64>> {
-    anyhow::ensure!(
-        render.band_names.last().map(String::as_str) == Some(DETECTED_BAND),
-        "the render has no '{DETECTED_BAND}' band"
-    );
-    let last = render.band_names.len() - 1;
-    let detected = render.radiance.index_axis(Axis(0), last).to_owned();
-    render.radiance = render.radiance.slice(s![..last, .., ..]).to_owned();
-    // The standard error too, so stderr.npy has the radiance's bands.
-    render.std_error = render.std_error.slice(s![..last, .., ..]).to_owned();
-    render.band_names.pop();
-    render.stats.bands = last;
-    Ok(detected)
+impl FrameRecord {
+    /// The record of a grabbed frame, with its exposure figures.
+    pub fn of_grab(index: u64, file: String, f: &Frame, warnings: Vec<String>) -> Self {
+        let exposure = f.exposure();
+        Self {
+            index,
+            file,
+            seq: f.meta.seq,
+            timestamp: f.meta.timestamp_us,
+            gain: f.meta.gain,
+            agc: f.meta.agc,
+            bits: f.meta.bits,
+            width: f.meta.width,
+            height: f.meta.height,
+            pixels_crc32c: f.meta.pixels_crc32c,
+            status: f.meta.status,
+            mean_dn: exposure.mean_dn,
+            saturated_fraction: exposure.saturated_fraction,
+            saturated_at_dn: f
+                .meta
+                .levels
+                .map_or(f64::from((1u32 << f.meta.bits.min(16)) - 1), |l| {
+                    l.saturated_at_dn
+                }),
+            warnings,
+            sensor: None,
+        }
+    }
 }
 
-use super::output::{png16_bytes, write_atomic};
+/// Appends records to `frames.jsonl` as frames are written, so an
+/// interrupted run keeps every frame it wrote listed.
+pub struct FrameLog {
+    file: std::io::BufWriter<std::fs::File>,
+}
+
+impl FrameLog {
+    /// Creates (truncates) `dir/frames.jsonl`.
+    pub fn create(dir: &Path) -> anyhow::Result<Self> {
+        let path = dir.join("frames.jsonl");
+        let file =
+            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        Ok(Self {
+            file: std::io::BufWriter::new(file),
+        })
+    }
+
+    /// Appends one record and flushes it to the file.
+    pub fn append(&mut self, rec: &FrameRecord) -> anyhow::Result<()> {
+        serde_json::to_writer(&mut self.file, rec)?;
+        self.file.write_all(b"\n")?;
+        self.file.flush().context("writing frames.jsonl")?;
+        Ok(())
+    }
+}
 
 /// Checks the sensor options of a capture (the sensor loads, `--gain` is
 /// in its range, at least one frame) before anything expensive runs.
@@ -113,31 +137,6 @@ pub struct FrameCapture<'a> {
     pub seed: u64,
 }
 
-/// One line of `frames.jsonl` (the same keys as `gloam capture` writes,
-/// plus the sensor's own figures).
-#[derive(Serialize)]
-struct FrameRecord<'a> {
-    index: u32,
-    file: String,
-    seq: u64,
-    /// µs since the stream started.
-    timestamp: u64,
-    gain: f64,
-    agc: bool,
-    bits: u8,
-    width: usize,
-    height: usize,
-    pixels_crc32c: u32,
-    status: &'static str,
-    mean_dn: f64,
-    /// Fraction of pixels at or above `saturated_at_dn`.
-    saturated_fraction: f64,
-    saturated_at_dn: f64,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    warnings: Vec<String>,
-    sensor: &'a gloam_sensor::FrameMeta,
-}
-
 impl FrameCapture<'_> {
     /// Captures `frames` frames of the detected-electron radiance
     /// `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]) into `out`.
@@ -154,7 +153,7 @@ impl FrameCapture<'_> {
         if self.agc {
             camera.set_agc(true);
         }
-        let mut jsonl = Vec::new();
+        let mut log = FrameLog::create(out)?;
         let mut warned = std::collections::BTreeSet::new();
         let mut per_frame = Vec::new();
         for i in 0..self.frames {
@@ -185,27 +184,24 @@ impl FrameCapture<'_> {
                 "warnings": kinds,
             }));
             let rec = FrameRecord {
-                index: i,
+                index: u64::from(i),
                 file,
                 seq: m.seq,
                 timestamp: (m.time_s * 1e6).round() as u64,
                 gain: m.gain_in_effect,
                 agc: m.agc_enabled,
                 bits: m.bits,
-                width: w,
-                height: h,
+                width: w as u32,
+                height: h as u32,
                 pixels_crc32c: gloam_grabber::pixels_crc32c(&pixels),
-                status: "ok",
+                status: FrameStatus::Ok,
                 mean_dn: m.mean_dn,
                 saturated_fraction: m.saturated_fraction,
                 saturated_at_dn: chain.saturated_threshold_dn(g),
                 warnings,
-                sensor: m,
+                sensor: Some(m.clone()),
             };
-            serde_json::to_writer(&mut jsonl, &rec)?;
-            jsonl.write_all(b"\n")?;
-            // Rewritten after every frame so an interrupted run keeps what it captured.
-            write_atomic(&out.join("frames.jsonl"), &jsonl)?;
+            log.append(&rec)?;
         }
         record_in_report(
             out,

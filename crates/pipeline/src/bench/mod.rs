@@ -1,0 +1,80 @@
+//! `gloam bench accuracy SCENE --out DIR …` and `gloam bench throughput`:
+//! what accuracy costs in time, and every performance figure the README
+//! quotes.
+//!
+//! **accuracy** sweeps the settings that trade accuracy for time and, for
+//! each run, records wall time and the error against the truth:
+//!
+//! - *closed form* when the scene has one: no point sources, no sky, area
+//!   sources with integer shape exponents, no specular or transmissive
+//!   material, and all non-emitting facets in one plane (nothing can occlude
+//!   an emitter from them: `sims/panel-validation`). The truth of a pixel is
+//!   `(1/π) Σ_s F_s(p) ∫ R_b ρ L_s dλ`, with `F_s` Lambert's/Arvo's factor
+//!   (`gloam_trace::closed_form`) averaged over an 8 × 8 grid of sub-pixel
+//!   primary hits, and the band integral exact (lines included).
+//! - otherwise a *reference* render (analytic, high spp, 1 nm grid, as two
+//!   independent halves), cached in `DIR/reference.npy` with its key (scene
+//!   hash + settings) in `DIR/reference.json`. The halves give the
+//!   reference's own noise, which is subtracted from each run's mean squared
+//!   error, so the error reported is that of the run alone.
+//!
+//! Only pixels whose primary hits (4 × 4 sub-pixel rays) all land on
+//! non-emitting facets count: the floor/room irradiance map, not the
+//! directly viewed lamps (exact by construction). Errors:
+//! `rel_rms_error = sqrt(Σ(x − t)² / Σ t²)` over those pixels and all bands,
+//! `max_rel_error = max |x − t| / t` over pixels with `t` above 1 % of the
+//! band's mean.
+//!
+//! The reference, like the default, has `diffuse_bounces = 0`: on the
+//! office room the `diffuse_bounces` rows therefore measure the
+//! inter-reflected light the default leaves out, not an error. The
+//! `spectral_step_nm` rows use a clear-mercury copy of a scene whose own
+//! sources have no emission lines (the panel), where the truth stays exact.
+//!
+//! **plan** renders each sim with the effect plan and with `all_effects`
+//! (every estimator path forced on), and checks that the two images differ
+//! by less than 1.5 × the seed-to-seed difference of the planned render.
+
+//!
+//! The command line (`src/cmd/bench.rs`) parses arguments and prints; the
+//! measuring happens here.
+
+pub mod accuracy;
+pub mod metrics;
+pub mod plan_check;
+pub mod throughput;
+pub mod truth;
+
+use std::path::{Path, PathBuf};
+
+/// A path as given when it exists; otherwise the same relative path under
+/// the nearest ancestor of the working directory that has it (so `gloam
+/// bench` finds `sims/…` from anywhere inside a checkout, and an installed
+/// binary run from a checkout finds them too).
+pub fn find_path(p: &Path) -> PathBuf {
+    if p.exists() || p.is_absolute() {
+        return p.to_path_buf();
+    }
+    if let Ok(cwd) = std::env::current_dir() {
+        for dir in cwd.ancestors().skip(1) {
+            let alt = dir.join(p);
+            if alt.exists() {
+                return alt;
+            }
+        }
+    }
+    p.to_path_buf()
+}
+
+/// Every `sims/*/scene.toml`, sorted.
+pub fn default_scenes() -> anyhow::Result<Vec<PathBuf>> {
+    use anyhow::Context;
+    let dir = find_path(Path::new("sims"));
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path().join("scene.toml")))
+        .filter(|p| p.exists())
+        .collect();
+    v.sort();
+    Ok(v)
+}

@@ -1,0 +1,215 @@
+//! `gloam bench plan`: the time the effect plan saves, and whether its
+//! decisions hold (each sim rendered with the plan, with every effect
+//! forced on, and with the interreflection decision flipped).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use gloam_trace::{RenderSettings, Tracer};
+use ndarray::{Array3, Axis};
+
+use super::metrics::rel_rms_diff;
+use super::truth::receiver_mask;
+
+/// What `gloam bench plan` measured.
+pub struct PlanCheck {
+    pub spp: u32,
+    /// One JSON object per scene.
+    pub scenes: Vec<serde_json::Value>,
+    pub total: serde_json::Value,
+    pub all_agree: bool,
+    pub interreflection_consistent: bool,
+}
+
+/// Renders each scene with the plan, with every effect forced on, with
+/// another seed (the plan's own noise) and with the interreflection
+/// decision flipped.
+pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Result<PlanCheck> {
+    let mut out = Vec::new();
+    let (mut t_plan, mut t_all) = (0.0, 0.0);
+    for path in scenes {
+        let scene = gloam_scene::load(path)?;
+        let base = RenderSettings {
+            spp,
+            threads,
+            ..Default::default()
+        };
+        let mut forced = base.clone();
+        forced.set("all_effects", "true").map_err(|e| {
+            anyhow::anyhow!("gloam-trace has no setting to force every effect on ({e})")
+        })?;
+        let render = |s: &RenderSettings| -> anyhow::Result<(Array3<f64>, f64)> {
+            let t0 = Instant::now();
+            let o = Tracer::new(&scene, s)?.render(&|_, _| {})?;
+            Ok((o.radiance, t0.elapsed().as_secs_f64()))
+        };
+        let (a, ta) = render(&base)?;
+        let (b, tb) = render(&forced)?;
+        // The plan's own noise: the same render with another seed.
+        let (a2, _) = render(&RenderSettings {
+            seed: base.seed + 1,
+            ..base.clone()
+        })?;
+        let noise = rel_rms_diff(&a2, &a);
+        let diff = rel_rms_diff(&b, &a);
+        // Interreflection, both directions: flip the plan's decision and
+        // measure the change of the signal over the pixels that do not see
+        // an emitter (the pilot's own pixel set), against the tolerance.
+        let tracer = Tracer::prepare(&scene, &base, false)?;
+        let decision = tracer.interreflection.clone();
+        let kept = decision.method != "off";
+        let mut flipped = base.clone();
+        flipped.set("indirect", if kept { "off" } else { "cache" })?;
+        let (c, _) = render(&flipped)?;
+        let mask = receiver_mask(&scene, &tracer, 2);
+        let masked_mean = |img: &Array3<f64>| -> Vec<f64> {
+            img.axis_iter(Axis(0))
+                .map(|band| {
+                    let (s, n) = mask
+                        .indexed_iter()
+                        .filter(|(_, m)| **m)
+                        .fold((0.0, 0usize), |(s, n), ((r, cc), _)| {
+                            (s + band[[r, cc]], n + 1)
+                        });
+                    s / n.max(1) as f64
+                })
+                .collect()
+        };
+        let (ma, mc, ma2) = (masked_mean(&a), masked_mean(&c), masked_mean(&a2));
+        let with_ir = if kept { &ma } else { &mc };
+        let change = (0..ma.len())
+            .map(|b| {
+                let d = with_ir[b].abs().max(1e-300);
+                (ma[b] - mc[b]).abs() / d
+            })
+            .fold(0.0, f64::max);
+        let mean_noise = (0..ma.len())
+            .map(|b| (ma[b] - ma2[b]).abs() / ma[b].abs().max(1e-300))
+            .fold(0.0, f64::max);
+        let tol = base.tolerance;
+        let ir_ok = if kept {
+            change > tol
+        } else {
+            change <= tol + 3.0 * mean_noise
+        };
+        // Two independent renders differ by √2 σ; forced vs plan shares
+        // the seed, so agreement within noise is diff ≤ 1.5 × that + 1e-9.
+        let agree = diff <= 1.5 * noise + 1e-9;
+        t_plan += ta;
+        t_all += tb;
+        out.push(serde_json::json!({
+            "scene": path.display().to_string(),
+            "plan_s": ta,
+            "all_effects_s": tb,
+            "saved_s": tb - ta,
+            "saved_fraction": 1.0 - ta / tb.max(1e-12),
+            "rel_rms_difference": diff,
+            "rel_rms_noise_between_seeds": noise,
+            "agree_within_noise": agree,
+            "interreflection": {
+                "decision": decision.method,
+                "estimated_share": decision.estimated_share,
+                "measured_share": change,
+                "tolerance": tol,
+                "mean_noise_between_seeds": mean_noise,
+                "consistent": ir_ok,
+            },
+        }));
+    }
+    let all_agree = out.iter().all(|v| v["agree_within_noise"] == true);
+    let ir_consistent = out
+        .iter()
+        .all(|v| v["interreflection"]["consistent"] == true);
+    let total = serde_json::json!({
+        "plan_s": t_plan,
+        "all_effects_s": t_all,
+        "saved_s": t_all - t_plan,
+        "saved_fraction": 1.0 - t_plan / f64::max(t_all, 1e-12),
+        "all_agree_within_noise": all_agree,
+        "interreflection_decisions_consistent": ir_consistent,
+    });
+    Ok(PlanCheck {
+        spp,
+        scenes: out,
+        total,
+        all_agree,
+        interreflection_consistent: ir_consistent,
+    })
+}
+
+impl PlanCheck {
+    /// The JSON `gloam bench plan --json` prints.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({"spp": self.spp, "scenes": self.scenes, "total": self.total})
+    }
+
+    /// The tables `gloam bench plan` prints.
+    pub fn markdown(&self) -> String {
+        use std::fmt::Write as _;
+        let (out, total) = (&self.scenes, &self.total);
+        let t_plan = total["plan_s"].as_f64().unwrap_or(f64::NAN);
+        let t_all = total["all_effects_s"].as_f64().unwrap_or(f64::NAN);
+        let all_agree = self.all_agree;
+        let mut m = String::new();
+
+        let _ = writeln!(
+            m,
+            "| scene | plan (s) | all effects (s) | saved | rel RMS diff | noise (seed to seed) | agree |"
+        );
+        let _ = writeln!(m, "|---|---|---|---|---|---|---|");
+        for v in out.iter() {
+            let _ = writeln!(
+                m,
+                "| {} | {:.3} | {:.3} | {:.0} % | {:.2e} | {:.2e} | {} |",
+                v["scene"].as_str().unwrap_or_default(),
+                v["plan_s"].as_f64().unwrap_or(f64::NAN),
+                v["all_effects_s"].as_f64().unwrap_or(f64::NAN),
+                100.0 * v["saved_fraction"].as_f64().unwrap_or(f64::NAN),
+                v["rel_rms_difference"].as_f64().unwrap_or(f64::NAN),
+                v["rel_rms_noise_between_seeds"]
+                    .as_f64()
+                    .unwrap_or(f64::NAN),
+                v["agree_within_noise"]
+            );
+        }
+        let _ = writeln!(
+            m,
+            "| **total** | {t_plan:.3} | {t_all:.3} | {:.0} % | | | {all_agree} |",
+            100.0 * (1.0 - t_plan / t_all.max(1e-12))
+        );
+        let _ = writeln!(
+            m,
+            "\n| scene | interreflection | estimated share | measured share (flipped) | tolerance | consistent |"
+        );
+        let _ = writeln!(m, "|---|---|---|---|---|---|");
+        for v in out.iter() {
+            let ir = &v["interreflection"];
+            let _ = writeln!(
+                m,
+                "| {} | {} | {:.3e} | {:.3e} | {} | {} |",
+                v["scene"].as_str().unwrap_or_default(),
+                ir["decision"].as_str().unwrap_or_default(),
+                ir["estimated_share"].as_f64().unwrap_or(f64::NAN),
+                ir["measured_share"].as_f64().unwrap_or(f64::NAN),
+                ir["tolerance"],
+                ir["consistent"]
+            );
+        }
+        m
+    }
+
+    /// An error when a check failed (the tables say which).
+    pub fn verdict(&self) -> anyhow::Result<()> {
+        let all_agree = self.all_agree;
+        let ir_consistent = self.interreflection_consistent;
+        anyhow::ensure!(
+            all_agree,
+            "rendering with every effect forced on changed an image beyond its noise"
+        );
+        anyhow::ensure!(
+            ir_consistent,
+            "an interreflection decision disagrees with its measured share (see the table)"
+        );
+        Ok(())
+    }
+}

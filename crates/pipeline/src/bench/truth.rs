@@ -1,0 +1,390 @@
+//! What a render is compared against: the closed form where the scene has
+//! one, otherwise a cached whole-light path-traced reference; and the mask
+//! of pixels that count.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+use gloam_scene::Scene;
+use gloam_trace::closed_form::shaped_polygon_irradiance_factor;
+use gloam_trace::{DVec3, RenderSettings, Tracer};
+use ndarray::{Array2, Array3, Axis};
+use rayon::prelude::*;
+
+use crate::output::{write_atomic, write_atomic_with};
+
+/// What each run is compared against.
+pub struct Truth {
+    /// "closed-form" or "reference".
+    pub kind: &'static str,
+    /// Band × row × column.
+    pub image: Array3<f64>,
+    /// Pixels that count.
+    pub mask: Array2<bool>,
+    /// Variance of the reference per pixel and band (None for the closed
+    /// form), subtracted from each run's squared errors.
+    pub noise_var: Option<Array3<f64>>,
+    /// Wall time spent making it (0 when cached).
+    pub seconds: f64,
+    pub note: String,
+}
+
+/// Primary hit of the ray through `(px, py)`: (facet, world point, ray dir).
+pub fn primary_hit(
+    scene: &Scene,
+    tracer: &Tracer,
+    px: f64,
+    py: f64,
+) -> Option<(u32, DVec3, DVec3)> {
+    let cam = &scene.camera;
+    let d = cam.pixel_direction(px, py);
+    let o = cam.position - tracer.geom.origin;
+    let hit = tracer.geom.intersect(o, d, 0.0, f64::INFINITY, u32::MAX)?;
+    Some((hit.facet, cam.position + d * hit.t, d))
+}
+
+pub fn is_emitter(scene: &Scene, facet: usize) -> bool {
+    scene.materials[scene.facets[facet].material]
+        .emission
+        .is_some()
+}
+
+/// Pixels whose four corners and `k × k` interior sub-pixel primary rays
+/// all hit the same non-emitting facet (a convex facet then holds the
+/// pixel's whole footprint), and none of whose eight neighbours shows an
+/// emitter at any of its test points (an emitter's corner can poke into a
+/// pixel between the test points; it then shows in a neighbour).
+pub fn receiver_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    // (all on one non-emitting facet, any emitter seen)
+    let v: Vec<(bool, bool)> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (col, row) = (i % w, i / w);
+            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
+            let inner = (0..k * k).map(|j| {
+                (
+                    ((j % k) as f64 + 0.5) / k as f64,
+                    ((j / k) as f64 + 0.5) / k as f64,
+                )
+            });
+            let mut facet = None;
+            let mut same = true;
+            let mut emitter = false;
+            for (dx, dy) in corners.into_iter().chain(inner) {
+                match primary_hit(scene, tracer, col as f64 + dx, row as f64 + dy) {
+                    Some((f, _, _)) if is_emitter(scene, f as usize) => {
+                        emitter = true;
+                        same = false;
+                    }
+                    Some((f, _, _)) => same &= *facet.get_or_insert(f) == f,
+                    None => same = false,
+                }
+            }
+            (same, emitter)
+        })
+        .collect();
+    Array2::from_shape_fn((h, w), |(r, c)| {
+        v[r * w + c].0
+            && (r.saturating_sub(1)..(r + 2).min(h))
+                .all(|rr| (c.saturating_sub(1)..(c + 2).min(w)).all(|cc| !v[rr * w + cc].1))
+    })
+}
+
+/// Why the scene has no closed form (None: it has one).
+pub fn closed_form_obstacle(scene: &Scene) -> Option<String> {
+    if !scene.point_sources.is_empty() {
+        return Some("it has point sources".into());
+    }
+    if scene.sky.is_some() {
+        return Some("it has a sky".into());
+    }
+    let mut plane: Option<(DVec3, f64)> = None;
+    let mut emitters = 0;
+    for f in &scene.facets {
+        let m = &scene.materials[f.material];
+        if let Some(e) = &m.emission {
+            emitters += 1;
+            if e.shape_exponent.fract() != 0.0 || e.shape_exponent < 0.0 {
+                return Some("a shape exponent is not an integer".into());
+            }
+            continue;
+        }
+        if m.specular_fraction > 0.0 || m.transmission.is_some() {
+            return Some(format!("material `{}` is specular or transmissive", m.name));
+        }
+        let n = f.normal();
+        let d = n.dot(f.vertices[0]);
+        match plane {
+            None => plane = Some((n, d)),
+            Some((n0, d0)) => {
+                let tol = 1e-9 * (1.0 + d0.abs());
+                if n.dot(n0).abs() < 1.0 - 1e-12
+                    || f.vertices.iter().any(|v| (n0.dot(*v) - d0).abs() > tol)
+                {
+                    return Some(
+                        "its non-emitting facets are not coplanar (occlusion possible)".into(),
+                    );
+                }
+            }
+        }
+    }
+    if emitters == 0 {
+        return Some("it has no area source".into());
+    }
+    None
+}
+
+/// The closed-form truth (see the module docs).
+pub fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
+    let t0 = Instant::now();
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let nb = scene.bands.len();
+    // Sources: vertices, normal, m, and per receiver material and band the
+    // exact ∫ R_b ρ L dλ / π.
+    struct Src {
+        verts: Vec<DVec3>,
+        normal: DVec3,
+        m: u32,
+        coef: BTreeMap<usize, Vec<f64>>,
+    }
+    let receivers: Vec<usize> = scene
+        .facets
+        .iter()
+        .map(|f| f.material)
+        .filter(|&m| scene.materials[m].emission.is_none())
+        .collect();
+    let srcs: Vec<Src> = scene
+        .facets
+        .iter()
+        .filter_map(|f| {
+            let e = scene.materials[f.material].emission.as_ref()?;
+            let coef = receivers
+                .iter()
+                .map(|&rm| {
+                    let rho = &scene.materials[rm].reflectance;
+                    let prod = e.radiance_w_m2_sr_nm.product(rho);
+                    let v = scene
+                        .bands
+                        .iter()
+                        .map(|b| {
+                            // The last product integrated exactly (quadratic
+                            // pieces); `prod` is exact when ρ is flat, as on
+                            // the closed-form scenes.
+                            prod.integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
+                                * std::f64::consts::FRAC_1_PI
+                        })
+                        .collect();
+                    (rm, v)
+                })
+                .collect();
+            Some(Src {
+                verts: f.vertices.clone(),
+                normal: f.normal(),
+                m: e.shape_exponent as u32,
+                coef,
+            })
+        })
+        .collect();
+    let k = 8usize;
+    let mask = receiver_mask(scene, tracer, 4);
+    let vals: Vec<Vec<f64>> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (col, row) = (i % w, i / w);
+            let mut acc = vec![0.0; nb];
+            for j in 0..k * k {
+                let px = col as f64 + ((j % k) as f64 + 0.5) / k as f64;
+                let py = row as f64 + ((j / k) as f64 + 0.5) / k as f64;
+                let Some((f, p, d)) = primary_hit(scene, tracer, px, py) else {
+                    continue;
+                };
+                let facet = &scene.facets[f as usize];
+                if is_emitter(scene, f as usize) {
+                    continue;
+                }
+                let mut n = facet.normal();
+                if n.dot(d) > 0.0 {
+                    n = -n;
+                }
+                for s in &srcs {
+                    let fac = shaped_polygon_irradiance_factor(p, n, &s.verts, s.normal, s.m);
+                    if let Some(c) = s.coef.get(&facet.material) {
+                        acc.iter_mut().zip(c).for_each(|(a, c)| *a += fac * c);
+                    }
+                }
+            }
+            acc.iter_mut().for_each(|a| *a /= (k * k) as f64);
+            acc
+        })
+        .collect();
+    let mut image = Array3::<f64>::zeros((nb, h, w));
+    for (i, v) in vals.iter().enumerate() {
+        for (b, x) in v.iter().enumerate() {
+            image[[b, i / w, i % w]] = *x;
+        }
+    }
+    Truth {
+        kind: "closed-form",
+        image,
+        mask,
+        noise_var: None,
+        seconds: t0.elapsed().as_secs_f64(),
+        note: format!(
+            "closed form (Lambert/Arvo per source, {k}×{k} sub-pixel hits per pixel, exact band integrals)"
+        ),
+    }
+}
+
+/// 64-bit FNV-1a.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// The reference: the scene's whole light by brute-force path tracing
+/// (`indirect = path`, 64 diffuse bounces, Russian roulette after 3 —
+/// unbiased; the truncated remainder of a ρ ≤ 0.9 room after 64 bounces is
+/// < 0.1 %), independent of the radiosity cache the default uses.
+pub fn reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
+    let mut s = RenderSettings {
+        spp,
+        area_samples: 4,
+        source_roulette_fraction: 0.0,
+        threads,
+        ..Default::default()
+    };
+    s.set("indirect", "path").expect("valid");
+    s.diffuse_bounces = 64;
+    s.rr_start = 3;
+    s
+}
+
+/// Pixels of the reference subset: at most `REFERENCE_PIXELS` of the mask,
+/// evenly strided (the per-pixel RMS over a uniform subset estimates the
+/// RMS over all of them without bias).
+pub const REFERENCE_PIXELS: usize = 1200;
+
+/// The high-sample reference, cached in `dir` (see the module docs).
+pub fn reference_truth(
+    scene_path: &Path,
+    scene: &Scene,
+    tracer: &Tracer,
+    dir: &Path,
+    threads: Option<usize>,
+    spp: u32,
+) -> anyhow::Result<Truth> {
+    use ndarray_npy::{ReadNpyExt, WriteNpyExt};
+    let t0 = Instant::now();
+    let text =
+        std::fs::read(scene_path).with_context(|| format!("reading {}", scene_path.display()))?;
+    let base = reference_settings(None, spp);
+    let key = format!(
+        "{:016x}-{:016x}",
+        fnv1a(&text),
+        fnv1a(serde_json::to_string(&base)?.as_bytes())
+    );
+    let npy = dir.join("reference.npy");
+    let meta = dir.join("reference.json");
+    let full_mask = receiver_mask(scene, tracer, 4);
+    let (nb, h, w) = (
+        scene.bands.len(),
+        scene.camera.height as usize,
+        scene.camera.width as usize,
+    );
+    let from_stack = |stack: &ndarray::Array4<f64>| -> (Array3<f64>, Array3<f64>, Array2<bool>) {
+        let image = stack.index_axis(Axis(0), 0).to_owned();
+        let var = stack.index_axis(Axis(0), 1).to_owned();
+        let mask = Array2::from_shape_fn((h, w), |(r, c)| {
+            full_mask[[r, c]] && image[[0, r, c]].is_finite()
+        });
+        (image, var, mask)
+    };
+    if let (Ok(m), Ok(f)) = (std::fs::read_to_string(&meta), std::fs::File::open(&npy)) {
+        let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
+        if m["key"] == key {
+            if let Ok(stack) = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)) {
+                if stack.dim() == (2, nb, h, w) {
+                    let (image, var, mask) = from_stack(&stack);
+                    return Ok(Truth {
+                        kind: "reference",
+                        image,
+                        mask,
+                        noise_var: Some(var),
+                        seconds: 0.0,
+                        note: format!("cached reference ({npy}, key {key})", npy = npy.display()),
+                    });
+                }
+            }
+        }
+    }
+    // A strided subset of the counted pixels, each rendered in two
+    // independent halves (seeds differ): their mean is the reference,
+    // their difference measures its noise per pixel.
+    let pixels: Vec<(usize, usize)> = full_mask
+        .indexed_iter()
+        .filter(|(_, m)| **m)
+        .map(|(rc, _)| rc)
+        .collect();
+    let stride = pixels.len().div_ceil(REFERENCE_PIXELS).max(1);
+    let subset: Vec<(usize, usize)> = pixels.into_iter().step_by(stride).collect();
+    let half = |seed: u64| -> anyhow::Result<Vec<Vec<f64>>> {
+        let s = RenderSettings {
+            seed,
+            spp: spp.div_ceil(2),
+            ..reference_settings(threads, spp)
+        };
+        let t = Tracer::new(scene, &s)?;
+        let v: Result<Vec<Vec<f64>>, _> = subset
+            .par_iter()
+            .map(|&(r, c)| t.probe_pixel(c as u32, r as u32))
+            .collect();
+        Ok(v?)
+    };
+    let a = half(1_000_001)?;
+    let b = half(1_000_002)?;
+    let mut stack = ndarray::Array4::<f64>::from_elem((2, nb, h, w), f64::NAN);
+    for (k, &(r, c)) in subset.iter().enumerate() {
+        for bi in 0..nb {
+            stack[[0, bi, r, c]] = 0.5 * (a[k][bi] + b[k][bi]);
+            // Var(mean of two) = E[(a − b)²] / 4.
+            stack[[1, bi, r, c]] = (a[k][bi] - b[k][bi]).powi(2) / 4.0;
+        }
+    }
+    std::fs::create_dir_all(dir)?;
+    write_atomic_with(&npy, |f| {
+        let mut w = std::io::BufWriter::new(f);
+        stack.write_npy(&mut w)?;
+        // Flush here: a BufWriter dropped with unwritten data loses the error.
+        std::io::Write::flush(&mut w)?;
+        Ok(())
+    })?;
+    let seconds = t0.elapsed().as_secs_f64();
+    write_atomic(
+        &meta,
+        serde_json::to_string_pretty(&serde_json::json!({
+            "key": key,
+            "scene": scene_path.display().to_string(),
+            "settings": base,
+            "pixels": subset.len(),
+            "seconds": seconds,
+        }))?
+        .as_bytes(),
+    )?;
+    let (image, var, mask) = from_stack(&stack);
+    Ok(Truth {
+        kind: "reference",
+        image,
+        mask,
+        noise_var: Some(var),
+        seconds,
+        note: format!(
+            "reference: the whole light by brute-force path tracing (64 diffuse bounces, spp {spp} in two halves) on {} of the counted pixels, cached in {}",
+            subset.len(),
+            npy.display()
+        ),
+    })
+}

@@ -1,0 +1,149 @@
+//! Where an output came from: the gloam version and commit, the command
+//! line, the UTC time, and every input file named on the command line with
+//! its SHA-256 — recorded in every report, calibration file and manifest.
+
+use std::path::Path;
+
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+/// An input file and its content hash.
+#[derive(Clone, Debug, Serialize)]
+pub struct InputFile {
+    pub path: String,
+    pub bytes: u64,
+    pub sha256: String,
+}
+
+/// The provenance block of an output.
+#[derive(Clone, Debug, Serialize)]
+pub struct Provenance {
+    pub gloam_version: &'static str,
+    /// `git rev-parse HEAD` at build time (`unknown` outside a checkout).
+    pub git_commit: &'static str,
+    /// The full command line, as given.
+    pub command_line: Vec<String>,
+    /// When the run started, ISO-8601 UTC.
+    pub utc: String,
+    /// Every existing regular file named by a command-line word (or the
+    /// value of a `--flag=VALUE` or `KEY=VALUE` word), hashed.
+    pub inputs: Vec<InputFile>,
+}
+
+/// Files larger than this are listed without a hash (a multi-GB frame
+/// stack should not stall a run's start).
+pub const MAX_HASHED_BYTES: u64 = 1 << 30;
+
+impl Provenance {
+    /// The provenance of this process's run.
+    pub fn of_this_run() -> Self {
+        Self::of_command_line(std::env::args().collect())
+    }
+
+    /// The provenance of a run with `command_line` (its first word the
+    /// program).
+    pub fn of_command_line(command_line: Vec<String>) -> Self {
+        let mut inputs: Vec<InputFile> = Vec::new();
+        for word in command_line.iter().skip(1) {
+            let candidate = word.rsplit_once('=').map_or(word.as_str(), |(_, v)| v);
+            let path = Path::new(candidate);
+            if !path.is_file() || inputs.iter().any(|i| i.path == candidate) {
+                continue;
+            }
+            if let Some(f) = hash_file(path) {
+                inputs.push(f);
+            }
+        }
+        Self {
+            gloam_version: env!("CARGO_PKG_VERSION"),
+            git_commit: env!("GLOAM_GIT_COMMIT"),
+            command_line,
+            utc: utc_now(),
+            inputs,
+        }
+    }
+}
+
+/// `path`'s size and SHA-256 (hex), or None when it cannot be read.
+pub fn hash_file(path: &Path) -> Option<InputFile> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path).ok()?;
+    let mut sha256 = String::new();
+    if meta.len() <= MAX_HASHED_BYTES {
+        let mut f = std::fs::File::open(path).ok()?;
+        let mut h = Sha256::new();
+        let mut buf = vec![0u8; 1 << 16];
+        loop {
+            let n = f.read(&mut buf).ok()?;
+            if n == 0 {
+                break;
+            }
+            h.update(&buf[..n]);
+        }
+        sha256 = hex(&h.finalize());
+    }
+    Some(InputFile {
+        path: path.display().to_string(),
+        bytes: meta.len(),
+        sha256,
+    })
+}
+
+/// SHA-256 of bytes, hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+fn hex(b: &[u8]) -> String {
+    use std::fmt::Write as _;
+    b.iter()
+        .fold(String::with_capacity(2 * b.len()), |mut s, x| {
+            let _ = write!(s, "{x:02x}");
+            s
+        })
+}
+
+/// The current time, ISO-8601 UTC to the millisecond.
+pub fn utc_now() -> String {
+    let unix_s = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64());
+    // JD 2440587.5 is the Unix epoch.
+    gloam_sky::time::UtcInstant::from_julian_date(unix_s / 86_400.0 + 2_440_587.5)
+        .map(|t| t.to_iso8601())
+        .unwrap_or_else(|_| format!("unix {unix_s:.3} s"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sha256_of_abc_is_the_fips_180_2_example() {
+        // FIPS 180-2, appendix B.1.
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn inputs_are_the_existing_files_named_on_the_command_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("scene.toml");
+        std::fs::write(&f, b"abc").unwrap();
+        let p = Provenance::of_command_line(vec![
+            "gloam".into(),
+            "render".into(),
+            f.display().to_string(),
+            format!("--lut={}", f.display()),
+            "--out".into(),
+            dir.path().join("missing").display().to_string(),
+        ]);
+        assert_eq!(p.inputs.len(), 1, "{:?}", p.inputs);
+        assert_eq!(p.inputs[0].bytes, 3);
+        assert_eq!(p.inputs[0].sha256, sha256_hex(b"abc"));
+        // ISO-8601 with a Z.
+        assert!(p.utc.ends_with('Z') && p.utc.contains('T'), "{}", p.utc);
+    }
+}

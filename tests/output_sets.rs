@@ -1,0 +1,203 @@
+//! Whole output sets with provenance, and a closed stdout (issue 13):
+//! a set appears at once with `manifest.json`, a used `--out` is refused
+//! without `--force`, a killed run never leaves a set that mixes runs, and
+//! every report names the version, commit, command and hashed inputs.
+
+use std::io::Read;
+use std::os::unix::fs::PermissionsExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_gloam");
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("sims/{name}/scene.toml"))
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::new(BIN)
+        .args(args)
+        .output()
+        .expect("running gloam")
+}
+
+fn json(path: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// Independent SHA-256 via coreutils, when present.
+fn sha256sum(path: &Path) -> Option<String> {
+    let out = Command::new("sha256sum").arg(path).output().ok()?;
+    Some(
+        String::from_utf8_lossy(&out.stdout)
+            .split_whitespace()
+            .next()?
+            .to_string(),
+    )
+}
+
+#[test]
+fn a_render_is_published_whole_with_a_manifest_and_provenance() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("panel");
+    let scene = scene("panel-validation");
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--spp",
+        "1",
+    ];
+    let o = run(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let m = json(&out.join("manifest.json"));
+    assert_eq!(m["complete"], true);
+    let files: Vec<&str> = m["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["path"].as_str().unwrap())
+        .collect();
+    for f in [
+        "radiance.tiff",
+        "radiance.npy",
+        "report.json",
+        "preview.png",
+    ] {
+        assert!(files.contains(&f), "{f} missing from {files:?}");
+    }
+    // The manifest's hashes are the files' (checked with coreutils).
+    for f in m["files"].as_array().unwrap() {
+        let p = out.join(f["path"].as_str().unwrap());
+        if let Some(h) = sha256sum(&p) {
+            assert_eq!(f["sha256"].as_str().unwrap(), h, "{}", p.display());
+        }
+        // Created with the umask's mode, not tempfile's 0600.
+        let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+        assert_ne!(mode & 0o044, 0, "{} has mode {mode:o}", p.display());
+    }
+    // Provenance: version, commit, command line, the scene hashed.
+    let p = &json(&out.join("report.json"))["provenance"];
+    assert_eq!(p["gloam_version"], env!("CARGO_PKG_VERSION"));
+    assert!(p["git_commit"].as_str().is_some_and(|c| !c.is_empty()));
+    assert_eq!(p["command_line"][1], "render");
+    let input = p["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|i| i["path"] == scene.to_str().unwrap())
+        .expect("the scene is among the inputs");
+    if let Some(h) = sha256sum(&scene) {
+        assert_eq!(input["sha256"].as_str().unwrap(), h);
+    }
+    // No staging directory is left beside the set.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["panel".to_string()]);
+
+    // A used --out is refused, naming --force; nothing changes.
+    let before = std::fs::read(out.join("radiance.npy")).unwrap();
+    let o = run(&args);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("not empty") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(out.join("radiance.npy")).unwrap(), before);
+
+    // --force replaces the set whole: another seed, a different image, and
+    // nothing of the old set left (a capture's frames would be).
+    std::fs::write(out.join("stale-frame-000099.png"), b"old").unwrap();
+    let mut forced = args.to_vec();
+    forced.extend(["--seed", "7", "--force"]);
+    let o = run(&forced);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.join("stale-frame-000099.png").exists());
+    assert_ne!(std::fs::read(out.join("radiance.npy")).unwrap(), before);
+}
+
+#[test]
+fn a_killed_render_leaves_the_previous_set_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("office");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("marker.txt"), b"previous set").unwrap();
+    let scene = scene("office-room");
+    let mut child = Command::new(BIN)
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--force",
+            "--spp",
+            "64",
+        ])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until it is staging, then kill it hard.
+    let t0 = Instant::now();
+    let staging = loop {
+        let s = std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .find(|e| e.file_name().to_string_lossy().contains(".partial-"));
+        if let Some(s) = s {
+            break s.path();
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "no staging directory appeared"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    std::thread::sleep(Duration::from_millis(300));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    // The old set is whole and alone; the partial one is hidden and has no
+    // manifest, so nothing takes it for a finished set.
+    let names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["marker.txt".to_string()]);
+    assert!(!staging.join("manifest.json").exists());
+}
+
+#[test]
+fn a_closed_stdout_ends_a_command_quietly() {
+    let scene = scene("office-room");
+    for args in [
+        vec!["plan", scene.to_str().unwrap()],
+        vec!["sensor", "list"],
+        vec!["spectra", "list"],
+    ] {
+        let mut child = Command::new(BIN)
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the read end at once, as `| true` does.
+        drop(child.stdout.take());
+        let status = child.wait().unwrap();
+        let mut err = String::new();
+        child
+            .stderr
+            .take()
+            .unwrap()
+            .read_to_string(&mut err)
+            .unwrap();
+        assert!(status.success(), "gloam {args:?}: {status}, stderr: {err}");
+        assert!(!err.contains("panicked"), "gloam {args:?}: {err}");
+    }
+}
