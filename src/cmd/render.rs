@@ -65,6 +65,11 @@ pub struct RenderArgs {
     /// Turn the camera's temporal noise off (deterministic mean response).
     #[arg(long)]
     pub no_noise: bool,
+    /// `auto`: choose the gain, gate (or exposure time) and ND filter that
+    /// put the frame's 99th percentile at 80 % of the camera's range, and
+    /// record the choice (report.json `sensor_capture.exposure`).
+    #[arg(long, value_name = "auto", value_parser = ["auto"], conflicts_with_all = ["gain", "agc"])]
+    pub exposure: Option<String>,
     /// Replace a non-empty `--out` (the new set replaces the old one whole).
     #[arg(long)]
     pub force: bool,
@@ -202,6 +207,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             agc: args.agc,
             noise: !args.no_noise,
             seed: settings.seed,
+            auto_exposure: args
+                .exposure
+                .as_ref()
+                .map(|_| gloam_pipeline::exposure::ExposureTarget::default()),
         };
         capture.run(&detected, &dir)?;
     }

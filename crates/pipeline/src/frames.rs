@@ -135,6 +135,9 @@ pub struct FrameCapture<'a> {
     pub agc: bool,
     pub noise: bool,
     pub seed: u64,
+    /// `--exposure auto`: choose gain, gate or exposure time and ND for
+    /// this scene first ([`crate::exposure`]); the gain is then fixed.
+    pub auto_exposure: Option<crate::exposure::ExposureTarget>,
 }
 
 impl FrameCapture<'_> {
@@ -145,9 +148,31 @@ impl FrameCapture<'_> {
         let mut config = gloam_sensor::load_preset_or_file(self.sensor)
             .with_context(|| format!("loading sensor '{}'", self.sensor))?;
         config.noise.seed = self.seed;
+        let exposure = match &self.auto_exposure {
+            Some(target) => {
+                let c = crate::exposure::choose(&config, detected, target)?;
+                crate::exposure::apply(&mut config, &c);
+                eprintln!(
+                    "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
+                    c.gain,
+                    c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
+                    c.exposure_s,
+                    c.nd_density,
+                    c.target.percentile,
+                    c.percentile_dn,
+                    c.median_dn,
+                    c.note
+                );
+                if c.stops_out_of_range != 0.0 {
+                    eprintln!("warning: {}", c.note);
+                }
+                Some(c)
+            }
+            None => None,
+        };
         let mut camera = Camera::new(config)?;
         camera.set_noise(self.noise);
-        if let Some(g) = self.gain {
+        if let Some(g) = self.gain.or(exposure.as_ref().map(|c| c.gain)) {
             camera.set_override_gain(Some(g))?;
         }
         if self.agc {
@@ -207,6 +232,7 @@ impl FrameCapture<'_> {
             out,
             serde_json::json!({
                 "sensor": self.sensor,
+                "exposure": exposure,
                 "frames": per_frame,
                 "thresholds": {
                     "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod detected;
+pub mod exposure;
 pub mod frames;
 pub mod output;
 pub mod output_set;
