@@ -110,7 +110,8 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
         bail!("usage: gloam sweep SWEEP.toml --out DIR");
     };
     let argv: Vec<String> = std::env::args().collect();
-    let sd = SweepDir::create(&file, &out, &argv)?;
+    let provenance = serde_json::to_value(gloam_pipeline::Provenance::of_this_run())?;
+    let sd = SweepDir::create(&file, &out, &argv, provenance)?;
     let n = sd.sweep.tasks.len();
     if args.slurm {
         let dir = std::fs::canonicalize(&out)?;

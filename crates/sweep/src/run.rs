@@ -86,6 +86,9 @@ pub struct PlanFile {
     pub task_count: usize,
     pub chunk_count: usize,
     pub tasks: Vec<serde_json::Value>,
+    /// The caller's provenance record (git commit, time, hashed inputs).
+    #[serde(default)]
+    pub provenance: serde_json::Value,
 }
 
 pub const PLAN_FORMAT: &str = "gloam-sweep/1";
@@ -154,7 +157,12 @@ impl SweepDir {
     /// Plans `sweep_file` into `dir`: writes `sweep.toml` and `plan.json`,
     /// or, when `dir` already holds this sweep, opens it to resume. A
     /// different sweep in `dir` is an error.
-    pub fn create(sweep_file: &Path, dir: &Path, command_line: &[String]) -> anyhow::Result<Self> {
+    pub fn create(
+        sweep_file: &Path,
+        dir: &Path,
+        command_line: &[String],
+        provenance: serde_json::Value,
+    ) -> anyhow::Result<Self> {
         let text = std::fs::read_to_string(sweep_file)
             .with_context(|| format!("reading {}", sweep_file.display()))?;
         let base_dir = sweep_file
@@ -193,6 +201,7 @@ impl SweepDir {
                 .iter()
                 .map(serde_json::to_value)
                 .collect::<Result<_, _>>()?,
+            provenance,
         };
         // The sweep text first: plan.json is what marks the directory planned.
         write_atomic(&dir.join("sweep.toml"), text.as_bytes())?;
