@@ -693,7 +693,7 @@ seed = { from = 7, count = 2 }
             assert_eq!(same.seed, t.seed);
             assert_eq!(same.render_key, t.render_key);
         }
-        assert_ne!(r.tasks[1].id, s.tasks[1].id);
+        assert_ne!(r.tasks[2].id, s.tasks[2].id);
     }
 
     #[test]
