@@ -110,8 +110,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// `cmd` and all its subcommands taking negative numbers as values, so that
+/// `--spp -5` is refused by the flag's own check ("invalid value '-5' for
+/// '--spp'") rather than by clap's misleading "use '-- -5'" tip.
+fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
+    cmd.allow_negative_numbers(true)
+        .mut_subcommands(negative_numbers_are_values)
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = negative_numbers_are_values(Cli::command()).get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(c) => c,
+        Err(e) => e.exit(),
+    };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(&cli.log));
     tracing_subscriber::fmt()

@@ -1,4 +1,6 @@
-//! `gloam device --pty`: the device emulator on a pseudo-terminal.
+//! `gloam device --pty`: the device emulator on a pseudo-terminal;
+//! `gloam device --gige ADDR[:PORT]`: the simulated camera as a GigE Vision
+//! device (crate `gloam-gige`).
 
 use std::io::Write;
 use std::sync::atomic::AtomicBool;
@@ -17,8 +19,19 @@ use gloam_grabber::{SensorSource, serial::PtyDevice};
 pub struct DeviceArgs {
     /// Expose the emulated device on a pseudo-terminal; its path (the side a
     /// client opens) is the first line of stdout.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "gige")]
     pub pty: bool,
+    /// Serve the simulated camera as a GigE Vision device: GVCP on
+    /// ADDR[:PORT] (port 3956 by default), GVSP from the same address.
+    #[arg(long, value_name = "ADDR[:PORT]")]
+    pub gige: Option<String>,
+    /// GigE fault injection: probability of dropping each GVSP packet.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub gvsp_loss: f64,
+    /// GigE fault injection: probability of sending each GVSP packet after
+    /// the next one.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub gvsp_reorder: f64,
     /// Sensor preset (or sensor TOML file) behind the HAL.
     #[arg(long, default_value = "gen2-s20-iccd")]
     pub sensor: String,
@@ -80,8 +93,11 @@ fn probability(s: &str) -> Result<f64, String> {
 }
 
 pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
+    if let Some(addr) = args.gige.clone() {
+        return super::device_gige::run(&args, &addr);
+    }
     if !args.pty {
-        bail!("only --pty is supported: the emulator runs on a pseudo-terminal");
+        bail!("say --pty (pseudo-terminal) or --gige ADDR[:PORT] (GigE Vision)");
     }
     if args.baud == 0 {
         bail!("--baud must be positive");

@@ -98,15 +98,25 @@ pub fn read_counts(path: &Path) -> Result<(usize, usize, Vec<u16>), CalibError> 
 
 /// Writes a 32-bit float grey TIFF.
 pub fn write_tiff_f32(path: &Path, w: usize, h: usize, data: &[f32]) -> Result<(), CalibError> {
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
-    }
+    write_tiff_f32_pages(path, w, h, &[data])
+}
+
+/// Writes a multi-page 32-bit float grey TIFF, one `w × h` page per slice
+/// (e.g. one per spectral band), atomically.
+pub fn write_tiff_f32_pages(
+    path: &Path,
+    w: usize,
+    h: usize,
+    pages: &[&[f32]],
+) -> Result<(), CalibError> {
     let mut buf = std::io::Cursor::new(Vec::new());
     {
         let mut enc =
             tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
-        enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, data)
-            .map_err(|e| CalibError::file(path, e))?;
+        for page in pages {
+            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, page)
+                .map_err(|e| CalibError::file(path, e))?;
+        }
     }
     crate::report::write_bytes(path, buf.get_ref())
 }

@@ -24,23 +24,35 @@ pub fn write_text(path: &Path, text: &str) -> Result<(), CalibError> {
     write_bytes(path, text.as_bytes())
 }
 
-/// Writes bytes atomically: a temporary file beside `path`, flushed to
-/// disk, then renamed over it, so an interrupted run never leaves a
-/// half-written report, plot or image.
+/// Writes bytes atomically: a uniquely named temporary file beside `path`
+/// (so two writers never share one), flushed to disk, then renamed over it,
+/// so an interrupted run never leaves a half-written report, plot or image.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CalibError> {
     use std::io::Write;
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
+    let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(d) => {
+            std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
+            d
+        }
+        None => Path::new("."),
+    };
+    // Mode 0666 less the umask, as `File::create` gives (tempfile's own
+    // default is 0600).
+    let mut builder = tempfile::Builder::new();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp~");
-    let tmp = path.with_file_name(name);
-    let mut f = std::fs::File::create(&tmp).map_err(|e| CalibError::file(&tmp, e))?;
+    let mut f = builder
+        .tempfile_in(dir)
+        .map_err(|e| CalibError::file(dir, e))?;
     f.write_all(bytes)
-        .and_then(|_| f.sync_all())
-        .map_err(|e| CalibError::file(&tmp, e))?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(|e| CalibError::file(path, e))
+        .and_then(|_| f.as_file().sync_all())
+        .map_err(|e| CalibError::file(f.path(), e))?;
+    f.persist(path)
+        .map(|_| ())
+        .map_err(|e| CalibError::file(path, e.error))
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {
@@ -385,4 +397,33 @@ pub fn write_agc_report(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
             Series::new("down", down, Mark::LinePoints),
         ],
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn concurrent_writers_never_collide_or_tear() {
+        // Two writers racing on one path (a fixed temporary name made them
+        // truncate each other's file): every write succeeds, and the file
+        // always ends whole, as one writer's bytes.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("report.md");
+        let (a, b) = (vec![b'a'; 1 << 16], vec![b'b'; 1 << 16]);
+        std::thread::scope(|s| {
+            for bytes in [&a, &b] {
+                let path = &path;
+                s.spawn(move || {
+                    for _ in 0..50 {
+                        write_bytes(path, bytes).unwrap();
+                    }
+                });
+            }
+        });
+        let got = std::fs::read(&path).unwrap();
+        assert!(got == a || got == b);
+        // No temporary file is left behind.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
 }

@@ -976,12 +976,7 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
     }
 
     fn set_exposure_s(&mut self, exposure_s: f64) -> Result<f64, GrabError> {
-        if !exposure_s.is_finite() || exposure_s <= 0.0 {
-            return Err(GrabError::InvalidSetting(format!(
-                "exposure {exposure_s} s must be positive"
-            )));
-        }
-        let us = (exposure_s * 1e6).round().clamp(1.0, f64::from(u32::MAX)) as u32;
+        let us = crate::interface::exposure_us(exposure_s)?;
         self.with_session(|g| g.set_control(Control::ExposureUs, us, "exposure"))?;
         self.desired.exposure_us = Some(us);
         Ok(f64::from(us) / 1e6)

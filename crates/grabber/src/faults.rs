@@ -89,8 +89,8 @@ pub enum Verdict {
     Deliver(Option<Duration>),
 }
 
-/// Small deterministic generator (SplitMix64): no dependency, same stream
-/// on every platform.
+/// Small deterministic generator (SplitMix64, [`gloam_sensor::noise::splitmix64`]):
+/// same stream on every platform.
 #[derive(Clone, Debug)]
 pub struct SplitMix(u64);
 
@@ -99,11 +99,9 @@ impl SplitMix {
         Self(seed ^ 0x5851_F42D_4C95_7F2D)
     }
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        let z = self.0;
+        self.0 = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        gloam_sensor::noise::splitmix64(z)
     }
     /// Uniform in [0, 1).
     pub fn unit(&mut self) -> f64 {

@@ -226,3 +226,14 @@ impl GrabError {
         )
     }
 }
+
+/// An exposure in seconds as the whole microseconds the wire and the device
+/// use (at least 1 µs), or why it cannot be one.
+pub(crate) fn exposure_us(exposure_s: f64) -> Result<u32, GrabError> {
+    if !exposure_s.is_finite() || exposure_s <= 0.0 {
+        return Err(GrabError::InvalidSetting(format!(
+            "exposure {exposure_s} s must be positive"
+        )));
+    }
+    Ok((exposure_s * 1e6).round().clamp(1.0, f64::from(u32::MAX)) as u32)
+}

@@ -1,15 +1,4 @@
-//! Frame grabbers: one interface for the simulated camera, the device
-//! emulator and real hardware, so calibration flows never know which one
-//! they talk to.
-//!
-//! - [`open`] a grabber by URI: `sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH]`,
-//!   `sim:PRESET?scene=PATH` (with a [`SceneRenderer`]),
-//!   `serial:PATH[?baud=N]`, `usb:VID:PID[:SERIAL]`;
-//! - [`list_grabbers`]: serial ports, USB devices and simulated cameras;
-//! - [`SimGrabber`]: the sensor chain in-process; [`ProtocolGrabber`]: the
-//!   wire protocol over a [`Transport`] (serial, USB, in-memory);
-//! - [`emulator`]: the firmware state machine with a simulated camera as
-//!   its hardware (behind `gloam device --pty`).
+#![doc = include_str!("../README.md")]
 
 mod interface;
 

@@ -7,6 +7,39 @@ use gloam_grabber::{
     SceneView, SensorSource, SimGrabber, Stimulus, open, open_with,
 };
 
+/// CRC-32C (Castagnoli, reflected polynomial 0x82F63B78), one bit at a time.
+fn crc32c_bitwise(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0x82F6_3B78
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+#[test]
+fn reference_crc32c_has_the_standard_check_value() {
+    // The catalogued check value of CRC-32C over "123456789" (RFC 3720, B.4;
+    // Koopman's CRC catalogue).
+    assert_eq!(crc32c_bitwise(b"123456789"), 0xE306_9283);
+    // And the grabber's blockwise pixel CRC agrees on a frame whose bytes
+    // span several of its 4 KiB blocks.
+    let pixels: Vec<u16> = (0..5000u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 16) as u16)
+        .collect();
+    let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.to_le_bytes()).collect();
+    assert_eq!(
+        gloam_grabber::pixels_crc32c(&pixels),
+        crc32c_bitwise(&bytes)
+    );
+}
+
 #[test]
 fn sim_uri_opens_and_grabs() {
     let mut g = open("sim:gen2-s20-iccd?size=64x48&seed=3").unwrap();
@@ -20,10 +53,10 @@ fn sim_uri_opens_and_grabs() {
         f.pixels.iter().any(|&p| p > 0),
         "uniform rig should give signal"
     );
-    assert_eq!(
-        f.meta.pixels_crc32c,
-        gloam_grabber::pixels_crc32c(&f.pixels)
-    );
+    // The frame's CRC against an independent bitwise CRC-32C of its
+    // little-endian bytes (not the function that made it).
+    let bytes: Vec<u8> = f.pixels.iter().flat_map(|p| p.to_le_bytes()).collect();
+    assert_eq!(f.meta.pixels_crc32c, crc32c_bitwise(&bytes));
     assert!(g.present(&Stimulus::Dark).unwrap());
     let d = g.grab().unwrap();
     let mean = |p: &[u16]| p.iter().map(|&v| f64::from(v)).sum::<f64>() / p.len() as f64;

@@ -1,48 +1,27 @@
 //! Output files: atomic writes, and the image encoders every command uses.
 
-use std::io::Write;
 use std::path::Path;
 
 use anyhow::Context;
 use ndarray::Array3;
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same
-/// directory, fsynced, then renamed over the target. A crash or a full disk
-/// never leaves a half-written output behind.
+/// Writes `bytes` to `path` atomically — the project's one atomic writer,
+/// [`gloam_calib::report::write_bytes`]: a uniquely named temporary file in
+/// the same directory, fsynced, then renamed over the target.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    write_atomic_with(path, |f| f.write_all(bytes).map_err(Into::into))
+    gloam_calib::report::write_bytes(path, bytes)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Like [`write_atomic`], with the content produced by `fill` (for encoders
 /// that write to a stream).
 pub fn write_atomic_with(
     path: &Path,
-    fill: impl FnOnce(&mut std::fs::File) -> anyhow::Result<()>,
+    fill: impl FnOnce(&mut Vec<u8>) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    // Mode 0666 less the umask, as `File::create` gives (tempfile's own
-    // default is 0600).
-    let mut builder = tempfile::Builder::new();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut tmp = builder
-        .tempfile_in(dir)
-        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
-    fill(tmp.as_file_mut()).with_context(|| format!("writing {}", path.display()))?;
-    tmp.as_file()
-        .sync_all()
-        .with_context(|| format!("syncing {}", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("renaming into {}", path.display()))?;
-    Ok(())
+    let mut bytes = Vec::new();
+    fill(&mut bytes).with_context(|| format!("encoding {}", path.display()))?;
+    write_atomic(path, &bytes)
 }
 
 /// A 16-bit greyscale PNG of row-major `pixels` (any bit depth up to 16 is
@@ -60,19 +39,13 @@ pub fn png16_bytes(width: u32, height: u32, pixels: &[u16]) -> anyhow::Result<Ve
 }
 
 pub fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
-    let (nb, h, w) = radiance.dim();
-    write_atomic_with(path, |f| {
-        let mut enc = tiff::encoder::TiffEncoder::new(f)?;
-        for b in 0..nb {
-            let page: Vec<f32> = radiance
-                .index_axis(ndarray::Axis(0), b)
-                .iter()
-                .map(|&v| v as f32)
-                .collect();
-            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, &page)?;
-        }
-        Ok(())
-    })
+    let (_, h, w) = radiance.dim();
+    let pages: Vec<Vec<f32>> = radiance
+        .outer_iter()
+        .map(|band| band.iter().map(|&v| v as f32).collect())
+        .collect();
+    let pages: Vec<&[f32]> = pages.iter().map(Vec::as_slice).collect();
+    Ok(gloam_calib::io::write_tiff_f32_pages(path, w, h, &pages)?)
 }
 
 pub fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
@@ -117,9 +90,7 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> 
     let gray =
         image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
     write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        gray.write_to(&mut w, image::ImageFormat::Png)?;
-        std::io::Write::flush(&mut w)?;
+        gray.write_to(&mut std::io::Cursor::new(f), image::ImageFormat::Png)?;
         Ok(())
     })
 }

@@ -69,17 +69,30 @@ impl Ctx<'_> {
     }
 
     fn vec3(&self, field: &FieldPath, v: V3) -> R<DVec3> {
-        for (i, c) in v.iter().enumerate() {
+        for (i, c) in v.0.iter().enumerate() {
             if !c.is_finite() {
                 return Err(self.err(
                     &field.index(i),
                     format!("coordinate {c} is not a finite number"),
                 ));
             }
+            if c.abs() > MAX_COORDINATE {
+                return Err(self.err(
+                    &field.index(i),
+                    format!(
+                        "coordinate {c:e} is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)"
+                    ),
+                ));
+            }
         }
-        Ok(DVec3::from_array(v))
+        Ok(DVec3::from_array(v.0))
     }
 }
+
+/// Largest coordinate magnitude, scene units: beyond it, f64 geometry
+/// (cross products, squared lengths) loses the precision ray tracing needs
+/// long before it overflows.
+pub const MAX_COORDINATE: f64 = 1e12;
 
 pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     let cx = Ctx {
@@ -207,7 +220,9 @@ fn named_spectrum(cx: &Ctx, field: &FieldPath, name: &str) -> R<Spectrum> {
         return Ok(s);
     }
     let p = cx.resolve(name);
-    if p.is_file() {
+    // Anything on disk by that name is read (and a directory or device
+    // refused by name), not reported as missing.
+    if p.exists() {
         return gloam_spectra::read_csv(&p)
             .map_err(|e| cx.err(field, format!("spectrum file: {e}")));
     }
@@ -314,8 +329,30 @@ fn spectrum_parts(cx: &Ctx, field: &FieldPath, p: Parts, kind: Kind) -> R<Spectr
             .normalized_to_band(n.lo_nm, n.hi_nm, n.value)
             .map_err(|e| cx.err(&f, e.to_string()))?;
     }
+    if matches!(kind, Kind::Radiance | Kind::Intensity) {
+        // A source so bright that its band integrals (and the radiance they
+        // feed) overflow to inf would give a silently wrong image.
+        let peak = s
+            .values()
+            .iter()
+            .chain(s.lines().iter().map(|l| &l.value))
+            .fold(0.0f64, |m, &v| m.max(v.abs()));
+        if peak.is_nan() || peak > MAX_EMISSION {
+            return Err(cx.err(
+                field,
+                format!(
+                    "{} {peak:e} is out of range (at most {MAX_EMISSION:e} per nm; the Sun's surface is ~2e7 W m⁻² sr⁻¹ nm⁻¹)",
+                    kind.word()
+                ),
+            ));
+        }
+    }
     Ok(s)
 }
+
+/// Largest spectral radiance (W m⁻² sr⁻¹ nm⁻¹) or intensity (W sr⁻¹ nm⁻¹)
+/// a source may have, continuum or line.
+pub const MAX_EMISSION: f64 = 1e20;
 
 /// Adds the emission lines written as `lines = [[wavelength_nm, value], …]`
 /// to `s`, checking each: wavelength finite and > 0, value finite and ≥ 0
@@ -546,7 +583,7 @@ fn object(
     let scale = match &o.scale {
         None => DVec3::ONE,
         Some(RawScale::Uniform(s)) => DVec3::splat(*s),
-        Some(RawScale::PerAxis(v)) => DVec3::from_array(*v),
+        Some(RawScale::PerAxis(v)) => DVec3::from_array(v.0),
     };
     if !(scale.is_finite() && scale.min_element() > 0.0) {
         return Err(cx.err(
@@ -683,16 +720,38 @@ fn object(
         let p = cx.resolve(file);
         // `..Default::default()` keeps this compiling if tobj's optional
         // `merging`/`reordering` features (more fields) get enabled.
+        // Points and lines are kept so that they can be reported: a face
+        // with fewer than three vertices is an error, not dropped.
         #[allow(clippy::needless_update)]
         let opts = tobj::LoadOptions {
             triangulate: false,
             single_index: false,
-            ignore_points: true,
-            ignore_lines: true,
+            ignore_points: false,
+            ignore_lines: false,
             ..Default::default()
         };
-        let (models, _mtl) = tobj::load_obj(&p, &opts)
-            .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
+        let bytes =
+            gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_MESH_FILE_BYTES)
+                .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
+        let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
+            // Materials come from the scene file, not from .mtl files.
+            Ok(Default::default())
+        })
+        .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
+        for model in &models {
+            let arities = &model.mesh.face_arities;
+            if let Some((k, n)) = arities.iter().enumerate().find(|(_, n)| **n < 3) {
+                return Err(cx.err(
+                    &at,
+                    format!(
+                        "OBJ file {}: object '{}' face {} has {n} vertex(es) (a point or line element); faces need at least 3",
+                        p.display(),
+                        model.name,
+                        k + 1
+                    ),
+                ));
+            }
+        }
         let mut count = 0usize;
         for model in &models {
             let mesh = &model.mesh;
@@ -816,8 +875,14 @@ fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {
 fn band(cx: &Ctx, field: &FieldPath, name: &str, b: &RawBand) -> R<Band> {
     let check_edges = |lo: f64, hi: f64| -> R<()> {
         if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo) {
+            // Name the edge at fault: lo_nm when it alone is out of range.
+            let at = if !(lo.is_finite() && lo >= 0.0) {
+                "lo_nm"
+            } else {
+                "hi_nm"
+            };
             return Err(cx.err(
-                &field.key("hi_nm"),
+                &field.key(at),
                 format!("band {lo}–{hi} nm must have 0 ≤ lo_nm < hi_nm"),
             ));
         }
@@ -874,8 +939,6 @@ fn iso8601_utc(s: &str) -> Result<(), String> {
         b.get(r.clone())
             .is_some_and(|x| x.iter().all(u8::is_ascii_digit))
     };
-    let num =
-        |r: std::ops::Range<usize>| s.get(r).and_then(|x| x.parse::<u32>().ok()).unwrap_or(99);
     let shape = digits(0..4)
         && b.get(4) == Some(&b'-')
         && digits(5..7)
@@ -906,11 +969,12 @@ fn iso8601_utc(s: &str) -> Result<(), String> {
             "'{s}': the time must be UTC (end with Z or nothing), not '{rest}'"
         ));
     }
-    let (mo, d, h, mi) = (num(5..7), num(8..10), num(11..13), num(14..16));
-    if !((1..=12).contains(&mo) && (1..=31).contains(&d) && h <= 23 && mi <= 59) {
-        return Err(format!("'{s}': month, day, hour or minute out of range"));
-    }
-    Ok(())
+    // The calendar (month lengths, leap years, ranges) is the sky crate's
+    // parser's, the one the render uses: an impossible date fails here,
+    // with the file and line, rather than at render time.
+    gloam_sky::UtcInstant::parse_iso8601(s)
+        .map(|_| ())
+        .map_err(|e| format!("'{s}': {e}"))
 }
 
 fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {

@@ -24,10 +24,11 @@ pub use geometry::{PLANARITY_TOLERANCE, check_facet};
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
 /// OBJ files, sensor files) are resolved against the scene file's directory.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     parse_str(&text, path)
 }
 

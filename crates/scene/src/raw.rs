@@ -7,7 +7,20 @@ use std::fmt;
 use serde::Deserialize;
 use serde::de::{self, MapAccess, Visitor};
 
-pub(crate) type V3 = [f64; 3];
+/// Three numbers, exactly: serde's own `[f64; 3]` stops reading after the
+/// third and would silently drop a fourth.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct V3(pub [f64; 3]);
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Vec::<f64>::deserialize(d)?;
+        match <[f64; 3]>::try_from(v.as_slice()) {
+            Ok(a) => Ok(V3(a)),
+            Err(_) => Err(de::Error::invalid_length(v.len(), &"3 numbers [x, y, z]")),
+        }
+    }
+}
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -370,7 +370,39 @@ fn obj_file_errors() {
         &path,
         next_line() + 2,
         "objects.m.obj",
-        "cannot load OBJ",
+        "cannot read OBJ file",
+    );
+    // Line and point elements are reported, not dropped.
+    std::fs::write(
+        dir.path().join("lines.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nl 1 2\n",
+    )
+    .unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"lines.obj\"\n");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "line element",
+    );
+    // A directory or a device is named as such, never read.
+    std::fs::create_dir(dir.path().join("adir.obj")).unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"adir.obj\"\n");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "is a directory",
+    );
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"/dev/zero\"\n");
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "not a regular file",
     );
     std::fs::write(
         dir.path().join("warped.obj"),
@@ -802,6 +834,12 @@ fn sky_parsing_and_errors() {
         SKY.replace("2024-03-14T22:30:00Z", "14/03/2024 22:30")
     );
     expect_err(&text, next_line() + 1, "sky.utc", "ISO-8601");
+    // An impossible calendar date is caught at its line, not at render time.
+    let text = format!(
+        "{BASE}{}",
+        SKY.replace("2024-03-14T22:30:00Z", "2025-02-30T22:30:00Z")
+    );
+    expect_err(&text, next_line() + 1, "sky.utc", "2025-02-30");
     let text = format!("{BASE}{}", SKY.replace("32.2", "95.0"));
     expect_err(&text, next_line() + 2, "sky.latitude_deg", "-90..90");
 }

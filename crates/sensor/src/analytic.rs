@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use crate::config::SensorKind;
 use crate::kernel::Kernel;
-use crate::stages::Chain;
+use crate::stages::{Chain, Tube};
 
 /// Derived figures of a camera at one gain (`gloam sensor describe`).
 #[derive(Clone, Debug, Serialize)]
@@ -54,8 +54,8 @@ impl Chain {
     /// and dark current added; MCP compression applied to the mean).
     pub fn expected_ccd_electrons(&self, pe: f64, g: f64) -> f64 {
         let lam = pe + self.ebi_pe(g);
-        let signal = match self.kind {
-            SensorKind::Iccd => self.ccd_e_per_mcp_e * self.mcp_compress(self.open_area * lam * g),
+        let signal = match &self.tube {
+            Tube::Iccd(i) => i.ccd_e_per_mcp_e * i.mcp.compress(i.mcp.open_area * lam * g),
             _ => lam * self.ccd_e_per_pe(g),
         };
         signal + self.dark_e_per_frame
@@ -89,21 +89,21 @@ impl Chain {
         let lam = pe + self.ebi_pe(g);
         let s2 = self.post_noise_variance_factor(g);
         let dark = self.dark_e_per_frame;
-        let var_e = match self.kind {
-            SensorKind::Iccd => {
-                let p = self.lag_fraction;
+        let var_e = match &self.tube {
+            Tube::Iccd(i) => {
+                let p = i.lag_fraction;
                 let lag = (1.0 - p) / (1.0 + p);
-                let q = self.open_area * lam * g;
-                let var_q = self.open_area * lam * g * g * (1.0 + 1.0 / self.gain_shape);
-                self.ccd_e_per_mcp_e.powi(2) * var_q * s2 * lag + self.ccd_e_per_mcp_e * q + dark
+                let eta = i.mcp.open_area;
+                let q = eta * lam * g;
+                let var_q = eta * lam * g * g * (1.0 + 1.0 / i.mcp.gain_shape);
+                i.ccd_e_per_mcp_e.powi(2) * var_q * s2 * lag + i.ccd_e_per_mcp_e * q + dark
             }
-            SensorKind::Ebccd => {
-                let e = self.eb.expect("ebccd");
+            Tube::Ebccd(e) => {
                 let b = e.backscatter;
                 let m2 = g * g * ((1.0 - b) * (1.0 + e.fano / g) + b / 3.0);
                 lam * m2 * s2 + dark
             }
-            SensorKind::Ccd => lam + dark,
+            Tube::Ccd => lam + dark,
         };
         let k = self.dn_per_ccd_electron(g);
         k * k * (var_e + self.read_noise_e.powi(2)) + 1.0 / 12.0
@@ -139,8 +139,7 @@ impl Chain {
             saturation_photoelectrons: ((sat - black) / dn_pe).max(0.0),
             ebi_photoelectrons_per_pixel: self.ebi_pe(g),
             cathode_luminous_sensitivity_ua_lm: self.luminous_sensitivity_a_lm.map(|s| s * 1e6),
-            phosphor_photons_per_electron: (self.kind == SensorKind::Iccd)
-                .then_some(self.phosphor_photons_per_e),
+            phosphor_photons_per_electron: self.intensifier().map(|i| i.phosphor_photons_per_e),
             ccd_electrons_per_photoelectron: self.ccd_e_per_pe(g),
             pixel_pitch_cathode_um: self.pitch_cathode_mm * 1e3,
             pixel_pitch_ccd_um: self.pitch_ccd_mm * 1e3,

@@ -464,6 +464,14 @@ impl SensorConfig {
 
     /// Checks every number and that the stages `kind` needs are present.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.layout().map(|_| ())
+    }
+
+    /// Validates the configuration and returns its stages as one variant
+    /// per sensor kind: the chain is built from this, so a camera whose
+    /// tables do not fit its kind cannot be built (and nothing downstream
+    /// has to assume an optional table is present).
+    pub fn layout(&self) -> Result<Layout<'_>, ConfigError> {
         let t = &self.timing;
         positive("timing.frame_rate_hz", t.frame_rate_hz)?;
         positive("timing.exposure_s", t.exposure_s)?;
@@ -488,177 +496,56 @@ impl SensorConfig {
         non_negative("optics.defocus_um", o.defocus_um)?;
         non_negative("optics.nd_density", o.nd_density)?;
 
-        let intensified = matches!(self.kind, SensorKind::Iccd | SensorKind::Ebccd);
-        match (&self.photocathode, intensified) {
-            (Some(p), true) => {
-                check_spectrum_ref("photocathode.qe", &p.qe)?;
-                non_negative("photocathode.ebi_lm_cm2", p.ebi_lm_cm2)?;
-                non_negative("photocathode.ebi_gain_exponent", p.ebi_gain_exponent)?;
-                non_negative("photocathode.gap_mm", p.gap_mm)?;
-                non_negative("photocathode.emission_energy_ev", p.emission_energy_ev)?;
-                positive("photocathode.gate_duty", p.gate_duty)?;
-                fraction("photocathode.gate_duty", p.gate_duty)?;
-                if self.kind == SensorKind::Iccd {
-                    positive("photocathode.gap_voltage_v", p.gap_voltage_v)?;
+        let tube =
+            match self.kind {
+                SensorKind::Iccd => {
+                    let photocathode = self.check_photocathode()?;
+                    let mcp = self.check_mcp()?;
+                    let phosphor = self.check_phosphor()?;
+                    let coupling = self.check_coupling()?;
+                    let ccd_qe =
+                        self.ccd.qe.as_ref().ok_or_else(|| {
+                            missing("ccd.qe", "the CCD of an ICCD sees the phosphor")
+                        })?;
+                    check_spectrum_ref("ccd.qe", ccd_qe)?;
+                    self.forbid_ebccd()?;
+                    Tube::Iccd {
+                        photocathode,
+                        mcp,
+                        phosphor,
+                        coupling,
+                        ccd_qe,
+                    }
                 }
-            }
-            (None, true) => return Err(missing("photocathode", "an intensified camera needs it")),
-            (Some(_), false) => {
-                return Err(ConfigError::invalid(
-                    "photocathode",
-                    "a plain CCD has no photocathode (remove the table or set kind)",
-                ));
-            }
-            (None, false) => {}
-        }
-
-        if self.kind == SensorKind::Iccd {
-            let m = self
-                .mcp
-                .as_ref()
-                .ok_or_else(|| missing("mcp", "kind = \"iccd\" needs it"))?;
-            positive("mcp.gain_ref", m.gain_ref)?;
-            positive("mcp.voltage_ref_v", m.voltage_ref_v)?;
-            positive("mcp.exponent", m.exponent)?;
-            positive("mcp.min_voltage_v", m.min_voltage_v)?;
-            positive("mcp.max_voltage_v", m.max_voltage_v)?;
-            if m.max_voltage_v < m.min_voltage_v {
-                return Err(ConfigError::invalid(
-                    "mcp.max_voltage_v",
-                    "is below mcp.min_voltage_v",
-                ));
-            }
-            in_range(
-                "mcp.voltage_v",
-                m.voltage_v,
-                m.min_voltage_v,
-                m.max_voltage_v,
-            )?;
-            positive("mcp.gain_shape", m.gain_shape)?;
-            positive("mcp.open_area_fraction", m.open_area_fraction)?;
-            fraction("mcp.open_area_fraction", m.open_area_fraction)?;
-            if let Some(j) = m.output_current_limit_a_cm2 {
-                positive("mcp.output_current_limit_a_cm2", j)?;
-            }
-            non_negative("mcp.pore_pitch_um", m.pore_pitch_um)?;
-
-            let p = self
-                .phosphor
-                .as_ref()
-                .ok_or_else(|| missing("phosphor", "kind = \"iccd\" needs it"))?;
-            positive("phosphor.screen_voltage_v", p.screen_voltage_v)?;
-            if let Some(d) = p.dead_voltage_v {
-                non_negative("phosphor.dead_voltage_v", d)?;
-            }
-            let dead = crate::stages::phosphor_defaults(p.phosphor).dead_voltage_v;
-            if p.screen_voltage_v <= p.dead_voltage_v.unwrap_or(dead) {
-                return Err(ConfigError::invalid(
-                    "phosphor.screen_voltage_v",
-                    "must exceed the dead voltage of the aluminium layer",
-                ));
-            }
-            if let Some(e) = p.energy_efficiency {
-                positive("phosphor.energy_efficiency", e)?;
-                fraction("phosphor.energy_efficiency", e)?;
-            }
-            non_negative("phosphor.gap_mm", p.gap_mm)?;
-            non_negative("phosphor.exit_energy_ev", p.exit_energy_ev)?;
-            non_negative("phosphor.spread_um", p.spread_um)?;
-            if let Some(l) = p.lag_fraction {
-                fraction("phosphor.lag_fraction", l)?;
-                if l >= 1.0 {
-                    return Err(ConfigError::invalid("phosphor.lag_fraction", "must be < 1"));
+                SensorKind::Ebccd => {
+                    let photocathode = self.check_photocathode()?;
+                    self.forbid_iccd_stages()?;
+                    let ebccd = self.check_ebccd()?;
+                    Tube::Ebccd {
+                        photocathode,
+                        ebccd,
+                    }
                 }
-            }
-
-            let c = self
-                .coupling
-                .as_ref()
-                .ok_or_else(|| missing("coupling", "kind = \"iccd\" needs it"))?;
-            positive("coupling.magnification", c.magnification)?;
-            match c.kind {
-                CouplingKind::FibrePlate | CouplingKind::FibreTaper => {
-                    positive("coupling.transmission", c.transmission)?;
-                    fraction("coupling.transmission", c.transmission)?;
+                SensorKind::Ccd => {
+                    if self.photocathode.is_some() {
+                        return Err(ConfigError::invalid(
+                            "photocathode",
+                            "a plain CCD has no photocathode (remove the table or set kind)",
+                        ));
+                    }
+                    self.forbid_iccd_stages()?;
+                    self.forbid_ebccd()?;
+                    positive("ccd.pixel_pitch_um", self.ccd.pixel_pitch_um)?;
+                    let ccd_qe = self.ccd.qe.as_ref().ok_or_else(|| {
+                        missing("ccd.qe", "a plain CCD detects the scene's photons")
+                    })?;
+                    check_spectrum_ref("ccd.qe", ccd_qe)?;
+                    Tube::Ccd { ccd_qe }
                 }
-                CouplingKind::RelayLens => {
-                    positive("coupling.f_number", c.f_number)?;
-                    positive("coupling.lens_transmission", c.lens_transmission)?;
-                    fraction("coupling.lens_transmission", c.lens_transmission)?;
-                }
-            }
-            non_negative("coupling.fibre_pitch_um", c.fibre_pitch_um)?;
-            non_negative("coupling.chicken_wire_cell_um", c.chicken_wire_cell_um)?;
-            fraction("coupling.chicken_wire_depth", c.chicken_wire_depth)?;
-            non_negative("coupling.chicken_wire_width_um", c.chicken_wire_width_um)?;
-            if c.chicken_wire_cell_um > 0.0 && c.chicken_wire_depth > 0.0 {
-                positive("coupling.chicken_wire_width_um", c.chicken_wire_width_um)?;
-            }
-            let qe = self
-                .ccd
-                .qe
-                .as_ref()
-                .ok_or_else(|| missing("ccd.qe", "the CCD of an ICCD sees the phosphor"))?;
-            check_spectrum_ref("ccd.qe", qe)?;
-        } else {
-            for (name, present) in [
-                ("mcp", self.mcp.is_some()),
-                ("phosphor", self.phosphor.is_some()),
-                ("coupling", self.coupling.is_some()),
-            ] {
-                if present {
-                    return Err(ConfigError::invalid(
-                        name,
-                        format!("only an ICCD has this stage (kind is {:?})", self.kind),
-                    ));
-                }
-            }
-        }
-
-        if self.kind == SensorKind::Ebccd {
-            let e = self
-                .ebccd
-                .as_ref()
-                .ok_or_else(|| missing("ebccd", "kind = \"ebccd\" needs it"))?;
-            non_negative("ebccd.dead_layer_ev", e.dead_layer_ev)?;
-            positive("ebccd.pair_energy_ev", e.pair_energy_ev)?;
-            positive("ebccd.min_voltage_v", e.min_voltage_v)?;
-            positive("ebccd.max_voltage_v", e.max_voltage_v)?;
-            if e.min_voltage_v <= e.dead_layer_ev {
-                return Err(ConfigError::invalid(
-                    "ebccd.min_voltage_v",
-                    "must exceed the dead-layer loss (no gain below it)",
-                ));
-            }
-            if e.max_voltage_v < e.min_voltage_v {
-                return Err(ConfigError::invalid(
-                    "ebccd.max_voltage_v",
-                    "is below ebccd.min_voltage_v",
-                ));
-            }
-            in_range(
-                "ebccd.voltage_v",
-                e.voltage_v,
-                e.min_voltage_v,
-                e.max_voltage_v,
-            )?;
-            fraction("ebccd.backscatter_fraction", e.backscatter_fraction)?;
-            non_negative("ebccd.fano", e.fano)?;
-        } else if self.ebccd.is_some() {
-            return Err(ConfigError::invalid(
-                "ebccd",
-                "only kind = \"ebccd\" has this stage",
-            ));
-        }
+            };
 
         let c = &self.ccd;
         positive("ccd.pixel_pitch_um", c.pixel_pitch_um)?;
-        if self.kind == SensorKind::Ccd {
-            let qe =
-                c.qe.as_ref()
-                    .ok_or_else(|| missing("ccd.qe", "a plain CCD detects the scene's photons"))?;
-            check_spectrum_ref("ccd.qe", qe)?;
-        }
         positive("ccd.full_well_e", c.full_well_e)?;
         non_negative("ccd.dark_current_e_s", c.dark_current_e_s)?;
         non_negative("ccd.read_noise_e", c.read_noise_e)?;
@@ -726,30 +613,39 @@ impl SensorConfig {
             ));
         }
         finite("digitizer.offset_dn", d.offset_dn)?;
-        if self.video.is_some() {
-            let lo = d
-                .input_low_v
-                .ok_or_else(|| missing("digitizer.input_low_v", "a video stage is digitised"))?;
-            let hi = d
-                .input_high_v
-                .ok_or_else(|| missing("digitizer.input_high_v", "a video stage is digitised"))?;
-            finite("digitizer.input_low_v", lo)?;
-            finite("digitizer.input_high_v", hi)?;
-            if hi <= lo {
-                return Err(ConfigError::invalid(
-                    "digitizer.input_high_v",
-                    "must be above digitizer.input_low_v",
-                ));
+        let readout = match &self.video {
+            Some(video) => {
+                let lo = d.input_low_v.ok_or_else(|| {
+                    missing("digitizer.input_low_v", "a video stage is digitised")
+                })?;
+                let hi = d.input_high_v.ok_or_else(|| {
+                    missing("digitizer.input_high_v", "a video stage is digitised")
+                })?;
+                finite("digitizer.input_low_v", lo)?;
+                finite("digitizer.input_high_v", hi)?;
+                if hi <= lo {
+                    return Err(ConfigError::invalid(
+                        "digitizer.input_high_v",
+                        "must be above digitizer.input_low_v",
+                    ));
+                }
+                Readout::Video {
+                    video,
+                    input_low_v: lo,
+                    input_high_v: hi,
+                }
             }
-        } else {
-            let e = d.e_per_dn.ok_or_else(|| {
-                missing(
-                    "digitizer.e_per_dn",
-                    "without a [video] stage the digitizer converts electrons directly",
-                )
-            })?;
-            positive("digitizer.e_per_dn", e)?;
-        }
+            None => {
+                let e = d.e_per_dn.ok_or_else(|| {
+                    missing(
+                        "digitizer.e_per_dn",
+                        "without a [video] stage the digitizer converts electrons directly",
+                    )
+                })?;
+                positive("digitizer.e_per_dn", e)?;
+                Readout::Direct { e_per_dn: e }
+            }
+        };
         positive("digitizer.min_analog_gain", d.min_analog_gain)?;
         positive("digitizer.max_analog_gain", d.max_analog_gain)?;
         in_range(
@@ -759,8 +655,217 @@ impl SensorConfig {
             d.max_analog_gain,
         )?;
         positive("noise.gaussian_above", self.noise.gaussian_above)?;
+        Ok(Layout { tube, readout })
+    }
+
+    fn check_photocathode(&self) -> Result<&Photocathode, ConfigError> {
+        let p = self
+            .photocathode
+            .as_ref()
+            .ok_or_else(|| missing("photocathode", "an intensified camera needs it"))?;
+        check_spectrum_ref("photocathode.qe", &p.qe)?;
+        non_negative("photocathode.ebi_lm_cm2", p.ebi_lm_cm2)?;
+        non_negative("photocathode.ebi_gain_exponent", p.ebi_gain_exponent)?;
+        non_negative("photocathode.gap_mm", p.gap_mm)?;
+        non_negative("photocathode.emission_energy_ev", p.emission_energy_ev)?;
+        positive("photocathode.gate_duty", p.gate_duty)?;
+        fraction("photocathode.gate_duty", p.gate_duty)?;
+        if self.kind == SensorKind::Iccd {
+            positive("photocathode.gap_voltage_v", p.gap_voltage_v)?;
+        }
+        Ok(p)
+    }
+
+    fn check_mcp(&self) -> Result<&Mcp, ConfigError> {
+        let m = self
+            .mcp
+            .as_ref()
+            .ok_or_else(|| missing("mcp", "kind = \"iccd\" needs it"))?;
+        positive("mcp.gain_ref", m.gain_ref)?;
+        positive("mcp.voltage_ref_v", m.voltage_ref_v)?;
+        positive("mcp.exponent", m.exponent)?;
+        positive("mcp.min_voltage_v", m.min_voltage_v)?;
+        positive("mcp.max_voltage_v", m.max_voltage_v)?;
+        if m.max_voltage_v < m.min_voltage_v {
+            return Err(ConfigError::invalid(
+                "mcp.max_voltage_v",
+                "is below mcp.min_voltage_v",
+            ));
+        }
+        in_range(
+            "mcp.voltage_v",
+            m.voltage_v,
+            m.min_voltage_v,
+            m.max_voltage_v,
+        )?;
+        positive("mcp.gain_shape", m.gain_shape)?;
+        positive("mcp.open_area_fraction", m.open_area_fraction)?;
+        fraction("mcp.open_area_fraction", m.open_area_fraction)?;
+        if let Some(j) = m.output_current_limit_a_cm2 {
+            positive("mcp.output_current_limit_a_cm2", j)?;
+        }
+        non_negative("mcp.pore_pitch_um", m.pore_pitch_um)?;
+        Ok(m)
+    }
+
+    fn check_phosphor(&self) -> Result<&Phosphor, ConfigError> {
+        let p = self
+            .phosphor
+            .as_ref()
+            .ok_or_else(|| missing("phosphor", "kind = \"iccd\" needs it"))?;
+        positive("phosphor.screen_voltage_v", p.screen_voltage_v)?;
+        if let Some(d) = p.dead_voltage_v {
+            non_negative("phosphor.dead_voltage_v", d)?;
+        }
+        let dead = crate::stages::phosphor_defaults(p.phosphor).dead_voltage_v;
+        if p.screen_voltage_v <= p.dead_voltage_v.unwrap_or(dead) {
+            return Err(ConfigError::invalid(
+                "phosphor.screen_voltage_v",
+                "must exceed the dead voltage of the aluminium layer",
+            ));
+        }
+        if let Some(e) = p.energy_efficiency {
+            positive("phosphor.energy_efficiency", e)?;
+            fraction("phosphor.energy_efficiency", e)?;
+        }
+        non_negative("phosphor.gap_mm", p.gap_mm)?;
+        non_negative("phosphor.exit_energy_ev", p.exit_energy_ev)?;
+        non_negative("phosphor.spread_um", p.spread_um)?;
+        if let Some(l) = p.lag_fraction {
+            fraction("phosphor.lag_fraction", l)?;
+            if l >= 1.0 {
+                return Err(ConfigError::invalid("phosphor.lag_fraction", "must be < 1"));
+            }
+        }
+        Ok(p)
+    }
+
+    fn check_coupling(&self) -> Result<&Coupling, ConfigError> {
+        let c = self
+            .coupling
+            .as_ref()
+            .ok_or_else(|| missing("coupling", "kind = \"iccd\" needs it"))?;
+        positive("coupling.magnification", c.magnification)?;
+        match c.kind {
+            CouplingKind::FibrePlate | CouplingKind::FibreTaper => {
+                positive("coupling.transmission", c.transmission)?;
+                fraction("coupling.transmission", c.transmission)?;
+            }
+            CouplingKind::RelayLens => {
+                positive("coupling.f_number", c.f_number)?;
+                positive("coupling.lens_transmission", c.lens_transmission)?;
+                fraction("coupling.lens_transmission", c.lens_transmission)?;
+            }
+        }
+        non_negative("coupling.fibre_pitch_um", c.fibre_pitch_um)?;
+        non_negative("coupling.chicken_wire_cell_um", c.chicken_wire_cell_um)?;
+        fraction("coupling.chicken_wire_depth", c.chicken_wire_depth)?;
+        non_negative("coupling.chicken_wire_width_um", c.chicken_wire_width_um)?;
+        if c.chicken_wire_cell_um > 0.0 && c.chicken_wire_depth > 0.0 {
+            positive("coupling.chicken_wire_width_um", c.chicken_wire_width_um)?;
+        }
+        Ok(c)
+    }
+
+    fn check_ebccd(&self) -> Result<&Ebccd, ConfigError> {
+        let e = self
+            .ebccd
+            .as_ref()
+            .ok_or_else(|| missing("ebccd", "kind = \"ebccd\" needs it"))?;
+        non_negative("ebccd.dead_layer_ev", e.dead_layer_ev)?;
+        positive("ebccd.pair_energy_ev", e.pair_energy_ev)?;
+        positive("ebccd.min_voltage_v", e.min_voltage_v)?;
+        positive("ebccd.max_voltage_v", e.max_voltage_v)?;
+        if e.min_voltage_v <= e.dead_layer_ev {
+            return Err(ConfigError::invalid(
+                "ebccd.min_voltage_v",
+                "must exceed the dead-layer loss (no gain below it)",
+            ));
+        }
+        if e.max_voltage_v < e.min_voltage_v {
+            return Err(ConfigError::invalid(
+                "ebccd.max_voltage_v",
+                "is below ebccd.min_voltage_v",
+            ));
+        }
+        in_range(
+            "ebccd.voltage_v",
+            e.voltage_v,
+            e.min_voltage_v,
+            e.max_voltage_v,
+        )?;
+        fraction("ebccd.backscatter_fraction", e.backscatter_fraction)?;
+        non_negative("ebccd.fano", e.fano)?;
+        Ok(e)
+    }
+
+    fn forbid_iccd_stages(&self) -> Result<(), ConfigError> {
+        for (name, present) in [
+            ("mcp", self.mcp.is_some()),
+            ("phosphor", self.phosphor.is_some()),
+            ("coupling", self.coupling.is_some()),
+        ] {
+            if present {
+                return Err(ConfigError::invalid(
+                    name,
+                    format!("only an ICCD has this stage (kind is {:?})", self.kind),
+                ));
+            }
+        }
         Ok(())
     }
+
+    fn forbid_ebccd(&self) -> Result<(), ConfigError> {
+        if self.ebccd.is_some() {
+            return Err(ConfigError::invalid(
+                "ebccd",
+                "only kind = \"ebccd\" has this stage",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The stages of a validated [`SensorConfig`] ([`SensorConfig::layout`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Layout<'a> {
+    pub tube: Tube<'a>,
+    pub readout: Readout<'a>,
+}
+
+/// What sits between the optics and the CCD's readout, one variant per
+/// [`SensorKind`] with every table that kind needs.
+#[derive(Clone, Copy, Debug)]
+pub enum Tube<'a> {
+    Iccd {
+        photocathode: &'a Photocathode,
+        mcp: &'a Mcp,
+        phosphor: &'a Phosphor,
+        coupling: &'a Coupling,
+        /// The CCD's QE, seen at the phosphor's spectrum.
+        ccd_qe: &'a SpectrumRef,
+    },
+    Ebccd {
+        photocathode: &'a Photocathode,
+        ebccd: &'a Ebccd,
+    },
+    Ccd {
+        /// The CCD's QE, seen at the scene's spectrum.
+        ccd_qe: &'a SpectrumRef,
+    },
+}
+
+/// How CCD electrons become a voltage the digitizer samples.
+#[derive(Clone, Copy, Debug)]
+pub enum Readout<'a> {
+    /// Analogue video, digitised over `input_low_v..input_high_v`.
+    Video {
+        video: &'a Video,
+        input_low_v: f64,
+        input_high_v: f64,
+    },
+    /// Direct digital readout at `e_per_dn`.
+    Direct { e_per_dn: f64 },
 }
 
 fn missing(field: &str, why: &str) -> ConfigError {

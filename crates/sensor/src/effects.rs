@@ -68,24 +68,25 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)
             "no EBI configured".into()
         },
     ));
-    let iccd = kind == SensorKind::Iccd;
+    let intensifier = chain.intensifier();
+    let iccd = intensifier.is_some();
     let why_not_iccd = || format!("kind = {kind:?}: no MCP or phosphor");
     v.push((
         "MCP gain",
         iccd,
-        if iccd {
-            format!(
+        match intensifier {
+            Some(i) => format!(
                 "gamma shape {}, open area {}",
-                chain.gain_shape, chain.open_area
-            )
-        } else {
-            why_not_iccd()
+                i.mcp.gain_shape, i.mcp.open_area
+            ),
+            None => why_not_iccd(),
         },
     ));
+    let saturation = intensifier.and_then(|i| i.mcp.saturation_e);
     v.push((
         "MCP saturation",
-        chain.mcp_saturation_e.is_some(),
-        match chain.mcp_saturation_e {
+        saturation.is_some(),
+        match saturation {
             Some(q) => format!("soft knee at {q:.3e} e⁻/pixel/frame"),
             None if iccd => "no output current limit configured".into(),
             None => why_not_iccd(),
@@ -94,17 +95,17 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)
     v.push((
         "phosphor screen",
         iccd,
-        if iccd {
-            format!("{:.0} photons/e⁻", chain.phosphor_photons_per_e)
-        } else {
-            why_not_iccd()
+        match intensifier {
+            Some(i) => format!("{:.0} photons/e⁻", i.phosphor_photons_per_e),
+            None => why_not_iccd(),
         },
     ));
+    let lag = chain.lag_fraction();
     v.push((
         "phosphor persistence",
-        chain.lag_fraction > 0.0,
-        if chain.lag_fraction > 0.0 {
-            format!("{} of a frame's light in later frames", chain.lag_fraction)
+        lag > 0.0,
+        if lag > 0.0 {
+            format!("{lag} of a frame's light in later frames")
         } else if iccd {
             "lag fraction 0".into()
         } else {
@@ -115,12 +116,12 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)
     v.push((
         "coupling",
         coupling.is_some(),
-        match coupling {
-            Some(c) => format!(
+        match (coupling, intensifier) {
+            (Some(c), Some(i)) => format!(
                 "{:?}, {:.3} of the screen light",
-                c.kind, chain.coupling_fraction
+                c.kind, i.coupling_fraction
             ),
-            None => "no phosphor to couple".into(),
+            _ => "no phosphor to couple".into(),
         },
     ));
     let cw = coupling.is_some_and(|c| {

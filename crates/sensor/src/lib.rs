@@ -1,17 +1,4 @@
-//! gloam-sensor: the low-light camera chain.
-//!
-//! A camera is a chain of stages in physical units — optics, photocathode,
-//! MCP, proximity focus, phosphor, coupling (fibre or relay), EBCCD, CCD,
-//! AGC, video and digitizer — each skipped when the configuration does not
-//! call for it. Input is per-band radiance (band × row × col, W m⁻² sr⁻¹)
-//! with each band's spectral shape; output is digital counts with the
-//! settings in effect ([`Frame`], [`FrameMeta`]). Frames form a time
-//! sequence: AGC and phosphor persistence have memory. Noise comes from
-//! explicit seeds, one PCG stream per (seed, frame, pass, row), so results
-//! are bit-identical whatever the thread count.
-//!
-//! The stage models and their sources are documented in [`stages`]; the
-//! presets in `sims/sensors/`.
+#![doc = include_str!("../README.md")]
 
 mod analytic;
 pub mod bench;

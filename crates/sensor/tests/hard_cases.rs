@@ -56,7 +56,7 @@ fn one_photoelectron_per_frame_is_counted() {
     assert!((v / f_excess - 1.0).abs() < 0.35);
     let empty = counts.iter().filter(|c| c.abs() < 0.3).count() as f64 / frames as f64;
     // P(no detected electron) = exp(−η) for η = open-area fraction.
-    let p0 = (-ch.open_area).exp();
+    let p0 = (-ch.intensifier().unwrap().mcp.open_area).exp();
     assert!((empty - p0).abs() < 0.1, "empty fraction {empty} vs {p0}");
 }
 

@@ -37,16 +37,6 @@ pub enum SkyError {
     /// Two inputs were inconsistent with each other (e.g. `from` after `to`).
     #[error("invalid input: {0}")]
     Invalid(String),
-    /// A built-in data table failed to parse (a bug in the shipped data).
-    #[error("built-in data table {table} is malformed at line {line}: {reason}")]
-    BadTable {
-        /// Which table.
-        table: &'static str,
-        /// 1-based line number.
-        line: usize,
-        /// What was wrong.
-        reason: String,
-    },
 }
 
 /// Result alias for this crate.

@@ -129,12 +129,7 @@ pub fn lunar_spectral_irradiance_exo(
         })
         .collect();
     let shape_lux = spectral::illuminance_lux(&shape)?;
-    let k = if shape_lux > 0.0 {
-        lux / shape_lux
-    } else {
-        0.0
-    };
-    Ok(shape.into_iter().map(|(w, v)| (w, v * k)).collect())
+    Ok(spectral::scaled_to(shape, lux, shape_lux))
 }
 
 #[cfg(test)]

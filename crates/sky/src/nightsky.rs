@@ -65,12 +65,7 @@ pub fn night_sky_radiance_w_m2_sr_nm(horizontal_lux: f64) -> Result<Samples> {
         })
         .collect();
     let lux_per_unit = std::f64::consts::PI * spectral::illuminance_lux(&shape)?;
-    let k = if lux_per_unit > 0.0 {
-        horizontal_lux / lux_per_unit
-    } else {
-        0.0
-    };
-    Ok(shape.into_iter().map(|(w, v)| (w, v * k)).collect())
+    Ok(spectral::scaled_to(shape, horizontal_lux, lux_per_unit))
 }
 
 #[cfg(test)]

@@ -4,16 +4,15 @@
 //! wavelength (the caller bridges to `gloam_spectra::Spectrum`). The default
 //! grid is 300–1100 nm every 5 nm, covering S20/S25/Gen-3 GaAs photocathodes.
 //!
-//! Photometry: `E_v = K_m ∫ E(λ) V(λ) dλ` with K_m = 683 lm/W and the CIE
-//! 1924 photopic V(λ), read from `crates/spectra/data/cie_1924_photopic_v.csv`
-//! (embedded at compile time), trapezoidal integration in f64.
+//! Photometry: `E_v = K_m ∫ E(λ) V(λ) dλ` with `gloam-spectra`'s K_m and
+//! CIE 1924 photopic V(λ), trapezoidal integration in f64.
 
 use std::sync::OnceLock;
 
-use crate::error::{Result, SkyError};
+use crate::error::Result;
 
 /// Maximum luminous efficacy for photopic vision, lm/W.
-pub const K_M_LM_PER_W: f64 = 683.0;
+pub const K_M_LM_PER_W: f64 = gloam_spectra::KM_PHOTOPIC_LM_W;
 /// Solar constant (total solar irradiance at 1 AU), W/m² (Kopp & Lean 2011).
 pub const SOLAR_CONSTANT_W_M2: f64 = 1361.0;
 /// Effective solar temperature used for the solar-spectrum approximation, K.
@@ -68,59 +67,18 @@ pub fn integrate(samples: &[(f64, f64)]) -> f64 {
         .sum()
 }
 
-fn parse_csv(table: &'static str, text: &str) -> Result<Samples> {
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') || line.starts_with("wavelength") {
-            continue;
-        }
-        let mut it = line.split(',');
-        let parse = |s: Option<&str>| -> Result<f64> {
-            s.map(str::trim)
-                .and_then(|s| s.parse::<f64>().ok())
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| SkyError::BadTable {
-                    table,
-                    line: i + 1,
-                    reason: format!("expected two numbers, got {line:?}"),
-                })
-        };
-        let w = parse(it.next())?;
-        let v = parse(it.next())?;
-        if let Some(&(prev, _)) = out.last()
-            && w <= prev
-        {
-            return Err(SkyError::BadTable {
-                table,
-                line: i + 1,
-                reason: "wavelengths must increase".to_string(),
-            });
-        }
-        out.push((w, v));
-    }
-    if out.len() < 2 {
-        return Err(SkyError::BadTable {
-            table,
-            line: 0,
-            reason: "fewer than two samples".to_string(),
-        });
-    }
-    Ok(out)
-}
-
-/// CIE 1924 photopic luminous efficiency V(λ), 360–830 nm at 1 nm.
+/// CIE 1924 photopic luminous efficiency V(λ), 360–830 nm at 1 nm, as
+/// `(wavelength_nm, value)` pairs ([`gloam_spectra::library::photopic_v`]).
 pub fn photopic_v() -> Result<&'static [(f64, f64)]> {
-    static V: OnceLock<Result<Samples>> = OnceLock::new();
-    V.get_or_init(|| {
-        parse_csv(
-            "cie_1924_photopic_v.csv",
-            include_str!("../../spectra/data/cie_1924_photopic_v.csv"),
-        )
-    })
-    .as_ref()
-    .map(|v| v.as_slice())
-    .map_err(Clone::clone)
+    static V: OnceLock<Samples> = OnceLock::new();
+    Ok(V.get_or_init(|| {
+        let v = gloam_spectra::library::photopic_v();
+        v.wavelengths_nm()
+            .iter()
+            .copied()
+            .zip(v.values().iter().copied())
+            .collect()
+    }))
 }
 
 /// Illuminance (lux) of a spectral irradiance in W m⁻² nm⁻¹:
@@ -135,16 +93,19 @@ pub fn illuminance_lux(irradiance_w_m2_nm: &[(f64, f64)]) -> Result<f64> {
     Ok(K_M_LM_PER_W * integrate(&weighted))
 }
 
-/// Planck spectral radiance B(λ, T), W m⁻² sr⁻¹ nm⁻¹.
-pub fn planck_w_m2_sr_nm(wavelength_nm: f64, temperature_k: f64) -> f64 {
-    const H: f64 = 6.626_070_15e-34;
-    const C: f64 = 299_792_458.0;
-    const KB: f64 = 1.380_649e-23;
-    let l = wavelength_nm * 1e-9;
-    let x = H * C / (l * KB * temperature_k);
-    // per metre → per nanometre
-    2.0 * H * C * C / l.powi(5) / x.exp_m1() * 1e-9
+/// `shape` scaled so that a photometric quantity of `per_unit` per unit
+/// scale becomes `target` (all zero when the shape has no such quantity).
+pub fn scaled_to(shape: Samples, target: f64, per_unit: f64) -> Samples {
+    let k = if per_unit > 0.0 {
+        target / per_unit
+    } else {
+        0.0
+    };
+    shape.into_iter().map(|(w, v)| (w, v * k)).collect()
 }
+
+/// Planck spectral radiance B(λ, T), W m⁻² sr⁻¹ nm⁻¹.
+pub use gloam_spectra::planck_radiance_w_m2_sr_nm as planck_w_m2_sr_nm;
 
 /// Exo-atmospheric solar spectral irradiance at 1 AU, W m⁻² nm⁻¹, at the
 /// default grid.
@@ -157,7 +118,7 @@ pub fn planck_w_m2_sr_nm(wavelength_nm: f64, temperature_k: f64) -> f64 {
 /// 1100 nm (compare ASTM E-490). Lunar spectra are renormalised
 /// photometrically, so this only affects the spectral *shape*.
 pub fn solar_irradiance_1au_w_m2_nm(wavelength_nm: f64) -> f64 {
-    const SIGMA: f64 = 5.670_374_419e-8;
+    const SIGMA: f64 = gloam_spectra::STEFAN_BOLTZMANN_W_M2_K4;
     if !wavelength_nm.is_finite() || wavelength_nm <= 0.0 {
         return 0.0;
     }
@@ -202,7 +163,5 @@ mod tests {
         assert_eq!(interpolate(&t, 500.0), 3.0);
         assert_eq!(interpolate(&t, f64::NAN), 0.0);
         assert_eq!(interpolate(&[], 450.0), 0.0);
-        assert!(parse_csv("t", "1,2\n1,3\n").is_err());
-        assert!(parse_csv("t", "1,x\n2,3\n").is_err());
     }
 }

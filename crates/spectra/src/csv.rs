@@ -28,10 +28,13 @@ use crate::spectrum::{EmissionLine, Spectrum};
 
 /// Reads a spectrum from a CSV file (see the module docs for the format).
 pub fn read_csv(path: &Path) -> Result<Spectrum, CsvError> {
-    let text = std::fs::read_to_string(path).map_err(|source| CsvError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text =
+        crate::input::read_text(path, crate::input::MAX_TEXT_FILE_BYTES).map_err(|source| {
+            CsvError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     parse_csv(&text, path)
 }
 
@@ -143,6 +146,17 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
         return Err(CsvError::Empty {
             path: path.to_path_buf(),
         });
+    }
+    if wavelengths.len() == 1 {
+        // One row spans no range: as a constant it would silently cover
+        // every wavelength, as a point it would integrate to nothing.
+        return Err(err(
+            rows[0],
+            format!(
+                "the only continuum row ({} nm): a spectrum needs at least two rows (or only `line` rows)",
+                wavelengths[0]
+            ),
+        ));
     }
     // Every row was checked above, so these cannot fail; an error would
     // still be reported, never a panic.

@@ -1,13 +1,8 @@
-//! Radiometric core of gloam: spectra as a sampled continuum plus discrete
-//! emission lines, band integration, Planck's law, photometric and
-//! photon-count conversion, CSV loading, and the built-in library.
-//!
-//! Units: wavelengths in nm; spectral densities per nm; integrals of a
-//! per-nm spectrum over wavelength give the band quantity (W, W m⁻², …).
-//! Everything is f64.
+#![doc = include_str!("../README.md")]
 
 mod csv;
 mod error;
+pub mod input;
 pub mod library;
 mod radiometry;
 mod spectrum;

@@ -300,7 +300,14 @@ impl RenderSettings {
                 self.diffuse_bounces = parse(key, value, NONNEG_INT, |_: &u32| true)?
             }
             "rr_start" => self.rr_start = parse(key, value, NONNEG_INT, |_: &u32| true)?,
-            "spectral_step_nm" => self.spectral_step_nm = parse(key, value, POS, pos)?,
+            "spectral_step_nm" => {
+                self.spectral_step_nm = parse(
+                    key,
+                    value,
+                    "a wavelength step of at least 0.001 nm",
+                    |&x: &f64| x.is_finite() && x >= crate::spectral::MIN_STEP_NM,
+                )?
+            }
             "area_samples" => self.area_samples = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
             "occlusion" => {
                 self.occlusion = match value.to_ascii_lowercase().as_str() {

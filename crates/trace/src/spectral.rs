@@ -23,6 +23,31 @@
 use gloam_scene::Scene;
 use gloam_spectra::Spectrum;
 
+/// Finest wavelength step, nm.
+pub const MIN_STEP_NM: f64 = 1e-3;
+/// Most wavelength samples a render takes (the span over the step).
+pub const MAX_WAVELENGTHS: f64 = 1e6;
+
+/// Samples of the scene's spectral span at `step_nm` (before the band
+/// edges are added), as a float so an absurd span cannot overflow.
+pub fn wavelength_count(scene: &Scene, step_nm: f64) -> f64 {
+    let lo = scene
+        .bands
+        .iter()
+        .map(|b| b.lo_nm)
+        .fold(f64::INFINITY, f64::min);
+    let hi = scene
+        .bands
+        .iter()
+        .map(|b| b.hi_nm)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if lo < hi {
+        ((hi - lo) / step_nm.max(MIN_STEP_NM)).ceil() + 1.0
+    } else {
+        0.0
+    }
+}
+
 /// The wavelength slots of a render and the band integration weights.
 #[derive(Clone, Debug)]
 pub struct Wavelengths {
@@ -39,6 +64,8 @@ pub struct Wavelengths {
 impl Wavelengths {
     /// Slots for `scene` with continuum step `step_nm`.
     pub fn for_scene(scene: &Scene, step_nm: f64) -> Self {
+        // (Settings refuse steps below MIN_STEP_NM; the clamp is for
+        // settings built in code.)
         let lo = scene
             .bands
             .iter()
@@ -51,7 +78,7 @@ impl Wavelengths {
             .fold(f64::NEG_INFINITY, f64::max);
         let mut grid = Vec::new();
         if lo < hi {
-            let step = step_nm.max(1e-3);
+            let step = step_nm.max(MIN_STEP_NM);
             let n = ((hi - lo) / step).ceil() as usize;
             for i in 0..=n {
                 grid.push((lo + step * i as f64).min(hi));

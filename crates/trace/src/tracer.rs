@@ -29,6 +29,67 @@ pub enum TraceError {
     BadInput(String),
 }
 
+/// Most worker threads a render starts.
+pub const MAX_THREADS: usize = 1024;
+
+/// Most pixels a render takes (8192 × 8192).
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+/// Bytes a render holds per pixel and band (radiance, standard error and
+/// two accumulators, f64).
+const BYTES_PER_PIXEL_BAND: u64 = 32;
+
+/// Memory available to this process, bytes (`MemAvailable` of
+/// /proc/meminfo), when the system says.
+fn available_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib.saturating_mul(1024))
+}
+
+/// Refuses a render too large to hold, before anything is allocated: the
+/// image (after `resolution_scale`) against [`MAX_PIXELS`] and the memory
+/// available, and the wavelength grid against
+/// [`crate::spectral::MAX_WAVELENGTHS`].
+fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError> {
+    if let Some(t) = settings.threads.filter(|&t| t > MAX_THREADS) {
+        return Err(TraceError::BadInput(format!(
+            "threads = {t}: at most {MAX_THREADS} worker threads (this machine has {})",
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        )));
+    }
+    let n_wl = crate::spectral::wavelength_count(scene, settings.spectral_step_nm);
+    if n_wl > crate::spectral::MAX_WAVELENGTHS {
+        return Err(TraceError::BadInput(format!(
+            "the bands span {n_wl:.3e} wavelength samples at spectral_step_nm = {} (limit {:.0e}): narrow the bands or coarsen the step",
+            settings.spectral_step_nm,
+            crate::spectral::MAX_WAVELENGTHS
+        )));
+    }
+    let scale = |n: u32| (n as f64 * settings.resolution_scale).round().max(1.0);
+    let (w, h) = (scale(scene.camera.width), scale(scene.camera.height));
+    let pixels = w * h;
+    if pixels.is_nan() || pixels > MAX_PIXELS as f64 {
+        return Err(TraceError::BadInput(format!(
+            "the image would be {w}×{h} pixels (camera {}×{} at resolution_scale {}), more than the {MAX_PIXELS}-pixel limit (8192×8192)",
+            scene.camera.width, scene.camera.height, settings.resolution_scale
+        )));
+    }
+    let bytes = pixels as u64 * (scene.bands.len() as u64 * BYTES_PER_PIXEL_BAND + 4);
+    if let Some(avail) = available_memory_bytes() {
+        if bytes > avail / 10 * 8 {
+            return Err(TraceError::BadInput(format!(
+                "a {w}×{h} render of {} bands needs about {:.1} GiB, more than 80 % of the {:.1} GiB available",
+                scene.bands.len(),
+                bytes as f64 / (1u64 << 30) as f64,
+                avail as f64 / (1u64 << 30) as f64
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Ray counters (summed over threads; integers, so deterministic).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RayCounts {
@@ -328,6 +389,7 @@ impl Tracer {
         if scene.bands.is_empty() {
             return Err(TraceError::NoBands);
         }
+        check_size(scene, settings)?;
         let wl = Wavelengths::for_scene(scene, settings.spectral_step_nm);
 
         // Scene-centred origin: centre of the box around facets, camera, lamps.

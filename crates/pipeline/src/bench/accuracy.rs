@@ -381,7 +381,11 @@ pub fn run(args: &AccuracyOptions) -> anyhow::Result<AccuracyReport> {
     let mut next_rung = [0usize; 3];
     for (k, spp) in LADDER.iter().enumerate() {
         for (i, est) in ESTIMATORS.iter().enumerate() {
-            if next_rung[i] == k && exec(&ladder_plan(*est, *spp), &mut rows, 0.6 * budget)? {
+            // Every ladder's first rung runs whatever the budget (a loaded
+            // machine can spend it on the truth alone), so each estimator
+            // has a figure.
+            let limit = if k == 0 { f64::INFINITY } else { 0.6 * budget };
+            if next_rung[i] == k && exec(&ladder_plan(*est, *spp), &mut rows, limit)? {
                 next_rung[i] = k + 1;
             }
         }

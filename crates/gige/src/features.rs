@@ -1,0 +1,573 @@
+//! The camera's own feature registers (above the bootstrap block) and the
+//! GenICam XML that describes them. One table drives both, so the XML and
+//! the register map cannot disagree.
+
+/// Where the GenICam XML lives in device memory (the `Local:` URL points here).
+pub const XML_ADDRESS: u32 = 0x0010_0000;
+/// File name in the `Local:` URL.
+pub const XML_FILE_NAME: &str = "gloam.xml";
+
+/// Register addresses of the features (4-byte big-endian registers).
+pub mod reg {
+    pub const WIDTH: u32 = 0x0001_0000;
+    pub const HEIGHT: u32 = 0x0001_0004;
+    pub const SENSOR_WIDTH: u32 = 0x0001_0008;
+    pub const SENSOR_HEIGHT: u32 = 0x0001_000C;
+    pub const OFFSET_X: u32 = 0x0001_0010;
+    pub const OFFSET_Y: u32 = 0x0001_0014;
+    pub const PIXEL_FORMAT: u32 = 0x0001_0018;
+    pub const PAYLOAD_SIZE: u32 = 0x0001_001C;
+    pub const ACQUISITION_MODE: u32 = 0x0001_0020;
+    pub const ACQUISITION_START: u32 = 0x0001_0024;
+    pub const ACQUISITION_STOP: u32 = 0x0001_0028;
+    pub const ACQUISITION_FRAME_COUNT: u32 = 0x0001_002C;
+    /// IEEE-754 single, Hz.
+    pub const ACQUISITION_FRAME_RATE: u32 = 0x0001_0030;
+    /// IEEE-754 single, µs.
+    pub const EXPOSURE_TIME: u32 = 0x0001_0034;
+    /// IEEE-754 single, linear gain factor (as `gloam capture --gain`).
+    pub const GAIN: u32 = 0x0001_0038;
+    pub const GAIN_AUTO: u32 = 0x0001_003C;
+    pub const TRIGGER_SELECTOR: u32 = 0x0001_0040;
+    pub const TRIGGER_MODE: u32 = 0x0001_0044;
+    pub const TRIGGER_SOURCE: u32 = 0x0001_0048;
+    pub const TRIGGER_SOFTWARE: u32 = 0x0001_004C;
+    pub const TL_PARAMS_LOCKED: u32 = 0x0001_0050;
+    /// IEEE-754 single, V.
+    pub const INTENSIFIER_MCP_VOLTAGE: u32 = 0x0001_0054;
+    /// IEEE-754 single, fraction of full scale.
+    pub const GAIN_AUTO_SETPOINT: u32 = 0x0001_0058;
+    pub const GAIN_MIN: u32 = 0x0001_005C;
+    pub const GAIN_MAX: u32 = 0x0001_0060;
+    pub const FRAMES_SENT: u32 = 0x0001_0064;
+    pub const PACKETS_DROPPED: u32 = 0x0001_0068;
+    pub const PACKETS_RESENT: u32 = 0x0001_006C;
+    pub const RESEND_REQUESTS: u32 = 0x0001_0070;
+    /// First address past the feature block.
+    pub const END: u32 = 0x0001_0074;
+}
+
+/// PFNC pixel format codes.
+pub mod pixel_format {
+    pub const MONO8: u32 = 0x0108_0001;
+    pub const MONO12: u32 = 0x0110_0005;
+    pub const MONO16: u32 = 0x0110_0007;
+
+    /// Digitizer bits of a format.
+    pub fn bits(code: u32) -> Option<u8> {
+        match code {
+            MONO8 => Some(8),
+            MONO12 => Some(12),
+            MONO16 => Some(16),
+            _ => None,
+        }
+    }
+
+    /// Format carrying `bits`-bit pixels.
+    pub fn for_bits(bits: u8) -> u32 {
+        match bits {
+            0..=8 => MONO8,
+            9..=12 => MONO12,
+            _ => MONO16,
+        }
+    }
+
+    /// Bytes per pixel on the wire (Mono12 is unpacked: 12 bits in 16).
+    pub fn bytes_per_pixel(code: u32) -> usize {
+        if code == MONO8 { 1 } else { 2 }
+    }
+}
+
+/// Values of the enumerations.
+pub mod value {
+    pub const ACQUISITION_MODE_CONTINUOUS: u32 = 0;
+    pub const ACQUISITION_MODE_SINGLE_FRAME: u32 = 1;
+    pub const ACQUISITION_MODE_MULTI_FRAME: u32 = 2;
+    pub const GAIN_AUTO_OFF: u32 = 0;
+    pub const GAIN_AUTO_CONTINUOUS: u32 = 2;
+    pub const TRIGGER_SELECTOR_FRAME_START: u32 = 0;
+    pub const TRIGGER_SOURCE_SOFTWARE: u32 = 0;
+    pub const OFF: u32 = 0;
+    pub const ON: u32 = 1;
+}
+
+/// What the XML needs to know about this camera's ranges.
+#[derive(Clone, Debug)]
+pub struct XmlFacts {
+    pub vendor: String,
+    pub model: String,
+    pub max_width: u32,
+    pub max_height: u32,
+    /// Width and height can change (rigs render any size; scenes cannot).
+    pub resizable: bool,
+    pub max_exposure_us: f64,
+    pub max_frame_rate_hz: f64,
+    pub has_agc: bool,
+    /// MCP voltage range, V, when the tube has an MCP.
+    pub mcp_range_v: Option<(f64, f64)>,
+}
+
+fn int_reg(name: &str, addr: u32, access: &str) -> String {
+    format!(
+        "  <IntReg Name=\"{name}\">\n    <Address>0x{addr:x}</Address>\n    <Length>4</Length>\n    <AccessMode>{access}</AccessMode>\n    <pPort>Device</pPort>\n    <Cachable>NoCache</Cachable>\n    <Sign>Unsigned</Sign>\n    <Endianess>BigEndian</Endianess>\n  </IntReg>\n"
+    )
+}
+
+fn float_reg(name: &str, addr: u32, access: &str) -> String {
+    format!(
+        "  <FloatReg Name=\"{name}\">\n    <Address>0x{addr:x}</Address>\n    <Length>4</Length>\n    <AccessMode>{access}</AccessMode>\n    <pPort>Device</pPort>\n    <Cachable>NoCache</Cachable>\n    <Endianess>BigEndian</Endianess>\n  </FloatReg>\n"
+    )
+}
+
+fn string_reg(name: &str, addr: u32, len: u32, access: &str, tip: &str) -> String {
+    format!(
+        "  <StringReg Name=\"{name}\" NameSpace=\"Standard\">\n    <ToolTip>{tip}</ToolTip>\n    <Address>0x{addr:x}</Address>\n    <Length>{len}</Length>\n    <AccessMode>{access}</AccessMode>\n    <pPort>Device</pPort>\n  </StringReg>\n"
+    )
+}
+
+fn integer(name: &str, tip: &str, reg: &str, min: &str, max: &str) -> String {
+    format!(
+        "  <Integer Name=\"{name}\" NameSpace=\"Standard\">\n    <ToolTip>{tip}</ToolTip>\n    <pValue>{reg}</pValue>\n    {min}\n    {max}\n    <Inc>1</Inc>\n  </Integer>\n"
+    )
+}
+
+fn float(name: &str, ns: &str, tip: &str, reg: &str, min: f64, max: f64, unit: &str) -> String {
+    let unit = if unit.is_empty() {
+        String::new()
+    } else {
+        format!("    <Unit>{unit}</Unit>\n")
+    };
+    format!(
+        "  <Float Name=\"{name}\" NameSpace=\"{ns}\">\n    <ToolTip>{tip}</ToolTip>\n    <pValue>{reg}</pValue>\n    <Min>{min}</Min>\n    <Max>{max}</Max>\n{unit}  </Float>\n"
+    )
+}
+
+/// A GenApi identifier (`[A-Za-z][0-9A-Za-z_]*`) made from any name.
+fn identifier(s: &str) -> String {
+    let mut id: String = s
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if !id.starts_with(|c: char| c.is_ascii_alphabetic()) {
+        id.insert_str(0, "gloam_");
+    }
+    id
+}
+
+fn enumeration(name: &str, tip: &str, entries: &[(&str, u32)], reg: &str, locked: bool) -> String {
+    let mut s = format!(
+        "  <Enumeration Name=\"{name}\" NameSpace=\"Standard\">\n    <ToolTip>{tip}</ToolTip>\n"
+    );
+    if locked {
+        s += "    <pIsLocked>TLParamsLocked</pIsLocked>\n";
+    }
+    for (n, v) in entries {
+        s += &format!("    <EnumEntry Name=\"{n}\">\n      <Value>{v}</Value>\n    </EnumEntry>\n");
+    }
+    s += &format!("    <pValue>{reg}</pValue>\n  </Enumeration>\n");
+    s
+}
+
+fn command(name: &str, tip: &str, reg: &str) -> String {
+    format!(
+        "  <Command Name=\"{name}\" NameSpace=\"Standard\">\n    <ToolTip>{tip}</ToolTip>\n    <pValue>{reg}</pValue>\n    <CommandValue>1</CommandValue>\n  </Command>\n"
+    )
+}
+
+/// The GenICam (GenApi schema 1.0) description of the device.
+pub fn genicam_xml(f: &XmlFacts) -> String {
+    use crate::bootstrap as bs;
+    let mut n = String::new();
+    let mut cat_device = vec![
+        "DeviceVendorName",
+        "DeviceModelName",
+        "DeviceVersion",
+        "DeviceManufacturerInfo",
+        "DeviceSerialNumber",
+        "DeviceID",
+        "DeviceUserID",
+    ];
+    let cat_image = [
+        "Width",
+        "Height",
+        "SensorWidth",
+        "SensorHeight",
+        "WidthMax",
+        "HeightMax",
+        "OffsetX",
+        "OffsetY",
+        "PixelFormat",
+        "PayloadSize",
+    ];
+    let cat_acq = [
+        "AcquisitionMode",
+        "AcquisitionStart",
+        "AcquisitionStop",
+        "AcquisitionFrameCount",
+        "AcquisitionFrameRate",
+        "ExposureTime",
+        "TriggerSelector",
+        "TriggerMode",
+        "TriggerSource",
+        "TriggerSoftware",
+    ];
+    let mut cat_analog = vec!["Gain", "GainAuto"];
+    if f.has_agc {
+        cat_analog.push("GainAutoSetpoint");
+    }
+    let mut cat_intensifier = vec![];
+    if f.mcp_range_v.is_some() {
+        cat_intensifier.push("IntensifierMcpVoltage");
+    }
+    let cat_transport = [
+        "PayloadSize",
+        "GevSCPSPacketSize",
+        "GevSCPD",
+        "GevTimestampTickFrequency",
+        "TLParamsLocked",
+        "GloamFramesSent",
+        "GloamPacketsDroppedByFaultInjector",
+        "GloamPacketsResent",
+        "GloamResendRequests",
+    ];
+    cat_device.sort_unstable();
+    let category = |name: &str, features: &[&str]| {
+        let mut s = format!("  <Category Name=\"{name}\" NameSpace=\"Standard\">\n");
+        for x in features {
+            s += &format!("    <pFeature>{x}</pFeature>\n");
+        }
+        s + "  </Category>\n"
+    };
+    let mut root = vec![
+        "DeviceControl",
+        "ImageFormatControl",
+        "AcquisitionControl",
+        "AnalogControl",
+        "TransportLayerControl",
+    ];
+    if !cat_intensifier.is_empty() {
+        root.push("IntensifierControl");
+    }
+    n += &category("Root", &root);
+    n += &category("DeviceControl", &cat_device);
+    n += &category("ImageFormatControl", &cat_image);
+    n += &category("AcquisitionControl", &cat_acq);
+    n += &category("AnalogControl", &cat_analog);
+    n += &category("TransportLayerControl", &cat_transport);
+    if !cat_intensifier.is_empty() {
+        n += &category("IntensifierControl", &cat_intensifier);
+    }
+
+    // Device information: the bootstrap strings.
+    n += &string_reg(
+        "DeviceVendorName",
+        bs::MANUFACTURER_NAME,
+        32,
+        "RO",
+        "Manufacturer",
+    );
+    n += &string_reg("DeviceModelName", bs::MODEL_NAME, 32, "RO", "Model");
+    n += &string_reg(
+        "DeviceVersion",
+        bs::DEVICE_VERSION,
+        32,
+        "RO",
+        "Device version",
+    );
+    n += &string_reg(
+        "DeviceManufacturerInfo",
+        bs::MANUFACTURER_INFO,
+        48,
+        "RO",
+        "Manufacturer information",
+    );
+    n += &string_reg(
+        "DeviceSerialNumber",
+        bs::SERIAL_NUMBER,
+        16,
+        "RO",
+        "Serial number",
+    );
+    n += &string_reg("DeviceID", bs::SERIAL_NUMBER, 16, "RO", "Device identifier");
+    n += &string_reg(
+        "DeviceUserID",
+        bs::USER_DEFINED_NAME,
+        16,
+        "RW",
+        "User-defined name",
+    );
+
+    // Image format.
+    let wmin = if f.resizable { 1 } else { f.max_width };
+    let hmin = if f.resizable { 1 } else { f.max_height };
+    n += &integer(
+        "Width",
+        "Image width, pixels",
+        "WidthReg",
+        &format!("<Min>{wmin}</Min>"),
+        "<pMax>SensorWidthReg</pMax>",
+    );
+    n += &int_reg("WidthReg", reg::WIDTH, "RW");
+    n += &integer(
+        "Height",
+        "Image height, pixels",
+        "HeightReg",
+        &format!("<Min>{hmin}</Min>"),
+        "<pMax>SensorHeightReg</pMax>",
+    );
+    n += &int_reg("HeightReg", reg::HEIGHT, "RW");
+    for (name, r, max) in [
+        ("SensorWidth", "SensorWidthReg", f.max_width),
+        ("SensorHeight", "SensorHeightReg", f.max_height),
+        ("WidthMax", "SensorWidthReg", f.max_width),
+        ("HeightMax", "SensorHeightReg", f.max_height),
+    ] {
+        n += &integer(
+            name,
+            "Largest image the simulated sensor renders, pixels",
+            r,
+            &format!("<Min>{max}</Min>"),
+            &format!("<Max>{max}</Max>"),
+        );
+    }
+    n += &int_reg("SensorWidthReg", reg::SENSOR_WIDTH, "RO");
+    n += &int_reg("SensorHeightReg", reg::SENSOR_HEIGHT, "RO");
+    for (name, r, a) in [
+        ("OffsetX", "OffsetXReg", reg::OFFSET_X),
+        ("OffsetY", "OffsetYReg", reg::OFFSET_Y),
+    ] {
+        n += &integer(
+            name,
+            "Region offset: always 0 (the whole rendered image is read out)",
+            r,
+            "<Min>0</Min>",
+            "<Max>0</Max>",
+        );
+        n += &int_reg(r, a, "RW");
+    }
+    n += &enumeration(
+        "PixelFormat",
+        "Digitizer depth: Mono8, Mono12 (unpacked, 16-bit little-endian) or Mono16",
+        &[
+            ("Mono8", pixel_format::MONO8),
+            ("Mono12", pixel_format::MONO12),
+            ("Mono16", pixel_format::MONO16),
+        ],
+        "PixelFormatReg",
+        true,
+    );
+    n += &int_reg("PixelFormatReg", reg::PIXEL_FORMAT, "RW");
+    n += &integer(
+        "PayloadSize",
+        "Bytes per frame",
+        "PayloadSizeReg",
+        "<Min>1</Min>",
+        &format!(
+            "<Max>{}</Max>",
+            u64::from(f.max_width) * u64::from(f.max_height) * 2
+        ),
+    );
+    n += &int_reg("PayloadSizeReg", reg::PAYLOAD_SIZE, "RO");
+
+    // Acquisition.
+    n += &enumeration(
+        "AcquisitionMode",
+        "Continuous, SingleFrame or MultiFrame (AcquisitionFrameCount frames)",
+        &[
+            ("Continuous", value::ACQUISITION_MODE_CONTINUOUS),
+            ("SingleFrame", value::ACQUISITION_MODE_SINGLE_FRAME),
+            ("MultiFrame", value::ACQUISITION_MODE_MULTI_FRAME),
+        ],
+        "AcquisitionModeReg",
+        false,
+    );
+    n += &int_reg("AcquisitionModeReg", reg::ACQUISITION_MODE, "RW");
+    n += &command(
+        "AcquisitionStart",
+        "Start streaming: frame 0 of a fresh noise stream",
+        "AcquisitionStartReg",
+    );
+    n += &int_reg("AcquisitionStartReg", reg::ACQUISITION_START, "WO");
+    n += &command("AcquisitionStop", "Stop streaming", "AcquisitionStopReg");
+    n += &int_reg("AcquisitionStopReg", reg::ACQUISITION_STOP, "WO");
+    n += &integer(
+        "AcquisitionFrameCount",
+        "Frames per MultiFrame acquisition",
+        "AcquisitionFrameCountReg",
+        "<Min>1</Min>",
+        "<Max>65535</Max>",
+    );
+    n += &int_reg(
+        "AcquisitionFrameCountReg",
+        reg::ACQUISITION_FRAME_COUNT,
+        "RW",
+    );
+    n += &float(
+        "AcquisitionFrameRate",
+        "Standard",
+        "Frame rate the stream is paced to, Hz (default: the sensor's frame rate); frames never come faster than the exposure allows",
+        "AcquisitionFrameRateReg",
+        0.1,
+        f.max_frame_rate_hz,
+        "Hz",
+    );
+    n += &float_reg("AcquisitionFrameRateReg", reg::ACQUISITION_FRAME_RATE, "RW");
+    n += &float(
+        "ExposureTime",
+        "Standard",
+        "Exposure (CCD integration / intensifier gate), microseconds",
+        "ExposureTimeReg",
+        1.0,
+        f.max_exposure_us,
+        "us",
+    );
+    n += &float_reg("ExposureTimeReg", reg::EXPOSURE_TIME, "RW");
+    n += &enumeration(
+        "TriggerSelector",
+        "Trigger being configured",
+        &[("FrameStart", value::TRIGGER_SELECTOR_FRAME_START)],
+        "TriggerSelectorReg",
+        false,
+    );
+    n += &int_reg("TriggerSelectorReg", reg::TRIGGER_SELECTOR, "RW");
+    n += &enumeration(
+        "TriggerMode",
+        "On: one frame per trigger",
+        &[("Off", value::OFF), ("On", value::ON)],
+        "TriggerModeReg",
+        false,
+    );
+    n += &int_reg("TriggerModeReg", reg::TRIGGER_MODE, "RW");
+    n += &enumeration(
+        "TriggerSource",
+        "Trigger source",
+        &[("Software", value::TRIGGER_SOURCE_SOFTWARE)],
+        "TriggerSourceReg",
+        false,
+    );
+    n += &int_reg("TriggerSourceReg", reg::TRIGGER_SOURCE, "RW");
+    n += &command(
+        "TriggerSoftware",
+        "Take one frame (TriggerMode On)",
+        "TriggerSoftwareReg",
+    );
+    n += &int_reg("TriggerSoftwareReg", reg::TRIGGER_SOFTWARE, "WO");
+
+    // Analog control.
+    n += "  <Float Name=\"Gain\" NameSpace=\"Standard\">\n    <ToolTip>Tube (or system) gain as a linear factor, as gloam capture --gain; reads back the gain in effect (under GainAuto, the AGC's)</ToolTip>\n    <pIsLocked>GainLocked</pIsLocked>\n    <pValue>GainReg</pValue>\n    <pMin>GainMinReg</pMin>\n    <pMax>GainMaxReg</pMax>\n    <Unit>x</Unit>\n  </Float>\n";
+    n += &float_reg("GainReg", reg::GAIN, "RW");
+    n += &float_reg("GainMinReg", reg::GAIN_MIN, "RO");
+    n += &float_reg("GainMaxReg", reg::GAIN_MAX, "RO");
+    n += "  <IntSwissKnife Name=\"GainLocked\">\n    <pVariable Name=\"AUTO\">GainAutoReg</pVariable>\n    <Formula>AUTO != 0</Formula>\n  </IntSwissKnife>\n";
+    let mut auto_entries = vec![("Off", value::GAIN_AUTO_OFF)];
+    if f.has_agc {
+        auto_entries.push(("Continuous", value::GAIN_AUTO_CONTINUOUS));
+    }
+    n += &enumeration(
+        "GainAuto",
+        "The camera's AGC: Continuous servoes the gain; Off fixes Gain (the override)",
+        &auto_entries,
+        "GainAutoReg",
+        false,
+    );
+    n += &int_reg("GainAutoReg", reg::GAIN_AUTO, "RW");
+    if f.has_agc {
+        n += &float(
+            "GainAutoSetpoint",
+            "Custom",
+            "AGC target mean as a fraction of full scale",
+            "GainAutoSetpointReg",
+            0.0,
+            1.0,
+            "",
+        );
+        n += &float_reg("GainAutoSetpointReg", reg::GAIN_AUTO_SETPOINT, "RW");
+    }
+    if let Some((lo, hi)) = f.mcp_range_v {
+        n += &float(
+            "IntensifierMcpVoltage",
+            "Custom",
+            "Micro-channel plate voltage, V (sets the tube gain when GainAuto is Off and Gain was not written since)",
+            "IntensifierMcpVoltageReg",
+            lo,
+            hi,
+            "V",
+        );
+        n += &float_reg(
+            "IntensifierMcpVoltageReg",
+            reg::INTENSIFIER_MCP_VOLTAGE,
+            "RW",
+        );
+    }
+
+    // Transport layer.
+    n += "  <Integer Name=\"GevSCPSPacketSize\" NameSpace=\"Standard\">\n    <ToolTip>Stream packet size, bytes, IP and UDP headers included</ToolTip>\n    <pValue>GevSCPSPacketSizeReg</pValue>\n";
+    n += &format!(
+        "    <Min>{}</Min>\n    <Max>{}</Max>\n    <Inc>4</Inc>\n  </Integer>\n",
+        bs::MIN_PACKET_BYTES,
+        bs::MAX_PACKET_BYTES
+    );
+    n += &format!(
+        "  <MaskedIntReg Name=\"GevSCPSPacketSizeReg\">\n    <Address>0x{:x}</Address>\n    <Length>4</Length>\n    <AccessMode>RW</AccessMode>\n    <pPort>Device</pPort>\n    <Cachable>NoCache</Cachable>\n    <LSB>31</LSB>\n    <MSB>16</MSB>\n    <Sign>Unsigned</Sign>\n    <Endianess>BigEndian</Endianess>\n  </MaskedIntReg>\n",
+        bs::STREAM_CHANNEL_PACKET_SIZE
+    );
+    n += &integer(
+        "GevSCPD",
+        "Delay between stream packets, timestamp ticks (ns)",
+        "GevSCPDReg",
+        "<Min>0</Min>",
+        "<Max>1000000</Max>",
+    );
+    n += &int_reg("GevSCPDReg", bs::STREAM_CHANNEL_PACKET_DELAY, "RW");
+    n += "  <Integer Name=\"GevTimestampTickFrequency\" NameSpace=\"Standard\">\n    <ToolTip>Timestamp ticks per second</ToolTip>\n    <pValue>GevTimestampTickFrequencyReg</pValue>\n  </Integer>\n";
+    n += &format!(
+        "  <IntReg Name=\"GevTimestampTickFrequencyReg\">\n    <Address>0x{:x}</Address>\n    <Length>8</Length>\n    <AccessMode>RO</AccessMode>\n    <pPort>Device</pPort>\n    <Sign>Unsigned</Sign>\n    <Endianess>BigEndian</Endianess>\n  </IntReg>\n",
+        bs::TIMESTAMP_TICK_FREQUENCY_HIGH
+    );
+    n += &integer(
+        "TLParamsLocked",
+        "Set by the host during acquisition: size and format cannot change",
+        "TLParamsLockedReg",
+        "<Min>0</Min>",
+        "<Max>1</Max>",
+    );
+    n += &int_reg("TLParamsLockedReg", reg::TL_PARAMS_LOCKED, "RW");
+    for (name, r, a, tip) in [
+        (
+            "GloamFramesSent",
+            "GloamFramesSentReg",
+            reg::FRAMES_SENT,
+            "Frames streamed since power-up",
+        ),
+        (
+            "GloamPacketsDroppedByFaultInjector",
+            "GloamPacketsDroppedReg",
+            reg::PACKETS_DROPPED,
+            "GVSP packets the fault injector dropped",
+        ),
+        (
+            "GloamPacketsResent",
+            "GloamPacketsResentReg",
+            reg::PACKETS_RESENT,
+            "GVSP packets sent again on PACKETRESEND",
+        ),
+        (
+            "GloamResendRequests",
+            "GloamResendRequestsReg",
+            reg::RESEND_REQUESTS,
+            "PACKETRESEND commands received",
+        ),
+    ] {
+        n += &format!(
+            "  <Integer Name=\"{name}\" NameSpace=\"Custom\">\n    <ToolTip>{tip}</ToolTip>\n    <pValue>{r}</pValue>\n  </Integer>\n"
+        );
+        n += &int_reg(r, a, "RO");
+    }
+    n += "  <Port Name=\"Device\" NameSpace=\"Standard\"/>\n";
+
+    format!(
+        "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<RegisterDescription ModelName=\"{}\" VendorName=\"{}\" ToolTip=\"gloam simulated low-light-level camera\" StandardNameSpace=\"GEV\" SchemaMajorVersion=\"1\" SchemaMinorVersion=\"0\" SchemaSubMinorVersion=\"0\" MajorVersion=\"1\" MinorVersion=\"0\" SubMinorVersion=\"0\" ProductGuid=\"6f7f1b0e-3d6a-4c55-9b0e-67c1a0a9e001\" VersionGuid=\"6f7f1b0e-3d6a-4c55-9b0e-67c1a0a9e002\" xmlns=\"http://www.genicam.org/GenApi/Version_1_0\" xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" xsi:schemaLocation=\"http://www.genicam.org/GenApi/Version_1_0 http://www.genicam.org/GenApi/GenApiSchema_Version_1_0.xsd\">\n{n}</RegisterDescription>\n",
+        identifier(&f.model),
+        identifier(&f.vendor)
+    )
+}

@@ -1,0 +1,46 @@
+//! GigE Vision for gloam, device side: the simulated camera as a GigE
+//! Vision 2.0 device that any GenICam client (Aravis, vendor SDKs) can
+//! discover, control and stream from.
+//!
+//! - [`gvcp`]: control-protocol wire format;
+//! - [`bootstrap`]: the standard register addresses;
+//! - [`features`]: the camera's feature registers and their GenICam XML;
+//! - [`device`]: the sans-IO state machine (datagram in, datagram out);
+//! - [`gvsp`]: stream packets, the resend store and the fault injector;
+//! - [`server`]: the UDP server (the only part with sockets and threads);
+//! - [`fuzzing`]: the fuzz entry point, replayed by `cargo test`.
+
+pub mod bootstrap;
+pub mod device;
+pub mod features;
+pub mod fuzzing;
+pub mod gvcp;
+pub mod gvsp;
+pub mod server;
+
+pub use device::{CameraFacts, Device, Event, Identity, StreamConfig};
+pub use gvsp::StreamFaults;
+pub use server::{GigeServer, ServerConfig, ServerStats};
+
+/// The facts a device needs from a frame source, with the sensor's frame
+/// rate (which [`gloam_grabber::SourceInfo`] does not carry).
+pub fn camera_facts(
+    info: &gloam_grabber::source::SourceInfo,
+    resizable: bool,
+    sensor_frame_rate_hz: f64,
+    mcp_range_v: Option<(f64, f64)>,
+) -> CameraFacts {
+    CameraFacts {
+        max_width: info.max_width,
+        max_height: info.max_height,
+        resizable,
+        min_gain_milli: info.min_gain_milli,
+        max_gain_milli: info.max_gain_milli,
+        max_exposure_us: info.max_exposure_us,
+        has_agc: info.has_agc,
+        mcp_range_v: if info.has_mcp { mcp_range_v } else { None },
+        sensor_frame_rate_hz,
+        max_frame_rate_hz: 1000.0,
+        defaults: info.defaults,
+    }
+}
