@@ -82,6 +82,10 @@ enum Command {
     /// Sensor presets and their derived figures (DN per photoelectron, noise, saturation).
     #[command(subcommand)]
     Sensor(cmd::sensor::SensorCommand),
+    /// Campaign sweeps: a grid of tasks run locally or as a Slurm array job.
+    Sweep(cmd::sweep::SweepArgs),
+    /// Reassemble `render --tile K/N` outputs into the whole image.
+    Merge(cmd::merge::MergeArgs),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -101,6 +105,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => cmd::render::run(args),
         Command::Probe(args) => cmd::probe::run(args),
         Command::Bench(c) => cmd::bench::run(c),
+        Command::Sweep(args) => cmd::sweep::run(args),
+        Command::Merge(args) => cmd::merge::run(args),
     }
 }
 

@@ -73,6 +73,11 @@ pub struct RenderArgs {
     /// Replace a non-empty `--out` (the new set replaces the old one whole).
     #[arg(long)]
     pub force: bool,
+    /// Render only tile K of N: rows ⌊(K−1)H/N⌋ to ⌊KH/N⌋ (horizontal
+    /// bands), radiance only, plus `tile.json`; `gloam merge` reassembles
+    /// the tiles bit-identically. See docs/sweep.md.
+    #[arg(long, value_name = "K/N", conflicts_with = "sensor")]
+    pub tile: Option<String>,
 }
 
 /// Settings from `--set` pairs, then the dedicated flags.
@@ -127,7 +132,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let mut plan = gloam_scene::plan::plan(&scene);
     // With a camera, the render also carries its detector-weighted band.
-    let sensor = args.sensor.clone().or_else(|| scene.sensor.clone());
+    let tile = (args.tile.as_deref())
+        .map(gloam_sweep::TileSpec::parse)
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
+    // A tile is radiance only (the scene's own camera is not captured).
+    let sensor = (args.sensor.clone().or_else(|| scene.sensor.clone())).filter(|_| tile.is_none());
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(s) = &sensor {
         gloam_pipeline::check_options(s, args.gain, args.frames)?;
@@ -159,7 +169,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let mut out = tracer.render(&progress)?;
+    let (full, mut rows) = (tracer.image_size(), 0..tracer.image_size().1);
+    if let Some(t) = tile {
+        rows = t.rows(full.1).map_err(anyhow::Error::msg)?;
+    }
+    let mut out = tracer.render_rows(rows.clone(), &progress)?;
     let detected = match &sensor {
         Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
         None => None,
@@ -175,6 +189,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     write_npy(&dir.join("stderr.npy"), &out.std_error)?;
     write_npy_u32(&dir.join("spp.npy"), &out.spp)?;
     write_preview(&dir.join("preview.png"), &out.radiance)?;
+    if let Some(t) = tile {
+        super::merge::write_tile_info(&dir, t, rows, full, &args.scene, &out)?;
+    }
     let write_s = t_write.elapsed().as_secs_f64();
     let mut report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
     report["provenance"] = serde_json::to_value(&provenance)?;

@@ -61,6 +61,8 @@ pub fn take_detected_band(render: &mut RenderOutput) -> anyhow::Result<Array2<f6
     let last = render.band_names.len() - 1;
     let detected = render.radiance.index_axis(Axis(0), last).to_owned();
     render.radiance = render.radiance.slice(s![..last, .., ..]).to_owned();
+    // The standard error too, so stderr.npy has the radiance's bands.
+    render.std_error = render.std_error.slice(s![..last, .., ..]).to_owned();
     render.band_names.pop();
     render.stats.bands = last;
     Ok(detected)

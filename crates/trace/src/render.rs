@@ -372,8 +372,42 @@ impl Tracer {
     /// meets `E` or its cap. Batches have their own random streams, so the
     /// image is bit-identical at any thread count.
     pub fn render(&self, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<RenderOutput, TraceError> {
+        self.render_rows(0..self.camera.height, progress)
+    }
+
+    /// The image size `(width, height)` in pixels (after `resolution_scale`).
+    pub fn image_size(&self) -> (u32, u32) {
+        (self.camera.width, self.camera.height)
+    }
+
+    /// Renders only image rows `rows` (all columns): the output arrays hold
+    /// those rows, and every pixel is bit-identical to the same pixel of
+    /// [`Tracer::render`], because each pixel's random streams are keyed by
+    /// its index in the whole image. So separately rendered row bands
+    /// reassemble into the untiled image exactly. Adaptive sampling
+    /// (`target_error`) scales its dark-pixel floor by the image mean, which
+    /// a band does not know, so it is refused for a partial image.
+    pub fn render_rows(
+        &self,
+        rows: std::ops::Range<u32>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<RenderOutput, TraceError> {
         let cam = &self.camera;
-        let (w, h) = (cam.width, cam.height);
+        let (w, full_h) = (cam.width, cam.height);
+        if rows.start >= rows.end || rows.end > full_h {
+            return Err(TraceError::BadInput(format!(
+                "rows {}..{} are not a non-empty part of the image's 0..{full_h}",
+                rows.start, rows.end
+            )));
+        }
+        let partial = rows.start != 0 || rows.end != full_h;
+        if partial && self.settings.target_error.is_some() {
+            return Err(TraceError::BadInput(
+                "target_error needs the whole image (its dark-pixel floor is relative to the image mean); render a tile at a fixed spp".into(),
+            ));
+        }
+        let row0 = rows.start;
+        let h = rows.end - rows.start;
         let nb = self.wl.band_names.len();
         let nwl = self.wl.len();
         let npix = w as usize * h as usize;
@@ -384,21 +418,21 @@ impl Tracer {
         let (ests, rays, rounds, threads_used) = with_pool(threads, || {
             // Round 0: every pixel, one batch of spp, tile by tile.
             let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-                .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+                .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, row0 + ty * TILE)))
                 .collect();
             let total = tiles.len() as u64;
             let res: Vec<(Vec<(usize, PixelEstimate)>, RayCounts)> = tiles
                 .par_iter()
                 .map(|&(x0, y0)| {
                     let x1 = (x0 + TILE).min(w);
-                    let y1 = (y0 + TILE).min(h);
+                    let y1 = (y0 + TILE).min(rows.end);
                     let mut c = RayCounts::default();
                     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                     for row in y0..y1 {
                         for col in x0..x1 {
                             let mut e = PixelEstimate::new(nwl, nb);
                             self.pixel_batch(col, row, 0, spp as usize, &mut e, &mut c);
-                            out.push((row as usize * w as usize + col as usize, e));
+                            out.push(((row - row0) as usize * w as usize + col as usize, e));
                         }
                     }
                     let n = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -458,7 +492,8 @@ impl Tracer {
                         .map(|&(i, add)| {
                             let mut c = RayCounts::default();
                             let mut e = ests[i].clone();
-                            let (col, row) = ((i % w as usize) as u32, (i / w as usize) as u32);
+                            let (col, row) =
+                                ((i % w as usize) as u32, row0 + (i / w as usize) as u32);
                             self.pixel_batch(col, row, batch, add as usize, &mut e, &mut c);
                             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                             if n % 1024 == 0 || n == total {
@@ -496,8 +531,11 @@ impl Tracer {
         let error = error_summary(&ests, nb, self.settings.target_error, rounds);
         let mut c = RayCounts::default();
         for (col, row, vals) in self.point_deposits(&mut c) {
+            if !rows.contains(&row) {
+                continue;
+            }
             for (b, v) in vals.iter().enumerate() {
-                radiance[[b, row as usize, col as usize]] += v;
+                radiance[[b, (row - row0) as usize, col as usize]] += v;
             }
         }
         rays.add(&c);

@@ -1,0 +1,550 @@
+//! A sweep directory: the plan, one record per task, and running tasks.
+//!
+//! ```text
+//! DIR/sweep.toml          the sweep file as planned (tasks re-plan from it)
+//! DIR/plan.json           provenance and the task list
+//! DIR/tasks/NNNNN/        one task's outputs and task.json (its record)
+//! DIR/results.csv, .json  from `collect`
+//! ```
+//!
+//! A task's directory is written under a temporary name and renamed into
+//! place with its record inside, so a task is either wholly there or not
+//! at all: a killed run leaves no half-finished task, and a rerun skips
+//! exactly the tasks whose record says done and whose output hashes match.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail, ensure};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::spec::{Sweep, Task};
+
+/// The figures a task reports (non-finite values are recorded as null).
+pub type Figures = BTreeMap<String, f64>;
+
+/// Runs the tasks of a sweep; the binary implements it over the render and
+/// camera code, so this crate stays the planner and record keeper.
+pub trait Executor: Sync {
+    /// The work shared by the tasks of one chunk (e.g. the scene's radiance).
+    type Shared: Sync;
+    /// Computes the shared work of `task`'s chunk once.
+    fn prepare(&self, sweep: &Sweep, task: &Task) -> anyhow::Result<Self::Shared>;
+    /// Runs one task, writing its output files into `out` (an empty
+    /// directory), and returns its figures.
+    fn run(
+        &self,
+        sweep: &Sweep,
+        task: &Task,
+        shared: &Self::Shared,
+        out: &Path,
+    ) -> anyhow::Result<Figures>;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    Done,
+    Failed,
+}
+
+/// `tasks/NNNNN/task.json`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TaskRecord {
+    pub index: usize,
+    pub id: String,
+    pub status: Status,
+    pub axes: BTreeMap<String, String>,
+    pub seed: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    pub figures: BTreeMap<String, Option<f64>>,
+    /// Output file → SHA-256 (hex).
+    pub outputs: BTreeMap<String, String>,
+    pub seconds: f64,
+    pub host: String,
+    pub gloam_version: String,
+}
+
+pub const RECORD_FILE: &str = "task.json";
+
+/// `plan.json`: where the sweep came from and what it holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PlanFile {
+    pub format: String,
+    pub gloam_version: String,
+    pub command_line: Vec<String>,
+    /// The sweep file as given, and its directory (absolute), against
+    /// which its relative paths resolve.
+    pub sweep_file: String,
+    pub base_dir: String,
+    pub sweep_sha256: String,
+    pub axes: Vec<String>,
+    pub task_count: usize,
+    pub chunk_count: usize,
+    pub tasks: Vec<serde_json::Value>,
+    /// The caller's provenance record (git commit, time, hashed inputs).
+    #[serde(default)]
+    pub provenance: serde_json::Value,
+}
+
+pub const PLAN_FORMAT: &str = "gloam-sweep/1";
+
+/// An opened sweep directory.
+pub struct SweepDir {
+    pub dir: PathBuf,
+    pub sweep: Sweep,
+}
+
+/// What happened to one task in a run.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub index: usize,
+    pub id: String,
+    /// None: skipped (already done).
+    pub result: Option<Result<(), String>>,
+    pub seconds: f64,
+}
+
+/// Counts of a run.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RunSummary {
+    pub ran: usize,
+    pub skipped: usize,
+    pub failed: Vec<(usize, String)>,
+}
+
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+fn sha256_file(path: &Path) -> anyhow::Result<String> {
+    let mut f = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut h = Sha256::new();
+    std::io::copy(&mut f, &mut h).with_context(|| format!("reading {}", path.display()))?;
+    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+fn host() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|s| s.trim().to_string())
+        .unwrap_or_else(|_| "unknown".into())
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
+    tmp.write_all(bytes)
+        .and_then(|_| tmp.as_file().sync_all())
+        .with_context(|| format!("writing {}", path.display()))?;
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("renaming into {}", path.display()))?;
+    Ok(())
+}
+
+impl SweepDir {
+    /// Plans `sweep_file` into `dir`: writes `sweep.toml` and `plan.json`,
+    /// or, when `dir` already holds this sweep, opens it to resume. A
+    /// different sweep in `dir` is an error.
+    pub fn create(
+        sweep_file: &Path,
+        dir: &Path,
+        command_line: &[String],
+        provenance: serde_json::Value,
+    ) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(sweep_file)
+            .with_context(|| format!("reading {}", sweep_file.display()))?;
+        let base_dir = sweep_file
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let base_dir = std::fs::canonicalize(base_dir)
+            .with_context(|| format!("resolving {}", base_dir.display()))?;
+        let sweep = Sweep::parse(&text, sweep_file, &base_dir)?;
+        let sha = sha256_hex(text.as_bytes());
+        if dir.join("plan.json").exists() {
+            let old = Self::open(dir)?;
+            let ids = |s: &Sweep| s.tasks.iter().map(|t| t.id.clone()).collect::<Vec<_>>();
+            ensure!(
+                ids(&old.sweep) == ids(&sweep) && old.sweep.base_dir == sweep.base_dir,
+                "{} holds another sweep (its tasks differ from {}'s); use a new --out or remove it",
+                dir.display(),
+                sweep_file.display()
+            );
+            return Ok(old);
+        }
+        std::fs::create_dir_all(dir.join("tasks"))
+            .with_context(|| format!("creating {}", dir.display()))?;
+        let plan = PlanFile {
+            format: PLAN_FORMAT.into(),
+            gloam_version: env!("CARGO_PKG_VERSION").into(),
+            command_line: command_line.to_vec(),
+            sweep_file: sweep_file.display().to_string(),
+            base_dir: base_dir.display().to_string(),
+            sweep_sha256: sha,
+            axes: sweep.axes.iter().map(|a| a.name.clone()).collect(),
+            task_count: sweep.tasks.len(),
+            chunk_count: sweep.chunks.len(),
+            tasks: sweep
+                .tasks
+                .iter()
+                .map(serde_json::to_value)
+                .collect::<Result<_, _>>()?,
+            provenance,
+        };
+        // The sweep text first: plan.json is what marks the directory planned.
+        write_atomic(&dir.join("sweep.toml"), text.as_bytes())?;
+        write_atomic(
+            &dir.join("plan.json"),
+            serde_json::to_string_pretty(&plan)?.as_bytes(),
+        )?;
+        Ok(SweepDir {
+            dir: dir.to_path_buf(),
+            sweep,
+        })
+    }
+
+    /// Opens a planned sweep directory.
+    pub fn open(dir: &Path) -> anyhow::Result<Self> {
+        let pp = dir.join("plan.json");
+        let plan: PlanFile =
+            serde_json::from_str(&std::fs::read_to_string(&pp).with_context(|| {
+                format!(
+                    "reading {} (is {} a sweep directory?)",
+                    pp.display(),
+                    dir.display()
+                )
+            })?)
+            .with_context(|| format!("reading {}", pp.display()))?;
+        ensure!(
+            plan.format == PLAN_FORMAT,
+            "{}: format '{}', expected '{PLAN_FORMAT}'",
+            pp.display(),
+            plan.format
+        );
+        let sp = dir.join("sweep.toml");
+        let text =
+            std::fs::read_to_string(&sp).with_context(|| format!("reading {}", sp.display()))?;
+        ensure!(
+            sha256_hex(text.as_bytes()) == plan.sweep_sha256,
+            "{} changed since it was planned",
+            sp.display()
+        );
+        let sweep = Sweep::parse(&text, &sp, Path::new(&plan.base_dir))?;
+        ensure!(
+            sweep.tasks.len() == plan.task_count,
+            "{}: {} tasks planned, {} now",
+            pp.display(),
+            plan.task_count,
+            sweep.tasks.len()
+        );
+        Ok(SweepDir {
+            dir: dir.to_path_buf(),
+            sweep,
+        })
+    }
+
+    pub fn plan(&self) -> anyhow::Result<PlanFile> {
+        let pp = self.dir.join("plan.json");
+        Ok(serde_json::from_str(&std::fs::read_to_string(&pp)?)?)
+    }
+
+    pub fn task_dir(&self, index: usize) -> PathBuf {
+        self.dir.join("tasks").join(format!("{index:05}"))
+    }
+
+    /// The task's record, if it has one that belongs to this task.
+    pub fn record(&self, index: usize) -> Option<TaskRecord> {
+        let p = self.task_dir(index).join(RECORD_FILE);
+        let r: TaskRecord = serde_json::from_str(&std::fs::read_to_string(p).ok()?).ok()?;
+        (r.id == self.sweep.tasks.get(index)?.id).then_some(r)
+    }
+
+    /// Done, with every recorded output present and unchanged.
+    pub fn is_done(&self, index: usize) -> bool {
+        let Some(r) = self.record(index) else {
+            return false;
+        };
+        let dir = self.task_dir(index);
+        r.status == Status::Done
+            && r.outputs
+                .iter()
+                .all(|(f, h)| sha256_file(&dir.join(f)).is_ok_and(|x| &x == h))
+    }
+
+    /// Runs `index` if it is not done.
+    pub fn run_task<E: Executor>(&self, exec: &E, index: usize) -> anyhow::Result<Outcome> {
+        ensure!(
+            index < self.sweep.tasks.len(),
+            "task {index} is outside 0..{}",
+            self.sweep.tasks.len()
+        );
+        if self.is_done(index) {
+            return Ok(self.skipped(index));
+        }
+        let task = &self.sweep.tasks[index];
+        let t0 = Instant::now();
+        let shared = exec.prepare(&self.sweep, task);
+        match shared {
+            Ok(s) => self.run_prepared(exec, index, Ok(&s), t0),
+            Err(e) => self.run_prepared::<E>(exec, index, Err(&format!("{e:#}")), t0),
+        }
+    }
+
+    fn skipped(&self, index: usize) -> Outcome {
+        Outcome {
+            index,
+            id: self.sweep.tasks[index].id.clone(),
+            result: None,
+            seconds: 0.0,
+        }
+    }
+
+    /// Runs the pending tasks of chunk `c`, preparing its shared work once.
+    /// `jobs` tasks run at once (None: all cores).
+    pub fn run_chunk<E: Executor>(
+        &self,
+        exec: &E,
+        c: usize,
+        jobs: Option<usize>,
+        on_task: &(dyn Fn(&Outcome) + Sync),
+    ) -> anyhow::Result<Vec<Outcome>> {
+        let members = self
+            .sweep
+            .chunks
+            .get(c)
+            .with_context(|| format!("chunk {c} is outside 0..{}", self.sweep.chunks.len()))?;
+        let mut outcomes = Vec::new();
+        let mut pending = Vec::new();
+        for &i in members {
+            if self.is_done(i) {
+                let o = self.skipped(i);
+                on_task(&o);
+                outcomes.push(o);
+            } else {
+                pending.push(i);
+            }
+        }
+        let Some(&first) = pending.first() else {
+            return Ok(outcomes);
+        };
+        let t0 = Instant::now();
+        let shared = exec
+            .prepare(&self.sweep, &self.sweep.tasks[first])
+            .map_err(|e| format!("{e:#}"));
+        let run_one = |i: usize| -> anyhow::Result<Outcome> {
+            let t = if i == first { t0 } else { Instant::now() };
+            let o = match &shared {
+                Ok(s) => self.run_prepared(exec, i, Ok(s), t)?,
+                Err(e) => self.run_prepared::<E>(exec, i, Err(e), t)?,
+            };
+            on_task(&o);
+            Ok(o)
+        };
+        let ran: Vec<anyhow::Result<Outcome>> = match jobs {
+            Some(1) => pending.iter().map(|&i| run_one(i)).collect(),
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .context("starting the task pool")?
+                .install(|| pending.par_iter().map(|&i| run_one(i)).collect()),
+            None => pending.par_iter().map(|&i| run_one(i)).collect(),
+        };
+        for r in ran {
+            outcomes.push(r?);
+        }
+        Ok(outcomes)
+    }
+
+    /// Every chunk in turn (each chunk's render uses all cores).
+    pub fn run_all<E: Executor>(
+        &self,
+        exec: &E,
+        jobs: Option<usize>,
+        on_task: &(dyn Fn(&Outcome) + Sync),
+    ) -> anyhow::Result<RunSummary> {
+        self.remove_stale_temporaries();
+        let mut s = RunSummary::default();
+        for c in 0..self.sweep.chunks.len() {
+            for o in self.run_chunk(exec, c, jobs, on_task)? {
+                match o.result {
+                    None => s.skipped += 1,
+                    Some(Ok(())) => s.ran += 1,
+                    Some(Err(e)) => {
+                        s.ran += 1;
+                        s.failed.push((o.index, e));
+                    }
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// Temporary task directories left by a killed run.
+    fn remove_stale_temporaries(&self) {
+        if let Ok(rd) = std::fs::read_dir(self.dir.join("tasks")) {
+            for e in rd.flatten() {
+                if e.file_name().to_string_lossy().starts_with(".tmp") {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
+            }
+        }
+    }
+
+    /// Runs one task with its chunk's shared work (or the error that
+    /// preparing it gave) and publishes its directory.
+    fn run_prepared<E: Executor>(
+        &self,
+        exec: &E,
+        index: usize,
+        shared: Result<&E::Shared, &str>,
+        t0: Instant,
+    ) -> anyhow::Result<Outcome> {
+        let task = &self.sweep.tasks[index];
+        let tasks_dir = self.dir.join("tasks");
+        std::fs::create_dir_all(&tasks_dir)
+            .with_context(|| format!("creating {}", tasks_dir.display()))?;
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".tmp-{index:05}-"))
+            .tempdir_in(&tasks_dir)
+            .with_context(|| {
+                format!("creating a temporary directory in {}", tasks_dir.display())
+            })?;
+        let result = match shared {
+            Ok(s) => exec
+                .run(&self.sweep, task, s, tmp.path())
+                .map_err(|e| format!("{e:#}")),
+            Err(e) => Err(e.to_string()),
+        };
+        let mut record = TaskRecord {
+            index,
+            id: task.id.clone(),
+            status: Status::Done,
+            axes: task.axes.iter().cloned().collect(),
+            seed: task.seed,
+            error: None,
+            figures: BTreeMap::new(),
+            outputs: BTreeMap::new(),
+            seconds: 0.0,
+            host: host(),
+            gloam_version: env!("CARGO_PKG_VERSION").into(),
+        };
+        match &result {
+            Ok(figs) => {
+                record.figures = figs
+                    .iter()
+                    .map(|(k, v)| (k.clone(), v.is_finite().then_some(*v)))
+                    .collect();
+                let mut files: Vec<PathBuf> = std::fs::read_dir(tmp.path())?
+                    .map(|e| e.map(|e| e.path()))
+                    .collect::<Result<_, _>>()?;
+                files.sort();
+                for f in files {
+                    ensure!(
+                        f.is_file(),
+                        "task outputs are files; {} is not",
+                        f.display()
+                    );
+                    let name = f
+                        .file_name()
+                        .unwrap_or_default()
+                        .to_string_lossy()
+                        .into_owned();
+                    record.outputs.insert(name, sha256_file(&f)?);
+                }
+            }
+            Err(e) => {
+                record.status = Status::Failed;
+                record.error = Some(e.clone());
+                // A failed task keeps no partial outputs.
+                for e in std::fs::read_dir(tmp.path())?.flatten() {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+        record.seconds = t0.elapsed().as_secs_f64();
+        std::fs::write(
+            tmp.path().join(RECORD_FILE),
+            serde_json::to_string_pretty(&record)?,
+        )?;
+        let dest = self.task_dir(index);
+        if dest.exists() {
+            std::fs::remove_dir_all(&dest)
+                .with_context(|| format!("replacing {}", dest.display()))?;
+        }
+        let kept = tmp.keep();
+        std::fs::rename(&kept, &dest)
+            .with_context(|| format!("renaming {} to {}", kept.display(), dest.display()))?;
+        Ok(Outcome {
+            index,
+            id: task.id.clone(),
+            result: Some(result.map(|_| ())),
+            seconds: record.seconds,
+        })
+    }
+
+    /// Task states from the records.
+    pub fn status(&self) -> TaskStates {
+        let mut s = TaskStates {
+            total: self.sweep.tasks.len(),
+            ..Default::default()
+        };
+        for t in &self.sweep.tasks {
+            match self.record(t.index) {
+                Some(r) if r.status == Status::Done && self.is_done(t.index) => s.done += 1,
+                Some(r) if r.status == Status::Failed => s.failed.push(FailedTask {
+                    index: t.index,
+                    id: t.id.clone(),
+                    axes: t.describe(),
+                    error: r.error.unwrap_or_default(),
+                }),
+                Some(_) => s.changed.push(t.index),
+                None => s.pending += 1,
+            }
+        }
+        s
+    }
+}
+
+/// What the records say.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct TaskStates {
+    pub total: usize,
+    pub done: usize,
+    pub pending: usize,
+    pub failed: Vec<FailedTask>,
+    /// Recorded done, but an output is missing or its hash changed.
+    pub changed: Vec<usize>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FailedTask {
+    pub index: usize,
+    pub id: String,
+    pub axes: String,
+    pub error: String,
+}
+
+/// Checks that no tasks are left to do.
+pub fn ensure_all_done(s: &TaskStates) -> anyhow::Result<()> {
+    if !s.failed.is_empty() {
+        let list: Vec<String> = s
+            .failed
+            .iter()
+            .map(|f| format!("  task {} ({}): {}", f.index, f.axes, f.error))
+            .collect();
+        bail!("{} task(s) failed:\n{}", s.failed.len(), list.join("\n"));
+    }
+    Ok(())
+}

@@ -1,0 +1,227 @@
+//! Slurm: the array-job script, submitting it, and asking Slurm about it.
+//!
+//! One array index per chunk (the tasks that share a render), each running
+//! `gloam sweep run DIR --chunk $SLURM_ARRAY_TASK_ID`; Slurm does the
+//! scheduling, gloam only keeps the records.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::{Context, bail, ensure};
+use serde::{Deserialize, Serialize};
+
+/// `sbatch` options from the command line.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct SlurmOptions {
+    pub partition: Option<String>,
+    /// Slurm's time format (`MM`, `HH:MM:SS`, `D-HH`…).
+    pub time: Option<String>,
+    pub cpus_per_task: Option<u32>,
+    /// At most this many array tasks at once (`--array=…%K`).
+    pub max_parallel: Option<u32>,
+}
+
+/// `DIR/slurm.json`: the submitted job.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Submission {
+    pub job_id: String,
+    pub script: String,
+    pub array_size: usize,
+    pub options: SlurmOptions,
+}
+
+pub const SCRIPT_FILE: &str = "sweep.sbatch";
+pub const SUBMISSION_FILE: &str = "slurm.json";
+
+/// Single-quoted for sh.
+fn sh_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+fn check_word(what: &str, v: &str) -> anyhow::Result<()> {
+    ensure!(
+        !v.is_empty()
+            && v.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_:.,+".contains(c)),
+        "{what} '{v}' has characters Slurm does not take there (letters, digits, - _ : . , + only)"
+    );
+    Ok(())
+}
+
+/// The array-job script for `chunks` array indices of the sweep in `dir`
+/// (absolute), run by the `gloam` binary at `exe`.
+pub fn script(dir: &Path, exe: &Path, chunks: usize, o: &SlurmOptions) -> anyhow::Result<String> {
+    ensure!(chunks >= 1, "the sweep has no tasks");
+    let dir_s = dir
+        .to_str()
+        .context("the sweep directory's path is not UTF-8")?;
+    let exe_s = exe
+        .to_str()
+        .context("the gloam binary's path is not UTF-8")?;
+    ensure!(
+        !dir_s.contains('\n') && !exe_s.contains('\n'),
+        "paths with newlines cannot go into an sbatch script"
+    );
+    let mut s = String::from("#!/bin/sh\n");
+    s.push_str("# Written by `gloam sweep --slurm`: one array index per chunk of tasks.\n");
+    s.push_str("#SBATCH --job-name=gloam-sweep\n");
+    let mut array = format!("0-{}", chunks - 1);
+    if let Some(k) = o.max_parallel {
+        ensure!(k >= 1, "--max-parallel must be at least 1");
+        array.push_str(&format!("%{k}"));
+    }
+    s.push_str(&format!("#SBATCH --array={array}\n"));
+    // #SBATCH lines are not shell: Slurm reads the path up to the line's end.
+    s.push_str(&format!("#SBATCH --output={dir_s}/slurm/%A_%a.out\n"));
+    if let Some(p) = &o.partition {
+        check_word("--partition", p)?;
+        s.push_str(&format!("#SBATCH --partition={p}\n"));
+    }
+    if let Some(t) = &o.time {
+        check_word("--time", t)?;
+        s.push_str(&format!("#SBATCH --time={t}\n"));
+    }
+    if let Some(c) = o.cpus_per_task {
+        ensure!(c >= 1, "--cpus-per-task must be at least 1");
+        s.push_str(&format!("#SBATCH --cpus-per-task={c}\n"));
+        s.push_str(&format!("export RAYON_NUM_THREADS={c}\n"));
+    }
+    s.push_str("set -eu\n");
+    s.push_str(&format!(
+        "exec {} sweep run {} --chunk \"$SLURM_ARRAY_TASK_ID\"\n",
+        sh_quote(exe_s),
+        sh_quote(dir_s)
+    ));
+    Ok(s)
+}
+
+/// Submits `script` with `sbatch --parsable`; returns the job id.
+pub fn submit(script: &Path) -> anyhow::Result<String> {
+    let out = Command::new("sbatch")
+        .arg("--parsable")
+        .arg(script)
+        .output()
+        .context(
+            "running sbatch (is Slurm installed and on PATH? --dry-run only writes the script)",
+        )?;
+    if !out.status.success() {
+        bail!(
+            "sbatch failed ({}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    // `JOBID` or `JOBID;CLUSTER`.
+    let id = text.trim().split(';').next().unwrap_or("").to_string();
+    ensure!(
+        !id.is_empty() && id.chars().all(|c| c.is_ascii_digit()),
+        "sbatch printed no job id: '{}'",
+        text.trim()
+    );
+    Ok(id)
+}
+
+/// What Slurm says about a job's array tasks.
+#[derive(Clone, Debug, Serialize)]
+pub struct JobStates {
+    pub job_id: String,
+    /// `sacct` or `squeue`, whichever answered.
+    pub source: String,
+    /// State → number of array tasks (squeue lists only tasks not yet finished).
+    pub states: BTreeMap<String, usize>,
+    /// Why neither answered, when so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+fn run(cmd: &str, args: &[&str]) -> Result<String, String> {
+    match Command::new(cmd).args(args).output() {
+        Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout).into_owned()),
+        Ok(o) => Err(format!(
+            "{cmd}: {}",
+            String::from_utf8_lossy(&o.stderr).trim()
+        )),
+        Err(e) => Err(format!("{cmd}: {e}")),
+    }
+}
+
+/// Array-task states from `sacct`, or from `squeue` when accounting is
+/// off (as on a minimal cluster).
+pub fn job_states(job_id: &str) -> JobStates {
+    let mut notes = Vec::new();
+    match run(
+        "sacct",
+        &["-j", job_id, "-X", "-n", "-P", "-o", "JobID,State"],
+    ) {
+        Ok(text) => {
+            let mut states = BTreeMap::new();
+            for line in text.lines() {
+                if let Some((_, st)) = line.split_once('|') {
+                    let st = st.split_whitespace().next().unwrap_or("").to_string();
+                    *states.entry(st).or_insert(0) += 1;
+                }
+            }
+            return JobStates {
+                job_id: job_id.into(),
+                source: "sacct".into(),
+                states,
+                note: None,
+            };
+        }
+        Err(e) => notes.push(e),
+    }
+    match run("squeue", &["-j", job_id, "-r", "-h", "-o", "%T"]) {
+        Ok(text) => {
+            let mut states = BTreeMap::new();
+            for line in text.lines().map(str::trim).filter(|l| !l.is_empty()) {
+                *states.entry(line.to_string()).or_insert(0) += 1;
+            }
+            JobStates {
+                job_id: job_id.into(),
+                source: "squeue".into(),
+                states,
+                note: Some(notes.join("; ")),
+            }
+        }
+        Err(e) => {
+            notes.push(e);
+            JobStates {
+                job_id: job_id.into(),
+                source: "none".into(),
+                states: BTreeMap::new(),
+                note: Some(notes.join("; ")),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn script_has_the_array_and_options() {
+        let o = SlurmOptions {
+            partition: Some("short".into()),
+            time: Some("00:10:00".into()),
+            cpus_per_task: Some(4),
+            max_parallel: Some(3),
+        };
+        let s = script(Path::new("/data/sw eep"), Path::new("/opt/gloam"), 12, &o).unwrap();
+        assert!(s.contains("#SBATCH --array=0-11%3\n"), "{s}");
+        assert!(s.contains("#SBATCH --partition=short\n"));
+        assert!(s.contains("#SBATCH --time=00:10:00\n"));
+        assert!(s.contains("#SBATCH --cpus-per-task=4\n"));
+        assert!(s.contains(
+            "exec '/opt/gloam' sweep run '/data/sw eep' --chunk \"$SLURM_ARRAY_TASK_ID\"\n"
+        ));
+        let bad = SlurmOptions {
+            partition: Some("a\n#SBATCH --x".into()),
+            ..Default::default()
+        };
+        assert!(script(Path::new("/d"), Path::new("/g"), 1, &bad).is_err());
+        assert!(script(Path::new("/d"), Path::new("/g"), 0, &o).is_err());
+    }
+}

@@ -1,0 +1,714 @@
+//! The sweep file: `[base]` values shared by every task and `[axes]` whose
+//! product is the task list (see `docs/sweep.md`).
+//!
+//! Every value is checked when the file is read, so a bad gain or an
+//! unknown setting fails before any task runs, with `file:line: field:`.
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use sha2::{Digest, Sha256};
+use toml::Spanned;
+
+use crate::tile::TileSpec;
+
+/// The most tasks one sweep may have (the product of the axes is checked
+/// against it before any list is built).
+pub const MAX_TASKS: usize = 100_000;
+
+/// Frames captured per camera task when the sweep does not say (two is the
+/// fewest that give a temporal-noise estimate).
+pub const DEFAULT_FRAMES: u32 = 2;
+
+/// Keys with a meaning of their own; any other undotted key must be a
+/// render setting (`--set` key), and a dotted key overrides the scene file.
+pub const OWN_KEYS: &[&str] = &[
+    "scene", "sensor", "flow", "seed", "gain", "frames", "agc", "noise", "tile", "size",
+];
+
+/// A sweep-file error, located.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecError {
+    #[error("reading {path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {field}: {message}")]
+    Invalid {
+        path: PathBuf,
+        line: usize,
+        field: String,
+        message: String,
+    },
+}
+
+/// What a task does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Flow {
+    /// Render the scene (radiance), and capture it when there is a sensor.
+    Render,
+    /// Capture frames of the sensor's default uniform stimulus (no scene).
+    Capture,
+}
+
+/// One axis: a key and its values (canonical strings, typed TOML values).
+#[derive(Clone, Debug)]
+pub struct Axis {
+    pub name: String,
+    pub values: Vec<toml::Value>,
+    pub line: usize,
+}
+
+/// One task: a point of the axes' product.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Task {
+    /// Position in the product (the last axis varies fastest).
+    pub index: usize,
+    /// Stable id: a hash of the task's axis values (not of its position, so
+    /// it survives reordering the axes).
+    pub id: String,
+    /// The axis values, in axis order, as canonical strings.
+    pub axes: Vec<(String, String)>,
+    /// Noise seed, derived from the id and the sweep's `seed`.
+    pub seed: u64,
+    /// Tasks with the same key share their expensive work (the render).
+    pub render_key: String,
+    /// Index of the chunk (tasks sharing a render) this task belongs to.
+    pub chunk: usize,
+    #[serde(skip)]
+    values: BTreeMap<String, toml::Value>,
+}
+
+/// A parsed sweep file and its task list.
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    /// The file (for messages).
+    pub path: PathBuf,
+    /// Relative scene and sensor paths are resolved against this.
+    pub base_dir: PathBuf,
+    pub axes: Vec<Axis>,
+    pub tasks: Vec<Task>,
+    /// Task indices per chunk, in order of first appearance.
+    pub chunks: Vec<Vec<usize>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Raw {
+    base: Option<BTreeMap<Spanned<String>, Spanned<toml::Value>>>,
+    axes: Option<BTreeMap<Spanned<String>, Spanned<toml::Value>>>,
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    let mut o = offset.min(text.len());
+    while !text.is_char_boundary(o) {
+        o -= 1;
+    }
+    text[..o].matches('\n').count() + 1
+}
+
+/// The canonical text of a scalar (what a `--set KEY=VALUE` would say).
+pub fn scalar_text(v: &toml::Value) -> Option<String> {
+    match v {
+        toml::Value::String(s) => Some(s.clone()),
+        toml::Value::Integer(i) => Some(i.to_string()),
+        toml::Value::Float(f) => Some(format!("{f}")),
+        toml::Value::Boolean(b) => Some(b.to_string()),
+        toml::Value::Datetime(d) => Some(d.to_string()),
+        _ => None,
+    }
+}
+
+fn sha_hex(bytes: &[u8]) -> String {
+    let d = Sha256::digest(bytes);
+    d.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+impl Sweep {
+    /// Reads and plans a sweep file; relative paths resolve against its directory.
+    pub fn load(path: &Path) -> Result<Sweep, SpecError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let base_dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf();
+        Self::parse(&text, path, &base_dir)
+    }
+
+    /// Parses sweep text; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path, base_dir: &Path) -> Result<Sweep, SpecError> {
+        let err = |span: Option<Range<usize>>, field: &str, message: String| SpecError::Invalid {
+            path: path.to_path_buf(),
+            line: span.map_or(1, |s| line_of(text, s.start)),
+            field: field.to_string(),
+            message,
+        };
+        let raw: Raw = toml::from_str(text).map_err(|e| {
+            let field = if e.message().contains("unknown field") {
+                "(top level)"
+            } else {
+                "(toml)"
+            };
+            err(e.span(), field, e.message().trim().to_string())
+        })?;
+        // File order, not alphabetical: the product's order follows the file.
+        let ordered = |m: Option<BTreeMap<Spanned<String>, Spanned<toml::Value>>>| {
+            let mut v: Vec<_> = m.unwrap_or_default().into_iter().collect();
+            v.sort_by_key(|(k, _)| k.span().start);
+            v
+        };
+        let mut base = BTreeMap::new();
+        for (k, v) in ordered(raw.base) {
+            let field = format!("base.{}", k.get_ref());
+            check_value(k.get_ref(), v.get_ref()).map_err(|m| err(Some(k.span()), &field, m))?;
+            base.insert(k.get_ref().clone(), v.into_inner());
+        }
+        let mut axes = Vec::new();
+        for (k, v) in ordered(raw.axes) {
+            let name = k.get_ref().clone();
+            let field = format!("axes.{name}");
+            let span = Some(k.span());
+            let values = axis_values(v.get_ref()).map_err(|m| err(span.clone(), &field, m))?;
+            for (i, val) in values.iter().enumerate() {
+                check_value(&name, val)
+                    .map_err(|m| err(span.clone(), &format!("{field}[{i}]"), m))?;
+            }
+            if base.contains_key(&name) {
+                return Err(err(
+                    span,
+                    &field,
+                    format!("'{name}' is both in [base] and an axis; keep one"),
+                ));
+            }
+            axes.push(Axis {
+                name,
+                values,
+                line: line_of(text, k.span().start),
+            });
+        }
+        // The product's size, checked before anything is built.
+        let mut count: usize = 1;
+        for a in &axes {
+            count = count
+                .checked_mul(a.values.len())
+                .filter(|&n| n <= MAX_TASKS)
+                .ok_or_else(|| {
+                    err(
+                        None,
+                        "axes",
+                        format!(
+                            "the axes' product exceeds {MAX_TASKS} tasks; split the sweep into several files"
+                        ),
+                    )
+                })?;
+        }
+        let mut tasks = Vec::with_capacity(count);
+        let mut keys: BTreeMap<String, usize> = BTreeMap::new();
+        let mut chunks: Vec<Vec<usize>> = Vec::new();
+        for index in 0..count {
+            // Mixed radix, last axis fastest.
+            let mut rem = index;
+            let mut picks = vec![0usize; axes.len()];
+            for (j, a) in axes.iter().enumerate().rev() {
+                picks[j] = rem % a.values.len();
+                rem /= a.values.len();
+            }
+            let mut values = base.clone();
+            let mut axis_text = Vec::with_capacity(axes.len());
+            for (a, &p) in axes.iter().zip(&picks) {
+                let v = a.values[p].clone();
+                axis_text.push((a.name.clone(), scalar_text(&v).unwrap_or_default()));
+                values.insert(a.name.clone(), v);
+            }
+            let mut sorted = axis_text.clone();
+            sorted.sort();
+            let id_src: String = sorted.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
+            let id = sha_hex(id_src.as_bytes())[..16].to_string();
+            let mut task = Task {
+                index,
+                id,
+                axes: axis_text,
+                seed: 0,
+                render_key: String::new(),
+                chunk: 0,
+                values,
+            };
+            let line = axes.first().map_or(1, |a| a.line);
+            task.check().map_err(|m| {
+                err(
+                    None,
+                    "axes",
+                    format!("task {index} ({}): {m}", task.describe()),
+                )
+                .relocated(line)
+            })?;
+            let user_seed = task.user_seed();
+            let seed_src = format!("gloam-sweep-seed\0{user_seed}\0{}", task.id);
+            let d = Sha256::digest(seed_src.as_bytes());
+            task.seed = u64::from_le_bytes(d[..8].try_into().expect("8 bytes"));
+            task.render_key = task.compute_render_key();
+            let next = chunks.len();
+            let c = *keys.entry(task.render_key.clone()).or_insert(next);
+            if c == next {
+                chunks.push(Vec::new());
+            }
+            chunks[c].push(index);
+            task.chunk = c;
+            tasks.push(task);
+        }
+        Ok(Sweep {
+            path: path.to_path_buf(),
+            base_dir: base_dir.to_path_buf(),
+            axes,
+            tasks,
+            chunks,
+        })
+    }
+
+    /// A path from the sweep file, resolved against its directory.
+    pub fn resolve(&self, p: &str) -> PathBuf {
+        let p = Path::new(p);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.base_dir.join(p)
+        }
+    }
+
+    /// The task's scene, with its dotted overrides applied.
+    pub fn load_scene(&self, task: &Task) -> anyhow::Result<gloam_scene::Scene> {
+        use anyhow::Context;
+        let rel = task
+            .text("scene")
+            .context("this task has no scene (set `scene` in [base] or [axes])")?;
+        let path = self.resolve(&rel);
+        let overrides = task.scene_overrides();
+        if overrides.is_empty() {
+            return Ok(gloam_scene::load(&path)?);
+        }
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("reading {}", path.display()))?;
+        let mut doc: toml::Table =
+            toml::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+        for (key, value) in &overrides {
+            set_dotted(&mut doc, key, value.clone())
+                .with_context(|| format!("{}: overriding {key}", path.display()))?;
+        }
+        let text = toml::to_string(&doc)?;
+        let desc: Vec<String> = overrides
+            .iter()
+            .map(|(k, v)| format!("{k} = {}", scalar_text(v).unwrap_or_default()))
+            .collect();
+        gloam_scene::parse_str(&text, &path)
+            .with_context(|| format!("with {} from the sweep", desc.join(", ")))
+    }
+
+    /// The task's sensor: a preset name, or a `.toml` path resolved against
+    /// the sweep file's directory.
+    pub fn sensor(&self, task: &Task) -> Option<String> {
+        let s = task.text("sensor")?;
+        Some(if s.ends_with(".toml") {
+            self.resolve(&s).display().to_string()
+        } else {
+            s
+        })
+    }
+}
+
+impl SpecError {
+    fn relocated(self, l: usize) -> SpecError {
+        match self {
+            SpecError::Invalid {
+                path,
+                field,
+                message,
+                ..
+            } => SpecError::Invalid {
+                path,
+                line: l,
+                field,
+                message,
+            },
+            e => e,
+        }
+    }
+}
+
+/// Sets `a.b.c = value` in a TOML document, creating tables on the way.
+fn set_dotted(doc: &mut toml::Table, key: &str, value: toml::Value) -> anyhow::Result<()> {
+    let parts: Vec<&str> = key.split('.').collect();
+    let (last, path) = parts.split_last().expect("split yields one part");
+    let mut t = doc;
+    for p in path {
+        let entry = t
+            .entry(p.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        t = match entry {
+            toml::Value::Table(t) => t,
+            _ => anyhow::bail!("'{p}' is not a table in the scene file"),
+        };
+    }
+    t.insert(last.to_string(), value);
+    Ok(())
+}
+
+/// An axis's values: a list of scalars, or `{ from, count[, step] }`.
+fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
+    match v {
+        toml::Value::Array(a) => {
+            if a.is_empty() {
+                return Err("an axis needs at least one value".into());
+            }
+            if a.len() > MAX_TASKS {
+                return Err(format!("more than {MAX_TASKS} values"));
+            }
+            for (i, x) in a.iter().enumerate() {
+                if scalar_text(x).is_none() {
+                    return Err(format!("value {i} is not a string, number or boolean"));
+                }
+            }
+            Ok(a.clone())
+        }
+        toml::Value::Table(t) => {
+            for k in t.keys() {
+                if !["from", "count", "step"].contains(&k.as_str()) {
+                    return Err(format!(
+                        "unknown key '{k}' in a range (expected from, count, step; a dotted scene key is quoted: \"camera.width\" = [...])"
+                    ));
+                }
+            }
+            let count = match t.get("count") {
+                Some(toml::Value::Integer(n)) if *n >= 1 && (*n as u64) <= MAX_TASKS as u64 => {
+                    *n as usize
+                }
+                Some(_) => return Err(format!("count must be an integer from 1 to {MAX_TASKS}")),
+                None => return Err("a range needs `from` and `count`".into()),
+            };
+            match (t.get("from"), t.get("step")) {
+                (Some(toml::Value::Integer(a)), None | Some(toml::Value::Integer(_))) => {
+                    let step = t.get("step").and_then(|s| s.as_integer()).unwrap_or(1);
+                    (0..count as i64)
+                        .map(|i| {
+                            i.checked_mul(step)
+                                .and_then(|d| a.checked_add(d))
+                                .map(toml::Value::Integer)
+                                .ok_or_else(|| "the range overflows a 64-bit integer".to_string())
+                        })
+                        .collect()
+                }
+                (Some(from), step) => {
+                    let a = from.as_float().or(from.as_integer().map(|i| i as f64));
+                    let s = match step {
+                        None => Some(1.0),
+                        Some(s) => s.as_float().or(s.as_integer().map(|i| i as f64)),
+                    };
+                    match (a, s) {
+                        (Some(a), Some(s)) if a.is_finite() && s.is_finite() => Ok((0..count)
+                            .map(|i| toml::Value::Float(a + i as f64 * s))
+                            .collect()),
+                        _ => Err("`from` and `step` must be numbers".into()),
+                    }
+                }
+                (None, _) => Err("a range needs `from` and `count`".into()),
+            }
+        }
+        _ => Err("an axis is a list of values or a range { from, count[, step] }".into()),
+    }
+}
+
+/// Checks one value of `key` (in [base] or an axis).
+fn check_value(key: &str, v: &toml::Value) -> Result<(), String> {
+    if v.is_table() {
+        return Err(format!(
+            "a table; a dotted scene key is quoted: \"{key}.…\" = value"
+        ));
+    }
+    let text = scalar_text(v).ok_or("expected a string, number or boolean")?;
+    match key {
+        "scene" | "sensor" => match v {
+            toml::Value::String(s) if !s.is_empty() => Ok(()),
+            _ => Err("expected a non-empty string".into()),
+        },
+        "flow" => match text.as_str() {
+            "render" | "capture" => Ok(()),
+            other => Err(format!(
+                "unknown flow '{other}' (this version runs: render, capture)"
+            )),
+        },
+        "seed" => match v {
+            toml::Value::Integer(i) if *i >= 0 => Ok(()),
+            _ => Err("expected a non-negative integer".into()),
+        },
+        "gain" => match v.as_float().or(v.as_integer().map(|i| i as f64)) {
+            Some(g) if g.is_finite() && g > 0.0 => Ok(()),
+            _ => Err("expected a positive number".into()),
+        },
+        "frames" => match v {
+            toml::Value::Integer(i) if (1..=10_000).contains(i) => Ok(()),
+            _ => Err("expected an integer from 1 to 10000".into()),
+        },
+        "agc" | "noise" => match v {
+            toml::Value::Boolean(_) => Ok(()),
+            _ => Err("expected true or false".into()),
+        },
+        "tile" => TileSpec::parse(&text).map(|_| ()),
+        "size" => parse_size(&text).map(|_| ()),
+        k if k.contains('.') => {
+            if k.split('.').any(str::is_empty) {
+                Err("a dotted key needs a name between the dots".into())
+            } else {
+                Ok(())
+            }
+        }
+        k => {
+            let mut s = gloam_trace::RenderSettings::default();
+            s.set(k, &text).map_err(|e| {
+                format!(
+                    "{e} (a sweep key is one of {}, a render setting or a dotted scene key)",
+                    OWN_KEYS.join(", ")
+                )
+            })
+        }
+    }
+}
+
+/// `WxH`, each from 1 to 16384.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not a size WxH (e.g. 64x48, each 1 to 16384)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+impl Task {
+    /// A value as text (the base's or this task's axis value).
+    pub fn text(&self, key: &str) -> Option<String> {
+        self.values.get(key).and_then(scalar_text)
+    }
+
+    /// `key=value` of the axis values, for messages.
+    pub fn describe(&self) -> String {
+        if self.axes.is_empty() {
+            return "the base".into();
+        }
+        self.axes
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+
+    pub fn flow(&self) -> Flow {
+        match self.text("flow").as_deref() {
+            Some("capture") => Flow::Capture,
+            Some(_) => Flow::Render,
+            None if self.values.contains_key("scene") => Flow::Render,
+            None => Flow::Capture,
+        }
+    }
+
+    /// The sweep's `seed` (default 0): the render's seed, and the root of
+    /// the task's noise seed.
+    pub fn user_seed(&self) -> u64 {
+        self.values
+            .get("seed")
+            .and_then(|v| v.as_integer())
+            .map_or(0, |i| i as u64)
+    }
+
+    pub fn gain(&self) -> Option<f64> {
+        let v = self.values.get("gain")?;
+        v.as_float().or(v.as_integer().map(|i| i as f64))
+    }
+
+    pub fn frames(&self) -> u32 {
+        self.values
+            .get("frames")
+            .and_then(|v| v.as_integer())
+            .map_or(DEFAULT_FRAMES, |i| i as u32)
+    }
+
+    pub fn agc(&self) -> bool {
+        self.values
+            .get("agc")
+            .and_then(|v| v.as_bool())
+            .unwrap_or(false)
+    }
+
+    pub fn noise(&self) -> bool {
+        self.values
+            .get("noise")
+            .and_then(|v| v.as_bool())
+            .unwrap_or(true)
+    }
+
+    pub fn tile(&self) -> Option<TileSpec> {
+        TileSpec::parse(&self.text("tile")?).ok()
+    }
+
+    pub fn size(&self) -> Option<(u32, u32)> {
+        parse_size(&self.text("size")?).ok()
+    }
+
+    /// Render settings `(key, value)` of this task (not `seed`).
+    pub fn setting_pairs(&self) -> Vec<(String, String)> {
+        self.values
+            .iter()
+            .filter(|(k, _)| !OWN_KEYS.contains(&k.as_str()) && !k.contains('.'))
+            .map(|(k, v)| (k.clone(), scalar_text(v).unwrap_or_default()))
+            .collect()
+    }
+
+    /// The task's render settings, its seed the sweep's `seed`.
+    pub fn render_settings(&self) -> anyhow::Result<gloam_trace::RenderSettings> {
+        let mut s = gloam_trace::RenderSettings::default();
+        for (k, v) in self.setting_pairs() {
+            s.set(&k, &v)?;
+        }
+        s.seed = self.user_seed();
+        Ok(s)
+    }
+
+    /// Dotted keys: values that override the scene file.
+    pub fn scene_overrides(&self) -> Vec<(String, toml::Value)> {
+        self.values
+            .iter()
+            .filter(|(k, _)| k.contains('.'))
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect()
+    }
+
+    /// Combinations the keys allow on their own but not together.
+    fn check(&self) -> Result<(), String> {
+        let has = |k: &str| self.values.contains_key(k);
+        match self.flow() {
+            Flow::Render => {
+                if !has("scene") {
+                    return Err("the render flow needs a scene".into());
+                }
+                if has("tile") && has("sensor") {
+                    return Err(
+                        "a tile renders radiance only; sweep tiles without a sensor and merge them"
+                            .into(),
+                    );
+                }
+                if has("size") {
+                    return Err(
+                        "`size` is for the capture flow; a render's size is `camera.width`/`camera.height`"
+                            .into(),
+                    );
+                }
+            }
+            Flow::Capture => {
+                if !has("sensor") {
+                    return Err("the capture flow needs a sensor".into());
+                }
+                if has("scene") || has("tile") || !self.scene_overrides().is_empty() {
+                    return Err("the capture flow takes no scene, tile or scene keys".into());
+                }
+                if !self.setting_pairs().is_empty() {
+                    return Err("the capture flow takes no render settings".into());
+                }
+            }
+        }
+        if has("gain") && has("agc") && self.agc() {
+            return Err("a fixed gain and agc = true exclude each other".into());
+        }
+        if !has("sensor") && (has("gain") || has("agc")) && self.flow() == Flow::Render {
+            return Err("gain and agc need a sensor".into());
+        }
+        Ok(())
+    }
+
+    /// Everything the shared work (a render) depends on; capture tasks
+    /// share nothing.
+    fn compute_render_key(&self) -> String {
+        if self.flow() == Flow::Capture {
+            return format!("task:{}", self.id);
+        }
+        let mut src = String::from("render\n");
+        for (k, v) in &self.values {
+            // Camera-only keys do not change the radiance.
+            if ["gain", "frames", "agc", "noise", "flow"].contains(&k.as_str()) {
+                continue;
+            }
+            src.push_str(&format!("{k}={}\n", scalar_text(v).unwrap_or_default()));
+        }
+        sha_hex(src.as_bytes())[..16].to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Sweep, SpecError> {
+        Sweep::parse(text, Path::new("t.toml"), Path::new("/base"))
+    }
+
+    const GRID: &str = r#"
+[base]
+scene = "s.toml"
+sensor = "gen3-gaas-iccd"
+[axes]
+gain = [20, 100, 500]
+spp = [1, 2]
+seed = { from = 7, count = 2 }
+"#;
+
+    #[test]
+    fn tasks_are_the_product_with_stable_ids_and_shared_renders() {
+        let s = parse(GRID).unwrap();
+        assert_eq!(s.tasks.len(), 3 * 2 * 2);
+        // The last axis varies fastest.
+        assert_eq!(s.tasks[1].axes[2], ("seed".to_string(), "8".to_string()));
+        assert_eq!(s.tasks[2].axes[1], ("spp".to_string(), "2".to_string()));
+        let ids: std::collections::BTreeSet<_> = s.tasks.iter().map(|t| &t.id).collect();
+        assert_eq!(ids.len(), 12);
+        let seeds: std::collections::BTreeSet<_> = s.tasks.iter().map(|t| t.seed).collect();
+        assert_eq!(seeds.len(), 12);
+        // Gains share a render: one chunk per (spp, seed).
+        assert_eq!(s.chunks.len(), 2 * 2);
+        assert!(s.chunks.iter().all(|c| c.len() == 3));
+        // Reordering the axes reorders the tasks but keeps each one's id and seed.
+        let swapped = GRID.replace(
+            "gain = [20, 100, 500]\nspp = [1, 2]",
+            "spp = [1, 2]\ngain = [20, 100, 500]",
+        );
+        let r = parse(&swapped).unwrap();
+        for t in &s.tasks {
+            let same = r.tasks.iter().find(|u| u.id == t.id).unwrap();
+            assert_eq!(same.seed, t.seed);
+            assert_eq!(same.render_key, t.render_key);
+        }
+        assert_ne!(r.tasks[2].id, s.tasks[2].id);
+    }
+
+    #[test]
+    fn mistakes_name_line_and_field() {
+        let e = parse("[base]\nscene = \"s.toml\"\n[axes]\n\nspp = [1, -2]\n").unwrap_err();
+        assert!(e.to_string().starts_with("t.toml:5: axes.spp[1]:"), "{e}");
+        let e = parse("[base]\nscene = \"s.toml\"\ncamera.width = 3\n").unwrap_err();
+        assert!(e.to_string().contains("quoted"), "{e}");
+        let e = parse("[axes]\nseed = { from = 0, count = 1000 }\nspp = { from = 1, count = 1000 }\n[base]\nscene = \"s\"\n").unwrap_err();
+        assert!(e.to_string().contains("exceeds 100000"), "{e}");
+        let e = parse("[base]\nsensor = \"x\"\nspp = 2\n").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("capture flow takes no render settings"),
+            "{e}"
+        );
+    }
+}

@@ -1,0 +1,289 @@
+//! Tiled renders: tile K of N is a horizontal band of rows, and [`merge`]
+//! stacks the bands back into the whole image.
+//!
+//! Bands rather than a grid because a band is contiguous in every output
+//! array (band × row × column), so merging is a concatenation, and the
+//! tracer's per-pixel random streams are keyed by the pixel's index in the
+//! whole image, so each pixel of a band is bit-identical to the untiled one.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail, ensure};
+use ndarray::{Array2, Array3, Axis};
+use serde::{Deserialize, Serialize};
+
+/// The most tiles a render may be cut into.
+pub const MAX_TILES: u32 = 4096;
+
+/// The file a tile render writes beside its images.
+pub const TILE_FILE: &str = "tile.json";
+
+/// Tile `k` of `n` (1-based).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TileSpec {
+    pub k: u32,
+    pub n: u32,
+}
+
+impl TileSpec {
+    /// `K/N` with 1 ≤ K ≤ N ≤ [`MAX_TILES`].
+    pub fn parse(s: &str) -> Result<TileSpec, String> {
+        let bad = || format!("'{s}' is not a tile K/N with 1 <= K <= N <= {MAX_TILES} (e.g. 2/4)");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let k: u32 = k.trim().parse().map_err(|_| bad())?;
+        let n: u32 = n.trim().parse().map_err(|_| bad())?;
+        if k == 0 || n == 0 || k > n || n > MAX_TILES {
+            return Err(bad());
+        }
+        Ok(TileSpec { k, n })
+    }
+
+    /// Rows `⌊(K−1)H/N⌋ .. ⌊KH/N⌋` of an image `height` rows tall.
+    pub fn rows(&self, height: u32) -> Result<Range<u32>, String> {
+        if self.n > height {
+            return Err(format!(
+                "{} tiles of an image {height} rows tall would leave some empty",
+                self.n
+            ));
+        }
+        let at = |k: u32| (k as u64 * height as u64 / self.n as u64) as u32;
+        Ok(at(self.k - 1)..at(self.k))
+    }
+}
+
+impl std::fmt::Display for TileSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.k, self.n)
+    }
+}
+
+/// What `tile.json` records: where the tile sits and what it was rendered
+/// with, so [`merge`] can refuse tiles of different renders.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct TileInfo {
+    pub format: String,
+    pub tile: u32,
+    pub of: u32,
+    /// First row and one past the last, in the whole image.
+    pub rows: [u32; 2],
+    pub width: u32,
+    pub height: u32,
+    pub band_names: Vec<String>,
+    /// The scene file as given.
+    pub scene: String,
+    /// The render settings (must agree between tiles).
+    pub settings: serde_json::Value,
+}
+
+pub const TILE_FORMAT: &str = "gloam-tile/1";
+
+/// The arrays of a merged (or single) render.
+pub struct Merged {
+    pub radiance: Array3<f64>,
+    pub std_error: Array3<f64>,
+    pub spp: Array2<u32>,
+    pub info: TileInfo,
+    /// The tile directories in tile order.
+    pub tiles: Vec<PathBuf>,
+}
+
+fn read_info(dir: &Path) -> anyhow::Result<TileInfo> {
+    let p = dir.join(TILE_FILE);
+    let text = std::fs::read_to_string(&p).with_context(|| {
+        format!(
+            "reading {} (is {} a `gloam render --tile` output?)",
+            p.display(),
+            dir.display()
+        )
+    })?;
+    let info: TileInfo =
+        serde_json::from_str(&text).with_context(|| format!("reading {}", p.display()))?;
+    ensure!(
+        info.format == TILE_FORMAT,
+        "{}: format '{}', expected '{TILE_FORMAT}'",
+        p.display(),
+        info.format
+    );
+    let want = TileSpec {
+        k: info.tile,
+        n: info.of,
+    }
+    .rows(info.height)
+    .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+    ensure!(
+        TileSpec::parse(&format!("{}/{}", info.tile, info.of)).is_ok()
+            && info.rows == [want.start, want.end],
+        "{}: rows {:?} are not tile {}/{} of {} rows",
+        p.display(),
+        info.rows,
+        info.tile,
+        info.of,
+        info.height
+    );
+    Ok(info)
+}
+
+/// Reads an `.npy` whose shape must be `shape`, refusing a file larger
+/// than that shape needs (no allocation from an untrusted header).
+fn read_npy_checked<A>(path: &Path, shape: &[usize], elem: usize) -> anyhow::Result<A>
+where
+    A: ndarray_npy::ReadNpyExt + HasShape,
+{
+    let need = shape.iter().product::<usize>().saturating_mul(elem);
+    let len = std::fs::metadata(path)
+        .with_context(|| format!("reading {}", path.display()))?
+        .len();
+    ensure!(
+        len <= need as u64 + 65_536,
+        "{}: {len} bytes, more than a {:?} array needs",
+        path.display(),
+        shape
+    );
+    let f = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let a = A::read_npy(std::io::BufReader::new(f))
+        .with_context(|| format!("reading {}", path.display()))?;
+    ensure!(
+        a.dims() == shape,
+        "{}: shape {:?}, expected {:?}",
+        path.display(),
+        a.dims(),
+        shape
+    );
+    Ok(a)
+}
+
+/// The shape of an array read from `.npy`.
+pub trait HasShape {
+    fn dims(&self) -> Vec<usize>;
+}
+impl HasShape for Array3<f64> {
+    fn dims(&self) -> Vec<usize> {
+        self.shape().to_vec()
+    }
+}
+impl HasShape for Array2<u32> {
+    fn dims(&self) -> Vec<usize> {
+        self.shape().to_vec()
+    }
+}
+
+/// Stacks the tiles in `dirs` (any order, every tile of one render exactly
+/// once) into the whole image.
+pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
+    ensure!(!dirs.is_empty(), "no tile directories given");
+    let mut tiles: Vec<(TileInfo, PathBuf)> = Vec::with_capacity(dirs.len());
+    for d in dirs {
+        tiles.push((read_info(d)?, d.clone()));
+    }
+    let first = tiles[0].0.clone();
+    let same = |a: &TileInfo| {
+        a.of == first.of
+            && a.width == first.width
+            && a.height == first.height
+            && a.band_names == first.band_names
+            && a.settings == first.settings
+            && a.scene == first.scene
+    };
+    for (t, d) in &tiles {
+        ensure!(
+            same(t),
+            "{} is a tile of another render than {} (scene, size, bands, settings or tile count differ)",
+            d.display(),
+            tiles[0].1.display()
+        );
+    }
+    tiles.sort_by_key(|(t, _)| t.tile);
+    for w in tiles.windows(2) {
+        if w[0].0.tile == w[1].0.tile {
+            bail!(
+                "tile {}/{} given twice: {} and {}",
+                w[0].0.tile,
+                first.of,
+                w[0].1.display(),
+                w[1].1.display()
+            );
+        }
+    }
+    if tiles.len() != first.of as usize {
+        let have: Vec<u32> = tiles.iter().map(|(t, _)| t.tile).collect();
+        let missing: Vec<String> = (1..=first.of)
+            .filter(|k| !have.contains(k))
+            .map(|k| format!("{k}/{}", first.of))
+            .collect();
+        bail!("missing tiles: {}", missing.join(", "));
+    }
+    let nb = first.band_names.len();
+    let (w, h) = (first.width as usize, first.height as usize);
+    let mut parts_r = Vec::new();
+    let mut parts_e = Vec::new();
+    let mut parts_s = Vec::new();
+    for (t, d) in &tiles {
+        let rows = (t.rows[1] - t.rows[0]) as usize;
+        parts_r.push(read_npy_checked::<Array3<f64>>(
+            &d.join("radiance.npy"),
+            &[nb, rows, w],
+            8,
+        )?);
+        parts_e.push(read_npy_checked::<Array3<f64>>(
+            &d.join("stderr.npy"),
+            &[nb, rows, w],
+            8,
+        )?);
+        parts_s.push(read_npy_checked::<Array2<u32>>(
+            &d.join("spp.npy"),
+            &[rows, w],
+            4,
+        )?);
+    }
+    let cat3 = |parts: &[Array3<f64>]| {
+        let views: Vec<_> = parts.iter().map(|a| a.view()).collect();
+        ndarray::concatenate(Axis(1), &views)
+    };
+    let radiance = cat3(&parts_r)?;
+    let std_error = cat3(&parts_e)?;
+    let views: Vec<_> = parts_s.iter().map(|a| a.view()).collect();
+    let spp = ndarray::concatenate(Axis(0), &views)?;
+    ensure!(radiance.dim() == (nb, h, w), "merged shape mismatch");
+    let mut info = first;
+    info.tile = 1;
+    info.of = 1;
+    info.rows = [0, h as u32];
+    Ok(Merged {
+        radiance,
+        std_error,
+        spp,
+        info,
+        tiles: tiles.into_iter().map(|(_, d)| d).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bands_cover_every_row_once() {
+        for h in [1u32, 2, 7, 48, 577] {
+            for n in 1..=h.min(9) {
+                let mut next = 0;
+                for k in 1..=n {
+                    let r = TileSpec { k, n }.rows(h).unwrap();
+                    assert_eq!(r.start, next);
+                    assert!(r.end > r.start);
+                    next = r.end;
+                }
+                assert_eq!(next, h);
+            }
+        }
+        assert!(TileSpec { k: 1, n: 5 }.rows(4).is_err());
+    }
+
+    #[test]
+    fn tile_specs_parse_or_explain() {
+        assert_eq!(TileSpec::parse("2/4"), Ok(TileSpec { k: 2, n: 4 }));
+        for bad in ["0/4", "5/4", "4", "a/b", "1/0", "1/99999"] {
+            assert!(TileSpec::parse(bad).unwrap_err().contains("K/N"), "{bad}");
+        }
+    }
+}
