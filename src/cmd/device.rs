@@ -83,6 +83,51 @@ fn parse_size_arg(s: &str) -> Result<(u32, u32), String> {
     parse_size(s).ok_or_else(|| format!("'{s}' is not WxH with 1..4096 each"))
 }
 
+/// What a device serves, from `--scene` or `--rig`: the source, a label
+/// for messages, its frame size, and whether it came from a scene (a
+/// rendered scene has a fixed size; a rig can be resized).
+pub(super) struct DeviceSource {
+    pub source: SensorSource,
+    pub view: String,
+    pub size: (u32, u32),
+    pub from_scene: bool,
+}
+
+/// The source both `--pty` and `--gige` serve.
+pub(super) fn device_source(args: &DeviceArgs) -> anyhow::Result<DeviceSource> {
+    Ok(match &args.scene {
+        Some(path) => {
+            eprintln!("gloam device: rendering {path} …");
+            let scene = gloam_pipeline::render_scene_view(path, &args.sensor, args.size)
+                .with_context(|| format!("rendering scene '{path}'"))?;
+            let size = scene.size();
+            let source = SensorSource::with_scene(&args.sensor, scene, args.seed)
+                .with_context(|| format!("sensor '{}'", args.sensor))?;
+            DeviceSource {
+                source,
+                view: format!("scene '{path}'"),
+                size,
+                from_scene: true,
+            }
+        }
+        None => {
+            let rig = args
+                .rig
+                .as_deref()
+                .unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
+            let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
+            let source = SensorSource::new(&args.sensor, rig, args.seed, size)
+                .with_context(|| format!("sensor '{}'", args.sensor))?;
+            DeviceSource {
+                source,
+                view: format!("rig '{rig}'"),
+                size,
+                from_scene: false,
+            }
+        }
+    })
+}
+
 fn probability(s: &str) -> Result<f64, String> {
     let p: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
     if (0.0..=1.0).contains(&p) {
@@ -102,27 +147,12 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
     if args.baud == 0 {
         bail!("--baud must be positive");
     }
-    let (mut source, view, size) = match &args.scene {
-        Some(path) => {
-            eprintln!("gloam device: rendering {path} …");
-            let scene = gloam_pipeline::render_scene_view(path, &args.sensor, args.size)
-                .with_context(|| format!("rendering scene '{path}'"))?;
-            let size = scene.size();
-            let source = SensorSource::with_scene(&args.sensor, scene, args.seed)
-                .with_context(|| format!("sensor '{}'", args.sensor))?;
-            (source, format!("scene '{path}'"), size)
-        }
-        None => {
-            let rig = args
-                .rig
-                .as_deref()
-                .unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
-            let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
-            let source = SensorSource::new(&args.sensor, rig, args.seed, size)
-                .with_context(|| format!("sensor '{}'", args.sensor))?;
-            (source, format!("rig '{rig}'"), size)
-        }
-    };
+    let DeviceSource {
+        mut source,
+        view,
+        size,
+        ..
+    } = device_source(&args)?;
     let pty = PtyDevice::open().context("opening a pseudo-terminal")?;
     let path = pty.slave_path().to_string();
     {

@@ -10,8 +10,7 @@ use anyhow::{Context, bail};
 
 use gloam_gige::gvcp::GVCP_PORT;
 use gloam_gige::{Device, GigeServer, Identity, ServerConfig, StreamFaults};
-use gloam_grabber::sim::DEFAULT_RIG_SIZE;
-use gloam_grabber::{FrameSource, SensorSource};
+use gloam_grabber::FrameSource;
 
 use super::device::DeviceArgs;
 
@@ -30,26 +29,13 @@ pub fn run(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
     let bind = parse_addr(addr)?;
     let cfg = gloam_sensor::SensorConfig::load_preset_or_file(&args.sensor)
         .with_context(|| format!("sensor '{}'", args.sensor))?;
-    let (source, view, resizable) = match &args.scene {
-        Some(path) => {
-            eprintln!("gloam device: rendering {path} …");
-            let scene = gloam_pipeline::render_scene_view(path, &args.sensor, args.size)
-                .with_context(|| format!("rendering scene '{path}'"))?;
-            let source = SensorSource::with_scene(&args.sensor, scene, args.seed)
-                .with_context(|| format!("sensor '{}'", args.sensor))?;
-            (source, format!("scene '{path}'"), false)
-        }
-        None => {
-            let rig = args
-                .rig
-                .as_deref()
-                .unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
-            let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
-            let source = SensorSource::new(&args.sensor, rig, args.seed, size)
-                .with_context(|| format!("sensor '{}'", args.sensor))?;
-            (source, format!("rig '{rig}'"), true)
-        }
-    };
+    let super::device::DeviceSource {
+        source,
+        view,
+        from_scene,
+        ..
+    } = super::device::device_source(args)?;
+    let resizable = !from_scene;
     let info = source.info();
     if info.max_width > 65_535 || info.max_height > 65_535 {
         bail!("frame too large for GigE Vision");

@@ -28,9 +28,8 @@ pub const MIN_STEP_NM: f64 = 1e-3;
 /// Most wavelength samples a render takes (the span over the step).
 pub const MAX_WAVELENGTHS: f64 = 1e6;
 
-/// Samples of the scene's spectral span at `step_nm` (before the band
-/// edges are added), as a float so an absurd span cannot overflow.
-pub fn wavelength_count(scene: &Scene, step_nm: f64) -> f64 {
+/// The lowest and highest band edge of the scene, nm (∞, −∞ without bands).
+fn band_span_nm(scene: &Scene) -> (f64, f64) {
     let lo = scene
         .bands
         .iter()
@@ -41,6 +40,13 @@ pub fn wavelength_count(scene: &Scene, step_nm: f64) -> f64 {
         .iter()
         .map(|b| b.hi_nm)
         .fold(f64::NEG_INFINITY, f64::max);
+    (lo, hi)
+}
+
+/// Samples of the scene's spectral span at `step_nm` (before the band
+/// edges are added), as a float so an absurd span cannot overflow.
+pub fn wavelength_count(scene: &Scene, step_nm: f64) -> f64 {
+    let (lo, hi) = band_span_nm(scene);
     if lo < hi {
         ((hi - lo) / step_nm.max(MIN_STEP_NM)).ceil() + 1.0
     } else {
@@ -66,16 +72,7 @@ impl Wavelengths {
     pub fn for_scene(scene: &Scene, step_nm: f64) -> Self {
         // (Settings refuse steps below MIN_STEP_NM; the clamp is for
         // settings built in code.)
-        let lo = scene
-            .bands
-            .iter()
-            .map(|b| b.lo_nm)
-            .fold(f64::INFINITY, f64::min);
-        let hi = scene
-            .bands
-            .iter()
-            .map(|b| b.hi_nm)
-            .fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = band_span_nm(scene);
         let mut grid = Vec::new();
         if lo < hi {
             let step = step_nm.max(MIN_STEP_NM);
