@@ -386,6 +386,297 @@ const CASES: &[Case] = &[
         ["spectra", "integrate", "cie-a", "--band", "a:b"],
         ["band"]
     ),
+    // --- more cases (scene fields, settings, tiles, sweeps, grabbers)
+    case!("scene: empty file", ["s.toml" => ""], ["plan", "s.toml"], ["s.toml"]),
+    case!("scene: duplicate key", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 76.0\nfov_deg = 60.0}\n"], ["plan", "s.toml"], ["s.toml", ":8", "duplicate key"]),
+    case!("scene: fov negative", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = -10.0}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov NaN", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = nan}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov a string", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = \"wide\"}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: height 0", ["s.toml" => "{patch:height = 24=>height = 0}\n"], ["plan", "s.toml"], ["s.toml", "height"]),
+    case!("scene: position with a string", ["s.toml" => "{patch:position = [0.0, -10.0, 6.0]=>position = [0.0, \"x\", 6.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.position"]),
+    case!("scene: position infinite", ["s.toml" => "{patch:position = [0.0, -10.0, 6.0]=>position = [0.0, inf, 6.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.position"]),
+    case!("scene: missing camera", ["s.toml" => "{patch:[camera]=>[camera_]}\n"], ["plan", "s.toml"], ["s.toml"]),
+    case!("scene: band hi equals lo", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = 400}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band NaN", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = nan}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: reflectance NaN", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = nan}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor.reflectance"]),
+    case!("scene: specular fraction 1.5", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\nspecular_fraction = 1.5}\n"], ["plan", "s.toml"], ["s.toml", "specular_fraction"]),
+    case!("scene: specular fraction negative", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\nspecular_fraction = -0.1}\n"], ["plan", "s.toml"], ["s.toml", "specular_fraction"]),
+    case!("scene: reflectance plus transmission above 1", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\ntransmission = 0.5}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor"]),
+    case!("scene: transmission negative", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.1\ntransmission = -0.5}\n"], ["plan", "s.toml"], ["s.toml", "transmission"]),
+    case!("scene: unknown material key", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\ncolour = 1}\n"], ["plan", "s.toml"], ["s.toml", "colour"]),
+    case!("scene: shape exponent negative", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = -2}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: shape exponent NaN", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = nan}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: emission line at a negative wavelength", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[-546.0, 0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: emission line with a negative value", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546.0, -0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: emission line with one number", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546.0]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: emission normalize band reversed", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, normalize = { lo_nm = 700, hi_nm = 400, value = 1.0 }, shape}\n"], ["plan", "s.toml"], ["s.toml", "normalize"]),
+    case!("scene: quad size negative", ["s.toml" => "{patch:size = [40.0, 40.0]=>size = [40.0, -40.0]}\n"], ["plan", "s.toml"], ["s.toml", "size"]),
+    case!("scene: quad size with one number", ["s.toml" => "{patch:size = [40.0, 40.0]=>size = [40.0]}\n"], ["plan", "s.toml"], ["s.toml", "size"]),
+    case!("scene: width axis along the normal", ["s.toml" => "{patch:width_axis = [1.0, 0.0, 0.0]=>width_axis = [0.0, 0.0, 1.0]}\n"], ["plan", "s.toml"], ["s.toml", "width_axis"]),
+    case!("scene: object with two shapes", ["s.toml" => "{base}\n[objects.two]\nmaterial = \"floor\"\nbox = { min = [0, 0, 0], max = [1, 1, 1] }\nquad = { center = [0.0, 0.0, 1.0], size = [1.0, 1.0], normal = [0.0, 0.0, 1.0] }\n"], ["plan", "s.toml"], ["s.toml", "objects.two"]),
+    case!("scene: object with no shape", ["s.toml" => "{base}\n[objects.ghost]\nmaterial = \"floor\"\n"], ["plan", "s.toml"], ["s.toml", "objects.ghost"]),
+    case!("scene: object without material", ["s.toml" => "{base}\n[objects.ghost]\nquad = { center = [0.0, 0.0, 1.0], size = [1.0, 1.0], normal = [0.0, 0.0, 1.0] }\n"], ["plan", "s.toml"], ["s.toml", "objects.ghost"]),
+    case!("scene: box min above max", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [1, 1, 1], max = [0, 0, 0] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b"]),
+    case!("scene: box of zero thickness", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0, 0, 1], max = [1, 1, 1] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b"]),
+    case!("scene: inline face index out of range", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0, 0, 1], [1, 0, 1], [1, 1, 1]]\nfaces = [[0, 1, 7]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m"]),
+    case!("scene: inline face of two vertices", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0, 0, 1], [1, 0, 1], [1, 1, 1]]\nfaces = [[0, 1]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m"]),
+    case!("scene: inline face index negative", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0, 0, 1], [1, 0, 1], [1, 1, 1]]\nfaces = [[0, 1, -1]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m"]),
+    case!("scene: inline collinear face", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0, 0, 1], [1, 0, 1], [2, 0, 1]]\nfaces = [[0, 1, 2]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m"]),
+    case!("scene: point source at NaN", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, nan, 3.0]\nvalue = 1.0\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source direction zero", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 3.0]\ndirection = [0.0, 0.0, 0.0]\nshape_exponent = 2\nvalue = 1.0\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source negative value", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 3.0]\nvalue = -1.0\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source unknown spectrum", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 3.0]\nspectrum = \"nosuch-lamp\"\n"], ["plan", "s.toml"], ["s.toml", "nosuch-lamp"]),
+    case!("scene: sky latitude 95", ["s.toml" => "{base}\n[sky]\nutc = \"2025-10-07T05:00:00Z\"\nlatitude_deg = 95.0\nlongitude_deg = 0.0\n"], ["plan", "s.toml"], ["s.toml", "latitude"]),
+    case!("scene: sky time not a date", ["s.toml" => "{base}\n[sky]\nutc = \"tonight\"\nlatitude_deg = 43.0\nlongitude_deg = 0.0\n"], ["plan", "s.toml"], ["s.toml", "utc"]),
+    case!("scene: sky on February 30th", ["s.toml" => "{base}\n[sky]\nutc = \"2025-02-30T05:00:00Z\"\nlatitude_deg = 43.0\nlongitude_deg = 0.0\n"], ["plan", "s.toml"], ["s.toml", "utc"]),
+    case!("scene: sky visibility 0", ["s.toml" => "{base}\n[sky]\nutc = \"2025-10-07T05:00:00Z\"\nlatitude_deg = 43.0\nlongitude_deg = 0.0\nvisibility_km = 0.0\n"], ["plan", "s.toml"], ["s.toml", "visibility"]),
+    case!("scene: sky unknown key", ["s.toml" => "{base}\n[sky]\nutc = \"2025-10-07T05:00:00Z\"\nlatitude_deg = 43.0\nlongitude_deg = 0.0\nsun = true\n"], ["plan", "s.toml"], ["s.toml", "sun"]),
+    case!("render: scene names an unknown sensor", ["s.toml" => "{patch:units = \"ft\"=>units = \"ft\"\nsensor = \"gen9\"}\n"], ["render", "s.toml", "--out", "o"], ["gen9"]),
+    case!("scene: CSV line row without a value", ["l.csv" => "400,0.5\n700,0.5\nline,546.07\n", "s.toml" => "{patch:value = 1.0, shape=>spectrum = \"l.csv\", shape}\n"], ["plan", "s.toml"], ["l.csv", ":3"]),
+    case!("scene: CSV duplicate wavelength", ["d.csv" => "400,0.5\n400,0.6\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"d.csv\"}\n"], ["plan", "s.toml"], ["d.csv", ":2"]),
+    case!("scene: CSV negative wavelength", ["d.csv" => "-400,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"d.csv\"}\n"], ["plan", "s.toml"], ["d.csv", ":1"]),
+    case!("scene: CSV three columns", ["d.csv" => "400,0.5,1\n700,0.5,1\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"d.csv\"}\n"], ["plan", "s.toml"], ["d.csv", ":1"]),
+    case!("render: --set recursion=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "recursion=0"], ["recursion"]),
+    case!("render: --set area_samples=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "area_samples=0"], ["area_samples"]),
+    case!("render: --set sky_samples=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "sky_samples=0"], ["sky_samples"]),
+    case!("render: --set tolerance=1", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "tolerance=1"], ["tolerance"]),
+    case!("render: --set tolerance=-0.1", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "tolerance=-0.1"], ["tolerance"]),
+    case!("render: --set cache_texels=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "cache_texels=0"], ["cache_texels"]),
+    case!("render: --set max_spp=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "max_spp=0"], ["max_spp"]),
+    case!("render: --set drop=sun", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "drop=sun"], ["drop"]),
+    case!("render: --set all_effects=maybe", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "all_effects=maybe"], ["all_effects"]),
+    case!("render: --set occlusion=xyz", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "occlusion=xyz"], ["occlusion"]),
+    case!("render: --set indirect=photon-map", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "indirect=photon-map"], ["indirect"]),
+    case!("render: --set seed=-1", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "seed=-1"], ["seed"]),
+    case!("render: --set resolution_scale=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "resolution_scale=0"], ["resolution_scale"]),
+    case!("render: --set resolution_scale=nan", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "resolution_scale=nan"], ["resolution_scale"]),
+    case!("render: --set gather_rays=1000000000", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "gather_rays=1000000000"], ["gather_rays"]),
+    case!("render: --set cache_tolerance=1", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "cache_tolerance=1"], ["cache_tolerance"]),
+    case!("render: tile 0 of 2", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--tile", "0/2"], ["tile"]),
+    case!("render: tile 3 of 2", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--tile", "3/2"], ["tile"]),
+    case!("render: tile not a fraction", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--tile", "a/b"], ["tile"]),
+    case!("render: more tiles than rows", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--tile", "1/100000"], ["tile"]),
+    case!("render: exposure mode unknown", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--exposure", "manual"], ["exposure"]),
+    case!("render: exposure auto with a gain", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--exposure", "auto", "--gain", "20"], ["gain"]),
+    case!("render: tolerance 2", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--tolerance", "2"], ["tolerance"]),
+    case!("plan: tolerance negative", ["s.toml" => "{base}"], ["plan", "s.toml", "--tolerance", "-1"], ["tolerance"]),
+    case!("probe: unknown band", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,0", "--normal", "0,0,1", "--band", "nir"], ["nir"]),
+    case!("probe: pixel outside the image", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "500,500"], ["pixel"]),
+    case!("probe: samples 0", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,0", "--normal", "0,0,1", "--samples", "0"], ["samples"]),
+    case!("probe: point NaN", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,nan,0", "--normal", "0,0,1"], ["point"]),
+    case!(
+        "spectra: unknown weight",
+        [],
+        [
+            "spectra",
+            "integrate",
+            "cie-a",
+            "--band",
+            "400:700",
+            "--weight",
+            "nosuch"
+        ],
+        ["nosuch"]
+    ),
+    case!(
+        "spectra: band with one number",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "400"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band NaN",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "nan:700"],
+        ["band"]
+    ),
+    case!(
+        "ephem: longitude 400",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "400",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lon"]
+    ),
+    case!(
+        "ephem: window reversed",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--from",
+            "2025-11-01",
+            "--to",
+            "2025-10-01",
+            "--find",
+            "full"
+        ],
+        ["from"]
+    ),
+    case!(
+        "ephem: min hours negative",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--from",
+            "2025-10-01",
+            "--to",
+            "2025-11-01",
+            "--find",
+            "full",
+            "--min-hours",
+            "-1"
+        ],
+        ["hours"]
+    ),
+    case!(
+        "sky: visibility 0",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T05:00:00Z",
+            "--visibility-km",
+            "0"
+        ],
+        ["visibility"]
+    ),
+    case!(
+        "sweep: missing file",
+        [],
+        ["sweep", "none.toml", "--out", "o"],
+        ["none.toml"]
+    ),
+    case!("sweep: unknown axis", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ncolour = [1, 2]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "colour"]),
+    case!("sweep: empty axis", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = []\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
+    case!("sweep: seed count 0", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\nseed = { from = 0, count = 0 }\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "seed"]),
+    case!("sweep: unknown flow", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\nflow = \"dance\"\n[axes]\ngain = [20]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "dance"]),
+    case!("sweep: TOML syntax", ["w.toml" => "[base\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml"]),
+    case!(
+        "merge: missing tile directory",
+        [],
+        ["merge", "--out", "o", "t1", "t2"],
+        ["t1"]
+    ),
+    case!(
+        "sweep status: not a sweep directory",
+        [],
+        ["sweep", "status", "nodir"],
+        ["nodir"]
+    ),
+    case!(
+        "capture: unknown sim preset",
+        [],
+        ["capture", "--grabber", "sim:gen9", "--out", "o"],
+        ["gen9"]
+    ),
+    case!(
+        "capture: sim size not numbers",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=axb",
+            "--out",
+            "o"
+        ],
+        ["size"]
+    ),
+    case!(
+        "capture: sim unknown option",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?colour=red",
+            "--out",
+            "o"
+        ],
+        ["colour"]
+    ),
+    case!(
+        "capture: gain NaN",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd",
+            "--gain",
+            "nan",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "sensor: gain NaN",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "nan"],
+        ["gain"]
+    ),
+    case!("sensor: unknown key", ["c.toml" => "kind = \"ccd\"\ncolour = 1\n"], ["sensor", "describe", "c.toml"], ["c.toml"]),
+    case!(
+        "calibrate mtf: unknown target",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=64x64",
+            "--target",
+            "zebra",
+            "--out",
+            "o"
+        ],
+        ["zebra"]
+    ),
+    case!(
+        "calibrate ptc: one level",
+        [],
+        [
+            "calibrate",
+            "ptc",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--levels",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["levels"]
+    ),
+    case!(
+        "calibrate agc: unknown grabber",
+        [],
+        [
+            "calibrate",
+            "agc",
+            "--grabber",
+            "ftp:x",
+            "--source",
+            "x.toml",
+            "--out",
+            "o"
+        ],
+        ["ftp"]
+    ),
 ];
 
 #[test]

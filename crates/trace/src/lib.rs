@@ -15,7 +15,7 @@ pub mod tracer;
 pub use glam::DVec3;
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{
-    Dirsig2001Settings, Estimator, Indirect, Occlusion, RenderSettings, SettingsError,
+    Dirsig2001Settings, Dropped, Estimator, Indirect, Occlusion, RenderSettings, SettingsError,
 };
 pub use sky_light::SkySummary;
 pub use tracer::{RayCounts, SkyProbeResult, TraceError, Tracer};

@@ -73,6 +73,43 @@ pub struct PartShares {
     pub night_sky: f64,
     /// Emitters seen directly, share of the whole image's signal.
     pub direct_view: f64,
+    /// Specular recursion: the change of the signal over the pilot's
+    /// non-emitter pixels when mirror bounces are left out (None: no
+    /// material on a facet reflects specularly).
+    pub specular_recursion: Option<f64>,
+    /// Transmissive occluders: the change when they stop light instead of
+    /// attenuating it (None: nothing transmissive).
+    pub transmissive_occluders: Option<f64>,
+    /// The atmosphere (an upper bound): the Moon's direct light lost on its
+    /// slant path, `moon · (1/T(550 nm) − 1)`, plus the whole dome term
+    /// (scattered moonlight exists only through the atmosphere). None: no
+    /// sky.
+    pub atmosphere: Option<f64>,
+    /// Whether the plan keeps specular recursion and transmissive
+    /// occluders (each is left out when worth no more than the tolerance).
+    pub specular_simulated: bool,
+    pub transmissive_simulated: bool,
+    pub tolerance: f64,
+    /// Each light term's 90th percentile over the pilot's pixels of its
+    /// share of the pixel, `part / max(pixel, 5 % of the mean pixel)`.
+    pub pixel_p90: TermShares,
+    /// Light terms the plan leaves out (worth ≤ tolerance in the mean and
+    /// at the 90th percentile).
+    pub skipped: Vec<String>,
+    /// Whether the pilot's pixels saw any signal at all; with none, a
+    /// share of 0 is no evidence, and no light term is left out (a probe
+    /// may ask about points the camera does not see).
+    pub signal_seen: bool,
+}
+
+/// A value per light term.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct TermShares {
+    pub area_sources: f64,
+    pub point_sources: f64,
+    pub shaped_point_sources: f64,
+    pub moon: f64,
+    pub night_sky: f64,
 }
 
 impl Tracer {
@@ -82,6 +119,7 @@ impl Tracer {
         let s = &self.settings;
         let tol = s.tolerance;
         let requested = match s.indirect {
+            _ if s.drop.interreflection => Indirect::Off,
             Indirect::Auto if s.diffuse_bounces > 0 => Indirect::Path,
             m => m,
         };
@@ -107,6 +145,9 @@ impl Tracer {
         } else if !possible {
             d.estimated_share = Some(0.0);
         }
+        if let Some(parts) = d.parts.as_mut() {
+            self.decide_specular_and_transmission(parts, &d.estimated_share_by_band);
+        }
         let share = d.estimated_share.unwrap_or(0.0);
         let method = match requested {
             Indirect::Auto if share > tol => {
@@ -126,6 +167,10 @@ impl Tracer {
                 } else {
                     "no diffusely reflecting material, or nothing lights the scene".into()
                 };
+                Indirect::Off
+            }
+            Indirect::Off if self.settings.drop.interreflection => {
+                d.reason = "dropped (drop = interreflection): direct light only".into();
                 Indirect::Off
             }
             Indirect::Off => {
@@ -179,6 +224,176 @@ impl Tracer {
         self.interreflection = d;
     }
 
+    /// Estimates specular recursion, transmissive occluders and the
+    /// atmosphere (see [`PartShares`]) and leaves out the first two when
+    /// each is worth no more than the tolerance (never under
+    /// `all_effects`). `ir_share` (per band) rescales the direct-light sums
+    /// of [`Tracer::pilot_traced`] to the whole signal.
+    fn decide_specular_and_transmission(
+        &mut self,
+        parts: &mut PartShares,
+        ir_share: &[(String, f64)],
+    ) {
+        let tol = self.settings.tolerance;
+        parts.tolerance = tol;
+        let spec =
+            self.mats.iter().any(|m| !m.ks.is_empty()) && !self.settings.drop.specular_recursion;
+        let trans = self.mats.iter().any(|m| m.trans.is_some())
+            && !self.settings.drop.transmissive_occluders;
+        if spec || trans {
+            let saved = self.settings.clone();
+            self.settings.diffuse_bounces = 0;
+            let full = self.pilot_traced();
+            let share = |t: &mut Tracer, set: fn(&mut RenderSettings)| -> f64 {
+                set(&mut t.settings);
+                let without = t.pilot_traced();
+                t.settings = saved.clone();
+                t.settings.diffuse_bounces = 0;
+                full.iter()
+                    .zip(&without)
+                    .enumerate()
+                    .map(|(b, (f, w))| {
+                        let ir = ir_share.get(b).map_or(0.0, |x| x.1).clamp(0.0, 0.99);
+                        let whole = f / (1.0 - ir);
+                        if whole > 0.0 {
+                            (f - w).abs() / whole
+                        } else {
+                            0.0
+                        }
+                    })
+                    .fold(0.0, f64::max)
+            };
+            if spec {
+                parts.specular_recursion = Some(share(self, |s| s.drop.specular_recursion = true));
+            }
+            if trans {
+                parts.transmissive_occluders =
+                    Some(share(self, |s| s.drop.transmissive_occluders = true));
+            }
+            self.settings = saved;
+        }
+        let keep = |x: Option<f64>, all: bool| x.is_some_and(|x| x > tol || all);
+        parts.specular_simulated = keep(parts.specular_recursion, self.settings.all_effects);
+        parts.transmissive_simulated =
+            keep(parts.transmissive_occluders, self.settings.all_effects);
+        if spec && !parts.specular_simulated {
+            self.skip.specular_recursion = true;
+        }
+        if trans && !parts.transmissive_simulated {
+            self.skip.transmissive_occluders = true;
+        }
+        // Light terms the scene has: left out only when worth no more than
+        // the tolerance both in the mean and at the 90th percentile of the
+        // pixels (a source can be all the light a few pixels get).
+        if !self.settings.all_effects && parts.signal_seen {
+            let terms: [(&str, f64, f64, bool); 5] = [
+                (
+                    names::AREA_SOURCES,
+                    parts.area_sources,
+                    parts.pixel_p90.area_sources,
+                    !self.area.is_empty(),
+                ),
+                (
+                    names::POINT_SOURCES,
+                    parts.point_sources,
+                    parts.pixel_p90.point_sources,
+                    self.points.iter().any(|l| l.m <= 0.0),
+                ),
+                (
+                    names::SHAPED_POINT_SOURCES,
+                    parts.shaped_point_sources,
+                    parts.pixel_p90.shaped_point_sources,
+                    self.points.iter().any(|l| l.m > 0.0),
+                ),
+                (
+                    names::MOON,
+                    parts.moon,
+                    parts.pixel_p90.moon,
+                    self.sky.as_ref().is_some_and(|s| s.moon_dir.is_some()),
+                ),
+                (
+                    names::NIGHT_SKY,
+                    parts.night_sky,
+                    parts.pixel_p90.night_sky,
+                    self.sky.as_ref().is_some_and(|s| s.dome),
+                ),
+            ];
+            for (name, mean, p90, present) in terms {
+                if present && mean.max(p90) <= tol {
+                    parts.skipped.push(name.to_string());
+                    match name {
+                        names::AREA_SOURCES => self.skip.area_sources = true,
+                        names::POINT_SOURCES => self.skip.point_sources = true,
+                        names::SHAPED_POINT_SOURCES => self.skip.shaped_point_sources = true,
+                        names::MOON => self.skip.moon = true,
+                        _ => self.skip.night_sky = true,
+                    }
+                }
+            }
+        }
+        if let Some(sky) = &self.sky {
+            let s = &sky.summary;
+            let t = gloam_sky::Atmosphere::new(s.height_m, s.visibility_km)
+                .map(|a| a.direct_transmittance(550.0, s.moon_elevation_deg))
+                .unwrap_or(1.0);
+            let lost = if t > 0.0 && s.moon_direct {
+                parts.moon * (1.0 / t - 1.0)
+            } else {
+                0.0
+            };
+            parts.atmosphere = Some(lost + parts.night_sky);
+        }
+    }
+
+    /// Band sums of the traced radiance (direct light, specular bounces,
+    /// transmission; no interreflection) over the pilot grid's pixels whose
+    /// first hit is a facet that does not emit. Each pixel has its own fixed random
+    /// stream, so two calls with different settings differ by the effect,
+    /// not by noise.
+    fn pilot_traced(&self) -> Vec<f64> {
+        let cam = &self.camera;
+        let cols = PILOT_COLS.min(cam.width).max(1);
+        let rows = PILOT_ROWS.min(cam.height).max(1);
+        let mut c = RayCounts::default();
+        let mut sum = vec![0.0; self.wl.len()];
+        let mut acc = vec![0.0; self.wl.len()];
+        for j in 0..rows {
+            for i in 0..cols {
+                let x = (i as f64 + 0.5) * cam.width as f64 / cols as f64;
+                let y = (j as f64 + 0.5) * cam.height as f64 / rows as f64;
+                let d = cam.pixel_direction(x, y);
+                // The interreflection pilot's pixel set: pixels that see a
+                // facet that is not an emitter (not the sky, not a panel).
+                match self.gather_hit(cam.position, d, u32::MAX, &mut c) {
+                    None => continue,
+                    Some((f, front, _, _))
+                        if front && self.facet_source[f as usize] != u32::MAX =>
+                    {
+                        continue;
+                    }
+                    Some(_) => {}
+                }
+                let mut rng = stream(self.settings.seed, 0x0009_1108, (j * cols + i) as u64);
+                acc.iter_mut().for_each(|a| *a = 0.0);
+                self.trace(
+                    cam.position,
+                    d,
+                    u32::MAX,
+                    &self.ones,
+                    1,
+                    0,
+                    false,
+                    None,
+                    &mut rng,
+                    &mut c,
+                    &mut acc,
+                );
+                sum.iter_mut().zip(&acc).for_each(|(s, a)| *s += a);
+            }
+        }
+        self.wl.integrate(&sum)
+    }
+
     /// The pilot: a coarse cache and a coarse grid of camera rays.
     fn pilot(&self) -> Pilot {
         let t0 = std::time::Instant::now();
@@ -201,6 +416,8 @@ impl Tracer {
         let mut ind_all = vec![0.0; nwl];
         let mut tot_all = vec![0.0; nwl];
         let mut plain_pixels = 0u32;
+        // Plain pixels: (band integrals of each term, band totals).
+        let mut per_pixel: Vec<(Vec<Vec<f64>>, Vec<f64>)> = Vec::new();
         // Per term: (sum over plain pixels, sum over all pixels).
         let mut part_sums = vec![(vec![0.0; nwl], vec![0.0; nwl]); 5];
         let mut emitted_all = vec![0.0; nwl];
@@ -221,12 +438,14 @@ impl Tracer {
                 let mut e_d = vec![0.0; nwl];
                 let src = self.facet_source[f as usize];
                 let emitter = src != u32::MAX && front;
+                let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
                 if mat.has_diffuse {
                     let parts = self.irradiance_parts(p, ns, f, &mut rng, &mut c);
                     for (k, part) in parts.iter().enumerate() {
                         for s in 0..nwl {
                             let l = mat.kd[s] * inv_pi * tau[s] * part[s];
                             e_d[s] += part[s];
+                            pix_parts[k][s] = l;
                             part_sums[k].1[s] += l;
                             if !emitter {
                                 part_sums[k].0[s] += l;
@@ -275,6 +494,13 @@ impl Tracer {
                 }
                 if !emitter {
                     plain_pixels += 1;
+                    per_pixel.push((
+                        pix_parts
+                            .iter()
+                            .map(|v| self.wl.integrate(v))
+                            .collect::<Vec<_>>(),
+                        self.wl.integrate(&pix_tot),
+                    ));
                 }
             }
         }
@@ -318,6 +544,21 @@ impl Tracer {
                     })
                     .fold(0.0, f64::max)
             },
+            pixel_p90: {
+                let p90 = |k: usize| term_p90(&per_pixel, k);
+                TermShares {
+                    area_sources: p90(0),
+                    point_sources: p90(1),
+                    shaped_point_sources: p90(2),
+                    moon: p90(3),
+                    night_sky: p90(4),
+                }
+            },
+            signal_seen: {
+                let t = self.wl.integrate(if plain { &tot } else { &tot_all });
+                t.iter().any(|&x| x > 0.0)
+            },
+            ..Default::default()
         };
         let (ind, tot) = if plain {
             (ind, tot)
@@ -340,6 +581,26 @@ impl Tracer {
     }
 }
 
+/// The 90th percentile over pixels of term `k`'s share of the pixel,
+/// `part / max(pixel, 5 % of the mean pixel)` (largest over bands).
+fn term_p90(pixels: &[(Vec<Vec<f64>>, Vec<f64>)], k: usize) -> f64 {
+    let Some(first) = pixels.first() else {
+        return 0.0;
+    };
+    (0..first.1.len())
+        .map(|b| {
+            let mean = pixels.iter().map(|p| p.1[b]).sum::<f64>() / pixels.len() as f64;
+            let floor = (0.05 * mean).max(1e-300);
+            let mut v: Vec<f64> = pixels
+                .iter()
+                .map(|p| p.0[k][b] / p.1[b].max(floor))
+                .collect();
+            let i = ((v.len() - 1) as f64 * 0.9).round() as usize;
+            *v.select_nth_unstable_by(i, f64::total_cmp).1
+        })
+        .fold(0.0, f64::max)
+}
+
 /// The effect plan of `scene` as a render with `settings` would run it:
 /// the scene's structural plan with the tracer's pilot estimate and
 /// decision for interreflection.
@@ -357,6 +618,79 @@ pub fn effect_plan(scene: &Scene, settings: &RenderSettings) -> Result<EffectPla
 pub fn annotate_shares(plan: &mut EffectPlan, d: &InterreflectionDecision) {
     let Some(p) = &d.parts else { return };
     for e in &mut plan.effects {
+        let decided = |e: &mut gloam_scene::plan::Effect, share: f64, kept: bool, what: &str| {
+            e.estimated_share = Some(share);
+            if e.enabled && !kept {
+                e.enabled = false;
+                e.reason = format!(
+                    "pilot: {what} is {share:.2e} of the signal (≤ tolerance {:.2e}): not simulated ({})",
+                    p.tolerance, e.reason
+                );
+            } else if e.enabled {
+                e.reason = format!(
+                    "pilot: {what} is {:.2} % of the signal (> tolerance {:.2} %): {}",
+                    100.0 * share,
+                    100.0 * p.tolerance,
+                    e.reason
+                );
+            }
+        };
+        match (
+            e.name.as_str(),
+            p.specular_recursion,
+            p.transmissive_occluders,
+        ) {
+            (names::SPECULAR_RECURSION, Some(x), _) => {
+                decided(e, x, p.specular_simulated, "specular recursion");
+                continue;
+            }
+            (names::TRANSMISSIVE_OCCLUDERS, _, Some(x)) => {
+                decided(
+                    e,
+                    x,
+                    p.transmissive_simulated,
+                    "light through transmissive occluders",
+                );
+                continue;
+            }
+            _ => {}
+        }
+        if e.name == names::ATMOSPHERE
+            && let Some(x) = p.atmosphere
+        {
+            e.estimated_share = Some(x);
+            e.reason.push_str(" (share: an upper bound, Moon's slant-path loss + dome; the sky model has no airless mode)");
+            continue;
+        }
+        let term = match e.name.as_str() {
+            names::AREA_SOURCES => Some((p.area_sources, p.pixel_p90.area_sources)),
+            names::POINT_SOURCES => Some((p.point_sources, p.pixel_p90.point_sources)),
+            names::SHAPED_POINT_SOURCES => {
+                Some((p.shaped_point_sources, p.pixel_p90.shaped_point_sources))
+            }
+            names::MOON => Some((p.moon, p.pixel_p90.moon)),
+            names::NIGHT_SKY => Some((p.night_sky, p.pixel_p90.night_sky)),
+            _ => None,
+        };
+        if let Some((mean, p90)) = term
+            && e.enabled
+            && !p.skipped.contains(&e.name)
+        {
+            e.reason.push_str(&format!(
+                " (pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile)"
+            ));
+        }
+        if let Some((mean, p90)) = term
+            && p.skipped.contains(&e.name)
+        {
+            e.estimated_share = Some(mean);
+            e.enabled = false;
+            e.reason = format!(
+                "pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile (both ≤ tolerance {:.2e}): not simulated ({})",
+                p.tolerance, e.reason
+            );
+            continue;
+        }
         let share = match e.name.as_str() {
             names::AREA_SOURCES => p.area_sources,
             names::POINT_SOURCES => p.point_sources,

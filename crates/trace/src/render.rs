@@ -530,7 +530,12 @@ impl Tracer {
         }
         let error = error_summary(&ests, nb, self.settings.target_error, rounds);
         let mut c = RayCounts::default();
-        for (col, row, vals) in self.point_deposits(&mut c) {
+        let deposits = if self.settings.drop.direct_view {
+            Vec::new()
+        } else {
+            self.point_deposits(&mut c)
+        };
+        for (col, row, vals) in deposits {
             if !rows.contains(&row) {
                 continue;
             }

@@ -15,6 +15,7 @@
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
 //! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
 //! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
+//! | `drop` | (none) | comma-separated effects left out of the render, to measure what each is worth (`gloam bench plan`): `area-sources`, `point-sources`, `shaped-point-sources`, `moon`, `night-sky`, `direct-view`, `specular-recursion`, `transmissive-occluders` (they become opaque), `interreflection`; `none` clears |
 //! | `SAMPLE_AREA_DENSITY` | 1 | `dirsig2001`: sample points per scene unit² of source |
 //! | `MAX_SAMPLE_POINTS` | 500 | `dirsig2001`: cap on points per source |
 //! | `MAX_SOURCE_SAMPLES` | 100 | `dirsig2001`: cap on shadow rays per source per hit |
@@ -134,6 +135,95 @@ impl Default for Dirsig2001Settings {
     }
 }
 
+/// Effects a render leaves out on purpose (`--set drop=a,b`): the plan's
+/// decisions are checked by dropping each kept effect and measuring the
+/// change (`gloam bench plan`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Dropped {
+    pub area_sources: bool,
+    pub point_sources: bool,
+    pub shaped_point_sources: bool,
+    pub moon: bool,
+    pub night_sky: bool,
+    pub direct_view: bool,
+    pub specular_recursion: bool,
+    pub transmissive_occluders: bool,
+    pub interreflection: bool,
+}
+
+impl Dropped {
+    /// The effect names `drop` accepts (the effect plan's names).
+    pub const NAMES: &'static [&'static str] = &[
+        "area-sources",
+        "point-sources",
+        "shaped-point-sources",
+        "moon",
+        "night-sky",
+        "direct-view",
+        "specular-recursion",
+        "transmissive-occluders",
+        "interreflection",
+    ];
+
+    /// The flag for effect `name`, if `drop` knows it.
+    fn flag(&mut self, name: &str) -> Option<&mut bool> {
+        Some(match name {
+            "area-sources" => &mut self.area_sources,
+            "point-sources" => &mut self.point_sources,
+            "shaped-point-sources" => &mut self.shaped_point_sources,
+            "moon" => &mut self.moon,
+            "night-sky" => &mut self.night_sky,
+            "direct-view" => &mut self.direct_view,
+            "specular-recursion" => &mut self.specular_recursion,
+            "transmissive-occluders" => &mut self.transmissive_occluders,
+            "interreflection" => &mut self.interreflection,
+            _ => return None,
+        })
+    }
+
+    /// Parses `a,b,c` (or `none`).
+    pub fn parse(value: &str) -> Result<Self, SettingsError> {
+        let mut d = Self::default();
+        if value.trim().eq_ignore_ascii_case("none") || value.trim().is_empty() {
+            return Ok(d);
+        }
+        for name in value.split(',') {
+            let n = name.trim().to_ascii_lowercase().replace('_', "-");
+            match d.flag(&n) {
+                Some(f) => *f = true,
+                None => {
+                    return Err(SettingsError::BadValue {
+                        key: "drop".into(),
+                        value: name.trim().into(),
+                        expected: "effect names: area-sources, point-sources, shaped-point-sources, moon, night-sky, direct-view, specular-recursion, transmissive-occluders, interreflection (or none)",
+                    });
+                }
+            }
+        }
+        Ok(d)
+    }
+
+    /// Whether effect `name` is dropped.
+    pub fn has(&self, name: &str) -> bool {
+        let mut c = *self;
+        c.flag(name).is_some_and(|f| *f)
+    }
+
+    /// The dropped names, comma-separated (`none` when empty).
+    pub fn names(&self) -> String {
+        let v: Vec<&str> = Self::NAMES
+            .iter()
+            .copied()
+            .filter(|n| self.has(n))
+            .collect();
+        if v.is_empty() {
+            "none".into()
+        } else {
+            v.join(",")
+        }
+    }
+}
+
 /// Everything a render or probe needs besides the scene.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RenderSettings {
@@ -156,6 +246,8 @@ pub struct RenderSettings {
     pub resolution_scale: f64,
     /// Compute every effect, planned or not (benchmarking the plan).
     pub all_effects: bool,
+    /// Effects left out on purpose (measuring what each is worth).
+    pub drop: Dropped,
     /// Diffuse interreflection method.
     pub indirect: Indirect,
     /// Texel budget of the radiosity cache (both sides of every facet).
@@ -197,6 +289,7 @@ impl Default for RenderSettings {
             sky_samples: 16,
             resolution_scale: 1.0,
             all_effects: false,
+            drop: Dropped::default(),
             indirect: Indirect::Auto,
             cache_texels: 16384,
             cache_rays: 256,
@@ -264,6 +357,7 @@ impl RenderSettings {
         "sky_samples",
         "resolution_scale",
         "all_effects",
+        "drop",
         "indirect",
         "cache_texels",
         "cache_rays",
@@ -358,6 +452,7 @@ impl RenderSettings {
                     }
                 }
             }
+            "drop" => self.drop = Dropped::parse(value)?,
             "indirect" => self.indirect = value.parse()?,
             "cache_texels" => {
                 self.cache_texels = parse(key, value, "an integer in [1, 4194304]", |&x: &u32| {
@@ -412,6 +507,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn drop_parses_plan_names_and_refuses_others() {
+        let mut s = RenderSettings::default();
+        s.set("drop", "moon, specular_recursion").unwrap();
+        assert!(s.drop.moon && s.drop.specular_recursion && !s.drop.night_sky);
+        assert_eq!(s.drop.names(), "moon,specular-recursion");
+        let e = s.set("drop", "moon,sun").unwrap_err();
+        assert!(e.to_string().contains("`sun`"), "{e}");
+        s.set("drop", "none").unwrap();
+        assert_eq!(s.drop, Dropped::default());
+    }
+
+    #[test]
     fn set_known_and_reject_unknown() {
         let mut s = RenderSettings::default();
         s.set_pair("SOLID_ANGLE_DENSITY=2000").unwrap();
@@ -440,6 +547,7 @@ mod tests {
                 "source_roulette_fraction" | "resolution_scale" => "0.5",
                 "all_effects" => "true",
                 "indirect" => "cache",
+                "drop" => "moon",
                 "cache_tolerance" | "tolerance" | "target_error" => "0.01",
                 _ => "3",
             };

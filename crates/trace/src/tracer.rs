@@ -119,7 +119,7 @@ pub(crate) struct MatSpec {
     /// Lambertian albedo (1 − s)ρ.
     pub(crate) kd: Vec<f64>,
     /// Specular reflectance sρ (empty when none).
-    ks: Vec<f64>,
+    pub(crate) ks: Vec<f64>,
     /// Straight-through transmission.
     pub(crate) trans: Option<Vec<f64>>,
     pub(crate) has_diffuse: bool,
@@ -163,7 +163,7 @@ pub(crate) struct AreaSource {
 pub(crate) struct PointLight {
     pub(crate) pos: DVec3,
     dir: DVec3,
-    m: f64,
+    pub(crate) m: f64,
     pub(crate) intensity: Vec<f64>,
 }
 
@@ -199,6 +199,10 @@ pub struct Tracer {
     pub(crate) cache: Option<crate::indirect::Cache>,
     /// How interreflection was decided (method, pilot estimate, bounces).
     pub interreflection: crate::plan::InterreflectionDecision,
+    /// Effects the plan leaves out because the pilot found them worth no
+    /// more than the tolerance (skipped outright, unlike `settings.drop`,
+    /// which computes and discards to keep the random numbers).
+    pub(crate) skip: crate::settings::Dropped,
     /// Seconds spent building the BVH and spectral tables.
     pub build_seconds: f64,
 }
@@ -209,14 +213,14 @@ pub(crate) struct SkyState {
     /// Continuum slots (the first `nc` of every spectral vector).
     nc: usize,
     /// Unit vector to the Moon when its direct beam lights the scene.
-    moon_dir: Option<DVec3>,
+    pub(crate) moon_dir: Option<DVec3>,
     /// Where moon shadow rays go under `all_effects` when the Moon is dark
     /// (carrying zero irradiance).
     forced_moon_dir: DVec3,
     /// Direct lunar irradiance normal to the beam, W m⁻² nm⁻¹ per slot.
     moon_en: Vec<f64>,
     /// Whether the dome is sampled (a sky term is on, or `all_effects`).
-    dome: bool,
+    pub(crate) dome: bool,
     table: RadianceTable,
     pub(crate) summary: SkySummary,
 }
@@ -545,6 +549,7 @@ impl Tracer {
             sky,
             cache: None,
             interreflection: Default::default(),
+            skip: Default::default(),
             build_seconds: 0.0,
         };
         tracer.decide_interreflection(solve);
@@ -621,6 +626,14 @@ impl Tracer {
         }
         match self.geom.visibility(p, dir, eps, tmax, ignore) {
             Visibility::Blocked => None,
+            // Transmissive occluders dropped: they stop light like any facet.
+            Visibility::Clear(list)
+                if !list.is_empty()
+                    && (self.settings.drop.transmissive_occluders
+                        || self.skip.transmissive_occluders) =>
+            {
+                None
+            }
             Visibility::Clear(list) if list.is_empty() && !self.settings.all_effects => Some(None),
             Visibility::Clear(list) => {
                 let mut t = self.ones.clone();
@@ -646,14 +659,41 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut [f64],
     ) {
+        // A dropped term that draws random numbers (dome, area sources) is
+        // still computed, into a scratch buffer, so the render shares every
+        // other random number with the full one: the difference is the
+        // term, not noise (`gloam bench plan`).
+        let (drop, skip) = (&self.settings.drop, &self.skip);
         for l in &self.points {
+            let shaped = l.m > 0.0;
+            if (shaped && (drop.shaped_point_sources || skip.shaped_point_sources))
+                || (!shaped && (drop.point_sources || skip.point_sources))
+            {
+                continue;
+            }
             self.point_irradiance(l, p, n, ignore, c, out);
         }
+        let mut scratch = Vec::new();
         if let Some(sky) = &self.sky {
-            self.moon_irradiance(sky, p, n, ignore, c, out);
-            self.dome_irradiance(sky, p, n, ignore, rng, c, out);
+            if !(drop.moon || skip.moon) {
+                self.moon_irradiance(sky, p, n, ignore, c, out);
+            }
+            if skip.night_sky {
+            } else if drop.night_sky {
+                scratch.resize(out.len(), 0.0);
+                self.dome_irradiance(sky, p, n, ignore, rng, c, &mut scratch);
+            } else {
+                self.dome_irradiance(sky, p, n, ignore, rng, c, out);
+            }
         }
-        self.area_irradiance(p, n, ignore, rng, c, out);
+        if skip.area_sources {
+        } else if drop.area_sources {
+            scratch.clear();
+            scratch.resize(out.len(), 0.0);
+            self.area_irradiance(p, n, ignore, rng, c, &mut scratch);
+        } else {
+            self.area_irradiance(p, n, ignore, rng, c, out);
+        }
     }
 
     /// The area sources' part of [`Tracer::irradiance`], by the chosen
@@ -1267,7 +1307,12 @@ impl Tracer {
 
             // Emitter seen along the ray: L cos^m(alpha) from the front.
             let src = self.facet_source[f as usize];
-            if src != u32::MAX && front && !after_diffuse {
+            let seen_directly = spec_depth == 1 && !after_diffuse;
+            if src != u32::MAX
+                && front
+                && !after_diffuse
+                && !(seen_directly && self.settings.drop.direct_view)
+            {
                 let s = &self.area[src as usize];
                 let g = shaping(-d.dot(ng), s.m);
                 acc.iter_mut()
@@ -1303,12 +1348,24 @@ impl Tracer {
             }
 
             // Specular recursion.
-            if (!mat.ks.is_empty() || all) && spec_depth < self.settings.recursion {
+            if (!mat.ks.is_empty() || all)
+                && spec_depth < self.settings.recursion
+                && !self.skip.specular_recursion
+            {
                 let r = d - 2.0 * d.dot(ns) * ns;
                 let t2: Vec<f64> = if mat.ks.is_empty() {
                     vec![0.0; thr.len()]
                 } else {
                     thr.iter().zip(&mat.ks).map(|(a, b)| a * b).collect()
+                };
+                // Dropped: traced into a scratch buffer, so the other
+                // random numbers stay those of the full render.
+                let mut scratch;
+                let target = if self.settings.drop.specular_recursion {
+                    scratch = vec![0.0; acc.len()];
+                    scratch.as_mut_slice()
+                } else {
+                    &mut *acc
                 };
                 self.trace(
                     p,
@@ -1321,7 +1378,7 @@ impl Tracer {
                     None,
                     rng,
                     c,
-                    acc,
+                    target,
                 );
             }
 
@@ -1365,7 +1422,10 @@ impl Tracer {
 
             // Straight through a transmissive facet.
             match &mat.trans {
-                Some(tr) => {
+                Some(tr)
+                    if !(self.settings.drop.transmissive_occluders
+                        || self.skip.transmissive_occluders) =>
+                {
                     thr.iter_mut().zip(tr).for_each(|(a, b)| *a *= b);
                     if thr.iter().all(|&x| x == 0.0) {
                         return;
@@ -1373,7 +1433,7 @@ impl Tracer {
                     o = p;
                     ignore = f;
                 }
-                None => return,
+                _ => return,
             }
         }
     }

@@ -710,3 +710,94 @@ fn dirsig2001_thresholds_skip_sources() {
         "{e}"
     );
 }
+
+/// The plan's entry `name` for `s` at default settings.
+fn planned(s: &Scene, name: &str) -> gloam_scene::plan::Effect {
+    let plan = gloam_trace::plan::effect_plan(s, &RenderSettings::default()).unwrap();
+    plan.get(name).unwrap().clone()
+}
+
+fn image_mean(s: &Scene, set: &RenderSettings) -> f64 {
+    let out = gloam_trace::render(s, set).unwrap();
+    out.radiance.mean().unwrap()
+}
+
+#[test]
+fn transmissive_sheet_is_all_the_light_the_floor_gets() {
+    // Every ray from the panel to the floor, and from the camera to the
+    // floor, crosses a τ = 0.5 sheet: without it (opaque) the image is
+    // black, so its share is exactly 1 and the plan keeps it.
+    let extra = "[materials.leaf]\nreflectance = 0.0\ntransmission = 0.5\n[objects.leaf]\nmaterial = \"leaf\"\nquad = { center = [0, 0, 4], size = [200, 200], normal = [0, 0, 1] }\n";
+    let s = scene(&panel_scene([0.0; 3], 0.0, extra));
+    let e = planned(&s, "transmissive-occluders");
+    assert!(e.enabled, "{e:?}");
+    let share = e.estimated_share.unwrap();
+    assert!((share - 1.0).abs() < 1e-12, "{share}");
+    let mut dropped = RenderSettings::default();
+    dropped.set("drop", "transmissive-occluders").unwrap();
+    assert!(image_mean(&s, &RenderSettings::default()) > 0.0);
+    assert_eq!(image_mean(&s, &dropped), 0.0);
+}
+
+#[test]
+fn transmissive_sheet_out_of_every_path_is_left_out() {
+    // The same sheet far to the side: no ray crosses it, so it is worth 0,
+    // and the plan leaves it out without changing the image.
+    let extra = "[materials.leaf]\nreflectance = 0.0\ntransmission = 0.5\n[objects.leaf]\nmaterial = \"leaf\"\nquad = { center = [500, 0, 4], size = [2, 2], normal = [0, 0, 1] }\n";
+    let s = scene(&panel_scene([0.0; 3], 0.0, extra));
+    let e = planned(&s, "transmissive-occluders");
+    assert!(!e.enabled, "{e:?}");
+    assert_eq!(e.estimated_share, Some(0.0));
+    let mut forced = RenderSettings::default();
+    forced.set("all_effects", "true").unwrap();
+    let (a, b) = (
+        image_mean(&s, &RenderSettings::default()),
+        image_mean(&s, &forced),
+    );
+    assert!((a - b).abs() <= 1e-12 * a, "{a} vs {b}");
+}
+
+/// The panel scene with a mirror (ρ = 0.8, specular) of side `side` ft on
+/// the floor under the camera: it shows the panel, 0.8 L.
+fn mirror_on_floor(side: f64) -> Scene {
+    let extra = format!(
+        "[materials.mirror]\nreflectance = 0.8\nspecular_fraction = 1.0\n[objects.mirror]\nmaterial = \"mirror\"\nquad = {{ center = [0, 0, 0.001], size = [{side}, {side}], normal = [0, 0, 1] }}\n"
+    );
+    scene(&panel_scene([0.0; 3], 0.0, &extra))
+}
+
+#[test]
+fn specular_share_is_what_dropping_the_mirror_bounces_changes() {
+    // A mirror over half the view: the plan's estimate agrees with the
+    // change a render measures when specular recursion is dropped.
+    let s = mirror_on_floor(0.45);
+    let e = planned(&s, "specular-recursion");
+    assert!(e.enabled, "{e:?}");
+    let est = e.estimated_share.unwrap();
+    let full = image_mean(&s, &RenderSettings::default());
+    let mut dropped = RenderSettings::default();
+    dropped.set("drop", "specular-recursion").unwrap();
+    let measured = (full - image_mean(&s, &dropped)) / full;
+    assert!(measured > 0.05, "{measured}");
+    assert!(
+        (est - measured).abs() < 0.1 * measured,
+        "estimated {est} vs measured {measured}"
+    );
+}
+
+#[test]
+fn a_mirror_worth_less_than_the_tolerance_is_left_out() {
+    // A 1 mm mirror: well under 0.5 % of the image, so no recursion, and
+    // forcing it on changes the image by less than the tolerance.
+    let s = mirror_on_floor(0.001);
+    let e = planned(&s, "specular-recursion");
+    assert!(!e.enabled, "{e:?}");
+    assert!(e.estimated_share.unwrap() < 0.005, "{e:?}");
+    let mut forced = RenderSettings::default();
+    forced.set("all_effects", "true").unwrap();
+    let (a, b) = (
+        image_mean(&s, &RenderSettings::default()),
+        image_mean(&s, &forced),
+    );
+    assert!((a - b).abs() < 0.005 * b, "{a} vs {b}");
+}

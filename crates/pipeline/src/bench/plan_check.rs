@@ -1,10 +1,12 @@
 //! `gloam bench plan`: the time the effect plan saves, and whether its
 //! decisions hold (each sim rendered with the plan, with every effect
-//! forced on, and with the interreflection decision flipped).
+//! forced on, with the interreflection decision flipped, and with each kept
+//! effect dropped).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
+use gloam_scene::plan::names;
 use gloam_trace::{RenderSettings, Tracer};
 use ndarray::{Array3, Axis};
 
@@ -19,6 +21,9 @@ pub struct PlanCheck {
     pub total: serde_json::Value,
     pub all_agree: bool,
     pub interreflection_consistent: bool,
+    /// Every other effect's decision held (kept: dropping it changes the
+    /// signal by more than the tolerance; skipped: forcing it on, by less).
+    pub effects_consistent: bool,
 }
 
 /// Renders each scene with the plan, with every effect forced on, with
@@ -92,6 +97,113 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Resu
         } else {
             change <= tol + 3.0 * mean_noise
         };
+        // Every other effect of the plan, both directions: a kept effect is
+        // dropped (`--set drop=NAME`) and must change the signal by more
+        // than the tolerance; the skipped ones, forced on together
+        // (`all_effects`), by no more than the tolerance plus noise.
+        let plan = gloam_trace::plan::effect_plan(&scene, &base)?;
+        let whole_mean = |img: &Array3<f64>| -> Vec<f64> {
+            img.axis_iter(Axis(0))
+                .map(|b| b.mean().unwrap_or(0.0))
+                .collect()
+        };
+        let rel_change = |x: &[f64], y: &[f64]| -> f64 {
+            (0..x.len())
+                .map(|b| (x[b] - y[b]).abs() / x[b].abs().max(1e-300))
+                .fold(0.0, f64::max)
+        };
+        // The per-pixel view: the 90th percentile over the mask of
+        // `|x − y| / max(x, 5 % of the mean)` (the floor keeps dark pixels
+        // from dominating, as `--target-error` does). A source that lights
+        // only part of the view (the Moon beyond the street lamps' pools)
+        // is worth little in the mean, yet changes one pixel in ten by
+        // more than the tolerance.
+        let pixel_change = |x: &Array3<f64>, y: &Array3<f64>| -> f64 {
+            (0..x.shape()[0])
+                .map(|b| {
+                    let floor = 0.05 * ma[b].abs();
+                    let mut d: Vec<f64> = mask
+                        .indexed_iter()
+                        .filter(|(_, m)| **m)
+                        .map(|((r, cc), _)| {
+                            let xv = x[[b, r, cc]];
+                            let den = xv.abs().max(floor).max(1e-300);
+                            (xv - y[[b, r, cc]]).abs() / den
+                        })
+                        .collect();
+                    if d.is_empty() {
+                        return 0.0;
+                    }
+                    let k = ((d.len() - 1) as f64 * 0.9).round() as usize;
+                    *d.select_nth_unstable_by(k, f64::total_cmp).1
+                })
+                .fold(0.0, f64::max)
+        };
+        let pixel_noise = pixel_change(&a, &a2);
+        let (wa, wb) = (whole_mean(&a), whole_mean(&b));
+        let forced_change = rel_change(&ma, &masked_mean(&b));
+        let mut effects = Vec::new();
+        let mut pixel_changes: Vec<(String, f64)> = Vec::new();
+        for e in &plan.effects {
+            let name = e.name.as_str();
+            if name == names::INTERREFLECTION {
+                continue;
+            }
+            let droppable = gloam_trace::Dropped::NAMES.contains(&name);
+            // Emitters seen directly sit on the pixels the mask leaves out.
+            let whole = name == names::DIRECT_VIEW;
+            let (how, measured, ok) = if !droppable {
+                (
+                    "not separable (no setting leaves it out)".to_string(),
+                    None,
+                    None,
+                )
+            } else if e.enabled {
+                let mut d = base.clone();
+                d.set("drop", name)?;
+                let (img, _) = render(&d)?;
+                let m = if whole {
+                    rel_change(&wa, &whole_mean(&img))
+                } else {
+                    rel_change(&ma, &masked_mean(&img))
+                };
+                // Kept: the mean moves by more than the tolerance, or one
+                // pixel in ten does. A dropped term is computed and
+                // discarded (`gloam_trace::Dropped`), so both renders share
+                // every other random number: the change is the effect's,
+                // not noise (the seed-to-seed figure is listed beside it).
+                let px = pixel_change(&a, &img);
+                let ok = m > tol || (!whole && px > tol);
+                pixel_changes.push((name.to_string(), px));
+                ("dropped".to_string(), Some(m), Some(ok))
+            } else {
+                let m = if whole {
+                    rel_change(&wa, &wb)
+                } else {
+                    forced_change
+                };
+                (
+                    "forced on (every skipped effect together)".to_string(),
+                    Some(m),
+                    Some(m <= tol + 3.0 * mean_noise),
+                )
+            };
+            let px = pixel_changes
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, v)| *v);
+            effects.push(serde_json::json!({
+                "effect": name,
+                "enabled": e.enabled,
+                "estimated_share": e.estimated_share,
+                "check": how,
+                "measured_change": measured,
+                "per_pixel_change": px,
+                "per_pixel_noise": pixel_noise,
+                "consistent": ok,
+            }));
+        }
+        let effects_ok = effects.iter().all(|v| v["consistent"] != false);
         // Two independent renders differ by √2 σ; forced vs plan shares
         // the seed, so agreement within noise is diff ≤ 1.5 × that + 1e-9.
         let agree = diff <= 1.5 * noise + 1e-9;
@@ -114,13 +226,17 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Resu
                 "mean_noise_between_seeds": mean_noise,
                 "consistent": ir_ok,
             },
+            "effects": effects,
+            "effects_consistent": effects_ok,
         }));
     }
     let all_agree = out.iter().all(|v| v["agree_within_noise"] == true);
     let ir_consistent = out
         .iter()
         .all(|v| v["interreflection"]["consistent"] == true);
+    let effects_consistent = out.iter().all(|v| v["effects_consistent"] == true);
     let total = serde_json::json!({
+        "effects_consistent": effects_consistent,
         "plan_s": t_plan,
         "all_effects_s": t_all,
         "saved_s": t_all - t_plan,
@@ -134,6 +250,7 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Resu
         total,
         all_agree,
         interreflection_consistent: ir_consistent,
+        effects_consistent,
     })
 }
 
@@ -195,6 +312,42 @@ impl PlanCheck {
                 ir["consistent"]
             );
         }
+        let _ = writeln!(
+            m,
+            "\n| scene | effect | on | estimated share | check | measured change (mean) | per pixel (noise) | consistent |"
+        );
+        let _ = writeln!(m, "|---|---|---|---|---|---|---|---|");
+        let pct = |x: &serde_json::Value| match x.as_f64() {
+            Some(v) => format!("{:.3} %", 100.0 * v),
+            None => "-".into(),
+        };
+        for v in out.iter() {
+            for e in v["effects"].as_array().into_iter().flatten() {
+                let _ = writeln!(
+                    m,
+                    "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                    v["scene"].as_str().unwrap_or_default(),
+                    e["effect"].as_str().unwrap_or_default(),
+                    if e["enabled"] == true { "yes" } else { "no" },
+                    pct(&e["estimated_share"]),
+                    e["check"].as_str().unwrap_or_default(),
+                    pct(&e["measured_change"]),
+                    if e["per_pixel_change"].is_null() {
+                        "-".to_string()
+                    } else {
+                        format!(
+                            "{} ({})",
+                            pct(&e["per_pixel_change"]),
+                            pct(&e["per_pixel_noise"])
+                        )
+                    },
+                    match e["consistent"].as_bool() {
+                        Some(b) => b.to_string(),
+                        None => "-".into(),
+                    }
+                );
+            }
+        }
         m
     }
 
@@ -209,6 +362,10 @@ impl PlanCheck {
         anyhow::ensure!(
             ir_consistent,
             "an interreflection decision disagrees with its measured share (see the table)"
+        );
+        anyhow::ensure!(
+            self.effects_consistent,
+            "an effect's decision disagrees with the change measured when it is dropped or forced on (see the table)"
         );
         Ok(())
     }
