@@ -55,10 +55,13 @@ pub struct ScopeResult {
     pub lines: Vec<ScopeLine>,
 }
 
+/// `(sensor, rig, seed, size)` of a `sim:` grabber URI.
+pub type SimCamera = (String, String, u64, Option<(u32, u32)>);
+
 /// The sensor and seed of a `sim:` grabber URI (rig and size too), for
 /// `--grabber`: the scope needs the analogue stage, which only the
 /// simulated cameras have.
-pub fn sim_uri(uri: &str) -> Result<(String, String, u64, Option<(u32, u32)>), CalibError> {
+pub fn sim_uri(uri: &str) -> Result<SimCamera, CalibError> {
     match GrabberUri::parse(uri)? {
         GrabberUri::Sim {
             preset,
