@@ -86,6 +86,8 @@ enum Command {
     Sweep(cmd::sweep::SweepArgs),
     /// Reassemble `render --tile K/N` outputs into the whole image.
     Merge(cmd::merge::MergeArgs),
+    /// Scan lines of a simulated camera's video as an oscilloscope shows them.
+    Scope(cmd::scope::ScopeArgs),
     // New subcommands: add a variant here and its arm in `run` below; the
     // implementation lives in `src/cmd/<name>.rs`.
 }
@@ -107,6 +109,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sweep(args) => cmd::sweep::run(args),
         Command::Merge(args) => cmd::merge::run(args),
+        Command::Scope(args) => cmd::scope::run(args),
     }
 }
 

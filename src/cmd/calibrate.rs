@@ -142,6 +142,17 @@ pub struct PtcArgs {
     pub force: bool,
 }
 
+/// Where the sine flow reads modulation.
+#[derive(Clone, Copy, Default, PartialEq, Eq, ValueEnum)]
+pub enum Space {
+    /// Digital counts after the frame grabber.
+    #[default]
+    Digital,
+    /// The video line on an oscilloscope (§5.9.2), next to digital counts
+    /// and the chain's analytic MTF (sim: grabbers only).
+    Voltage,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 pub enum Target {
     Sine,
@@ -191,6 +202,13 @@ pub struct MtfArgs {
     /// usaf: optical magnification (image size / chart size).
     #[arg(long, default_value_t = 1.0)]
     pub magnification: f64,
+    /// sine: measure in digital counts, or in voltage space (scope line +
+    /// grey-scale curve) beside digital counts and the analytic MTF.
+    #[arg(long, value_enum, default_value = "digital")]
+    pub space: Space,
+    /// --space voltage: frame rows the scope isolates (default: 4 middle rows).
+    #[arg(long, value_delimiter = ',')]
+    pub scope_rows: Vec<usize>,
     #[arg(long)]
     pub out: PathBuf,
     /// Replace a non-empty `--out` (the new set replaces the old one whole).
@@ -511,6 +529,85 @@ fn read_usaf_ctf(path: &Path) -> anyhow::Result<Vec<(i32, i32, f64)>> {
     Ok(out)
 }
 
+/// `--space voltage`: the scope flow on the sim: camera, the digital-count
+/// sine flow through the grabber, and the analytic curves, in one report.
+fn mtf_voltage(a: &MtfArgs, set: OutputSet, g: &mut dyn FrameGrabber) -> anyhow::Result<()> {
+    use gloam_calib::mtf_voltage::{VoltageOptions, analytic_curves, voltage_sine_mtf};
+    let uri = a.grabber.as_deref().unwrap_or_default();
+    let (preset, _, seed, size) = gloam_calib::scope_run::sim_uri(uri)?;
+    let size = size.unwrap_or(gloam_grabber::sim::DEFAULT_RIG_SIZE);
+    let mut cfg = gloam_sensor::SensorConfig::load_preset_or_file(&preset)?;
+    cfg.noise.seed = a.seed.unwrap_or(seed);
+    let mut cam = gloam_sensor::Camera::new(cfg)?;
+    let gain = a.gain.unwrap_or(cam.chain().reference_gain);
+    cam.set_override_gain(Some(gain))?;
+    g.set_gain(gain)?;
+    let level = match a.radiance {
+        Some(l) => l,
+        None => auto_range(g, &a.spectrum, 0.4)?,
+    };
+    let freqs = if a.frequencies.is_empty() {
+        (1..=12).map(|i| 0.04 * i as f64).collect()
+    } else {
+        a.frequencies.clone()
+    };
+    let rows = if a.scope_rows.is_empty() {
+        let m = size.1 as usize / 2;
+        (m.saturating_sub(2)..(m + 2).min(size.1 as usize)).collect()
+    } else {
+        a.scope_rows.clone()
+    };
+    let vo = VoltageOptions {
+        frequencies_cy_per_px: freqs.clone(),
+        mean_radiance_w_m2_sr: level,
+        modulation: a.modulation,
+        spectrum: a.spectrum.clone(),
+        frames: a.frames,
+        rows,
+        magnification: a.magnification,
+        size,
+    };
+    let v = with_bar(false, "scope", |p| voltage_sine_mtf(&mut cam, &vo, p))?;
+    let so = SineOptions {
+        frequencies_cy_per_px: freqs.clone(),
+        mean_radiance_w_m2_sr: level,
+        modulation: a.modulation,
+        angle_deg: 0.0,
+        spectrum: a.spectrum.clone(),
+        frames: a.frames,
+    };
+    let mut digital = with_bar(false, "targets", |p| sine_mtf(g, &so, p))?;
+    digital.method = "digital count (sine)".into();
+    let mut curves = vec![v.curve.clone(), digital];
+    curves.extend(analytic_curves(&cam, &freqs, gain, size.0 as usize));
+    let details = serde_json::json!({
+        "space": "voltage",
+        "mean_radiance_w_m2_sr": level,
+        "gain": gain,
+        "grabber": g.describe(),
+        "pixel_clock_hz": v.pixel_clock_hz,
+        "video_bandwidth_hz": cam.chain().amplifier().map(|x| x.bandwidth_hz),
+        "magnification": a.magnification,
+        "grey_scale_reflectance_volts": v.grey_scale,
+        "voltage_points": v.points,
+    });
+    report::write_mtf_report(set.dir(), &curves, details)?;
+    publish(set, "mtf.json")?;
+    for (i, f) in freqs.iter().enumerate() {
+        eprintln!(
+            "{f:.3} cy/px ({:.2} MHz, {:.2} lp/mm object): voltage {:.3}, digital {:.3}, analytic line {:.3}, digitised {:.3}",
+            v.points[i].line_frequency_mhz,
+            v.points[i].object_lp_per_mm,
+            curves[0].mtf[i],
+            curves[1].mtf[i],
+            curves[2].mtf[i],
+            curves[3].mtf[i]
+        );
+    }
+    eprintln!("wrote {}", a.out.join("mtf.json").display());
+    Ok(())
+}
+
 fn mtf(a: MtfArgs) -> anyhow::Result<()> {
     let set = OutputSet::begin(&a.out, a.force, false)?;
     let hidden = false;
@@ -557,6 +654,13 @@ fn mtf(a: MtfArgs) -> anyhow::Result<()> {
             gloam_calib::capture::agc_off(g.as_mut())?;
             if let Some(gain) = a.gain {
                 g.set_gain(gain)?;
+            }
+            if a.space == Space::Voltage {
+                anyhow::ensure!(
+                    matches!(a.target, Target::Sine),
+                    "--space voltage reads sine patterns: use --target sine"
+                );
+                return mtf_voltage(&a, set, g.as_mut());
             }
             let level = match a.radiance {
                 Some(l) => l,

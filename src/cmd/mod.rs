@@ -14,6 +14,7 @@ pub mod output;
 pub mod plan;
 pub mod probe;
 pub mod render;
+pub mod scope;
 pub mod sensor;
 pub mod sky;
 pub mod spectra;

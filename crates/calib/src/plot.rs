@@ -13,7 +13,7 @@ use crate::error::CalibError;
 static FONT: Once = Once::new();
 const FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSansMono.ttf");
 
-fn ensure_font() {
+pub(crate) fn ensure_font() {
     FONT.call_once(|| {
         let _ = register_font("sans-serif", FontStyle::Normal, FONT_BYTES);
     });

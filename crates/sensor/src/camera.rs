@@ -90,6 +90,10 @@ pub struct Camera {
     kernels: Option<Kernels>,
     buf: Vec<f32>,
     tmp: Vec<f32>,
+    /// Rows whose analogue line the next captures keep (`gloam scope`).
+    scope_rows: Vec<usize>,
+    /// `(row, CCD electrons per pixel)` of those rows in the last capture.
+    scope_lines: Vec<(usize, Vec<f64>)>,
 }
 
 impl Camera {
@@ -125,6 +129,8 @@ impl Camera {
             kernels: None,
             buf: Vec::new(),
             tmp: Vec::new(),
+            scope_rows: Vec::new(),
+            scope_lines: Vec::new(),
             chain,
         })
     }
@@ -204,6 +210,20 @@ impl Camera {
     /// Temporal noise on or off (fixed patterns stay).
     pub fn set_noise(&mut self, on: bool) {
         self.noise = on;
+    }
+
+    /// Keeps, from the next capture on, the CCD output of these frame rows
+    /// (the analogue line's held levels before the video amplifier) for
+    /// [`crate::scope`]. An empty list stops it.
+    pub fn set_scope_rows(&mut self, rows: Vec<usize>) {
+        self.scope_rows = rows;
+        self.scope_lines.clear();
+    }
+
+    /// `(row, CCD electrons per pixel, read noise and DSNU included)` of the
+    /// rows asked for by [`Camera::set_scope_rows`], from the last capture.
+    pub fn scope_electrons(&self) -> &[(usize, Vec<f64>)] {
+        &self.scope_lines
     }
 
     /// Forgets history: frame counter, AGC gain, phosphor persistence.
@@ -430,9 +450,27 @@ impl Camera {
             // "Saturated": within 3 σ of read noise (at least 1 DN) of saturation.
             saturated_dn: chain.saturated_threshold_dn(g),
         };
+        // The analogue line (video amplifier and sampling), when band-limited.
+        let line = chain.line_sampler(cols);
+        let scope_rows = &self.scope_rows;
+        let scoped = std::sync::Mutex::new(Vec::new());
         let digitize_row = |r: usize, v: &mut [f64], out: &mut [u16]| {
             ccd.add_dsnu(r, v);
-            digitizer.row(v, out)
+            if !scope_rows.is_empty() && scope_rows.contains(&r) {
+                scoped
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push((r, v.to_vec()));
+            }
+            match &line {
+                None => digitizer.row(v, out),
+                Some(l) => {
+                    let mut rng = (noise.enabled && l.jitter_s > 0.0)
+                        .then(|| noise.stream(crate::noise::Pass::ClockJitter, r));
+                    digitizer
+                        .row_sampled(v, out, l, || rng.as_mut().map_or(0.0, crate::noise::normal))
+                }
+            }
         };
         let mut pixels = Array2::<u16>::zeros((rows, cols));
         let out_rows = pixels
@@ -475,6 +513,9 @@ impl Camera {
                 })
                 .collect()
         };
+        let mut scoped = scoped.into_inner().unwrap_or_else(|p| p.into_inner());
+        scoped.sort_by_key(|l| l.0);
+        self.scope_lines = scoped;
         self.buf = pe;
         self.patterns = Some(pat);
         self.kernels = Some(kernels);

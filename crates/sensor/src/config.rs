@@ -298,6 +298,17 @@ pub struct Video {
     /// Analogue noise, V rms.
     #[serde(default)]
     pub noise_v: f64,
+    /// Line format: `"rs-170"` (525/60, 63.556 µs lines) or `"ccir"`
+    /// (625/50, 64 µs; the default). See `stages/video_timing.rs`.
+    #[serde(default)]
+    pub format: crate::stages::video_timing::VideoFormat,
+    /// Video amplifier −3 dB bandwidth, Hz (RS-170/CCIR cameras: ~4.2–5 MHz).
+    /// Omitted: the amplifier is taken as flat (no horizontal video MTF).
+    #[serde(default)]
+    pub bandwidth_hz: Option<f64>,
+    /// Shape of that low-pass: `"butterworth-2"` (default) or `"single-pole"`.
+    #[serde(default)]
+    pub bandwidth_filter: crate::stages::video_bandwidth::FilterKind,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -322,6 +333,13 @@ pub struct Digitizer {
     pub min_analog_gain: f64,
     #[serde(default = "one")]
     pub max_analog_gain: f64,
+    /// Video only: where in each pixel period the line-locked pixel clock
+    /// samples the analogue line, 0–1 (default 0.5, mid-pixel).
+    #[serde(default = "half")]
+    pub sample_phase: f64,
+    /// Video only: line-locked pixel-clock jitter, s rms (default 0).
+    #[serde(default)]
+    pub clock_jitter_s: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -386,6 +404,9 @@ fn yes() -> bool {
 }
 fn one() -> f64 {
     1.0
+}
+fn half() -> f64 {
+    0.5
 }
 fn default_diffraction_wavelength() -> f64 {
     600.0
@@ -603,6 +624,9 @@ impl SensorConfig {
             }
             positive("video.full_scale_e", v.full_scale_e)?;
             non_negative("video.noise_v", v.noise_v)?;
+            if let Some(b) = v.bandwidth_hz {
+                positive("video.bandwidth_hz", b)?;
+            }
         }
 
         let d = &self.digitizer;
@@ -646,6 +670,8 @@ impl SensorConfig {
                 Readout::Direct { e_per_dn: e }
             }
         };
+        fraction("digitizer.sample_phase", d.sample_phase)?;
+        non_negative("digitizer.clock_jitter_s", d.clock_jitter_s)?;
         positive("digitizer.min_analog_gain", d.min_analog_gain)?;
         positive("digitizer.max_analog_gain", d.max_analog_gain)?;
         in_range(

@@ -203,6 +203,40 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)
             "direct digital readout".into()
         },
     ));
+    if let Some(video) = &config.video {
+        let t = crate::stages::video_timing::LineTiming::of(video.format);
+        v.push((
+            "video line timing",
+            true,
+            format!(
+                "{}: {:.3} µs lines, {:.3} µs active, 2:1 interlace",
+                video.format.label(),
+                t.line_s * 1e6,
+                t.active_s() * 1e6
+            ),
+        ));
+        // The square-pixel width of the format sets the quoted pixel clock.
+        let cols = match video.format {
+            crate::stages::video_timing::VideoFormat::Rs170 => 640,
+            crate::stages::video_timing::VideoFormat::Ccir => 768,
+        };
+        v.push((
+            "video bandwidth",
+            chain.amplifier().is_some(),
+            match (chain.amplifier(), chain.line_sampler(cols)) {
+                (Some(a), Some(l)) => format!(
+                    "{} −3 dB at {:.2} MHz, horizontal only: MTF ×{:.3} at 0.25 cy/px \
+                     for {cols} columns ({:.2} MHz pixel clock, sampled at phase {})",
+                    a.kind.label(),
+                    a.bandwidth_hz / 1e6,
+                    l.sampled_mtf(0.25),
+                    l.pixel_clock_hz() / 1e6,
+                    l.phase
+                ),
+                _ => "video.bandwidth_hz not set: the amplifier is taken as flat".into(),
+            },
+        ));
+    }
     v.push(("digitizer", true, format!("{} bits", config.digitizer.bits)));
     v
 }

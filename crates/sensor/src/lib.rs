@@ -9,6 +9,7 @@ mod error;
 pub mod kernel;
 pub mod levels;
 pub mod noise;
+pub mod scope;
 pub mod stages;
 
 pub use analytic::Description;

@@ -17,6 +17,8 @@ pub enum Pass {
     Read = 3,
     Prnu = 10,
     Dsnu = 11,
+    /// Line-locked pixel-clock jitter of the digitizer.
+    ClockJitter = 20,
 }
 
 /// SplitMix64 (Steele, Lea & Flood, OOPSLA 2014; Vigna's `splitmix64.c`):

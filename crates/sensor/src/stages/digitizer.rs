@@ -1,5 +1,10 @@
 //! Digitizer: electrons (with the DSNU offsets added) to rounded, clipped
-//! codes `0..2^b − 1`, with the frame's DN sum and saturated count.
+//! codes `0..2^b − 1`, with the frame's DN sum and saturated count —
+//! directly, or by sampling the analogue line
+//! ([`super::video_bandwidth::LineSampler`]) when the video stage has a
+//! bandwidth.
+
+use super::video_bandwidth::LineSampler;
 
 /// The digitizer's transfer at one frame's gain.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +33,33 @@ impl Digitizer {
                 .min(self.clip_dn)
                 .clamp(0.0, self.max_code);
             let dn = (dn + 0.5) as i32 as f64;
+            *o = dn as u16;
+            sum += dn;
+            nsat += (dn >= self.saturated_dn) as usize;
+        }
+        (sum, nsat)
+    }
+
+    /// [`Digitizer::row`] through the analogue line: each pixel's level
+    /// `min(black + e·k, clip)` is held for a pixel period, run through
+    /// the video amplifier and sampled at the line sampler's phase (from
+    /// rest at the blanking level), then rounded and clipped. `jitter`
+    /// draws one standard normal per sample (clock jitter on).
+    pub fn row_sampled(
+        &self,
+        v: &mut [f64],
+        out: &mut [u16],
+        line: &LineSampler,
+        jitter: impl FnMut() -> f64,
+    ) -> (f64, usize) {
+        for x in v.iter_mut() {
+            *x = (self.black_dn + *x * self.dn_per_e).min(self.clip_dn);
+        }
+        line.sample_row(self.black_dn, v, jitter);
+        let mut sum = 0f64;
+        let mut nsat = 0usize;
+        for (o, &x) in out.iter_mut().zip(v.iter()) {
+            let dn = (x.clamp(0.0, self.max_code) + 0.5) as i32 as f64;
             *o = dn as u16;
             sum += dn;
             nsat += (dn >= self.saturated_dn) as usize;

@@ -85,6 +85,8 @@ pub mod optics;
 pub mod phosphor;
 pub mod photocathode;
 pub mod video;
+pub mod video_bandwidth;
+pub mod video_timing;
 
 pub use chain::{Chain, GainControl, Intensifier, Tube, resolve_spectrum};
 pub use ebccd::EbParams;

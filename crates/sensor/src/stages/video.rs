@@ -63,6 +63,8 @@ mod tests {
             analog_gain: 1.0,
             min_analog_gain: 1.0,
             max_analog_gain: 1.0,
+            sample_phase: 0.5,
+            clock_jitter_s: 0.0,
         }
     }
 
@@ -77,6 +79,9 @@ mod tests {
             white_clip_v: None,
             full_scale_e: 10_000.0,
             noise_v: 0.0007,
+            format: Default::default(),
+            bandwidth_hz: None,
+            bandwidth_filter: Default::default(),
         };
         let r = Readout::Video {
             video: &v,

@@ -1,0 +1,203 @@
+//! `gloam scope`: a simulated camera looks at a rig, one or more scan
+//! lines of the frame are put on the oscilloscope (voltage against time,
+//! sync and blanking included) and written as CSV, a scope-style PNG and
+//! the cursor readings (levels, sync width, line period) as JSON.
+
+use std::path::Path;
+
+use gloam_grabber::sim::{render_stimulus, rig_stimulus};
+use gloam_grabber::{GrabberUri, Stimulus};
+use gloam_sensor::scope::{LineReadout, ScopeLine, read_line, scope_lines, to_csv};
+use gloam_sensor::stages::video_timing::VideoFormat;
+use gloam_sensor::{Camera, SensorConfig};
+use serde::Serialize;
+
+use crate::error::CalibError;
+
+/// What to put on the scope.
+#[derive(Clone, Debug)]
+pub struct ScopeOptions {
+    /// Sensor preset or TOML file.
+    pub sensor: String,
+    pub seed: u64,
+    /// Frame size; default the format's square-pixel size (640×480 RS-170,
+    /// 768×576 CCIR).
+    pub size: Option<(u32, u32)>,
+    /// Frame rows to show (default: the middle row).
+    pub rows: Vec<usize>,
+    /// Rig: uniform, sine, edge or dark.
+    pub rig: String,
+    /// Mean signal as a fraction of the range above black.
+    pub level_fraction: f64,
+    /// Sine rig frequency, cycles/pixel (bars across the line).
+    pub frequency_cy_per_px: f64,
+    /// Fixed gain (default: the configured one, AGC off).
+    pub gain: Option<f64>,
+    /// Overrides of the sensor file's video stage.
+    pub format: Option<VideoFormat>,
+    pub bandwidth_hz: Option<f64>,
+    /// Frames captured; the last is shown.
+    pub frames: usize,
+}
+
+/// The lines and what the scope's cursors read off them.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScopeResult {
+    pub sensor: String,
+    pub format: String,
+    pub width: u32,
+    pub height: u32,
+    pub gain: f64,
+    pub pixel_clock_hz: f64,
+    pub bandwidth_hz: Option<f64>,
+    pub readouts: Vec<(usize, LineReadout)>,
+    #[serde(skip)]
+    pub lines: Vec<ScopeLine>,
+}
+
+/// `(sensor, rig, seed, size)` of a `sim:` grabber URI.
+pub type SimCamera = (String, String, u64, Option<(u32, u32)>);
+
+/// The sensor and seed of a `sim:` grabber URI (rig and size too), for
+/// `--grabber`: the scope needs the analogue stage, which only the
+/// simulated cameras have.
+pub fn sim_uri(uri: &str) -> Result<SimCamera, CalibError> {
+    match GrabberUri::parse(uri)? {
+        GrabberUri::Sim {
+            preset,
+            rig,
+            seed,
+            size,
+            scene: None,
+        } => Ok((preset, rig, seed, size)),
+        GrabberUri::Sim { scene: Some(_), .. } => Err(CalibError::Invalid(
+            "the scope looks at rigs; a scene= grabber is not supported yet".into(),
+        )),
+        _ => Err(CalibError::Invalid(format!(
+            "'{uri}' has no analogue video tap: the scope needs a sim: grabber (the wire protocol carries digitised frames only)"
+        ))),
+    }
+}
+
+/// Captures and scopes the lines.
+pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
+    let mut cfg = SensorConfig::load_preset_or_file(&o.sensor)
+        .map_err(|e| CalibError::Invalid(e.to_string()))?;
+    cfg.noise.seed = o.seed;
+    let Some(video) = cfg.video.as_mut() else {
+        return Err(CalibError::Invalid(format!(
+            "sensor '{}' has a direct digital readout: no analogue video line to show",
+            cfg.name
+        )));
+    };
+    if let Some(f) = o.format {
+        video.format = f;
+    }
+    if let Some(b) = o.bandwidth_hz {
+        if !(b.is_finite() && b > 0.0) {
+            return Err(CalibError::Invalid(format!(
+                "--bandwidth-hz {b} must be > 0"
+            )));
+        }
+        video.bandwidth_hz = Some(b);
+    }
+    let format = video.format;
+    if let Some(a) = cfg.agc.as_mut() {
+        a.enabled = false;
+    }
+    let mut cam = Camera::new(cfg).map_err(|e| CalibError::Invalid(e.to_string()))?;
+    if let Some(g) = o.gain {
+        cam.set_override_gain(Some(g))
+            .map_err(|e| CalibError::Invalid(e.to_string()))?;
+    }
+    let g = cam.gain();
+    let (w, h) = o.size.unwrap_or(match format {
+        VideoFormat::Rs170 => (640, 480),
+        VideoFormat::Ccir => (768, 576),
+    });
+    let rows = if o.rows.is_empty() {
+        vec![h as usize / 2]
+    } else {
+        o.rows.clone()
+    };
+    if let Some(r) = rows.iter().find(|&&r| r >= h as usize) {
+        return Err(CalibError::Invalid(format!(
+            "row {r} is outside the {h}-row frame"
+        )));
+    }
+    if !(o.level_fraction.is_finite() && o.level_fraction >= 0.0 && o.level_fraction <= 1.0) {
+        return Err(CalibError::Invalid(format!(
+            "level {} must be a fraction of the range, 0–1",
+            o.level_fraction
+        )));
+    }
+    // The rig's mean radiance for the asked signal level.
+    let probe = rig_stimulus("uniform", 1.0)?;
+    let (_, shape) = render_stimulus(&probe, 2, 2)?;
+    let ch = cam.chain();
+    let per_radiance = ch.pe_per_radiance(&shape).unwrap_or(0.0) * ch.mean_dn_per_photoelectron(g);
+    if !(per_radiance > 0.0 && per_radiance.is_finite()) {
+        return Err(CalibError::Invalid(
+            "the camera does not respond to the rig's light".into(),
+        ));
+    }
+    let level = o.level_fraction * (ch.saturation_dn(g) - ch.black_dn(g)) / per_radiance;
+    let mut stimulus = rig_stimulus(&o.rig, level)?;
+    if let Stimulus::Sine {
+        cycles_per_pixel,
+        angle_deg,
+        ..
+    } = &mut stimulus
+    {
+        if !(o.frequency_cy_per_px > 0.0 && o.frequency_cy_per_px <= 0.5) {
+            return Err(CalibError::Invalid(format!(
+                "--frequency {} must lie in (0, 0.5] cycles/pixel",
+                o.frequency_cy_per_px
+            )));
+        }
+        *cycles_per_pixel = o.frequency_cy_per_px;
+        *angle_deg = 0.0;
+    }
+    let (img, shape) = render_stimulus(&stimulus, w, h)?;
+    cam.set_scope_rows(rows);
+    for _ in 0..o.frames.max(1) {
+        cam.capture_mono(img.view(), &shape)
+            .map_err(|e| CalibError::Invalid(format!("capture: {e}")))?;
+    }
+    let lines = scope_lines(&cam, h as usize).map_err(CalibError::Invalid)?;
+    let readouts = lines
+        .iter()
+        .filter_map(|l| read_line(l).map(|r| (l.row, r)))
+        .collect();
+    let timing = cam
+        .chain()
+        .line_timing()
+        .expect("video stage checked above");
+    Ok(ScopeResult {
+        sensor: cam.config().name.clone(),
+        format: format.label().into(),
+        width: w,
+        height: h,
+        gain: g,
+        pixel_clock_hz: 1.0 / timing.pixel_period_s(w as usize),
+        bandwidth_hz: cam.chain().amplifier().map(|a| a.bandwidth_hz),
+        readouts,
+        lines,
+    })
+}
+
+/// Writes `scope.csv`, `scope.png` and `scope.json` into `dir`.
+pub fn write_scope(dir: &Path, r: &ScopeResult) -> Result<(), CalibError> {
+    crate::report::write_bytes(&dir.join("scope.csv"), to_csv(&r.lines).as_bytes())?;
+    let title = format!(
+        "{} — {}, {}",
+        r.sensor,
+        r.format,
+        match r.bandwidth_hz {
+            Some(b) => format!("{:.2} MHz video", b / 1e6),
+            None => "flat video amplifier".into(),
+        }
+    );
+    crate::scope_plot::scope_plot(&dir.join("scope.png"), &title, &r.lines, true)?;
+    crate::report::write_json(&dir.join("scope.json"), r)
+}
