@@ -26,6 +26,10 @@ pub const GATE_MIN_S: f64 = 100e-9;
 pub const EXPOSURE_MIN_S: f64 = 1e-6;
 /// Densest ND filter stack, optical density.
 pub const ND_MAX: f64 = 6.0;
+/// The median a readable frame should reach, as a fraction of full scale
+/// (`2^bits − 1`): the chosen exposure reports what lifting its median
+/// there would clip ([`ExposureChoice::median_goal_saturated_fraction`]).
+pub const MEDIAN_GOAL_OF_FULL_SCALE: f64 = 0.10;
 
 /// Where the exposure should put the frame.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -63,6 +67,14 @@ pub struct ExposureChoice {
     pub black_dn: f64,
     pub saturation_dn: f64,
     pub saturated_fraction: f64,
+    /// Median over full scale `2^bits − 1` (noise-free frame).
+    pub median_of_full_scale: f64,
+    /// The fraction of pixels that would saturate if the exposure were
+    /// raised until the median reached [`MEDIAN_GOAL_OF_FULL_SCALE`] (from
+    /// the noise-free frame, the chain taken as linear): above 1 % the
+    /// scene's highlights (lamps in view) and a readable median do not fit
+    /// in one frame of this camera. 0 when the median is already there.
+    pub median_goal_saturated_fraction: f64,
     /// Stops of light the scene lacks (positive: too dim at the most
     /// sensitive setting) or has too much of (negative: too bright at the
     /// least sensitive); 0 when the target was reached.
@@ -173,6 +185,8 @@ struct Measured {
     saturated_fraction: f64,
     black: f64,
     saturation: f64,
+    max_code: f64,
+    median_goal_saturated_fraction: f64,
 }
 
 impl Measured {
@@ -210,12 +224,24 @@ fn measure(
     let saturated = v.iter().filter(|&&p| p >= at).count() as f64 / v.len().max(1) as f64;
     let pc = percentile(&mut v, target.percentile);
     let median = percentile(&mut v, 50.0);
+    let max_code = chain.max_code;
+    // Lift the median to its goal (linearly): which pixels would clip?
+    let goal = MEDIAN_GOAL_OF_FULL_SCALE * max_code - black;
+    let lift = if median - black >= goal || goal <= 0.0 {
+        0.0
+    } else {
+        let k = goal / (median - black).max(0.5);
+        let clip = (at - black) / k;
+        v.iter().filter(|&&p| p - black >= clip).count() as f64 / v.len().max(1) as f64
+    };
     Ok(Measured {
         percentile: pc,
         median,
         saturated_fraction: saturated,
         black,
         saturation: sat,
+        max_code,
+        median_goal_saturated_fraction: lift,
     })
 }
 
@@ -316,6 +342,16 @@ pub fn choose(
     } else {
         note
     };
+    let note = if m.median_goal_saturated_fraction > gloam_sensor::levels::SATURATED_WARN_FRACTION {
+        format!(
+            "{note}; the median is {:.1} % of full scale, and lifting it to {:.0} % would saturate {:.1} % of the pixels: the scene's highlights and a readable median do not fit in one frame of this camera",
+            100.0 * m.median / m.max_code,
+            100.0 * MEDIAN_GOAL_OF_FULL_SCALE,
+            100.0 * m.median_goal_saturated_fraction
+        )
+    } else {
+        note
+    };
     Ok(ExposureChoice {
         target: *target,
         gain: setting.gain,
@@ -327,6 +363,8 @@ pub fn choose(
         saturated_fraction: m.saturated_fraction,
         black_dn: m.black,
         saturation_dn: m.saturation,
+        median_of_full_scale: m.median / m.max_code,
+        median_goal_saturated_fraction: m.median_goal_saturated_fraction,
         stops_out_of_range: stops,
         note,
     })

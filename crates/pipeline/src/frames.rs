@@ -34,6 +34,14 @@ pub struct FrameRecord {
     /// The camera's saturated level when it reports one (simulated
     /// cameras), else the top code 2^bits − 1.
     pub saturated_at_dn: f64,
+    /// The stage whose clip the saturated pixels hit (`ccd-full-well`,
+    /// `video-clip` or `digitizer-rail`), when the camera reports it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saturated_by: Option<gloam_sensor::stages::bright::SaturatingStage>,
+    /// Fraction of pixels the MCP compressed by more than 10 % (soft, not
+    /// saturated: no information lost), when the camera reports it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mcp_compressed_fraction: Option<f64>,
     /// Exposure warnings for this frame (also printed on stderr).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
@@ -67,6 +75,8 @@ impl FrameRecord {
                 .map_or(f64::from((1u32 << f.meta.bits.min(16)) - 1), |l| {
                     l.saturated_at_dn
                 }),
+            saturated_by: None,
+            mcp_compressed_fraction: None,
             warnings,
             sensor: None,
         }
@@ -181,6 +191,7 @@ impl FrameCapture<'_> {
         let mut log = FrameLog::create(out)?;
         let mut warned = std::collections::BTreeSet::new();
         let mut per_frame = Vec::new();
+        let mut summary = SaturationSummary::default();
         for i in 0..self.frames {
             let frame = camera
                 .capture_detected(detected.view())
@@ -198,7 +209,14 @@ impl FrameCapture<'_> {
             let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
             for (w, k) in warnings.iter().zip(&kinds) {
                 if warned.insert(*k) {
-                    eprintln!("warning: frame {i}: {w}");
+                    let by = match k {
+                        gloam_sensor::levels::WarningKind::Saturated => format!(
+                            " (clipped at the {})",
+                            stage_name(m.saturation.saturated_by)
+                        ),
+                        _ => String::new(),
+                    };
+                    eprintln!("warning: frame {i}: {w}{by}");
                 }
             }
             per_frame.push(serde_json::json!({
@@ -206,6 +224,9 @@ impl FrameCapture<'_> {
                 "gain": g,
                 "mean_dn": m.mean_dn,
                 "saturated_fraction": m.saturated_fraction,
+                "saturated_by": m.saturation.saturated_by,
+                "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
+                "bright_source_in_view": m.saturation.bright_source_in_view,
                 "warnings": kinds,
             }));
             let rec = FrameRecord {
@@ -223,10 +244,13 @@ impl FrameCapture<'_> {
                 mean_dn: m.mean_dn,
                 saturated_fraction: m.saturated_fraction,
                 saturated_at_dn: chain.saturated_threshold_dn(g),
+                saturated_by: Some(m.saturation.saturated_by),
+                mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
                 warnings,
                 sensor: Some(m.clone()),
             };
             log.append(&rec)?;
+            summary.add(&m.saturation);
         }
         record_in_report(
             out,
@@ -234,6 +258,7 @@ impl FrameCapture<'_> {
                 "sensor": self.sensor,
                 "exposure": exposure,
                 "frames": per_frame,
+                "saturation": summary,
                 "thresholds": {
                     "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
                     "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
@@ -248,5 +273,61 @@ impl FrameCapture<'_> {
             out.display()
         );
         Ok(())
+    }
+}
+
+/// A stage's name in messages.
+fn stage_name(s: gloam_sensor::stages::bright::SaturatingStage) -> &'static str {
+    use gloam_sensor::stages::bright::SaturatingStage as S;
+    match s {
+        S::CcdFullWell => "CCD full well",
+        S::VideoClip => "analogue video clip",
+        S::DigitizerRail => "digitizer rail",
+    }
+}
+
+/// `report.json`'s summary of a capture's saturation: "saturated" is
+/// information lost (a clip at full well, video clip or digitizer rail);
+/// the MCP's soft compression is counted apart.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SaturationSummary {
+    pub frames: u64,
+    /// Worst and mean saturated fraction over the frames.
+    pub max_saturated_fraction: f64,
+    pub mean_saturated_fraction: f64,
+    /// Frames above the 1 % warning fraction.
+    pub frames_over_warning: u64,
+    /// The stages that clipped, with the frames each set the level in.
+    pub saturated_by: std::collections::BTreeMap<String, u64>,
+    /// Worst fraction of pixels the MCP compressed by more than 10 %.
+    pub max_mcp_compressed_fraction: f64,
+    /// Frames with a bright source in view (halo and pore depletion on).
+    pub bright_source_frames: u64,
+    /// Frames where the tube's ABC cut the gain or the gate.
+    pub abc_active_frames: u64,
+}
+
+impl SaturationSummary {
+    pub fn add(&mut self, s: &gloam_sensor::stages::bright::SaturationAccount) {
+        let n = self.frames as f64;
+        self.mean_saturated_fraction =
+            (self.mean_saturated_fraction * n + s.saturated_fraction) / (n + 1.0);
+        self.frames += 1;
+        self.max_saturated_fraction = self.max_saturated_fraction.max(s.saturated_fraction);
+        if s.saturated_fraction > gloam_sensor::levels::SATURATED_WARN_FRACTION {
+            self.frames_over_warning += 1;
+        }
+        if s.saturated_fraction > 0.0 {
+            let key = serde_json::to_value(s.saturated_by)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default();
+            *self.saturated_by.entry(key).or_default() += 1;
+        }
+        self.max_mcp_compressed_fraction = self
+            .max_mcp_compressed_fraction
+            .max(s.mcp_compressed_fraction);
+        self.bright_source_frames += u64::from(s.bright_source_in_view);
+        self.abc_active_frames += u64::from(s.abc.gain_factor < 1.0 || s.abc.duty_factor < 1.0);
     }
 }

@@ -69,24 +69,56 @@ pub fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()
     })
 }
 
-/// First band, divided by its 99.5th percentile, gamma 1/2.2, 8 bits.
+/// The preview's tone map: an asinh stretch around the scene's median
+/// `m` (of the positive pixels of the first band),
+/// `x = asinh(v/s) / asinh(W/s)` with softening `s = m/4` and white
+/// `W = min(p99.5, 64 m)`. Dark and mid tones come out nearly logarithmic
+/// (the median at asinh 4 / asinh 256 ≈ 34 % grey, code 86, whatever the scene's
+/// absolute level), and lamps beyond 64× the median clip to white instead
+/// of pushing the room into black, as scaling to the 99.5th percentile did.
+pub struct ToneMap {
+    pub soft: f64,
+    pub white: f64,
+}
+
+impl ToneMap {
+    /// The tone map of an image's values (non-positive values ignored).
+    pub fn of(values: impl Iterator<Item = f64>) -> Self {
+        let mut sorted: Vec<f64> = values.filter(|v| *v > 0.0 && v.is_finite()).collect();
+        if sorted.is_empty() {
+            return Self {
+                soft: 1.0,
+                white: 1.0,
+            };
+        }
+        sorted.sort_by(f64::total_cmp);
+        let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
+        let median = at(0.5);
+        let white = at(0.995).min(64.0 * median).max(median);
+        Self {
+            soft: median / 4.0,
+            white,
+        }
+    }
+
+    /// 8-bit grey of a value.
+    pub fn grey(&self, v: f64) -> u8 {
+        let top = (self.white / self.soft).asinh();
+        let x = if top > 0.0 {
+            ((v.max(0.0) / self.soft).asinh() / top).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (x * 255.0).round() as u8
+    }
+}
+
+/// First band through [`ToneMap`], 8 bits.
 pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     let (_, h, w) = radiance.dim();
     let img = radiance.index_axis(ndarray::Axis(0), 0);
-    let mut sorted: Vec<f64> = img.iter().copied().filter(|v| *v > 0.0).collect();
-    sorted.sort_by(f64::total_cmp);
-    let scale = if sorted.is_empty() {
-        1.0
-    } else {
-        sorted[((sorted.len() - 1) as f64 * 0.995) as usize]
-    };
-    let pixels: Vec<u8> = img
-        .iter()
-        .map(|&v| {
-            let x = (v / scale).clamp(0.0, 1.0).powf(1.0 / 2.2);
-            (x * 255.0).round() as u8
-        })
-        .collect();
+    let tone = ToneMap::of(img.iter().copied());
+    let pixels: Vec<u8> = img.iter().map(|&v| tone.grey(v)).collect();
     let gray =
         image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
     write_atomic_with(path, |f| {
@@ -107,4 +139,26 @@ pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> anyhow::Re
         write_atomic(path, serde_json::to_string_pretty(&v)?.as_bytes())?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_median_lands_at_asinh_4_over_asinh_256_and_lamps_clip() {
+        // A room at 1 with 2 % lamps at 500: median 1, p99.5 = 500 > 64.
+        let mut v: Vec<f64> = vec![1.0; 980];
+        v.extend(std::iter::repeat_n(500.0, 20));
+        let t = ToneMap::of(v.iter().copied());
+        assert_eq!((t.soft, t.white), (0.25, 64.0));
+        let want = (255.0 * 4f64.asinh() / 256f64.asinh()).round() as u8;
+        assert_eq!(t.grey(1.0), want);
+        assert_eq!(want, 86);
+        assert_eq!(t.grey(500.0), 255);
+        assert_eq!(t.grey(0.0), 0);
+        // Scale-free: the same scene 1e-6 as bright looks the same.
+        let t2 = ToneMap::of(v.iter().map(|x| x * 1e-6));
+        assert_eq!(t2.grey(1e-6), want);
+    }
 }

@@ -12,7 +12,9 @@ pub use crate::stages::agc::AgcState;
 use crate::config::SensorConfig;
 use crate::error::{CaptureError, ConfigError};
 use crate::kernel::Kernel;
+use crate::stages::abc::AbcSetting;
 use crate::stages::agc::AgcLoop;
+use crate::stages::bright::{BrightStages, SaturationAccount};
 use crate::stages::ccd::{self, CcdPass};
 use crate::stages::digitizer::Digitizer;
 use crate::stages::ebccd::EbPass;
@@ -46,6 +48,10 @@ pub struct FrameMeta {
     pub saturated_fraction: f64,
     /// Temporal noise on.
     pub noise: bool,
+    /// Which stage saturated, MCP compression and the tube's brightness
+    /// control ([`crate::stages::bright`]).
+    #[serde(default)]
+    pub saturation: SaturationAccount,
 }
 
 /// One digitised frame: `height × width` digital counts.
@@ -86,6 +92,12 @@ pub struct Camera {
     agc_state: AgcState,
     seq: u64,
     lag: Option<Vec<f32>>,
+    /// The intensifier's bright-source stages (ICCD).
+    bright: Option<BrightStages>,
+    /// The ABC's throughput cut carried to the next frame (≤ 1).
+    abc_cut: f64,
+    /// MCP pore reservoirs (fraction full) while a depletion is recovering.
+    reservoir: Option<Vec<f32>>,
     patterns: Option<Patterns>,
     kernels: Option<Kernels>,
     buf: Vec<f32>,
@@ -125,6 +137,9 @@ impl Camera {
             gain,
             seq: 0,
             lag: None,
+            bright: BrightStages::of(&chain),
+            abc_cut: 1.0,
+            reservoir: None,
             patterns: None,
             kernels: None,
             buf: Vec::new(),
@@ -230,6 +245,8 @@ impl Camera {
     pub fn reset(&mut self) {
         self.seq = 0;
         self.lag = None;
+        self.abc_cut = 1.0;
+        self.reservoir = None;
         if self.mode != Mode::Override {
             self.gain = self.chain.reference_gain;
         }
@@ -367,8 +384,14 @@ impl Camera {
         cols: usize,
         apply_vignette: bool,
     ) -> Result<Frame, CaptureError> {
-        let g = self.gain;
         let chain = &self.chain;
+        // The tube's ABC: MCP voltage first, then the gate.
+        let abc = self.bright.as_ref().and_then(|b| b.abc);
+        let (abc_setting, abc_out_of_range) = match abc {
+            Some(a) if self.abc_cut < 1.0 => a.split(self.abc_cut, chain.gain_min / self.gain),
+            _ => (AbcSetting::OPEN, false),
+        };
+        let g = self.gain * abc_setting.gain_factor;
         // Fixed patterns per frame size; blur kernels per gain (only the
         // EBCCD's depend on it).
         let pat = match self.patterns.take() {
@@ -395,14 +418,82 @@ impl Camera {
             k.apply(&mut pe, &mut self.tmp, rows, cols);
         }
 
+        // Bright source in view? (One pass: the input's mean and maximum.)
+        let n_px = (rows * cols) as f64;
+        let mut account = SaturationAccount {
+            abc: abc_setting,
+            abc_out_of_range,
+            ..SaturationAccount::default()
+        };
+        let mut mean_pe = 0.0;
+        if let Some(b) = &self.bright {
+            let (sum, max) = pe
+                .par_chunks(1 << 14)
+                .map(|c| {
+                    c.iter()
+                        .fold((0f64, 0f32), |(s, m), &v| (s + v as f64, m.max(v)))
+                })
+                .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)));
+            mean_pe = sum / n_px;
+            account.input_max_over_mean = if mean_pe > 0.0 {
+                max as f64 / mean_pe
+            } else {
+                0.0
+            };
+            account.bright_source_in_view = b.in_view(mean_pe, max as f64);
+        }
+        let in_view = account.bright_source_in_view;
+        if abc_setting.duty_factor < 1.0 {
+            let d = abc_setting.duty_factor as f32;
+            pe.par_iter_mut().for_each(|p| *p *= d);
+        }
+        if in_view && let Some(h) = self.bright.as_ref().and_then(|b| b.halo.as_ref()) {
+            h.apply(&mut pe, rows, cols);
+            account.halo_fraction = h.fraction;
+        }
+
         // Gain stage: photoelectrons → charge.
-        let ebi = chain.ebi_pe(g);
+        let ebi = chain.ebi_pe(g) * abc_setting.duty_factor;
+        let mut next_abc_cut = self.abc_cut;
         match &chain.tube {
             Tube::Iccd(i) => {
-                let mcp = McpPass::new(&i.mcp, g, ebi, noise);
+                // Pore depletion while a bright source is in view or its
+                // deficit is recovering; it replaces the static knee.
+                let depletion = self
+                    .bright
+                    .as_ref()
+                    .and_then(|b| b.depletion)
+                    .filter(|_| in_view || self.reservoir.is_some());
+                let plate = match depletion {
+                    Some(_) => std::borrow::Cow::Owned(i.mcp.without_knee()),
+                    None => std::borrow::Cow::Borrowed(&i.mcp),
+                };
+                let mcp = McpPass::new(&plate, g, ebi, noise);
                 pe.par_chunks_mut(cols)
                     .enumerate()
                     .for_each_init(RowScratch::default, |s, (r, row)| mcp.row(r, row, s));
+                // Mean screen charge per pixel: exact in expectation from
+                // the input while the plate is linear, summed otherwise.
+                let mut mean_q = i.mcp.open_area * (mean_pe * abc_setting.duty_factor + ebi) * g;
+                if let Some(d) = depletion {
+                    let state = match self.reservoir.take() {
+                        Some(s) if s.len() == pe.len() => s,
+                        _ => vec![1f32; pe.len()],
+                    };
+                    let mut state = state;
+                    let compressed: usize = pe
+                        .par_chunks_mut(cols)
+                        .zip(state.par_chunks_mut(cols))
+                        .map(|(row, s)| d.row(row, s))
+                        .sum();
+                    account.mcp_compressed_fraction = compressed as f64 / n_px;
+                    mean_q = pe.par_iter().map(|&v| v as f64).sum::<f64>() / n_px;
+                    let recovered = !in_view && state.par_iter().all(|&s| s > 0.999);
+                    self.reservoir = (!recovered).then_some(state);
+                }
+                if let Some(a) = abc {
+                    next_abc_cut = a.step(self.abc_cut, mean_q);
+                }
                 phosphor::persist(&mut self.lag, &mut pe, i.lag_fraction);
             }
             Tube::Ebccd(e) => {
@@ -522,6 +613,9 @@ impl Camera {
         let n = (rows * cols) as f64;
         let mean_dn = stats.iter().map(|s| s.0).sum::<f64>() / n;
         let sat_frac = stats.iter().map(|s| s.1).sum::<usize>() as f64 / n;
+        account.saturated_fraction = sat_frac;
+        account.saturated_by = chain.saturating_stage(g);
+        self.abc_cut = next_abc_cut;
 
         let meta = FrameMeta {
             seq: self.seq,
@@ -541,6 +635,7 @@ impl Camera {
             mean_dn,
             saturated_fraction: sat_frac,
             noise: noise.enabled,
+            saturation: account,
         };
         self.seq += 1;
         if self.mode == Mode::Agc

@@ -397,6 +397,10 @@ pub struct SensorConfig {
     pub digitizer: Digitizer,
     #[serde(default)]
     pub noise: Noise,
+    /// The intensifier's bright-source stages (halo, MCP pore depletion,
+    /// automatic brightness control); on by default for an ICCD.
+    #[serde(default)]
+    pub bright_source: BrightSource,
 }
 
 fn yes() -> bool {
@@ -483,6 +487,30 @@ impl SensorConfig {
         }
     }
 
+    /// The bright-source stages' numbers.
+    fn check_bright_source(&self) -> Result<(), ConfigError> {
+        let b = &self.bright_source;
+        positive(
+            "bright_source.on_above_max_over_mean",
+            b.on_above_max_over_mean,
+        )?;
+        fraction(
+            "bright_source.halo.backscatter_coefficient",
+            b.halo.backscatter_coefficient,
+        )?;
+        positive(
+            "bright_source.mcp_depletion.recovery_time_s",
+            b.mcp_depletion.recovery_time_s,
+        )?;
+        positive(
+            "bright_source.abc.output_luminance_limit_cd_m2",
+            b.abc.output_luminance_limit_cd_m2,
+        )?;
+        positive("bright_source.abc.time_constant_s", b.abc.time_constant_s)?;
+        positive("bright_source.abc.gate_min_s", b.abc.gate_min_s)?;
+        Ok(())
+    }
+
     /// Checks every number and that the stages `kind` needs are present.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.layout().map(|_| ())
@@ -516,6 +544,7 @@ impl SensorConfig {
         )?;
         non_negative("optics.defocus_um", o.defocus_um)?;
         non_negative("optics.nd_density", o.nd_density)?;
+        self.check_bright_source()?;
 
         let tube =
             match self.kind {
@@ -949,4 +978,126 @@ fn in_range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
 
 fn check_spectrum_ref(field: &str, r: &SpectrumRef) -> Result<(), ConfigError> {
     crate::stages::resolve_spectrum(field, r).map(|_| ())
+}
+
+/// The intensifier's bright-source stages (`[bright_source]` and its
+/// sub-tables). They switch on per frame only when a bright source is in
+/// view: the frame's brightest input pixel exceeds `on_above_max_over_mean`
+/// times its mean (a uniform calibration field, a ramp or an edge target
+/// stays below, so those frames are unchanged).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BrightSource {
+    #[serde(default = "default_bright_ratio")]
+    pub on_above_max_over_mean: f64,
+    #[serde(default)]
+    pub halo: HaloConfig,
+    #[serde(default)]
+    pub mcp_depletion: McpDepletionConfig,
+    #[serde(default)]
+    pub abc: AbcConfig,
+}
+
+impl Default for BrightSource {
+    fn default() -> Self {
+        Self {
+            on_above_max_over_mean: default_bright_ratio(),
+            halo: HaloConfig::default(),
+            mcp_depletion: McpDepletionConfig::default(),
+            abc: AbcConfig::default(),
+        }
+    }
+}
+
+fn default_bright_ratio() -> f64 {
+    10.0
+}
+
+/// The halo of photoelectrons backscattered from the MCP input
+/// (`stages/halo.rs`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HaloConfig {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Fraction of the photoelectrons striking the MCP's closed area that
+    /// bounce back (elastic + inelastic backscatter of the input face).
+    #[serde(default = "default_backscatter")]
+    pub backscatter_coefficient: f64,
+}
+
+impl Default for HaloConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            backscatter_coefficient: default_backscatter(),
+        }
+    }
+}
+
+fn default_backscatter() -> f64 {
+    0.25
+}
+
+/// Local MCP saturation by pore charge depletion (`stages/mcp_depletion.rs`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct McpDepletionConfig {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Channel wall recharge time constant R·C, s.
+    #[serde(default = "default_recovery_time")]
+    pub recovery_time_s: f64,
+}
+
+impl Default for McpDepletionConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            recovery_time_s: default_recovery_time(),
+        }
+    }
+}
+
+fn default_recovery_time() -> f64 {
+    0.01
+}
+
+/// Automatic brightness control and bright-source protection of the tube's
+/// power supply (`stages/abc.rs`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AbcConfig {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Screen luminance the supply holds the tube to, cd m⁻².
+    #[serde(default = "default_abc_luminance")]
+    pub output_luminance_limit_cd_m2: f64,
+    /// Time constant of the regulation, s.
+    #[serde(default = "default_abc_tau")]
+    pub time_constant_s: f64,
+    /// Shortest photocathode gate of the autogating supply, s.
+    #[serde(default = "default_abc_gate_min")]
+    pub gate_min_s: f64,
+}
+
+impl Default for AbcConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            output_luminance_limit_cd_m2: default_abc_luminance(),
+            time_constant_s: default_abc_tau(),
+            gate_min_s: default_abc_gate_min(),
+        }
+    }
+}
+
+fn default_abc_luminance() -> f64 {
+    10.0
+}
+fn default_abc_tau() -> f64 {
+    0.1
+}
+fn default_abc_gate_min() -> f64 {
+    100e-9
 }

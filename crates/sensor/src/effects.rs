@@ -1,19 +1,63 @@
-//! The sensor's part of the effect plan: which stages run and why.
+//! The sensor's part of the effect plan: which stages run, why, and what
+//! share of the signal they are estimated to carry.
+
+use serde::Serialize;
 
 use crate::config::{CouplingKind, SensorConfig, SensorKind};
 use crate::kernel::Kernel;
 use crate::stages::Chain;
+use crate::stages::bright::BrightStages;
 
-/// `(stage name, enabled, reason)` for every stage of the chain, in order.
-/// A stage at identity or with its noise off is listed as disabled with the
-/// reason; it costs nothing at capture.
-pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)> {
-    let mut v: Vec<(&'static str, bool, String)> = Vec::new();
+/// One stage of the sensor's effect plan.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SensorEffect {
+    pub name: &'static str,
+    pub enabled: bool,
+    pub reason: String,
+    /// The stage's estimated share of the signal (the fraction it moves,
+    /// removes or compresses, or an upper bound on it); None when not
+    /// estimated.
+    pub estimated_share: Option<f64>,
+}
+
+impl From<(&'static str, bool, String)> for SensorEffect {
+    fn from((name, enabled, reason): (&'static str, bool, String)) -> Self {
+        Self {
+            name,
+            enabled,
+            reason,
+            estimated_share: None,
+        }
+    }
+}
+
+/// The plan's effects with a share, pushed as tuples or as full entries.
+struct Plan(Vec<SensorEffect>);
+
+impl Plan {
+    fn push(&mut self, e: impl Into<SensorEffect>) {
+        self.0.push(e.into());
+    }
+    fn share(&mut self, name: &'static str, enabled: bool, reason: String, share: Option<f64>) {
+        self.0.push(SensorEffect {
+            name,
+            enabled,
+            reason,
+            estimated_share: share,
+        });
+    }
+}
+
+/// Every stage of the chain, in order, with enabled/reason and its
+/// estimated share. A stage at identity or with its noise off is listed as
+/// disabled with the reason; it costs nothing at capture.
+pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
+    let mut v = Plan(Vec::new());
     let chain = match Chain::new(config) {
         Ok(c) => c,
         Err(e) => {
             v.push(("sensor", false, format!("invalid configuration: {e}")));
-            return v;
+            return v.0;
         }
     };
     let kind = config.kind;
@@ -101,17 +145,22 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)
         },
     ));
     let lag = chain.lag_fraction();
-    v.push((
+    let period = 1.0 / config.timing.frame_rate_hz;
+    v.share(
         "phosphor persistence",
         lag > 0.0,
         if lag > 0.0 {
-            format!("{lag} of a frame's light in later frames")
+            format!(
+                "{lag} of a frame's light in later frames (geometric lag, 1/e decay time {:.2} ms); shows when the scene or gain changes",
+                -period / lag.ln() * 1e3
+            )
         } else if iccd {
             "lag fraction 0".into()
         } else {
             why_not_iccd()
         },
-    ));
+        Some(lag),
+    );
     let coupling = config.coupling.as_ref();
     v.push((
         "coupling",
@@ -238,5 +287,91 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<(&'static str, bool, String)
         ));
     }
     v.push(("digitizer", true, format!("{} bits", config.digitizer.bits)));
-    v
+    bright_source_effects(&mut v, &chain);
+    v.0
+}
+
+/// The bright-source stages: when they switch on and their shares.
+fn bright_source_effects(v: &mut Plan, chain: &Chain) {
+    let Some(b) = BrightStages::of(chain) else {
+        let why = format!("kind = {:?}: no intensifier", chain.kind);
+        for name in [
+            "halo",
+            "MCP pore depletion",
+            "ABC / bright-source protection",
+        ] {
+            v.share(name, false, why.clone(), Some(0.0));
+        }
+        return;
+    };
+    let g = chain.reference_gain;
+    let when = format!(
+        "per frame, when the input's max exceeds {} × its mean (off in a uniform field)",
+        b.on_above_max_over_mean
+    );
+    match &b.halo {
+        Some(h) => v.share(
+            "halo",
+            true,
+            format!(
+                "MCP-input backscatter onto a disc of radius {:.1} px (2 × cathode–MCP gap); {when}",
+                h.radius_px
+            ),
+            Some(h.fraction),
+        ),
+        None => v.share(
+            "halo",
+            false,
+            "bright_source.halo.enabled = false or no gap".into(),
+            Some(0.0),
+        ),
+    }
+    match (&b.depletion, chain.mcp_e_at_saturation(g)) {
+        (Some(d), Some(q_fs)) => {
+            // The largest compression an unclipped pixel can show: a steady
+            // pixel at the CCD's saturation level.
+            let bound = d.steady_compression(q_fs);
+            v.share(
+                "MCP pore depletion",
+                true,
+                format!(
+                    "reservoir {:.3e} e⁻/pixel, recovery {} s; the CCD clips at {:.3e} MCP e⁻/pixel/frame, where the plate compresses by {:.2} %; {when}",
+                    d.reservoir_e,
+                    chain.config.bright_source.mcp_depletion.recovery_time_s,
+                    q_fs,
+                    100.0 * bound
+                ),
+                Some(bound),
+            );
+        }
+        _ => v.share(
+            "MCP pore depletion",
+            false,
+            "bright_source.mcp_depletion.enabled = false or no mcp.output_current_limit_a_cm2"
+                .into(),
+            Some(0.0),
+        ),
+    }
+    match (&b.abc, chain.mcp_e_at_saturation(g)) {
+        (Some(a), Some(q_fs)) => v.share(
+            "ABC / bright-source protection",
+            true,
+            format!(
+                "screen current limit {:.3e} A/cm² ({:.3e} e⁻/pixel/frame, {:.1} × the CCD's saturation level), time constant {} s; MCP voltage first, then gating to {} s",
+                a.limit_a_cm2,
+                a.limit_e_per_pixel,
+                a.limit_e_per_pixel / q_fs,
+                chain.config.bright_source.abc.time_constant_s,
+                chain.config.bright_source.abc.gate_min_s
+            ),
+            // Cuts nothing until the mean screen current passes the limit.
+            Some(0.0),
+        ),
+        _ => v.share(
+            "ABC / bright-source protection",
+            false,
+            "bright_source.abc.enabled = false".into(),
+            Some(0.0),
+        ),
+    }
 }

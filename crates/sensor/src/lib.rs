@@ -16,7 +16,7 @@ pub use analytic::Description;
 pub use bench::{Throughput, throughput, throughput_at};
 pub use camera::{AgcState, Camera, Frame, FrameMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
-pub use effects::sensor_effects;
+pub use effects::{SensorEffect, sensor_effects};
 pub use error::{CaptureError, ConfigError};
 pub use stages::{Chain, image_irradiance_per_radiance};
 

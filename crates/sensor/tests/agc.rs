@@ -102,7 +102,12 @@ fn agc_in_darkness_rises_to_its_limit() {
 
 #[test]
 fn bright_source_protection_cuts_gain_fast() {
-    let mut cam = agc_camera();
+    // The camera's AGC alone: the tube's own ABC (which would also act on
+    // this lamp, tests/bright_source.rs) is switched off.
+    let mut cfg = clean("gen3-gaas-iccd");
+    cfg.agc.as_mut().unwrap().enabled = true;
+    cfg.bright_source.abc.enabled = false;
+    let mut cam = Camera::new(cfg).unwrap();
     // A lamp filling 20 % of the view at a flux that saturates any gain.
     let scene = ndarray::Array2::from_shape_fn((64, 64), |(r, _)| if r < 13 { 1e6 } else { 0.1 });
     let f0 = cam.capture_photoelectrons(scene.view()).unwrap();

@@ -14,9 +14,16 @@ fn every_preset_loads_and_describes() {
         assert!(d.saturation_dn > d.black_dn);
         assert!(d.saturation_dn <= ((1u32 << d.bit_depth) - 1) as f64);
         let effects = sensor_effects(&cfg);
-        assert!(effects.iter().any(|e| e.0 == "digitizer" && e.1));
+        assert!(effects.iter().any(|e| e.name == "digitizer" && e.enabled));
         for e in &effects {
-            println!("  {:<28} {:<5} {}", e.0, e.1, e.2);
+            assert!(
+                e.estimated_share.is_none_or(|s| (0.0..=1.0).contains(&s)),
+                "{e:?}"
+            );
+            println!(
+                "  {:<28} {:<5} {:?} {}",
+                e.name, e.enabled, e.estimated_share, e.reason
+            );
         }
     }
 }

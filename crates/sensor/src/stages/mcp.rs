@@ -35,6 +35,16 @@ impl Mcp {
         }
     }
 
+    /// The same plate without its static knee (when the pore-depletion
+    /// stage, [`super::mcp_depletion`], models the saturation instead).
+    pub fn without_knee(&self) -> Self {
+        Self {
+            saturation_e: None,
+            saturation_inv: 0.0,
+            ..self.clone()
+        }
+    }
+
     /// The soft knee `Q' = Q / √(1 + (Q/Q_sat)²)` of a charge `q` (e⁻).
     #[inline]
     pub fn compress(&self, q: f64) -> f64 {

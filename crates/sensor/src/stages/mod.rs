@@ -2,6 +2,9 @@
 //! [`optics`] → [`photocathode`] → [`mcp`] → [`phosphor`] → [`coupling`] →
 //! [`ccd`] (or [`ebccd`] → [`ccd`]) → [`agc`] → [`video`] → [`digitizer`].
 //! Each holds its model, its per-row pass (where it has one) and its tests;
+//! Around a bright source the intensifier adds [`halo`] (MCP-input
+//! backscatter), [`mcp_depletion`] (local pore saturation) and [`abc`]
+//! (the supply's brightness control), grouped in [`bright`].
 //! [`Chain`] reduces a validated configuration to the numbers they need and
 //! [`crate::Camera`] runs the passes row by row over a frame.
 //!
@@ -73,13 +76,17 @@ use rand_pcg::Pcg64Mcg;
 
 use crate::noise::{self, Pass};
 
+pub mod abc;
 pub mod agc;
+pub mod bright;
 pub mod ccd;
 mod chain;
 pub mod coupling;
 pub mod digitizer;
 pub mod ebccd;
+pub mod halo;
 pub mod mcp;
+pub mod mcp_depletion;
 pub mod mtf;
 pub mod optics;
 pub mod phosphor;
