@@ -168,29 +168,29 @@ fn bandwidth_narrows_horizontal_mtf_only_and_the_plan_says_so() {
     let entry = |c: &SensorConfig| {
         sensor_effects(c)
             .into_iter()
-            .find(|e| e.0 == "video bandwidth")
+            .find(|e| e.name == "video bandwidth")
             .unwrap()
     };
     let (w, n) = (entry(&wide), entry(&narrow));
-    assert!(w.1 && n.1);
+    assert!(w.enabled && n.enabled);
     assert!(
-        n.2.contains("2.00 MHz") && w.2.contains("8.00 MHz"),
+        n.reason.contains("2.00 MHz") && w.reason.contains("8.00 MHz"),
         "{} / {}",
-        n.2,
-        w.2
+        n.reason,
+        w.reason
     );
     let factor = |s: &str| -> f64 {
         let i = s.find('×').unwrap() + '×'.len_utf8();
         s[i..].split_whitespace().next().unwrap().parse().unwrap()
     };
-    assert!(factor(&n.2) < factor(&w.2) - 0.1);
+    assert!(factor(&n.reason) < factor(&w.reason) - 0.1);
     let flat = entry(&gen3(VideoFormat::Ccir, None));
-    assert!(!flat.1 && flat.2.contains("not set"));
+    assert!(!flat.enabled && flat.reason.contains("not set"));
     let timing = sensor_effects(&gen3(VideoFormat::Rs170, None))
         .into_iter()
-        .find(|e| e.0 == "video line timing")
+        .find(|e| e.name == "video line timing")
         .unwrap();
-    assert!(timing.2.contains("63.556"), "{}", timing.2);
+    assert!(timing.reason.contains("63.556"), "{}", timing.reason);
 }
 
 #[test]
