@@ -66,7 +66,12 @@ fn check_indoor_panel_plan(
             || (name == "interreflection" && interreflection);
         assert_eq!(*enabled, want, "{name}: {reason}");
     }
-    assert_eq!(effects[0].2, area_reason);
+    // The structural reason first, then the pilot's figures.
+    assert!(
+        effects[0].2.starts_with(area_reason) && effects[0].2.contains("pilot:"),
+        "{}",
+        effects[0].2
+    );
 }
 
 #[test]
