@@ -34,9 +34,42 @@ def timed(n):
     return time.perf_counter() - w0, time.process_time() - c0
 
 
+def busy_threads(step_s=0.5):
+    """Per 0.5 s window while two renders run from two Python threads: how
+    many threads of the process got CPU time (> 0.01 s, Linux
+    /proc/self/task/*/schedstat). Each render works on its own worker
+    thread; with the GIL held during a render only one could run, so two
+    busy threads in a window show it released, however loaded the machine."""
+    threads = [threading.Thread(target=gloam.render, args=(scene,), kwargs=kw) for _ in range(2)]
+
+    def sample():
+        out = {}
+        for tid in os.listdir("/proc/self/task"):
+            try:
+                with open(f"/proc/self/task/{tid}/schedstat") as f:
+                    out[tid] = int(f.read().split()[0]) / 1e9
+            except OSError:
+                pass
+        return out
+
+    for t in threads:
+        t.start()
+    counts, a = [], sample()
+    while all(t.is_alive() for t in threads):
+        time.sleep(step_s)
+        b = sample()
+        counts.append(sum(1 for k in b if b[k] - a.get(k, 0.0) > 0.01))
+        a = b
+    for t in threads:
+        t.join()
+    return counts
+
+
 timed(1)  # warm up (page cache, allocator)
 one_wall, one_cpu = timed(1)
 two_wall, two_cpu = timed(2)
+counts = busy_threads()
+load = os.getloadavg()[0]
 print(json.dumps({
     "scene": scene_path,
     "spp": spp,
@@ -46,4 +79,7 @@ print(json.dumps({
     "slowdown_two_vs_one": round(two_wall / one_wall, 3),
     "cpu_per_wall_two": round(two_cpu / two_wall, 2),
     "speedup_vs_serial": round(2 * one_wall / two_wall, 3),
+    "busy_threads_per_half_second": counts,
+    "windows_with_two_or_more_busy": f"{sum(c >= 2 for c in counts)}/{len(counts)}",
+    "load_average_1min": round(load, 2),
 }))
