@@ -18,7 +18,7 @@ use gloam_calib::mtf::{
 use gloam_calib::ptc::{PtcOptions, photon_transfer};
 use gloam_calib::radiance::{Lut, RadianceOptions, calibrate_radiance};
 use gloam_calib::report;
-use gloam_calib::source::{CalibrationSource, SourceFile};
+use gloam_calib::source::{CalibrationSource, SourceFile, open_for_grabber};
 use gloam_grabber::{FrameGrabber, OpenOptions};
 use gloam_pipeline::{OutputSet, Provenance};
 
@@ -242,37 +242,22 @@ fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
 }
 
 /// Opens the source; auto-ranges a sphere at `gain` (`None`: the camera's
-/// current gain) when asked.
+/// current gain) when asked (`gloam_calib::source::open_for_grabber`).
 fn open_source(
     a: &SourceArgs,
     g: &mut dyn FrameGrabber,
     gain: Option<f64>,
 ) -> anyhow::Result<Box<dyn CalibrationSource>> {
-    let file = SourceFile::load(&a.source)?;
-    if let Some(frac) = a.auto_range {
-        if file.is_manual() {
-            bail!("--auto-range only applies to a simulated sphere source");
-        }
-        if !(frac > 0.0 && frac.is_finite()) {
-            bail!("--auto-range must be a positive fraction of full scale");
-        }
-        let mut s = file.open_sphere(a.levels)?;
-        gloam_calib::capture::agc_off(g)?;
-        if let Some(gain) = gain {
-            g.set_gain(gain)?;
-        }
-        // Aim at half scale (always reachable), then scale to the request.
-        let l50 = auto_range(g, s.lamp_name(), 0.5)?;
-        s.scale_max_radiance(l50 * frac / 0.5)?;
+    let opened = open_for_grabber(&a.source, a.levels, a.auto_range, g, gain)?;
+    if let (Some(top), Some(frac)) = (opened.auto_ranged_max_w_m2_sr, a.auto_range) {
         eprintln!(
             "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at {})",
-            l50 * frac / 0.5,
+            top,
             100.0 * frac,
             gain.map_or("the camera's power-up gain".into(), |g| format!("gain {g}"))
         );
-        return Ok(Box::new(s));
     }
-    Ok(file.open(a.levels)?)
+    Ok(opened.source)
 }
 
 fn progress_bar(hidden: bool) -> indicatif::ProgressBar {

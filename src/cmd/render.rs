@@ -7,11 +7,11 @@
 //! atomically.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use gloam_trace::{RenderOutput, RenderSettings, Tracer};
+use gloam_trace::Tracer;
 
 use gloam_pipeline::{OutputSet, Provenance};
 
@@ -80,33 +80,9 @@ pub struct RenderArgs {
     pub tile: Option<String>,
 }
 
-/// Settings from `--set` pairs, then the dedicated flags.
-pub fn settings_from(
-    set: &[String],
-    spp: Option<u32>,
-    seed: Option<u64>,
-    estimator: Option<&str>,
-    threads: Option<usize>,
-) -> anyhow::Result<RenderSettings> {
-    let mut s = RenderSettings::default();
-    for pair in set {
-        s.set_pair(pair)?;
-    }
-    if let Some(v) = spp {
-        s.set("spp", &v.to_string())?;
-    }
-    if let Some(v) = seed {
-        s.seed = v;
-    }
-    if let Some(e) = estimator {
-        s.estimator = e.parse()?;
-    }
-    if let Some(t) = threads {
-        anyhow::ensure!(t >= 1, "--threads must be at least 1");
-        s.threads = Some(t);
-    }
-    Ok(s)
-}
+/// Settings from `--set` pairs, then the dedicated flags (shared with the
+/// Python package).
+pub use gloam_pipeline::render::settings_from;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let provenance = Provenance::of_this_run();
@@ -193,7 +169,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         super::merge::write_tile_info(&dir, t, rows, full, &args.scene, &out)?;
     }
     let write_s = t_write.elapsed().as_secs_f64();
-    let mut report = report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    let mut report =
+        gloam_pipeline::render::report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
     report["provenance"] = serde_json::to_value(&provenance)?;
     write_atomic(
         &dir.join("report.json"),
@@ -226,63 +203,4 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         args.out.display()
     );
     Ok(())
-}
-
-fn report_json(
-    scene_path: &Path,
-    scene: &gloam_scene::Scene,
-    plan: &gloam_scene::plan::EffectPlan,
-    out: &RenderOutput,
-    load_s: f64,
-    write_s: f64,
-) -> serde_json::Value {
-    let band_means: serde_json::Map<String, serde_json::Value> = out
-        .band_names
-        .iter()
-        .enumerate()
-        .map(|(b, name)| {
-            let img = out.radiance.index_axis(ndarray::Axis(0), b);
-            let mean = img.mean().unwrap_or(0.0);
-            let max = img.iter().copied().fold(0.0, f64::max);
-            (
-                name.clone(),
-                serde_json::json!({"mean_radiance_w_m2_sr": mean, "max_radiance_w_m2_sr": max}),
-            )
-        })
-        .collect();
-    serde_json::json!({
-        "scene": scene_path.display().to_string(),
-        "units": scene.units.as_str(),
-        "meters_per_unit": scene.meters_per_unit,
-        "image": {"width": out.stats.width, "height": out.stats.height, "bands": out.band_names},
-        "outputs": {
-            "radiance.tiff": "float32, one page per band, W m^-2 sr^-1",
-            "radiance.npy": "float64, band x row x column, W m^-2 sr^-1",
-            "preview.png": "first band, scaled to its 99.5th percentile, gamma 2.2",
-            "stderr.npy": "float64, band x row x column, W m^-2 sr^-1: estimated standard error of each pixel",
-            "stderr.tiff": "float32, one page per band: the same standard error",
-            "spp.npy": "uint32, row x column: camera samples per pixel",
-        },
-        "error": out.error,
-        "settings": out.settings,
-        "effect_plan": plan,
-        "timings_s": {
-            "load": load_s,
-            "prepare": out.stats.prepare_seconds,
-            "trace": out.stats.trace_seconds,
-            "write": write_s,
-        },
-        "rays": out.stats.rays,
-        "rays_total": out.stats.rays.total(),
-        "rays_per_second": out.stats.rays_per_second,
-        "threads": out.stats.threads,
-        "wavelengths": out.stats.wavelengths,
-        "emission_lines": out.stats.emission_lines,
-        "triangles": out.stats.triangles,
-        "area_sources": out.stats.area_sources,
-        "point_sources": out.stats.point_sources,
-        "sky": out.stats.sky,
-        "interreflection": out.stats.interreflection,
-        "bands": band_means,
-    })
 }

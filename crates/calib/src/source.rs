@@ -872,6 +872,57 @@ impl SourceFile {
     }
 }
 
+/// A source opened for a grabber, and the brightest radiance auto-ranging
+/// chose (W m⁻² sr⁻¹), if it ran.
+pub struct OpenedSource {
+    pub source: Box<dyn CalibrationSource>,
+    pub auto_ranged_max_w_m2_sr: Option<f64>,
+}
+
+/// Opens the source file at `path` for `grabber`. With `auto_range =
+/// Some(f)` (simulated spheres only) the sphere is rescaled so its
+/// brightest level puts the camera at fraction `f` of full scale, measured
+/// with AGC off at `gain` (`None`: the camera's current gain). Shared by
+/// the CLI's `gloam calibrate` and the Python package.
+pub fn open_for_grabber(
+    path: &Path,
+    levels: Option<usize>,
+    auto_range: Option<f64>,
+    grabber: &mut dyn gloam_grabber::FrameGrabber,
+    gain: Option<f64>,
+) -> Result<OpenedSource, CalibError> {
+    let file = SourceFile::load(path)?;
+    let Some(frac) = auto_range else {
+        return Ok(OpenedSource {
+            source: file.open(levels)?,
+            auto_ranged_max_w_m2_sr: None,
+        });
+    };
+    if file.is_manual() {
+        return Err(CalibError::Invalid(
+            "--auto-range only applies to a simulated sphere source".into(),
+        ));
+    }
+    if !(frac > 0.0 && frac.is_finite()) {
+        return Err(CalibError::Invalid(
+            "--auto-range must be a positive fraction of full scale".into(),
+        ));
+    }
+    let mut s = file.open_sphere(levels)?;
+    crate::capture::agc_off(grabber)?;
+    if let Some(gain) = gain {
+        grabber.set_gain(gain)?;
+    }
+    // Aim at half scale (always reachable), then scale to the request.
+    let l50 = crate::capture::auto_range(grabber, s.lamp_name(), 0.5)?;
+    let top = l50 * frac / 0.5;
+    s.scale_max_radiance(top)?;
+    Ok(OpenedSource {
+        source: Box::new(s),
+        auto_ranged_max_w_m2_sr: Some(top),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

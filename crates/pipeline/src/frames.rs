@@ -83,6 +83,51 @@ impl FrameRecord {
     }
 }
 
+impl FrameRecord {
+    /// The record of frame `index` of an in-process simulated `camera`
+    /// (just captured, so its chain state is the frame's), with its
+    /// exposure warnings; `pixels` are the frame's counts in row order.
+    pub fn of_sensor_frame(
+        index: u64,
+        file: String,
+        frame: &gloam_sensor::Frame,
+        pixels: &[u16],
+        camera: &Camera,
+    ) -> Self {
+        let (h, w) = frame.pixels.dim();
+        let m = &frame.meta;
+        let g = m.gain_in_effect;
+        let chain = camera.chain();
+        let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
+        let warnings = gloam_sensor::levels::exposure_warnings(
+            m.mean_dn,
+            m.saturated_fraction,
+            Some(black),
+            sat,
+        );
+        FrameRecord {
+            index,
+            file,
+            seq: m.seq,
+            timestamp: (m.time_s * 1e6).round() as u64,
+            gain: g,
+            agc: m.agc_enabled,
+            bits: m.bits,
+            width: w as u32,
+            height: h as u32,
+            pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
+            status: FrameStatus::Ok,
+            mean_dn: m.mean_dn,
+            saturated_fraction: m.saturated_fraction,
+            saturated_at_dn: chain.saturated_threshold_dn(g),
+            saturated_by: Some(m.saturation.saturated_by),
+            mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
+            warnings,
+            sensor: Some(m.clone()),
+        }
+    }
+}
+
 /// Appends records to `frames.jsonl` as frames are written, so an
 /// interrupted run keeps every frame it wrote listed.
 pub struct FrameLog {
@@ -229,26 +274,8 @@ impl FrameCapture<'_> {
                 "bright_source_in_view": m.saturation.bright_source_in_view,
                 "warnings": kinds,
             }));
-            let rec = FrameRecord {
-                index: u64::from(i),
-                file,
-                seq: m.seq,
-                timestamp: (m.time_s * 1e6).round() as u64,
-                gain: m.gain_in_effect,
-                agc: m.agc_enabled,
-                bits: m.bits,
-                width: w as u32,
-                height: h as u32,
-                pixels_crc32c: gloam_grabber::pixels_crc32c(&pixels),
-                status: FrameStatus::Ok,
-                mean_dn: m.mean_dn,
-                saturated_fraction: m.saturated_fraction,
-                saturated_at_dn: chain.saturated_threshold_dn(g),
-                saturated_by: Some(m.saturation.saturated_by),
-                mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
-                warnings,
-                sensor: Some(m.clone()),
-            };
+            let rec = FrameRecord::of_sensor_frame(u64::from(i), file, &frame, &pixels, &camera);
+            debug_assert_eq!(rec.warnings, warnings);
             log.append(&rec)?;
             summary.add(&m.saturation);
         }

@@ -7,6 +7,7 @@ pub mod frames;
 pub mod output;
 pub mod output_set;
 pub mod provenance;
+pub mod render;
 pub mod scene_view;
 
 pub use detected::{DETECTED_BAND, take_detected_band, with_detected_band};

@@ -392,6 +392,29 @@ impl Tracer {
         rows: std::ops::Range<u32>,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<RenderOutput, TraceError> {
+        self.render_rows_until(rows, progress, &|| false)
+    }
+
+    /// [`Tracer::render_rows`] that a caller can stop: `stop()` is polled
+    /// before every tile and every adaptive round (from worker threads);
+    /// once it returns true the remaining work is skipped and the render
+    /// returns [`TraceError::Interrupted`] (so a host such as the Python
+    /// package can honour Ctrl-C within one tile's time). A render that
+    /// is not stopped is bit-identical to [`Tracer::render_rows`].
+    pub fn render_rows_until(
+        &self,
+        rows: std::ops::Range<u32>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<RenderOutput, TraceError> {
+        let stopped = std::sync::atomic::AtomicBool::new(false);
+        let halt = || {
+            if stopped.load(Ordering::Relaxed) || stop() {
+                stopped.store(true, Ordering::Relaxed);
+                return true;
+            }
+            false
+        };
         let cam = &self.camera;
         let (w, full_h) = (cam.width, cam.height);
         if rows.start >= rows.end || rows.end > full_h {
@@ -424,11 +447,17 @@ impl Tracer {
             let res: Vec<(Vec<(usize, PixelEstimate)>, RayCounts)> = tiles
                 .par_iter()
                 .map(|&(x0, y0)| {
+                    if halt() {
+                        return (Vec::new(), RayCounts::default());
+                    }
                     let x1 = (x0 + TILE).min(w);
                     let y1 = (y0 + TILE).min(rows.end);
                     let mut c = RayCounts::default();
                     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                     for row in y0..y1 {
+                        if row > y0 && halt() {
+                            break;
+                        }
                         for col in x0..x1 {
                             let mut e = PixelEstimate::new(nwl, nb);
                             self.pixel_batch(col, row, 0, spp as usize, &mut e, &mut c);
@@ -457,6 +486,9 @@ impl Tracer {
                 let floor = band_floor(&ests, nb);
                 let cap = self.settings.max_spp.max(spp);
                 loop {
+                    if halt() {
+                        break;
+                    }
                     let work: Vec<(usize, u32)> = ests
                         .iter()
                         .enumerate()
@@ -514,6 +546,9 @@ impl Tracer {
             }
             (ests, rays, rounds, rayon::current_num_threads())
         });
+        if stopped.load(Ordering::Relaxed) {
+            return Err(TraceError::Interrupted);
+        }
         let mut rays = rays;
         let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
         let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));

@@ -27,6 +27,9 @@ pub enum TraceError {
     PixelOutside(u32, u32, u32, u32),
     #[error("{0}")]
     BadInput(String),
+    /// The caller's stop flag ended a render early (nothing is returned).
+    #[error("interrupted")]
+    Interrupted,
 }
 
 /// Most worker threads a render starts.

@@ -1,0 +1,48 @@
+//! Values between Rust and Python: serde values as Python dicts and lists
+//! (through `json`, so a dict is exactly what the CLI's JSON file holds),
+//! and `settings={…}` as the CLI's `KEY=VALUE` pairs.
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict};
+use serde::Serialize;
+
+use crate::errors::OrPy;
+
+/// A serde value as the Python object `json.loads` makes of its JSON.
+pub fn to_py<'py>(py: Python<'py>, v: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(v).or_py()?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// A Python object (dicts, lists, numbers, strings) as a serde value.
+pub fn from_py<T: serde::de::DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
+    let text: String = obj
+        .py()
+        .import("json")?
+        .call_method1("dumps", (obj,))?
+        .extract()?;
+    serde_json::from_str(&text)
+        .map_err(|e| crate::errors::GloamError::new_err(format!("{what}: {e}")))
+}
+
+/// `{"recursion": 2, "indirect": "off"}` → `["recursion=2", "indirect=off"]`.
+pub fn setting_pairs(settings: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+    let mut out = Vec::new();
+    if let Some(d) = settings {
+        for (k, v) in d.iter() {
+            let k: String = k.str()?.extract()?;
+            let v: String = if v.is_instance_of::<PyBool>() {
+                if v.extract::<bool>()? {
+                    "true"
+                } else {
+                    "false"
+                }
+                .to_string()
+            } else {
+                v.str()?.extract()?
+            };
+            out.push(format!("{k}={v}"));
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,252 @@
+//! Frame grabbers: the CLI's URIs (`sim:…`, `serial:…`, `usb:…`) as a
+//! Python context manager.
+
+use gloam_grabber::{FrameGrabber, GrabError, OpenOptions, Stimulus};
+use ndarray::Array2;
+use numpy::prelude::*;
+use numpy::{IntoPyArray, PyArray2};
+use pyo3::prelude::*;
+
+use crate::convert::{from_py, to_py};
+use crate::errors::GloamError;
+use crate::interrupt::{SameThread, finish, signalled};
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Grabber>()?;
+    m.add_class::<Frame>()?;
+    m.add_class::<FrameStream>()?;
+    m.add_function(wrap_pyfunction!(open_grabber, m)?)?;
+    Ok(())
+}
+
+/// An open grabber. Use it as a context manager (``with
+/// gloam.open_grabber(uri) as g:``); it is bound to the thread that opened it.
+#[pyclass(module = "gloam", unsendable)]
+pub struct Grabber {
+    inner: Option<Box<dyn FrameGrabber>>,
+    uri: String,
+}
+
+/// A grabber that stops a calibration flow at Ctrl-C: each grab first runs
+/// Python's signal handlers.
+pub struct StopOnSignal<'a>(pub &'a mut dyn FrameGrabber);
+
+impl FrameGrabber for StopOnSignal<'_> {
+    fn describe(&self) -> String {
+        self.0.describe()
+    }
+    fn frame_size(&self) -> (u32, u32) {
+        self.0.frame_size()
+    }
+    fn set_gain(&mut self, gain: f64) -> Result<f64, GrabError> {
+        self.0.set_gain(gain)
+    }
+    fn set_agc(&mut self, on: bool) -> Result<bool, GrabError> {
+        self.0.set_agc(on)
+    }
+    fn set_bits(&mut self, bits: u8) -> Result<u8, GrabError> {
+        self.0.set_bits(bits)
+    }
+    fn set_exposure_s(&mut self, exposure_s: f64) -> Result<f64, GrabError> {
+        self.0.set_exposure_s(exposure_s)
+    }
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
+        self.0.present(stimulus)
+    }
+    fn grab(&mut self) -> Result<gloam_grabber::Frame, GrabError> {
+        if signalled() {
+            return Err(GrabError::Other("interrupted".into()));
+        }
+        self.0.grab()
+    }
+}
+
+impl Grabber {
+    /// The open grabber, or an error once closed.
+    pub fn get(&mut self) -> PyResult<&mut Box<dyn FrameGrabber>> {
+        self.inner
+            .as_mut()
+            .ok_or_else(|| GloamError::new_err(format!("grabber '{}' is closed", self.uri)))
+    }
+
+    /// Runs `f` on the grabber with the GIL released, Ctrl-C honoured at
+    /// every grab.
+    pub fn run<T>(
+        &mut self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut dyn FrameGrabber) -> anyhow::Result<T>,
+    ) -> PyResult<T> {
+        let g = SameThread((self.get()?, f));
+        let r = py.detach(move || {
+            let (g, f) = g.into_inner();
+            SameThread(f(&mut StopOnSignal(g.as_mut())))
+        });
+        finish(r.0)
+    }
+}
+
+/// Opens a grabber by URI, as ``gloam capture --grabber URI``:
+/// ``sim:PRESET[?size=WxH&seed=S&scene=PATH]``, ``serial:PATH[?baud=N]``,
+/// ``usb:VID:PID[:SERIAL]``. ``seed`` overrides a ``sim:`` URI's seed.
+#[pyfunction]
+#[pyo3(signature = (uri, seed = None))]
+fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabber> {
+    let opts = OpenOptions {
+        seed,
+        scene_renderer: Some(gloam_pipeline::scene_renderer()),
+        ..OpenOptions::default()
+    };
+    let u = uri.to_string();
+    let r = py.detach(move || {
+        SameThread(
+            gloam_grabber::open_with(&u, &opts)
+                .map_err(|e| anyhow::Error::from(e).context(format!("opening {u}"))),
+        )
+    });
+    Ok(Grabber {
+        inner: Some(finish(r.0)?),
+        uri: uri.to_string(),
+    })
+}
+
+fn frame_of(py: Python<'_>, f: gloam_grabber::Frame) -> PyResult<Frame> {
+    let (w, h) = (f.meta.width as usize, f.meta.height as usize);
+    let pixels = Array2::from_shape_vec((h, w), f.pixels).map_err(|e| {
+        GloamError::new_err(format!(
+            "frame {}: pixels do not fill {w}×{h}: {e}",
+            f.meta.seq
+        ))
+    })?;
+    Ok(Frame {
+        gain: f.meta.gain,
+        meta: to_py(py, &f.meta)?.unbind(),
+        pixels: pixels.into_pyarray(py).unbind(),
+    })
+}
+
+#[pymethods]
+impl Grabber {
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.inner = None;
+        false
+    }
+
+    /// Closes the grabber (also done by leaving the ``with`` block).
+    fn close(&mut self) {
+        self.inner = None;
+    }
+
+    /// What the grabber is (device, camera, link).
+    fn describe(&mut self) -> PyResult<String> {
+        Ok(self.get()?.describe())
+    }
+
+    /// ``(width, height)`` of its frames.
+    #[getter]
+    fn frame_size(&mut self) -> PyResult<(u32, u32)> {
+        Ok(self.get()?.frame_size())
+    }
+
+    /// Fixes the gain (AGC off); returns the gain the device took.
+    fn set_gain(&mut self, py: Python<'_>, gain: f64) -> PyResult<f64> {
+        self.run(py, |g| Ok(g.set_gain(gain)?))
+    }
+
+    /// AGC on or off; returns the state the device took.
+    fn set_agc(&mut self, py: Python<'_>, on: bool) -> PyResult<bool> {
+        self.run(py, |g| Ok(g.set_agc(on)?))
+    }
+
+    /// Exposure or gate time, seconds; returns what the device took.
+    fn set_exposure(&mut self, py: Python<'_>, exposure_s: f64) -> PyResult<f64> {
+        self.run(py, |g| Ok(g.set_exposure_s(exposure_s)?))
+    }
+
+    /// Digitizer bits; returns what the device took.
+    fn set_bits(&mut self, py: Python<'_>, bits: u8) -> PyResult<u8> {
+        self.run(py, |g| Ok(g.set_bits(bits)?))
+    }
+
+    /// Shows a stimulus to a simulated camera, e.g. ``{"kind": "uniform",
+    /// "radiance_w_m2_sr": 1e-6, "spectrum": "cie-a"}`` or ``{"kind":
+    /// "dark"}``; returns whether the grabber can.
+    fn present(&mut self, py: Python<'_>, stimulus: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let s: Stimulus = from_py(stimulus, "stimulus")?;
+        self.run(py, |g| Ok(g.present(&s)?))
+    }
+
+    /// One frame (GIL released while it waits).
+    fn grab(&mut self, py: Python<'_>) -> PyResult<Frame> {
+        let f = self.run(py, |g| Ok(g.grab()?))?;
+        frame_of(py, f)
+    }
+
+    /// An iterator over the next ``n`` frames.
+    fn stream(slf: Py<Self>, n: u64) -> FrameStream {
+        FrameStream {
+            grabber: slf,
+            left: n,
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Grabber('{}'{})",
+            self.uri,
+            if self.inner.is_none() { ", closed" } else { "" }
+        )
+    }
+}
+
+/// One grabbed frame: ``pixels`` (uint16, row × column), ``gain`` and
+/// ``meta`` (seq, timestamp_us, gain, agc, bits, width, height,
+/// pixels_crc32c, status, levels).
+#[pyclass(module = "gloam", frozen)]
+pub struct Frame {
+    #[pyo3(get)]
+    pub pixels: Py<PyArray2<u16>>,
+    #[pyo3(get)]
+    pub gain: f64,
+    #[pyo3(get)]
+    pub meta: Py<PyAny>,
+}
+
+#[pymethods]
+impl Frame {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "Frame({:?}, gain {})",
+            self.pixels.bind(py).shape(),
+            self.gain
+        )
+    }
+}
+
+/// The iterator ``Grabber.stream(n)`` returns.
+#[pyclass(module = "gloam", unsendable)]
+pub struct FrameStream {
+    grabber: Py<Grabber>,
+    left: u64,
+}
+
+#[pymethods]
+impl FrameStream {
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&mut self, py: Python<'_>) -> PyResult<Option<Frame>> {
+        if self.left == 0 {
+            return Ok(None);
+        }
+        self.left -= 1;
+        let mut g = self.grabber.bind(py).try_borrow_mut()?;
+        let f = g.run(py, |g| Ok(g.grab()?))?;
+        frame_of(py, f).map(Some)
+    }
+}

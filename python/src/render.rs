@@ -1,0 +1,313 @@
+//! Scenes, the effect plan, renders and probes.
+
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use numpy::prelude::*;
+use numpy::{IntoPyArray, PyArray2, PyArray3};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use gloam_trace::{DVec3, RenderSettings, Tracer};
+
+use crate::convert::{setting_pairs, to_py};
+use crate::errors::OrPy;
+use crate::interrupt::detached_with_stop;
+use crate::sensor::Sensor;
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Scene>()?;
+    m.add_class::<RenderResult>()?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(probe, m)?)?;
+    Ok(())
+}
+
+/// A scene: TOML with inline geometry or OBJ files (docs/scene-format.md).
+///
+/// ``Scene.load(path)`` reads a file; ``Scene.from_toml(text)`` parses text
+/// (OBJ paths relative to ``base_dir``). Errors name file, line and field.
+#[pyclass(module = "gloam", frozen)]
+pub struct Scene {
+    pub scene: gloam_scene::Scene,
+    pub path: PathBuf,
+    /// Seconds the load took (report.json `timings_s.load`).
+    pub load_s: f64,
+}
+
+/// Render settings as the CLI builds them: `settings` pairs, then the flags.
+fn settings(
+    settings: Option<&Bound<'_, PyDict>>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    estimator: Option<&str>,
+    threads: Option<usize>,
+) -> PyResult<RenderSettings> {
+    let pairs = setting_pairs(settings)?;
+    gloam_pipeline::render::settings_from(&pairs, spp, seed, estimator, threads).or_py()
+}
+
+#[pymethods]
+impl Scene {
+    /// Loads a scene file (TOML); errors read ``scene.toml:15: materials.wall.reflectance: …``.
+    #[staticmethod]
+    fn load(path: PathBuf) -> PyResult<Self> {
+        let t = Instant::now();
+        let scene = gloam_scene::load(&path).or_py()?;
+        let load_s = t.elapsed().as_secs_f64();
+        Ok(Self {
+            scene,
+            path,
+            load_s,
+        })
+    }
+
+    /// Parses scene TOML from a string. ``base_dir`` is where relative OBJ
+    /// paths are found (default: the current directory); ``name`` is the
+    /// file name errors report.
+    #[staticmethod]
+    #[pyo3(signature = (text, base_dir = None, name = "scene.toml"))]
+    fn from_toml(text: &str, base_dir: Option<PathBuf>, name: &str) -> PyResult<Self> {
+        let path = base_dir.unwrap_or_else(|| PathBuf::from(".")).join(name);
+        let t = Instant::now();
+        let scene = gloam_scene::parse_str(text, &path).or_py()?;
+        let load_s = t.elapsed().as_secs_f64();
+        Ok(Self {
+            scene,
+            path,
+            load_s,
+        })
+    }
+
+    /// The effect plan: one dict per effect (``name``, ``enabled``,
+    /// ``reason``, ``estimated_share``), as ``gloam plan --json`` prints
+    /// its ``effects``. Runs the pilot (a fraction of a second).
+    #[pyo3(signature = (settings = None, tolerance = None))]
+    fn plan<'py>(
+        &self,
+        py: Python<'py>,
+        settings: Option<&Bound<'py, PyDict>>,
+        tolerance: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mut s = self::settings(settings, None, None, None, None)?;
+        if let Some(t) = tolerance {
+            s.set("tolerance", &t.to_string()).or_py()?;
+        }
+        let scene = &self.scene;
+        let plan = detached_with_stop(py, |_| Ok(gloam_trace::plan::effect_plan(scene, &s)?))?;
+        to_py(py, &plan.effects)
+    }
+
+    /// The scene's bands: dicts with ``name``, ``lo_nm``, ``hi_nm``.
+    #[getter]
+    fn bands<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        band_list(py, &self.scene, &self.band_names())
+    }
+
+    /// The file the scene was read from (or named after, for ``from_toml``).
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.path.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene('{}': {} facets, {} point sources, bands {:?})",
+            self.path.display(),
+            self.scene.facets.len(),
+            self.scene.point_sources.len(),
+            self.band_names()
+        )
+    }
+}
+
+impl Scene {
+    fn band_names(&self) -> Vec<String> {
+        self.scene.bands.iter().map(|b| b.name.clone()).collect()
+    }
+}
+
+/// Bands as dicts (name, edges, units of the radiance array).
+fn band_list<'py>(
+    py: Python<'py>,
+    scene: &gloam_scene::Scene,
+    names: &[String],
+) -> PyResult<Bound<'py, PyAny>> {
+    let list = PyList::empty(py);
+    for n in names {
+        let d = PyDict::new(py);
+        d.set_item("name", n)?;
+        if let Some(b) = scene.band(n) {
+            d.set_item("lo_nm", b.lo_nm)?;
+            d.set_item("hi_nm", b.hi_nm)?;
+        }
+        d.set_item("units", "W m^-2 sr^-1")?;
+        list.append(d)?;
+    }
+    Ok(list.into_any())
+}
+
+/// A render: ``radiance`` (float64, band × row × column, W m⁻² sr⁻¹),
+/// ``std_error`` (same shape), ``spp`` (uint32, row × column), ``bands``,
+/// ``report`` (the dict ``report.json`` holds) and, when rendered with a
+/// ``sensor``, ``detected`` (float64 row × column, detected-electron
+/// radiance e⁻ s⁻¹ m⁻² sr⁻¹, what ``Sensor.capture`` takes).
+#[pyclass(module = "gloam", frozen)]
+pub struct RenderResult {
+    #[pyo3(get)]
+    radiance: Py<PyArray3<f64>>,
+    #[pyo3(get)]
+    std_error: Py<PyArray3<f64>>,
+    #[pyo3(get)]
+    spp: Py<PyArray2<u32>>,
+    #[pyo3(get)]
+    detected: Option<Py<PyArray2<f64>>>,
+    #[pyo3(get)]
+    bands: Py<PyAny>,
+    #[pyo3(get)]
+    report: Py<PyAny>,
+}
+
+impl RenderResult {
+    /// The detected band, for a capture.
+    pub fn detected_view<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.detected.as_ref().map(|d| d.bind(py).clone())
+    }
+}
+
+#[pymethods]
+impl RenderResult {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "RenderResult(radiance {:?}{})",
+            self.radiance.bind(py).shape(),
+            if self.detected.is_some() {
+                ", with the sensor's detected band"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+/// The sensor argument of `render`: a `Sensor` or a preset name / file.
+fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> {
+    let Some(s) = sensor else { return Ok(None) };
+    if let Ok(s) = s.cast::<Sensor>() {
+        return Ok(Some(s.get().source.clone()));
+    }
+    Ok(Some(s.extract::<String>()?))
+}
+
+/// Renders ``scene``: the same computation, with the same seed, as
+/// ``gloam render`` (``radiance`` is bit-identical to its radiance.npy).
+///
+/// ``spp``, ``seed``, ``estimator`` (analytic, solid-angle, dirsig2001),
+/// ``threads`` and ``target_error``/``tolerance`` are the CLI's flags;
+/// ``settings`` is any ``--set KEY=VALUE`` as a dict. ``sensor`` (a
+/// ``Sensor``, preset name or sensor TOML path) adds the camera's
+/// detected band as ``result.detected``. The GIL is released while it
+/// renders; Ctrl-C stops it within a tile (KeyboardInterrupt).
+#[pyfunction]
+#[pyo3(signature = (scene, spp = None, seed = None, estimator = None, settings = None, threads = None, target_error = None, tolerance = None, sensor = None))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, Scene>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    estimator: Option<&str>,
+    settings: Option<&Bound<'py, PyDict>>,
+    threads: Option<usize>,
+    target_error: Option<f64>,
+    tolerance: Option<f64>,
+    sensor: Option<&Bound<'py, PyAny>>,
+) -> PyResult<RenderResult> {
+    let mut s = self::settings(settings, spp, seed, estimator, threads)?;
+    if let Some(e) = target_error {
+        s.set("target_error", &e.to_string()).or_py()?;
+    }
+    if let Some(t) = tolerance {
+        s.set("tolerance", &t.to_string()).or_py()?;
+    }
+    let sensor = sensor_source(sensor)?;
+    let sc = scene.get();
+    let (scene_ref, path) = (&sc.scene, sc.path.as_path());
+    let (mut out, plan, detected) = detached_with_stop(py, |stop| {
+        let mut plan = gloam_scene::plan::plan(scene_ref);
+        if let Some(sn) = &sensor {
+            gloam_pipeline::check_options(sn, None, 1)?;
+        }
+        let traced = match &sensor {
+            Some(sn) => gloam_pipeline::with_detected_band(scene_ref, sn)?,
+            None => scene_ref.clone(),
+        };
+        let tracer = Tracer::new(&traced, &s)?;
+        plan.extend([gloam_trace::plan::interreflection_effect(
+            &tracer.interreflection,
+        )]);
+        gloam_trace::plan::annotate_shares(&mut plan, &tracer.interreflection);
+        let rows = 0..tracer.image_size().1;
+        let mut out =
+            tracer.render_rows_until(rows, &|_, _| {}, &|| stop.load(Ordering::Relaxed))?;
+        let detected = match &sensor {
+            Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
+            None => None,
+        };
+        Ok((out, plan, detected))
+    })?;
+    let mut report =
+        gloam_pipeline::render::report_json(path, scene_ref, &plan, &out, sc.load_s, 0.0);
+    report["provenance"] =
+        serde_json::to_value(gloam_pipeline::Provenance::of_this_run()).or_py()?;
+    let bands = band_list(py, scene_ref, &out.band_names)?.unbind();
+    let radiance = std::mem::take(&mut out.radiance).into_pyarray(py).unbind();
+    let std_error = std::mem::take(&mut out.std_error).into_pyarray(py).unbind();
+    let spp = std::mem::take(&mut out.spp).into_pyarray(py).unbind();
+    Ok(RenderResult {
+        radiance,
+        std_error,
+        spp,
+        detected: detected.map(|d| d.into_pyarray(py).unbind()),
+        bands,
+        report: to_py(py, &report)?.unbind(),
+    })
+}
+
+fn vec3(what: &str, v: Vec<f64>) -> PyResult<DVec3> {
+    match v.as_slice() {
+        [x, y, z] => Ok(DVec3::new(*x, *y, *z)),
+        _ => Err(crate::errors::GloamError::new_err(format!(
+            "{what}: expected 3 numbers (x, y, z in scene units), got {}",
+            v.len()
+        ))),
+    }
+}
+
+/// Irradiance at a world-space ``point`` (scene units) on a receiver with
+/// ``normal``, in ``band`` (default: the first): a dict with
+/// ``irradiance_w_m2``, ``std_error_w_m2`` and, on a facet, the reflected
+/// ``radiance_w_m2_sr`` — what ``gloam probe --point … --json`` prints.
+#[pyfunction]
+#[pyo3(signature = (scene, point, normal, band = None, samples = 16, seed = None, estimator = None, settings = None))]
+#[allow(clippy::too_many_arguments)]
+fn probe<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, Scene>,
+    point: Vec<f64>,
+    normal: Vec<f64>,
+    band: Option<&str>,
+    samples: u32,
+    seed: Option<u64>,
+    estimator: Option<&str>,
+    settings: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let s = self::settings(settings, None, seed, estimator, None)?;
+    let (p, n) = (vec3("point", point)?, vec3("normal", normal)?);
+    let sc = &scene.get().scene;
+    let r = detached_with_stop(py, |_| {
+        Ok(Tracer::new(sc, &s)?.probe_point(p, n, band, samples)?)
+    })?;
+    to_py(py, &r)
+}

@@ -1,0 +1,228 @@
+//! Cameras: presets, their analytic description, captures of a render or
+//! of an image through the modelled chain.
+
+use ndarray::{Array2, Array3};
+use numpy::prelude::*;
+use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2};
+use pyo3::prelude::*;
+
+use gloam_sensor::{Camera, SensorConfig};
+
+use crate::convert::to_py;
+use crate::errors::{GloamError, OrPy};
+use crate::interrupt::{SameThread, finish, signalled};
+use crate::render::RenderResult;
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Sensor>()?;
+    m.add_class::<Capture>()?;
+    Ok(())
+}
+
+/// A camera model: a built-in preset (``Sensor.preset("gen3-gaas-iccd")``,
+/// ``Sensor.presets()``) or a sensor TOML file (``Sensor.from_toml(path)``).
+#[pyclass(module = "gloam", frozen)]
+pub struct Sensor {
+    pub config: SensorConfig,
+    /// The preset name or file path (what `gloam render --sensor` takes).
+    pub source: String,
+}
+
+/// What `capture` takes.
+enum Input {
+    Detected(Array2<f64>),
+    Photoelectrons(Array2<f64>),
+}
+
+#[pymethods]
+impl Sensor {
+    /// A built-in preset (see ``Sensor.presets()``).
+    #[staticmethod]
+    fn preset(name: &str) -> PyResult<Self> {
+        match SensorConfig::preset(name) {
+            Some(c) => Ok(Self {
+                config: c.or_py()?,
+                source: name.to_string(),
+            }),
+            None => Err(GloamError::new_err(format!(
+                "unknown sensor preset '{name}' (presets: {})",
+                gloam_sensor::PRESETS
+                    .iter()
+                    .map(|p| p.0)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))),
+        }
+    }
+
+    /// A sensor TOML file (the format of ``sims/sensors/*.toml``).
+    #[staticmethod]
+    fn from_toml(path: std::path::PathBuf) -> PyResult<Self> {
+        let source = path.display().to_string();
+        let config = SensorConfig::load_preset_or_file(&source).or_py()?;
+        Ok(Self { config, source })
+    }
+
+    /// Names of the built-in presets.
+    #[staticmethod]
+    fn presets() -> Vec<&'static str> {
+        gloam_sensor::PRESETS.iter().map(|p| p.0).collect()
+    }
+
+    /// The preset's or file's camera name.
+    #[getter]
+    fn name(&self) -> String {
+        self.config.name.clone()
+    }
+
+    /// Derived figures at ``gain`` (default: the configured gain), as
+    /// ``gloam sensor describe --json``: DN per photoelectron, excess noise
+    /// factor, read noise, black and saturation levels, bit depth, MTF.
+    #[pyo3(signature = (gain = None))]
+    fn describe<'py>(&self, py: Python<'py>, gain: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
+        let mut camera = Camera::new(self.config.clone()).or_py()?;
+        let g = match gain {
+            Some(g) => {
+                camera.set_override_gain(Some(g)).or_py()?;
+                camera.gain()
+            }
+            None => camera.chain().reference_gain,
+        };
+        to_py(py, &camera.chain().describe(g))
+    }
+
+    /// Captures ``frames`` frames through the camera; returns a
+    /// ``Capture`` with ``frames`` (uint16, frames × row × column) and
+    /// ``meta`` (one dict per frame: the ``frames.jsonl`` record —
+    /// gain, AGC state, saturation, CRC-32C).
+    ///
+    /// ``image`` is a ``RenderResult`` rendered with ``sensor=`` (its
+    /// detected band), or a 2-D float array: detected-electron radiance
+    /// (e⁻ s⁻¹ m⁻² sr⁻¹) with ``input="detected"`` (default), or mean
+    /// photoelectrons per pixel per frame with ``input="photoelectrons"``.
+    /// ``gain`` fixes the tube gain (override); ``agc=True`` lets the AGC
+    /// servo it; ``seed`` gives the same frames as ``gloam render --sensor
+    /// … --seed``. The GIL is released; Ctrl-C stops between frames.
+    #[pyo3(signature = (image, frames = 1, gain = None, agc = false, seed = 0, noise = true, input = "detected"))]
+    #[allow(clippy::too_many_arguments)]
+    fn capture(
+        &self,
+        py: Python<'_>,
+        image: &Bound<'_, PyAny>,
+        frames: u32,
+        gain: Option<f64>,
+        agc: bool,
+        seed: u64,
+        noise: bool,
+        input: &str,
+    ) -> PyResult<Capture> {
+        if frames == 0 {
+            return Err(GloamError::new_err("frames must be at least 1"));
+        }
+        if gain.is_some() && agc {
+            return Err(GloamError::new_err("give gain= or agc=True, not both"));
+        }
+        let input = if let Ok(r) = image.cast::<RenderResult>() {
+            let d = r.get().detected_view(py).ok_or_else(|| {
+                GloamError::new_err(
+                    "this render has no detected band: render it with sensor=… to capture it",
+                )
+            })?;
+            Input::Detected(d.readonly().as_array().to_owned())
+        } else {
+            let a: PyReadonlyArray2<f64> = image.extract().map_err(|_| {
+                GloamError::new_err(
+                    "image: expected a RenderResult or a 2-D float64 array (row × column)",
+                )
+            })?;
+            let a = a.as_array().to_owned();
+            match input {
+                "detected" => Input::Detected(a),
+                "photoelectrons" => Input::Photoelectrons(a),
+                other => {
+                    return Err(GloamError::new_err(format!(
+                        "input: '{other}' is neither 'detected' nor 'photoelectrons'"
+                    )));
+                }
+            }
+        };
+        let mut config = self.config.clone();
+        config.noise.seed = seed;
+        let source = self.source.clone();
+        let r = py.detach(move || -> anyhow::Result<_> {
+            let mut camera = Camera::new(config)?;
+            camera.set_noise(noise);
+            if let Some(g) = gain {
+                camera.set_override_gain(Some(g))?;
+            }
+            if agc {
+                camera.set_agc(true);
+            }
+            let mut stack: Option<Array3<u16>> = None;
+            let mut records = Vec::new();
+            for i in 0..frames {
+                if signalled() {
+                    anyhow::bail!("interrupted");
+                }
+                let frame = match &input {
+                    Input::Detected(d) => camera.capture_detected(d.view()),
+                    Input::Photoelectrons(p) => camera.capture_photoelectrons(p.view()),
+                }
+                .map_err(|e| anyhow::anyhow!("capturing frame {i}: {e}"))?;
+                let (h, w) = frame.pixels.dim();
+                let st = stack.get_or_insert_with(|| Array3::zeros((frames as usize, h, w)));
+                st.index_axis_mut(ndarray::Axis(0), i as usize)
+                    .assign(&frame.pixels);
+                let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
+                records.push(gloam_pipeline::FrameRecord::of_sensor_frame(
+                    u64::from(i),
+                    format!("frame-{i:06}.png"),
+                    &frame,
+                    &pixels,
+                    &camera,
+                ));
+            }
+            Ok(SameThread((stack, records)))
+        });
+        let SameThread((stack, records)) = finish(r)?;
+        let stack = stack.ok_or_else(|| GloamError::new_err("no frame was captured"))?;
+        Ok(Capture {
+            frames: stack.into_pyarray(py).unbind(),
+            meta: to_py(py, &records)?.unbind(),
+            sensor: source,
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Sensor('{}')", self.source)
+    }
+}
+
+/// Frames from ``Sensor.capture``: ``frames`` (uint16, frames × row ×
+/// column) and ``meta`` (a list of per-frame dicts, the ``frames.jsonl``
+/// records: ``gain``, ``agc``, ``sensor.agc_state``, ``mean_dn``,
+/// ``saturated_fraction``, ``pixels_crc32c``, …).
+#[pyclass(module = "gloam", frozen)]
+pub struct Capture {
+    #[pyo3(get)]
+    frames: Py<PyArray3<u16>>,
+    #[pyo3(get)]
+    meta: Py<PyAny>,
+    #[pyo3(get)]
+    sensor: String,
+}
+
+#[pymethods]
+impl Capture {
+    fn __len__(&self, py: Python<'_>) -> usize {
+        self.frames.bind(py).shape()[0]
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "Capture('{}', frames {:?})",
+            self.sensor,
+            self.frames.bind(py).shape()
+        )
+    }
+}

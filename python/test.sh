@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The Python package's tests on a fresh machine: a new venv, maturin, numpy
+# and pytest from PyPI, the wheel built from this checkout, then pytest
+# (python/tests; the bit-identity tests run the `gloam` CLI built here).
+#
+# The wheel is built with Cargo's dev profile in the workspace's target
+# directory, so after `cargo test --workspace` (CI) only the extension
+# module itself is compiled (its dependencies are optimised: see
+# [profile.dev.package."*"] in Cargo.toml). `bash python/test.sh --release`
+# builds an optimised wheel instead.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+profile=dev
+[ "${1:-}" = --release ] && profile=release
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+python3 -m venv "$work/venv"
+py="$work/venv/bin/python"
+"$py" -m pip install -q --disable-pip-version-check maturin numpy pytest
+t0=$(date +%s)
+cargo build -q --bin gloam --profile "$profile"
+"$work/venv/bin/maturin" build -q --profile "$profile" -m python/Cargo.toml --out "$work/wheels"
+"$py" -m pip install -q --disable-pip-version-check "$work"/wheels/gloam-*.whl
+echo "python/test.sh: CLI and wheel built in $(( $(date +%s) - t0 )) s ($profile profile)"
+bindir=debug
+[ "$profile" = release ] && bindir=release
+cd "$work"
+GLOAM_BIN="$CARGO_TARGET_DIR/$bindir/gloam" "$py" -m pytest -q -p no:cacheprovider "$OLDPWD/python/tests"
