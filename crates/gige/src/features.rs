@@ -45,6 +45,10 @@ pub mod reg {
     pub const RESEND_REQUESTS: u32 = 0x0001_0070;
     /// First address past the feature block.
     pub const END: u32 = 0x0001_0074;
+    /// `GloamStimulus`: what the simulated camera looks at, as the JSON of
+    /// `gloam_grabber::Stimulus` (NUL-terminated), [`STIMULUS_BYTES`] long.
+    pub const STIMULUS: u32 = 0x0002_0000;
+    pub const STIMULUS_BYTES: u32 = 512;
 }
 
 /// PFNC pixel format codes.
@@ -248,6 +252,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     if !cat_intensifier.is_empty() {
         root.push("IntensifierControl");
     }
+    root.push("GloamSimulation");
     n += &category("Root", &root);
     n += &category("DeviceControl", &cat_device);
     n += &category("ImageFormatControl", &cat_image);
@@ -257,6 +262,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     if !cat_intensifier.is_empty() {
         n += &category("IntensifierControl", &cat_intensifier);
     }
+    n += &category("GloamSimulation", &["GloamStimulus"]);
 
     // Device information: the bootstrap strings.
     n += &string_reg(
@@ -563,6 +569,11 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         );
         n += &int_reg(r, a, "RO");
     }
+    n += &format!(
+        "  <StringReg Name=\"GloamStimulus\" NameSpace=\"Custom\">\n    <ToolTip>What the simulated camera looks at, for calibration rehearsals: JSON of a gloam stimulus, e.g. {{\"kind\":\"dark\"}} or {{\"kind\":\"uniform\",\"radiance_w_m2_sr\":1e-5,\"spectrum\":\"cie-a\"}}; empty: the rig or scene it started with</ToolTip>\n    <Address>0x{:x}</Address>\n    <Length>{}</Length>\n    <AccessMode>RW</AccessMode>\n    <pPort>Device</pPort>\n  </StringReg>\n",
+        reg::STIMULUS,
+        reg::STIMULUS_BYTES
+    );
     n += "  <Port Name=\"Device\" NameSpace=\"Standard\"/>\n";
 
     format!(
