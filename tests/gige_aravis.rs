@@ -305,3 +305,67 @@ fn frames_resends_cannot_repair_are_reported_lost_never_returned_as_good() {
         s.stats
     );
 }
+
+/// `IntensifierBrightSourceProtection` reads what the sensor chain's AGC
+/// says for the last frame sent, in-process, at the same stimulus
+/// (written through `GloamStimulus`) and settings.
+#[test]
+fn bright_source_protection_state_follows_the_chain() {
+    use gloam_grabber::{FrameSource, SensorSource, Stimulus};
+    if !aravis_ready(
+        "aravis bright-source protection",
+        &["cc", "pkg-config", "ip"],
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let client = build_client(dir.path());
+    let bright = r#"{"kind":"uniform","radiance_w_m2_sr":10,"spectrum":"cie-a"}"#;
+    let dark = r#"{"kind":"dark"}"#;
+    let n = 5;
+    let run = in_netns(
+        dir.path(),
+        "--size 64x48 --seed 2",
+        &format!(
+            r#"for s in '{bright}' '{dark}'; do
+arv-tool-0.8 -a 127.0.0.1 control "GloamStimulus=$s" >/dev/null
+"{c}" {n} "PixelFormat=Mono12 GainAuto=Continuous" >/dev/null
+arv-tool-0.8 -a 127.0.0.1 control IntensifierBrightSourceProtection
+done"#,
+            c = client.display()
+        ),
+        60,
+    );
+    assert!(run.ok, "{}\n{}", run.stdout, run.device_stderr);
+    let got: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("IntensifierBrightSourceProtection = "))
+        .map(str::trim)
+        .collect();
+    // In process: frame n of a fresh stream at the device's defaults,
+    // Mono12, AGC on.
+    let want: Vec<&str> = [bright, dark]
+        .iter()
+        .map(|json| {
+            let mut src = SensorSource::new("gen2-s20-iccd", "uniform", 2, (64, 48)).unwrap();
+            let mut s = src.info().defaults;
+            (s.bits, s.agc, s.width, s.height) = (12, true, 64, 48);
+            let stim: Stimulus = serde_json::from_str(json).unwrap();
+            src.restart();
+            src.present(&stim).unwrap();
+            let mut px = vec![0u16; 64 * 48];
+            let mut last = false;
+            for _ in 0..n {
+                last = src.render(&s, &mut px).unwrap().bright_source_protection;
+            }
+            if last { "Active" } else { "Inactive" }
+        })
+        .collect();
+    assert_eq!(
+        want,
+        ["Active", "Inactive"],
+        "the stimuli should set it and not"
+    );
+    assert_eq!(got, want, "{}", run.stdout);
+}

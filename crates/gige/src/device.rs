@@ -112,6 +112,7 @@ pub struct Device {
     frame_rate_hz: f32,
     gain: f32,
     gain_in_effect_milli: Option<u32>,
+    bright_source_protection: bool,
     mcp_voltage_v: f32,
     acquisition_mode: u32,
     frame_count: u32,
@@ -190,6 +191,7 @@ impl Device {
             settings,
             pixel_format: pf,
             gain_in_effect_milli: None,
+            bright_source_protection: false,
             acquisition_mode: value::ACQUISITION_MODE_CONTINUOUS,
             frame_count: 1,
             trigger_mode: value::OFF,
@@ -266,6 +268,11 @@ impl Device {
     /// The gain the last frame was taken at (the AGC's), thousandths.
     pub fn set_gain_in_effect(&mut self, milli: u32) {
         self.gain_in_effect_milli = Some(milli);
+    }
+
+    /// Whether bright-source protection was cutting the gain at the last frame.
+    pub fn set_bright_source_protection(&mut self, active: bool) {
+        self.bright_source_protection = active;
     }
 
     pub fn set_counters(&mut self, c: StreamCounters) {
@@ -671,6 +678,7 @@ impl Device {
                 }
             }
             reg::GAIN_AUTO_SETPOINT if f.has_agc => (s.agc_setpoint_ppm as f32 / 1e6).to_bits(),
+            reg::BRIGHT_SOURCE_PROTECTION if f.has_agc => u32::from(self.bright_source_protection),
             reg::INTENSIFIER_MCP_VOLTAGE if f.mcp_range_v.is_some() => self.mcp_voltage_v.to_bits(),
             reg::TRIGGER_SELECTOR => value::TRIGGER_SELECTOR_FRAME_START,
             reg::TRIGGER_MODE => self.trigger_mode,

@@ -43,8 +43,10 @@ pub mod reg {
     pub const PACKETS_DROPPED: u32 = 0x0001_0068;
     pub const PACKETS_RESENT: u32 = 0x0001_006C;
     pub const RESEND_REQUESTS: u32 = 0x0001_0070;
+    /// 0 inactive, 1 active (AGC cameras).
+    pub const BRIGHT_SOURCE_PROTECTION: u32 = 0x0001_0074;
     /// First address past the feature block.
-    pub const END: u32 = 0x0001_0074;
+    pub const END: u32 = 0x0001_0078;
     /// `GloamStimulus`: what the simulated camera looks at, as the JSON of
     /// `gloam_grabber::Stimulus` (NUL-terminated), [`STIMULUS_BYTES`] long.
     pub const STIMULUS: u32 = 0x0002_0000;
@@ -222,6 +224,9 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     let mut cat_intensifier = vec![];
     if f.mcp_range_v.is_some() {
         cat_intensifier.push("IntensifierMcpVoltage");
+    }
+    if f.has_agc {
+        cat_intensifier.push("IntensifierBrightSourceProtection");
     }
     let cat_transport = [
         "PayloadSize",
@@ -503,6 +508,15 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
             "IntensifierMcpVoltageReg",
             reg::INTENSIFIER_MCP_VOLTAGE,
             "RW",
+        );
+    }
+
+    if f.has_agc {
+        n += "  <Enumeration Name=\"IntensifierBrightSourceProtection\" NameSpace=\"Custom\">\n    <ToolTip>Whether the AGC's bright-source protection was cutting the gain at the last frame sent</ToolTip>\n    <EnumEntry Name=\"Inactive\">\n      <Value>0</Value>\n    </EnumEntry>\n    <EnumEntry Name=\"Active\">\n      <Value>1</Value>\n    </EnumEntry>\n    <pValue>IntensifierBrightSourceProtectionReg</pValue>\n  </Enumeration>\n";
+        n += &int_reg(
+            "IntensifierBrightSourceProtectionReg",
+            reg::BRIGHT_SOURCE_PROTECTION,
+            "RO",
         );
     }
 

@@ -470,6 +470,8 @@ impl GigeServer {
                 }
                 sh.store.insert(block_id, packets.clone());
                 sh.device.set_gain_in_effect(rendered.gain_milli);
+                sh.device
+                    .set_bright_source_protection(rendered.bright_source_protection);
             }
             // Packets leave as the sensor reads out: spread over half the
             // frame period (never faster than the link). A frame sent as one

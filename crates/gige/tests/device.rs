@@ -480,3 +480,23 @@ fn gloam_stimulus_takes_a_renderable_stimulus_or_changes_nothing() {
     assert!(node.contains(&format!("<Address>0x{:x}</Address>", reg::STIMULUS)));
     assert!(node.contains("<Length>512</Length>"));
 }
+
+#[test]
+fn bright_source_protection_is_a_read_only_state() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    assert_eq!(a.take_control(&mut d), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::BRIGHT_SOURCE_PROTECTION), Ok(0));
+    d.set_bright_source_protection(true);
+    assert_eq!(a.read(&mut d, reg::BRIGHT_SOURCE_PROTECTION), Ok(1));
+    assert_eq!(
+        a.write(&mut d, reg::BRIGHT_SOURCE_PROTECTION, 0),
+        WRITE_PROTECT
+    );
+    let xml = String::from_utf8(d.xml().to_vec()).unwrap();
+    assert!(xml.contains("<Enumeration Name=\"IntensifierBrightSourceProtection\""));
+    assert!(xml.contains(&format!(
+        "<Address>0x{:x}</Address>",
+        reg::BRIGHT_SOURCE_PROTECTION
+    )));
+}
