@@ -239,7 +239,8 @@ impl GenicamGrabber {
         let (_, _, w, h) = camera.region().map_err(|e| dev("reading the region", e))?;
         let agc = camera.is_gain_auto_available().unwrap_or(false)
             && camera.gain_auto().is_ok_and(|a| a == Auto::Continuous);
-        let gain = camera.gain().unwrap_or(f64::NAN);
+        // A camera without a Gain feature reports unity gain.
+        let gain = camera.gain().unwrap_or(1.0);
         let has_stimulus = camera
             .is_feature_available(STIMULUS_FEATURE)
             .unwrap_or(false);
@@ -272,6 +273,7 @@ impl GenicamGrabber {
 
     /// Stops the acquisition (if running); the next grab starts a new one.
     fn stop(&mut self) {
+        self.pending = None;
         if self.stream.take().is_some() {
             // Dropping the stream ends its receive thread and buffers.
             let _ = self.camera.stop_acquisition();
@@ -281,6 +283,9 @@ impl GenicamGrabber {
     /// In free-running mode frames already in flight were taken with the
     /// old settings: restart so none of them is returned after the change.
     fn settings_changed(&mut self) {
+        // A frame held back behind a reported gap was taken before the
+        // change: it is stale now.
+        self.pending = None;
         if !self.triggered {
             self.stop();
         }
