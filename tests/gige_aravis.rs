@@ -13,88 +13,13 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const BIN: &str = env!("CARGO_BIN_EXE_gloam");
+mod aravis_netns;
+use aravis_netns::{aravis_ready, in_netns, sim_crcs};
+
 const STREAM_C: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/crates/gige/tests/aravis/stream.c"
 );
-
-/// True when everything needed is there; otherwise a loud notice, and a
-/// failure if Aravis is required.
-fn aravis_ready(test: &str, tools: &[&str]) -> bool {
-    let mut missing: Vec<String> = tools
-        .iter()
-        .filter(|t| {
-            !Command::new("sh")
-                .args(["-c", &format!("command -v {t}")])
-                .output()
-                .is_ok_and(|o| o.status.success())
-        })
-        .map(|t| t.to_string())
-        .collect();
-    let netns = Command::new("unshare")
-        .args(["-n", "true"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !netns {
-        missing.push("a private network namespace (unshare -n: needs root)".into());
-    }
-    if missing.is_empty() {
-        return true;
-    }
-    let msg = format!(
-        "\n!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!\n\
-         !!! {test}: NOT RUN — missing {}\n\
-         !!! install: apt-get install aravis-tools aravis-tools-cli libaravis-dev libusb-1.0-0-dev\n\
-         !!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!!\n",
-        missing.join(", ")
-    );
-    eprintln!("{msg}");
-    assert!(
-        std::env::var("GLOAM_REQUIRE_ARAVIS").as_deref() != Ok("1"),
-        "GLOAM_REQUIRE_ARAVIS=1 but {test} cannot run: {msg}"
-    );
-    false
-}
-
-struct NetnsRun {
-    stdout: String,
-    device_stderr: String,
-    ok: bool,
-}
-
-/// Runs `client` (a shell command) next to `gloam device --gige 127.0.0.1
-/// DEVICE_ARGS` inside a fresh network namespace with loopback only.
-fn in_netns(dir: &Path, device_args: &str, client: &str, timeout_s: u32) -> NetnsRun {
-    let script = format!(
-        r#"set -u
-ip link set lo up || exit 90
-"$GLOAM" device --gige 127.0.0.1 {device_args} >"$DIR/dev.out" 2>"$DIR/dev.err" &
-DEV=$!
-i=0
-while [ ! -s "$DIR/dev.out" ] && [ $i -lt 300 ]; do sleep 0.1; i=$((i+1)); done
-{client}
-RC=$?
-kill $DEV 2>/dev/null
-wait $DEV 2>/dev/null
-exit $RC
-"#
-    );
-    std::fs::write(dir.join("run.sh"), script).expect("write script");
-    let out = Command::new("timeout")
-        .arg(timeout_s.to_string())
-        .args(["unshare", "-n", "sh"])
-        .arg(dir.join("run.sh"))
-        .env("GLOAM", BIN)
-        .env("DIR", dir)
-        .output()
-        .expect("run unshare");
-    NetnsRun {
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        device_stderr: std::fs::read_to_string(dir.join("dev.err")).unwrap_or_default(),
-        ok: out.status.success(),
-    }
-}
 
 fn build_client(dir: &Path) -> PathBuf {
     let exe = dir.join("arv-stream");
@@ -153,37 +78,6 @@ fn parse_stream(stdout: &str) -> Streamed {
         }
     }
     Streamed { frames, stats }
-}
-
-/// CRCs of frames 0.. from `gloam capture --grabber sim:…`.
-fn sim_crcs(dir: &Path, uri: &str, frames: u32, extra: &[&str]) -> Vec<u32> {
-    let out_dir = dir.join("sim");
-    let out = Command::new(BIN)
-        .args([
-            "capture",
-            "--grabber",
-            uri,
-            "--frames",
-            &frames.to_string(),
-            "--out",
-        ])
-        .arg(&out_dir)
-        .args(extra)
-        .output()
-        .expect("gloam capture");
-    assert!(
-        out.status.success(),
-        "gloam capture: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    std::fs::read_to_string(out_dir.join("frames.jsonl"))
-        .expect("frames.jsonl")
-        .lines()
-        .map(|l| {
-            let v: serde_json::Value = serde_json::from_str(l).expect("json");
-            v["pixels_crc32c"].as_u64().expect("crc") as u32
-        })
-        .collect()
 }
 
 #[test]
@@ -410,4 +304,68 @@ fn frames_resends_cannot_repair_are_reported_lost_never_returned_as_good() {
         s.frames.len(),
         s.stats
     );
+}
+
+/// `IntensifierBrightSourceProtection` reads what the sensor chain's AGC
+/// says for the last frame sent, in-process, at the same stimulus
+/// (written through `GloamStimulus`) and settings.
+#[test]
+fn bright_source_protection_state_follows_the_chain() {
+    use gloam_grabber::{FrameSource, SensorSource, Stimulus};
+    if !aravis_ready(
+        "aravis bright-source protection",
+        &["cc", "pkg-config", "ip"],
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let client = build_client(dir.path());
+    let bright = r#"{"kind":"uniform","radiance_w_m2_sr":10,"spectrum":"cie-a"}"#;
+    let dark = r#"{"kind":"dark"}"#;
+    let n = 5;
+    let run = in_netns(
+        dir.path(),
+        "--size 64x48 --seed 2",
+        &format!(
+            r#"for s in '{bright}' '{dark}'; do
+arv-tool-0.8 -a 127.0.0.1 control "GloamStimulus=$s" >/dev/null
+"{c}" {n} "PixelFormat=Mono12 GainAuto=Continuous" >/dev/null
+arv-tool-0.8 -a 127.0.0.1 control IntensifierBrightSourceProtection
+done"#,
+            c = client.display()
+        ),
+        60,
+    );
+    assert!(run.ok, "{}\n{}", run.stdout, run.device_stderr);
+    let got: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("IntensifierBrightSourceProtection = "))
+        .map(str::trim)
+        .collect();
+    // In process: frame n of a fresh stream at the device's defaults,
+    // Mono12, AGC on.
+    let want: Vec<&str> = [bright, dark]
+        .iter()
+        .map(|json| {
+            let mut src = SensorSource::new("gen2-s20-iccd", "uniform", 2, (64, 48)).unwrap();
+            let mut s = src.info().defaults;
+            (s.bits, s.agc, s.width, s.height) = (12, true, 64, 48);
+            let stim: Stimulus = serde_json::from_str(json).unwrap();
+            src.restart();
+            src.present(&stim).unwrap();
+            let mut px = vec![0u16; 64 * 48];
+            let mut last = false;
+            for _ in 0..n {
+                last = src.render(&s, &mut px).unwrap().bright_source_protection;
+            }
+            if last { "Active" } else { "Inactive" }
+        })
+        .collect();
+    assert_eq!(
+        want,
+        ["Active", "Inactive"],
+        "the stimuli should set it and not"
+    );
+    assert_eq!(got, want, "{}", run.stdout);
 }

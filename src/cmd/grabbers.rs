@@ -1,4 +1,4 @@
-//! `gloam grabbers`: serial ports, USB devices and simulated cameras.
+//! `gloam grabbers`: serial ports, USB devices, GenICam cameras and simulated cameras.
 
 use clap::Args;
 
@@ -40,6 +40,23 @@ pub fn run(args: GrabbersArgs) -> anyhow::Result<()> {
                     .collect::<Vec<_>>()
                     .join(" ");
                 outln!("  {:<32} bus {} addr {} {name}", d.uri, d.bus, d.address);
+            }
+        }
+    }
+    outln!("GenICam cameras:");
+    match &list.genicam_error {
+        Some(e) => outln!("  ({e})"),
+        None if list.genicam.is_empty() => outln!("  (none)"),
+        None => {
+            for d in &list.genicam {
+                outln!(
+                    "  {:<32} {} {} ({}, {})",
+                    d.uri,
+                    d.vendor,
+                    d.model,
+                    d.protocol,
+                    d.address
+                );
             }
         }
     }

@@ -6,7 +6,7 @@
 
 use std::net::{Ipv4Addr, SocketAddrV4};
 
-use gloam_grabber::CaptureSettings;
+use gloam_grabber::{CaptureSettings, Stimulus};
 
 use crate::bootstrap as bs;
 use crate::features::{self, XmlFacts, pixel_format, reg, value};
@@ -63,6 +63,8 @@ pub enum Event {
     },
     /// The controller went away (heartbeat expired or released control).
     ControlReleased,
+    /// `GloamStimulus` was written: show this from the next frame on.
+    Stimulus(Stimulus),
 }
 
 /// Stream channel 0 as configured by the host.
@@ -110,6 +112,7 @@ pub struct Device {
     frame_rate_hz: f32,
     gain: f32,
     gain_in_effect_milli: Option<u32>,
+    bright_source_protection: bool,
     mcp_voltage_v: f32,
     acquisition_mode: u32,
     frame_count: u32,
@@ -119,8 +122,17 @@ pub struct Device {
     latched_ticks: u64,
     now_us: u64,
     user_name: [u8; 16],
+    /// `GloamStimulus` as last written (NUL-padded JSON).
+    stimulus: Vec<u8>,
     counters: StreamCounters,
     events: Vec<Event>,
+}
+
+/// Byte offset of `addr` in the `GloamStimulus` string register.
+fn stimulus_offset(addr: u32) -> Option<usize> {
+    (reg::STIMULUS..reg::STIMULUS + reg::STIMULUS_BYTES)
+        .contains(&addr)
+        .then(|| (addr - reg::STIMULUS) as usize)
 }
 
 fn put_str(buf: &mut [u8], s: &str) {
@@ -179,6 +191,7 @@ impl Device {
             settings,
             pixel_format: pf,
             gain_in_effect_milli: None,
+            bright_source_protection: false,
             acquisition_mode: value::ACQUISITION_MODE_CONTINUOUS,
             frame_count: 1,
             trigger_mode: value::OFF,
@@ -187,6 +200,7 @@ impl Device {
             latched_ticks: 0,
             now_us: 0,
             user_name,
+            stimulus: vec![0; reg::STIMULUS_BYTES as usize],
             counters: StreamCounters::default(),
             events: Vec::new(),
         }
@@ -254,6 +268,11 @@ impl Device {
     /// The gain the last frame was taken at (the AGC's), thousandths.
     pub fn set_gain_in_effect(&mut self, milli: u32) {
         self.gain_in_effect_milli = Some(milli);
+    }
+
+    /// Whether bright-source protection was cutting the gain at the last frame.
+    pub fn set_bright_source_protection(&mut self, active: bool) {
+        self.bright_source_protection = active;
     }
 
     pub fn set_counters(&mut self, c: StreamCounters) {
@@ -405,6 +424,16 @@ impl Device {
                 if !is_controller {
                     return ack(Status::AccessDenied, &[0, 0, 0, 0]);
                 }
+                if let Some(o) = stimulus_offset(addr) {
+                    // The ack's index: bytes written.
+                    let (status, n) = match self.write_stimulus(o, data) {
+                        Ok(()) => (Status::Success, data.len() as u16),
+                        Err(s) => (s, 0),
+                    };
+                    let mut b = [0u8; 4];
+                    b[2..].copy_from_slice(&n.to_be_bytes());
+                    return ack(status, &b);
+                }
                 let mut written: u16 = 0;
                 for (i, w) in data.chunks_exact(4).enumerate() {
                     let a = addr.wrapping_add(4 * i as u32);
@@ -508,9 +537,42 @@ impl Device {
         b
     }
 
+    /// A WRITEMEM into `GloamStimulus` at byte `offset`: the whole string
+    /// must parse as a stimulus the camera can render, else nothing changes
+    /// (INVALID_PARAMETER).
+    fn write_stimulus(&mut self, offset: usize, data: &[u8]) -> Result<(), Status> {
+        let end = offset
+            .checked_add(data.len())
+            .filter(|e| *e <= self.stimulus.len())
+            .ok_or(Status::InvalidAddress)?;
+        let mut next = self.stimulus.clone();
+        next[offset..end].copy_from_slice(data);
+        let text_len = next.iter().position(|&b| b == 0).unwrap_or(next.len());
+        if text_len == next.len() {
+            // No terminating NUL: not a string.
+            return Err(Status::InvalidParameter);
+        }
+        if text_len > 0 {
+            let s: Stimulus =
+                serde_json::from_slice(&next[..text_len]).map_err(|_| Status::InvalidParameter)?;
+            gloam_grabber::sim::render_stimulus(&s, 2, 2).map_err(|_| Status::InvalidParameter)?;
+            self.events.push(Event::Stimulus(s));
+        }
+        self.stimulus = next;
+        Ok(())
+    }
+
     /// Device memory `addr..addr + count` (both multiples of 4).
     pub fn read_memory(&self, addr: u32, count: u32) -> Result<Vec<u8>, Status> {
         let end = addr.checked_add(count).ok_or(Status::InvalidAddress)?;
+        if let Some(o) = stimulus_offset(addr) {
+            let e = o + count as usize;
+            return self
+                .stimulus
+                .get(o..e)
+                .map(<[u8]>::to_vec)
+                .ok_or(Status::InvalidAddress);
+        }
         let xml_end = features::XML_ADDRESS + self.xml.len().div_ceil(4) as u32 * 4;
         if addr >= features::XML_ADDRESS {
             if end > xml_end {
@@ -552,6 +614,9 @@ impl Device {
         if let Some((base, _)) = bs::string_field(a) {
             let s = self.string_bytes(base);
             return Ok(be32(&s[(a - base) as usize..]));
+        }
+        if let Some(o) = stimulus_offset(a) {
+            return Ok(be32(&self.stimulus[o..]));
         }
         let id = &self.identity;
         let s = &self.settings;
@@ -613,6 +678,7 @@ impl Device {
                 }
             }
             reg::GAIN_AUTO_SETPOINT if f.has_agc => (s.agc_setpoint_ppm as f32 / 1e6).to_bits(),
+            reg::BRIGHT_SOURCE_PROTECTION if f.has_agc => u32::from(self.bright_source_protection),
             reg::INTENSIFIER_MCP_VOLTAGE if f.mcp_range_v.is_some() => self.mcp_voltage_v.to_bits(),
             reg::TRIGGER_SELECTOR => value::TRIGGER_SELECTOR_FRAME_START,
             reg::TRIGGER_MODE => self.trigger_mode,

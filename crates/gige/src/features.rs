@@ -43,8 +43,14 @@ pub mod reg {
     pub const PACKETS_DROPPED: u32 = 0x0001_0068;
     pub const PACKETS_RESENT: u32 = 0x0001_006C;
     pub const RESEND_REQUESTS: u32 = 0x0001_0070;
+    /// 0 inactive, 1 active (AGC cameras).
+    pub const BRIGHT_SOURCE_PROTECTION: u32 = 0x0001_0074;
     /// First address past the feature block.
-    pub const END: u32 = 0x0001_0074;
+    pub const END: u32 = 0x0001_0078;
+    /// `GloamStimulus`: what the simulated camera looks at, as the JSON of
+    /// `gloam_grabber::Stimulus` (NUL-terminated), [`STIMULUS_BYTES`] long.
+    pub const STIMULUS: u32 = 0x0002_0000;
+    pub const STIMULUS_BYTES: u32 = 512;
 }
 
 /// PFNC pixel format codes.
@@ -219,6 +225,9 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     if f.mcp_range_v.is_some() {
         cat_intensifier.push("IntensifierMcpVoltage");
     }
+    if f.has_agc {
+        cat_intensifier.push("IntensifierBrightSourceProtection");
+    }
     let cat_transport = [
         "PayloadSize",
         "GevSCPSPacketSize",
@@ -248,6 +257,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     if !cat_intensifier.is_empty() {
         root.push("IntensifierControl");
     }
+    root.push("GloamSimulation");
     n += &category("Root", &root);
     n += &category("DeviceControl", &cat_device);
     n += &category("ImageFormatControl", &cat_image);
@@ -257,6 +267,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     if !cat_intensifier.is_empty() {
         n += &category("IntensifierControl", &cat_intensifier);
     }
+    n += &category("GloamSimulation", &["GloamStimulus"]);
 
     // Device information: the bootstrap strings.
     n += &string_reg(
@@ -500,6 +511,15 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         );
     }
 
+    if f.has_agc {
+        n += "  <Enumeration Name=\"IntensifierBrightSourceProtection\" NameSpace=\"Custom\">\n    <ToolTip>Whether the AGC's bright-source protection was cutting the gain at the last frame sent</ToolTip>\n    <EnumEntry Name=\"Inactive\">\n      <Value>0</Value>\n    </EnumEntry>\n    <EnumEntry Name=\"Active\">\n      <Value>1</Value>\n    </EnumEntry>\n    <pValue>IntensifierBrightSourceProtectionReg</pValue>\n  </Enumeration>\n";
+        n += &int_reg(
+            "IntensifierBrightSourceProtectionReg",
+            reg::BRIGHT_SOURCE_PROTECTION,
+            "RO",
+        );
+    }
+
     // Transport layer.
     n += "  <Integer Name=\"GevSCPSPacketSize\" NameSpace=\"Standard\">\n    <ToolTip>Stream packet size, bytes, IP and UDP headers included</ToolTip>\n    <pValue>GevSCPSPacketSizeReg</pValue>\n";
     n += &format!(
@@ -563,6 +583,11 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         );
         n += &int_reg(r, a, "RO");
     }
+    n += &format!(
+        "  <StringReg Name=\"GloamStimulus\" NameSpace=\"Custom\">\n    <ToolTip>What the simulated camera looks at, for calibration rehearsals: JSON of a gloam stimulus, e.g. {{\"kind\":\"dark\"}} or {{\"kind\":\"uniform\",\"radiance_w_m2_sr\":1e-5,\"spectrum\":\"cie-a\"}}; empty: the rig or scene it started with</ToolTip>\n    <Address>0x{:x}</Address>\n    <Length>{}</Length>\n    <AccessMode>RW</AccessMode>\n    <pPort>Device</pPort>\n  </StringReg>\n",
+        reg::STIMULUS,
+        reg::STIMULUS_BYTES
+    );
     n += "  <Port Name=\"Device\" NameSpace=\"Standard\"/>\n";
 
     format!(

@@ -14,6 +14,10 @@ use crate::device::{Device, Event, StreamCounters};
 use crate::features::pixel_format;
 use crate::gvsp::{self, FaultInjector, ImageInfo, ResendStore, StreamFaults};
 
+/// Longest time one frame's packets are spread over (a video-rate
+/// readout); shorter frame periods spread them over half the period.
+const MAX_READOUT: Duration = Duration::from_millis(40);
+
 /// How the server runs.
 #[derive(Clone, Debug)]
 pub struct ServerConfig {
@@ -72,6 +76,8 @@ struct Shared {
     generation: u64,
     restart: bool,
     triggers: u32,
+    /// Written to `GloamStimulus`, not yet shown to the source.
+    stimulus: Option<gloam_grabber::Stimulus>,
 }
 
 /// A bound server; [`GigeServer::run`] serves until `stop`.
@@ -116,6 +122,7 @@ impl GigeServer {
                     generation: 0,
                     restart: false,
                     triggers: 0,
+                    stimulus: None,
                 }),
                 Condvar::new(),
             )),
@@ -212,6 +219,13 @@ impl GigeServer {
                     }
                     Event::SoftwareTrigger => {
                         lock(&self.shared.0).triggers += 1;
+                        wake = true;
+                    }
+                    Event::Stimulus(s) => {
+                        // Before any trigger that follows it: events keep
+                        // their order and the render loop takes both under
+                        // one lock.
+                        lock(&self.shared.0).stimulus = Some(s);
                         wake = true;
                     }
                     Event::FireTestPacket => {
@@ -404,6 +418,11 @@ impl GigeServer {
                 let _ = cv.wait_timeout(sh, wait);
                 continue;
             }
+            if let Some(stim) = sh.stimulus.take()
+                && let Err(e) = source.present(&stim)
+            {
+                eprintln!("gloam device: stimulus not shown ({e})");
+            }
             let generation = sh.generation;
             let triggered = sh.device.triggered();
             let settings = sh.device.settings();
@@ -451,15 +470,22 @@ impl GigeServer {
                 }
                 sh.store.insert(block_id, packets.clone());
                 sh.device.set_gain_in_effect(rendered.gain_milli);
+                sh.device
+                    .set_bright_source_protection(rendered.bright_source_protection);
             }
             // Packets leave as the sensor reads out: spread over half the
             // frame period (never faster than the link). A frame sent as one
             // burst overflows the client's socket buffer whenever its receive
             // thread is descheduled for a millisecond or two. The sender
             // thread does this while the next frame renders.
+            // At most MAX_READOUT, as a sensor's readout: a slow sensor
+            // (1 Hz) spreading 4 packets over half a second would leave
+            // gaps a client takes for a lost frame (Aravis gives up on a
+            // frame after 100 ms without a packet).
             let total_bytes: usize = packets.iter().map(|p| p.len() + 28).sum();
+            let spread_ns = (period.as_nanos() as f64 * 0.5).min(MAX_READOUT.as_nanos() as f64);
             let ns_per_byte = (8e9 / self.config.link_bits_per_s.max(1e6))
-                .max(period.as_nanos() as f64 * 0.5 / total_bytes.max(1) as f64);
+                .max(spread_ns / total_bytes.max(1) as f64);
             let outgoing = Outgoing {
                 dest,
                 packets,

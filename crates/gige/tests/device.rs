@@ -426,3 +426,77 @@ fn fuzz_entry_point_survives_hostile_sequences() {
     }
     gloam_gige::fuzzing::device_datagrams(&seq);
 }
+
+#[test]
+fn gloam_stimulus_takes_a_renderable_stimulus_or_changes_nothing() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    let mut b = Client::new(B);
+    let writemem = |c: &mut Client, d: &mut Device, text: &str| {
+        let mut p = reg::STIMULUS.to_be_bytes().to_vec();
+        let mut body = text.as_bytes().to_vec();
+        body.resize(reg::STIMULUS_BYTES as usize, 0);
+        p.extend_from_slice(&body);
+        c.send(d, 0, command::WRITEMEM, &p)
+    };
+    let json = r#"{"kind":"uniform","radiance_w_m2_sr":1e-5,"spectrum":"cie-a"}"#;
+    // Only the controller may change what the camera sees.
+    assert_eq!(writemem(&mut a, &mut d, json).0, ACCESS_DENIED);
+    assert_eq!(a.take_control(&mut d), SUCCESS);
+    assert_eq!(writemem(&mut b, &mut d, json).0, ACCESS_DENIED);
+    let (s, _, ack) = writemem(&mut a, &mut d, json);
+    assert_eq!(s, SUCCESS);
+    // The ack's index counts the bytes written.
+    assert_eq!(u16::from_be_bytes([ack[2], ack[3]]), 512);
+    let want: gloam_grabber::Stimulus = serde_json::from_str(json).unwrap();
+    assert_eq!(d.take_events(), vec![Event::Stimulus(want)]);
+    let back = a.read_mem(&mut d, reg::STIMULUS, 512).unwrap();
+    assert_eq!(&back[..json.len()], json.as_bytes());
+    // Not JSON, an unknown lamp, a negative radiance, no NUL: refused,
+    // and the register keeps the last good stimulus.
+    for bad in [
+        "{not json",
+        r#"{"kind":"uniform","radiance_w_m2_sr":1e-5,"spectrum":"no-such-lamp"}"#,
+        r#"{"kind":"uniform","radiance_w_m2_sr":-1,"spectrum":"cie-a"}"#,
+    ] {
+        assert_eq!(writemem(&mut a, &mut d, bad).0, INVALID_PARAMETER, "{bad}");
+        assert!(d.take_events().is_empty(), "{bad}");
+    }
+    let mut p = reg::STIMULUS.to_be_bytes().to_vec();
+    p.extend_from_slice(&[b'x'; 512]);
+    assert_eq!(
+        a.send(&mut d, 0, command::WRITEMEM, &p).0,
+        INVALID_PARAMETER
+    );
+    let back = a.read_mem(&mut d, reg::STIMULUS, 512).unwrap();
+    assert_eq!(&back[..json.len()], json.as_bytes());
+    // Past the end of the register: no such address.
+    let mut p = (reg::STIMULUS + 508).to_be_bytes().to_vec();
+    p.extend_from_slice(&[0; 8]);
+    assert_eq!(a.send(&mut d, 0, command::WRITEMEM, &p).0, INVALID_ADDRESS);
+    // The XML describes it where it is.
+    let xml = String::from_utf8(d.xml().to_vec()).unwrap();
+    let node = &xml[xml.find("<StringReg Name=\"GloamStimulus\"").unwrap()..];
+    assert!(node.contains(&format!("<Address>0x{:x}</Address>", reg::STIMULUS)));
+    assert!(node.contains("<Length>512</Length>"));
+}
+
+#[test]
+fn bright_source_protection_is_a_read_only_state() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    assert_eq!(a.take_control(&mut d), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::BRIGHT_SOURCE_PROTECTION), Ok(0));
+    d.set_bright_source_protection(true);
+    assert_eq!(a.read(&mut d, reg::BRIGHT_SOURCE_PROTECTION), Ok(1));
+    assert_eq!(
+        a.write(&mut d, reg::BRIGHT_SOURCE_PROTECTION, 0),
+        WRITE_PROTECT
+    );
+    let xml = String::from_utf8(d.xml().to_vec()).unwrap();
+    assert!(xml.contains("<Enumeration Name=\"IntensifierBrightSourceProtection\""));
+    assert!(xml.contains(&format!(
+        "<Address>0x{:x}</Address>",
+        reg::BRIGHT_SOURCE_PROTECTION
+    )));
+}

@@ -5,6 +5,8 @@ mod interface;
 pub mod client;
 pub mod emulator;
 pub mod faults;
+#[cfg(feature = "genicam")]
+pub mod genicam;
 pub mod memory;
 pub mod serial;
 pub mod sim;
@@ -127,8 +129,18 @@ pub fn open_with(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>,
             "usb:…?backend=rusb needs gloam built with the `gloam-grabber/rusb-backend` feature"
                 .into(),
         )),
+        #[cfg(feature = "genicam")]
+        GrabberUri::Genicam(o) => Ok(Box::new(genicam::GenicamGrabber::open(&o)?)),
+        #[cfg(not(feature = "genicam"))]
+        GrabberUri::Genicam(_) => Err(GrabError::Unsupported(format!(
+            "'{uri}': {GENICAM_FEATURE_OFF}"
+        ))),
     }
 }
+
+/// Why there are no `genicam:` grabbers in this build.
+#[cfg(not(feature = "genicam"))]
+const GENICAM_FEATURE_OFF: &str = "GenICam cameras need gloam built with the `genicam` feature (cargo build --features genicam; Debian: libaravis-dev)";
 
 /// One simulated camera in [`GrabberList`].
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
@@ -147,9 +159,38 @@ pub struct GrabberList {
     /// Why USB devices could not be listed (e.g. "no USB bus available").
     pub usb_error: Option<String>,
     pub sim: Vec<SimInfo>,
+    /// GenICam cameras Aravis found (feature `genicam`).
+    pub genicam: Vec<GenicamInfo>,
+    /// Why GenICam cameras could not be listed (e.g. the feature is off).
+    pub genicam_error: Option<String>,
 }
 
-/// Serial ports, USB devices (or why there are none) and the simulated cameras.
+/// One GenICam camera in [`GrabberList`].
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct GenicamInfo {
+    pub uri: String,
+    pub device_id: String,
+    pub vendor: String,
+    pub model: String,
+    /// GigEVision or USB3Vision.
+    pub protocol: String,
+    pub address: String,
+}
+
+fn list_genicam() -> (Vec<GenicamInfo>, Option<String>) {
+    #[cfg(feature = "genicam")]
+    {
+        (genicam::list_devices(), None)
+    }
+    #[cfg(not(feature = "genicam"))]
+    {
+        (Vec::new(), Some(GENICAM_FEATURE_OFF.to_string()))
+    }
+}
+
+/// Serial ports, USB devices, GenICam cameras (or why there are none) and
+/// the simulated cameras. With the `genicam` feature this sends GigE Vision
+/// discovery broadcasts on every network interface.
 pub fn list_grabbers() -> GrabberList {
     let (serial, serial_error) = match serial::list_ports() {
         Ok(p) => (p, None),
@@ -170,11 +211,14 @@ pub fn list_grabbers() -> GrabberList {
         uri: format!("sim:{name}"),
         description: format!("rig: {d} (sensor {})", uri::DEFAULT_SIM_PRESET),
     }));
+    let (genicam, genicam_error) = list_genicam();
     GrabberList {
         serial,
         serial_error,
         usb,
         usb_error,
         sim,
+        genicam,
+        genicam_error,
     }
 }

@@ -489,6 +489,7 @@ impl FrameSource for SensorSource {
                 saturation_dn: chain.saturation_dn(g),
                 saturated_at_dn: chain.saturated_threshold_dn(g),
             }),
+            bright_source_protection: frame.meta.agc_state == gloam_sensor::AgcState::Protecting,
         })
     }
 }

@@ -50,6 +50,8 @@ pub struct Rendered {
     pub gain_milli: u32,
     /// Black and saturation levels at this frame's settings, if known.
     pub levels: Option<crate::interface::DnLevels>,
+    /// The AGC's bright-source protection was cutting the gain at this frame.
+    pub bright_source_protection: bool,
 }
 
 /// Fixed facts about a source.
@@ -227,6 +229,7 @@ impl FrameSource for SyntheticSource {
         Ok(Rendered {
             gain_milli,
             levels: None,
+            bright_source_protection: false,
         })
     }
 }

@@ -5,6 +5,8 @@
 //! sim:PRESET?scene=PATH[&seed=S&size=WxH]        … looking at a traced scene
 //! serial:PATH[?baud=N]                           protocol over a serial port
 //! usb:VID:PID[:SERIAL][?backend=nusb|rusb]     protocol over USB bulk (hex ids)
+//! genicam:DEVICE_ID|ADDR[?trigger=auto|software|off&resend=always|never&timeout_ms=N&size=WxH]
+//!                                                a GenICam camera through Aravis (feature `genicam`)
 //! ```
 
 use crate::interface::GrabError;
@@ -15,6 +17,34 @@ use crate::usb::UsbSelector;
 pub const DEFAULT_SIM_PRESET: &str = "gen2-s20-iccd";
 /// Rig used when a `sim:` URI names only a preset.
 pub const DEFAULT_RIG: &str = "uniform";
+
+/// How frames are started.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TriggerChoice {
+    /// Software trigger when the camera has one, else free-running.
+    Auto,
+    /// One `TriggerSoftware` per grab (refused if the camera lacks it).
+    Software,
+    /// Free-running (`TriggerMode=Off`).
+    Off,
+}
+
+/// What a `genicam:` URI asks for.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GenicamOptions {
+    /// Aravis device id (`Vendor-Model-Serial`, as `gloam grabbers` lists
+    /// it) or the camera's IP address.
+    pub name: String,
+    pub trigger: TriggerChoice,
+    /// Ask for lost GVSP packets again (PACKETRESEND); `?resend=never`
+    /// turns it off, to see raw losses.
+    pub packet_resend: bool,
+    /// How long one grab waits for its frame; `None`: 2 s plus three
+    /// frame periods.
+    pub timeout_ms: Option<u64>,
+    /// Width and height to set at open.
+    pub size: Option<(u32, u32)>,
+}
 
 /// A parsed grabber URI.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -37,11 +67,13 @@ pub enum GrabberUri {
     Usb(UsbSelector),
     /// `usb:…?backend=rusb`: the libusb backend (feature `rusb-backend`).
     UsbRusb(UsbSelector),
+    /// `genicam:NAME`: through Aravis (feature `genicam`).
+    Genicam(GenicamOptions),
 }
 
 fn bad(uri: &str, why: impl std::fmt::Display) -> GrabError {
     GrabError::InvalidSetting(format!(
-        "grabber URI '{uri}': {why} (expected sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], sim:PRESET?scene=PATH, serial:PATH[?baud=N] or usb:VID:PID[:SERIAL])"
+        "grabber URI '{uri}': {why} (expected sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], sim:PRESET?scene=PATH, serial:PATH[?baud=N], usb:VID:PID[:SERIAL] or genicam:DEVICE_ID|ADDR)"
     ))
 }
 
@@ -180,6 +212,56 @@ impl GrabberUri {
                     GrabberUri::Usb(sel)
                 })
             }
+            "genicam" => {
+                if body.is_empty() {
+                    return Err(bad(uri, "missing device id or address"));
+                }
+                let mut o = GenicamOptions {
+                    name: body.to_string(),
+                    trigger: TriggerChoice::Auto,
+                    packet_resend: true,
+                    timeout_ms: None,
+                    size: None,
+                };
+                for (k, v) in params {
+                    match (k, v) {
+                        ("trigger", "auto") => o.trigger = TriggerChoice::Auto,
+                        ("trigger", "software") => o.trigger = TriggerChoice::Software,
+                        ("trigger", "off") => o.trigger = TriggerChoice::Off,
+                        ("trigger", other) => {
+                            return Err(bad(
+                                uri,
+                                format!("trigger '{other}' is not auto, software or off"),
+                            ));
+                        }
+                        ("resend", "always") => o.packet_resend = true,
+                        ("resend", "never") => o.packet_resend = false,
+                        ("resend", other) => {
+                            return Err(bad(
+                                uri,
+                                format!("resend '{other}' is not always or never"),
+                            ));
+                        }
+                        ("timeout_ms", v) => {
+                            o.timeout_ms = Some(
+                                v.parse()
+                                    .ok()
+                                    .filter(|t| (1..=3_600_000).contains(t))
+                                    .ok_or_else(|| {
+                                        bad(uri, format!("timeout_ms '{v}' is not 1…3600000"))
+                                    })?,
+                            )
+                        }
+                        ("size", v) => {
+                            o.size = Some(parse_size(v).ok_or_else(|| {
+                                bad(uri, format!("size '{v}' is not WxH (1..4096)"))
+                            })?)
+                        }
+                        _ => return Err(bad(uri, format!("unknown parameter '{k}'"))),
+                    }
+                }
+                Ok(GrabberUri::Genicam(o))
+            }
             other => Err(bad(uri, format!("unknown scheme '{other}'"))),
         }
     }
@@ -248,6 +330,45 @@ mod tests {
             GrabberUri::parse("usb:1d50").unwrap_err(),
             GrabError::InvalidSetting(_)
         ));
+    }
+
+    #[test]
+    fn parses_genicam() {
+        assert_eq!(
+            GrabberUri::parse("genicam:127.0.0.1").unwrap(),
+            GrabberUri::Genicam(GenicamOptions {
+                name: "127.0.0.1".into(),
+                trigger: TriggerChoice::Auto,
+                packet_resend: true,
+                timeout_ms: None,
+                size: None,
+            })
+        );
+        // Aravis device ids hold dashes and spaces; only '?' ends them.
+        assert_eq!(
+            GrabberUri::parse(
+                "genicam:gloam-simulated gen2-s20-iccd-GL0001?trigger=off&resend=never&timeout_ms=500&size=64x48"
+            )
+            .unwrap(),
+            GrabberUri::Genicam(GenicamOptions {
+                name: "gloam-simulated gen2-s20-iccd-GL0001".into(),
+                trigger: TriggerChoice::Off,
+                packet_resend: false,
+                timeout_ms: Some(500),
+                size: Some((64, 48)),
+            })
+        );
+        for bad_uri in [
+            "genicam:",
+            "genicam:x?trigger=line1",
+            "genicam:x?resend=sometimes",
+            "genicam:x?timeout_ms=0",
+            "genicam:x?size=0x0",
+            "genicam:x?gain=3",
+        ] {
+            let e = GrabberUri::parse(bad_uri).unwrap_err().to_string();
+            assert!(e.contains(bad_uri) && e.contains("genicam:"), "{e}");
+        }
     }
 
     #[test]

@@ -1,0 +1,707 @@
+//! `genicam:` grabbers: any GenICam camera (GigE Vision, USB3 Vision) as a
+//! [`FrameGrabber`], through Aravis (feature `genicam`, Debian's
+//! `libaravis-dev` 0.8).
+//!
+//! Aravis does the transport (discovery, GVCP/U3V control, GVSP with
+//! PACKETRESEND, the GenICam XML); this module maps the grabber controls
+//! onto SFNC features through Aravis's camera API, which already knows the
+//! vendor variants (`ExposureTime`/`ExposureTimeAbs`, `Gain`/`GainRaw`):
+//!
+//! | grabber | GenICam |
+//! |---|---|
+//! | [`FrameGrabber::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: gloam's device a linear factor, most cameras dB) |
+//! | [`FrameGrabber::set_agc`] | `GainAuto=Continuous` / `Off` |
+//! | [`FrameGrabber::set_bits`] | `PixelFormat` Mono8 / Mono12 / Mono16 |
+//! | [`FrameGrabber::set_exposure_s`] | `ExposureTime`, µs |
+//! | frame size (`?size=WxH`) | `Width`, `Height` |
+//! | [`FrameGrabber::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
+//!
+//! By default every [`FrameGrabber::grab`] fires `TriggerSoftware` and waits
+//! for that one frame (`?trigger=software`, when the camera has it), so a
+//! frame is always exposed after the settings before it, and frame *k* of
+//! gloam's own GigE device is frame *k* of the `sim:` grabber. With
+//! `?trigger=off` the camera free-runs; a setting change then restarts the
+//! acquisition so no frame taken before it is returned after it.
+//!
+//! Incomplete buffers (missing packets, timeouts, size mismatches) come
+//! back as [`GrabError::FrameDamaged`], gaps in the camera's frame ids as
+//! [`GrabError::FramesLost`]: never as good frames.
+
+use std::sync::Mutex;
+
+use aravis::glib::object::Cast;
+use aravis::prelude::*;
+use aravis::{Auto, Buffer, BufferStatus, Camera, PixelFormat, Stream};
+
+use crate::interface::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
+pub use crate::uri::{GenicamOptions, TriggerChoice};
+
+/// Aravis keeps one global device list: discovery and opening by name go
+/// through this lock.
+static ARAVIS: Mutex<()> = Mutex::new(());
+
+/// Buffers queued for the stream.
+const N_BUFFERS: usize = 8;
+/// Timeouts in a row after which a triggered grab stops calling them
+/// lost frames and reports the camera as not answering.
+const MAX_TRIGGER_TIMEOUTS: u32 = 3;
+/// The custom feature through which gloam's own GigE device takes a
+/// stimulus (JSON of [`Stimulus`]).
+pub const STIMULUS_FEATURE: &str = "GloamStimulus";
+
+/// The GenICam cameras on every interface Aravis knows (GigE Vision
+/// discovery is a broadcast on each network interface).
+pub fn list_devices() -> Vec<crate::GenicamInfo> {
+    let _g = ARAVIS.lock().unwrap_or_else(|e| e.into_inner());
+    // SAFETY: Aravis's global device list is only touched under `ARAVIS`.
+    let list = unsafe { aravis::get_device_list() };
+    list.into_iter()
+        .map(|d| {
+            let s = |c: &std::ffi::CStr| c.to_string_lossy().into_owned();
+            let device_id = s(&d.id);
+            crate::GenicamInfo {
+                uri: format!("genicam:{device_id}"),
+                device_id,
+                vendor: s(&d.vendor),
+                model: s(&d.model),
+                protocol: s(&d.protocol),
+                address: s(&d.address),
+            }
+        })
+        .collect()
+}
+
+use aravis::glib::Error as GlibError;
+
+fn dev(what: &str, e: GlibError) -> GrabError {
+    GrabError::Device(format!("{what}: {e}"))
+}
+
+/// `x` in `lo..=hi`, the ends as a device may store them (single
+/// precision floats: 14.55 reads back as 14.5500002).
+fn within(x: f64, lo: f64, hi: f64) -> bool {
+    let slack = |v: f64| v.abs() * 1e-6;
+    x >= lo - slack(lo) && x <= hi + slack(hi)
+}
+
+/// Bits per pixel value and bytes per pixel of the unpacked Mono formats.
+fn mono_layout(pf: PixelFormat) -> Option<(u8, usize)> {
+    match pf {
+        PixelFormat::MONO_8 => Some((8, 1)),
+        PixelFormat::MONO_10 => Some((10, 2)),
+        PixelFormat::MONO_12 => Some((12, 2)),
+        PixelFormat::MONO_14 => Some((14, 2)),
+        PixelFormat::MONO_16 => Some((16, 2)),
+        _ => None,
+    }
+}
+
+/// Frame ids as the camera numbers them, made monotonic: GigE Vision 1.x
+/// block ids run 1…65535 and wrap (0 is never used); extended ids do not.
+#[derive(Clone, Copy, Debug, Default)]
+struct FrameIds {
+    last: Option<(u64, u64)>, // (raw id, unwrapped seq)
+}
+
+enum IdStep {
+    /// The next frame, after `lost` missing ones; its unwrapped sequence number.
+    Next { seq: u64, lost: u64 },
+    /// Already seen or older than the last frame: not new.
+    Stale,
+}
+
+impl FrameIds {
+    fn step(&mut self, raw: u64) -> IdStep {
+        let Some((last_raw, last_seq)) = self.last else {
+            self.last = Some((raw, raw));
+            return IdStep::Next { seq: raw, lost: 0 };
+        };
+        let delta = if raw <= 0xFFFF && last_raw <= 0xFFFF {
+            // 65535 ids in the cycle; forward distances beyond half of it
+            // are older frames arriving late.
+            let d = (raw + 65535 - last_raw) % 65535;
+            if d == 0 || d > 32767 {
+                return IdStep::Stale;
+            }
+            d
+        } else if raw > last_raw {
+            raw - last_raw
+        } else {
+            return IdStep::Stale;
+        };
+        let seq = last_seq + delta;
+        self.last = Some((raw, seq));
+        IdStep::Next {
+            seq,
+            lost: delta - 1,
+        }
+    }
+
+    /// A frame that never arrived still used up the next id.
+    fn skip_one(&mut self) -> u64 {
+        match self.last {
+            Some((raw, seq)) => {
+                let next = if raw <= 0xFFFF {
+                    raw % 65535 + 1
+                } else {
+                    raw + 1
+                };
+                self.last = Some((next, seq + 1));
+                seq + 1
+            }
+            None => 0,
+        }
+    }
+
+    fn reset(&mut self) {
+        self.last = None;
+    }
+}
+
+/// A GenICam camera as a frame grabber.
+pub struct GenicamGrabber {
+    camera: Camera,
+    stream: Option<Stream>,
+    label: String,
+    triggered: bool,
+    timeout_ms: Option<u64>,
+    packet_resend: bool,
+    size: (u32, u32),
+    gain: f64,
+    agc: bool,
+    has_stimulus: bool,
+    ids: FrameIds,
+    first_timestamp_ns: Option<u64>,
+    trigger_timeouts: u32,
+    /// How long a grab waits, µs (worked out when the acquisition starts).
+    timeout_us: u64,
+    /// A whole frame that arrived after a gap: returned by the next grab,
+    /// after the gap was reported.
+    pending: Option<Frame>,
+}
+
+impl GenicamGrabber {
+    /// Opens the camera named in `opts` and takes control of it.
+    pub fn open(opts: &GenicamOptions) -> Result<Self, GrabError> {
+        let camera = {
+            let _g = ARAVIS.lock().unwrap_or_else(|e| e.into_inner());
+            Camera::new(Some(&opts.name)).map_err(|e| {
+                GrabError::Disconnected(format!("no GenICam camera '{}': {e}", opts.name))
+            })?
+        };
+        let text = |r: Result<aravis::glib::GString, GlibError>| {
+            r.map(|s| s.to_string()).unwrap_or_else(|_| "?".into())
+        };
+        let vendor = text(camera.vendor_name());
+        let model = text(camera.model_name());
+        let id = text(camera.device_id());
+        let trigger_ok = camera.is_software_trigger_supported().is_ok();
+        let triggered = match opts.trigger {
+            TriggerChoice::Auto => trigger_ok,
+            TriggerChoice::Off => false,
+            TriggerChoice::Software if trigger_ok => true,
+            TriggerChoice::Software => {
+                return Err(GrabError::Unsupported(format!(
+                    "GenICam camera '{}' has no software trigger (use ?trigger=off)",
+                    opts.name
+                )));
+            }
+        };
+        if triggered {
+            camera
+                .set_trigger("Software")
+                .map_err(|e| dev("setting TriggerMode=On, TriggerSource=Software", e))?;
+        } else if trigger_ok || camera.is_feature_available("TriggerMode").unwrap_or(false) {
+            camera
+                .clear_triggers()
+                .map_err(|e| dev("setting TriggerMode=Off", e))?;
+        }
+        camera
+            .set_acquisition_mode(aravis::AcquisitionMode::Continuous)
+            .map_err(|e| dev("setting AcquisitionMode=Continuous", e))?;
+        if let Some((w, h)) = opts.size {
+            let (x, y, _, _) = camera.region().map_err(|e| dev("reading the region", e))?;
+            let check = |v: u32, b: Result<(i32, i32), GlibError>, what: &str| {
+                let (lo, hi) = b.map_err(|e| dev(&format!("reading {what} bounds"), e))?;
+                if i64::from(v) < i64::from(lo) || i64::from(v) > i64::from(hi) {
+                    return Err(GrabError::InvalidSetting(format!(
+                        "{what} {v} outside the camera's {lo}…{hi}"
+                    )));
+                }
+                Ok(())
+            };
+            check(w, camera.width_bounds(), "Width")?;
+            check(h, camera.height_bounds(), "Height")?;
+            camera
+                .set_region(x, y, w as i32, h as i32)
+                .map_err(|e| dev(&format!("setting Width×Height to {w}×{h}"), e))?;
+        }
+        let (_, _, w, h) = camera.region().map_err(|e| dev("reading the region", e))?;
+        let agc = camera.is_gain_auto_available().unwrap_or(false)
+            && camera.gain_auto().is_ok_and(|a| a == Auto::Continuous);
+        // A camera without a Gain feature reports unity gain.
+        let gain = camera.gain().unwrap_or(1.0);
+        let has_stimulus = camera
+            .is_feature_available(STIMULUS_FEATURE)
+            .unwrap_or(false);
+        let label = format!(
+            "GenICam {vendor} {model} ({id}) via Aravis, {}",
+            if triggered {
+                "software trigger"
+            } else {
+                "free-running"
+            }
+        );
+        Ok(Self {
+            camera,
+            stream: None,
+            label,
+            triggered,
+            timeout_ms: opts.timeout_ms,
+            packet_resend: opts.packet_resend,
+            size: (w.max(0) as u32, h.max(0) as u32),
+            gain,
+            agc,
+            has_stimulus,
+            ids: FrameIds::default(),
+            first_timestamp_ns: None,
+            trigger_timeouts: 0,
+            timeout_us: 0,
+            pending: None,
+        })
+    }
+
+    /// Stops the acquisition (if running); the next grab starts a new one.
+    fn stop(&mut self) {
+        self.pending = None;
+        if self.stream.take().is_some() {
+            // Dropping the stream ends its receive thread and buffers.
+            let _ = self.camera.stop_acquisition();
+        }
+    }
+
+    /// In free-running mode frames already in flight were taken with the
+    /// old settings: restart so none of them is returned after the change.
+    fn settings_changed(&mut self) {
+        // A frame held back behind a reported gap was taken before the
+        // change: it is stale now.
+        self.pending = None;
+        if !self.triggered {
+            self.stop();
+        }
+    }
+
+    fn start(&mut self) -> Result<(), GrabError> {
+        let payload = self
+            .camera
+            .payload()
+            .map_err(|e| dev("reading PayloadSize", e))?;
+        let stream = self
+            .camera
+            .create_stream()
+            .map_err(|e| dev("opening the stream channel", e))?;
+        if let Some(gv) = stream.downcast_ref::<aravis::GvStream>() {
+            gv.set_packet_resend(if self.packet_resend {
+                aravis::GvStreamPacketResend::Always
+            } else {
+                aravis::GvStreamPacketResend::Never
+            });
+        }
+        for _ in 0..N_BUFFERS {
+            stream.push_buffer(Buffer::new_allocate(payload as usize));
+        }
+        self.camera
+            .start_acquisition()
+            .map_err(|e| dev("AcquisitionStart", e))?;
+        self.stream = Some(stream);
+        self.ids.reset();
+        self.first_timestamp_ns = None;
+        self.trigger_timeouts = 0;
+        self.timeout_us = self.wait_us();
+        Ok(())
+    }
+
+    fn wait_us(&self) -> u64 {
+        let ms = self.timeout_ms.unwrap_or_else(|| {
+            let exposure_us = self.camera.exposure_time().unwrap_or(0.0).max(0.0);
+            let period_us = self
+                .camera
+                .frame_rate()
+                .ok()
+                .filter(|r| *r > 0.0)
+                .map_or(0.0, |r| 1e6 / r);
+            2000 + (3.0 * (exposure_us + period_us) / 1000.0).min(600_000.0) as u64
+        });
+        ms.saturating_mul(1000)
+    }
+
+    /// One buffer from the stream (or why not), given back to the stream
+    /// after its pixels are copied.
+    fn next_buffer(&mut self) -> Result<Frame, GrabError> {
+        let timeout_us = self.timeout_us;
+        let Some(stream) = self.stream.clone() else {
+            return Err(GrabError::Other("no stream".into()));
+        };
+        loop {
+            let Some(buffer) = stream.timeout_pop_buffer(timeout_us) else {
+                if self.triggered && self.trigger_timeouts < MAX_TRIGGER_TIMEOUTS {
+                    self.trigger_timeouts += 1;
+                    let seq = self.ids.skip_one();
+                    return Err(GrabError::FramesLost {
+                        count: 1,
+                        next_seq: seq + 1,
+                    });
+                }
+                return Err(GrabError::Timeout {
+                    what: format!("a frame from {}", self.label),
+                    after_ms: timeout_us / 1000,
+                });
+            };
+            self.trigger_timeouts = 0;
+            let out = self.decode(&buffer);
+            stream.push_buffer(buffer);
+            match out {
+                Some(r) => return r,
+                None => continue, // stale: a frame already accounted for
+            }
+        }
+    }
+
+    /// `None` for a stale buffer (an id already returned or reported lost).
+    fn decode(&mut self, b: &Buffer) -> Option<Result<Frame, GrabError>> {
+        let status = b.status();
+        let raw_id = b.frame_id();
+        let (seq, lost) = match (raw_id, status) {
+            // A buffer Aravis gave up on before it learnt the frame's id.
+            (0, s) if s != BufferStatus::Success => (self.ids.skip_one(), 0),
+            _ => match self.ids.step(raw_id) {
+                IdStep::Stale => return None,
+                IdStep::Next { seq, lost } => (seq, lost),
+            },
+        };
+        if status != BufferStatus::Success {
+            return Some(Err(if lost > 0 {
+                GrabError::FramesLost {
+                    count: lost + 1,
+                    next_seq: seq + 1,
+                }
+            } else {
+                GrabError::FrameDamaged {
+                    seq,
+                    reason: format!("incomplete buffer (Aravis status {status:?})"),
+                }
+            }));
+        }
+        let frame = self.pixels(b, seq);
+        if lost > 0 {
+            // Report the gap first; this whole frame is the next grab's.
+            match frame {
+                Ok(f) => self.pending = Some(f),
+                Err(e) => return Some(Err(e)),
+            }
+            return Some(Err(GrabError::FramesLost {
+                count: lost,
+                next_seq: seq,
+            }));
+        }
+        Some(frame)
+    }
+
+    /// The buffer's pixels as counts, checked against its own description.
+    fn pixels(&mut self, b: &Buffer, seq: u64) -> Result<Frame, GrabError> {
+        let pf = b.image_pixel_format();
+        let (bits, bytes_per_px) = mono_layout(pf).ok_or_else(|| {
+            GrabError::Unsupported(format!(
+                "pixel format 0x{:08x}: only unpacked Mono8/10/12/14/16 are read",
+                pf.raw()
+            ))
+        })?;
+        let (w, h) = (
+            b.image_width().max(0) as u32,
+            b.image_height().max(0) as u32,
+        );
+        let data = b.image_data();
+        let n = w as usize * h as usize;
+        if n == 0 || data.len() < n * bytes_per_px {
+            return Err(GrabError::FrameDamaged {
+                seq,
+                reason: format!(
+                    "{} bytes of image data for {w}×{h} at {bytes_per_px} byte(s) per pixel",
+                    data.len()
+                ),
+            });
+        }
+        let pixels: Vec<u16> = if bytes_per_px == 1 {
+            data[..n].iter().map(|&v| u16::from(v)).collect()
+        } else {
+            data[..2 * n]
+                .chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                .collect()
+        };
+        let top = (1u32 << bits) - 1;
+        if let Some(p) = pixels.iter().position(|&v| u32::from(v) > top) {
+            // Whole (Aravis checked every packet) but not what the format
+            // says: the camera, not the link, is at fault.
+            return Err(GrabError::Device(format!(
+                "frame {seq}: pixel {p} holds {} but PixelFormat has {bits} bits",
+                pixels[p]
+            )));
+        }
+        let ts = b.timestamp();
+        let first = *self.first_timestamp_ns.get_or_insert(ts);
+        let gain = if self.agc {
+            // Under AGC the camera's Gain reads the gain in effect (gloam's
+            // device: that of the frame just sent).
+            self.camera.gain().unwrap_or(self.gain)
+        } else {
+            self.gain
+        };
+        Ok(Frame {
+            meta: FrameMeta {
+                seq,
+                timestamp_us: ts.saturating_sub(first) / 1000,
+                gain,
+                agc: self.agc,
+                bits,
+                width: w,
+                height: h,
+                pixels_crc32c: crate::pixels_crc32c(&pixels),
+                status: FrameStatus::Ok,
+                levels: None,
+            },
+            pixels,
+        })
+    }
+}
+
+impl Drop for GenicamGrabber {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+impl FrameGrabber for GenicamGrabber {
+    fn describe(&self) -> String {
+        self.label.clone()
+    }
+
+    fn frame_size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn set_gain(&mut self, gain: f64) -> Result<f64, GrabError> {
+        if !gain.is_finite() {
+            return Err(GrabError::InvalidSetting(format!(
+                "gain {gain} is not a number"
+            )));
+        }
+        if !self.camera.is_gain_available().unwrap_or(false) {
+            return Err(GrabError::Unsupported(format!(
+                "{} has no Gain",
+                self.label
+            )));
+        }
+        let (lo, hi) = self
+            .camera
+            .gain_bounds()
+            .map_err(|e| dev("reading the Gain range", e))?;
+        if !within(gain, lo, hi) {
+            return Err(GrabError::InvalidSetting(format!(
+                "gain {gain} is outside the camera's range {lo}–{hi}; the camera is not run at a clamped gain"
+            )));
+        }
+        if self.camera.is_gain_auto_available().unwrap_or(false) {
+            self.camera
+                .set_gain_auto(Auto::Off)
+                .map_err(|e| dev("setting GainAuto=Off", e))?;
+        }
+        self.agc = false;
+        self.camera
+            .set_gain(gain)
+            .map_err(|e| dev(&format!("setting Gain={gain}"), e))?;
+        self.gain = self
+            .camera
+            .gain()
+            .map_err(|e| dev("reading Gain back", e))?;
+        self.settings_changed();
+        Ok(self.gain)
+    }
+
+    fn set_agc(&mut self, on: bool) -> Result<bool, GrabError> {
+        if !self.camera.is_gain_auto_available().unwrap_or(false) {
+            if on {
+                return Err(GrabError::Unsupported(format!(
+                    "{} has no GainAuto (AGC)",
+                    self.label
+                )));
+            }
+            return Ok(false);
+        }
+        let mode = if on { Auto::Continuous } else { Auto::Off };
+        self.camera
+            .set_gain_auto(mode)
+            .map_err(|e| dev(&format!("setting GainAuto={mode:?}"), e))?;
+        let now = self
+            .camera
+            .gain_auto()
+            .map_err(|e| dev("reading GainAuto back", e))?;
+        self.agc = now == Auto::Continuous;
+        if !self.agc {
+            self.gain = self.camera.gain().unwrap_or(self.gain);
+        }
+        self.settings_changed();
+        Ok(self.agc)
+    }
+
+    fn set_bits(&mut self, bits: u8) -> Result<u8, GrabError> {
+        let name = match bits {
+            8 => "Mono8",
+            12 => "Mono12",
+            16 => "Mono16",
+            _ => {
+                return Err(GrabError::InvalidSetting(format!(
+                    "bit depth {bits}: use 8, 12 or 16"
+                )));
+            }
+        };
+        let available: Vec<String> = self
+            .camera
+            .dup_available_pixel_formats_as_strings()
+            .map_err(|e| dev("reading the PixelFormat entries", e))?
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        if !available.iter().any(|a| a == name) {
+            return Err(GrabError::Unsupported(format!(
+                "{} has no PixelFormat {name} (it has {})",
+                self.label,
+                available.join(", ")
+            )));
+        }
+        // PixelFormat is locked during an acquisition: like the sim
+        // grabber, a new bit depth starts a new stream.
+        self.stop();
+        self.camera
+            .set_pixel_format_from_string(name)
+            .map_err(|e| dev(&format!("setting PixelFormat={name}"), e))?;
+        let now = self
+            .camera
+            .pixel_format()
+            .map_err(|e| dev("reading PixelFormat back", e))?;
+        mono_layout(now).map(|(b, _)| b).ok_or_else(|| {
+            GrabError::Device(format!(
+                "PixelFormat reads 0x{:08x} after writing {name}",
+                now.raw()
+            ))
+        })
+    }
+
+    fn set_exposure_s(&mut self, exposure_s: f64) -> Result<f64, GrabError> {
+        if !exposure_s.is_finite() || exposure_s <= 0.0 {
+            return Err(GrabError::InvalidSetting(format!(
+                "exposure {exposure_s} s must be positive"
+            )));
+        }
+        let us = exposure_s * 1e6;
+        let (lo, hi) = self
+            .camera
+            .exposure_time_bounds()
+            .map_err(|e| dev("reading the ExposureTime range", e))?;
+        if !within(us, lo, hi) {
+            return Err(GrabError::InvalidSetting(format!(
+                "exposure {exposure_s} s is outside the camera's range {} – {} s",
+                lo / 1e6,
+                hi / 1e6
+            )));
+        }
+        // Whole microseconds, as every gloam grabber sends them.
+        let us = us.round().max(1.0);
+        self.camera
+            .set_exposure_time(us)
+            .map_err(|e| dev(&format!("setting ExposureTime={us} us"), e))?;
+        let now = self
+            .camera
+            .exposure_time()
+            .map_err(|e| dev("reading ExposureTime back", e))?;
+        self.settings_changed();
+        if self.stream.is_some() {
+            self.timeout_us = self.wait_us();
+        }
+        Ok(now / 1e6)
+    }
+
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
+        if !self.has_stimulus {
+            // A real camera: the operator sets the lab source.
+            return Ok(false);
+        }
+        let json = serde_json::to_string(stimulus)
+            .map_err(|e| GrabError::InvalidSetting(e.to_string()))?;
+        self.camera
+            .set_string(STIMULUS_FEATURE, &json)
+            .map_err(|e| GrabError::InvalidSetting(format!("{STIMULUS_FEATURE}: {e}")))?;
+        self.settings_changed();
+        Ok(true)
+    }
+
+    fn grab(&mut self) -> Result<Frame, GrabError> {
+        if let Some(f) = self.pending.take() {
+            return Ok(f);
+        }
+        if self.stream.is_none() {
+            self.start()?;
+        }
+        if self.triggered {
+            self.camera
+                .software_trigger()
+                .map_err(|e| dev("TriggerSoftware", e))?;
+        }
+        self.next_buffer()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn next(ids: &mut FrameIds, raw: u64) -> Option<(u64, u64)> {
+        match ids.step(raw) {
+            IdStep::Next { seq, lost } => Some((seq, lost)),
+            IdStep::Stale => None,
+        }
+    }
+
+    #[test]
+    fn frame_ids_unwrap_and_count_gaps() {
+        let mut ids = FrameIds::default();
+        assert_eq!(next(&mut ids, 1), Some((1, 0)));
+        assert_eq!(next(&mut ids, 2), Some((2, 0)));
+        assert_eq!(next(&mut ids, 5), Some((5, 2)));
+        assert_eq!(next(&mut ids, 5), None);
+        assert_eq!(next(&mut ids, 3), None);
+        // 16-bit block ids skip 0 when they wrap.
+        let mut ids = FrameIds::default();
+        assert_eq!(next(&mut ids, 65534), Some((65534, 0)));
+        assert_eq!(next(&mut ids, 65535), Some((65535, 0)));
+        assert_eq!(next(&mut ids, 1), Some((65536, 0)));
+        assert_eq!(next(&mut ids, 3), Some((65538, 1)));
+        // A frame that timed out used its id: arriving late it is stale.
+        assert_eq!(ids.skip_one(), 65539);
+        assert_eq!(next(&mut ids, 4), None);
+        assert_eq!(next(&mut ids, 5), Some((65540, 0)));
+        // Extended (64-bit) ids do not wrap.
+        let mut ids = FrameIds::default();
+        assert_eq!(next(&mut ids, 70_000), Some((70_000, 0)));
+        assert_eq!(next(&mut ids, 70_003), Some((70_003, 2)));
+        assert_eq!(next(&mut ids, 69_999), None);
+    }
+
+    #[test]
+    fn mono_layouts() {
+        assert_eq!(mono_layout(PixelFormat::MONO_8), Some((8, 1)));
+        assert_eq!(mono_layout(PixelFormat::MONO_12), Some((12, 2)));
+        assert_eq!(mono_layout(PixelFormat::MONO_16), Some((16, 2)));
+        assert_eq!(mono_layout(PixelFormat::MONO_12_PACKED), None);
+    }
+}

@@ -1,0 +1,422 @@
+//! The `genicam:` grabber (feature `genicam`, through Aravis) against
+//! real, independent GenICam devices: Aravis's own fake camera
+//! (`arv-fake-gv-camera-0.8`), and gloam's GigE Vision device checked
+//! frame for frame against the in-process `sim:` grabber.
+//!
+//! Each run is one private network namespace with loopback alone
+//! (`unshare -n`, see `aravis_netns`). Without Aravis each test prints a
+//! loud notice and passes, unless `GLOAM_REQUIRE_ARAVIS=1` (CI).
+#![cfg(feature = "genicam")]
+
+use std::path::Path;
+
+mod aravis_netns;
+use aravis_netns::{BIN, aravis_ready, in_netns, in_netns_with, sim_crcs};
+
+fn records(dir: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(dir.join("frames.jsonl"))
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("json"))
+        .collect()
+}
+
+fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(
+        &std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())),
+    )
+    .expect("json")
+}
+
+/// `name = value` as `arv-tool-0.8 control` prints it.
+fn feature<'a>(out: &'a str, name: &str) -> &'a str {
+    out.lines()
+        .filter_map(|l| l.strip_prefix(&format!("{name} = ")))
+        .next_back()
+        .and_then(|v| v.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no {name} in:\n{out}"))
+}
+
+/// `captured N frame(s) …; D damaged, L lost` from `gloam capture`.
+fn losses(stderr: &str, tag: &str) -> (u64, u64, u64) {
+    let line = stderr
+        .lines()
+        .find(|l| l.starts_with(&format!("[{tag}] captured ")))
+        .unwrap_or_else(|| panic!("no [{tag}] summary in:\n{stderr}"));
+    let nums: Vec<u64> = line
+        .split(|c: char| !c.is_ascii_digit())
+        .filter(|s| !s.is_empty())
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    let damaged = line
+        .split(" damaged")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    let lost = line
+        .split(" lost")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    (nums[0], damaged, lost)
+}
+
+/// A `gloam capture` line for a netns script, its stderr tagged.
+fn capture(tag: &str, uri: &str, args: &str) -> String {
+    format!(
+        r#""$GLOAM" capture --grabber '{uri}' --out "$DIR/{tag}" {args} 2>&1 | sed 's/^/[{tag}] /' >&2"#
+    )
+}
+
+#[test]
+fn genicam_grabber_streams_from_the_aravis_fake_camera_and_its_controls_read_back() {
+    if !aravis_ready(
+        "genicam: vs arv-fake-gv-camera",
+        &["arv-fake-gv-camera-0.8", "arv-tool-0.8", "ip"],
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let client = [
+        r#""$GLOAM" grabbers"#.to_string(),
+        // By address: 64×48 Mono8, GainRaw 2, exposure 10 ms.
+        capture(
+            "mono8",
+            "genicam:127.0.0.1?size=64x48",
+            "--frames 4 --bits 8 --gain 2 --exposure-s 0.01",
+        ),
+        "arv-tool-0.8 -a 127.0.0.1 control GainRaw GainAuto PixelFormat ExposureTimeAbs Width Height".into(),
+        // By the device id Aravis lists, free-running, AGC on, Mono16.
+        capture(
+            "mono16",
+            "genicam:Aravis-Fake-GV01?trigger=off",
+            "--frames 3 --bits 16 --agc",
+        ),
+        "arv-tool-0.8 -a 127.0.0.1 control GainAuto PixelFormat".into(),
+        // Refused, not clamped: GainRaw runs 0…10; Mono12 is not offered.
+        capture("badgain", "genicam:127.0.0.1", "--gain 50"),
+        capture("badbits", "genicam:127.0.0.1", "--bits 12"),
+        capture("nocam", "genicam:No-Such-Camera", ""),
+    ]
+    .join("\n");
+    let run = in_netns_with(
+        dir.path(),
+        "arv-fake-gv-camera-0.8 -i 127.0.0.1",
+        "arv-tool-0.8 -a 127.0.0.1 control Width >/dev/null 2>&1",
+        &client,
+        120,
+    );
+    let (out, err) = (&run.stdout, &run.stderr);
+    assert!(run.ok, "{out}\n{err}\n{}", run.device_stderr);
+    assert!(
+        out.contains("genicam:Aravis-Fake-GV01") && out.contains("GigEVision"),
+        "gloam grabbers:\n{out}"
+    );
+    // Controls set through the grabber, read back by Aravis's own tool.
+    assert_eq!(feature(out, "GainRaw"), "2", "{out}");
+    assert_eq!(feature(out, "ExposureTimeAbs"), "10000", "{out}");
+    assert_eq!(feature(out, "Width"), "64", "{out}");
+    assert_eq!(feature(out, "Height"), "48", "{out}");
+    assert!(out.contains("PixelFormat = Mono8"), "{out}");
+    assert_eq!(feature(out, "PixelFormat"), "Mono16", "{out}");
+    assert_eq!(feature(out, "GainAuto"), "Continuous", "{out}");
+
+    // Mono8 frames are Aravis's diagonal ramp: ((x + y + frame id) mod 255)
+    // scaled by 1 + GainRaw + log10(exposure / 10 ms) = 3, clipped at 255.
+    let recs = records(&dir.path().join("mono8"));
+    assert_eq!(recs.len(), 4, "{err}");
+    let mut last_seq = None;
+    for r in &recs {
+        assert_eq!(
+            (
+                r["width"].as_u64(),
+                r["height"].as_u64(),
+                r["bits"].as_u64()
+            ),
+            (Some(64), Some(48), Some(8)),
+            "{r}"
+        );
+        assert_eq!(r["gain"].as_f64(), Some(2.0), "{r}");
+        assert_eq!(r["agc"].as_bool(), Some(false), "{r}");
+        let seq = r["seq"].as_u64().unwrap();
+        if let Some(l) = last_seq {
+            assert!(seq > l, "frame ids go forward: {l} then {seq}");
+        }
+        last_seq = Some(seq);
+        let png = dir.path().join("mono8").join(r["file"].as_str().unwrap());
+        let img = image::open(&png).expect("png").to_luma16();
+        // The camera's own 16-bit block id, which the ramp uses.
+        let id = ((seq - 1) % 65535 + 1) as u32;
+        let mut wrong = 0;
+        for (x, y, p) in img.enumerate_pixels() {
+            let want = ((((x + y + id) % 255) as f64 * 3.0).min(255.0)) as u16;
+            if p.0[0] != want {
+                wrong += 1;
+            }
+        }
+        assert_eq!(wrong, 0, "frame {seq}: {wrong} pixels off Aravis's ramp");
+    }
+    let recs = records(&dir.path().join("mono16"));
+    assert_eq!(recs.len(), 3, "{err}");
+    for r in &recs {
+        assert_eq!(r["bits"].as_u64(), Some(16), "{r}");
+        assert_eq!(r["agc"].as_bool(), Some(true), "{r}");
+    }
+    for (tag, why) in [
+        ("badgain", "outside the camera's range 0–10"),
+        ("badbits", "has no PixelFormat Mono12"),
+        ("nocam", "no GenICam camera 'No-Such-Camera'"),
+    ] {
+        assert!(
+            err.lines()
+                .any(|l| l.starts_with(&format!("[{tag}] error:")) && l.contains(why)),
+            "{tag}: want '{why}' in:\n{err}"
+        );
+    }
+}
+
+#[test]
+fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
+    if !aravis_ready("genicam: vs gloam device --gige", &["ip"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    // The device keeps its settings between clients: the AGC run (at the
+    // preset's defaults) comes first.
+    let client = [
+        capture("agc", "genicam:127.0.0.1", "--frames 30 --bits 16 --agc"),
+        capture(
+            "fixed",
+            "genicam:127.0.0.1",
+            "--frames 30 --bits 12 --exposure-s 0.002 --gain 50",
+        ),
+    ]
+    .join("\n");
+    let run = in_netns(dir.path(), "--size 160x120 --seed 7", &client, 120);
+    assert!(run.ok, "{}\n{}", run.stderr, run.device_stderr);
+    for (tag, extra) in [
+        (
+            "fixed",
+            &["--bits", "12", "--exposure-s", "0.002", "--gain", "50"][..],
+        ),
+        ("agc", &["--bits", "16", "--agc"][..]),
+    ] {
+        let got = records(&dir.path().join(tag));
+        let sim_dir = dir.path().join(format!("sim-{tag}"));
+        std::fs::create_dir_all(&sim_dir).unwrap();
+        let sim = sim_crcs(
+            &sim_dir,
+            "sim:gen2-s20-iccd?rig=uniform&seed=7&size=160x120",
+            30,
+            extra,
+        );
+        let sim_recs = records(&sim_dir.join("sim"));
+        assert_eq!(got.len(), 30, "{}", run.stderr);
+        for (k, r) in got.iter().enumerate() {
+            // Block ids start at 1 with each acquisition.
+            assert_eq!(r["seq"].as_u64(), Some(k as u64 + 1), "{r}");
+            assert_eq!(
+                r["pixels_crc32c"].as_u64(),
+                Some(u64::from(sim[k])),
+                "{tag} frame {k}: CRC differs from sim:"
+            );
+            let (g, s) = (
+                r["gain"].as_f64().unwrap(),
+                sim_recs[k]["gain"].as_f64().unwrap(),
+            );
+            // The gain in effect crosses the wire as a single-precision float.
+            assert!(
+                (g / s - 1.0).abs() < 1e-6,
+                "{tag} frame {k}: gain {g} vs sim {s}"
+            );
+            assert_eq!(r["agc"], sim_recs[k]["agc"], "{tag} frame {k}");
+        }
+    }
+}
+
+#[test]
+fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_reported() {
+    if !aravis_ready("genicam: lossy", &["ip", "arv-tool-0.8"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let sent = "arv-tool-0.8 -a 127.0.0.1 control GloamFramesSent GloamPacketsDroppedByFaultInjector GloamPacketsResent";
+    let client = [
+        sent.to_string(),
+        // PACKETRESEND on (Aravis's default): the losses are repaired.
+        capture(
+            "resend",
+            "genicam:127.0.0.1",
+            "--frames 100 --bits 12 --exposure-s 0.002",
+        ),
+        sent.to_string(),
+        // Resends off: the damaged frames must be reported, not returned.
+        capture(
+            "raw",
+            "genicam:127.0.0.1?resend=never",
+            "--frames 60 --bits 12 --exposure-s 0.002",
+        ),
+        sent.to_string(),
+    ]
+    .join("\n");
+    let run = in_netns(
+        dir.path(),
+        "--size 160x120 --seed 11 --gvsp-loss 0.01 --fault-seed 3",
+        &client,
+        180,
+    );
+    let (out, err) = (&run.stdout, &run.stderr);
+    assert!(run.ok, "{out}\n{err}\n{}", run.device_stderr);
+    let counts: Vec<(u64, u64, u64)> = out
+        .lines()
+        .filter_map(|l| l.strip_prefix("GloamFramesSent = "))
+        .zip(
+            out.lines()
+                .filter_map(|l| l.strip_prefix("GloamPacketsDroppedByFaultInjector = ")),
+        )
+        .zip(
+            out.lines()
+                .filter_map(|l| l.strip_prefix("GloamPacketsResent = ")),
+        )
+        .map(|((f, d), r)| {
+            let n = |s: &str| s.split_whitespace().next().unwrap().parse::<u64>().unwrap();
+            (n(f), n(d), n(r))
+        })
+        .collect();
+    assert_eq!(counts.len(), 3, "{out}");
+    let sim = sim_crcs(
+        dir.path(),
+        "sim:gen2-s20-iccd?rig=uniform&seed=11&size=160x120",
+        400,
+        &["--bits", "12", "--exposure-s", "0.002"],
+    );
+    for (k, tag) in ["resend", "raw"].into_iter().enumerate() {
+        let (good, damaged, lost) = losses(err, tag);
+        let frames_sent = counts[k + 1].0 - counts[k].0;
+        let dropped = counts[k + 1].1 - counts[k].1;
+        let resent = counts[k + 1].2 - counts[k].2;
+        let recs = records(&dir.path().join(tag));
+        assert_eq!(recs.len() as u64, good);
+        // Every accepted frame is the sim: grabber's frame with its id.
+        for r in &recs {
+            let seq = r["seq"].as_u64().unwrap() as usize;
+            assert_eq!(
+                r["pixels_crc32c"].as_u64(),
+                Some(u64::from(sim[seq - 1])),
+                "{tag}: frame {seq} accepted with wrong pixels"
+            );
+        }
+        // Every frame the device sent is either captured or reported.
+        assert_eq!(
+            good + damaged + lost,
+            frames_sent,
+            "{tag}: {good} good + {damaged} damaged + {lost} lost ≠ {frames_sent} sent"
+        );
+        assert!(dropped > 0, "{tag}: the injector dropped nothing");
+        eprintln!(
+            "{tag}: {frames_sent} frames sent, {dropped} packets dropped, {resent} resent; {good} good, {damaged} damaged, {lost} lost"
+        );
+        if tag == "resend" {
+            assert!(resent > 0, "{out}");
+            assert_eq!((damaged, lost), (0, 0), "1 % loss is repaired by resends");
+        } else {
+            assert!(damaged + lost > 0, "no loss reported with resends off");
+        }
+    }
+}
+
+const SPHERE: &str = r#"
+[source]
+kind = "sphere"
+lamp = "cie-a"
+lamp_flux_w = 1.0
+sphere_diameter_m = 0.5
+reflectance = 0.98
+port_fraction = 0.02
+
+[dimming]
+method = "aperture"
+
+[rig]
+camera = "scientific-ccd"
+"#;
+
+#[test]
+fn calibration_rehearsal_through_genicam_matches_in_process() {
+    if !aravis_ready("genicam: calibration rehearsal", &["ip"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let src = dir.path().join("sphere.toml");
+    std::fs::write(&src, SPHERE).unwrap();
+    let radiance = "--gains 1,2 --levels 6 --frames 3 --auto-range 0.8";
+    let ptc = "--levels 12 --gain 1 --auto-range 1.4 --spatial-frames 2";
+    let calib = |kind: &str, uri: &str, out: &str, args: &str| {
+        format!(
+            r#""$GLOAM" calibrate {kind} --grabber '{uri}' --source "$DIR/sphere.toml" {args} --out "$DIR/{out}" || echo "{out} failed""#
+        )
+    };
+    let client = [
+        calib("radiance", "genicam:127.0.0.1", "gc-lut", radiance),
+        calib("ptc", "genicam:127.0.0.1", "gc-ptc", ptc),
+    ]
+    .join("\n");
+    let run = in_netns(
+        dir.path(),
+        "--sensor scientific-ccd --size 48x48 --seed 3",
+        &client,
+        240,
+    );
+    assert!(
+        run.ok && !run.stdout.contains("failed"),
+        "{}\n{}\n{}",
+        run.stdout,
+        run.stderr,
+        run.device_stderr
+    );
+    let sim = "sim:scientific-ccd?size=48x48&seed=3";
+    for (kind, out, args) in [("radiance", "sim-lut", radiance), ("ptc", "sim-ptc", ptc)] {
+        let o = std::process::Command::new(BIN)
+            .args(["calibrate", kind, "--grabber", sim, "--source"])
+            .arg(&src)
+            .args(args.split_whitespace())
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+    let a = json(&dir.path().join("gc-lut/lut.json"));
+    let b = json(&dir.path().join("sim-lut/lut.json"));
+    let (ga, gb) = (
+        a["gains"].as_array().unwrap(),
+        b["gains"].as_array().unwrap(),
+    );
+    assert_eq!(ga.len(), 2);
+    assert_eq!(ga.len(), gb.len());
+    for (x, y) in ga.iter().zip(gb) {
+        for k in ["g_w_m2_sr_per_dn", "b_w_m2_sr"] {
+            let r = rel(x[k].as_f64().unwrap(), y[k].as_f64().unwrap());
+            eprintln!(
+                "radiance LUT, gain {}: {k} genicam vs in-process {r:.1e}",
+                x["gain"]
+            );
+            assert!(r < 1e-4, "gain {}: {k} differs by {r:e}", x["gain"]);
+        }
+    }
+    let a = json(&dir.path().join("gc-ptc/ptc.json"));
+    let b = json(&dir.path().join("sim-ptc/ptc.json"));
+    for k in [
+        "system_gain_dn_per_e",
+        "quantum_efficiency",
+        "dark_noise_e",
+        "saturation_capacity_e",
+    ] {
+        let r = rel(a[k].as_f64().unwrap(), b[k].as_f64().unwrap());
+        eprintln!("PTC {k}: genicam vs in-process {r:.1e}");
+        assert!(r < 1e-4, "{k} differs by {r:e}");
+    }
+}
