@@ -112,13 +112,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .map(gloam_sweep::TileSpec::parse)
         .transpose()
         .map_err(anyhow::Error::msg)?;
-    // A tile is radiance only (the scene's own camera is not captured).
-    let sensor = (args.sensor.clone().or_else(|| scene.sensor.clone())).filter(|_| tile.is_none());
+    // A tile is radiance only (the scene's own camera is not captured),
+    // but it is traced with the camera's band all the same: the effect
+    // plan weighs every band, so a tile must make the whole render's
+    // decisions to be bit-identical to it.
+    let camera = args.sensor.clone().or_else(|| scene.sensor.clone());
+    let sensor = camera.clone().filter(|_| tile.is_none());
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(s) = &sensor {
         gloam_pipeline::check_options(s, args.gain, args.frames)?;
     }
-    let traced = match &sensor {
+    let traced = match &camera {
         Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
         None => scene.clone(),
     };
@@ -150,10 +154,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         rows = t.rows(full.1).map_err(anyhow::Error::msg)?;
     }
     let mut out = tracer.render_rows(rows.clone(), &progress)?;
-    let detected = match &sensor {
+    let detected = match &camera {
         Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
         None => None,
-    };
+    }
+    .filter(|_| sensor.is_some());
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
