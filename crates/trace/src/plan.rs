@@ -321,13 +321,7 @@ impl Tracer {
             for (name, mean, p90, present) in terms {
                 if present && mean.max(p90) <= tol {
                     parts.skipped.push(name.to_string());
-                    match name {
-                        names::AREA_SOURCES => self.skip.area_sources = true,
-                        names::POINT_SOURCES => self.skip.point_sources = true,
-                        names::SHAPED_POINT_SOURCES => self.skip.shaped_point_sources = true,
-                        names::MOON => self.skip.moon = true,
-                        _ => self.skip.night_sky = true,
-                    }
+                    self.skip.set(name);
                 }
             }
         }
@@ -672,36 +666,24 @@ pub fn annotate_shares(plan: &mut EffectPlan, d: &InterreflectionDecision) {
             names::NIGHT_SKY => Some((p.night_sky, p.pixel_p90.night_sky)),
             _ => None,
         };
-        if let Some((mean, p90)) = term
-            && e.enabled
-            && !p.skipped.contains(&e.name)
-        {
-            e.reason.push_str(&format!(
-                " (pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile)"
-            ));
-        }
-        if let Some((mean, p90)) = term
-            && p.skipped.contains(&e.name)
-        {
-            e.estimated_share = Some(mean);
-            e.enabled = false;
-            e.reason = format!(
-                "pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile (both ≤ tolerance {:.2e}): not simulated ({})",
-                p.tolerance, e.reason
-            );
-            continue;
-        }
-        let share = match e.name.as_str() {
-            names::AREA_SOURCES => p.area_sources,
-            names::POINT_SOURCES => p.point_sources,
-            names::SHAPED_POINT_SOURCES => p.shaped_point_sources,
-            names::MOON => p.moon,
-            names::NIGHT_SKY => p.night_sky,
-            names::DIRECT_VIEW => p.direct_view,
-            _ => continue,
-        };
-        if e.estimated_share.is_none() {
-            e.estimated_share = Some(share);
+        if let Some((mean, p90)) = term {
+            if p.skipped.contains(&e.name) {
+                e.enabled = false;
+                e.reason = format!(
+                    "pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile (both ≤ tolerance {:.2e}): not simulated ({})",
+                    p.tolerance, e.reason
+                );
+                e.estimated_share = Some(mean);
+            } else {
+                if e.enabled {
+                    e.reason.push_str(&format!(
+                        " (pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile)"
+                    ));
+                }
+                e.estimated_share.get_or_insert(mean);
+            }
+        } else if e.name == names::DIRECT_VIEW {
+            e.estimated_share.get_or_insert(p.direct_view);
         }
     }
 }

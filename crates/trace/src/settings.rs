@@ -203,6 +203,13 @@ impl Dropped {
         Ok(d)
     }
 
+    /// Marks effect `name` (one of [`Dropped::NAMES`]) as left out.
+    pub(crate) fn set(&mut self, name: &str) {
+        if let Some(f) = self.flag(name) {
+            *f = true;
+        }
+    }
+
     /// Whether effect `name` is dropped.
     pub fn has(&self, name: &str) -> bool {
         let mut c = *self;
