@@ -265,11 +265,12 @@ fn frames_resends_cannot_repair_are_reported_lost_never_returned_as_good() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let client = build_client(dir.path());
-    // 50 % loss: beyond what Aravis will try to repair (it recovers all
-    // frames at 25 %).
+    // 80 % loss: beyond what Aravis will repair. (At 50 % it repaired
+    // every frame on an idle CI runner, 3594 resends for 62 frames, and
+    // lost some only under load: the test must not depend on load.)
     let run = in_netns(
         dir.path(),
-        "--size 320x240 --seed 5 --gvsp-loss 0.5 --fault-seed 9",
+        "--size 320x240 --seed 5 --gvsp-loss 0.8 --fault-seed 9",
         &format!(
             r#""{}" 1000 "PixelFormat=Mono12 ExposureTime=2000 AcquisitionFrameRate=50" 60"#,
             client.display()
@@ -287,7 +288,7 @@ fn frames_resends_cannot_repair_are_reported_lost_never_returned_as_good() {
     let lost = s.frames.values().filter(|f| f.0 != 0).count();
     assert!(
         lost > 0,
-        "50 % loss and no frame reported lost: {:?}",
+        "80 % loss and no frame reported lost: {:?}",
         s.stats
     );
     // Aravis counts every failed buffer, including any still in flight
@@ -300,7 +301,7 @@ fn frames_resends_cannot_repair_are_reported_lost_never_returned_as_good() {
         }
     }
     eprintln!(
-        "50 % loss: {} buffers, {lost} reported lost, the rest bit-identical; Aravis {:?}",
+        "80 % loss: {} buffers, {lost} reported lost, the rest bit-identical; Aravis {:?}",
         s.frames.len(),
         s.stats
     );
