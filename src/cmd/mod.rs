@@ -13,6 +13,7 @@ pub mod merge;
 pub mod output;
 pub mod plan;
 pub mod probe;
+pub mod progress;
 pub mod render;
 pub mod scope;
 pub mod sensor;

@@ -30,9 +30,15 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     if let Some(t) = args.tolerance {
         settings.set("tolerance", &t.to_string())?;
     }
-    let plan = gloam_trace::plan::effect_plan(&scene, &settings)?;
+    let (plan, prep) = gloam_trace::plan::effect_plan_observed(
+        &scene,
+        &settings,
+        super::progress::prep_spinner(),
+    )?;
     if args.json {
-        print_json(&plan)?;
+        let mut v = serde_json::to_value(&plan)?;
+        v["preparation"] = serde_json::to_value(&prep)?;
+        print_json(&v)?;
     } else {
         let n = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
         outln!(
@@ -45,6 +51,34 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         );
         outln!();
         out!("{plan}");
+        outln!();
+        outln!("{}", preparation_line(&prep));
     }
     Ok(())
+}
+
+/// One line: each preparation step's time (and peak memory), as `gloam
+/// plan` ran them.
+fn preparation_line(p: &gloam_trace::Preparation) -> String {
+    let mib = |b: Option<u64>| {
+        b.map_or(String::new(), |b| {
+            format!(", {:.0} MiB", b as f64 / 1048576.0)
+        })
+    };
+    let steps: Vec<String> = p
+        .steps
+        .iter()
+        .map(|s| format!("{} {:.2} s{}", s.name, s.seconds, mib(s.peak_rss_bytes)))
+        .collect();
+    format!(
+        "preparation {:.2} s ({}); {} triangles, {} emitting facets, peak {}",
+        p.seconds,
+        steps.join("; "),
+        p.triangles,
+        p.area_emitters,
+        p.peak_rss_bytes.map_or("unknown".into(), |b| format!(
+            "{:.0} MiB",
+            b as f64 / 1048576.0
+        ))
+    )
 }

@@ -110,9 +110,16 @@ pub fn run(args: ProbeArgs) -> anyhow::Result<()> {
             r.irradiance_w_m2,
             r.std_error_w_m2
         );
+        if let Some(i) = r.indirect_irradiance_w_m2 {
+            outln!(
+                "  direct {:.6e} + interreflection {i:.6e} W m^-2",
+                r.direct_irradiance_w_m2
+            );
+        }
         if let Some(l) = r.radiance_w_m2_sr {
             outln!("reflected radiance {l:.6e} W m^-2 sr^-1");
         }
+        outln!("terms: {}", r.terms);
     }
     Ok(())
 }

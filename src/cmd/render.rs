@@ -126,7 +126,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
         None => scene.clone(),
     };
-    let tracer = Tracer::new(&traced, &settings)?;
+    let tracer =
+        Tracer::prepare_observed(&traced, &settings, true, super::progress::prep_spinner())?;
     plan.extend([gloam_trace::plan::interreflection_effect(
         &tracer.interreflection,
     )]);

@@ -92,6 +92,7 @@ pub fn report_json(
         "point_sources": out.stats.point_sources,
         "sky": out.stats.sky,
         "interreflection": out.stats.interreflection,
+        "preparation": out.stats.preparation,
         "bands": band_means,
     })
 }

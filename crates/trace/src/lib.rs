@@ -5,6 +5,7 @@ pub mod closed_form;
 pub mod geometry;
 pub mod indirect;
 pub mod plan;
+pub mod prep;
 pub mod render;
 pub mod sampling;
 pub mod settings;
@@ -13,6 +14,7 @@ pub mod spectral;
 pub mod tracer;
 
 pub use glam::DVec3;
+pub use prep::{PrepEvent, PrepObserver, PrepStep, Preparation};
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{
     Dirsig2001Settings, Dropped, Estimator, Indirect, Occlusion, RenderSettings, SettingsError,

@@ -126,6 +126,7 @@ impl Tracer {
         let mut d = InterreflectionDecision::default();
         let possible = self.mats.iter().any(|m| m.has_diffuse)
             && (!self.area.is_empty() || !self.points.is_empty() || self.sky.is_some());
+        let pilot_step = crate::prep::Preparation::begin("pilot", self.observer.as_ref());
         let pilot = (possible
             && (requested == Indirect::Auto || self.settings.diffuse_bounces == 0))
             .then(|| self.pilot());
@@ -147,6 +148,10 @@ impl Tracer {
         }
         if let Some(parts) = d.parts.as_mut() {
             self.decide_specular_and_transmission(parts, &d.estimated_share_by_band);
+        }
+        if pilot.is_some() {
+            self.preparation
+                .end(pilot_step, self.observer.clone().as_ref());
         }
         let share = d.estimated_share.unwrap_or(0.0);
         let method = match requested {
@@ -212,12 +217,14 @@ impl Tracer {
         }
         .into();
         if method == Indirect::Cache && solve {
+            let step = crate::prep::Preparation::begin("cache", self.observer.as_ref());
             let cache = self.build_cache(CacheSize {
                 texels: self.settings.cache_texels,
                 rays: self.settings.cache_rays,
                 tolerance: self.settings.cache_tolerance,
                 max_iterations: 200,
             });
+            self.preparation.end(step, self.observer.clone().as_ref());
             d.cache = Some(cache.summary.clone());
             self.cache = Some(cache);
         }
@@ -599,11 +606,21 @@ fn term_p90(pixels: &[(Vec<Vec<f64>>, Vec<f64>)], k: usize) -> f64 {
 /// the scene's structural plan with the tracer's pilot estimate and
 /// decision for interreflection.
 pub fn effect_plan(scene: &Scene, settings: &RenderSettings) -> Result<EffectPlan, TraceError> {
+    Ok(effect_plan_observed(scene, settings, None)?.0)
+}
+
+/// As [`effect_plan`], telling `observer` about each preparation step, and
+/// returning where the preparation's time and memory went.
+pub fn effect_plan_observed(
+    scene: &Scene,
+    settings: &RenderSettings,
+    observer: Option<crate::prep::PrepObserver>,
+) -> Result<(EffectPlan, crate::prep::Preparation), TraceError> {
     let mut plan = gloam_scene::plan::plan(scene);
-    let t = Tracer::prepare(scene, settings, false)?;
+    let t = Tracer::prepare_observed(scene, settings, false, observer)?;
     plan.extend([interreflection_effect(&t.interreflection)]);
     annotate_shares(&mut plan, &t.interreflection);
-    Ok(plan)
+    Ok((plan, t.preparation))
 }
 
 /// Fills in `estimated_share` of the light terms the pilot measured. These

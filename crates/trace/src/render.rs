@@ -130,6 +130,8 @@ pub struct RenderStats {
     /// What the render took from the `[sky]` block (None: no sky light).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sky: Option<crate::sky_light::SkySummary>,
+    /// The scene's size and each preparation step's time and peak memory.
+    pub preparation: crate::prep::Preparation,
 }
 
 /// A rendered radiance image.
@@ -157,10 +159,22 @@ pub struct ProbeResult {
     pub irradiance_w_m2: f64,
     pub std_error_w_m2: f64,
     /// The radiance the surface at the point reflects (Lambertian part,
-    /// direct light), when the point lies on a facet.
+    /// of the same light as `irradiance_w_m2`), when the point lies on a
+    /// facet.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub radiance_w_m2_sr: Option<f64>,
+    /// The direct part of `irradiance_w_m2`.
+    pub direct_irradiance_w_m2: f64,
+    /// The interreflected part, when the render would simulate it (the
+    /// effect plan's decision).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub indirect_irradiance_w_m2: Option<f64>,
+    /// Which light terms the figures include, in words.
+    pub terms: String,
 }
+
+/// Gather directions per probe repetition for interreflection (at least).
+pub const PROBE_GATHER_RAYS: usize = 64;
 
 /// Renders `scene` with `settings` (see [`Tracer::render`]).
 pub fn render(scene: &Scene, settings: &RenderSettings) -> Result<RenderOutput, TraceError> {
@@ -599,6 +613,7 @@ impl Tracer {
                 point_sources: self.points.len(),
                 threads: threads_used,
                 prepare_seconds: self.build_seconds,
+                preparation: self.preparation.clone(),
                 trace_seconds,
                 rays,
                 rays_per_second: rays.total() as f64 / trace_seconds.max(1e-9),
@@ -650,11 +665,20 @@ impl Tracer {
         let k = samples.max(1);
         let mut es = Vec::with_capacity(k as usize);
         let mut ls = Vec::with_capacity(k as usize);
+        let (mut direct_sum, mut indirect_sum) = (0.0, 0.0);
         let mut c = RayCounts::default();
+        let indirect = self.probe_indirect_method();
         for i in 0..k {
             let mut rng = stream(self.settings.seed, DOMAIN_PROBE, i as u64);
             let mut e = vec![0.0; self.wl.len()];
             self.irradiance(p, n, ignore, &mut rng, &mut c, &mut e);
+            direct_sum += self.wl.integrate(&e)[b];
+            if indirect.is_some() {
+                let mut ei = vec![0.0; self.wl.len()];
+                self.probe_indirect(p, n, ignore, &mut rng, &mut c, &mut ei);
+                indirect_sum += self.wl.integrate(&ei)[b];
+                e.iter_mut().zip(&ei).for_each(|(a, b)| *a += b);
+            }
             es.push(self.wl.integrate(&e)[b]);
             if let Some(f) = facet {
                 let l: Vec<f64> = e
@@ -677,7 +701,56 @@ impl Tracer {
             irradiance_w_m2: mean,
             std_error_w_m2: se,
             radiance_w_m2_sr: facet.map(|_| ls.iter().sum::<f64>() / k as f64),
+            direct_irradiance_w_m2: direct_sum / k as f64,
+            indirect_irradiance_w_m2: indirect.map(|_| indirect_sum / k as f64),
+            terms: match indirect {
+                Some(m) => format!("direct light and interreflection ({m}), as a render"),
+                None => format!(
+                    "direct light only, as a render ({})",
+                    self.interreflection.reason
+                ),
+            },
         })
+    }
+
+    /// How a probe adds interreflection: as the render would (the plan's
+    /// decision), or `None` when the render has none.
+    fn probe_indirect_method(&self) -> Option<&'static str> {
+        if self.cache.is_some() {
+            Some("radiosity cache, final gather")
+        } else if self.settings.diffuse_bounces > 0 {
+            Some("path tracing")
+        } else {
+            None
+        }
+    }
+
+    /// Interreflected irradiance at `p` (normal `n`), added to `out`: a
+    /// final gather from the cache, or cosine-weighted diffuse paths
+    /// (`E = π/K Σ L(ω_j)`), with [`PROBE_GATHER_RAYS`] directions.
+    fn probe_indirect(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut rand_pcg::Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
+        let k = (self.settings.gather_rays as usize).max(PROBE_GATHER_RAYS);
+        if let Some(cache) = &self.cache {
+            self.final_gather(cache, p, n, ignore, k, None, &self.ones, rng, c, out);
+            return;
+        }
+        let mut u = Vec::with_capacity(k);
+        latin_hypercube(k, rng, &mut u);
+        let (tx, ty) = crate::sky_light::orthonormal_basis(n);
+        let thr = vec![std::f64::consts::PI / k as f64; out.len()];
+        for uv in u {
+            let l = crate::sky_light::cosine_hemisphere(uv);
+            let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
+            self.trace(p, d, ignore, &thr, 1, 1, true, None, rng, c, out);
+        }
     }
 
     /// The camera ray through continuous pixel coordinates `(px, py)`:

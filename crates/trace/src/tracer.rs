@@ -9,6 +9,7 @@ use rand_pcg::Pcg64Mcg;
 
 use crate::closed_form;
 use crate::geometry::{Geometry, Visibility};
+use crate::prep::{PrepObserver, Preparation};
 use crate::sampling::{SphericalRectangle, SphericalTriangle, sample_triangle_area};
 use crate::settings::{Estimator, Occlusion, RenderSettings};
 use crate::sky_light::{
@@ -208,6 +209,10 @@ pub struct Tracer {
     pub(crate) skip: crate::settings::Dropped,
     /// Seconds spent building the BVH and spectral tables.
     pub build_seconds: f64,
+    /// The scene's size and each preparation step's time and peak memory.
+    pub preparation: Preparation,
+    /// Told as preparation steps begin and end (`prepare_observed`).
+    pub(crate) observer: Option<PrepObserver>,
 }
 
 /// The sky as the tracer uses it: on the continuum slots only (the sky has
@@ -385,6 +390,17 @@ impl Tracer {
         Self::prepare(scene, settings, true)
     }
 
+    /// As [`Tracer::prepare`], telling `observer` as each preparation step
+    /// begins and ends (a progress display).
+    pub fn prepare_observed(
+        scene: &Scene,
+        settings: &RenderSettings,
+        solve: bool,
+        observer: Option<PrepObserver>,
+    ) -> Result<Self, TraceError> {
+        Self::prepare_inner(scene, settings, solve, observer)
+    }
+
     /// As [`Tracer::new`]; `solve` = false stops after the interreflection
     /// decision (the pilot), without building the full cache (`gloam plan`).
     pub fn prepare(
@@ -392,6 +408,20 @@ impl Tracer {
         settings: &RenderSettings,
         solve: bool,
     ) -> Result<Self, TraceError> {
+        Self::prepare_inner(scene, settings, solve, None)
+    }
+
+    fn prepare_inner(
+        scene: &Scene,
+        settings: &RenderSettings,
+        solve: bool,
+        observer: Option<PrepObserver>,
+    ) -> Result<Self, TraceError> {
+        let mut prep = Preparation {
+            facets: scene.facets.len(),
+            point_sources: scene.point_sources.len(),
+            ..Default::default()
+        };
         let t0 = std::time::Instant::now();
         if scene.bands.is_empty() {
             return Err(TraceError::NoBands);
@@ -454,7 +484,12 @@ impl Tracer {
             .iter()
             .map(|&m| mats[m as usize].trans.is_some())
             .collect();
+        let step = Preparation::begin("bvh", observer.as_ref());
         let geom = Geometry::new(origin, extent, &facet_verts, transmissive);
+        prep.end(step, observer.as_ref());
+        prep.triangles = geom.triangle_count();
+
+        let step = Preparation::begin("light_structure", observer.as_ref());
 
         let mut facet_source = vec![u32::MAX; scene.facets.len()];
         let mut area = Vec::new();
@@ -533,8 +568,12 @@ impl Tracer {
             camera.width = scale(camera.width);
             camera.height = scale(camera.height);
         }
+        prep.area_emitters = area.len();
+        prep.end(step, observer.as_ref());
         let ones = vec![1.0; wl.len()];
+        let step = Preparation::begin("sky", observer.as_ref());
         let sky = build_sky(scene, settings, &wl)?;
+        prep.end(step, observer.as_ref());
         let mut tracer = Self {
             settings: settings.clone(),
             wl,
@@ -554,6 +593,8 @@ impl Tracer {
             interreflection: Default::default(),
             skip: Default::default(),
             build_seconds: 0.0,
+            preparation: prep,
+            observer,
         };
         tracer.decide_interreflection(solve);
         tracer.build_seconds = t0.elapsed().as_secs_f64();

@@ -248,3 +248,54 @@ fn integrating_sphere_with_a_port() {
         t.interreflection
     );
 }
+
+#[test]
+fn probe_answers_with_the_whole_light_of_a_render() {
+    // In the furnace every surface point receives E = π L = π Le/(1−ρ):
+    // π Le directly from the other walls, the rest interreflected. The
+    // probe must answer with both (the plan's decision), by cache and by
+    // path tracing, and say so.
+    let rho = 0.5;
+    let s = furnace_box(rho, [2.0, 1.5, 1.0]);
+    let want = std::f64::consts::PI * LE / (1.0 - rho);
+    let direct = std::f64::consts::PI * LE;
+    for method in ["auto", "path"] {
+        let mut set = RenderSettings::default();
+        set.set("indirect", method).unwrap();
+        let t = Tracer::new(&s, &set).unwrap();
+        let p = gloam_trace::DVec3::new(1.0, 0.75, 0.0);
+        let r = t.probe_point(p, gloam_trace::DVec3::Z, None, 32).unwrap();
+        let e_ind = r
+            .indirect_irradiance_w_m2
+            .expect("interreflection included");
+        assert!(
+            ((r.direct_irradiance_w_m2 - direct) / direct).abs() < 1e-6,
+            "{method}: direct {} vs π Le {direct}",
+            r.direct_irradiance_w_m2
+        );
+        let tol = 0.01 * want + 4.0 * r.std_error_w_m2;
+        assert!(
+            (r.irradiance_w_m2 - want).abs() < tol,
+            "{method}: E {} ± {} (direct {} + indirect {e_ind}) vs π Le/(1−ρ) = {want}",
+            r.irradiance_w_m2,
+            r.std_error_w_m2,
+            r.direct_irradiance_w_m2
+        );
+        assert!(r.terms.contains("interreflection"), "{}", r.terms);
+    }
+    // Interreflection off: direct light only, and the probe says so.
+    let mut set = RenderSettings::default();
+    set.set("indirect", "off").unwrap();
+    let r = Tracer::new(&s, &set)
+        .unwrap()
+        .probe_point(
+            gloam_trace::DVec3::new(1.0, 0.75, 0.0),
+            gloam_trace::DVec3::Z,
+            None,
+            4,
+        )
+        .unwrap();
+    assert!(r.indirect_irradiance_w_m2.is_none());
+    assert!((r.irradiance_w_m2 - direct).abs() < 1e-6 * direct);
+    assert!(r.terms.contains("direct light only"), "{}", r.terms);
+}

@@ -1,0 +1,68 @@
+//! A spinner for preparation steps (BVH, light structure, sky, pilot,
+//! cache) that runs longer than a second, on a terminal only; quick steps
+//! and non-terminal stderr stay silent.
+
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use gloam_trace::{PrepEvent, PrepObserver};
+
+/// A step runs this long before its spinner shows.
+const SHOW_AFTER: Duration = Duration::from_secs(1);
+
+/// The observer to hand to `Tracer::prepare_observed` (None off a terminal).
+pub fn prep_spinner() -> Option<PrepObserver> {
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    // The running step's "done" flag and bar.
+    let current: Mutex<Option<(Arc<AtomicBool>, indicatif::ProgressBar)>> = Mutex::new(None);
+    Some(Arc::new(move |e: PrepEvent<'_>| {
+        let Ok(mut cur) = current.lock() else { return };
+        match e {
+            PrepEvent::Begin(name) => {
+                let done = Arc::new(AtomicBool::new(false));
+                let bar = indicatif::ProgressBar::hidden();
+                bar.set_style(
+                    indicatif::ProgressStyle::with_template("{spinner} preparing: {msg} {elapsed}")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+                );
+                bar.set_message(name.to_string());
+                let (d, b) = (done.clone(), bar.clone());
+                // Bounded wait: SHOW_AFTER in 50 ms steps, then show.
+                std::thread::spawn(move || {
+                    for _ in 0..SHOW_AFTER.as_millis() / 50 {
+                        if d.load(Ordering::Relaxed) {
+                            return;
+                        }
+                        std::thread::sleep(Duration::from_millis(50));
+                    }
+                    if !d.load(Ordering::Relaxed) {
+                        b.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                        b.enable_steady_tick(Duration::from_millis(120));
+                    }
+                });
+                *cur = Some((done, bar));
+            }
+            PrepEvent::End(step) => {
+                if let Some((done, bar)) = cur.take() {
+                    done.store(true, Ordering::Relaxed);
+                    if step.seconds >= SHOW_AFTER.as_secs_f64() {
+                        bar.finish_with_message(format!(
+                            "{} ({:.1} s{})",
+                            step.name,
+                            step.seconds,
+                            step.peak_rss_bytes
+                                .map(|b| format!(", peak {:.0} MiB", b as f64 / 1048576.0))
+                                .unwrap_or_default()
+                        ));
+                    } else {
+                        bar.finish_and_clear();
+                    }
+                }
+            }
+        }
+    }))
+}
