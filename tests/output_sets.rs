@@ -113,23 +113,131 @@ fn a_render_is_published_whole_with_a_manifest_and_provenance() {
     );
     assert_eq!(std::fs::read(out.join("radiance.npy")).unwrap(), before);
 
-    // --force replaces the set whole: another seed, a different image, and
-    // nothing of the old set left (a capture's frames would be).
-    std::fs::write(out.join("stale-frame-000099.png"), b"old").unwrap();
+    // --force replaces only a previous gloam set: a file the set did not
+    // write (not in its manifest) makes it refuse, naming the file, which
+    // stays as it was.
+    std::fs::write(out.join("notes.txt"), b"mine").unwrap();
     let mut forced = args.to_vec();
     forced.extend(["--seed", "7", "--force"]);
     let o = run(&forced);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("notes.txt"), "{err}");
+    assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");
+    assert_eq!(std::fs::read(out.join("radiance.npy")).unwrap(), before);
+    // Without it, --force replaces the set whole: another seed, a
+    // different image.
+    std::fs::remove_file(out.join("notes.txt")).unwrap();
+    let o = run(&forced);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(!out.join("stale-frame-000099.png").exists());
     assert_ne!(std::fs::read(out.join("radiance.npy")).unwrap(), before);
+}
+
+#[test]
+fn force_never_deletes_the_inputs_or_what_gloam_did_not_write() {
+    // The scene's own folder as --out (`gloam render sd/s.toml --out sd
+    // --force`), and merge's input tile as its --out: refused, untouched.
+    let dir = tempfile::tempdir().unwrap();
+    let sd = dir.path().join("sd");
+    std::fs::create_dir(&sd).unwrap();
+    let s = sd.join("s.toml");
+    std::fs::copy(scene("panel-validation"), &s).unwrap();
+    let before = std::fs::read(&s).unwrap();
+    let o = run(&[
+        "render",
+        s.to_str().unwrap(),
+        "--out",
+        sd.to_str().unwrap(),
+        "--force",
+        "--spp",
+        "1",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("input") || err.contains("s.toml"), "{err}");
+    assert_eq!(std::fs::read(&s).unwrap(), before);
+
+    let t1 = dir.path().join("t1");
+    let o = run(&[
+        "render",
+        s.to_str().unwrap(),
+        "--out",
+        t1.to_str().unwrap(),
+        "--spp",
+        "1",
+        "--tile",
+        "1/2",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let tile = std::fs::read(t1.join("radiance.npy")).unwrap();
+    let t2 = dir.path().join("t2");
+    let o = run(&[
+        "render",
+        s.to_str().unwrap(),
+        "--out",
+        t2.to_str().unwrap(),
+        "--spp",
+        "1",
+        "--tile",
+        "2/2",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&[
+        "merge",
+        t1.to_str().unwrap(),
+        t2.to_str().unwrap(),
+        "--out",
+        t1.to_str().unwrap(),
+        "--force",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("holds the input"), "{err}");
+    assert_eq!(std::fs::read(t1.join("radiance.npy")).unwrap(), tile);
+
+    // A symbolic link as --out: refused with --force too; the link stays.
+    let link = dir.path().join("link");
+    std::os::unix::fs::symlink(&t1, &link).unwrap();
+    let o = run(&[
+        "render",
+        s.to_str().unwrap(),
+        "--out",
+        link.to_str().unwrap(),
+        "--force",
+        "--spp",
+        "1",
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("symbolic link"));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
 }
 
 #[test]
 fn a_killed_render_leaves_the_previous_set_untouched() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("office");
-    std::fs::create_dir(&out).unwrap();
-    std::fs::write(out.join("marker.txt"), b"previous set").unwrap();
+    // The previous set: a quick render published there.
+    let panel = scene("panel-validation");
+    let o = run(&[
+        "render",
+        panel.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--spp",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let previous = std::fs::read(out.join("radiance.npy")).unwrap();
+    let mut previous_names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    previous_names.sort();
     let scene = scene("office-room");
     let mut child = Command::new(BIN)
         .args([
@@ -165,11 +273,13 @@ fn a_killed_render_leaves_the_previous_set_untouched() {
     child.wait().unwrap();
     // The old set is whole and alone; the partial one is hidden and has no
     // manifest, so nothing takes it for a finished set.
-    let names: Vec<String> = std::fs::read_dir(&out)
+    let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(names, vec!["marker.txt".to_string()]);
+    names.sort();
+    assert_eq!(names, previous_names);
+    assert_eq!(std::fs::read(out.join("radiance.npy")).unwrap(), previous);
     assert!(!staging.join("manifest.json").exists());
 }
 

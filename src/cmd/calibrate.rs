@@ -78,7 +78,8 @@ pub struct RadianceArgs {
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
 }
@@ -118,7 +119,8 @@ pub struct AgcArgs {
     pub allow_unsettled: bool,
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
 }
@@ -137,7 +139,8 @@ pub struct PtcArgs {
     pub spatial_frames: usize,
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
 }
@@ -211,7 +214,8 @@ pub struct MtfArgs {
     pub scope_rows: Vec<usize>,
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
 }

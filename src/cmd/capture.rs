@@ -41,7 +41,8 @@ pub struct CaptureArgs {
     /// Give up after this many lost/damaged frames in a row.
     #[arg(long, default_value_t = 1000)]
     pub max_consecutive_failures: u64,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
 }

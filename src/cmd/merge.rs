@@ -19,7 +19,8 @@ pub struct MergeArgs {
     /// Output directory, published whole (refused when not empty, unless --force).
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
 }

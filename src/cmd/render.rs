@@ -70,7 +70,8 @@ pub struct RenderArgs {
     /// record the choice (report.json `sensor_capture.exposure`).
     #[arg(long, value_name = "auto", value_parser = ["auto"], conflicts_with_all = ["gain", "agc"])]
     pub exposure: Option<String>,
-    /// Replace a non-empty `--out` (the new set replaces the old one whole).
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
     /// Render only tile K of N: rows ⌊(K−1)H/N⌋ to ⌊KH/N⌋ (horizontal

@@ -29,6 +29,31 @@ pub fn write_text(path: &Path, text: &str) -> Result<(), CalibError> {
 /// so an interrupted run never leaves a half-written report, plot or image.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CalibError> {
     use std::io::Write;
+    // Only a regular file (or nothing) is replaced: renaming over a device,
+    // FIFO or link would destroy something gloam did not create (as root,
+    // `/dev/full` once became a 651-byte file).
+    if let Ok(meta) = std::fs::symlink_metadata(path) {
+        let what = if meta.file_type().is_symlink() {
+            Some("a symbolic link")
+        } else if meta.is_dir() {
+            Some("a directory")
+        } else if !meta.is_file() {
+            Some("not a regular file (a device, FIFO or socket)")
+        } else {
+            None
+        };
+        if let Some(what) = what {
+            return Err(CalibError::file(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!(
+                        "is {what}; gloam writes regular files only and replaces nothing else — name a file path"
+                    ),
+                ),
+            ));
+        }
+    }
     let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
         Some(d) => {
             std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
@@ -402,6 +427,41 @@ pub fn write_agc_report(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(unix)]
+    #[test]
+    fn only_regular_files_are_replaced() {
+        // A FIFO, a link and a directory at the output path: refused, and
+        // still what they were (a device behaves as the FIFO: not regular).
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        let target = dir.path().join("t.csv");
+        std::fs::write(&target, b"mine").unwrap();
+        let link = dir.path().join("link.csv");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let sub = dir.path().join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        let mut cases = vec![(link.clone(), "symbolic link"), (sub.clone(), "directory")];
+        if made.is_ok_and(|s| s.success()) {
+            cases.push((fifo.clone(), "not a regular file"));
+        }
+        for (p, what) in cases {
+            let err = write_bytes(&p, b"new").unwrap_err().to_string();
+            assert!(err.contains(what), "{}: {err}", p.display());
+        }
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read(&target).unwrap(), b"mine");
+        assert!(sub.is_dir());
+        // A regular file is replaced, atomically.
+        write_bytes(&target, b"new").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+    }
 
     #[test]
     fn concurrent_writers_never_collide_or_tear() {

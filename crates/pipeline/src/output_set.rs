@@ -74,8 +74,14 @@ impl OutputSet {
     /// [`interrupted`] and publishes what it has, instead of Ctrl-C
     /// discarding the set.
     pub fn begin(target: &Path, force: bool, polls_interrupt: bool) -> anyhow::Result<Self> {
-        if target.exists() {
-            if !target.is_dir() {
+        if let Ok(meta) = std::fs::symlink_metadata(target) {
+            if meta.file_type().is_symlink() {
+                bail!(
+                    "--out {}: is a symbolic link; gloam does not replace links — name the directory itself",
+                    target.display()
+                );
+            }
+            if !meta.is_dir() {
                 bail!("--out {}: exists and is not a directory", target.display());
             }
             let non_empty = std::fs::read_dir(target)
@@ -87,6 +93,10 @@ impl OutputSet {
                     "--out {}: the directory is not empty; give --force to replace it, or another --out",
                     target.display()
                 );
+            }
+            if non_empty {
+                refuse_inputs_inside(target, std::env::args_os().skip(1))?;
+                refuse_unless_output_set(target)?;
             }
         }
         let parent = match target.parent() {
@@ -135,17 +145,15 @@ impl OutputSet {
         stopped_because: Option<&str>,
     ) -> anyhow::Result<()> {
         let mut files: Vec<InputFile> = Vec::new();
-        let mut names: Vec<PathBuf> = std::fs::read_dir(&self.staging)?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_file())
+        let mut names: Vec<String> = set_entries(&self.staging)?
+            .into_iter()
+            .filter(|(_, is_dir)| !is_dir)
+            .map(|(rel, _)| rel)
             .collect();
         names.sort();
-        for p in names {
-            if let Some(mut f) = hash_file(&p) {
-                f.path = p
-                    .file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default();
+        for rel in names {
+            if let Some(mut f) = hash_file(&self.staging.join(&rel)) {
+                f.path = rel;
                 files.push(f);
             }
         }
@@ -185,6 +193,138 @@ impl OutputSet {
         }
         Ok(())
     }
+}
+
+/// Most entries an output set may hold (files and subdirectories, all
+/// levels): the walk that recognises one is bounded.
+pub const MAX_SET_ENTRIES: usize = 1_000_000;
+/// Deepest subdirectory level an output set has (`images/` of an EMVA
+/// dataset is level 1).
+const MAX_SET_DEPTH: usize = 8;
+
+/// Every entry under `dir`, as `(path relative to dir with '/', is a
+/// directory)`; symbolic links and other non-regular entries are errors (no
+/// gloam set holds them).
+fn set_entries(dir: &Path) -> anyhow::Result<Vec<(String, bool)>> {
+    let mut out = Vec::new();
+    let mut stack = vec![(dir.to_path_buf(), String::new(), 0usize)];
+    while let Some((d, prefix, depth)) = stack.pop() {
+        for e in std::fs::read_dir(&d).with_context(|| format!("reading {}", d.display()))? {
+            let e = e.with_context(|| format!("reading {}", d.display()))?;
+            let name = e.file_name().to_string_lossy().into_owned();
+            let rel = if prefix.is_empty() {
+                name
+            } else {
+                format!("{prefix}/{name}")
+            };
+            let ft = e
+                .file_type()
+                .with_context(|| format!("reading {}", e.path().display()))?;
+            if out.len() >= MAX_SET_ENTRIES {
+                bail!(
+                    "{}: more than {MAX_SET_ENTRIES} entries; not a gloam output set",
+                    dir.display()
+                );
+            }
+            if ft.is_dir() {
+                if depth + 1 > MAX_SET_DEPTH {
+                    bail!(
+                        "{}: nested deeper than {MAX_SET_DEPTH} levels; not a gloam output set",
+                        e.path().display()
+                    );
+                }
+                out.push((rel.clone(), true));
+                stack.push((e.path(), rel, depth + 1));
+            } else if ft.is_file() {
+                out.push((rel, false));
+            } else {
+                bail!(
+                    "{} is not a regular file or directory (a link, device, FIFO or socket); no gloam output set holds one",
+                    e.path().display()
+                );
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// `--force` replaces only a previous gloam output set: a directory whose
+/// `manifest.json` lists every file in it. Anything else there (the scene
+/// the run reads, a `notes.txt`, a link) means the directory is not ours to
+/// delete.
+fn refuse_unless_output_set(target: &Path) -> anyhow::Result<()> {
+    let not_ours = |why: String| {
+        anyhow::anyhow!(
+            "--out {}: {why}; --force replaces only a previous gloam output set (a directory whose manifest.json lists every file in it) — choose another --out",
+            target.display()
+        )
+    };
+    let entries = set_entries(target).map_err(|e| not_ours(format!("{e:#}")))?;
+    let manifest = target.join("manifest.json");
+    let text =
+        gloam_spectra::input::read_text(&manifest, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
+    let listed: std::collections::HashSet<String> =
+        serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| {
+                v.get("files")?.as_array().map(|files| {
+                    files
+                        .iter()
+                        .filter_map(|f| f.get("path")?.as_str().map(String::from))
+                        .collect()
+                })
+            })
+            .ok_or_else(|| not_ours("its manifest.json is not a gloam manifest".into()))?;
+    let strays: Vec<&str> = entries
+        .iter()
+        .filter(|(rel, is_dir)| !is_dir && rel != "manifest.json" && !listed.contains(rel))
+        .map(|(rel, _)| rel.as_str())
+        .collect();
+    if let Some(first) = strays.first() {
+        return Err(not_ours(format!(
+            "it holds {first}{}, which no gloam output set there wrote",
+            if strays.len() > 1 {
+                format!(" and {} more file(s)", strays.len() - 1)
+            } else {
+                String::new()
+            }
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a `target` that holds (or is) any existing path named on the
+/// command line — an input the run reads (`gloam merge t1 t2 --out t1`,
+/// `gloam render sd/s.toml --out sd`).
+fn refuse_inputs_inside(
+    target: &Path,
+    args: impl Iterator<Item = std::ffi::OsString>,
+) -> anyhow::Result<()> {
+    let Ok(t) = target.canonicalize() else {
+        return Ok(());
+    };
+    let mut after_out = false;
+    for a in args.take(10_000) {
+        // The --out value itself names the target, not an input.
+        let is_out_value = std::mem::replace(&mut after_out, a == "--out");
+        if is_out_value || a.to_string_lossy().starts_with("--out=") {
+            continue;
+        }
+        let p = Path::new(&a);
+        if p.as_os_str().is_empty() || std::fs::symlink_metadata(p).is_err() {
+            continue;
+        }
+        let Ok(c) = p.canonicalize() else { continue };
+        if c.starts_with(&t) {
+            bail!(
+                "--out {}: holds the input {} named on the command line; write the output elsewhere",
+                target.display(),
+                p.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 impl Drop for OutputSet {
@@ -244,6 +384,108 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(left, vec![std::ffi::OsString::from("out")]);
+    }
+
+    #[test]
+    fn force_replaces_only_a_previous_gloam_set() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        // A set with a subdirectory (an EMVA dataset's images/) is ours.
+        let set = OutputSet::begin(&out, false, false).unwrap();
+        std::fs::create_dir(set.dir().join("images")).unwrap();
+        std::fs::write(set.dir().join("images/a.tif"), b"x").unwrap();
+        std::fs::write(set.dir().join("r.json"), b"{}").unwrap();
+        set.publish(&prov(), None).unwrap();
+        let m: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+        let paths: Vec<&str> = m["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["path"].as_str().unwrap())
+            .collect();
+        assert_eq!(paths, ["images/a.tif", "r.json"]);
+        OutputSet::begin(&out, true, false)
+            .unwrap()
+            .publish(&prov(), None)
+            .unwrap();
+        assert!(
+            !out.join("images/a.tif").exists(),
+            "the old set was replaced"
+        );
+
+        // A file the set did not write: refused, named, and left alone.
+        std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+        let err = format!("{:#}", OutputSet::begin(&out, true, false).err().unwrap());
+        assert!(
+            err.contains("notes.txt") && err.contains("--force"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");
+
+        // A directory without a manifest (a scene's own folder).
+        let scene_dir = dir.path().join("sd");
+        std::fs::create_dir(&scene_dir).unwrap();
+        std::fs::write(scene_dir.join("s.toml"), b"units = 'm'").unwrap();
+        let err = format!(
+            "{:#}",
+            OutputSet::begin(&scene_dir, true, false).err().unwrap()
+        );
+        assert!(err.contains("manifest.json"), "{err}");
+        assert!(scene_dir.join("s.toml").exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn links_are_never_replaced_and_inputs_never_overwritten() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real");
+        std::fs::create_dir(&real).unwrap();
+        std::fs::write(real.join("keep.txt"), b"k").unwrap();
+        let link = dir.path().join("link");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        for force in [false, true] {
+            let err = format!("{:#}", OutputSet::begin(&link, force, false).err().unwrap());
+            assert!(err.contains("symbolic link"), "{err}");
+        }
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert!(real.join("keep.txt").exists());
+
+        // `gloam merge t1 t2 --out t1 --force`: t1 is an input.
+        let t1 = dir.path().join("t1");
+        OutputSet::begin(&t1, false, false)
+            .unwrap()
+            .publish(&prov(), None)
+            .unwrap();
+        let args = ["merge", "t1", "t2", "--out", "t1", "--force"];
+        let cwd_args: Vec<std::ffi::OsString> = args
+            .iter()
+            .map(|a| {
+                if a.starts_with('t') {
+                    dir.path().join(a).into_os_string()
+                } else {
+                    a.into()
+                }
+            })
+            .collect();
+        let err = format!(
+            "{:#}",
+            refuse_inputs_inside(&t1, cwd_args.clone().into_iter()).unwrap_err()
+        );
+        assert!(err.contains("holds the input"), "{err}");
+        // The value of --out alone is not an input.
+        assert!(refuse_inputs_inside(&t1, cwd_args.into_iter().skip(3)).is_ok());
+        // A file inside the target named as an input, too.
+        let inner = t1.join("manifest.json").into_os_string();
+        assert!(refuse_inputs_inside(&t1, [inner].into_iter()).is_err());
+        // Paths elsewhere are fine.
+        let other = dir.path().join("real").into_os_string();
+        assert!(refuse_inputs_inside(&t1, [other].into_iter()).is_ok());
     }
 
     #[test]
