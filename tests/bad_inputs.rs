@@ -6,8 +6,9 @@
 //! A case is a command line plus files written into a scratch directory
 //! first; `{base}` in a file is the small valid scene of
 //! `tests/bad_inputs/base.toml`, so each scene case states only what it
-//! breaks. Add a case for every bad input found: the mechanism, not the
-//! instance, is what the fix must hold.
+//! breaks; a file whose content is `{fifo}` is made a FIFO nobody writes.
+//! Add a case for every bad input found: the mechanism, not the instance,
+//! is what the fix must hold.
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -45,6 +46,12 @@ fn run(case: &Case, dir: &Path) -> (Option<i32>, String) {
         let p = dir.join(name);
         if let Some(parent) = p.parent() {
             std::fs::create_dir_all(parent).unwrap();
+        }
+        if text == "{fifo}" {
+            // A FIFO nobody writes: a reader that opens it blocks forever.
+            let ok = Command::new("mkfifo").arg(&p).status().unwrap();
+            assert!(ok.success(), "mkfifo {}", p.display());
+            continue;
         }
         std::fs::write(&p, text).unwrap();
     }
@@ -558,6 +565,65 @@ const CASES: &[Case] = &[
         ],
         ["visibility"]
     ),
+    // --- every reader refuses devices and FIFOs (one bounded reader)
+    case!(
+        "sensor file: a device",
+        [],
+        ["sensor", "describe", "/dev/zero"],
+        ["/dev/zero", "not a regular file"]
+    ),
+    case!("sensor file: a FIFO", ["p.toml" => "{fifo}"], ["sensor", "describe", "p.toml"], ["p.toml", "not a regular file"]),
+    case!("render --sensor: a device", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "/dev/zero"], ["/dev/zero", "not a regular file"]),
+    case!("capture sim: sensor a FIFO", ["p.toml" => "{fifo}"], ["capture", "--grabber", "sim:p.toml", "--frames", "1", "--out", "o"], ["p.toml", "not a regular file"]),
+    case!(
+        "sweep file: a device",
+        [],
+        ["sweep", "/dev/zero", "--out", "o"],
+        ["/dev/zero", "not a regular file"]
+    ),
+    case!("sweep file: a FIFO", ["w.toml" => "{fifo}"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "not a regular file"]),
+    case!("calibrate apply: LUT a device", ["f.png" => ""], ["calibrate", "apply", "--lut", "/dev/zero", "f.png", "o.tiff"], ["/dev/zero", "not a regular file"]),
+    case!("calibrate apply: LUT a FIFO", ["l.json" => "{fifo}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json", "not a regular file"]),
+    case!(
+        "calibrate radiance: source a device",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:gen3-gaas-iccd",
+            "--source",
+            "/dev/zero",
+            "--gains",
+            "20",
+            "--out",
+            "o"
+        ],
+        ["/dev/zero", "not a regular file"]
+    ),
+    case!("calibrate radiance: source a FIFO", ["src.toml" => "{fifo}"], ["calibrate", "radiance", "--grabber", "sim:gen3-gaas-iccd", "--source", "src.toml", "--gains", "20", "--out", "o"], ["src.toml", "not a regular file"]),
+    case!(
+        "calibrate mtf: CTF file a device",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "usaf",
+            "--ctf",
+            "/dev/zero",
+            "--pixel-pitch-um",
+            "10",
+            "--out",
+            "o"
+        ],
+        ["/dev/zero", "not a regular file"]
+    ),
+    case!("calibrate mtf: CTF file a FIFO", ["c.csv" => "{fifo}"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv", "not a regular file"]),
+    case!("sky --spectra-out: a directory", ["d/x" => ""], ["sky", "--lat", "43", "--lon", "-77", "--utc", "2025-10-07T05:00:00Z", "--spectra-out", "d"], ["d", "directory"]),
+    case!("sky --spectra-out: a FIFO is never replaced", ["p.csv" => "{fifo}"], ["sky", "--lat", "43", "--lon", "-77", "--utc", "2025-10-07T05:00:00Z", "--spectra-out", "p.csv"], ["p.csv", "not a regular file"]),
+    case!("render --out: holds the scene, with --force", ["sd/s.toml" => "{base}"], ["render", "sd/s.toml", "--out", "sd", "--force"], ["sd", "input"]),
+    case!("render --out: a stray file, with --force", ["s.toml" => "{base}", "o/notes.txt" => "mine"], ["render", "s.toml", "--out", "o", "--force"], ["manifest.json", "--force"]),
     case!(
         "sweep: missing file",
         [],

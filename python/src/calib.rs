@@ -250,8 +250,9 @@ impl Lut {
     /// Reads a ``lut.json`` written by ``gloam calibrate radiance``.
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| GloamError::new_err(format!("reading {}: {e}", path.display())))?;
+        let text =
+            gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                .map_err(|e| GloamError::new_err(format!("reading {}: {e}", path.display())))?;
         let lut = serde_json::from_str(&text).map_err(|e| {
             GloamError::new_err(format!("{}: not a gloam LUT: {e}", path.display()))
         })?;

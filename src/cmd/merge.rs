@@ -39,7 +39,9 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     let mut tiles = Vec::new();
     for d in &m.tiles {
         let p = d.join("radiance.npy");
-        let bytes = std::fs::read(&p).with_context(|| format!("reading {}", p.display()))?;
+        let bytes =
+            gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+                .with_context(|| format!("reading {}", p.display()))?;
         tiles.push(serde_json::json!({
             "dir": d.display().to_string(),
             "radiance_npy_sha256": gloam_sweep::run::sha256_hex(&bytes),

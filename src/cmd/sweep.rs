@@ -264,9 +264,12 @@ fn run_tasks(r: RunArgs) -> anyhow::Result<()> {
 fn status(s: StatusArgs) -> anyhow::Result<()> {
     let sd = SweepDir::open(&s.dir)?;
     let states = sd.status();
-    let sub: Option<Submission> = std::fs::read_to_string(s.dir.join(slurm::SUBMISSION_FILE))
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok());
+    let sub: Option<Submission> = gloam_spectra::input::read_text(
+        &s.dir.join(slurm::SUBMISSION_FILE),
+        gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+    )
+    .ok()
+    .and_then(|t| serde_json::from_str(&t).ok());
     let job = sub.as_ref().map(|j| slurm::job_states(&j.job_id));
     if s.json {
         return print_json(&serde_json::json!({"tasks": states, "slurm": job}));

@@ -29,8 +29,10 @@ fn is_tiff(path: &Path) -> bool {
 /// Reads a grey image of any supported depth (u8, u16, f32 TIFF, …).
 pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
     if is_tiff(path) {
-        let f = std::fs::File::open(path).map_err(|e| CalibError::file(path, e))?;
-        let mut d = tiff::decoder::Decoder::new(std::io::BufReader::new(f))
+        let bytes =
+            gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+                .map_err(|e| CalibError::file(path, e))?;
+        let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes))
             .map_err(|e| CalibError::file(path, e))?;
         let (w, h) = d.dimensions().map_err(|e| CalibError::file(path, e))?;
         let ct = d.colortype().map_err(|e| CalibError::file(path, e))?;
@@ -131,12 +133,13 @@ pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
         .file_name()
         .and_then(|n| n.to_str())
         .ok_or_else(|| CalibError::file(image, "no file name"))?;
-    let f = std::fs::File::open(&jl).map_err(|e| {
-        CalibError::file(
-            &jl,
-            format!("{e} (needed for the gain of {name}; pass --gain to override)"),
-        )
-    })?;
+    let f = gloam_spectra::input::open_bounded(&jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .map_err(|e| {
+            CalibError::file(
+                &jl,
+                format!("{e} (needed for the gain of {name}; pass --gain to override)"),
+            )
+        })?;
     for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
         let line = line.map_err(|e| CalibError::file(&jl, e))?;
         if line.trim().is_empty() {

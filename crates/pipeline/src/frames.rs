@@ -170,7 +170,9 @@ pub fn check_options(sensor: &str, gain: Option<f64>, frames: u32) -> anyhow::Re
 /// the render's `report.json` in `out`, when there is one.
 fn record_in_report(out: &Path, capture: serde_json::Value) -> anyhow::Result<()> {
     let path = out.join("report.json");
-    let Ok(text) = std::fs::read_to_string(&path) else {
+    let Ok(text) =
+        gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+    else {
         return Ok(());
     };
     let mut report: serde_json::Value =

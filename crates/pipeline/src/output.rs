@@ -130,8 +130,8 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> 
 /// Adds `"provenance"` to the JSON object in `path` (a report or
 /// calibration file written by a library that does not know the run).
 pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> anyhow::Result<()> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .with_context(|| format!("reading {}", path.display()))?;
     let mut v: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
     if let Some(obj) = v.as_object_mut() {

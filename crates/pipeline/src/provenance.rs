@@ -69,8 +69,9 @@ pub fn hash_file(path: &Path) -> Option<InputFile> {
     use std::io::Read;
     let meta = std::fs::metadata(path).ok()?;
     let mut sha256 = String::new();
-    if meta.len() <= MAX_HASHED_BYTES {
-        let mut f = std::fs::File::open(path).ok()?;
+    // Regular files only: /dev/zero has length 0 and never ends.
+    if meta.is_file() && meta.len() <= MAX_HASHED_BYTES {
+        let mut f = gloam_spectra::input::open_bounded(path, MAX_HASHED_BYTES).ok()?;
         let mut h = Sha256::new();
         let mut buf = vec![0u8; 1 << 16];
         loop {

@@ -478,7 +478,10 @@ impl SensorConfig {
         if let Some(r) = Self::preset(name_or_path) {
             return r;
         }
-        match std::fs::read_to_string(name_or_path) {
+        match gloam_spectra::input::read_text(
+            std::path::Path::new(name_or_path),
+            gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+        ) {
             Ok(text) => Self::from_toml_str(&text, name_or_path),
             Err(e) => Err(ConfigError::Unknown {
                 name: name_or_path.to_string(),

@@ -12,8 +12,18 @@ pub const MAX_TEXT_FILE_BYTES: u64 = 256 << 20;
 /// Largest mesh input (OBJ), bytes.
 pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
 
-/// The bytes of the regular file `path`, at most `max_bytes` of them.
-pub fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+/// Largest image or array input (TIFF, NPY: radiance tiles, frames), bytes.
+pub const MAX_IMAGE_FILE_BYTES: u64 = 4 << 30;
+
+/// The regular file `path` opened for streaming (hashing), refused like
+/// [`read_bounded`]; reads stop at `max_bytes + 1` bytes.
+pub fn open_bounded(path: &Path, max_bytes: u64) -> std::io::Result<std::io::Take<std::fs::File>> {
+    check_regular(path, max_bytes)?;
+    Ok(std::fs::File::open(path)?.take(max_bytes + 1))
+}
+
+/// Refuses a directory, a non-regular file or one over `max_bytes`.
+fn check_regular(path: &Path, max_bytes: u64) -> std::io::Result<std::fs::Metadata> {
     let meta = std::fs::metadata(path)?;
     if meta.is_dir() {
         return Err(Error::new(
@@ -36,6 +46,12 @@ pub fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
             ),
         ));
     }
+    Ok(meta)
+}
+
+/// The bytes of the regular file `path`, at most `max_bytes` of them.
+pub fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    let meta = check_regular(path, max_bytes)?;
     let mut bytes = Vec::with_capacity(meta.len() as usize);
     // `take` holds the limit even if the file grows while it is read.
     std::fs::File::open(path)?

@@ -125,7 +125,9 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 fn sha256_file(path: &Path) -> anyhow::Result<String> {
-    let mut f = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut f =
+        gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+            .with_context(|| format!("reading {}", path.display()))?;
     let mut h = Sha256::new();
     std::io::copy(&mut f, &mut h).with_context(|| format!("reading {}", path.display()))?;
     Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
@@ -163,8 +165,9 @@ impl SweepDir {
         command_line: &[String],
         provenance: serde_json::Value,
     ) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(sweep_file)
-            .with_context(|| format!("reading {}", sweep_file.display()))?;
+        let text =
+            gloam_spectra::input::read_text(sweep_file, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                .with_context(|| format!("reading {}", sweep_file.display()))?;
         let base_dir = sweep_file
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -218,15 +221,17 @@ impl SweepDir {
     /// Opens a planned sweep directory.
     pub fn open(dir: &Path) -> anyhow::Result<Self> {
         let pp = dir.join("plan.json");
-        let plan: PlanFile =
-            serde_json::from_str(&std::fs::read_to_string(&pp).with_context(|| {
-                format!(
-                    "reading {} (is {} a sweep directory?)",
-                    pp.display(),
-                    dir.display()
-                )
-            })?)
-            .with_context(|| format!("reading {}", pp.display()))?;
+        let plan: PlanFile = serde_json::from_str(
+            &gloam_spectra::input::read_text(&pp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                .with_context(|| {
+                    format!(
+                        "reading {} (is {} a sweep directory?)",
+                        pp.display(),
+                        dir.display()
+                    )
+                })?,
+        )
+        .with_context(|| format!("reading {}", pp.display()))?;
         ensure!(
             plan.format == PLAN_FORMAT,
             "{}: format '{}', expected '{PLAN_FORMAT}'",
@@ -234,8 +239,8 @@ impl SweepDir {
             plan.format
         );
         let sp = dir.join("sweep.toml");
-        let text =
-            std::fs::read_to_string(&sp).with_context(|| format!("reading {}", sp.display()))?;
+        let text = gloam_spectra::input::read_text(&sp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .with_context(|| format!("reading {}", sp.display()))?;
         ensure!(
             sha256_hex(text.as_bytes()) == plan.sweep_sha256,
             "{} changed since it was planned",
@@ -257,7 +262,10 @@ impl SweepDir {
 
     pub fn plan(&self) -> anyhow::Result<PlanFile> {
         let pp = self.dir.join("plan.json");
-        Ok(serde_json::from_str(&std::fs::read_to_string(&pp)?)?)
+        Ok(serde_json::from_str(&gloam_spectra::input::read_text(
+            &pp,
+            gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+        )?)?)
     }
 
     pub fn task_dir(&self, index: usize) -> PathBuf {
@@ -267,7 +275,10 @@ impl SweepDir {
     /// The task's record, if it has one that belongs to this task.
     pub fn record(&self, index: usize) -> Option<TaskRecord> {
         let p = self.task_dir(index).join(RECORD_FILE);
-        let r: TaskRecord = serde_json::from_str(&std::fs::read_to_string(p).ok()?).ok()?;
+        let r: TaskRecord = serde_json::from_str(
+            &gloam_spectra::input::read_text(&p, gloam_spectra::input::MAX_TEXT_FILE_BYTES).ok()?,
+        )
+        .ok()?;
         (r.id == self.sweep.tasks.get(index)?.id).then_some(r)
     }
 

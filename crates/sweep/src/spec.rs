@@ -131,10 +131,11 @@ fn sha_hex(bytes: &[u8]) -> String {
 impl Sweep {
     /// Reads and plans a sweep file; relative paths resolve against its directory.
     pub fn load(path: &Path) -> Result<Sweep, SpecError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .map_err(|source| SpecError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
         let base_dir = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -294,8 +295,9 @@ impl Sweep {
         if overrides.is_empty() {
             return Ok(gloam_scene::load(&path)?);
         }
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("reading {}", path.display()))?;
+        let text =
+            gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                .with_context(|| format!("reading {}", path.display()))?;
         let mut doc: toml::Table =
             toml::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
         for (key, value) in &overrides {

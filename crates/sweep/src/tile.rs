@@ -90,13 +90,14 @@ pub struct Merged {
 
 fn read_info(dir: &Path) -> anyhow::Result<TileInfo> {
     let p = dir.join(TILE_FILE);
-    let text = std::fs::read_to_string(&p).with_context(|| {
-        format!(
-            "reading {} (is {} a `gloam render --tile` output?)",
-            p.display(),
-            dir.display()
-        )
-    })?;
+    let text = gloam_spectra::input::read_text(&p, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .with_context(|| {
+            format!(
+                "reading {} (is {} a `gloam render --tile` output?)",
+                p.display(),
+                dir.display()
+            )
+        })?;
     let info: TileInfo =
         serde_json::from_str(&text).with_context(|| format!("reading {}", p.display()))?;
     ensure!(
@@ -140,7 +141,8 @@ where
         path.display(),
         shape
     );
-    let f = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let f = gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+        .with_context(|| format!("reading {}", path.display()))?;
     let a = A::read_npy(std::io::BufReader::new(f))
         .with_context(|| format!("reading {}", path.display()))?;
     ensure!(

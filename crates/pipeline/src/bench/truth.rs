@@ -280,7 +280,8 @@ pub fn reference_truth(
     use ndarray_npy::{ReadNpyExt, WriteNpyExt};
     let t0 = Instant::now();
     let text =
-        std::fs::read(scene_path).with_context(|| format!("reading {}", scene_path.display()))?;
+        gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .with_context(|| format!("reading {}", scene_path.display()))?;
     let base = reference_settings(None, spp);
     let key = format!(
         "{:016x}-{:016x}",
@@ -303,7 +304,10 @@ pub fn reference_truth(
         });
         (image, var, mask)
     };
-    if let (Ok(m), Ok(f)) = (std::fs::read_to_string(&meta), std::fs::File::open(&npy)) {
+    if let (Ok(m), Ok(f)) = (
+        gloam_spectra::input::read_text(&meta, gloam_spectra::input::MAX_TEXT_FILE_BYTES),
+        gloam_spectra::input::open_bounded(&npy, gloam_spectra::input::MAX_IMAGE_FILE_BYTES),
+    ) {
         let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
         if m["key"] == key {
             if let Ok(stack) = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)) {
