@@ -1608,3 +1608,95 @@ fn point_sources_can_be_instanced() {
         "{shaped}"
     );
 }
+
+#[test]
+fn documented_instances_parse_and_place_what_they_say() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let heading = "### Instances";
+    let toml = doc_block(doc, heading, "toml");
+    let csv = doc_block(doc, heading, "csv");
+    let dir = tempfile::tempdir().unwrap();
+    // A 2-facet car model in cm.
+    std::fs::write(
+        dir.path().join("car.obj"),
+        "v 0 0 0\nv 400 0 0\nv 400 180 0\nv 0 180 0\nv 0 0 150\nf 1 2 3 4\nf 1 2 5\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("cars.csv"), csv).unwrap();
+    let materials =
+        "[materials.wall]\nreflectance = 0.5\n\n[materials.paint]\nreflectance = 0.3\n\n";
+    let text = format!("{BASE}{materials}{toml}");
+    let s = parse_str(&text, &scene_path(dir.path())).unwrap_or_else(|e| panic!("{e}"));
+    let c = s.counts();
+    assert_eq!((c.instanced_objects, c.instances), (2, 1 + 3 + 3));
+    assert_eq!(s.facets.len(), 1 + 5 * 3 + 2 * 3);
+    // The third car: (4, 1.8, 0) m after the model's scale 0.01, scaled 1.1,
+    // turned 270° ((x, y) ↦ (y, −x)) and moved to (30, −3.5, 0).
+    let car = &s.objects[2];
+    let third = &s.facets[car.instance_facets(2)][0];
+    assert!((third.vertices[2] - DVec3::new(30.0 + 1.98, -3.5 - 4.4, 0.0)).length() < 1e-12);
+
+    // The documented errors are what the reader says.
+    let section = &doc[doc.find(heading).unwrap()..doc.find("## Point sources").unwrap()];
+    let quoted: Vec<&str> = section
+        .split('`')
+        .filter(|q| q.starts_with("scene.toml:"))
+        .collect();
+    assert_eq!(quoted.len(), 2);
+    std::fs::write(
+        dir.path().join("cars.csv"),
+        csv.replace("30.0,-3.5,0.0,270,1.1", "30.0,-3.5,0.0,270,-1"),
+    )
+    .unwrap();
+    let e = parse_str(&text, &scene_path(dir.path())).unwrap_err();
+    let (_, doc_msg) = quoted[1].split_once(": ").unwrap();
+    let (field, rest) = doc_msg.split_once(": placements file cars.csv").unwrap();
+    assert_eq!(e.field(), field);
+    assert!(
+        message_of(&e).ends_with(&format!("cars.csv{rest}")),
+        "{e}\nvs\n{doc_msg}"
+    );
+    let (_, doc_msg) = quoted[0].split_once(": ").unwrap();
+    let (field, msg) = doc_msg.split_once(": ").unwrap();
+    assert_eq!(field, "objects.tree.instances_csv");
+    assert!(msg.contains("200001 placements × 100 facets: 20000100 facets here plus 1 before it would exceed the limit of 20000000 facets per scene"));
+}
+
+#[test]
+fn documented_lamp_model_places_housing_and_source_together() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let section = &doc[doc.find("## Point sources").unwrap()..];
+    let open = section.find("```toml\n[objects.street_lamp]").unwrap() + "```toml\n".len();
+    let close = section[open..].find("```").unwrap();
+    let toml = &section[open..open + close];
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("street-lamp.obj"),
+        "v -0.2 -0.2 5.9\nv 0.2 -0.2 5.9\nv 0.2 0.2 5.9\nv -0.2 0.2 5.9\nf 4 3 2 1\n",
+    )
+    .unwrap();
+    let mut csv = String::new();
+    for i in 0..1000 {
+        csv.push_str(&format!("{},0,0,{},1\n", 30 * i, 180 * (i % 2)));
+    }
+    std::fs::write(dir.path().join("lamps.csv"), csv).unwrap();
+    let mat = "[materials.sodium_globe]\nemission = { spectrum = \"hps\", normalize = { lo_nm = 400, hi_nm = 700, value = 10.0 } }\n\n";
+    let s = parse_str(&format!("{BASE}{mat}{toml}"), &scene_path(dir.path()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.point_sources.len(), 1000);
+    assert_eq!(s.emitting_facets().len(), 1000);
+    // Lamp k sits 6 m above its placement, its globe around it, and the
+    // turned ones (180°) aim the other way along x.
+    for k in [0, 1, 999] {
+        let p = &s.point_sources[k];
+        let globe = s.facets[s.objects[1].instance_facets(k)][0].centroid();
+        assert!((p.position - DVec3::new(30.0 * k as f64, 0.0, 6.0)).length() < 1e-12);
+        // (OBJ coordinates are single precision.)
+        assert!((globe - (p.position - DVec3::new(0.0, 0.0, 0.1))).length() < 1e-6);
+        let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+        assert!((p.direction - DVec3::new(0.3 * sign, 0.0, -1.0).normalize()).length() < 1e-12);
+    }
+    let pl = plan(&s);
+    let r = &pl.get("shaped-point-sources").unwrap().reason;
+    assert!(r.contains("street_lamp ×1000 m = 3"), "{r}");
+}
