@@ -196,8 +196,10 @@ fn heap_chunk(n: usize) -> usize {
 }
 
 /// Estimated bytes one facet of object `name` costs while the scene is
-/// built: the `Facet` in its prototype list and in the scene's list, its
-/// vertex list (a quad, at most) and its copy of the object's name.
+/// built: the `Facet` twice (the scene's list grows by doubling, and an
+/// instanced object holds its prototype too), its vertex list (a quad, at
+/// most) and its copy of the object's name. 256 for a name of up to 24
+/// bytes, as documented in `docs/scene-format.md`.
 pub(crate) fn facet_bytes(name: &str) -> usize {
     2 * std::mem::size_of::<Facet>()
         + heap_chunk(4 * std::mem::size_of::<DVec3>())

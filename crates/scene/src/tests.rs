@@ -1485,6 +1485,22 @@ fn missing_or_unreadable_placements_and_objects() {
         "objects.t.instances_csv",
         "not a regular file",
     );
+    // A FIFO is refused without being opened (opening one would wait for
+    // a writer forever).
+    let fifo = dir.path().join("f.csv");
+    if std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        expect_err_at(
+            &triangle_object("instances_csv = \"f.csv\"\n"),
+            &path,
+            l,
+            "objects.t.instances_csv",
+            "not a regular file",
+        );
+    }
     std::fs::create_dir(dir.path().join("d.csv")).unwrap();
     expect_err_at(
         &triangle_object("instances_csv = \"d.csv\"\n"),
@@ -1573,6 +1589,8 @@ fn size_budget_counts_items_and_memory() {
         e.contains("more than the") && e.contains("memory available"),
         "{e}"
     );
+    // The documented estimate.
+    assert_eq!(crate::instance::facet_bytes("street_lamp"), 256);
     // No overflow however large the product.
     assert!(check_budget(usize::MAX, u128::MAX / 2, usize::MAX, usize::MAX, None, "x").is_err());
 }
