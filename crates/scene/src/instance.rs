@@ -98,13 +98,16 @@ pub(crate) fn read_placements_csv(
 ) -> Result<Vec<Placement>, String> {
     let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
         .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    parse_placements_csv(&text, path, max_coordinate)
+    parse_placements_csv(&text, path, max_coordinate, MAX_INSTANCES)
 }
 
+/// Parses placements CSV text (`path` labels errors), refusing more than
+/// `max_placements` rows at the first row over.
 pub(crate) fn parse_placements_csv(
     text: &str,
     path: &Path,
     max_coordinate: f64,
+    max_placements: usize,
 ) -> Result<Vec<Placement>, String> {
     let err = |line: usize, m: String| format!("{}:{line}: {m}", path.display());
     let mut out = Vec::new();
@@ -163,11 +166,11 @@ pub(crate) fn parse_placements_csv(
         if !(s.is_finite() && s > 0.0) {
             return Err(err(line_no, format!("scale = {s} must be finite and > 0")));
         }
-        if out.len() == MAX_INSTANCES {
+        if out.len() == max_placements {
             return Err(err(
                 line_no,
                 format!(
-                    "more than {MAX_INSTANCES} placements (the limit per object or point source)"
+                    "more than {max_placements} placements (the limit per object or point source)"
                 ),
             ));
         }

@@ -1564,18 +1564,6 @@ fn over_limit_instance_counts_are_refused_before_allocating() {
         "objects.m.obj",
         "out of bounds",
     );
-
-    // More placements than MAX_INSTANCES inline: refused by count.
-    let many = format!(
-        "instances = [{}]\n",
-        "{}, ".repeat(crate::MAX_INSTANCES + 1)
-    );
-    expect_err(
-        &triangle_object(&many),
-        next_line() + 4,
-        "objects.t.instances",
-        "more than the limit of 1000000",
-    );
 }
 
 #[test]
@@ -1588,6 +1576,18 @@ fn size_budget_counts_items_and_memory() {
     assert!(
         e.contains("more than the") && e.contains("memory available"),
         "{e}"
+    );
+    // Placements past the limit are refused at the first row over.
+    let e = crate::instance::parse_placements_csv(
+        "# three\n0,0,0,0,1\n1,0,0,0,1\n2,0,0,0,1\n",
+        Path::new("p.csv"),
+        1e12,
+        2,
+    )
+    .unwrap_err();
+    assert_eq!(
+        e,
+        "p.csv:4: more than 2 placements (the limit per object or point source)"
     );
     // The documented estimate.
     assert_eq!(crate::instance::facet_bytes("street_lamp"), 256);
