@@ -8,12 +8,16 @@ use std::path::Path;
 use glam::DVec3;
 use gloam_spectra::{Spectrum, library};
 
-use crate::error::{FieldPath, Locator};
+use crate::error::{FieldPath, Locator, Seg};
 use crate::geometry::{box_faces, check_facet, quad_vertices};
+use crate::instance::{
+    MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, Placement, Xform, available_memory, check_budget,
+    count_obj_faces, facet_bytes, read_placements_csv,
+};
 use crate::raw::*;
 use crate::{
-    Band, Camera, Emission, Facet, Material, PointSource, Scene, SceneError, SkyConfig, Units,
-    base_dir,
+    Band, Camera, Emission, Facet, Material, ObjectInfo, PointSource, PointSourceGroup, Scene,
+    SceneError, SkyConfig, Units, base_dir,
 };
 
 /// Support of a flat spectrum given as a plain number or `value`, nm.
@@ -26,9 +30,15 @@ type R<T> = Result<T, SceneError>;
 struct Ctx<'a> {
     loc: Locator<'a>,
     path: &'a Path,
+    /// Read once, when a size is first checked.
+    memory: std::cell::OnceCell<Option<u64>>,
 }
 
 impl Ctx<'_> {
+    fn available_memory(&self) -> Option<u64> {
+        *self.memory.get_or_init(available_memory)
+    }
+
     fn err(&self, field: &FieldPath, msg: impl Into<String>) -> SceneError {
         self.loc.error(field, msg)
     }
@@ -98,6 +108,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     let cx = Ctx {
         loc: Locator::new(text, path),
         path,
+        memory: std::cell::OnceCell::new(),
     };
     let raw: RawScene = toml::from_str(text).map_err(|e| cx.loc.error_at(e.span(), e.message()))?;
     let root = FieldPath::root();
@@ -120,18 +131,33 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         materials.push(material(&cx, &mf.key(name), name, m)?);
     }
 
-    // Objects → facets.
+    // Objects → facets: each object's geometry read once, then placed.
     let mut facets = Vec::new();
+    let mut objects = Vec::new();
     let of = root.key("objects");
     for (name, o) in cx.ordered(&of, &raw.objects) {
-        object(&cx, &of.key(name), name, o, &materials, &mut facets)?;
+        objects.push(object(
+            &cx,
+            &of.key(name),
+            name,
+            o,
+            &materials,
+            &mut facets,
+        )?);
     }
 
-    // Point sources.
+    // Point sources, each placed once or at each of its placements.
     let mut point_sources = Vec::new();
+    let mut point_source_groups = Vec::new();
     let pf = root.key("point_sources");
     for (name, p) in cx.ordered(&pf, &raw.point_sources) {
-        point_sources.push(point_source(&cx, &pf.key(name), name, p)?);
+        let first = point_sources.len();
+        point_source(&cx, &pf.key(name), name, p, &mut point_sources)?;
+        point_source_groups.push(PointSourceGroup {
+            name: name.to_string(),
+            instances: point_sources.len() - first,
+            first,
+        });
     }
 
     let camera = camera(&cx, &root.key("camera"), &raw.camera)?;
@@ -174,7 +200,9 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         meters_per_unit: units.meters_per_unit(),
         materials,
         facets,
+        objects,
         point_sources,
+        point_source_groups,
         camera,
         bands,
         sky,
@@ -548,14 +576,118 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
     })
 }
 
+/// The object's own `scale`, `rotate_z_deg` and `translate`, or one
+/// placement's (the same keys, the same checks).
+fn xform(
+    cx: &Ctx,
+    field: &FieldPath,
+    translate: Option<V3>,
+    rotate_z_deg: Option<f64>,
+    scale: Option<&RawScale>,
+) -> R<Xform> {
+    let translate = match translate {
+        Some(t) => cx.vec3(&field.key("translate"), t)?,
+        None => DVec3::ZERO,
+    };
+    let rot = match rotate_z_deg {
+        Some(r) => cx.finite(&field.key("rotate_z_deg"), r)?,
+        None => 0.0,
+    };
+    let scale = match scale {
+        None => DVec3::ONE,
+        Some(RawScale::Uniform(s)) => DVec3::splat(*s),
+        Some(RawScale::PerAxis(v)) => DVec3::from_array(v.0),
+    };
+    if !(scale.is_finite() && scale.min_element() > 0.0) {
+        return Err(cx.err(
+            &field.key("scale"),
+            format!("scale {scale} must be finite and > 0 on every axis"),
+        ));
+    }
+    Ok(Xform::new(scale, rot, translate))
+}
+
+/// The placements of an object or point source (`instances = […]` or
+/// `instances_csv = "…"`), `None` when it is placed once, and the field to
+/// blame for their number.
+fn placements(
+    cx: &Ctx,
+    field: &FieldPath,
+    inline: Option<&[RawPlacement]>,
+    csv: Option<&str>,
+) -> R<(Option<Vec<Placement>>, FieldPath)> {
+    let inf = field.key("instances");
+    let csvf = field.key("instances_csv");
+    match (inline, csv) {
+        (None, None) => Ok((None, field.clone())),
+        (Some(_), Some(_)) => Err(cx.err(
+            &csvf,
+            "give either `instances` (a list) or `instances_csv` (a file), not both",
+        )),
+        (Some(list), None) => {
+            if list.is_empty() {
+                return Err(cx.err(
+                    &inf,
+                    "no placements: give at least one { translate = [x, y, z], … }, or remove `instances`",
+                ));
+            }
+            if list.len() > MAX_INSTANCES {
+                return Err(cx.err(
+                    &inf,
+                    format!(
+                        "{} placements, more than the limit of {MAX_INSTANCES} per object or point source",
+                        list.len()
+                    ),
+                ));
+            }
+            let mut out = Vec::with_capacity(list.len());
+            for (k, p) in list.iter().enumerate() {
+                out.push(Placement {
+                    xform: xform(
+                        cx,
+                        &inf.index(k),
+                        p.translate,
+                        p.rotate_z_deg,
+                        p.scale.as_ref(),
+                    )?,
+                    at: k,
+                });
+            }
+            Ok((Some(out), inf))
+        }
+        (None, Some(file)) => {
+            let p = cx.resolve(file);
+            let list = read_placements_csv(&p, MAX_COORDINATE)
+                .map_err(|m| cx.err(&csvf, format!("placements file {m}")))?;
+            Ok((Some(list), csvf))
+        }
+    }
+}
+
+/// An error about one placement: its entry in `instances = […]`, or the
+/// `instances_csv` line naming the file's line.
+fn placement_err(cx: &Ctx, pfield: &FieldPath, p: &Placement, msg: String) -> SceneError {
+    match pfield.0.last() {
+        Some(Seg::Key(k)) if k == "instances_csv" => cx.err(
+            pfield,
+            format!("placement on line {} of the placements file: {msg}", p.at),
+        ),
+        _ => cx.err(&pfield.index(p.at), msg),
+    }
+}
+
+/// Appends an object's facets to the scene's: its geometry, read once (the
+/// prototype), as it is or once per placement; every size is checked
+/// before it is allocated.
 fn object(
     cx: &Ctx,
     field: &FieldPath,
     name: &str,
     o: &RawObject,
     materials: &[Material],
-    facets: &mut Vec<Facet>,
-) -> R<()> {
+    scene_facets: &mut Vec<Facet>,
+) -> R<ObjectInfo> {
+    let before = scene_facets.len();
     let material = materials
         .iter()
         .position(|m| m.name == o.material)
@@ -575,23 +707,8 @@ fn object(
             )
         })?;
 
-    let translate = match o.translate {
-        Some(t) => cx.vec3(&field.key("translate"), t)?,
-        None => DVec3::ZERO,
-    };
-    let sfield = field.key("scale");
-    let scale = match &o.scale {
-        None => DVec3::ONE,
-        Some(RawScale::Uniform(s)) => DVec3::splat(*s),
-        Some(RawScale::PerAxis(v)) => DVec3::from_array(v.0),
-    };
-    if !(scale.is_finite() && scale.min_element() > 0.0) {
-        return Err(cx.err(
-            &sfield,
-            format!("scale {scale} must be finite and > 0 on every axis"),
-        ));
-    }
-    let xf = |p: DVec3| p * scale + translate;
+    let own = xform(cx, field, o.translate, o.rotate_z_deg, o.scale.as_ref())?;
+    let xf = |p: DVec3| own.point(p);
 
     let kinds = [
         o.vertices.is_some() || o.faces.is_some(),
@@ -614,6 +731,51 @@ fn object(
             ));
         }
     }
+
+    let (placements, placements_field) = placements(
+        cx,
+        field,
+        o.instances.as_deref(),
+        o.instances_csv.as_deref(),
+    )?;
+    let instances = placements.as_ref().map_or(1, Vec::len) as u128;
+    let bytes_each = facet_bytes(name);
+    // Every size is checked before it is allocated: the facets this object
+    // adds (prototype × placements) against the scene's limit and memory.
+    let budget = |prototype: usize, at: &FieldPath| -> R<()> {
+        check_budget(
+            before,
+            prototype as u128 * instances,
+            MAX_FACETS,
+            bytes_each,
+            cx.available_memory(),
+            "facets",
+        )
+        .map_err(|m| {
+            let per = if instances > 1 {
+                format!("{instances} placements × {prototype} facets: ")
+            } else {
+                String::new()
+            };
+            cx.err(at, format!("{per}{m}"))
+        })
+    };
+    let limit_at = |geometry: &str| {
+        if placements.is_some() {
+            placements_field.clone()
+        } else {
+            field.key(geometry)
+        }
+    };
+
+    // An object placed once is built straight into the scene's list; an
+    // instanced one into its prototype, then copied per placement.
+    let mut prototype: Vec<Facet> = Vec::new();
+    let facets = if placements.is_some() {
+        &mut prototype
+    } else {
+        &mut *scene_facets
+    };
     let mut push = |verts: Vec<DVec3>, at: &FieldPath| -> R<()> {
         check_facet(&verts).map_err(|m| cx.err(at, m))?;
         facets.push(Facet {
@@ -633,6 +795,7 @@ fn object(
                 "inline geometry needs both `vertices` and `faces`",
             ));
         };
+        budget(fs.len(), &limit_at("faces"))?;
         let mut pts = Vec::with_capacity(vs.len());
         for (i, v) in vs.iter().enumerate() {
             pts.push(xf(cx.vec3(&vf.index(i), *v)?));
@@ -651,7 +814,7 @@ fn object(
                     ),
                 ));
             }
-            let mut verts = Vec::with_capacity(4);
+            let mut verts = Vec::with_capacity(face.len());
             for &k in face {
                 let p = pts.get(k).ok_or_else(|| {
                     cx.err(
@@ -668,6 +831,7 @@ fn object(
         }
     } else if let Some(b) = &o.box_ {
         let bf = field.key("box");
+        budget(6, &limit_at("box"))?;
         let min = cx.vec3(&bf.key("min"), b.min)?;
         let max = cx.vec3(&bf.key("max"), b.max)?;
         if !(max.cmpgt(min).all()) {
@@ -697,6 +861,7 @@ fn object(
         }
     } else if let Some(q) = &o.quad {
         let qf = field.key("quad");
+        budget(1, &limit_at("quad"))?;
         let c = cx.vec3(&qf.key("center"), q.center)?;
         let n = cx.vec3(&qf.key("normal"), q.normal)?;
         let wa = match q.width_axis {
@@ -733,6 +898,10 @@ fn object(
         let bytes =
             gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_MESH_FILE_BYTES)
                 .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
+        // The face lines bound the facets: refuse an oversized mesh (or
+        // placement count) before the OBJ parser allocates for it.
+        budget(count_obj_faces(&bytes), &limit_at("obj"))?;
+        // The file is parsed once per object, however many placements.
         let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
             // Materials come from the scene file, not from .mtl files.
             Ok(Default::default())
@@ -752,7 +921,21 @@ fn object(
                 ));
             }
         }
-        let mut count = 0usize;
+        let faces: usize = models
+            .iter()
+            .map(|m| {
+                if m.mesh.face_arities.is_empty() {
+                    m.mesh.indices.len() / 3
+                } else {
+                    m.mesh.face_arities.len()
+                }
+            })
+            .sum();
+        if faces == 0 {
+            return Err(cx.err(&at, format!("OBJ file {} has no faces", p.display())));
+        }
+        budget(faces, &limit_at("obj"))?;
+        facets.reserve(faces);
         for model in &models {
             let mesh = &model.mesh;
             let pos = |k: u32| -> Option<DVec3> {
@@ -760,42 +943,161 @@ fn object(
                 let s = mesh.positions.get(k..k + 3)?;
                 Some(DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64))
             };
-            let arities: Vec<usize> = if mesh.face_arities.is_empty() {
-                vec![3; mesh.indices.len() / 3]
+            let n_faces = if mesh.face_arities.is_empty() {
+                mesh.indices.len() / 3
             } else {
-                mesh.face_arities.iter().map(|&a| a as usize).collect()
+                mesh.face_arities.len()
             };
             let mut start = 0usize;
-            for (fi, &n) in arities.iter().enumerate() {
+            for fi in 0..n_faces {
+                let n = mesh.face_arities.get(fi).map_or(3, |&a| a as usize);
                 let idx = mesh.indices.get(start..start + n).unwrap_or(&[]);
                 start += n;
-                let what = format!("{} (model '{}', face {fi})", p.display(), model.name);
+                // Formatted only for an error: building it for every face
+                // cost more than the face itself.
+                let what = || format!("{} (model '{}', face {fi})", p.display(), model.name);
                 if !(n == 3 || n == 4) {
                     return Err(cx.err(
                         &at,
-                        format!("{what}: a face has 3 or 4 vertices, this one has {n}; split it"),
+                        format!(
+                            "{}: a face has 3 or 4 vertices, this one has {n}; split it",
+                            what()
+                        ),
                     ));
                 }
                 let mut verts = Vec::with_capacity(n);
                 for &k in idx {
                     let v = pos(k).ok_or_else(|| {
-                        cx.err(&at, format!("{what}: vertex index {k} is out of range"))
+                        cx.err(&at, format!("{}: vertex index {k} is out of range", what()))
                     })?;
                     verts.push(xf(v));
                 }
-                check_facet(&verts).map_err(|m| cx.err(&at, format!("{what}: {m}")))?;
-                push(verts, &at)?;
-                count += 1;
+                check_facet(&verts).map_err(|m| cx.err(&at, format!("{}: {m}", what())))?;
+                facets.push(Facet {
+                    vertices: verts,
+                    material,
+                    object: name.to_string(),
+                });
             }
         }
-        if count == 0 {
-            return Err(cx.err(&at, format!("OBJ file {} has no faces", p.display())));
+    }
+    let prototype_facets = facets.len() - if placements.is_some() { 0 } else { before };
+    if let Some(placements) = &placements {
+        expand(cx, &placements_field, placements, &prototype, scene_facets)?;
+    }
+    Ok(ObjectInfo {
+        name: name.to_string(),
+        material,
+        prototype_facets,
+        instances: placements.as_ref().map_or(1, Vec::len),
+        instanced: placements.is_some(),
+        first_facet: before,
+    })
+}
+
+/// Appends one transformed copy of `prototype` per placement (in placement
+/// order).
+fn expand(
+    cx: &Ctx,
+    pfield: &FieldPath,
+    placements: &[Placement],
+    prototype: &[Facet],
+    facets: &mut Vec<Facet>,
+) -> R<()> {
+    facets.reserve(prototype.len() * placements.len());
+    for pl in placements {
+        let x = pl.xform;
+        let check = !x.is_similarity();
+        for (j, f) in prototype.iter().enumerate() {
+            let verts: Vec<DVec3> = f.vertices.iter().map(|&p| x.point(p)).collect();
+            // A similarity keeps a valid facet valid (planar, convex, of
+            // non-zero area); only finiteness can change. A per-axis scale
+            // is checked facet by facet.
+            let bad = if check {
+                check_facet(&verts).err()
+            } else if !verts.iter().all(|v| v.is_finite()) {
+                Some("a vertex is not finite after the transform".to_string())
+            } else {
+                None
+            };
+            if let Some(m) = bad {
+                return Err(placement_err(
+                    cx,
+                    pfield,
+                    pl,
+                    format!("facet {j} of the prototype: {m}"),
+                ));
+            }
+            facets.push(Facet {
+                vertices: verts,
+                material: f.material,
+                object: f.object.clone(),
+            });
         }
     }
     Ok(())
 }
 
-fn point_source(cx: &Ctx, field: &FieldPath, name: &str, p: &RawPointSource) -> R<PointSource> {
+/// Appends a point source, or one per placement: position and direction
+/// transformed like an object's geometry, intensity unchanged.
+fn point_source(
+    cx: &Ctx,
+    field: &FieldPath,
+    name: &str,
+    p: &RawPointSource,
+    out: &mut Vec<PointSource>,
+) -> R<()> {
+    let proto = point_source_prototype(cx, field, name, p)?;
+    let (placements, pfield) = placements(
+        cx,
+        field,
+        p.instances.as_deref(),
+        p.instances_csv.as_deref(),
+    )?;
+    let Some(placements) = placements else {
+        check_budget(out.len(), 1, MAX_POINT_SOURCES, 0, None, "point sources")
+            .map_err(|m| cx.err(field, m))?;
+        out.push(proto);
+        return Ok(());
+    };
+    let s = &proto.intensity_w_sr_nm;
+    let bytes_each = std::mem::size_of::<PointSource>()
+        + 16 * s.values().len()
+        + std::mem::size_of_val(s.lines())
+        + name.len()
+        + 64;
+    check_budget(
+        out.len(),
+        placements.len() as u128,
+        MAX_POINT_SOURCES,
+        bytes_each,
+        cx.available_memory(),
+        "point sources",
+    )
+    .map_err(|m| cx.err(&pfield, format!("{} placements: {m}", placements.len())))?;
+    out.reserve_exact(placements.len());
+    for pl in &placements {
+        let position = pl.xform.point(proto.position);
+        let direction = pl.xform.direction(proto.direction).normalize_or_zero();
+        if !(position.is_finite() && direction.is_finite() && direction != DVec3::ZERO) {
+            let msg = format!("point source '{name}' is not finite after the transform");
+            return Err(placement_err(cx, &pfield, pl, msg));
+        }
+        out.push(PointSource {
+            position,
+            direction,
+            ..proto.clone()
+        });
+    }
+    Ok(())
+}
+
+fn point_source_prototype(
+    cx: &Ctx,
+    field: &FieldPath,
+    name: &str,
+    p: &RawPointSource,
+) -> R<PointSource> {
     let position = cx.vec3(&field.key("position"), p.position)?;
     let df = field.key("direction");
     let direction = match p.direction {

@@ -15,11 +15,13 @@ pub use gloam_spectra::Spectrum;
 mod build;
 mod error;
 mod geometry;
+mod instance;
 pub mod plan;
 mod raw;
 
 pub use error::SceneError;
 pub use geometry::{PLANARITY_TOLERANCE, check_facet};
+pub use instance::{MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, PLACEMENTS_CSV_HEADER};
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
 /// OBJ files, sensor files) are resolved against the scene file's directory.
@@ -73,9 +75,18 @@ pub struct Scene {
     pub meters_per_unit: f64,
     /// Materials in file order; [`Facet::material`] indexes this.
     pub materials: Vec<Material>,
-    /// Every facet of every object, in file order.
+    /// Every facet of every object, in file order; an instanced object's
+    /// facets are its prototype's, once per placement, in placement order
+    /// (see [`Scene::objects`] and [`Scene::facet_origin`]).
     pub facets: Vec<Facet>,
+    /// The `[objects.NAME]` tables in file order, each with the range of
+    /// [`Scene::facets`] it produced.
+    pub objects: Vec<ObjectInfo>,
+    /// Every point source, placements expanded, in file order.
     pub point_sources: Vec<PointSource>,
+    /// The `[point_sources.NAME]` tables in file order, each with the range
+    /// of [`Scene::point_sources`] it produced.
+    pub point_source_groups: Vec<PointSourceGroup>,
     pub camera: Camera,
     /// Bands in file order (at least one).
     pub bands: Vec<Band>,
@@ -117,6 +128,132 @@ impl Scene {
     /// The directory relative paths in the scene are resolved against.
     pub fn base_dir(&self) -> &Path {
         base_dir(&self.path)
+    }
+
+    /// Which object, placement and prototype facet facet `i` came from
+    /// (`None` when `i` is out of range). O(log objects), no per-facet
+    /// storage.
+    pub fn facet_origin(&self, i: usize) -> Option<FacetOrigin> {
+        let k = self.objects.partition_point(|o| o.first_facet <= i);
+        let o = self.objects.get(k.checked_sub(1)?)?;
+        let local = i - o.first_facet;
+        if local >= o.prototype_facets * o.instances || o.prototype_facets == 0 {
+            return None;
+        }
+        Some(FacetOrigin {
+            object: k - 1,
+            instance: local / o.prototype_facets,
+            prototype_facet: local % o.prototype_facets,
+        })
+    }
+
+    /// Which `[point_sources.NAME]` table (index into
+    /// [`Scene::point_source_groups`]) and which of its placements point
+    /// source `i` came from.
+    pub fn point_source_origin(&self, i: usize) -> Option<(usize, usize)> {
+        let k = self.point_source_groups.partition_point(|g| g.first <= i);
+        let g = self.point_source_groups.get(k.checked_sub(1)?)?;
+        (i - g.first < g.instances).then_some((k - 1, i - g.first))
+    }
+
+    /// How much the file describes and how much instancing made of it.
+    pub fn counts(&self) -> SceneCounts {
+        SceneCounts {
+            objects: self.objects.len(),
+            instanced_objects: self.objects.iter().filter(|o| o.instanced).count(),
+            instances: self.objects.iter().map(|o| o.instances).sum(),
+            prototype_facets: self.objects.iter().map(|o| o.prototype_facets).sum(),
+            facets: self.facets.len(),
+            point_source_prototypes: self.point_source_groups.len(),
+            point_sources: self.point_sources.len(),
+        }
+    }
+}
+
+/// One `[objects.NAME]` table and the facets it produced: its prototype
+/// (the geometry as written, with the object's own transform) once per
+/// placement, `prototype_facets × instances` facets from `first_facet` on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectInfo {
+    pub name: String,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+    /// Facets of one copy.
+    pub prototype_facets: usize,
+    /// Placements: 1 for an object without `instances`/`instances_csv`.
+    pub instances: usize,
+    /// True when the object has `instances` or `instances_csv` (even with
+    /// a single placement).
+    pub instanced: bool,
+    /// Index of its first facet in [`Scene::facets`].
+    pub first_facet: usize,
+}
+
+impl ObjectInfo {
+    /// Its facets' indices in [`Scene::facets`].
+    pub fn facets(&self) -> std::ops::Range<usize> {
+        self.first_facet..self.first_facet + self.prototype_facets * self.instances
+    }
+
+    /// The facets of placement `k` (in the order of the list or CSV rows).
+    pub fn instance_facets(&self, k: usize) -> std::ops::Range<usize> {
+        let a = self.first_facet + k * self.prototype_facets;
+        a..a + self.prototype_facets
+    }
+}
+
+/// Where a facet came from: [`Scene::objects`]`[object]`, its placement
+/// `instance` (0 for an object placed once), and the facet's index in the
+/// object's prototype.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FacetOrigin {
+    pub object: usize,
+    pub instance: usize,
+    pub prototype_facet: usize,
+}
+
+/// One `[point_sources.NAME]` table: `instances` point sources from
+/// `first` on in [`Scene::point_sources`] (1 without placements), all with
+/// its name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointSourceGroup {
+    pub name: String,
+    pub instances: usize,
+    pub first: usize,
+}
+
+/// Sizes of a scene before and after instancing (see [`Scene::counts`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneCounts {
+    /// `[objects.NAME]` tables.
+    pub objects: usize,
+    /// Of those, the ones with `instances`/`instances_csv`.
+    pub instanced_objects: usize,
+    /// Placements over all objects (an object placed once counts 1).
+    pub instances: usize,
+    /// Facets as described: one copy of each object.
+    pub prototype_facets: usize,
+    /// Facets after expansion (`Scene::facets.len()`).
+    pub facets: usize,
+    /// `[point_sources.NAME]` tables.
+    pub point_source_prototypes: usize,
+    /// Point sources after expansion.
+    pub point_sources: usize,
+}
+
+impl std::fmt::Display for SceneCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} objects ({} instanced, {} placements), {} prototype facets → {} facets; {} point source tables → {} point sources",
+            self.objects,
+            self.instanced_objects,
+            self.instances,
+            self.prototype_facets,
+            self.facets,
+            self.point_source_prototypes,
+            self.point_sources
+        )
     }
 }
 

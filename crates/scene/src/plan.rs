@@ -146,6 +146,27 @@ fn list<S: AsRef<str>>(items: &[S]) -> String {
     s.join(", ")
 }
 
+/// `(name, detail)` entries with runs of equal ones merged: the placements
+/// of an instanced point source are listed once, as `name ×n detail`.
+fn grouped<'a>(items: impl Iterator<Item = (&'a str, String)>) -> Vec<String> {
+    let mut runs: Vec<(&str, String, usize)> = Vec::new();
+    for (name, detail) in items {
+        match runs.last_mut() {
+            Some((n, d, k)) if *n == name && *d == detail => *k += 1,
+            _ => runs.push((name, detail, 1)),
+        }
+    }
+    runs.into_iter()
+        .map(|(n, d, k)| {
+            if k > 1 {
+                format!("{n} ×{k}{d}")
+            } else {
+                format!("{n}{d}")
+            }
+        })
+        .collect()
+}
+
 fn fmt_num(x: f64) -> String {
     if x == x.trunc() && x.abs() < 1e9 {
         format!("{}", x as i64)
@@ -212,12 +233,19 @@ pub fn plan(scene: &Scene) -> EffectPlan {
     });
 
     // Point sources, shaped and isotropic.
-    let shaped: Vec<String> = scene
-        .point_sources
-        .iter()
-        .filter(|p| p.is_shaped())
-        .map(|p| format!("{} m = {}", p.name, fmt_num(p.shape_exponent)))
-        .collect();
+    let n_shaped = scene.point_sources.iter().filter(|p| p.is_shaped()).count();
+    let shaped = grouped(
+        scene
+            .point_sources
+            .iter()
+            .filter(|p| p.is_shaped())
+            .map(|p| {
+                (
+                    p.name.as_str(),
+                    format!(" m = {}", fmt_num(p.shape_exponent)),
+                )
+            }),
+    );
     effects.push(if shaped.is_empty() {
         Effect::new(
             names::SHAPED_POINT_SOURCES,
@@ -230,17 +258,19 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             true,
             format!(
                 "{} with m > 0 ({})",
-                count(shaped.len(), "point source", "point sources"),
+                count(n_shaped, "point source", "point sources"),
                 list(&shaped)
             ),
         )
     });
-    let iso: Vec<&str> = scene
-        .point_sources
-        .iter()
-        .filter(|p| !p.is_shaped())
-        .map(|p| p.name.as_str())
-        .collect();
+    let n_iso = scene.point_sources.len() - n_shaped;
+    let iso = grouped(
+        scene
+            .point_sources
+            .iter()
+            .filter(|p| !p.is_shaped())
+            .map(|p| (p.name.as_str(), String::new())),
+    );
     effects.push(if iso.is_empty() {
         Effect::new(
             names::POINT_SOURCES,
@@ -253,11 +283,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             true,
             format!(
                 "{} ({})",
-                count(
-                    iso.len(),
-                    "isotropic point source",
-                    "isotropic point sources"
-                ),
+                count(n_iso, "isotropic point source", "isotropic point sources"),
                 list(&iso)
             ),
         )
@@ -367,13 +393,15 @@ pub fn plan(scene: &Scene) -> EffectPlan {
         }
     }
     let mut seen_points = 0usize;
+    let mut seen_lamps = Vec::new();
     for p in &scene.point_sources {
         let toward = (cam.position - p.position).dot(p.direction) > 0.0;
         if (!p.is_shaped() || toward) && cam.sees_point(p.position) {
             seen_points += 1;
-            seen.push(p.name.clone());
+            seen_lamps.push((p.name.as_str(), String::new()));
         }
     }
+    seen.extend(grouped(seen_lamps.into_iter()));
     effects.push(if seen.is_empty() {
         Effect::new(
             names::DIRECT_VIEW,

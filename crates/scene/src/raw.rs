@@ -155,6 +155,8 @@ pub(crate) struct RawPointSource {
     pub lines: Option<RawLines>,
     pub scale: Option<f64>,
     pub normalize: Option<RawNormalize>,
+    pub instances: Option<Vec<RawPlacement>>,
+    pub instances_csv: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -168,6 +170,19 @@ pub(crate) struct RawObject {
     pub quad: Option<RawQuad>,
     pub obj: Option<String>,
     pub translate: Option<V3>,
+    pub rotate_z_deg: Option<f64>,
+    pub scale: Option<RawScale>,
+    pub instances: Option<Vec<RawPlacement>>,
+    pub instances_csv: Option<String>,
+}
+
+/// One placement of an instanced object or point source:
+/// `{ translate = [x, y, z], rotate_z_deg = θ, scale = s | [sx, sy, sz] }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawPlacement {
+    pub translate: Option<V3>,
+    pub rotate_z_deg: Option<f64>,
     pub scale: Option<RawScale>,
 }
 

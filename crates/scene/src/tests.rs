@@ -1237,3 +1237,484 @@ fn message_of(e: &SceneError) -> &str {
         SceneError::Io { .. } => "",
     }
 }
+
+// --- instancing ----------------------------------------------------------------
+
+/// An inline triangle object `t` with vertices (0,0,0), (1,0,0), (1,2,0)
+/// (area 1) and the given extra keys.
+fn triangle_object(extra: &str) -> String {
+    format!(
+        "{BASE}[objects.t]\nmaterial = \"grey\"\nvertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]\nfaces = [[0, 1, 2]]\n{extra}"
+    )
+}
+
+#[test]
+fn instanced_facet_count_is_prototype_facets_times_placements() {
+    // A box without its bottom: 5 facets, placed 3 times inline.
+    let text = format!(
+        "{BASE}[objects.crate]\nmaterial = \"grey\"\nbox = {{ min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0], omit = [\"bottom\"] }}\ninstances = [\n  {{ translate = [2.0, 0.0, 0.0] }},\n  {{ translate = [4.0, 0.0, 0.0], rotate_z_deg = 45.0 }},\n  {{ translate = [6.0, 0.0, 0.0], scale = 0.5 }},\n]\n"
+    );
+    let s = parse(&text).unwrap();
+    assert_eq!(s.facets.len(), 1 + 5 * 3);
+    let c = s.counts();
+    assert_eq!(
+        (
+            c.objects,
+            c.instanced_objects,
+            c.instances,
+            c.prototype_facets,
+            c.facets
+        ),
+        (2, 1, 1 + 3, 1 + 5, 16)
+    );
+    let o = &s.objects[1];
+    assert_eq!(
+        (o.name.as_str(), o.prototype_facets, o.instances),
+        ("crate", 5, 3)
+    );
+    assert_eq!(o.facets(), 1..16);
+    assert_eq!(o.instance_facets(2), 11..16);
+    assert!(s.facets[1..].iter().all(|f| f.object == "crate"));
+    // Provenance by facet index, independent of the stored ranges' use.
+    assert_eq!(
+        s.facet_origin(0),
+        Some(crate::FacetOrigin {
+            object: 0,
+            instance: 0,
+            prototype_facet: 0
+        })
+    );
+    assert_eq!(
+        s.facet_origin(1 + 5 + 3),
+        Some(crate::FacetOrigin {
+            object: 1,
+            instance: 1,
+            prototype_facet: 3
+        })
+    );
+    assert_eq!(s.facet_origin(16), None);
+
+    // 1 000 placements from a CSV file: 5 000 facets.
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("x,y,z,rotate_z_deg,scale\n");
+    for i in 0..1000 {
+        csv.push_str(&format!(
+            "{},{},0,{},1\n",
+            2 * (i % 40),
+            2 * (i / 40),
+            i % 360
+        ));
+    }
+    std::fs::write(dir.path().join("crates.csv"), csv).unwrap();
+    let text = format!(
+        "{BASE}[objects.crate]\nmaterial = \"grey\"\nbox = {{ min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0], omit = [\"bottom\"] }}\ninstances_csv = \"crates.csv\"\n"
+    );
+    let s = parse_str(&text, &scene_path(dir.path())).unwrap();
+    assert_eq!(s.facets.len(), 1 + 5 * 1000);
+    assert_eq!(s.counts().instances, 1 + 1000);
+}
+
+#[test]
+fn instance_vertices_are_the_transformed_prototype() {
+    // Scale 2, then 90° counter-clockwise about +z: (x, y, z) ↦ (−2y, 2x, 2z),
+    // then translate (10, 20, 30). Multiples of 90° are exact.
+    let text = triangle_object(
+        "instances = [{ translate = [10.0, 20.0, 30.0], rotate_z_deg = 90.0, scale = 2.0 }]\n",
+    );
+    let s = parse(&text).unwrap();
+    let v = &s.facets[1].vertices;
+    assert_eq!(v[0], DVec3::new(10.0, 20.0, 30.0));
+    assert_eq!(v[1], DVec3::new(10.0, 22.0, 30.0));
+    assert_eq!(v[2], DVec3::new(6.0, 22.0, 30.0));
+    // The front side still faces +z (a rotation about z keeps it).
+    assert_eq!(s.facets[1].normal(), DVec3::Z);
+
+    // An arbitrary angle: (1, 0, 0) ↦ (cos 30°, sin 30°, 0); the object's
+    // own transform (translate x by 1, then) applies before the placement's.
+    let text = triangle_object(
+        "translate = [1.0, 0.0, 0.0]\ninstances = [{ rotate_z_deg = 30.0 }, { rotate_z_deg = -90.0, translate = [0.0, 0.0, 5.0] }]\n",
+    );
+    let s = parse(&text).unwrap();
+    let (c, h) = (3f64.sqrt() / 2.0, 0.5);
+    let a = &s.facets[1].vertices;
+    assert!((a[0] - DVec3::new(c, h, 0.0)).length() < 1e-15, "{}", a[0]);
+    assert!((a[1] - DVec3::new(2.0 * c, 2.0 * h, 0.0)).length() < 1e-15);
+    // (2, 2, 0) rotated by 30°: (2c − 2h, 2h + 2c, 0).
+    assert!((a[2] - DVec3::new(2.0 * c - 1.0, 1.0 + 2.0 * c, 0.0)).length() < 1e-14);
+    // −90°: (x, y, z) ↦ (y, −x, z), exactly.
+    let b = &s.facets[2].vertices;
+    assert_eq!(b[0], DVec3::new(0.0, -1.0, 5.0));
+    assert_eq!(b[2], DVec3::new(2.0, -2.0, 5.0));
+
+    // An object-level rotation is the same transform as a single placement.
+    let own = parse(&triangle_object(
+        "scale = 2.0\nrotate_z_deg = 90.0\ntranslate = [10.0, 20.0, 30.0]\n",
+    ))
+    .unwrap();
+    assert_eq!(own.facets[1].vertices, s_first(&parse(&triangle_object(
+        "instances = [{ translate = [10.0, 20.0, 30.0], rotate_z_deg = 90.0, scale = 2.0 }]\n",
+    ))
+    .unwrap()));
+    assert!(!own.objects[1].instanced);
+}
+
+fn s_first(s: &crate::Scene) -> Vec<DVec3> {
+    s.facets[1].vertices.clone()
+}
+
+#[test]
+fn instance_area_scales_as_scale_squared() {
+    let text = triangle_object(
+        "instances = [{ scale = 1.0 }, { scale = 3.0, rotate_z_deg = 17.0 }, { scale = 0.25 }, { scale = [2.0, 5.0, 7.0] }]\n",
+    );
+    let s = parse(&text).unwrap();
+    let areas: Vec<f64> = s.facets[1..].iter().map(Facet::area).collect();
+    // The prototype's area is 1 (base 1, height 2); a per-axis scale of a
+    // facet in the xy-plane multiplies it by sx·sy.
+    for (a, want) in areas.iter().zip([1.0, 9.0, 0.0625, 10.0]) {
+        assert!((a - want).abs() < 1e-12 * want, "{a} vs {want}");
+    }
+}
+
+#[test]
+fn placement_errors_name_file_line_and_field() {
+    // Inline: the entry and its key.
+    let l = next_line() + 4;
+    expect_err(
+        &triangle_object("instances = [{ scale = 1.0 }, { scale = -2.0 }]\n"),
+        l,
+        "objects.t.instances[1].scale",
+        "must be finite and > 0",
+    );
+    expect_err(
+        &triangle_object("instances = [{ rotate = 90.0 }]\n"),
+        l,
+        "objects.t.instances[0].rotate",
+        "unknown field `rotate`",
+    );
+    expect_err(
+        &triangle_object("instances = []\n"),
+        l,
+        "objects.t.instances",
+        "no placements",
+    );
+    expect_err(
+        &triangle_object("instances = [{ translate = [1.0, 2.0] }]\n"),
+        l,
+        "objects.t.instances[0].translate",
+        "3 numbers",
+    );
+    expect_err(
+        &triangle_object("instances = [{ rotate_z_deg = nan }]\n"),
+        l,
+        "objects.t.instances[0].rotate_z_deg",
+        "not a finite number",
+    );
+
+    // CSV: the scene line of `instances_csv`, and the file and its line.
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_path(dir.path());
+    let csv_err = |csv: &str, needle: &str| {
+        std::fs::write(dir.path().join("p.csv"), csv).unwrap();
+        expect_err_at(
+            &triangle_object("instances_csv = \"p.csv\"\n"),
+            &path,
+            l,
+            "objects.t.instances_csv",
+            needle,
+        )
+    };
+    let m = csv_err(
+        "x,y,z,rotate_z_deg,scale\n# a comment\n1,2,3,0,1\n4,5,6,0,-1\n",
+        "p.csv:4: scale = -1 must be finite and > 0",
+    );
+    assert!(m.contains("placements file"), "{m}");
+    csv_err("1,2,3,0,1\n1,2,3,0\n", "p.csv:2: expected 5 columns");
+    csv_err("1,2,3,0,1\n1,2,x,0,1\n", "p.csv:2: expected five numbers");
+    csv_err(
+        "x,y,z,scale,rotate_z_deg\n1,2,3,0,1\n",
+        "p.csv:1: expected five numbers",
+    );
+    csv_err(
+        "\n1,2,inf,0,1\n",
+        "p.csv:2: z = inf must be a finite number",
+    );
+    csv_err("x,y,z,rotate_z_deg,scale\n", "no placements");
+    csv_err("1,2,3,1e400,1\n", "p.csv:1: rotate_z_deg = inf");
+    // Spaces or tabs separate columns too; a header is optional.
+    std::fs::write(dir.path().join("p.csv"), "1 2 3 0 1\n4\t5\t6\t90\t2\n").unwrap();
+    let s = parse_str(&triangle_object("instances_csv = \"p.csv\"\n"), &path).unwrap();
+    assert_eq!(s.facets.len(), 3);
+    assert_eq!(s.facets[2].vertices[1], DVec3::new(4.0, 7.0, 6.0));
+
+    // A placement the facets cannot take (a per-axis scale flattening a
+    // facet is checked like any facet) names the placement.
+    expect_err(
+        &triangle_object("instances = [{ scale = 1.0 }, { scale = [1.0, 1e-300, 1.0] }]\n"),
+        l,
+        "objects.t.instances[1]",
+        "facet 0 of the prototype",
+    );
+    std::fs::write(dir.path().join("p.csv"), "0,0,0,0,1\n0,0,0,0,1e300\n").unwrap();
+    // The object's own scale 1e10, then 1e300: beyond f64.
+    expect_err_at(
+        &triangle_object("scale = 1e10\ninstances_csv = \"p.csv\"\n"),
+        &path,
+        l + 1,
+        "objects.t.instances_csv",
+        "placement on line 2 of the placements file: facet 0 of the prototype: a vertex is not finite",
+    );
+}
+
+#[test]
+fn missing_or_unreadable_placements_and_objects() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_path(dir.path());
+    let l = next_line() + 4;
+    expect_err_at(
+        &triangle_object("instances_csv = \"missing.csv\"\n"),
+        &path,
+        l,
+        "objects.t.instances_csv",
+        "missing.csv: cannot read",
+    );
+    expect_err_at(
+        &triangle_object("instances_csv = \"/dev/zero\"\n"),
+        &path,
+        l,
+        "objects.t.instances_csv",
+        "not a regular file",
+    );
+    // A FIFO is refused without being opened (opening one would wait for
+    // a writer forever).
+    let fifo = dir.path().join("f.csv");
+    if std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        expect_err_at(
+            &triangle_object("instances_csv = \"f.csv\"\n"),
+            &path,
+            l,
+            "objects.t.instances_csv",
+            "not a regular file",
+        );
+    }
+    std::fs::create_dir(dir.path().join("d.csv")).unwrap();
+    expect_err_at(
+        &triangle_object("instances_csv = \"d.csv\"\n"),
+        &path,
+        l,
+        "objects.t.instances_csv",
+        "is a directory",
+    );
+    std::fs::write(dir.path().join("p.csv"), "0,0,0,0,1\n").unwrap();
+    expect_err_at(
+        &triangle_object("instances = [{}]\ninstances_csv = \"p.csv\"\n"),
+        &path,
+        l + 1,
+        "objects.t.instances_csv",
+        "not both",
+    );
+    // An instanced object whose OBJ file is missing, or that has no
+    // geometry at all.
+    let text = format!(
+        "{BASE}[objects.lamp]\nmaterial = \"grey\"\nobj = \"lamp.obj\"\ninstances = [{{}}]\n"
+    );
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.lamp.obj",
+        "cannot read OBJ file",
+    );
+    let text = format!("{BASE}[objects.lamp]\nmaterial = \"grey\"\ninstances = [{{}}]\n");
+    expect_err(&text, next_line(), "objects.lamp", "no geometry");
+}
+
+#[test]
+fn over_limit_instance_counts_are_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_path(dir.path());
+    // 100 faces × 200 001 placements = 20 000 100 facets > MAX_FACETS. The
+    // OBJ's faces point at vertices it does not have: the count is refused
+    // from the face lines alone, before the file is parsed.
+    assert_eq!(crate::MAX_FACETS, 20_000_000);
+    std::fs::write(dir.path().join("m.obj"), "f 1 2 3\n".repeat(100)).unwrap();
+    std::fs::write(dir.path().join("p.csv"), "0,0,0,0,1\n".repeat(200_001)).unwrap();
+    let text = format!(
+        "{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"m.obj\"\ninstances_csv = \"p.csv\"\n"
+    );
+    let m = expect_err_at(
+        &text,
+        &path,
+        next_line() + 3,
+        "objects.m.instances_csv",
+        "200001 placements × 100 facets: 20000100 facets here plus 1 before it would exceed the limit of 20000000 facets",
+    );
+    assert!(!m.contains("out of bounds"), "{m}");
+    // Fewer placements fit, and the file is parsed: the bad indices are
+    // found.
+    std::fs::write(dir.path().join("p.csv"), "0,0,0,0,1\n".repeat(1000)).unwrap();
+    expect_err_at(
+        &text,
+        &path,
+        next_line() + 2,
+        "objects.m.obj",
+        "out of bounds",
+    );
+}
+
+#[test]
+fn size_budget_counts_items_and_memory() {
+    use crate::instance::check_budget;
+    assert!(check_budget(0, 10, 10, 100, Some(1000), "facets").is_ok());
+    let e = check_budget(5, 6, 10, 1, None, "facets").unwrap_err();
+    assert!(e.contains("6 facets here plus 5 before it"), "{e}");
+    let e = check_budget(0, 11, 100, 100, Some(1000), "facets").unwrap_err();
+    assert!(
+        e.contains("more than the") && e.contains("memory available"),
+        "{e}"
+    );
+    // Placements past the limit are refused at the first row over.
+    let e = crate::instance::parse_placements_csv(
+        "# three\n0,0,0,0,1\n1,0,0,0,1\n2,0,0,0,1\n",
+        Path::new("p.csv"),
+        1e12,
+        2,
+    )
+    .unwrap_err();
+    assert_eq!(
+        e,
+        "p.csv:4: more than 2 placements (the limit per object or point source)"
+    );
+    // The documented estimate.
+    assert_eq!(crate::instance::facet_bytes("street_lamp"), 256);
+    // No overflow however large the product.
+    assert!(check_budget(usize::MAX, u128::MAX / 2, usize::MAX, usize::MAX, None, "x").is_err());
+}
+
+#[test]
+fn point_sources_can_be_instanced() {
+    let text = format!(
+        "{BASE}[point_sources.lamp]\nposition = [1.0, 0.0, 6.0]\ndirection = [1.0, 0.0, -1.0]\nshape_exponent = 2\nvalue = 0.5\ninstances = [{{ translate = [0.0, 0.0, 0.0] }}, {{ translate = [10.0, 0.0, 0.0], rotate_z_deg = 90.0 }}, {{ translate = [0.0, 5.0, 0.0], scale = 2.0 }}]\n\n[point_sources.porch]\nposition = [0.0, 0.0, 3.0]\nvalue = 0.1\n"
+    );
+    let s = parse(&text).unwrap();
+    assert_eq!(s.point_sources.len(), 4);
+    let p = &s.point_sources;
+    let r = std::f64::consts::FRAC_1_SQRT_2;
+    assert_eq!(p[0].position, DVec3::new(1.0, 0.0, 6.0));
+    assert_eq!(p[1].position, DVec3::new(10.0, 1.0, 6.0));
+    assert!((p[1].direction - DVec3::new(0.0, r, -r)).length() < 1e-15);
+    assert_eq!(p[2].position, DVec3::new(2.0, 5.0, 12.0));
+    assert!((p[2].direction - DVec3::new(r, 0.0, -r)).length() < 1e-15);
+    // The intensity is the prototype's: placing a lamp does not change it.
+    assert!(p[..3].iter().all(|q| q.name == "lamp"
+        && q.intensity_w_sr_nm.integral() == p[0].intensity_w_sr_nm.integral()
+        && q.shape_exponent == 2.0));
+    assert_eq!(s.point_source_origin(2), Some((0, 2)));
+    assert_eq!(s.point_source_origin(3), Some((1, 0)));
+    assert_eq!(s.point_source_origin(4), None);
+    let c = s.counts();
+    assert_eq!((c.point_source_prototypes, c.point_sources), (2, 4));
+    // The plan lists a placed lamp once, with its count.
+    let pl = plan(&s);
+    let shaped = &pl.get("shaped-point-sources").unwrap().reason;
+    assert!(
+        shaped.starts_with("3 point sources with m > 0 (lamp ×3 m = 2)"),
+        "{shaped}"
+    );
+}
+
+#[test]
+fn documented_instances_parse_and_place_what_they_say() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let heading = "### Instances";
+    let toml = doc_block(doc, heading, "toml");
+    let csv = doc_block(doc, heading, "csv");
+    let dir = tempfile::tempdir().unwrap();
+    // A 2-facet car model in cm.
+    std::fs::write(
+        dir.path().join("car.obj"),
+        "v 0 0 0\nv 400 0 0\nv 400 180 0\nv 0 180 0\nv 0 0 150\nf 1 2 3 4\nf 1 2 5\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("cars.csv"), csv).unwrap();
+    let materials =
+        "[materials.wall]\nreflectance = 0.5\n\n[materials.paint]\nreflectance = 0.3\n\n";
+    let text = format!("{BASE}{materials}{toml}");
+    let s = parse_str(&text, &scene_path(dir.path())).unwrap_or_else(|e| panic!("{e}"));
+    let c = s.counts();
+    assert_eq!((c.instanced_objects, c.instances), (2, 1 + 3 + 3));
+    assert_eq!(s.facets.len(), 1 + 5 * 3 + 2 * 3);
+    // The third car: (4, 1.8, 0) m after the model's scale 0.01, scaled 1.1,
+    // turned 270° ((x, y) ↦ (y, −x)) and moved to (30, −3.5, 0).
+    let car = &s.objects[2];
+    let third = &s.facets[car.instance_facets(2)][0];
+    assert!((third.vertices[2] - DVec3::new(30.0 + 1.98, -3.5 - 4.4, 0.0)).length() < 1e-12);
+
+    // The documented errors are what the reader says.
+    let section = &doc[doc.find(heading).unwrap()..doc.find("## Point sources").unwrap()];
+    let quoted: Vec<&str> = section
+        .split('`')
+        .filter(|q| q.starts_with("scene.toml:"))
+        .collect();
+    assert_eq!(quoted.len(), 2);
+    std::fs::write(
+        dir.path().join("cars.csv"),
+        csv.replace("30.0,-3.5,0.0,270,1.1", "30.0,-3.5,0.0,270,-1"),
+    )
+    .unwrap();
+    let e = parse_str(&text, &scene_path(dir.path())).unwrap_err();
+    let (_, doc_msg) = quoted[1].split_once(": ").unwrap();
+    let (field, rest) = doc_msg.split_once(": placements file cars.csv").unwrap();
+    assert_eq!(e.field(), field);
+    assert!(
+        message_of(&e).ends_with(&format!("cars.csv{rest}")),
+        "{e}\nvs\n{doc_msg}"
+    );
+    let (_, doc_msg) = quoted[0].split_once(": ").unwrap();
+    let (field, msg) = doc_msg.split_once(": ").unwrap();
+    assert_eq!(field, "objects.tree.instances_csv");
+    assert!(msg.contains("200001 placements × 100 facets: 20000100 facets here plus 1 before it would exceed the limit of 20000000 facets per scene"));
+}
+
+#[test]
+fn documented_lamp_model_places_housing_and_source_together() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let section = &doc[doc.find("## Point sources").unwrap()..];
+    let open = section.find("```toml\n[objects.street_lamp]").unwrap() + "```toml\n".len();
+    let close = section[open..].find("```").unwrap();
+    let toml = &section[open..open + close];
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("street-lamp.obj"),
+        "v -0.2 -0.2 5.9\nv 0.2 -0.2 5.9\nv 0.2 0.2 5.9\nv -0.2 0.2 5.9\nf 4 3 2 1\n",
+    )
+    .unwrap();
+    let mut csv = String::new();
+    for i in 0..1000 {
+        csv.push_str(&format!("{},0,0,{},1\n", 30 * i, 180 * (i % 2)));
+    }
+    std::fs::write(dir.path().join("lamps.csv"), csv).unwrap();
+    let mat = "[materials.sodium_globe]\nemission = { spectrum = \"hps\", normalize = { lo_nm = 400, hi_nm = 700, value = 10.0 } }\n\n";
+    let s = parse_str(&format!("{BASE}{mat}{toml}"), &scene_path(dir.path()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.point_sources.len(), 1000);
+    assert_eq!(s.emitting_facets().len(), 1000);
+    // Lamp k sits 6 m above its placement, its globe around it, and the
+    // turned ones (180°) aim the other way along x.
+    for k in [0, 1, 999] {
+        let p = &s.point_sources[k];
+        let globe = s.facets[s.objects[1].instance_facets(k)][0].centroid();
+        assert!((p.position - DVec3::new(30.0 * k as f64, 0.0, 6.0)).length() < 1e-12);
+        // (OBJ coordinates are single precision.)
+        assert!((globe - (p.position - DVec3::new(0.0, 0.0, 0.1))).length() < 1e-6);
+        let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+        assert!((p.direction - DVec3::new(0.3 * sign, 0.0, -1.0).normalize()).length() < 1e-12);
+    }
+    let pl = plan(&s);
+    let r = &pl.get("shaped-point-sources").unwrap().reason;
+    assert!(r.contains("street_lamp ×1000 m = 3"), "{r}");
+}

@@ -1,0 +1,282 @@
+//! Instancing: the placement transform, placements read from a CSV file,
+//! and the size budget every expansion is checked against before anything
+//! is allocated.
+
+use std::path::Path;
+
+use glam::DVec3;
+
+use crate::Facet;
+
+/// Most facets a scene may hold after instances are expanded.
+pub const MAX_FACETS: usize = 20_000_000;
+/// Most placements one object or point source may have.
+pub const MAX_INSTANCES: usize = 1_000_000;
+/// Most point sources a scene may hold after instances are expanded.
+pub const MAX_POINT_SOURCES: usize = 1_000_000;
+
+/// `p ↦ R_z(θ)·(p ∘ scale) + translate`: scale (per axis), then rotate
+/// counter-clockwise about +z (seen from above), then translate. The same
+/// form serves an object's own `scale`/`rotate_z_deg`/`translate` and each
+/// of its placements.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Xform {
+    scale: DVec3,
+    cos: f64,
+    sin: f64,
+    translate: DVec3,
+}
+
+impl Xform {
+    /// `scale` positive and finite, `rotate_z_deg` finite (checked by the
+    /// callers). Multiples of 90° rotate exactly, so a grid of instances
+    /// stays on its grid.
+    pub(crate) fn new(scale: DVec3, rotate_z_deg: f64, translate: DVec3) -> Self {
+        let r = rotate_z_deg.rem_euclid(360.0);
+        let (sin, cos) = if r == 0.0 {
+            (0.0, 1.0)
+        } else if r == 90.0 {
+            (1.0, 0.0)
+        } else if r == 180.0 {
+            (0.0, -1.0)
+        } else if r == 270.0 {
+            (-1.0, 0.0)
+        } else {
+            r.to_radians().sin_cos()
+        };
+        Xform {
+            scale,
+            cos,
+            sin,
+            translate,
+        }
+    }
+
+    fn rotate(&self, v: DVec3) -> DVec3 {
+        DVec3::new(
+            self.cos * v.x - self.sin * v.y,
+            self.sin * v.x + self.cos * v.y,
+            v.z,
+        )
+    }
+
+    /// A point.
+    pub(crate) fn point(&self, p: DVec3) -> DVec3 {
+        self.rotate(p * self.scale) + self.translate
+    }
+
+    /// A direction attached to the geometry (a point source's aim): scaled
+    /// and rotated like the geometry, not translated; not normalised.
+    pub(crate) fn direction(&self, d: DVec3) -> DVec3 {
+        self.rotate(d * self.scale)
+    }
+
+    /// True when the transform preserves shape (uniform scale): a valid
+    /// facet stays valid, so the per-facet checks need not be repeated.
+    pub(crate) fn is_similarity(&self) -> bool {
+        self.scale.x == self.scale.y && self.scale.y == self.scale.z
+    }
+}
+
+/// One placement and where it was written, for errors.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Placement {
+    pub(crate) xform: Xform,
+    /// The entry's index in `instances = […]`, or its 1-based line in the
+    /// `instances_csv` file.
+    pub(crate) at: usize,
+}
+
+/// The header a placements CSV may start with.
+pub const PLACEMENTS_CSV_HEADER: &str = "x,y,z,rotate_z_deg,scale";
+
+/// Reads a placements CSV (`x,y,z,rotate_z_deg,scale` rows) through the
+/// bounded reader spectra use. Errors are `path:line: message`.
+pub(crate) fn read_placements_csv(
+    path: &Path,
+    max_coordinate: f64,
+) -> Result<Vec<Placement>, String> {
+    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    parse_placements_csv(&text, path, max_coordinate, MAX_INSTANCES)
+}
+
+/// Parses placements CSV text (`path` labels errors), refusing more than
+/// `max_placements` rows at the first row over.
+pub(crate) fn parse_placements_csv(
+    text: &str,
+    path: &Path,
+    max_coordinate: f64,
+    max_placements: usize,
+) -> Result<Vec<Placement>, String> {
+    let err = |line: usize, m: String| format!("{}:{line}: {m}", path.display());
+    let mut out = Vec::new();
+    let mut seen_row = false;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split([',', ';', '\t', ' '])
+            .map(str::trim)
+            .filter(|f| !f.is_empty())
+            .collect();
+        let parsed: Option<Vec<f64>> = fields.iter().map(|f| f.parse().ok()).collect();
+        let Some(nums) = parsed else {
+            if !seen_row && fields.join(",").eq_ignore_ascii_case(PLACEMENTS_CSV_HEADER) {
+                seen_row = true;
+                continue;
+            }
+            return Err(err(
+                line_no,
+                format!(
+                    "expected five numbers '{PLACEMENTS_CSV_HEADER}'{}, found '{line}'",
+                    if seen_row { "" } else { " (or that header)" }
+                ),
+            ));
+        };
+        seen_row = true;
+        let &[x, y, z, rot, s] = nums.as_slice() else {
+            return Err(err(
+                line_no,
+                format!(
+                    "expected 5 columns ({PLACEMENTS_CSV_HEADER}), found {}",
+                    nums.len()
+                ),
+            ));
+        };
+        for (name, v) in [("x", x), ("y", y), ("z", z)] {
+            if !(v.is_finite() && v.abs() <= max_coordinate) {
+                return Err(err(
+                    line_no,
+                    format!(
+                        "{name} = {v} must be a finite number with |{name}| ≤ {max_coordinate:e} scene units"
+                    ),
+                ));
+            }
+        }
+        if !rot.is_finite() {
+            return Err(err(
+                line_no,
+                format!("rotate_z_deg = {rot} is not a finite number"),
+            ));
+        }
+        if !(s.is_finite() && s > 0.0) {
+            return Err(err(line_no, format!("scale = {s} must be finite and > 0")));
+        }
+        if out.len() == max_placements {
+            return Err(err(
+                line_no,
+                format!(
+                    "more than {max_placements} placements (the limit per object or point source)"
+                ),
+            ));
+        }
+        out.push(Placement {
+            xform: Xform::new(DVec3::splat(s), rot, DVec3::new(x, y, z)),
+            at: line_no,
+        });
+    }
+    if out.is_empty() {
+        return Err(format!(
+            "{}: no placements (the file is empty or holds only comments and a header)",
+            path.display()
+        ));
+    }
+    Ok(out)
+}
+
+/// glibc's chunk size for a heap allocation of `n` bytes (an estimate for
+/// other allocators).
+fn heap_chunk(n: usize) -> usize {
+    if n == 0 {
+        0
+    } else {
+        ((n + 8 + 15) & !15).max(32)
+    }
+}
+
+/// Estimated bytes one facet of object `name` costs while the scene is
+/// built: the `Facet` twice (the scene's list grows by doubling, and an
+/// instanced object holds its prototype too), its vertex list (a quad, at
+/// most) and its copy of the object's name. 256 for a name of up to 24
+/// bytes, as documented in `docs/scene-format.md`.
+pub(crate) fn facet_bytes(name: &str) -> usize {
+    2 * std::mem::size_of::<Facet>()
+        + heap_chunk(4 * std::mem::size_of::<DVec3>())
+        + heap_chunk(name.len())
+}
+
+/// Bytes of memory this process may still allocate: the smaller of
+/// `MemAvailable` (`/proc/meminfo`) and the room left under a cgroup v2
+/// memory limit. `None` where neither can be read (not Linux).
+pub(crate) fn available_memory() -> Option<u64> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
+        let kb: u64 = s
+            .lines()
+            .find(|l| l.starts_with("MemAvailable:"))?
+            .split_whitespace()
+            .nth(1)?
+            .parse()
+            .ok()?;
+        kb.checked_mul(1024)
+    });
+    let read_u64 =
+        |p: &str| -> Option<u64> { std::fs::read_to_string(p).ok()?.trim().parse().ok() };
+    let cgroup = read_u64("/sys/fs/cgroup/memory.max")
+        .map(|max| max.saturating_sub(read_u64("/sys/fs/cgroup/memory.current").unwrap_or(0)));
+    match (meminfo, cgroup) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// Checks that `count` items, `bytes_each` bytes each (on top of `before`
+/// items already counted), stay within `limit` items and `available` bytes.
+/// `what` names the items ("facets", "point sources").
+pub(crate) fn check_budget(
+    before: usize,
+    count: u128,
+    limit: usize,
+    bytes_each: usize,
+    available: Option<u64>,
+    what: &str,
+) -> Result<(), String> {
+    let total = before as u128 + count;
+    if total > limit as u128 {
+        return Err(format!(
+            "{count} {what} here{} would exceed the limit of {limit} {what} per scene",
+            if before > 0 {
+                format!(" plus {before} before it")
+            } else {
+                String::new()
+            }
+        ));
+    }
+    if let Some(avail) = available {
+        let need = total * bytes_each as u128;
+        if need > avail as u128 {
+            return Err(format!(
+                "{total} {what} need about {:.1} GB ({bytes_each} bytes each), more than the {:.1} GB of memory available",
+                need as f64 / 1e9,
+                avail as f64 / 1e9
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Upper bound on the faces an OBJ text holds (lines starting with `f`),
+/// counted before it is parsed so that an oversized mesh is refused before
+/// the parser allocates for it.
+pub(crate) fn count_obj_faces(bytes: &[u8]) -> usize {
+    bytes
+        .split(|&b| b == b'\n')
+        .filter(|l| {
+            let l = l.trim_ascii_start();
+            l.first() == Some(&b'f') && l.get(1).is_some_and(|c| c.is_ascii_whitespace())
+        })
+        .count()
+}
