@@ -71,9 +71,10 @@ fn preparation_line(p: &gloam_trace::Preparation) -> String {
         .map(|s| format!("{} {:.2} s{}", s.name, s.seconds, mib(s.peak_rss_bytes)))
         .collect();
     format!(
-        "preparation {:.2} s ({}); {} triangles, {} emitting facets, peak {}",
+        "preparation {:.2} s ({}); {} object placements, {} triangles, {} emitting facets, peak {}",
         p.seconds,
         steps.join("; "),
+        p.instances,
         p.triangles,
         p.area_emitters,
         p.peak_rss_bytes.map_or("unknown".into(), |b| format!(

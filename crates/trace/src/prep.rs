@@ -25,6 +25,10 @@ pub struct PrepStep {
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct Preparation {
     pub facets: usize,
+    /// Facets as the scene file describes them (one copy of each object).
+    pub prototype_facets: usize,
+    /// Placements over all objects (an object placed once counts 1).
+    pub instances: usize,
     /// Triangles in the BVH (a quad is two).
     pub triangles: usize,
     /// Emitting facets.

@@ -417,8 +417,11 @@ impl Tracer {
         solve: bool,
         observer: Option<PrepObserver>,
     ) -> Result<Self, TraceError> {
+        let counts = scene.counts();
         let mut prep = Preparation {
             facets: scene.facets.len(),
+            prototype_facets: counts.prototype_facets,
+            instances: counts.instances,
             point_sources: scene.point_sources.len(),
             ..Default::default()
         };
