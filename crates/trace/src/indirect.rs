@@ -4,7 +4,9 @@
 //! Direct light is exact at every vertex (closed forms plus shadow rays), and
 //! rooms are mostly diffuse, so the indirect part is smooth over each facet.
 //! The cache stores it on a texel grid per facet side, solved once per
-//! render:
+//! render (when the facets outnumber the texels, facets no larger than a
+//! texel share world-space cluster texels instead, so the cache keeps its
+//! budget whatever the facet count: `Tracer::clustered_layout`):
 //!
 //! 1. every texel gets its direct irradiance `E_d` with the tracer's own
 //!    estimators (the same as at a camera hit);
@@ -43,6 +45,9 @@ const DOMAIN_CACHE: u64 = 0xCAC4E;
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct CacheSummary {
     pub texels: usize,
+    /// Of these, texels shared by facets no larger than a texel (0: one
+    /// grid per facet side, the layout for scenes with few facets).
+    pub cluster_texels: usize,
     /// Texel size, scene units.
     pub texel_size: f64,
     pub gather_rays_per_texel: u32,
@@ -345,6 +350,8 @@ pub(crate) struct Layout {
     /// Per facet, front and back: [`NO_TEXEL`], an index into `grids`, or
     /// [`CLUSTER`] | a texel index (8 bytes a facet, whatever its size).
     locs: Vec<[u32; 2]>,
+    /// Cluster texels (the last ones).
+    clusters: usize,
 }
 
 impl Layout {
@@ -496,7 +503,16 @@ impl Tracer {
                 }
             }
         }
-        (Layout { grids, locs }, texels, h)
+        let clusters = 0;
+        (
+            Layout {
+                grids,
+                locs,
+                clusters,
+            },
+            texels,
+            h,
+        )
     }
 
     /// The cluster key of facet `f`'s side `side` at texel size `h`
@@ -665,7 +681,16 @@ impl Tracer {
             };
             texels.push((f as u32, centroid(&self.facet_verts[f]), n, a));
         }
-        (Layout { grids, locs }, texels, h)
+        let clusters = sums.len();
+        (
+            Layout {
+                grids,
+                locs,
+                clusters,
+            },
+            texels,
+            h,
+        )
     }
 
     /// Builds and solves the radiosity cache (see the module docs).
@@ -674,6 +699,7 @@ impl Tracer {
         let nwl = self.wl.len();
         let (layout, texels, h) = self.cache_layout(size.texels);
         let n_tex = texels.len();
+        let cluster_texels = layout.clusters;
         if n_tex == 0 || nwl == 0 {
             return Cache {
                 layout,
@@ -850,6 +876,7 @@ impl Tracer {
             e_ind,
             summary: CacheSummary {
                 texels: n_tex,
+                cluster_texels,
                 texel_size: h,
                 gather_rays_per_texel: rays,
                 operator_entries,
@@ -1180,6 +1207,9 @@ box = { min = [0, 0, 0], max = [4, 3, 2.5], inward = true }
         let few = Tracer::new(&room_with_mat(1), &settings).unwrap();
         let c = many.cache.as_ref().unwrap();
         assert!(c.summary.texels <= 4096, "{:?}", c.summary);
+        assert!(c.summary.cluster_texels > 0, "{:?}", c.summary);
+        let f = few.cache.as_ref().unwrap();
+        assert_eq!(f.summary.cluster_texels, 0, "{:?}", f.summary);
         assert!(c.layout.locs.iter().flatten().any(|&l| l & CLUSTER != 0));
         let (a, b) = (band_mean(&many), band_mean(&few));
         assert!(((a - b) / b).abs() < 0.01, "tessellated {a}, one quad {b}");
