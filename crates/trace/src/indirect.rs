@@ -4,7 +4,9 @@
 //! Direct light is exact at every vertex (closed forms plus shadow rays), and
 //! rooms are mostly diffuse, so the indirect part is smooth over each facet.
 //! The cache stores it on a texel grid per facet side, solved once per
-//! render:
+//! render (when the facets outnumber the texels, facets no larger than a
+//! texel share world-space cluster texels instead, so the cache keeps its
+//! budget whatever the facet count: `Tracer::clustered_layout`):
 //!
 //! 1. every texel gets its direct irradiance `E_d` with the tracer's own
 //!    estimators (the same as at a camera hit);
@@ -43,6 +45,9 @@ const DOMAIN_CACHE: u64 = 0xCAC4E;
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct CacheSummary {
     pub texels: usize,
+    /// Of these, texels shared by facets no larger than a texel (0: one
+    /// grid per facet side, the layout for scenes with few facets).
+    pub cluster_texels: usize,
     /// Texel size, scene units.
     pub texel_size: f64,
     pub gather_rays_per_texel: u32,
@@ -139,8 +144,8 @@ struct Entry {
 
 /// The solved cache.
 pub(crate) struct Cache {
-    /// Per facet: front (index 0) and back (index 1) grids.
-    grids: Vec<[Option<Grid>; 2]>,
+    /// Where each facet side's texels are.
+    layout: Layout,
     nwl: usize,
     /// Outgoing diffuse radiance `k_d (E_d + E_ind)/π` per texel × slot.
     radiance: Vec<f64>,
@@ -170,11 +175,11 @@ impl Cache {
         scale: &[f64],
         out: &mut [f64],
     ) -> bool {
-        let Some(g) = &self.grids[facet as usize][side] else {
+        let Some(weights) = self.layout.weights(facet, side, p) else {
             return false;
         };
         let n = self.nwl;
-        for (k, w) in g.bilinear(p) {
+        for (k, w) in weights {
             if w == 0.0 {
                 continue;
             }
@@ -260,109 +265,449 @@ fn into_polygon(p: DVec3, v: &[DVec3], n: DVec3, centroid: DVec3, h: f64) -> DVe
     }
 }
 
+/// Marks a per-facet location as a cluster texel (else a grid index).
+const CLUSTER: u32 = 1 << 31;
+/// No texel (the facet side does not reflect diffusely).
+const NO_TEXEL: u32 = u32::MAX;
+/// Most rounds of the texel-size search of the clustered layout.
+const MAX_GROW: u32 = 64;
+/// Most rounds of the per-facet layout's texel-size search (it meets its
+/// budget within ~60 whenever it is used: the size grows ≥ 2× a round).
+const MAX_GROW_PER_FACET: u32 = 200;
+
+/// Which cluster texel a small facet side falls into: voxel cell (size h,
+/// anchored at the scene box), normal-direction bin of the side, material.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct ClusterKey {
+    cell: [i64; 3],
+    bin: u8,
+    mat: u32,
+}
+
+/// A cheap multiplicative hasher for [`ClusterKey`] (SipHash costs more
+/// than the rest of the layout for 10⁶ facets; the keys are not hostile).
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl std::hash::Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        crate::tracer::mix64(self.0)
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(x as u64);
+    }
+    fn write_u8(&mut self, x: u8) {
+        self.write_u64(x as u64);
+    }
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+}
+
+type KeyMap<V> = std::collections::HashMap<ClusterKey, V, std::hash::BuildHasherDefault<KeyHasher>>;
+
+/// Normal-direction bin of a side normal: the dominant axis and its sign
+/// (6 cube faces), each split 3 × 3 at ±22.5° so that axis-aligned
+/// surfaces sit robustly in a face's centre bin. Opposite sides never
+/// share a bin.
+fn normal_bin(n: DVec3) -> u8 {
+    let a = n.abs();
+    let (axis, m, u, v) = if a.x >= a.y && a.x >= a.z {
+        (0u8, n.x, n.y, n.z)
+    } else if a.y >= a.z {
+        (1, n.y, n.z, n.x)
+    } else {
+        (2, n.z, n.x, n.y)
+    };
+    let third = |x: f64| -> u8 {
+        // tan 22.5°.
+        let r = if m != 0.0 { x / m.abs() } else { 0.0 };
+        if r < -0.414_213_56 {
+            0
+        } else if r > 0.414_213_56 {
+            2
+        } else {
+            1
+        }
+    };
+    (axis * 2 + u8::from(m < 0.0)) * 9 + third(u) * 3 + third(v)
+}
+
+/// Where every facet side's texels are.
+pub(crate) struct Layout {
+    grids: Vec<Grid>,
+    /// Per facet, front and back: [`NO_TEXEL`], an index into `grids`, or
+    /// [`CLUSTER`] | a texel index (8 bytes a facet, whatever its size).
+    locs: Vec<[u32; 2]>,
+    /// Cluster texels (the last ones).
+    clusters: usize,
+}
+
+impl Layout {
+    /// The texel holding `p` on `facet`'s side `side`.
+    fn nearest(&self, facet: u32, side: usize, p: DVec3) -> Option<u32> {
+        match self.locs.get(facet as usize)?[side] {
+            NO_TEXEL => None,
+            l if l & CLUSTER != 0 => Some(l & !CLUSTER),
+            l => Some(self.grids[l as usize].nearest(p)),
+        }
+    }
+
+    /// Interpolation weights at `p` (a cluster texel is one constant).
+    fn weights(&self, facet: u32, side: usize, p: DVec3) -> Option<[(u32, f64); 4]> {
+        match self.locs.get(facet as usize)?[side] {
+            NO_TEXEL => None,
+            l if l & CLUSTER != 0 => Some([(l & !CLUSTER, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)]),
+            l => Some(self.grids[l as usize].bilinear(p)),
+        }
+    }
+}
+
+/// Per texel: facet its sample point lies on, the point, the side normal,
+/// the area it stands for.
+type Texel = (u32, DVec3, DVec3, f64);
+
 impl Tracer {
-    /// Builds and solves the radiosity cache (see the module docs).
-    pub(crate) fn build_cache(&self, size: CacheSize) -> Cache {
-        let t0 = std::time::Instant::now();
+    /// The square texel grid of facet `f` at texel size `h` (`first` = 0).
+    fn facet_grid(&self, f: usize, h: f64) -> Grid {
+        let v = &self.facet_verts[f];
+        let n = self.facet_normal[f];
+        let t = (v[1] - v[0]).normalize_or_zero();
+        let t = if t == DVec3::ZERO {
+            orthonormal_basis(n).0
+        } else {
+            t
+        };
+        let b = n.cross(t);
+        let (mut s0, mut s1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &x in v {
+            let d = x - v[0];
+            s0 = s0.min(d.dot(t));
+            s1 = s1.max(d.dot(t));
+            v0 = v0.min(d.dot(b));
+            v1 = v1.max(d.dot(b));
+        }
+        let cells = |len: f64| ((len / h).ceil() as u64).clamp(1, 512) as u32;
+        let (nu, nv) = (cells(s1 - s0), cells(v1 - v0));
+        let hu = (s1 - s0) / nu as f64;
+        let hv = (v1 - v0) / nv as f64;
+        // Square cells: one size per facet side (the larger).
+        let hf = hu.max(hv).max(f64::MIN_POSITIVE);
+        let (nu, nv) = (cells_exact(s1 - s0, hf), cells_exact(v1 - v0, hf));
+        Grid {
+            origin: v[0] + t * s0 + b * v0,
+            t,
+            b,
+            inv_h: 1.0 / hf,
+            nu,
+            nv,
+            first: 0,
+        }
+    }
+
+    /// Grid texels of facet `f` at texel size `h` (both sides).
+    fn grid_texels(&self, f: usize, h: f64) -> u64 {
+        let g = self.facet_grid(f, h);
+        2 * g.nu as u64 * g.nv as u64
+    }
+
+    /// Texel sample points of a grid (`into_polygon` keeps them on the facet).
+    fn push_grid_texels(&self, f: usize, side: usize, g: &Grid, texels: &mut Vec<Texel>) {
+        let n = if side == 0 {
+            self.facet_normal[f]
+        } else {
+            -self.facet_normal[f]
+        };
+        let v = &self.facet_verts[f];
+        let centroid = v.iter().copied().sum::<DVec3>() / v.len() as f64;
+        let hf = 1.0 / g.inv_h;
+        for j in 0..g.nv {
+            for i in 0..g.nu {
+                let c = g.origin + g.t * ((i as f64 + 0.5) * hf) + g.b * ((j as f64 + 0.5) * hf);
+                let p = into_polygon(c, v, self.facet_normal[f], centroid, hf);
+                texels.push((f as u32, p, n, hf * hf));
+            }
+        }
+    }
+
+    /// Where the texels go for a budget of `budget` texels: one grid per
+    /// facet side (the original layout, kept bit for bit) whenever every
+    /// side can have its own texel within 4 × the budget; otherwise
+    /// [`Tracer::clustered_layout`]. Returns the layout, its texels and the
+    /// texel size.
+    fn cache_layout(&self, budget: u32) -> (Layout, Vec<Texel>, f64) {
         let nf = self.facet_verts.len();
-        let nwl = self.wl.len();
-        // Facets that reflect diffusely get a grid on each side.
+        // Facets that reflect diffusely get texels on each side.
         let cached: Vec<bool> = (0..nf)
             .map(|f| self.mats[self.facet_mat[f] as usize].has_diffuse)
             .collect();
-        let area: Vec<f64> = (0..nf)
+        let total_area: f64 = (0..nf)
+            .filter(|&f| cached[f])
             .map(|f| polygon_area(&self.facet_verts[f]))
-            .collect();
-        let total_area: f64 = (0..nf).filter(|&f| cached[f]).map(|f| area[f]).sum();
-        let budget = size.texels.max(1) as f64 / 2.0; // two sides
-        let mut h = (total_area / budget)
+            .sum();
+        let texels_max = budget.max(1) as f64;
+        let h0 = (total_area / (texels_max / 2.0)) // two sides
             .sqrt()
             .max(1e-12 * self.geom.extent.max(1e-300));
-        let mut grids: Vec<[Option<Grid>; 2]>;
-        let mut count;
-        loop {
-            grids = vec![[None, None]; nf];
-            count = 0u64;
-            for f in 0..nf {
-                if !cached[f] {
-                    continue;
+        let sides = 2 * cached.iter().filter(|&&c| c).count() as u64;
+        if sides as f64 <= 4.0 * texels_max {
+            // Each side gets ≥ 1 texel, so this search ends once h exceeds
+            // every facet (h at least doubles a round).
+            let mut h = h0;
+            for _ in 0..MAX_GROW_PER_FACET {
+                let count: u64 = (0..nf)
+                    .filter(|&f| cached[f])
+                    .map(|f| self.grid_texels(f, h))
+                    .sum();
+                if count as f64 <= 4.0 * texels_max || count == 0 {
+                    return self.per_facet_layout(&cached, h);
                 }
-                let v = &self.facet_verts[f];
-                let n = self.facet_normal[f];
-                let t = (v[1] - v[0]).normalize_or_zero();
-                let t = if t == DVec3::ZERO {
-                    orthonormal_basis(n).0
-                } else {
-                    t
-                };
-                let b = n.cross(t);
-                let (mut s0, mut s1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-                for &x in v {
-                    let d = x - v[0];
-                    s0 = s0.min(d.dot(t));
-                    s1 = s1.max(d.dot(t));
-                    v0 = v0.min(d.dot(b));
-                    v1 = v1.max(d.dot(b));
-                }
-                let cells = |len: f64| ((len / h).ceil() as u64).clamp(1, 512) as u32;
-                let (nu, nv) = (cells(s1 - s0), cells(v1 - v0));
-                let hu = (s1 - s0) / nu as f64;
-                let hv = (v1 - v0) / nv as f64;
-                // Square cells: one size per facet side (the larger).
-                let hf = hu.max(hv).max(f64::MIN_POSITIVE);
-                let (nu, nv) = (cells_exact(s1 - s0, hf), cells_exact(v1 - v0, hf));
-                let origin = v[0] + t * s0 + b * v0;
-                for g in grids[f].iter_mut() {
-                    *g = Some(Grid {
-                        origin,
-                        t,
-                        b,
-                        inv_h: 1.0 / hf,
-                        nu,
-                        nv,
-                        first: count as u32,
-                    });
-                    count += nu as u64 * nv as u64;
+                h *= (count as f64 / texels_max).sqrt();
+            }
+        }
+        self.clustered_layout(&cached, h0, budget.max(1) as u64)
+    }
+
+    /// Every cached facet side its own grid at texel size `h`.
+    fn per_facet_layout(&self, cached: &[bool], h: f64) -> (Layout, Vec<Texel>, f64) {
+        let mut grids = Vec::new();
+        let mut locs = vec![[NO_TEXEL; 2]; cached.len()];
+        let mut count = 0u64;
+        for (f, _) in cached.iter().enumerate().filter(|c| *c.1) {
+            let g = self.facet_grid(f, h);
+            for loc in locs[f].iter_mut() {
+                *loc = grids.len() as u32;
+                grids.push(Grid {
+                    first: count as u32,
+                    ..g.clone()
+                });
+                count += g.nu as u64 * g.nv as u64;
+            }
+        }
+        let mut texels = Vec::with_capacity(count as usize);
+        for (f, l) in locs.iter().enumerate() {
+            for (side, &gi) in l.iter().enumerate() {
+                if gi != NO_TEXEL {
+                    self.push_grid_texels(f, side, &grids[gi as usize], &mut texels);
                 }
             }
-            if count as f64 <= 4.0 * size.texels.max(1) as f64 || count == 0 {
+        }
+        let clusters = 0;
+        (
+            Layout {
+                grids,
+                locs,
+                clusters,
+            },
+            texels,
+            h,
+        )
+    }
+
+    /// The cluster key of facet `f`'s side `side` at texel size `h`
+    /// (`coarse`: normal bin only, the last resort that always fits).
+    fn cluster_key(&self, f: usize, side: usize, h: f64, coarse: bool) -> ClusterKey {
+        let n = if side == 0 {
+            self.facet_normal[f]
+        } else {
+            -self.facet_normal[f]
+        };
+        let bin = normal_bin(n);
+        if coarse {
+            return ClusterKey {
+                cell: [0; 3],
+                bin,
+                mat: 0,
+            };
+        }
+        let c = centroid(&self.facet_verts[f]);
+        let e = self.geom.extent;
+        // NaN → 0, ±∞ saturate: never a panic.
+        let cell = |x: f64| ((x + e) / h).floor() as i64;
+        ClusterKey {
+            cell: [cell(c.x), cell(c.y), cell(c.z)],
+            bin,
+            mat: self.facet_mat[f],
+        }
+    }
+
+    /// Whether facet `f` gets a single texel per side at size `h` (it is
+    /// no larger than a texel), so it joins a cluster.
+    fn is_small(&self, f: usize, h: f64, coarse: bool) -> bool {
+        if coarse {
+            return true;
+        }
+        let g = self.facet_grid(f, h);
+        g.nu == 1 && g.nv == 1
+    }
+
+    /// Texels of the clustered layout at size `h`, counting stops above
+    /// `cap` (then the true count is larger still).
+    fn clustered_count(&self, cached: &[bool], h: f64, cap: u64, keys: &mut KeyMap<()>) -> u64 {
+        keys.clear();
+        let mut grid = 0u64;
+        for (f, _) in cached.iter().enumerate().filter(|c| *c.1) {
+            let g = self.facet_grid(f, h);
+            if g.nu == 1 && g.nv == 1 {
+                for side in 0..2 {
+                    keys.insert(self.cluster_key(f, side, h, false), ());
+                }
+            } else {
+                grid += 2 * g.nu as u64 * g.nv as u64;
+            }
+            if grid + keys.len() as u64 > cap {
                 break;
             }
-            h *= (count as f64 / size.texels.max(1) as f64).sqrt();
         }
-        let n_tex = count as usize;
+        grid + keys.len() as u64
+    }
+
+    /// The layout for scenes with more facets than texels: facets larger
+    /// than the texel size h keep their grids; smaller ones share world-space
+    /// cluster texels keyed by (voxel of size h, normal bin, material), so
+    /// the cache holds at most `budget` texels whatever the facet count. h
+    /// grows from `h0` (≥ 10 % a round, at most [`MAX_GROW`] rounds, at most
+    /// 4 × the scene's half-diagonal, where every facet shares one voxel);
+    /// should even that not fit, clusters go by normal bin alone (≤ 54).
+    fn clustered_layout(&self, cached: &[bool], h0: f64, budget: u64) -> (Layout, Vec<Texel>, f64) {
+        let h_max = 4.0 * self.geom.extent;
+        let mut h = if h0 < h_max { h0 } else { h_max };
+        let mut keys: KeyMap<()> = KeyMap::default();
+        let mut chosen = None;
+        for _ in 0..MAX_GROW {
+            let count = self.clustered_count(cached, h, 16 * budget, &mut keys);
+            if count <= budget {
+                chosen = Some(h);
+                break;
+            }
+            if h >= h_max {
+                break;
+            }
+            let grow = (count as f64 / budget as f64).sqrt().max(1.1);
+            h = (h * grow).min(h_max);
+        }
+        drop(keys);
+        let (h, coarse) = match chosen {
+            Some(h) => (h, false),
+            None => (h_max, true),
+        };
+        let nf = cached.len();
+        let mut grids = Vec::new();
+        let mut locs = vec![[NO_TEXEL; 2]; nf];
+        let mut texels: Vec<Texel> = Vec::new();
+        // Large facets: grids, as in the per-facet layout.
+        for f in (0..nf).filter(|&f| cached[f]) {
+            if self.is_small(f, h, coarse) {
+                continue;
+            }
+            let g = self.facet_grid(f, h);
+            for (side, loc) in locs[f].iter_mut().enumerate() {
+                *loc = grids.len() as u32;
+                let g = Grid {
+                    first: texels.len() as u32,
+                    ..g.clone()
+                };
+                self.push_grid_texels(f, side, &g, &mut texels);
+                grids.push(g);
+            }
+        }
+        // Small facets: cluster texels in order of first appearance
+        // (deterministic), with area and area-weighted centroid sums.
+        let base = texels.len();
+        let mut ids: KeyMap<u32> = KeyMap::default();
+        let mut sums: Vec<(f64, DVec3)> = Vec::new();
+        for f in (0..nf).filter(|&f| cached[f]) {
+            if !self.is_small(f, h, coarse) {
+                continue;
+            }
+            let a = polygon_area(&self.facet_verts[f]);
+            let c = centroid(&self.facet_verts[f]);
+            for (side, loc) in locs[f].iter_mut().enumerate() {
+                let key = self.cluster_key(f, side, h, coarse);
+                let id = *ids.entry(key).or_insert_with(|| {
+                    sums.push((0.0, DVec3::ZERO));
+                    (sums.len() - 1) as u32
+                });
+                *loc = CLUSTER | (base as u32 + id);
+                let s = &mut sums[id as usize];
+                if a.is_finite() && c.is_finite() {
+                    s.0 += a;
+                    s.1 += a * c;
+                }
+            }
+        }
+        drop(ids);
+        // Each cluster's sample point: the centroid of the member facet
+        // (with area) nearest the cluster's mean centroid — a real point
+        // on a real surface, never inside an object.
+        let mut rep: Vec<(u32, u8, bool, f64)> =
+            vec![(u32::MAX, 0, true, f64::INFINITY); sums.len()];
+        for f in (0..nf).filter(|&f| cached[f]) {
+            for (side, &l) in locs[f].iter().enumerate() {
+                if l == NO_TEXEL || l & CLUSTER == 0 {
+                    continue;
+                }
+                let id = (l & !CLUSTER) as usize - base;
+                let (a, m) = sums[id];
+                let mean = if a > 0.0 { m / a } else { DVec3::ZERO };
+                let degenerate = polygon_area(&self.facet_verts[f]).partial_cmp(&0.0)
+                    != Some(std::cmp::Ordering::Greater);
+                let d = (centroid(&self.facet_verts[f]) - mean).length_squared();
+                let d = if d.is_nan() { f64::INFINITY } else { d };
+                let r = &mut rep[id];
+                if r.0 == u32::MAX || (degenerate, d) < (r.2, r.3) {
+                    *r = (f as u32, side as u8, degenerate, d);
+                }
+            }
+        }
+        texels.reserve(sums.len());
+        for (&(f, side, _, _), &(a, _)) in rep.iter().zip(&sums) {
+            let f = f as usize;
+            let n = if side == 0 {
+                self.facet_normal[f]
+            } else {
+                -self.facet_normal[f]
+            };
+            texels.push((f as u32, centroid(&self.facet_verts[f]), n, a));
+        }
+        let clusters = sums.len();
+        (
+            Layout {
+                grids,
+                locs,
+                clusters,
+            },
+            texels,
+            h,
+        )
+    }
+
+    /// Builds and solves the radiosity cache (see the module docs).
+    pub(crate) fn build_cache(&self, size: CacheSize) -> Cache {
+        let t0 = std::time::Instant::now();
+        let nwl = self.wl.len();
+        let (layout, texels, h) = self.cache_layout(size.texels);
+        let n_tex = texels.len();
+        let cluster_texels = layout.clusters;
         if n_tex == 0 || nwl == 0 {
             return Cache {
-                grids,
+                layout,
                 nwl,
                 radiance: Vec::new(),
                 e_ind: Vec::new(),
                 summary: CacheSummary::default(),
             };
-        }
-        // Texel sample points and their side normals.
-        let mut texels: Vec<(u32, DVec3, DVec3, f64)> = Vec::with_capacity(n_tex);
-        for (f, sides) in grids.iter().enumerate() {
-            for (side, g) in sides.iter().enumerate() {
-                let Some(g) = g else { continue };
-                let n = if side == 0 {
-                    self.facet_normal[f]
-                } else {
-                    -self.facet_normal[f]
-                };
-                let v = &self.facet_verts[f];
-                let centroid = v.iter().copied().sum::<DVec3>() / v.len() as f64;
-                let hf = 1.0 / g.inv_h;
-                for j in 0..g.nv {
-                    for i in 0..g.nu {
-                        let c = g.origin
-                            + g.t * ((i as f64 + 0.5) * hf)
-                            + g.b * ((j as f64 + 0.5) * hf);
-                        let p = into_polygon(c, v, self.facet_normal[f], centroid, hf);
-                        texels.push((f as u32, p, n, hf * hf));
-                    }
-                }
-            }
         }
         let rays = size.rays.max(1);
         let w_ray = std::f64::consts::PI / rays as f64;
@@ -386,7 +731,7 @@ impl Tracer {
                     let l = cosine_hemisphere(uv);
                     let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
                     if let Some((g, front, y, tau)) = self.gather_hit(p, d, f, &mut c) {
-                        let Some(grid) = &grids[g as usize][usize::from(!front)] else {
+                        let Some(texel) = layout.nearest(g, usize::from(!front), y) else {
                             continue;
                         };
                         let ti = match tau {
@@ -397,7 +742,7 @@ impl Tracer {
                             }
                         };
                         entries.push(Entry {
-                            texel: grid.nearest(y),
+                            texel,
                             w: w_ray,
                             tau: ti,
                         });
@@ -525,12 +870,13 @@ impl Tracer {
             .map(|b| if total > 0.0 { b / total } else { 0.0 })
             .collect();
         Cache {
-            grids,
+            layout,
             nwl,
             radiance,
             e_ind,
             summary: CacheSummary {
                 texels: n_tex,
+                cluster_texels,
                 texel_size: h,
                 gather_rays_per_texel: rays,
                 operator_entries,
@@ -657,10 +1003,269 @@ fn cells_exact(len: f64, h: f64) -> u32 {
     ((len / h - 1e-9).ceil() as u64).clamp(1, 512) as u32
 }
 
+/// Vertex mean: the centroid of a triangle, inside any convex polygon.
+fn centroid(v: &[DVec3]) -> DVec3 {
+    v.iter().copied().sum::<DVec3>() / v.len().max(1) as f64
+}
+
 fn polygon_area(v: &[DVec3]) -> f64 {
     let mut a = DVec3::ZERO;
     for k in 1..v.len().saturating_sub(1) {
         a += (v[k] - v[0]).cross(v[k + 1] - v[0]);
     }
     0.5 * a.length()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::fmt::Write;
+    use std::path::Path;
+
+    use super::*;
+    use crate::settings::RenderSettings;
+
+    /// `n × n` quads tessellating the parallelogram `o + s a + t b`, front
+    /// side `a × b`, appended to `verts`/`faces` (as triangles when `tris`).
+    fn tessellate(
+        o: [f64; 3],
+        a: [f64; 3],
+        b: [f64; 3],
+        n: usize,
+        tris: bool,
+        verts: &mut Vec<[f64; 3]>,
+        faces: &mut Vec<Vec<usize>>,
+    ) {
+        let base = verts.len();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (s, t) = (i as f64 / n as f64, j as f64 / n as f64);
+                verts.push(std::array::from_fn(|k| o[k] + s * a[k] + t * b[k]));
+            }
+        }
+        let id = |i: usize, j: usize| base + j * (n + 1) + i;
+        for j in 0..n {
+            for i in 0..n {
+                let q = [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)];
+                if tris {
+                    faces.push(vec![q[0], q[1], q[2]]);
+                    faces.push(vec![q[0], q[2], q[3]]);
+                } else {
+                    faces.push(q.to_vec());
+                }
+            }
+        }
+    }
+
+    fn mesh_object(name: &str, material: &str, verts: &[[f64; 3]], faces: &[Vec<usize>]) -> String {
+        let mut t = format!("[objects.{name}]\nmaterial = \"{material}\"\nvertices = [");
+        for v in verts {
+            let _ = write!(t, "[{}, {}, {}],", v[0], v[1], v[2]);
+        }
+        t.push_str("]\nfaces = [");
+        for f in faces {
+            let _ = write!(t, "{f:?},");
+        }
+        t.push_str("]\n");
+        t
+    }
+
+    fn parse(text: &str) -> gloam_scene::Scene {
+        gloam_scene::parse_str(text, Path::new("test.toml")).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    const HEADER: &str = r#"
+units = "m"
+[camera]
+position = [0.4, 0.4, 2.2]
+look_at = [3.0, 2.2, 0.3]
+up = [0, 0, 1]
+fov_deg = 70
+width = 16
+height = 12
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+"#;
+
+    /// A 4 × 3 × 2.5 m closed room lit by a point lamp, with a floor mat of
+    /// `n × n × 2` triangles just above its floor (`n = 1`: two triangles).
+    fn room_with_mat(n: usize) -> gloam_scene::Scene {
+        let mut t = HEADER.to_string();
+        t.push_str(
+            r#"
+[materials.wall]
+reflectance = 0.6
+[materials.mat]
+reflectance = 0.5
+[point_sources.lamp]
+position = [2.0, 1.5, 2.3]
+direction = [0, 0, -1]
+shape_exponent = 0
+value = 1.0
+normalize = { lo_nm = 400, hi_nm = 700, value = 1.0 }
+[objects.room]
+material = "wall"
+box = { min = [0, 0, 0], max = [4, 3, 2.5], inward = true }
+"#,
+        );
+        let (mut v, mut f) = (Vec::new(), Vec::new());
+        tessellate(
+            [0.01, 0.01, 0.01],
+            [3.98, 0.0, 0.0],
+            [0.0, 2.98, 0.0],
+            n,
+            true,
+            &mut v,
+            &mut f,
+        );
+        t.push_str(&mesh_object("floor_mat", "mat", &v, &f));
+        parse(&t)
+    }
+
+    fn cache_settings(texels: u32) -> RenderSettings {
+        let mut s = RenderSettings::default();
+        s.set("indirect", "cache").unwrap();
+        s.set("cache_texels", &texels.to_string()).unwrap();
+        s.set("spp", "16").unwrap();
+        s
+    }
+
+    fn band_mean(t: &Tracer) -> f64 {
+        let out = t.render(&|_, _| {}).unwrap();
+        out.radiance.index_axis(ndarray::Axis(0), 0).mean().unwrap()
+    }
+
+    #[test]
+    fn opposite_sides_never_share_a_normal_bin() {
+        let mut rng = stream(1, 2, 3);
+        for _ in 0..10_000 {
+            let u: [f64; 2] = [rand::Rng::random(&mut rng), rand::Rng::random(&mut rng)];
+            let z = 2.0 * u[0] - 1.0;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f64::consts::TAU * u[1];
+            let n = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+            assert_ne!(normal_bin(n), normal_bin(-n), "{n}");
+            assert!(normal_bin(n) < 54);
+        }
+        for a in [DVec3::X, DVec3::Y, DVec3::Z] {
+            assert_ne!(normal_bin(a), normal_bin(-a));
+        }
+    }
+
+    #[test]
+    fn many_small_facets_prepare_and_the_cache_keeps_its_budget() {
+        // 8192 mat triangles + 12 room triangles: 16 408 sides, more than
+        // 4 × the pilot's 1024 texels (which once never finished).
+        let s = room_with_mat(64);
+        let settings = RenderSettings::default();
+        let t = Tracer::prepare(&s, &settings, false).unwrap();
+        assert_eq!(t.interreflection.method, "cache", "{:?}", t.interreflection);
+        let nf = t.facet_verts.len();
+        for budget in [1u32, 54, 1024, 4096] {
+            let (layout, texels, h) = t.cache_layout(budget);
+            assert!(
+                texels.len() as u64 <= u64::from(budget).max(54),
+                "budget {budget}: {} texels",
+                texels.len()
+            );
+            assert!(h > 0.0 && h.is_finite());
+            // Every side of every facet has a texel, whose sample point lies
+            // on a facet of that side's orientation.
+            for f in 0..nf as u32 {
+                for side in 0..2 {
+                    let k = layout.nearest(f, side, centroid(&t.facet_verts[f as usize]));
+                    let k = k.unwrap_or_else(|| panic!("facet {f} side {side}: no texel"));
+                    let (g, p, n, _) = texels[k as usize];
+                    let v = &t.facet_verts[g as usize];
+                    let ng = t.facet_normal[g as usize];
+                    assert!((p - v[0]).dot(ng).abs() < 1e-9, "texel {k} off its facet");
+                    let ns = if side == 0 {
+                        t.facet_normal[f as usize]
+                    } else {
+                        -t.facet_normal[f as usize]
+                    };
+                    if budget > 54 {
+                        assert!(n.dot(ns) > 0.5, "texel {k}: normal {n} for side {ns}");
+                    }
+                }
+            }
+        }
+        // Rooms with few facets keep one grid per facet side (the layout
+        // every earlier render used).
+        let small = room_with_mat(1);
+        let t1 = Tracer::prepare(&small, &settings, false).unwrap();
+        let (layout, _, _) = t1.cache_layout(1024);
+        assert!(layout.locs.iter().flatten().all(|&l| l & CLUSTER == 0));
+    }
+
+    #[test]
+    fn a_tessellated_mat_renders_like_a_single_pair_of_triangles() {
+        // 16 404 sides > 4 × 4096: the clustered layout; the two-triangle
+        // mat uses per-facet grids. Same room, same light.
+        let settings = cache_settings(4096);
+        let many = Tracer::new(&room_with_mat(64), &settings).unwrap();
+        let few = Tracer::new(&room_with_mat(1), &settings).unwrap();
+        let c = many.cache.as_ref().unwrap();
+        assert!(c.summary.texels <= 4096, "{:?}", c.summary);
+        assert!(c.summary.cluster_texels > 0, "{:?}", c.summary);
+        let f = few.cache.as_ref().unwrap();
+        assert_eq!(f.summary.cluster_texels, 0, "{:?}", f.summary);
+        assert!(c.layout.locs.iter().flatten().any(|&l| l & CLUSTER != 0));
+        let (a, b) = (band_mean(&many), band_mean(&few));
+        assert!(((a - b) / b).abs() < 0.01, "tessellated {a}, one quad {b}");
+    }
+
+    #[test]
+    fn a_furnace_of_small_facets_holds_the_closed_form_with_clusters() {
+        // Closed 2 × 1.5 × 1 box, every wall 12 × 12 quads (864 facets, 1728
+        // sides > 4 × 64 texels), all emitting Le = 1 and reflecting
+        // ρ = 0.7: L = Le/(1 − ρ) everywhere, of which ρ/(1 − ρ) reflected.
+        let rho = 0.7;
+        let mut t = HEADER.replace("[0.4, 0.4, 2.2]", "[0.6, 0.6, 0.5]");
+        let _ = write!(
+            t,
+            "[materials.wall]\nreflectance = {rho}\nemission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = 1.0 }} }}\n"
+        );
+        let (x, y, z) = (2.0, 1.5, 1.0);
+        let (mut v, mut f) = (Vec::new(), Vec::new());
+        for (o, a, b) in [
+            ([0.0, 0.0, 0.0], [x, 0.0, 0.0], [0.0, y, 0.0]),
+            ([0.0, 0.0, z], [0.0, y, 0.0], [x, 0.0, 0.0]),
+            ([0.0, 0.0, 0.0], [0.0, 0.0, z], [x, 0.0, 0.0]),
+            ([0.0, y, 0.0], [x, 0.0, 0.0], [0.0, 0.0, z]),
+            ([0.0, 0.0, 0.0], [0.0, y, 0.0], [0.0, 0.0, z]),
+            ([x, 0.0, 0.0], [0.0, 0.0, z], [0.0, y, 0.0]),
+        ] {
+            tessellate(o, a, b, 12, false, &mut v, &mut f);
+        }
+        t.push_str(&mesh_object("box", "wall", &v, &f));
+        let s = parse(&t);
+        let mut settings = cache_settings(64);
+        settings.set("spp", "4").unwrap();
+        let tr = Tracer::new(&s, &settings).unwrap();
+        let c = tr.cache.as_ref().unwrap();
+        assert!(c.summary.texels <= 64, "{:?}", c.summary);
+        assert!(c.layout.locs.iter().flatten().all(|&l| l & CLUSTER != 0));
+        // The cache itself: every inner (front-side) texel's outgoing
+        // radiance is the reflected part, ρ Le/(1 − ρ) (band integral); the
+        // outer sides see nothing.
+        let want_r = rho / (1.0 - rho);
+        let nwl = c.nwl;
+        let (_, texels, _) = tr.cache_layout(64);
+        assert_eq!(texels.len(), c.summary.texels);
+        for (k, &(g, _, n, _)) in texels.iter().enumerate() {
+            let r = tr.wl.integrate(&c.radiance[k * nwl..(k + 1) * nwl])[0];
+            if n.dot(tr.facet_normal[g as usize]) > 0.0 {
+                assert!(
+                    ((r - want_r) / want_r).abs() < 0.01,
+                    "texel {k}: {r} vs {want_r}"
+                );
+            } else {
+                assert_eq!(r, 0.0, "outer texel {k}");
+            }
+        }
+        let m = band_mean(&tr);
+        let want = 1.0 / (1.0 - rho);
+        assert!(((m - want) / want).abs() < 0.005, "mean {m}, want {want}");
+    }
 }
