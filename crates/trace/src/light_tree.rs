@@ -681,8 +681,10 @@ quad = {{ center = [0, 0, 0], size = [{g}, {g}], normal = [0, 0, 1] }}
                 assert!(r <= c10 * (n as f64).ln() + 1e-9, "{per_vertex:?}");
             }
             // And the budget itself: ≤ branches × area_samples.
+            let d = RenderSettings::default();
+            let budget = (d.light_tree_branches * d.area_samples) as f64;
             assert!(
-                per_vertex.iter().all(|&(_, r)| r <= 8.0 * 4.0),
+                per_vertex.iter().all(|&(_, r)| r <= budget),
                 "{per_vertex:?}"
             );
         }

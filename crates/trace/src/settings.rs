@@ -13,7 +13,7 @@
 //! | `occlusion` | `cv` | `analytic` occlusion correction: `cv` (control variate: exact when every shadow ray is clear, exactly 0 when every one is blocked, unbiased otherwise; sum clamped ≥ 0) or `ratio` (self-normalised: exact at full visibility *and* full occlusion, O(1/N) bias in penumbra) |
 //! | `source_roulette_fraction` | 0.01 | `analytic`: a source whose closed-form irradiance is below this fraction of the total at the hit point gets proportionally fewer shadow rays, `⌈area_samples · share / fraction⌉ ≥ 1` (every count gives an unbiased correction, and umbra stays exactly 0) |
 //! | `light_tree_min_lights` | 64 | scenes with at most this many emitters (area + point sources) evaluate every emitter at every vertex, exactly as before the light tree; above it a light tree picks `light_tree_branches` emitters per vertex by importance, each weighted by 1/probability (unbiased; cost per vertex O(log N)) |
-//! | `light_tree_branches` | 8 | light tree: subtrees a vertex's selection splits into, one emitter from each (more: less noise, more shadow rays) |
+//! | `light_tree_branches` | 16 | light tree: subtrees a vertex's selection splits into, one emitter from each (more: less noise, more shadow rays) |
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
 //! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
 //! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
@@ -301,7 +301,7 @@ impl Default for RenderSettings {
             source_roulette_fraction: 0.01,
             dirsig2001: Dirsig2001Settings::default(),
             light_tree_min_lights: 64,
-            light_tree_branches: 8,
+            light_tree_branches: 16,
             sky_samples: 16,
             resolution_scale: 1.0,
             all_effects: false,
