@@ -711,10 +711,12 @@ impl Tracer {
             self.area_irradiance(p, n, ignore, rng, c, out);
         }
         if let Some(tree) = &self.light_tree {
+            // Point sources draw no random numbers: a dropped one need not
+            // be traced at all. Dropped area picks are traced and discarded.
             let skipped = [
                 skip.area_sources,
-                skip.point_sources,
-                skip.shaped_point_sources,
+                skip.point_sources || drop.point_sources,
+                skip.shaped_point_sources || drop.shaped_point_sources,
             ];
             let dropped = [
                 drop.area_sources,
