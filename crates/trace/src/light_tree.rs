@@ -648,6 +648,53 @@ quad = {{ center = [0, 0, 0], size = [{g}, {g}], normal = [0, 0, 1] }}
         }
     }
 
+    /// With the `solid-angle` estimator the area sources keep their loop
+    /// and the tree holds the point sources only; a dropped term is left
+    /// out of the tree's sum. Both still agree with the exhaustive path.
+    #[test]
+    fn other_estimators_and_drop_with_the_tree() {
+        let text = many_lights_scene(150, 150);
+        let scene = gloam_scene::parse_str(&text, std::path::Path::new("many.toml")).unwrap();
+        let p = DVec3::new(0.3, 0.2, 0.0);
+        let run = |min: u32, est: &str, drop: &str| {
+            let mut s = RenderSettings {
+                indirect: Indirect::Off,
+                tolerance: 0.0,
+                light_tree_min_lights: min,
+                ..Default::default()
+            };
+            s.set("estimator", est).unwrap();
+            s.set("drop", drop).unwrap();
+            let t = Tracer::new(&scene, &s).unwrap();
+            let has_area = t.light_tree.as_ref().map(|t| t.has_area);
+            (has_area, t.probe_point(p, DVec3::Z, None, 3000).unwrap())
+        };
+        let (h, a) = run(64, "solid-angle", "none");
+        assert_eq!(h, Some(false));
+        let (_, b) = run(u32::MAX, "solid-angle", "none");
+        let se = (a.std_error_w_m2.powi(2) + b.std_error_w_m2.powi(2)).sqrt();
+        assert!(
+            (a.irradiance_w_m2 - b.irradiance_w_m2).abs() < 4.0 * se,
+            "{a:?} {b:?}"
+        );
+        // Dropping the shaped lamps: what is left matches the exhaustive
+        // path's same drop.
+        let drop = "shaped-point-sources";
+        let (h, a) = run(64, "analytic", drop);
+        assert_eq!(h, Some(true));
+        let (_, b) = run(u32::MAX, "analytic", drop);
+        let (_, all) = run(u32::MAX, "analytic", "none");
+        let se = (a.std_error_w_m2.powi(2) + b.std_error_w_m2.powi(2)).sqrt();
+        assert!(
+            (a.irradiance_w_m2 - b.irradiance_w_m2).abs() < 4.0 * se,
+            "{a:?} {b:?}"
+        );
+        assert!(
+            b.irradiance_w_m2 < 0.95 * all.irradiance_w_m2,
+            "{b:?} {all:?}"
+        );
+    }
+
     /// Shadow rays per vertex for 10 … 10 000 lights grow no faster than
     /// c·log N (the exhaustive path: linearly).
     #[test]
