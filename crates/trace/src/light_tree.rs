@@ -41,6 +41,10 @@ pub(crate) struct Cone {
     pub(crate) axis: DVec3,
     pub(crate) theta_o: f64,
     pub(crate) theta_e: f64,
+    /// Least falloff exponent of the node's emitters about their own axis
+    /// (`cos^k` of the emission angle: k = m + 1 for an area source, m for
+    /// a point source): `cos^k` with the least k bounds them all.
+    pub(crate) exponent: f64,
 }
 
 impl Cone {
@@ -49,6 +53,7 @@ impl Cone {
         axis: DVec3::Z,
         theta_o: PI,
         theta_e: FRAC_PI_2,
+        exponent: 0.0,
     };
 
     /// The smallest cone (of this construction) holding both (Conty & Kulla
@@ -61,9 +66,14 @@ impl Cone {
             (a, b)
         };
         let theta_e = a.theta_e.max(b.theta_e);
+        let exponent = a.exponent.min(b.exponent);
         let theta_d = a.axis.dot(b.axis).clamp(-1.0, 1.0).acos();
         if (theta_d + b.theta_o).min(PI) <= a.theta_o {
-            return Cone { theta_e, ..a };
+            return Cone {
+                theta_e,
+                exponent,
+                ..a
+            };
         }
         let theta_o = 0.5 * (a.theta_o + theta_d + b.theta_o) + 1e-9;
         if theta_o >= PI {
@@ -71,6 +81,7 @@ impl Cone {
                 axis: a.axis,
                 theta_o: PI,
                 theta_e,
+                exponent,
             };
         }
         // Rotate a's axis towards b's by theta_r.
@@ -81,6 +92,7 @@ impl Cone {
                 axis: a.axis,
                 theta_o: PI,
                 theta_e,
+                exponent,
             };
         };
         let axis = (a.axis * theta_r.cos() + perp * theta_r.sin()).normalize();
@@ -88,6 +100,7 @@ impl Cone {
             axis,
             theta_o,
             theta_e,
+            exponent,
         }
     }
 
@@ -345,7 +358,13 @@ impl LightTree {
         if theta_ip >= FRAC_PI_2 {
             return (0.0, spread);
         }
-        let imp = nd.phi * theta_p.cos().max(0.0) * theta_ip.cos() / d2;
+        let cos_e = theta_p.cos().max(0.0);
+        let shape = if nd.cone.exponent > 0.0 {
+            cos_e.powf(nd.cone.exponent)
+        } else {
+            1.0
+        };
+        let imp = nd.phi * shape * theta_ip.cos() / d2;
         // A node that passed both tests may light p: never exactly 0.
         let imp = if imp.is_finite() {
             imp.max(f64::MIN_POSITIVE)
@@ -456,11 +475,13 @@ mod tests {
             axis: DVec3::NEG_Z,
             theta_o: 0.0,
             theta_e: FRAC_PI_2,
+            exponent: 1.0,
         };
         let side = Cone {
             axis: DVec3::X,
             theta_o: 0.1,
             theta_e: FRAC_PI_2,
+            exponent: 2.0,
         };
         let u = Cone::union(down, side);
         for c in [down, side] {

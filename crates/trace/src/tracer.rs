@@ -1661,6 +1661,8 @@ fn build_light_tree(
                     axis: s.normal,
                     theta_o: 0.0,
                     theta_e: std::f64::consts::FRAC_PI_2,
+                    // Projected area × cos^m shaping.
+                    exponent: s.m + 1.0,
                 },
             });
         }
@@ -1674,6 +1676,7 @@ fn build_light_tree(
                 axis: l.dir,
                 theta_o: 0.0,
                 theta_e: std::f64::consts::FRAC_PI_2,
+                exponent: l.m,
             }
         } else {
             Cone::ALL
