@@ -7,8 +7,9 @@
 //! Each node bounds its emitters' positions (a box), their summed on-axis
 //! intensity and their emission directions (a cone). From a receiving point
 //! `p` with normal `n` the node's *importance* is a conservative upper bound
-//! of the shape of its irradiance there: `Φ cos θ′_e cos θ′_r / d²`, the two
-//! cosines taken at the most favourable angles the box and the cone allow.
+//! of the shape of its irradiance there: `Φ cos^k θ′_e cos θ′_r / d²`, the
+//! two cosines taken at the most favourable angles the box and the cone
+//! allow, k the least falloff exponent of the node's emitters.
 //! It is zero only where no emitter of the node can light `p` (behind every
 //! emitter, or below the receiver's horizon), so a light that contributes
 //! always has a non-zero probability.
