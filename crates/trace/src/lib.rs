@@ -4,6 +4,7 @@
 pub mod closed_form;
 pub mod geometry;
 pub mod indirect;
+pub(crate) mod light_tree;
 pub mod plan;
 pub mod prep;
 pub mod render;

@@ -207,6 +207,9 @@ pub struct Tracer {
     /// more than the tolerance (skipped outright, unlike `settings.drop`,
     /// which computes and discards to keep the random numbers).
     pub(crate) skip: crate::settings::Dropped,
+    /// The light tree over the emitters, when there are more than
+    /// `light_tree_min_lights` (else every emitter is evaluated, as always).
+    pub(crate) light_tree: Option<crate::light_tree::LightTree>,
     /// Seconds spent building the BVH and spectral tables.
     pub build_seconds: f64,
     /// The scene's size and each preparation step's time and peak memory.
@@ -552,7 +555,7 @@ impl Tracer {
             area.push(src);
         }
 
-        let points = scene
+        let points: Vec<PointLight> = scene
             .point_sources
             .iter()
             .map(|p| PointLight {
@@ -562,6 +565,8 @@ impl Tracer {
                 intensity: wl.emission(&p.intensity_w_sr_nm),
             })
             .collect();
+        let light_tree =
+            build_light_tree(&area, &points, &wl, settings, scene.meters_per_unit, extent);
 
         let mut camera = scene.camera.clone();
         camera.position -= origin;
@@ -595,6 +600,7 @@ impl Tracer {
             cache: None,
             interreflection: Default::default(),
             skip: Default::default(),
+            light_tree,
             build_seconds: 0.0,
             preparation: prep,
             observer,
@@ -711,14 +717,21 @@ impl Tracer {
         // other random number with the full one: the difference is the
         // term, not noise (`gloam bench plan`).
         let (drop, skip) = (&self.settings.drop, &self.skip);
-        for l in &self.points {
+        // With a light tree the point sources are among the emitters it
+        // picks (below).
+        let points: &[PointLight] = if self.light_tree.is_some() {
+            &[]
+        } else {
+            &self.points
+        };
+        for l in points {
             let shaped = l.m > 0.0;
             if (shaped && (drop.shaped_point_sources || skip.shaped_point_sources))
                 || (!shaped && (drop.point_sources || skip.point_sources))
             {
                 continue;
             }
-            self.point_irradiance(l, p, n, ignore, c, out);
+            self.point_irradiance(l, p, n, ignore, 1.0, c, out);
         }
         let mut scratch = Vec::new();
         if let Some(sky) = &self.sky {
@@ -741,6 +754,26 @@ impl Tracer {
         } else {
             self.area_irradiance(p, n, ignore, rng, c, out);
         }
+        if let Some(tree) = &self.light_tree {
+            // Point sources draw no random numbers: a dropped one need not
+            // be traced at all. Dropped area picks are traced and discarded.
+            let skipped = [
+                skip.area_sources,
+                skip.point_sources || drop.point_sources,
+                skip.shaped_point_sources || drop.shaped_point_sources,
+            ];
+            let dropped = [
+                drop.area_sources,
+                drop.point_sources,
+                drop.shaped_point_sources,
+            ];
+            let parts = self.tree_irradiance(tree, p, n, ignore, skipped, rng, c);
+            for (part, d) in parts.iter().zip(dropped) {
+                if !d {
+                    out.iter_mut().zip(part).for_each(|(o, x)| *o += x);
+                }
+            }
+        }
     }
 
     /// The area sources' part of [`Tracer::irradiance`], by the chosen
@@ -758,6 +791,8 @@ impl Tracer {
             return;
         }
         match self.settings.estimator {
+            // The light tree picks the area sources (`tree_irradiance`).
+            Estimator::Analytic if self.light_tree.as_ref().is_some_and(|t| t.has_area) => {}
             Estimator::Analytic => self.analytic(p, n, ignore, rng, c, out),
             Estimator::SolidAngle => {
                 for s in &self.area {
@@ -789,15 +824,29 @@ impl Tracer {
     ) -> [Vec<f64>; 5] {
         let z = || vec![0.0; self.wl.len()];
         let mut parts = [z(), z(), z(), z(), z()];
-        for l in &self.points {
+        let points: &[PointLight] = if self.light_tree.is_some() {
+            &[]
+        } else {
+            &self.points
+        };
+        for l in points {
             let k = if l.m > 0.0 { 2 } else { 1 };
-            self.point_irradiance(l, p, n, ignore, c, &mut parts[k]);
+            self.point_irradiance(l, p, n, ignore, 1.0, c, &mut parts[k]);
         }
         if let Some(sky) = &self.sky {
             self.moon_irradiance(sky, p, n, ignore, c, &mut parts[3]);
             self.dome_irradiance(sky, p, n, ignore, rng, c, &mut parts[4]);
         }
         self.area_irradiance(p, n, ignore, rng, c, &mut parts[0]);
+        // The pilot stays cheap with many lamps: the tree's picks, each
+        // into its own term (unbiased per term, as each pick's weight is
+        // its own 1/pmf).
+        if let Some(tree) = &self.light_tree {
+            let tree_parts = self.tree_irradiance(tree, p, n, ignore, [false; 3], rng, c);
+            for (k, part) in tree_parts.iter().enumerate() {
+                parts[k].iter_mut().zip(part).for_each(|(o, x)| *o += x);
+            }
+        }
         parts
     }
 
@@ -936,12 +985,16 @@ impl Tracer {
         self.sky.as_ref().map(|s| &s.summary)
     }
 
+    /// A point source's irradiance at `p` times `scale` (1, or the light
+    /// tree's 1/pmf), one shadow ray.
+    #[allow(clippy::too_many_arguments)]
     fn point_irradiance(
         &self,
         l: &PointLight,
         p: DVec3,
         n: DVec3,
         ignore: u32,
+        scale: f64,
         c: &mut RayCounts,
         out: &mut [f64],
     ) {
@@ -960,7 +1013,8 @@ impl Tracer {
             return;
         }
         let r_m = r * self.mpu;
-        let g = shape * cos_r / (r_m * r_m);
+        // scale·shape is exactly shape for scale = 1 (no light tree).
+        let g = scale * shape * cos_r / (r_m * r_m);
         match self.shadow(p, w, r, [ignore, u32::MAX], c) {
             None => {}
             Some(None) => out
@@ -1165,71 +1219,193 @@ impl Tracer {
             .zip(&factors)
             .map(|(s, f)| f.unwrap_or(0.0) * s.size)
             .sum();
-        let frac = self.settings.source_roulette_fraction;
-        let n_full = self.settings.area_samples.max(1);
         let mut samples = Vec::new();
         let mut occ = vec![0.0; out.len()];
         // The area sources' sum at this point, clamped at 0 at the end.
         let mut area = vec![0.0; out.len()];
         for (s, f) in self.area.iter().zip(&factors) {
-            let Some(factor) = *f else {
-                // Non-integer shape exponent: no closed form; sample it.
-                if s.facet != ignore {
-                    self.solid_angle(s, p, n, ignore, 1.0, rng, c, &mut area);
-                }
-                continue;
-            };
-            if factor <= 0.0 && !self.settings.all_effects {
-                continue;
-            }
-            // Shadow rays allocated by the source's share of the closed-form
-            // irradiance here: dim sources get fewer (at least one). Each
-            // count gives an unbiased correction, so this never biases.
-            let share = factor * s.size;
-            let n_s = if frac > 0.0 && total > 0.0 && share < frac * total {
-                ((n_full as f64 * share / (frac * total)).ceil() as u32).clamp(1, n_full)
-            } else {
-                n_full
-            };
-            let sampled = factor > 0.0 && self.light_samples(s, p, n, n_s, rng, &mut samples);
-            occ.iter_mut().for_each(|x| *x = 0.0);
-            let sum_w = if sampled {
-                self.occluded_sum(s, p, ignore, &samples, 1.0, c, &mut occ)
-            } else {
-                0.0
-            };
-            if sum_w <= 0.0 {
-                // No sample carries weight: no visibility information, the
-                // closed form stands.
-                area.iter_mut()
-                    .zip(&s.radiance)
-                    .for_each(|(o, l)| *o += factor * l);
-                continue;
-            }
-            match self.settings.occlusion {
-                Occlusion::Cv => {
-                    // E = E_closed + (MC_occ − MC_unocc), same samples;
-                    // exactly 0 where every sample is blocked (MC_occ = 0).
-                    area.iter_mut()
-                        .zip(&occ)
-                        .zip(&s.radiance)
-                        .for_each(|((o, mo), l)| {
-                            if *mo != 0.0 {
-                                *o += factor * l + (mo - sum_w * l);
-                            }
-                        });
-                }
-                Occlusion::Ratio => {
-                    let k = factor / sum_w;
-                    area.iter_mut().zip(&occ).for_each(|(o, mo)| *o += k * mo);
-                }
-            }
+            self.analytic_source(
+                s,
+                *f,
+                total,
+                1.0,
+                p,
+                n,
+                ignore,
+                rng,
+                c,
+                &mut samples,
+                &mut occ,
+                &mut area,
+            );
         }
         // No negative irradiance (see the crate docs): the control variate
         // can undershoot in deep penumbra.
         out.iter_mut()
             .zip(&area)
             .for_each(|(o, a)| *o += a.max(0.0));
+    }
+
+    /// One area source's `analytic` estimate times `scale` (1, or the light
+    /// tree's 1/pmf) into `area`: the closed form `factor` (None: non-integer
+    /// m, sampled instead) corrected by shadow rays, their number set by the
+    /// source's share of `total` (the scaled closed-form sum at `p`).
+    /// `samples` and `occ` are scratch.
+    #[allow(clippy::too_many_arguments)]
+    fn analytic_source(
+        &self,
+        s: &AreaSource,
+        factor: Option<f64>,
+        total: f64,
+        scale: f64,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        samples: &mut Vec<LightSample>,
+        occ: &mut [f64],
+        area: &mut [f64],
+    ) {
+        let frac = self.settings.source_roulette_fraction;
+        let n_full = self.settings.area_samples.max(1);
+        let Some(factor) = factor else {
+            // Non-integer shape exponent: no closed form; sample it.
+            if s.facet != ignore {
+                self.solid_angle(s, p, n, ignore, scale, rng, c, area);
+            }
+            return;
+        };
+        if factor <= 0.0 && !self.settings.all_effects {
+            return;
+        }
+        // Shadow rays allocated by the source's share of the closed-form
+        // irradiance here: dim sources get fewer (at least one). Each
+        // count gives an unbiased correction, so this never biases.
+        // (scale = 1 without a light tree: every product below is then
+        // exactly the unscaled one.)
+        let share = factor * s.size * scale;
+        let n_s = if frac > 0.0 && total > 0.0 && share < frac * total {
+            ((n_full as f64 * share / (frac * total)).ceil() as u32).clamp(1, n_full)
+        } else {
+            n_full
+        };
+        let sampled = factor > 0.0 && self.light_samples(s, p, n, n_s, rng, samples);
+        occ.iter_mut().for_each(|x| *x = 0.0);
+        let sum_w = if sampled {
+            self.occluded_sum(s, p, ignore, samples, 1.0, c, occ)
+        } else {
+            0.0
+        };
+        if sum_w <= 0.0 {
+            // No sample carries weight: no visibility information, the
+            // closed form stands.
+            area.iter_mut()
+                .zip(&s.radiance)
+                .for_each(|(o, l)| *o += scale * (factor * l));
+            return;
+        }
+        match self.settings.occlusion {
+            Occlusion::Cv => {
+                // E = E_closed + (MC_occ − MC_unocc), same samples;
+                // exactly 0 where every sample is blocked (MC_occ = 0).
+                area.iter_mut()
+                    .zip(occ.iter())
+                    .zip(&s.radiance)
+                    .for_each(|((o, mo), l)| {
+                        if *mo != 0.0 {
+                            *o += scale * (factor * l + (mo - sum_w * l));
+                        }
+                    });
+            }
+            Occlusion::Ratio => {
+                let k = factor / sum_w;
+                area.iter_mut()
+                    .zip(occ.iter())
+                    .for_each(|(o, mo)| *o += scale * (k * mo));
+            }
+        }
+    }
+
+    /// Direct light from the emitters the light tree picks at `p`, split as
+    /// `[area sources, isotropic point sources, shaped point sources]`: each
+    /// pick's usual estimate (area: `analytic_source`; point: one shadow
+    /// ray) times its 1/pmf, so each part is unbiased. Categories in
+    /// `skipped` are neither traced nor counted. The area part is clamped at
+    /// 0 per wavelength like `analytic`'s sum.
+    #[allow(clippy::too_many_arguments)]
+    fn tree_irradiance(
+        &self,
+        tree: &crate::light_tree::LightTree,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        skipped: [bool; 3],
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+    ) -> [Vec<f64>; 3] {
+        use crate::light_tree::LightRef;
+        let nwl = self.wl.len();
+        let mut parts = [vec![0.0; nwl], vec![0.0; nwl], vec![0.0; nwl]];
+        let mut picks = Vec::new();
+        tree.select(p, n, rng, &mut picks);
+        // Area picks: closed forms first, for the shadow-ray shares.
+        let mut area_picks: Vec<(&AreaSource, Option<f64>, f64)> = Vec::new();
+        for &(l, w) in &picks {
+            match l {
+                LightRef::Area(i) if !skipped[0] => {
+                    let s = &self.area[i as usize];
+                    let f = if s.facet == ignore {
+                        Some(0.0)
+                    } else {
+                        s.m_int.map(|m| {
+                            closed_form::shaped_polygon_irradiance_factor(
+                                p, n, &s.verts, s.normal, m,
+                            )
+                        })
+                    };
+                    area_picks.push((s, f, w));
+                }
+                LightRef::Area(_) => {}
+                LightRef::Point(i) => {
+                    let l = &self.points[i as usize];
+                    let k = if l.m > 0.0 { 2 } else { 1 };
+                    if !skipped[k] {
+                        self.point_irradiance(l, p, n, ignore, w, c, &mut parts[k]);
+                    }
+                }
+            }
+        }
+        if !area_picks.is_empty() {
+            let total: f64 = area_picks
+                .iter()
+                .map(|(s, f, w)| f.unwrap_or(0.0) * s.size * w)
+                .sum();
+            let mut samples = Vec::new();
+            let mut occ = vec![0.0; nwl];
+            let mut area = vec![0.0; nwl];
+            for &(s, f, w) in &area_picks {
+                self.analytic_source(
+                    s,
+                    f,
+                    total,
+                    w,
+                    p,
+                    n,
+                    ignore,
+                    rng,
+                    c,
+                    &mut samples,
+                    &mut occ,
+                    &mut area,
+                );
+            }
+            parts[0]
+                .iter_mut()
+                .zip(&area)
+                .for_each(|(o, a)| *o += a.max(0.0));
+        }
+        parts
     }
 
     /// The published 2001 method (see the crate docs).
@@ -1484,6 +1660,80 @@ impl Tracer {
             }
         }
     }
+}
+
+/// The light tree over `area` (with the `analytic` estimator; the other
+/// estimators keep their loop over every area source) and `points`, when the
+/// scene has more than `light_tree_min_lights` emitters; `None` keeps
+/// today's exhaustive path, bit for bit.
+fn build_light_tree(
+    area: &[AreaSource],
+    points: &[PointLight],
+    wl: &Wavelengths,
+    settings: &RenderSettings,
+    mpu: f64,
+    extent: f64,
+) -> Option<crate::light_tree::LightTree> {
+    use crate::light_tree::{Cone, LightInfo, LightRef, LightTree};
+    if (area.len() + points.len()) as u64 <= settings.light_tree_min_lights as u64 {
+        return None;
+    }
+    // A scalar size for the tree: the band total, or (emitting only outside
+    // every band) the spectral sum, so an emitter never gets weight 0 while
+    // it emits at some slot.
+    let size = |v: &[f64], total: f64| {
+        if total > 0.0 {
+            total
+        } else {
+            v.iter().map(|x| x.max(0.0)).sum()
+        }
+    };
+    let mut infos = Vec::with_capacity(area.len() + points.len());
+    if settings.estimator == Estimator::Analytic {
+        for (i, s) in area.iter().enumerate() {
+            let (lo, hi) = s.verts.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), v| (lo.min(*v), hi.max(*v)),
+            );
+            infos.push(LightInfo {
+                light: LightRef::Area(i as u32),
+                lo,
+                hi,
+                // L·A: the on-axis intensity (scene units).
+                phi: size(&s.radiance, s.size) * s.area,
+                cone: Cone {
+                    axis: s.normal,
+                    theta_o: 0.0,
+                    theta_e: std::f64::consts::FRAC_PI_2,
+                    // Projected area × cos^m shaping.
+                    exponent: s.m + 1.0,
+                },
+            });
+        }
+    }
+    let mpu2 = (mpu * mpu).max(f64::MIN_POSITIVE);
+    for (i, l) in points.iter().enumerate() {
+        // Shaped: cos^m about `dir`, nothing behind; isotropic (or no
+        // direction): every way.
+        let cone = if l.m > 0.0 && l.dir != DVec3::ZERO {
+            Cone {
+                axis: l.dir,
+                theta_o: 0.0,
+                theta_e: std::f64::consts::FRAC_PI_2,
+                exponent: l.m,
+            }
+        } else {
+            Cone::ALL
+        };
+        infos.push(LightInfo {
+            light: LightRef::Point(i as u32),
+            lo: l.pos,
+            hi: l.pos,
+            phi: size(&l.intensity, wl.total(&l.intensity)) / mpu2,
+            cone,
+        });
+    }
+    LightTree::build(infos, extent, settings.light_tree_branches)
 }
 
 impl PointLight {
