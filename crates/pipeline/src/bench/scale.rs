@@ -38,7 +38,8 @@
 //!   `e` the RMS over pixels of the relative standard error
 //!   (`ErrorSummary::rel_std_error_rms`) at the fixed spp, and the error
 //!   falling as 1/√samples, the time to bring it to 1 % is
-//!   `prepare_s + trace_s · (e / 0.01)²`.
+//!   `prepare_s + trace_s · max(1, spp (e / 0.01)²) / spp` (at least one
+//!   sample per pixel: the lamp grid is exact at any spp).
 //!
 //! **Size checks**: sizes must lie within 1 … 10⁷ triangles and 1 … 10⁵
 //! lamps; a case whose estimated peak memory exceeds the machine's
@@ -531,12 +532,22 @@ pub fn run_case(
         rays: s.rays.primary + s.rays.shadow + s.rays.secondary,
         rays_per_s: s.rays_per_second,
         rel_std_error_rms: e,
-        time_to_1pct_s: s.prepare_seconds + s.trace_seconds * (e / 0.01).powi(2),
+        time_to_1pct_s: time_to_1pct(s.prepare_seconds, s.trace_seconds, spp, e),
         prepare_peak_rss_bytes,
         peak_rss_bytes: peak_rss_bytes(),
         mean_radiance,
         closed_form_mean_radiance,
     })
+}
+
+/// Time to a 1 % per-pixel error from a render at a fixed `spp` whose
+/// RMS relative standard error is `e`: the error falls as 1/√samples, so
+/// `spp · (e / 0.01)²` samples per pixel are needed, and never fewer than
+/// one; preparation is paid once.
+pub fn time_to_1pct(prepare_s: f64, trace_s: f64, spp: u32, e: f64) -> f64 {
+    let spp = f64::from(spp.max(1));
+    let needed = (spp * (e / 0.01).powi(2)).max(1.0);
+    prepare_s + trace_s / spp * needed
 }
 
 /// What `gloam bench scale` was asked to do.
@@ -616,7 +627,7 @@ pub struct ScaleReport {
 const METHOD: &str = "each case in a fresh child process (gloam bench scale --case KIND:N); \
 prepare_s = the tracer's prepare_seconds (BVH, effect-plan pilot, radiosity cache); \
 peak_rss_bytes = VmHWM from the child's /proc/self/status after the render (prepare_peak_rss_bytes: right after preparation); \
-rays_per_s = all rays per second of trace time; time_to_1pct_s = prepare_s + trace_s * (e / 0.01)^2 with e the RMS over pixels of the render's relative standard error at the fixed spp";
+rays_per_s = all rays per second of trace time; time_to_1pct_s = prepare_s + trace_s * max(1, spp * (e / 0.01)^2) / spp with e the RMS over pixels of the render's relative standard error at the fixed spp (at least one sample per pixel)";
 
 fn mem_available_bytes() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/meminfo").ok()?;
@@ -844,13 +855,14 @@ impl ScaleReport {
         );
         let _ = writeln!(
             m,
-            "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9} {:>10} {:>10} {:>8} {:>11}  status",
+            "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}  status",
             "case",
             "triangles",
             "facets",
             "lamps",
             "emit",
             "prepare_s",
+            "trace_s",
             "peak_MB",
             "rays/s",
             "rel_err",
@@ -861,13 +873,14 @@ impl ScaleReport {
                 Some(c) => {
                     let _ = writeln!(
                         m,
-                        "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9.3} {:>10} {:>10.3e} {:>8.4} {:>11.3}  ok",
+                        "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9.3} {:>9.3} {:>10} {:>10.3e} {:>8.4} {:>11.3}  ok",
                         r.case,
                         c.triangles,
                         c.facets,
                         c.point_sources,
                         c.emitting_facets,
                         c.prepare_s,
+                        c.trace_s,
                         c.peak_rss_bytes
                             .map(|b| format!("{:.1}", b as f64 / 1e6))
                             .unwrap_or_else(|| "-".into()),
@@ -879,8 +892,9 @@ impl ScaleReport {
                 None => {
                     let _ = writeln!(
                         m,
-                        "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9} {:>10} {:>10} {:>8} {:>11}  {}: {}",
+                        "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}  {}: {}",
                         r.case,
+                        "-",
                         "-",
                         "-",
                         "-",
@@ -936,6 +950,14 @@ mod tests {
                 size: 1000
             }
         );
+    }
+
+    #[test]
+    fn time_to_1pct_scales_by_the_variance_and_needs_one_sample() {
+        // 5 % at spp 4 in 2 s of tracing: 4 · 25 = 100 spp, 25× the time.
+        assert!((time_to_1pct(1.0, 2.0, 4, 0.05) - 51.0).abs() < 1e-9);
+        // Already below 1 % at spp 4: one sample per pixel still costs a quarter.
+        assert!((time_to_1pct(1.0, 2.0, 4, 0.001) - 1.5).abs() < 1e-9);
     }
 
     #[test]
