@@ -191,6 +191,7 @@ fn scale_rejects_bad_sizes_with_a_message() {
         ("--triangles", "1e9", "exceeds the largest size"),
         ("--lamps", "0", "whole number ≥ 1"),
         ("--lamps", "ten", "is not a number"),
+        ("--spp", "1", "needs two samples"),
     ] {
         let out = gloam()
             .args(["bench", "scale", "--out", dir.path().to_str().unwrap()])

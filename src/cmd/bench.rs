@@ -216,8 +216,8 @@ fn run_scale(a: ScaleArgs) -> anyhow::Result<()> {
         opts.height
     );
     anyhow::ensure!(
-        (1..=4096).contains(&opts.spp),
-        "--spp {}: must be within 1 … 4096",
+        (2..=4096).contains(&opts.spp),
+        "--spp {}: must be within 2 … 4096 (a pixel's standard error needs two samples)",
         opts.spp
     );
     let report = scale::run(&opts)?;

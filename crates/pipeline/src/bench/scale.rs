@@ -453,8 +453,8 @@ pub fn run_case(
         "image {width}×{height}: each side must be within 1 … 4096"
     );
     ensure!(
-        (1..=4096).contains(&spp),
-        "spp {spp}: must be within 1 … 4096"
+        (2..=4096).contains(&spp),
+        "spp {spp}: must be within 2 … 4096 (a pixel's standard error needs two samples)"
     );
     let t0 = Instant::now();
     let path = generate(case, dir, width, height)?;
