@@ -41,6 +41,10 @@
 //!   `prepare_s + trace_s · max(1, spp (e / 0.01)²) / spp` (at least one
 //!   sample per pixel: the lamp grid is exact at any spp).
 //!
+//! **Mitsuba 3** (optional): where `python3 -c 'import mitsuba'` works,
+//! `scale_mitsuba.py` renders each finished case's generated scene too
+//! (load, render, peak RSS), under the same timeout; never required.
+//!
 //! **Size checks**: sizes must lie within 1 … 10⁷ triangles and 1 … 10⁵
 //! lamps; a case whose estimated peak memory exceeds the machine's
 //! `MemAvailable` is skipped (`too_large`); and the child fails unless the
@@ -606,6 +610,10 @@ pub struct Row {
     pub wall_s: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub result: Option<CaseResult>,
+    /// The same scene in Mitsuba 3 (`scale_mitsuba.py`), when `import
+    /// mitsuba` works: `load_s`, `render_s`, `peak_rss_bytes`, … or `error`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mitsuba: Option<serde_json::Value>,
 }
 
 /// `scale.json`.
@@ -635,8 +643,65 @@ fn mem_available_bytes() -> Option<u64> {
     Some(line.split_whitespace().nth(1)?.parse::<u64>().ok()? * 1024)
 }
 
-/// Runs one case in a child process with a timeout.
-fn run_child(opts: &ScaleOptions, case: Case) -> anyhow::Result<Row> {
+/// Waits for `child` until `timeout` after `t0`; kills it then.
+/// `None`: timed out.
+fn wait_with_timeout(
+    child: &mut std::process::Child,
+    t0: Instant,
+    timeout: Duration,
+) -> anyhow::Result<Option<std::process::ExitStatus>> {
+    loop {
+        if let Some(st) = child.try_wait()? {
+            return Ok(Some(st));
+        }
+        if t0.elapsed() >= timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Ok(None);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The Mitsuba 3 side of the comparison (Python, run by `python3`).
+const MITSUBA_SCRIPT: &str = include_str!("scale_mitsuba.py");
+
+/// Renders the generated scene in `dir` with Mitsuba 3 (`scale_mitsuba.py`)
+/// within `timeout_s`; its JSON, or `{"error": …}`.
+fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
+    let go = || -> anyhow::Result<serde_json::Value> {
+        let script = dir.join("scale_mitsuba.py");
+        std::fs::write(&script, MITSUBA_SCRIPT)?;
+        let (out, err) = (dir.join("mitsuba.json"), dir.join("mitsuba.err"));
+        let t0 = Instant::now();
+        let mut child = Command::new("python3")
+            .arg(&script)
+            .arg(dir.join("scene"))
+            .arg(spp.to_string())
+            .stdin(Stdio::null())
+            .stdout(std::fs::File::create(&out)?)
+            .stderr(std::fs::File::create(&err)?)
+            .spawn()
+            .context("starting python3")?;
+        match wait_with_timeout(&mut child, t0, Duration::from_secs_f64(timeout_s))? {
+            None => bail!("killed after {timeout_s:.0} s"),
+            Some(st) if !st.success() => {
+                let e = std::fs::read_to_string(&err).unwrap_or_default();
+                let tail: Vec<&str> = e.lines().rev().take(3).collect();
+                bail!(
+                    "{st}: {}",
+                    tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
+                )
+            }
+            Some(_) => Ok(serde_json::from_str(&std::fs::read_to_string(&out)?)?),
+        }
+    };
+    go().unwrap_or_else(|e| serde_json::json!({ "error": format!("{e:#}") }))
+}
+
+/// Runs one case in a child process with a timeout (and then in Mitsuba 3
+/// when `mitsuba`).
+fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<Row> {
     let t0 = Instant::now();
     let mut row = Row {
         case: case.label(),
@@ -646,6 +711,7 @@ fn run_child(opts: &ScaleOptions, case: Case) -> anyhow::Result<Row> {
         message: None,
         wall_s: 0.0,
         result: None,
+        mitsuba: None,
     };
     let need = estimated_peak_bytes(case);
     if let Some(avail) = mem_available_bytes()
@@ -682,18 +748,11 @@ fn run_child(opts: &ScaleOptions, case: Case) -> anyhow::Result<Row> {
     let mut child = cmd
         .spawn()
         .with_context(|| format!("starting {}", opts.exe.display()))?;
-    let deadline = Duration::from_secs_f64(opts.timeout_s.max(0.1));
-    let status = loop {
-        if let Some(st) = child.try_wait()? {
-            break Some(st);
-        }
-        if t0.elapsed() >= deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let status = wait_with_timeout(
+        &mut child,
+        t0,
+        Duration::from_secs_f64(opts.timeout_s.max(0.1)),
+    )?;
     row.wall_s = t0.elapsed().as_secs_f64();
     let stderr = std::fs::read_to_string(&stderr_path).unwrap_or_default();
     match status {
@@ -712,7 +771,12 @@ fn run_child(opts: &ScaleOptions, case: Case) -> anyhow::Result<Row> {
         Some(_) => {
             let text = std::fs::read_to_string(&stdout_path)?;
             match serde_json::from_str::<CaseResult>(&text) {
-                Ok(r) => row.result = Some(r),
+                Ok(r) => {
+                    row.result = Some(r);
+                    if mitsuba {
+                        row.mitsuba = Some(run_mitsuba(work.path(), opts.spp, opts.timeout_s));
+                    }
+                }
                 Err(e) => {
                     row.status = "failed".into();
                     row.message = Some(format!("the case printed no result ({e})"));
@@ -723,10 +787,11 @@ fn run_child(opts: &ScaleOptions, case: Case) -> anyhow::Result<Row> {
     Ok(row)
 }
 
-/// Whether `import mitsuba` works, and a note saying so.
-fn mitsuba_note(skip: bool) -> String {
+/// Whether `import mitsuba` works (and so the side-by-side runs), and a
+/// note saying so.
+fn mitsuba_check(skip: bool) -> (bool, String) {
     if skip {
-        return "skipped (--quick or --no-mitsuba)".into();
+        return (false, "skipped (--quick or --no-mitsuba)".into());
     }
     let ok = Command::new("python3")
         .args(["-c", "import mitsuba"])
@@ -736,10 +801,19 @@ fn mitsuba_note(skip: bool) -> String {
         .status()
         .is_ok_and(|s| s.success());
     if ok {
-        "`import mitsuba` works, but the side-by-side run is not implemented yet: no Mitsuba figures".into()
+        (
+            true,
+            "Mitsuba 3 (scalar_rgb, path max_depth 3, isotropic point lights) on the same generated \
+             scene, same image size and spp: load_s (mi.load_dict), render_s, peak_rss_bytes \
+             (getrusage ru_maxrss of its python3 process)"
+                .into(),
+        )
     } else {
-        "Mitsuba 3 not available (`python3 -c 'import mitsuba'` failed): side-by-side skipped"
-            .into()
+        (
+            false,
+            "Mitsuba 3 not available (`python3 -c 'import mitsuba'` failed): side-by-side skipped"
+                .into(),
+        )
     }
 }
 
@@ -769,10 +843,11 @@ pub fn run(opts: &ScaleOptions) -> anyhow::Result<ScaleReport> {
     }
     std::fs::create_dir_all(&opts.out)
         .with_context(|| format!("creating {}", opts.out.display()))?;
+    let (mitsuba, mitsuba_note) = mitsuba_check(opts.no_mitsuba);
     let mut rows = Vec::new();
     for c in cases {
         eprintln!("bench scale: {} …", c.label());
-        let row = run_child(opts, c)?;
+        let row = run_child(opts, c, mitsuba)?;
         eprintln!(
             "bench scale: {} {} ({:.1} s)",
             c.label(),
@@ -791,7 +866,7 @@ pub fn run(opts: &ScaleOptions) -> anyhow::Result<ScaleReport> {
         timeout_s: opts.timeout_s,
         method: METHOD,
         cases: rows,
-        mitsuba: mitsuba_note(opts.no_mitsuba),
+        mitsuba: mitsuba_note,
         json: json_path.display().to_string(),
         png: None,
     };
@@ -907,6 +982,24 @@ impl ScaleReport {
                         r.status,
                         r.message.as_deref().unwrap_or("")
                     );
+                }
+            }
+        }
+        for r in &self.cases {
+            let Some(v) = &r.mitsuba else { continue };
+            let f = |k: &str| v[k].as_f64();
+            match (f("load_s"), f("render_s"), f("peak_rss_bytes")) {
+                (Some(l), Some(t), Some(b)) => {
+                    let _ = writeln!(
+                        m,
+                        "  mitsuba {:<18} load {l:.3} s, render {t:.3} s, peak {:.1} MB, {} triangles",
+                        r.case,
+                        b / 1e6,
+                        v["triangles"]
+                    );
+                }
+                _ => {
+                    let _ = writeln!(m, "  mitsuba {:<18} {}", r.case, v["error"]);
                 }
             }
         }
