@@ -42,8 +42,9 @@
 //!   sample per pixel: the lamp grid is exact at any spp).
 //!
 //! **Mitsuba 3** (optional): where `python3 -c 'import mitsuba'` works,
-//! `scale_mitsuba.py` renders each finished case's generated scene too
-//! (load, render, peak RSS), under the same timeout; never required.
+//! `scale_mitsuba.py` renders each case's generated scene too (load,
+//! render, peak RSS), under the same timeout, also when gloam's side timed
+//! out; never required.
 //!
 //! **Size checks**: sizes must lie within 1 … 10⁷ triangles and 1 … 10⁵
 //! lamps; a case whose estimated peak memory exceeds the machine's
@@ -771,18 +772,18 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
         Some(_) => {
             let text = std::fs::read_to_string(&stdout_path)?;
             match serde_json::from_str::<CaseResult>(&text) {
-                Ok(r) => {
-                    row.result = Some(r);
-                    if mitsuba {
-                        row.mitsuba = Some(run_mitsuba(work.path(), opts.spp, opts.timeout_s));
-                    }
-                }
+                Ok(r) => row.result = Some(r),
                 Err(e) => {
                     row.status = "failed".into();
                     row.message = Some(format!("the case printed no result ({e})"));
                 }
             }
         }
+    }
+    // Mitsuba gets the scene whenever it was generated (scene.toml is
+    // written last), also when gloam timed out preparing it.
+    if mitsuba && work.path().join("scene").join("scene.toml").exists() {
+        row.mitsuba = Some(run_mitsuba(work.path(), opts.spp, opts.timeout_s));
     }
     Ok(row)
 }
