@@ -117,3 +117,142 @@ fn plan_saving_on_the_panel_agrees_within_noise() {
     assert_eq!(s["agree_within_noise"], true, "{v}");
     assert!(v["total"]["saved_s"].as_f64().is_some(), "{v}");
 }
+
+/// `gloam bench scale --quick`: every case finishes in its own process,
+/// the generated scenes hold exactly the generator's closed-form counts,
+/// and the lamp grid's rendered mean radiance is the closed-form sum of
+/// inverse-square cosine terms (and Lambert's formula for the panels).
+#[test]
+fn scale_quick_counts_and_lamp_grid_match_closed_forms() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = run_json(gloam().args([
+        "bench",
+        "scale",
+        "--quick",
+        "--threads",
+        "2",
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--json",
+    ]));
+    let cases = v["cases"].as_array().expect("cases");
+    let labels: Vec<&str> = cases.iter().map(|c| c["case"].as_str().unwrap()).collect();
+    assert_eq!(
+        labels,
+        ["triangles:1000", "lamps:1", "lamps:10", "lamps:100"],
+        "{v}"
+    );
+    for c in cases {
+        assert_eq!(c["status"], "ok", "{c}");
+        let r = &c["result"];
+        let n = c["size"].as_u64().unwrap();
+        // The closed form of the generators (crates/pipeline/src/bench/scale.rs).
+        let (triangles, facets, lamps, emitting) = if c["kind"] == "lamps" {
+            (2 * (n + 1), n + 1, n, n)
+        } else {
+            // 1000 → one UV sphere of 16 bands × 32 segments (4·16·15 = 960
+            // triangles), plus the room's 6 quads and 4 ceiling panels.
+            assert_eq!(n, 1000);
+            (12 + 8 + 960, 6 + 4 + 960, 0, 4)
+        };
+        assert_eq!(r["triangles"], triangles, "{c}");
+        assert_eq!(r["facets"], facets, "{c}");
+        assert_eq!(r["point_sources"], lamps, "{c}");
+        assert_eq!(r["emitting_facets"], emitting, "{c}");
+        for k in ["prepare_s", "rays_per_s", "time_to_1pct_s"] {
+            assert!(r[k].as_f64().is_some_and(|x| x > 0.0), "{k} in {c}");
+        }
+        assert!(
+            r["peak_rss_bytes"].as_u64().is_some_and(|b| b > 1_000_000),
+            "{c}"
+        );
+        if c["kind"] == "lamps" {
+            let (got, want) = (
+                r["mean_radiance"].as_f64().unwrap(),
+                r["closed_form_mean_radiance"].as_f64().unwrap(),
+            );
+            assert!(
+                (got - want).abs() < 2e-3 * want,
+                "lamps:{n}: rendered {got}, closed form {want}"
+            );
+        }
+    }
+    let png = std::fs::read(dir.path().join("scale.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "scale.png is not a PNG");
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("scale.json")).unwrap()).unwrap();
+    assert_eq!(json["cases"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn scale_rejects_bad_sizes_with_a_message() {
+    let dir = tempfile::tempdir().unwrap();
+    for (flag, value, want) in [
+        ("--triangles", "1e9", "exceeds the largest size"),
+        ("--lamps", "0", "whole number ≥ 1"),
+        ("--lamps", "ten", "is not a number"),
+        ("--spp", "1", "needs two samples"),
+    ] {
+        let out = gloam()
+            .args(["bench", "scale", "--out", dir.path().to_str().unwrap()])
+            .args([flag, value])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{flag} {value} passed");
+        assert!(err.contains(want), "{flag} {value}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let out = gloam()
+        .args(["bench", "scale", "--quick"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--out DIR is required"));
+}
+
+/// `sims/night-town/generate.py --lamps 10` writes a scene the loader
+/// accepts, with the lamps, lit windows and facets the generator reports.
+#[test]
+fn night_town_generator_output_parses() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new("python3")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("sims/night-town/generate.py"))
+        .args(["--lamps", "10", "--windows", "20", "--seed", "3", "--out"])
+        .arg(dir.path())
+        .output()
+        .expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let path = dir.path().join("scene.toml");
+    let scene = gloam_scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.point_sources.len(), 10);
+    assert!(scene.point_sources.iter().all(|p| p.is_shaped()));
+    assert_eq!(scene.emitting_facets().len(), 20);
+    assert!(scene.sky.is_some());
+    // The header states the generator's own count: "# N facets, 20 of them emitting; …".
+    let text = std::fs::read_to_string(&path).unwrap();
+    let line = text.lines().find(|l| l.contains(" facets, ")).unwrap();
+    let n: usize = line
+        .trim_start_matches("# ")
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(scene.facets.len(), n, "{line}");
+    assert!(n < 2048, "the small variant must stay below 2 048 facets");
+    // The plan runs (below 2 048 facets it does not need the cache fix).
+    let plan = gloam()
+        .args(["plan", path.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        plan.status.success(),
+        "{}",
+        String::from_utf8_lossy(&plan.stderr)
+    );
+}

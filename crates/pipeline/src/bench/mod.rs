@@ -42,6 +42,7 @@
 pub mod accuracy;
 pub mod metrics;
 pub mod plan_check;
+pub mod scale;
 pub mod throughput;
 pub mod truth;
 
