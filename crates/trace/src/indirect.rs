@@ -39,7 +39,7 @@ use crate::sky_light::{cosine_hemisphere, orthonormal_basis};
 use crate::tracer::{RayCounts, Tracer, latin_hypercube, stream};
 
 /// Light-tree estimates of direct irradiance averaged per cache texel.
-pub const CACHE_DIRECT_REPEATS: u32 = 16;
+pub const CACHE_DIRECT_REPEATS: u32 = 4;
 
 /// Random-stream domain of the cache's texels.
 const DOMAIN_CACHE: u64 = 0xCAC4E;
@@ -895,8 +895,8 @@ impl Tracer {
     /// A texel's direct irradiance, added to `out`. With the light tree a
     /// single estimate picks only `light_tree_branches` emitters, and the
     /// texel's noise would persist into every bounce and every pixel that
-    /// gathers from it, so [`CACHE_DIRECT_REPEATS`] estimates are averaged
-    /// (about the cost of the texel's gather rays); without the tree the
+    /// gathers from it, so [`CACHE_DIRECT_REPEATS`] tree selections are
+    /// averaged (the sky and Moon once); without the tree the
     /// estimate is the exact closed form and one suffices.
     fn texel_irradiance(
         &self,
@@ -909,14 +909,8 @@ impl Tracer {
     ) {
         if self.light_tree.is_none() {
             self.irradiance(p, n, f, rng, c, out);
-            return;
-        }
-        let mut one = vec![0.0; out.len()];
-        let w = 1.0 / CACHE_DIRECT_REPEATS as f64;
-        for _ in 0..CACHE_DIRECT_REPEATS {
-            one.iter_mut().for_each(|x| *x = 0.0);
-            self.irradiance(p, n, f, rng, c, &mut one);
-            out.iter_mut().zip(&one).for_each(|(o, x)| *o += w * x);
+        } else {
+            self.irradiance_with(p, n, f, CACHE_DIRECT_REPEATS, rng, c, out);
         }
     }
 
@@ -1274,7 +1268,7 @@ box = { min = [0, 0, 0], max = [4, 3, 2.5], inward = true }
         let mut settings = cache_settings(64);
         settings.set("spp", "4").unwrap();
         // With the light tree (864 emitters > light_tree_min_lights) each
-        // texel's direct light is an estimate (±2 % per texel with 16
+        // texel's direct light is an estimate (±4 % per texel with 4
         // repeats, measured by probe); the bounces carry that noise to every
         // texel amplified by up to 1/(1 − ρ) = 3.3, so the texel mean and the
         // image hold the closed form to a few tenths of that.

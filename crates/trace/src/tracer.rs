@@ -712,6 +712,24 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut [f64],
     ) {
+        self.irradiance_with(p, n, ignore, 1, rng, c, out);
+    }
+
+    /// [`Tracer::irradiance`] with the light tree's part averaged over
+    /// `tree_repeats` independent selections (the radiosity cache's texels:
+    /// the sky and Moon are sampled once, the many-light part, the noisy
+    /// one, `tree_repeats` times).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn irradiance_with(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        tree_repeats: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut [f64],
+    ) {
         // A dropped term that draws random numbers (dome, area sources) is
         // still computed, into a scratch buffer, so the render shares every
         // other random number with the full one: the difference is the
@@ -767,10 +785,17 @@ impl Tracer {
                 drop.point_sources,
                 drop.shaped_point_sources,
             ];
-            let parts = self.tree_irradiance(tree, p, n, ignore, skipped, rng, c);
-            for (part, d) in parts.iter().zip(dropped) {
-                if !d {
-                    out.iter_mut().zip(part).for_each(|(o, x)| *o += x);
+            let repeats = tree_repeats.max(1);
+            let w = 1.0 / repeats as f64;
+            for _ in 0..repeats {
+                let parts = self.tree_irradiance(tree, p, n, ignore, skipped, rng, c);
+                for (part, d) in parts.iter().zip(dropped) {
+                    if d {
+                    } else if repeats == 1 {
+                        out.iter_mut().zip(part).for_each(|(o, x)| *o += x);
+                    } else {
+                        out.iter_mut().zip(part).for_each(|(o, x)| *o += w * x);
+                    }
                 }
             }
         }
