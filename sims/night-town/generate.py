@@ -229,6 +229,9 @@ def main(argv=None):
     ap.add_argument("--lamps", type=int, default=1000, help="street lamps, 10 .. 10000 (default 1000)")
     ap.add_argument("--windows", type=int, default=2000, help="lit windows, 0 .. 100000 (default 2000; capped at the window positions the town has)")
     ap.add_argument("--seed", type=int, default=27, help="random seed (default 27)")
+    ap.add_argument("--blocks", type=int, default=None,
+                    help="G: a G x G grid of blocks, 1 .. 60 (default: the smallest grid with room for --lamps); "
+                         "the same G and seed give the same buildings whatever --lamps, so lamp counts compare on one town")
     ap.add_argument("--out", default=HERE, help="output directory (default: this script's directory)")
     a = ap.parse_args(argv)
     if not 10 <= a.lamps <= 10000:
@@ -242,7 +245,11 @@ def main(argv=None):
     sensor = os.path.relpath(os.path.join(HERE, "..", "sensors", "gen2-s20-iccd.toml"), out)
 
     rng = Rng(a.seed)
-    g = grid_for(a.lamps)
+    g = grid_for(a.lamps) if a.blocks is None else a.blocks
+    if not 1 <= g <= 60:
+        ap.error(f"--blocks {g}: must be within 1 .. 60")
+    if 6 * g * (g + 1) < a.lamps:
+        ap.error(f"--blocks {g}: room for {6 * g * (g + 1)} lamps, fewer than --lamps {a.lamps}")
     size = g * PITCH
 
     # Buildings, one OBJ per facade finish (roofs in their own file).

@@ -38,6 +38,9 @@ use serde::Serialize;
 use crate::sky_light::{cosine_hemisphere, orthonormal_basis};
 use crate::tracer::{RayCounts, Tracer, latin_hypercube, stream};
 
+/// Facet sides per budgeted texel up to which every side gets its own grid.
+const PER_FACET_MAX_SIDES_PER_TEXEL: f64 = 2.0;
+
 /// Light-tree estimates of direct irradiance averaged per cache texel.
 pub const CACHE_DIRECT_REPEATS: u32 = 4;
 
@@ -464,7 +467,11 @@ impl Tracer {
             .sqrt()
             .max(1e-12 * self.geom.extent.max(1e-300));
         let sides = 2 * cached.iter().filter(|&&c| c).count() as u64;
-        if sides as f64 <= 4.0 * texels_max {
+        // Per-facet grids while the sides are at most twice the budget: every
+        // shipped scene (and so its results, bit for bit) stays on this path,
+        // and a scene of ~10⁴ facets, which would get up to 4× the budget in
+        // one-texel grids, takes the cheaper clustered layout instead.
+        if sides as f64 <= PER_FACET_MAX_SIDES_PER_TEXEL * texels_max {
             // Each side gets ≥ 1 texel, so this search ends once h exceeds
             // every facet (h at least doubles a round).
             let mut h = h0;
