@@ -295,11 +295,11 @@ impl FrameCapture<'_> {
                 },
             }),
         )?;
+        // No path: `out` is the command's hidden staging directory until the
+        // set is published (the command names the published one).
         eprintln!(
-            "captured {} frame(s) through '{}' → {}",
-            self.frames,
-            self.sensor,
-            out.display()
+            "captured {} frame(s) through '{}'",
+            self.frames, self.sensor
         );
         Ok(())
     }
