@@ -170,7 +170,10 @@ fn radiance_lut_then_apply_recovers_radiance() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("outside the calibrated gains"), "{err}");
-    assert!(err.contains("camera and bit depth cannot be checked"), "{err}");
+    assert!(
+        err.contains("camera and bit depth cannot be checked"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -11,7 +11,7 @@
 //! [`unrecorded`] (hashing outputs, checking a previous output set) are
 //! not inputs and are left out.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::io::{Error, ErrorKind, Read};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -42,6 +42,27 @@ static RECORD: Mutex<Option<Record>> = Mutex::new(None);
 
 thread_local! {
     static SUPPRESSED: Cell<u32> = const { Cell::new(0) };
+    /// Open [`collect_reads`] scopes of this thread, innermost last.
+    static COLLECTING: RefCell<Vec<Vec<FileRead>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` and returns, with its result, the files it read on this thread
+/// (whether or not [`record_reads`] is on): what one sweep task read.
+pub fn collect_reads<T>(f: impl FnOnce() -> T) -> (T, Vec<FileRead>) {
+    struct Pop;
+    impl Drop for Pop {
+        fn drop(&mut self) {
+            COLLECTING.with(|c| c.borrow_mut().pop());
+        }
+    }
+    COLLECTING.with(|c| c.borrow_mut().push(Vec::new()));
+    let pop = Pop;
+    let t = f();
+    let reads = COLLECTING
+        .with(|c| c.borrow_mut().last_mut().map(std::mem::take))
+        .unwrap_or_default();
+    drop(pop);
+    (t, reads)
 }
 
 /// Starts recording every file this process reads through this module
@@ -91,6 +112,17 @@ fn note(path: &Path, bytes: u64, sha256: Option<String>) {
     if SUPPRESSED.with(|s| s.get()) > 0 {
         return;
     }
+    COLLECTING.with(|c| {
+        for scope in c.borrow_mut().iter_mut() {
+            if scope.len() < MAX_RECORDED_READS {
+                scope.push(FileRead {
+                    path: path.to_path_buf(),
+                    bytes,
+                    sha256: sha256.clone(),
+                });
+            }
+        }
+    });
     if let Ok(mut r) = RECORD.lock()
         && let Some(r) = r.as_mut()
     {
@@ -118,7 +150,8 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 fn is_recording() -> bool {
-    SUPPRESSED.with(|s| s.get()) == 0 && RECORD.lock().is_ok_and(|r| r.is_some())
+    SUPPRESSED.with(|s| s.get()) == 0
+        && (COLLECTING.with(|c| !c.borrow().is_empty()) || RECORD.lock().is_ok_and(|r| r.is_some()))
 }
 
 /// Largest text input (scene TOML, spectrum CSV, sensor TOML), bytes.
@@ -244,6 +277,12 @@ mod tests {
             Some("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad")
         );
         assert_eq!(mine[0].bytes, 3);
+        // A scope collects this thread's reads, recording on or not.
+        let ((), got) = collect_reads(|| {
+            read_text(&f, 10).unwrap();
+        });
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].sha256, mine[0].sha256);
     }
 
     #[test]

@@ -178,62 +178,71 @@ impl HasShape for Array2<u32> {
 /// tile's `manifest.json` with its current SHA-256.
 pub const TILE_FILES: [&str; 4] = [TILE_FILE, "radiance.npy", "stderr.npy", "spp.npy"];
 
-/// Checks the tile directory `dir` against its `manifest.json`: a complete
-/// set that lists every file in [`TILE_FILES`] with the SHA-256 the file
-/// has now. Returns the render's inputs (path → SHA-256) from the
-/// manifest's provenance.
+/// Checks the tile directory `dir` against its `manifest.json` (a
+/// `gloam render --tile` set) or its `task.json` (a sweep task): a whole
+/// tile that lists every file in [`TILE_FILES`] with the SHA-256 the file
+/// has now. Returns the render's inputs (path → SHA-256) from the record.
 pub fn verify_tile_manifest(dir: &Path) -> anyhow::Result<BTreeMap<String, String>> {
     let mp = dir.join("manifest.json");
-    let text = gloam_spectra::input::read_text(&mp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+    let tp = dir.join(crate::run::RECORD_FILE);
+    let task = !mp.exists() && tp.is_file();
+    let rp = if task { &tp } else { &mp };
+    let text = gloam_spectra::input::read_text(rp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
         .with_context(|| {
             format!(
-                "reading {} (a tile is a published `gloam render --tile` set; without its manifest its files cannot be checked)",
-                mp.display()
+                "reading {} (a tile is a published `gloam render --tile` set or a sweep task; without its manifest its files cannot be checked)",
+                rp.display()
             )
         })?;
     let m: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a gloam manifest", mp.display()))?;
+        .with_context(|| format!("{}: not a gloam manifest", rp.display()))?;
+    let (whole, hashes, inputs): (bool, BTreeMap<String, String>, BTreeMap<String, String>) =
+        if task {
+            let r: crate::run::TaskRecord = serde_json::from_value(m)
+                .with_context(|| format!("{}: not a sweep task record", rp.display()))?;
+            (r.status == crate::run::Status::Done, r.outputs, r.inputs)
+        } else {
+            let files = m.get("files").and_then(|f| f.as_array()).with_context(|| {
+                format!("{}: no \"files\" list; not a gloam manifest", rp.display())
+            })?;
+            let pairs = |list: Option<&Vec<serde_json::Value>>| -> BTreeMap<String, String> {
+                list.into_iter()
+                    .flatten()
+                    .filter_map(|f| {
+                        Some((
+                            f.get("path")?.as_str()?.to_string(),
+                            f.get("sha256")?.as_str()?.to_string(),
+                        ))
+                    })
+                    .collect()
+            };
+            (
+                m.get("complete") == Some(&serde_json::Value::Bool(true)),
+                pairs(Some(files)),
+                pairs(m.pointer("/provenance/inputs").and_then(|i| i.as_array())),
+            )
+        };
     ensure!(
-        m.get("complete") == Some(&serde_json::Value::Bool(true)),
-        "{}: the render stopped early (\"complete\" is not true); it is not a whole tile",
-        mp.display()
+        whole,
+        "{}: the render stopped early or failed; it is not a whole tile",
+        rp.display()
     );
-    let files = m
-        .get("files")
-        .and_then(|f| f.as_array())
-        .with_context(|| format!("{}: no \"files\" list; not a gloam manifest", mp.display()))?;
-    let listed = |name: &str| {
-        files.iter().find_map(|f| {
-            (f.get("path")?.as_str()? == name).then(|| f.get("sha256")?.as_str().map(String::from))
-        })
-    };
     for name in TILE_FILES {
         let p = dir.join(name);
-        let Some(Some(want)) = listed(name) else {
+        let Some(want) = hashes.get(name) else {
             bail!(
                 "{}: not listed in {} with a SHA-256; the tile set was altered",
                 p.display(),
-                mp.display()
+                rp.display()
             );
         };
         let have = crate::run::sha256_file(&p)?;
         ensure!(
-            have == want,
+            &have == want,
             "{}: changed since the render wrote it (its SHA-256 is {have}, {} records {want}); refusing to merge it",
             p.display(),
-            mp.display()
+            rp.display()
         );
-    }
-    let mut inputs = BTreeMap::new();
-    if let Some(list) = m.pointer("/provenance/inputs").and_then(|i| i.as_array()) {
-        for i in list {
-            if let (Some(p), Some(h)) = (
-                i.get("path").and_then(|p| p.as_str()),
-                i.get("sha256").and_then(|h| h.as_str()),
-            ) {
-                inputs.insert(p.to_string(), h.to_string());
-            }
-        }
     }
     Ok(inputs)
 }
