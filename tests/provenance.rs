@@ -110,12 +110,28 @@ fn the_manifest_and_report_hash_every_file_the_render_read() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene_dir(dir.path());
     let out = dir.path().join("out");
-    ok(gloam(&[&"render", &scene, &"--out", &out, &"--spp", &"1"]));
+    // A sensor file (read, never written).
+    let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("sims/sensors/scientific-ccd.toml");
+    ok(gloam(&[
+        &"render",
+        &scene,
+        &"--sensor",
+        &sensor,
+        &"--out",
+        &out,
+        &"--spp",
+        &"1",
+    ]));
     let m = json(&out.join("manifest.json"));
     let r = json(&out.join("report.json"));
     for listed in [inputs(&m["provenance"]), inputs(&r["provenance"])] {
-        for name in ["s.toml", "paint.csv", "tri.obj", "place.csv"] {
-            let f = std::fs::canonicalize(dir.path().join(name)).unwrap();
+        let read = ["s.toml", "paint.csv", "tri.obj", "place.csv"]
+            .map(|n| dir.path().join(n))
+            .into_iter()
+            .chain([sensor.clone()]);
+        for path in read {
+            let name = path.display().to_string();
+            let f = std::fs::canonicalize(&path).unwrap();
             let hits: Vec<&(PathBuf, String)> = listed.iter().filter(|(p, _)| *p == f).collect();
             assert_eq!(hits.len(), 1, "{name} once in {listed:?}");
             assert_eq!(hits[0].1, sha256sum(&f), "{name}");
