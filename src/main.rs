@@ -41,7 +41,12 @@ impl std::error::Error for StdoutClosed {}
 /// Low-light-level imaging: spectral ray tracer, intensified camera chain,
 /// frame grabbers and calibration.
 #[derive(Parser)]
-#[command(name = "gloam", version, about, propagate_version = true)]
+#[command(
+    name = "gloam",
+    version = gloam_pipeline::provenance::VERSION_WITH_COMMIT,
+    about,
+    propagate_version = true
+)]
 struct Cli {
     /// Log detail for diagnostics (also settable with RUST_LOG).
     #[arg(long, global = true, default_value = "warn")]
@@ -123,6 +128,8 @@ fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
 
 fn main() -> ExitCode {
     use clap::{CommandFactory, FromArgMatches};
+    // Every file the run reads goes into its provenance.
+    gloam_spectra::input::record_reads();
     let matches = negative_numbers_are_values(Cli::command()).get_matches();
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(c) => c,

@@ -141,7 +141,7 @@ fn radiance_lut_then_apply_recovers_radiance() {
     let img = gloam_calib::io::read_grey(&tif).unwrap();
     assert_eq!((img.width, img.height), (48, 48));
     assert!(img.data.iter().all(|v| v.is_finite()));
-    // A gain outside the LUT is refused.
+    // A --gain the frame's record contradicts is refused, naming the record.
     let o = gloam()
         .args(["calibrate", "apply", "--gain", "50", "--lut"])
         .arg(out.join("lut.json"))
@@ -150,7 +150,30 @@ fn radiance_lut_then_apply_recovers_radiance() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("outside the calibrated gains"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("frames.jsonl:1 records gain 2") && err.contains("--gain 50"),
+        "{err}"
+    );
+    // A gain outside the LUT is refused (a frame without a record: the
+    // warning says what cannot be checked).
+    let lone = dir.path().join("lone");
+    std::fs::create_dir(&lone).unwrap();
+    std::fs::copy(cap.join("frame-000000.png"), lone.join("f.png")).unwrap();
+    let o = gloam()
+        .args(["calibrate", "apply", "--gain", "50", "--lut"])
+        .arg(out.join("lut.json"))
+        .arg(lone.join("f.png"))
+        .arg(&tif)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("outside the calibrated gains"), "{err}");
+    assert!(
+        err.contains("camera and bit depth cannot be checked"),
+        "{err}"
+    );
 }
 
 #[test]

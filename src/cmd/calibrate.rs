@@ -348,11 +348,27 @@ fn load_lut(path: &Path) -> anyhow::Result<Lut> {
 
 fn apply(a: ApplyArgs) -> anyhow::Result<()> {
     let lut = load_lut(&a.lut)?;
-    let gain = match a.gain {
-        Some(g) => g,
-        None => gloam_calib::io::gain_from_frames_jsonl(&a.input)?,
+    let record = gloam_calib::io::frame_record(&a.input)?;
+    let jl = a
+        .input
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join("frames.jsonl");
+    let recorded_gain = record
+        .as_ref()
+        .and_then(|(line, v)| Some((*line, v.get("gain")?.as_f64()?)));
+    let gain = match (a.gain, recorded_gain) {
+        (Some(g), Some((line, r))) if (g - r).abs() > 1e-6 * r.abs().max(1e-12) => bail!(
+            "--gain {g}: {}:{line} records gain {r} for {}; the frame was not taken at gain {g} (omit --gain to use the recorded gain)",
+            jl.display(),
+            a.input.display()
+        ),
+        (Some(g), _) => g,
+        (None, Some((_, r))) => r,
+        (None, None) => gloam_calib::io::gain_from_frames_jsonl(&a.input)?,
     };
     let (w, h, px) = gloam_calib::io::read_counts(&a.input)?;
+    check_lut_fits_frame(&lut, &a.lut, &a.input, record.as_ref(), &px)?;
     let out = lut.apply(gain, &px)?;
     gloam_calib::io::write_tiff_f32(&a.output, w, h, &out)?;
     let nan = out.iter().filter(|v| v.is_nan()).count();
@@ -365,6 +381,96 @@ fn apply(a: ApplyArgs) -> anyhow::Result<()> {
             String::new()
         }
     );
+    Ok(())
+}
+
+/// The camera in a grabber's description, without the scene, rig, seed or
+/// firmware details: `simulated gen3 looking at rig …` → `simulated gen3`.
+fn camera_identity(described: &str) -> &str {
+    let cut = [" looking at ", " ("]
+        .iter()
+        .filter_map(|m| described.find(m))
+        .min()
+        .unwrap_or(described.len());
+    described[..cut].trim()
+}
+
+/// Refuses a LUT made for another camera or bit depth than the frame's
+/// (from `camera.json` and `frames.jsonl` beside the frame), or a frame
+/// holding counts above the LUT's digitizer maximum. A frame with no
+/// record beside it can be checked only by its counts: a warning says so.
+fn check_lut_fits_frame(
+    lut: &Lut,
+    lut_path: &Path,
+    frame: &Path,
+    record: Option<&(usize, serde_json::Value)>,
+    px: &[u16],
+) -> anyhow::Result<()> {
+    let dir = frame.parent().unwrap_or(Path::new("."));
+    let jl = dir.join("frames.jsonl");
+    let cam_file = dir.join(super::capture::CAMERA_FILE);
+    let lut_camera = camera_identity(&lut.grabber);
+    let mut unchecked = Vec::new();
+    if cam_file.is_file() {
+        let text =
+            gloam_spectra::input::read_text(&cam_file, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                .with_context(|| format!("reading {}", cam_file.display()))?;
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a gloam camera record", cam_file.display()))?;
+        let camera = v
+            .get("camera")
+            .and_then(|c| c.as_str())
+            .with_context(|| format!("{}: no \"camera\"", cam_file.display()))?;
+        if camera_identity(camera) != lut_camera {
+            bail!(
+                "{}: made with camera '{lut_camera}', but {} was captured with '{}' ({}); calibrate that camera, or apply its own LUT",
+                lut_path.display(),
+                frame.display(),
+                camera_identity(camera),
+                cam_file.display()
+            );
+        }
+    } else {
+        unchecked.push("camera");
+    }
+    let lut_max = lut.digitizer_max_dn;
+    match record.and_then(|(line, v)| Some((*line, v.get("bits")?.as_u64()?))) {
+        Some((line, bits)) if lut_max > 0.0 => {
+            let frame_max = 2f64.powi(bits.min(32) as i32) - 1.0;
+            if frame_max != lut_max {
+                bail!(
+                    "{}: made for a digitizer whose top code is {lut_max} DN, but {}:{line} records {} as {bits}-bit (top code {frame_max} DN); apply a LUT of this bit depth",
+                    lut_path.display(),
+                    jl.display(),
+                    frame.display()
+                );
+            }
+        }
+        _ => unchecked.push("bit depth"),
+    }
+    if lut_max > 0.0
+        && let Some(&top) = px.iter().max()
+        && f64::from(top) > lut_max
+    {
+        bail!(
+            "{}: holds {top} DN, above the top code {lut_max} DN of the camera {} was made for; the frame is from another camera or bit depth",
+            frame.display(),
+            lut_path.display()
+        );
+    }
+    if !unchecked.is_empty() {
+        eprintln!(
+            "warning: {}: no {} beside it, so its {} cannot be checked against {}",
+            frame.display(),
+            if record.is_none() {
+                "frames.jsonl line or camera.json"
+            } else {
+                "camera.json"
+            },
+            unchecked.join(" and "),
+            lut_path.display()
+        );
+    }
     Ok(())
 }
 

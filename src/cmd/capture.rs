@@ -11,6 +11,9 @@ use gloam_pipeline::{FrameLog, FrameRecord, OutputSet, Provenance};
 
 use super::output::{png16_bytes, write_atomic};
 
+/// The file beside a capture's frames naming the camera that took them.
+pub const CAMERA_FILE: &str = "camera.json";
+
 #[derive(Args)]
 pub struct CaptureArgs {
     /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH],
@@ -72,6 +75,15 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     let mut g = gloam_grabber::open_with(&args.grabber, &opts)
         .with_context(|| format!("opening {}", args.grabber))?;
     eprintln!("capturing from {}", g.describe());
+    // Which camera took the frames: `calibrate apply` checks a LUT against it.
+    super::output::write_atomic(
+        &dir.join(CAMERA_FILE),
+        serde_json::to_string_pretty(&serde_json::json!({
+            "camera": g.describe(),
+            "grabber": args.grabber,
+        }))?
+        .as_bytes(),
+    )?;
     if let Some(b) = &args.bits {
         g.set_bits(b.parse().expect("validated"))?;
     }

@@ -26,7 +26,7 @@ pub struct MergeArgs {
 }
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
-    let provenance = Provenance::of_this_run();
+    let mut provenance = Provenance::of_this_run();
     let m = gloam_sweep::tile::merge(&args.tiles)?;
     let set = OutputSet::begin(&args.out, args.force, false)?;
     let t = set.dir().to_path_buf();
@@ -47,6 +47,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             "radiance_npy_sha256": gloam_sweep::run::sha256_hex(&bytes),
         }));
     }
+    provenance.add_inputs_read();
     let report = serde_json::json!({
         "scene": m.info.scene,
         "image": {"width": m.info.width, "height": m.info.height, "bands": m.info.band_names},
@@ -87,6 +88,7 @@ pub fn write_tile_info(
         height,
         band_names: out.band_names.clone(),
         scene: scene.display().to_string(),
+        scene_sha256: gloam_pipeline::provenance::hash_file(scene).map(|f| f.sha256),
         settings: {
             // The thread count does not change the image.
             let mut s = serde_json::to_value(&out.settings)?;

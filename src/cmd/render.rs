@@ -86,7 +86,7 @@ pub struct RenderArgs {
 pub use gloam_pipeline::render::settings_from;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let provenance = Provenance::of_this_run();
+    let mut provenance = Provenance::of_this_run();
     // Refused up front when --out is in use; the files appear at once.
     let set = OutputSet::begin(&args.out, args.force, false)?;
     let dir = set.dir().to_path_buf();
@@ -178,6 +178,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let write_s = t_write.elapsed().as_secs_f64();
     let mut report =
         gloam_pipeline::render::report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    // The scene's OBJ, spectrum and instance files were read after the
+    // provenance was first taken.
+    provenance.add_inputs_read();
     report["provenance"] = serde_json::to_value(&provenance)?;
     write_atomic(
         &dir.join("report.json"),

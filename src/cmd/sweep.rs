@@ -284,7 +284,7 @@ fn status(s: StatusArgs) -> anyhow::Result<()> {
             String::new()
         } else {
             format!(
-                ", {} with changed outputs (will rerun)",
+                ", {} with changed outputs or inputs (will rerun)",
                 states.changed.len()
             )
         }

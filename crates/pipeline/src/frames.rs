@@ -170,9 +170,10 @@ pub fn check_options(sensor: &str, gain: Option<f64>, frames: u32) -> anyhow::Re
 /// the render's `report.json` in `out`, when there is one.
 fn record_in_report(out: &Path, capture: serde_json::Value) -> anyhow::Result<()> {
     let path = out.join("report.json");
-    let Ok(text) =
+    // The report is this run's output, not an input.
+    let Ok(text) = gloam_spectra::input::unrecorded(|| {
         gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-    else {
+    }) else {
         return Ok(());
     };
     let mut report: serde_json::Value =

@@ -130,12 +130,17 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> 
 /// Adds `"provenance"` to the JSON object in `path` (a report or
 /// calibration file written by a library that does not know the run).
 pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> anyhow::Result<()> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .with_context(|| format!("reading {}", path.display()))?;
+    // The file is this run's output, not an input.
+    let text = gloam_spectra::input::unrecorded(|| {
+        gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+    })
+    .with_context(|| format!("reading {}", path.display()))?;
     let mut v: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
     if let Some(obj) = v.as_object_mut() {
-        obj.insert("provenance".into(), serde_json::to_value(provenance)?);
+        let mut provenance = provenance.clone();
+        provenance.add_inputs_read();
+        obj.insert("provenance".into(), serde_json::to_value(&provenance)?);
         write_atomic(path, serde_json::to_string_pretty(&v)?.as_bytes())?;
     }
     Ok(())

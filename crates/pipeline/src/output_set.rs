@@ -157,10 +157,14 @@ impl OutputSet {
                 files.push(f);
             }
         }
+        // Every input the run read, however late (a scene's OBJ files are
+        // read after the run's provenance was first taken).
+        let mut provenance = provenance.clone();
+        provenance.add_inputs_read();
         let manifest = Manifest {
             complete: stopped_because.is_none(),
             stopped_because,
-            provenance,
+            provenance: &provenance,
             files,
         };
         std::fs::write(
@@ -261,9 +265,10 @@ fn refuse_unless_output_set(target: &Path) -> anyhow::Result<()> {
     };
     let entries = set_entries(target).map_err(|e| not_ours(format!("{e:#}")))?;
     let manifest = target.join("manifest.json");
-    let text =
+    let text = gloam_spectra::input::unrecorded(|| {
         gloam_spectra::input::read_text(&manifest, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
+    })
+    .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
     let listed: std::collections::HashSet<String> =
         serde_json::from_str::<serde_json::Value>(&text)
             .ok()

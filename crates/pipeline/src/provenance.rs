@@ -1,6 +1,9 @@
 //! Where an output came from: the gloam version and commit, the command
-//! line, the UTC time, and every input file named on the command line with
-//! its SHA-256 — recorded in every report, calibration file and manifest.
+//! line, the UTC time, and every input file with its SHA-256 — those named
+//! on the command line and every file the run read through
+//! `gloam_spectra::input` (scene, OBJ, spectra, instance CSVs, sensor
+//! files, LUTs, regions, sweep files, calibration sources, tiles) —
+//! recorded in every report, calibration file and manifest.
 
 use std::path::Path;
 
@@ -26,9 +29,26 @@ pub struct Provenance {
     /// When the run started, ISO-8601 UTC.
     pub utc: String,
     /// Every existing regular file named by a command-line word (or the
-    /// value of a `--flag=VALUE` or `KEY=VALUE` word), hashed.
+    /// value of a `--flag=VALUE` or `KEY=VALUE` word), then every other
+    /// file the run read (see [`Provenance::add_inputs_read`]), hashed.
     pub inputs: Vec<InputFile>,
+    /// Files read past `gloam_spectra::input::MAX_RECORDED_READS`, not
+    /// listed.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub inputs_not_listed: usize,
 }
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// `gloam --version`: the version and the commit it was built from.
+pub const VERSION_WITH_COMMIT: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (commit ",
+    env!("GLOAM_GIT_COMMIT"),
+    ")"
+);
 
 /// Files larger than this are listed without a hash (a multi-GB frame
 /// stack should not stall a run's start).
@@ -60,7 +80,34 @@ impl Provenance {
             command_line,
             utc: utc_now(),
             inputs,
+            inputs_not_listed: 0,
         }
+    }
+
+    /// Adds every file read so far through `gloam_spectra::input` (since
+    /// `record_reads`) that is not listed yet — the same file reached by
+    /// another path counts once. A file read whole is listed with the hash
+    /// of the bytes the run read; a streamed one is hashed now.
+    pub fn add_inputs_read(&mut self) {
+        let canon = |p: &str| std::fs::canonicalize(p).unwrap_or_else(|_| p.into());
+        let mut seen: std::collections::HashSet<std::path::PathBuf> =
+            self.inputs.iter().map(|i| canon(&i.path)).collect();
+        for r in gloam_spectra::input::reads() {
+            let c = std::fs::canonicalize(&r.path).unwrap_or_else(|_| r.path.clone());
+            if !seen.insert(c) {
+                continue;
+            }
+            let f = match r.sha256 {
+                Some(sha256) => Some(InputFile {
+                    path: r.path.display().to_string(),
+                    bytes: r.bytes,
+                    sha256,
+                }),
+                None => hash_file(&r.path),
+            };
+            self.inputs.extend(f);
+        }
+        self.inputs_not_listed = gloam_spectra::input::reads_not_recorded();
     }
 }
 
@@ -71,7 +118,10 @@ pub fn hash_file(path: &Path) -> Option<InputFile> {
     let mut sha256 = String::new();
     // Regular files only: /dev/zero has length 0 and never ends.
     if meta.is_file() && meta.len() <= MAX_HASHED_BYTES {
-        let mut f = gloam_spectra::input::open_bounded(path, MAX_HASHED_BYTES).ok()?;
+        let mut f = gloam_spectra::input::unrecorded(|| {
+            gloam_spectra::input::open_bounded(path, MAX_HASHED_BYTES)
+        })
+        .ok()?;
         let mut h = Sha256::new();
         let mut buf = vec![0u8; 1 << 16];
         loop {
@@ -92,7 +142,7 @@ pub fn hash_file(path: &Path) -> Option<InputFile> {
 
 /// SHA-256 of bytes, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    hex(&Sha256::digest(bytes))
+    gloam_spectra::input::sha256_hex(bytes)
 }
 
 fn hex(b: &[u8]) -> String {

@@ -64,6 +64,11 @@ pub struct TaskRecord {
     pub figures: BTreeMap<String, Option<f64>>,
     /// Output file → SHA-256 (hex).
     pub outputs: BTreeMap<String, String>,
+    /// Every file the task read (scene, OBJ, spectra, sensor file, …) →
+    /// its SHA-256 when the task ran: a rerun redoes the task when one
+    /// changed (absent in records of older versions).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub inputs: BTreeMap<String, String>,
     pub seconds: f64,
     pub host: String,
     pub gloam_version: String,
@@ -97,6 +102,8 @@ pub const PLAN_FORMAT: &str = "gloam-sweep/1";
 pub struct SweepDir {
     pub dir: PathBuf,
     pub sweep: Sweep,
+    /// SHA-256 of input files as they are now, hashed once per run.
+    input_hashes: std::sync::Mutex<BTreeMap<String, Option<String>>>,
 }
 
 /// What happened to one task in a run.
@@ -124,7 +131,7 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
-fn sha256_file(path: &Path) -> anyhow::Result<String> {
+pub(crate) fn sha256_file(path: &Path) -> anyhow::Result<String> {
     let mut f =
         gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
             .with_context(|| format!("reading {}", path.display()))?;
@@ -215,6 +222,7 @@ impl SweepDir {
         Ok(SweepDir {
             dir: dir.to_path_buf(),
             sweep,
+            input_hashes: Default::default(),
         })
     }
 
@@ -257,6 +265,7 @@ impl SweepDir {
         Ok(SweepDir {
             dir: dir.to_path_buf(),
             sweep,
+            input_hashes: Default::default(),
         })
     }
 
@@ -282,7 +291,8 @@ impl SweepDir {
         (r.id == self.sweep.tasks.get(index)?.id).then_some(r)
     }
 
-    /// Done, with every recorded output present and unchanged.
+    /// Done, with every recorded output present and unchanged, and every
+    /// input it read unchanged.
     pub fn is_done(&self, index: usize) -> bool {
         let Some(r) = self.record(index) else {
             return false;
@@ -292,6 +302,51 @@ impl SweepDir {
             && r.outputs
                 .iter()
                 .all(|(f, h)| sha256_file(&dir.join(f)).is_ok_and(|x| &x == h))
+            && self.changed_inputs(&r).is_empty()
+    }
+
+    /// The inputs of a task record whose content changed since the task
+    /// ran (or that are gone), as `path (why)`.
+    pub fn changed_inputs(&self, r: &TaskRecord) -> Vec<String> {
+        r.inputs
+            .iter()
+            .filter_map(|(p, h)| {
+                let now = self.current_hash(p);
+                match now {
+                    Some(x) if &x == h => None,
+                    Some(_) => Some(format!("{p} changed")),
+                    None => Some(format!("{p} is no longer readable")),
+                }
+            })
+            .collect()
+    }
+
+    fn current_hash(&self, path: &str) -> Option<String> {
+        if let Ok(c) = self.input_hashes.lock()
+            && let Some(h) = c.get(path)
+        {
+            return h.clone();
+        }
+        let h = gloam_spectra::input::unrecorded(|| sha256_file(Path::new(path))).ok();
+        if let Ok(mut c) = self.input_hashes.lock() {
+            c.insert(path.to_string(), h.clone());
+        }
+        h
+    }
+
+    /// Notes on stderr why a task recorded done runs again.
+    fn say_why_rerun(&self, index: usize) {
+        if let Some(r) = self.record(index)
+            && r.status == Status::Done
+        {
+            let changed = self.changed_inputs(&r);
+            if !changed.is_empty() {
+                eprintln!(
+                    "task {index}: its record is stale ({} since it ran); running it again",
+                    changed.join(", ")
+                );
+            }
+        }
     }
 
     /// Runs `index` if it is not done.
@@ -304,12 +359,14 @@ impl SweepDir {
         if self.is_done(index) {
             return Ok(self.skipped(index));
         }
+        self.say_why_rerun(index);
         let task = &self.sweep.tasks[index];
         let t0 = Instant::now();
-        let shared = exec.prepare(&self.sweep, task);
+        let (shared, read) =
+            gloam_spectra::input::collect_reads(|| exec.prepare(&self.sweep, task));
         match shared {
-            Ok(s) => self.run_prepared(exec, index, Ok(&s), t0),
-            Err(e) => self.run_prepared::<E>(exec, index, Err(&format!("{e:#}")), t0),
+            Ok(s) => self.run_prepared(exec, index, Ok(&s), &read, t0),
+            Err(e) => self.run_prepared::<E>(exec, index, Err(&format!("{e:#}")), &read, t0),
         }
     }
 
@@ -344,6 +401,7 @@ impl SweepDir {
                 on_task(&o);
                 outcomes.push(o);
             } else {
+                self.say_why_rerun(i);
                 pending.push(i);
             }
         }
@@ -351,14 +409,15 @@ impl SweepDir {
             return Ok(outcomes);
         };
         let t0 = Instant::now();
-        let shared = exec
-            .prepare(&self.sweep, &self.sweep.tasks[first])
-            .map_err(|e| format!("{e:#}"));
+        let (shared, read) = gloam_spectra::input::collect_reads(|| {
+            exec.prepare(&self.sweep, &self.sweep.tasks[first])
+                .map_err(|e| format!("{e:#}"))
+        });
         let run_one = |i: usize| -> anyhow::Result<Outcome> {
             let t = if i == first { t0 } else { Instant::now() };
             let o = match &shared {
-                Ok(s) => self.run_prepared(exec, i, Ok(s), t)?,
-                Err(e) => self.run_prepared::<E>(exec, i, Err(e), t)?,
+                Ok(s) => self.run_prepared(exec, i, Ok(s), &read, t)?,
+                Err(e) => self.run_prepared::<E>(exec, i, Err(e), &read, t)?,
             };
             on_task(&o);
             Ok(o)
@@ -420,6 +479,7 @@ impl SweepDir {
         exec: &E,
         index: usize,
         shared: Result<&E::Shared, &str>,
+        prepare_read: &[gloam_spectra::input::FileRead],
         t0: Instant,
     ) -> anyhow::Result<Outcome> {
         let task = &self.sweep.tasks[index];
@@ -432,12 +492,27 @@ impl SweepDir {
             .with_context(|| {
                 format!("creating a temporary directory in {}", tasks_dir.display())
             })?;
-        let result = match shared {
+        let (result, run_read) = gloam_spectra::input::collect_reads(|| match shared {
             Ok(s) => exec
                 .run(&self.sweep, task, s, tmp.path())
                 .map_err(|e| format!("{e:#}")),
             Err(e) => Err(e.to_string()),
-        };
+        });
+        // What the task read: its chunk's shared work and its own run.
+        let mut inputs = BTreeMap::new();
+        for r in prepare_read.iter().chain(&run_read) {
+            let p = r.path.display().to_string();
+            if inputs.contains_key(&p) {
+                continue;
+            }
+            let h = match &r.sha256 {
+                Some(h) => Some(h.clone()),
+                None => gloam_spectra::input::unrecorded(|| sha256_file(&r.path)).ok(),
+            };
+            if let Some(h) = h {
+                inputs.insert(p, h);
+            }
+        }
         let mut record = TaskRecord {
             index,
             id: task.id.clone(),
@@ -447,6 +522,7 @@ impl SweepDir {
             error: None,
             figures: BTreeMap::new(),
             outputs: BTreeMap::new(),
+            inputs,
             seconds: 0.0,
             host: host(),
             gloam_version: env!("CARGO_PKG_VERSION").into(),

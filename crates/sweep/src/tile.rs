@@ -6,6 +6,7 @@
 //! tracer's per-pixel random streams are keyed by the pixel's index in the
 //! whole image, so each pixel of a band is bit-identical to the untiled one.
 
+use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -72,6 +73,9 @@ pub struct TileInfo {
     pub band_names: Vec<String>,
     /// The scene file as given.
     pub scene: String,
+    /// The scene file's SHA-256 (absent in tiles of older versions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_sha256: Option<String>,
     /// The render settings (must agree between tiles).
     pub settings: serde_json::Value,
 }
@@ -170,29 +174,173 @@ impl HasShape for Array2<u32> {
     }
 }
 
+/// The files of a tile that [`merge`] reads; each must be listed in the
+/// tile's `manifest.json` with its current SHA-256.
+pub const TILE_FILES: [&str; 4] = [TILE_FILE, "radiance.npy", "stderr.npy", "spp.npy"];
+
+/// Checks the tile directory `dir` against its `manifest.json` (a
+/// `gloam render --tile` set) or its `task.json` (a sweep task): a whole
+/// tile that lists every file in [`TILE_FILES`] with the SHA-256 the file
+/// has now. Returns the render's inputs (path → SHA-256) from the record.
+pub fn verify_tile_manifest(dir: &Path) -> anyhow::Result<BTreeMap<String, String>> {
+    let mp = dir.join("manifest.json");
+    let tp = dir.join(crate::run::RECORD_FILE);
+    let task = !mp.exists() && tp.is_file();
+    let rp = if task { &tp } else { &mp };
+    let text = gloam_spectra::input::read_text(rp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .with_context(|| {
+            format!(
+                "reading {} (a tile is a published `gloam render --tile` set or a sweep task; without its manifest its files cannot be checked)",
+                rp.display()
+            )
+        })?;
+    let m: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a gloam manifest", rp.display()))?;
+    let (whole, hashes, inputs): (bool, BTreeMap<String, String>, BTreeMap<String, String>) =
+        if task {
+            let r: crate::run::TaskRecord = serde_json::from_value(m)
+                .with_context(|| format!("{}: not a sweep task record", rp.display()))?;
+            (r.status == crate::run::Status::Done, r.outputs, r.inputs)
+        } else {
+            let files = m.get("files").and_then(|f| f.as_array()).with_context(|| {
+                format!("{}: no \"files\" list; not a gloam manifest", rp.display())
+            })?;
+            let pairs = |list: Option<&Vec<serde_json::Value>>| -> BTreeMap<String, String> {
+                list.into_iter()
+                    .flatten()
+                    .filter_map(|f| {
+                        Some((
+                            f.get("path")?.as_str()?.to_string(),
+                            f.get("sha256")?.as_str()?.to_string(),
+                        ))
+                    })
+                    .collect()
+            };
+            (
+                m.get("complete") == Some(&serde_json::Value::Bool(true)),
+                pairs(Some(files)),
+                pairs(m.pointer("/provenance/inputs").and_then(|i| i.as_array())),
+            )
+        };
+    ensure!(
+        whole,
+        "{}: the render stopped early or failed; it is not a whole tile",
+        rp.display()
+    );
+    for name in TILE_FILES {
+        let p = dir.join(name);
+        let Some(want) = hashes.get(name) else {
+            bail!(
+                "{}: not listed in {} with a SHA-256; the tile set was altered",
+                p.display(),
+                rp.display()
+            );
+        };
+        let have = crate::run::sha256_file(&p)?;
+        ensure!(
+            &have == want,
+            "{}: changed since the render wrote it (its SHA-256 is {have}, {} records {want}); refusing to merge it",
+            p.display(),
+            rp.display()
+        );
+    }
+    Ok(inputs)
+}
+
+/// What differs between two tiles' records (empty when they are tiles of
+/// one render), each as `what (this vs that)`.
+pub fn differences(a: &TileInfo, b: &TileInfo) -> Vec<String> {
+    let mut d = Vec::new();
+    match (&a.scene_sha256, &b.scene_sha256) {
+        (Some(x), Some(y)) if x != y => d.push(format!(
+            "scene ({} with SHA-256 {x} vs {} with SHA-256 {y})",
+            a.scene, b.scene
+        )),
+        (Some(_), Some(_)) => {}
+        _ if a.scene != b.scene => d.push(format!("scene ({} vs {})", a.scene, b.scene)),
+        _ => {}
+    }
+    if (a.width, a.height) != (b.width, b.height) {
+        d.push(format!(
+            "image size ({}×{} vs {}×{})",
+            a.width, a.height, b.width, b.height
+        ));
+    }
+    if a.band_names != b.band_names {
+        d.push(format!(
+            "bands ({} vs {})",
+            a.band_names.join(","),
+            b.band_names.join(",")
+        ));
+    }
+    if a.settings != b.settings {
+        let empty = serde_json::Map::new();
+        let (x, y) = (
+            a.settings.as_object().unwrap_or(&empty),
+            b.settings.as_object().unwrap_or(&empty),
+        );
+        let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        let null = serde_json::Value::Null;
+        let diffs: Vec<String> = keys
+            .into_iter()
+            .filter(|k| x.get(*k) != y.get(*k))
+            .map(|k| {
+                format!(
+                    "{k} {} vs {}",
+                    x.get(k).unwrap_or(&null),
+                    y.get(k).unwrap_or(&null)
+                )
+            })
+            .collect();
+        d.push(if diffs.is_empty() {
+            "settings".to_string()
+        } else {
+            format!("settings ({})", diffs.join(", "))
+        });
+    }
+    if a.of != b.of {
+        d.push(format!("tile count ({} vs {})", a.of, b.of));
+    }
+    d
+}
+
+/// Inputs (path → SHA-256) recorded by both tiles' manifests whose hashes
+/// differ: the same scene path with an edited OBJ, spectrum or sensor file.
+fn input_differences(a: &BTreeMap<String, String>, b: &BTreeMap<String, String>) -> Vec<String> {
+    a.iter()
+        .filter_map(|(p, h)| {
+            let g = b.get(p)?;
+            (g != h).then(|| format!("input {p} (SHA-256 {h} vs {g})"))
+        })
+        .collect()
+}
+
 /// Stacks the tiles in `dirs` (any order, every tile of one render exactly
-/// once) into the whole image.
+/// once) into the whole image. Each tile's files must be what its
+/// manifest says, and all tiles must come from one render (the same scene
+/// and inputs, size, bands, settings and tile count); a refusal names the
+/// file, or what differs.
 pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
     ensure!(!dirs.is_empty(), "no tile directories given");
     let mut tiles: Vec<(TileInfo, PathBuf)> = Vec::with_capacity(dirs.len());
+    let mut inputs = Vec::with_capacity(dirs.len());
     for d in dirs {
+        inputs.push(verify_tile_manifest(d)?);
         tiles.push((read_info(d)?, d.clone()));
     }
     let first = tiles[0].0.clone();
-    let same = |a: &TileInfo| {
-        a.of == first.of
-            && a.width == first.width
-            && a.height == first.height
-            && a.band_names == first.band_names
-            && a.settings == first.settings
-            && a.scene == first.scene
-    };
-    for (t, d) in &tiles {
+    for ((t, d), ins) in tiles.iter().zip(&inputs) {
+        let mut diff = differences(t, &first);
+        diff.extend(input_differences(ins, &inputs[0]));
         ensure!(
-            same(t),
-            "{} is a tile of another render than {} (scene, size, bands, settings or tile count differ)",
+            diff.is_empty(),
+            "{} is a tile of another render than {}: {} differ{}",
             d.display(),
-            tiles[0].1.display()
+            tiles[0].1.display(),
+            diff.join("; "),
+            if diff.len() == 1 { "s" } else { "" }
         );
     }
     tiles.sort_by_key(|(t, _)| t.tile);
