@@ -223,8 +223,13 @@ pub(crate) fn available_memory() -> Option<u64> {
             .ok()?;
         kb.checked_mul(1024)
     });
-    let read_u64 =
-        |p: &str| -> Option<u64> { std::fs::read_to_string(p).ok()?.trim().parse().ok() };
+    let read_u64 = |p: &str| -> Option<u64> {
+        gloam_spectra::input::read_text(std::path::Path::new(p), 1 << 16)
+            .ok()?
+            .trim()
+            .parse()
+            .ok()
+    };
     let cgroup = read_u64("/sys/fs/cgroup/memory.max")
         .map(|max| max.saturating_sub(read_u64("/sys/fs/cgroup/memory.current").unwrap_or(0)));
     match (meminfo, cgroup) {

@@ -687,14 +687,21 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
         match wait_with_timeout(&mut child, t0, Duration::from_secs_f64(timeout_s))? {
             None => bail!("killed after {timeout_s:.0} s"),
             Some(st) if !st.success() => {
-                let e = std::fs::read_to_string(&err).unwrap_or_default();
+                let e = gloam_spectra::input::read_text(
+                    &err,
+                    gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+                )
+                .unwrap_or_default();
                 let tail: Vec<&str> = e.lines().rev().take(3).collect();
                 bail!(
                     "{st}: {}",
                     tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
                 )
             }
-            Some(_) => Ok(serde_json::from_str(&std::fs::read_to_string(&out)?)?),
+            Some(_) => Ok(serde_json::from_str(&gloam_spectra::input::read_text(
+                &out,
+                gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+            )?)?),
         }
     };
     go().unwrap_or_else(|e| serde_json::json!({ "error": format!("{e:#}") }))
@@ -755,7 +762,9 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
         Duration::from_secs_f64(opts.timeout_s.max(0.1)),
     )?;
     row.wall_s = t0.elapsed().as_secs_f64();
-    let stderr = std::fs::read_to_string(&stderr_path).unwrap_or_default();
+    let stderr =
+        gloam_spectra::input::read_text(&stderr_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .unwrap_or_default();
     match status {
         None => {
             row.status = "timeout".into();
@@ -770,7 +779,10 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
             ));
         }
         Some(_) => {
-            let text = std::fs::read_to_string(&stdout_path)?;
+            let text = gloam_spectra::input::read_text(
+                &stdout_path,
+                gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+            )?;
             match serde_json::from_str::<CaseResult>(&text) {
                 Ok(r) => row.result = Some(r),
                 Err(e) => {
