@@ -104,6 +104,16 @@ impl Ctx<'_> {
 /// long before it overflows.
 pub const MAX_COORDINATE: f64 = 1e12;
 
+/// A number for a message: plain when short, `1e308` rather than 309
+/// digits when not (and `5e-324` rather than `0.000…`).
+pub(crate) fn num(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// Largest emitter shape exponent (`cos^m`): a cos^1000 lobe is already
 /// 2° wide at half maximum, and the closed forms loop over the exponent.
 pub const MAX_SHAPE_EXPONENT: f64 = 1000.0;
@@ -420,13 +430,16 @@ fn add_lines(
         if !(w.is_finite() && w > 0.0 && w <= MAX_WAVELENGTH_NM) {
             return Err(cx.err(
                 &at.index(0),
-                format!("emission line wavelength {w:e} nm must be a finite number in (0, {MAX_WAVELENGTH_NM:e}]"),
+                format!("emission line wavelength {} nm must be a finite number in (0, {MAX_WAVELENGTH_NM:e}]", num(w)),
             ));
         }
         if !(v.is_finite() && v >= 0.0) {
             return Err(cx.err(
                 &at.index(1),
-                format!("emission line value {v:e} {unit} at {w} nm must be a finite number ≥ 0"),
+                format!(
+                    "emission line value {} {unit} at {w} nm must be a finite number ≥ 0",
+                    num(v)
+                ),
             ));
         }
         if let Some(k) = out.iter().position(|l| l.wavelength_nm == w) {
@@ -515,7 +528,10 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
             if !(m_exp.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m_exp)) {
                 return Err(cx.err(
                     &f.key("shape_exponent"),
-                    format!("shape exponent {m_exp:e} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]"),
+                    format!(
+                        "shape exponent {} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]",
+                        num(m_exp)
+                    ),
                 ));
             }
             Some(Emission {
@@ -1183,7 +1199,10 @@ fn point_source_prototype(
     if !(m.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m)) {
         return Err(cx.err(
             &field.key("shape_exponent"),
-            format!("shape exponent {m:e} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]"),
+            format!(
+                "shape exponent {} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]",
+                num(m)
+            ),
         ));
     }
     let intensity = spectrum_parts(
@@ -1225,10 +1244,13 @@ fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {
         ));
     }
     let fov = cx.finite(&field.key("fov_deg"), c.fov_deg)?;
-    if !(fov >= MIN_FOV_DEG && fov < 180.0) {
+    if !(MIN_FOV_DEG..180.0).contains(&fov) {
         return Err(cx.err(
             &field.key("fov_deg"),
-            format!("horizontal field of view {fov:e}° must be within [{MIN_FOV_DEG}, 180)"),
+            format!(
+                "horizontal field of view {}° must be within [{MIN_FOV_DEG}, 180)",
+                num(fov)
+            ),
         ));
     }
     for (k, v) in [("width", c.width), ("height", c.height)] {

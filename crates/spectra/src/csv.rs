@@ -118,9 +118,15 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
         if !w.is_finite() || w <= 0.0 || w > MAX_WAVELENGTH_NM {
             return Err(err(
                 line_no,
-                format!(
-                    "wavelength {w:e} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
-                ),
+                if w.abs() < 1e7 || !w.is_finite() {
+                    format!(
+                        "wavelength {w} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
+                    )
+                } else {
+                    format!(
+                        "wavelength {w:e} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
+                    )
+                },
             ));
         }
         if !v.is_finite() {
