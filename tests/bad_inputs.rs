@@ -6,16 +6,22 @@
 //! A case is a command line plus files written into a scratch directory
 //! first; `{base}` in a file is the small valid scene of
 //! `tests/bad_inputs/base.toml`, so each scene case states only what it
-//! breaks; a file whose content is `{fifo}` is made a FIFO nobody writes.
+//! breaks (`{sensor}`/`{spatch:FROM=>TO}`: the gen3-gaas-iccd preset); a
+//! file whose content is `{fifo}` is made a FIFO nobody writes,
+//! `{link:TARGET}` a symbolic link, `{tiff}` a real 32 × 24 radiance TIFF.
 //! Add a case for every bad input found: the mechanism, not the instance,
 //! is what the fix must hold.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_gloam");
 const BASE: &str = include_str!("bad_inputs/base.toml");
+/// `{sensor}` in a file: the gen3-gaas-iccd preset, patched with
+/// `{spatch:FROM=>TO}` like the scene.
+const SENSOR: &str = include_str!("../sims/sensors/gen3-gaas-iccd.toml");
 /// A case that has not ended by then has hung.
 const TIMEOUT: Duration = Duration::from_secs(60);
 
@@ -39,13 +45,41 @@ fn patched(from: &str, to: &str) -> String {
     BASE.replacen(from, to, 1)
 }
 
+/// `{tiff}` in a file: a real radiance TIFF (the base scene rendered once,
+/// 32 × 24), for cases whose bad input sits beside a good image.
+fn fixture_tiff() -> PathBuf {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    let d = DIR.get_or_init(|| {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("s.toml"), BASE).unwrap();
+        let ok = Command::new(BIN)
+            .args(["render", "s.toml", "--out", "o"])
+            .current_dir(d.path())
+            .stderr(Stdio::null())
+            .status()
+            .unwrap();
+        assert!(ok.success(), "rendering the base scene for {{tiff}}");
+        d
+    });
+    d.path().join("o/radiance.tiff")
+}
+
 fn run(case: &Case, dir: &Path) -> (Option<i32>, String) {
     for (name, content) in case.files {
-        let text = content.replace("{base}", BASE);
+        let text = content.replace("{base}", BASE).replace("{sensor}", SENSOR);
         let text = scene_patch(&text);
         let p = dir.join(name);
         if let Some(parent) = p.parent() {
             std::fs::create_dir_all(parent).unwrap();
+        }
+        if let Some(target) = text.strip_prefix("{link:") {
+            // A symbolic link to TARGET (`{link:/dev/zero}`).
+            std::os::unix::fs::symlink(target.trim_end_matches('}'), &p).unwrap();
+            continue;
+        }
+        if text == "{tiff}" {
+            std::fs::copy(fixture_tiff(), &p).unwrap();
+            continue;
         }
         if text == "{fifo}" {
             // A FIFO nobody writes: a reader that opens it blocks forever.
@@ -80,8 +114,16 @@ fn run(case: &Case, dir: &Path) -> (Option<i32>, String) {
 }
 
 /// `{patch:FROM=>TO}` on the first line of a file: the base scene with one
-/// substring replaced.
+/// substring replaced (`{spatch:…}`: the base sensor).
 fn scene_patch(text: &str) -> String {
+    if let Some(rest) = text.strip_prefix("{spatch:") {
+        let (spec, tail) = rest
+            .split_once("}\n")
+            .unwrap_or((rest.trim_end_matches('}'), ""));
+        let (from, to) = spec.split_once("=>").expect("{spatch:FROM=>TO}");
+        assert!(SENSOR.contains(from), "the base sensor has no `{from}`");
+        return format!("{}{tail}", SENSOR.replacen(from, to, 1));
+    }
     match text.strip_prefix("{patch:") {
         Some(rest) => {
             let (spec, tail) = rest
@@ -322,7 +364,8 @@ const CASES: &[Case] = &[
         ["gains"]
     ),
     // --- compare
-    case!("compare: regions missing", ["a.tiff" => "", "b.tiff" => ""], ["compare", "a.tiff", "b.tiff", "--regions", "r.json"], ["a.tiff"]),
+    case!("compare: regions missing", ["a.tiff" => "", "b.tiff" => ""], ["compare", "a.tiff", "b.tiff", "--regions", "r.json"], ["r.json"]),
+    case!("compare: truth not a TIFF", ["a.tiff" => "", "r.json" => "[]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["a.tiff"]),
     // --- ephem and sky
     case!(
         "ephem: latitude 91",
@@ -743,6 +786,1101 @@ const CASES: &[Case] = &[
         ],
         ["ftp"]
     ),
+    // --- issue 28: every class, each case naming what and where
+    case!("scene: fov_deg = 5e-324", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 5e-324}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = 1e-9", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 1e-9}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = 0.0009", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 0.0009}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = 180.0001", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 180.0001}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = 1e308", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 1e308}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = -0.0", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = -0.0}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = inf", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = inf}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = -inf", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = -inf}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = true", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = true}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: fov_deg = [76.0]", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = [76.0]}\n"], ["plan", "s.toml"], ["s.toml", "fov_deg"]),
+    case!("scene: height = -1", ["s.toml" => "{patch:height = 24=>height = -1}\n"], ["plan", "s.toml"], ["s.toml", "height"]),
+    case!("scene: height = 1.5", ["s.toml" => "{patch:height = 24=>height = 1.5}\n"], ["plan", "s.toml"], ["s.toml", "height"]),
+    case!("scene: height = \"24\"", ["s.toml" => "{patch:height = 24=>height = \"24\"}\n"], ["plan", "s.toml"], ["s.toml", "height"]),
+    case!("scene: height = 4294967296", ["s.toml" => "{patch:height = 24=>height = 4294967296}\n"], ["plan", "s.toml"], ["s.toml", "height"]),
+    case!("scene: height = nan", ["s.toml" => "{patch:height = 24=>height = nan}\n"], ["plan", "s.toml"], ["s.toml", "height"]),
+    case!("scene: width = -24", ["s.toml" => "{patch:width = 32=>width = -24}\n"], ["plan", "s.toml"], ["s.toml", "width"]),
+    case!("scene: width = 1e3", ["s.toml" => "{patch:width = 32=>width = 1e3}\n"], ["plan", "s.toml"], ["s.toml", "width"]),
+    case!("scene: width = 18446744073709551616", ["s.toml" => "{patch:width = 32=>width = 18446744073709551616}\n"], ["plan", "s.toml"], ["s.toml", "width"]),
+    case!("scene: camera position 1e13", ["s.toml" => "{patch:position = [0.0, -10.0, 6.0]=>position = [0.0, 1e13, 6.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.position"]),
+    case!("scene: camera position -1e13", ["s.toml" => "{patch:position = [0.0, -10.0, 6.0]=>position = [0.0, -1e13, 6.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.position"]),
+    case!("scene: camera position -inf", ["s.toml" => "{patch:position = [0.0, -10.0, 6.0]=>position = [0.0, -inf, 6.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.position"]),
+    case!("scene: camera position 1.0e12001", ["s.toml" => "{patch:position = [0.0, -10.0, 6.0]=>position = [0.0, 1.0e12001, 6.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.position"]),
+    case!("scene: look_at nan", ["s.toml" => "{patch:look_at = [0.0, 0.0, 4.8]=>look_at = [0.0, nan, 4.8]}\n"], ["plan", "s.toml"], ["s.toml", "camera.look_at"]),
+    case!("scene: look_at inf", ["s.toml" => "{patch:look_at = [0.0, 0.0, 4.8]=>look_at = [0.0, inf, 4.8]}\n"], ["plan", "s.toml"], ["s.toml", "camera.look_at"]),
+    case!("scene: look_at 1e13", ["s.toml" => "{patch:look_at = [0.0, 0.0, 4.8]=>look_at = [0.0, 1e13, 4.8]}\n"], ["plan", "s.toml"], ["s.toml", "camera.look_at"]),
+    case!("scene: up nan", ["s.toml" => "{patch:up = [0.0, 0.0, 1.0]=>up = [0.0, nan, 1.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.up"]),
+    case!("scene: up inf", ["s.toml" => "{patch:up = [0.0, 0.0, 1.0]=>up = [0.0, inf, 1.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.up"]),
+    case!("scene: up 1e13", ["s.toml" => "{patch:up = [0.0, 0.0, 1.0]=>up = [0.0, 1e13, 1.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.up"]),
+    case!("scene: look_at with 2 numbers", ["s.toml" => "{patch:look_at = [0.0, 0.0, 4.8]=>look_at = [0.0, 0.0]}\n"], ["plan", "s.toml"], ["s.toml", "camera.look_at"]),
+    case!("scene: unknown camera key", ["s.toml" => "{patch:fov_deg = 76.0=>fov_deg = 76.0\nzoom = 2}\n"], ["plan", "s.toml"], ["s.toml", "zoom"]),
+    case!("scene: band lo_nm = nan", ["s.toml" => "{patch:lo_nm = 400=>lo_nm = nan}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band lo_nm = inf", ["s.toml" => "{patch:lo_nm = 400=>lo_nm = inf}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band lo_nm = 0", ["s.toml" => "{patch:lo_nm = 400=>lo_nm = 0}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band lo_nm = -1", ["s.toml" => "{patch:lo_nm = 400=>lo_nm = -1}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band lo_nm = \"x\"", ["s.toml" => "{patch:lo_nm = 400=>lo_nm = \"x\"}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band lo_nm = 1e308", ["s.toml" => "{patch:lo_nm = 400=>lo_nm = 1e308}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band hi_nm = inf", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = inf}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band hi_nm = -700", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = -700}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: band hi_nm = \"x\"", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = \"x\"}\n"], ["plan", "s.toml"], ["s.toml", "bands.vis"]),
+    case!("scene: unknown band key", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = 700\nwidth_nm = 3}\n"], ["plan", "s.toml"], ["s.toml", "width_nm"]),
+    case!("scene: reflectance = 2", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 2}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor"]),
+    case!("scene: reflectance = inf", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = inf}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor"]),
+    case!("scene: reflectance = -inf", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = -inf}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor"]),
+    case!("scene: reflectance = 1e308", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 1e308}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor"]),
+    case!("scene: reflectance = \"\"", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = \"\"}\n"], ["plan", "s.toml"], ["s.toml", "materials.floor"]),
+    case!("scene: specular_fraction = nan", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\nspecular_fraction = nan}\n"], ["plan", "s.toml"], ["s.toml", "specular_fraction"]),
+    case!("scene: specular_fraction = inf", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\nspecular_fraction = inf}\n"], ["plan", "s.toml"], ["s.toml", "specular_fraction"]),
+    case!("scene: specular_fraction = 2", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.9\nspecular_fraction = 2}\n"], ["plan", "s.toml"], ["s.toml", "specular_fraction"]),
+    case!("scene: transmission = nan", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.1\ntransmission = nan}\n"], ["plan", "s.toml"], ["s.toml", "transmission"]),
+    case!("scene: transmission = inf", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.1\ntransmission = inf}\n"], ["plan", "s.toml"], ["s.toml", "transmission"]),
+    case!("scene: transmission = 2", ["s.toml" => "{patch:reflectance = 0.9=>reflectance = 0.1\ntransmission = 2}\n"], ["plan", "s.toml"], ["s.toml", "transmission"]),
+    case!("scene: emission value nan", ["s.toml" => "{patch:value = 1.0, shape=>value = nan, shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: emission value inf", ["s.toml" => "{patch:value = 1.0, shape=>value = inf, shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: emission value -inf", ["s.toml" => "{patch:value = 1.0, shape=>value = -inf, shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: emission value 1e21", ["s.toml" => "{patch:value = 1.0, shape=>value = 1e21, shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
+    case!("scene: shape_exponent = 1e6", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 1e6}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: shape_exponent = 1001", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 1001}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: shape_exponent = 1e308", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 1e308}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: shape_exponent = inf", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = inf}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: shape_exponent = -1e-9", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = -1e-9}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: emission line [1e308, 0.1]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[1e308, 0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [1e7, 0.1]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[1e7, 0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [nan, 0.1]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[nan, 0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [inf, 0.1]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[inf, 0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [0, 0.1]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[0, 0.1]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [546, inf]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546, inf]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [546, nan]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546, nan]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "lines[0]"]),
+    case!("scene: emission line [546, 1e308]", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546, 1e308]], shape}\n"], ["plan", "s.toml"], ["s.toml", "emission", "out of range"]),
+    case!("scene: emission lines duplicated", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546.0, 1.0], [546.0, 1.0]], shape}\n"], ["plan", "s.toml"], ["s.toml", "lines[1]"]),
+    case!("scene: emission line of 3 numbers", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[546.0, 1.0, 2.0]], shape}\n"], ["plan", "s.toml"], ["s.toml", "lines[0]"]),
+    case!("scene: emission line empty", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, lines = [[]], shape}\n"], ["plan", "s.toml"], ["s.toml", "lines[0]"]),
+    case!("scene: emission unknown key", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, colour = 3, shape}\n"], ["plan", "s.toml"], ["s.toml", "colour"]),
+    case!("scene: emission normalize NaN", ["s.toml" => "{patch:value = 1.0, shape=>value = 1.0, normalize = { lo_nm = 400, hi_nm = 700, value = nan }, shape}\n"], ["plan", "s.toml"], ["s.toml", "normalize"]),
+    case!("scene: point source shape_exponent = 1e6", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = 1.0\nshape_exponent = 1e6\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source shape_exponent = inf", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = 1.0\nshape_exponent = inf\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source shape_exponent = -1", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = 1.0\nshape_exponent = -1\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source value = inf", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = inf\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source value = -1", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = -1\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source position = [0.0, 1e13, 5.0]", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 1e13, 5.0]\nvalue = 1.0\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source position = [0.0, nan, 5.0]", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, nan, 5.0]\nvalue = 1.0\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source direction = [0.0, 0.0, 0.0]", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = 1.0\ndirection = [0.0, 0.0, 0.0]\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: point source direction = [nan, 0.0, 0.0]", ["s.toml" => "{base}\n[point_sources.l]\nposition = [0.0, 0.0, 5.0]\nvalue = 1.0\ndirection = [nan, 0.0, 0.0]\n"], ["plan", "s.toml"], ["s.toml", "point_sources.l"]),
+    case!("scene: quad size [4e12, 2.0]", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [4e12, 2.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel", "quad"]),
+    case!("scene: quad size [inf, 2.0]", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [inf, 2.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel", "size"]),
+    case!("scene: quad size [nan, 2.0]", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [nan, 2.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel", "size"]),
+    case!("scene: quad size [-4.0, 2.0]", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [-4.0, 2.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel", "size"]),
+    case!("scene: quad size [4.0]", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [4.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel", "size"]),
+    case!("scene: quad size [2.2e12, 2.2e12]", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [2.2e12, 2.2e12]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel", "quad"]),
+    case!("scene: quad centre [0.0, 0.0, 1e13]", ["s.toml" => "{patch:center = [0.0, 0.0, 9.0]=>center = [0.0, 0.0, 1e13]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad centre [0.0, nan, 9.0]", ["s.toml" => "{patch:center = [0.0, 0.0, 9.0]=>center = [0.0, nan, 9.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad centre [0.0, inf, 9.0]", ["s.toml" => "{patch:center = [0.0, 0.0, 9.0]=>center = [0.0, inf, 9.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad centre [9.99999999999e11, 0.0, 9.0]", ["s.toml" => "{patch:center = [0.0, 0.0, 9.0]=>center = [9.99999999999e11, 0.0, 9.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad width_axis [0.0, 0.0, 0.0]", ["s.toml" => "{patch:width_axis = [1.0, 0.0, 0.0]=>width_axis = [0.0, 0.0, 0.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad width_axis [nan, 0.0, 0.0]", ["s.toml" => "{patch:width_axis = [1.0, 0.0, 0.0]=>width_axis = [nan, 0.0, 0.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad width_axis [0.0, 0.0, 1.0]", ["s.toml" => "{patch:width_axis = [1.0, 0.0, 0.0]=>width_axis = [0.0, 0.0, 1.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad normal NaN", ["s.toml" => "{patch:normal = [0.0, 0.0, -1.0]=>normal = [0.0, nan, -1.0]}\n"], ["plan", "s.toml"], ["s.toml", "objects.panel"]),
+    case!("scene: quad unknown key", ["s.toml" => "{patch:size = [4.0, 2.0]=>size = [4.0, 2.0], skew = 1}\n"], ["plan", "s.toml"], ["s.toml", "skew"]),
+    case!("scene: box all faces omitted", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0], max = [1,1,1], omit = [\"-x\",\"+x\",\"-y\",\"+y\",\"bottom\",\"top\"] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "omit"]),
+    case!("scene: box all faces omitted by ±z names", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0], max = [1,1,1], omit = [\"-x\",\"+x\",\"-y\",\"+y\",\"-z\",\"+z\"] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "omit"]),
+    case!("scene: box unknown face", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0], max = [1,1,1], omit = [\"front\"] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "front"]),
+    case!("scene: box min above max", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [2,0,0], max = [1,1,1] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "box"]),
+    case!("scene: box min NaN", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [nan,0,0], max = [1,1,1] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "box.min"]),
+    case!("scene: box max 1e13", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0], max = [1e13,1,1] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "box.max"]),
+    case!("scene: box flat", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0], max = [1,1,0] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "box"]),
+    case!("scene: box no max", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0] }\n"], ["plan", "s.toml"], ["s.toml", "objects.b", "max"]),
+    case!("scene: box moved past the coordinate limit", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [0,0,0], max = [1,1,1] }\ntranslate = [9.99999999e11, 0, 0]\nscale = 1e4\n"], ["plan", "s.toml"], ["s.toml", "objects.b"]),
+    case!("scene: inline vertex past the limit", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[1e13,0,0],[0,1,0]]\nfaces = [[0,1,2]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "vertices"]),
+    case!("scene: inline vertex NaN", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[nan,0,0],[0,1,0]]\nfaces = [[0,1,2]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "vertices"]),
+    case!("scene: inline index out of range", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = [[0,1,3]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "faces"]),
+    case!("scene: inline negative index", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = [[0,1,-1]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "faces"]),
+    case!("scene: inline no faces", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = []\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "faces"]),
+    case!("scene: inline a face of 2", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = [[0,1]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "faces"]),
+    case!("scene: inline collinear face", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0],[1,0,0],[2,0,0]]\nfaces = [[0,1,2]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "faces"]),
+    case!("scene: inline vertices without faces", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0,0,0]]\n"], ["plan", "s.toml"], ["s.toml", "objects.m", "faces"]),
+    case!("OBJ: only line elements", ["m.obj" => "v 0 0 0\nv 1 0 0\nl 1 2\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "line"]),
+    case!("OBJ: a polyline", ["m.obj" => "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nl 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "line"]),
+    case!("OBJ: a point element", ["m.obj" => "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\np 1\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: index 0", ["m.obj" => "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 0 1 2\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: negative index too far", ["m.obj" => "v 0 0 0\nv 1 0 0\nv 1 1 0\nf -1 -2 -9\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: index 2^64", ["m.obj" => "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 18446744073709551617\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: vertex past the limit", ["m.obj" => "v 0 0 0\nv 1e13 0 0\nv 1 1 0\nf 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "out of range"]),
+    case!("OBJ: vertex NaN", ["m.obj" => "v 0 0 0\nv nan 0 0\nv 1 1 0\nf 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: vertex inf", ["m.obj" => "v 0 0 0\nv inf 0 0\nv 1 1 0\nf 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: empty file", ["m.obj" => "", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: only comments", ["m.obj" => "# nothing\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "no faces"]),
+    case!("OBJ: binary", ["m.obj" => "\u{0000}\u{0001}\u{0002}", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["s.toml", "objects.m.obj", "obj"]),
+    case!("OBJ: a FIFO", ["m.obj" => "{fifo}", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["objects.m.obj", "not a regular file"]),
+    case!("OBJ: a link to /dev/zero", ["m.obj" => "{link:/dev/zero}", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["objects.m.obj", "not a regular file"]),
+    case!("OBJ: a dangling link", ["m.obj" => "{link:gone.obj}", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n"], ["plan", "s.toml"], ["objects.m.obj", "m.obj"]),
+    case!("CSV: first row 400,0.5x", ["c.csv" => "400,0.5x\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: first row 400,O.9", ["c.csv" => "400,O.9\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: first row 4OO,0.9", ["c.csv" => "4OO,0.9\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: first row 1e,0.9", ["c.csv" => "1e,0.9\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: first row 400,.5.5", ["c.csv" => "400,.5.5\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: first row 400,0x5", ["c.csv" => "400,0x5\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: first row l400,0.9", ["c.csv" => "l400,0.9\n500,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: header then a typo", ["c.csv" => "wavelength_nm,value\n400,0.5x\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":2"]),
+    case!("CSV: two header rows", ["c.csv" => "wavelength_nm,value\nnm,fraction\n400,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":2"]),
+    case!("CSV: comment then a typo row", ["c.csv" => "# lamp\n400,O.9\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":2"]),
+    case!("spectra integrate CSV: first row 400,0.5x", ["c.csv" => "400,0.5x\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: first row 400,O.9", ["c.csv" => "400,O.9\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: first row 4OO,0.9", ["c.csv" => "4OO,0.9\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: first row 1e,0.9", ["c.csv" => "1e,0.9\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: first row 400,.5.5", ["c.csv" => "400,.5.5\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: first row 400,0x5", ["c.csv" => "400,0x5\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: first row l400,0.9", ["c.csv" => "l400,0.9\n500,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":1"]),
+    case!("spectra integrate CSV: header then a typo", ["c.csv" => "wavelength_nm,value\n400,0.5x\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":2"]),
+    case!("spectra integrate CSV: two header rows", ["c.csv" => "wavelength_nm,value\nnm,fraction\n400,0.5\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":2"]),
+    case!("spectra integrate CSV: comment then a typo row", ["c.csv" => "# lamp\n400,O.9\n700,0.5\n"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", ":2"]),
+    case!("CSV: value inf", ["c.csv" => "400,inf\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":1"]),
+    case!("CSV: wavelength 1e308", ["c.csv" => "400,0.5\n1e308,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":2"]),
+    case!("CSV: a row with one field", ["c.csv" => "400,0.5\n500\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", ":2"]),
+    case!("CSV: a FIFO", ["c.csv" => "{fifo}", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", "not a regular file"]),
+    case!("CSV: a link to /dev/zero", ["c.csv" => "{link:/dev/zero}", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", "not a regular file"]),
+    case!("CSV: a directory", ["c.csv/x" => "", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"c.csv\"}\n"], ["plan", "s.toml"], ["c.csv", "directory"]),
+    case!("CSV: emission spectrum a FIFO", ["c.csv" => "{fifo}", "s.toml" => "{patch:value = 1.0, shape=>spectrum = \"c.csv\", shape}\n"], ["plan", "s.toml"], ["c.csv", "not a regular file"]),
+    case!("spectra integrate: a FIFO", ["c.csv" => "{fifo}"], ["spectra", "integrate", "c.csv", "--band", "400:700"], ["c.csv", "not a regular file"]),
+    case!(
+        "spectra integrate: /dev/zero",
+        [],
+        ["spectra", "integrate", "/dev/zero", "--band", "400:700"],
+        ["/dev/zero"]
+    ),
+    case!(
+        "spectra: band 'inf:700'",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "inf:700"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band '400:inf'",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "400:inf"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band '400:400'",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "400:400"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band '-1:700'",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "-1:700"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band '1e308:1e309'",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "1e308:1e309"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band ':'",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", ":"],
+        ["band"]
+    ),
+    case!(
+        "spectra: band ''",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", ""],
+        ["band"]
+    ),
+    case!("plan: --set spp=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp=0"], ["spp"]),
+    case!("plan: --set spp=65537", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp=65537"], ["spp"]),
+    case!("plan: --set spp=1000000000", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp=1000000000"], ["spp"]),
+    case!("plan: --set spp=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp=-1"], ["spp"]),
+    case!("plan: --set spp=1.5", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp=1.5"], ["spp"]),
+    case!("plan: --set spp=abc", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp=abc"], ["spp"]),
+    case!("plan: --set spp=", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spp="], ["spp"]),
+    case!("plan: --set recursion=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "recursion=-1"], ["recursion"]),
+    case!("plan: --set recursion=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "recursion=x"], ["recursion"]),
+    case!("plan: --set seed=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "seed=-1"], ["seed"]),
+    case!("plan: --set seed=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "seed=x"], ["seed"]),
+    case!("plan: --set seed=1.5", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "seed=1.5"], ["seed"]),
+    case!("plan: --set area_samples=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "area_samples=x"], ["area_samples"]),
+    case!("plan: --set area_samples=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "area_samples=-1"], ["area_samples"]),
+    case!("plan: --set sky_samples=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "sky_samples=-1"], ["sky_samples"]),
+    case!("plan: --set max_sample_points=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "max_sample_points=0"], ["max_sample_points"]),
+    case!("plan: --set max_source_samples=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "max_source_samples=0"], ["max_source_samples"]),
+    case!("plan: --set sample_area_density=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "sample_area_density=0"], ["sample_area_density"]),
+    case!("plan: --set sample_area_density=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "sample_area_density=nan"], ["sample_area_density"]),
+    case!("plan: --set sample_area_density=inf", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "sample_area_density=inf"], ["sample_area_density"]),
+    case!("plan: --set sample_area_density=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "sample_area_density=-1"], ["sample_area_density"]),
+    case!("plan: --set solid_angle_threshold=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "solid_angle_threshold=-1"], ["solid_angle_threshold"]),
+    case!("plan: --set solid_angle_threshold=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "solid_angle_threshold=nan"], ["solid_angle_threshold"]),
+    case!("plan: --set solid_angle_density=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "solid_angle_density=0"], ["solid_angle_density"]),
+    case!("plan: --set irradiance_threshold=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "irradiance_threshold=-1"], ["irradiance_threshold"]),
+    case!("plan: --set light_tree_branches=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "light_tree_branches=0"], ["light_tree_branches"]),
+    case!("plan: --set light_tree_branches=1025", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "light_tree_branches=1025"], ["light_tree_branches"]),
+    case!("plan: --set cache_texels=4194305", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "cache_texels=4194305"], ["cache_texels"]),
+    case!("plan: --set cache_rays=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "cache_rays=0"], ["cache_rays"]),
+    case!("plan: --set cache_rays=65537", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "cache_rays=65537"], ["cache_rays"]),
+    case!("plan: --set cache_tolerance=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "cache_tolerance=0"], ["cache_tolerance"]),
+    case!("plan: --set cache_tolerance=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "cache_tolerance=nan"], ["cache_tolerance"]),
+    case!("plan: --set gather_rays=65537", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "gather_rays=65537"], ["gather_rays"]),
+    case!("plan: --set tolerance=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "tolerance=nan"], ["tolerance"]),
+    case!("plan: --set tolerance=inf", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "tolerance=inf"], ["tolerance"]),
+    case!("plan: --set target_error=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "target_error=0"], ["target_error"]),
+    case!("plan: --set target_error=2", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "target_error=2"], ["target_error"]),
+    case!("plan: --set target_error=1e-7", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "target_error=1e-7"], ["target_error"]),
+    case!("plan: --set target_error=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "target_error=nan"], ["target_error"]),
+    case!("plan: --set max_spp=0", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "max_spp=0"], ["max_spp"]),
+    case!("plan: --set max_spp=1048577", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "max_spp=1048577"], ["max_spp"]),
+    case!("plan: --set spectral_step_nm=0.0009", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=0.0009"], ["spectral_step_nm"]),
+    case!("plan: --set spectral_step_nm=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=nan"], ["spectral_step_nm"]),
+    case!("plan: --set spectral_step_nm=inf", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=inf"], ["spectral_step_nm"]),
+    case!("plan: --set spectral_step_nm=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=-1"], ["spectral_step_nm"]),
+    case!("plan: --set source_roulette_fraction=2", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "source_roulette_fraction=2"], ["source_roulette_fraction"]),
+    case!("plan: --set source_roulette_fraction=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "source_roulette_fraction=-1"], ["source_roulette_fraction"]),
+    case!("plan: --set source_roulette_fraction=nan", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "source_roulette_fraction=nan"], ["source_roulette_fraction"]),
+    case!("plan: --set diffuse_bounces=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "diffuse_bounces=-1"], ["diffuse_bounces"]),
+    case!("plan: --set rr_start=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "rr_start=-1"], ["rr_start"]),
+    case!("plan: --set light_tree_min_lights=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "light_tree_min_lights=-1"], ["light_tree_min_lights"]),
+    case!("plan: --set estimator=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "estimator=x"], ["estimator"]),
+    case!("plan: --set indirect=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "indirect=x"], ["indirect"]),
+    case!("plan: --set occlusion=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "occlusion=x"], ["occlusion"]),
+    case!("plan: --set all_effects=x", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "all_effects=x"], ["all_effects"]),
+    case!("plan: --set drop=everything", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "drop=everything"], ["drop"]),
+    case!("plan: --set resolution_scale=17", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "resolution_scale=17"], ["resolution_scale"]),
+    case!("plan: --set resolution_scale=inf", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "resolution_scale=inf"], ["resolution_scale"]),
+    case!("plan: --set resolution_scale=-1", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "resolution_scale=-1"], ["resolution_scale"]),
+    case!("plan: --set with an empty key", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "=3"], ["set"]),
+    case!("render: --spp 65537", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "65537"], ["spp"]),
+    case!("render: --spp 1000000000", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1000000000"], ["spp"]),
+    case!("render: --spp 4294967295", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "4294967295"], ["spp"]),
+    case!("render: --spp 2^32", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "4294967296"], ["spp"]),
+    case!("render: --set spp=1000000000", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "spp=1000000000"], ["spp", "65536"]),
+    case!("probe: --samples 1000001", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,0", "--normal", "0,0,1", "--samples", "1000001"], ["samples"]),
+    case!("probe: --samples 1000000000", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,0", "--normal", "0,0,1", "--samples", "1000000000"], ["samples"]),
+    case!("probe: --samples 4294967296", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,0", "--normal", "0,0,1", "--samples", "4294967296"], ["samples"]),
+    case!("probe: --spp 1e9 at a pixel", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "1,1", "--spp", "1000000000"], ["spp"]),
+    case!("render: --frames 100001", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--frames", "100001"], ["frames"]),
+    case!("render: --frames 1000000", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--frames", "1000000"], ["frames"]),
+    case!("render: --frames 4294967296", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--frames", "4294967296"], ["frames"]),
+    case!("render: --frames -1", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--frames", "-1"], ["frames"]),
+    case!(
+        "capture: --frames 1000001",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frames",
+            "1000001",
+            "--out",
+            "o"
+        ],
+        ["frames"]
+    ),
+    case!(
+        "capture: --frames 4294967296",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frames",
+            "4294967296",
+            "--out",
+            "o"
+        ],
+        ["frames"]
+    ),
+    case!(
+        "capture: --frames 18446744073709551616",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frames",
+            "18446744073709551616",
+            "--out",
+            "o"
+        ],
+        ["frames"]
+    ),
+    case!(
+        "capture: --frames -1",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frames",
+            "-1",
+            "--out",
+            "o"
+        ],
+        ["frames"]
+    ),
+    case!("render: a 67108864×1 camera", ["s.toml" => "{patch:width = 32\nheight = 24=>width = 67108864\nheight = 1}\n"], ["render", "s.toml", "--out", "o"], ["pixels"]),
+    case!("render: a 1×67108864 camera", ["s.toml" => "{patch:width = 32\nheight = 24=>width = 1\nheight = 67108864}\n"], ["render", "s.toml", "--out", "o"], ["pixels"]),
+    case!("render: a 16385×1 camera", ["s.toml" => "{patch:width = 32\nheight = 24=>width = 16385\nheight = 1}\n"], ["render", "s.toml", "--out", "o"], ["pixels"]),
+    case!("render: a 100000×100000 camera", ["s.toml" => "{patch:width = 32\nheight = 24=>width = 100000\nheight = 100000}\n"], ["render", "s.toml", "--out", "o"], ["pixels"]),
+    case!("render: a 4294967296×1 camera", ["s.toml" => "{patch:width = 32\nheight = 24=>width = 4294967296\nheight = 1}\n"], ["render", "s.toml", "--out", "o"], ["s.toml"]),
+    case!("render: --set resolution_scale=1e-300", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "resolution_scale=1e-300"], ["resolution_scale"]),
+    case!("render: --set resolution_scale=0.01", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "resolution_scale=0.01"], ["resolution_scale"]),
+    case!("render: --set resolution_scale=5e-324", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "resolution_scale=5e-324"], ["resolution_scale"]),
+    case!("render: resolution_scale 16 on a 8192-wide camera", ["s.toml" => "{patch:width = 32=>width = 8192}\n"], ["render", "s.toml", "--out", "o", "--set", "resolution_scale=16"], ["pixels"]),
+    case!("render: bands spanning 1e7 samples", ["s.toml" => "{patch:hi_nm = 700=>hi_nm = 1e6}\n"], ["render", "s.toml", "--out", "o", "--set", "spectral_step_nm=0.001"], ["wavelength"]),
+    case!(
+        "capture: sim size 67108864x1",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=67108864x1",
+            "--out",
+            "o"
+        ],
+        ["size"]
+    ),
+    case!(
+        "capture: sim size 1x67108864",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=1x67108864",
+            "--out",
+            "o"
+        ],
+        ["size"]
+    ),
+    case!("render: --frames 2 without a camera", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--frames", "2"], ["--frames", "camera"]),
+    case!("render: --frames 1 without a camera", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--frames", "1"], ["--frames", "camera"]),
+    case!("render: --no-noise without a camera", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--no-noise"], ["--no-noise", "camera"]),
+    case!("render: --exposure auto without a camera", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--exposure", "auto"], ["--exposure", "camera"]),
+    case!("render: --gain 20 without a camera", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--gain", "20"], ["--gain", "camera"]),
+    case!("render: --agc without a camera", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--agc"], ["--agc", "camera"]),
+    case!("render: --frames with a --tile", ["s.toml" => "sensor = \"gen3-gaas-iccd\"\n{base}"], ["render", "s.toml", "--out", "o", "--tile", "1/2", "--frames", "2"], ["--frames", "tile"]),
+    case!("render: --set spp=3 and --spp 4", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "spp=3", "--spp", "4"], ["spp", "--spp"]),
+    case!("render: --set SPP=3 and --spp 3", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "SPP=3", "--spp", "3"], ["spp", "--spp"]),
+    case!("render: --set seed=1 and --seed 2", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "seed=1", "--seed", "2"], ["seed", "--seed"]),
+    case!("render: --set estimator=analytic and --estimator analytic", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "estimator=analytic", "--estimator", "analytic"], ["estimator", "--estimator"]),
+    case!("render: --set target_error=0.1 and --target-error 0.2", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "target_error=0.1", "--target-error", "0.2"], ["target_error", "--target-error"]),
+    case!("render: --set tolerance=0.1 and --tolerance 0.2", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "tolerance=0.1", "--tolerance", "0.2"], ["tolerance", "--tolerance"]),
+    case!("probe: --set spp=3 and --spp 4", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "1,1", "--set", "spp=3", "--spp", "4"], ["spp", "--spp"]),
+    case!("probe: --set seed=3 and --seed 4", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,0", "--normal", "0,0,1", "--set", "seed=3", "--seed", "4"], ["seed", "--seed"]),
+    case!("sensor file: QE table above 1", ["c.toml" => "{spatch:value = [0.10, 0.35, 0.50, 0.60, 0.60, 0.55=>value = [0.10, 0.35, 1.50, 0.60, 0.60, 0.55}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":74", "qe", "a", "b", "o", "v", "e", " ", "1"]),
+    case!("sensor file: QE constant 1.5", ["c.toml" => "{spatch:qe = \"qe-gen3-gaas\"=>qe = 1.5}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":29", "photocathode.qe"]),
+    case!("sensor file: QE constant -0.1", ["c.toml" => "{spatch:qe = \"qe-gen3-gaas\"=>qe = -0.1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":29", "photocathode.qe"]),
+    case!("sensor file: QE unknown name", ["c.toml" => "{spatch:qe = \"qe-gen3-gaas\"=>qe = \"qe-gen9\"}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":29", "photocathode.qe"]),
+    case!("sensor file: prnu = 5", ["c.toml" => "{spatch:prnu = 0.01=>prnu = 5}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("sensor file: prnu = 1.5", ["c.toml" => "{spatch:prnu = 0.01=>prnu = 1.5}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("sensor file: prnu = -1", ["c.toml" => "{spatch:prnu = 0.01=>prnu = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("sensor file: prnu = nan", ["c.toml" => "{spatch:prnu = 0.01=>prnu = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("sensor file: prnu = inf", ["c.toml" => "{spatch:prnu = 0.01=>prnu = inf}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("sensor file: AGC set point 1e9", ["c.toml" => "{spatch:set_point_dn = 800.0=>set_point_dn = 1e9}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":78", "agc.set_point_dn"]),
+    case!("sensor file: AGC set point 4096", ["c.toml" => "{spatch:set_point_dn = 800.0=>set_point_dn = 4096}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":78", "agc.set_point_dn"]),
+    case!("sensor file: AGC set point 0", ["c.toml" => "{spatch:set_point_dn = 800.0=>set_point_dn = 0}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":78", "agc.set_point_dn"]),
+    case!("sensor file: AGC set point -1", ["c.toml" => "{spatch:set_point_dn = 800.0=>set_point_dn = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":78", "agc.set_point_dn"]),
+    case!("sensor file: AGC set point nan", ["c.toml" => "{spatch:set_point_dn = 800.0=>set_point_dn = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":78", "agc.set_point_dn"]),
+    case!("sensor file: video full_scale_e = 1e30", ["c.toml" => "{spatch:full_scale_e = 12000.0=>full_scale_e = 1e30}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":87", "video.full_scale_e"]),
+    case!("sensor file: video full_scale_e = 18001", ["c.toml" => "{spatch:full_scale_e = 12000.0=>full_scale_e = 18001}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":87", "video.full_scale_e"]),
+    case!("sensor file: video full_scale_e = 0", ["c.toml" => "{spatch:full_scale_e = 12000.0=>full_scale_e = 0}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":87", "video.full_scale_e"]),
+    case!("sensor file: video full_scale_e = nan", ["c.toml" => "{spatch:full_scale_e = 12000.0=>full_scale_e = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":87", "video.full_scale_e"]),
+    case!("sensor file: video full_scale_e = -1", ["c.toml" => "{spatch:full_scale_e = 12000.0=>full_scale_e = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":87", "video.full_scale_e"]),
+    case!("sensor file: full_well_e = 0", ["c.toml" => "{spatch:full_well_e = 18000.0=>full_well_e = 0}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":66", "ccd.full_well_e"]),
+    case!("sensor file: full_well_e = -1", ["c.toml" => "{spatch:full_well_e = 18000.0=>full_well_e = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":66", "ccd.full_well_e"]),
+    case!("sensor file: full_well_e = nan", ["c.toml" => "{spatch:full_well_e = 18000.0=>full_well_e = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":66", "ccd.full_well_e"]),
+    case!("sensor file: bits = 7", ["c.toml" => "{spatch:bits = 12=>bits = 7}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":92", "digitizer.bits"]),
+    case!("sensor file: bits = 17", ["c.toml" => "{spatch:bits = 12=>bits = 17}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":92", "digitizer.bits"]),
+    case!("sensor file: bits = 0", ["c.toml" => "{spatch:bits = 12=>bits = 0}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":92", "digitizer.bits"]),
+    case!("sensor file: pixel_pitch_um = nan", ["c.toml" => "{spatch:pixel_pitch_um = 6.45=>pixel_pitch_um = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":65", "pixel_pitch_um"]),
+    case!("sensor file: pixel_pitch_um = -1", ["c.toml" => "{spatch:pixel_pitch_um = 6.45=>pixel_pitch_um = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":65", "pixel_pitch_um"]),
+    case!("sensor file: read_noise_e = nan", ["c.toml" => "{spatch:read_noise_e = 8.0=>read_noise_e = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":69", "read_noise_e"]),
+    case!("sensor file: read_noise_e = -1", ["c.toml" => "{spatch:read_noise_e = 8.0=>read_noise_e = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":69", "read_noise_e"]),
+    case!("sensor file: dark_current_e_s = nan", ["c.toml" => "{spatch:dark_current_e_s = 2.0=>dark_current_e_s = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":68", "dark_current_e_s"]),
+    case!("sensor file: dark_current_e_s = -1", ["c.toml" => "{spatch:dark_current_e_s = 2.0=>dark_current_e_s = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":68", "dark_current_e_s"]),
+    case!("sensor file: dsnu_e = nan", ["c.toml" => "{spatch:dsnu_e = 2.0=>dsnu_e = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":71", "dsnu_e"]),
+    case!("sensor file: dsnu_e = -1", ["c.toml" => "{spatch:dsnu_e = 2.0=>dsnu_e = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":71", "dsnu_e"]),
+    case!("sensor file: frame_rate_hz = nan", ["c.toml" => "{spatch:frame_rate_hz = 25.0=>frame_rate_hz = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":20", "frame_rate_hz"]),
+    case!("sensor file: frame_rate_hz = -1", ["c.toml" => "{spatch:frame_rate_hz = 25.0=>frame_rate_hz = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":20", "frame_rate_hz"]),
+    case!("sensor file: exposure_s = nan", ["c.toml" => "{spatch:exposure_s = 0.04=>exposure_s = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":21", "exposure_s"]),
+    case!("sensor file: exposure_s = -1", ["c.toml" => "{spatch:exposure_s = 0.04=>exposure_s = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":21", "exposure_s"]),
+    case!("sensor file: time_constant_s = nan", ["c.toml" => "{spatch:time_constant_s = 0.5=>time_constant_s = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":79", "time_constant_s"]),
+    case!("sensor file: time_constant_s = -1", ["c.toml" => "{spatch:time_constant_s = 0.5=>time_constant_s = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":79", "time_constant_s"]),
+    case!("sensor file: voltage_v = nan", ["c.toml" => "{spatch:voltage_v = 750.0=>voltage_v = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":40", "voltage_v"]),
+    case!("sensor file: voltage_v = -1", ["c.toml" => "{spatch:voltage_v = 750.0=>voltage_v = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":40", "voltage_v"]),
+    case!("sensor file: magnification = nan", ["c.toml" => "{spatch:magnification = 0.611=>magnification = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":57", "magnification"]),
+    case!("sensor file: magnification = -1", ["c.toml" => "{spatch:magnification = 0.611=>magnification = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":57", "magnification"]),
+    case!("sensor file: transmission = nan", ["c.toml" => "{spatch:transmission = 0.85=>transmission = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":25", "transmission"]),
+    case!("sensor file: transmission = -1", ["c.toml" => "{spatch:transmission = 0.85=>transmission = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":25", "transmission"]),
+    case!("sensor file: gap_mm = nan", ["c.toml" => "{spatch:gap_mm = 0.2=>gap_mm = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":32", "gap_mm"]),
+    case!("sensor file: gap_mm = -1", ["c.toml" => "{spatch:gap_mm = 0.2=>gap_mm = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":32", "gap_mm"]),
+    case!("sensor file: screen_voltage_v = nan", ["c.toml" => "{spatch:screen_voltage_v = 6000.0=>screen_voltage_v = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":50", "screen_voltage_v"]),
+    case!("sensor file: screen_voltage_v = -1", ["c.toml" => "{spatch:screen_voltage_v = 6000.0=>screen_voltage_v = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":50", "screen_voltage_v"]),
+    case!("sensor file: spread_um = nan", ["c.toml" => "{spatch:spread_um = 3.0=>spread_um = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":53", "spread_um"]),
+    case!("sensor file: spread_um = -1", ["c.toml" => "{spatch:spread_um = 3.0=>spread_um = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":53", "spread_um"]),
+    case!("sensor file: white_level_v = nan", ["c.toml" => "{spatch:white_level_v = 1.0=>white_level_v = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":85", "white_level_v"]),
+    case!("sensor file: white_level_v = -1", ["c.toml" => "{spatch:white_level_v = 1.0=>white_level_v = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":85", "white_level_v"]),
+    case!("sensor file: noise_v = nan", ["c.toml" => "{spatch:noise_v = 0.0007=>noise_v = nan}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":88", "noise_v"]),
+    case!("sensor file: noise_v = -1", ["c.toml" => "{spatch:noise_v = 0.0007=>noise_v = -1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":88", "noise_v"]),
+    case!("sensor file: unknown key", ["c.toml" => "{spatch:prnu = 0.01=>prnu = 0.01\ncolour = 1}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":71", "colour"]),
+    case!("sensor file: TOML syntax", ["c.toml" => "{spatch:prnu = 0.01=>prnu = }\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "c.toml"]),
+    case!("sensor file: a string for a number", ["c.toml" => "{spatch:prnu = 0.01=>prnu = \"low\"}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":70", "invalid type"]),
+    case!("sensor file: duplicate key", ["c.toml" => "{spatch:prnu = 0.01=>prnu = 0.01\nprnu = 0.02}\n"], ["sensor", "describe", "c.toml"], ["c.toml", ":71", "duplicate key"]),
+    case!("render --sensor: a sensor file with PRNU 5", ["s.toml" => "{base}", "c.toml" => "{spatch:prnu = 0.01=>prnu = 5}\n"], ["render", "s.toml", "--out", "o", "--sensor", "c.toml"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("capture sim:: a sensor file with PRNU 5", ["s.toml" => "{base}", "c.toml" => "{spatch:prnu = 0.01=>prnu = 5}\n"], ["capture", "--grabber", "sim:c.toml?size=16x16", "--out", "o"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("sensor check: a sensor file with PRNU 5", ["s.toml" => "{base}", "c.toml" => "{spatch:prnu = 0.01=>prnu = 5}\n"], ["sensor", "describe", "c.toml", "--gain", "100"], ["c.toml", ":70", "ccd.prnu"]),
+    case!("scene: a FIFO", ["p.x" => "{fifo}"], ["plan", "p.x"], ["p.x", "not a regular file"]),
+    case!("scene: a link to /dev/zero", ["p.x" => "{link:/dev/zero}"], ["plan", "p.x"], ["p.x", "not a regular file"]),
+    case!("scene: a directory", ["p.x/x" => ""], ["plan", "p.x"], ["p.x", "directory"]),
+    case!(
+        "scene: /dev/null",
+        [],
+        ["plan", "/dev/null"],
+        ["/dev/null", "not a regular file"]
+    ),
+    case!("sensor describe: a FIFO", ["p.x" => "{fifo}"], ["sensor", "describe", "p.x"], ["p.x", "not a regular file"]),
+    case!("sensor describe: a link to /dev/zero", ["p.x" => "{link:/dev/zero}"], ["sensor", "describe", "p.x"], ["p.x", "not a regular file"]),
+    case!("sensor describe: a directory", ["p.x/x" => ""], ["sensor", "describe", "p.x"], ["p.x", "directory"]),
+    case!(
+        "sensor describe: /dev/null",
+        [],
+        ["sensor", "describe", "/dev/null"],
+        ["/dev/null", "not a regular file"]
+    ),
+    case!("render --sensor: a FIFO", ["s.toml" => "{base}", "p.x" => "{fifo}"], ["render", "s.toml", "--out", "o", "--sensor", "p.x"], ["p.x", "not a regular file"]),
+    case!("render --sensor: a link to /dev/zero", ["s.toml" => "{base}", "p.x" => "{link:/dev/zero}"], ["render", "s.toml", "--out", "o", "--sensor", "p.x"], ["p.x", "not a regular file"]),
+    case!("render --sensor: a directory", ["s.toml" => "{base}", "p.x/x" => ""], ["render", "s.toml", "--out", "o", "--sensor", "p.x"], ["p.x", "directory"]),
+    case!("render --sensor: /dev/null", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "/dev/null"], ["/dev/null", "not a regular file"]),
+    case!("sweep: a FIFO", ["p.x" => "{fifo}"], ["sweep", "p.x", "--out", "o"], ["p.x", "not a regular file"]),
+    case!("sweep: a link to /dev/zero", ["p.x" => "{link:/dev/zero}"], ["sweep", "p.x", "--out", "o"], ["p.x", "not a regular file"]),
+    case!("sweep: a directory", ["p.x/x" => ""], ["sweep", "p.x", "--out", "o"], ["p.x", "directory"]),
+    case!(
+        "sweep: /dev/null",
+        [],
+        ["sweep", "/dev/null", "--out", "o"],
+        ["/dev/null", "not a regular file"]
+    ),
+    case!("calibrate apply --lut: a FIFO", ["f.png" => "", "p.x" => "{fifo}"], ["calibrate", "apply", "--lut", "p.x", "f.png", "o.tiff"], ["p.x", "not a regular file"]),
+    case!("calibrate apply --lut: a link to /dev/zero", ["f.png" => "", "p.x" => "{link:/dev/zero}"], ["calibrate", "apply", "--lut", "p.x", "f.png", "o.tiff"], ["p.x", "not a regular file"]),
+    case!("calibrate apply --lut: a directory", ["f.png" => "", "p.x/x" => ""], ["calibrate", "apply", "--lut", "p.x", "f.png", "o.tiff"], ["p.x", "directory"]),
+    case!("calibrate apply --lut: /dev/null", ["f.png" => ""], ["calibrate", "apply", "--lut", "/dev/null", "f.png", "o.tiff"], ["/dev/null", "not a regular file"]),
+    case!("calibrate radiance --source: a FIFO", ["p.x" => "{fifo}"], ["calibrate", "radiance", "--grabber", "sim:gen3-gaas-iccd", "--source", "p.x", "--gains", "20", "--out", "o"], ["p.x", "not a regular file"]),
+    case!("calibrate radiance --source: a link to /dev/zero", ["p.x" => "{link:/dev/zero}"], ["calibrate", "radiance", "--grabber", "sim:gen3-gaas-iccd", "--source", "p.x", "--gains", "20", "--out", "o"], ["p.x", "not a regular file"]),
+    case!("calibrate radiance --source: a directory", ["p.x/x" => ""], ["calibrate", "radiance", "--grabber", "sim:gen3-gaas-iccd", "--source", "p.x", "--gains", "20", "--out", "o"], ["p.x", "directory"]),
+    case!(
+        "calibrate radiance --source: /dev/null",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:gen3-gaas-iccd",
+            "--source",
+            "/dev/null",
+            "--gains",
+            "20",
+            "--out",
+            "o"
+        ],
+        ["/dev/null", "not a regular file"]
+    ),
+    case!("calibrate mtf --ctf: a FIFO", ["p.x" => "{fifo}"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "p.x", "--pixel-pitch-um", "10", "--out", "o"], ["p.x", "not a regular file"]),
+    case!("calibrate mtf --ctf: a link to /dev/zero", ["p.x" => "{link:/dev/zero}"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "p.x", "--pixel-pitch-um", "10", "--out", "o"], ["p.x", "not a regular file"]),
+    case!("calibrate mtf --ctf: a directory", ["p.x/x" => ""], ["calibrate", "mtf", "--target", "usaf", "--ctf", "p.x", "--pixel-pitch-um", "10", "--out", "o"], ["p.x", "directory"]),
+    case!(
+        "calibrate mtf --ctf: /dev/null",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "usaf",
+            "--ctf",
+            "/dev/null",
+            "--pixel-pitch-um",
+            "10",
+            "--out",
+            "o"
+        ],
+        ["/dev/null", "not a regular file"]
+    ),
+    case!("compare --regions: a FIFO", ["p.x" => "{fifo}", "a.tiff" => "{tiff}", "b.tiff" => "{tiff}"], ["compare", "a.tiff", "b.tiff", "--regions", "p.x"], ["p.x", "not a regular file"]),
+    case!("compare --regions: a link to /dev/zero", ["p.x" => "{link:/dev/zero}", "a.tiff" => "{tiff}", "b.tiff" => "{tiff}"], ["compare", "a.tiff", "b.tiff", "--regions", "p.x"], ["p.x", "not a regular file"]),
+    case!("compare --regions: a directory", ["p.x/x" => "", "a.tiff" => "{tiff}", "b.tiff" => "{tiff}"], ["compare", "a.tiff", "b.tiff", "--regions", "p.x"], ["p.x", "directory"]),
+    case!("compare --regions: /dev/null", ["a.tiff" => "{tiff}", "b.tiff" => "{tiff}"], ["compare", "a.tiff", "b.tiff", "--regions", "/dev/null"], ["/dev/null", "not a regular file"]),
+    case!("spectra integrate: a FIFO", ["p.x" => "{fifo}"], ["spectra", "integrate", "p.x", "--band", "400:700"], ["p.x", "not a regular file"]),
+    case!("spectra integrate: a link to /dev/zero", ["p.x" => "{link:/dev/zero}"], ["spectra", "integrate", "p.x", "--band", "400:700"], ["p.x", "not a regular file"]),
+    case!("spectra integrate: a directory", ["p.x/x" => ""], ["spectra", "integrate", "p.x", "--band", "400:700"], ["p.x", "directory"]),
+    case!(
+        "spectra integrate: /dev/null",
+        [],
+        ["spectra", "integrate", "/dev/null", "--band", "400:700"],
+        ["/dev/null", "not a regular file"]
+    ),
+    case!("compare: region x overflows", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":18446744073709551615,\"y\":0,\"width\":2,\"height\":2}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["region"]),
+    case!("compare: region y overflows", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":18446744073709551615,\"width\":2,\"height\":2}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["region"]),
+    case!("compare: region width overflows", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":1,\"y\":0,\"width\":18446744073709551615,\"height\":2}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["region"]),
+    case!("compare: region height overflows", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":1,\"width\":2,\"height\":18446744073709551615}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["region"]),
+    case!("compare: region width 0", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":0,\"width\":0,\"height\":2}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["region"]),
+    case!("compare: region outside", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":30,\"y\":0,\"width\":4,\"height\":2}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["region"]),
+    case!("compare: region negative x", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":-1,\"y\":0,\"width\":2,\"height\":2}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json"]),
+    case!("compare: region not JSON", ["a.tiff" => "{tiff}", "r.json" => "[{"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json"]),
+    case!(
+        "calibrate radiance: --gains nan",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "nan",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "calibrate radiance: --gains inf",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "inf",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "calibrate radiance: --gains -1",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "-1",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "calibrate radiance: --gains 0",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "0",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "calibrate radiance: --gains a",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "a",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "calibrate radiance: --gains 1,,2",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "1,,2",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "calibrate radiance: --gains NaN,20",
+        [],
+        [
+            "calibrate",
+            "radiance",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--source",
+            "s.toml",
+            "--gains",
+            "NaN,20",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!("render --out: a link to a directory, --force", ["s.toml" => "{base}", "real/x" => "y", "o" => "{link:real}"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
+    case!("render --out: a link to a directory", ["s.toml" => "{base}", "real/keep" => "", "o" => "{link:real}"], ["render", "s.toml", "--out", "o"], ["o"]),
+    case!("render --out: /dev/null", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "/dev/null"], ["/dev/null"]),
+    case!("render --out: a FIFO", ["s.toml" => "{base}", "o" => "{fifo}"], ["render", "s.toml", "--out", "o"], ["o"]),
+    case!("render --out: holds a CSV the scene reads, --force", ["o/c.csv" => "400,0.5\n700,0.5\n", "s.toml" => "{patch:reflectance = 0.9=>reflectance = \"o/c.csv\"}\n"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
+    case!("render --out: holds the OBJ the scene reads, --force", ["o/m.obj" => "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"o/m.obj\"\n"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
+    case!("render --out: the current directory, --force", ["s.toml" => "{base}"], ["render", "s.toml", "--out", ".", "--force"], ["."]),
+    case!("render --out: the scene's parent, --force", ["sd/s.toml" => "{base}"], ["render", "sd/s.toml", "--out", "sd/", "--force"], ["sd"]),
+    case!("render --out: a manifest that does not list a file, --force", ["s.toml" => "{base}", "o/manifest.json" => "{\"files\":[]}", "o/notes.txt" => "mine"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
+    case!("render --out: a manifest that is not JSON, --force", ["s.toml" => "{base}", "o/manifest.json" => "{", "o/notes.txt" => "mine"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
+    case!("capture --out: a stray file, --force", ["o/notes.txt" => "mine"], ["capture", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--frames", "1", "--out", "o", "--force"], ["o", "--force"]),
+    case!("capture --out: a file", ["o" => "x"], ["capture", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--frames", "1", "--out", "o"], ["o"]),
+    case!("calibrate ptc --out: a stray file, --force", ["o/notes.txt" => "mine"], ["calibrate", "ptc", "--grabber", "sim:scientific-ccd?size=16x16", "--out", "o", "--force"], ["o"]),
+    case!(
+        "merge --out: the first tile, --force",
+        [],
+        ["merge", "--out", "t1", "--force", "t1", "t2"],
+        ["t1"]
+    ),
+    case!("sky --spectra-out: a link to /dev/null", ["l.csv" => "{link:/dev/null}"], ["sky", "--lat", "43", "--lon", "-77", "--utc", "2025-10-07T05:00:00Z", "--spectra-out", "l.csv"], ["l.csv"]),
+    case!(
+        "sky --spectra-out: /dev/full",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "-77",
+            "--utc",
+            "2025-10-07T05:00:00Z",
+            "--spectra-out",
+            "/dev/full"
+        ],
+        ["/dev/full"]
+    ),
+    case!(
+        "sky --spectra-out: /dev/null",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "-77",
+            "--utc",
+            "2025-10-07T05:00:00Z",
+            "--spectra-out",
+            "/dev/null"
+        ],
+        ["/dev/null"]
+    ),
+    case!(
+        "ephem: --lat nan",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "nan",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lat"]
+    ),
+    case!(
+        "ephem: --lat inf",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "inf",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lat"]
+    ),
+    case!(
+        "ephem: --lat -91",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "-91",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lat"]
+    ),
+    case!(
+        "ephem: --lat 1e308",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "1e308",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lat"]
+    ),
+    case!(
+        "ephem: --lon nan",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "nan",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lon"]
+    ),
+    case!(
+        "ephem: --lon -inf",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "-inf",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lon"]
+    ),
+    case!(
+        "ephem: --lon -181",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "-181",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["lon"]
+    ),
+    case!(
+        "ephem: --utc '2025-13-01T00:00:00Z'",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-13-01T00:00:00Z"
+        ],
+        ["2025-13-01T00:00:00Z"]
+    ),
+    case!(
+        "ephem: --utc '2025-10-07T25:00:00Z'",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T25:00:00Z"
+        ],
+        ["2025-10-07T25:00:00Z"]
+    ),
+    case!(
+        "ephem: --utc ''",
+        [],
+        ["ephem", "--lat", "43", "--lon", "0", "--utc", ""],
+        ["utc"]
+    ),
+    case!(
+        "ephem: --utc '99999-01-01T00:00:00Z'",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--utc",
+            "99999-01-01T00:00:00Z"
+        ],
+        ["99999-01-01T00:00:00Z"]
+    ),
+    case!(
+        "ephem: --utc '2025-10-07T05:00:00+99:00'",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--utc",
+            "2025-10-07T05:00:00+99:00"
+        ],
+        ["2025-10-07T05:00:00+99:00"]
+    ),
+    case!(
+        "sky: --visibility-km nan",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--visibility-km",
+            "nan",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["visibility"]
+    ),
+    case!(
+        "sky: --visibility-km -1",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--visibility-km",
+            "-1",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["visibility"]
+    ),
+    case!(
+        "sky: --visibility-km inf",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--visibility-km",
+            "inf",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["visibility"]
+    ),
+    case!(
+        "sky: --height-m nan",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--height-m",
+            "nan",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["height"]
+    ),
+    case!(
+        "sky: --height-m inf",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--height-m",
+            "inf",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["height"]
+    ),
+    case!(
+        "sky: --height-m 1e9",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "0",
+            "--height-m",
+            "1e9",
+            "--utc",
+            "2025-10-07T05:00:00Z"
+        ],
+        ["height"]
+    ),
+    case!(
+        "sensor describe: --gain inf",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "inf"],
+        ["gain"]
+    ),
+    case!(
+        "sensor describe: --gain -1",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "-1"],
+        ["gain"]
+    ),
+    case!(
+        "sensor describe: --gain 0",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "0"],
+        ["gain"]
+    ),
+    case!(
+        "sensor describe: --gain 1e308",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "1e308"],
+        ["gain"]
+    ),
+    case!(
+        "capture: --gain inf",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--gain",
+            "inf",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "capture: --gain -1",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--gain",
+            "-1",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "capture: --gain 1e308",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--gain",
+            "1e308",
+            "--out",
+            "o"
+        ],
+        ["gain"]
+    ),
+    case!(
+        "capture: --exposure-s nan",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--exposure-s",
+            "nan",
+            "--out",
+            "o"
+        ],
+        ["exposure"]
+    ),
+    case!(
+        "capture: --exposure-s inf",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--exposure-s",
+            "inf",
+            "--out",
+            "o"
+        ],
+        ["exposure"]
+    ),
+    case!(
+        "capture: --exposure-s 0",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--exposure-s",
+            "0",
+            "--out",
+            "o"
+        ],
+        ["exposure"]
+    ),
+    case!(
+        "capture: --exposure-s 1e308",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--exposure-s",
+            "1e308",
+            "--out",
+            "o"
+        ],
+        ["exposure"]
+    ),
+    case!("sweep: gain NaN", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [nan]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
+    case!("sweep: gain negative", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [-1]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
+    case!("sweep: seed count huge", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\nseed = { from = 0, count = 1000000000000 }\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "seed"]),
+    case!("sweep: gain a string", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [\"x\"]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
 ];
 
 #[test]

@@ -2,8 +2,8 @@
 //! written, so the documentation cannot drift from the binary.
 //!
 //! Blocks run in document order, one `bash -euo pipefail` per block, in a
-//! scratch directory that links every top-level entry of the checkout
-//! (`sims/`, `docs/`, …), with the built `gloam` first on `PATH`. A block
+//! scratch directory that links a fixed list of the checkout's tracked
+//! top-level entries (`sims/`, `docs/`, …; never a user's leftovers), with the built `gloam` first on `PATH`. A block
 //! such as ```` ```csv file=my-lamp.csv ```` is written to that file first,
 //! so the commands that read it run too. `cargo run --release -- ARGS` runs
 //! `gloam ARGS`; the other `cargo` commands (`cargo test`, `cargo fuzz`)
@@ -57,16 +57,33 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A scratch directory linking the checkout's top-level entries.
+/// The tracked top-level entries the documented commands read (sample
+/// scenes, sensors, docs, sources). A fixed list, never a listing of the
+/// checkout: a user's leftovers (a `cap-pty/` from running the README's
+/// tour, an `out/`) must not change what the blocks see.
+const LINKED: &[&str] = &[
+    "sims",
+    "docs",
+    "crates",
+    "python",
+    "tools",
+    "tests",
+    "fuzz",
+    "firmware-protocol",
+    "src",
+    "README.md",
+    "Cargo.toml",
+    "Cargo.lock",
+];
+
+/// A scratch directory linking [`LINKED`] from the checkout.
 fn scratch() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    for e in std::fs::read_dir(repo()).unwrap() {
-        let e = e.unwrap();
-        let name = e.file_name();
-        if name == "target" || name == ".git" || name == "out" {
-            continue;
+    for name in LINKED {
+        let p = repo().join(name);
+        if p.exists() {
+            std::os::unix::fs::symlink(&p, dir.path().join(name)).unwrap();
         }
-        std::os::unix::fs::symlink(e.path(), dir.path().join(&name)).unwrap();
     }
     dir
 }

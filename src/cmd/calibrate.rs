@@ -299,6 +299,9 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
     if a.gains.is_empty() {
         bail!("--gains needs at least one gain");
     }
+    if let Some(g) = a.gains.iter().find(|g| !(g.is_finite() && **g > 0.0)) {
+        bail!("--gains: {g} is not a gain (each must be a finite number > 0)");
+    }
     let set = OutputSet::begin(&a.out, a.force, false)?;
     let mut g = open_grabber(&a.grabber)?;
     let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);

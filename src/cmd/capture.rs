@@ -22,6 +22,8 @@ pub struct CaptureArgs {
     pub grabber: String,
     /// Good frames to capture.
     #[arg(long, default_value_t = 1)]
+    /// At most 1 000 000 (nine hours at 30 frames/s; split longer runs).
+    #[arg(value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
     pub frames: u64,
     /// Output directory (frame-NNNNNN.png + frames.jsonl).
     #[arg(long)]

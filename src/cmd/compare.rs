@@ -24,6 +24,9 @@ pub struct CompareArgs {
 }
 
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
+    // The small input first: a bad regions file is named before any image
+    // is decoded.
+    let regions = load_regions(&args.regions)?;
     let t = read_grey(&args.truth).context("reading the truth image")?;
     let s = read_grey(&args.synthetic).context("reading the synthetic image")?;
     if (t.width, t.height) != (s.width, s.height) {
@@ -35,7 +38,6 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             s.height
         );
     }
-    let regions = load_regions(&args.regions)?;
     let c = compare_images(&t.data, &s.data, t.width, t.height, &regions)?;
     if args.json {
         super::output::print_json(&c)?;

@@ -33,7 +33,8 @@ pub struct ProbeArgs {
     /// Independent estimates averaged at the point (the standard error
     /// comes from their spread).
     #[arg(long, default_value_t = 16)]
-    #[arg(value_parser = clap::value_parser!(u32).range(1..))]
+    /// At most 1 000 000 (each is a full estimate at the point).
+    #[arg(value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub samples: u32,
     /// Camera samples per pixel for --pixel (default 4, as `render`).
     #[arg(long)]

@@ -53,9 +53,10 @@ pub struct RenderArgs {
     /// `sensor` entry, if any. Writes `frame-NNNNNN.png` and `frames.jsonl`.
     #[arg(long, value_name = "PRESET_OR_FILE")]
     pub sensor: Option<String>,
-    /// Number of frames to capture (AGC and phosphor lag evolve over them).
-    #[arg(long, default_value_t = 1)]
-    pub frames: u32,
+    /// Number of frames to capture (AGC and phosphor lag evolve over them;
+    /// default 1, at most 100 000). Needs a camera.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    pub frames: Option<u32>,
     /// Manual (override) tube gain: output linear in input flux.
     #[arg(long, conflicts_with = "agc")]
     pub gain: Option<f64>,
@@ -101,6 +102,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         args.threads,
     )?;
     let mut settings = settings;
+    for (key, flag, given) in [
+        (
+            "target_error",
+            "--target-error",
+            args.target_error.is_some(),
+        ),
+        ("tolerance", "--tolerance", args.tolerance.is_some()),
+    ] {
+        if given {
+            gloam_pipeline::render::refuse_both(&args.set, key, flag)?;
+        }
+    }
     if let Some(e) = args.target_error {
         settings.set("target_error", &e.to_string())?;
     }
@@ -118,10 +131,30 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // plan weighs every band, so a tile must make the whole render's
     // decisions to be bit-identical to it.
     let camera = args.sensor.clone().or_else(|| scene.sensor.clone());
+    let frames = args.frames.unwrap_or(1);
     let sensor = camera.clone().filter(|_| tile.is_none());
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(s) = &sensor {
-        gloam_pipeline::check_options(s, args.gain, args.frames)?;
+        gloam_pipeline::check_options(s, args.gain, frames)?;
+    } else {
+        // Camera flags without a camera would be silently ignored.
+        let given = [
+            ("--frames", args.frames.is_some()),
+            ("--gain", args.gain.is_some()),
+            ("--agc", args.agc),
+            ("--no-noise", args.no_noise),
+            ("--exposure", args.exposure.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
+            anyhow::bail!(
+                "{flag} needs a camera: give --sensor or a `sensor` entry in the scene{}",
+                if tile.is_some() {
+                    " (a --tile render captures no frames)"
+                } else {
+                    ""
+                }
+            );
+        }
     }
     let traced = match &camera {
         Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
@@ -189,7 +222,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if let (Some(sensor), Some(detected)) = (sensor, detected) {
         let capture = gloam_pipeline::FrameCapture {
             sensor: &sensor,
-            frames: args.frames,
+            frames,
             gain: args.gain,
             agc: args.agc,
             noise: !args.no_noise,

@@ -58,7 +58,9 @@ pub struct RegionValues {
 
 /// Mean of a region of a row-major `w × h` image, ignoring NaN pixels.
 pub fn region_mean(img: &[f64], w: usize, h: usize, r: &Region) -> Result<f64, CalibError> {
-    if r.width == 0 || r.height == 0 || r.x + r.width > w || r.y + r.height > h {
+    // Checked sums: a region at x = usize::MAX must not wrap (or panic).
+    let inside = |o: usize, n: usize, lim: usize| o.checked_add(n).is_some_and(|e| e <= lim);
+    if r.width == 0 || r.height == 0 || !inside(r.x, r.width, w) || !inside(r.y, r.height, h) {
         return Err(CalibError::Invalid(format!(
             "region '{}' ({}+{}, {}+{}) is empty or leaves the {w}×{h} image",
             r.name, r.x, r.width, r.y, r.height

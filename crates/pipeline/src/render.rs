@@ -15,6 +15,15 @@ pub fn settings_from(
     estimator: Option<&str>,
     threads: Option<usize>,
 ) -> anyhow::Result<RenderSettings> {
+    for (key, flag, given) in [
+        ("spp", "--spp", spp.is_some()),
+        ("seed", "--seed", seed.is_some()),
+        ("estimator", "--estimator", estimator.is_some()),
+    ] {
+        if given {
+            refuse_both(set, key, flag)?;
+        }
+    }
     let mut s = RenderSettings::default();
     for pair in set {
         s.set_pair(pair)?;
@@ -33,6 +42,18 @@ pub fn settings_from(
         s.threads = Some(t);
     }
     Ok(s)
+}
+
+/// Refuses a setting given twice, as `--set KEY=…` and as its own flag:
+/// which one wins would be a guess.
+pub fn refuse_both(set: &[String], key: &str, flag: &str) -> anyhow::Result<()> {
+    if let Some(pair) = set.iter().find(|p| {
+        p.split_once('=')
+            .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case(key))
+    }) {
+        anyhow::bail!("`--set {pair}` and `{flag}` both set {key}: give one");
+    }
+    Ok(())
 }
 
 /// The `report.json` of a render (without `provenance`, which the caller

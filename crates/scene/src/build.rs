@@ -104,6 +104,26 @@ impl Ctx<'_> {
 /// long before it overflows.
 pub const MAX_COORDINATE: f64 = 1e12;
 
+/// A number for a message: plain when short, `1e308` rather than 309
+/// digits when not (and `5e-324` rather than `0.000…`).
+pub(crate) fn num(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// Largest emitter shape exponent (`cos^m`): a cos^1000 lobe is already
+/// 2° wide at half maximum, and the closed forms loop over the exponent.
+pub const MAX_SHAPE_EXPONENT: f64 = 1000.0;
+
+/// Longest wavelength a spectrum or emission line may name, nm (1 mm).
+pub const MAX_WAVELENGTH_NM: f64 = 1e6;
+
+/// Narrowest horizontal field of view, degrees.
+pub const MIN_FOV_DEG: f64 = 1e-3;
+
 pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     let cx = Ctx {
         loc: Locator::new(text, path),
@@ -407,16 +427,19 @@ fn add_lines(
                 ),
             ));
         };
-        if !(w.is_finite() && w > 0.0) {
+        if !(w.is_finite() && w > 0.0 && w <= MAX_WAVELENGTH_NM) {
             return Err(cx.err(
                 &at.index(0),
-                format!("emission line wavelength {w} nm must be a finite number > 0"),
+                format!("emission line wavelength {} nm must be a finite number in (0, {MAX_WAVELENGTH_NM:e}]", num(w)),
             ));
         }
         if !(v.is_finite() && v >= 0.0) {
             return Err(cx.err(
                 &at.index(1),
-                format!("emission line value {v} {unit} at {w} nm must be a finite number ≥ 0"),
+                format!(
+                    "emission line value {} {unit} at {w} nm must be a finite number ≥ 0",
+                    num(v)
+                ),
             ));
         }
         if let Some(k) = out.iter().position(|l| l.wavelength_nm == w) {
@@ -502,10 +525,13 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
                 Kind::Radiance,
             )?;
             let m_exp = e.shape_exponent.unwrap_or(0.0);
-            if !(m_exp.is_finite() && m_exp >= 0.0) {
+            if !(m_exp.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m_exp)) {
                 return Err(cx.err(
                     &f.key("shape_exponent"),
-                    format!("shape exponent {m_exp} must be a finite number ≥ 0"),
+                    format!(
+                        "shape exponent {} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]",
+                        num(m_exp)
+                    ),
                 ));
             }
             Some(Emission {
@@ -777,6 +803,20 @@ fn object(
         &mut *scene_facets
     };
     let mut push = |verts: Vec<DVec3>, at: &FieldPath| -> R<()> {
+        // Every vertex, not only the centre or corner given: a quad's size
+        // or a transform can carry a corner past the limit.
+        if let Some(v) = verts
+            .iter()
+            .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
+        {
+            return Err(cx.err(
+                at,
+                format!(
+                    "a vertex at ({:e}, {:e}, {:e}) is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
+                    v.x, v.y, v.z
+                ),
+            ));
+        }
         check_facet(&verts).map_err(|m| cx.err(at, m))?;
         facets.push(Facet {
             vertices: verts,
@@ -854,6 +894,12 @@ fn object(
                 .iter()
                 .any(|s| s == n || (s == "bottom" && n == "-z") || (s == "top" && n == "+z"))
         };
+        if NAMES[..6].iter().all(|n| omitted(n)) {
+            return Err(cx.err(
+                &bf.key("omit"),
+                "every face of the box is omitted: nothing would be left",
+            ));
+        }
         for (face, q) in box_faces(min, max, b.inward) {
             if !omitted(face) {
                 push(q.iter().map(|&p| xf(p)).collect(), &bf)?;
@@ -901,6 +947,33 @@ fn object(
         // The face lines bound the facets: refuse an oversized mesh (or
         // placement count) before the OBJ parser allocates for it.
         budget(count_obj_faces(&bytes), &limit_at("obj"))?;
+        // Line (`l`) and point (`p`) elements are not surfaces: the OBJ
+        // parser would turn a 3-vertex polyline into a facet. Refused with
+        // their line, never rendered.
+        if let Some((k, kind)) = bytes.split(|&b| b == b'\n').enumerate().find_map(|(k, l)| {
+            let l = l.trim_ascii_start();
+            match l.first() {
+                Some(b'l') | Some(b'p') if l.get(1).is_some_and(|b| b.is_ascii_whitespace()) => {
+                    Some((
+                        k + 1,
+                        if l[0] == b'l' {
+                            "line element (`l`)"
+                        } else {
+                            "point element (`p`)"
+                        },
+                    ))
+                }
+                _ => None,
+            }
+        }) {
+            return Err(cx.err(
+                &at,
+                format!(
+                    "OBJ file {}:{k}: a {kind} is not a surface; remove it (only faces, `f`, become facets)",
+                    p.display()
+                ),
+            ));
+        }
         // The file is parsed once per object, however many placements.
         let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
             // Materials come from the scene file, not from .mtl files.
@@ -971,6 +1044,21 @@ fn object(
                         cx.err(&at, format!("{}: vertex index {k} is out of range", what()))
                     })?;
                     verts.push(xf(v));
+                }
+                if let Some(v) = verts
+                    .iter()
+                    .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
+                {
+                    return Err(cx.err(
+                        &at,
+                        format!(
+                            "{}: a vertex at ({:e}, {:e}, {:e}) is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
+                            what(),
+                            v.x,
+                            v.y,
+                            v.z
+                        ),
+                    ));
                 }
                 check_facet(&verts).map_err(|m| cx.err(&at, format!("{}: {m}", what())))?;
                 facets.push(Facet {
@@ -1108,10 +1196,13 @@ fn point_source_prototype(
         None => DVec3::NEG_Z,
     };
     let m = p.shape_exponent.unwrap_or(0.0);
-    if !(m.is_finite() && m >= 0.0) {
+    if !(m.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m)) {
         return Err(cx.err(
             &field.key("shape_exponent"),
-            format!("shape exponent {m} must be a finite number ≥ 0"),
+            format!(
+                "shape exponent {} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]",
+                num(m)
+            ),
         ));
     }
     let intensity = spectrum_parts(
@@ -1153,10 +1244,13 @@ fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {
         ));
     }
     let fov = cx.finite(&field.key("fov_deg"), c.fov_deg)?;
-    if !(fov > 0.0 && fov < 180.0) {
+    if !(MIN_FOV_DEG..180.0).contains(&fov) {
         return Err(cx.err(
             &field.key("fov_deg"),
-            format!("horizontal field of view {fov}° must be within (0, 180)"),
+            format!(
+                "horizontal field of view {}° must be within [{MIN_FOV_DEG}, 180)",
+                num(fov)
+            ),
         ));
     }
     for (k, v) in [("width", c.width), ("height", c.height)] {

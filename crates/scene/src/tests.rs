@@ -532,7 +532,7 @@ fn emission_normalisation_and_errors() {
         &text,
         next_line() + 1,
         "materials.panel.emission.shape_exponent",
-        "≥ 0",
+        "in [0, 1000]",
     );
 
     let text =
@@ -674,7 +674,7 @@ fn line_errors_name_file_line_and_field() {
         &src("[[nan, 1.0]]"),
         n + 3,
         &format!("{f}[0][0]"),
-        "wavelength NaN nm must be a finite number > 0",
+        "wavelength NaN nm must be a finite number in (0, 1e6]",
     );
     expect_err(
         &src("[[546.0, 1.0], [-5.0, 1.0]]"),
@@ -787,7 +787,7 @@ fn line_errors_name_file_line_and_field() {
 #[test]
 fn camera_errors() {
     let text = BASE.replace("fov_deg = 60.0", "fov_deg = 180.0");
-    expect_err(&text, 6, "camera.fov_deg", "(0, 180)");
+    expect_err(&text, 6, "camera.fov_deg", "[0.001, 180)");
     let text = BASE.replace("look_at = [0.0, 0.0, 1.0]", "look_at = [0.0, -5.0, 1.5]");
     expect_err(&text, 5, "camera.look_at", "equals the camera position");
     let text = BASE.replace("width = 64", "width = 0");

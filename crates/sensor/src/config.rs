@@ -457,11 +457,23 @@ pub const PRESETS: &[(&str, &str)] = &[
 impl SensorConfig {
     /// Parses and validates TOML; `origin` names the file or preset in errors.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let cfg: SensorConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
-            origin: origin.to_string(),
-            message: e.to_string(),
+        let cfg: SensorConfig = toml::from_str(text).map_err(|e| {
+            let line = e.span().map_or(1, |r| line_of_offset(text, r.start));
+            ConfigError::Parse {
+                origin: format!("{origin}:{line}"),
+                message: e.message().trim().to_string(),
+            }
         })?;
-        cfg.validate()?;
+        cfg.validate().map_err(|e| match &e {
+            ConfigError::Invalid { field, .. }
+            | ConfigError::Missing { field, .. }
+            | ConfigError::Spectrum { field, .. } => ConfigError::At {
+                origin: origin.to_string(),
+                line: line_of_field(text, field),
+                inner: Box::new(e),
+            },
+            _ => e,
+        })?;
         Ok(cfg)
     }
 
@@ -602,7 +614,7 @@ impl SensorConfig {
         positive("ccd.full_well_e", c.full_well_e)?;
         non_negative("ccd.dark_current_e_s", c.dark_current_e_s)?;
         non_negative("ccd.read_noise_e", c.read_noise_e)?;
-        non_negative("ccd.prnu", c.prnu)?;
+        fraction("ccd.prnu", c.prnu)?;
         non_negative("ccd.dsnu_e", c.dsnu_e)?;
         non_negative("ccd.diffusion_um", c.diffusion_um)?;
 
@@ -655,6 +667,17 @@ impl SensorConfig {
                 }
             }
             positive("video.full_scale_e", v.full_scale_e)?;
+            // The video's full scale is a CCD signal: beyond the CCD's full
+            // well it can never be reached, and every frame reads near black.
+            if v.full_scale_e > c.full_well_e {
+                return Err(ConfigError::invalid(
+                    "video.full_scale_e",
+                    format!(
+                        "{:e} e is above ccd.full_well_e ({:e} e): the video's full scale could never be reached",
+                        v.full_scale_e, c.full_well_e
+                    ),
+                ));
+            }
             non_negative("video.noise_v", v.noise_v)?;
             if let Some(b) = v.bandwidth_hz {
                 positive("video.bandwidth_hz", b)?;
@@ -669,6 +692,18 @@ impl SensorConfig {
             ));
         }
         finite("digitizer.offset_dn", d.offset_dn)?;
+        let top_dn = ((1u32 << d.bits) - 1) as f64;
+        if let Some(a) = &self.agc
+            && a.set_point_dn > top_dn
+        {
+            return Err(ConfigError::invalid(
+                "agc.set_point_dn",
+                format!(
+                    "{:e} DN is above the {}-bit digitizer's top code {top_dn}",
+                    a.set_point_dn, d.bits
+                ),
+            ));
+        }
         let readout = match &self.video {
             Some(video) => {
                 let lo = d.input_low_v.ok_or_else(|| {
@@ -924,6 +959,37 @@ pub enum Readout<'a> {
     },
     /// Direct digital readout at `e_per_dn`.
     Direct { e_per_dn: f64 },
+}
+
+/// 1-based line of a byte offset in `text`.
+fn line_of_offset(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// 1-based line of the deepest key of the dotted `field` present in `text`
+/// (a missing field is placed at its table; line 1 when nothing is found).
+fn line_of_field(text: &str, field: &str) -> usize {
+    use toml::de::{DeTable, DeValue};
+    let Ok(root) = DeTable::parse(text) else {
+        return 1;
+    };
+    let mut table = root.get_ref();
+    let mut offset = None;
+    for k in field.split('.') {
+        let Some((key, v)) = table.iter().find(|(key, _)| key.get_ref().as_ref() == k) else {
+            break;
+        };
+        offset = Some(key.span().start);
+        match v.get_ref() {
+            DeValue::Table(t) => table = t,
+            _ => break,
+        }
+    }
+    offset.map_or(1, |o| line_of_offset(text, o))
 }
 
 fn missing(field: &str, why: &str) -> ConfigError {

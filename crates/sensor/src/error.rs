@@ -17,6 +17,13 @@ pub enum ConfigError {
     /// A spectrum named by the configuration could not be found or read.
     #[error("sensor config field `{field}`: {message}")]
     Spectrum { field: String, message: String },
+    /// A validation error located in its file: `origin:line: …`.
+    #[error("{origin}:{line}: {inner}")]
+    At {
+        origin: String,
+        line: usize,
+        inner: Box<ConfigError>,
+    },
     /// Neither a built-in preset nor a readable file.
     #[error(
         "unknown sensor '{name}': not a built-in preset (see `gloam sensor list`) and not a readable file ({message})"

@@ -38,6 +38,9 @@ pub fn read_csv(path: &Path) -> Result<Spectrum, CsvError> {
     parse_csv(&text, path)
 }
 
+/// Longest wavelength a spectrum row may give, nm (1 mm).
+pub const MAX_WAVELENGTH_NM: f64 = 1e6;
+
 /// Parses CSV text; `path` only labels errors.
 pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     let err = |line: usize, message: String| CsvError::Parse {
@@ -85,14 +88,20 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
         let parsed: Vec<Option<f64>> = fields.iter().map(|f| f.parse().ok()).collect();
         let numeric = parsed.iter().all(Option::is_some);
         if !numeric {
-            if !seen_data_or_header {
+            if !seen_data_or_header && fields.iter().all(|f| looks_like_name(f)) {
                 // A header row such as `wavelength_nm,value`.
                 seen_data_or_header = true;
                 continue;
             }
             return Err(err(
                 line_no,
-                format!("expected two numbers 'wavelength_nm,value', found '{line}'"),
+                if seen_data_or_header {
+                    format!("expected two numbers 'wavelength_nm,value', found '{line}'")
+                } else {
+                    format!(
+                        "expected two numbers 'wavelength_nm,value', found '{line}' (a header row must name its columns, e.g. 'wavelength_nm,value'; this looks like a mistyped data row)"
+                    )
+                },
             ));
         }
         seen_data_or_header = true;
@@ -106,10 +115,18 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
             ));
         }
         let (w, v) = (parsed[0].unwrap_or(f64::NAN), parsed[1].unwrap_or(f64::NAN));
-        if !w.is_finite() || w <= 0.0 {
+        if !w.is_finite() || w <= 0.0 || w > MAX_WAVELENGTH_NM {
             return Err(err(
                 line_no,
-                format!("wavelength {w} nm is not a finite positive number"),
+                if w.abs() < 1e7 || !w.is_finite() {
+                    format!(
+                        "wavelength {w} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
+                    )
+                } else {
+                    format!(
+                        "wavelength {w:e} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
+                    )
+                },
             ));
         }
         if !v.is_finite() {
@@ -163,6 +180,18 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     Spectrum::new(wavelengths, values)
         .and_then(|s| s.with_lines(lines))
         .map_err(|e| err(0, e.to_string()))
+}
+
+/// A header field is clearly a name, never a mistyped number: no digit at
+/// all (`wavelength_nm`, `value`, `λ`), or at least two letters and a
+/// letter first (`CIE1931`). `O.9`, `0.5x` and `1e` are not.
+fn looks_like_name(f: &str) -> bool {
+    let f = f.trim_matches('"');
+    if !f.chars().any(|c| c.is_ascii_digit()) {
+        return !f.is_empty();
+    }
+    f.chars().next().is_some_and(char::is_alphabetic)
+        && f.chars().filter(|c| c.is_alphabetic()).count() >= 2
 }
 
 /// True for a `line,wavelength_nm,value` row (see the module docs): the

@@ -30,6 +30,10 @@
 
 use serde::Serialize;
 
+/// Most camera samples per pixel (`spp`): 65 536 already takes a
+/// 32 × 24 image past an hour on a laptop.
+pub const MAX_SPP: u32 = 65536;
+
 /// How extended (area) sources are estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -395,6 +399,8 @@ impl RenderSettings {
     }
 
     /// Sets one named setting (keys are case-insensitive).
+    ///
+    /// Counts are bounded before anything is allocated: `spp` ≤ [`MAX_SPP`].
     pub fn set(&mut self, key: &str, value: &str) -> Result<(), SettingsError> {
         const POS_INT: &str = "an integer ≥ 1";
         const NONNEG_INT: &str = "an integer ≥ 0";
@@ -404,7 +410,11 @@ impl RenderSettings {
         let nonneg = |x: &f64| x.is_finite() && *x >= 0.0;
         let d = &mut self.dirsig2001;
         match key.to_ascii_lowercase().as_str() {
-            "spp" => self.spp = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "spp" => {
+                self.spp = parse(key, value, "an integer in [1, 65536]", |&x: &u32| {
+                    (1..=MAX_SPP).contains(&x)
+                })?
+            }
             "seed" => self.seed = parse(key, value, NONNEG_INT, |_: &u64| true)?,
             "estimator" => self.estimator = value.parse()?,
             "recursion" => self.recursion = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,

@@ -39,6 +39,10 @@ pub const MAX_THREADS: usize = 1024;
 /// Most pixels a render takes (8192 × 8192).
 pub const MAX_PIXELS: u64 = 1 << 26;
 
+/// Longest side of a render, pixels (per-row and per-column buffers are
+/// sized by it; a 67 108 864 × 1 camera passes [`MAX_PIXELS`]).
+pub const MAX_SIDE: u32 = 16384;
+
 /// Bytes a render holds per pixel and band (radiance, standard error and
 /// two accumulators, f64).
 const BYTES_PER_PIXEL_BAND: u64 = 32;
@@ -71,8 +75,23 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
             crate::spectral::MAX_WAVELENGTHS
         )));
     }
-    let scale = |n: u32| (n as f64 * settings.resolution_scale).round().max(1.0);
-    let (w, h) = (scale(scene.camera.width), scale(scene.camera.height));
+    let scaled = |n: u32| (n as f64 * settings.resolution_scale).round();
+    let (w, h) = (scaled(scene.camera.width), scaled(scene.camera.height));
+    if !(w >= 1.0 && h >= 1.0) {
+        return Err(TraceError::BadInput(format!(
+            "resolution_scale {:e} shrinks the {}×{} camera below one pixel: use a scale of at least {:.3e}",
+            settings.resolution_scale,
+            scene.camera.width,
+            scene.camera.height,
+            0.5 / scene.camera.width.min(scene.camera.height).max(1) as f64
+        )));
+    }
+    if w > MAX_SIDE as f64 || h > MAX_SIDE as f64 {
+        return Err(TraceError::BadInput(format!(
+            "the image would be {w}×{h} pixels (camera {}×{} at resolution_scale {}): each side is limited to {MAX_SIDE} pixels",
+            scene.camera.width, scene.camera.height, settings.resolution_scale
+        )));
+    }
     let pixels = w * h;
     if pixels.is_nan() || pixels > MAX_PIXELS as f64 {
         return Err(TraceError::BadInput(format!(

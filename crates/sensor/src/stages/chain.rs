@@ -18,7 +18,7 @@ pub fn resolve_spectrum(field: &str, r: &SpectrumRef) -> Result<Spectrum, Config
         field: field.to_string(),
         message: m,
     };
-    match r {
+    let s = match r {
         SpectrumRef::Constant(v) => {
             if !(v.is_finite() && *v >= 0.0 && *v <= 1.0) {
                 return Err(err(format!("{v} is not an efficiency in 0–1")));
@@ -30,7 +30,20 @@ pub fn resolve_spectrum(field: &str, r: &SpectrumRef) -> Result<Spectrum, Config
             wavelength_nm,
             value,
         } => Spectrum::new(wavelength_nm.clone(), value.clone()).map_err(|e| err(e.to_string())),
+    }?;
+    // A quantum efficiency is a probability: above 1 is nonsense, not gain.
+    if field.ends_with("qe")
+        && let Some((w, v)) = s
+            .wavelengths_nm()
+            .iter()
+            .zip(s.values())
+            .find(|(_, v)| **v > 1.0)
+    {
+        return Err(err(format!(
+            "quantum efficiency {v} at {w} nm is above 1 (a QE is a fraction of photons, 0–1)"
+        )));
     }
+    Ok(s)
 }
 
 /// How the camera's gain is set.
