@@ -843,7 +843,7 @@ const CASES: &[Case] = &[
     case!("scene: emission value -inf", ["s.toml" => "{patch:value = 1.0, shape=>value = -inf, shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
     case!("scene: emission value 1e21", ["s.toml" => "{patch:value = 1.0, shape=>value = 1e21, shape}\n"], ["plan", "s.toml"], ["s.toml", "emission"]),
     case!("scene: shape_exponent = 1e6", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 1e6}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
-    case!("scene: shape_exponent = 1001", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 1001}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
+    case!("scene: shape_exponent = 10001", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 10001}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
     case!("scene: shape_exponent = 1e308", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = 1e308}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
     case!("scene: shape_exponent = inf", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = inf}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),
     case!("scene: shape_exponent = -1e-9", ["s.toml" => "{patch:shape_exponent = 0=>shape_exponent = -1e-9}\n"], ["plan", "s.toml"], ["s.toml", "shape_exponent"]),

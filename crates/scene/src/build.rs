@@ -114,9 +114,10 @@ pub(crate) fn num(x: f64) -> String {
     }
 }
 
-/// Largest emitter shape exponent (`cos^m`): a cos^1000 lobe is already
-/// 2° wide at half maximum, and the closed forms loop over the exponent.
-pub const MAX_SHAPE_EXPONENT: f64 = 1000.0;
+/// Largest emitter shape exponent (`cos^m`): a cos^10000 lobe is 0.7° wide
+/// at half maximum (the documented hard case, exact to 3e-13), and the
+/// closed forms loop over the exponent, so 10⁶ would take minutes a vertex.
+pub const MAX_SHAPE_EXPONENT: f64 = 10_000.0;
 
 /// Longest wavelength a spectrum or emission line may name, nm (1 mm).
 pub const MAX_WAVELENGTH_NM: f64 = 1e6;

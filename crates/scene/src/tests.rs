@@ -532,7 +532,7 @@ fn emission_normalisation_and_errors() {
         &text,
         next_line() + 1,
         "materials.panel.emission.shape_exponent",
-        "in [0, 1000]",
+        "in [0, 10000]",
     );
 
     let text =
