@@ -119,6 +119,11 @@ impl Sensor {
         if frames == 0 {
             return Err(GloamError::new_err("frames must be at least 1"));
         }
+        if frames > MAX_CAPTURE_FRAMES {
+            return Err(GloamError::new_err(format!(
+                "frames = {frames}: at most {MAX_CAPTURE_FRAMES} frames per capture"
+            )));
+        }
         if gain.is_some() && agc {
             return Err(GloamError::new_err("give gain= or agc=True, not both"));
         }
@@ -135,6 +140,10 @@ impl Sensor {
                     "image: expected a RenderResult or a 2-D float64 array (row × column)",
                 )
             })?;
+            // Checked before the copy: a broadcast view costs nothing to
+            // pass in and everything to copy.
+            let (h, w) = a.as_array().dim();
+            check_capture_size(h, w, frames)?;
             let a = a.as_array().to_owned();
             match input {
                 "detected" => Input::Detected(a),
@@ -225,4 +234,41 @@ impl Capture {
             self.frames.bind(py).shape()
         )
     }
+}
+
+/// Most frames one `Sensor.capture` takes (as `gloam capture --frames`).
+const MAX_CAPTURE_FRAMES: u32 = 1_000_000;
+/// Most pixels a captured image has (as a render: 8192 × 8192).
+const MAX_CAPTURE_PIXELS: u64 = 1 << 26;
+
+/// Refuses an image or a frame stack too large to hold (the input copy,
+/// 8 bytes a pixel, and the stack, 2 bytes a pixel a frame), against the
+/// pixel limit and 80 % of the memory available, before anything is
+/// allocated: a `GloamError`, never an abort.
+fn check_capture_size(h: usize, w: usize, frames: u32) -> PyResult<()> {
+    let pixels = (h as u64).saturating_mul(w as u64);
+    if pixels == 0 || pixels > MAX_CAPTURE_PIXELS {
+        return Err(GloamError::new_err(format!(
+            "image: {h}×{w} pixels; a capture takes 1 to {MAX_CAPTURE_PIXELS} pixels (8192×8192)"
+        )));
+    }
+    let bytes = pixels.saturating_mul(8 + 2 * frames as u64);
+    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        let kib: u64 = t
+            .lines()
+            .find(|l| l.starts_with("MemAvailable:"))?
+            .split_whitespace()
+            .nth(1)?
+            .parse()
+            .ok()?;
+        Some(kib.saturating_mul(1024))
+    });
+    if let Some(avail) = available.filter(|&a| bytes > a / 10 * 8) {
+        return Err(GloamError::new_err(format!(
+            "a {h}×{w} capture of {frames} frame(s) needs about {:.1} GiB, more than 80 % of the {:.1} GiB available",
+            bytes as f64 / (1u64 << 30) as f64,
+            avail as f64 / (1u64 << 30) as f64
+        )));
+    }
+    Ok(())
 }

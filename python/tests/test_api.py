@@ -186,3 +186,16 @@ def test_compare_ranks_and_rms_by_hand():
     rms = math.sqrt(np.mean([(a - b) ** 2 for a, b in zip(means_t, means_s)]))
     assert c["rms"] == pytest.approx(rms, rel=1e-12)
     assert [r["truth"] for r in c["regions"]] == pytest.approx(means_t)
+
+
+def test_oversized_captures_raise_instead_of_aborting():
+    # A broadcast view costs nothing to pass in; copying it would take
+    # 80 GB. Both it and a frame count past the limit are GloamErrors, and
+    # the interpreter lives on.
+    s = gloam.Sensor.preset("gen3-gaas-iccd")
+    with pytest.raises(gloam.GloamError, match="pixels"):
+        s.capture(np.broadcast_to(1e-6, (100000, 100000)))
+    with pytest.raises(gloam.GloamError, match="frames"):
+        s.capture(np.full((4, 4), 1e-6), frames=10**7)
+    cap = s.capture(np.full((4, 4), 1e-6), frames=2, gain=30, seed=1)
+    assert cap is not None
