@@ -288,21 +288,8 @@ fn sweep_resume_reruns_a_task_whose_inputs_changed() {
     );
 }
 
-const SPHERE: &str = r#"
-[source]
-kind = "sphere"
-lamp = "cie-a"
-lamp_flux_w = 1.0
-sphere_diameter_m = 0.5
-reflectance = 0.98
-port_fraction = 0.02
-
-[dimming]
-method = "aperture"
-
-[rig]
-camera = "scientific-ccd"
-"#;
+/// The shipped sphere source (the calibration rig of the tour).
+const SPHERE: &str = include_str!("../sims/calibration/sphere.toml");
 
 #[test]
 fn apply_refuses_a_lut_of_another_camera_or_bit_depth() {

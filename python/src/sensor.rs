@@ -253,16 +253,7 @@ fn check_capture_size(h: usize, w: usize, frames: u32) -> PyResult<()> {
         )));
     }
     let bytes = pixels.saturating_mul(8 + 2 * frames as u64);
-    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
-        let kib: u64 = t
-            .lines()
-            .find(|l| l.starts_with("MemAvailable:"))?
-            .split_whitespace()
-            .nth(1)?
-            .parse()
-            .ok()?;
-        Some(kib.saturating_mul(1024))
-    });
+    let available = gloam_scene::available_memory_bytes();
     if let Some(avail) = available.filter(|&a| bytes > a / 10 * 8) {
         return Err(GloamError::new_err(format!(
             "a {h}×{w} capture of {frames} frame(s) needs about {:.1} GiB, more than 80 % of the {:.1} GiB available",

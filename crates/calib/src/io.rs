@@ -123,66 +123,68 @@ pub fn write_tiff_f32_pages(
     crate::report::write_bytes(path, buf.get_ref())
 }
 
-/// The gain recorded for `image` in the `frames.jsonl` beside it (lines
-/// of JSON objects with at least `"file"` and `"gain"`), matched by file
-/// name.
 /// The line of `frames.jsonl` beside `image` that records it, with its
 /// 1-based line number; None when there is no `frames.jsonl` there or it
 /// has no line for the image.
 pub fn frame_record(image: &Path) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
-    let dir = image.parent().unwrap_or(Path::new("."));
-    let jl = dir.join("frames.jsonl");
+    let jl = image
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join("frames.jsonl");
     let Some(name) = image.file_name().and_then(|n| n.to_str()) else {
         return Ok(None);
     };
     if !jl.exists() {
         return Ok(None);
     }
-    let f = gloam_spectra::input::open_bounded(&jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|e| CalibError::file(&jl, e))?;
+    find_record(&jl, name, "")
+}
+
+/// The gain recorded for `image` in the `frames.jsonl` beside it (lines
+/// of JSON objects with at least `"file"` and `"gain"`), matched by file
+/// name.
+pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
+    let jl = image
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join("frames.jsonl");
+    let name = image
+        .file_name()
+        .and_then(|n| n.to_str())
+        .ok_or_else(|| CalibError::file(image, "no file name"))?;
+    let note = format!(" (needed for the gain of {name}; pass --gain to override)");
+    match find_record(&jl, name, &note)? {
+        Some((i, v)) => v
+            .get("gain")
+            .and_then(|g| g.as_f64())
+            .ok_or_else(|| CalibError::file(&jl, format!("line {i}: no numeric \"gain\""))),
+        None => Err(CalibError::file(
+            &jl,
+            format!("no line for \"{name}\" (pass --gain to override)"),
+        )),
+    }
+}
+
+/// The first line of the frames file `jl` whose `"file"` is `name`, with
+/// its 1-based number (blank lines skipped); `open_note` is appended to an
+/// error opening the file.
+fn find_record(
+    jl: &Path,
+    name: &str,
+    open_note: &str,
+) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
+    let f = gloam_spectra::input::open_bounded(jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .map_err(|e| CalibError::file(jl, format!("{e}{open_note}")))?;
     for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
-        let line = line.map_err(|e| CalibError::file(&jl, e))?;
+        let line = line.map_err(|e| CalibError::file(jl, e))?;
         if line.trim().is_empty() {
             continue;
         }
         let v: serde_json::Value = serde_json::from_str(&line)
-            .map_err(|e| CalibError::file(&jl, format!("line {}: {e}", i + 1)))?;
+            .map_err(|e| CalibError::file(jl, format!("line {}: {e}", i + 1)))?;
         if v.get("file").and_then(|f| f.as_str()) == Some(name) {
             return Ok(Some((i + 1, v)));
         }
     }
     Ok(None)
-}
-
-pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
-    let dir = image.parent().unwrap_or(Path::new("."));
-    let jl = dir.join("frames.jsonl");
-    let name = image
-        .file_name()
-        .and_then(|n| n.to_str())
-        .ok_or_else(|| CalibError::file(image, "no file name"))?;
-    let f = gloam_spectra::input::open_bounded(&jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|e| {
-            CalibError::file(
-                &jl,
-                format!("{e} (needed for the gain of {name}; pass --gain to override)"),
-            )
-        })?;
-    for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
-        let line = line.map_err(|e| CalibError::file(&jl, e))?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let v: serde_json::Value = serde_json::from_str(&line)
-            .map_err(|e| CalibError::file(&jl, format!("line {}: {e}", i + 1)))?;
-        if v.get("file").and_then(|f| f.as_str()) == Some(name) {
-            return v.get("gain").and_then(|g| g.as_f64()).ok_or_else(|| {
-                CalibError::file(&jl, format!("line {}: no numeric \"gain\"", i + 1))
-            });
-        }
-    }
-    Err(CalibError::file(
-        &jl,
-        format!("no line for \"{name}\" (pass --gain to override)"),
-    ))
 }

@@ -11,8 +11,8 @@ use gloam_spectra::{Spectrum, library};
 use crate::error::{FieldPath, Locator, Seg};
 use crate::geometry::{box_faces, check_facet, quad_vertices};
 use crate::instance::{
-    MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, Placement, Xform, available_memory, check_budget,
-    count_obj_faces, facet_bytes, read_placements_csv,
+    MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, Placement, Xform, available_memory_bytes,
+    check_budget, count_obj_faces, facet_bytes, read_placements_csv,
 };
 use crate::raw::*;
 use crate::{
@@ -36,7 +36,7 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn available_memory(&self) -> Option<u64> {
-        *self.memory.get_or_init(available_memory)
+        *self.memory.get_or_init(available_memory_bytes)
     }
 
     fn err(&self, field: &FieldPath, msg: impl Into<String>) -> SceneError {

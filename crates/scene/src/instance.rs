@@ -112,17 +112,7 @@ pub(crate) fn parse_placements_csv(
     let err = |line: usize, m: String| format!("{}:{line}: {m}", path.display());
     let mut out = Vec::new();
     let mut seen_row = false;
-    for (i, raw) in text.lines().enumerate() {
-        let line_no = i + 1;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line
-            .split([',', ';', '\t', ' '])
-            .map(str::trim)
-            .filter(|f| !f.is_empty())
-            .collect();
+    for (line_no, line, fields) in gloam_spectra::data_rows(text) {
         let parsed: Option<Vec<f64>> = fields.iter().map(|f| f.parse().ok()).collect();
         let Some(nums) = parsed else {
             if !seen_row && fields.join(",").eq_ignore_ascii_case(PLACEMENTS_CSV_HEADER) {
@@ -211,8 +201,9 @@ pub(crate) fn facet_bytes(name: &str) -> usize {
 
 /// Bytes of memory this process may still allocate: the smaller of
 /// `MemAvailable` (`/proc/meminfo`) and the room left under a cgroup v2
-/// memory limit. `None` where neither can be read (not Linux).
-pub(crate) fn available_memory() -> Option<u64> {
+/// memory limit. `None` where neither can be read (not Linux). Every size
+/// check in gloam (scene expansion, render, capture, bench) asks this.
+pub fn available_memory_bytes() -> Option<u64> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
         let kb: u64 = s
             .lines()

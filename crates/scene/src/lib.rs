@@ -21,7 +21,9 @@ mod raw;
 
 pub use error::SceneError;
 pub use geometry::{PLANARITY_TOLERANCE, check_facet};
-pub use instance::{MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, PLACEMENTS_CSV_HEADER};
+pub use instance::{
+    MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, PLACEMENTS_CSV_HEADER, available_memory_bytes,
+};
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
 /// OBJ files, sensor files) are resolved against the scene file's directory.

@@ -41,6 +41,24 @@ pub fn read_csv(path: &Path) -> Result<Spectrum, CsvError> {
 /// Longest wavelength a spectrum row may give, nm (1 mm).
 pub const MAX_WAVELENGTH_NM: f64 = 1e6;
 
+/// The rows of a gloam CSV file (spectra, placements): `(1-based line
+/// number, trimmed line, fields)`, skipping blank lines and `#` comments;
+/// fields are separated by commas, semicolons, tabs or spaces.
+pub fn data_rows(text: &str) -> impl Iterator<Item = (usize, &str, Vec<&str>)> {
+    text.lines().enumerate().filter_map(|(i, raw)| {
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            return None;
+        }
+        let fields = line
+            .split([',', ';', '\t', ' '])
+            .map(str::trim)
+            .filter(|f| !f.is_empty())
+            .collect();
+        Some((i + 1, line, fields))
+    })
+}
+
 /// Parses CSV text; `path` only labels errors.
 pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     let err = |line: usize, message: String| CsvError::Parse {
@@ -54,17 +72,7 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     let mut lines: Vec<EmissionLine> = Vec::new();
     let mut line_rows: Vec<usize> = Vec::new();
     let mut seen_data_or_header = false;
-    for (i, raw) in text.lines().enumerate() {
-        let line_no = i + 1;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line
-            .split([',', ';', '\t', ' '])
-            .map(str::trim)
-            .filter(|f| !f.is_empty())
-            .collect();
+    for (line_no, line, fields) in data_rows(text) {
         if is_line_row(&fields, seen_data_or_header) {
             let l = parse_line_row(&fields).map_err(|m| err(line_no, m))?;
             if let Some(k) = lines

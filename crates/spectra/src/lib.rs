@@ -7,7 +7,7 @@ pub mod library;
 mod radiometry;
 mod spectrum;
 
-pub use csv::{parse_csv, read_csv};
+pub use csv::{data_rows, parse_csv, read_csv};
 pub use error::{CsvError, LookupError, SpectrumError};
 pub use library::{LibraryEntry, lookup};
 pub use radiometry::*;

@@ -731,7 +731,12 @@ impl Tracer {
                 let mut rng = stream(self.settings.seed, DOMAIN_CACHE, k as u64);
                 let mut c = RayCounts::default();
                 let mut e = vec![0.0; nwl];
-                self.texel_irradiance(p, n, f, &mut rng, &mut c, &mut e);
+                // A texel's noise persists into every bounce and every
+                // pixel that gathers from it: with the light tree (one
+                // selection picks only `light_tree_branches` emitters)
+                // CACHE_DIRECT_REPEATS selections are averaged; without it
+                // the closed forms are exact and the count is unused.
+                self.irradiance_with(p, n, f, CACHE_DIRECT_REPEATS, &mut rng, &mut c, &mut e);
                 let mut entries: Vec<Entry> = Vec::new();
                 let mut taus: Vec<Vec<f64>> = Vec::new();
                 let mut u = Vec::with_capacity(rays as usize);
@@ -896,28 +901,6 @@ impl Tracer {
                 bounce_shares,
                 seconds: t0.elapsed().as_secs_f64(),
             },
-        }
-    }
-
-    /// A texel's direct irradiance, added to `out`. With the light tree a
-    /// single estimate picks only `light_tree_branches` emitters, and the
-    /// texel's noise would persist into every bounce and every pixel that
-    /// gathers from it, so [`CACHE_DIRECT_REPEATS`] tree selections are
-    /// averaged (the sky and Moon once); without the tree the
-    /// estimate is the exact closed form and one suffices.
-    fn texel_irradiance(
-        &self,
-        p: DVec3,
-        n: DVec3,
-        f: u32,
-        rng: &mut rand_pcg::Pcg64Mcg,
-        c: &mut RayCounts,
-        out: &mut [f64],
-    ) {
-        if self.light_tree.is_none() {
-            self.irradiance(p, n, f, rng, c, out);
-        } else {
-            self.irradiance_with(p, n, f, CACHE_DIRECT_REPEATS, rng, c, out);
         }
     }
 

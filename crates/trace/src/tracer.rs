@@ -47,15 +47,6 @@ pub const MAX_SIDE: u32 = 16384;
 /// two accumulators, f64).
 const BYTES_PER_PIXEL_BAND: u64 = 32;
 
-/// Memory available to this process, bytes (`MemAvailable` of
-/// /proc/meminfo), when the system says.
-fn available_memory_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib.saturating_mul(1024))
-}
-
 /// Refuses a render too large to hold, before anything is allocated: the
 /// image (after `resolution_scale`) against [`MAX_PIXELS`] and the memory
 /// available, and the wavelength grid against
@@ -100,7 +91,7 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
         )));
     }
     let bytes = pixels as u64 * (scene.bands.len() as u64 * BYTES_PER_PIXEL_BAND + 4);
-    if let Some(avail) = available_memory_bytes() {
+    if let Some(avail) = gloam_scene::available_memory_bytes() {
         if bytes > avail / 10 * 8 {
             return Err(TraceError::BadInput(format!(
                 "a {w}×{h} render of {} bands needs about {:.1} GiB, more than 80 % of the {:.1} GiB available",
@@ -808,13 +799,9 @@ impl Tracer {
             let w = 1.0 / repeats as f64;
             for _ in 0..repeats {
                 let parts = self.tree_irradiance(tree, p, n, ignore, skipped, rng, c);
-                for (part, d) in parts.iter().zip(dropped) {
-                    if d {
-                    } else if repeats == 1 {
-                        out.iter_mut().zip(part).for_each(|(o, x)| *o += x);
-                    } else {
-                        out.iter_mut().zip(part).for_each(|(o, x)| *o += w * x);
-                    }
+                // w = 1 for one selection: x · 1 is x exactly.
+                for (part, _) in parts.iter().zip(dropped).filter(|(_, d)| !d) {
+                    out.iter_mut().zip(part).for_each(|(o, x)| *o += w * x);
                 }
             }
         }

@@ -59,6 +59,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail, ensure};
+use gloam_trace::prep::peak_rss_bytes;
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 use serde::{Deserialize, Serialize};
 
@@ -434,14 +435,6 @@ pub struct CaseResult {
     pub closed_form_mean_radiance: Option<f64>,
 }
 
-/// `VmHWM` (peak resident set) of this process, bytes (Linux).
-pub fn peak_rss_bytes() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
 /// Generates, loads, prepares and renders one case in this process (the
 /// child's job; tests call it directly).
 pub fn run_case(
@@ -489,8 +482,19 @@ pub fn run_case(
         threads,
         ..Default::default()
     };
+    // Preparation resets the kernel's peak mark at each step (to time each
+    // step's peak), so the process peak is the largest of the peak after
+    // loading, the steps' peaks and the peak since the last step.
+    let load_peak = peak_rss_bytes();
     let tracer = Tracer::new(&scene, &settings)?;
-    let prepare_peak_rss_bytes = peak_rss_bytes();
+    let prepare_peak_rss_bytes = [
+        load_peak,
+        tracer.preparation.peak_rss_bytes,
+        peak_rss_bytes(),
+    ]
+    .into_iter()
+    .flatten()
+    .max();
     let out = tracer.render(&|_, _| {})?;
     let s = &out.stats;
     ensure!(
@@ -539,7 +543,7 @@ pub fn run_case(
         rel_std_error_rms: e,
         time_to_1pct_s: time_to_1pct(s.prepare_seconds, s.trace_seconds, spp, e),
         prepare_peak_rss_bytes,
-        peak_rss_bytes: peak_rss_bytes(),
+        peak_rss_bytes: prepare_peak_rss_bytes.max(peak_rss_bytes()),
         mean_radiance,
         closed_form_mean_radiance,
     })
@@ -638,12 +642,6 @@ prepare_s = the tracer's prepare_seconds (BVH, effect-plan pilot, radiosity cach
 peak_rss_bytes = VmHWM from the child's /proc/self/status after the render (prepare_peak_rss_bytes: right after preparation); \
 rays_per_s = all rays per second of trace time; time_to_1pct_s = prepare_s + trace_s * max(1, spp * (e / 0.01)^2) / spp with e the RMS over pixels of the render's relative standard error at the fixed spp (at least one sample per pixel)";
 
-fn mem_available_bytes() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    Some(line.split_whitespace().nth(1)?.parse::<u64>().ok()? * 1024)
-}
-
 /// Waits for `child` until `timeout` after `t0`; kills it then.
 /// `None`: timed out.
 fn wait_with_timeout(
@@ -722,7 +720,7 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
         mitsuba: None,
     };
     let need = estimated_peak_bytes(case);
-    if let Some(avail) = mem_available_bytes()
+    if let Some(avail) = gloam_scene::available_memory_bytes()
         && need > avail
     {
         row.status = "too_large".into();
