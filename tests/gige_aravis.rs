@@ -312,7 +312,8 @@ fn frames_resends_cannot_repair_are_reported_lost_never_returned_as_good() {
 /// (written through `GloamStimulus`) and settings.
 #[test]
 fn bright_source_protection_state_follows_the_chain() {
-    use gloam_grabber::{FrameSource, SensorSource, Stimulus};
+    use gloam_grabber::{FrameSource, Stimulus};
+    use gloam_simcam::SensorSource;
     if !aravis_ready(
         "aravis bright-source protection",
         &["cc", "pkg-config", "ip"],

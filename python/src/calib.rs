@@ -17,7 +17,7 @@ use gloam_grabber::FrameGrabber;
 
 use crate::convert::{from_py, to_py};
 use crate::errors::{GloamError, OrPy};
-use crate::grabber::{Frame, Grabber};
+use crate::grabber::{Grabber, PyFrame};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Lut>()?;
@@ -287,7 +287,7 @@ impl Lut {
         frame: &Bound<'py, PyAny>,
         gain: Option<f64>,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let (px, gain) = if let Ok(f) = frame.cast::<Frame>() {
+        let (px, gain) = if let Ok(f) = frame.cast::<PyFrame>() {
             let f = f.get();
             let a = f.pixels.bind(py).readonly().as_array().to_owned();
             (a, gain.unwrap_or(f.gain))

@@ -13,7 +13,7 @@ use crate::interrupt::{SameThread, finish, signalled};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Grabber>()?;
-    m.add_class::<Frame>()?;
+    m.add_class::<PyFrame>()?;
     m.add_class::<FrameStream>()?;
     m.add_function(wrap_pyfunction!(open_grabber, m)?)?;
     Ok(())
@@ -93,13 +93,13 @@ impl Grabber {
 fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabber> {
     let opts = OpenOptions {
         seed,
-        scene_renderer: Some(gloam_pipeline::scene_renderer()),
         ..OpenOptions::default()
     };
     let u = uri.to_string();
     let r = py.detach(move || {
         SameThread(
-            gloam_grabber::open_with(&u, &opts)
+            gloam_pipeline::grabbers()
+                .open(&u, &opts)
                 .map_err(|e| anyhow::Error::from(e).context(format!("opening {u}"))),
         )
     });
@@ -109,7 +109,7 @@ fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabbe
     })
 }
 
-fn frame_of(py: Python<'_>, f: gloam_grabber::Frame) -> PyResult<Frame> {
+fn frame_of(py: Python<'_>, f: gloam_grabber::Frame) -> PyResult<PyFrame> {
     let (w, h) = (f.meta.width as usize, f.meta.height as usize);
     let pixels = Array2::from_shape_vec((h, w), f.pixels).map_err(|e| {
         GloamError::new_err(format!(
@@ -117,7 +117,7 @@ fn frame_of(py: Python<'_>, f: gloam_grabber::Frame) -> PyResult<Frame> {
             f.meta.seq
         ))
     })?;
-    Ok(Frame {
+    Ok(PyFrame {
         gain: f.meta.gain,
         meta: to_py(py, &f.meta)?.unbind(),
         pixels: pixels.into_pyarray(py).unbind(),
@@ -181,7 +181,7 @@ impl Grabber {
     }
 
     /// One frame (GIL released while it waits).
-    fn grab(&mut self, py: Python<'_>) -> PyResult<Frame> {
+    fn grab(&mut self, py: Python<'_>) -> PyResult<PyFrame> {
         let f = self.run(py, |g| Ok(g.grab()?))?;
         frame_of(py, f)
     }
@@ -206,8 +206,11 @@ impl Grabber {
 /// One grabbed frame: ``pixels`` (uint16, row × column), ``gain`` and
 /// ``meta`` (seq, timestamp_us, gain, agc, bits, width, height,
 /// pixels_crc32c, status, levels).
-#[pyclass(module = "gloam", frozen)]
-pub struct Frame {
+///
+/// Python's view of [`gloam_grabber::Frame`] (the one grabbed-frame type),
+/// its pixels as a NumPy array; `Frame` to Python.
+#[pyclass(name = "Frame", module = "gloam", frozen)]
+pub struct PyFrame {
     #[pyo3(get)]
     pub pixels: Py<PyArray2<u16>>,
     #[pyo3(get)]
@@ -217,7 +220,7 @@ pub struct Frame {
 }
 
 #[pymethods]
-impl Frame {
+impl PyFrame {
     fn __repr__(&self, py: Python<'_>) -> String {
         format!(
             "Frame({:?}, gain {})",
@@ -240,7 +243,7 @@ impl FrameStream {
         slf
     }
 
-    fn __next__(&mut self, py: Python<'_>) -> PyResult<Option<Frame>> {
+    fn __next__(&mut self, py: Python<'_>) -> PyResult<Option<PyFrame>> {
         if self.left == 0 {
             return Ok(None);
         }

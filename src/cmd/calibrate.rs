@@ -233,10 +233,10 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
 fn open_grabber(a: &GrabberArgs) -> anyhow::Result<Box<dyn FrameGrabber>> {
     let opts = OpenOptions {
         seed: a.seed,
-        scene_renderer: Some(gloam_pipeline::scene_renderer()),
         ..OpenOptions::default()
     };
-    let mut g = gloam_grabber::open_with(&a.grabber, &opts)
+    let mut g = gloam_pipeline::grabbers()
+        .open(&a.grabber, &opts)
         .with_context(|| format!("opening {}", a.grabber))?;
     if let Some(e) = a.exposure_s {
         g.set_exposure_s(e)?;
@@ -633,7 +633,7 @@ fn mtf_voltage(a: &MtfArgs, set: OutputSet, g: &mut dyn FrameGrabber) -> anyhow:
     use gloam_calib::mtf_voltage::{VoltageOptions, analytic_curves, voltage_sine_mtf};
     let uri = a.grabber.as_deref().unwrap_or_default();
     let (preset, _, seed, size) = gloam_calib::scope_run::sim_uri(uri)?;
-    let size = size.unwrap_or(gloam_grabber::sim::DEFAULT_RIG_SIZE);
+    let size = size.unwrap_or(gloam_simcam::DEFAULT_RIG_SIZE);
     let mut cfg = gloam_sensor::SensorConfig::load_preset_or_file(&preset)?;
     cfg.noise.seed = a.seed.unwrap_or(seed);
     let mut cam = gloam_sensor::Camera::new(cfg)?;

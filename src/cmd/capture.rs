@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::Args;
 use gloam_grabber::{GrabError, OpenOptions};
+use gloam_simcam::FrameExposureExt;
 
 use gloam_pipeline::{FrameLog, FrameRecord, OutputSet, Provenance};
 
@@ -71,10 +72,10 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     let dir = set.dir().to_path_buf();
     let opts = OpenOptions {
         seed: args.seed,
-        scene_renderer: Some(gloam_pipeline::scene_renderer()),
         ..OpenOptions::default()
     };
-    let mut g = gloam_grabber::open_with(&args.grabber, &opts)
+    let mut g = gloam_pipeline::grabbers()
+        .open(&args.grabber, &opts)
         .with_context(|| format!("opening {}", args.grabber))?;
     eprintln!("capturing from {}", g.describe());
     // Which camera took the frames: `calibrate apply` checks a LUT against it.

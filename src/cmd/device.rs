@@ -11,9 +11,9 @@ use clap::Args;
 
 use gloam_grabber::emulator::{DEFAULT_BAUD, EmulatorConfig, EmulatorStats, run_emulator};
 use gloam_grabber::faults::FaultConfig;
-use gloam_grabber::sim::DEFAULT_RIG_SIZE;
+use gloam_grabber::serial::PtyDevice;
 use gloam_grabber::uri::parse_size;
-use gloam_grabber::{SensorSource, serial::PtyDevice};
+use gloam_simcam::{DEFAULT_RIG_SIZE, SensorSource};
 
 #[derive(Args)]
 pub struct DeviceArgs {
@@ -183,5 +183,5 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
     };
     let stats = EmulatorStats::default();
     let stop = AtomicBool::new(false);
-    run_emulator(pty, &mut source, &config, &stats, &stop).map_err(|e| anyhow::anyhow!(e))
+    Ok(run_emulator(pty, &mut source, &config, &stats, &stop)?)
 }

@@ -10,7 +10,7 @@ pub struct GrabbersArgs {
 }
 
 pub fn run(args: GrabbersArgs) -> anyhow::Result<()> {
-    let list = gloam_grabber::list_grabbers();
+    let list = gloam_simcam::list_grabbers();
     if args.json {
         return super::output::print_json(&list);
     }

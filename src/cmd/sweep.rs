@@ -474,7 +474,9 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Fi
         seed: Some(task.seed),
         ..Default::default()
     };
-    let mut g = gloam_grabber::open_with(&uri, &opts).with_context(|| format!("opening {uri}"))?;
+    let mut g = gloam_simcam::registry()
+        .open(&uri, &opts)
+        .with_context(|| format!("opening {uri}"))?;
     if let Some(gain) = task.gain() {
         g.set_gain(gain).context("gain")?;
     }

@@ -21,9 +21,9 @@
 //! grabber on the same camera.
 
 use gloam_grabber::Stimulus;
-use gloam_grabber::sim::render_stimulus;
 use gloam_sensor::Camera;
 use gloam_sensor::scope::{fundamental, scope_lines};
+use gloam_simcam::render_stimulus;
 use serde::Serialize;
 
 use crate::error::CalibError;

@@ -5,11 +5,11 @@
 
 use std::path::Path;
 
-use gloam_grabber::sim::{render_stimulus, rig_stimulus};
 use gloam_grabber::{GrabberUri, Stimulus};
 use gloam_sensor::scope::{LineReadout, ScopeLine, read_line, scope_lines, to_csv};
 use gloam_sensor::stages::video_timing::VideoFormat;
 use gloam_sensor::{Camera, SensorConfig};
+use gloam_simcam::{render_stimulus, rig_stimulus};
 use serde::Serialize;
 
 use crate::error::CalibError;

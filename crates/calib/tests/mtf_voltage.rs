@@ -6,9 +6,10 @@
 use gloam_calib::capture::agc_off;
 use gloam_calib::mtf::{SineOptions, sine_mtf};
 use gloam_calib::mtf_voltage::{VoltageOptions, analytic_curves, voltage_sine_mtf};
-use gloam_grabber::sim::render_stimulus;
-use gloam_grabber::{FrameGrabber, SimGrabber, Stimulus};
+use gloam_grabber::{FrameGrabber, Stimulus};
 use gloam_sensor::{Camera, SensorConfig};
+use gloam_simcam::SimGrabber;
+use gloam_simcam::render_stimulus;
 
 const FILE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),

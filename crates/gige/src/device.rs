@@ -555,7 +555,7 @@ impl Device {
         if text_len > 0 {
             let s: Stimulus =
                 serde_json::from_slice(&next[..text_len]).map_err(|_| Status::InvalidParameter)?;
-            gloam_grabber::sim::render_stimulus(&s, 2, 2).map_err(|_| Status::InvalidParameter)?;
+            gloam_simcam::render_stimulus(&s, 2, 2).map_err(|_| Status::InvalidParameter)?;
             self.events.push(Event::Stimulus(s));
         }
         self.stimulus = next;

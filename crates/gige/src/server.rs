@@ -421,7 +421,7 @@ impl GigeServer {
             if let Some(stim) = sh.stimulus.take()
                 && let Err(e) = source.present(&stim)
             {
-                eprintln!("gloam device: stimulus not shown ({e})");
+                eprintln!("gloam device: stimulus not shown ({})", with_causes(&e));
             }
             let generation = sh.generation;
             let triggered = sh.device.triggered();
@@ -449,7 +449,10 @@ impl GigeServer {
                 Ok(r) => r,
                 Err(e) => {
                     self.stats.render_errors.fetch_add(1, Ordering::Relaxed);
-                    eprintln!("gloam device: frame not rendered ({e}); acquisition stopped");
+                    eprintln!(
+                        "gloam device: frame not rendered ({}); acquisition stopped",
+                        with_causes(&e)
+                    );
                     let mut sh = lock(m);
                     sh.device.acquisition_completed();
                     continue;
@@ -513,4 +516,16 @@ impl GigeServer {
             }
         }
     }
+}
+
+/// An error and its sources, `a: b: c`, as the CLI prints them.
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut out = e.to_string();
+    let mut next = e.source();
+    while let Some(c) = next {
+        out.push_str(": ");
+        out.push_str(&c.to_string());
+        next = c.source();
+    }
+    out
 }

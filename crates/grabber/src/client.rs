@@ -337,7 +337,7 @@ impl<T: Transport> ProtocolGrabber<T> {
             Framing::Cobs => p.encode_cobs(&mut self.tx),
             Framing::UsbTransfers => p.encode(&mut self.tx),
         }
-        .map_err(|e| GrabError::Other(format!("encoding request: {e}")))?;
+        .map_err(GrabError::Encode)?;
         let timeout = self.opts.reply_timeout.max(Duration::from_millis(100));
         self.link.send(&self.tx[..n], timeout).map_err(link_err)
     }
@@ -509,7 +509,7 @@ impl<T: Transport> ProtocolGrabber<T> {
             Framing::Cobs => {
                 let mut out = vec![0u8; firmware_protocol::cobs::max_encoded_len(un.len()) + 1];
                 let n = firmware_protocol::cobs::encode_frame(&un, &mut out)
-                    .map_err(|e| GrabError::Other(format!("encoding request: {e}")))?;
+                    .map_err(GrabError::Encode)?;
                 out.truncate(n);
                 out
             }
@@ -989,8 +989,7 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
         if self.stimulus_supported == Some(false) {
             return Ok(false);
         }
-        let body =
-            serde_json::to_vec(stimulus).map_err(|e| GrabError::InvalidSetting(e.to_string()))?;
+        let body = serde_json::to_vec(stimulus).map_err(GrabError::StimulusJson)?;
         if body.len() > crate::emulator::MAX_STIMULUS_JSON_LEN {
             return Err(GrabError::InvalidSetting(
                 "stimulus description too long".into(),

@@ -61,6 +61,19 @@ pub struct EmulatorStats {
     pub faults: Arc<FaultStats>,
 }
 
+/// Why the emulator stopped other than by being asked to.
+#[derive(Debug, thiserror::Error)]
+pub enum EmulatorError {
+    /// The protocol device could not be set up (its buffers do not fit).
+    #[error("device init")]
+    DeviceInit(#[source] firmware_protocol::EncodeError),
+    /// The link failed with something other than the host going away.
+    #[error("link")]
+    Link(#[source] LinkError),
+    #[error("emulator thread panicked")]
+    Panicked,
+}
+
 /// Emulator-only request kind (in the request range, unused by protocol
 /// 1.0): `EmulatorStimulus`, body = the [`Stimulus`] as JSON (≤ 1024
 /// bytes), reply `Ack { request_kind: 0x3F }` once the stimulus applies to
@@ -337,14 +350,14 @@ impl<L: DeviceLink> Sink for EmuSink<'_, L> {
 
 /// Run the emulator until `stop` is set. `source` is the hardware; it is
 /// restarted at every stream start so frame `k` of every stream is the
-/// same as frame `k` of an in-process [`crate::SimGrabber`] stream.
+/// same as frame `k` of an in-process `gloam_simcam::SimGrabber` stream.
 pub fn run_emulator<L: DeviceLink, S: FrameSource>(
     mut link: L,
     source: &mut S,
     config: &EmulatorConfig,
     stats: &EmulatorStats,
     stop: &AtomicBool,
-) -> Result<(), String> {
+) -> Result<(), EmulatorError> {
     let framing = link.framing();
     let transport = match framing {
         Framing::Cobs => firmware_protocol::Transport::Serial,
@@ -380,7 +393,7 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
                 frame: &mut frame,
             },
         )
-        .map_err(|e| format!("device init: {e}"))?;
+        .map_err(EmulatorError::DeviceInit)?;
         let mut reset_armed: Option<u32> = None;
         loop {
             if stop.load(Ordering::Relaxed) {
@@ -405,7 +418,7 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
                     thread::sleep(Duration::from_millis(5));
                     continue;
                 }
-                Err(LinkError::Io(e)) => return Err(format!("link: {e}")),
+                Err(e @ LinkError::Io(_)) => return Err(EmulatorError::Link(e)),
                 Ok(n) => {
                     // A host that (re)appears always opens with `Hello`,
                     // which resets the session; no power cycle needed.
@@ -530,7 +543,7 @@ impl<S: FrameSource> RestartSource for SourceHal<'_, S> {
 /// A running emulator thread.
 pub struct EmulatorHandle {
     stop: Arc<AtomicBool>,
-    thread: Option<thread::JoinHandle<Result<(), String>>>,
+    thread: Option<thread::JoinHandle<Result<(), EmulatorError>>>,
     pub stats: Arc<EmulatorStats>,
 }
 
@@ -556,11 +569,11 @@ impl EmulatorHandle {
     }
 
     /// Stop and join; returns the emulator's result.
-    pub fn stop(mut self) -> Result<(), String> {
+    pub fn stop(mut self) -> Result<(), EmulatorError> {
         self.stop.store(true, Ordering::Relaxed);
         match self.thread.take().map(thread::JoinHandle::join) {
             Some(Ok(r)) => r,
-            Some(Err(_)) => Err("emulator thread panicked".into()),
+            Some(Err(_)) => Err(EmulatorError::Panicked),
             None => Ok(()),
         }
     }

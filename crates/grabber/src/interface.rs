@@ -48,48 +48,9 @@ pub struct DnLevels {
     pub saturated_at_dn: f64,
 }
 
-/// Where a frame sits in its range ([`gloam_sensor::levels`]).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FrameExposure {
-    pub mean_dn: f64,
-    /// Fraction of pixels at or above the saturated level (the camera's,
-    /// else the top code `2^bits − 1`).
-    pub saturated_fraction: f64,
-    /// Exposure warnings (empty when well exposed) and their kinds.
-    pub warnings: Vec<String>,
-    pub warning_kinds: Vec<gloam_sensor::levels::WarningKind>,
-}
-
-impl Frame {
-    /// The frame's mean, saturated fraction and exposure warnings.
-    pub fn exposure(&self) -> FrameExposure {
-        let top = f64::from((1u32 << self.meta.bits.min(16)) - 1);
-        let (black, sat, at) = match self.meta.levels {
-            Some(l) => (Some(l.black_dn), l.saturation_dn, l.saturated_at_dn),
-            None => (None, top, top),
-        };
-        let mean_dn = gloam_sensor::levels::mean_dn(&self.pixels);
-        let saturated_fraction = gloam_sensor::levels::saturated_fraction(&self.pixels, at);
-        FrameExposure {
-            mean_dn,
-            saturated_fraction,
-            warnings: gloam_sensor::levels::exposure_warnings(
-                mean_dn,
-                saturated_fraction,
-                black,
-                sat,
-            ),
-            warning_kinds: gloam_sensor::levels::warning_kinds(
-                mean_dn,
-                saturated_fraction,
-                black,
-                sat,
-            ),
-        }
-    }
-}
-
-/// One digitised frame: row-major `height × width` digital counts.
+/// One digitised frame, as a grabber hands it out: row-major `height ×
+/// width` digital counts with the settings in effect. The one frame type a
+/// grabbed frame is, whichever camera or link it came from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
     pub meta: FrameMeta,
@@ -210,6 +171,28 @@ pub enum GrabError {
     },
     #[error("device error: {0}")]
     Device(String),
+    /// A simulated camera's model refused a setting: the model's own error
+    /// (e.g. the sensor chain's configuration error) is the source.
+    #[error("invalid setting")]
+    CameraModel(#[source] Box<dyn std::error::Error + Send + Sync>),
+    /// A simulated camera's model failed to render a frame (its own error
+    /// is the source), as hardware would report a device fault.
+    #[error("device error")]
+    CameraFault(#[source] Box<dyn std::error::Error + Send + Sync>),
+    /// The scene a simulated camera was to look at could not be rendered
+    /// (the renderer's error is the source).
+    #[error("invalid setting: scene '{path}'")]
+    Scene {
+        path: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// A stimulus could not be written as the emulator's JSON request.
+    #[error("invalid setting")]
+    StimulusJson(#[source] serde_json::Error),
+    /// A request did not fit the wire encoding.
+    #[error("encoding request")]
+    Encode(#[source] firmware_protocol::EncodeError),
     #[error("{0}")]
     Other(String),
 }
@@ -229,7 +212,7 @@ impl GrabError {
 
 /// An exposure in seconds as the whole microseconds the wire and the device
 /// use (at least 1 µs), or why it cannot be one.
-pub(crate) fn exposure_us(exposure_s: f64) -> Result<u32, GrabError> {
+pub fn exposure_us(exposure_s: f64) -> Result<u32, GrabError> {
     if !exposure_s.is_finite() || exposure_s <= 0.0 {
         return Err(GrabError::InvalidSetting(format!(
             "exposure {exposure_s} s must be positive"

@@ -9,7 +9,6 @@ pub mod faults;
 pub mod genicam;
 pub mod memory;
 pub mod serial;
-pub mod sim;
 pub mod source;
 pub mod transport;
 pub mod uri;
@@ -19,7 +18,6 @@ pub use client::{ClientOptions, ClientStats, ProtocolGrabber};
 /// The wire protocol (message types, controls) the client speaks.
 pub use firmware_protocol;
 pub use interface::*;
-pub use sim::{SceneImage, SceneView, SensorSource, SimGrabber};
 pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
 pub use uri::GrabberUri;
@@ -39,72 +37,107 @@ pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
     d.value()
 }
 
-/// Renders a scene file for `sim:PRESET?scene=PATH`: `(path, preset,
-/// size)`, the size (width, height) defaulting to the scene camera's; the
-/// preset lets the renderer weight by that camera's detector response.
-/// Supplied by the caller (the `gloam` CLI uses the tracer), so this crate
-/// stays free of tracing.
-pub type SceneRenderer = std::sync::Arc<
-    dyn Fn(&str, &str, Option<(u32, u32)>) -> Result<SceneView, String> + Send + Sync,
->;
-
-/// Options for [`open_with`].
-#[derive(Clone, Default)]
+/// Options for [`Registry::open`].
+#[derive(Clone, Debug, Default)]
 pub struct OpenOptions {
     /// Noise seed for `sim:` grabbers (overrides `?seed=`); ignored by
     /// hardware (the emulator takes its seed on its own command line).
     pub seed: Option<u64>,
     /// Protocol client tuning for `serial:` and `usb:`.
     pub client: ClientOptions,
-    /// Renders `sim:…?scene=PATH` scenes; without one such URIs are an error.
-    pub scene_renderer: Option<SceneRenderer>,
 }
 
-impl std::fmt::Debug for OpenOptions {
+/// Builds a grabber from a whole URI (its scheme already matched).
+pub type Constructor = std::sync::Arc<
+    dyn Fn(&str, &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> + Send + Sync,
+>;
+
+/// URI scheme → constructor. This crate registers the transports
+/// (`serial:`, `usb:`, `genicam:`); the layer that owns a kind of camera
+/// registers its scheme (`gloam-simcam` the `sim:` rigs, `gloam-pipeline`
+/// `sim:` with scenes, which it renders itself), so nothing here calls back
+/// up into the crates that depend on it.
+#[derive(Clone)]
+pub struct Registry {
+    constructors: std::collections::BTreeMap<String, Constructor>,
+}
+
+impl std::fmt::Debug for Registry {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("OpenOptions")
-            .field("seed", &self.seed)
-            .field("client", &self.client)
-            .field("scene_renderer", &self.scene_renderer.is_some())
+        f.debug_struct("Registry")
+            .field("schemes", &self.constructors.keys().collect::<Vec<_>>())
             .finish()
     }
 }
 
-/// Open a grabber by URI (see the crate docs and `docs/hardware.md`).
-pub fn open(uri: &str) -> Result<Box<dyn FrameGrabber>, GrabError> {
-    open_with(uri, &OpenOptions::default())
+impl Default for Registry {
+    fn default() -> Self {
+        Self::transports()
+    }
 }
 
-/// [`open`] with options.
-pub fn open_with(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> {
-    match GrabberUri::parse(uri)? {
-        GrabberUri::Sim {
-            preset,
-            rig,
-            seed,
-            size,
-            scene,
-        } => {
-            let seed = opts.seed.unwrap_or(seed);
-            match scene {
-                Some(path) => {
-                    let render = opts.scene_renderer.as_ref().ok_or_else(|| {
-                        GrabError::Unsupported(format!(
-                            "'{uri}': scenes need a renderer (the gloam CLI provides one)"
-                        ))
-                    })?;
-                    let view = render(&path, &preset, size)
-                        .map_err(|e| GrabError::InvalidSetting(format!("scene '{path}': {e}")))?;
-                    Ok(Box::new(SimGrabber::from_scene(&preset, view, seed)?))
-                }
-                None => Ok(Box::new(SimGrabber::from_preset(
-                    &preset,
-                    &rig,
-                    seed,
-                    size.unwrap_or(sim::DEFAULT_RIG_SIZE),
-                )?)),
+impl Registry {
+    /// No schemes at all.
+    pub fn empty() -> Self {
+        Self {
+            constructors: Default::default(),
+        }
+    }
+
+    /// The transports this crate speaks: `serial:`, `usb:` and `genicam:`.
+    pub fn transports() -> Self {
+        let mut r = Self::empty();
+        let transport: Constructor = std::sync::Arc::new(open_transport);
+        for scheme in ["serial", "usb", "genicam"] {
+            r.register(scheme, transport.clone());
+        }
+        r
+    }
+
+    /// Registers (or replaces) the constructor of `scheme` (no colon).
+    pub fn register(&mut self, scheme: &str, constructor: Constructor) -> &mut Self {
+        self.constructors.insert(scheme.to_string(), constructor);
+        self
+    }
+
+    /// The registered schemes, sorted.
+    pub fn schemes(&self) -> impl Iterator<Item = &str> {
+        self.constructors.keys().map(String::as_str)
+    }
+
+    /// Opens a grabber by URI (see the crate docs and `docs/hardware.md`)
+    /// with the constructor registered for its scheme.
+    pub fn open(&self, uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> {
+        let scheme = uri.split_once(':').map(|(s, _)| s);
+        match scheme.and_then(|s| self.constructors.get(s)) {
+            Some(c) => c(uri, opts),
+            // Known syntax with no constructor here: say who provides one.
+            None if scheme == Some("sim") => Err(GrabError::Unsupported(format!(
+                "'{uri}': simulated cameras are opened through gloam-simcam's registry"
+            ))),
+            // Unknown or malformed: the parser names the forms it knows.
+            None => {
+                GrabberUri::parse(uri)?;
+                Err(GrabError::Unsupported(format!(
+                    "'{uri}': no grabber registered for this scheme"
+                )))
             }
         }
+    }
+}
+
+/// Opens a hardware grabber by URI ([`Registry::transports`], default
+/// options). Simulated cameras: `gloam_simcam::open`.
+pub fn open(uri: &str) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    Registry::transports().open(uri, &OpenOptions::default())
+}
+
+/// The constructor of the transports' schemes.
+fn open_transport(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    match GrabberUri::parse(uri)? {
+        GrabberUri::Sim { .. } => Err(GrabError::Unsupported(format!(
+            "'{uri}': not a transport URI"
+        ))),
         GrabberUri::Serial { path, baud } => {
             let t = serial::SerialTransport::open(&path, baud).map_err(|e| match e {
                 LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
@@ -158,6 +191,7 @@ pub struct GrabberList {
     pub usb: Vec<usb::UsbDeviceInfo>,
     /// Why USB devices could not be listed (e.g. "no USB bus available").
     pub usb_error: Option<String>,
+    /// Simulated cameras (filled by `gloam_simcam::list_grabbers`).
     pub sim: Vec<SimInfo>,
     /// GenICam cameras Aravis found (feature `genicam`).
     pub genicam: Vec<GenicamInfo>,
@@ -188,36 +222,26 @@ fn list_genicam() -> (Vec<GenicamInfo>, Option<String>) {
     }
 }
 
-/// Serial ports, USB devices, GenICam cameras (or why there are none) and
-/// the simulated cameras. With the `genicam` feature this sends GigE Vision
-/// discovery broadcasts on every network interface.
+/// Serial ports, USB devices and GenICam cameras (or why there are none);
+/// `sim` is left empty for `gloam_simcam::list_grabbers` to fill. With the
+/// `genicam` feature this sends GigE Vision discovery broadcasts on every
+/// network interface.
 pub fn list_grabbers() -> GrabberList {
     let (serial, serial_error) = match serial::list_ports() {
         Ok(p) => (p, None),
-        Err(e) => (Vec::new(), Some(e)),
+        Err(e) => (Vec::new(), Some(e.to_string())),
     };
     let (usb, usb_error) = match usb::list_usb() {
         Ok(d) => (d, None),
-        Err(e) => (Vec::new(), Some(e)),
+        Err(e) => (Vec::new(), Some(e.to_string())),
     };
-    let mut sim: Vec<SimInfo> = gloam_sensor::presets()
-        .into_iter()
-        .map(|(name, description)| SimInfo {
-            uri: format!("sim:{name}"),
-            description,
-        })
-        .collect();
-    sim.extend(sim::RIGS.iter().map(|(name, d)| SimInfo {
-        uri: format!("sim:{name}"),
-        description: format!("rig: {d} (sensor {})", uri::DEFAULT_SIM_PRESET),
-    }));
     let (genicam, genicam_error) = list_genicam();
     GrabberList {
         serial,
         serial_error,
         usb,
         usb_error,
-        sim,
+        sim: Vec::new(),
         genicam,
         genicam_error,
     }

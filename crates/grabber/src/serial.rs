@@ -208,8 +208,8 @@ impl DeviceLink for PtyDevice {
 }
 
 /// Serial ports the OS knows about.
-pub fn list_ports() -> Result<Vec<SerialPortInfo>, String> {
-    let ports = serialport::available_ports().map_err(|e| e.to_string())?;
+pub fn list_ports() -> Result<Vec<SerialPortInfo>, serialport::Error> {
+    let ports = serialport::available_ports()?;
     Ok(ports
         .into_iter()
         .map(|p| {

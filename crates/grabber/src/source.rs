@@ -1,5 +1,6 @@
 //! Frame sources: what a simulated camera (in-process or behind the device
-//! emulator) renders. The simulated grabber and the emulator's HAL drive the
+//! emulator) renders. The sensor-chain source is `gloam-simcam`'s; this
+//! crate has the interface and a cheap synthetic source for link tests. The simulated grabber and the emulator's HAL drive the
 //! *same* source type with the same settings, so their frames are
 //! bit-identical for the same seed.
 //!
@@ -8,7 +9,7 @@
 //! [`FrameSource::restart`]). A stream starts with `restart`.
 
 use crate::faults::SplitMix;
-use crate::interface::Stimulus;
+use crate::interface::{GrabError, Stimulus};
 
 /// Capture settings as they travel on the wire (integers, so the simulated
 /// grabber quantises exactly like the device does).
@@ -80,11 +81,17 @@ pub trait FrameSource: Send {
     fn info(&self) -> SourceInfo;
     /// Begin a new stream: frame index 0, fresh noise and AGC state.
     fn restart(&mut self);
-    /// Set what the camera looks at. Returns false if it cannot render it.
-    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, String>;
+    /// Set what the camera looks at. Returns false if it cannot render it;
+    /// a stimulus it cannot accept is [`GrabError::InvalidSetting`].
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError>;
     /// Render the next frame of the stream into `out` (`width × height`
-    /// values below `2^bits`).
-    fn render(&mut self, settings: &CaptureSettings, out: &mut [u16]) -> Result<Rendered, String>;
+    /// values below `2^bits`). A failure here is the camera's, so grabbers
+    /// report it as it comes (the emulator as a hardware fault).
+    fn render(
+        &mut self,
+        settings: &CaptureSettings,
+        out: &mut [u16],
+    ) -> Result<Rendered, GrabError>;
 }
 
 impl<S: FrameSource + ?Sized> FrameSource for Box<S> {
@@ -94,10 +101,14 @@ impl<S: FrameSource + ?Sized> FrameSource for Box<S> {
     fn restart(&mut self) {
         (**self).restart()
     }
-    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, String> {
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
         (**self).present(stimulus)
     }
-    fn render(&mut self, settings: &CaptureSettings, out: &mut [u16]) -> Result<Rendered, String> {
+    fn render(
+        &mut self,
+        settings: &CaptureSettings,
+        out: &mut [u16],
+    ) -> Result<Rendered, GrabError> {
         (**self).render(settings, out)
     }
 }
@@ -181,18 +192,18 @@ impl FrameSource for SyntheticSource {
         self.agc_gain_milli = None;
     }
 
-    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, String> {
+    fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
         self.stimulus = stimulus.clone();
         Ok(true)
     }
 
-    fn render(&mut self, s: &CaptureSettings, out: &mut [u16]) -> Result<Rendered, String> {
+    fn render(&mut self, s: &CaptureSettings, out: &mut [u16]) -> Result<Rendered, GrabError> {
         let (w, h) = (s.width, s.height);
         if out.len() != (w as usize) * (h as usize) {
-            return Err(format!(
+            return Err(GrabError::Device(format!(
                 "frame buffer holds {} pixels, {w}×{h} needed",
                 out.len()
-            ));
+            )));
         }
         let full = ((1u32 << s.bits) - 1) as f64;
         let gain_milli = if s.agc {

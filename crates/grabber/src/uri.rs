@@ -10,8 +10,23 @@
 //! ```
 
 use crate::interface::GrabError;
-use crate::sim::RIGS;
 use crate::usb::UsbSelector;
+
+/// Built-in rigs a `sim:` URI can name: what the simulated camera looks at
+/// by default. The vocabulary of the URI lives here with the other schemes'
+/// so one parser names every form; `gloam-simcam` renders them.
+pub const RIGS: &[(&str, &str)] = &[
+    (
+        "uniform",
+        "integrating-sphere port filling the view (default), CIE A, ~25 % of full scale at the reference gain",
+    ),
+    (
+        "sine",
+        "sinusoidal bar target, 0.05 cycles/pixel, modulation 0.8, tilted 5°",
+    ),
+    ("edge", "ISO 12233 slanted edge, 5°, 10:1 contrast"),
+    ("dark", "capped lens"),
+];
 
 /// Sensor preset used when a `sim:` URI names only a rig.
 pub const DEFAULT_SIM_PRESET: &str = "gen2-s20-iccd";
@@ -53,7 +68,7 @@ pub enum GrabberUri {
         preset: String,
         rig: String,
         seed: u64,
-        /// `size=`; without it a rig is [`crate::sim::DEFAULT_RIG_SIZE`] and a scene
+        /// `size=`; without it a rig is `gloam_simcam::DEFAULT_RIG_SIZE` and a scene
         /// its camera's resolution.
         size: Option<(u32, u32)>,
         /// `scene=PATH`: look at this scene (rendered once by the tracer)

@@ -29,12 +29,15 @@ pub fn no_bus_message(e: &dyn std::fmt::Display) -> String {
     format!("no USB bus available on this machine ({e})")
 }
 
-/// USB devices on the bus. `Err` says plainly when there is no USB bus
-/// (containers, VMs without USB pass-through, no usbfs).
-pub fn list_usb() -> Result<Vec<UsbDeviceInfo>, String> {
-    let devices = nusb::list_devices()
-        .wait()
-        .map_err(|e| no_bus_message(&e))?;
+/// There is no USB bus to list (containers, VMs without USB pass-through,
+/// no usbfs): nusb's error, said plainly.
+#[derive(Debug, thiserror::Error)]
+#[error("no USB bus available on this machine ({0})")]
+pub struct NoUsbBus(pub nusb::Error);
+
+/// USB devices on the bus, or [`NoUsbBus`].
+pub fn list_usb() -> Result<Vec<UsbDeviceInfo>, NoUsbBus> {
+    let devices = nusb::list_devices().wait().map_err(NoUsbBus)?;
     Ok(devices
         .map(|d| {
             let serial = d.serial_number().map(str::to_string);

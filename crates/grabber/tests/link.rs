@@ -32,43 +32,6 @@ fn clean_serial_link_delivers_frames() {
     emu.stop().unwrap();
 }
 
-/// Slow controls answer `Pending` first; the client waits for the final Ack.
-/// Unsupported and out-of-range values come back as clear errors.
-#[test]
-fn pending_controls_and_naks() {
-    use firmware_protocol::Control;
-    let src = gloam_grabber::SensorSource::new("gen2-s20-iccd", "uniform", 1, (32, 24)).unwrap();
-    let (host, dev, _ctl) = memory_link(MemoryOptions::new(Framing::Cobs));
-    let emu = EmulatorHandle::spawn(
-        dev,
-        src,
-        EmulatorConfig {
-            baud: None,
-            ..Default::default()
-        },
-    );
-    let mut g = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
-    let t = Instant::now();
-    g.set_control_raw(Control::McpVoltageMv, 900_000).unwrap();
-    assert!(
-        t.elapsed() >= Duration::from_millis(25),
-        "MCP slew is modelled as a Pending operation"
-    );
-    assert_eq!(g.get_control_raw(Control::McpVoltageMv).unwrap(), 900_000);
-    let e = g.set_bits(10).unwrap_err();
-    assert!(
-        matches!(e, gloam_grabber::GrabError::InvalidSetting(_)),
-        "{e}"
-    );
-    let e = g.set_gain(1e9).unwrap_err();
-    assert!(e.to_string().contains("out of range"), "{e}");
-    // The emulator renders stimuli (its own extension request).
-    assert!(g.present(&gloam_grabber::Stimulus::Dark).unwrap());
-    g.grab().unwrap();
-    drop(g);
-    emu.stop().unwrap();
-}
-
 /// `present` over the wire: the emulator renders the stimulus, and no frame
 /// captured before the change is ever handed out after `present` returns.
 #[test]

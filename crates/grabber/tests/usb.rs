@@ -86,7 +86,7 @@ fn protocol_over_usb_with_zlp_terminated_chunks() {
 fn no_usb_bus_is_a_clear_error() {
     match gloam_grabber::usb::list_usb() {
         Err(e) => {
-            assert!(e.contains("no USB bus"), "{e}");
+            assert!(e.to_string().contains("no USB bus"), "{e}");
             let err = gloam_grabber::open("usb:1d50:6018")
                 .err()
                 .expect("no bus: open fails");

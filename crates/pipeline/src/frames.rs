@@ -8,6 +8,7 @@ use std::path::Path;
 use anyhow::Context;
 use gloam_grabber::{Frame, FrameStatus};
 use gloam_sensor::Camera;
+use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 

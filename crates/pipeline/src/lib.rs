@@ -14,4 +14,4 @@ pub use detected::{DETECTED_BAND, take_detected_band, with_detected_band};
 pub use frames::{FrameCapture, FrameLog, FrameRecord, check_options};
 pub use output_set::OutputSet;
 pub use provenance::Provenance;
-pub use scene_view::{render_scene_view, scene_renderer};
+pub use scene_view::{grabbers, render_scene_view};

@@ -11,7 +11,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use crate::detected::{take_detected_band, with_detected_band};
-use gloam_grabber::{SceneImage, SceneRenderer, SceneView};
+use gloam_grabber::{GrabError, GrabberUri, Registry};
+use gloam_simcam::{SceneImage, SceneView};
 use gloam_trace::{RenderSettings, Tracer};
 
 /// Renders `path` for the camera `sensor` at `size` (width, height;
@@ -38,9 +39,32 @@ pub fn render_scene_view(
     })
 }
 
-/// [`render_scene_view`] as the grabber crate's [`SceneRenderer`].
-pub fn scene_renderer() -> SceneRenderer {
-    Arc::new(|path, sensor, size| {
-        render_scene_view(path, sensor, size).map_err(|e| format!("{e:#}"))
-    })
+/// Every grabber the CLI and Python open: the transports and `sim:` rigs
+/// ([`gloam_simcam::registry`]), with `sim:` here also taking
+/// `?scene=PATH`, rendered by [`render_scene_view`] before the camera
+/// looks — this crate owns scenes, so the camera never calls back up.
+pub fn grabbers() -> Registry {
+    let mut r = gloam_simcam::registry();
+    r.register(
+        "sim",
+        Arc::new(|uri, opts| {
+            let view =
+                match GrabberUri::parse(uri)? {
+                    GrabberUri::Sim {
+                        preset,
+                        size,
+                        scene: Some(path),
+                        ..
+                    } => Some(render_scene_view(&path, &preset, size).map_err(|e| {
+                        GrabError::Scene {
+                            path,
+                            source: e.into(),
+                        }
+                    })?),
+                    _ => None,
+                };
+            gloam_simcam::open_sim(uri, opts, view)
+        }),
+    );
+    r
 }

@@ -3,9 +3,10 @@
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::{
-    ClientOptions, FrameGrabber, Framing, GrabError, OpenOptions, ProtocolGrabber, SceneImage,
-    SceneView, SensorSource, SimGrabber, Stimulus, open, open_with,
+    ClientOptions, FrameGrabber, Framing, GrabError, GrabberUri, OpenOptions, ProtocolGrabber,
+    Stimulus,
 };
+use gloam_simcam::{SceneImage, SceneView, SensorSource, SimGrabber, open, open_sim, registry};
 
 /// CRC-32C (Castagnoli, reflected polynomial 0x82F63B78), one bit at a time.
 fn crc32c_bitwise(bytes: &[u8]) -> u32 {
@@ -246,24 +247,56 @@ fn bad_scenes_are_clear_errors() {
     // A scene URI without a renderer says what is missing.
     let e = open("sim:gen2-s20-iccd?scene=x.toml").err().unwrap();
     assert!(matches!(e, GrabError::Unsupported(_)), "{e}");
-    // A renderer's failure names the scene.
-    let opts = OpenOptions {
-        scene_renderer: Some(std::sync::Arc::new(|_, _, _| Err("no such file".into()))),
-        ..OpenOptions::default()
-    };
-    let e = open_with("sim:gen2-s20-iccd?scene=x.toml", &opts)
+    // The layer that renders scenes registers its own `sim:` constructor;
+    // a renderer's failure names the scene.
+    let mut failing = registry();
+    failing.register(
+        "sim",
+        std::sync::Arc::new(|uri, opts| {
+            let GrabberUri::Sim {
+                scene: Some(path), ..
+            } = GrabberUri::parse(uri)?
+            else {
+                return open_sim(uri, opts, None);
+            };
+            Err(GrabError::Scene {
+                path,
+                source: "no such file".into(),
+            })
+        }),
+    );
+    let e = failing
+        .open("sim:gen2-s20-iccd?scene=x.toml", &OpenOptions::default())
         .err()
-        .unwrap()
-        .to_string();
-    assert!(e.contains("x.toml") && e.contains("no such file"), "{e}");
-    // The renderer is asked for the URI's size.
-    let opts = OpenOptions {
-        scene_renderer: Some(std::sync::Arc::new(|_, _, size| {
+        .unwrap();
+    let chain = format!("{e}: {}", std::error::Error::source(&e).unwrap());
+    assert!(
+        chain.contains("x.toml") && chain.contains("no such file"),
+        "{chain}"
+    );
+    // The renderer renders at the URI's size.
+    let mut rendering = registry();
+    rendering.register(
+        "sim",
+        std::sync::Arc::new(|uri, opts| {
+            let GrabberUri::Sim { size, .. } = GrabberUri::parse(uri)? else {
+                unreachable!()
+            };
             let (w, h) = size.unwrap_or((4, 4));
-            Ok(two_band_scene(w as usize, h as usize))
-        })),
-        ..OpenOptions::default()
-    };
-    let g = open_with("sim:gen2-s20-iccd?scene=x.toml&size=24x10", &opts).unwrap();
+            open_sim(uri, opts, Some(two_band_scene(w as usize, h as usize)))
+        }),
+    );
+    let g = rendering
+        .open(
+            "sim:gen2-s20-iccd?scene=x.toml&size=24x10",
+            &OpenOptions::default(),
+        )
+        .unwrap();
     assert_eq!(g.frame_size(), (24, 10));
+    // The transports alone refuse sim: and say where it lives.
+    let e = gloam_grabber::open("sim:gen2-s20-iccd").err().unwrap();
+    assert!(
+        matches!(e, GrabError::Unsupported(_)) && e.to_string().contains("gloam-simcam"),
+        "{e}"
+    );
 }

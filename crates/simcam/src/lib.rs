@@ -1,0 +1,83 @@
+#![doc = include_str!("../README.md")]
+
+mod exposure;
+mod grabber;
+mod scene;
+mod source;
+mod stimulus;
+
+use std::sync::Arc;
+
+use gloam_grabber::uri::{DEFAULT_SIM_PRESET, RIGS};
+use gloam_grabber::{
+    FrameGrabber, GrabError, GrabberList, GrabberUri, OpenOptions, Registry, SimInfo,
+};
+
+pub use exposure::{FrameExposure, FrameExposureExt};
+pub use grabber::{SimGrabber, gain_range_error};
+pub use scene::{SceneImage, SceneView};
+pub use source::SensorSource;
+pub use stimulus::{DEFAULT_RIG_SIZE, DEFAULT_SPECTRUM, render_stimulus, rig_stimulus};
+
+/// Opens a `sim:` URI: the rig it names, or `scene` when the caller
+/// rendered the URI's scene (a scene URI without one is refused, naming
+/// who renders scenes). `opts.seed` overrides the URI's.
+pub fn open_sim(
+    uri: &str,
+    opts: &OpenOptions,
+    scene: Option<SceneView>,
+) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    let GrabberUri::Sim {
+        preset,
+        rig,
+        seed,
+        size,
+        scene: scene_path,
+    } = GrabberUri::parse(uri)?
+    else {
+        return Err(GrabError::Unsupported(format!("'{uri}': not a sim: URI")));
+    };
+    let seed = opts.seed.unwrap_or(seed);
+    match (scene_path, scene) {
+        (Some(_), Some(view)) => Ok(Box::new(SimGrabber::from_scene(&preset, view, seed)?)),
+        (Some(_), None) => Err(GrabError::Unsupported(format!(
+            "'{uri}': scenes need a renderer (the gloam CLI provides one)"
+        ))),
+        (None, _) => Ok(Box::new(SimGrabber::from_preset(
+            &preset,
+            &rig,
+            seed,
+            size.unwrap_or(DEFAULT_RIG_SIZE),
+        )?)),
+    }
+}
+
+/// The transports plus `sim:` rigs. Scenes are `gloam-pipeline`'s to
+/// register: it renders them before the camera looks.
+pub fn registry() -> Registry {
+    let mut r = Registry::transports();
+    r.register("sim", Arc::new(|uri, opts| open_sim(uri, opts, None)));
+    r
+}
+
+/// Opens a grabber by URI through [`registry`] with default options.
+pub fn open(uri: &str) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    registry().open(uri, &OpenOptions::default())
+}
+
+/// [`gloam_grabber::list_grabbers`] plus every sensor preset and rig.
+pub fn list_grabbers() -> GrabberList {
+    let mut list = gloam_grabber::list_grabbers();
+    list.sim = gloam_sensor::presets()
+        .into_iter()
+        .map(|(name, description)| SimInfo {
+            uri: format!("sim:{name}"),
+            description,
+        })
+        .collect();
+    list.sim.extend(RIGS.iter().map(|(name, d)| SimInfo {
+        uri: format!("sim:{name}"),
+        description: format!("rig: {d} (sensor {DEFAULT_SIM_PRESET})"),
+    }));
+    list
+}
