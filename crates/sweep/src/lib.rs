@@ -5,8 +5,10 @@
 //!   task with a stable id, a seed derived from it, and the key of the
 //!   render it shares with other tasks;
 //! - [`run`]: the sweep directory, task records with output hashes
-//!   (resumable), and running tasks through an [`run::Executor`] (the
-//!   binary supplies it over the render and camera code);
+//!   (resumable), and running tasks through an [`run::Executor`];
+//! - [`exec`]: the executor over gloam's render and camera code
+//!   ([`exec::Pipeline`]), writing frames with the pipeline's
+//!   `frames.jsonl` record;
 //! - [`slurm`]: the array-job script, `sbatch`, `sacct`/`squeue`;
 //! - [`collect`]: `results.csv`/`.json` and plots;
 //! - [`tile`]: tiled renders (horizontal bands) and their merge;
@@ -15,6 +17,7 @@
 //! The format and commands are documented in `docs/sweep.md`.
 
 pub mod collect;
+pub mod exec;
 pub mod figures;
 pub mod run;
 pub mod slurm;

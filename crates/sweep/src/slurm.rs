@@ -136,14 +136,26 @@ pub struct JobStates {
     pub note: Option<String>,
 }
 
-fn run(cmd: &str, args: &[&str]) -> Result<String, String> {
+/// A Slurm query that gave no answer.
+#[derive(Debug, thiserror::Error)]
+pub enum QueryError {
+    #[error("{cmd}: {source}")]
+    Spawn { cmd: String, source: std::io::Error },
+    #[error("{cmd}: {stderr}")]
+    Failed { cmd: String, stderr: String },
+}
+
+fn run(cmd: &str, args: &[&str]) -> Result<String, QueryError> {
     match Command::new(cmd).args(args).output() {
         Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout).into_owned()),
-        Ok(o) => Err(format!(
-            "{cmd}: {}",
-            String::from_utf8_lossy(&o.stderr).trim()
-        )),
-        Err(e) => Err(format!("{cmd}: {e}")),
+        Ok(o) => Err(QueryError::Failed {
+            cmd: cmd.into(),
+            stderr: String::from_utf8_lossy(&o.stderr).trim().to_string(),
+        }),
+        Err(source) => Err(QueryError::Spawn {
+            cmd: cmd.into(),
+            source,
+        }),
     }
 }
 
@@ -170,7 +182,7 @@ pub fn job_states(job_id: &str) -> JobStates {
                 note: None,
             };
         }
-        Err(e) => notes.push(e),
+        Err(e) => notes.push(e.to_string()),
     }
     match run("squeue", &["-j", job_id, "-r", "-h", "-o", "%T"]) {
         Ok(text) => {
@@ -186,7 +198,7 @@ pub fn job_states(job_id: &str) -> JobStates {
             }
         }
         Err(e) => {
-            notes.push(e);
+            notes.push(e.to_string());
             JobStates {
                 job_id: job_id.into(),
                 source: "none".into(),
