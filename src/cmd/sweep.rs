@@ -12,7 +12,7 @@ use clap::{Args, Subcommand};
 use gloam_sweep::SweepDir;
 use gloam_sweep::exec::Pipeline as Exec;
 use gloam_sweep::run::{Outcome, ensure_all_done};
-use gloam_sweep::slurm::{self, SlurmOptions, Submission};
+use gloam_sweep::slurm::{self, SlurmOptions};
 
 use super::output::print_json;
 
@@ -121,10 +121,7 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
             max_parallel: args.max_parallel,
         };
         let chunks = sd.sweep.chunks.len();
-        let text = slurm::script(&dir, &exe, chunks, &opts)?;
-        let script = dir.join(slurm::SCRIPT_FILE);
-        super::output::write_atomic(&script, text.as_bytes())?;
-        std::fs::create_dir_all(dir.join("slurm"))?;
+        let script = slurm::write_script(&dir, &exe, chunks, &opts)?;
         if args.dry_run {
             eprintln!(
                 "wrote {} ({n} tasks in {chunks} array indices); submit with: sbatch {}",
@@ -133,17 +130,7 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
             );
             return Ok(());
         }
-        let job_id = slurm::submit(&script)?;
-        let sub = Submission {
-            job_id: job_id.clone(),
-            script: script.display().to_string(),
-            array_size: chunks,
-            options: opts,
-        };
-        super::output::write_atomic(
-            &dir.join(slurm::SUBMISSION_FILE),
-            serde_json::to_string_pretty(&sub)?.as_bytes(),
-        )?;
+        let job_id = slurm::submit_and_record(&dir, &script, chunks, opts)?.job_id;
         outln!("{job_id}");
         eprintln!(
             "submitted job {job_id}: {n} tasks in {chunks} array indices; `gloam sweep status {}`",
@@ -212,14 +199,7 @@ fn run_with_progress(
         Some(c) => {
             let mut s = gloam_sweep::run::RunSummary::default();
             for o in sd.run_chunk(&Exec, c, jobs, &on_task)? {
-                match o.result {
-                    None => s.skipped += 1,
-                    Some(Ok(())) => s.ran += 1,
-                    Some(Err(e)) => {
-                        s.ran += 1;
-                        s.failed.push((o.index, e));
-                    }
-                }
+                s.add(o);
             }
             s
         }
@@ -262,12 +242,7 @@ fn run_tasks(r: RunArgs) -> anyhow::Result<()> {
 fn status(s: StatusArgs) -> anyhow::Result<()> {
     let sd = SweepDir::open(&s.dir)?;
     let states = sd.status();
-    let sub: Option<Submission> = gloam_spectra::input::read_text(
-        &s.dir.join(slurm::SUBMISSION_FILE),
-        gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-    )
-    .ok()
-    .and_then(|t| serde_json::from_str(&t).ok());
+    let sub = slurm::read_submission(&s.dir);
     let job = sub.as_ref().map(|j| slurm::job_states(&j.job_id));
     if s.json {
         return print_json(&serde_json::json!({"tasks": states, "slurm": job}));

@@ -135,6 +135,20 @@ pub struct RunSummary {
     pub failed: Vec<(usize, TaskFailure)>,
 }
 
+impl RunSummary {
+    /// Counts one task's outcome.
+    pub fn add(&mut self, o: Outcome) {
+        match o.result {
+            None => self.skipped += 1,
+            Some(Ok(())) => self.ran += 1,
+            Some(Err(e)) => {
+                self.ran += 1;
+                self.failed.push((o.index, e));
+            }
+        }
+    }
+}
+
 pub fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes)
         .iter()
@@ -443,14 +457,7 @@ impl SweepDir {
         let mut s = RunSummary::default();
         for c in 0..self.sweep.chunks.len() {
             for o in self.run_chunk(exec, c, jobs, on_task)? {
-                match o.result {
-                    None => s.skipped += 1,
-                    Some(Ok(())) => s.ran += 1,
-                    Some(Err(e)) => {
-                        s.ran += 1;
-                        s.failed.push((o.index, e));
-                    }
-                }
+                s.add(o);
             }
         }
         Ok(s)

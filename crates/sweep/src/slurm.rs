@@ -5,10 +5,11 @@
 //! scheduling, gloam only keeps the records.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail, ensure};
+use gloam_pipeline::output::write_atomic;
 use serde::{Deserialize, Serialize};
 
 /// `sbatch` options from the command line.
@@ -94,6 +95,56 @@ pub fn script(dir: &Path, exe: &Path, chunks: usize, o: &SlurmOptions) -> anyhow
         sh_quote(dir_s)
     ));
     Ok(s)
+}
+
+/// Writes `DIR/sweep.sbatch` for the sweep in `dir` (absolute) with
+/// `chunks` array indices, and `DIR/slurm/` for the array tasks' logs;
+/// returns the script's path.
+pub fn write_script(
+    dir: &Path,
+    exe: &Path,
+    chunks: usize,
+    o: &SlurmOptions,
+) -> anyhow::Result<PathBuf> {
+    let text = script(dir, exe, chunks, o)?;
+    let path = dir.join(SCRIPT_FILE);
+    write_atomic(&path, text.as_bytes())?;
+    let logs = dir.join("slurm");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    Ok(path)
+}
+
+/// Submits the array job `script` of `array_size` indices and records it
+/// in `DIR/slurm.json` (`dir` holds the script).
+pub fn submit_and_record(
+    dir: &Path,
+    script: &Path,
+    array_size: usize,
+    options: SlurmOptions,
+) -> anyhow::Result<Submission> {
+    let job_id = submit(script)?;
+    let sub = Submission {
+        job_id,
+        script: script.display().to_string(),
+        array_size,
+        options,
+    };
+    write_atomic(
+        &dir.join(SUBMISSION_FILE),
+        serde_json::to_string_pretty(&sub)?.as_bytes(),
+    )?;
+    Ok(sub)
+}
+
+/// The job submitted for the sweep in `dir`, if one was (and its record
+/// reads).
+pub fn read_submission(dir: &Path) -> Option<Submission> {
+    gloam_spectra::input::read_text(
+        &dir.join(SUBMISSION_FILE),
+        gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+    )
+    .ok()
+    .and_then(|t| serde_json::from_str(&t).ok())
 }
 
 /// Submits `script` with `sbatch --parsable`; returns the job id.
