@@ -206,7 +206,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     write_npy_u32(&dir.join("spp.npy"), &out.spp)?;
     write_preview(&dir.join("preview.png"), &out.radiance)?;
     if let Some(t) = tile {
-        super::merge::write_tile_info(&dir, t, rows, full, &args.scene, &out)?;
+        gloam_sweep::tile::write_tile_info(&dir, t, rows, full, &args.scene, &out)?;
     }
     let write_s = t_write.elapsed().as_secs_f64();
     let mut report =

@@ -1,22 +1,20 @@
 //! `gloam sweep SWEEP.toml --out DIR [--slurm …]`, `gloam sweep run|status|collect DIR`.
 //!
-//! Planning, records, resuming, Slurm and the results table are
-//! `gloam-sweep`; this file is the arguments, the progress display, and
-//! the [`Executor`] that runs a task over the render and camera code.
+//! Planning, records, resuming, Slurm, the results table and the executor
+//! that runs a task over the render and camera code are `gloam-sweep`;
+//! this file is the arguments and the progress display.
 
 use std::io::IsTerminal;
-use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use gloam_sweep::SweepDir;
+use gloam_sweep::exec::Pipeline as Exec;
 use gloam_sweep::run::{Outcome, ensure_all_done};
-use gloam_sweep::slurm::{self, SlurmOptions, Submission};
-use gloam_sweep::{Executor, Figures, Flow, Sweep, SweepDir, Task};
-use gloam_trace::{RenderOutput, Tracer};
-use ndarray::Array2;
+use gloam_sweep::slurm::{self, SlurmOptions};
 
-use super::output::{png16_bytes, print_json};
+use super::output::print_json;
 
 #[derive(Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -123,10 +121,7 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
             max_parallel: args.max_parallel,
         };
         let chunks = sd.sweep.chunks.len();
-        let text = slurm::script(&dir, &exe, chunks, &opts)?;
-        let script = dir.join(slurm::SCRIPT_FILE);
-        super::output::write_atomic(&script, text.as_bytes())?;
-        std::fs::create_dir_all(dir.join("slurm"))?;
+        let script = slurm::write_script(&dir, &exe, chunks, &opts)?;
         if args.dry_run {
             eprintln!(
                 "wrote {} ({n} tasks in {chunks} array indices); submit with: sbatch {}",
@@ -135,17 +130,7 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
             );
             return Ok(());
         }
-        let job_id = slurm::submit(&script)?;
-        let sub = Submission {
-            job_id: job_id.clone(),
-            script: script.display().to_string(),
-            array_size: chunks,
-            options: opts,
-        };
-        super::output::write_atomic(
-            &dir.join(slurm::SUBMISSION_FILE),
-            serde_json::to_string_pretty(&sub)?.as_bytes(),
-        )?;
+        let job_id = slurm::submit_and_record(&dir, &script, chunks, opts)?.job_id;
         outln!("{job_id}");
         eprintln!(
             "submitted job {job_id}: {n} tasks in {chunks} array indices; `gloam sweep status {}`",
@@ -214,14 +199,7 @@ fn run_with_progress(
         Some(c) => {
             let mut s = gloam_sweep::run::RunSummary::default();
             for o in sd.run_chunk(&Exec, c, jobs, &on_task)? {
-                match o.result {
-                    None => s.skipped += 1,
-                    Some(Ok(())) => s.ran += 1,
-                    Some(Err(e)) => {
-                        s.ran += 1;
-                        s.failed.push((o.index, e));
-                    }
-                }
+                s.add(o);
             }
             s
         }
@@ -264,12 +242,7 @@ fn run_tasks(r: RunArgs) -> anyhow::Result<()> {
 fn status(s: StatusArgs) -> anyhow::Result<()> {
     let sd = SweepDir::open(&s.dir)?;
     let states = sd.status();
-    let sub: Option<Submission> = gloam_spectra::input::read_text(
-        &s.dir.join(slurm::SUBMISSION_FILE),
-        gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-    )
-    .ok()
-    .and_then(|t| serde_json::from_str(&t).ok());
+    let sub = slurm::read_submission(&s.dir);
     let job = sub.as_ref().map(|j| slurm::job_states(&j.job_id));
     if s.json {
         return print_json(&serde_json::json!({"tasks": states, "slurm": job}));
@@ -307,205 +280,4 @@ fn status(s: StatusArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// Runs tasks over the render and camera code.
-struct Exec;
-
-/// A chunk's shared work.
-enum Shared {
-    /// Capture tasks share nothing.
-    Nothing,
-    Render {
-        out: Box<RenderOutput>,
-        /// The camera's detected-electron radiance (with a sensor).
-        detected: Option<Array2<f64>>,
-        full: (u32, u32),
-        rows: Range<u32>,
-        scene: PathBuf,
-    },
-}
-
-impl Executor for Exec {
-    type Shared = Shared;
-
-    fn prepare(&self, sweep: &Sweep, task: &Task) -> anyhow::Result<Shared> {
-        if task.flow() == Flow::Capture {
-            return Ok(Shared::Nothing);
-        }
-        let scene = sweep.load_scene(task)?;
-        let settings = task.render_settings()?;
-        let sensor = sweep.sensor(task);
-        // The gain is checked per task (it differs within a chunk).
-        if let Some(s) = &sensor {
-            gloam_pipeline::check_options(s, None, task.frames())?;
-        }
-        let traced = match &sensor {
-            Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
-            None => scene.clone(),
-        };
-        let tracer = Tracer::new(&traced, &settings)?;
-        let full = tracer.image_size();
-        let rows = match task.tile() {
-            Some(t) => t.rows(full.1).map_err(anyhow::Error::msg)?,
-            None => 0..full.1,
-        };
-        let mut out = tracer.render_rows(rows.clone(), &|_, _| {})?;
-        let detected = match &sensor {
-            Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
-            None => None,
-        };
-        Ok(Shared::Render {
-            out: Box::new(out),
-            detected,
-            full,
-            rows,
-            scene: sweep.resolve(&task.text("scene").unwrap_or_default()),
-        })
-    }
-
-    fn run(
-        &self,
-        sweep: &Sweep,
-        task: &Task,
-        shared: &Shared,
-        out: &Path,
-    ) -> anyhow::Result<Figures> {
-        match shared {
-            Shared::Nothing => capture_stimulus(sweep, task, out),
-            Shared::Render {
-                detected: Some(d), ..
-            } => {
-                let sensor = sweep.sensor(task).context("no sensor")?;
-                capture_detected(&sensor, task, d, out)
-            }
-            Shared::Render {
-                out: r,
-                detected: None,
-                full,
-                rows,
-                scene,
-            } => {
-                // Deterministic outputs only (no timings): their hashes are the task's.
-                super::output::write_npy(&out.join("radiance.npy"), &r.radiance)?;
-                super::output::write_tiff(&out.join("radiance.tiff"), &r.radiance)?;
-                super::output::write_npy(&out.join("stderr.npy"), &r.std_error)?;
-                super::output::write_npy_u32(&out.join("spp.npy"), &r.spp)?;
-                super::output::write_preview(&out.join("preview.png"), &r.radiance)?;
-                if let Some(t) = task.tile() {
-                    let label = task
-                        .text("scene")
-                        .map(PathBuf::from)
-                        .unwrap_or(scene.clone());
-                    super::merge::write_tile_info(out, t, rows.clone(), *full, &label, r)?;
-                }
-                let mut f = Figures::new();
-                for (b, name) in r.band_names.iter().enumerate() {
-                    let img = r.radiance.index_axis(ndarray::Axis(0), b);
-                    f.insert(
-                        format!("mean_radiance_{name}"),
-                        img.mean().unwrap_or(f64::NAN),
-                    );
-                }
-                Ok(f)
-            }
-        }
-    }
-}
-
-/// Frames of a render through the task's camera (noise seeded by the task).
-fn capture_detected(
-    sensor: &str,
-    task: &Task,
-    detected: &Array2<f64>,
-    out: &Path,
-) -> anyhow::Result<Figures> {
-    let mut config = gloam_sensor::load_preset_or_file(sensor)
-        .with_context(|| format!("loading sensor '{sensor}'"))?;
-    config.noise.seed = task.seed;
-    let mut camera = gloam_sensor::Camera::new(config)?;
-    camera.set_noise(task.noise());
-    if let Some(g) = task.gain() {
-        camera.set_override_gain(Some(g)).context("gain")?;
-    }
-    if task.agc() {
-        camera.set_agc(true);
-    }
-    let mut frames: Vec<Vec<u16>> = Vec::new();
-    let mut jsonl = String::new();
-    let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
-    for i in 0..task.frames() {
-        let frame = camera
-            .capture_detected(detected.view())
-            .with_context(|| format!("capturing frame {i}"))?;
-        let (h, w) = frame.pixels.dim();
-        let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
-        let file = format!("frame-{i:06}.png");
-        std::fs::write(out.join(&file), png16_bytes(w as u32, h as u32, &pixels)?)?;
-        gain = frame.meta.gain_in_effect;
-        black = camera.chain().black_dn(gain);
-        sat += frame.meta.saturated_fraction;
-        jsonl.push_str(&serde_json::to_string(&serde_json::json!({
-            "index": i, "file": file, "gain": gain, "mean_dn": frame.meta.mean_dn,
-            "saturated_fraction": frame.meta.saturated_fraction,
-            "pixels_crc32c": gloam_grabber::pixels_crc32c(&pixels),
-        }))?);
-        jsonl.push('\n');
-        frames.push(pixels);
-    }
-    std::fs::write(out.join("frames.jsonl"), jsonl)?;
-    let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
-    let mut f = gloam_sweep::figures::frame_figures(&refs, Some(black));
-    f.insert("gain_in_effect".into(), gain);
-    f.insert("saturated_fraction".into(), sat / task.frames() as f64);
-    Ok(f)
-}
-
-/// Frames of the sensor's default uniform stimulus (`sim:PRESET`).
-fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Figures> {
-    let sensor = sweep
-        .sensor(task)
-        .context("the capture flow needs a sensor")?;
-    let uri = match task.size() {
-        Some((w, h)) => format!("sim:{sensor}?size={w}x{h}"),
-        None => format!("sim:{sensor}"),
-    };
-    let opts = gloam_grabber::OpenOptions {
-        seed: Some(task.seed),
-        ..Default::default()
-    };
-    let mut g = gloam_simcam::registry()
-        .open(&uri, &opts)
-        .with_context(|| format!("opening {uri}"))?;
-    if let Some(gain) = task.gain() {
-        g.set_gain(gain).context("gain")?;
-    }
-    if task.agc() {
-        g.set_agc(true)?;
-    }
-    let mut frames = Vec::new();
-    let mut jsonl = String::new();
-    let mut black = None;
-    let mut gain = f64::NAN;
-    for i in 0..task.frames() {
-        let f = g.grab().with_context(|| format!("grabbing frame {i}"))?;
-        let file = format!("frame-{i:06}.png");
-        std::fs::write(
-            out.join(&file),
-            png16_bytes(f.meta.width, f.meta.height, &f.pixels)?,
-        )?;
-        black = f.meta.levels.map(|l| l.black_dn);
-        gain = f.meta.gain;
-        jsonl.push_str(&serde_json::to_string(&serde_json::json!({
-            "index": i, "file": file, "gain": f.meta.gain,
-            "pixels_crc32c": f.meta.pixels_crc32c,
-        }))?);
-        jsonl.push('\n');
-        frames.push(f.pixels);
-    }
-    std::fs::write(out.join("frames.jsonl"), jsonl)?;
-    let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
-    let mut f = gloam_sweep::figures::frame_figures(&refs, black);
-    f.insert("gain_in_effect".into(), gain);
-    Ok(f)
 }

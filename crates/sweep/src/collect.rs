@@ -13,7 +13,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
 
-use crate::run::{SweepDir, TaskRecord, sha256_hex, write_atomic};
+use gloam_pipeline::output::write_atomic;
+
+use crate::run::{SweepDir, TaskRecord, sha256_hex};
 
 /// What `collect` wrote.
 #[derive(Clone, Debug, serde::Serialize)]

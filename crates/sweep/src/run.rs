@@ -21,13 +21,15 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use gloam_pipeline::output::write_atomic;
+
 use crate::spec::{Sweep, Task};
 
 /// The figures a task reports (non-finite values are recorded as null).
 pub type Figures = BTreeMap<String, f64>;
 
-/// Runs the tasks of a sweep; the binary implements it over the render and
-/// camera code, so this crate stays the planner and record keeper.
+/// Runs the tasks of a sweep: [`crate::exec::Pipeline`] over the render and
+/// camera code; a trait so the record keeping is tested without rendering.
 pub trait Executor: Sync {
     /// The work shared by the tasks of one chunk (e.g. the scene's radiance).
     type Shared: Sync;
@@ -112,8 +114,17 @@ pub struct Outcome {
     pub index: usize,
     pub id: String,
     /// None: skipped (already done).
-    pub result: Option<Result<(), String>>,
+    pub result: Option<Result<(), TaskFailure>>,
     pub seconds: f64,
+}
+
+/// Why a task failed: its executor's error chain, as its record keeps it
+/// (the [`Outcome`] names the task).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+#[serde(transparent)]
+#[error("{message}")]
+pub struct TaskFailure {
+    pub message: String,
 }
 
 /// Counts of a run.
@@ -121,7 +132,21 @@ pub struct Outcome {
 pub struct RunSummary {
     pub ran: usize,
     pub skipped: usize,
-    pub failed: Vec<(usize, String)>,
+    pub failed: Vec<(usize, TaskFailure)>,
+}
+
+impl RunSummary {
+    /// Counts one task's outcome.
+    pub fn add(&mut self, o: Outcome) {
+        match o.result {
+            None => self.skipped += 1,
+            Some(Ok(())) => self.ran += 1,
+            Some(Err(e)) => {
+                self.ran += 1;
+                self.failed.push((o.index, e));
+            }
+        }
+    }
 }
 
 pub fn sha256_hex(bytes: &[u8]) -> String {
@@ -144,22 +169,6 @@ fn host() -> String {
     std::fs::read_to_string("/proc/sys/kernel/hostname")
         .map(|s| s.trim().to_string())
         .unwrap_or_else(|_| "unknown".into())
-}
-
-/// Writes `bytes` to `path` through a temporary file and a rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    use std::io::Write;
-    let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
-    tmp.write_all(bytes)
-        .and_then(|_| tmp.as_file().sync_all())
-        .with_context(|| format!("writing {}", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("renaming into {}", path.display()))?;
-    Ok(())
 }
 
 impl SweepDir {
@@ -448,14 +457,7 @@ impl SweepDir {
         let mut s = RunSummary::default();
         for c in 0..self.sweep.chunks.len() {
             for o in self.run_chunk(exec, c, jobs, on_task)? {
-                match o.result {
-                    None => s.skipped += 1,
-                    Some(Ok(())) => s.ran += 1,
-                    Some(Err(e)) => {
-                        s.ran += 1;
-                        s.failed.push((o.index, e));
-                    }
-                }
+                s.add(o);
             }
         }
         Ok(s)
@@ -561,9 +563,9 @@ impl SweepDir {
             }
         }
         record.seconds = t0.elapsed().as_secs_f64();
-        std::fs::write(
-            tmp.path().join(RECORD_FILE),
-            serde_json::to_string_pretty(&record)?,
+        write_atomic(
+            &tmp.path().join(RECORD_FILE),
+            serde_json::to_string_pretty(&record)?.as_bytes(),
         )?;
         let dest = self.task_dir(index);
         if dest.exists() {
@@ -576,7 +578,11 @@ impl SweepDir {
         Ok(Outcome {
             index,
             id: task.id.clone(),
-            result: Some(result.map(|_| ())),
+            result: Some(
+                result
+                    .map(|_| ())
+                    .map_err(|message| TaskFailure { message }),
+            ),
             seconds: record.seconds,
         })
     }

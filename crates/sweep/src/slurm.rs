@@ -5,10 +5,11 @@
 //! scheduling, gloam only keeps the records.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail, ensure};
+use gloam_pipeline::output::write_atomic;
 use serde::{Deserialize, Serialize};
 
 /// `sbatch` options from the command line.
@@ -96,6 +97,56 @@ pub fn script(dir: &Path, exe: &Path, chunks: usize, o: &SlurmOptions) -> anyhow
     Ok(s)
 }
 
+/// Writes `DIR/sweep.sbatch` for the sweep in `dir` (absolute) with
+/// `chunks` array indices, and `DIR/slurm/` for the array tasks' logs;
+/// returns the script's path.
+pub fn write_script(
+    dir: &Path,
+    exe: &Path,
+    chunks: usize,
+    o: &SlurmOptions,
+) -> anyhow::Result<PathBuf> {
+    let text = script(dir, exe, chunks, o)?;
+    let path = dir.join(SCRIPT_FILE);
+    write_atomic(&path, text.as_bytes())?;
+    let logs = dir.join("slurm");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    Ok(path)
+}
+
+/// Submits the array job `script` of `array_size` indices and records it
+/// in `DIR/slurm.json` (`dir` holds the script).
+pub fn submit_and_record(
+    dir: &Path,
+    script: &Path,
+    array_size: usize,
+    options: SlurmOptions,
+) -> anyhow::Result<Submission> {
+    let job_id = submit(script)?;
+    let sub = Submission {
+        job_id,
+        script: script.display().to_string(),
+        array_size,
+        options,
+    };
+    write_atomic(
+        &dir.join(SUBMISSION_FILE),
+        serde_json::to_string_pretty(&sub)?.as_bytes(),
+    )?;
+    Ok(sub)
+}
+
+/// The job submitted for the sweep in `dir`, if one was (and its record
+/// reads).
+pub fn read_submission(dir: &Path) -> Option<Submission> {
+    gloam_spectra::input::read_text(
+        &dir.join(SUBMISSION_FILE),
+        gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+    )
+    .ok()
+    .and_then(|t| serde_json::from_str(&t).ok())
+}
+
 /// Submits `script` with `sbatch --parsable`; returns the job id.
 pub fn submit(script: &Path) -> anyhow::Result<String> {
     let out = Command::new("sbatch")
@@ -136,14 +187,26 @@ pub struct JobStates {
     pub note: Option<String>,
 }
 
-fn run(cmd: &str, args: &[&str]) -> Result<String, String> {
+/// A Slurm query that gave no answer.
+#[derive(Debug, thiserror::Error)]
+pub enum QueryError {
+    #[error("{cmd}: {source}")]
+    Spawn { cmd: String, source: std::io::Error },
+    #[error("{cmd}: {stderr}")]
+    Failed { cmd: String, stderr: String },
+}
+
+fn run(cmd: &str, args: &[&str]) -> Result<String, QueryError> {
     match Command::new(cmd).args(args).output() {
         Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout).into_owned()),
-        Ok(o) => Err(format!(
-            "{cmd}: {}",
-            String::from_utf8_lossy(&o.stderr).trim()
-        )),
-        Err(e) => Err(format!("{cmd}: {e}")),
+        Ok(o) => Err(QueryError::Failed {
+            cmd: cmd.into(),
+            stderr: String::from_utf8_lossy(&o.stderr).trim().to_string(),
+        }),
+        Err(source) => Err(QueryError::Spawn {
+            cmd: cmd.into(),
+            source,
+        }),
     }
 }
 
@@ -170,7 +233,7 @@ pub fn job_states(job_id: &str) -> JobStates {
                 note: None,
             };
         }
-        Err(e) => notes.push(e),
+        Err(e) => notes.push(e.to_string()),
     }
     match run("squeue", &["-j", job_id, "-r", "-h", "-o", "%T"]) {
         Ok(text) => {
@@ -186,7 +249,7 @@ pub fn job_states(job_id: &str) -> JobStates {
             }
         }
         Err(e) => {
-            notes.push(e);
+            notes.push(e.to_string());
             JobStates {
                 job_id: job_id.into(),
                 source: "none".into(),

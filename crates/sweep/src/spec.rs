@@ -12,7 +12,7 @@ use serde::Deserialize;
 use sha2::{Digest, Sha256};
 use toml::Spanned;
 
-use crate::tile::TileSpec;
+use crate::tile::{TileError, TileSpec};
 
 /// The most tasks one sweep may have (the product of the axes is checked
 /// against it before any list is built).
@@ -169,7 +169,8 @@ impl Sweep {
         let mut base = BTreeMap::new();
         for (k, v) in ordered(raw.base) {
             let field = format!("base.{}", k.get_ref());
-            check_value(k.get_ref(), v.get_ref()).map_err(|m| err(Some(k.span()), &field, m))?;
+            check_value(k.get_ref(), v.get_ref())
+                .map_err(|m| err(Some(k.span()), &field, m.to_string()))?;
             base.insert(k.get_ref().clone(), v.into_inner());
         }
         let mut axes = Vec::new();
@@ -177,10 +178,11 @@ impl Sweep {
             let name = k.get_ref().clone();
             let field = format!("axes.{name}");
             let span = Some(k.span());
-            let values = axis_values(v.get_ref()).map_err(|m| err(span.clone(), &field, m))?;
+            let values =
+                axis_values(v.get_ref()).map_err(|m| err(span.clone(), &field, m.to_string()))?;
             for (i, val) in values.iter().enumerate() {
                 check_value(&name, val)
-                    .map_err(|m| err(span.clone(), &format!("{field}[{i}]"), m))?;
+                    .map_err(|m| err(span.clone(), &format!("{field}[{i}]"), m.to_string()))?;
             }
             if base.contains_key(&name) {
                 return Err(err(
@@ -362,19 +364,87 @@ fn set_dotted(doc: &mut toml::Table, key: &str, value: toml::Value) -> anyhow::R
     Ok(())
 }
 
+/// What is wrong with one value of a sweep file (the [`SpecError`] that
+/// carries it names the file, line and key).
+#[derive(Debug, thiserror::Error)]
+pub enum ValueError {
+    #[error("an axis needs at least one value")]
+    EmptyAxis,
+    #[error("more than {MAX_TASKS} values")]
+    TooManyValues,
+    #[error("value {index} is not a string, number or boolean")]
+    NotScalarAt { index: usize },
+    #[error(
+        "unknown key '{key}' in a range (expected from, count, step; a dotted scene key is quoted: \"camera.width\" = [...])"
+    )]
+    UnknownRangeKey { key: String },
+    #[error("count must be an integer from 1 to {MAX_TASKS}")]
+    BadCount,
+    #[error("a range needs `from` and `count`")]
+    IncompleteRange,
+    #[error("the range overflows a 64-bit integer")]
+    RangeOverflow,
+    #[error("`from` and `step` must be numbers")]
+    RangeNotNumbers,
+    #[error("an axis is a list of values or a range {{ from, count[, step] }}")]
+    NotAnAxis,
+    #[error("a table; a dotted scene key is quoted: \"{key}.…\" = value")]
+    Table { key: String },
+    #[error("expected {0}")]
+    Expected(&'static str),
+    #[error("unknown flow '{flow}' (this version runs: render, capture)")]
+    UnknownFlow { flow: String },
+    #[error(transparent)]
+    Tile(TileError),
+    #[error(transparent)]
+    Size(SizeError),
+    #[error("a dotted key needs a name between the dots")]
+    EmptyDottedName,
+    #[error("{source} (a sweep key is one of {}, a render setting or a dotted scene key)", OWN_KEYS.join(", "))]
+    UnknownKey { source: gloam_trace::SettingsError },
+}
+
+/// A `size` that is not `WxH` with each from 1 to 16384.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("'{text}' is not a size WxH (e.g. 64x48, each 1 to 16384)")]
+pub struct SizeError {
+    pub text: String,
+}
+
+/// Keys a task allows on their own but not together.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum Conflict {
+    #[error("the render flow needs a scene")]
+    RenderWithoutScene,
+    #[error("a tile renders radiance only; sweep tiles without a sensor and merge them")]
+    TileWithSensor,
+    #[error("`size` is for the capture flow; a render's size is `camera.width`/`camera.height`")]
+    SizeInRender,
+    #[error("the capture flow needs a sensor")]
+    CaptureWithoutSensor,
+    #[error("the capture flow takes no scene, tile or scene keys")]
+    CaptureWithScene,
+    #[error("the capture flow takes no render settings")]
+    CaptureWithSettings,
+    #[error("a fixed gain and agc = true exclude each other")]
+    GainAndAgc,
+    #[error("gain and agc need a sensor")]
+    GainWithoutSensor,
+}
+
 /// An axis's values: a list of scalars, or `{ from, count[, step] }`.
-fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
+fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
     match v {
         toml::Value::Array(a) => {
             if a.is_empty() {
-                return Err("an axis needs at least one value".into());
+                return Err(ValueError::EmptyAxis);
             }
             if a.len() > MAX_TASKS {
-                return Err(format!("more than {MAX_TASKS} values"));
+                return Err(ValueError::TooManyValues);
             }
             for (i, x) in a.iter().enumerate() {
                 if scalar_text(x).is_none() {
-                    return Err(format!("value {i} is not a string, number or boolean"));
+                    return Err(ValueError::NotScalarAt { index: i });
                 }
             }
             Ok(a.clone())
@@ -382,17 +452,15 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
         toml::Value::Table(t) => {
             for k in t.keys() {
                 if !["from", "count", "step"].contains(&k.as_str()) {
-                    return Err(format!(
-                        "unknown key '{k}' in a range (expected from, count, step; a dotted scene key is quoted: \"camera.width\" = [...])"
-                    ));
+                    return Err(ValueError::UnknownRangeKey { key: k.clone() });
                 }
             }
             let count = match t.get("count") {
                 Some(toml::Value::Integer(n)) if *n >= 1 && (*n as u64) <= MAX_TASKS as u64 => {
                     *n as usize
                 }
-                Some(_) => return Err(format!("count must be an integer from 1 to {MAX_TASKS}")),
-                None => return Err("a range needs `from` and `count`".into()),
+                Some(_) => return Err(ValueError::BadCount),
+                None => return Err(ValueError::IncompleteRange),
             };
             match (t.get("from"), t.get("step")) {
                 (Some(toml::Value::Integer(a)), None | Some(toml::Value::Integer(_))) => {
@@ -402,7 +470,7 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
                             i.checked_mul(step)
                                 .and_then(|d| a.checked_add(d))
                                 .map(toml::Value::Integer)
-                                .ok_or_else(|| "the range overflows a 64-bit integer".to_string())
+                                .ok_or(ValueError::RangeOverflow)
                         })
                         .collect()
                 }
@@ -416,75 +484,67 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, String> {
                         (Some(a), Some(s)) if a.is_finite() && s.is_finite() => Ok((0..count)
                             .map(|i| toml::Value::Float(a + i as f64 * s))
                             .collect()),
-                        _ => Err("`from` and `step` must be numbers".into()),
+                        _ => Err(ValueError::RangeNotNumbers),
                     }
                 }
-                (None, _) => Err("a range needs `from` and `count`".into()),
+                (None, _) => Err(ValueError::IncompleteRange),
             }
         }
-        _ => Err("an axis is a list of values or a range { from, count[, step] }".into()),
+        _ => Err(ValueError::NotAnAxis),
     }
 }
 
 /// Checks one value of `key` (in [base] or an axis).
-fn check_value(key: &str, v: &toml::Value) -> Result<(), String> {
+fn check_value(key: &str, v: &toml::Value) -> Result<(), ValueError> {
     if v.is_table() {
-        return Err(format!(
-            "a table; a dotted scene key is quoted: \"{key}.…\" = value"
-        ));
+        return Err(ValueError::Table { key: key.into() });
     }
-    let text = scalar_text(v).ok_or("expected a string, number or boolean")?;
+    let text = scalar_text(v).ok_or(ValueError::Expected("a string, number or boolean"))?;
     match key {
         "scene" | "sensor" => match v {
             toml::Value::String(s) if !s.is_empty() => Ok(()),
-            _ => Err("expected a non-empty string".into()),
+            _ => Err(ValueError::Expected("a non-empty string")),
         },
         "flow" => match text.as_str() {
             "render" | "capture" => Ok(()),
-            other => Err(format!(
-                "unknown flow '{other}' (this version runs: render, capture)"
-            )),
+            other => Err(ValueError::UnknownFlow { flow: other.into() }),
         },
         "seed" => match v {
             toml::Value::Integer(i) if *i >= 0 => Ok(()),
-            _ => Err("expected a non-negative integer".into()),
+            _ => Err(ValueError::Expected("a non-negative integer")),
         },
         "gain" => match v.as_float().or(v.as_integer().map(|i| i as f64)) {
             Some(g) if g.is_finite() && g > 0.0 => Ok(()),
-            _ => Err("expected a positive number".into()),
+            _ => Err(ValueError::Expected("a positive number")),
         },
         "frames" => match v {
             toml::Value::Integer(i) if (1..=10_000).contains(i) => Ok(()),
-            _ => Err("expected an integer from 1 to 10000".into()),
+            _ => Err(ValueError::Expected("an integer from 1 to 10000")),
         },
         "agc" | "noise" => match v {
             toml::Value::Boolean(_) => Ok(()),
-            _ => Err("expected true or false".into()),
+            _ => Err(ValueError::Expected("true or false")),
         },
-        "tile" => TileSpec::parse(&text).map(|_| ()),
-        "size" => parse_size(&text).map(|_| ()),
+        "tile" => TileSpec::parse(&text).map(|_| ()).map_err(ValueError::Tile),
+        "size" => parse_size(&text).map(|_| ()).map_err(ValueError::Size),
         k if k.contains('.') => {
             if k.split('.').any(str::is_empty) {
-                Err("a dotted key needs a name between the dots".into())
+                Err(ValueError::EmptyDottedName)
             } else {
                 Ok(())
             }
         }
         k => {
             let mut s = gloam_trace::RenderSettings::default();
-            s.set(k, &text).map_err(|e| {
-                format!(
-                    "{e} (a sweep key is one of {}, a render setting or a dotted scene key)",
-                    OWN_KEYS.join(", ")
-                )
-            })
+            s.set(k, &text)
+                .map_err(|source| ValueError::UnknownKey { source })
         }
     }
 }
 
 /// `WxH`, each from 1 to 16384.
-pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("'{s}' is not a size WxH (e.g. 64x48, each 1 to 16384)");
+pub fn parse_size(s: &str) -> Result<(u32, u32), SizeError> {
+    let bad = || SizeError { text: s.into() };
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
     let h: u32 = h.trim().parse().map_err(|_| bad())?;
@@ -593,43 +653,37 @@ impl Task {
     }
 
     /// Combinations the keys allow on their own but not together.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), Conflict> {
         let has = |k: &str| self.values.contains_key(k);
         match self.flow() {
             Flow::Render => {
                 if !has("scene") {
-                    return Err("the render flow needs a scene".into());
+                    return Err(Conflict::RenderWithoutScene);
                 }
                 if has("tile") && has("sensor") {
-                    return Err(
-                        "a tile renders radiance only; sweep tiles without a sensor and merge them"
-                            .into(),
-                    );
+                    return Err(Conflict::TileWithSensor);
                 }
                 if has("size") {
-                    return Err(
-                        "`size` is for the capture flow; a render's size is `camera.width`/`camera.height`"
-                            .into(),
-                    );
+                    return Err(Conflict::SizeInRender);
                 }
             }
             Flow::Capture => {
                 if !has("sensor") {
-                    return Err("the capture flow needs a sensor".into());
+                    return Err(Conflict::CaptureWithoutSensor);
                 }
                 if has("scene") || has("tile") || !self.scene_overrides().is_empty() {
-                    return Err("the capture flow takes no scene, tile or scene keys".into());
+                    return Err(Conflict::CaptureWithScene);
                 }
                 if !self.setting_pairs().is_empty() {
-                    return Err("the capture flow takes no render settings".into());
+                    return Err(Conflict::CaptureWithSettings);
                 }
             }
         }
         if has("gain") && has("agc") && self.agc() {
-            return Err("a fixed gain and agc = true exclude each other".into());
+            return Err(Conflict::GainAndAgc);
         }
         if !has("sensor") && (has("gain") || has("agc")) && self.flow() == Flow::Render {
-            return Err("gain and agc need a sensor".into());
+            return Err(Conflict::GainWithoutSensor);
         }
         Ok(())
     }

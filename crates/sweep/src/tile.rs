@@ -11,6 +11,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail, ensure};
+use gloam_pipeline::Provenance;
+use gloam_pipeline::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
 use ndarray::{Array2, Array3, Axis};
 use serde::{Deserialize, Serialize};
 
@@ -29,8 +31,10 @@ pub struct TileSpec {
 
 impl TileSpec {
     /// `K/N` with 1 ≤ K ≤ N ≤ [`MAX_TILES`].
-    pub fn parse(s: &str) -> Result<TileSpec, String> {
-        let bad = || format!("'{s}' is not a tile K/N with 1 <= K <= N <= {MAX_TILES} (e.g. 2/4)");
+    pub fn parse(s: &str) -> Result<TileSpec, TileError> {
+        let bad = || TileError::NotATile {
+            text: s.to_string(),
+        };
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
         let k: u32 = k.trim().parse().map_err(|_| bad())?;
         let n: u32 = n.trim().parse().map_err(|_| bad())?;
@@ -41,16 +45,22 @@ impl TileSpec {
     }
 
     /// Rows `⌊(K−1)H/N⌋ .. ⌊KH/N⌋` of an image `height` rows tall.
-    pub fn rows(&self, height: u32) -> Result<Range<u32>, String> {
+    pub fn rows(&self, height: u32) -> Result<Range<u32>, TileError> {
         if self.n > height {
-            return Err(format!(
-                "{} tiles of an image {height} rows tall would leave some empty",
-                self.n
-            ));
+            return Err(TileError::TooManyTiles { n: self.n, height });
         }
         let at = |k: u32| (k as u64 * height as u64 / self.n as u64) as u32;
         Ok(at(self.k - 1)..at(self.k))
     }
+}
+
+/// A tile that cannot be cut.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TileError {
+    #[error("'{text}' is not a tile K/N with 1 <= K <= N <= {MAX_TILES} (e.g. 2/4)")]
+    NotATile { text: String },
+    #[error("{n} tiles of an image {height} rows tall would leave some empty")]
+    TooManyTiles { n: u32, height: u32 },
 }
 
 impl std::fmt::Display for TileSpec {
@@ -90,6 +100,79 @@ pub struct Merged {
     pub info: TileInfo,
     /// The tile directories in tile order.
     pub tiles: Vec<PathBuf>,
+}
+
+/// Writes `DIR/tile.json` for tile `tile` (rows `rows` of a `width` ×
+/// `height` image) of a render of `scene` (named as given).
+pub fn write_tile_info(
+    dir: &Path,
+    tile: TileSpec,
+    rows: Range<u32>,
+    (width, height): (u32, u32),
+    scene: &Path,
+    out: &gloam_trace::RenderOutput,
+) -> anyhow::Result<()> {
+    let info = TileInfo {
+        format: TILE_FORMAT.into(),
+        tile: tile.k,
+        of: tile.n,
+        rows: [rows.start, rows.end],
+        width,
+        height,
+        band_names: out.band_names.clone(),
+        scene: scene.display().to_string(),
+        scene_sha256: gloam_pipeline::provenance::hash_file(scene).map(|f| f.sha256),
+        settings: {
+            // The thread count does not change the image.
+            let mut s = serde_json::to_value(&out.settings)?;
+            if let Some(o) = s.as_object_mut() {
+                o.remove("threads");
+            }
+            s
+        },
+    };
+    write_atomic(
+        &dir.join(TILE_FILE),
+        serde_json::to_string_pretty(&info)?.as_bytes(),
+    )
+}
+
+impl Merged {
+    /// Writes the whole image into `dir` as `gloam render` writes it
+    /// (radiance, standard error and spp as `.npy`/`.tiff`, a preview) and
+    /// `report.json` naming each tile with its `radiance.npy` hash; the
+    /// tiles' files read here join `provenance`'s inputs.
+    pub fn write(&self, dir: &Path, provenance: &mut Provenance) -> anyhow::Result<()> {
+        write_tiff(&dir.join("radiance.tiff"), &self.radiance)?;
+        write_npy(&dir.join("radiance.npy"), &self.radiance)?;
+        write_tiff(&dir.join("stderr.tiff"), &self.std_error)?;
+        write_npy(&dir.join("stderr.npy"), &self.std_error)?;
+        write_npy_u32(&dir.join("spp.npy"), &self.spp)?;
+        write_preview(&dir.join("preview.png"), &self.radiance)?;
+        let mut tiles = Vec::new();
+        for d in &self.tiles {
+            let p = d.join("radiance.npy");
+            let bytes =
+                gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+                    .with_context(|| format!("reading {}", p.display()))?;
+            tiles.push(serde_json::json!({
+                "dir": d.display().to_string(),
+                "radiance_npy_sha256": crate::run::sha256_hex(&bytes),
+            }));
+        }
+        provenance.add_inputs_read();
+        let report = serde_json::json!({
+            "scene": self.info.scene,
+            "image": {"width": self.info.width, "height": self.info.height, "bands": self.info.band_names},
+            "settings": self.info.settings,
+            "merged_from": tiles,
+            "provenance": provenance,
+        });
+        write_atomic(
+            &dir.join("report.json"),
+            serde_json::to_string_pretty(&report)?.as_bytes(),
+        )
+    }
 }
 
 fn read_info(dir: &Path) -> anyhow::Result<TileInfo> {
@@ -433,7 +516,13 @@ mod tests {
     fn tile_specs_parse_or_explain() {
         assert_eq!(TileSpec::parse("2/4"), Ok(TileSpec { k: 2, n: 4 }));
         for bad in ["0/4", "5/4", "4", "a/b", "1/0", "1/99999"] {
-            assert!(TileSpec::parse(bad).unwrap_err().contains("K/N"), "{bad}");
+            assert!(
+                TileSpec::parse(bad)
+                    .unwrap_err()
+                    .to_string()
+                    .contains("K/N"),
+                "{bad}"
+            );
         }
     }
 }

@@ -1,0 +1,249 @@
+//! The executor that runs a sweep's tasks over gloam's render and camera
+//! code ([`Pipeline`]): a chunk renders once (radiance, or the camera's
+//! detected band), and each task writes its images or captures its frames.
+//!
+//! Frames are written as every other command writes them: 16-bit PNGs
+//! through the one atomic writer and one [`FrameRecord`] per line of
+//! `frames.jsonl`, so a sweep task's frames read like `gloam capture`'s.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use gloam_pipeline::FrameRecord;
+use gloam_pipeline::output::{
+    png16_bytes, write_atomic, write_npy, write_npy_u32, write_preview, write_tiff,
+};
+use gloam_simcam::FrameExposureExt;
+use gloam_trace::{RenderOutput, Tracer};
+use ndarray::Array2;
+
+use crate::run::{Executor, Figures};
+use crate::spec::{Flow, Sweep, Task};
+
+/// Runs tasks over the render and camera code.
+pub struct Pipeline;
+
+/// A chunk's shared work.
+pub enum Shared {
+    /// Capture tasks share nothing.
+    Nothing,
+    Render(Box<Rendered>),
+}
+
+/// One render of a chunk.
+pub struct Rendered {
+    out: RenderOutput,
+    /// The camera's detected-electron radiance (with a sensor).
+    detected: Option<Array2<f64>>,
+    /// The whole image's width and height, and the rows rendered.
+    full: (u32, u32),
+    rows: Range<u32>,
+    scene: PathBuf,
+}
+
+/// Renders `task`'s scene (its tile's rows, and the camera's detected band
+/// when it has a sensor): plan → detected band → tracer → rows → band.
+/// One function so it can become a call to the pipeline's render entry
+/// point without touching the executor around it.
+fn render_point(sweep: &Sweep, task: &Task) -> anyhow::Result<Rendered> {
+    let scene = sweep.load_scene(task)?;
+    let settings = task.render_settings()?;
+    let sensor = sweep.sensor(task);
+    // The gain is checked per task (it differs within a chunk).
+    if let Some(s) = &sensor {
+        gloam_pipeline::check_options(s, None, task.frames())?;
+    }
+    let traced = match &sensor {
+        Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
+        None => scene.clone(),
+    };
+    let tracer = Tracer::new(&traced, &settings)?;
+    let full = tracer.image_size();
+    let rows = match task.tile() {
+        Some(t) => t.rows(full.1)?,
+        None => 0..full.1,
+    };
+    let mut out = tracer.render_rows(rows.clone(), &|_, _| {})?;
+    let detected = match &sensor {
+        Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
+        None => None,
+    };
+    Ok(Rendered {
+        out,
+        detected,
+        full,
+        rows,
+        scene: sweep.resolve(&task.text("scene").unwrap_or_default()),
+    })
+}
+
+impl Executor for Pipeline {
+    type Shared = Shared;
+
+    fn prepare(&self, sweep: &Sweep, task: &Task) -> anyhow::Result<Shared> {
+        if task.flow() == Flow::Capture {
+            return Ok(Shared::Nothing);
+        }
+        Ok(Shared::Render(Box::new(render_point(sweep, task)?)))
+    }
+
+    fn run(
+        &self,
+        sweep: &Sweep,
+        task: &Task,
+        shared: &Shared,
+        out: &Path,
+    ) -> anyhow::Result<Figures> {
+        match shared {
+            Shared::Nothing => capture_stimulus(sweep, task, out),
+            Shared::Render(r) => match &r.detected {
+                Some(d) => {
+                    let sensor = sweep.sensor(task).context("no sensor")?;
+                    capture_detected(&sensor, task, d, out)
+                }
+                None => write_radiance(task, r, out),
+            },
+        }
+    }
+}
+
+/// A render task's images (and `tile.json` for a tile); its figures are
+/// each band's mean radiance.
+fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> anyhow::Result<Figures> {
+    let o = &r.out;
+    // Deterministic outputs only (no timings): their hashes are the task's.
+    write_npy(&out.join("radiance.npy"), &o.radiance)?;
+    write_tiff(&out.join("radiance.tiff"), &o.radiance)?;
+    write_npy(&out.join("stderr.npy"), &o.std_error)?;
+    write_npy_u32(&out.join("spp.npy"), &o.spp)?;
+    write_preview(&out.join("preview.png"), &o.radiance)?;
+    if let Some(t) = task.tile() {
+        let label = task
+            .text("scene")
+            .map(PathBuf::from)
+            .unwrap_or(r.scene.clone());
+        crate::tile::write_tile_info(out, t, r.rows.clone(), r.full, &label, o)?;
+    }
+    let mut f = Figures::new();
+    for (b, name) in o.band_names.iter().enumerate() {
+        let img = o.radiance.index_axis(ndarray::Axis(0), b);
+        f.insert(
+            format!("mean_radiance_{name}"),
+            img.mean().unwrap_or(f64::NAN),
+        );
+    }
+    Ok(f)
+}
+
+/// Writes frame `index` as `frame-NNNNNN.png` and returns its file name.
+fn write_frame(
+    out: &Path,
+    index: u32,
+    (w, h): (u32, u32),
+    pixels: &[u16],
+) -> anyhow::Result<String> {
+    let file = format!("frame-{index:06}.png");
+    write_atomic(&out.join(&file), &png16_bytes(w, h, pixels)?)?;
+    Ok(file)
+}
+
+/// `frames.jsonl`: one [`FrameRecord`] per line.
+fn write_frame_records(out: &Path, records: &[FrameRecord]) -> anyhow::Result<()> {
+    let mut jsonl = String::new();
+    for r in records {
+        jsonl.push_str(&serde_json::to_string(r)?);
+        jsonl.push('\n');
+    }
+    write_atomic(&out.join("frames.jsonl"), jsonl.as_bytes())
+}
+
+/// Frames of a render through the task's camera (noise seeded by the task).
+fn capture_detected(
+    sensor: &str,
+    task: &Task,
+    detected: &Array2<f64>,
+    out: &Path,
+) -> anyhow::Result<Figures> {
+    let mut config = gloam_sensor::load_preset_or_file(sensor)
+        .with_context(|| format!("loading sensor '{sensor}'"))?;
+    config.noise.seed = task.seed;
+    let mut camera = gloam_sensor::Camera::new(config)?;
+    camera.set_noise(task.noise());
+    if let Some(g) = task.gain() {
+        camera.set_override_gain(Some(g)).context("gain")?;
+    }
+    if task.agc() {
+        camera.set_agc(true);
+    }
+    let mut frames: Vec<Vec<u16>> = Vec::new();
+    let mut records = Vec::new();
+    let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
+    for i in 0..task.frames() {
+        let frame = camera
+            .capture_detected(detected.view())
+            .with_context(|| format!("capturing frame {i}"))?;
+        let (h, w) = frame.pixels.dim();
+        let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
+        let file = write_frame(out, i, (w as u32, h as u32), &pixels)?;
+        gain = frame.meta.gain_in_effect;
+        black = camera.chain().black_dn(gain);
+        sat += frame.meta.saturated_fraction;
+        records.push(FrameRecord::of_sensor_frame(
+            u64::from(i),
+            file,
+            &frame,
+            &pixels,
+            &camera,
+        ));
+        frames.push(pixels);
+    }
+    write_frame_records(out, &records)?;
+    let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
+    let mut f = crate::figures::frame_figures(&refs, Some(black));
+    f.insert("gain_in_effect".into(), gain);
+    f.insert("saturated_fraction".into(), sat / task.frames() as f64);
+    Ok(f)
+}
+
+/// Frames of the sensor's default uniform stimulus (`sim:PRESET`).
+fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Figures> {
+    let sensor = sweep
+        .sensor(task)
+        .context("the capture flow needs a sensor")?;
+    let uri = match task.size() {
+        Some((w, h)) => format!("sim:{sensor}?size={w}x{h}"),
+        None => format!("sim:{sensor}"),
+    };
+    let opts = gloam_grabber::OpenOptions {
+        seed: Some(task.seed),
+        ..Default::default()
+    };
+    let mut g = gloam_simcam::registry()
+        .open(&uri, &opts)
+        .with_context(|| format!("opening {uri}"))?;
+    if let Some(gain) = task.gain() {
+        g.set_gain(gain).context("gain")?;
+    }
+    if task.agc() {
+        g.set_agc(true)?;
+    }
+    let mut frames = Vec::new();
+    let mut records = Vec::new();
+    let mut black = None;
+    let mut gain = f64::NAN;
+    for i in 0..task.frames() {
+        let f = g.grab().with_context(|| format!("grabbing frame {i}"))?;
+        let file = write_frame(out, i, (f.meta.width, f.meta.height), &f.pixels)?;
+        black = f.meta.levels.map(|l| l.black_dn);
+        gain = f.meta.gain;
+        let warnings = f.exposure().warnings;
+        records.push(FrameRecord::of_grab(u64::from(i), file, &f, warnings));
+        frames.push(f.pixels);
+    }
+    write_frame_records(out, &records)?;
+    let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
+    let mut f = crate::figures::frame_figures(&refs, black);
+    f.insert("gain_in_effect".into(), gain);
+    Ok(f)
+}
