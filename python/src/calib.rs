@@ -40,7 +40,7 @@ fn no_progress(_: usize, _: usize) {}
 /// fraction of full scale at the highest gain). Returns the ``lut.json``
 /// dict; ``Lut.from_dict`` makes it appliable.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, gains, frames = 8, levels = None, auto_range = None, exposure_s = None))]
+#[pyo3(signature = (grabber, source, gains, frames = gloam_calib::radiance::DEFAULT_FRAMES, levels = None, auto_range = None, exposure_s = None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_radiance<'py>(
     py: Python<'py>,
@@ -84,7 +84,7 @@ fn calibrate_radiance<'py>(
 /// describe the simulated camera (so QE would read biased) is named first
 /// in ``warnings``.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, gain = 1.0, levels = 50, spatial_frames = 16, auto_range = None, exposure_s = None, dataset_dir = None))]
+#[pyo3(signature = (grabber, source, gain = gloam_calib::ptc::DEFAULT_GAIN, levels = gloam_calib::ptc::DEFAULT_LEVELS, spatial_frames = gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES, auto_range = None, exposure_s = None, dataset_dir = None))]
 #[allow(clippy::too_many_arguments)]
 fn photon_transfer<'py>(
     py: Python<'py>,
@@ -171,7 +171,7 @@ fn mtf<'py>(
 /// linearity (through ``lut``, a ``Lut``, when given). Returns the
 /// ``agc.json`` dict.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, fixed_gain = None, frames = 60, levels = None, auto_range = None, lut = None, allow_unsettled = false))]
+#[pyo3(signature = (grabber, source, fixed_gain = None, frames = gloam_calib::agc::DEFAULT_FRAMES_PER_STEP, levels = None, auto_range = None, lut = None, allow_unsettled = false))]
 #[allow(clippy::too_many_arguments)]
 fn agc_linearity<'py>(
     py: Python<'py>,

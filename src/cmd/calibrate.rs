@@ -73,7 +73,7 @@ pub struct RadianceArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub gains: Vec<f64>,
     /// Frames per level.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = gloam_calib::radiance::DEFAULT_FRAMES)]
     pub frames: usize,
     /// Output directory.
     #[arg(long)]
@@ -109,7 +109,7 @@ pub struct AgcArgs {
     #[arg(long)]
     pub fixed_gain: Option<f64>,
     /// Frames per staircase step.
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = gloam_calib::agc::DEFAULT_FRAMES_PER_STEP)]
     pub frames: usize,
     /// A LUT (lut.json) to linearise the AGC frames through.
     #[arg(long)]
@@ -132,10 +132,10 @@ pub struct PtcArgs {
     #[command(flatten)]
     pub source: SourceArgs,
     /// Fixed gain for the sweep.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = gloam_calib::ptc::DEFAULT_GAIN)]
     pub gain: f64,
     /// Frames averaged for DSNU/PRNU.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES)]
     pub spatial_frames: usize,
     #[arg(long)]
     pub out: PathBuf,
@@ -401,7 +401,7 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
     let mut g = open_grabber(&a.grabber)?;
     let mut sa = a.source.clone();
     if sa.levels.is_none() {
-        sa.levels = Some(50);
+        sa.levels = Some(gloam_calib::ptc::DEFAULT_LEVELS);
     }
     let mut src = open_source(&sa, g.as_mut(), Some(a.gain))?;
     if let Some(w) = rig_mismatch(&a.grabber.grabber, src.rig(), a.grabber.exposure_s) {
