@@ -8,9 +8,12 @@ use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 
 use gloam_calib::agc::{AgcOptions, agc_linearisation};
-use gloam_calib::mtf::{EdgeOptions, SineOptions, edge_mtf, sine_mtf};
+use gloam_calib::mtf_flow::{
+    DEFAULT_FRAMES, DEFAULT_MODULATION, DEFAULT_SPECTRUM, GrabberTarget, MtfRequest, measure_mtf,
+};
 use gloam_calib::ptc::{PtcOptions, photon_transfer as ptc_flow};
 use gloam_calib::radiance::RadianceOptions;
+use gloam_calib::rig_check::rig_mismatch;
 use gloam_calib::source::open_for_grabber;
 use gloam_calib::validate::{Region, compare_images};
 use gloam_grabber::FrameGrabber;
@@ -37,7 +40,7 @@ fn no_progress(_: usize, _: usize) {}
 /// fraction of full scale at the highest gain). Returns the ``lut.json``
 /// dict; ``Lut.from_dict`` makes it appliable.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, gains, frames = 8, levels = None, auto_range = None, exposure_s = None))]
+#[pyo3(signature = (grabber, source, gains, frames = gloam_calib::radiance::DEFAULT_FRAMES, levels = None, auto_range = None, exposure_s = None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_radiance<'py>(
     py: Python<'py>,
@@ -77,9 +80,11 @@ fn calibrate_radiance<'py>(
 /// EMVA 1288 photon transfer at a fixed ``gain`` (``gloam calibrate
 /// ptc``): returns the ``ptc.json`` dict (system gain K in DN/e⁻, dark
 /// noise, saturation capacity, QE with a ``[rig]``, …). ``dataset_dir``
-/// also writes the EMVA 1288 data set there.
+/// also writes the EMVA 1288 data set there. A ``[rig]`` that does not
+/// describe the simulated camera (so QE would read biased) is named first
+/// in ``warnings``.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, gain = 1.0, levels = 50, spatial_frames = 16, auto_range = None, exposure_s = None, dataset_dir = None))]
+#[pyo3(signature = (grabber, source, gain = gloam_calib::ptc::DEFAULT_GAIN, levels = gloam_calib::ptc::DEFAULT_LEVELS, spatial_frames = gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES, auto_range = None, exposure_s = None, dataset_dir = None))]
 #[allow(clippy::too_many_arguments)]
 fn photon_transfer<'py>(
     py: Python<'py>,
@@ -98,12 +103,19 @@ fn photon_transfer<'py>(
         spatial_frames,
         dataset_dir,
     };
+    let uri = grabber.borrow().uri().to_string();
     let r = grabber.borrow_mut().run(py, |g| {
         if let Some(e) = exposure_s {
             g.set_exposure_s(e)?;
         }
         let mut src = open_for_grabber(&source, Some(levels), auto_range, g, Some(gain))?.source;
-        Ok(ptc_flow(g, src.as_mut(), &opts, &mut no_progress)?)
+        let mismatch = rig_mismatch(&uri, src.rig(), exposure_s);
+        let mut r = ptc_flow(g, src.as_mut(), &opts, &mut no_progress)?;
+        // The CLI prints this before the run; here it leads the warnings.
+        if let Some(m) = mismatch {
+            r.warnings.insert(0, m.to_string());
+        }
+        Ok(r)
     })?;
     to_py(py, &r)
 }
@@ -115,7 +127,7 @@ fn photon_transfer<'py>(
 /// auto-ranged to 40 % of full scale). Returns the curve as a dict
 /// (``frequencies_cy_per_px``, ``mtf``, ``mtf50``, ``mtf10``, …).
 #[pyfunction]
-#[pyo3(signature = (grabber, target = "edge", gain = None, radiance = None, modulation = 0.8, angle_deg = None, frequencies = None, frames = 8, spectrum = "cie-a"))]
+#[pyo3(signature = (grabber, target = "edge", gain = None, radiance = None, modulation = DEFAULT_MODULATION, angle_deg = None, frequencies = None, frames = DEFAULT_FRAMES, spectrum = DEFAULT_SPECTRUM))]
 #[allow(clippy::too_many_arguments)]
 fn mtf<'py>(
     py: Python<'py>,
@@ -134,36 +146,22 @@ fn mtf<'py>(
             "target: '{target}' is neither 'edge' nor 'sine'"
         )));
     }
-    let curve = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
-        gloam_calib::capture::agc_off(g)?;
-        if let Some(gain) = gain {
-            g.set_gain(gain)?;
-        }
-        let level = match radiance {
-            Some(l) => l,
-            None => gloam_calib::capture::auto_range(g, spectrum, 0.4)?,
-        };
-        Ok(if target == "sine" {
-            let o = SineOptions {
-                frequencies_cy_per_px: frequencies
-                    .unwrap_or_else(|| (1..=24).map(|i| 0.02 * i as f64).collect()),
-                mean_radiance_w_m2_sr: level,
-                modulation,
-                angle_deg: angle_deg.unwrap_or(0.0),
-                spectrum: spectrum.to_string(),
-                frames,
-            };
-            sine_mtf(g, &o, &mut no_progress)?
+    let req = MtfRequest {
+        target: if target == "sine" {
+            GrabberTarget::Sine
         } else {
-            let o = EdgeOptions {
-                dark_radiance_w_m2_sr: level * 0.2,
-                bright_radiance_w_m2_sr: level * 1.8,
-                angle_deg: angle_deg.unwrap_or(5.0),
-                spectrum: spectrum.to_string(),
-                frames,
-            };
-            edge_mtf(g, &o, &mut no_progress)?
-        })
+            GrabberTarget::Edge
+        },
+        gain,
+        radiance_w_m2_sr: radiance,
+        modulation,
+        angle_deg,
+        frequencies_cy_per_px: frequencies.unwrap_or_default(),
+        frames,
+        spectrum: spectrum.to_string(),
+    };
+    let curve = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
+        Ok(measure_mtf(g, &req, &mut no_progress)?.curve)
     })?;
     to_py(py, &curve)
 }
@@ -173,7 +171,7 @@ fn mtf<'py>(
 /// linearity (through ``lut``, a ``Lut``, when given). Returns the
 /// ``agc.json`` dict.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, fixed_gain = None, frames = 60, levels = None, auto_range = None, lut = None, allow_unsettled = false))]
+#[pyo3(signature = (grabber, source, fixed_gain = None, frames = gloam_calib::agc::DEFAULT_FRAMES_PER_STEP, levels = None, auto_range = None, lut = None, allow_unsettled = false))]
 #[allow(clippy::too_many_arguments)]
 fn agc_linearity<'py>(
     py: Python<'py>,
@@ -250,12 +248,7 @@ impl Lut {
     /// Reads a ``lut.json`` written by ``gloam calibrate radiance``.
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
-        let text =
-            gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .map_err(|e| GloamError::new_err(format!("reading {}: {e}", path.display())))?;
-        let lut = serde_json::from_str(&text).map_err(|e| {
-            GloamError::new_err(format!("{}: not a gloam LUT: {e}", path.display()))
-        })?;
+        let lut = gloam_calib::apply::load_lut(&path).or_py()?;
         Ok(Self { lut })
     }
 

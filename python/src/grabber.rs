@@ -62,6 +62,11 @@ impl FrameGrabber for StopOnSignal<'_> {
 }
 
 impl Grabber {
+    /// The URI the grabber was opened with.
+    pub fn uri(&self) -> &str {
+        &self.uri
+    }
+
     /// The open grabber, or an error once closed.
     pub fn get(&mut self) -> PyResult<&mut Box<dyn FrameGrabber>> {
         self.inner

@@ -3,21 +3,21 @@
 //! (argument parsing, progress bars, output files). See docs/calibration.md.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand, ValueEnum};
 
 use gloam_calib::CalibError;
 use gloam_calib::agc::{AgcOptions, agc_linearisation};
-use gloam_calib::capture::auto_range;
-use gloam_calib::mtf::{
-    EdgeOptions, MtfCurve, SineOptions, coltman_sine_from_square_samples, edge_mtf, sine_mtf,
-    usaf_lp_per_mm,
+use gloam_calib::mtf_flow::{
+    self, GrabberTarget, MtfRequest, VoltageRequest, measure_mtf, read_usaf_ctf, usaf_mtf,
+    voltage_mtf,
 };
 use gloam_calib::ptc::{PtcOptions, photon_transfer};
-use gloam_calib::radiance::{Lut, RadianceOptions, calibrate_radiance};
+use gloam_calib::radiance::{RadianceOptions, calibrate_radiance};
 use gloam_calib::report;
+use gloam_calib::rig_check::rig_mismatch;
 use gloam_calib::source::{CalibrationSource, SourceFile, open_for_grabber};
 use gloam_grabber::{FrameGrabber, OpenOptions};
 use gloam_pipeline::{OutputSet, Provenance};
@@ -73,7 +73,7 @@ pub struct RadianceArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub gains: Vec<f64>,
     /// Frames per level.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = gloam_calib::radiance::DEFAULT_FRAMES)]
     pub frames: usize,
     /// Output directory.
     #[arg(long)]
@@ -109,7 +109,7 @@ pub struct AgcArgs {
     #[arg(long)]
     pub fixed_gain: Option<f64>,
     /// Frames per staircase step.
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = gloam_calib::agc::DEFAULT_FRAMES_PER_STEP)]
     pub frames: usize,
     /// A LUT (lut.json) to linearise the AGC frames through.
     #[arg(long)]
@@ -132,10 +132,10 @@ pub struct PtcArgs {
     #[command(flatten)]
     pub source: SourceArgs,
     /// Fixed gain for the sweep.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = gloam_calib::ptc::DEFAULT_GAIN)]
     pub gain: f64,
     /// Frames averaged for DSNU/PRNU.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES)]
     pub spatial_frames: usize,
     #[arg(long)]
     pub out: PathBuf,
@@ -182,7 +182,7 @@ pub struct MtfArgs {
     #[arg(long)]
     pub radiance: Option<f64>,
     /// Sine modulation in radiance.
-    #[arg(long, default_value_t = 0.8)]
+    #[arg(long, default_value_t = mtf_flow::DEFAULT_MODULATION)]
     pub modulation: f64,
     /// Target angle, degrees (sine: from the row axis, default 0; edge: from the column axis, default 5).
     #[arg(long)]
@@ -191,10 +191,10 @@ pub struct MtfArgs {
     #[arg(long, value_delimiter = ',')]
     pub frequencies: Vec<f64>,
     /// Frames averaged per target.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = mtf_flow::DEFAULT_FRAMES)]
     pub frames: usize,
     /// Relative spectrum of the targets (built-in name).
-    #[arg(long, default_value = "cie-a")]
+    #[arg(long, default_value = mtf_flow::DEFAULT_SPECTRUM)]
     pub spectrum: String,
     /// usaf: CSV of `group,element,modulation` (measured bar contrast).
     #[arg(long)]
@@ -343,43 +343,18 @@ fn publish(set: OutputSet, main_json: &str) -> anyhow::Result<()> {
     set.publish(&provenance, None)
 }
 
-fn load_lut(path: &Path) -> anyhow::Result<Lut> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{}: not a gloam LUT", path.display()))
-}
-
 fn apply(a: ApplyArgs) -> anyhow::Result<()> {
-    let lut = load_lut(&a.lut)?;
-    let record = gloam_calib::io::frame_record(&a.input)?;
-    let jl = a
-        .input
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join("frames.jsonl");
-    let recorded_gain = record
-        .as_ref()
-        .and_then(|(line, v)| Some((*line, v.get("gain")?.as_f64()?)));
-    let gain = match (a.gain, recorded_gain) {
-        (Some(g), Some((line, r))) if (g - r).abs() > 1e-6 * r.abs().max(1e-12) => bail!(
-            "--gain {g}: {}:{line} records gain {r} for {}; the frame was not taken at gain {g} (omit --gain to use the recorded gain)",
-            jl.display(),
-            a.input.display()
-        ),
-        (Some(g), _) => g,
-        (None, Some((_, r))) => r,
-        (None, None) => gloam_calib::io::gain_from_frames_jsonl(&a.input)?,
-    };
-    let (w, h, px) = gloam_calib::io::read_counts(&a.input)?;
-    check_lut_fits_frame(&lut, &a.lut, &a.input, record.as_ref(), &px)?;
-    let out = lut.apply(gain, &px)?;
-    gloam_calib::io::write_tiff_f32(&a.output, w, h, &out)?;
-    let nan = out.iter().filter(|v| v.is_nan()).count();
+    let r = gloam_calib::apply::apply_lut_file(&a.lut, &a.input, &a.output, a.gain, &mut |w| {
+        eprintln!("warning: {w}")
+    })?;
     eprintln!(
-        "wrote {} ({w}×{h}, gain {gain}{})",
+        "wrote {} ({}×{}, gain {}{})",
         a.output.display(),
-        if nan > 0 {
-            format!(", {nan} saturated pixel(s) set to NaN")
+        r.width,
+        r.height,
+        r.gain,
+        if r.saturated_pixels > 0 {
+            format!(", {} saturated pixel(s) set to NaN", r.saturated_pixels)
         } else {
             String::new()
         }
@@ -387,98 +362,12 @@ fn apply(a: ApplyArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The camera in a grabber's description, without the scene, rig, seed or
-/// firmware details: `simulated gen3 looking at rig …` → `simulated gen3`.
-fn camera_identity(described: &str) -> &str {
-    let cut = [" looking at ", " ("]
-        .iter()
-        .filter_map(|m| described.find(m))
-        .min()
-        .unwrap_or(described.len());
-    described[..cut].trim()
-}
-
-/// Refuses a LUT made for another camera or bit depth than the frame's
-/// (from `camera.json` and `frames.jsonl` beside the frame), or a frame
-/// holding counts above the LUT's digitizer maximum. A frame with no
-/// record beside it can be checked only by its counts: a warning says so.
-fn check_lut_fits_frame(
-    lut: &Lut,
-    lut_path: &Path,
-    frame: &Path,
-    record: Option<&(usize, serde_json::Value)>,
-    px: &[u16],
-) -> anyhow::Result<()> {
-    let dir = frame.parent().unwrap_or(Path::new("."));
-    let jl = dir.join("frames.jsonl");
-    let cam_file = dir.join(super::capture::CAMERA_FILE);
-    let lut_camera = camera_identity(&lut.grabber);
-    let mut unchecked = Vec::new();
-    if cam_file.is_file() {
-        let text =
-            gloam_spectra::input::read_text(&cam_file, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .with_context(|| format!("reading {}", cam_file.display()))?;
-        let v: serde_json::Value = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a gloam camera record", cam_file.display()))?;
-        let camera = v
-            .get("camera")
-            .and_then(|c| c.as_str())
-            .with_context(|| format!("{}: no \"camera\"", cam_file.display()))?;
-        if camera_identity(camera) != lut_camera {
-            bail!(
-                "{}: made with camera '{lut_camera}', but {} was captured with '{}' ({}); calibrate that camera, or apply its own LUT",
-                lut_path.display(),
-                frame.display(),
-                camera_identity(camera),
-                cam_file.display()
-            );
-        }
-    } else {
-        unchecked.push("camera");
-    }
-    let lut_max = lut.digitizer_max_dn;
-    match record.and_then(|(line, v)| Some((*line, v.get("bits")?.as_u64()?))) {
-        Some((line, bits)) if lut_max > 0.0 => {
-            let frame_max = 2f64.powi(bits.min(32) as i32) - 1.0;
-            if frame_max != lut_max {
-                bail!(
-                    "{}: made for a digitizer whose top code is {lut_max} DN, but {}:{line} records {} as {bits}-bit (top code {frame_max} DN); apply a LUT of this bit depth",
-                    lut_path.display(),
-                    jl.display(),
-                    frame.display()
-                );
-            }
-        }
-        _ => unchecked.push("bit depth"),
-    }
-    if lut_max > 0.0
-        && let Some(&top) = px.iter().max()
-        && f64::from(top) > lut_max
-    {
-        bail!(
-            "{}: holds {top} DN, above the top code {lut_max} DN of the camera {} was made for; the frame is from another camera or bit depth",
-            frame.display(),
-            lut_path.display()
-        );
-    }
-    if !unchecked.is_empty() {
-        eprintln!(
-            "warning: {}: no {} beside it, so its {} cannot be checked against {}",
-            frame.display(),
-            if record.is_none() {
-                "frames.jsonl line or camera.json"
-            } else {
-                "camera.json"
-            },
-            unchecked.join(" and "),
-            lut_path.display()
-        );
-    }
-    Ok(())
-}
-
 fn agc(a: AgcArgs) -> anyhow::Result<()> {
-    let lut = a.lut.as_deref().map(load_lut).transpose()?;
+    let lut = a
+        .lut
+        .as_deref()
+        .map(gloam_calib::apply::load_lut)
+        .transpose()?;
     let set = OutputSet::begin(&a.out, a.force, false)?;
     let mut g = open_grabber(&a.grabber)?;
     let mut src = open_source(&a.source, g.as_mut(), a.fixed_gain)?;
@@ -512,7 +401,7 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
     let mut g = open_grabber(&a.grabber)?;
     let mut sa = a.source.clone();
     if sa.levels.is_none() {
-        sa.levels = Some(50);
+        sa.levels = Some(gloam_calib::ptc::DEFAULT_LEVELS);
     }
     let mut src = open_source(&sa, g.as_mut(), Some(a.gain))?;
     if let Some(w) = rig_mismatch(&a.grabber.grabber, src.rig(), a.grabber.exposure_s) {
@@ -544,162 +433,35 @@ fn ptc(a: PtcArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// For a simulated camera: how far the source's `[rig]` photon count is
-/// from what that camera receives (its own lens, pixel and exposure), as a
-/// warning naming the QE bias; `None` when they agree within 0.1 % or the
-/// grabber is not simulated.
-fn rig_mismatch(
-    uri: &str,
-    rig: Option<&gloam_calib::source::Rig>,
-    exposure_s: Option<f64>,
-) -> Option<String> {
-    let rig = rig?;
-    let gloam_grabber::GrabberUri::Sim { preset, .. } =
-        gloam_grabber::GrabberUri::parse(uri).ok()?
-    else {
-        return None;
-    };
-    let mut cfg = gloam_sensor::load_preset_or_file(&preset).ok()?;
-    if let Some(e) = exposure_s {
-        cfg.timing.exposure_s = e;
-    }
-    let cam = gloam_calib::source::Rig::from_camera(&cfg, &preset).ok()?;
-    let photons = |r: &gloam_calib::source::Rig| {
-        (r.pixel_pitch_um * 1e-6).powi(2) * r.exposure_s * r.irradiance_factor()
-    };
-    let ratio = photons(rig) / photons(&cam);
-    ((ratio - 1.0).abs() > 1e-3).then(|| {
-        format!(
-            "the source's [rig] (pitch {} µm, f/{}, τ {}, {} s) counts {:.2} % {} photons than the simulated '{preset}' receives (pitch {:.4} µm, f/{}, τ {}, {} s): its QE will read {:.2} % {}; use camera = \"{preset}\" in [rig]",
-            rig.pixel_pitch_um,
-            rig.f_number,
-            rig.optics_transmission,
-            rig.exposure_s,
-            100.0 * (ratio - 1.0).abs(),
-            if ratio > 1.0 { "more" } else { "fewer" },
-            cam.pixel_pitch_um,
-            cam.f_number,
-            cam.optics_transmission,
-            cam.exposure_s,
-            100.0 * (1.0 / ratio - 1.0).abs(),
-            if ratio > 1.0 { "low" } else { "high" },
-        )
-    })
-}
-
-fn read_usaf_ctf(path: &Path) -> anyhow::Result<Vec<(i32, i32, f64)>> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .with_context(|| format!("reading {}", path.display()))?;
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let l = line.trim();
-        if l.is_empty() || l.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = l
-            .split([',', ';', '\t', ' '])
-            .filter(|s| !s.is_empty())
-            .collect();
-        let parsed = (|| -> Option<(i32, i32, f64)> {
-            if f.len() != 3 {
-                return None;
-            }
-            Some((f[0].parse().ok()?, f[1].parse().ok()?, f[2].parse().ok()?))
-        })();
-        match parsed {
-            Some((g, e, m)) if (1..=6).contains(&e) && m.is_finite() => out.push((g, e, m)),
-            Some(_) => bail!(
-                "{}:{}: element must be 1–6 and the modulation finite",
-                path.display(),
-                i + 1
-            ),
-            None if out.is_empty() => continue, // header
-            None => bail!(
-                "{}:{}: expected 'group,element,modulation'",
-                path.display(),
-                i + 1
-            ),
-        }
-    }
-    if out.is_empty() {
-        bail!("{}: no 'group,element,modulation' rows", path.display());
-    }
-    Ok(out)
-}
-
 /// `--space voltage`: the scope flow on the sim: camera, the digital-count
 /// sine flow through the grabber, and the analytic curves, in one report.
-fn mtf_voltage(a: &MtfArgs, set: OutputSet, g: &mut dyn FrameGrabber) -> anyhow::Result<()> {
-    use gloam_calib::mtf_voltage::{VoltageOptions, analytic_curves, voltage_sine_mtf};
-    let uri = a.grabber.as_deref().unwrap_or_default();
-    let (preset, _, seed, size) = gloam_calib::scope_run::sim_uri(uri)?;
-    let size = size.unwrap_or(gloam_simcam::DEFAULT_RIG_SIZE);
-    let mut cfg = gloam_sensor::SensorConfig::load_preset_or_file(&preset)?;
-    cfg.noise.seed = a.seed.unwrap_or(seed);
-    let mut cam = gloam_sensor::Camera::new(cfg)?;
-    let gain = a.gain.unwrap_or(cam.chain().reference_gain);
-    cam.set_override_gain(Some(gain))?;
-    g.set_gain(gain)?;
-    let level = match a.radiance {
-        Some(l) => l,
-        None => auto_range(g, &a.spectrum, 0.4)?,
-    };
-    let freqs = if a.frequencies.is_empty() {
-        (1..=12).map(|i| 0.04 * i as f64).collect()
-    } else {
-        a.frequencies.clone()
-    };
-    let rows = if a.scope_rows.is_empty() {
-        let m = size.1 as usize / 2;
-        (m.saturating_sub(2)..(m + 2).min(size.1 as usize)).collect()
-    } else {
-        a.scope_rows.clone()
-    };
-    let vo = VoltageOptions {
-        frequencies_cy_per_px: freqs.clone(),
-        mean_radiance_w_m2_sr: level,
-        modulation: a.modulation,
-        spectrum: a.spectrum.clone(),
-        frames: a.frames,
-        rows,
-        magnification: a.magnification,
-        size,
-    };
-    let v = with_bar(false, "scope", |p| voltage_sine_mtf(&mut cam, &vo, p))?;
-    let so = SineOptions {
-        frequencies_cy_per_px: freqs.clone(),
-        mean_radiance_w_m2_sr: level,
-        modulation: a.modulation,
-        angle_deg: 0.0,
-        spectrum: a.spectrum.clone(),
-        frames: a.frames,
-    };
-    let mut digital = with_bar(false, "targets", |p| sine_mtf(g, &so, p))?;
-    digital.method = "digital count (sine)".into();
-    let mut curves = vec![v.curve.clone(), digital];
-    curves.extend(analytic_curves(&cam, &freqs, gain, size.0 as usize));
-    let details = serde_json::json!({
-        "space": "voltage",
-        "mean_radiance_w_m2_sr": level,
-        "gain": gain,
-        "grabber": g.describe(),
-        "pixel_clock_hz": v.pixel_clock_hz,
-        "video_bandwidth_hz": cam.chain().amplifier().map(|x| x.bandwidth_hz),
-        "magnification": a.magnification,
-        "grey_scale_reflectance_volts": v.grey_scale,
-        "voltage_points": v.points,
+fn mtf_voltage(
+    a: &MtfArgs,
+    set: OutputSet,
+    g: &mut dyn FrameGrabber,
+    req: &MtfRequest,
+    v: &VoltageRequest,
+) -> anyhow::Result<()> {
+    let bar = progress_bar(false);
+    let r = voltage_mtf(g, req, v, &mut |phase, done, total| {
+        bar.set_message(phase.to_string());
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
     });
-    report::write_mtf_report(set.dir(), &curves, details)?;
+    bar.finish_and_clear();
+    let r = r?;
+    report::write_mtf_report(set.dir(), &r.curves, r.details)?;
     publish(set, "mtf.json")?;
-    for (i, f) in freqs.iter().enumerate() {
+    let (c, p) = (&r.curves, &r.voltage.points);
+    for (i, f) in r.frequencies_cy_per_px.iter().enumerate() {
         eprintln!(
             "{f:.3} cy/px ({:.2} MHz, {:.2} lp/mm object): voltage {:.3}, digital {:.3}, analytic line {:.3}, digitised {:.3}",
-            v.points[i].line_frequency_mhz,
-            v.points[i].object_lp_per_mm,
-            curves[0].mtf[i],
-            curves[1].mtf[i],
-            curves[2].mtf[i],
-            curves[3].mtf[i]
+            p[i].line_frequency_mhz,
+            p[i].object_lp_per_mm,
+            c[0].mtf[i],
+            c[1].mtf[i],
+            c[2].mtf[i],
+            c[3].mtf[i]
         );
     }
     eprintln!("wrote {}", a.out.join("mtf.json").display());
@@ -708,35 +470,13 @@ fn mtf_voltage(a: &MtfArgs, set: OutputSet, g: &mut dyn FrameGrabber) -> anyhow:
 
 fn mtf(a: MtfArgs) -> anyhow::Result<()> {
     let set = OutputSet::begin(&a.out, a.force, false)?;
-    let hidden = false;
     let (curves, details) = match a.target {
         Target::Usaf => {
             let ctf_path = a.ctf.as_ref().context("--target usaf needs --ctf FILE")?;
             let pitch = a
                 .pixel_pitch_um
                 .context("--target usaf needs --pixel-pitch-um")?;
-            let mut rows = read_usaf_ctf(ctf_path)?;
-            rows.sort_by(|x, y| usaf_lp_per_mm(x.0, x.1).total_cmp(&usaf_lp_per_mm(y.0, y.1)));
-            // Chart lp/mm → image cycles per pixel.
-            let f: Vec<f64> = rows
-                .iter()
-                .map(|r| usaf_lp_per_mm(r.0, r.1) / a.magnification * pitch * 1e-3)
-                .collect();
-            let c: Vec<f64> = rows.iter().map(|r| r.2).collect();
-            let m = coltman_sine_from_square_samples(&f, &c)?;
-            let details = serde_json::json!({
-                "usaf": rows.iter().zip(&f).map(|(r, fp)| serde_json::json!({
-                    "group": r.0, "element": r.1, "lp_per_mm": usaf_lp_per_mm(r.0, r.1),
-                    "cycles_per_pixel": fp, "square_wave_modulation": r.2,
-                })).collect::<Vec<_>>(),
-            });
-            (
-                vec![
-                    MtfCurve::new("usaf-coltman", f.clone(), m),
-                    MtfCurve::new("usaf-square-wave", f, c),
-                ],
-                details,
-            )
+            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification)?
         }
         Target::Sine | Target::Edge => {
             let uri = a
@@ -744,55 +484,47 @@ fn mtf(a: MtfArgs) -> anyhow::Result<()> {
                 .clone()
                 .context("--target sine/edge needs --grabber")?;
             let ga = GrabberArgs {
-                grabber: uri,
+                grabber: uri.clone(),
                 seed: a.seed,
                 exposure_s: None,
             };
             let mut g = open_grabber(&ga)?;
-            gloam_calib::capture::agc_off(g.as_mut())?;
-            if let Some(gain) = a.gain {
-                g.set_gain(gain)?;
-            }
+            let req = MtfRequest {
+                target: match a.target {
+                    Target::Sine => GrabberTarget::Sine,
+                    _ => GrabberTarget::Edge,
+                },
+                gain: a.gain,
+                radiance_w_m2_sr: a.radiance,
+                modulation: a.modulation,
+                angle_deg: a.angle_deg,
+                frequencies_cy_per_px: a.frequencies.clone(),
+                frames: a.frames,
+                spectrum: a.spectrum.clone(),
+            };
             if a.space == Space::Voltage {
                 anyhow::ensure!(
-                    matches!(a.target, Target::Sine),
+                    req.target == GrabberTarget::Sine,
                     "--space voltage reads sine patterns: use --target sine"
                 );
-                return mtf_voltage(&a, set, g.as_mut());
+                let v = VoltageRequest {
+                    uri,
+                    seed: a.seed,
+                    scope_rows: a.scope_rows.clone(),
+                    magnification: a.magnification,
+                };
+                return mtf_voltage(&a, set, g.as_mut(), &req, &v);
             }
-            let level = match a.radiance {
-                Some(l) => l,
-                None => auto_range(g.as_mut(), &a.spectrum, 0.4)?,
+            let msg = match req.target {
+                GrabberTarget::Sine => "targets",
+                GrabberTarget::Edge => "edge",
             };
-            let curve = if matches!(a.target, Target::Sine) {
-                let freqs = if a.frequencies.is_empty() {
-                    (1..=24).map(|i| 0.02 * i as f64).collect()
-                } else {
-                    a.frequencies.clone()
-                };
-                let o = SineOptions {
-                    frequencies_cy_per_px: freqs,
-                    mean_radiance_w_m2_sr: level,
-                    modulation: a.modulation,
-                    angle_deg: a.angle_deg.unwrap_or(0.0),
-                    spectrum: a.spectrum.clone(),
-                    frames: a.frames,
-                };
-                with_bar(hidden, "targets", |p| sine_mtf(g.as_mut(), &o, p))?
-            } else {
-                let o = EdgeOptions {
-                    dark_radiance_w_m2_sr: level * 0.2,
-                    bright_radiance_w_m2_sr: level * 1.8,
-                    angle_deg: a.angle_deg.unwrap_or(5.0),
-                    spectrum: a.spectrum.clone(),
-                    frames: a.frames,
-                };
-                with_bar(hidden, "edge", |p| edge_mtf(g.as_mut(), &o, p))?
-            };
-            (
-                vec![curve],
-                serde_json::json!({ "mean_radiance_w_m2_sr": level, "grabber": g.describe() }),
-            )
+            let m = with_bar(false, msg, |p| measure_mtf(g.as_mut(), &req, p))?;
+            let details = serde_json::json!({
+                "mean_radiance_w_m2_sr": m.mean_radiance_w_m2_sr,
+                "grabber": g.describe(),
+            });
+            (vec![m.curve], details)
         }
     };
     report::write_mtf_report(set.dir(), &curves, details)?;

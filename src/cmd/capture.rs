@@ -5,15 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use gloam_grabber::{GrabError, OpenOptions};
+use gloam_calib::apply::CAMERA_FILE;
+use gloam_calib::capture::FrameLosses;
+use gloam_grabber::OpenOptions;
 use gloam_simcam::FrameExposureExt;
 
 use gloam_pipeline::{FrameLog, FrameRecord, OutputSet, Provenance};
 
 use super::output::{png16_bytes, write_atomic};
-
-/// The file beside a capture's frames naming the camera that took them.
-pub const CAMERA_FILE: &str = "camera.json";
 
 #[derive(Args)]
 pub struct CaptureArgs {
@@ -51,14 +50,6 @@ pub struct CaptureArgs {
     /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
-}
-
-#[derive(Default)]
-struct Losses {
-    damaged: u64,
-    lost: u64,
-    interruptions: u64,
-    unknown: u64,
 }
 
 pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
@@ -115,7 +106,7 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         indicatif::ProgressBar::hidden()
     };
     let mut records = Vec::new();
-    let mut losses = Losses::default();
+    let mut losses = FrameLosses::default();
     let mut consecutive = 0u64;
     let mut warned = std::collections::BTreeSet::new();
     let mut frames_warned = 0u64;
@@ -151,20 +142,8 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                     records.push(rec);
                     bar.inc(1);
                 }
-                Err(e) if e.is_frame_loss() => {
+                Err(e) if losses.count(&e) => {
                     consecutive += 1;
-                    match &e {
-                        GrabError::FrameDamaged { .. } => losses.damaged += 1,
-                        GrabError::FramesLost { count, .. } => losses.lost += count,
-                        GrabError::Interrupted { frames_lost, .. } => {
-                            losses.interruptions += 1;
-                            match frames_lost {
-                                Some(n) => losses.lost += n,
-                                None => losses.unknown += 1,
-                            }
-                        }
-                        _ => {}
-                    }
                     bar.suspend(|| eprintln!("warning: {e}"));
                     bar.set_message(format!("{} damaged, {} lost", losses.damaged, losses.lost));
                     if consecutive >= args.max_consecutive_failures {
@@ -184,24 +163,9 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         drop(log);
         set.publish(&provenance, why.as_deref())?;
     }
-    let mut summary = format!(
-        "captured {} frame(s) into {}; {} damaged, {} lost",
-        records.len(),
-        args.out.display(),
-        losses.damaged,
-        losses.lost
+    eprintln!(
+        "{}",
+        losses.summary(records.len(), &args.out, frames_warned)
     );
-    if frames_warned > 0 {
-        summary.push_str(&format!(
-            "; {frames_warned} frame(s) with exposure warnings (see frames.jsonl)"
-        ));
-    }
-    if losses.interruptions > 0 {
-        summary.push_str(&format!(
-            ", {} interruption(s) ({} with an unknown number of lost frames)",
-            losses.interruptions, losses.unknown
-        ));
-    }
-    eprintln!("{summary}");
     result
 }

@@ -34,11 +34,14 @@ pub struct AgcOptions {
     pub allow_unsettled: bool,
 }
 
+/// Frames per staircase step (the CLI's and Python's default).
+pub const DEFAULT_FRAMES_PER_STEP: usize = 60;
+
 impl Default for AgcOptions {
     fn default() -> Self {
         Self {
             fixed_gain: None,
-            frames_per_step: 60,
+            frames_per_step: DEFAULT_FRAMES_PER_STEP,
             settle_tolerance: 0.02,
             allow_unsettled: false,
         }

@@ -1,6 +1,8 @@
 //! Grabbing frames robustly and reducing them to statistics.
 
-use gloam_grabber::{Frame, FrameGrabber, Stimulus};
+use std::path::Path;
+
+use gloam_grabber::{Frame, FrameGrabber, GrabError, Stimulus};
 
 use crate::error::CalibError;
 
@@ -34,6 +36,64 @@ pub fn grab_good(grabber: &mut dyn FrameGrabber) -> Result<Frame, CalibError> {
             }
             Err(e) => return Err(e.into()),
         }
+    }
+}
+
+/// Frames a long capture lost, by kind, for its summary line: damaged
+/// frames, frames lost (counted by sequence gaps), stream interruptions and
+/// how many of those lost an unknown number of frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameLosses {
+    pub damaged: u64,
+    pub lost: u64,
+    pub interruptions: u64,
+    pub unknown: u64,
+}
+
+impl FrameLosses {
+    /// Counts `e` when it is a frame loss ([`GrabError::is_frame_loss`]);
+    /// `false` for any other error, which a capture should not ride out.
+    pub fn count(&mut self, e: &GrabError) -> bool {
+        if !e.is_frame_loss() {
+            return false;
+        }
+        match e {
+            GrabError::FrameDamaged { .. } => self.damaged += 1,
+            GrabError::FramesLost { count, .. } => self.lost += count,
+            GrabError::Interrupted { frames_lost, .. } => {
+                self.interruptions += 1;
+                match frames_lost {
+                    Some(n) => self.lost += n,
+                    None => self.unknown += 1,
+                }
+            }
+            _ => {}
+        }
+        true
+    }
+
+    /// The capture's closing line: `captured N frame(s) into OUT; D
+    /// damaged, L lost`, then the frames with exposure warnings and the
+    /// interruptions when there were any.
+    pub fn summary(&self, captured: usize, out: &Path, frames_with_warnings: u64) -> String {
+        let mut s = format!(
+            "captured {captured} frame(s) into {}; {} damaged, {} lost",
+            out.display(),
+            self.damaged,
+            self.lost
+        );
+        if frames_with_warnings > 0 {
+            s.push_str(&format!(
+                "; {frames_with_warnings} frame(s) with exposure warnings (see frames.jsonl)"
+            ));
+        }
+        if self.interruptions > 0 {
+            s.push_str(&format!(
+                ", {} interruption(s) ({} with an unknown number of lost frames)",
+                self.interruptions, self.unknown
+            ));
+        }
+        s
     }
 }
 
@@ -182,7 +242,43 @@ pub fn auto_range(
 /// Turns AGC off; a camera without AGC (`Unsupported`) already is.
 pub fn agc_off(grabber: &mut dyn FrameGrabber) -> Result<(), CalibError> {
     match grabber.set_agc(false) {
-        Ok(_) | Err(gloam_grabber::GrabError::Unsupported(_)) => Ok(()),
+        Ok(_) | Err(GrabError::Unsupported(_)) => Ok(()),
         Err(e) => Err(e.into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn losses_count_by_kind_and_summarise() {
+        let mut l = FrameLosses::default();
+        assert!(l.count(&GrabError::FrameDamaged {
+            seq: 4,
+            reason: "crc".into()
+        }));
+        assert!(l.count(&GrabError::FramesLost {
+            count: 3,
+            next_seq: 9
+        }));
+        assert!(!l.count(&GrabError::Unsupported("agc".into())));
+        assert_eq!(
+            l,
+            FrameLosses {
+                damaged: 1,
+                lost: 3,
+                interruptions: 0,
+                unknown: 0
+            }
+        );
+        assert_eq!(
+            l.summary(7, Path::new("o"), 0),
+            "captured 7 frame(s) into o; 1 damaged, 3 lost"
+        );
+        assert_eq!(
+            l.summary(7, Path::new("o"), 2),
+            "captured 7 frame(s) into o; 1 damaged, 3 lost; 2 frame(s) with exposure warnings (see frames.jsonl)"
+        );
     }
 }

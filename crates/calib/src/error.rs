@@ -26,6 +26,72 @@ pub enum CalibError {
     Aborted(String),
     #[error("I/O: {0}")]
     Io(String),
+    /// A file that could not be read (missing, not a regular file, too
+    /// large, not UTF-8).
+    #[error("reading {path}")]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A bad line of a text input file (1-based).
+    #[error("{path}:{line}: {message}")]
+    Line {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+    /// A JSON file that does not parse as what it should hold.
+    #[error("{path}: not a gloam {what}")]
+    NotJson {
+        path: PathBuf,
+        what: &'static str,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// An explicit gain that contradicts the one recorded for the frame.
+    #[error("--gain {gain}: {}:{line} records gain {recorded} for {}; the frame was not taken at gain {gain} (omit --gain to use the recorded gain)", frames_jsonl.display(), frame.display())]
+    GainMismatch {
+        gain: f64,
+        recorded: f64,
+        frames_jsonl: PathBuf,
+        line: usize,
+        frame: PathBuf,
+    },
+    /// A LUT made with another camera than the one that took the frame.
+    #[error("{}: made with camera '{lut_camera}', but {} was captured with '{frame_camera}' ({}); calibrate that camera, or apply its own LUT", lut.display(), frame.display(), camera_file.display())]
+    LutCamera {
+        lut: PathBuf,
+        lut_camera: String,
+        frame: PathBuf,
+        frame_camera: String,
+        camera_file: PathBuf,
+    },
+    /// A LUT made for another digitizer bit depth than the frame's.
+    #[error("{}: made for a digitizer whose top code is {lut_max_dn} DN, but {}:{line} records {} as {bits}-bit (top code {frame_max_dn} DN); apply a LUT of this bit depth", lut.display(), frames_jsonl.display(), frame.display())]
+    LutBitDepth {
+        lut: PathBuf,
+        lut_max_dn: f64,
+        frames_jsonl: PathBuf,
+        line: usize,
+        frame: PathBuf,
+        bits: u64,
+        frame_max_dn: f64,
+    },
+    /// A frame holding counts the LUT's digitizer cannot produce.
+    #[error("{}: holds {top_dn} DN, above the top code {lut_max_dn} DN of the camera {} was made for; the frame is from another camera or bit depth", frame.display(), lut.display())]
+    CountsAboveLut {
+        frame: PathBuf,
+        top_dn: u16,
+        lut_max_dn: f64,
+        lut: PathBuf,
+    },
+    /// A sensor preset or file that does not load.
+    #[error(transparent)]
+    SensorConfig(#[from] gloam_sensor::ConfigError),
+    /// A simulated camera refusing a setting (e.g. a gain outside its range).
+    #[error(transparent)]
+    SensorCapture(#[from] gloam_sensor::CaptureError),
 }
 
 impl CalibError {

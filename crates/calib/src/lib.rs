@@ -4,15 +4,18 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod agc;
+pub mod apply;
 pub mod capture;
 mod error;
 pub mod io;
 pub mod mtf;
+pub mod mtf_flow;
 pub mod mtf_voltage;
 pub mod plot;
 pub mod ptc;
 pub mod radiance;
 pub mod report;
+pub mod rig_check;
 pub mod scope_plot;
 pub mod scope_run;
 pub mod source;

@@ -289,7 +289,7 @@ pub fn sine_mtf(
                 }
             }
         }
-        let sol = solve3(ata, aty).ok_or_else(|| {
+        let sol = gloam_sensor::scope::solve3(ata, aty).ok_or_else(|| {
             CalibError::SingularFit(format!(
                 "sine target at {f} cy/px cannot be fitted (frequency 0 or exactly aliased onto the pixel grid)"
             ))
@@ -303,29 +303,6 @@ pub fn sine_mtf(
         opts.frequencies_cy_per_px.clone(),
         out,
     ))
-}
-
-fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
-    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    for col in 0..3 {
-        let piv = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if a[piv][col].abs() <= 1e-10 * scale {
-            return None;
-        }
-        a.swap(col, piv);
-        b.swap(col, piv);
-        let pivot_row = a[col];
-        for r in 0..3 {
-            if r != col {
-                let k = a[r][col] / pivot_row[col];
-                for (x, p) in a[r].iter_mut().zip(pivot_row) {
-                    *x -= k * p;
-                }
-                b[r] -= k * b[col];
-            }
-        }
-    }
-    Some([b[0] / a[0][0], b[1] / a[1][1], b[2] / a[2][2]])
 }
 
 /// Settings of the slanted-edge measurement.

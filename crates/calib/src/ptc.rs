@@ -51,12 +51,19 @@ pub struct PtcOptions {
     pub dataset_dir: Option<std::path::PathBuf>,
 }
 
+/// Fixed gain of the sweep (the CLI's and Python's default).
+pub const DEFAULT_GAIN: f64 = 1.0;
+/// Frames averaged for DSNU/PRNU (EMVA 1288 recommends L ≥ 16).
+pub const DEFAULT_SPATIAL_FRAMES: usize = 16;
+/// Irradiance levels when the source file lists none (EMVA 1288: ≥ 50).
+pub const DEFAULT_LEVELS: usize = 50;
+
 impl Default for PtcOptions {
     fn default() -> Self {
         Self {
-            gain: 1.0,
+            gain: DEFAULT_GAIN,
             exposure_s: None,
-            spatial_frames: 16,
+            spatial_frames: DEFAULT_SPATIAL_FRAMES,
             dataset_dir: None,
         }
     }

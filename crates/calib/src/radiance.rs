@@ -27,11 +27,14 @@ pub struct RadianceOptions {
     pub knee_slope_ratio: f64,
 }
 
+/// Frames averaged per level (the CLI's and Python's default).
+pub const DEFAULT_FRAMES: usize = 8;
+
 impl Default for RadianceOptions {
     fn default() -> Self {
         Self {
             gains: vec![1.0],
-            frames: 8,
+            frames: DEFAULT_FRAMES,
             exposure_s: None,
             clip_tolerance: 1e-3,
             knee_slope_ratio: 0.9,

@@ -144,8 +144,11 @@ pub fn fundamental(line: &ScopeLine, nu_hz: f64) -> Option<(f64, f64)> {
     Some((x[0], x[1].hypot(x[2])))
 }
 
-/// Gauss–Jordan with partial pivoting; None when singular.
-fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+/// Solves the 3×3 system `a·x = b` (the normal equations of a DC + cos +
+/// sin least-squares fit) by Gauss–Jordan with partial pivoting; `None`
+/// when a pivot is below 1e-10 of the largest entry (singular). Shared
+/// with `gloam-calib`'s sine-target MTF fit.
+pub fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
     let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
     for col in 0..3 {
         let piv = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;

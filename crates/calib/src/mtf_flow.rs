@@ -1,0 +1,444 @@
+//! The MTF measurements as `gloam calibrate mtf` and Python's `gloam.mtf`
+//! run them, with their defaults in one place so the two front ends cannot
+//! drift: sine targets and the slanted edge through any grabber, USAF 1951
+//! bar contrasts read from a CTF file, and the voltage-space flow on a
+//! simulated camera's video line.
+
+use std::path::{Path, PathBuf};
+
+use gloam_grabber::FrameGrabber;
+use serde::Serialize;
+
+use crate::capture::{agc_off, auto_range};
+use crate::error::CalibError;
+use crate::mtf::{
+    EdgeOptions, MtfCurve, SineOptions, coltman_sine_from_square_samples, edge_mtf, sine_mtf,
+    usaf_lp_per_mm,
+};
+use crate::mtf_voltage::{VoltageMtf, VoltageOptions, analytic_curves, voltage_sine_mtf};
+
+/// Auto-ranged mean target radiance, as a fraction of full scale above
+/// dark: mid-scale leaves room for the bright half of a sine or edge.
+pub const AUTO_RANGE_FRACTION: f64 = 0.4;
+/// Sine modulation in radiance.
+pub const DEFAULT_MODULATION: f64 = 0.8;
+/// Frames averaged per target.
+pub const DEFAULT_FRAMES: usize = 8;
+/// Relative spectrum of the targets (a built-in name).
+pub const DEFAULT_SPECTRUM: &str = "cie-a";
+/// Sine targets are at 0° to the row axis unless asked otherwise.
+pub const DEFAULT_SINE_ANGLE_DEG: f64 = 0.0;
+/// The slanted edge's angle from the column axis (ISO 12233 asks for a few
+/// degrees so the edge samples every sub-pixel phase).
+pub const DEFAULT_EDGE_ANGLE_DEG: f64 = 5.0;
+/// Edge dark and bright sides, as multiples of the mean radiance.
+pub const EDGE_DARK_FACTOR: f64 = 0.2;
+pub const EDGE_BRIGHT_FACTOR: f64 = 1.8;
+
+/// Which pattern the grabber is shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GrabberTarget {
+    /// Sine targets (`Stimulus::Sine`), read in digital counts.
+    Sine,
+    /// ISO 12233 slanted edge.
+    Edge,
+}
+
+/// An MTF measurement through a grabber. `None` and empty fields take the
+/// defaults above; [`Default`] is what both front ends start from.
+#[derive(Clone, Debug)]
+pub struct MtfRequest {
+    pub target: GrabberTarget,
+    /// Fixed gain (AGC off either way); `None` leaves the camera's gain.
+    pub gain: Option<f64>,
+    /// Mean target radiance, W m⁻² sr⁻¹; `None`: auto-ranged to
+    /// [`AUTO_RANGE_FRACTION`] of full scale (simulated cameras only).
+    pub radiance_w_m2_sr: Option<f64>,
+    pub modulation: f64,
+    /// `None`: [`DEFAULT_SINE_ANGLE_DEG`] or [`DEFAULT_EDGE_ANGLE_DEG`].
+    pub angle_deg: Option<f64>,
+    /// Empty: [`default_sine_frequencies`] (or, in voltage space,
+    /// [`default_voltage_frequencies`]).
+    pub frequencies_cy_per_px: Vec<f64>,
+    pub frames: usize,
+    pub spectrum: String,
+}
+
+impl Default for MtfRequest {
+    fn default() -> Self {
+        Self {
+            target: GrabberTarget::Edge,
+            gain: None,
+            radiance_w_m2_sr: None,
+            modulation: DEFAULT_MODULATION,
+            angle_deg: None,
+            frequencies_cy_per_px: Vec::new(),
+            frames: DEFAULT_FRAMES,
+            spectrum: DEFAULT_SPECTRUM.to_string(),
+        }
+    }
+}
+
+/// Sine frequencies in digital counts: 0.02 … 0.48 cy/px in steps of 0.02.
+pub fn default_sine_frequencies() -> Vec<f64> {
+    (1..=24).map(|i| 0.02 * i as f64).collect()
+}
+
+/// Sine frequencies in voltage space: 0.04 … 0.48 cy/px in steps of 0.04
+/// (each point scopes every row, so half as many).
+pub fn default_voltage_frequencies() -> Vec<f64> {
+    (1..=12).map(|i| 0.04 * i as f64).collect()
+}
+
+/// The four middle rows of a frame `height` rows tall (fewer when it is
+/// smaller): what the scope isolates unless told otherwise.
+pub fn default_scope_rows(height: u32) -> Vec<usize> {
+    let m = height as usize / 2;
+    (m.saturating_sub(2)..(m + 2).min(height as usize)).collect()
+}
+
+/// A measured curve and the mean radiance it was measured at.
+#[derive(Clone, Debug)]
+pub struct MtfMeasurement {
+    pub curve: MtfCurve,
+    pub mean_radiance_w_m2_sr: f64,
+}
+
+/// Turns AGC off, applies the fixed gain and finds the mean radiance
+/// (given, or auto-ranged).
+fn prepare(g: &mut dyn FrameGrabber, req: &MtfRequest) -> Result<(), CalibError> {
+    agc_off(g)?;
+    if let Some(gain) = req.gain {
+        g.set_gain(gain)?;
+    }
+    Ok(())
+}
+
+fn mean_radiance(g: &mut dyn FrameGrabber, req: &MtfRequest) -> Result<f64, CalibError> {
+    match req.radiance_w_m2_sr {
+        Some(l) => Ok(l),
+        None => auto_range(g, &req.spectrum, AUTO_RANGE_FRACTION),
+    }
+}
+
+/// Sine-target or slanted-edge MTF through `g` with `req`'s settings and
+/// the defaults for what it leaves open.
+pub fn measure_mtf(
+    g: &mut dyn FrameGrabber,
+    req: &MtfRequest,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<MtfMeasurement, CalibError> {
+    prepare(g, req)?;
+    let level = mean_radiance(g, req)?;
+    let curve = match req.target {
+        GrabberTarget::Sine => {
+            let o = SineOptions {
+                frequencies_cy_per_px: if req.frequencies_cy_per_px.is_empty() {
+                    default_sine_frequencies()
+                } else {
+                    req.frequencies_cy_per_px.clone()
+                },
+                mean_radiance_w_m2_sr: level,
+                modulation: req.modulation,
+                angle_deg: req.angle_deg.unwrap_or(DEFAULT_SINE_ANGLE_DEG),
+                spectrum: req.spectrum.clone(),
+                frames: req.frames,
+            };
+            sine_mtf(g, &o, progress)?
+        }
+        GrabberTarget::Edge => {
+            let o = EdgeOptions {
+                dark_radiance_w_m2_sr: level * EDGE_DARK_FACTOR,
+                bright_radiance_w_m2_sr: level * EDGE_BRIGHT_FACTOR,
+                angle_deg: req.angle_deg.unwrap_or(DEFAULT_EDGE_ANGLE_DEG),
+                spectrum: req.spectrum.clone(),
+                frames: req.frames,
+            };
+            edge_mtf(g, &o, progress)?
+        }
+    };
+    Ok(MtfMeasurement {
+        curve,
+        mean_radiance_w_m2_sr: level,
+    })
+}
+
+/// The voltage-space settings beyond [`MtfRequest`].
+#[derive(Clone, Debug)]
+pub struct VoltageRequest {
+    /// The `sim:` grabber URI the camera is modelled from.
+    pub uri: String,
+    /// Noise seed; `None`: the URI's.
+    pub seed: Option<u64>,
+    /// Frame rows the scope isolates; empty: [`default_scope_rows`].
+    pub scope_rows: Vec<usize>,
+    /// Optical magnification, image size / chart size.
+    pub magnification: f64,
+}
+
+/// The voltage-space report: curves (voltage, digital counts, then the
+/// chain's analytic line and digitised MTF), the scope's points and the
+/// `details` block of `mtf.json`.
+#[derive(Clone, Debug)]
+pub struct VoltageReport {
+    pub curves: Vec<MtfCurve>,
+    pub voltage: VoltageMtf,
+    pub frequencies_cy_per_px: Vec<f64>,
+    pub details: serde_json::Value,
+}
+
+/// Sine MTF in voltage space (the scope on a simulated camera modelled
+/// from `v.uri`) beside the digital-count sine flow through `g` on the same
+/// camera and the chain's analytic MTF. `progress` gets the phase
+/// (`"scope"`, then `"targets"`), done and total.
+pub fn voltage_mtf(
+    g: &mut dyn FrameGrabber,
+    req: &MtfRequest,
+    v: &VoltageRequest,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<VoltageReport, CalibError> {
+    prepare(g, req)?;
+    let (preset, _, seed, size) = crate::scope_run::sim_uri(&v.uri)?;
+    let size = size.unwrap_or(gloam_simcam::DEFAULT_RIG_SIZE);
+    let mut cfg = gloam_sensor::SensorConfig::load_preset_or_file(&preset)?;
+    cfg.noise.seed = v.seed.unwrap_or(seed);
+    let mut cam = gloam_sensor::Camera::new(cfg)?;
+    let gain = req.gain.unwrap_or(cam.chain().reference_gain);
+    cam.set_override_gain(Some(gain))?;
+    g.set_gain(gain)?;
+    let level = mean_radiance(g, req)?;
+    let freqs = if req.frequencies_cy_per_px.is_empty() {
+        default_voltage_frequencies()
+    } else {
+        req.frequencies_cy_per_px.clone()
+    };
+    let rows = if v.scope_rows.is_empty() {
+        default_scope_rows(size.1)
+    } else {
+        v.scope_rows.clone()
+    };
+    let vo = VoltageOptions {
+        frequencies_cy_per_px: freqs.clone(),
+        mean_radiance_w_m2_sr: level,
+        modulation: req.modulation,
+        spectrum: req.spectrum.clone(),
+        frames: req.frames,
+        rows,
+        magnification: v.magnification,
+        size,
+    };
+    let voltage = voltage_sine_mtf(&mut cam, &vo, &mut |d, t| progress("scope", d, t))?;
+    let so = SineOptions {
+        frequencies_cy_per_px: freqs.clone(),
+        mean_radiance_w_m2_sr: level,
+        modulation: req.modulation,
+        angle_deg: DEFAULT_SINE_ANGLE_DEG,
+        spectrum: req.spectrum.clone(),
+        frames: req.frames,
+    };
+    let mut digital = sine_mtf(g, &so, &mut |d, t| progress("targets", d, t))?;
+    digital.method = "digital count (sine)".into();
+    let mut curves = vec![voltage.curve.clone(), digital];
+    curves.extend(analytic_curves(&cam, &freqs, gain, size.0 as usize));
+    let details = serde_json::json!({
+        "space": "voltage",
+        "mean_radiance_w_m2_sr": level,
+        "gain": gain,
+        "grabber": g.describe(),
+        "pixel_clock_hz": voltage.pixel_clock_hz,
+        "video_bandwidth_hz": cam.chain().amplifier().map(|x| x.bandwidth_hz),
+        "magnification": v.magnification,
+        "grey_scale_reflectance_volts": voltage.grey_scale,
+        "voltage_points": voltage.points,
+    });
+    Ok(VoltageReport {
+        curves,
+        voltage,
+        frequencies_cy_per_px: freqs,
+        details,
+    })
+}
+
+/// One measured USAF 1951 bar contrast.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct UsafBar {
+    pub group: i32,
+    /// 1 … 6.
+    pub element: i32,
+    /// Measured square-wave (bar) modulation.
+    pub modulation: f64,
+}
+
+/// Parses a CTF file's text: rows of `group,element,modulation` (commas,
+/// semicolons, tabs or spaces), `#` comments and blank lines skipped, and
+/// header lines before the first row. `path` names the file in errors.
+pub fn parse_usaf_ctf(text: &str, path: &Path) -> Result<Vec<UsafBar>, CalibError> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = l
+            .split([',', ';', '\t', ' '])
+            .filter(|s| !s.is_empty())
+            .collect();
+        let parsed = (|| -> Option<(i32, i32, f64)> {
+            if f.len() != 3 {
+                return None;
+            }
+            Some((f[0].parse().ok()?, f[1].parse().ok()?, f[2].parse().ok()?))
+        })();
+        let at = |message: &str| CalibError::Line {
+            path: path.to_path_buf(),
+            line: i + 1,
+            message: message.to_string(),
+        };
+        match parsed {
+            Some((group, element, modulation))
+                if (1..=6).contains(&element) && modulation.is_finite() =>
+            {
+                out.push(UsafBar {
+                    group,
+                    element,
+                    modulation,
+                })
+            }
+            Some(_) => return Err(at("element must be 1–6 and the modulation finite")),
+            None if out.is_empty() => continue, // header
+            None => return Err(at("expected 'group,element,modulation'")),
+        }
+    }
+    if out.is_empty() {
+        return Err(CalibError::file(path, "no 'group,element,modulation' rows"));
+    }
+    Ok(out)
+}
+
+/// Reads and parses a CTF file (see [`parse_usaf_ctf`]).
+pub fn read_usaf_ctf(path: &Path) -> Result<Vec<UsafBar>, CalibError> {
+    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .map_err(|source| CalibError::Read {
+            path: PathBuf::from(path),
+            source,
+        })?;
+    parse_usaf_ctf(&text, path)
+}
+
+/// Sine MTF from USAF bar contrasts: each bar's chart frequency (lp/mm)
+/// goes to the image through `magnification` (image size / chart size) and
+/// to cycles per pixel at `pixel_pitch_um`, then Coltman's series turns the
+/// square-wave response into the sine MTF. Returns the Coltman curve, the
+/// measured square-wave curve (both sorted by frequency) and the `details`
+/// block of `mtf.json`.
+pub fn usaf_mtf(
+    mut bars: Vec<UsafBar>,
+    pixel_pitch_um: f64,
+    magnification: f64,
+) -> Result<(Vec<MtfCurve>, serde_json::Value), CalibError> {
+    let lp = |b: &UsafBar| usaf_lp_per_mm(b.group, b.element);
+    bars.sort_by(|x, y| lp(x).total_cmp(&lp(y)));
+    // Chart lp/mm → image cycles per pixel.
+    let f: Vec<f64> = bars
+        .iter()
+        .map(|b| lp(b) / magnification * pixel_pitch_um * 1e-3)
+        .collect();
+    let c: Vec<f64> = bars.iter().map(|b| b.modulation).collect();
+    let m = coltman_sine_from_square_samples(&f, &c)?;
+    let details = serde_json::json!({
+        "usaf": bars.iter().zip(&f).map(|(b, fp)| serde_json::json!({
+            "group": b.group, "element": b.element, "lp_per_mm": lp(b),
+            "cycles_per_pixel": fp, "square_wave_modulation": b.modulation,
+        })).collect::<Vec<_>>(),
+    });
+    Ok((
+        vec![
+            MtfCurve::new("usaf-coltman", f.clone(), m),
+            MtfCurve::new("usaf-square-wave", f, c),
+        ],
+        details,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ctf_rows_skip_header_and_comments_and_name_bad_lines() {
+        let p = Path::new("c.csv");
+        let bars =
+            parse_usaf_ctf("group,element,modulation\n# x\n\n0,1,0.9\n1;2;0.5\n", p).unwrap();
+        assert_eq!(
+            bars,
+            vec![
+                UsafBar {
+                    group: 0,
+                    element: 1,
+                    modulation: 0.9
+                },
+                UsafBar {
+                    group: 1,
+                    element: 2,
+                    modulation: 0.5
+                }
+            ]
+        );
+        let e = parse_usaf_ctf("0,1,0.9\n0,7,0.5\n", p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "c.csv:2: element must be 1–6 and the modulation finite"
+        );
+        let e = parse_usaf_ctf("0,1,0.9\nx\n", p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "c.csv:2: expected 'group,element,modulation'"
+        );
+        let e = parse_usaf_ctf("# only\n", p).unwrap_err();
+        assert_eq!(e.to_string(), "c.csv: no 'group,element,modulation' rows");
+    }
+
+    #[test]
+    fn usaf_frequencies_go_from_chart_to_image_pixels() {
+        // Group 0 element 1 is 1 lp/mm; at magnification 0.5 it is 2 lp/mm
+        // on the sensor, and with 10 µm pixels 0.02 cycles per pixel.
+        // Group 2 element 1 (4 lp/mm) lands at 0.08.
+        let bars = vec![
+            UsafBar {
+                group: 2,
+                element: 1,
+                modulation: 0.5,
+            },
+            UsafBar {
+                group: 0,
+                element: 1,
+                modulation: 0.9,
+            },
+        ];
+        let (curves, details) = usaf_mtf(bars, 10.0, 0.5).unwrap();
+        let f = &curves[1].frequencies_cy_per_px;
+        assert!(
+            (f[0] - 0.02).abs() < 1e-15 && (f[1] - 0.08).abs() < 1e-15,
+            "{f:?}"
+        );
+        assert_eq!(curves[1].mtf, vec![0.9, 0.5]);
+        assert_eq!(details["usaf"][1]["lp_per_mm"], 4.0);
+    }
+
+    #[test]
+    fn defaults_are_the_documented_grids() {
+        let s = default_sine_frequencies();
+        assert_eq!(s.len(), 24);
+        assert!((s[0] - 0.02).abs() < 1e-15 && (s[23] - 0.48).abs() < 1e-15);
+        let v = default_voltage_frequencies();
+        assert_eq!(v.len(), 12);
+        assert!((v[11] - 0.48).abs() < 1e-15);
+        assert_eq!(default_scope_rows(240), vec![118, 119, 120, 121]);
+        assert_eq!(default_scope_rows(1), vec![0]);
+        let r = MtfRequest::default();
+        assert_eq!(
+            (r.modulation, r.frames, r.spectrum.as_str()),
+            (0.8, 8, "cie-a")
+        );
+    }
+}
