@@ -6,7 +6,7 @@
 //! refactor of the chain and `diff` the two outputs: any change in any
 //! result shows as a changed line.
 
-use gloam_sensor::{Camera, Frame, SensorConfig, bench::test_scene};
+use gloam_sensor::{Camera, DigitizedFrame, SensorConfig, bench::test_scene};
 use gloam_spectra::Spectrum;
 use ndarray::{Array2, Array3};
 
@@ -21,7 +21,7 @@ fn fnv1a(pixels: &Array2<u16>) -> u64 {
     h
 }
 
-fn line(tag: &str, f: &Frame) {
+fn line(tag: &str, f: &DigitizedFrame) {
     let sum: u64 = f.pixels.iter().map(|&p| p as u64).sum();
     println!(
         "{tag}: fnv={:016x} sum={sum} mean={:016x} sat={:016x} gain={:016x} agc={:?} v={:?}",

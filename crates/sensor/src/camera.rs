@@ -54,9 +54,11 @@ pub struct FrameMeta {
     pub saturation: SaturationAccount,
 }
 
-/// One digitised frame: `height × width` digital counts.
+/// One digitised frame: `height × width` digital counts, with the
+/// settings in effect — what the camera model's digitizer hands on (a
+/// frame grabber wraps it in its own `Frame`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Frame {
+pub struct DigitizedFrame {
     pub pixels: Array2<u16>,
     pub meta: FrameMeta,
 }
@@ -259,7 +261,7 @@ impl Camera {
         &mut self,
         radiance_w_m2_sr: ArrayView3<f64>,
         band_shapes: &[Spectrum],
-    ) -> Result<Frame, CaptureError> {
+    ) -> Result<DigitizedFrame, CaptureError> {
         let (bands, rows, cols) = radiance_w_m2_sr.dim();
         if bands != band_shapes.len() {
             return Err(CaptureError::BandMismatch {
@@ -305,7 +307,7 @@ impl Camera {
     pub fn capture_detected(
         &mut self,
         detected_e_s_m2_sr: ArrayView2<f64>,
-    ) -> Result<Frame, CaptureError> {
+    ) -> Result<DigitizedFrame, CaptureError> {
         let (rows, cols) = detected_e_s_m2_sr.dim();
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
@@ -323,7 +325,7 @@ impl Camera {
         &mut self,
         radiance_w_m2_sr: ArrayView2<f64>,
         shape: &Spectrum,
-    ) -> Result<Frame, CaptureError> {
+    ) -> Result<DigitizedFrame, CaptureError> {
         let view = radiance_w_m2_sr.insert_axis(Axis(0));
         self.capture(view, std::slice::from_ref(shape))
     }
@@ -335,7 +337,7 @@ impl Camera {
     pub fn capture_photoelectrons(
         &mut self,
         pe_per_pixel: ArrayView2<f64>,
-    ) -> Result<Frame, CaptureError> {
+    ) -> Result<DigitizedFrame, CaptureError> {
         let (rows, cols) = pe_per_pixel.dim();
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
@@ -383,7 +385,7 @@ impl Camera {
         rows: usize,
         cols: usize,
         apply_vignette: bool,
-    ) -> Result<Frame, CaptureError> {
+    ) -> Result<DigitizedFrame, CaptureError> {
         let chain = &self.chain;
         // The tube's ABC: MCP voltage first, then the gate.
         let abc = self.bright.as_ref().and_then(|b| b.abc);
@@ -643,7 +645,7 @@ impl Camera {
         {
             (self.gain, self.agc_state) = agc.step(self.gain, mean_dn - black, sat_frac);
         }
-        Ok(Frame { pixels, meta })
+        Ok(DigitizedFrame { pixels, meta })
     }
 }
 
