@@ -200,7 +200,7 @@ fn one_photoelectron_per_pixel_per_frame() {
     for _ in 0..pairs {
         let a = cam.capture_photoelectrons(field.view()).unwrap();
         let b = cam.capture_photoelectrons(field.view()).unwrap();
-        let inner = |f: &gloam_sensor::Frame| -> Vec<f64> {
+        let inner = |f: &gloam_sensor::DigitizedFrame| -> Vec<f64> {
             f.pixels
                 .slice(ndarray::s![12..148, 12..148])
                 .iter()

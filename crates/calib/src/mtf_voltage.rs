@@ -75,7 +75,7 @@ pub struct VoltageMtf {
 /// Mean active-line volts of the scoped rows (the first and last 2 % of
 /// the active line, where the amplifier settles from blanking, left out).
 fn mean_line_volts(cam: &Camera, rows: usize) -> Result<f64, CalibError> {
-    let lines = scope_lines(cam, rows).map_err(CalibError::Invalid)?;
+    let lines = scope_lines(cam, rows).map_err(|e| CalibError::Invalid(e.to_string()))?;
     let (mut s, mut n) = (0.0f64, 0usize);
     for l in &lines {
         let t = &l.timing;
@@ -201,7 +201,7 @@ pub fn voltage_sine_mtf(
         let (mut mean, mut amp, mut n) = (0.0, 0.0, 0usize);
         for _ in 0..frames {
             capture(cam, &s)?;
-            for l in scope_lines(cam, rows).map_err(CalibError::Invalid)? {
+            for l in scope_lines(cam, rows).map_err(|e| CalibError::Invalid(e.to_string()))? {
                 let (m, a) = fundamental(&l, nu).ok_or_else(|| {
                     CalibError::SingularFit(format!("sine at {f} cy/px on row {}", l.row))
                 })?;

@@ -164,7 +164,7 @@ pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
         cam.capture_mono(img.view(), &shape)
             .map_err(|e| CalibError::Invalid(format!("capture: {e}")))?;
     }
-    let lines = scope_lines(&cam, h as usize).map_err(CalibError::Invalid)?;
+    let lines = scope_lines(&cam, h as usize).map_err(|e| CalibError::Invalid(e.to_string()))?;
     let readouts = lines
         .iter()
         .filter_map(|l| read_line(l).map(|r| (l.row, r)))

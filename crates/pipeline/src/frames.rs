@@ -91,7 +91,7 @@ impl FrameRecord {
     pub fn of_sensor_frame(
         index: u64,
         file: String,
-        frame: &gloam_sensor::Frame,
+        frame: &gloam_sensor::DigitizedFrame,
         pixels: &[u16],
         camera: &Camera,
     ) -> Self {

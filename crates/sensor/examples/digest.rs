@@ -6,7 +6,7 @@
 //! refactor of the chain and `diff` the two outputs: any change in any
 //! result shows as a changed line.
 
-use gloam_sensor::{Camera, Frame, SensorConfig, bench::test_scene};
+use gloam_sensor::{Camera, DigitizedFrame, SensorConfig, bench::test_scene};
 use gloam_spectra::Spectrum;
 use ndarray::{Array2, Array3};
 
@@ -21,7 +21,7 @@ fn fnv1a(pixels: &Array2<u16>) -> u64 {
     h
 }
 
-fn line(tag: &str, f: &Frame) {
+fn line(tag: &str, f: &DigitizedFrame) {
     let sum: u64 = f.pixels.iter().map(|&p| p as u64).sum();
     println!(
         "{tag}: fnv={:016x} sum={sum} mean={:016x} sat={:016x} gain={:016x} agc={:?} v={:?}",
@@ -32,6 +32,23 @@ fn line(tag: &str, f: &Frame) {
         f.meta.agc_state,
         f.meta.control_voltage_v.map(f64::to_bits),
     );
+    // The bright-source stages' account (shortest round-trip floats, so
+    // exact).
+    println!("  {:?} mcp_v={:?}", f.meta.saturation, f.meta.mcp_voltage_v);
+}
+
+/// FNV-1a of the scope lines' electrons (bit patterns).
+fn scope_digest(cam: &Camera) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for (r, v) in cam.scope_electrons() {
+        for x in std::iter::once(*r as u64).chain(v.iter().map(|x| x.to_bits())) {
+            for b in x.to_le_bytes() {
+                h ^= b as u64;
+                h = h.wrapping_mul(0x0100_0000_01b3);
+            }
+        }
+    }
+    h
 }
 
 fn main() {
@@ -75,6 +92,7 @@ fn main() {
                     if gain.is_some() {
                         cam.set_override_gain(gain).expect("gain");
                     }
+                    cam.set_scope_rows(vec![5, 30, 63]);
                     // A sequence: AGC and persistence carry state.
                     for (i, level) in [0.3, 2.0, 40.0, 2.0].into_iter().enumerate() {
                         let scene = test_scene(96, 64, level);
@@ -83,6 +101,7 @@ fn main() {
                             &format!("{name} s{seed} g{gi} n{} pe#{i} L{level}", noise as u8),
                             &f,
                         );
+                        println!("  scope={:016x}", scope_digest(&cam));
                     }
                     // Radiance paths: two bands, mono, detected.
                     let k = cam.chain().pe_per_radiance(&band).expect("k");
@@ -111,6 +130,50 @@ fn main() {
                         &f,
                     );
                 }
+            }
+        }
+        // Variants: the analogue line band-limited (with clock jitter and
+        // an RS-170 line), the bright-source stages off, no vignetting, no
+        // video; each with its effect plan.
+        let mut variants = vec![("base", base.clone())];
+        if let Some(video) = &base.video {
+            let mut cfg = base.clone();
+            let mut v = video.clone();
+            v.bandwidth_hz = Some(4.2e6);
+            v.format = gloam_sensor::stages::video_timing::VideoFormat::Rs170;
+            cfg.video = Some(v.clone());
+            cfg.digitizer.clock_jitter_s = 5e-9;
+            cfg.digitizer.sample_phase = 0.3;
+            variants.push(("line", cfg.clone()));
+            v.bandwidth_filter = gloam_sensor::stages::video_bandwidth::FilterKind::SinglePole;
+            cfg.video = Some(v);
+            cfg.digitizer.clock_jitter_s = 0.0;
+            variants.push(("line1", cfg));
+        }
+        let mut cfg = base.clone();
+        cfg.bright_source.halo.enabled = false;
+        cfg.bright_source.mcp_depletion.enabled = false;
+        cfg.bright_source.abc.enabled = false;
+        cfg.optics.vignetting = false;
+        cfg.noise.enabled = false;
+        variants.push(("plain", cfg));
+        let mut cfg = base.clone();
+        cfg.optics.f_number = -1.0;
+        variants.push(("invalid", cfg));
+        for (tag, cfg) in variants {
+            println!(
+                "{name} {tag} effects {:?}",
+                gloam_sensor::sensor_effects(&cfg)
+            );
+            let Ok(mut cam) = Camera::new(cfg) else {
+                continue;
+            };
+            cam.set_scope_rows(vec![2, 40]);
+            for (i, level) in [0.5, 3.0, 300.0].into_iter().enumerate() {
+                let scene = test_scene(100, 60, level);
+                let f = cam.capture_photoelectrons(scene.view()).expect("capture");
+                line(&format!("{name} {tag} #{i} L{level}"), &f);
+                println!("  scope={:016x}", scope_digest(&cam));
             }
         }
         // Blooming and saturation: a bright, blooming-on variant.

@@ -4,9 +4,9 @@
 use serde::Serialize;
 
 use crate::config::{CouplingKind, SensorConfig, SensorKind};
-use crate::kernel::Kernel;
 use crate::stages::Chain;
-use crate::stages::bright::BrightStages;
+use crate::stages::list::{Stage, Stages, blur_kernel, blur_terms};
+use crate::stages::video_timing::{LineTiming, VideoFormat};
 
 /// One stage of the sensor's effect plan.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -48,9 +48,10 @@ impl Plan {
     }
 }
 
-/// Every stage of the chain, in order, with enabled/reason and its
-/// estimated share. A stage at identity or with its noise off is listed as
-/// disabled with the reason; it costs nothing at capture.
+/// Every stage of the chain, in the order the camera runs them (the
+/// camera's own [`Stages`] list), with enabled/reason and its estimated
+/// share. A stage at identity or with its noise off is listed as disabled
+/// with the reason; it costs nothing at capture.
 pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
     let mut v = Plan(Vec::new());
     let chain = match Chain::new(config) {
@@ -60,9 +61,50 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
             return v.0;
         }
     };
-    let kind = config.kind;
-    let g = chain.reference_gain;
-    let o = &config.optics;
+    for stage in Stages::of(&chain).iter() {
+        match stage {
+            Stage::Optics { .. } => optics(&mut v, &chain),
+            Stage::Blur { after_noise, .. } => blur(&mut v, &chain, *after_noise),
+            Stage::Photocathode => photocathode(&mut v, &chain),
+            // Its threshold is quoted by the halo and the pore depletion.
+            Stage::BrightSwitch(_) => {}
+            Stage::Abc { abc, .. } => abc_entry(&mut v, &chain, abc.as_ref()),
+            Stage::Halo(h) => halo(&mut v, &chain, h.as_ref()),
+            Stage::Mcp(m) => mcp(&mut v, &chain, m.as_ref().and_then(|m| m.depletion())),
+            Stage::Phosphor { .. } => phosphor(&mut v, &chain),
+            Stage::Coupling => coupling(&mut v, &chain),
+            Stage::Bombardment(e) => {
+                let kind = chain.kind;
+                v.push((
+                    "electron bombardment",
+                    e.is_some(),
+                    if e.is_some() {
+                        "EBCCD: Fano and backscatter gain noise".into()
+                    } else {
+                        format!("kind = {kind:?}")
+                    },
+                ));
+            }
+            Stage::Readout(_) => readout(&mut v, &chain),
+            Stage::Agc => {
+                let agc = chain.config.agc.as_ref().is_some_and(|a| a.enabled);
+                v.push((
+                    "AGC",
+                    agc,
+                    if agc {
+                        "closed loop on mean brightness".into()
+                    } else {
+                        "fixed gain (override or no AGC)".into()
+                    },
+                ));
+            }
+        }
+    }
+    v.0
+}
+
+fn optics(v: &mut Plan, chain: &Chain) {
+    let o = &chain.config.optics;
     v.push((
         "optics: camera equation",
         true,
@@ -77,22 +119,34 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
             "optics.vignetting = false".into()
         },
     ));
-    let stages = chain.stages_at(g);
-    let pre: Vec<_> = stages.iter().filter(|s| !s.after_noise).collect();
-    let post: Vec<_> = stages.iter().filter(|s| s.after_noise).collect();
-    let kpre = Kernel::from_mtf(|f| pre.iter().map(|s| s.term.at(f)).product());
-    let kpost = Kernel::from_mtf(|f| post.iter().map(|s| s.term.at(f)).product());
-    let names =
-        |s: &[&crate::stages::MtfStage]| s.iter().map(|s| s.name).collect::<Vec<_>>().join(", ");
+}
+
+/// The blur before the shot noise or after the gain noise, at the
+/// reference gain.
+fn blur(v: &mut Plan, chain: &Chain, after_noise: bool) {
+    let terms = blur_terms(chain, chain.reference_gain, after_noise);
+    let kernel = blur_kernel(&terms);
+    let names = terms.iter().map(|s| s.name).collect::<Vec<_>>().join(", ");
+    let (name, identity) = if after_noise {
+        (
+            "MTF after gain noise",
+            "identity to 0.1 % up to Nyquist or no stage",
+        )
+    } else {
+        ("MTF before shot noise", "identity to 0.1 % up to Nyquist")
+    };
     v.push((
-        "MTF before shot noise",
-        kpre.is_some(),
-        match &kpre {
-            Some(k) => format!("{} (kernel radius {})", names(&pre), k.radius),
-            None => "identity to 0.1 % up to Nyquist".into(),
+        name,
+        kernel.is_some(),
+        match &kernel {
+            Some(k) => format!("{names} (kernel radius {})", k.radius),
+            None => identity.into(),
         },
     ));
-    let intens = kind != SensorKind::Ccd;
+}
+
+fn photocathode(v: &mut Plan, chain: &Chain) {
+    let intens = chain.kind != SensorKind::Ccd;
     v.push((
         "photocathode",
         intens,
@@ -102,7 +156,7 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
             "plain CCD detects the scene directly".into()
         },
     ));
-    let ebi = chain.ebi_pe(g);
+    let ebi = chain.ebi_pe(chain.reference_gain);
     v.push((
         "dark emission (EBI)",
         ebi > 0.0,
@@ -112,9 +166,81 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
             "no EBI configured".into()
         },
     ));
+}
+
+/// Why an intensifier stage is off on a camera without one.
+fn no_intensifier(chain: &Chain) -> String {
+    format!("kind = {:?}: no intensifier", chain.kind)
+}
+
+/// When the bright-source stages switch on.
+fn when_bright(chain: &Chain) -> String {
+    format!(
+        "per frame, when the input's max exceeds {} × its mean (off in a uniform field)",
+        chain.config.bright_source.on_above_max_over_mean
+    )
+}
+
+fn abc_entry(v: &mut Plan, chain: &Chain, abc: Option<&crate::stages::abc::Abc>) {
+    const NAME: &str = "ABC / bright-source protection";
+    if chain.intensifier().is_none() {
+        return v.share(NAME, false, no_intensifier(chain), Some(0.0));
+    }
+    match (abc, chain.mcp_e_at_saturation(chain.reference_gain)) {
+        (Some(a), Some(q_fs)) => v.share(
+            NAME,
+            true,
+            format!(
+                "screen current limit {:.3e} A/cm² ({:.3e} e⁻/pixel/frame, {:.1} × the CCD's saturation level), time constant {} s; MCP voltage first, then gating to {} s",
+                a.limit_a_cm2,
+                a.limit_e_per_pixel,
+                a.limit_e_per_pixel / q_fs,
+                chain.config.bright_source.abc.time_constant_s,
+                chain.config.bright_source.abc.gate_min_s
+            ),
+            // Cuts nothing until the mean screen current passes the limit.
+            Some(0.0),
+        ),
+        _ => v.share(
+            NAME,
+            false,
+            "bright_source.abc.enabled = false".into(),
+            Some(0.0),
+        ),
+    }
+}
+
+fn halo(v: &mut Plan, chain: &Chain, halo: Option<&crate::stages::halo::Halo>) {
+    if chain.intensifier().is_none() {
+        return v.share("halo", false, no_intensifier(chain), Some(0.0));
+    }
+    match halo {
+        Some(h) => v.share(
+            "halo",
+            true,
+            format!(
+                "MCP-input backscatter onto a disc of radius {:.1} px (2 × cathode–MCP gap); {}",
+                h.radius_px,
+                when_bright(chain)
+            ),
+            Some(h.fraction),
+        ),
+        None => v.share(
+            "halo",
+            false,
+            "bright_source.halo.enabled = false or no gap".into(),
+            Some(0.0),
+        ),
+    }
+}
+
+fn why_not_iccd(chain: &Chain) -> String {
+    format!("kind = {:?}: no MCP or phosphor", chain.kind)
+}
+
+fn mcp(v: &mut Plan, chain: &Chain, depletion: Option<&crate::stages::mcp_depletion::Depletion>) {
     let intensifier = chain.intensifier();
     let iccd = intensifier.is_some();
-    let why_not_iccd = || format!("kind = {kind:?}: no MCP or phosphor");
     v.push((
         "MCP gain",
         iccd,
@@ -123,7 +249,7 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
                 "gamma shape {}, open area {}",
                 i.mcp.gain_shape, i.mcp.open_area
             ),
-            None => why_not_iccd(),
+            None => why_not_iccd(chain),
         },
     ));
     let saturation = intensifier.and_then(|i| i.mcp.saturation_e);
@@ -133,19 +259,54 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
         match saturation {
             Some(q) => format!("soft knee at {q:.3e} e⁻/pixel/frame"),
             None if iccd => "no output current limit configured".into(),
-            None => why_not_iccd(),
+            None => why_not_iccd(chain),
         },
     ));
+    const NAME: &str = "MCP pore depletion";
+    if !iccd {
+        return v.share(NAME, false, no_intensifier(chain), Some(0.0));
+    }
+    match (depletion, chain.mcp_e_at_saturation(chain.reference_gain)) {
+        (Some(d), Some(q_fs)) => {
+            // The largest compression an unclipped pixel can show: a steady
+            // pixel at the CCD's saturation level.
+            let bound = d.steady_compression(q_fs);
+            v.share(
+                NAME,
+                true,
+                format!(
+                    "reservoir {:.3e} e⁻/pixel, recovery {} s; the CCD clips at {:.3e} MCP e⁻/pixel/frame, where the plate compresses by {:.2} %; {}",
+                    d.reservoir_e,
+                    chain.config.bright_source.mcp_depletion.recovery_time_s,
+                    q_fs,
+                    100.0 * bound,
+                    when_bright(chain)
+                ),
+                Some(bound),
+            );
+        }
+        _ => v.share(
+            NAME,
+            false,
+            "bright_source.mcp_depletion.enabled = false or no mcp.output_current_limit_a_cm2"
+                .into(),
+            Some(0.0),
+        ),
+    }
+}
+
+fn phosphor(v: &mut Plan, chain: &Chain) {
+    let intensifier = chain.intensifier();
     v.push((
         "phosphor screen",
-        iccd,
+        intensifier.is_some(),
         match intensifier {
             Some(i) => format!("{:.0} photons/e⁻", i.phosphor_photons_per_e),
-            None => why_not_iccd(),
+            None => why_not_iccd(chain),
         },
     ));
     let lag = chain.lag_fraction();
-    let period = 1.0 / config.timing.frame_rate_hz;
+    let period = 1.0 / chain.config.timing.frame_rate_hz;
     v.share(
         "phosphor persistence",
         lag > 0.0,
@@ -154,18 +315,21 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
                 "{lag} of a frame's light in later frames (geometric lag, 1/e decay time {:.2} ms); shows when the scene or gain changes",
                 -period / lag.ln() * 1e3
             )
-        } else if iccd {
+        } else if intensifier.is_some() {
             "lag fraction 0".into()
         } else {
-            why_not_iccd()
+            why_not_iccd(chain)
         },
         Some(lag),
     );
-    let coupling = config.coupling.as_ref();
+}
+
+fn coupling(v: &mut Plan, chain: &Chain) {
+    let coupling = chain.config.coupling.as_ref();
     v.push((
         "coupling",
         coupling.is_some(),
-        match (coupling, intensifier) {
+        match (coupling, chain.intensifier()) {
             (Some(c), Some(i)) => format!(
                 "{:?}, {:.3} of the screen light",
                 c.kind, i.coupling_fraction
@@ -187,24 +351,11 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
             "no fibre optic or chicken_wire_depth = 0".into()
         },
     ));
-    let eb = kind == SensorKind::Ebccd;
-    v.push((
-        "electron bombardment",
-        eb,
-        if eb {
-            "EBCCD: Fano and backscatter gain noise".into()
-        } else {
-            format!("kind = {kind:?}")
-        },
-    ));
-    v.push((
-        "MTF after gain noise",
-        kpost.is_some(),
-        match &kpost {
-            Some(k) => format!("{} (kernel radius {})", names(&post), k.radius),
-            None => "identity to 0.1 % up to Nyquist or no stage".into(),
-        },
-    ));
+}
+
+/// The fused readout: CCD, video line and digitizer.
+fn readout(v: &mut Plan, chain: &Chain) {
+    let config = &chain.config;
     let c = &config.ccd;
     let noise = config.noise.enabled;
     v.push((
@@ -233,16 +384,6 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
         noise && chain.read_noise_e > 0.0,
         format!("{:.2} e⁻ rms", chain.read_noise_e),
     ));
-    let agc = config.agc.as_ref().is_some_and(|a| a.enabled);
-    v.push((
-        "AGC",
-        agc,
-        if agc {
-            "closed loop on mean brightness".into()
-        } else {
-            "fixed gain (override or no AGC)".into()
-        },
-    ));
     v.push((
         "analogue video",
         config.video.is_some(),
@@ -253,7 +394,7 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
         },
     ));
     if let Some(video) = &config.video {
-        let t = crate::stages::video_timing::LineTiming::of(video.format);
+        let t = LineTiming::of(video.format);
         v.push((
             "video line timing",
             true,
@@ -266,8 +407,8 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
         ));
         // The square-pixel width of the format sets the quoted pixel clock.
         let cols = match video.format {
-            crate::stages::video_timing::VideoFormat::Rs170 => 640,
-            crate::stages::video_timing::VideoFormat::Ccir => 768,
+            VideoFormat::Rs170 => 640,
+            VideoFormat::Ccir => 768,
         };
         v.push((
             "video bandwidth",
@@ -287,91 +428,4 @@ pub fn sensor_effects(config: &SensorConfig) -> Vec<SensorEffect> {
         ));
     }
     v.push(("digitizer", true, format!("{} bits", config.digitizer.bits)));
-    bright_source_effects(&mut v, &chain);
-    v.0
-}
-
-/// The bright-source stages: when they switch on and their shares.
-fn bright_source_effects(v: &mut Plan, chain: &Chain) {
-    let Some(b) = BrightStages::of(chain) else {
-        let why = format!("kind = {:?}: no intensifier", chain.kind);
-        for name in [
-            "halo",
-            "MCP pore depletion",
-            "ABC / bright-source protection",
-        ] {
-            v.share(name, false, why.clone(), Some(0.0));
-        }
-        return;
-    };
-    let g = chain.reference_gain;
-    let when = format!(
-        "per frame, when the input's max exceeds {} × its mean (off in a uniform field)",
-        b.on_above_max_over_mean
-    );
-    match &b.halo {
-        Some(h) => v.share(
-            "halo",
-            true,
-            format!(
-                "MCP-input backscatter onto a disc of radius {:.1} px (2 × cathode–MCP gap); {when}",
-                h.radius_px
-            ),
-            Some(h.fraction),
-        ),
-        None => v.share(
-            "halo",
-            false,
-            "bright_source.halo.enabled = false or no gap".into(),
-            Some(0.0),
-        ),
-    }
-    match (&b.depletion, chain.mcp_e_at_saturation(g)) {
-        (Some(d), Some(q_fs)) => {
-            // The largest compression an unclipped pixel can show: a steady
-            // pixel at the CCD's saturation level.
-            let bound = d.steady_compression(q_fs);
-            v.share(
-                "MCP pore depletion",
-                true,
-                format!(
-                    "reservoir {:.3e} e⁻/pixel, recovery {} s; the CCD clips at {:.3e} MCP e⁻/pixel/frame, where the plate compresses by {:.2} %; {when}",
-                    d.reservoir_e,
-                    chain.config.bright_source.mcp_depletion.recovery_time_s,
-                    q_fs,
-                    100.0 * bound
-                ),
-                Some(bound),
-            );
-        }
-        _ => v.share(
-            "MCP pore depletion",
-            false,
-            "bright_source.mcp_depletion.enabled = false or no mcp.output_current_limit_a_cm2"
-                .into(),
-            Some(0.0),
-        ),
-    }
-    match (&b.abc, chain.mcp_e_at_saturation(g)) {
-        (Some(a), Some(q_fs)) => v.share(
-            "ABC / bright-source protection",
-            true,
-            format!(
-                "screen current limit {:.3e} A/cm² ({:.3e} e⁻/pixel/frame, {:.1} × the CCD's saturation level), time constant {} s; MCP voltage first, then gating to {} s",
-                a.limit_a_cm2,
-                a.limit_e_per_pixel,
-                a.limit_e_per_pixel / q_fs,
-                chain.config.bright_source.abc.time_constant_s,
-                chain.config.bright_source.abc.gate_min_s
-            ),
-            // Cuts nothing until the mean screen current passes the limit.
-            Some(0.0),
-        ),
-        _ => v.share(
-            "ABC / bright-source protection",
-            false,
-            "bright_source.abc.enabled = false".into(),
-            Some(0.0),
-        ),
-    }
 }

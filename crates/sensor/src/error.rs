@@ -66,3 +66,27 @@ pub enum CaptureError {
         camera: String,
     },
 }
+
+/// A frame row that has no place on a broadcast video line.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LineError {
+    #[error("a frame of {rows} rows does not fit the {picture_lines} picture lines of {format}")]
+    FrameTooTall {
+        rows: usize,
+        picture_lines: u32,
+        format: &'static str,
+    },
+    #[error("row {row} is outside the frame's {rows} rows")]
+    RowOutside { row: usize, rows: usize },
+}
+
+/// Why the camera's video line cannot be shown on the scope.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ScopeError {
+    #[error("sensor '{sensor}' has a direct digital readout: no analogue video line to show")]
+    NoVideo { sensor: String },
+    #[error("no scan line was kept: set the rows, then capture a frame")]
+    NoLineKept,
+    #[error(transparent)]
+    Line(#[from] LineError),
+}

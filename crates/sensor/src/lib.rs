@@ -14,10 +14,10 @@ pub mod stages;
 
 pub use analytic::Description;
 pub use bench::{Throughput, throughput, throughput_at};
-pub use camera::{AgcState, Camera, Frame, FrameMeta};
+pub use camera::{AgcState, Camera, DigitizedFrame, FrameMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::{SensorEffect, sensor_effects};
-pub use error::{CaptureError, ConfigError};
+pub use error::{CaptureError, ConfigError, LineError, ScopeError};
 pub use stages::{Chain, image_irradiance_per_radiance};
 
 /// A built-in preset or a TOML file (see [`SensorConfig::load_preset_or_file`]).

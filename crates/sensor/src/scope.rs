@@ -5,6 +5,7 @@
 use serde::Serialize;
 
 use crate::camera::Camera;
+use crate::error::ScopeError;
 use crate::stages::video_timing::{Levels, LineTiming, line_segments};
 
 /// Trace points per pixel period.
@@ -44,18 +45,19 @@ fn held_volts(cam: &Camera, electrons: &[f64]) -> Option<Vec<f64>> {
 /// The lines of the rows asked for with [`Camera::set_scope_rows`], from
 /// the last capture (`rows × columns` frames). Errors name what is missing:
 /// no video stage, no capture, or a frame taller than the format's picture.
-pub fn scope_lines(cam: &Camera, rows: usize) -> Result<Vec<ScopeLine>, String> {
+pub fn scope_lines(cam: &Camera, rows: usize) -> Result<Vec<ScopeLine>, ScopeError> {
     let chain = cam.chain();
-    let video = cam.config().video.as_ref().ok_or_else(|| {
-        format!(
-            "sensor '{}' has a direct digital readout: no analogue video line to show",
-            cam.config().name
-        )
-    })?;
+    let video = cam
+        .config()
+        .video
+        .as_ref()
+        .ok_or_else(|| ScopeError::NoVideo {
+            sensor: cam.config().name.clone(),
+        })?;
     let timing = LineTiming::of(video.format);
     let held = cam.scope_electrons();
     if held.is_empty() {
-        return Err("no scan line was kept: set the rows, then capture a frame".into());
+        return Err(ScopeError::NoLineKept);
     }
     let levels = Levels {
         sync_tip_v: 0.0,

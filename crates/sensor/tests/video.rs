@@ -90,7 +90,15 @@ fn scope_shows_a_correct_rs170_line() {
     cam.set_scope_rows(vec![0]);
     cam.capture_photoelectrons(tall.view()).unwrap();
     let e = scope_lines(&cam, 600).unwrap_err();
-    assert!(e.contains("485"), "{e}");
+    assert_eq!(
+        e,
+        gloam_sensor::ScopeError::Line(gloam_sensor::LineError::FrameTooTall {
+            rows: 600,
+            picture_lines: 485,
+            format: "RS-170 (525/60)",
+        })
+    );
+    assert!(e.to_string().contains("485"), "{e}");
 }
 
 /// Modulation above black of a sine at `f` cycles/pixel along columns

@@ -136,8 +136,14 @@ impl BrightStages {
 
     /// Is a bright source in view, for an input of this mean and maximum?
     pub fn in_view(&self, mean: f64, max: f64) -> bool {
-        max > self.on_above_max_over_mean * mean && max > 0.0
+        source_in_view(self.on_above_max_over_mean, mean, max)
     }
+}
+
+/// A bright source is in view when the input's maximum exceeds
+/// `on_above_max_over_mean` times its mean (and is not zero).
+pub fn source_in_view(on_above_max_over_mean: f64, mean: f64, max: f64) -> bool {
+    max > on_above_max_over_mean * mean && max > 0.0
 }
 
 impl Chain {

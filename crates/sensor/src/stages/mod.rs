@@ -5,8 +5,11 @@
 //! Around a bright source the intensifier adds [`halo`] (MCP-input
 //! backscatter), [`mcp_depletion`] (local pore saturation) and [`abc`]
 //! (the supply's brightness control), grouped in [`bright`].
-//! [`Chain`] reduces a validated configuration to the numbers they need and
-//! [`crate::Camera`] runs the passes row by row over a frame.
+//! [`Chain`] reduces a validated configuration to the numbers they need;
+//! `list.rs` puts the stages in their one order (a list built once per
+//! camera, which [`crate::Camera`] runs over each frame and
+//! [`crate::sensor_effects`] reports), and `readout.rs` fuses the CCD,
+//! video and digitizer into one row pass.
 //!
 //! # Stage models (and where they come from)
 //!
@@ -85,12 +88,14 @@ pub mod coupling;
 pub mod digitizer;
 pub mod ebccd;
 pub mod halo;
+pub(crate) mod list;
 pub mod mcp;
 pub mod mcp_depletion;
 pub mod mtf;
 pub mod optics;
 pub mod phosphor;
 pub mod photocathode;
+mod readout;
 pub mod video;
 pub mod video_bandwidth;
 pub mod video_timing;

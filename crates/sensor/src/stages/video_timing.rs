@@ -22,6 +22,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::LineError;
+
 /// A broadcast video format.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -106,16 +108,16 @@ impl LineTiming {
     /// Where frame row `row` of `rows` goes: `(field 0 or 1, frame line
     /// number 1..=lines_per_frame)`, the picture centred vertically. Errors
     /// when the frame has more rows than the format has picture lines.
-    pub fn line_of_row(&self, row: usize, rows: usize) -> Result<(u32, u32), String> {
+    pub fn line_of_row(&self, row: usize, rows: usize) -> Result<(u32, u32), LineError> {
         if rows > self.active_lines as usize {
-            return Err(format!(
-                "a frame of {rows} rows does not fit the {} picture lines of {}",
-                self.active_lines,
-                self.format.label()
-            ));
+            return Err(LineError::FrameTooTall {
+                rows,
+                picture_lines: self.active_lines,
+                format: self.format.label(),
+            });
         }
         if row >= rows {
-            return Err(format!("row {row} is outside the frame's {rows} rows"));
+            return Err(LineError::RowOutside { row, rows });
         }
         let per_field_total = self.lines_per_frame as f64 / 2.0;
         let per_field_active = self.active_lines / 2;
@@ -199,7 +201,7 @@ mod tests {
         assert_eq!(r.line_of_row(0, 485).unwrap(), (0, 21));
         assert_eq!(r.line_of_row(1, 485).unwrap(), (1, 284));
         assert_eq!(r.line_of_row(2, 485).unwrap(), (0, 22));
-        let e = r.line_of_row(0, 768).unwrap_err();
+        let e = r.line_of_row(0, 768).unwrap_err().to_string();
         assert!(e.contains("768 rows") && e.contains("485"), "{e}");
         assert!(r.line_of_row(9, 8).is_err());
     }

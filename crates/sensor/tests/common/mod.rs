@@ -1,6 +1,6 @@
 #![allow(dead_code)]
 
-use gloam_sensor::{Camera, Frame, SensorConfig};
+use gloam_sensor::{Camera, DigitizedFrame, SensorConfig};
 use ndarray::Array2;
 
 /// A preset with fixed patterns and persistence off, so that a uniform
@@ -34,7 +34,7 @@ pub fn uniform(rows: usize, cols: usize, pe: f64) -> Array2<f64> {
 }
 
 /// Pixels of `f` inside a margin, as f64.
-pub fn interior(f: &Frame, margin: usize) -> Vec<f64> {
+pub fn interior(f: &DigitizedFrame, margin: usize) -> Vec<f64> {
     let (r, c) = f.pixels.dim();
     let mut v = Vec::new();
     for y in margin..r - margin {
