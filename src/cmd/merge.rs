@@ -101,5 +101,6 @@ pub fn write_tile_info(
     write_atomic(
         &dir.join(gloam_sweep::tile::TILE_FILE),
         serde_json::to_string_pretty(&info)?.as_bytes(),
-    )
+    )?;
+    Ok(())
 }
