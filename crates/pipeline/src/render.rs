@@ -1,7 +1,7 @@
 //! One render, written once: the settings from a front end's arguments,
 //! then scene → effect plan → detected band → tracer → rows → the
 //! camera's detected radiance, and the `report.json` document. The CLI's
-//! `gloam render`, the Python package and sweeps all run [`RenderJob`], so
+//! `gloam render` and the Python package run [`RenderJob`] (and a sweep can), so
 //! a render makes the same decisions and reports the same figures
 //! whichever way it was started.
 

@@ -623,8 +623,9 @@ pub fn effect_plan_observed(
 impl Tracer {
     /// The effect plan this tracer runs: `scene`'s structural plan with the
     /// pilot's interreflection decision and the shares it measured. The one
-    /// place the plan of a render is put together (`gloam plan`, `gloam
-    /// render`, the Python package and sweeps all come here). `scene` is the
+    /// place the plan of a render is put together (`gloam plan`, and `gloam
+    /// render` and the Python package through `gloam_pipeline`'s
+    /// `RenderJob`). `scene` is the
     /// scene as its user wrote it: a band added for a camera
     /// (`gloam_pipeline::detected`) is no effect of the scene's.
     pub fn effect_plan(&self, scene: &Scene) -> EffectPlan {
