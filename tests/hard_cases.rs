@@ -121,7 +121,7 @@ fn spiky_line_spectra_on_a_20nm_grid() {
                     ..Default::default()
                 };
                 let t = Tracer::new(&s, &set).unwrap();
-                let got = t.wl.integrate(&t.wl.emission(spec))[b];
+                let got = t.wavelengths().integrate(&t.wavelengths().emission(spec))[b];
                 let rel = (got - exact).abs() / exact;
                 assert!(got.is_finite() && got > 0.0, "{name} band {b} step {step}");
                 assert!(
@@ -142,10 +142,10 @@ fn spiky_line_spectra_on_a_20nm_grid() {
             ..Default::default()
         };
         let t = Tracer::new(&s, &set).unwrap();
-        let slots = t.wl.emission(spec);
-        let carried: f64 = slots[t.wl.n_continuum..]
+        let slots = t.wavelengths().emission(spec);
+        let carried: f64 = slots[t.wavelengths().n_continuum..]
             .iter()
-            .zip(&t.wl.nm[t.wl.n_continuum..])
+            .zip(&t.wavelengths().nm[t.wavelengths().n_continuum..])
             .filter(|(_, w)| (400.0..700.0).contains(*w))
             .map(|(v, _)| v)
             .sum();

@@ -65,12 +65,14 @@ fn render(name: &'static str) -> Night {
             (scene.camera.height as f64 * SCALE).round() as u32
         )
     );
-    let origin = tracer.geom.origin;
+    let origin = tracer.geometry().origin;
     let mut ground = Vec::with_capacity((w * h) as usize);
     for row in 0..h {
         for col in 0..w {
             let (o, d) = tracer.camera_ray(col as f64 + 0.5, row as f64 + 0.5);
-            let hit = tracer.geom.intersect(o, d, 0.0, f64::INFINITY, u32::MAX);
+            let hit = tracer
+                .geometry()
+                .intersect(o, d, 0.0, f64::INFINITY, u32::MAX);
             ground.push(hit.and_then(|hit| {
                 (scene.facets[hit.facet as usize].object == "ground")
                     .then(|| o + d * hit.t + origin)

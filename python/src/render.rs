@@ -9,6 +9,7 @@ use numpy::{IntoPyArray, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use gloam_pipeline::{RenderJob, SettingArgs};
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 
 use crate::convert::{setting_pairs, to_py};
@@ -37,15 +38,9 @@ pub struct Scene {
 }
 
 /// Render settings as the CLI builds them: `settings` pairs, then the flags.
-fn settings(
-    settings: Option<&Bound<'_, PyDict>>,
-    spp: Option<u32>,
-    seed: Option<u64>,
-    estimator: Option<&str>,
-    threads: Option<usize>,
-) -> PyResult<RenderSettings> {
-    let pairs = setting_pairs(settings)?;
-    gloam_pipeline::render::settings_from(&pairs, spp, seed, estimator, threads).or_py()
+fn settings(settings: Option<&Bound<'_, PyDict>>, flags: SettingArgs) -> PyResult<RenderSettings> {
+    let set = setting_pairs(settings)?;
+    SettingArgs { set, ..flags }.settings().or_py()
 }
 
 #[pymethods]
@@ -90,10 +85,13 @@ impl Scene {
         settings: Option<&Bound<'py, PyDict>>,
         tolerance: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let mut s = self::settings(settings, None, None, None, None)?;
-        if let Some(t) = tolerance {
-            s.set("tolerance", &t.to_string()).or_py()?;
-        }
+        let s = self::settings(
+            settings,
+            SettingArgs {
+                tolerance,
+                ..Default::default()
+            },
+        )?;
         let scene = &self.scene;
         let plan = detached_with_stop(py, |_| Ok(gloam_trace::plan::effect_plan(scene, &s)?))?;
         to_py(py, &plan.effects)
@@ -206,8 +204,9 @@ fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> 
 /// ``spp``, ``seed``, ``estimator`` (analytic, solid-angle, dirsig2001),
 /// ``threads`` and ``target_error``/``tolerance`` are the CLI's flags;
 /// ``settings`` is any ``--set KEY=VALUE`` as a dict. ``sensor`` (a
-/// ``Sensor``, preset name or sensor TOML path) adds the camera's
-/// detected band as ``result.detected``. The GIL is released while it
+/// ``Sensor``, preset name or sensor TOML path; default the scene's own
+/// ``sensor`` entry, as the CLI) adds the camera's detected band as
+/// ``result.detected``. The GIL is released while it
 /// renders; Ctrl-C stops it within a tile (KeyboardInterrupt).
 #[pyfunction]
 #[pyo3(signature = (scene, spp = None, seed = None, estimator = None, settings = None, threads = None, target_error = None, tolerance = None, sensor = None))]
@@ -224,41 +223,30 @@ fn render<'py>(
     tolerance: Option<f64>,
     sensor: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<RenderResult> {
-    let mut s = self::settings(settings, spp, seed, estimator, threads)?;
-    if let Some(e) = target_error {
-        s.set("target_error", &e.to_string()).or_py()?;
-    }
-    if let Some(t) = tolerance {
-        s.set("tolerance", &t.to_string()).or_py()?;
-    }
-    let sensor = sensor_source(sensor)?;
+    let flags = SettingArgs {
+        spp,
+        seed,
+        estimator: estimator.map(str::to_string),
+        threads,
+        target_error,
+        tolerance,
+        ..Default::default()
+    };
+    let s = self::settings(settings, flags)?;
+    let given = sensor_source(sensor)?;
     let sc = scene.get();
     let (scene_ref, path) = (&sc.scene, sc.path.as_path());
-    let (mut out, plan, detected) = detached_with_stop(py, |stop| {
-        let mut plan = gloam_scene::plan::plan(scene_ref);
-        if let Some(sn) = &sensor {
-            gloam_pipeline::check_options(sn, None, 1)?;
-        }
-        let traced = match &sensor {
-            Some(sn) => gloam_pipeline::with_detected_band(scene_ref, sn)?,
-            None => scene_ref.clone(),
+    // As `gloam render`: the scene's own `sensor` entry when none is given.
+    let camera = gloam_pipeline::render::camera_of(given.as_deref(), scene_ref);
+    let rendered = detached_with_stop(py, |stop| {
+        let job = RenderJob {
+            camera,
+            ..RenderJob::new(scene_ref, &s)
         };
-        let tracer = Tracer::new(&traced, &s)?;
-        plan.extend([gloam_trace::plan::interreflection_effect(
-            &tracer.interreflection,
-        )]);
-        gloam_trace::plan::annotate_shares(&mut plan, &tracer.interreflection);
-        let rows = 0..tracer.image_size().1;
-        let mut out =
-            tracer.render_rows_until(rows, &|_, _| {}, &|| stop.load(Ordering::Relaxed))?;
-        let detected = match &sensor {
-            Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
-            None => None,
-        };
-        Ok((out, plan, detected))
+        Ok(job.run(&|_, _| {}, &|| stop.load(Ordering::Relaxed))?)
     })?;
-    let mut report =
-        gloam_pipeline::render::report_json(path, scene_ref, &plan, &out, sc.load_s, 0.0);
+    let mut report = rendered.report_json(path, scene_ref, sc.load_s, 0.0);
+    let (mut out, detected) = (rendered.radiance, rendered.detected);
     report["provenance"] =
         serde_json::to_value(gloam_pipeline::Provenance::of_this_run()).or_py()?;
     let bands = band_list(py, scene_ref, &out.band_names)?.unbind();
@@ -303,7 +291,12 @@ fn probe<'py>(
     estimator: Option<&str>,
     settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let s = self::settings(settings, None, seed, estimator, None)?;
+    let flags = SettingArgs {
+        seed,
+        estimator: estimator.map(str::to_string),
+        ..Default::default()
+    };
+    let s = self::settings(settings, flags)?;
     let (p, n) = (vec3("point", point)?, vec3("normal", normal)?);
     let sc = &scene.get().scene;
     let r = detached_with_stop(py, |_| {

@@ -26,10 +26,12 @@ pub struct PlanArgs {
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     // The scene error already reads `file:line: field: message`.
     let scene = gloam_scene::load(&args.scene)?;
-    let mut settings = super::render::settings_from(&args.set, None, None, None, None)?;
-    if let Some(t) = args.tolerance {
-        settings.set("tolerance", &t.to_string())?;
+    let settings = gloam_pipeline::SettingArgs {
+        set: args.set.clone(),
+        tolerance: args.tolerance,
+        ..Default::default()
     }
+    .settings()?;
     let (plan, prep) = gloam_trace::plan::effect_plan_observed(
         &scene,
         &settings,

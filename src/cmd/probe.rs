@@ -9,7 +9,6 @@ use clap::Args;
 use gloam_trace::{DVec3, Tracer};
 
 use super::output::print_json;
-use super::render::settings_from;
 
 #[derive(Args)]
 pub struct ProbeArgs {
@@ -65,13 +64,14 @@ fn triple(what: &str, s: &str) -> anyhow::Result<DVec3> {
 
 pub fn run(args: ProbeArgs) -> anyhow::Result<()> {
     let scene = gloam_scene::load(&args.scene)?;
-    let settings = settings_from(
-        &args.set,
-        args.spp,
-        args.seed,
-        args.estimator.as_deref(),
-        None,
-    )?;
+    let settings = gloam_pipeline::SettingArgs {
+        set: args.set.clone(),
+        spp: args.spp,
+        seed: args.seed,
+        estimator: args.estimator.clone(),
+        ..Default::default()
+    }
+    .settings()?;
     let tracer = Tracer::new(&scene, &settings)?;
     if let Some(px) = &args.pixel {
         let parts: Vec<u32> = px
@@ -82,7 +82,7 @@ pub fn run(args: ProbeArgs) -> anyhow::Result<()> {
         anyhow::ensure!(parts.len() == 2, "--pixel `{px}`: expected COL,ROW");
         let b = tracer.band_index(args.band.as_deref())?;
         let vals = tracer.probe_pixel(parts[0], parts[1])?;
-        let band = tracer.wl.band_names[b].clone();
+        let band = tracer.wavelengths().band_names[b].clone();
         if args.json {
             print_json(&serde_json::json!({
                 "band": band,

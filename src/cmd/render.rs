@@ -11,11 +11,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use gloam_trace::Tracer;
 
-use gloam_pipeline::{OutputSet, Provenance};
+use gloam_pipeline::exposure::ExposureTarget;
+use gloam_pipeline::render::{self, RenderJob, SettingArgs};
+use gloam_pipeline::{FrameCapture, OutputSet, Provenance};
 
-use super::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
+use super::output::write_atomic;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -82,10 +83,6 @@ pub struct RenderArgs {
     pub tile: Option<String>,
 }
 
-/// Settings from `--set` pairs, then the dedicated flags (shared with the
-/// Python package).
-pub use gloam_pipeline::render::settings_from;
-
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut provenance = Provenance::of_this_run();
     // Refused up front when --out is in use; the files appear at once.
@@ -94,34 +91,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let t_load = Instant::now();
     let scene = gloam_scene::load(&args.scene)?;
     let load_s = t_load.elapsed().as_secs_f64();
-    let settings = settings_from(
-        &args.set,
-        args.spp,
-        args.seed,
-        args.estimator.as_deref(),
-        args.threads,
-    )?;
-    let mut settings = settings;
-    for (key, flag, given) in [
-        (
-            "target_error",
-            "--target-error",
-            args.target_error.is_some(),
-        ),
-        ("tolerance", "--tolerance", args.tolerance.is_some()),
-    ] {
-        if given {
-            gloam_pipeline::render::refuse_both(&args.set, key, flag)?;
-        }
+    let settings = SettingArgs {
+        set: args.set.clone(),
+        spp: args.spp,
+        seed: args.seed,
+        estimator: args.estimator.clone(),
+        threads: args.threads,
+        target_error: args.target_error,
+        tolerance: args.tolerance,
     }
-    if let Some(e) = args.target_error {
-        settings.set("target_error", &e.to_string())?;
-    }
-    if let Some(t) = args.tolerance {
-        settings.set("tolerance", &t.to_string())?;
-    }
-    let mut plan = gloam_scene::plan::plan(&scene);
-    // With a camera, the render also carries its detector-weighted band.
+    .settings()?;
     let tile = (args.tile.as_deref())
         .map(gloam_sweep::TileSpec::parse)
         .transpose()
@@ -130,12 +109,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // but it is traced with the camera's band all the same: the effect
     // plan weighs every band, so a tile must make the whole render's
     // decisions to be bit-identical to it.
-    let camera = args.sensor.clone().or_else(|| scene.sensor.clone());
-    let frames = args.frames.unwrap_or(1);
-    let sensor = camera.clone().filter(|_| tile.is_none());
+    let camera = render::camera_of(args.sensor.as_deref(), &scene);
+    let capture = camera
+        .filter(|_| tile.is_none())
+        .map(|sensor| FrameCapture {
+            sensor,
+            frames: args.frames.unwrap_or(1),
+            gain: args.gain,
+            agc: args.agc,
+            noise: !args.no_noise,
+            seed: settings.seed,
+            auto_exposure: (args.exposure.as_ref()).map(|_| ExposureTarget::default()),
+        });
     // Refuse bad sensor options now, not after the whole trace.
-    if let Some(s) = &sensor {
-        gloam_pipeline::check_options(s, args.gain, frames)?;
+    if let Some(c) = &capture {
+        c.check()?;
     } else {
         // Camera flags without a camera would be silently ignored.
         let given = [
@@ -156,16 +144,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let traced = match &camera {
-        Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
-        None => scene.clone(),
+    let job = RenderJob {
+        camera,
+        observer: super::progress::prep_spinner(),
+        ..RenderJob::new(&scene, &settings)
     };
-    let tracer =
-        Tracer::prepare_observed(&traced, &settings, true, super::progress::prep_spinner())?;
-    plan.extend([gloam_trace::plan::interreflection_effect(
-        &tracer.interreflection,
-    )]);
-    gloam_trace::plan::annotate_shares(&mut plan, &tracer.interreflection);
+    let prepared = job.prepare()?;
+    let full = prepared.image_size();
+    let rows = tile
+        .map(|t| t.rows(full.1))
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
 
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(0);
@@ -184,33 +173,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             b.set_position(done);
         }
     };
-    let (full, mut rows) = (tracer.image_size(), 0..tracer.image_size().1);
-    if let Some(t) = tile {
-        rows = t.rows(full.1).map_err(anyhow::Error::msg)?;
-    }
-    let mut out = tracer.render_rows(rows.clone(), &progress)?;
-    let detected = match &camera {
-        Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
-        None => None,
-    }
-    .filter(|_| sensor.is_some());
+    let rendered = prepared.render(rows, &progress, &|| false)?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
 
     let t_write = Instant::now();
-    write_tiff(&dir.join("radiance.tiff"), &out.radiance)?;
-    write_npy(&dir.join("radiance.npy"), &out.radiance)?;
-    write_tiff(&dir.join("stderr.tiff"), &out.std_error)?;
-    write_npy(&dir.join("stderr.npy"), &out.std_error)?;
-    write_npy_u32(&dir.join("spp.npy"), &out.spp)?;
-    write_preview(&dir.join("preview.png"), &out.radiance)?;
+    rendered.write_images(&dir)?;
     if let Some(t) = tile {
-        gloam_sweep::tile::write_tile_info(&dir, t, rows, full, &args.scene, &out)?;
+        let (rows, out) = (rendered.rows.clone(), &rendered.radiance);
+        gloam_sweep::tile::write_tile_info(&dir, t, rows, full, &args.scene, out)?;
     }
     let write_s = t_write.elapsed().as_secs_f64();
-    let mut report =
-        gloam_pipeline::render::report_json(&args.scene, &scene, &plan, &out, load_s, write_s);
+    let mut report = rendered.report_json(&args.scene, &scene, load_s, write_s);
     // The scene's OBJ, spectrum and instance files were read after the
     // provenance was first taken.
     provenance.add_inputs_read();
@@ -219,30 +194,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &dir.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
-    if let (Some(sensor), Some(detected)) = (sensor, detected) {
-        let capture = gloam_pipeline::FrameCapture {
-            sensor: &sensor,
-            frames,
-            gain: args.gain,
-            agc: args.agc,
-            noise: !args.no_noise,
-            seed: settings.seed,
-            auto_exposure: args
-                .exposure
-                .as_ref()
-                .map(|_| gloam_pipeline::exposure::ExposureTarget::default()),
-        };
-        capture.run(&detected, &dir)?;
+    if let (Some(capture), Some(detected)) = (&capture, &rendered.detected) {
+        for line in capture.run(detected, &dir)? {
+            eprintln!("{line}");
+        }
+        // No path: `dir` is the command's hidden staging directory until
+        // the set is published (the line below names the published one).
+        eprintln!(
+            "captured {} frame(s) through '{}'",
+            capture.frames, capture.sensor
+        );
     }
     set.publish(&provenance, None)?;
+    let s = &rendered.radiance.stats;
     eprintln!(
         "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",
-        out.stats.width,
-        out.stats.height,
-        out.stats.bands,
-        out.stats.trace_seconds,
-        out.stats.rays.total(),
-        out.stats.rays_per_second,
+        s.width,
+        s.height,
+        s.bands,
+        s.trace_seconds,
+        s.rays.total(),
+        s.rays_per_second,
         args.out.display()
     );
     Ok(())

@@ -9,7 +9,6 @@
 //! any spectrum (lines included), which the camera captures directly. The
 //! extra band is not written to the radiance outputs.
 
-use anyhow::Context;
 use gloam_scene::{Band, Scene};
 use gloam_sensor::Camera;
 use gloam_spectra::Spectrum;
@@ -19,16 +18,36 @@ use ndarray::{Array2, Axis, s};
 /// Name of the band the sensor capture adds to a render.
 pub const DETECTED_BAND: &str = "sensor-detected";
 
+/// Why a render cannot carry (or give up) the detected band.
+#[derive(Debug, thiserror::Error)]
+pub enum DetectedError {
+    #[error("the scene already has a band named '{DETECTED_BAND}', which the sensor capture needs")]
+    BandTaken,
+    #[error("loading sensor '{sensor}'")]
+    Sensor {
+        sensor: String,
+        #[source]
+        source: gloam_sensor::ConfigError,
+    },
+    #[error("the scene has no spectral band to capture")]
+    NoBand,
+    #[error(transparent)]
+    Window(#[from] gloam_spectra::SpectrumError),
+    #[error("the render has no '{DETECTED_BAND}' band")]
+    NotRendered,
+}
+
 /// `scene` with one more band, [`DETECTED_BAND`], whose response is
 /// `sensor`'s detector response (QE·λ/hc, e⁻ J⁻¹) over the span of the
 /// scene's bands.
-pub fn with_detected_band(scene: &Scene, sensor: &str) -> anyhow::Result<Scene> {
-    anyhow::ensure!(
-        scene.band(DETECTED_BAND).is_none(),
-        "the scene already has a band named '{DETECTED_BAND}', which the sensor capture needs"
-    );
-    let camera = Camera::from_preset_or_file(sensor)
-        .with_context(|| format!("loading sensor '{sensor}'"))?;
+pub fn with_detected_band(scene: &Scene, sensor: &str) -> Result<Scene, DetectedError> {
+    if scene.band(DETECTED_BAND).is_some() {
+        return Err(DetectedError::BandTaken);
+    }
+    let camera = Camera::from_preset_or_file(sensor).map_err(|source| DetectedError::Sensor {
+        sensor: sensor.to_string(),
+        source,
+    })?;
     let lo_nm = scene
         .bands
         .iter()
@@ -39,7 +58,9 @@ pub fn with_detected_band(scene: &Scene, sensor: &str) -> anyhow::Result<Scene> 
         .iter()
         .map(|b| b.hi_nm)
         .fold(f64::NEG_INFINITY, f64::max);
-    anyhow::ensure!(lo_nm < hi_nm, "the scene has no spectral band to capture");
+    if lo_nm.partial_cmp(&hi_nm) != Some(std::cmp::Ordering::Less) {
+        return Err(DetectedError::NoBand);
+    }
     let window = Spectrum::constant(lo_nm, hi_nm, 1.0)?;
     let mut with = scene.clone();
     with.bands.push(Band {
@@ -53,11 +74,10 @@ pub fn with_detected_band(scene: &Scene, sensor: &str) -> anyhow::Result<Scene> 
 
 /// Splits the [`DETECTED_BAND`] (the last band) off a render of a scene
 /// from [`with_detected_band`]: the render keeps the scene's own bands.
-pub fn take_detected_band(render: &mut RenderOutput) -> anyhow::Result<Array2<f64>> {
-    anyhow::ensure!(
-        render.band_names.last().map(String::as_str) == Some(DETECTED_BAND),
-        "the render has no '{DETECTED_BAND}' band"
-    );
+pub fn take_detected_band(render: &mut RenderOutput) -> Result<Array2<f64>, DetectedError> {
+    if render.band_names.last().map(String::as_str) != Some(DETECTED_BAND) {
+        return Err(DetectedError::NotRendered);
+    }
     let last = render.band_names.len() - 1;
     let detected = render.radiance.index_axis(Axis(0), last).to_owned();
     render.radiance = render.radiance.slice(s![..last, .., ..]).to_owned();

@@ -155,14 +155,40 @@ impl FrameLog {
     }
 }
 
+/// Why a capture's options are refused.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureOptionsError {
+    #[error("--frames must be at least 1")]
+    NoFrames,
+    #[error("loading sensor '{sensor}'")]
+    Sensor {
+        sensor: String,
+        #[source]
+        source: gloam_sensor::ConfigError,
+    },
+    #[error("--gain")]
+    Gain(#[source] gloam_sensor::CaptureError),
+}
+
 /// Checks the sensor options of a capture (the sensor loads, `--gain` is
 /// in its range, at least one frame) before anything expensive runs.
-pub fn check_options(sensor: &str, gain: Option<f64>, frames: u32) -> anyhow::Result<()> {
-    anyhow::ensure!(frames >= 1, "--frames must be at least 1");
-    let mut camera = Camera::from_preset_or_file(sensor)
-        .with_context(|| format!("loading sensor '{sensor}'"))?;
+pub fn check_options(
+    sensor: &str,
+    gain: Option<f64>,
+    frames: u32,
+) -> Result<(), CaptureOptionsError> {
+    if frames < 1 {
+        return Err(CaptureOptionsError::NoFrames);
+    }
+    let mut camera =
+        Camera::from_preset_or_file(sensor).map_err(|source| CaptureOptionsError::Sensor {
+            sensor: sensor.to_string(),
+            source,
+        })?;
     if let Some(g) = gain {
-        camera.set_override_gain(Some(g)).context("--gain")?;
+        camera
+            .set_override_gain(Some(g))
+            .map_err(CaptureOptionsError::Gain)?;
     }
     Ok(())
 }
@@ -200,18 +226,28 @@ pub struct FrameCapture<'a> {
 }
 
 impl FrameCapture<'_> {
+    /// [`check_options`] of this capture: refuses a sensor that does not
+    /// load, a gain outside its range or no frames, before the render.
+    pub fn check(&self) -> Result<(), CaptureOptionsError> {
+        check_options(self.sensor, self.gain, self.frames)
+    }
+
     /// Captures `frames` frames of the detected-electron radiance
     /// `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]) into `out`.
-    pub fn run(&self, detected: &Array2<f64>, out: &Path) -> anyhow::Result<()> {
+    /// Returns what its user should be told, as lines (the automatic
+    /// exposure's choice, each kind of exposure warning once); the front
+    /// end prints them.
+    pub fn run(&self, detected: &Array2<f64>, out: &Path) -> anyhow::Result<Vec<String>> {
         anyhow::ensure!(self.frames >= 1, "--frames must be at least 1");
         let mut config = gloam_sensor::load_preset_or_file(self.sensor)
             .with_context(|| format!("loading sensor '{}'", self.sensor))?;
         config.noise.seed = self.seed;
+        let mut notes = Vec::new();
         let exposure = match &self.auto_exposure {
             Some(target) => {
                 let c = crate::exposure::choose(&config, detected, target)?;
                 crate::exposure::apply(&mut config, &c);
-                eprintln!(
+                notes.push(format!(
                     "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
                     c.gain,
                     c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
@@ -221,9 +257,9 @@ impl FrameCapture<'_> {
                     c.percentile_dn,
                     c.median_dn,
                     c.note
-                );
+                ));
                 if c.stops_out_of_range != 0.0 {
-                    eprintln!("warning: {}", c.note);
+                    notes.push(format!("warning: {}", c.note));
                 }
                 Some(c)
             }
@@ -265,7 +301,7 @@ impl FrameCapture<'_> {
                         ),
                         _ => String::new(),
                     };
-                    eprintln!("warning: frame {i}: {w}{by}");
+                    notes.push(format!("warning: frame {i}: {w}{by}"));
                 }
             }
             per_frame.push(serde_json::json!({
@@ -297,13 +333,7 @@ impl FrameCapture<'_> {
                 },
             }),
         )?;
-        // No path: `out` is the command's hidden staging directory until the
-        // set is published (the command names the published one).
-        eprintln!(
-            "captured {} frame(s) through '{}'",
-            self.frames, self.sensor
-        );
-        Ok(())
+        Ok(notes)
     }
 }
 

@@ -1,54 +1,85 @@
 //! Output files: atomic writes, and the image encoders every command uses.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use ndarray::Array3;
 
+/// Why an output file was not written, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("writing {}", path.display())]
+    Write {
+        path: PathBuf,
+        /// Boxed: the calibration error is large, this one travels far.
+        #[source]
+        source: Box<gloam_calib::CalibError>,
+    },
+    #[error("encoding {}", path.display())]
+    Encode {
+        path: PathBuf,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    #[error("encoding PNG")]
+    Png(#[source] image::ImageError),
+    #[error("preview buffer size")]
+    PreviewSize,
+    #[error(transparent)]
+    Tiff(Box<gloam_calib::CalibError>),
+}
+
 /// Writes `bytes` to `path` atomically — the project's one atomic writer,
 /// [`gloam_calib::report::write_bytes`]: a uniquely named temporary file in
 /// the same directory, fsynced, then renamed over the target.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    gloam_calib::report::write_bytes(path, bytes)
-        .with_context(|| format!("writing {}", path.display()))
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    gloam_calib::report::write_bytes(path, bytes).map_err(|source| OutputError::Write {
+        path: path.to_path_buf(),
+        source: Box::new(source),
+    })
 }
 
 /// Like [`write_atomic`], with the content produced by `fill` (for encoders
 /// that write to a stream).
 pub fn write_atomic_with(
     path: &Path,
-    fill: impl FnOnce(&mut Vec<u8>) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
+    fill: impl FnOnce(&mut Vec<u8>) -> Result<(), Box<dyn std::error::Error + Send + Sync>>,
+) -> Result<(), OutputError> {
     let mut bytes = Vec::new();
-    fill(&mut bytes).with_context(|| format!("encoding {}", path.display()))?;
+    fill(&mut bytes).map_err(|source| OutputError::Encode {
+        path: path.to_path_buf(),
+        source,
+    })?;
     write_atomic(path, &bytes)
 }
 
 /// A 16-bit greyscale PNG of row-major `pixels` (any bit depth up to 16 is
 /// stored unscaled in the 16-bit container, so counts survive exactly).
-pub fn png16_bytes(width: u32, height: u32, pixels: &[u16]) -> anyhow::Result<Vec<u8>> {
-    use anyhow::Context;
+pub fn png16_bytes(width: u32, height: u32, pixels: &[u16]) -> Result<Vec<u8>, OutputError> {
     use image::ImageEncoder;
     let mut bytes = Vec::with_capacity(pixels.len() * 2 + 1024);
     // The encoder takes 16-bit samples in native byte order (PNG itself is big-endian).
     let ne: Vec<u8> = pixels.iter().flat_map(|p| p.to_ne_bytes()).collect();
     image::codecs::png::PngEncoder::new(&mut bytes)
         .write_image(&ne, width, height, image::ExtendedColorType::L16)
-        .context("encoding PNG")?;
+        .map_err(OutputError::Png)?;
     Ok(bytes)
 }
 
-pub fn write_tiff(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+/// Float32 TIFF, one page per band.
+pub fn write_tiff(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError> {
     let (_, h, w) = radiance.dim();
     let pages: Vec<Vec<f32>> = radiance
         .outer_iter()
         .map(|band| band.iter().map(|&v| v as f32).collect())
         .collect();
     let pages: Vec<&[f32]> = pages.iter().map(Vec::as_slice).collect();
-    Ok(gloam_calib::io::write_tiff_f32_pages(path, w, h, &pages)?)
+    gloam_calib::io::write_tiff_f32_pages(path, w, h, &pages)
+        .map_err(|e| OutputError::Tiff(Box::new(e)))
 }
 
-pub fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+/// NPY, float64, band × row × column.
+pub fn write_npy(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError> {
     use ndarray_npy::WriteNpyExt;
     write_atomic_with(path, |f| {
         let mut w = std::io::BufWriter::new(f);
@@ -59,7 +90,8 @@ pub fn write_npy(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
     })
 }
 
-pub fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> anyhow::Result<()> {
+/// NPY, uint32, row × column.
+pub fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> Result<(), OutputError> {
     use ndarray_npy::WriteNpyExt;
     write_atomic_with(path, |f| {
         let mut w = std::io::BufWriter::new(f);
@@ -114,13 +146,13 @@ impl ToneMap {
 }
 
 /// First band through [`ToneMap`], 8 bits.
-pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> anyhow::Result<()> {
+pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError> {
     let (_, h, w) = radiance.dim();
     let img = radiance.index_axis(ndarray::Axis(0), 0);
     let tone = ToneMap::of(img.iter().copied());
     let pixels: Vec<u8> = img.iter().map(|&v| tone.grey(v)).collect();
     let gray =
-        image::GrayImage::from_raw(w as u32, h as u32, pixels).context("preview buffer size")?;
+        image::GrayImage::from_raw(w as u32, h as u32, pixels).ok_or(OutputError::PreviewSize)?;
     write_atomic_with(path, |f| {
         gray.write_to(&mut std::io::Cursor::new(f), image::ImageFormat::Png)?;
         Ok(())

@@ -1,59 +1,290 @@
-//! What every front end of a render shares (the CLI's `gloam render`, the
-//! Python package): the render settings from `KEY=VALUE` pairs and flags,
-//! and the `report.json` document, so a render reports the same figures
+//! One render, written once: the settings from a front end's arguments,
+//! then scene → effect plan → detected band → tracer → rows → the
+//! camera's detected radiance, and the `report.json` document. The CLI's
+//! `gloam render` and the Python package run [`RenderJob`] (and a sweep can), so
+//! a render makes the same decisions and reports the same figures
 //! whichever way it was started.
 
+use std::ops::Range;
 use std::path::Path;
 
-use gloam_trace::{RenderOutput, RenderSettings};
+use gloam_scene::Scene;
+use gloam_scene::plan::EffectPlan;
+use gloam_trace::{PrepObserver, RenderOutput, RenderSettings, SettingsError, TraceError, Tracer};
+use ndarray::Array2;
 
-/// Settings from `--set` pairs, then the dedicated flags.
-pub fn settings_from(
-    set: &[String],
-    spp: Option<u32>,
-    seed: Option<u64>,
-    estimator: Option<&str>,
-    threads: Option<usize>,
-) -> anyhow::Result<RenderSettings> {
-    for (key, flag, given) in [
-        ("spp", "--spp", spp.is_some()),
-        ("seed", "--seed", seed.is_some()),
-        ("estimator", "--estimator", estimator.is_some()),
-    ] {
-        if given {
-            refuse_both(set, key, flag)?;
-        }
-    }
-    let mut s = RenderSettings::default();
-    for pair in set {
-        s.set_pair(pair)?;
-    }
-    if let Some(v) = spp {
-        s.set("spp", &v.to_string())?;
-    }
-    if let Some(v) = seed {
-        s.seed = v;
-    }
-    if let Some(e) = estimator {
-        s.estimator = e.parse()?;
-    }
-    if let Some(t) = threads {
-        anyhow::ensure!(t >= 1, "--threads must be at least 1");
-        s.threads = Some(t);
-    }
-    Ok(s)
+use crate::detected::{DetectedError, take_detected_band, with_detected_band};
+
+/// Why a render could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// A setting given twice, as `--set KEY=…` and as its own flag (or
+    /// keyword): which one wins would be a guess.
+    #[error("`--set {pair}` and `{flag}` both set {key}: give one")]
+    GivenTwice {
+        pair: String,
+        flag: String,
+        key: String,
+    },
+    #[error("--threads must be at least 1")]
+    NoThreads,
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    #[error(transparent)]
+    Detected(#[from] DetectedError),
+    #[error(transparent)]
+    Trace(#[from] TraceError),
+    #[error("rows {start}..{end} are not rows of the {height}-row image")]
+    Rows { start: u32, end: u32, height: u32 },
 }
 
-/// Refuses a setting given twice, as `--set KEY=…` and as its own flag:
-/// which one wins would be a guess.
-pub fn refuse_both(set: &[String], key: &str, flag: &str) -> anyhow::Result<()> {
-    if let Some(pair) = set.iter().find(|p| {
+/// The render settings a front end was given: `KEY=VALUE` pairs (`--set`,
+/// or the Python `settings` dict) and the flags that name one setting each.
+#[derive(Clone, Debug, Default)]
+pub struct SettingArgs {
+    pub set: Vec<String>,
+    pub spp: Option<u32>,
+    pub seed: Option<u64>,
+    pub estimator: Option<String>,
+    pub threads: Option<usize>,
+    pub target_error: Option<f64>,
+    pub tolerance: Option<f64>,
+}
+
+impl SettingArgs {
+    /// The settings: defaults, then the pairs in order, then the flags. A
+    /// setting given both as a pair and as its flag is refused.
+    pub fn settings(&self) -> Result<RenderSettings, RenderError> {
+        let refuse = |pairs: &[(&str, &str, bool)]| {
+            pairs
+                .iter()
+                .filter(|(_, _, given)| *given)
+                .try_for_each(|(key, flag, _)| refuse_both(&self.set, key, flag))
+        };
+        refuse(&[
+            ("spp", "--spp", self.spp.is_some()),
+            ("seed", "--seed", self.seed.is_some()),
+            ("estimator", "--estimator", self.estimator.is_some()),
+        ])?;
+        let mut s = RenderSettings::default();
+        for pair in &self.set {
+            s.set_pair(pair)?;
+        }
+        if let Some(v) = self.spp {
+            s.set("spp", &v.to_string())?;
+        }
+        if let Some(v) = self.seed {
+            s.seed = v;
+        }
+        if let Some(e) = &self.estimator {
+            s.estimator = e.parse()?;
+        }
+        if let Some(t) = self.threads {
+            if t < 1 {
+                return Err(RenderError::NoThreads);
+            }
+            s.threads = Some(t);
+        }
+        refuse(&[
+            (
+                "target_error",
+                "--target-error",
+                self.target_error.is_some(),
+            ),
+            ("tolerance", "--tolerance", self.tolerance.is_some()),
+        ])?;
+        if let Some(e) = self.target_error {
+            s.set("target_error", &e.to_string())?;
+        }
+        if let Some(t) = self.tolerance {
+            s.set("tolerance", &t.to_string())?;
+        }
+        Ok(s)
+    }
+}
+
+/// Refuses a setting given twice, as `--set KEY=…` and as its own flag.
+fn refuse_both(set: &[String], key: &str, flag: &str) -> Result<(), RenderError> {
+    match set.iter().find(|p| {
         p.split_once('=')
             .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case(key))
     }) {
-        anyhow::bail!("`--set {pair}` and `{flag}` both set {key}: give one");
+        Some(pair) => Err(RenderError::GivenTwice {
+            pair: pair.clone(),
+            flag: flag.to_string(),
+            key: key.to_string(),
+        }),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// The camera a render of `scene` is made for: the one the caller names,
+/// else the scene's own `sensor` entry. Every front end takes it so: the
+/// effect plan weighs every band, the camera's detected band included, so
+/// a render for a camera and one without are not bit-identical.
+pub fn camera_of<'a>(given: Option<&'a str>, scene: &'a Scene) -> Option<&'a str> {
+    given.or(scene.sensor.as_deref())
+}
+
+/// A render to run: the scene, its settings and the camera it is for.
+pub struct RenderJob<'a> {
+    /// The scene as loaded (without the camera's band).
+    pub scene: &'a Scene,
+    pub settings: &'a RenderSettings,
+    /// The camera (preset name or sensor TOML) whose detected band the
+    /// render carries; see [`camera_of`].
+    pub camera: Option<&'a str>,
+    /// Told as preparation steps begin and end (a progress display).
+    pub observer: Option<PrepObserver>,
+}
+
+impl<'a> RenderJob<'a> {
+    /// A job for `scene` with `settings`, no camera and no observer.
+    pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
+        Self {
+            scene,
+            settings,
+            camera: None,
+            observer: None,
+        }
+    }
+
+    /// Adds the camera's detected band and prepares the tracer (BVH,
+    /// sources, pilot, cache) and the effect plan it runs.
+    pub fn prepare(&self) -> Result<PreparedRender, RenderError> {
+        let banded;
+        let traced = match self.camera {
+            Some(c) => {
+                banded = with_detected_band(self.scene, c)?;
+                &banded
+            }
+            None => self.scene,
+        };
+        let tracer = Tracer::prepare_observed(traced, self.settings, true, self.observer.clone())?;
+        let plan = tracer.effect_plan(self.scene);
+        Ok(PreparedRender {
+            tracer,
+            plan,
+            camera: self.camera.is_some(),
+        })
+    }
+
+    /// [`RenderJob::prepare`], then the whole image.
+    pub fn run(
+        &self,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Rendered, RenderError> {
+        self.prepare()?.render(None, progress, stop)
+    }
+}
+
+/// A prepared render: the tracer and the effect plan it runs.
+pub struct PreparedRender {
+    tracer: Tracer,
+    plan: EffectPlan,
+    camera: bool,
+}
+
+impl PreparedRender {
+    /// The whole image's size `(width, height)` in pixels (after
+    /// `resolution_scale`), which a tile's rows are taken from.
+    pub fn image_size(&self) -> (u32, u32) {
+        self.tracer.image_size()
+    }
+
+    pub fn tracer(&self) -> &Tracer {
+        &self.tracer
+    }
+
+    pub fn plan(&self) -> &EffectPlan {
+        &self.plan
+    }
+
+    /// Traces image rows `rows` (all for `None`; each pixel bit-identical
+    /// to the whole image's) and splits the camera's detected band off.
+    /// `progress(done, total)` is told per tile; once `stop()` returns
+    /// true the render ends with [`TraceError::Interrupted`].
+    pub fn render(
+        self,
+        rows: Option<Range<u32>>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Rendered, RenderError> {
+        let image_size = self.image_size();
+        let rows = rows.unwrap_or(0..image_size.1);
+        if rows.start > rows.end || rows.end > image_size.1 {
+            return Err(RenderError::Rows {
+                start: rows.start,
+                end: rows.end,
+                height: image_size.1,
+            });
+        }
+        let mut radiance = self
+            .tracer
+            .render_rows_until(rows.clone(), progress, stop)?;
+        let detected = match self.camera {
+            true => Some(take_detected_band(&mut radiance)?),
+            false => None,
+        };
+        Ok(Rendered {
+            radiance,
+            detected,
+            plan: self.plan,
+            rows,
+            image_size,
+        })
+    }
+}
+
+/// What a render made.
+pub struct Rendered {
+    /// Radiance, standard error and samples of the scene's own bands.
+    pub radiance: RenderOutput,
+    /// The camera's detected-electron radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (rows ×
+    /// columns), when the job had a camera.
+    pub detected: Option<Array2<f64>>,
+    /// The effect plan the render ran.
+    pub plan: EffectPlan,
+    /// The rows rendered, of the whole image.
+    pub rows: Range<u32>,
+    /// The whole image's `(width, height)`.
+    pub image_size: (u32, u32),
+}
+
+impl Rendered {
+    /// Writes the radiance outputs into `dir`, each atomically:
+    /// `radiance.tiff`/`.npy`, `stderr.tiff`/`.npy`, `spp.npy` and
+    /// `preview.png` (see [`report_json`]'s `outputs`).
+    pub fn write_images(&self, dir: &Path) -> Result<(), crate::output::OutputError> {
+        use crate::output::{write_npy, write_npy_u32, write_preview, write_tiff};
+        let r = &self.radiance;
+        write_tiff(&dir.join("radiance.tiff"), &r.radiance)?;
+        write_npy(&dir.join("radiance.npy"), &r.radiance)?;
+        write_tiff(&dir.join("stderr.tiff"), &r.std_error)?;
+        write_npy(&dir.join("stderr.npy"), &r.std_error)?;
+        write_npy_u32(&dir.join("spp.npy"), &r.spp)?;
+        write_preview(&dir.join("preview.png"), &r.radiance)?;
+        Ok(())
+    }
+
+    /// The render's `report.json` (see [`report_json`]).
+    pub fn report_json(
+        &self,
+        scene_path: &Path,
+        scene: &Scene,
+        load_s: f64,
+        write_s: f64,
+    ) -> serde_json::Value {
+        report_json(
+            scene_path,
+            scene,
+            &self.plan,
+            &self.radiance,
+            load_s,
+            write_s,
+        )
+    }
 }
 
 /// The `report.json` of a render (without `provenance`, which the caller

@@ -10,10 +10,10 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::detected::{take_detected_band, with_detected_band};
+use crate::render::RenderJob;
 use gloam_grabber::{GrabError, GrabberUri, Registry};
 use gloam_simcam::{SceneImage, SceneView};
-use gloam_trace::{RenderSettings, Tracer};
+use gloam_trace::RenderSettings;
 
 /// Renders `path` for the camera `sensor` at `size` (width, height;
 /// default the scene camera's, keeping its horizontal field of view).
@@ -27,10 +27,15 @@ pub fn render_scene_view(
         scene.camera.width = w;
         scene.camera.height = h;
     }
-    let traced = with_detected_band(&scene, sensor)?;
-    let tracer = Tracer::new(&traced, &RenderSettings::default())?;
-    let mut out = tracer.render(&|_, _| {})?;
-    let detected = take_detected_band(&mut out)?;
+    let settings = RenderSettings::default();
+    let job = RenderJob {
+        camera: Some(sensor),
+        ..RenderJob::new(&scene, &settings)
+    };
+    let detected = job
+        .run(&|_, _| {}, &|| false)?
+        .detected
+        .ok_or_else(|| anyhow::anyhow!("{path}: the render carried no detected band"))?;
     Ok(SceneView {
         label: path.to_string(),
         image: SceneImage::Detected {

@@ -15,7 +15,7 @@ use gloam_pipeline::output::{
     png16_bytes, write_atomic, write_npy, write_npy_u32, write_preview, write_tiff,
 };
 use gloam_simcam::FrameExposureExt;
-use gloam_trace::{RenderOutput, Tracer};
+use gloam_trace::RenderOutput;
 use ndarray::Array2;
 
 use crate::run::{Executor, Figures};
@@ -43,9 +43,7 @@ pub struct Rendered {
 }
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
-/// when it has a sensor): plan → detected band → tracer → rows → band.
-/// One function so it can become a call to the pipeline's render entry
-/// point without touching the executor around it.
+/// when it has a sensor) through the pipeline's one render entry point.
 fn render_point(sweep: &Sweep, task: &Task) -> anyhow::Result<Rendered> {
     let scene = sweep.load_scene(task)?;
     let settings = task.render_settings()?;
@@ -54,21 +52,15 @@ fn render_point(sweep: &Sweep, task: &Task) -> anyhow::Result<Rendered> {
     if let Some(s) = &sensor {
         gloam_pipeline::check_options(s, None, task.frames())?;
     }
-    let traced = match &sensor {
-        Some(s) => gloam_pipeline::with_detected_band(&scene, s)?,
-        None => scene.clone(),
+    let job = gloam_pipeline::RenderJob {
+        camera: sensor.as_deref(),
+        ..gloam_pipeline::RenderJob::new(&scene, &settings)
     };
-    let tracer = Tracer::new(&traced, &settings)?;
-    let full = tracer.image_size();
-    let rows = match task.tile() {
-        Some(t) => t.rows(full.1)?,
-        None => 0..full.1,
-    };
-    let mut out = tracer.render_rows(rows.clone(), &|_, _| {})?;
-    let detected = match &sensor {
-        Some(_) => Some(gloam_pipeline::take_detected_band(&mut out)?),
-        None => None,
-    };
+    let prepared = job.prepare()?;
+    let full = prepared.image_size();
+    let rows = task.tile().map(|t| t.rows(full.1)).transpose()?;
+    let r = prepared.render(rows, &|_, _| {}, &|| false)?;
+    let (out, detected, rows) = (r.radiance, r.detected, r.rows);
     Ok(Rendered {
         out,
         detected,
@@ -155,7 +147,8 @@ fn write_frame_records(out: &Path, records: &[FrameRecord]) -> anyhow::Result<()
         jsonl.push_str(&serde_json::to_string(r)?);
         jsonl.push('\n');
     }
-    write_atomic(&out.join("frames.jsonl"), jsonl.as_bytes())
+    write_atomic(&out.join("frames.jsonl"), jsonl.as_bytes())?;
+    Ok(())
 }
 
 /// Frames of a render through the task's camera (noise seeded by the task).

@@ -134,7 +134,8 @@ pub fn write_tile_info(
     write_atomic(
         &dir.join(TILE_FILE),
         serde_json::to_string_pretty(&info)?.as_bytes(),
-    )
+    )?;
+    Ok(())
 }
 
 impl Merged {
@@ -171,7 +172,8 @@ impl Merged {
         write_atomic(
             &dir.join("report.json"),
             serde_json::to_string_pretty(&report)?.as_bytes(),
-        )
+        )?;
+        Ok(())
     }
 }
 

@@ -23,7 +23,7 @@ fn rays(c: &mut Criterion) {
         .flat_map(|r| (0..w).map(move |c| (c, r)))
         .map(|(c, r)| tracer.camera_ray(c as f64 + 0.5, r as f64 + 0.5))
         .collect();
-    let g = &tracer.geom;
+    let g = tracer.geometry();
     // Shadow rays: from every primary hit to every emitter centroid.
     let targets = tracer.emitter_centroids();
     let mut shadow = Vec::new();

@@ -616,11 +616,24 @@ pub fn effect_plan_observed(
     settings: &RenderSettings,
     observer: Option<crate::prep::PrepObserver>,
 ) -> Result<(EffectPlan, crate::prep::Preparation), TraceError> {
-    let mut plan = gloam_scene::plan::plan(scene);
     let t = Tracer::prepare_observed(scene, settings, false, observer)?;
-    plan.extend([interreflection_effect(&t.interreflection)]);
-    annotate_shares(&mut plan, &t.interreflection);
-    Ok((plan, t.preparation))
+    Ok((t.effect_plan(scene), t.preparation))
+}
+
+impl Tracer {
+    /// The effect plan this tracer runs: `scene`'s structural plan with the
+    /// pilot's interreflection decision and the shares it measured. The one
+    /// place the plan of a render is put together (`gloam plan`, and `gloam
+    /// render` and the Python package through `gloam_pipeline`'s
+    /// `RenderJob`). `scene` is the
+    /// scene as its user wrote it: a band added for a camera
+    /// (`gloam_pipeline::detected`) is no effect of the scene's.
+    pub fn effect_plan(&self, scene: &Scene) -> EffectPlan {
+        let mut plan = gloam_scene::plan::plan(scene);
+        plan.extend([interreflection_effect(&self.interreflection)]);
+        annotate_shares(&mut plan, &self.interreflection);
+        plan
+    }
 }
 
 /// Fills in `estimated_share` of the light terms the pilot measured. These

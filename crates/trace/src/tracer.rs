@@ -192,9 +192,9 @@ struct LightSample {
 
 /// A scene prepared for tracing with given settings.
 pub struct Tracer {
-    pub settings: RenderSettings,
-    pub wl: Wavelengths,
-    pub geom: Geometry,
+    pub(crate) settings: RenderSettings,
+    pub(crate) wl: Wavelengths,
+    pub(crate) geom: Geometry,
     pub(crate) mpu: f64,
     pub(crate) facet_mat: Vec<u32>,
     pub(crate) facet_normal: Vec<DVec3>,
@@ -212,7 +212,7 @@ pub struct Tracer {
     /// The solved radiosity cache (`indirect = cache`).
     pub(crate) cache: Option<crate::indirect::Cache>,
     /// How interreflection was decided (method, pilot estimate, bounces).
-    pub interreflection: crate::plan::InterreflectionDecision,
+    pub(crate) interreflection: crate::plan::InterreflectionDecision,
     /// Effects the plan leaves out because the pilot found them worth no
     /// more than the tolerance (skipped outright, unlike `settings.drop`,
     /// which computes and discards to keep the random numbers).
@@ -221,9 +221,9 @@ pub struct Tracer {
     /// `light_tree_min_lights` (else every emitter is evaluated, as always).
     pub(crate) light_tree: Option<crate::light_tree::LightTree>,
     /// Seconds spent building the BVH and spectral tables.
-    pub build_seconds: f64,
+    pub(crate) build_seconds: f64,
     /// The scene's size and each preparation step's time and peak memory.
-    pub preparation: Preparation,
+    pub(crate) preparation: Preparation,
     /// Told as preparation steps begin and end (`prepare_observed`).
     pub(crate) observer: Option<PrepObserver>,
 }
@@ -618,6 +618,36 @@ impl Tracer {
         tracer.decide_interreflection(solve);
         tracer.build_seconds = t0.elapsed().as_secs_f64();
         Ok(tracer)
+    }
+
+    /// The settings this tracer was prepared with.
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// The wavelength grid and the bands it integrates into.
+    pub fn wavelengths(&self) -> &Wavelengths {
+        &self.wl
+    }
+
+    /// The scene's geometry (BVH) in the tracer's centred coordinates.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geom
+    }
+
+    /// How interreflection was decided (method, pilot estimate, bounces).
+    pub fn interreflection(&self) -> &crate::plan::InterreflectionDecision {
+        &self.interreflection
+    }
+
+    /// Seconds spent building the BVH and spectral tables.
+    pub fn build_seconds(&self) -> f64 {
+        self.build_seconds
+    }
+
+    /// The scene's size and each preparation step's time and peak memory.
+    pub fn preparation(&self) -> &Preparation {
+        &self.preparation
     }
 
     /// Index of the band called `name` (or the first band for `None`).

@@ -84,16 +84,21 @@ fn furnace_box_default_render_is_within_half_a_percent_at_rho_half_and_two_at_po
         let s = furnace_box(rho, [2.0, 1.5, 1.0]);
         let (m, t) = mean(&s, &RenderSettings::default());
         let want = LE / (1.0 - rho);
-        assert_eq!(t.interreflection.method, "cache", "{:?}", t.interreflection);
+        assert_eq!(
+            t.interreflection().method,
+            "cache",
+            "{:?}",
+            t.interreflection()
+        );
         assert!(
             ((m - want) / want).abs() < tol,
             "ρ = {rho}: mean {m}, want {want} (Le/(1−ρ)), decision {:?}",
-            t.interreflection
+            t.interreflection()
         );
         // The plan's estimate: every pixel sees an emitter, so the share is
         // over all pixels: indirect / total = ρ (Le/(1−ρ) − Le … − ρLe)/…
         // i.e. (L − Le − ρ Le)/L = ρ².
-        let share = t.interreflection.estimated_share.unwrap();
+        let share = t.interreflection().estimated_share.unwrap();
         assert!(
             (share - rho * rho).abs() < 0.02,
             "ρ = {rho}: share {share}, want ρ² = {}",
@@ -119,7 +124,7 @@ fn furnace_holds_for_other_shapes_and_rho_up_to_0_99() {
         assert!(
             ((m - want) / want).abs() < tol,
             "{name}: mean {m}, want {want}, {:?}",
-            t.interreflection
+            t.interreflection()
         );
     }
 }
@@ -133,9 +138,9 @@ fn brute_force_path_tracing_agrees_with_the_furnace() {
     set.spp = 64;
     let (m, t) = mean(&s, &set);
     assert!(
-        t.interreflection.diffuse_bounces >= 5,
+        t.interreflection().diffuse_bounces >= 5,
         "{:?}",
-        t.interreflection
+        t.interreflection()
     );
     let want = LE / (1.0 - 0.5);
     assert!(
@@ -245,7 +250,7 @@ fn integrating_sphere_with_a_port() {
     assert!(
         ((m - want) / want).abs() < 0.02,
         "sphere: mean {m}, want {want} (f = {f:.4}), {:?}",
-        t.interreflection
+        t.interreflection()
     );
 }
 

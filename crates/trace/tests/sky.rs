@@ -57,19 +57,20 @@ fn model(utc: &str) -> gloam_sky::SkyModel {
 
 /// A ground spectrum band-integrated the way the tracer integrates.
 fn band(t: &Tracer, table: &[(f64, f64)]) -> f64 {
-    let v: Vec<f64> =
-        t.wl.nm
-            .iter()
-            .enumerate()
-            .map(|(i, &w)| {
-                if i < t.wl.n_continuum {
-                    interpolate(table, w)
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-    t.wl.integrate(&v)[0]
+    let v: Vec<f64> = t
+        .wavelengths()
+        .nm
+        .iter()
+        .enumerate()
+        .map(|(i, &w)| {
+            if i < t.wavelengths().n_continuum {
+                interpolate(table, w)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    t.wavelengths().integrate(&v)[0]
 }
 
 #[test]

@@ -61,7 +61,7 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Resu
         // measure the change of the signal over the pixels that do not see
         // an emitter (the pilot's own pixel set), against the tolerance.
         let tracer = Tracer::prepare(&scene, &base, false)?;
-        let decision = tracer.interreflection.clone();
+        let decision = tracer.interreflection().clone();
         let kept = decision.method != "off";
         let mut flipped = base.clone();
         flipped.set("indirect", if kept { "off" } else { "cache" })?;

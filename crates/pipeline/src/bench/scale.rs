@@ -489,7 +489,7 @@ pub fn run_case(
     let tracer = Tracer::new(&scene, &settings)?;
     let prepare_peak_rss_bytes = [
         load_peak,
-        tracer.preparation.peak_rss_bytes,
+        tracer.preparation().peak_rss_bytes,
         peak_rss_bytes(),
     ]
     .into_iter()

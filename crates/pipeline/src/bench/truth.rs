@@ -40,8 +40,10 @@ pub fn primary_hit(
 ) -> Option<(u32, DVec3, DVec3)> {
     let cam = &scene.camera;
     let d = cam.pixel_direction(px, py);
-    let o = cam.position - tracer.geom.origin;
-    let hit = tracer.geom.intersect(o, d, 0.0, f64::INFINITY, u32::MAX)?;
+    let o = cam.position - tracer.geometry().origin;
+    let hit = tracer
+        .geometry()
+        .intersect(o, d, 0.0, f64::INFINITY, u32::MAX)?;
     Some((hit.facet, cam.position + d * hit.t, d))
 }
 
