@@ -818,7 +818,7 @@ fn object(
                 ),
             ));
         }
-        check_facet(&verts).map_err(|m| cx.err(at, m))?;
+        check_facet(&verts).map_err(|e| cx.err(at, e.to_string()))?;
         facets.push(Facet {
             vertices: verts,
             material,
@@ -925,7 +925,7 @@ fn object(
                 ));
             }
         }
-        let verts = quad_vertices(c, w, h, n, wa).map_err(|m| cx.err(&qf, m))?;
+        let verts = quad_vertices(c, w, h, n, wa).map_err(|e| cx.err(&qf, e.to_string()))?;
         push(verts.iter().map(|&p| xf(p)).collect(), &qf)?;
     } else if let Some(file) = &o.obj {
         let at = field.key("obj");
@@ -1103,7 +1103,7 @@ fn expand(
             // non-zero area); only finiteness can change. A per-axis scale
             // is checked facet by facet.
             let bad = if check {
-                check_facet(&verts).err()
+                check_facet(&verts).err().map(|e| e.to_string())
             } else if !verts.iter().all(|v| v.is_finite()) {
                 Some("a vertex is not finite after the transform".to_string())
             } else {
@@ -1145,7 +1145,7 @@ fn point_source(
     )?;
     let Some(placements) = placements else {
         check_budget(out.len(), 1, MAX_POINT_SOURCES, 0, None, "point sources")
-            .map_err(|m| cx.err(field, m))?;
+            .map_err(|e| cx.err(field, e.to_string()))?;
         out.push(proto);
         return Ok(());
     };
@@ -1328,9 +1328,25 @@ fn band(cx: &Ctx, field: &FieldPath, name: &str, b: &RawBand) -> R<Band> {
     }
 }
 
+/// Why a `sky.utc` text is not a UTC date-time; each names the text.
+#[derive(Debug, thiserror::Error)]
+enum UtcError {
+    #[error("'{text}' is not an ISO-8601 date-time such as 2024-03-14T22:30:00Z")]
+    Shape { text: String },
+    #[error("'{text}': seconds must have two digits")]
+    Seconds { text: String },
+    #[error("'{text}': the time must be UTC (end with Z or nothing), not '{rest}'")]
+    NotUtc { text: String, rest: String },
+    #[error("'{text}': {source}")]
+    Calendar {
+        text: String,
+        source: gloam_sky::SkyError,
+    },
+}
+
 /// Accepts `YYYY-MM-DDTHH:MM[:SS[.fff]]` with an optional `Z` or `+00:00`
 /// (or a space for `T`).
-fn iso8601_utc(s: &str) -> Result<(), String> {
+fn iso8601_utc(s: &str) -> Result<(), UtcError> {
     let b = s.as_bytes();
     let digits = |r: std::ops::Range<usize>| {
         b.get(r.clone())
@@ -1345,10 +1361,9 @@ fn iso8601_utc(s: &str) -> Result<(), String> {
         && digits(11..13)
         && b.get(13) == Some(&b':')
         && digits(14..16);
+    let text = || s.to_string();
     if !shape {
-        return Err(format!(
-            "'{s}' is not an ISO-8601 date-time such as 2024-03-14T22:30:00Z"
-        ));
+        return Err(UtcError::Shape { text: text() });
     }
     let mut rest = &s[16..];
     if let Some(r) = rest.strip_prefix(':') {
@@ -1357,21 +1372,25 @@ fn iso8601_utc(s: &str) -> Result<(), String> {
             .take_while(|c| c.is_ascii_digit() || *c == b'.')
             .count();
         if sec_len < 2 {
-            return Err(format!("'{s}': seconds must have two digits"));
+            return Err(UtcError::Seconds { text: text() });
         }
         rest = &r[sec_len..];
     }
     if !matches!(rest, "" | "Z" | "z" | "+00:00" | "-00:00") {
-        return Err(format!(
-            "'{s}': the time must be UTC (end with Z or nothing), not '{rest}'"
-        ));
+        return Err(UtcError::NotUtc {
+            text: text(),
+            rest: rest.to_string(),
+        });
     }
     // The calendar (month lengths, leap years, ranges) is the sky crate's
     // parser's, the one the render uses: an impossible date fails here,
     // with the file and line, rather than at render time.
     gloam_sky::UtcInstant::parse_iso8601(s)
         .map(|_| ())
-        .map_err(|e| format!("'{s}': {e}"))
+        .map_err(|source| UtcError::Calendar {
+            text: text(),
+            source,
+        })
 }
 
 fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {
@@ -1389,7 +1408,7 @@ fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {
             ));
         }
     };
-    iso8601_utc(&utc).map_err(|m| cx.err(&uf, m))?;
+    iso8601_utc(&utc).map_err(|e| cx.err(&uf, e.to_string()))?;
     let lat = cx.finite(&field.key("latitude_deg"), s.latitude_deg)?;
     if !(-90.0..=90.0).contains(&lat) {
         return Err(cx.err(

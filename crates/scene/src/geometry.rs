@@ -48,19 +48,51 @@ pub(crate) fn centroid(v: &[DVec3]) -> DVec3 {
     }
 }
 
+/// Why vertices are not a usable facet ([`check_facet`]); the message
+/// says what is wrong, the caller adds the file, line and field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FacetError {
+    #[error("a facet has 3 or 4 vertices, this one has {count}")]
+    VertexCount { count: usize },
+    #[error("vertex {index} is not finite ({vertex})")]
+    NonFinite { index: usize, vertex: DVec3 },
+    #[error("zero area: all vertices coincide")]
+    AllCoincide,
+    #[error("zero-length edge: vertices {first} and {second} coincide")]
+    ZeroEdge { first: usize, second: usize },
+    #[error("zero area ({area:.3e} units²): the vertices are collinear")]
+    Collinear { area: f64 },
+    #[error(
+        "vertices {}, {}, {} are collinear (the quad is really a triangle; write it as one)",
+        .corner, (.corner + 1) % 4, (.corner + 2) % 4
+    )]
+    CollinearCorner { corner: usize },
+    #[error(
+        "non-planar quad: a vertex is {offset:.3e} units off the facet's plane \
+         (tolerance {:.1e} × the longest edge); split it into two triangles",
+        PLANARITY_TOLERANCE
+    )]
+    NonPlanar { offset: f64 },
+    #[error(
+        "non-convex quad: the corner at vertex {vertex} turns the wrong way \
+         (reflex or self-intersecting); split it into two triangles"
+    )]
+    NonConvex { vertex: usize },
+}
+
 /// Checks that `v` is a usable facet: 3 or 4 finite vertices, non-zero area,
 /// no three collinear vertices, and for quads planar (within
-/// [`PLANARITY_TOLERANCE`]) and convex. The message says what is wrong.
-pub fn check_facet(v: &[DVec3]) -> Result<(), String> {
+/// [`PLANARITY_TOLERANCE`]) and convex.
+pub fn check_facet(v: &[DVec3]) -> Result<(), FacetError> {
     if !(v.len() == 3 || v.len() == 4) {
-        return Err(format!(
-            "a facet has 3 or 4 vertices, this one has {}",
-            v.len()
-        ));
+        return Err(FacetError::VertexCount { count: v.len() });
     }
     for (i, p) in v.iter().enumerate() {
         if !p.is_finite() {
-            return Err(format!("vertex {i} is not finite ({p})"));
+            return Err(FacetError::NonFinite {
+                index: i,
+                vertex: *p,
+            });
         }
     }
     let n = v.len();
@@ -68,21 +100,22 @@ pub fn check_facet(v: &[DVec3]) -> Result<(), String> {
         .map(|i| (v[(i + 1) % n] - v[i]).length())
         .fold(0.0, f64::max);
     if longest == 0.0 {
-        return Err("zero area: all vertices coincide".into());
+        return Err(FacetError::AllCoincide);
     }
     for i in 0..n {
         for j in i + 1..n {
             if (v[j] - v[i]).length() <= 1e-12 * longest {
-                return Err(format!("zero-length edge: vertices {i} and {j} coincide"));
+                return Err(FacetError::ZeroEdge {
+                    first: i,
+                    second: j,
+                });
             }
         }
     }
     let nv = newell(v);
     let area = 0.5 * nv.length();
     if area <= AREA_TOLERANCE * longest * longest {
-        return Err(format!(
-            "zero area ({area:.3e} units²): the vertices are collinear"
-        ));
+        return Err(FacetError::Collinear { area });
     }
     if n == 3 {
         return Ok(());
@@ -96,11 +129,7 @@ pub fn check_facet(v: &[DVec3]) -> Result<(), String> {
         let turn = (b - a).cross(c - b);
         let corner_area = 0.5 * turn.length();
         if corner_area <= AREA_TOLERANCE * longest * longest {
-            return Err(format!(
-                "vertices {i}, {}, {} are collinear (the quad is really a triangle; write it as one)",
-                (i + 1) % 4,
-                (i + 2) % 4
-            ));
+            return Err(FacetError::CollinearCorner { corner: i });
         }
     }
     let c = centroid(v);
@@ -109,46 +138,51 @@ pub fn check_facet(v: &[DVec3]) -> Result<(), String> {
         .map(|p| (*p - c).dot(normal).abs())
         .fold(0.0, f64::max);
     if off > PLANARITY_TOLERANCE * longest {
-        return Err(format!(
-            "non-planar quad: a vertex is {off:.3e} units off the facet's plane \
-             (tolerance {:.1e} × the longest edge); split it into two triangles",
-            PLANARITY_TOLERANCE
-        ));
+        return Err(FacetError::NonPlanar { offset: off });
     }
     for i in 0..4 {
         let a = v[i];
         let b = v[(i + 1) % 4];
         let cc = v[(i + 2) % 4];
         if (b - a).cross(cc - b).dot(normal) <= 0.0 {
-            return Err(format!(
-                "non-convex quad: the corner at vertex {} turns the wrong way \
-                 (reflex or self-intersecting); split it into two triangles",
-                (i + 1) % 4
-            ));
+            return Err(FacetError::NonConvex {
+                vertex: (i + 1) % 4,
+            });
         }
     }
     Ok(())
 }
 
+/// Why a `quad` has no rectangle ([`quad_vertices`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub(crate) enum QuadError {
+    #[error("normal is a zero vector")]
+    ZeroNormal,
+    #[error("width_axis is zero or parallel to the normal")]
+    BadWidthAxis,
+    #[error("cannot choose a width axis")]
+    NoWidthAxis,
+}
+
 /// Vertices of a `width × height` rectangle centred at `center` facing
 /// `normal`, its width along `width_axis` projected into the plane;
-/// counter-clockwise seen from the front. `None` when the axes are degenerate.
+/// counter-clockwise seen from the front. An error when the axes are degenerate.
 pub(crate) fn quad_vertices(
     center: DVec3,
     width: f64,
     height: f64,
     normal: DVec3,
     width_axis: Option<DVec3>,
-) -> Result<[DVec3; 4], String> {
-    let n = normal.try_normalize().ok_or("normal is a zero vector")?;
+) -> Result<[DVec3; 4], QuadError> {
+    let n = normal.try_normalize().ok_or(QuadError::ZeroNormal)?;
     let project = |a: DVec3| (a - n * a.dot(n)).try_normalize();
     let u = match width_axis {
-        Some(a) => project(a).ok_or("width_axis is zero or parallel to the normal")?,
+        Some(a) => project(a).ok_or(QuadError::BadWidthAxis)?,
         // Default: x projected into the plane, or y when the normal is along x.
         None => project(DVec3::X)
             .filter(|_| n.x.abs() < 0.999_999)
             .or_else(|| project(DVec3::Y))
-            .ok_or("cannot choose a width axis")?,
+            .ok_or(QuadError::NoWidthAxis)?,
     };
     let v = n.cross(u);
     let (hw, hh) = (0.5 * width, 0.5 * height);

@@ -2,7 +2,7 @@
 //! and the size budget every expansion is checked against before anything
 //! is allocated.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
@@ -90,14 +90,63 @@ pub(crate) struct Placement {
 /// The header a placements CSV may start with.
 pub const PLACEMENTS_CSV_HEADER: &str = "x,y,z,rotate_z_deg,scale";
 
+/// Why a placements CSV was refused; names the file and, for a row, its
+/// 1-based line.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum PlacementsError {
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}:{line}: {problem}", path.display())]
+    Row {
+        path: PathBuf,
+        line: usize,
+        problem: RowError,
+    },
+    #[error("{}: no placements (the file is empty or holds only comments and a header)", path.display())]
+    Empty { path: PathBuf },
+}
+
+/// What is wrong with one placements row.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(crate) enum RowError {
+    #[error(
+        "expected five numbers '{PLACEMENTS_CSV_HEADER}'{}, found '{text}'",
+        if *.after_header { "" } else { " (or that header)" }
+    )]
+    NotNumbers { text: String, after_header: bool },
+    #[error("expected 5 columns ({PLACEMENTS_CSV_HEADER}), found {found}")]
+    Columns { found: usize },
+    #[error(
+        "{axis} = {value} must be a finite number with |{axis}| ≤ {max_coordinate:e} scene units"
+    )]
+    Coordinate {
+        axis: &'static str,
+        value: f64,
+        max_coordinate: f64,
+    },
+    #[error("rotate_z_deg = {value} is not a finite number")]
+    Rotation { value: f64 },
+    #[error("scale = {value} must be finite and > 0")]
+    Scale { value: f64 },
+    #[error("more than {max} placements (the limit per object or point source)")]
+    TooMany { max: usize },
+}
+
 /// Reads a placements CSV (`x,y,z,rotate_z_deg,scale` rows) through the
-/// bounded reader spectra use. Errors are `path:line: message`.
+/// bounded reader spectra use.
 pub(crate) fn read_placements_csv(
     path: &Path,
     max_coordinate: f64,
-) -> Result<Vec<Placement>, String> {
+) -> Result<Vec<Placement>, PlacementsError> {
     let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        .map_err(|source| PlacementsError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
     parse_placements_csv(&text, path, max_coordinate, MAX_INSTANCES)
 }
 
@@ -108,8 +157,12 @@ pub(crate) fn parse_placements_csv(
     path: &Path,
     max_coordinate: f64,
     max_placements: usize,
-) -> Result<Vec<Placement>, String> {
-    let err = |line: usize, m: String| format!("{}:{line}: {m}", path.display());
+) -> Result<Vec<Placement>, PlacementsError> {
+    let err = |line: usize, problem: RowError| PlacementsError::Row {
+        path: path.to_path_buf(),
+        line,
+        problem,
+    };
     let mut out = Vec::new();
     let mut seen_row = false;
     for (line_no, line, fields) in gloam_spectra::data_rows(text) {
@@ -121,47 +174,40 @@ pub(crate) fn parse_placements_csv(
             }
             return Err(err(
                 line_no,
-                format!(
-                    "expected five numbers '{PLACEMENTS_CSV_HEADER}'{}, found '{line}'",
-                    if seen_row { "" } else { " (or that header)" }
-                ),
+                RowError::NotNumbers {
+                    text: line.to_string(),
+                    after_header: seen_row,
+                },
             ));
         };
         seen_row = true;
         let &[x, y, z, rot, s] = nums.as_slice() else {
-            return Err(err(
-                line_no,
-                format!(
-                    "expected 5 columns ({PLACEMENTS_CSV_HEADER}), found {}",
-                    nums.len()
-                ),
-            ));
+            return Err(err(line_no, RowError::Columns { found: nums.len() }));
         };
-        for (name, v) in [("x", x), ("y", y), ("z", z)] {
-            if !(v.is_finite() && v.abs() <= max_coordinate) {
+        for (axis, value) in [("x", x), ("y", y), ("z", z)] {
+            if !(value.is_finite() && value.abs() <= max_coordinate) {
                 return Err(err(
                     line_no,
-                    format!(
-                        "{name} = {v} must be a finite number with |{name}| ≤ {max_coordinate:e} scene units"
-                    ),
+                    RowError::Coordinate {
+                        axis,
+                        value,
+                        max_coordinate,
+                    },
                 ));
             }
         }
         if !rot.is_finite() {
-            return Err(err(
-                line_no,
-                format!("rotate_z_deg = {rot} is not a finite number"),
-            ));
+            return Err(err(line_no, RowError::Rotation { value: rot }));
         }
         if !(s.is_finite() && s > 0.0) {
-            return Err(err(line_no, format!("scale = {s} must be finite and > 0")));
+            return Err(err(line_no, RowError::Scale { value: s }));
         }
         if out.len() == max_placements {
             return Err(err(
                 line_no,
-                format!(
-                    "more than {max_placements} placements (the limit per object or point source)"
-                ),
+                RowError::TooMany {
+                    max: max_placements,
+                },
             ));
         }
         out.push(Placement {
@@ -170,10 +216,9 @@ pub(crate) fn parse_placements_csv(
         });
     }
     if out.is_empty() {
-        return Err(format!(
-            "{}: no placements (the file is empty or holds only comments and a header)",
-            path.display()
-        ));
+        return Err(PlacementsError::Empty {
+            path: path.to_path_buf(),
+        });
     }
     Ok(out)
 }
@@ -229,6 +274,41 @@ pub fn available_memory_bytes() -> Option<u64> {
     }
 }
 
+/// Why an expansion does not fit: too many items, or not enough memory.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(crate) enum BudgetError {
+    #[error(
+        "{count} {what} here{} would exceed the limit of {limit} {what} per scene",
+        plus_before(*.before)
+    )]
+    TooMany {
+        count: u128,
+        before: usize,
+        limit: usize,
+        what: &'static str,
+    },
+    #[error(
+        "{total} {what} need about {:.1} GB ({bytes_each} bytes each), more than the {:.1} GB of memory available",
+        *.need_bytes as f64 / 1e9,
+        *.available_bytes as f64 / 1e9
+    )]
+    Memory {
+        total: u128,
+        what: &'static str,
+        bytes_each: usize,
+        need_bytes: u128,
+        available_bytes: u64,
+    },
+}
+
+fn plus_before(before: usize) -> String {
+    if before > 0 {
+        format!(" plus {before} before it")
+    } else {
+        String::new()
+    }
+}
+
 /// Checks that `count` items, `bytes_each` bytes each (on top of `before`
 /// items already counted), stay within `limit` items and `available` bytes.
 /// `what` names the items ("facets", "point sources").
@@ -238,27 +318,27 @@ pub(crate) fn check_budget(
     limit: usize,
     bytes_each: usize,
     available: Option<u64>,
-    what: &str,
-) -> Result<(), String> {
+    what: &'static str,
+) -> Result<(), BudgetError> {
     let total = before as u128 + count;
     if total > limit as u128 {
-        return Err(format!(
-            "{count} {what} here{} would exceed the limit of {limit} {what} per scene",
-            if before > 0 {
-                format!(" plus {before} before it")
-            } else {
-                String::new()
-            }
-        ));
+        return Err(BudgetError::TooMany {
+            count,
+            before,
+            limit,
+            what,
+        });
     }
     if let Some(avail) = available {
         let need = total * bytes_each as u128;
         if need > avail as u128 {
-            return Err(format!(
-                "{total} {what} need about {:.1} GB ({bytes_each} bytes each), more than the {:.1} GB of memory available",
-                need as f64 / 1e9,
-                avail as f64 / 1e9
-            ));
+            return Err(BudgetError::Memory {
+                total,
+                what,
+                bytes_each,
+                need_bytes: need,
+                available_bytes: avail,
+            });
         }
     }
     Ok(())

@@ -20,7 +20,7 @@ pub mod plan;
 mod raw;
 
 pub use error::SceneError;
-pub use geometry::{PLANARITY_TOLERANCE, check_facet};
+pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
 pub use instance::{
     MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, PLACEMENTS_CSV_HEADER, available_memory_bytes,
 };

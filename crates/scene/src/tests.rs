@@ -1570,9 +1570,13 @@ fn over_limit_instance_counts_are_refused_before_allocating() {
 fn size_budget_counts_items_and_memory() {
     use crate::instance::check_budget;
     assert!(check_budget(0, 10, 10, 100, Some(1000), "facets").is_ok());
-    let e = check_budget(5, 6, 10, 1, None, "facets").unwrap_err();
+    let e = check_budget(5, 6, 10, 1, None, "facets")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("6 facets here plus 5 before it"), "{e}");
-    let e = check_budget(0, 11, 100, 100, Some(1000), "facets").unwrap_err();
+    let e = check_budget(0, 11, 100, 100, Some(1000), "facets")
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("more than the") && e.contains("memory available"),
         "{e}"
@@ -1586,7 +1590,7 @@ fn size_budget_counts_items_and_memory() {
     )
     .unwrap_err();
     assert_eq!(
-        e,
+        e.to_string(),
         "p.csv:4: more than 2 placements (the limit per object or point source)"
     );
     // The documented estimate.

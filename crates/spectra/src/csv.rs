@@ -23,7 +23,7 @@
 
 use std::path::Path;
 
-use crate::error::CsvError;
+use crate::error::{CsvError, LineRowError};
 use crate::spectrum::{EmissionLine, Spectrum};
 
 /// Reads a spectrum from a CSV file (see the module docs for the format).
@@ -74,7 +74,7 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     let mut seen_data_or_header = false;
     for (line_no, line, fields) in data_rows(text) {
         if is_line_row(&fields, seen_data_or_header) {
-            let l = parse_line_row(&fields).map_err(|m| err(line_no, m))?;
+            let l = parse_line_row(&fields).map_err(|e| err(line_no, e.to_string()))?;
             if let Some(k) = lines
                 .iter()
                 .position(|e| e.wavelength_nm == l.wavelength_nm)
@@ -213,30 +213,35 @@ fn is_line_row(fields: &[&str], seen_data_or_header: bool) -> bool {
         && (seen_data_or_header || fields[1..].iter().any(|f| f.parse::<f64>().is_ok()))
 }
 
-/// Parses and checks the fields of a line row; the message names the field.
-fn parse_line_row(fields: &[&str]) -> Result<EmissionLine, String> {
+/// Parses and checks the fields of a line row; the error names the field.
+fn parse_line_row(fields: &[&str]) -> Result<EmissionLine, LineRowError> {
     if fields.len() != 3 {
-        return Err(format!(
-            "an emission line row is 'line,wavelength_nm,value', found {} columns",
-            fields.len()
-        ));
+        return Err(LineRowError::Columns {
+            found: fields.len(),
+        });
     }
-    let number = |what: &str, f: &str| {
-        f.parse::<f64>()
-            .map_err(|_| format!("emission line {what} '{f}' is not a number"))
+    let number = |field: &'static str, f: &str| {
+        f.parse::<f64>().map_err(|_| LineRowError::NotANumber {
+            field,
+            text: f.to_string(),
+        })
     };
     let w = number("wavelength_nm", fields[1])?;
     let v = number("value", fields[2])?;
     if !w.is_finite() || w <= 0.0 {
-        return Err(format!(
-            "emission line wavelength_nm {w} is not a finite positive number"
-        ));
+        return Err(LineRowError::BadWavelength { wavelength_nm: w });
     }
     if !v.is_finite() {
-        return Err(format!("emission line value {v} at {w} nm is not finite"));
+        return Err(LineRowError::NonFiniteValue {
+            value: v,
+            wavelength_nm: w,
+        });
     }
     if v < 0.0 {
-        return Err(format!("emission line value {v} at {w} nm is negative"));
+        return Err(LineRowError::NegativeValue {
+            value: v,
+            wavelength_nm: w,
+        });
     }
     Ok(EmissionLine {
         wavelength_nm: w,

@@ -53,6 +53,22 @@ pub enum CsvError {
     Empty { path: PathBuf },
 }
 
+/// An emission line row (`line,wavelength_nm,value`) whose fields are
+/// wrong; [`CsvError::Parse`] adds the file and line.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum LineRowError {
+    #[error("an emission line row is 'line,wavelength_nm,value', found {found} columns")]
+    Columns { found: usize },
+    #[error("emission line {field} '{text}' is not a number")]
+    NotANumber { field: &'static str, text: String },
+    #[error("emission line wavelength_nm {wavelength_nm} is not a finite positive number")]
+    BadWavelength { wavelength_nm: f64 },
+    #[error("emission line value {value} at {wavelength_nm} nm is not finite")]
+    NonFiniteValue { value: f64, wavelength_nm: f64 },
+    #[error("emission line value {value} at {wavelength_nm} nm is negative")]
+    NegativeValue { value: f64, wavelength_nm: f64 },
+}
+
 /// A name that is neither in the built-in library nor a readable file.
 #[derive(Debug, thiserror::Error)]
 pub enum LookupError {

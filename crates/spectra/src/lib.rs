@@ -8,7 +8,7 @@ mod radiometry;
 mod spectrum;
 
 pub use csv::{data_rows, parse_csv, read_csv};
-pub use error::{CsvError, LookupError, SpectrumError};
+pub use error::{CsvError, LineRowError, LookupError, SpectrumError};
 pub use library::{LibraryEntry, lookup};
 pub use radiometry::*;
 pub use spectrum::{EmissionLine, Spectrum};
