@@ -244,31 +244,12 @@ impl Atmosphere {
     }
 }
 
-/// Gauss–Legendre nodes and weights on [0, 1].
+/// Gauss–Legendre nodes (ascending) and weights on [0, 1].
 fn gauss_legendre_01(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut x = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    for i in 0..n {
-        let mut z = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n as f64 * (z * p1 - p0) / (z * z - 1.0);
-            let dz = p1 / dp;
-            z -= dz;
-            if dz.abs() < 1e-15 {
-                break;
-            }
-        }
-        x[i] = 0.5 * (1.0 - z);
-        w[i] = 1.0 / ((1.0 - z * z) * dp * dp);
-    }
-    (x, w)
+    crate::quadrature::legendre_roots_01_weights(n, 1e-15)
+        .into_iter()
+        .map(|(z, w)| (0.5 * (1.0 - z), w))
+        .unzip()
 }
 
 /// Number of Gauss–Legendre nodes in sin(elevation) for dome integrals.

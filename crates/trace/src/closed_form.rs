@@ -202,31 +202,12 @@ fn tail_quadrature(poly: &[DVec3], w: DVec3, v: DVec3, m: u32) -> f64 {
     total
 }
 
-/// 16-point Gauss–Legendre nodes and weights on [0, 1] (Newton on P_16).
-fn gauss_legendre_16() -> [(f64, f64); 16] {
-    let n = 16;
-    let mut out = [(0.0, 0.0); 16];
-    for (i, o) in out.iter_mut().enumerate() {
-        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-            let dx = p1 / dp;
-            x -= dx;
-            if dx.abs() < 1e-16 {
-                break;
-            }
-        }
-        let wgt = 2.0 / ((1.0 - x * x) * dp * dp);
-        *o = (0.5 * (x + 1.0), 0.5 * wgt);
-    }
-    out
+/// 16-point Gauss–Legendre nodes (descending) and weights on [0, 1].
+fn gauss_legendre_16() -> Vec<(f64, f64)> {
+    gloam_sky::quadrature::legendre_roots_01_weights(16, 1e-16)
+        .into_iter()
+        .map(|(z, w)| (0.5 * (z + 1.0), w))
+        .collect()
 }
 
 /// One great-circle edge prepared for the moment recurrences.
