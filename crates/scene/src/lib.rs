@@ -1,11 +1,4 @@
-//! gloam-scene: the scene file format (TOML, with geometry inline or from OBJ
-//! files), validated into a [`Scene`] with file/line errors, and the
-//! [effect plan](plan) that decides what a render has to simulate.
-//!
-//! Geometry stays in the scene's declared units (`m` or `ft`, see
-//! [`Scene::meters_per_unit`]); all radiometry is SI: emitter radiance in
-//! W m⁻² sr⁻¹ nm⁻¹, point-source intensity in W sr⁻¹ nm⁻¹, wavelengths in nm.
-//! The format is documented in `docs/scene-format.md`.
+#![doc = include_str!("../README.md")]
 
 use std::path::{Path, PathBuf};
 
