@@ -1,4 +1,4 @@
-//! The protocol client: a [`FrameGrabber`] over any [`Transport`].
+//! The protocol client: a [`FrameGrabber`](crate::FrameGrabber) over any [`Transport`].
 //!
 //! Guarantees (see `firmware-protocol/PROTOCOL.md` for the wire rules):
 //! - a frame is returned as good only when the frame assembler verified it
@@ -24,7 +24,7 @@ use firmware_protocol::{
     Status, decode_message,
 };
 
-use crate::interface::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
+use crate::interface::{Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus};
 use crate::transport::{Framing, LinkError, Transport};
 
 /// Tuning of the client.
@@ -300,7 +300,7 @@ impl<T: Transport> ProtocolGrabber<T> {
 
     /// Set any protocol control by its wire value (e.g. MCP voltage in mV,
     /// AGC set-point in ppm, test pattern), waiting through `Pending`
-    /// replies; remembered only for the controls of [`FrameGrabber`].
+    /// replies; remembered only for the controls of [`FrameGrabber`](crate::FrameGrabber).
     pub fn set_control_raw(&mut self, control: Control, value: u32) -> Result<(), GrabError> {
         self.with_session(|g| g.set_control(control, value, &format!("{control:?}")))
     }
@@ -900,7 +900,7 @@ impl<T: Transport> ProtocolGrabber<T> {
     }
 }
 
-impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
+impl<T: Transport> crate::interface::DeviceControl for ProtocolGrabber<T> {
     fn describe(&self) -> String {
         match self.caps {
             Some(c) => format!(
@@ -1025,6 +1025,15 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
                 "unexpected reply to the stimulus request: {m:?}"
             ))),
         }
+    }
+}
+
+impl<T: Transport> FrameStream for ProtocolGrabber<T> {
+    fn stop(&mut self) -> Result<(), GrabError> {
+        if self.caps.is_none() {
+            return Ok(()); // no session, so no stream
+        }
+        self.stop_stream()
     }
 
     fn grab(&mut self) -> Result<Frame, GrabError> {

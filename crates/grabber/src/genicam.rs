@@ -1,5 +1,5 @@
 //! `genicam:` grabbers: any GenICam camera (GigE Vision, USB3 Vision) as a
-//! [`FrameGrabber`], through Aravis (feature `genicam`, Debian's
+//! [`FrameGrabber`](crate::FrameGrabber), through Aravis (feature `genicam`, Debian's
 //! `libaravis-dev` 0.8).
 //!
 //! Aravis does the transport (discovery, GVCP/U3V control, GVSP with
@@ -9,14 +9,14 @@
 //!
 //! | grabber | GenICam |
 //! |---|---|
-//! | [`FrameGrabber::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: gloam's device a linear factor, most cameras dB) |
-//! | [`FrameGrabber::set_agc`] | `GainAuto=Continuous` / `Off` |
-//! | [`FrameGrabber::set_bits`] | `PixelFormat` Mono8 / Mono12 / Mono16 |
-//! | [`FrameGrabber::set_exposure_s`] | `ExposureTime`, µs |
+//! | [`DeviceControl::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: gloam's device a linear factor, most cameras dB) |
+//! | [`DeviceControl::set_agc`] | `GainAuto=Continuous` / `Off` |
+//! | [`DeviceControl::set_bits`] | `PixelFormat` Mono8 / Mono12 / Mono16 |
+//! | [`DeviceControl::set_exposure_s`] | `ExposureTime`, µs |
 //! | frame size (`?size=WxH`) | `Width`, `Height` |
-//! | [`FrameGrabber::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
+//! | [`DeviceControl::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
 //!
-//! By default every [`FrameGrabber::grab`] fires `TriggerSoftware` and waits
+//! By default every [`FrameStream::grab`] fires `TriggerSoftware` and waits
 //! for that one frame (`?trigger=software`, when the camera has it), so a
 //! frame is always exposed after the settings before it, and frame *k* of
 //! gloam's own GigE device is frame *k* of the `sim:` grabber. With
@@ -33,7 +33,9 @@ use aravis::glib::object::Cast;
 use aravis::prelude::*;
 use aravis::{Auto, Buffer, BufferStatus, Camera, PixelFormat, Stream};
 
-use crate::interface::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
+use crate::interface::{
+    DeviceControl, Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus,
+};
 pub use crate::uri::{GenicamOptions, TriggerChoice};
 
 /// Aravis keeps one global device list: discovery and opening by name go
@@ -481,7 +483,7 @@ impl Drop for GenicamGrabber {
     }
 }
 
-impl FrameGrabber for GenicamGrabber {
+impl DeviceControl for GenicamGrabber {
     fn describe(&self) -> String {
         self.label.clone()
     }
@@ -644,7 +646,9 @@ impl FrameGrabber for GenicamGrabber {
         self.settings_changed();
         Ok(true)
     }
+}
 
+impl FrameStream for GenicamGrabber {
     fn grab(&mut self) -> Result<Frame, GrabError> {
         if let Some(f) = self.pending.take() {
             return Ok(f);
@@ -658,6 +662,11 @@ impl FrameGrabber for GenicamGrabber {
                 .map_err(|e| dev("TriggerSoftware", e))?;
         }
         self.next_buffer()
+    }
+
+    fn stop(&mut self) -> Result<(), GrabError> {
+        GenicamGrabber::stop(self);
+        Ok(())
     }
 }
 

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Whether a frame arrived whole. Only `Ok` frames are ever returned as good
-/// by [`FrameGrabber::grab`]; damaged frames are reported as errors.
+/// by [`FrameStream::grab`]; damaged frames are reported as errors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FrameStatus {
@@ -61,7 +61,7 @@ pub struct Frame {
 ///
 /// Real hardware ignores stimuli (the operator sets the lab source and says
 /// so); simulated cameras and the device emulator render them. Calibration
-/// flows always call [`FrameGrabber::present`], so they run unchanged on both.
+/// flows always call [`DeviceControl::present`], so they run unchanged on both.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum Stimulus {
@@ -94,9 +94,12 @@ pub enum Stimulus {
     },
 }
 
-/// Controls a grabber accepts. Every setter returns the value actually
-/// applied (a device may clamp or round).
-pub trait FrameGrabber {
+/// The control side of a camera: what it is and its settings. Every
+/// setter returns the value actually applied (a device may clamp or
+/// round). Split from [`FrameStream`] as cameleon and Aravis split a camera's
+/// control channel from its stream channel: a flow that only sets and reads
+/// controls needs no frames.
+pub trait DeviceControl {
     /// A one-line description (model, transport, firmware version).
     fn describe(&self) -> String;
     /// Frame size (width, height) in pixels.
@@ -112,13 +115,31 @@ pub trait FrameGrabber {
     /// Presents a stimulus. Returns false where the grabber cannot render it
     /// (real hardware: the operator sets the source).
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError>;
+}
+
+/// The streaming side of a camera: frames as they arrive. A stream starts
+/// at the first [`FrameStream::grab`] and runs until [`FrameStream::stop`] (or the
+/// grabber is dropped).
+pub trait FrameStream {
     /// The next whole frame. Damaged or lost frames are never returned as
     /// good: they come back as [`GrabError::FrameDamaged`] / [`GrabError::FramesLost`]
     /// and the caller may simply grab again.
     fn grab(&mut self) -> Result<Frame, GrabError>;
+    /// Stops the stream, if one runs; the next [`FrameStream::grab`] starts a new
+    /// one. Grabbers that render frames on demand have nothing to stop.
+    fn stop(&mut self) -> Result<(), GrabError> {
+        Ok(())
+    }
 }
 
-impl<G: FrameGrabber + ?Sized> FrameGrabber for Box<G> {
+/// A camera with both sides: what calibration flows, captures and the
+/// front ends take (as `dyn FrameGrabber`). Implemented for every type that
+/// is [`DeviceControl`] and [`FrameStream`].
+pub trait FrameGrabber: DeviceControl + FrameStream {}
+
+impl<G: DeviceControl + FrameStream + ?Sized> FrameGrabber for G {}
+
+impl<G: DeviceControl + ?Sized> DeviceControl for Box<G> {
     fn describe(&self) -> String {
         (**self).describe()
     }
@@ -140,8 +161,14 @@ impl<G: FrameGrabber + ?Sized> FrameGrabber for Box<G> {
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
         (**self).present(stimulus)
     }
+}
+
+impl<G: FrameStream + ?Sized> FrameStream for Box<G> {
     fn grab(&mut self) -> Result<Frame, GrabError> {
         (**self).grab()
+    }
+    fn stop(&mut self) -> Result<(), GrabError> {
+        (**self).stop()
     }
 }
 

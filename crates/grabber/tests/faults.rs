@@ -10,7 +10,9 @@ use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::faults::FaultConfig;
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::source::{CaptureSettings, FrameSource, SyntheticSource};
-use gloam_grabber::{ClientOptions, FrameGrabber, Framing, GrabError, ProtocolGrabber};
+use gloam_grabber::{
+    ClientOptions, DeviceControl, FrameStream, Framing, GrabError, ProtocolGrabber,
+};
 
 const W: u32 = 24;
 const H: u32 = 16;
