@@ -76,7 +76,10 @@ pub fn list_devices() -> Vec<crate::GenicamInfo> {
 use aravis::glib::Error as GlibError;
 
 fn dev(what: &str, e: GlibError) -> GrabError {
-    GrabError::Device(format!("{what}: {e}"))
+    GrabError::DeviceCall {
+        what: what.to_string(),
+        source: Box::new(e),
+    }
 }
 
 /// `x` in `lo..=hi`, the ends as a device may store them (single
@@ -187,8 +190,9 @@ impl GenicamGrabber {
     pub fn open(opts: &GenicamOptions) -> Result<Self, GrabError> {
         let camera = {
             let _g = ARAVIS.lock().unwrap_or_else(|e| e.into_inner());
-            Camera::new(Some(&opts.name)).map_err(|e| {
-                GrabError::Disconnected(format!("no GenICam camera '{}': {e}", opts.name))
+            Camera::new(Some(&opts.name)).map_err(|e| GrabError::NotFound {
+                what: format!("no GenICam camera '{}'", opts.name),
+                source: Box::new(e),
             })?
         };
         let text = |r: Result<aravis::glib::GString, GlibError>| {
@@ -638,11 +642,13 @@ impl DeviceControl for GenicamGrabber {
             // A real camera: the operator sets the lab source.
             return Ok(false);
         }
-        let json = serde_json::to_string(stimulus)
-            .map_err(|e| GrabError::InvalidSetting(e.to_string()))?;
+        let json = serde_json::to_string(stimulus).map_err(GrabError::StimulusJson)?;
         self.camera
             .set_string(STIMULUS_FEATURE, &json)
-            .map_err(|e| GrabError::InvalidSetting(format!("{STIMULUS_FEATURE}: {e}")))?;
+            .map_err(|e| GrabError::SettingRefused {
+                what: STIMULUS_FEATURE.to_string(),
+                source: Box::new(e),
+            })?;
         self.settings_changed();
         Ok(true)
     }

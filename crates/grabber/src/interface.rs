@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::transport::LinkError;
+
 /// Whether a frame arrived whole. Only `Ok` frames are ever returned as good
 /// by [`FrameStream::grab`]; damaged frames are reported as errors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -196,8 +198,49 @@ pub enum GrabError {
         reason: String,
         frames_lost: Option<u64>,
     },
+    /// The link to the device failed: the error says whether the device
+    /// went away, what was being done, and the OS's or USB stack's error.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The device went away and did not come back within the reconnect
+    /// timeout; the last attempt's error is the source.
+    #[error("device disconnected: {reason}; still away after {after_s:.1} s")]
+    StillAway {
+        reason: String,
+        after_s: f64,
+        #[source]
+        source: LinkError,
+    },
+    /// No camera answers to `what` (the discovery layer's error is the source).
+    #[error("device disconnected: {what}")]
+    NotFound {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     #[error("device error: {0}")]
     Device(String),
+    /// The device answered a request with a protocol error code.
+    #[error("device error: {what}: {code}")]
+    Nak {
+        what: String,
+        code: firmware_protocol::ErrorCode,
+    },
+    /// A call into the device failed: what was asked, and the device
+    /// library's error (e.g. Aravis's) as the source.
+    #[error("device error: {what}")]
+    DeviceCall {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The device refused a setting; its library's error is the source.
+    #[error("invalid setting: {what}")]
+    SettingRefused {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// A simulated camera's model refused a setting: the model's own error
     /// (e.g. the sensor chain's configuration error) is the source.
     #[error("invalid setting")]
@@ -225,6 +268,24 @@ pub enum GrabError {
 }
 
 impl GrabError {
+    /// Why the device is gone, for errors after which the protocol client
+    /// reconnects and retries (the text goes into the interruption report).
+    pub(crate) fn disconnect_reason(&self) -> Option<String> {
+        match self {
+            GrabError::Disconnected(m) => Some(m.clone()),
+            GrabError::Link(e) if e.is_disconnect() => Some(e.reason()),
+            GrabError::StillAway {
+                reason,
+                after_s,
+                source,
+            } => Some(format!(
+                "{reason}; still away after {after_s:.1} s ({})",
+                source.full_text()
+            )),
+            _ => None,
+        }
+    }
+
     /// True for errors that only report lost or damaged frames: the grabber
     /// is still usable and the caller may grab again.
     pub fn is_frame_loss(&self) -> bool {
