@@ -13,7 +13,7 @@ pub use gvsp::StreamFaults;
 pub use server::{GigeServer, ServerConfig, ServerStats};
 
 /// The facts a device needs from a frame source, with the sensor's frame
-/// rate (which [`gloam_grabber::SourceInfo`] does not carry).
+/// rate (which [`gloam_grabber::source::SourceInfo`] does not carry).
 pub fn camera_facts(
     info: &gloam_grabber::source::SourceInfo,
     resizable: bool,

@@ -522,7 +522,7 @@ fn deliver<H: Hal + RestartSource, K: Sink>(
     }
 }
 
-/// Lets [`deliver`] restart the frame source behind a HAL.
+/// Lets `deliver` restart the frame source behind a HAL.
 pub trait RestartSource {
     fn restart_source(&mut self);
     /// Apply a stimulus to every frame captured from now on.
