@@ -1,7 +1,7 @@
 //! Frame grabbers: the CLI's URIs (`sim:…`, `serial:…`, `usb:…`) as a
 //! Python context manager.
 
-use gloam_grabber::{FrameGrabber, GrabError, OpenOptions, Stimulus};
+use gloam_grabber::{DeviceControl, FrameGrabber, GrabError, OpenOptions, Stimulus};
 use ndarray::Array2;
 use numpy::prelude::*;
 use numpy::{IntoPyArray, PyArray2};
@@ -31,7 +31,7 @@ pub struct Grabber {
 /// Python's signal handlers.
 pub struct StopOnSignal<'a>(pub &'a mut dyn FrameGrabber);
 
-impl FrameGrabber for StopOnSignal<'_> {
+impl DeviceControl for StopOnSignal<'_> {
     fn describe(&self) -> String {
         self.0.describe()
     }
@@ -53,11 +53,18 @@ impl FrameGrabber for StopOnSignal<'_> {
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
         self.0.present(stimulus)
     }
+}
+
+// Named in full: `FrameStream` here is the Python frame iterator.
+impl gloam_grabber::FrameStream for StopOnSignal<'_> {
     fn grab(&mut self) -> Result<gloam_grabber::Frame, GrabError> {
         if signalled() {
             return Err(GrabError::Other("interrupted".into()));
         }
         self.0.grab()
+    }
+    fn stop(&mut self) -> Result<(), GrabError> {
+        self.0.stop()
     }
 }
 

@@ -102,8 +102,8 @@ fn radiance_lut_recovers_gain_and_offset() {
     // Apply: a frame at gain 2 turns back into the radiance it saw.
     let lv = src.set_level(6).unwrap();
     cam.set_gain_for_test(2.0);
-    gloam_grabber::FrameGrabber::present(&mut cam, &lv.stimulus).unwrap();
-    let f = gloam_grabber::FrameGrabber::grab(&mut cam).unwrap();
+    gloam_grabber::DeviceControl::present(&mut cam, &lv.stimulus).unwrap();
+    let f = gloam_grabber::FrameStream::grab(&mut cam).unwrap();
     let img = lut.apply(f.meta.gain, &f.pixels).unwrap();
     let mean = img.iter().map(|&v| v as f64).sum::<f64>() / img.len() as f64;
     assert!(
@@ -147,7 +147,7 @@ trait TestGain {
 }
 impl TestGain for MockCamera {
     fn set_gain_for_test(&mut self, g: f64) {
-        gloam_grabber::FrameGrabber::set_gain(self, g).unwrap();
+        gloam_grabber::DeviceControl::set_gain(self, g).unwrap();
     }
 }
 
@@ -549,7 +549,7 @@ fn manual_source_drives_the_same_flow() {
         frames_per: usize,
         n: usize,
     }
-    impl gloam_grabber::FrameGrabber for Follow<'_> {
+    impl gloam_grabber::DeviceControl for Follow<'_> {
         fn describe(&self) -> String {
             self.cam.describe()
         }
@@ -574,6 +574,8 @@ fn manual_source_drives_the_same_flow() {
         ) -> Result<bool, gloam_grabber::GrabError> {
             self.cam.present(s)
         }
+    }
+    impl gloam_grabber::FrameStream for Follow<'_> {
         fn grab(&mut self) -> Result<gloam_grabber::Frame, gloam_grabber::GrabError> {
             self.cam.manual_radiance = self.script[self.n / self.frames_per];
             self.n += 1;

@@ -6,7 +6,7 @@
 use gloam_calib::capture::agc_off;
 use gloam_calib::mtf::{SineOptions, sine_mtf};
 use gloam_calib::mtf_voltage::{VoltageOptions, analytic_curves, voltage_sine_mtf};
-use gloam_grabber::{FrameGrabber, Stimulus};
+use gloam_grabber::{DeviceControl, Stimulus};
 use gloam_sensor::{Camera, SensorConfig};
 use gloam_simcam::SimGrabber;
 use gloam_simcam::render_stimulus;

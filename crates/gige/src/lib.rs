@@ -1,14 +1,4 @@
-//! GigE Vision for gloam, device side: the simulated camera as a GigE
-//! Vision 2.0 device that any GenICam client (Aravis, vendor SDKs) can
-//! discover, control and stream from.
-//!
-//! - [`gvcp`]: control-protocol wire format;
-//! - [`bootstrap`]: the standard register addresses;
-//! - [`features`]: the camera's feature registers and their GenICam XML;
-//! - [`device`]: the sans-IO state machine (datagram in, datagram out);
-//! - [`gvsp`]: stream packets, the resend store and the fault injector;
-//! - [`server`]: the UDP server (the only part with sockets and threads);
-//! - [`fuzzing`]: the fuzz entry point, replayed by `cargo test`.
+#![doc = include_str!("../README.md")]
 
 pub mod bootstrap;
 pub mod device;
@@ -23,7 +13,7 @@ pub use gvsp::StreamFaults;
 pub use server::{GigeServer, ServerConfig, ServerStats};
 
 /// The facts a device needs from a frame source, with the sensor's frame
-/// rate (which [`gloam_grabber::SourceInfo`] does not carry).
+/// rate (which [`gloam_grabber::source::SourceInfo`] does not carry).
 pub fn camera_facts(
     info: &gloam_grabber::source::SourceInfo,
     resizable: bool,

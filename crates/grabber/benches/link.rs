@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::source::SyntheticSource;
-use gloam_grabber::{ClientOptions, FrameGrabber, Framing, ProtocolGrabber, Transport};
+use gloam_grabber::{ClientOptions, FrameStream, Framing, ProtocolGrabber, Transport};
 
 fn measure<T: Transport>(g: &mut ProtocolGrabber<T>, seconds: f64) -> (f64, u64, u64) {
     // Warm up: handshake, stream start, first frame.

@@ -1,4 +1,4 @@
-//! The protocol client: a [`FrameGrabber`] over any [`Transport`].
+//! The protocol client: a [`FrameGrabber`](crate::FrameGrabber) over any [`Transport`].
 //!
 //! Guarantees (see `firmware-protocol/PROTOCOL.md` for the wire rules):
 //! - a frame is returned as good only when the frame assembler verified it
@@ -24,8 +24,8 @@ use firmware_protocol::{
     Status, decode_message,
 };
 
-use crate::interface::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
-use crate::transport::{Framing, LinkError, Transport};
+use crate::interface::{Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus};
+use crate::transport::{Framing, Transport};
 
 /// Tuning of the client.
 #[derive(Clone, Debug)]
@@ -149,13 +149,6 @@ pub struct ProtocolGrabber<T: Transport> {
     stimulus_supported: Option<bool>,
     stats: ClientStats,
     frame_size: (u32, u32),
-}
-
-fn link_err(e: LinkError) -> GrabError {
-    match e {
-        LinkError::Disconnected(m) => GrabError::Disconnected(m),
-        LinkError::Io(m) => GrabError::Other(m),
-    }
 }
 
 fn owned(m: &Message<'_>) -> Option<Message<'static>> {
@@ -300,7 +293,7 @@ impl<T: Transport> ProtocolGrabber<T> {
 
     /// Set any protocol control by its wire value (e.g. MCP voltage in mV,
     /// AGC set-point in ppm, test pattern), waiting through `Pending`
-    /// replies; remembered only for the controls of [`FrameGrabber`].
+    /// replies; remembered only for the controls of [`FrameGrabber`](crate::FrameGrabber).
     pub fn set_control_raw(&mut self, control: Control, value: u32) -> Result<(), GrabError> {
         self.with_session(|g| g.set_control(control, value, &format!("{control:?}")))
     }
@@ -339,7 +332,9 @@ impl<T: Transport> ProtocolGrabber<T> {
         }
         .map_err(GrabError::Encode)?;
         let timeout = self.opts.reply_timeout.max(Duration::from_millis(100));
-        self.link.send(&self.tx[..n], timeout).map_err(link_err)
+        self.link
+            .send(&self.tx[..n], timeout)
+            .map_err(GrabError::Link)
     }
 
     /// Receive and handle messages until a reply arrives, stream data was
@@ -379,7 +374,10 @@ impl<T: Transport> ProtocolGrabber<T> {
                 return Ok(Event::Timeout);
             }
             let wait = (deadline - now).min(Duration::from_millis(50));
-            let n = self.link.recv(&mut self.raw, wait).map_err(link_err)?;
+            let n = self
+                .link
+                .recv(&mut self.raw, wait)
+                .map_err(GrabError::Link)?;
             self.raw_pos = 0;
             self.raw_len = n;
         }
@@ -516,7 +514,7 @@ impl<T: Transport> ProtocolGrabber<T> {
             Framing::UsbTransfers => un,
         };
         let timeout = self.opts.reply_timeout.max(Duration::from_millis(100));
-        self.link.send(&wire, timeout).map_err(link_err)
+        self.link.send(&wire, timeout).map_err(GrabError::Link)
     }
 
     fn request_any(&mut self, req: Req<'_>) -> Result<Message<'static>, GrabError> {
@@ -580,7 +578,10 @@ impl<T: Transport> ProtocolGrabber<T> {
             ErrorCode::HANDSHAKE_REQUIRED => {
                 GrabError::Disconnected(format!("{what}: device was reset (handshake required)"))
             }
-            c => GrabError::Device(format!("{what}: {c}")),
+            code => GrabError::Nak {
+                what: what.to_string(),
+                code,
+            },
         }
     }
 
@@ -802,10 +803,11 @@ impl<T: Transport> ProtocolGrabber<T> {
             match self.link.reconnect() {
                 Ok(()) => break,
                 Err(e) if Instant::now() >= deadline => {
-                    return Err(GrabError::Disconnected(format!(
-                        "{reason}; still away after {:.1} s ({e})",
-                        self.opts.reconnect_timeout.as_secs_f64()
-                    )));
+                    return Err(GrabError::StillAway {
+                        reason,
+                        after_s: self.opts.reconnect_timeout.as_secs_f64(),
+                        source: e,
+                    });
                 }
                 Err(_) => std::thread::sleep(Duration::from_millis(20)),
             }
@@ -827,12 +829,13 @@ impl<T: Transport> ProtocolGrabber<T> {
             } else {
                 f(self)
             };
-            match r {
-                Err(GrabError::Disconnected(m)) if attempts < 3 => {
+            let gone = r.as_ref().err().and_then(GrabError::disconnect_reason);
+            match (r, gone) {
+                (Err(_), Some(reason)) if attempts < 3 => {
                     attempts += 1;
-                    self.recover(m)?;
+                    self.recover(reason)?;
                 }
-                Err(GrabError::Timeout { what, after_ms })
+                (Err(GrabError::Timeout { what, after_ms }), _)
                     if attempts < 3 && self.caps.is_some() =>
                 {
                     // The device stopped answering: treat as gone, re-open.
@@ -841,7 +844,7 @@ impl<T: Transport> ProtocolGrabber<T> {
                         "no reply: timed out after {after_ms} ms waiting for {what}"
                     ))?;
                 }
-                r => return r,
+                (r, _) => return r,
             }
         }
     }
@@ -900,7 +903,7 @@ impl<T: Transport> ProtocolGrabber<T> {
     }
 }
 
-impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
+impl<T: Transport> crate::interface::DeviceControl for ProtocolGrabber<T> {
     fn describe(&self) -> String {
         match self.caps {
             Some(c) => format!(
@@ -1026,6 +1029,15 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
             ))),
         }
     }
+}
+
+impl<T: Transport> FrameStream for ProtocolGrabber<T> {
+    fn stop(&mut self) -> Result<(), GrabError> {
+        if self.caps.is_none() {
+            return Ok(()); // no session, so no stream
+        }
+        self.stop_stream()
+    }
 
     fn grab(&mut self) -> Result<Frame, GrabError> {
         let mut start = Instant::now();
@@ -1066,26 +1078,27 @@ impl<T: Transport> FrameGrabber for ProtocolGrabber<T> {
                 }
                 Ok(restarted)
             })();
-            match step {
+            let gone = step.as_ref().err().and_then(GrabError::disconnect_reason);
+            match (step, gone) {
                 // The frame deadline counts from the stream (re)start.
-                Ok(true) if restarts < 5 => {
+                (Ok(true), _) if restarts < 5 => {
                     restarts += 1;
                     start = Instant::now();
                 }
-                Ok(_) => {}
+                (Ok(_), _) => {}
                 // Recovery is bounded by `reconnect_timeout`; the frame
                 // deadline restarts once the link is back.
-                Err(GrabError::Disconnected(m)) if recoveries < 5 => {
+                (Err(_), Some(reason)) if recoveries < 5 => {
                     recoveries += 1;
-                    self.recover(m)?;
+                    self.recover(reason)?;
                     start = Instant::now();
                 }
-                Err(GrabError::Timeout { what, after_ms }) if recoveries < 5 => {
+                (Err(GrabError::Timeout { what, after_ms }), _) if recoveries < 5 => {
                     recoveries += 1;
                     self.recover(format!("device stopped answering ({what}, {after_ms} ms)"))?;
                     start = Instant::now();
                 }
-                Err(e) => return Err(e),
+                (Err(e), _) => return Err(e),
             }
         }
     }

@@ -339,11 +339,11 @@ impl<L: DeviceLink> Sink for EmuSink<'_, L> {
                     .fetch_add(self.buf.len() as u64, Ordering::Relaxed);
                 Ok(())
             }
-            Err(LinkError::Disconnected(_)) => {
+            Err(LinkError::Disconnected { .. }) => {
                 self.host_gone = true;
                 Err(SinkError)
             }
-            Err(LinkError::Io(_)) => Err(SinkError),
+            Err(LinkError::Io { .. }) => Err(SinkError),
         }
     }
 }
@@ -414,11 +414,11 @@ pub fn run_emulator<L: DeviceLink, S: FrameSource>(
                 host_gone: false,
             };
             match sink.link.recv(&mut rx, wait) {
-                Err(LinkError::Disconnected(_)) => {
+                Err(LinkError::Disconnected { .. }) => {
                     thread::sleep(Duration::from_millis(5));
                     continue;
                 }
-                Err(e @ LinkError::Io(_)) => return Err(EmulatorError::Link(e)),
+                Err(e @ LinkError::Io { .. }) => return Err(EmulatorError::Link(e)),
                 Ok(n) => {
                     // A host that (re)appears always opens with `Hello`,
                     // which resets the session; no power cycle needed.
@@ -522,7 +522,7 @@ fn deliver<H: Hal + RestartSource, K: Sink>(
     }
 }
 
-/// Lets [`deliver`] restart the frame source behind a HAL.
+/// Lets `deliver` restart the frame source behind a HAL.
 pub trait RestartSource {
     fn restart_source(&mut self);
     /// Apply a stimulus to every frame captured from now on.

@@ -1,5 +1,5 @@
 //! `genicam:` grabbers: any GenICam camera (GigE Vision, USB3 Vision) as a
-//! [`FrameGrabber`], through Aravis (feature `genicam`, Debian's
+//! [`FrameGrabber`](crate::FrameGrabber), through Aravis (feature `genicam`, Debian's
 //! `libaravis-dev` 0.8).
 //!
 //! Aravis does the transport (discovery, GVCP/U3V control, GVSP with
@@ -9,14 +9,14 @@
 //!
 //! | grabber | GenICam |
 //! |---|---|
-//! | [`FrameGrabber::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: gloam's device a linear factor, most cameras dB) |
-//! | [`FrameGrabber::set_agc`] | `GainAuto=Continuous` / `Off` |
-//! | [`FrameGrabber::set_bits`] | `PixelFormat` Mono8 / Mono12 / Mono16 |
-//! | [`FrameGrabber::set_exposure_s`] | `ExposureTime`, µs |
+//! | [`DeviceControl::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: gloam's device a linear factor, most cameras dB) |
+//! | [`DeviceControl::set_agc`] | `GainAuto=Continuous` / `Off` |
+//! | [`DeviceControl::set_bits`] | `PixelFormat` Mono8 / Mono12 / Mono16 |
+//! | [`DeviceControl::set_exposure_s`] | `ExposureTime`, µs |
 //! | frame size (`?size=WxH`) | `Width`, `Height` |
-//! | [`FrameGrabber::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
+//! | [`DeviceControl::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
 //!
-//! By default every [`FrameGrabber::grab`] fires `TriggerSoftware` and waits
+//! By default every [`FrameStream::grab`] fires `TriggerSoftware` and waits
 //! for that one frame (`?trigger=software`, when the camera has it), so a
 //! frame is always exposed after the settings before it, and frame *k* of
 //! gloam's own GigE device is frame *k* of the `sim:` grabber. With
@@ -33,7 +33,9 @@ use aravis::glib::object::Cast;
 use aravis::prelude::*;
 use aravis::{Auto, Buffer, BufferStatus, Camera, PixelFormat, Stream};
 
-use crate::interface::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
+use crate::interface::{
+    DeviceControl, Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus,
+};
 pub use crate::uri::{GenicamOptions, TriggerChoice};
 
 /// Aravis keeps one global device list: discovery and opening by name go
@@ -74,7 +76,10 @@ pub fn list_devices() -> Vec<crate::GenicamInfo> {
 use aravis::glib::Error as GlibError;
 
 fn dev(what: &str, e: GlibError) -> GrabError {
-    GrabError::Device(format!("{what}: {e}"))
+    GrabError::DeviceCall {
+        what: what.to_string(),
+        source: Box::new(e),
+    }
 }
 
 /// `x` in `lo..=hi`, the ends as a device may store them (single
@@ -185,8 +190,9 @@ impl GenicamGrabber {
     pub fn open(opts: &GenicamOptions) -> Result<Self, GrabError> {
         let camera = {
             let _g = ARAVIS.lock().unwrap_or_else(|e| e.into_inner());
-            Camera::new(Some(&opts.name)).map_err(|e| {
-                GrabError::Disconnected(format!("no GenICam camera '{}': {e}", opts.name))
+            Camera::new(Some(&opts.name)).map_err(|e| GrabError::NotFound {
+                what: format!("no GenICam camera '{}'", opts.name),
+                source: Box::new(e),
             })?
         };
         let text = |r: Result<aravis::glib::GString, GlibError>| {
@@ -481,7 +487,7 @@ impl Drop for GenicamGrabber {
     }
 }
 
-impl FrameGrabber for GenicamGrabber {
+impl DeviceControl for GenicamGrabber {
     fn describe(&self) -> String {
         self.label.clone()
     }
@@ -636,15 +642,19 @@ impl FrameGrabber for GenicamGrabber {
             // A real camera: the operator sets the lab source.
             return Ok(false);
         }
-        let json = serde_json::to_string(stimulus)
-            .map_err(|e| GrabError::InvalidSetting(e.to_string()))?;
+        let json = serde_json::to_string(stimulus).map_err(GrabError::StimulusJson)?;
         self.camera
             .set_string(STIMULUS_FEATURE, &json)
-            .map_err(|e| GrabError::InvalidSetting(format!("{STIMULUS_FEATURE}: {e}")))?;
+            .map_err(|e| GrabError::SettingRefused {
+                what: STIMULUS_FEATURE.to_string(),
+                source: Box::new(e),
+            })?;
         self.settings_changed();
         Ok(true)
     }
+}
 
+impl FrameStream for GenicamGrabber {
     fn grab(&mut self) -> Result<Frame, GrabError> {
         if let Some(f) = self.pending.take() {
             return Ok(f);
@@ -658,6 +668,11 @@ impl FrameGrabber for GenicamGrabber {
                 .map_err(|e| dev("TriggerSoftware", e))?;
         }
         self.next_buffer()
+    }
+
+    fn stop(&mut self) -> Result<(), GrabError> {
+        GenicamGrabber::stop(self);
+        Ok(())
     }
 }
 

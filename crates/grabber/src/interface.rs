@@ -2,8 +2,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::transport::LinkError;
+
 /// Whether a frame arrived whole. Only `Ok` frames are ever returned as good
-/// by [`FrameGrabber::grab`]; damaged frames are reported as errors.
+/// by [`FrameStream::grab`]; damaged frames are reported as errors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FrameStatus {
@@ -61,7 +63,7 @@ pub struct Frame {
 ///
 /// Real hardware ignores stimuli (the operator sets the lab source and says
 /// so); simulated cameras and the device emulator render them. Calibration
-/// flows always call [`FrameGrabber::present`], so they run unchanged on both.
+/// flows always call [`DeviceControl::present`], so they run unchanged on both.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum Stimulus {
@@ -94,9 +96,12 @@ pub enum Stimulus {
     },
 }
 
-/// Controls a grabber accepts. Every setter returns the value actually
-/// applied (a device may clamp or round).
-pub trait FrameGrabber {
+/// The control side of a camera: what it is and its settings. Every
+/// setter returns the value actually applied (a device may clamp or
+/// round). Split from [`FrameStream`] as cameleon and Aravis split a camera's
+/// control channel from its stream channel: a flow that only sets and reads
+/// controls needs no frames.
+pub trait DeviceControl {
     /// A one-line description (model, transport, firmware version).
     fn describe(&self) -> String;
     /// Frame size (width, height) in pixels.
@@ -112,13 +117,31 @@ pub trait FrameGrabber {
     /// Presents a stimulus. Returns false where the grabber cannot render it
     /// (real hardware: the operator sets the source).
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError>;
+}
+
+/// The streaming side of a camera: frames as they arrive. A stream starts
+/// at the first [`FrameStream::grab`] and runs until [`FrameStream::stop`] (or the
+/// grabber is dropped).
+pub trait FrameStream {
     /// The next whole frame. Damaged or lost frames are never returned as
     /// good: they come back as [`GrabError::FrameDamaged`] / [`GrabError::FramesLost`]
     /// and the caller may simply grab again.
     fn grab(&mut self) -> Result<Frame, GrabError>;
+    /// Stops the stream, if one runs; the next [`FrameStream::grab`] starts a new
+    /// one. Grabbers that render frames on demand have nothing to stop.
+    fn stop(&mut self) -> Result<(), GrabError> {
+        Ok(())
+    }
 }
 
-impl<G: FrameGrabber + ?Sized> FrameGrabber for Box<G> {
+/// A camera with both sides: what calibration flows, captures and the
+/// front ends take (as `dyn FrameGrabber`). Implemented for every type that
+/// is [`DeviceControl`] and [`FrameStream`].
+pub trait FrameGrabber: DeviceControl + FrameStream {}
+
+impl<G: DeviceControl + FrameStream + ?Sized> FrameGrabber for G {}
+
+impl<G: DeviceControl + ?Sized> DeviceControl for Box<G> {
     fn describe(&self) -> String {
         (**self).describe()
     }
@@ -140,8 +163,14 @@ impl<G: FrameGrabber + ?Sized> FrameGrabber for Box<G> {
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
         (**self).present(stimulus)
     }
+}
+
+impl<G: FrameStream + ?Sized> FrameStream for Box<G> {
     fn grab(&mut self) -> Result<Frame, GrabError> {
         (**self).grab()
+    }
+    fn stop(&mut self) -> Result<(), GrabError> {
+        (**self).stop()
     }
 }
 
@@ -169,8 +198,49 @@ pub enum GrabError {
         reason: String,
         frames_lost: Option<u64>,
     },
+    /// The link to the device failed: the error says whether the device
+    /// went away, what was being done, and the OS's or USB stack's error.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The device went away and did not come back within the reconnect
+    /// timeout; the last attempt's error is the source.
+    #[error("device disconnected: {reason}; still away after {after_s:.1} s")]
+    StillAway {
+        reason: String,
+        after_s: f64,
+        #[source]
+        source: LinkError,
+    },
+    /// No camera answers to `what` (the discovery layer's error is the source).
+    #[error("device disconnected: {what}")]
+    NotFound {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     #[error("device error: {0}")]
     Device(String),
+    /// The device answered a request with a protocol error code.
+    #[error("device error: {what}: {code}")]
+    Nak {
+        what: String,
+        code: firmware_protocol::ErrorCode,
+    },
+    /// A call into the device failed: what was asked, and the device
+    /// library's error (e.g. Aravis's) as the source.
+    #[error("device error: {what}")]
+    DeviceCall {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The device refused a setting; its library's error is the source.
+    #[error("invalid setting: {what}")]
+    SettingRefused {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// A simulated camera's model refused a setting: the model's own error
     /// (e.g. the sensor chain's configuration error) is the source.
     #[error("invalid setting")]
@@ -198,6 +268,24 @@ pub enum GrabError {
 }
 
 impl GrabError {
+    /// Why the device is gone, for errors after which the protocol client
+    /// reconnects and retries (the text goes into the interruption report).
+    pub(crate) fn disconnect_reason(&self) -> Option<String> {
+        match self {
+            GrabError::Disconnected(m) => Some(m.clone()),
+            GrabError::Link(e) if e.is_disconnect() => Some(e.reason()),
+            GrabError::StillAway {
+                reason,
+                after_s,
+                source,
+            } => Some(format!(
+                "{reason}; still away after {after_s:.1} s ({})",
+                source.full_text()
+            )),
+            _ => None,
+        }
+    }
+
     /// True for errors that only report lost or damaged frames: the grabber
     /// is still usable and the caller may grab again.
     pub fn is_frame_loss(&self) -> bool {

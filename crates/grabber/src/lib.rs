@@ -139,22 +139,16 @@ fn open_transport(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>
             "'{uri}': not a transport URI"
         ))),
         GrabberUri::Serial { path, baud } => {
-            let t = serial::SerialTransport::open(&path, baud).map_err(|e| match e {
-                LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
-            })?;
+            let t = serial::SerialTransport::open(&path, baud)?;
             Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
         }
         GrabberUri::Usb(sel) => {
-            let t = usb::UsbTransport::open(sel).map_err(|e| match e {
-                LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
-            })?;
+            let t = usb::UsbTransport::open(sel)?;
             Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
         }
         #[cfg(feature = "rusb-backend")]
         GrabberUri::UsbRusb(sel) => {
-            let t = usb::rusb_backend::RusbTransport::open(sel).map_err(|e| match e {
-                LinkError::Disconnected(m) | LinkError::Io(m) => GrabError::Disconnected(m),
-            })?;
+            let t = usb::rusb_backend::RusbTransport::open(sel)?;
             Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
         }
         #[cfg(not(feature = "rusb-backend"))]

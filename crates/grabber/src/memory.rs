@@ -273,9 +273,7 @@ impl Transport for MemoryHost {
         let link = self.link.clone();
         let mut s = link.lock();
         if s.host_generation != s.generation {
-            return Err(LinkError::Disconnected(
-                "port closed (device went away)".into(),
-            ));
+            return Err(LinkError::disconnected("port closed (device went away)"));
         }
         let o = &link.opts;
         enqueue(
@@ -295,9 +293,7 @@ impl Transport for MemoryHost {
         let mut s = link.lock();
         loop {
             if s.host_generation != s.generation {
-                return Err(LinkError::Disconnected(
-                    "port closed (device went away)".into(),
-                ));
+                return Err(LinkError::disconnected("port closed (device went away)"));
             }
             let now = Instant::now();
             match link.opts.framing {
@@ -370,7 +366,7 @@ impl Transport for MemoryHost {
     fn reconnect(&mut self) -> Result<(), LinkError> {
         let mut s = self.link.lock();
         if Link::device_down(&s) {
-            return Err(LinkError::Disconnected("device not present".into()));
+            return Err(LinkError::disconnected("device not present"));
         }
         s.host_generation = s.generation;
         s.to_host.clear();
@@ -392,7 +388,7 @@ impl DeviceLink for MemoryDevice {
         let mut s = link.lock();
         loop {
             if Link::device_down(&s) {
-                return Err(LinkError::Disconnected("unplugged".into()));
+                return Err(LinkError::disconnected("unplugged"));
             }
             let now = Instant::now();
             match link.opts.framing {
@@ -432,7 +428,7 @@ impl DeviceLink for MemoryDevice {
         let link = self.link.clone();
         let mut s = link.lock();
         if Link::device_down(&s) {
-            return Err(LinkError::Disconnected("unplugged".into()));
+            return Err(LinkError::disconnected("unplugged"));
         }
         // Back-pressure: wait (bounded) while the host is behind.
         let deadline = Instant::now() + Duration::from_secs(1);
@@ -454,7 +450,7 @@ impl DeviceLink for MemoryDevice {
             && s.units_to_host % every == 0
         {
             link.disconnect_locked(&mut s, link.opts.disconnect_for);
-            return Err(LinkError::Disconnected("unplugged".into()));
+            return Err(LinkError::disconnected("unplugged"));
         }
         let o = &link.opts;
         let n = enqueue(

@@ -20,8 +20,8 @@ fn classify(e: std::io::Error, what: &str) -> LinkError {
         | ErrorKind::ConnectionAborted
         | ErrorKind::UnexpectedEof
         | ErrorKind::PermissionDenied
-        | ErrorKind::Other => LinkError::Disconnected(format!("{what}: {e}")),
-        _ => LinkError::Io(format!("{what}: {e}")),
+        | ErrorKind::Other => LinkError::disconnected_by(what, e),
+        _ => LinkError::io_by(what, e),
     }
 }
 
@@ -30,12 +30,12 @@ fn open_port(path: &str, baud: u32) -> Result<Box<dyn SerialPort>, LinkError> {
         .timeout(Duration::from_millis(50))
         .open()
         .map_err(|e| {
-            let msg = format!("opening {path}: {e}");
+            let what = format!("opening {path}");
             match e.kind {
                 serialport::ErrorKind::NoDevice | serialport::ErrorKind::Io(_) => {
-                    LinkError::Disconnected(msg)
+                    LinkError::disconnected_by(what, e)
                 }
-                _ => LinkError::Io(msg),
+                _ => LinkError::io_by(what, e),
             }
         })?;
     // Stale bytes from before we opened are not ours.
@@ -64,7 +64,7 @@ impl SerialTransport {
     fn port(&mut self) -> Result<&mut Box<dyn SerialPort>, LinkError> {
         self.port
             .as_mut()
-            .ok_or_else(|| LinkError::Disconnected(format!("{} is closed", self.path)))
+            .ok_or_else(|| LinkError::disconnected(format!("{} is closed", self.path)))
     }
 }
 
@@ -89,11 +89,11 @@ impl Transport for SerialTransport {
         while !rest.is_empty() {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
-                return Err(LinkError::Io(format!("{path}: write timed out")));
+                return Err(LinkError::io(format!("{path}: write timed out")));
             }
             let _ = port.set_timeout(left);
             match port.write(rest) {
-                Ok(0) => return Err(LinkError::Disconnected(format!("{path}: write returned 0"))),
+                Ok(0) => return Err(LinkError::disconnected(format!("{path}: write returned 0"))),
                 Ok(n) => rest = &rest[n..],
                 Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::Interrupted => {
                 }
@@ -114,7 +114,7 @@ impl Transport for SerialTransport {
             // poll() said readable and there is nothing: the peer hung up.
             Ok(0) => {
                 self.port = None;
-                Err(LinkError::Disconnected(format!("{path}: hung up")))
+                Err(LinkError::disconnected(format!("{path}: hung up")))
             }
             Ok(n) => Ok(n),
             Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::Interrupted => {
@@ -154,10 +154,10 @@ impl PtyDevice {
     /// that each client open/close is seen as a connect/disconnect.
     pub fn open() -> Result<Self, LinkError> {
         let (master, slave) = serialport::TTYPort::pair()
-            .map_err(|e| LinkError::Io(format!("allocating a pseudo-terminal: {e}")))?;
+            .map_err(|e| LinkError::io_by("allocating a pseudo-terminal", e))?;
         let slave_path = slave
             .name()
-            .ok_or_else(|| LinkError::Io("pseudo-terminal has no slave path".into()))?;
+            .ok_or_else(|| LinkError::io("pseudo-terminal has no slave path"))?;
         drop(slave);
         Ok(Self { master, slave_path })
     }
@@ -179,14 +179,12 @@ impl DeviceLink for PtyDevice {
             .master
             .set_timeout(timeout.max(Duration::from_millis(1)));
         match self.master.read(buf) {
-            Ok(0) => Err(LinkError::Disconnected("no client on the pty".into())),
+            Ok(0) => Err(LinkError::disconnected("no client on the pty")),
             Ok(n) => Ok(n),
             Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::Interrupted => {
                 Ok(0)
             }
-            Err(e) => Err(LinkError::Disconnected(format!(
-                "no client on the pty ({e})"
-            ))),
+            Err(e) => Err(LinkError::disconnected_by("no client on the pty", e)),
         }
     }
 
@@ -195,12 +193,12 @@ impl DeviceLink for PtyDevice {
         let mut rest = wire;
         while !rest.is_empty() {
             match self.master.write(rest) {
-                Ok(0) => return Err(LinkError::Disconnected("pty write returned 0".into())),
+                Ok(0) => return Err(LinkError::disconnected("pty write returned 0")),
                 Ok(n) => rest = &rest[n..],
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
                 // Client not reading: the unit is lost, as on a real wire.
                 Err(e) if e.kind() == ErrorKind::TimedOut => return Ok(()),
-                Err(e) => return Err(LinkError::Disconnected(format!("pty: {e}"))),
+                Err(e) => return Err(LinkError::disconnected_by("pty", e)),
             }
         }
         Ok(())

@@ -17,15 +17,99 @@ pub enum Framing {
     UsbTransfers,
 }
 
-/// A link failure.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+/// A link failure: whether the device went away (the client reconnects)
+/// or the link failed otherwise, what was being done, and the error of the
+/// layer below when there is one.
+#[derive(Debug, thiserror::Error)]
 pub enum LinkError {
     /// The device (or its port) went away; [`Transport::reconnect`] may bring it back.
-    #[error("link disconnected: {0}")]
-    Disconnected(String),
+    #[error("link disconnected: {what}")]
+    Disconnected {
+        what: String,
+        #[source]
+        cause: Option<LinkCause>,
+    },
     /// Any other I/O failure.
-    #[error("link I/O error: {0}")]
-    Io(String),
+    #[error("link I/O error: {what}")]
+    Io {
+        what: String,
+        #[source]
+        cause: Option<LinkCause>,
+    },
+}
+
+/// The error of the layer under a link (the OS, the serial port library,
+/// the USB stack), kept typed so callers can inspect it.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkCause {
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Serial(#[from] serialport::Error),
+    #[error(transparent)]
+    Usb(#[from] nusb::Error),
+    #[error(transparent)]
+    UsbTransfer(#[from] nusb::transfer::TransferError),
+    #[cfg(feature = "rusb-backend")]
+    #[error(transparent)]
+    Rusb(#[from] rusb::Error),
+}
+
+impl LinkError {
+    /// The device went away, for a reason with no lower-level error.
+    pub fn disconnected(what: impl Into<String>) -> Self {
+        Self::Disconnected {
+            what: what.into(),
+            cause: None,
+        }
+    }
+
+    /// The device went away while doing `what`, because of `cause`.
+    pub fn disconnected_by(what: impl Into<String>, cause: impl Into<LinkCause>) -> Self {
+        Self::Disconnected {
+            what: what.into(),
+            cause: Some(cause.into()),
+        }
+    }
+
+    /// Another failure, with no lower-level error.
+    pub fn io(what: impl Into<String>) -> Self {
+        Self::Io {
+            what: what.into(),
+            cause: None,
+        }
+    }
+
+    /// Another failure while doing `what`, because of `cause`.
+    pub fn io_by(what: impl Into<String>, cause: impl Into<LinkCause>) -> Self {
+        Self::Io {
+            what: what.into(),
+            cause: Some(cause.into()),
+        }
+    }
+
+    /// True when the device went away (reconnecting may help).
+    pub fn is_disconnect(&self) -> bool {
+        matches!(self, Self::Disconnected { .. })
+    }
+
+    /// What failed and why, without the kind: `what: cause`. The client
+    /// reports an interrupted stream with it.
+    pub fn reason(&self) -> String {
+        let (Self::Disconnected { what, cause } | Self::Io { what, cause }) = self;
+        match cause {
+            Some(c) => format!("{what}: {c}"),
+            None => what.clone(),
+        }
+    }
+
+    /// The whole message on one line: kind, what and cause.
+    pub fn full_text(&self) -> String {
+        match self {
+            Self::Disconnected { .. } => format!("link disconnected: {}", self.reason()),
+            Self::Io { .. } => format!("link I/O error: {}", self.reason()),
+        }
+    }
 }
 
 /// The host end of a link to a device.

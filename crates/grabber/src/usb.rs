@@ -24,10 +24,9 @@ pub struct UsbDeviceInfo {
     pub address: u8,
 }
 
-/// Why USB devices could not be listed.
-pub fn no_bus_message(e: &dyn std::fmt::Display) -> String {
-    format!("no USB bus available on this machine ({e})")
-}
+/// Why USB devices could not be listed or opened (the USB stack's error
+/// follows as the source).
+const NO_USB_BUS: &str = "no USB bus available on this machine";
 
 /// There is no USB bus to list (containers, VMs without USB pass-through,
 /// no usbfs): nusb's error, said plainly.
@@ -93,9 +92,9 @@ pub struct UsbTransport {
 fn usb_err(e: nusb::Error, what: &str) -> LinkError {
     match e.kind() {
         nusb::ErrorKind::Disconnected | nusb::ErrorKind::NotFound => {
-            LinkError::Disconnected(format!("{what}: {e}"))
+            LinkError::disconnected_by(what, e)
         }
-        _ => LinkError::Io(format!("{what}: {e}")),
+        _ => LinkError::io_by(what, e),
     }
 }
 
@@ -115,7 +114,7 @@ impl UsbTransport {
         let sel = &self.selector;
         let devices = nusb::list_devices()
             .wait()
-            .map_err(|e| LinkError::Io(no_bus_message(&e)))?;
+            .map_err(|e| LinkError::io_by(NO_USB_BUS, e))?;
         let info = devices
             .into_iter()
             .find(|d| {
@@ -126,7 +125,7 @@ impl UsbTransport {
                         .as_deref()
                         .is_none_or(|s| d.serial_number() == Some(s))
             })
-            .ok_or_else(|| LinkError::Disconnected(format!("USB device {sel} not found")))?;
+            .ok_or_else(|| LinkError::disconnected(format!("USB device {sel} not found")))?;
         let device = info
             .open()
             .wait()
@@ -152,7 +151,7 @@ impl UsbTransport {
             }
         }
         let (Some(a_in), Some(a_out)) = (addr_in, addr_out) else {
-            return Err(LinkError::Io(format!(
+            return Err(LinkError::io(format!(
                 "USB device {sel}: interface 0 has no bulk IN/OUT pair"
             )));
         };
@@ -192,7 +191,7 @@ impl Transport for UsbTransport {
         let o = self
             .open
             .as_mut()
-            .ok_or_else(|| LinkError::Disconnected("USB device closed".into()))?;
+            .ok_or_else(|| LinkError::disconnected("USB device closed"))?;
         let mut buf = Buffer::new(wire.len());
         buf.extend_from_slice(wire);
         o.ep_out.submit(buf);
@@ -204,10 +203,10 @@ impl Transport for UsbTransport {
             match o.ep_out.wait_next_complete(timeout) {
                 Some(c) => c
                     .status
-                    .map_err(|e| LinkError::Disconnected(format!("bulk OUT: {e}")))?,
+                    .map_err(|e| LinkError::disconnected_by("bulk OUT", e))?,
                 None => {
                     o.ep_out.cancel_all();
-                    return Err(LinkError::Io("bulk OUT timed out".into()));
+                    return Err(LinkError::io("bulk OUT timed out"));
                 }
             }
         }
@@ -218,7 +217,7 @@ impl Transport for UsbTransport {
         let o = self
             .open
             .as_mut()
-            .ok_or_else(|| LinkError::Disconnected("USB device closed".into()))?;
+            .ok_or_else(|| LinkError::disconnected("USB device closed"))?;
         if o.ep_in.pending() == 0 {
             let b = o.ep_in.allocate(o.in_len);
             o.ep_in.submit(b);
@@ -228,7 +227,7 @@ impl Transport for UsbTransport {
         };
         if let Err(e) = c.status {
             self.open = None;
-            return Err(LinkError::Disconnected(format!("bulk IN: {e}")));
+            return Err(LinkError::disconnected_by("bulk IN", e));
         }
         let n = c.actual_len.min(out.len()).min(c.buffer.len());
         out[..n].copy_from_slice(&c.buffer[..n]);
@@ -270,15 +269,15 @@ pub mod rusb_backend {
     fn err(e: rusb::Error, what: &str) -> LinkError {
         match e {
             rusb::Error::NoDevice | rusb::Error::NotFound | rusb::Error::Io | rusb::Error::Pipe => {
-                LinkError::Disconnected(format!("{what}: {e}"))
+                LinkError::disconnected_by(what, e)
             }
-            _ => LinkError::Io(format!("{what}: {e}")),
+            _ => LinkError::io_by(what, e),
         }
     }
 
     impl RusbTransport {
         pub fn open(selector: UsbSelector) -> Result<Self, LinkError> {
-            let ctx = rusb::Context::new().map_err(|e| LinkError::Io(super::no_bus_message(&e)))?;
+            let ctx = rusb::Context::new().map_err(|e| LinkError::io_by(super::NO_USB_BUS, e))?;
             let mut t = Self {
                 selector,
                 ctx,
@@ -303,7 +302,7 @@ pub mod rusb_backend {
             let h = self
                 .handle
                 .as_ref()
-                .ok_or_else(|| LinkError::Disconnected("USB device closed".into()))?;
+                .ok_or_else(|| LinkError::disconnected("USB device closed"))?;
             h.write_bulk(self.ep_out, wire, timeout)
                 .map_err(|e| err(e, "bulk OUT"))?;
             if !wire.is_empty() && wire.len() % self.max_packet_len == 0 {
@@ -316,7 +315,7 @@ pub mod rusb_backend {
             let h = self
                 .handle
                 .as_ref()
-                .ok_or_else(|| LinkError::Disconnected("USB device closed".into()))?;
+                .ok_or_else(|| LinkError::disconnected("USB device closed"))?;
             match h.read_bulk(self.ep_in, buf, timeout) {
                 Ok(n) => Ok(n),
                 Err(rusb::Error::Timeout) => Ok(0),
@@ -329,7 +328,7 @@ pub mod rusb_backend {
             let devices = self
                 .ctx
                 .devices()
-                .map_err(|e| LinkError::Io(super::no_bus_message(&e)))?;
+                .map_err(|e| LinkError::io_by(super::NO_USB_BUS, e))?;
             for d in devices.iter() {
                 let Ok(desc) = d.device_descriptor() else {
                     continue;
@@ -369,7 +368,7 @@ pub mod rusb_backend {
                 self.handle = Some(h);
                 return Ok(());
             }
-            Err(LinkError::Disconnected(format!(
+            Err(LinkError::disconnected(format!(
                 "USB device {sel} not found"
             )))
         }

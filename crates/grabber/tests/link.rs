@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::source::SyntheticSource;
-use gloam_grabber::{ClientOptions, FrameGrabber, Framing, ProtocolGrabber};
+use gloam_grabber::{ClientOptions, DeviceControl, FrameStream, Framing, ProtocolGrabber};
 
 #[test]
 fn clean_serial_link_delivers_frames() {

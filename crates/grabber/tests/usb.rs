@@ -7,7 +7,9 @@ use std::time::Duration;
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, USB_MAX_PACKET_LEN, memory_link};
 use gloam_grabber::source::SyntheticSource;
-use gloam_grabber::{ClientOptions, DeviceLink, FrameGrabber, Framing, ProtocolGrabber, Transport};
+use gloam_grabber::{
+    ClientOptions, DeviceControl, DeviceLink, FrameStream, Framing, ProtocolGrabber, Transport,
+};
 
 const T: Duration = Duration::from_millis(200);
 

@@ -1,8 +1,10 @@
 //! The in-process simulated grabber: any [`FrameSource`] behind the
-//! [`FrameGrabber`] interface, quantising settings as the wire does.
+//! [`FrameGrabber`](gloam_grabber::FrameGrabber) interface, quantising settings as the wire does.
 
 use gloam_grabber::source::{CaptureSettings, FrameSource, SourceInfo};
-use gloam_grabber::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
+use gloam_grabber::{
+    DeviceControl, Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus,
+};
 
 use crate::scene::SceneView;
 use crate::source::SensorSource;
@@ -38,7 +40,7 @@ pub struct SimGrabber<S: FrameSource = Box<dyn FrameSource>> {
 }
 
 impl<S: FrameSource> SimGrabber<S> {
-    /// A grabber over `source`; `label` goes into [`FrameGrabber::describe`].
+    /// A grabber over `source`; `label` goes into [`DeviceControl::describe`].
     pub fn new(source: S, label: impl Into<String>) -> Self {
         let info = source.info();
         Self {
@@ -88,7 +90,7 @@ impl SimGrabber<Box<dyn FrameSource>> {
     }
 }
 
-impl<S: FrameSource> FrameGrabber for SimGrabber<S> {
+impl<S: FrameSource> DeviceControl for SimGrabber<S> {
     fn describe(&self) -> String {
         self.label.clone()
     }
@@ -147,7 +149,9 @@ impl<S: FrameSource> FrameGrabber for SimGrabber<S> {
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
         self.source.present(stimulus)
     }
+}
 
+impl<S: FrameSource> FrameStream for SimGrabber<S> {
     fn grab(&mut self) -> Result<Frame, GrabError> {
         if !self.streaming {
             self.source.restart();
@@ -177,5 +181,11 @@ impl<S: FrameSource> FrameGrabber for SimGrabber<S> {
             },
             pixels,
         })
+    }
+    /// The next grab restarts the source's stream at frame 0, as the
+    /// emulator does after `StopStream`.
+    fn stop(&mut self) -> Result<(), GrabError> {
+        self.streaming = false;
+        Ok(())
     }
 }

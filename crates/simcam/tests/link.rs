@@ -4,7 +4,7 @@ use std::time::{Duration, Instant};
 
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
-use gloam_grabber::{ClientOptions, FrameGrabber, Framing, ProtocolGrabber};
+use gloam_grabber::{ClientOptions, DeviceControl, FrameStream, Framing, ProtocolGrabber};
 
 /// Slow controls answer `Pending` first; the client waits for the final Ack.
 /// Unsupported and out-of-range values come back as clear errors.

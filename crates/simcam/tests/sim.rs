@@ -3,8 +3,8 @@
 use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
 use gloam_grabber::memory::{MemoryOptions, memory_link};
 use gloam_grabber::{
-    ClientOptions, FrameGrabber, Framing, GrabError, GrabberUri, OpenOptions, ProtocolGrabber,
-    Stimulus,
+    ClientOptions, DeviceControl, FrameGrabber, FrameStream, Framing, GrabError, GrabberUri,
+    OpenOptions, ProtocolGrabber, Stimulus,
 };
 use gloam_simcam::{SceneImage, SceneView, SensorSource, SimGrabber, open, open_sim, registry};
 

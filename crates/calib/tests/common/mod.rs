@@ -5,7 +5,9 @@
 //! exactly here.
 #![allow(dead_code, clippy::neg_cmp_op_on_partial_ord)]
 
-use gloam_grabber::{Frame, FrameGrabber, FrameMeta, FrameStatus, GrabError, Stimulus};
+use gloam_grabber::{
+    DeviceControl, Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus,
+};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal, Poisson};
 use rand_pcg::Pcg64;
@@ -150,7 +152,7 @@ fn erfc(x: f64) -> f64 {
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
-impl FrameGrabber for MockCamera {
+impl DeviceControl for MockCamera {
     fn describe(&self) -> String {
         "mock linear camera".into()
     }
@@ -186,6 +188,9 @@ impl FrameGrabber for MockCamera {
         self.stim = stimulus.clone();
         Ok(true)
     }
+}
+
+impl FrameStream for MockCamera {
     fn grab(&mut self) -> Result<Frame, GrabError> {
         let n = self.w * self.h;
         let k = self.k();
