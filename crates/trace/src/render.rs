@@ -9,8 +9,8 @@ use ndarray::Array3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::settings::RenderSettings;
-use crate::tracer::{RayCounts, TraceError, Tracer, latin_hypercube, stream};
+use crate::settings::{LightStrataMode, RenderSettings};
+use crate::tracer::{LightStrata, RayCounts, TraceError, Tracer, latin_hypercube, stream};
 
 /// Side of the square image tiles handed to rayon.
 pub const TILE: u32 = 16;
@@ -139,7 +139,9 @@ fn stratification(ests: &[PixelEstimate], floor: &[f64]) -> (Vec<f64>, f64) {
         let vb = terms[b].map_or(0.0, |t| t.1);
         va.total_cmp(&vb)
     });
-    let groups = STRATIFICATION_GROUPS.min(order.len() / MIN_POOLED_PIXELS).max(1);
+    let groups = STRATIFICATION_GROUPS
+        .min(order.len() / MIN_POOLED_PIXELS)
+        .max(1);
     for g in 0..groups {
         let chunk = &order[g * order.len() / groups..(g + 1) * order.len() / groups];
         let (r, v) = chunk.iter().fold((0.0, 0.0), |(a, b), &i| {
@@ -189,11 +191,12 @@ fn stated_std_errors(ests: &[PixelEstimate], w: usize, factor: &[f64]) -> Vec<f6
                 e.std_error(b) * factor[i]
             } else {
                 let (r, c) = (i / w, i % w);
-                let rows = r.saturating_sub(DARK_NEIGHBOURHOOD)..(r + DARK_NEIGHBOURHOOD + 1).min(h);
+                let rows =
+                    r.saturating_sub(DARK_NEIGHBOURHOOD)..(r + DARK_NEIGHBOURHOOD + 1).min(h);
                 let scale = rows
                     .flat_map(|rr| {
-                        let cols =
-                            c.saturating_sub(DARK_NEIGHBOURHOOD)..(c + DARK_NEIGHBOURHOOD + 1).min(w);
+                        let cols = c.saturating_sub(DARK_NEIGHBOURHOOD)
+                            ..(c + DARK_NEIGHBOURHOOD + 1).min(w);
                         cols.map(move |cc| rr * w + cc)
                     })
                     .map(|j| ests[j].mean(b).abs())
@@ -390,7 +393,12 @@ fn error_summary(
             if e.n >= cap && r > t {
                 count += 1;
                 let (row, col) = (i / w.max(1), i % w.max(1));
-                bbox = [bbox[0].min(col), bbox[1].min(row), bbox[2].max(col), bbox[3].max(row)];
+                bbox = [
+                    bbox[0].min(col),
+                    bbox[1].min(row),
+                    bbox[2].max(col),
+                    bbox[3].max(row),
+                ];
             }
         }
         (count, (count > 0).then_some(bbox))
@@ -428,7 +436,15 @@ impl Tracer {
     /// [`Tracer::render`].
     fn pixel_spectral(&self, col: u32, row: u32, c: &mut RayCounts) -> Vec<f64> {
         let mut est = PixelEstimate::new(self.wl.len(), self.wl.band_names.len());
-        self.pixel_batch(col, row, 0, self.settings.spp.max(1) as usize, false, &mut est, c);
+        self.pixel_batch(
+            col,
+            row,
+            0,
+            self.settings.spp.max(1) as usize,
+            false,
+            &mut est,
+            c,
+        );
         let inv = 1.0 / est.n.max(1) as f64;
         est.spectral.iter().map(|a| a * inv).collect()
     }
@@ -439,6 +455,7 @@ impl Tracer {
     /// `replicated` (adaptive renders) splits the batch into two halves of
     /// `⌈n/2⌉` samples, replicates A and B, each with its own streams and
     /// Sobol scramble (see [`stratification`]).
+    #[allow(clippy::too_many_arguments)]
     fn pixel_batch(
         &self,
         col: u32,
@@ -495,6 +512,10 @@ impl Tracer {
         let scramble =
             crate::tracer::mix64(self.settings.seed ^ crate::tracer::mix64(idx ^ 0x6A7E ^ salt));
         let mut pts: Vec<[f64; 2]> = Vec::with_capacity(k);
+        // The camera vertex's light samples: their own scramble per pixel
+        // (and replicate), the sample index continuing across batches.
+        let strata = (self.settings.light_strata == LightStrataMode::Sobol)
+            .then(|| crate::tracer::mix64(scramble ^ 0x005E_ED11_6475));
         for [sx, sy] in sub {
             acc.iter_mut().for_each(|a| *a = 0.0);
             pts.clear();
@@ -514,6 +535,10 @@ impl Tracer {
                 0,
                 false,
                 (k > 0).then_some(pts.as_slice()),
+                strata.map(|scramble| LightStrata {
+                    scramble,
+                    sample: so_far,
+                }),
                 &mut rng,
                 c,
                 &mut acc,
@@ -733,7 +758,7 @@ impl Tracer {
                             let add = goal.saturating_sub(e.n as u64).max(1) as u32;
                             // Replicated batches add an even count (⌈add/2⌉
                             // to each replicate) without passing the cap.
-                            let add = (add.min(cap - e.n) + 1) / 2 * 2;
+                            let add = add.min(cap - e.n).div_ceil(2) * 2;
                             let add = if e.n + add > cap { add - 2 } else { add };
                             (add > 0).then_some((i, add))
                         })
@@ -972,7 +997,7 @@ impl Tracer {
         for uv in u {
             let l = crate::sky_light::cosine_hemisphere(uv);
             let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
-            self.trace(p, d, ignore, &thr, 1, 1, true, None, rng, c, out);
+            self.trace(p, d, ignore, &thr, 1, 1, true, None, None, rng, c, out);
         }
     }
 
@@ -1027,7 +1052,10 @@ mod tests {
             let (factor, global) = stratification(&ests, &[0.0]);
             let (n, v) = (2.0 * m as f64, 1.0 / (24.0 * (m as f64).powi(3)));
             let want = (v / (n / (n - 1.0) * (1.0 / 12.0 - v) / n)).sqrt();
-            assert!((global / want - 1.0).abs() < 0.06, "m {m}: {global} vs {want}");
+            assert!(
+                (global / want - 1.0).abs() < 0.06,
+                "m {m}: {global} vs {want}"
+            );
             assert!(factor.iter().all(|f| (f / want - 1.0).abs() < 0.2));
         }
     }

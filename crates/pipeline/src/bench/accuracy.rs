@@ -519,7 +519,10 @@ pub fn run(args: &AccuracyOptions) -> anyhow::Result<AccuracyReport> {
         );
     }
 
-    let adaptive: Vec<&Row> = rows.iter().filter(|r| r.setting == "target_error").collect();
+    let adaptive: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.setting == "target_error")
+        .collect();
     let direct_spp: Vec<&Row> = rows
         .iter()
         .filter(|r| r.setting == "direct_only_spp")
