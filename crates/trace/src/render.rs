@@ -221,9 +221,96 @@ fn stated_rel_error(e: &PixelEstimate, se: &[f64], floor: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The next round of an adaptive render: `(pixel, samples to add)`, or
+/// nothing once the image's RMS of stated relative errors `rel` is at the
+/// target. The target is the per-pixel RMS error of the image, so samples
+/// go where they buy the most: with per-sample relative deviation
+/// `s_i = rel_i √n_i`, the fewest samples giving RMS E are
+/// `n_i = s_i · Σ s_j / (N E²)` (a Lagrange multiplier), each pixel growing
+/// at most 4× per round (its error estimate improves as it grows) and
+/// never past `cap`; every pixel first gets [`MIN_ADAPTIVE_SPP`].
+fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(usize, u32)> {
+    // Pixels at their cap keep their error (the report counts them); the
+    // target holds for the rest.
+    let cap_of = |e: &PixelEstimate| pixel_cap(e, cap);
+    let free = ests.iter().filter(|e| e.n < cap_of(e)).count();
+    let npix = free.max(1) as f64;
+    let rms = (ests
+        .iter()
+        .zip(rel)
+        .filter(|(e, _)| e.n < cap_of(e))
+        .map(|(_, r)| r * r)
+        .sum::<f64>()
+        / npix)
+        .sqrt();
+    let min = MIN_ADAPTIVE_SPP.min(cap);
+    let below_min = ests.iter().any(|e| e.n < min);
+    if rms <= target && !below_min {
+        return Vec::new();
+    }
+    let dev: Vec<f64> = ests
+        .iter()
+        .zip(rel)
+        .map(|(e, r)| r * (e.n as f64).sqrt())
+        .collect();
+    let free_dev: f64 = ests
+        .iter()
+        .zip(&dev)
+        .filter(|(e, _)| e.n < cap_of(e))
+        .map(|(_, d)| d)
+        .sum();
+    let lambda = if rms > target {
+        free_dev / (npix * target * target)
+    } else {
+        0.0
+    };
+    ests.iter()
+        .enumerate()
+        .filter_map(|(i, e)| {
+            let want = (lambda * dev[i] * 1.05).ceil();
+            let want = if want.is_finite() {
+                want.min(u32::MAX as f64) as u64
+            } else {
+                u64::MAX
+            };
+            let cap = cap_of(e);
+            let goal = want
+                .min(4 * e.n.max(1) as u64)
+                .max(min as u64)
+                .min(cap as u64);
+            if goal <= e.n as u64 {
+                return None;
+            }
+            // Replicated batches add an even count (half to each
+            // replicate) without passing the cap.
+            let add = (goal - e.n as u64) as u32;
+            let add = add.div_ceil(2) * 2;
+            let add = if e.n + add > cap { add - 2 } else { add };
+            (add > 0).then_some((i, add))
+        })
+        .collect()
+}
+
+/// A pixel whose samples have all been zero stops at this many (or
+/// `max_spp` if lower): its stated error is then the neighbourhood bound
+/// of [`stated_std_errors`], which falls only as 1/n — sampling an umbra to
+/// `max_spp` would double a direct-light render for pixels that are, as
+/// far as 64 samples tell, dark. The report counts them.
+pub const DARK_MAX_SPP: u32 = 64;
+
+/// The sample cap of pixel `e`: `max_spp`, or [`DARK_MAX_SPP`] while every
+/// sample has been zero.
+fn pixel_cap(e: &PixelEstimate, cap: u32) -> u32 {
+    if e.band_lit.iter().any(|&l| l) {
+        cap
+    } else {
+        cap.min(DARK_MAX_SPP)
+    }
+}
+
 /// Adaptive sampling: a pixel needs at least this many samples before its
 /// error estimate is trusted.
-pub const MIN_ADAPTIVE_SPP: u32 = 16;
+pub const MIN_ADAPTIVE_SPP: u32 = 4;
 /// The dark-pixel floor of `target_error`: a pixel's error is taken
 /// relative to `max(|mean|, DARK_FLOOR × the band's image mean)`.
 pub const DARK_FLOOR: f64 = 0.05;
@@ -390,7 +477,7 @@ fn error_summary(
         let mut count = 0usize;
         let mut bbox = [usize::MAX, usize::MAX, 0, 0];
         for (i, (e, &r)) in ests.iter().zip(&rel).enumerate() {
-            if e.n >= cap && r > t {
+            if e.n >= pixel_cap(e, cap) && r > t {
                 count += 1;
                 let (row, col) = (i / w.max(1), i % w.max(1));
                 bbox = [
@@ -735,34 +822,12 @@ impl Tracer {
                     }
                     let (factor, _) = stratification(&ests, &floor);
                     let stated = stated_std_errors(&ests, w as usize, &factor);
-                    let work: Vec<(usize, u32)> = ests
+                    let rel: Vec<f64> = ests
                         .iter()
                         .enumerate()
-                        .filter_map(|(i, e)| {
-                            let rel = stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor);
-                            let need_min = e.n < MIN_ADAPTIVE_SPP.min(cap);
-                            if e.n >= cap || (!need_min && rel <= target) {
-                                return None;
-                            }
-                            // n·(rel/E)² samples would meet the target.
-                            let want = (e.n as f64 * (rel / target).powi(2) * 1.1).ceil();
-                            let want = if want.is_finite() {
-                                want as u64
-                            } else {
-                                u64::MAX
-                            };
-                            let goal = want
-                                .max(MIN_ADAPTIVE_SPP as u64)
-                                .min(4 * e.n as u64)
-                                .min(cap as u64);
-                            let add = goal.saturating_sub(e.n as u64).max(1) as u32;
-                            // Replicated batches add an even count (⌈add/2⌉
-                            // to each replicate) without passing the cap.
-                            let add = add.min(cap - e.n).div_ceil(2) * 2;
-                            let add = if e.n + add > cap { add - 2 } else { add };
-                            (add > 0).then_some((i, add))
-                        })
+                        .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
                         .collect();
+                    let work = allocate(&ests, &rel, target, cap);
                     if work.is_empty() {
                         break;
                     }
