@@ -736,7 +736,16 @@ impl Tracer {
                 // selection picks only `light_tree_branches` emitters)
                 // CACHE_DIRECT_REPEATS selections are averaged; without it
                 // the closed forms are exact and the count is unused.
-                self.irradiance_with(p, n, f, CACHE_DIRECT_REPEATS, &mut rng, &mut c, &mut e);
+                self.irradiance_with(
+                    p,
+                    n,
+                    f,
+                    CACHE_DIRECT_REPEATS,
+                    None,
+                    &mut rng,
+                    &mut c,
+                    &mut e,
+                );
                 let mut entries: Vec<Entry> = Vec::new();
                 let mut taus: Vec<Vec<f64>> = Vec::new();
                 let mut u = Vec::with_capacity(rays as usize);

@@ -385,6 +385,7 @@ impl Tracer {
                     0,
                     false,
                     None,
+                    None,
                     &mut rng,
                     &mut c,
                     &mut acc,

@@ -9,8 +9,8 @@ use ndarray::Array3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::settings::RenderSettings;
-use crate::tracer::{RayCounts, TraceError, Tracer, latin_hypercube, stream};
+use crate::settings::{LightStrataMode, RenderSettings};
+use crate::tracer::{LightStrata, RayCounts, TraceError, Tracer, latin_hypercube, stream};
 
 /// Side of the square image tiles handed to rayon.
 pub const TILE: u32 = 16;
@@ -19,15 +19,26 @@ pub const TILE: u32 = 16;
 const DOMAIN_PIXEL: u64 = 1;
 const DOMAIN_PROBE: u64 = 2;
 const DOMAIN_BATCH: u64 = 3;
+const DOMAIN_REPLICATE: u64 = 4;
 
-/// A pixel's running estimate: spectral sum, and per band the sum and sum
-/// of squares of the per-sample values (for its standard error).
+/// A pixel's running estimate: spectral sum, per band the sum and sum of
+/// squares of the per-sample values, and per band the sums of two
+/// independently randomised replicates (adaptive renders only).
 #[derive(Clone, Debug)]
 struct PixelEstimate {
     n: u32,
     spectral: Vec<f64>,
     band_sum: Vec<f64>,
     band_sq: Vec<f64>,
+    /// Samples and band sums of replicates A and B (adaptive renders: each
+    /// replicate has its own random stream and its own Owen scramble, so
+    /// the difference of their means measures the error of a stratified
+    /// estimate without the per-sample variance's bias).
+    rep_n: [u32; 2],
+    rep_sum: [Vec<f64>; 2],
+    /// Per band, whether any sample was non-zero (a pixel whose samples
+    /// are all zero has no per-sample variance to state an error from).
+    band_lit: Vec<bool>,
 }
 
 impl PixelEstimate {
@@ -37,10 +48,13 @@ impl PixelEstimate {
             spectral: vec![0.0; nwl],
             band_sum: vec![0.0; nb],
             band_sq: vec![0.0; nb],
+            rep_n: [0; 2],
+            rep_sum: [vec![0.0; nb], vec![0.0; nb]],
+            band_lit: vec![false; nb],
         }
     }
 
-    fn add(&mut self, spectral: &[f64], bands: &[f64]) {
+    fn add(&mut self, spectral: &[f64], bands: &[f64], replicate: Option<usize>) {
         self.n += 1;
         self.spectral
             .iter_mut()
@@ -49,6 +63,14 @@ impl PixelEstimate {
         for (b, v) in bands.iter().enumerate() {
             self.band_sum[b] += v;
             self.band_sq[b] += v * v;
+            self.band_lit[b] |= *v != 0.0;
+        }
+        if let Some(r) = replicate {
+            self.rep_n[r] += 1;
+            self.rep_sum[r]
+                .iter_mut()
+                .zip(bands)
+                .for_each(|(a, b)| *a += b);
         }
     }
 
@@ -57,7 +79,8 @@ impl PixelEstimate {
     }
 
     /// Standard error of the band mean from the per-sample variance (the
-    /// samples of a batch are stratified, so this errs on the high side).
+    /// samples of a batch are stratified, so this errs on the high side;
+    /// adaptive renders scale it by the measured [`stratification`]).
     fn std_error(&self, b: usize) -> f64 {
         if self.n < 2 {
             return 0.0;
@@ -68,21 +91,226 @@ impl PixelEstimate {
         (var / n).sqrt()
     }
 
-    /// Largest relative standard error over bands, each relative to
-    /// `max(|mean|, floor_b)`.
-    fn rel_error(&self, floor: &[f64]) -> f64 {
-        (0..self.band_sum.len())
-            .map(|b| {
-                let d = self.mean(b).abs().max(floor[b]);
-                if d > 0.0 { self.std_error(b) / d } else { 0.0 }
-            })
-            .fold(0.0, f64::max)
+    /// Per band, the squared half-difference of the two replicates' means
+    /// relative to `max(|mean|, floor_b)`²: an unbiased estimate of the
+    /// relative variance of the pixel's mean (one degree of freedom), and
+    /// the per-sample estimate's relative variance beside it.
+    fn replicate_terms(&self, floor: &[f64]) -> Option<(f64, f64)> {
+        let [na, nb] = self.rep_n;
+        if na == 0 || na != nb || self.n < 4 {
+            return None;
+        }
+        let (mut rep, mut naive) = (0.0, 0.0);
+        for (b, &fl) in floor.iter().enumerate() {
+            let d = self.mean(b).abs().max(fl);
+            if d <= 0.0 {
+                continue;
+            }
+            let half = 0.5 * (self.rep_sum[0][b] - self.rep_sum[1][b]) / na as f64;
+            rep += (half / d).powi(2);
+            naive += (self.std_error(b) / d).powi(2);
+        }
+        Some((rep, naive))
+    }
+}
+
+/// The ratio of the true to the per-sample standard error, measured from
+/// the replicates and pooled over pixels of similar per-sample error
+/// ([`STRATIFICATION_GROUPS`] groups by quantile of that error; each
+/// pixel's one-degree-of-freedom replicate estimate is far too noisy on its
+/// own). Returns the factor per pixel (1 where nothing was measured) and
+/// the image-wide factor.
+fn stratification(ests: &[PixelEstimate], floor: &[f64]) -> (Vec<f64>, f64) {
+    let terms: Vec<Option<(f64, f64)>> = ests.iter().map(|e| e.replicate_terms(floor)).collect();
+    let mut order: Vec<usize> = (0..ests.len())
+        .filter(|&i| terms[i].is_some_and(|(_, v)| v > 0.0))
+        .collect();
+    let mut factor = vec![1.0; ests.len()];
+    let (sr, sv) = order.iter().fold((0.0, 0.0), |(a, b), &i| {
+        let (r, v) = terms[i].unwrap_or((0.0, 0.0));
+        (a + r, b + v)
+    });
+    if sv <= 0.0 || order.len() < MIN_POOLED_PIXELS {
+        return (factor, 1.0);
+    }
+    let global = (sr / sv).sqrt();
+    order.sort_by(|&a, &b| {
+        let va = terms[a].map_or(0.0, |t| t.1);
+        let vb = terms[b].map_or(0.0, |t| t.1);
+        va.total_cmp(&vb)
+    });
+    let groups = STRATIFICATION_GROUPS
+        .min(order.len() / MIN_POOLED_PIXELS)
+        .max(1);
+    for g in 0..groups {
+        let chunk = &order[g * order.len() / groups..(g + 1) * order.len() / groups];
+        let (r, v) = chunk.iter().fold((0.0, 0.0), |(a, b), &i| {
+            let (r, v) = terms[i].unwrap_or((0.0, 0.0));
+            (a + r, b + v)
+        });
+        let f = if v > 0.0 { (r / v).sqrt() } else { global };
+        for &i in chunk {
+            factor[i] = f;
+        }
+    }
+    // Pixels without a per-sample variance (all samples equal) keep their
+    // zero estimate whatever the factor; give them the image-wide one.
+    for (i, t) in terms.iter().enumerate() {
+        if !t.is_some_and(|(_, v)| v > 0.0) {
+            factor[i] = global;
+        }
+    }
+    (factor, global)
+}
+
+/// Groups of pixels (by quantile of their per-sample relative error) over
+/// which the replicate estimate is pooled.
+pub const STRATIFICATION_GROUPS: usize = 64;
+/// A group pools at least this many pixels.
+const MIN_POOLED_PIXELS: usize = 256;
+
+/// Pixels within this distance (a square window) lend their scale to a
+/// neighbour whose samples were all zero.
+pub const DARK_NEIGHBOURHOOD: usize = 2;
+
+/// The standard error the render states, per pixel and band (pixel-major:
+/// `[i * nb + b]`): the per-sample estimate scaled by the pixel's measured
+/// stratification `factor`, or — where every sample of a band was zero
+/// (a deep penumbra whose shadow rays all met the occluder) — an upper
+/// bound, not zero: the largest mean within [`DARK_NEIGHBOURHOOD`] pixels
+/// divided by the pixel's sample count, the error one sample of the
+/// neighbours' size would make. Only a pixel with no lit sample in its
+/// neighbourhood states zero (it is dark as far as sampling can tell).
+fn stated_std_errors(ests: &[PixelEstimate], w: usize, factor: &[f64]) -> Vec<f64> {
+    let nb = ests.first().map_or(0, |e| e.band_sum.len());
+    let h = ests.len() / w.max(1);
+    let mut out = vec![0.0; ests.len() * nb];
+    for (i, e) in ests.iter().enumerate() {
+        for b in 0..nb {
+            out[i * nb + b] = if e.band_lit[b] || e.n == 0 {
+                e.std_error(b) * factor[i]
+            } else {
+                let (r, c) = (i / w, i % w);
+                let rows =
+                    r.saturating_sub(DARK_NEIGHBOURHOOD)..(r + DARK_NEIGHBOURHOOD + 1).min(h);
+                let scale = rows
+                    .flat_map(|rr| {
+                        let cols = c.saturating_sub(DARK_NEIGHBOURHOOD)
+                            ..(c + DARK_NEIGHBOURHOOD + 1).min(w);
+                        cols.map(move |cc| rr * w + cc)
+                    })
+                    .map(|j| ests[j].mean(b).abs())
+                    .fold(0.0, f64::max);
+                scale / e.n as f64
+            };
+        }
+    }
+    out
+}
+
+/// Largest relative stated error over bands, each relative to
+/// `max(|mean|, floor_b)`.
+fn stated_rel_error(e: &PixelEstimate, se: &[f64], floor: &[f64]) -> f64 {
+    se.iter()
+        .zip(floor)
+        .enumerate()
+        .map(|(b, (&s, &fl))| {
+            let d = e.mean(b).abs().max(fl);
+            if d > 0.0 { s / d } else { 0.0 }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The next round of an adaptive render: `(pixel, samples to add)`, or
+/// nothing once the image's RMS of stated relative errors `rel` is at the
+/// target. The target is the per-pixel RMS error of the image, so samples
+/// go where they buy the most: with per-sample relative deviation
+/// `s_i = rel_i √n_i`, the fewest samples giving RMS E are
+/// `n_i = s_i · Σ s_j / (N E²)` (a Lagrange multiplier), each pixel growing
+/// at most 4× per round (its error estimate improves as it grows) and
+/// never past `cap`; every pixel first gets [`MIN_ADAPTIVE_SPP`].
+fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(usize, u32)> {
+    // Pixels at their cap keep their error (the report counts them); the
+    // target holds for the rest.
+    let cap_of = |e: &PixelEstimate| pixel_cap(e, cap);
+    let free = ests.iter().filter(|e| e.n < cap_of(e)).count();
+    let npix = free.max(1) as f64;
+    let rms = (ests
+        .iter()
+        .zip(rel)
+        .filter(|(e, _)| e.n < cap_of(e))
+        .map(|(_, r)| r * r)
+        .sum::<f64>()
+        / npix)
+        .sqrt();
+    let min = MIN_ADAPTIVE_SPP.min(cap);
+    let below_min = ests.iter().any(|e| e.n < min);
+    if rms <= target && !below_min {
+        return Vec::new();
+    }
+    let dev: Vec<f64> = ests
+        .iter()
+        .zip(rel)
+        .map(|(e, r)| r * (e.n as f64).sqrt())
+        .collect();
+    let free_dev: f64 = ests
+        .iter()
+        .zip(&dev)
+        .filter(|(e, _)| e.n < cap_of(e))
+        .map(|(_, d)| d)
+        .sum();
+    let lambda = if rms > target {
+        free_dev / (npix * target * target)
+    } else {
+        0.0
+    };
+    ests.iter()
+        .enumerate()
+        .filter_map(|(i, e)| {
+            let want = (lambda * dev[i] * 1.05).ceil();
+            let want = if want.is_finite() {
+                want.min(u32::MAX as f64) as u64
+            } else {
+                u64::MAX
+            };
+            let cap = cap_of(e);
+            let goal = want
+                .min(4 * e.n.max(1) as u64)
+                .max(min as u64)
+                .min(cap as u64);
+            if goal <= e.n as u64 {
+                return None;
+            }
+            // Replicated batches add an even count (half to each
+            // replicate) without passing the cap.
+            let add = (goal - e.n as u64) as u32;
+            let add = add.div_ceil(2) * 2;
+            let add = if e.n + add > cap { add - 2 } else { add };
+            (add > 0).then_some((i, add))
+        })
+        .collect()
+}
+
+/// A pixel whose samples have all been zero stops at this many (or
+/// `max_spp` if lower): its stated error is then the neighbourhood bound
+/// of [`stated_std_errors`], which falls only as 1/n — sampling an umbra to
+/// `max_spp` would double a direct-light render for pixels that are, as
+/// far as 64 samples tell, dark. The report counts them.
+pub const DARK_MAX_SPP: u32 = 64;
+
+/// The sample cap of pixel `e`: `max_spp`, or [`DARK_MAX_SPP`] while every
+/// sample has been zero.
+fn pixel_cap(e: &PixelEstimate, cap: u32) -> u32 {
+    if e.band_lit.iter().any(|&l| l) {
+        cap
+    } else {
+        cap.min(DARK_MAX_SPP)
     }
 }
 
 /// Adaptive sampling: a pixel needs at least this many samples before its
 /// error estimate is trusted.
-pub const MIN_ADAPTIVE_SPP: u32 = 16;
+pub const MIN_ADAPTIVE_SPP: u32 = 4;
 /// The dark-pixel floor of `target_error`: a pixel's error is taken
 /// relative to `max(|mean|, DARK_FLOOR × the band's image mean)`.
 pub const DARK_FLOOR: f64 = 0.05;
@@ -103,6 +331,19 @@ pub struct ErrorSummary {
     pub rel_std_error_rms: f64,
     /// Fraction of pixels at or below the target.
     pub fraction_meeting_target: Option<f64>,
+    /// Adaptive renders: the measured ratio of the true standard error to
+    /// the per-sample one, pooled over the image (the two replicates'
+    /// spread; below 1 where stratification pays). The per-pixel estimates
+    /// use the factor of their group (see `stratification`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stratification_factor: Option<f64>,
+    /// Adaptive renders: pixels that reached `max_spp` with their stated
+    /// error still above the target (`spp.npy` shows which), and the box
+    /// `[col0, row0, col1, row1]` (inclusive) holding them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixels_stopped_at_max_spp: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stopped_at_max_spp_box: Option<[usize; 4]>,
     pub mean_spp: f64,
     pub max_spp: u32,
     pub rounds: u32,
@@ -218,12 +459,37 @@ fn band_floor(ests: &[PixelEstimate], nb: usize) -> Vec<f64> {
 
 fn error_summary(
     ests: &[PixelEstimate],
-    nb: usize,
-    target: Option<f64>,
+    floor: &[f64],
+    stated: &[f64],
+    stratification_factor: Option<f64>,
+    adaptive: Option<(f64, u32)>,
     rounds: u32,
+    w: usize,
 ) -> ErrorSummary {
-    let floor = band_floor(ests, nb);
-    let mut rel: Vec<f64> = ests.iter().map(|e| e.rel_error(&floor)).collect();
+    let target = adaptive.map(|(t, _)| t);
+    let mut rel: Vec<f64> = ests
+        .iter()
+        .zip(stated.chunks(floor.len().max(1)))
+        .map(|(e, se)| stated_rel_error(e, se, floor))
+        .collect();
+    // Pixels the cap stopped above the target, and the box holding them.
+    let capped = adaptive.map(|(t, cap)| {
+        let mut count = 0usize;
+        let mut bbox = [usize::MAX, usize::MAX, 0, 0];
+        for (i, (e, &r)) in ests.iter().zip(&rel).enumerate() {
+            if e.n >= pixel_cap(e, cap) && r > t {
+                count += 1;
+                let (row, col) = (i / w.max(1), i % w.max(1));
+                bbox = [
+                    bbox[0].min(col),
+                    bbox[1].min(row),
+                    bbox[2].max(col),
+                    bbox[3].max(row),
+                ];
+            }
+        }
+        (count, (count > 0).then_some(bbox))
+    });
     rel.sort_by(f64::total_cmp);
     let q = |p: f64| {
         if rel.is_empty() {
@@ -242,6 +508,9 @@ fn error_summary(
         rel_std_error_max: rel.last().copied().unwrap_or(0.0),
         rel_std_error_rms: (rel.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
         fraction_meeting_target: target.map(|t| rel.iter().filter(|&&x| x <= t).count() as f64 / n),
+        stratification_factor,
+        pixels_stopped_at_max_spp: capped.map(|c| c.0),
+        stopped_at_max_spp_box: capped.and_then(|c| c.1),
         mean_spp: ests.iter().map(|e| e.n as f64).sum::<f64>() / n,
         max_spp: ests.iter().map(|e| e.n).max().unwrap_or(0),
         rounds,
@@ -254,7 +523,15 @@ impl Tracer {
     /// [`Tracer::render`].
     fn pixel_spectral(&self, col: u32, row: u32, c: &mut RayCounts) -> Vec<f64> {
         let mut est = PixelEstimate::new(self.wl.len(), self.wl.band_names.len());
-        self.pixel_batch(col, row, 0, self.settings.spp.max(1) as usize, &mut est, c);
+        self.pixel_batch(
+            col,
+            row,
+            0,
+            self.settings.spp.max(1) as usize,
+            false,
+            &mut est,
+            c,
+        );
         let inv = 1.0 / est.n.max(1) as f64;
         est.spectral.iter().map(|a| a * inv).collect()
     }
@@ -262,42 +539,75 @@ impl Tracer {
     /// Adds batch `batch` of `n` camera samples (Latin-hypercube stratified
     /// in the pixel) to the pixel's estimate. Each batch has its own random
     /// stream, so a pixel's result depends only on which batches it got.
+    /// `replicated` (adaptive renders) splits the batch into two halves of
+    /// `⌈n/2⌉` samples, replicates A and B, each with its own streams and
+    /// Sobol scramble (see [`stratification`]).
+    #[allow(clippy::too_many_arguments)]
     fn pixel_batch(
         &self,
         col: u32,
         row: u32,
         batch: u32,
         n: usize,
+        replicated: bool,
+        est: &mut PixelEstimate,
+        c: &mut RayCounts,
+    ) {
+        if replicated {
+            for r in 0..2 {
+                self.pixel_samples(col, row, batch, n.div_ceil(2), Some(r), est, c);
+            }
+        } else {
+            self.pixel_samples(col, row, batch, n, None, est, c);
+        }
+    }
+
+    /// `n` samples of batch `batch` for one stream: the pixel's own
+    /// (`replicate` None) or replicate A/B's.
+    #[allow(clippy::too_many_arguments)]
+    fn pixel_samples(
+        &self,
+        col: u32,
+        row: u32,
+        batch: u32,
+        n: usize,
+        replicate: Option<usize>,
         est: &mut PixelEstimate,
         c: &mut RayCounts,
     ) {
         let cam = &self.camera;
         let idx = row as u64 * cam.width as u64 + col as u64;
-        let domain = if batch == 0 {
-            DOMAIN_PIXEL
-        } else {
-            DOMAIN_BATCH ^ ((batch as u64) << 32)
+        let domain = match replicate {
+            None if batch == 0 => DOMAIN_PIXEL,
+            None => DOMAIN_BATCH ^ ((batch as u64) << 32),
+            Some(r) => DOMAIN_REPLICATE ^ ((r as u64 + 1) << 8) ^ ((batch as u64) << 32),
         };
         let mut rng = stream(self.settings.seed, domain, idx);
         let mut sub = Vec::with_capacity(n);
         latin_hypercube(n, &mut rng, &mut sub);
         let mut acc = vec![0.0; self.wl.len()];
         // Final-gather directions: one Owen-scrambled Sobol sequence per
-        // pixel, continued across batches (`est.n` samples so far), each
-        // sample taking the next block of `gather_rays` points.
-        // (Only when there is a cache to gather from.)
+        // pixel (per replicate), continued across batches (the samples it
+        // has so far), each sample taking the next block of `gather_rays`
+        // points. (Only when there is a cache to gather from.)
         let k = if self.cache.is_some() {
             self.settings.gather_rays as usize
         } else {
             0
         };
+        let salt = replicate.map_or(0, |r| (r as u64 + 1) << 40);
         let scramble =
-            crate::tracer::mix64(self.settings.seed ^ crate::tracer::mix64(idx ^ 0x6A7E));
+            crate::tracer::mix64(self.settings.seed ^ crate::tracer::mix64(idx ^ 0x6A7E ^ salt));
         let mut pts: Vec<[f64; 2]> = Vec::with_capacity(k);
+        // The camera vertex's light samples: their own scramble per pixel
+        // (and replicate), the sample index continuing across batches.
+        let strata = (self.settings.light_strata == LightStrataMode::Sobol)
+            .then(|| crate::tracer::mix64(scramble ^ 0x005E_ED11_6475));
         for [sx, sy] in sub {
             acc.iter_mut().for_each(|a| *a = 0.0);
             pts.clear();
-            let first = est.n as u64 * k as u64;
+            let so_far = replicate.map_or(est.n, |r| est.rep_n[r]);
+            let first = so_far as u64 * k as u64;
             pts.extend(
                 (0..k as u64).map(|i| crate::sampling::sobol_owen_2d((first + i) as u32, scramble)),
             );
@@ -312,11 +622,15 @@ impl Tracer {
                 0,
                 false,
                 (k > 0).then_some(pts.as_slice()),
+                strata.map(|scramble| LightStrata {
+                    scramble,
+                    sample: so_far,
+                }),
                 &mut rng,
                 c,
                 &mut acc,
             );
-            est.add(&acc, &self.wl.integrate(&acc));
+            est.add(&acc, &self.wl.integrate(&acc), replicate);
         }
     }
 
@@ -451,6 +765,9 @@ impl Tracer {
         let t0 = Instant::now();
         let threads = self.settings.threads;
         let spp = self.settings.spp.max(1);
+        // Adaptive renders sample in two replicates, so their error
+        // estimate is measured rather than assumed (see `stratification`).
+        let replicated = self.settings.target_error.is_some();
         let done = AtomicU64::new(0);
         let (ests, rays, rounds, threads_used) = with_pool(threads, || {
             // Round 0: every pixel, one batch of spp, tile by tile.
@@ -474,7 +791,7 @@ impl Tracer {
                         }
                         for col in x0..x1 {
                             let mut e = PixelEstimate::new(nwl, nb);
-                            self.pixel_batch(col, row, 0, spp as usize, &mut e, &mut c);
+                            self.pixel_batch(col, row, 0, spp as usize, replicated, &mut e, &mut c);
                             out.push(((row - row0) as usize * w as usize + col as usize, e));
                         }
                     }
@@ -503,30 +820,14 @@ impl Tracer {
                     if halt() {
                         break;
                     }
-                    let work: Vec<(usize, u32)> = ests
+                    let (factor, _) = stratification(&ests, &floor);
+                    let stated = stated_std_errors(&ests, w as usize, &factor);
+                    let rel: Vec<f64> = ests
                         .iter()
                         .enumerate()
-                        .filter_map(|(i, e)| {
-                            let rel = e.rel_error(&floor);
-                            let need_min = e.n < MIN_ADAPTIVE_SPP.min(cap);
-                            if e.n >= cap || (!need_min && rel <= target) {
-                                return None;
-                            }
-                            // n·(rel/E)² samples would meet the target.
-                            let want = (e.n as f64 * (rel / target).powi(2) * 1.1).ceil();
-                            let want = if want.is_finite() {
-                                want as u64
-                            } else {
-                                u64::MAX
-                            };
-                            let goal = want
-                                .max(MIN_ADAPTIVE_SPP as u64)
-                                .min(4 * e.n as u64)
-                                .min(cap as u64);
-                            let add = goal.saturating_sub(e.n as u64).max(1) as u32;
-                            Some((i, add.min(cap - e.n)))
-                        })
+                        .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
                         .collect();
+                    let work = allocate(&ests, &rel, target, cap);
                     if work.is_empty() {
                         break;
                     }
@@ -540,7 +841,7 @@ impl Tracer {
                             let mut e = ests[i].clone();
                             let (col, row) =
                                 ((i % w as usize) as u32, row0 + (i / w as usize) as u32);
-                            self.pixel_batch(col, row, batch, add as usize, &mut e, &mut c);
+                            self.pixel_batch(col, row, batch, add as usize, true, &mut e, &mut c);
                             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                             if n % 1024 == 0 || n == total {
                                 progress(n, total);
@@ -567,17 +868,29 @@ impl Tracer {
         let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
         let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
         let mut spp_map = ndarray::Array2::<u32>::zeros((h as usize, w as usize));
+        let floor = band_floor(&ests, nb);
+        let (factor, pooled) = if replicated {
+            let (f, g) = stratification(&ests, &floor);
+            (f, Some(g))
+        } else {
+            (vec![1.0; ests.len()], None)
+        };
+        let stated = stated_std_errors(&ests, w as usize, &factor);
         for (i, e) in ests.iter().enumerate() {
             let (row, col) = (i / w as usize, i % w as usize);
             let inv = 1.0 / e.n.max(1) as f64;
             let mean: Vec<f64> = e.spectral.iter().map(|a| a * inv).collect();
             for (b, v) in self.wl.integrate(&mean).into_iter().enumerate() {
                 radiance[[b, row, col]] = v;
-                std_error[[b, row, col]] = e.std_error(b);
+                std_error[[b, row, col]] = stated[i * nb + b];
             }
             spp_map[[row, col]] = e.n;
         }
-        let error = error_summary(&ests, nb, self.settings.target_error, rounds);
+        let adaptive = self
+            .settings
+            .target_error
+            .map(|t| (t, self.settings.max_spp.max(spp)));
+        let error = error_summary(&ests, &floor, &stated, pooled, adaptive, rounds, w as usize);
         let mut c = RayCounts::default();
         let deposits = if self.settings.drop.direct_view {
             Vec::new()
@@ -749,7 +1062,7 @@ impl Tracer {
         for uv in u {
             let l = crate::sky_light::cosine_hemisphere(uv);
             let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
-            self.trace(p, d, ignore, &thr, 1, 1, true, None, rng, c, out);
+            self.trace(p, d, ignore, &thr, 1, 1, true, None, None, rng, c, out);
         }
     }
 
@@ -768,5 +1081,77 @@ impl Tracer {
     /// Continuous pixel coordinates of a world-space point (None behind the camera).
     pub fn project(&self, point: DVec3) -> Option<(f64, f64)> {
         self.camera.project(point - self.geom.origin)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// `m` jittered (stratified) samples of f(u) = u into replicate `r`.
+    fn stratified(e: &mut PixelEstimate, m: usize, r: usize, rng: &mut rand_pcg::Pcg64Mcg) {
+        for k in 0..m {
+            let u = (k as f64 + rng.random::<f64>()) / m as f64;
+            e.add(&[u], &[u], Some(r));
+        }
+    }
+
+    /// Stratified samples of f(u) = u: each of two replicates of `m`
+    /// jittered samples has var(mean) = 1/(12 m³), so the pixel's mean (n =
+    /// 2m) has v = 1/(24 m³), while the per-sample estimate expects
+    /// s²/n with E[s²] = n/(n−1) · (1/12 − v) for these samples. The
+    /// replicates must measure the ratio sqrt(v / (E[s²]/n)) (≈ 1/m).
+    #[test]
+    fn replicates_measure_the_stratification_gain() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        for m in [4usize, 8, 16] {
+            let ests: Vec<PixelEstimate> = (0..4096)
+                .map(|_| {
+                    let mut e = PixelEstimate::new(1, 1);
+                    stratified(&mut e, m, 0, &mut rng);
+                    stratified(&mut e, m, 1, &mut rng);
+                    e
+                })
+                .collect();
+            let (factor, global) = stratification(&ests, &[0.0]);
+            let (n, v) = (2.0 * m as f64, 1.0 / (24.0 * (m as f64).powi(3)));
+            let want = (v / (n / (n - 1.0) * (1.0 / 12.0 - v) / n)).sqrt();
+            assert!(
+                (global / want - 1.0).abs() < 0.06,
+                "m {m}: {global} vs {want}"
+            );
+            assert!(factor.iter().all(|f| (f / want - 1.0).abs() < 0.2));
+        }
+    }
+
+    /// A pixel whose samples were all zero states the error one sample of
+    /// its brightest neighbour's size would make (mean / n), not zero; one
+    /// with no lit neighbour within the window states zero.
+    #[test]
+    fn all_zero_pixels_state_an_upper_bound() {
+        let w = 8;
+        let mut ests: Vec<PixelEstimate> = (0..w * w).map(|_| PixelEstimate::new(1, 1)).collect();
+        for e in ests.iter_mut() {
+            for _ in 0..16 {
+                e.add(&[0.0], &[0.0], None);
+            }
+        }
+        // Pixel (row 0, col 0) is lit: mean 2.0 (half its samples 4.0).
+        let mut lit = PixelEstimate::new(1, 1);
+        for k in 0..16 {
+            let v = if k % 2 == 0 { 4.0 } else { 0.0 };
+            lit.add(&[v], &[v], None);
+        }
+        ests[0] = lit;
+        let se = stated_std_errors(&ests, w, &vec![1.0; w * w]);
+        // Within DARK_NEIGHBOURHOOD (2) of (0, 0): 2.0 / 16.
+        assert_eq!(se[2 * w + 2], 2.0 / 16.0);
+        assert_eq!(se[1], 2.0 / 16.0);
+        // Outside it: provably nothing to scale by.
+        assert_eq!(se[3 * w + 3], 0.0);
+        assert_eq!(se[7], 0.0);
+        // The lit pixel keeps its per-sample standard error: sd 2·sqrt(16/15), /4.
+        assert!((se[0] - 2.0 * (16.0f64 / 15.0).sqrt() / 4.0).abs() < 1e-12);
     }
 }

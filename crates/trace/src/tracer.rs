@@ -752,7 +752,7 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut [f64],
     ) {
-        self.irradiance_with(p, n, ignore, 1, rng, c, out);
+        self.irradiance_with(p, n, ignore, 1, None, rng, c, out);
     }
 
     /// [`Tracer::irradiance`] with the light tree's part averaged over
@@ -766,6 +766,7 @@ impl Tracer {
         n: DVec3,
         ignore: u32,
         tree_repeats: u32,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         out: &mut [f64],
@@ -808,9 +809,9 @@ impl Tracer {
         } else if drop.area_sources {
             scratch.clear();
             scratch.resize(out.len(), 0.0);
-            self.area_irradiance(p, n, ignore, rng, c, &mut scratch);
+            self.area_irradiance(p, n, ignore, strata, rng, c, &mut scratch);
         } else {
-            self.area_irradiance(p, n, ignore, rng, c, out);
+            self.area_irradiance(p, n, ignore, strata, rng, c, out);
         }
         if let Some(tree) = &self.light_tree {
             // Point sources draw no random numbers: a dropped one need not
@@ -828,7 +829,7 @@ impl Tracer {
             let repeats = tree_repeats.max(1);
             let w = 1.0 / repeats as f64;
             for _ in 0..repeats {
-                let parts = self.tree_irradiance(tree, p, n, ignore, skipped, rng, c);
+                let parts = self.tree_irradiance(tree, p, n, ignore, skipped, strata, rng, c);
                 // w = 1 for one selection: x · 1 is x exactly.
                 for (part, _) in parts.iter().zip(dropped).filter(|(_, d)| !d) {
                     out.iter_mut().zip(part).for_each(|(o, x)| *o += w * x);
@@ -839,11 +840,13 @@ impl Tracer {
 
     /// The area sources' part of [`Tracer::irradiance`], by the chosen
     /// estimator.
+    #[allow(clippy::too_many_arguments)]
     fn area_irradiance(
         &self,
         p: DVec3,
         n: DVec3,
         ignore: u32,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         out: &mut [f64],
@@ -854,11 +857,11 @@ impl Tracer {
         match self.settings.estimator {
             // The light tree picks the area sources (`tree_irradiance`).
             Estimator::Analytic if self.light_tree.as_ref().is_some_and(|t| t.has_area) => {}
-            Estimator::Analytic => self.analytic(p, n, ignore, rng, c, out),
+            Estimator::Analytic => self.analytic(p, n, ignore, strata, rng, c, out),
             Estimator::SolidAngle => {
                 for s in &self.area {
                     if s.facet != ignore {
-                        self.solid_angle(s, p, n, ignore, 1.0, rng, c, out);
+                        self.solid_angle(s, p, n, ignore, 1.0, strata, rng, c, out);
                     }
                 }
             }
@@ -898,12 +901,12 @@ impl Tracer {
             self.moon_irradiance(sky, p, n, ignore, c, &mut parts[3]);
             self.dome_irradiance(sky, p, n, ignore, rng, c, &mut parts[4]);
         }
-        self.area_irradiance(p, n, ignore, rng, c, &mut parts[0]);
+        self.area_irradiance(p, n, ignore, None, rng, c, &mut parts[0]);
         // The pilot stays cheap with many lamps: the tree's picks, each
         // into its own term (unbiased per term, as each pick's weight is
         // its own 1/pmf).
         if let Some(tree) = &self.light_tree {
-            let tree_parts = self.tree_irradiance(tree, p, n, ignore, [false; 3], rng, c);
+            let tree_parts = self.tree_irradiance(tree, p, n, ignore, [false; 3], None, rng, c);
             for (k, part) in tree_parts.iter().enumerate() {
                 parts[k].iter_mut().zip(part).for_each(|(o, x)| *o += x);
             }
@@ -1094,12 +1097,14 @@ impl Tracer {
     /// uniform in solid angle where possible, else uniform in area. Samples
     /// below either horizon get weight 0 but still count. Returns false
     /// when the point is behind or in the emitter's plane (no light).
+    #[allow(clippy::too_many_arguments)]
     fn light_samples(
         &self,
         s: &AreaSource,
         p: DVec3,
         n: DVec3,
         nsamp: u32,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         out: &mut Vec<LightSample>,
     ) -> bool {
@@ -1110,7 +1115,10 @@ impl Tracer {
         }
         let nsamp = nsamp.max(1) as usize;
         let mut u = Vec::with_capacity(nsamp);
-        latin_hypercube(nsamp, rng, &mut u);
+        match strata {
+            Some(st) => st.points(s.facet, nsamp, self.settings.area_samples, &mut u),
+            None => latin_hypercube(nsamp, rng, &mut u),
+        }
         let inv_n = 1.0 / nsamp as f64;
         let weight = |x: DVec3, per_sr: Option<f64>| -> LightSample {
             let v = x - p;
@@ -1237,12 +1245,21 @@ impl Tracer {
         n: DVec3,
         ignore: u32,
         scale: f64,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         out: &mut [f64],
     ) {
         let mut samples = Vec::new();
-        if self.light_samples(s, p, n, self.settings.area_samples, rng, &mut samples) {
+        if self.light_samples(
+            s,
+            p,
+            n,
+            self.settings.area_samples,
+            strata,
+            rng,
+            &mut samples,
+        ) {
             self.occluded_sum(s, p, ignore, &samples, scale, c, out);
         }
     }
@@ -1252,11 +1269,13 @@ impl Tracer {
     /// whose every sample is blocked at a wavelength contributes exactly 0
     /// there, and the summed area-source irradiance at the hit point is
     /// clamped at 0 per wavelength.
+    #[allow(clippy::too_many_arguments)]
     fn analytic(
         &self,
         p: DVec3,
         n: DVec3,
         ignore: u32,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         out: &mut [f64],
@@ -1293,6 +1312,7 @@ impl Tracer {
                 p,
                 n,
                 ignore,
+                strata,
                 rng,
                 c,
                 &mut samples,
@@ -1322,6 +1342,7 @@ impl Tracer {
         p: DVec3,
         n: DVec3,
         ignore: u32,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         samples: &mut Vec<LightSample>,
@@ -1333,7 +1354,7 @@ impl Tracer {
         let Some(factor) = factor else {
             // Non-integer shape exponent: no closed form; sample it.
             if s.facet != ignore {
-                self.solid_angle(s, p, n, ignore, scale, rng, c, area);
+                self.solid_angle(s, p, n, ignore, scale, strata, rng, c, area);
             }
             return;
         };
@@ -1351,7 +1372,7 @@ impl Tracer {
         } else {
             n_full
         };
-        let sampled = factor > 0.0 && self.light_samples(s, p, n, n_s, rng, samples);
+        let sampled = factor > 0.0 && self.light_samples(s, p, n, n_s, strata, rng, samples);
         occ.iter_mut().for_each(|x| *x = 0.0);
         let sum_w = if sampled {
             self.occluded_sum(s, p, ignore, samples, 1.0, c, occ)
@@ -1402,6 +1423,7 @@ impl Tracer {
         n: DVec3,
         ignore: u32,
         skipped: [bool; 3],
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
     ) -> [Vec<f64>; 3] {
@@ -1454,6 +1476,7 @@ impl Tracer {
                     p,
                     n,
                     ignore,
+                    strata,
                     rng,
                     c,
                     &mut samples,
@@ -1548,11 +1571,15 @@ impl Tracer {
         diffuse: u32,
         after_diffuse: bool,
         gather: Option<&[[f64; 2]]>,
+        strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         acc: &mut [f64],
     ) {
         let mut thr = thr.to_vec();
+        // The pixel's stratified light-sample points, for the first
+        // directly lit vertex only.
+        let mut strata = strata;
         // The pixel's stratified final-gather points, for the first
         // diffuse vertex only.
         let mut gather = gather;
@@ -1609,7 +1636,7 @@ impl Tracer {
             let all = self.settings.all_effects;
             if mat.has_diffuse || all {
                 let mut e = vec![0.0; acc.len()];
-                self.irradiance(p, ns, f, rng, c, &mut e);
+                self.irradiance_with(p, ns, f, 1, strata.take(), rng, c, &mut e);
                 let inv_pi = std::f64::consts::FRAC_1_PI;
                 for (((a, t), k), e) in acc.iter_mut().zip(&thr).zip(&mat.kd).zip(&e) {
                     *a += t * k * e * inv_pi;
@@ -1660,6 +1687,7 @@ impl Tracer {
                     diffuse,
                     false,
                     None,
+                    None,
                     rng,
                     c,
                     target,
@@ -1696,6 +1724,7 @@ impl Tracer {
                         spec_depth,
                         diffuse + 1,
                         true,
+                        None,
                         None,
                         rng,
                         c,
@@ -1842,4 +1871,61 @@ fn rect_of(v: &[DVec3]) -> Option<Shape> {
         ex,
         ey,
     })
+}
+
+/// Where a camera vertex's light samples come from: one Owen-scrambled
+/// Sobol sequence per pixel and source, continued across the pixel's
+/// camera samples (sample `j` takes points `j·stride …`), so the shadow
+/// rays of all of a pixel's samples stratify each source jointly and a
+/// penumbra converges as a stratified estimate, not as independent draws.
+/// Each point is uniform on its own, so the estimate stays unbiased.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightStrata {
+    /// The pixel's (and replicate's) scramble.
+    pub scramble: u64,
+    /// The camera sample's index within its sequence.
+    pub sample: u32,
+}
+
+impl LightStrata {
+    /// `n` points for source `facet`, from block `sample·stride` (stride ≥
+    /// n: the full shadow-ray count, so blocks never overlap).
+    fn points(&self, facet: u32, n: usize, stride: u32, out: &mut Vec<[f64; 2]>) {
+        let seed = mix64(self.scramble ^ mix64(facet as u64 ^ 0x11_6A75));
+        let first = self.sample.wrapping_mul(stride.max(n as u32));
+        out.extend(
+            (0..n as u32).map(|k| crate::sampling::sobol_owen_2d(first.wrapping_add(k), seed)),
+        );
+    }
+}
+
+#[cfg(test)]
+mod light_strata_tests {
+    use super::LightStrata;
+
+    /// Samples 0…15 with 4 shadow rays each take the first 64 points of a
+    /// scrambled Sobol (0,2)-sequence: a (0,6,2)-net, so every 8 × 8 cell
+    /// (and every 4 × 16, 16 × 4 … box of area 1/64) holds exactly one —
+    /// the joint stratification across a pixel's samples.
+    #[test]
+    fn a_pixels_light_samples_form_a_net() {
+        for scramble in [1u64, 0xDEAD_BEEF, 42 << 40] {
+            let mut pts = Vec::new();
+            for sample in 0..16 {
+                LightStrata { scramble, sample }.points(7, 4, 4, &mut pts);
+            }
+            assert_eq!(pts.len(), 64);
+            for (nx, ny) in [(8usize, 8usize), (4, 16), (16, 4), (2, 32), (64, 1)] {
+                let mut seen = vec![0u32; 64];
+                for [x, y] in &pts {
+                    let cell = (x * nx as f64) as usize * ny + (y * ny as f64) as usize;
+                    seen[cell] += 1;
+                }
+                assert!(
+                    seen.iter().all(|&k| k == 1),
+                    "{nx}x{ny}, scramble {scramble}"
+                );
+            }
+        }
+    }
 }

@@ -265,12 +265,38 @@ pub fn reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
     s
 }
 
+/// The direct-light-only reference: the default estimator with
+/// interreflection off and no source roulette, at `spp` — the truth for
+/// the direct-only rows (the first wave's model), against which Mitsuba 3's
+/// direct-only figures were taken.
+pub fn direct_reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
+    let mut s = RenderSettings {
+        spp,
+        area_samples: 4,
+        source_roulette_fraction: 0.0,
+        threads,
+        ..Default::default()
+    };
+    s.set("indirect", "off").expect("valid");
+    s
+}
+
+/// Which light a reference holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceKind {
+    /// The scene's whole light ([`reference_settings`]).
+    WholeLight,
+    /// Direct light only ([`direct_reference_settings`]).
+    DirectOnly,
+}
+
 /// Pixels of the reference subset: at most `REFERENCE_PIXELS` of the mask,
 /// evenly strided (the per-pixel RMS over a uniform subset estimates the
 /// RMS over all of them without bias).
 pub const REFERENCE_PIXELS: usize = 1200;
 
 /// The high-sample reference, cached in `dir` (see the module docs).
+#[allow(clippy::too_many_arguments)]
 pub fn reference_truth(
     scene_path: &Path,
     scene: &Scene,
@@ -278,20 +304,35 @@ pub fn reference_truth(
     dir: &Path,
     threads: Option<usize>,
     spp: u32,
+    kind: ReferenceKind,
 ) -> anyhow::Result<Truth> {
     use ndarray_npy::{ReadNpyExt, WriteNpyExt};
     let t0 = Instant::now();
     let text =
         gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
             .with_context(|| format!("reading {}", scene_path.display()))?;
-    let base = reference_settings(None, spp);
+    let settings_for = |threads, spp| match kind {
+        ReferenceKind::WholeLight => reference_settings(threads, spp),
+        ReferenceKind::DirectOnly => direct_reference_settings(threads, spp),
+    };
+    let (stem, what) = match kind {
+        ReferenceKind::WholeLight => (
+            "reference",
+            "the whole light by brute-force path tracing (64 diffuse bounces",
+        ),
+        ReferenceKind::DirectOnly => (
+            "reference-direct",
+            "direct light only (interreflection off, closed form with shadow rays",
+        ),
+    };
+    let base = settings_for(None, spp);
     let key = format!(
         "{:016x}-{:016x}",
         fnv1a(&text),
         fnv1a(serde_json::to_string(&base)?.as_bytes())
     );
-    let npy = dir.join("reference.npy");
-    let meta = dir.join("reference.json");
+    let npy = dir.join(format!("{stem}.npy"));
+    let meta = dir.join(format!("{stem}.json"));
     let full_mask = receiver_mask(scene, tracer, 4);
     let (nb, h, w) = (
         scene.bands.len(),
@@ -341,7 +382,7 @@ pub fn reference_truth(
         let s = RenderSettings {
             seed,
             spp: spp.div_ceil(2),
-            ..reference_settings(threads, spp)
+            ..settings_for(threads, spp)
         };
         let t = Tracer::new(scene, &s)?;
         let v: Result<Vec<Vec<f64>>, _> = subset
@@ -388,7 +429,7 @@ pub fn reference_truth(
         noise_var: Some(var),
         seconds,
         note: format!(
-            "reference: the whole light by brute-force path tracing (64 diffuse bounces, spp {spp} in two halves) on {} of the counted pixels, cached in {}",
+            "reference: {what}, spp {spp} in two halves) on {} of the counted pixels, cached in {}",
             subset.len(),
             npy.display()
         ),
