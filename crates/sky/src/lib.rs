@@ -7,6 +7,7 @@ pub mod ground;
 pub mod moonlight;
 pub mod nights;
 pub mod nightsky;
+pub mod report;
 pub mod spectral;
 pub mod time;
 
