@@ -80,15 +80,8 @@ impl Sensor {
     /// factor, read noise, black and saturation levels, bit depth, MTF.
     #[pyo3(signature = (gain = None))]
     fn describe<'py>(&self, py: Python<'py>, gain: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
-        let mut camera = Camera::new(self.config.clone()).or_py()?;
-        let g = match gain {
-            Some(g) => {
-                camera.set_override_gain(Some(g)).or_py()?;
-                camera.gain()
-            }
-            None => camera.chain().reference_gain,
-        };
-        to_py(py, &camera.chain().describe(g))
+        let camera = Camera::new(self.config.clone()).or_py()?;
+        to_py(py, &camera.chain().describe_checked(gain).or_py()?)
     }
 
     /// Captures ``frames`` frames through the camera; returns a

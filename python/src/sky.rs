@@ -2,6 +2,7 @@
 
 use pyo3::prelude::*;
 
+use gloam_sky::report::{InputNames, QueryError, checked_site, parse_instant};
 use gloam_sky::{Cloud, Refraction, Site, UtcInstant, ephemeris, ground_illuminance};
 
 use crate::convert::to_py;
@@ -13,15 +14,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// The site and instant, checked by the same functions as `gloam ephem`
+/// and `gloam sky`, with errors naming the keyword.
 fn site_and_time(
     lat: f64,
     lon: f64,
     height_m: f64,
     utc: &str,
-) -> anyhow::Result<(Site, UtcInstant)> {
-    let site = Site::new(lat, lon, height_m)?;
-    let t = UtcInstant::parse_iso8601(utc).map_err(|e| anyhow::anyhow!("utc {utc:?}: {e}"))?;
-    Ok((site, t))
+) -> Result<(Site, UtcInstant), QueryError> {
+    let names = InputNames::PYTHON;
+    let site = checked_site(lat, lon, height_m, &names)?;
+    Ok((site, parse_instant(names.utc, utc)?))
 }
 
 /// Moon and Sun positions and the lunar phase at ``utc`` (ISO 8601) for a

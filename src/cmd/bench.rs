@@ -209,17 +209,6 @@ fn run_scale(a: ScaleArgs) -> anyhow::Result<()> {
     opts.timeout_s = a.timeout_s.unwrap_or(opts.timeout_s);
     opts.threads = a.threads;
     opts.no_mitsuba |= a.no_mitsuba;
-    anyhow::ensure!(
-        (1..=4096).contains(&opts.width) && (1..=4096).contains(&opts.height),
-        "--width/--height {}×{}: each must be within 1 … 4096",
-        opts.width,
-        opts.height
-    );
-    anyhow::ensure!(
-        (2..=4096).contains(&opts.spp),
-        "--spp {}: must be within 2 … 4096 (a pixel's standard error needs two samples)",
-        opts.spp
-    );
     let report = scale::run(&opts)?;
     if a.json {
         print_json(&report)

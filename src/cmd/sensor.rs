@@ -1,7 +1,7 @@
 //! `gloam sensor list|describe`.
 
 use clap::{Args, Subcommand};
-use gloam_sensor::{Chain, SensorConfig, presets};
+use gloam_sensor::{CaptureError, Chain, SensorConfig, presets};
 use serde::Serialize;
 
 use super::output::print_json;
@@ -70,54 +70,19 @@ pub fn run(cmd: SensorCommand) -> anyhow::Result<()> {
         }
         SensorCommand::Describe(a) => {
             let cfg = SensorConfig::load_preset_or_file(&a.sensor)?;
-            let chain = Chain::new(&cfg)?;
-            let g = a.gain.unwrap_or(chain.reference_gain);
-            if !(g.is_finite()
-                && g >= chain.gain_min * (1.0 - 1e-9)
-                && g <= chain.gain_max * (1.0 + 1e-9))
-            {
-                anyhow::bail!(
-                    "--gain {g} is outside {}'s range {:.4}–{:.4}",
-                    cfg.name,
-                    chain.gain_min,
-                    chain.gain_max
-                );
-            }
-            let d = chain.describe(g);
+            let d = match Chain::new(&cfg)?.describe_checked(a.gain) {
+                Err(CaptureError::GainOutOfRange { gain, min, max, .. }) => {
+                    anyhow::bail!(
+                        "--gain {gain} is outside {}'s range {min:.4}–{max:.4}",
+                        cfg.name
+                    )
+                }
+                d => d?,
+            };
             if a.json {
                 print_json(&d)?;
             } else {
-                outln!("{} ({:?}) at gain {:.4}", d.name, d.kind, d.gain);
-                if let Some(v) = d.control_voltage_v {
-                    outln!("  control voltage        {v:.1} V");
-                }
-                outln!(
-                    "  gain range             {:.4} – {:.4}",
-                    d.gain_min,
-                    d.gain_max
-                );
-                outln!("  DN per photoelectron   {:.6}", d.dn_per_photoelectron);
-                outln!("  excess noise factor    {:.4}", d.excess_noise_factor);
-                outln!("  read noise             {:.3} DN", d.read_noise_dn);
-                outln!("  black level            {:.2} DN", d.black_dn);
-                outln!(
-                    "  saturation             {:.0} DN ({:.4} photoelectrons)",
-                    d.saturation_dn,
-                    d.saturation_photoelectrons
-                );
-                outln!("  bit depth              {}", d.bit_depth);
-                outln!(
-                    "  EBI                    {:.3e} photoelectrons/pixel/frame",
-                    d.ebi_photoelectrons_per_pixel
-                );
-                if let Some(s) = d.cathode_luminous_sensitivity_ua_lm {
-                    outln!("  cathode sensitivity    {s:.0} µA/lm (2856 K)");
-                }
-                outln!(
-                    "  MTF at 0.25 / 0.5 cy/px {:.3} / {:.3}",
-                    d.mtf_quarter_nyquist_half[0],
-                    d.mtf_quarter_nyquist_half[1]
-                );
+                outln!("{d}");
             }
             Ok(())
         }

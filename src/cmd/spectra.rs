@@ -1,8 +1,7 @@
 //! `gloam spectra list|integrate`.
 
 use clap::{Args, Subcommand};
-use gloam_spectra::{library, lookup};
-use serde::Serialize;
+use gloam_spectra::{BandIntegral, library, parse_band};
 
 use super::output::print_json;
 
@@ -35,34 +34,6 @@ pub struct IntegrateArgs {
     pub json: bool,
 }
 
-/// Parses `LO:HI` in nm.
-pub fn parse_band(s: &str) -> Result<(f64, f64), String> {
-    let (lo, hi) = s
-        .split_once(':')
-        .ok_or_else(|| format!("band '{s}' must be LO:HI in nm, e.g. 400:700"))?;
-    let lo: f64 = lo
-        .trim()
-        .parse()
-        .map_err(|_| format!("band low edge '{lo}' is not a number"))?;
-    let hi: f64 = hi
-        .trim()
-        .parse()
-        .map_err(|_| format!("band high edge '{hi}' is not a number"))?;
-    if !(lo.is_finite() && hi.is_finite() && hi > lo && lo >= 0.0) {
-        return Err(format!("band {lo}:{hi} must have 0 <= LO < HI"));
-    }
-    Ok((lo, hi))
-}
-
-#[derive(Serialize)]
-struct IntegralReport {
-    integral: f64,
-    units: &'static str,
-    spectrum: String,
-    band_nm: [f64; 2],
-    weight: Option<String>,
-}
-
 pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
     match cmd {
         SpectraCommand::List { json } => {
@@ -82,26 +53,7 @@ pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
             Ok(())
         }
         SpectraCommand::Integrate(a) => {
-            let s = lookup(&a.spectrum)?;
-            let (lo, hi) = a.band;
-            // Exact for both: the weighted integral integrates the quadratic
-            // product of the two continua, and both count lines in [LO, HI).
-            let integral = match &a.weight {
-                Some(w) => s.integrate_weighted_band(&lookup(w)?, lo, hi),
-                None => s.integrate_band(lo, hi),
-            };
-            let units = if a.weight.is_some() {
-                "spectrum units x weight units x nm"
-            } else {
-                "spectrum units x nm"
-            };
-            let report = IntegralReport {
-                integral,
-                units,
-                spectrum: a.spectrum,
-                band_nm: [lo, hi],
-                weight: a.weight,
-            };
+            let report = BandIntegral::of(&a.spectrum, a.band, a.weight.as_deref())?;
             if a.json {
                 print_json(&report)
             } else {

@@ -1,10 +1,13 @@
 //! The analytic transfer of a chain: mean DN, noise, saturation and MTF at a
 //! gain, used by tests, `gloam sensor describe` and calibration.
 
+use std::fmt;
+
 use gloam_spectra::Spectrum;
 use serde::Serialize;
 
 use crate::config::SensorKind;
+use crate::error::CaptureError;
 use crate::kernel::Kernel;
 use crate::stages::{Chain, Tube};
 
@@ -149,5 +152,70 @@ impl Chain {
                 .map(|s| (s.name.to_string(), s.term.at(0.5)))
                 .collect(),
         }
+    }
+}
+
+impl Chain {
+    /// The figures at `gain` (default: the configured gain), refusing a gain
+    /// outside the chain's range as [`crate::Camera::set_override_gain`]
+    /// does, so `gloam sensor describe` and Python's `Sensor.describe` agree.
+    pub fn describe_checked(&self, gain: Option<f64>) -> Result<Description, CaptureError> {
+        let g = gain.unwrap_or(self.reference_gain);
+        if !(g.is_finite()
+            && g >= self.gain_min * (1.0 - 1e-9)
+            && g <= self.gain_max * (1.0 + 1e-9))
+        {
+            return Err(CaptureError::GainOutOfRange {
+                gain: g,
+                min: self.gain_min,
+                max: self.gain_max,
+                camera: self.config.name.clone(),
+            });
+        }
+        Ok(self.describe(g))
+    }
+}
+
+/// The text `gloam sensor describe` prints, one figure a line.
+impl fmt::Display for Description {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{} ({:?}) at gain {:.4}",
+            self.name, self.kind, self.gain
+        )?;
+        if let Some(v) = self.control_voltage_v {
+            writeln!(f, "  control voltage        {v:.1} V")?;
+        }
+        let (lo, hi) = (self.gain_min, self.gain_max);
+        writeln!(f, "  gain range             {lo:.4} – {hi:.4}")?;
+        writeln!(
+            f,
+            "  DN per photoelectron   {:.6}",
+            self.dn_per_photoelectron
+        )?;
+        writeln!(
+            f,
+            "  excess noise factor    {:.4}",
+            self.excess_noise_factor
+        )?;
+        writeln!(f, "  read noise             {:.3} DN", self.read_noise_dn)?;
+        writeln!(f, "  black level            {:.2} DN", self.black_dn)?;
+        writeln!(
+            f,
+            "  saturation             {:.0} DN ({:.4} photoelectrons)",
+            self.saturation_dn, self.saturation_photoelectrons
+        )?;
+        writeln!(f, "  bit depth              {}", self.bit_depth)?;
+        writeln!(
+            f,
+            "  EBI                    {:.3e} photoelectrons/pixel/frame",
+            self.ebi_photoelectrons_per_pixel
+        )?;
+        if let Some(s) = self.cathode_luminous_sensitivity_ua_lm {
+            writeln!(f, "  cathode sensitivity    {s:.0} µA/lm (2856 K)")?;
+        }
+        let [q, h] = self.mtf_quarter_nyquist_half;
+        write!(f, "  MTF at 0.25 / 0.5 cy/px {q:.3} / {h:.3}")
     }
 }

@@ -8,6 +8,7 @@ pub mod moonlight;
 pub mod nights;
 pub mod nightsky;
 pub mod quadrature;
+pub mod report;
 pub mod spectral;
 pub mod time;
 

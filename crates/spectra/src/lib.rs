@@ -1,5 +1,6 @@
 #![doc = include_str!("../README.md")]
 
+pub mod band;
 mod csv;
 mod error;
 pub mod input;
@@ -7,6 +8,7 @@ pub mod library;
 mod radiometry;
 mod spectrum;
 
+pub use band::{BandError, BandIntegral, parse_band};
 pub use csv::{data_rows, parse_csv, read_csv};
 pub use error::{CsvError, LineRowError, LookupError, SpectrumError};
 pub use library::{LibraryEntry, lookup};

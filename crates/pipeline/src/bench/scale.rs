@@ -832,6 +832,17 @@ fn mitsuba_check(skip: bool) -> (bool, String) {
 /// `scale.png` into `opts.out`, and returns the report.
 pub fn run(opts: &ScaleOptions) -> anyhow::Result<ScaleReport> {
     ensure!(
+        (1..=4096).contains(&opts.width) && (1..=4096).contains(&opts.height),
+        "--width/--height {}×{}: each must be within 1 … 4096",
+        opts.width,
+        opts.height
+    );
+    ensure!(
+        (2..=4096).contains(&opts.spp),
+        "--spp {}: must be within 2 … 4096 (a pixel's standard error needs two samples)",
+        opts.spp
+    );
+    ensure!(
         opts.timeout_s.is_finite() && opts.timeout_s > 0.0,
         "--timeout-s {}: must be a positive number of seconds",
         opts.timeout_s
