@@ -340,7 +340,7 @@ fn radiance(a: RadianceArgs) -> anyhow::Result<()> {
 fn publish(set: OutputSet, main_json: &str) -> anyhow::Result<()> {
     let provenance = Provenance::of_this_run();
     gloam_pipeline::output::add_provenance(&set.dir().join(main_json), &provenance)?;
-    set.publish(&provenance, None)
+    Ok(set.publish(&provenance, None)?)
 }
 
 fn apply(a: ApplyArgs) -> anyhow::Result<()> {

@@ -174,6 +174,12 @@ fn run_with_progress(
         b
     });
     let on_task = |o: &Outcome| {
+        if let Some(why) = rerun_note(o) {
+            match &bar {
+                Some(b) => b.suspend(|| eprintln!("{why}")),
+                None => eprintln!("{why}"),
+            }
+        }
         let t = &sd.sweep.tasks[o.index];
         let line = match &o.result {
             None => format!("task {} ({}) already done", o.index, t.describe()),
@@ -211,10 +217,24 @@ fn run_with_progress(
     Ok(s)
 }
 
+/// Why a task recorded done ran again, when it did.
+fn rerun_note(o: &Outcome) -> Option<String> {
+    (!o.rerun_because.is_empty()).then(|| {
+        format!(
+            "task {}: its record is stale ({} since it ran); running it again",
+            o.index,
+            o.rerun_because.join(", ")
+        )
+    })
+}
+
 fn run_tasks(r: RunArgs) -> anyhow::Result<()> {
     let sd = SweepDir::open(&r.dir)?;
     if let Some(i) = r.task {
         let o = sd.run_task(&Exec, i)?;
+        if let Some(why) = rerun_note(&o) {
+            eprintln!("{why}");
+        }
         return match o.result {
             None => {
                 eprintln!("task {i} already done");

@@ -19,6 +19,19 @@ use gloam_sensor::{Camera, SensorConfig};
 use ndarray::Array2;
 use serde::Serialize;
 
+/// Why no exposure was chosen.
+#[derive(Debug, thiserror::Error)]
+pub enum ExposureError {
+    #[error("exposure percentile {0} is not within 0–100")]
+    Percentile(f64),
+    #[error("exposure fraction of range {0} is not within (0, 1)")]
+    FractionOfRange(f64),
+    #[error(transparent)]
+    Camera(#[from] gloam_sensor::ConfigError),
+    #[error(transparent)]
+    Capture(#[from] gloam_sensor::CaptureError),
+}
+
 /// Shortest photocathode gate of an autogated power supply, s (Gen II/III
 /// autogating supplies gate down to ~100 ns).
 pub const GATE_MIN_S: f64 = 100e-9;
@@ -203,7 +216,7 @@ fn measure(
     detected: &Array2<f64>,
     target: &ExposureTarget,
     noise: bool,
-) -> anyhow::Result<Measured> {
+) -> Result<Measured, ExposureError> {
     let mut cfg = config.clone();
     cfg.optics.nd_density = s.nd;
     cfg.timing.exposure_s = s.exposure_s;
@@ -251,23 +264,19 @@ pub fn choose(
     config: &SensorConfig,
     detected: &Array2<f64>,
     target: &ExposureTarget,
-) -> anyhow::Result<ExposureChoice> {
-    anyhow::ensure!(
-        target.percentile.is_finite() && (0.0..=100.0).contains(&target.percentile),
-        "exposure percentile {} is not within 0–100",
-        target.percentile
-    );
-    anyhow::ensure!(
-        target.fraction_of_range > 0.0 && target.fraction_of_range < 1.0,
-        "exposure fraction of range {} is not within (0, 1)",
-        target.fraction_of_range
-    );
+) -> Result<ExposureChoice, ExposureError> {
+    if !(target.percentile.is_finite() && (0.0..=100.0).contains(&target.percentile)) {
+        return Err(ExposureError::Percentile(target.percentile));
+    }
+    if !(target.fraction_of_range > 0.0 && target.fraction_of_range < 1.0) {
+        return Err(ExposureError::FractionOfRange(target.fraction_of_range));
+    }
     let camera = Camera::new(config.clone())?;
     let ladder = Ladder::of(config, &camera);
     let base_exposure = config.timing.exposure_s;
     let goal = |black: f64, sat: f64| black + target.fraction_of_range * (sat - black);
     // The frame at ladder point t.
-    let eval = |t: f64| -> anyhow::Result<(Setting, Measured)> {
+    let eval = |t: f64| -> Result<(Setting, Measured), ExposureError> {
         let s = ladder.at(t, base_exposure);
         Ok((s, measure(config, s, detected, target, false)?))
     };

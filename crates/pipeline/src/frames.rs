@@ -3,16 +3,15 @@
 //! the capture of a render through a simulated camera.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use gloam_grabber::{Frame, FrameStatus};
 use gloam_sensor::Camera;
 use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
-use crate::output::{png16_bytes, write_atomic};
+use crate::output::{OutputError, png16_bytes, write_atomic};
 
 /// One line of `frames.jsonl`.
 #[derive(Clone, Debug, Serialize)]
@@ -129,29 +128,83 @@ impl FrameRecord {
     }
 }
 
+/// Why `frames.jsonl` or a frame was not written, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameLogError {
+    #[error("creating {}", path.display())]
+    Create {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("writing {}", path.display())]
+    Append {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("writing frames.jsonl")]
+    Encode(#[source] serde_json::Error),
+    #[error(transparent)]
+    Frame(#[from] OutputError),
+}
+
 /// Appends records to `frames.jsonl` as frames are written, so an
 /// interrupted run keeps every frame it wrote listed.
 pub struct FrameLog {
+    path: PathBuf,
     file: std::io::BufWriter<std::fs::File>,
 }
 
 impl FrameLog {
     /// Creates (truncates) `dir/frames.jsonl`.
-    pub fn create(dir: &Path) -> anyhow::Result<Self> {
+    pub fn create(dir: &Path) -> Result<Self, FrameLogError> {
         let path = dir.join("frames.jsonl");
-        let file =
-            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        let file = std::fs::File::create(&path).map_err(|source| FrameLogError::Create {
+            path: path.clone(),
+            source,
+        })?;
         Ok(Self {
+            path,
             file: std::io::BufWriter::new(file),
         })
     }
 
     /// Appends one record and flushes it to the file.
-    pub fn append(&mut self, rec: &FrameRecord) -> anyhow::Result<()> {
-        serde_json::to_writer(&mut self.file, rec)?;
-        self.file.write_all(b"\n")?;
-        self.file.flush().context("writing frames.jsonl")?;
-        Ok(())
+    pub fn append(&mut self, rec: &FrameRecord) -> Result<(), FrameLogError> {
+        serde_json::to_writer(&mut self.file, rec).map_err(FrameLogError::Encode)?;
+        (self.file.write_all(b"\n"))
+            .and_then(|()| self.file.flush())
+            .map_err(|source| FrameLogError::Append {
+                path: self.path.clone(),
+                source,
+            })
+    }
+}
+
+/// Writes frames as every command does: `frame-NNNNNN.png` (16-bit,
+/// atomically) and then its record appended to `frames.jsonl`, so the
+/// log never lists a frame that is not on disk.
+pub struct FrameWriter {
+    dir: PathBuf,
+    log: FrameLog,
+}
+
+impl FrameWriter {
+    /// Creates (truncates) `dir/frames.jsonl`.
+    pub fn create(dir: &Path) -> Result<Self, FrameLogError> {
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            log: FrameLog::create(dir)?,
+        })
+    }
+
+    /// Writes the frame `rec` describes (its file name and size) with its
+    /// counts `pixels` in row order, then appends `rec` to the log.
+    pub fn write(&mut self, rec: &FrameRecord, pixels: &[u16]) -> Result<(), FrameLogError> {
+        let png = png16_bytes(rec.width, rec.height, pixels)?;
+        write_atomic(&self.dir.join(&rec.file), &png)?;
+        self.log.append(rec)
     }
 }
 
@@ -193,9 +246,40 @@ pub fn check_options(
     Ok(())
 }
 
+/// Why a capture stopped, naming the step.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureError {
+    #[error(transparent)]
+    Options(#[from] CaptureOptionsError),
+    #[error(transparent)]
+    Exposure(#[from] crate::exposure::ExposureError),
+    #[error(transparent)]
+    Camera(#[from] gloam_sensor::ConfigError),
+    #[error(transparent)]
+    Gain(gloam_sensor::CaptureError),
+    #[error("capturing frame {index}")]
+    Frame {
+        index: u32,
+        #[source]
+        source: gloam_sensor::CaptureError,
+    },
+    #[error(transparent)]
+    Write(#[from] FrameLogError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error("reading {}", path.display())]
+    Report {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("encoding the capture's report")]
+    Encode(#[source] serde_json::Error),
+}
+
 /// Adds `sensor_capture` (per-frame mean, saturated fraction, warnings) to
 /// the render's `report.json` in `out`, when there is one.
-fn record_in_report(out: &Path, capture: serde_json::Value) -> anyhow::Result<()> {
+fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
     let path = out.join("report.json");
     // The report is this run's output, not an input.
     let Ok(text) = gloam_spectra::input::unrecorded(|| {
@@ -204,10 +288,14 @@ fn record_in_report(out: &Path, capture: serde_json::Value) -> anyhow::Result<()
         return Ok(());
     };
     let mut report: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+        serde_json::from_str(&text).map_err(|source| CaptureError::Report {
+            path: path.clone(),
+            source,
+        })?;
     if let Some(obj) = report.as_object_mut() {
         obj.insert("sensor_capture".into(), capture);
-        write_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        let text = serde_json::to_string_pretty(&report).map_err(CaptureError::Encode)?;
+        write_atomic(&path, text.as_bytes())?;
     }
     Ok(())
 }
@@ -225,6 +313,28 @@ pub struct FrameCapture<'a> {
     pub auto_exposure: Option<crate::exposure::ExposureTarget>,
 }
 
+/// One frame of a capture, as the camera made it.
+pub struct CapturedFrame {
+    /// Its line of `frames.jsonl` (file name, size, levels, warnings).
+    pub record: FrameRecord,
+    /// Its counts in row order.
+    pub pixels: Vec<u16>,
+    /// The camera's black level at the frame's gain, DN.
+    pub black_dn: f64,
+}
+
+/// What a capture found besides its frames: what to tell its user and
+/// what to record.
+#[derive(Clone, Debug)]
+pub struct Captured {
+    /// Lines for the user: the automatic exposure's choice and each kind
+    /// of exposure warning once (the front end prints them).
+    pub notes: Vec<String>,
+    /// `report.json`'s `sensor_capture`: the exposure chosen, per-frame
+    /// levels and the saturation summary.
+    pub report: serde_json::Value,
+}
+
 impl FrameCapture<'_> {
     /// [`check_options`] of this capture: refuses a sensor that does not
     /// load, a gain outside its range or no frames, before the render.
@@ -233,14 +343,26 @@ impl FrameCapture<'_> {
     }
 
     /// Captures `frames` frames of the detected-electron radiance
-    /// `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]) into `out`.
-    /// Returns what its user should be told, as lines (the automatic
-    /// exposure's choice, each kind of exposure warning once); the front
-    /// end prints them.
-    pub fn run(&self, detected: &Array2<f64>, out: &Path) -> anyhow::Result<Vec<String>> {
-        anyhow::ensure!(self.frames >= 1, "--frames must be at least 1");
-        let mut config = gloam_sensor::load_preset_or_file(self.sensor)
-            .with_context(|| format!("loading sensor '{}'", self.sensor))?;
+    /// `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]), handing
+    /// each to `on_frame` as it is made (so a long capture holds one frame
+    /// at a time); writes and prints nothing. [`FrameCapture::run`] writes
+    /// them; the sweep also keeps their pixels for its noise figures.
+    ///
+    /// [`take_detected_band`]: crate::take_detected_band
+    pub fn capture(
+        &self,
+        detected: &Array2<f64>,
+        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+    ) -> Result<Captured, CaptureError> {
+        if self.frames < 1 {
+            return Err(CaptureOptionsError::NoFrames.into());
+        }
+        let mut config = gloam_sensor::load_preset_or_file(self.sensor).map_err(|source| {
+            CaptureOptionsError::Sensor {
+                sensor: self.sensor.to_string(),
+                source,
+            }
+        })?;
         config.noise.seed = self.seed;
         let mut notes = Vec::new();
         let exposure = match &self.auto_exposure {
@@ -268,31 +390,32 @@ impl FrameCapture<'_> {
         let mut camera = Camera::new(config)?;
         camera.set_noise(self.noise);
         if let Some(g) = self.gain.or(exposure.as_ref().map(|c| c.gain)) {
-            camera.set_override_gain(Some(g))?;
+            camera
+                .set_override_gain(Some(g))
+                .map_err(CaptureError::Gain)?;
         }
         if self.agc {
             camera.set_agc(true);
         }
-        let mut log = FrameLog::create(out)?;
+        tracing::debug!(sensor = self.sensor, frames = self.frames, "capturing");
         let mut warned = std::collections::BTreeSet::new();
         let mut per_frame = Vec::new();
         let mut summary = SaturationSummary::default();
         for i in 0..self.frames {
             let frame = camera
                 .capture_detected(detected.view())
-                .with_context(|| format!("capturing frame {i}"))?;
-            let (h, w) = frame.pixels.dim();
+                .map_err(|source| CaptureError::Frame { index: i, source })?;
             let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
             let file = format!("frame-{i:06}.png");
-            write_atomic(&out.join(&file), &png16_bytes(w as u32, h as u32, &pixels)?)?;
             let m = &frame.meta;
             let g = m.gain_in_effect;
             let chain = camera.chain();
             let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
             let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
-            let warnings = gloam_sensor::levels::exposure_warnings(args.0, args.1, args.2, args.3);
             let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
-            for (w, k) in warnings.iter().zip(&kinds) {
+            let rec = FrameRecord::of_sensor_frame(u64::from(i), file, &frame, &pixels, &camera);
+            // The record's warnings are these kinds' messages, in order.
+            for (w, k) in rec.warnings.iter().zip(&kinds) {
                 if warned.insert(*k) {
                     let by = match k {
                         gloam_sensor::levels::WarningKind::Saturated => format!(
@@ -314,26 +437,43 @@ impl FrameCapture<'_> {
                 "bright_source_in_view": m.saturation.bright_source_in_view,
                 "warnings": kinds,
             }));
-            let rec = FrameRecord::of_sensor_frame(u64::from(i), file, &frame, &pixels, &camera);
-            debug_assert_eq!(rec.warnings, warnings);
-            log.append(&rec)?;
             summary.add(&m.saturation);
+            tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
+            on_frame(CapturedFrame {
+                record: rec,
+                pixels,
+                black_dn: black,
+            })?;
         }
-        record_in_report(
-            out,
-            serde_json::json!({
-                "sensor": self.sensor,
-                "exposure": exposure,
-                "frames": per_frame,
-                "saturation": summary,
-                "thresholds": {
-                    "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
-                    "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
-                    "near_black_dn": gloam_sensor::levels::NEAR_BLACK_DN,
-                },
-            }),
-        )?;
-        Ok(notes)
+        let report = serde_json::json!({
+            "sensor": self.sensor,
+            "exposure": exposure,
+            "frames": per_frame,
+            "saturation": summary,
+            "thresholds": {
+                "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
+                "near_black_dn": gloam_sensor::levels::NEAR_BLACK_DN,
+            },
+        });
+        Ok(Captured { notes, report })
+    }
+
+    /// [`FrameCapture::capture`] into `out`: `frame-NNNNNN.png` and
+    /// `frames.jsonl` as frames are made, and `sensor_capture` added to
+    /// `out/report.json` when there is one. Returns what its user should
+    /// be told, as lines; the front end prints them.
+    pub fn run(&self, detected: &Array2<f64>, out: &Path) -> Result<Vec<String>, CaptureError> {
+        let mut writer = None;
+        let captured = self.capture(detected, &mut |f| {
+            let w = match &mut writer {
+                Some(w) => w,
+                None => writer.insert(FrameWriter::create(out)?),
+            };
+            Ok(w.write(&f.record, &f.pixels)?)
+        })?;
+        record_in_report(out, captured.report)?;
+        Ok(captured.notes)
     }
 }
 

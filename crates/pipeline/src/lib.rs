@@ -11,8 +11,11 @@ pub mod render;
 pub mod scene_view;
 
 pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detected_band};
-pub use frames::{CaptureOptionsError, FrameCapture, FrameLog, FrameRecord, check_options};
+pub use frames::{
+    CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameLog,
+    FrameRecord, FrameWriter, check_options,
+};
 pub use output_set::OutputSet;
 pub use provenance::Provenance;
 pub use render::{PreparedRender, RenderError, RenderJob, Rendered, SettingArgs};
-pub use scene_view::{grabbers, render_scene_view};
+pub use scene_view::{SceneViewError, grabbers, render_scene_view};

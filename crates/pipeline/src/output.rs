@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use ndarray::Array3;
 
 /// Why an output file was not written, naming the file.
@@ -27,6 +26,18 @@ pub enum OutputError {
     PreviewSize,
     #[error(transparent)]
     Tiff(Box<gloam_calib::CalibError>),
+    #[error("reading {}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("reading {}", path.display())]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
 }
 
 /// Writes `bytes` to `path` atomically — the project's one atomic writer,
@@ -161,19 +172,29 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputEr
 
 /// Adds `"provenance"` to the JSON object in `path` (a report or
 /// calibration file written by a library that does not know the run).
-pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> anyhow::Result<()> {
+pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> Result<(), OutputError> {
     // The file is this run's output, not an input.
     let text = gloam_spectra::input::unrecorded(|| {
         gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
     })
-    .with_context(|| format!("reading {}", path.display()))?;
-    let mut v: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+    .map_err(|source| OutputError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let json_err = |source| OutputError::Json {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut v: serde_json::Value = serde_json::from_str(&text).map_err(json_err)?;
     if let Some(obj) = v.as_object_mut() {
         let mut provenance = provenance.clone();
         provenance.add_inputs_read();
-        obj.insert("provenance".into(), serde_json::to_value(&provenance)?);
-        write_atomic(path, serde_json::to_string_pretty(&v)?.as_bytes())?;
+        obj.insert(
+            "provenance".into(),
+            serde_json::to_value(&provenance).map_err(json_err)?,
+        );
+        let text = serde_json::to_string_pretty(&v).map_err(json_err)?;
+        write_atomic(path, text.as_bytes())?;
     }
     Ok(())
 }

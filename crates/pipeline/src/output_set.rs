@@ -16,7 +16,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Context, bail};
 use serde::Serialize;
 
 use crate::provenance::{InputFile, Provenance, hash_file};
@@ -61,6 +60,74 @@ struct Manifest<'a> {
     files: Vec<InputFile>,
 }
 
+/// Why an output set was refused or not published, naming the path.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputSetError {
+    #[error(
+        "--out {}: is a symbolic link; gloam does not replace links — name the directory itself",
+        .0.display()
+    )]
+    Link(PathBuf),
+    #[error("--out {}: exists and is not a directory", .0.display())]
+    NotADirectory(PathBuf),
+    #[error(
+        "--out {}: the directory is not empty; give --force to replace it, or another --out",
+        .0.display()
+    )]
+    NotEmpty(PathBuf),
+    #[error(
+        "--out {}: holds the input {} named on the command line; write the output elsewhere",
+        target.display(),
+        input.display()
+    )]
+    HoldsInput { target: PathBuf, input: PathBuf },
+    /// `--force` on a directory that is not a previous output set.
+    #[error(
+        "--out {}: {why}; --force replaces only a previous gloam output set (a directory whose manifest.json lists every file in it) — choose another --out",
+        target.display()
+    )]
+    NotOurs { target: PathBuf, why: String },
+    #[error("{}: more than {MAX_SET_ENTRIES} entries; not a gloam output set", .0.display())]
+    TooManyEntries(PathBuf),
+    #[error("{}: nested deeper than {MAX_SET_DEPTH} levels; not a gloam output set", .0.display())]
+    TooDeep(PathBuf),
+    #[error(
+        "{} is not a regular file or directory (a link, device, FIFO or socket); no gloam output set holds one",
+        .0.display()
+    )]
+    NotRegular(PathBuf),
+    /// A file-system step, `doing` saying which and on what.
+    #[error("{doing}")]
+    Io {
+        doing: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("writing manifest.json")]
+    Manifest(#[source] serde_json::Error),
+}
+
+/// `Result::map_err` for a file-system step: what it was doing, lazily.
+fn io_err(doing: impl FnOnce() -> String) -> impl FnOnce(std::io::Error) -> OutputSetError {
+    move |source| OutputSetError::Io {
+        doing: doing(),
+        source,
+    }
+}
+
+/// An error and its sources as `error: cause: cause`, as the command line
+/// prints them.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut next = e.source();
+    while let Some(c) = next {
+        s.push_str(": ");
+        s.push_str(&c.to_string());
+        next = c.source();
+    }
+    s
+}
+
 /// An output set being written.
 pub struct OutputSet {
     target: PathBuf,
@@ -73,26 +140,24 @@ impl OutputSet {
     /// `force`. `polls_interrupt`: the caller's loop checks
     /// [`interrupted`] and publishes what it has, instead of Ctrl-C
     /// discarding the set.
-    pub fn begin(target: &Path, force: bool, polls_interrupt: bool) -> anyhow::Result<Self> {
+    pub fn begin(
+        target: &Path,
+        force: bool,
+        polls_interrupt: bool,
+    ) -> Result<Self, OutputSetError> {
         if let Ok(meta) = std::fs::symlink_metadata(target) {
             if meta.file_type().is_symlink() {
-                bail!(
-                    "--out {}: is a symbolic link; gloam does not replace links — name the directory itself",
-                    target.display()
-                );
+                return Err(OutputSetError::Link(target.to_path_buf()));
             }
             if !meta.is_dir() {
-                bail!("--out {}: exists and is not a directory", target.display());
+                return Err(OutputSetError::NotADirectory(target.to_path_buf()));
             }
             let non_empty = std::fs::read_dir(target)
-                .with_context(|| format!("reading {}", target.display()))?
+                .map_err(io_err(|| format!("reading {}", target.display())))?
                 .next()
                 .is_some();
             if non_empty && !force {
-                bail!(
-                    "--out {}: the directory is not empty; give --force to replace it, or another --out",
-                    target.display()
-                );
+                return Err(OutputSetError::NotEmpty(target.to_path_buf()));
             }
             if non_empty {
                 refuse_inputs_inside(target, std::env::args_os().skip(1))?;
@@ -104,7 +169,7 @@ impl OutputSet {
             _ => PathBuf::from("."),
         };
         std::fs::create_dir_all(&parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
+            .map_err(io_err(|| format!("creating {}", parent.display())))?;
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -112,9 +177,10 @@ impl OutputSet {
         let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
         if staging.exists() {
             std::fs::remove_dir_all(&staging)
-                .with_context(|| format!("removing a stale {}", staging.display()))?;
+                .map_err(io_err(|| format!("removing a stale {}", staging.display())))?;
         }
-        std::fs::create_dir(&staging).with_context(|| format!("creating {}", staging.display()))?;
+        std::fs::create_dir(&staging)
+            .map_err(io_err(|| format!("creating {}", staging.display())))?;
         install_handler();
         if let Ok(mut s) = STAGING.lock() {
             s.push((staging.clone(), polls_interrupt));
@@ -143,7 +209,7 @@ impl OutputSet {
         mut self,
         provenance: &Provenance,
         stopped_because: Option<&str>,
-    ) -> anyhow::Result<()> {
+    ) -> Result<(), OutputSetError> {
         let mut files: Vec<InputFile> = Vec::new();
         let mut names: Vec<String> = set_entries(&self.staging)?
             .into_iter()
@@ -167,11 +233,9 @@ impl OutputSet {
             provenance: &provenance,
             files,
         };
-        std::fs::write(
-            self.staging.join("manifest.json"),
-            serde_json::to_string_pretty(&manifest)?,
-        )
-        .context("writing manifest.json")?;
+        let text = serde_json::to_string_pretty(&manifest).map_err(OutputSetError::Manifest)?;
+        std::fs::write(self.staging.join("manifest.json"), text)
+            .map_err(io_err(|| "writing manifest.json".into()))?;
         // Swap: the old set aside, the new one in, the old one removed.
         let old = self.staging.with_file_name(format!(
             "{}.old",
@@ -182,18 +246,20 @@ impl OutputSet {
         ));
         let had_old = self.target.exists();
         if had_old {
-            std::fs::rename(&self.target, &old)
-                .with_context(|| format!("moving the previous {} aside", self.target.display()))?;
+            std::fs::rename(&self.target, &old).map_err(io_err(|| {
+                format!("moving the previous {} aside", self.target.display())
+            }))?;
         }
         std::fs::rename(&self.staging, &self.target)
-            .with_context(|| format!("publishing {}", self.target.display()))?;
+            .map_err(io_err(|| format!("publishing {}", self.target.display())))?;
         self.published = true;
         if let Ok(mut s) = STAGING.lock() {
             s.retain(|(d, _)| d != &self.staging);
         }
         if had_old {
-            std::fs::remove_dir_all(&old)
-                .with_context(|| format!("removing the previous set {}", old.display()))?;
+            std::fs::remove_dir_all(&old).map_err(io_err(|| {
+                format!("removing the previous set {}", old.display())
+            }))?;
         }
         Ok(())
     }
@@ -209,12 +275,12 @@ const MAX_SET_DEPTH: usize = 8;
 /// Every entry under `dir`, as `(path relative to dir with '/', is a
 /// directory)`; symbolic links and other non-regular entries are errors (no
 /// gloam set holds them).
-fn set_entries(dir: &Path) -> anyhow::Result<Vec<(String, bool)>> {
+fn set_entries(dir: &Path) -> Result<Vec<(String, bool)>, OutputSetError> {
     let mut out = Vec::new();
     let mut stack = vec![(dir.to_path_buf(), String::new(), 0usize)];
     while let Some((d, prefix, depth)) = stack.pop() {
-        for e in std::fs::read_dir(&d).with_context(|| format!("reading {}", d.display()))? {
-            let e = e.with_context(|| format!("reading {}", d.display()))?;
+        for e in std::fs::read_dir(&d).map_err(io_err(|| format!("reading {}", d.display())))? {
+            let e = e.map_err(io_err(|| format!("reading {}", d.display())))?;
             let name = e.file_name().to_string_lossy().into_owned();
             let rel = if prefix.is_empty() {
                 name
@@ -223,29 +289,20 @@ fn set_entries(dir: &Path) -> anyhow::Result<Vec<(String, bool)>> {
             };
             let ft = e
                 .file_type()
-                .with_context(|| format!("reading {}", e.path().display()))?;
+                .map_err(io_err(|| format!("reading {}", e.path().display())))?;
             if out.len() >= MAX_SET_ENTRIES {
-                bail!(
-                    "{}: more than {MAX_SET_ENTRIES} entries; not a gloam output set",
-                    dir.display()
-                );
+                return Err(OutputSetError::TooManyEntries(dir.to_path_buf()));
             }
             if ft.is_dir() {
                 if depth + 1 > MAX_SET_DEPTH {
-                    bail!(
-                        "{}: nested deeper than {MAX_SET_DEPTH} levels; not a gloam output set",
-                        e.path().display()
-                    );
+                    return Err(OutputSetError::TooDeep(e.path()));
                 }
                 out.push((rel.clone(), true));
                 stack.push((e.path(), rel, depth + 1));
             } else if ft.is_file() {
                 out.push((rel, false));
             } else {
-                bail!(
-                    "{} is not a regular file or directory (a link, device, FIFO or socket); no gloam output set holds one",
-                    e.path().display()
-                );
+                return Err(OutputSetError::NotRegular(e.path()));
             }
         }
     }
@@ -256,14 +313,12 @@ fn set_entries(dir: &Path) -> anyhow::Result<Vec<(String, bool)>> {
 /// `manifest.json` lists every file in it. Anything else there (the scene
 /// the run reads, a `notes.txt`, a link) means the directory is not ours to
 /// delete.
-fn refuse_unless_output_set(target: &Path) -> anyhow::Result<()> {
-    let not_ours = |why: String| {
-        anyhow::anyhow!(
-            "--out {}: {why}; --force replaces only a previous gloam output set (a directory whose manifest.json lists every file in it) — choose another --out",
-            target.display()
-        )
+fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
+    let not_ours = |why: String| OutputSetError::NotOurs {
+        target: target.to_path_buf(),
+        why,
     };
-    let entries = set_entries(target).map_err(|e| not_ours(format!("{e:#}")))?;
+    let entries = set_entries(target).map_err(|e| not_ours(chain(&e)))?;
     let manifest = target.join("manifest.json");
     let text = gloam_spectra::input::unrecorded(|| {
         gloam_spectra::input::read_text(&manifest, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
@@ -305,7 +360,7 @@ fn refuse_unless_output_set(target: &Path) -> anyhow::Result<()> {
 fn refuse_inputs_inside(
     target: &Path,
     args: impl Iterator<Item = std::ffi::OsString>,
-) -> anyhow::Result<()> {
+) -> Result<(), OutputSetError> {
     let Ok(t) = target.canonicalize() else {
         return Ok(());
     };
@@ -322,11 +377,10 @@ fn refuse_inputs_inside(
         }
         let Ok(c) = p.canonicalize() else { continue };
         if c.starts_with(&t) {
-            bail!(
-                "--out {}: holds the input {} named on the command line; write the output elsewhere",
-                target.display(),
-                p.display()
-            );
+            return Err(OutputSetError::HoldsInput {
+                target: target.to_path_buf(),
+                input: p.to_path_buf(),
+            });
         }
     }
     Ok(())

@@ -10,10 +10,21 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::render::RenderJob;
+use crate::render::{RenderError, RenderJob};
 use gloam_grabber::{GrabError, GrabberUri, Registry};
 use gloam_simcam::{SceneImage, SceneView};
 use gloam_trace::RenderSettings;
+
+/// Why a scene view was not rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneViewError {
+    #[error(transparent)]
+    Scene(#[from] gloam_scene::SceneError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("{0}: the render carried no detected band")]
+    NoDetectedBand(String),
+}
 
 /// Renders `path` for the camera `sensor` at `size` (width, height;
 /// default the scene camera's, keeping its horizontal field of view).
@@ -21,7 +32,7 @@ pub fn render_scene_view(
     path: &str,
     sensor: &str,
     size: Option<(u32, u32)>,
-) -> anyhow::Result<SceneView> {
+) -> Result<SceneView, SceneViewError> {
     let mut scene = gloam_scene::load(Path::new(path))?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
@@ -35,7 +46,7 @@ pub fn render_scene_view(
     let detected = job
         .run(&|_, _| {}, &|| false)?
         .detected
-        .ok_or_else(|| anyhow::anyhow!("{path}: the render carried no detected band"))?;
+        .ok_or_else(|| SceneViewError::NoDetectedBand(path.to_string()))?;
     Ok(SceneView {
         label: path.to_string(),
         image: SceneImage::Detected {

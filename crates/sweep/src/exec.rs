@@ -10,10 +10,9 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use gloam_pipeline::FrameRecord;
-use gloam_pipeline::output::{
-    png16_bytes, write_atomic, write_npy, write_npy_u32, write_preview, write_tiff,
-};
+use gloam_pipeline::frames::FrameWriter;
+use gloam_pipeline::output::{write_npy, write_npy_u32, write_preview, write_tiff};
+use gloam_pipeline::{FrameCapture, FrameRecord};
 use gloam_simcam::FrameExposureExt;
 use gloam_trace::RenderOutput;
 use ndarray::Array2;
@@ -128,70 +127,34 @@ fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> anyhow::Result<Figur
     Ok(f)
 }
 
-/// Writes frame `index` as `frame-NNNNNN.png` and returns its file name.
-fn write_frame(
-    out: &Path,
-    index: u32,
-    (w, h): (u32, u32),
-    pixels: &[u16],
-) -> anyhow::Result<String> {
-    let file = format!("frame-{index:06}.png");
-    write_atomic(&out.join(&file), &png16_bytes(w, h, pixels)?)?;
-    Ok(file)
-}
-
-/// `frames.jsonl`: one [`FrameRecord`] per line.
-fn write_frame_records(out: &Path, records: &[FrameRecord]) -> anyhow::Result<()> {
-    let mut jsonl = String::new();
-    for r in records {
-        jsonl.push_str(&serde_json::to_string(r)?);
-        jsonl.push('\n');
-    }
-    write_atomic(&out.join("frames.jsonl"), jsonl.as_bytes())?;
-    Ok(())
-}
-
-/// Frames of a render through the task's camera (noise seeded by the task).
+/// Frames of a render through the task's camera (noise seeded by the
+/// task): the one capture loop, [`FrameCapture::capture`], keeping the
+/// pixels for the task's noise figures.
 fn capture_detected(
     sensor: &str,
     task: &Task,
     detected: &Array2<f64>,
     out: &Path,
 ) -> anyhow::Result<Figures> {
-    let mut config = gloam_sensor::load_preset_or_file(sensor)
-        .with_context(|| format!("loading sensor '{sensor}'"))?;
-    config.noise.seed = task.seed;
-    let mut camera = gloam_sensor::Camera::new(config)?;
-    camera.set_noise(task.noise());
-    if let Some(g) = task.gain() {
-        camera.set_override_gain(Some(g)).context("gain")?;
-    }
-    if task.agc() {
-        camera.set_agc(true);
-    }
+    let capture = FrameCapture {
+        sensor,
+        frames: task.frames(),
+        gain: task.gain(),
+        agc: task.agc(),
+        noise: task.noise(),
+        seed: task.seed,
+        auto_exposure: None,
+    };
+    let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
-    let mut records = Vec::new();
     let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
-    for i in 0..task.frames() {
-        let frame = camera
-            .capture_detected(detected.view())
-            .with_context(|| format!("capturing frame {i}"))?;
-        let (h, w) = frame.pixels.dim();
-        let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
-        let file = write_frame(out, i, (w as u32, h as u32), &pixels)?;
-        gain = frame.meta.gain_in_effect;
-        black = camera.chain().black_dn(gain);
-        sat += frame.meta.saturated_fraction;
-        records.push(FrameRecord::of_sensor_frame(
-            u64::from(i),
-            file,
-            &frame,
-            &pixels,
-            &camera,
-        ));
-        frames.push(pixels);
-    }
-    write_frame_records(out, &records)?;
+    capture.capture(detected, &mut |f| {
+        writer.write(&f.record, &f.pixels)?;
+        (black, gain) = (f.black_dn, f.record.gain);
+        sat += f.record.saturated_fraction;
+        frames.push(f.pixels);
+        Ok(())
+    })?;
     let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
     let mut f = crate::figures::frame_figures(&refs, Some(black));
     f.insert("gain_in_effect".into(), gain);
@@ -221,20 +184,19 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Fi
     if task.agc() {
         g.set_agc(true)?;
     }
+    let mut writer = FrameWriter::create(out)?;
     let mut frames = Vec::new();
-    let mut records = Vec::new();
     let mut black = None;
     let mut gain = f64::NAN;
     for i in 0..task.frames() {
         let f = g.grab().with_context(|| format!("grabbing frame {i}"))?;
-        let file = write_frame(out, i, (f.meta.width, f.meta.height), &f.pixels)?;
+        let file = format!("frame-{i:06}.png");
+        let rec = FrameRecord::of_grab(u64::from(i), file, &f, f.exposure().warnings);
+        writer.write(&rec, &f.pixels)?;
         black = f.meta.levels.map(|l| l.black_dn);
         gain = f.meta.gain;
-        let warnings = f.exposure().warnings;
-        records.push(FrameRecord::of_grab(u64::from(i), file, &f, warnings));
         frames.push(f.pixels);
     }
-    write_frame_records(out, &records)?;
     let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
     let mut f = crate::figures::frame_figures(&refs, black);
     f.insert("gain_in_effect".into(), gain);

@@ -116,6 +116,9 @@ pub struct Outcome {
     /// None: skipped (already done).
     pub result: Option<Result<(), TaskFailure>>,
     pub seconds: f64,
+    /// Why a task recorded done ran again: its inputs that changed since
+    /// (`path changed`, `path is no longer readable`); the front end says so.
+    pub rerun_because: Vec<String>,
 }
 
 /// Why a task failed: its executor's error chain, as its record keeps it
@@ -343,18 +346,11 @@ impl SweepDir {
         h
     }
 
-    /// Notes on stderr why a task recorded done runs again.
-    fn say_why_rerun(&self, index: usize) {
-        if let Some(r) = self.record(index)
-            && r.status == Status::Done
-        {
-            let changed = self.changed_inputs(&r);
-            if !changed.is_empty() {
-                eprintln!(
-                    "task {index}: its record is stale ({} since it ran); running it again",
-                    changed.join(", ")
-                );
-            }
+    /// Why a task recorded done runs again: the inputs that changed.
+    fn why_rerun(&self, index: usize) -> Vec<String> {
+        match self.record(index) {
+            Some(r) if r.status == Status::Done => self.changed_inputs(&r),
+            _ => Vec::new(),
         }
     }
 
@@ -368,15 +364,16 @@ impl SweepDir {
         if self.is_done(index) {
             return Ok(self.skipped(index));
         }
-        self.say_why_rerun(index);
+        let rerun_because = self.why_rerun(index);
         let task = &self.sweep.tasks[index];
         let t0 = Instant::now();
         let (shared, read) =
             gloam_spectra::input::collect_reads(|| exec.prepare(&self.sweep, task));
-        match shared {
+        let o = match shared {
             Ok(s) => self.run_prepared(exec, index, Ok(&s), &read, t0),
             Err(e) => self.run_prepared::<E>(exec, index, Err(&format!("{e:#}")), &read, t0),
-        }
+        }?;
+        Ok(Outcome { rerun_because, ..o })
     }
 
     fn skipped(&self, index: usize) -> Outcome {
@@ -385,6 +382,7 @@ impl SweepDir {
             id: self.sweep.tasks[index].id.clone(),
             result: None,
             seconds: 0.0,
+            rerun_because: Vec::new(),
         }
     }
 
@@ -404,13 +402,14 @@ impl SweepDir {
             .with_context(|| format!("chunk {c} is outside 0..{}", self.sweep.chunks.len()))?;
         let mut outcomes = Vec::new();
         let mut pending = Vec::new();
+        let mut rerun_because = BTreeMap::new();
         for &i in members {
             if self.is_done(i) {
                 let o = self.skipped(i);
                 on_task(&o);
                 outcomes.push(o);
             } else {
-                self.say_why_rerun(i);
+                rerun_because.insert(i, self.why_rerun(i));
                 pending.push(i);
             }
         }
@@ -427,6 +426,10 @@ impl SweepDir {
             let o = match &shared {
                 Ok(s) => self.run_prepared(exec, i, Ok(s), &read, t)?,
                 Err(e) => self.run_prepared::<E>(exec, i, Err(e), &read, t)?,
+            };
+            let o = Outcome {
+                rerun_because: rerun_because.get(&i).cloned().unwrap_or_default(),
+                ..o
             };
             on_task(&o);
             Ok(o)
@@ -584,6 +587,7 @@ impl SweepDir {
                     .map_err(|message| TaskFailure { message }),
             ),
             seconds: record.seconds,
+            rerun_because: Vec::new(),
         })
     }
 

@@ -62,6 +62,7 @@ impl Preparation {
     /// the observer.
     pub(crate) fn begin(name: &'static str, observer: Option<&PrepObserver>) -> Running {
         reset_peak_rss();
+        tracing::debug!(step = name, "preparation step begins");
         if let Some(o) = observer {
             o(PrepEvent::Begin(name));
         }
@@ -83,6 +84,12 @@ impl Preparation {
             (Some(a), Some(b)) => Some(a.max(b)),
             (a, b) => a.or(b),
         };
+        tracing::debug!(
+            step = r.name,
+            seconds = step.seconds,
+            peak_rss_bytes = step.peak_rss_bytes,
+            "preparation step ends"
+        );
         if let Some(o) = observer {
             o(PrepEvent::End(&step));
         }
