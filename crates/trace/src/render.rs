@@ -181,13 +181,21 @@ pub const DARK_NEIGHBOURHOOD: usize = 2;
 /// divided by the pixel's sample count, the error one sample of the
 /// neighbours' size would make. Only a pixel with no lit sample in its
 /// neighbourhood states zero (it is dark as far as sampling can tell).
-fn stated_std_errors(ests: &[PixelEstimate], w: usize, factor: &[f64]) -> Vec<f64> {
+/// `bound_dark` is false for fixed-spp renders, which may be tiles (a
+/// neighbourhood across a tile edge is not there, and a tiled render must
+/// merge bit-identically): they state the per-sample error.
+fn stated_std_errors(
+    ests: &[PixelEstimate],
+    w: usize,
+    factor: &[f64],
+    bound_dark: bool,
+) -> Vec<f64> {
     let nb = ests.first().map_or(0, |e| e.band_sum.len());
     let h = ests.len() / w.max(1);
     let mut out = vec![0.0; ests.len() * nb];
     for (i, e) in ests.iter().enumerate() {
         for b in 0..nb {
-            out[i * nb + b] = if e.band_lit[b] || e.n == 0 {
+            out[i * nb + b] = if e.band_lit[b] || e.n == 0 || !bound_dark {
                 e.std_error(b) * factor[i]
             } else {
                 let (r, c) = (i / w, i % w);
@@ -821,7 +829,7 @@ impl Tracer {
                         break;
                     }
                     let (factor, _) = stratification(&ests, &floor);
-                    let stated = stated_std_errors(&ests, w as usize, &factor);
+                    let stated = stated_std_errors(&ests, w as usize, &factor, true);
                     let rel: Vec<f64> = ests
                         .iter()
                         .enumerate()
@@ -875,7 +883,7 @@ impl Tracer {
         } else {
             (vec![1.0; ests.len()], None)
         };
-        let stated = stated_std_errors(&ests, w as usize, &factor);
+        let stated = stated_std_errors(&ests, w as usize, &factor, replicated);
         for (i, e) in ests.iter().enumerate() {
             let (row, col) = (i / w as usize, i % w as usize);
             let inv = 1.0 / e.n.max(1) as f64;
@@ -1144,7 +1152,7 @@ mod tests {
             lit.add(&[v], &[v], None);
         }
         ests[0] = lit;
-        let se = stated_std_errors(&ests, w, &vec![1.0; w * w]);
+        let se = stated_std_errors(&ests, w, &vec![1.0; w * w], true);
         // Within DARK_NEIGHBOURHOOD (2) of (0, 0): 2.0 / 16.
         assert_eq!(se[2 * w + 2], 2.0 / 16.0);
         assert_eq!(se[1], 2.0 / 16.0);
