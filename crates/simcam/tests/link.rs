@@ -2,9 +2,9 @@
 
 use std::time::{Duration, Instant};
 
-use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
-use gloam_grabber::memory::{MemoryOptions, memory_link};
-use gloam_grabber::{ClientOptions, DeviceControl, FrameStream, Framing, ProtocolGrabber};
+mod common;
+
+use gloam_grabber::{DeviceControl, FrameStream, Framing};
 
 /// Slow controls answer `Pending` first; the client waits for the final Ack.
 /// Unsupported and out-of-range values come back as clear errors.
@@ -12,16 +12,7 @@ use gloam_grabber::{ClientOptions, DeviceControl, FrameStream, Framing, Protocol
 fn pending_controls_and_naks() {
     use firmware_protocol::Control;
     let src = gloam_simcam::SensorSource::new("gen2-s20-iccd", "uniform", 1, (32, 24)).unwrap();
-    let (host, dev, _ctl) = memory_link(MemoryOptions::new(Framing::Cobs));
-    let emu = EmulatorHandle::spawn(
-        dev,
-        src,
-        EmulatorConfig {
-            baud: None,
-            ..Default::default()
-        },
-    );
-    let mut g = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
+    let (mut g, emu) = common::over_the_wire(src, Framing::Cobs);
     let t = Instant::now();
     g.set_control_raw(Control::McpVoltageMv, 900_000).unwrap();
     assert!(

@@ -1,10 +1,9 @@
 //! The simulated grabber, and bit-identity with the emulator over a link.
 
-use gloam_grabber::emulator::{EmulatorConfig, EmulatorHandle};
-use gloam_grabber::memory::{MemoryOptions, memory_link};
+mod common;
+
 use gloam_grabber::{
-    ClientOptions, DeviceControl, FrameGrabber, FrameStream, Framing, GrabError, GrabberUri,
-    OpenOptions, ProtocolGrabber, Stimulus,
+    DeviceControl, FrameGrabber, FrameStream, Framing, GrabError, GrabberUri, OpenOptions, Stimulus,
 };
 use gloam_simcam::{SceneImage, SceneView, SensorSource, SimGrabber, open, open_sim, registry};
 
@@ -70,16 +69,7 @@ fn same_seed_same_frames_in_process_and_over_the_link() {
     for framing in [Framing::Cobs, Framing::UsbTransfers] {
         let mut sim = SimGrabber::from_preset("gen3-gaas-iccd", "sine", 11, (48, 32)).unwrap();
         let src = SensorSource::new("gen3-gaas-iccd", "sine", 11, (48, 32)).unwrap();
-        let (host, dev, _ctl) = memory_link(MemoryOptions::new(framing));
-        let emu = EmulatorHandle::spawn(
-            dev,
-            src,
-            EmulatorConfig {
-                baud: None,
-                ..Default::default()
-            },
-        );
-        let mut wire = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
+        let (mut wire, emu) = common::over_the_wire(src, framing);
         for g in [&mut sim as &mut dyn FrameGrabber, &mut wire] {
             g.set_bits(16).unwrap();
             g.set_gain(150.0).unwrap();
@@ -125,16 +115,7 @@ fn out_of_range_gains_are_refused_in_process_and_by_the_emulator() {
     // Gen III MCP: G = 1000 (V/800)^9 over 500–1000 V, so 14.552–7450.58.
     let mut sim = SimGrabber::from_preset("gen3-gaas-iccd", "uniform", 1, (8, 8)).unwrap();
     let src = SensorSource::new("gen3-gaas-iccd", "uniform", 1, (8, 8)).unwrap();
-    let (host, dev, _ctl) = memory_link(MemoryOptions::new(Framing::Cobs));
-    let emu = EmulatorHandle::spawn(
-        dev,
-        src,
-        EmulatorConfig {
-            baud: None,
-            ..Default::default()
-        },
-    );
-    let mut wire = ProtocolGrabber::connect(host, ClientOptions::default()).unwrap();
+    let (mut wire, emu) = common::over_the_wire(src, Framing::Cobs);
     for g in [&mut sim as &mut dyn FrameGrabber, &mut wire] {
         for bad in [2.0, 14.551, 7451.0] {
             let e = g.set_gain(bad).unwrap_err();

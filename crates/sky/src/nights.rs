@@ -50,7 +50,7 @@ impl std::str::FromStr for PhaseTarget {
 }
 
 /// Search settings; see the module docs for the meaning of each.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct NightSearch {
     /// Target phase.
     pub phase: PhaseTarget,

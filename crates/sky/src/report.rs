@@ -287,25 +287,6 @@ impl fmt::Display for EphemReport {
     }
 }
 
-/// The criteria a night search used.
-#[derive(Clone, Debug, Serialize)]
-pub struct CriteriaReport {
-    /// Target phase.
-    pub phase: PhaseTarget,
-    /// Lowest Moon elevation for full/half, degrees.
-    pub min_moon_elevation_deg: f64,
-    /// Highest Sun elevation that counts as dark, degrees.
-    pub max_sun_elevation_deg: f64,
-    /// Tolerance on the illuminated fraction for full/half.
-    pub fraction_tolerance: f64,
-    /// Largest fraction that counts as moonless.
-    pub new_max_fraction: f64,
-    /// Shortest usable run reported, hours.
-    pub min_usable_hours: f64,
-    /// Sampling step, minutes.
-    pub step_minutes: f64,
-}
-
 /// `gloam ephem --find`: the good collection nights in a window.
 #[derive(Clone, Debug, Serialize)]
 pub struct NightsReport {
@@ -315,8 +296,8 @@ pub struct NightsReport {
     pub from: String,
     /// End of the window, ISO 8601.
     pub to: String,
-    /// The criteria used.
-    pub criteria: CriteriaReport,
+    /// The criteria used (serialised field by field as the search's).
+    pub criteria: NightSearch,
     /// The nights found, in order.
     pub nights: Vec<Night>,
     #[serde(skip)]
@@ -352,15 +333,7 @@ impl NightsReport {
             site: site.into(),
             from: from_t.to_iso8601(),
             to: to_t.to_iso8601(),
-            criteria: CriteriaReport {
-                phase: search.phase,
-                min_moon_elevation_deg: search.min_moon_elevation_deg,
-                max_sun_elevation_deg: search.max_sun_elevation_deg,
-                fraction_tolerance: search.fraction_tolerance,
-                new_max_fraction: search.new_max_fraction,
-                min_usable_hours: search.min_usable_hours,
-                step_minutes: search.step_minutes,
-            },
+            criteria: *search,
             nights,
             site_text: fmt_site(site),
         })

@@ -252,13 +252,7 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// unbiased; the truncated remainder of a ρ ≤ 0.9 room after 64 bounces is
 /// < 0.1 %), independent of the radiosity cache the default uses.
 pub fn reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
-    let mut s = RenderSettings {
-        spp,
-        area_samples: 4,
-        source_roulette_fraction: 0.0,
-        threads,
-        ..Default::default()
-    };
+    let mut s = reference_base(threads, spp);
     s.set("indirect", "path").expect("valid");
     s.diffuse_bounces = 64;
     s.rr_start = 3;
@@ -270,15 +264,21 @@ pub fn reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
 /// the direct-only rows (the first wave's model), against which Mitsuba 3's
 /// direct-only figures were taken.
 pub fn direct_reference_settings(threads: Option<usize>, spp: u32) -> RenderSettings {
-    let mut s = RenderSettings {
+    let mut s = reference_base(threads, spp);
+    s.set("indirect", "off").expect("valid");
+    s
+}
+
+/// What both references share: 4 shadow rays per source and no source
+/// roulette (every source always sampled).
+fn reference_base(threads: Option<usize>, spp: u32) -> RenderSettings {
+    RenderSettings {
         spp,
         area_samples: 4,
         source_roulette_fraction: 0.0,
         threads,
         ..Default::default()
-    };
-    s.set("indirect", "off").expect("valid");
-    s
+    }
 }
 
 /// Which light a reference holds.
