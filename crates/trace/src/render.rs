@@ -39,6 +39,11 @@ struct PixelEstimate {
     /// Per band, whether any sample was non-zero (a pixel whose samples
     /// are all zero has no per-sample variance to state an error from).
     band_lit: Vec<bool>,
+    /// Whether a camera sample met an emitter's face: the pixel's error is
+    /// then the emitter edge's (a few samples carrying the emitter's whole
+    /// radiance), which the error target leaves out, as the accuracy
+    /// metric does.
+    sees_emitter: bool,
 }
 
 impl PixelEstimate {
@@ -51,6 +56,7 @@ impl PixelEstimate {
             rep_n: [0; 2],
             rep_sum: [vec![0.0; nb], vec![0.0; nb]],
             band_lit: vec![false; nb],
+            sees_emitter: false,
         }
     }
 
@@ -169,6 +175,10 @@ pub const STRATIFICATION_GROUPS: usize = 64;
 /// A group pools at least this many pixels.
 const MIN_POOLED_PIXELS: usize = 256;
 
+/// Below this many samples a pixel's per-sample deviation is taken as at
+/// least its 3 × 3 neighbourhood's (adaptive renders).
+pub const TRUSTED_SPP: u32 = 8;
+
 /// Pixels within this distance (a square window) lend their scale to a
 /// neighbour whose samples were all zero.
 pub const DARK_NEIGHBOURHOOD: usize = 2;
@@ -188,14 +198,38 @@ fn stated_std_errors(
     ests: &[PixelEstimate],
     w: usize,
     factor: &[f64],
+    floor: &[f64],
     bound_dark: bool,
 ) -> Vec<f64> {
     let nb = ests.first().map_or(0, |e| e.band_sum.len());
     let h = ests.len() / w.max(1);
     let mut out = vec![0.0; ests.len() * nb];
+    // Per-sample relative deviation of each lit pixel and band, for the
+    // neighbourhood rule below.
+    let dev = |i: usize, b: usize| -> f64 {
+        let e = &ests[i];
+        let d = e.mean(b).abs().max(floor.get(b).copied().unwrap_or(0.0));
+        if !e.band_lit[b] || d <= 0.0 {
+            0.0
+        } else {
+            e.std_error(b) * factor[i] * (e.n as f64).sqrt() / d
+        }
+    };
     for (i, e) in ests.iter().enumerate() {
         for b in 0..nb {
-            out[i * nb + b] = if e.band_lit[b] || e.n == 0 || !bound_dark {
+            out[i * nb + b] = if e.band_lit[b] && bound_dark && e.n < TRUSTED_SPP {
+                // Few samples can all land on one side of a shadow edge
+                // and agree: until a pixel has TRUSTED_SPP, its per-sample
+                // deviation is at least its neighbours'.
+                let (r, c) = (i / w, i % w);
+                let (sum, count) = (r.saturating_sub(1)..(r + 2).min(h))
+                    .flat_map(|rr| (c.saturating_sub(1)..(c + 2).min(w)).map(move |cc| rr * w + cc))
+                    .map(|j| dev(j, b))
+                    .fold((0.0, 0.0), |(s, k), v| (s + v * v, k + 1.0));
+                let near = (sum / f64::max(count, 1.0)).sqrt();
+                let d = e.mean(b).abs().max(floor.get(b).copied().unwrap_or(0.0));
+                (e.std_error(b) * factor[i]).max(near * d / (e.n as f64).sqrt())
+            } else if e.band_lit[b] || e.n == 0 || !bound_dark {
                 e.std_error(b) * factor[i]
             } else {
                 let (r, c) = (i / w, i % w);
@@ -237,23 +271,40 @@ fn stated_rel_error(e: &PixelEstimate, se: &[f64], floor: &[f64]) -> f64 {
 /// `n_i = s_i · Σ s_j / (N E²)` (a Lagrange multiplier), each pixel growing
 /// at most 4× per round (its error estimate improves as it grows) and
 /// never past `cap`; every pixel first gets [`MIN_ADAPTIVE_SPP`].
+///
+/// Pixels whose samples have all been zero are not in that sum: their
+/// stated error is the neighbourhood bound of [`stated_std_errors`], which
+/// falls as 1/n, not 1/√n, and may be many times the target while they
+/// are few — letting it set the multiplier would oversample every lit
+/// pixel for the sake of a few umbra pixels. They grow on their own (4×
+/// per round while their bound is above the target) until a sample lands
+/// or [`DARK_MAX_SPP`] stops them. Pixels that see an emitter's face keep
+/// [`MIN_ADAPTIVE_SPP`]: their error is the emitter edge's (the accuracy
+/// metric leaves them out too), and chasing it would cost more than the
+/// rest of the image.
 fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(usize, u32)> {
     // Pixels at their cap keep their error (the report counts them); the
     // target holds for the rest.
     let cap_of = |e: &PixelEstimate| pixel_cap(e, cap);
-    let free = ests.iter().filter(|e| e.n < cap_of(e)).count();
-    let npix = free.max(1) as f64;
+    let lit = |e: &PixelEstimate| e.band_lit.iter().any(|&l| l);
+    let free = |e: &PixelEstimate| e.n < cap_of(e) && lit(e) && !e.sees_emitter;
+    let nfree = ests.iter().filter(|e| free(e)).count();
+    let npix = nfree.max(1) as f64;
     let rms = (ests
         .iter()
         .zip(rel)
-        .filter(|(e, _)| e.n < cap_of(e))
+        .filter(|(e, _)| free(e))
         .map(|(_, r)| r * r)
         .sum::<f64>()
         / npix)
         .sqrt();
     let min = MIN_ADAPTIVE_SPP.min(cap);
     let below_min = ests.iter().any(|e| e.n < min);
-    if rms <= target && !below_min {
+    let dark_open = ests
+        .iter()
+        .zip(rel)
+        .any(|(e, &r)| !lit(e) && e.n < cap_of(e) && r > target);
+    if rms <= target && !below_min && !dark_open {
         return Vec::new();
     }
     let dev: Vec<f64> = ests
@@ -264,7 +315,7 @@ fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(
     let free_dev: f64 = ests
         .iter()
         .zip(&dev)
-        .filter(|(e, _)| e.n < cap_of(e))
+        .filter(|(e, _)| free(e))
         .map(|(_, d)| d)
         .sum();
     let lambda = if rms > target {
@@ -275,7 +326,15 @@ fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(
     ests.iter()
         .enumerate()
         .filter_map(|(i, e)| {
-            let want = (lambda * dev[i] * 1.05).ceil();
+            let want = if e.sees_emitter {
+                0.0
+            } else if lit(e) {
+                (lambda * dev[i] * 1.05).ceil()
+            } else if rel[i] > target {
+                f64::INFINITY
+            } else {
+                0.0
+            };
             let want = if want.is_finite() {
                 want.min(u32::MAX as f64) as u64
             } else {
@@ -337,6 +396,19 @@ pub struct ErrorSummary {
     pub rel_std_error_max: f64,
     /// RMS over pixels of the estimated relative standard error.
     pub rel_std_error_rms: f64,
+    /// Adaptive renders: the same RMS over the pixels the target governs —
+    /// those with a lit sample that see no emitter's face — and their
+    /// count: what `target_error` promises.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_std_error_rms_target_pixels: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target_pixels: Option<usize>,
+    /// Pixels a camera sample showed an emitter's face (left out of the
+    /// target; they keep the minimum sample count).
+    pub pixels_seeing_emitters: usize,
+    /// Pixels whose every sample was zero and whose stated error is the
+    /// neighbourhood bound (not zero) — deep penumbrae, or dark.
+    pub pixels_all_zero_bounded: usize,
     /// Fraction of pixels at or below the target.
     pub fraction_meeting_target: Option<f64>,
     /// Adaptive renders: the measured ratio of the true standard error to
@@ -498,6 +570,20 @@ fn error_summary(
         }
         (count, (count > 0).then_some(bbox))
     });
+    let governed = |e: &PixelEstimate| e.band_lit.iter().any(|&l| l) && !e.sees_emitter;
+    let (sq, count) = ests
+        .iter()
+        .zip(&rel)
+        .filter(|(e, _)| governed(e))
+        .fold((0.0, 0usize), |(s, k), (_, r)| (s + r * r, k + 1));
+    let nb = floor.len().max(1);
+    let bounded = ests
+        .iter()
+        .enumerate()
+        .filter(|(i, e)| {
+            e.band_lit.iter().all(|&l| !l) && stated[i * nb..(i + 1) * nb].iter().any(|&v| v > 0.0)
+        })
+        .count();
     rel.sort_by(f64::total_cmp);
     let q = |p: f64| {
         if rel.is_empty() {
@@ -515,6 +601,10 @@ fn error_summary(
         rel_std_error_p99: q(0.99),
         rel_std_error_max: rel.last().copied().unwrap_or(0.0),
         rel_std_error_rms: (rel.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
+        rel_std_error_rms_target_pixels: target.map(|_| (sq / count.max(1) as f64).sqrt()),
+        target_pixels: target.map(|_| count),
+        pixels_seeing_emitters: ests.iter().filter(|e| e.sees_emitter).count(),
+        pixels_all_zero_bounded: bounded,
         fraction_meeting_target: target.map(|t| rel.iter().filter(|&&x| x <= t).count() as f64 / n),
         stratification_factor,
         pixels_stopped_at_max_spp: capped.map(|c| c.0),
@@ -621,7 +711,7 @@ impl Tracer {
             );
             let d = cam.pixel_direction(col as f64 + sx, row as f64 + sy);
             c.primary += 1;
-            self.trace(
+            est.sees_emitter |= self.trace(
                 cam.position,
                 d,
                 u32::MAX,
@@ -829,7 +919,7 @@ impl Tracer {
                         break;
                     }
                     let (factor, _) = stratification(&ests, &floor);
-                    let stated = stated_std_errors(&ests, w as usize, &factor, true);
+                    let stated = stated_std_errors(&ests, w as usize, &factor, &floor, true);
                     let rel: Vec<f64> = ests
                         .iter()
                         .enumerate()
@@ -883,7 +973,7 @@ impl Tracer {
         } else {
             (vec![1.0; ests.len()], None)
         };
-        let stated = stated_std_errors(&ests, w as usize, &factor, replicated);
+        let stated = stated_std_errors(&ests, w as usize, &factor, &floor, replicated);
         for (i, e) in ests.iter().enumerate() {
             let (row, col) = (i / w as usize, i % w as usize);
             let inv = 1.0 / e.n.max(1) as f64;
@@ -1152,7 +1242,7 @@ mod tests {
             lit.add(&[v], &[v], None);
         }
         ests[0] = lit;
-        let se = stated_std_errors(&ests, w, &vec![1.0; w * w], true);
+        let se = stated_std_errors(&ests, w, &vec![1.0; w * w], &[0.0], true);
         // Within DARK_NEIGHBOURHOOD (2) of (0, 0): 2.0 / 16.
         assert_eq!(se[2 * w + 2], 2.0 / 16.0);
         assert_eq!(se[1], 2.0 / 16.0);
@@ -1161,5 +1251,74 @@ mod tests {
         assert_eq!(se[7], 0.0);
         // The lit pixel keeps its per-sample standard error: sd 2·sqrt(16/15), /4.
         assert!((se[0] - 2.0 * (16.0f64 / 15.0).sqrt() / 4.0).abs() < 1e-12);
+    }
+
+    /// `n` samples alternating between `lo` and `hi` (mean (lo+hi)/2,
+    /// per-sample sd |hi−lo|/2·√(n/(n−1))).
+    fn two_level(n: u32, lo: f64, hi: f64) -> PixelEstimate {
+        let mut e = PixelEstimate::new(1, 1);
+        for k in 0..n {
+            let v = if k % 2 == 0 { hi } else { lo };
+            e.add(&[v], &[v], None);
+        }
+        e
+    }
+
+    /// The Lagrange multiplier comes from the lit pixels that see no
+    /// emitter: with them at the target, an all-zero pixel whose bound is
+    /// far above it grows on its own (4×) and nothing else gets samples;
+    /// an emitter pixel never does. The lit pixels' counts follow
+    /// n_i = s_i Σs_j / (N E²) when they are above it.
+    #[test]
+    fn allocation_leaves_dark_and_emitter_pixels_out_of_the_multiplier() {
+        // Lit pixels: 16 samples of 0.9/1.1, relative error 0.1/√15·√… —
+        // use their stated rel directly.
+        let mut ests: Vec<PixelEstimate> = (0..8).map(|_| two_level(16, 0.9, 1.1)).collect();
+        ests.push(two_level(16, 0.0, 0.0)); // all zero
+        let mut em = two_level(4, 0.0, 1000.0);
+        em.sees_emitter = true;
+        ests.push(em);
+        let rel_lit = ests[0].std_error(0) / ests[0].mean(0);
+        // The dark pixel's bound: 5× the target; the emitter pixel's: huge.
+        let target = rel_lit;
+        let mut rel = vec![rel_lit; 8];
+        rel.push(5.0 * target);
+        rel.push(10.0);
+        let work = allocate(&ests, &rel, target, 1024);
+        assert_eq!(work, vec![(8, 48)]); // 16 → 64 = DARK_MAX_SPP
+        // Lit pixels at twice the target: each wants λ s_i with
+        // λ = Σ s / (N E²), i.e. 4× its samples (capped at 4× per round).
+        let rel2: Vec<f64> = rel
+            .iter()
+            .take(8)
+            .map(|r| 2.0 * r)
+            .chain([0.0, 10.0])
+            .collect();
+        let work = allocate(&ests, &rel2, target, 1024);
+        let want = (4.0f64 * 16.0 * 1.05).ceil().min(64.0) as u32 - 16;
+        assert_eq!(work.len(), 8);
+        assert!(
+            work.iter().all(|&(i, add)| i < 8 && add == want),
+            "{work:?}"
+        );
+    }
+
+    /// A pixel with fewer than TRUSTED_SPP samples that all agree (a
+    /// penumbra pixel whose few shadow rays fell on one side) states the
+    /// RMS per-sample deviation of its 3 × 3 neighbourhood, not ~0; with
+    /// TRUSTED_SPP samples it states its own.
+    #[test]
+    fn few_agreeing_samples_borrow_the_neighbourhoods_deviation() {
+        let w = 3;
+        let mut ests: Vec<PixelEstimate> = (0..9).map(|_| two_level(4, 0.0, 2.0)).collect();
+        ests[4] = two_level(4, 1.0, 1.0);
+        let se = stated_std_errors(&ests, w, &[1.0; 9], &[0.0], true);
+        // Neighbours: mean 1, per-sample sd √(4/3); RMS over the 9 pixels
+        // (the centre's own is 0) = √(8/9 · 4/3); stated = that / √4.
+        let want = (8.0 / 9.0 * 4.0 / 3.0f64).sqrt() / 2.0;
+        assert!((se[4] - want).abs() < 1e-12, "{} vs {want}", se[4]);
+        ests[4] = two_level(TRUSTED_SPP, 1.0, 1.0);
+        let se = stated_std_errors(&ests, w, &[1.0; 9], &[0.0], true);
+        assert_eq!(se[4], 0.0);
     }
 }

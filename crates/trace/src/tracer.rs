@@ -1559,7 +1559,9 @@ impl Tracer {
     /// Spectral radiance arriving along the unit ray `(o, d)` (centred), times
     /// `thr`, added to `acc`. `spec_depth` is 1 for camera rays; `diffuse`
     /// counts diffuse bounces taken; `after_diffuse` suppresses emitter
-    /// hits (already counted by next-event estimation).
+    /// hits (already counted by next-event estimation). Returns whether the
+    /// ray (a camera ray, through transmissive facets) met an emitter's
+    /// front: such a pixel's error is the emitter edge's, not the scene's.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn trace(
         &self,
@@ -1575,7 +1577,8 @@ impl Tracer {
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         acc: &mut [f64],
-    ) {
+    ) -> bool {
+        let mut met_emitter = false;
         let mut thr = thr.to_vec();
         // The pixel's stratified light-sample points, for the first
         // directly lit vertex only.
@@ -1607,7 +1610,7 @@ impl Tracer {
                         .zip(&l)
                         .for_each(|((a, t), l)| *a += t * l);
                 }
-                return;
+                return met_emitter;
             };
             let f = hit.facet;
             let p = o + d * hit.t;
@@ -1619,6 +1622,7 @@ impl Tracer {
             // Emitter seen along the ray: L cos^m(alpha) from the front.
             let src = self.facet_source[f as usize];
             let seen_directly = spec_depth == 1 && !after_diffuse;
+            met_emitter |= seen_directly && src != u32::MAX && front;
             if src != u32::MAX
                 && front
                 && !after_diffuse
@@ -1741,14 +1745,15 @@ impl Tracer {
                 {
                     thr.iter_mut().zip(tr).for_each(|(a, b)| *a *= b);
                     if thr.iter().all(|&x| x == 0.0) {
-                        return;
+                        return met_emitter;
                     }
                     o = p;
                     ignore = f;
                 }
-                _ => return,
+                _ => return met_emitter,
             }
         }
+        met_emitter
     }
 }
 
