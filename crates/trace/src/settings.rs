@@ -16,7 +16,7 @@
 //! | `light_tree_branches` | 16 | light tree: subtrees a vertex's selection splits into, one emitter from each (more: less noise, more shadow rays) |
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
 //! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
-//! | `light_strata` | random | camera-vertex light samples: `random` (an independent Latin-hypercube set per sample) or `sobol` (one Owen-scrambled Sobol sequence per pixel and source, stratified across the pixel's samples: office, direct light only, 16 spp: per-pixel error 2.61 % → 0.92 % against the path-traced reference; whole light 0.98 % → 0.91 %). `random` stays the default until the README's figures are re-measured with `sobol` |
+//! | `light_strata` | sobol | camera-vertex light samples: `sobol` (one Owen-scrambled Sobol sequence per pixel and source, stratified across the pixel's samples: office, direct light only, 16 spp: per-pixel error 2.61 % → 0.92 % against the path-traced reference; whole light 0.98 % → 0.91 %) or `random` (an independent Latin-hypercube set per sample, the default before issue 30) |
 //! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
 //! | `drop` | (none) | comma-separated effects left out of the render, to measure what each is worth (`gloam bench plan`): `area-sources`, `point-sources`, `shaped-point-sources`, `moon`, `night-sky`, `direct-view`, `specular-recursion`, `transmissive-occluders` (they become opaque), `interreflection`; `none` clears |
 //! | `SAMPLE_AREA_DENSITY` | 1 | `dirsig2001`: sample points per scene unit² of source |
@@ -314,7 +314,7 @@ impl Default for RenderSettings {
             sky_samples: 16,
             resolution_scale: 1.0,
             all_effects: false,
-            light_strata: LightStrataMode::Random,
+            light_strata: LightStrataMode::Sobol,
             drop: Dropped::default(),
             indirect: Indirect::Auto,
             cache_texels: 16384,
