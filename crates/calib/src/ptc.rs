@@ -347,7 +347,13 @@ pub fn photon_transfer(
         }
     };
     let _ = mu_p_sat;
-    let declared = declared_noise(rig_used.as_ref(), gain, k, resp);
+    let declared = match declared_noise(rig_used.as_ref(), gain, k, resp) {
+        Ok(d) => d,
+        Err(w) => {
+            warnings.push(w);
+            None
+        }
+    };
     if let Some(d) = &declared
         && (d.excess_noise_factor > 1.0 || d.other_camera)
     {
@@ -453,18 +459,28 @@ struct Declared {
 }
 
 /// Conversion gain and QE from the measured `K_eff` and the declared pixel
-/// noise factor (None without a camera in the rig, or one that won't load
-/// or lacks this gain).
+/// noise factor: `Ok(None)` without a camera in the rig, `Err(warning)` when
+/// the named camera won't load or has no such gain (so it is not the camera
+/// behind the grabber).
 fn declared_noise(
     rig: Option<&crate::source::Rig>,
     gain: f64,
     k_eff: f64,
     responsivity: Option<f64>,
-) -> Option<Declared> {
-    let camera = rig?.camera.clone()?;
-    let cam = gloam_sensor::Camera::from_preset_or_file(&camera).ok()?;
+) -> Result<Option<Declared>, String> {
+    let Some(camera) = rig.and_then(|r| r.camera.clone()) else {
+        return Ok(None);
+    };
+    let no_figures = |e: &dyn std::fmt::Display| {
+        format!(
+            "no conversion gain or excess noise: the [rig]'s camera '{camera}' gives none at gain {gain} ({e}); name the camera behind the grabber in [rig]"
+        )
+    };
+    let cam = gloam_sensor::Camera::from_preset_or_file(&camera).map_err(|e| no_figures(&e))?;
     let chain = cam.chain();
-    chain.describe_checked(Some(gain)).ok()?;
+    chain
+        .describe_checked(Some(gain))
+        .map_err(|e| no_figures(&e))?;
     let f = chain.excess_noise_factor(gain);
     let f_pix = chain.pixel_noise_factor(gain);
     let g = k_eff / f_pix;
@@ -498,7 +514,7 @@ fn declared_noise(
             qe.map_or(String::new(), |q| format!(" and the QE R/g = {q:.4}"))
         )
     };
-    Some(Declared {
+    Ok(Some(Declared {
         camera,
         excess_noise_factor: f,
         pixel_noise_factor: f_pix,
@@ -506,7 +522,7 @@ fn declared_noise(
         qe,
         relation,
         other_camera,
-    })
+    }))
 }
 
 /// Writes frames as 16-bit TIFFs and an EMVA 1288 descriptor file
