@@ -79,7 +79,12 @@ fn calibrate_radiance<'py>(
 
 /// EMVA 1288 photon transfer at a fixed ``gain`` (``gloam calibrate
 /// ptc``): returns the ``ptc.json`` dict (system gain K in DN/e⁻, dark
-/// noise, saturation capacity, QE with a ``[rig]``, …). ``dataset_dir``
+/// noise, saturation capacity, QE with a ``[rig]``, …). On an intensified
+/// camera K is ``effective_system_gain_dn_per_e`` (``K_eff = g·F_pix``,
+/// excess noise included); when the ``[rig]`` names the camera, the dict
+/// adds its ``excess_noise_factor``, ``pixel_noise_factor``,
+/// ``conversion_gain_dn_per_pe``, ``quantum_efficiency_from_conversion_gain``
+/// and ``excess_noise_relation`` (the EMVA caveat). ``dataset_dir``
 /// also writes the EMVA 1288 data set there. A ``[rig]`` that does not
 /// describe the simulated camera (so QE would read biased) is named first
 /// in ``warnings``.

@@ -8,7 +8,11 @@
 //! * `μ_y = mean((A+B)/2)`, `σ²_y = mean((A−B)²)/2 − (μ_A−μ_B)²/2`;
 //! * saturation: the level of maximum temporal variance;
 //! * system gain K: slope of `σ²_y − σ²_y.dark` on `μ_y − μ_y.dark` over
-//!   0–70 % of the saturation signal;
+//!   0–70 % of the saturation signal, a line through the origin (as the EMVA
+//!   reference implementation fits it) weighted by `1/σ⁴_y` — the variance of
+//!   a pair's variance estimate is `σ⁴_y/N_pixels`, so an unweighted fit
+//!   lets the noisiest top points set K (on a 128² scientific CCD that read
+//!   K 1.4 % high and η as much low);
 //! * responsivity R: slope of `μ_y − μ_y.dark` on `μ_p` (photons per pixel)
 //!   over the same range; quantum efficiency `η = R / K`;
 //! * temporal dark noise `σ_d = σ_y.dark / K` e⁻, with `σ²_y.dark` pooled
@@ -24,6 +28,14 @@
 //!   μ_y.dark) %, with `s²` the spatial variance of the L-frame averages less
 //!   the residual temporal variance σ²_y/L.
 //!
+//! On an intensified camera (ICCD, EBCCD) the slope K is not the camera's
+//! conversion gain: the gain process adds excess noise, so `K_eff = g ·
+//! F_pix` with `g` the DN per photoelectron and `F_pix` the noise factor a
+//! pixel sees (`gloam_sensor` `Chain::pixel_noise_factor`: the excess noise
+//! factor F of the gain process, reduced by the blur after it). When the
+//! `[rig]` names the camera, the report adds `g = K_eff/F_pix` and the QE
+//! `R/g` from the camera's declared noise, and says why EMVA's η is not it.
+//!
 //! Photons per pixel come from the source's spectral radiance and the rig
 //! (pixel pitch, f-number, optics transmission, exposure); without a rig the
 //! flow still reports K, noise in e⁻, saturation, DSNU and PRNU, and leaves
@@ -37,7 +49,7 @@ use serde::Serialize;
 use crate::capture::{grab_frames, stack_stats};
 use crate::error::CalibError;
 use crate::source::CalibrationSource;
-use crate::stats::weighted_linear_fit;
+use crate::stats::{weighted_linear_fit, weighted_slope_through_origin};
 
 /// Settings of a photon-transfer run.
 #[derive(Clone, Debug)]
@@ -105,6 +117,24 @@ pub struct PtcResult {
     pub dsnu_dn: f64,
     pub prnu_percent: f64,
     pub k_fit_points: usize,
+    /// The variance/mean slope again, named for what it is on an intensified
+    /// camera: `K_eff = g · F_pix`, excess noise included (= K on a CCD).
+    pub effective_system_gain_dn_per_e: f64,
+    /// The camera the `[rig]` names, whose declared noise gives the next
+    /// figures (`None`: no camera named, so none of them).
+    pub declared_camera: Option<String>,
+    /// That camera's excess noise factor F of the gain process at `gain`
+    /// (variance factor, referred to photoelectrons; 1 for a CCD).
+    pub excess_noise_factor: Option<f64>,
+    /// The noise factor a pixel sees, `F_pix = K_eff / g` (F reduced by
+    /// the blur after the gain process).
+    pub pixel_noise_factor: Option<f64>,
+    /// Conversion gain `g = K_eff / F_pix`, DN per photoelectron.
+    pub conversion_gain_dn_per_pe: Option<f64>,
+    /// QE from the conversion gain, `R / g` (needs photon counts).
+    pub quantum_efficiency_from_conversion_gain: Option<f64>,
+    /// The relation with this run's numbers, and the EMVA 1288 caveat.
+    pub excess_noise_relation: Option<String>,
     /// The pixel and optics geometry the photon counts came from.
     pub rig: Option<crate::source::Rig>,
     /// Relative deviations (%) of the linearity fit at each point used.
@@ -233,13 +263,27 @@ pub fn photon_transfer(
             isat + 1
         )));
     }
+    // Spatial dark stack (L frames) now: its temporal variance, pooled with
+    // the dark pair's, is the σ²_y.dark the K fit subtracts.
+    let l = opts.spatial_frames.max(2);
+    grabber.present(&dark.stimulus)?;
+    let dframes = grab_frames(grabber, l)?;
+    let ds = stack_stats(&dframes)?;
+    progress(n + 2, total);
+    // Temporal dark variance pooled over the dark pair (1 degree of freedom
+    // per pixel) and the L-frame dark stack (L − 1): same quantity, less
+    // sampling noise than the pair alone.
+    let pooled_dark_var = (dark_var + ds.temporal_std_dn.powi(2) * (l as f64 - 1.0)) / l as f64;
     let xs: Vec<f64> = sel.iter().map(|&i| points[i].mean_dn - dark_mean).collect();
     let ys: Vec<f64> = sel
         .iter()
-        .map(|&i| points[i].temporal_var_dn2 - dark_var)
+        .map(|&i| points[i].temporal_var_dn2 - pooled_dark_var)
         .collect();
-    let kfit = weighted_linear_fit(&xs, &ys, &vec![1.0; xs.len()])?;
-    let k = kfit.slope;
+    let kw: Vec<f64> = sel
+        .iter()
+        .map(|&i| 1.0 / points[i].temporal_var_dn2.max(1e-12).powi(2))
+        .collect();
+    let k = weighted_slope_through_origin(&xs, &ys, &kw)?;
     if !(k > 0.0) {
         return Err(CalibError::SingularFit(format!(
             "the photon transfer slope K = {k} DN/e⁻ is not positive"
@@ -303,16 +347,18 @@ pub fn photon_transfer(
         }
     };
     let _ = mu_p_sat;
-    // Spatial: L frames dark and at ~50 % saturation.
-    let l = opts.spatial_frames.max(2);
-    grabber.present(&dark.stimulus)?;
-    let dframes = grab_frames(grabber, l)?;
-    let ds = stack_stats(&dframes)?;
-    progress(n + 2, total);
-    // Temporal dark variance pooled over the dark pair (1 degree of freedom
-    // per pixel) and the L-frame dark stack (L − 1): same quantity, less
-    // sampling noise than the pair alone.
-    let pooled_dark_var = (dark_var + ds.temporal_std_dn.powi(2) * (l as f64 - 1.0)) / l as f64;
+    let declared = match declared_noise(rig_used.as_ref(), gain, k, resp) {
+        Ok(d) => d,
+        Err(w) => {
+            warnings.push(w);
+            None
+        }
+    };
+    if let Some(d) = &declared
+        && (d.excess_noise_factor > 1.0 || d.other_camera)
+    {
+        warnings.push(d.relation.clone());
+    }
     let dark_noise_dn = pooled_dark_var.sqrt();
     let sigma_d_e = dark_noise_dn / k;
     let mu_e_sat = sat_sig / k;
@@ -338,7 +384,26 @@ pub fn photon_transfer(
             &bframes,
         )?;
         d.add_block('d', None, &dframes)?;
-        d.finish(ds.width, ds.height, bframes[0].meta.bits, opts.exposure_s)?;
+        // The exposure the photon counts were made with: the run's, else
+        // the rig's (the descriptor's `b`/`d` lines carry it in ns).
+        let texp = opts.exposure_s.or(rig_used.as_ref().map(|r| r.exposure_s));
+        if texp.is_none() {
+            warnings.push(
+                "no exposure given and no [rig]: the EMVA 1288 descriptor records exposure 0"
+                    .into(),
+            );
+        }
+        // Levels past saturation add nothing but, in the dataset, trip the
+        // reference implementation's backward search for the variance
+        // maximum (a plateau of read-noise variance is a run of local
+        // maxima): keep two levels beyond the maximum.
+        d.finish(
+            ds.width,
+            ds.height,
+            bframes[0].meta.bits,
+            texp,
+            (isat + 3).min(n),
+        )?;
     }
     let s2_dark = spatial_var(&ds.mean_image, ds.temporal_std_dn.powi(2), l);
     let s2_50 = spatial_var(&bs.mean_image, bs.temporal_std_dn.powi(2), l);
@@ -366,11 +431,98 @@ pub fn photon_transfer(
         dsnu_dn,
         prnu_percent: prnu,
         k_fit_points: sel.len(),
+        effective_system_gain_dn_per_e: k,
+        declared_camera: declared.as_ref().map(|d| d.camera.clone()),
+        excess_noise_factor: declared.as_ref().map(|d| d.excess_noise_factor),
+        pixel_noise_factor: declared.as_ref().map(|d| d.pixel_noise_factor),
+        conversion_gain_dn_per_pe: declared.as_ref().map(|d| d.conversion_gain),
+        quantum_efficiency_from_conversion_gain: declared.as_ref().and_then(|d| d.qe),
+        excess_noise_relation: declared.map(|d| d.relation),
         rig: rig_used,
         linearity_residuals_percent: lin_res,
         points,
         warnings,
     })
+}
+
+/// The camera's own noise figures at the run's gain, from the sensor preset
+/// or file the `[rig]` names.
+struct Declared {
+    camera: String,
+    excess_noise_factor: f64,
+    pixel_noise_factor: f64,
+    conversion_gain: f64,
+    qe: Option<f64>,
+    relation: String,
+    /// The measured K_eff is > 10 % from the declared camera's own.
+    other_camera: bool,
+}
+
+/// Conversion gain and QE from the measured `K_eff` and the declared pixel
+/// noise factor: `Ok(None)` without a camera in the rig, `Err(warning)` when
+/// the named camera won't load or has no such gain (so it is not the camera
+/// behind the grabber).
+fn declared_noise(
+    rig: Option<&crate::source::Rig>,
+    gain: f64,
+    k_eff: f64,
+    responsivity: Option<f64>,
+) -> Result<Option<Declared>, String> {
+    let Some(camera) = rig.and_then(|r| r.camera.clone()) else {
+        return Ok(None);
+    };
+    let no_figures = |e: &dyn std::fmt::Display| {
+        format!(
+            "no conversion gain or excess noise: the [rig]'s camera '{camera}' gives none at gain {gain} ({e}); name the camera behind the grabber in [rig]"
+        )
+    };
+    let cam = gloam_sensor::Camera::from_preset_or_file(&camera).map_err(|e| no_figures(&e))?;
+    let chain = cam.chain();
+    chain
+        .describe_checked(Some(gain))
+        .map_err(|e| no_figures(&e))?;
+    let f = chain.excess_noise_factor(gain);
+    let f_pix = chain.pixel_noise_factor(gain);
+    let g = k_eff / f_pix;
+    let qe = responsivity.map(|r| r / g);
+    // The declared camera's own K_eff: far from the measured one, the rig
+    // names another camera than the one behind the grabber.
+    let k_declared = chain.mean_dn_per_photoelectron(gain) * f_pix;
+    let other_camera = (k_eff / k_declared - 1.0).abs() > 0.1;
+    let mismatch = if other_camera {
+        format!(
+            " (but {camera} at gain {gain} predicts K_eff = {k_declared:.5} DN/e⁻, {:+.0} % from the measured one: is it the camera behind the grabber?)",
+            100.0 * (k_declared / k_eff - 1.0)
+        )
+    } else {
+        String::new()
+    };
+    let relation = if f <= 1.0 {
+        format!(
+            "K_eff = g·F_pix with F_pix = 1: {camera} has no gain process, so K = {k_eff:.5} DN/e⁻ is its conversion gain{mismatch}"
+        )
+    } else {
+        format!(
+            "EMVA 1288 assumes a camera whose temporal noise is the photon shot noise of its \
+         electrons; on this intensified camera ({camera} at gain {gain}) the gain process adds \
+         excess noise, so the variance/mean slope is K_eff = g·F_pix = {k_eff:.5} DN/e⁻, not \
+         the conversion gain. With the camera's declared excess noise factor F = {f:.4}, seen \
+         per pixel as F_pix = {f_pix:.4} (F less the CCD shot term, times the post-gain blur's \
+         Σh² and the phosphor's (1−p)/(1+p)), the conversion gain is g = K_eff/F_pix = {g:.5} \
+         DN per photoelectron{}; EMVA's η, saturation and noise in e⁻ are per \
+         'K_eff electron' (η_EMVA = QE/F_pix){mismatch}.",
+            qe.map_or(String::new(), |q| format!(" and the QE R/g = {q:.4}"))
+        )
+    };
+    Ok(Some(Declared {
+        camera,
+        excess_noise_factor: f,
+        pixel_noise_factor: f_pix,
+        conversion_gain: g,
+        qe,
+        relation,
+        other_camera,
+    }))
 }
 
 /// Writes frames as 16-bit TIFFs and an EMVA 1288 descriptor file
@@ -421,21 +573,38 @@ impl DatasetWriter {
         Ok(())
     }
 
+    /// The descriptor, with the temporal levels after the first
+    /// `temporal_levels` left out (and their images removed).
     fn finish(
         &self,
         w: usize,
         h: usize,
         bits: u8,
         exposure_s: Option<f64>,
+        temporal_levels: usize,
     ) -> Result<(), CalibError> {
         let texp_ns = exposure_s.unwrap_or(0.0) * 1e9;
+        // Block 0 is the dark pair, 1..=levels the temporal levels, then the
+        // spatial stacks.
+        let dropped = |i: usize, names: &[String]| names.len() == 2 && i > temporal_levels;
+        for (i, (_, _, names)) in self.blocks.iter().enumerate() {
+            if dropped(i, names) {
+                for n in names {
+                    let p = self.dir.join(n);
+                    std::fs::remove_file(&p).map_err(|e| CalibError::file(&p, e))?;
+                }
+            }
+        }
         let mut s = String::new();
         s.push_str("# EMVA 1288 dataset written by gloam calibrate ptc\n");
         s.push_str("# Release 4.0 linear module; descriptor syntax of the EMVA 1288 reference implementation\n");
         s.push_str("# irradiance sweep at constant exposure; photons = mean photons per pixel\n");
         s.push_str("v 3.1\n");
         s.push_str(&format!("n {bits} {w} {h}\n"));
-        for (kind, photons, names) in &self.blocks {
+        for (i, (kind, photons, names)) in self.blocks.iter().enumerate() {
+            if dropped(i, names) {
+                continue;
+            }
             match kind {
                 'b' => s.push_str(&format!(
                     "b {texp_ns:.1} {:.6}\n",

@@ -184,10 +184,29 @@ pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     let rows: Vec<(&str, String)> = vec![
         ("gain setting", format!("{}", r.gain)),
         (
-            "system gain K (DN/e⁻)",
+            "system gain K = K_eff (DN/e⁻, excess noise included)",
             format!("{:.5}", r.system_gain_dn_per_e),
         ),
-        ("quantum efficiency", opt(r.quantum_efficiency, 4)),
+        (
+            "quantum efficiency η (EMVA, R/K)",
+            opt(r.quantum_efficiency, 4),
+        ),
+        (
+            "excess noise factor F (declared)",
+            opt(r.excess_noise_factor, 4),
+        ),
+        (
+            "pixel noise factor F_pix = K_eff/g",
+            opt(r.pixel_noise_factor, 4),
+        ),
+        (
+            "conversion gain g = K_eff/F_pix (DN/photoelectron)",
+            opt(r.conversion_gain_dn_per_pe, 5),
+        ),
+        (
+            "QE from the conversion gain, R/g",
+            opt(r.quantum_efficiency_from_conversion_gain, 4),
+        ),
         ("temporal dark noise (e⁻)", format!("{:.3}", r.dark_noise_e)),
         (
             "saturation capacity (e⁻)",
@@ -205,6 +224,13 @@ pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     ];
     for (k, v) in rows {
         let _ = writeln!(md, "| {k} | {v} |");
+    }
+    // The relation is among the warnings on an intensified camera; on a CCD
+    // it is a plain statement.
+    if let Some(rel) = &r.excess_noise_relation
+        && !r.warnings.contains(rel)
+    {
+        let _ = writeln!(md, "\n{rel}");
     }
     for w in &r.warnings {
         let _ = writeln!(md, "\n> {w}");

@@ -81,6 +81,35 @@ pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit,
     })
 }
 
+/// Weighted least-squares slope of a line through the origin, `y = slope·x`
+/// (`Σwxy / Σwx²`), for quantities that are zero by definition at `x = 0`
+/// (dark-subtracted signal and variance). Errors like
+/// [`weighted_linear_fit`]: mismatched lengths, non-finite input, negative
+/// weights, or no point with positive weight and `x ≠ 0`.
+pub fn weighted_slope_through_origin(x: &[f64], y: &[f64], w: &[f64]) -> Result<f64, CalibError> {
+    if x.len() != y.len() || x.len() != w.len() {
+        return Err(CalibError::Invalid(format!(
+            "fit input lengths differ: {} x, {} y, {} weights",
+            x.len(),
+            y.len(),
+            w.len()
+        )));
+    }
+    if x.iter().chain(y).chain(w).any(|v| !v.is_finite()) || w.iter().any(|&v| v < 0.0) {
+        return Err(CalibError::Invalid(
+            "fit input holds a non-finite value or a negative weight".into(),
+        ));
+    }
+    let sxx: f64 = x.iter().zip(w).map(|(a, b)| b * a * a).sum();
+    let sxy: f64 = x.iter().zip(y).zip(w).map(|((a, c), b)| b * a * c).sum();
+    if !(sxx > 0.0) {
+        return Err(CalibError::SingularFit(
+            "no point with positive weight away from x = 0: the slope is undetermined".into(),
+        ));
+    }
+    Ok(sxy / sxx)
+}
+
 /// Ranks 1..=n with ties given the average of the ranks they span.
 pub fn average_ranks(v: &[f64]) -> Vec<f64> {
     let mut idx: Vec<usize> = (0..v.len()).collect();
@@ -189,6 +218,14 @@ mod tests {
         assert!(matches!(e, Err(CalibError::SingularFit(_))));
         let e = weighted_linear_fit(&[2.0], &[1.0], &[1.0]);
         assert!(matches!(e, Err(CalibError::SingularFit(_))));
+    }
+
+    #[test]
+    fn slope_through_origin_matches_hand_sums() {
+        // Σwxy = 1·1·2.2 + 4·2·3.9 = 33.4; Σwx² = 1 + 16 = 17.
+        let k = weighted_slope_through_origin(&[1.0, 2.0], &[2.2, 3.9], &[1.0, 4.0]).unwrap();
+        assert!((k - 33.4 / 17.0).abs() < 1e-12, "{k}");
+        assert!(weighted_slope_through_origin(&[0.0], &[1.0], &[1.0]).is_err());
     }
 
     #[test]

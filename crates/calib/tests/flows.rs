@@ -320,7 +320,24 @@ fn photon_transfer_recovers_k_read_noise_and_qe() {
     let desc =
         std::fs::read_to_string(dir.path().join("emva1288/emva1288_descriptor.txt")).unwrap();
     assert!(desc.contains("\nn 12 64 64\n"));
-    assert_eq!(desc.lines().filter(|l| l.starts_with("b ")).count(), 61);
+    // The levels up to two past the variance maximum, and the spatial stack.
+    let isat = (0..r.points.len())
+        .max_by(|&a, &b| {
+            r.points[a]
+                .temporal_var_dn2
+                .total_cmp(&r.points[b].temporal_var_dn2)
+        })
+        .unwrap();
+    assert!(isat + 3 < 60, "saturation at level {isat}");
+    assert_eq!(
+        desc.lines().filter(|l| l.starts_with("b ")).count(),
+        isat + 3 + 1
+    );
+    // Real exposure times (the run's 10 µs), in ns.
+    assert!(desc.contains("\nd 10000.0\n"), "{desc}");
+    // A CCD with no camera named: no declared noise, K_eff = K.
+    assert_eq!(r.effective_system_gain_dn_per_e, r.system_gain_dn_per_e);
+    assert!(r.conversion_gain_dn_per_pe.is_none());
     assert!(dir.path().join("emva1288/images/d_0000.tif").exists());
     assert!(dir.path().join("photon_transfer.png").exists());
 }

@@ -112,6 +112,30 @@ impl Chain {
         k * k * (var_e + self.read_noise_e.powi(2)) + 1.0 / 12.0
     }
 
+    /// Noise factor seen per pixel: the variance/mean slope of the output
+    /// (EMVA 1288's "K") over the DN per photoelectron `g`, so that
+    /// `K_eff = g · F_pix`. From [`Chain::temporal_variance_dn2_from_pe`]
+    /// per photoelectron over `g²`: ICCD `(F − F_ccd)·Σh²·(1−p)/(1+p) +
+    /// F_ccd` with `F` [`Chain::excess_noise_factor`], `F_ccd = 1/(η G
+    /// g_ccd)` the CCD's shot noise on the screen light, `Σh²` the post-noise
+    /// blur and `p` the phosphor persistence; EBCCD `F·Σh²`; a plain CCD 1.
+    /// Why not `F` alone: the blur after the gain process averages the
+    /// excess noise over neighbouring pixels, so a pixel sees less of it.
+    pub fn pixel_noise_factor(&self, g: f64) -> f64 {
+        let s2 = self.post_noise_variance_factor(g);
+        match &self.tube {
+            Tube::Iccd(i) => {
+                let p = i.lag_fraction;
+                let lag = (1.0 - p) / (1.0 + p);
+                let eta = i.mcp.open_area;
+                let f_ccd = 1.0 / (eta * g * i.ccd_e_per_mcp_e).max(1e-300);
+                (self.excess_noise_factor(g) - f_ccd) * s2 * lag + f_ccd
+            }
+            Tube::Ebccd(_) => self.excess_noise_factor(g) * s2,
+            Tube::Ccd => 1.0,
+        }
+    }
+
     /// Spatial variance from the fixed patterns (PRNU, DSNU), DN², for the same field.
     pub fn fixed_pattern_variance_dn2_from_pe(&self, pe: f64, g: f64) -> f64 {
         let k = self.dn_per_ccd_electron(g);
