@@ -27,10 +27,10 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     // Appended as frames are written: an interrupted capture lists every
     // frame it kept.
     let mut writer = FrameWriter::create(&dir)?;
-    let (tally, result) = args.grab::<anyhow::Error>(
+    let (tally, result) = args.grab::<anyhow::Error, _>(
         g.as_mut(),
         &gloam_pipeline::output_set::interrupted,
-        &mut |index, f, warnings| {
+        |index, f: &gloam_grabber::Frame, warnings| {
             let rec = FrameRecord::of_grab(index, format!("frame-{index:06}.png"), f, warnings);
             Ok(writer.write(&rec, &f.pixels)?)
         },

@@ -704,11 +704,11 @@ impl CaptureArgs {
     /// lost or damaged frames in a row, and stops when `interrupted()`.
     /// Each kind of exposure warning is noted once (every frame keeps its
     /// own through `keep`). The tally is returned even when the run failed.
-    pub fn grab<E: From<CalibError>>(
+    pub fn grab<E: From<CalibError>, K: FnMut(u64, &Frame, Vec<String>) -> Result<(), E>>(
         &self,
         g: &mut dyn FrameGrabber,
         interrupted: &dyn Fn() -> bool,
-        keep: &mut dyn FnMut(u64, &Frame, Vec<String>) -> Result<(), E>,
+        mut keep: K,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> (CaptureTally, Result<(), E>) {
         let mut t = CaptureTally::default();
