@@ -61,3 +61,38 @@ impl ServerConfig {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bind_addr_defaults_to_the_gvcp_port() {
+        assert_eq!(
+            parse_bind_addr("127.0.0.1"),
+            Ok(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 3956))
+        );
+        assert_eq!(
+            parse_bind_addr("10.1.2.3:5000"),
+            Ok(SocketAddrV4::new(Ipv4Addr::new(10, 1, 2, 3), 5000))
+        );
+        assert!(parse_bind_addr("camera.local").is_err());
+    }
+
+    #[test]
+    fn identity_fits_the_bootstrap_registers_and_carries_the_serial() {
+        let long = "x".repeat(100);
+        let id = simulated_identity(
+            &long,
+            &long,
+            "rig 'sine'",
+            7,
+            0x0102_0304,
+            Ipv4Addr::LOCALHOST,
+        );
+        assert_eq!(id.model.chars().count(), 31);
+        assert_eq!(id.manufacturer_info.chars().count(), 47);
+        assert_eq!(id.mac, [0x02, 0x67, 1, 2, 3, 4]);
+        assert_eq!(id.serial, "16909060");
+    }
+}
