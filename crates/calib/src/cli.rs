@@ -861,3 +861,123 @@ pub struct CompareArgs {
     #[arg(long)]
     pub json: bool,
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Scope {
+        #[command(flatten)]
+        a: ScopeArgs,
+    }
+
+    #[test]
+    fn scope_takes_the_uri_and_lets_flags_override_it() {
+        let o = Scope::parse_from([
+            "scope",
+            "--grabber",
+            "sim:gen2-s20-iccd?rig=edge&seed=5&size=64x48",
+            "--out",
+            "o",
+        ])
+        .a
+        .options()
+        .unwrap();
+        assert_eq!(
+            (o.sensor.as_str(), o.rig.as_str(), o.seed, o.size),
+            ("gen2-s20-iccd", "edge", 5, Some((64, 48)))
+        );
+        let o = Scope::parse_from(["scope", "--sensor", "s", "--seed", "9", "--out", "o"])
+            .a
+            .options()
+            .unwrap();
+        assert_eq!((o.rig.as_str(), o.seed, o.size), ("sine", 9, None));
+        let e = Scope::parse_from(["scope", "--out", "o"]).a.options();
+        assert_eq!(
+            e.unwrap_err().to_string(),
+            "give --sensor PRESET_OR_FILE or --grabber sim:…"
+        );
+    }
+
+    #[test]
+    fn radiance_refuses_a_bad_gain_before_opening_anything() {
+        let a = RadianceArgs {
+            grabber: GrabberArgs {
+                grabber: "sim:scientific-ccd".into(),
+                seed: None,
+                exposure_s: None,
+            },
+            source: SourceArgs {
+                source: "missing.toml".into(),
+                levels: None,
+                auto_range: None,
+            },
+            gains: vec![1.0, -2.0],
+            frames: 1,
+            out: "o".into(),
+            force: false,
+        };
+        let mut begun = false;
+        let r = run_calibrate::<CalibError>(
+            &CalibrateCommand::Radiance(a),
+            &gloam_simcam::registry(),
+            &mut |_, _| {
+                begun = true;
+                Ok(PathBuf::new())
+            },
+            &mut |_| {},
+        );
+        let e = r.err().expect("a negative gain is refused");
+        assert_eq!(
+            e.to_string(),
+            "--gains: -2 is not a gain (each must be a finite number > 0)"
+        );
+        assert!(!begun);
+    }
+
+    fn capture(frames: u64) -> CaptureArgs {
+        CaptureArgs {
+            grabber: "sim:scientific-ccd".into(),
+            frames,
+            out: "o".into(),
+            gain: None,
+            agc: false,
+            bits: None,
+            exposure_s: None,
+            seed: None,
+            max_consecutive_failures: 3,
+            force: false,
+        }
+    }
+
+    #[test]
+    fn capture_keeps_each_frame_once_in_order_and_stops_when_interrupted() {
+        let mut g =
+            gloam_simcam::SimGrabber::from_preset("scientific-ccd", "uniform", 0, (16, 8)).unwrap();
+        let mut kept = Vec::new();
+        let (t, r) = capture(3).grab::<CalibError, _>(
+            &mut g,
+            &|| false,
+            |i, f: &Frame, _| {
+                kept.push((i, f.pixels.len()));
+                Ok(())
+            },
+            &mut |_| {},
+        );
+        r.unwrap();
+        assert_eq!(kept, [(0, 128), (1, 128), (2, 128)]);
+        assert_eq!((t.kept, t.losses), (3, FrameLosses::default()));
+        let (t, r) = capture(3).grab::<CalibError, _>(
+            &mut g,
+            &|| true,
+            |_, _: &Frame, _| Ok(()),
+            &mut |_| {},
+        );
+        assert_eq!(r.unwrap_err().to_string(), "interrupted (Ctrl-C)");
+        assert_eq!(t.kept, 0);
+        assert!(capture(0).check().is_err());
+    }
+}
