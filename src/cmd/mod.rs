@@ -6,7 +6,6 @@ pub mod calibrate;
 pub mod capture;
 pub mod compare;
 pub mod device;
-pub mod device_gige;
 pub mod ephem;
 pub mod grabbers;
 pub mod merge;

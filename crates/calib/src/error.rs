@@ -86,6 +86,19 @@ pub enum CalibError {
         lut_max_dn: f64,
         lut: PathBuf,
     },
+    /// A missing or contradictory command-line option, said as the option.
+    #[error("{0}")]
+    Usage(String),
+    /// A grabber that would not open, naming its URI.
+    #[error("opening {uri}")]
+    Open {
+        uri: String,
+        #[source]
+        source: GrabError,
+    },
+    /// A grab that failed for another reason than a lost or damaged frame.
+    #[error("grabbing")]
+    Grabbing(#[source] GrabError),
     /// A sensor preset or file that does not load.
     #[error(transparent)]
     SensorConfig(#[from] gloam_sensor::ConfigError),

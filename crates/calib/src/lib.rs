@@ -6,6 +6,8 @@
 pub mod agc;
 pub mod apply;
 pub mod capture;
+#[cfg(feature = "cli")]
+pub mod cli;
 mod error;
 pub mod io;
 pub mod mtf;

@@ -7,10 +7,12 @@ pub mod fuzzing;
 pub mod gvcp;
 pub mod gvsp;
 pub mod server;
+pub mod simulated;
 
 pub use device::{CameraFacts, Device, Event, Identity, StreamConfig};
 pub use gvsp::StreamFaults;
 pub use server::{GigeServer, ServerConfig, ServerStats};
+pub use simulated::{parse_bind_addr, simulated_identity};
 
 /// The facts a device needs from a frame source, with the sensor's frame
 /// rate (which [`gloam_grabber::source::SourceInfo`] does not carry).

@@ -1,0 +1,983 @@
+//! The command-line arguments of `gloam calibrate …`, `capture`, `scope`
+//! and `compare` (feature `cli`), and the flows they run: the front end
+//! parses, opens the output set, shows progress and prints; what the
+//! options mean, their defaults and checks, and the order of the steps
+//! live here, beside the flows they drive.
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Subcommand, ValueEnum};
+use gloam_grabber::{Frame, FrameGrabber, GrabError, OpenOptions, Registry};
+use gloam_simcam::FrameExposureExt;
+
+use crate::CalibError;
+use crate::agc::{AgcOptions, agc_linearisation};
+use crate::capture::FrameLosses;
+use crate::mtf_flow::{
+    self, GrabberTarget, MtfRequest, VoltageRequest, measure_mtf, read_usaf_ctf, usaf_mtf,
+    voltage_mtf,
+};
+use crate::ptc::{PtcOptions, photon_transfer};
+use crate::radiance::{RadianceOptions, calibrate_radiance};
+use crate::report;
+use crate::rig_check::rig_mismatch;
+use crate::scope_run::{ScopeOptions, sim_uri};
+use crate::source::{CalibrationSource, SourceFile, open_for_grabber};
+
+/// What a flow tells its front end while it runs.
+pub enum Event<'a> {
+    /// A line for the operator (stderr), printed at once.
+    Note(String),
+    /// Progress of a phase: its label, done and total.
+    Progress(&'a str, usize, usize),
+}
+
+#[derive(Subcommand)]
+pub enum CalibrateCommand {
+    /// Radiance LUT across gains → OUT/lut.json, radiance.md, plots.
+    Radiance(RadianceArgs),
+    /// Turn a digital-count image into a radiance image (32-bit float TIFF).
+    Apply(ApplyArgs),
+    /// AGC staircase up and down, AGC on and overridden → OUT/agc.json.
+    Agc(AgcArgs),
+    /// EMVA 1288 photon transfer → OUT/ptc.json and OUT/emva1288/.
+    Ptc(PtcArgs),
+    /// MTF from sine targets, USAF 1951 bar contrasts or a slanted edge → OUT/mtf.json.
+    Mtf(MtfArgs),
+}
+
+#[derive(Args, Clone)]
+pub struct GrabberArgs {
+    /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], serial:PATH[?baud=N], usb:VID:PID[:SERIAL].
+    #[arg(long)]
+    pub grabber: String,
+    /// Noise seed for sim: grabbers.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Exposure / gate time, seconds.
+    #[arg(long)]
+    pub exposure_s: Option<f64>,
+}
+
+#[derive(Args, Clone)]
+pub struct SourceArgs {
+    /// Calibration source file (TOML; docs/calibration.md).
+    #[arg(long)]
+    pub source: PathBuf,
+    /// Number of radiance levels (generated linear in radiance when the file lists none).
+    #[arg(long)]
+    pub levels: Option<usize>,
+    /// Simulated cameras only: rescale a sphere source so its brightest level
+    /// puts the camera at this fraction of full scale (at the highest gain).
+    #[arg(long)]
+    pub auto_range: Option<f64>,
+}
+
+#[derive(Args)]
+pub struct RadianceArgs {
+    #[command(flatten)]
+    pub grabber: GrabberArgs,
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// Gains to calibrate, comma-separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub gains: Vec<f64>,
+    /// Frames per level.
+    #[arg(long, default_value_t = crate::radiance::DEFAULT_FRAMES)]
+    pub frames: usize,
+    /// Output directory.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
+    #[arg(long)]
+    pub force: bool,
+}
+
+#[derive(Args)]
+pub struct ApplyArgs {
+    /// The LUT written by `gloam calibrate radiance`.
+    #[arg(long)]
+    pub lut: PathBuf,
+    /// Gain of the input frame (default: its line in frames.jsonl beside it).
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Digital-count image (PNG or TIFF, 8/16-bit grey).
+    pub input: PathBuf,
+    /// Radiance image to write (32-bit float TIFF, W m⁻² sr⁻¹; saturated pixels NaN).
+    pub output: PathBuf,
+}
+
+#[derive(Args)]
+pub struct AgcArgs {
+    #[command(flatten)]
+    pub grabber: GrabberArgs,
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// Gain for the overridden (AGC off) staircase (default: the camera's
+    /// power-up gain).
+    #[arg(long)]
+    pub fixed_gain: Option<f64>,
+    /// Frames per staircase step.
+    #[arg(long, default_value_t = crate::agc::DEFAULT_FRAMES_PER_STEP)]
+    pub frames: usize,
+    /// A LUT (lut.json) to linearise the AGC frames through.
+    #[arg(long)]
+    pub lut: Option<PathBuf>,
+    /// Report instead of failing when the AGC does not settle.
+    #[arg(long)]
+    pub allow_unsettled: bool,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
+    #[arg(long)]
+    pub force: bool,
+}
+
+#[derive(Args)]
+pub struct PtcArgs {
+    #[command(flatten)]
+    pub grabber: GrabberArgs,
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// Fixed gain for the sweep.
+    #[arg(long, default_value_t = crate::ptc::DEFAULT_GAIN)]
+    pub gain: f64,
+    /// Frames averaged for DSNU/PRNU.
+    #[arg(long, default_value_t = crate::ptc::DEFAULT_SPATIAL_FRAMES)]
+    pub spatial_frames: usize,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Where the sine flow reads modulation.
+#[derive(Clone, Copy, Default, PartialEq, Eq, ValueEnum)]
+pub enum Space {
+    /// Digital counts after the frame grabber.
+    #[default]
+    Digital,
+    /// The video line on an oscilloscope (§5.9.2), next to digital counts
+    /// and the chain's analytic MTF (sim: grabbers only).
+    Voltage,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Target {
+    Sine,
+    Usaf,
+    Edge,
+}
+
+#[derive(Args)]
+pub struct MtfArgs {
+    /// sine: sine targets (Stimulus::Sine); edge: ISO 12233 slanted edge;
+    /// usaf: bar contrasts read from --ctf, converted by Coltman's series.
+    #[arg(long, value_enum)]
+    pub target: Target,
+    /// Grabber URI (sine and edge).
+    #[arg(long)]
+    pub grabber: Option<String>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Fixed gain (sine and edge).
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Mean target radiance, W m⁻² sr⁻¹ (default: auto-ranged to 40 % of
+    /// full scale on simulated cameras).
+    #[arg(long)]
+    pub radiance: Option<f64>,
+    /// Sine modulation in radiance.
+    #[arg(long, default_value_t = mtf_flow::DEFAULT_MODULATION)]
+    pub modulation: f64,
+    /// Target angle, degrees (sine: from the row axis, default 0; edge: from the column axis, default 5).
+    #[arg(long)]
+    pub angle_deg: Option<f64>,
+    /// Sine frequencies, cycles/pixel, comma-separated (default 0.02…0.48 step 0.02).
+    #[arg(long, value_delimiter = ',')]
+    pub frequencies: Vec<f64>,
+    /// Frames averaged per target.
+    #[arg(long, default_value_t = mtf_flow::DEFAULT_FRAMES)]
+    pub frames: usize,
+    /// Relative spectrum of the targets (built-in name).
+    #[arg(long, default_value = mtf_flow::DEFAULT_SPECTRUM)]
+    pub spectrum: String,
+    /// usaf: CSV of `group,element,modulation` (measured bar contrast).
+    #[arg(long)]
+    pub ctf: Option<PathBuf>,
+    /// usaf: pixel pitch, µm.
+    #[arg(long)]
+    pub pixel_pitch_um: Option<f64>,
+    /// usaf: optical magnification (image size / chart size).
+    #[arg(long, default_value_t = 1.0)]
+    pub magnification: f64,
+    /// sine: measure in digital counts, or in voltage space (scope line +
+    /// grey-scale curve) beside digital counts and the analytic MTF.
+    #[arg(long, value_enum, default_value = "digital")]
+    pub space: Space,
+    /// --space voltage: frame rows the scope isolates (default: 4 middle rows).
+    #[arg(long, value_delimiter = ',')]
+    pub scope_rows: Vec<usize>,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// What a calibration leaves its front end: the output set's main JSON
+/// (which gets the run's provenance before the set is published; `None`:
+/// no set) and the lines to print once it is published.
+pub struct Outcome {
+    pub main_json: Option<&'static str>,
+    pub lines: Vec<String>,
+}
+
+/// Runs one `gloam calibrate` flow with grabbers from `registry`.
+/// `begin(out, force)` opens the output set and returns the directory to
+/// write into; it is called after the inputs are checked and before the
+/// grabber opens. Progress stays silent for manual sources (the operator
+/// is prompted on the terminal).
+pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
+    cmd: &CalibrateCommand,
+    registry: &Registry,
+    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<Outcome, E> {
+    match cmd {
+        CalibrateCommand::Radiance(a) => radiance(a, registry, begin, ev),
+        CalibrateCommand::Apply(a) => {
+            let r = crate::apply::apply_lut_file(&a.lut, &a.input, &a.output, a.gain, &mut |w| {
+                ev(Event::Note(format!("warning: {w}")))
+            })?;
+            let saturated = if r.saturated_pixels > 0 {
+                format!(", {} saturated pixel(s) set to NaN", r.saturated_pixels)
+            } else {
+                String::new()
+            };
+            let line = format!(
+                "wrote {} ({}×{}, gain {}{saturated})",
+                a.output.display(),
+                r.width,
+                r.height,
+                r.gain
+            );
+            Ok(Outcome {
+                main_json: None,
+                lines: vec![line],
+            })
+        }
+        CalibrateCommand::Agc(a) => agc(a, registry, begin, ev),
+        CalibrateCommand::Ptc(a) => ptc(a, registry, begin, ev),
+        CalibrateCommand::Mtf(a) => mtf(a, registry, begin, ev),
+    }
+}
+
+impl GrabberArgs {
+    /// Opens the grabber and sets the exposure asked for.
+    pub fn open<E: From<CalibError> + From<GrabError>>(
+        &self,
+        registry: &Registry,
+        ev: &mut dyn FnMut(Event<'_>),
+    ) -> Result<Box<dyn FrameGrabber>, E> {
+        let opts = OpenOptions {
+            seed: self.seed,
+            ..OpenOptions::default()
+        };
+        let mut g = registry
+            .open(&self.grabber, &opts)
+            .map_err(|source| CalibError::Open {
+                uri: self.grabber.clone(),
+                source,
+            })?;
+        if let Some(e) = self.exposure_s {
+            g.set_exposure_s(e)?;
+        }
+        ev(Event::Note(format!("grabber: {}", g.describe())));
+        Ok(g)
+    }
+}
+
+impl SourceArgs {
+    /// Opens the source; auto-ranges a sphere at `gain` (`None`: the
+    /// camera's current gain) when asked ([`open_for_grabber`]).
+    fn open(
+        &self,
+        g: &mut dyn FrameGrabber,
+        gain: Option<f64>,
+        ev: &mut dyn FnMut(Event<'_>),
+    ) -> Result<Box<dyn CalibrationSource>, CalibError> {
+        let opened = open_for_grabber(&self.source, self.levels, self.auto_range, g, gain)?;
+        if let (Some(top), Some(frac)) = (opened.auto_ranged_max_w_m2_sr, self.auto_range) {
+            ev(Event::Note(format!(
+                "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at {})",
+                top,
+                100.0 * frac,
+                gain.map_or("the camera's power-up gain".into(), |g| format!("gain {g}"))
+            )));
+        }
+        Ok(opened.source)
+    }
+
+    /// A manual source prompts on the terminal, where a bar would garble it.
+    fn is_manual(&self) -> bool {
+        SourceFile::load(&self.source).is_ok_and(|f| f.is_manual())
+    }
+}
+
+/// `ev`'s progress under `label`, or nothing when `silent`.
+fn progress<'a>(
+    ev: &'a mut dyn FnMut(Event<'_>),
+    label: &'a str,
+    silent: bool,
+) -> impl FnMut(usize, usize) + 'a {
+    move |done, total| {
+        if !silent {
+            ev(Event::Progress(label, done, total))
+        }
+    }
+}
+
+fn wrote(out: &Path, main_json: &str) -> String {
+    format!("wrote {}", out.join(main_json).display())
+}
+
+fn radiance<E: From<CalibError> + From<GrabError>>(
+    a: &RadianceArgs,
+    registry: &Registry,
+    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<Outcome, E> {
+    if a.gains.is_empty() {
+        return Err(CalibError::Usage("--gains needs at least one gain".into()).into());
+    }
+    if let Some(g) = a.gains.iter().find(|g| !(g.is_finite() && **g > 0.0)) {
+        let m = format!("--gains: {g} is not a gain (each must be a finite number > 0)");
+        return Err(CalibError::Usage(m).into());
+    }
+    let dir = begin(&a.out, a.force)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let mut src = a.source.open(g.as_mut(), Some(top), ev)?;
+    let opts = RadianceOptions {
+        gains: a.gains.clone(),
+        frames: a.frames,
+        exposure_s: a.grabber.exposure_s,
+        ..Default::default()
+    };
+    let silent = a.source.is_manual();
+    let lut = calibrate_radiance(
+        g.as_mut(),
+        src.as_mut(),
+        &opts,
+        &mut progress(ev, "levels", silent),
+    )?;
+    report::write_radiance_report(&dir, &lut)?;
+    let mut lines = Vec::new();
+    for c in &lut.gains {
+        lines.push(format!(
+            "gain {}: L = {:.6e}·DC + {:.6e} W m⁻² sr⁻¹ (R² {:.6}, {} points, DC {:.1}–{:.1})",
+            c.gain,
+            c.g_w_m2_sr_per_dn,
+            c.b_w_m2_sr,
+            c.r_squared,
+            c.n_fit_points,
+            c.fit_range_dn[0],
+            c.fit_range_dn[1]
+        ));
+        lines.extend(
+            c.warnings
+                .iter()
+                .map(|w| format!("warning: gain {}: {w}", c.gain)),
+        );
+    }
+    lines.push(wrote(&a.out, "lut.json"));
+    Ok(Outcome {
+        main_json: Some("lut.json"),
+        lines,
+    })
+}
+
+fn agc<E: From<CalibError> + From<GrabError>>(
+    a: &AgcArgs,
+    registry: &Registry,
+    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<Outcome, E> {
+    let lut = a.lut.as_deref().map(crate::apply::load_lut).transpose()?;
+    let dir = begin(&a.out, a.force)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    let mut src = a.source.open(g.as_mut(), a.fixed_gain, ev)?;
+    let opts = AgcOptions {
+        fixed_gain: a.fixed_gain,
+        frames_per_step: a.frames,
+        allow_unsettled: a.allow_unsettled,
+        ..Default::default()
+    };
+    let silent = a.source.is_manual();
+    let r = agc_linearisation(
+        g.as_mut(),
+        src.as_mut(),
+        &opts,
+        lut.as_ref(),
+        &mut progress(ev, "steps", silent),
+    )?;
+    report::write_agc_report(&dir, &r)?;
+    let summary = format!(
+        "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
+        r.all_settled,
+        r.max_settling_time_us
+            .map_or("—".into(), |v| format!("{v:.0}")),
+        r.max_overshoot_percent
+            .map_or("—".into(), |v| format!("{v:.2}")),
+        r.hysteresis_gain_percent,
+        r.linearity_error_percent
+    );
+    Ok(Outcome {
+        main_json: Some("agc.json"),
+        lines: vec![summary, wrote(&a.out, "agc.json")],
+    })
+}
+
+fn ptc<E: From<CalibError> + From<GrabError>>(
+    a: &PtcArgs,
+    registry: &Registry,
+    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<Outcome, E> {
+    let dir = begin(&a.out, a.force)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    let mut sa = a.source.clone();
+    sa.levels = sa.levels.or(Some(crate::ptc::DEFAULT_LEVELS));
+    let mut src = sa.open(g.as_mut(), Some(a.gain), ev)?;
+    if let Some(w) = rig_mismatch(&a.grabber.grabber, src.rig(), a.grabber.exposure_s) {
+        ev(Event::Note(format!("warning: {w}")));
+    }
+    let opts = PtcOptions {
+        gain: a.gain,
+        exposure_s: a.grabber.exposure_s,
+        spatial_frames: a.spatial_frames,
+        dataset_dir: Some(dir.join("emva1288")),
+    };
+    let silent = a.source.is_manual();
+    let r = photon_transfer(
+        g.as_mut(),
+        src.as_mut(),
+        &opts,
+        &mut progress(ev, "levels", silent),
+    )?;
+    report::write_ptc_report(&dir, &r)?;
+    let mut lines: Vec<String> = r.warnings.iter().map(|w| format!("warning: {w}")).collect();
+    lines.push(format!(
+        "K = {:.5} DN/e⁻, dark noise {:.3} e⁻, saturation {:.0} e⁻, QE {}",
+        r.system_gain_dn_per_e,
+        r.dark_noise_e,
+        r.saturation_capacity_e,
+        r.quantum_efficiency
+            .map_or("— (no [rig])".into(), |q| format!("{q:.4}"))
+    ));
+    lines.push(wrote(&a.out, "ptc.json"));
+    Ok(Outcome {
+        main_json: Some("ptc.json"),
+        lines,
+    })
+}
+
+fn mtf<E: From<CalibError> + From<GrabError>>(
+    a: &MtfArgs,
+    registry: &Registry,
+    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<Outcome, E> {
+    let usage = |m: &str| CalibError::Usage(m.into());
+    let dir = begin(&a.out, a.force)?;
+    let (curves, details) = match a.target {
+        Target::Usaf => {
+            let ctf_path = a
+                .ctf
+                .as_ref()
+                .ok_or_else(|| usage("--target usaf needs --ctf FILE"))?;
+            let pitch = a
+                .pixel_pitch_um
+                .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
+            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification)?
+        }
+        Target::Sine | Target::Edge => {
+            let uri =
+                (a.grabber.clone()).ok_or_else(|| usage("--target sine/edge needs --grabber"))?;
+            let ga = GrabberArgs {
+                grabber: uri.clone(),
+                seed: a.seed,
+                exposure_s: None,
+            };
+            let mut g = ga.open::<E>(registry, ev)?;
+            let req = MtfRequest {
+                target: match a.target {
+                    Target::Sine => GrabberTarget::Sine,
+                    _ => GrabberTarget::Edge,
+                },
+                gain: a.gain,
+                radiance_w_m2_sr: a.radiance,
+                modulation: a.modulation,
+                angle_deg: a.angle_deg,
+                frequencies_cy_per_px: a.frequencies.clone(),
+                frames: a.frames,
+                spectrum: a.spectrum.clone(),
+            };
+            if a.space == Space::Voltage {
+                if req.target != GrabberTarget::Sine {
+                    let m = "--space voltage reads sine patterns: use --target sine";
+                    return Err(usage(m).into());
+                }
+                let v = VoltageRequest {
+                    uri,
+                    seed: a.seed,
+                    scope_rows: a.scope_rows.clone(),
+                    magnification: a.magnification,
+                };
+                return mtf_voltage(a, &dir, g.as_mut(), &req, &v, ev);
+            }
+            let label = match req.target {
+                GrabberTarget::Sine => "targets",
+                GrabberTarget::Edge => "edge",
+            };
+            let m = measure_mtf(g.as_mut(), &req, &mut progress(ev, label, false))?;
+            let details = serde_json::json!({
+                "mean_radiance_w_m2_sr": m.mean_radiance_w_m2_sr,
+                "grabber": g.describe(),
+            });
+            (vec![m.curve], details)
+        }
+    };
+    report::write_mtf_report(&dir, &curves, details)?;
+    let c = &curves[0];
+    let line = format!(
+        "{}: MTF50 {} cy/px, MTF10 {} cy/px",
+        c.method,
+        c.mtf50.map_or("—".into(), |v| format!("{v:.4}")),
+        c.mtf10.map_or("—".into(), |v| format!("{v:.4}"))
+    );
+    Ok(Outcome {
+        main_json: Some("mtf.json"),
+        lines: vec![line, wrote(&a.out, "mtf.json")],
+    })
+}
+
+/// `--space voltage`: the scope flow on the sim: camera, the digital-count
+/// sine flow through the grabber, and the analytic curves, in one report.
+fn mtf_voltage<E: From<CalibError>>(
+    a: &MtfArgs,
+    dir: &Path,
+    g: &mut dyn FrameGrabber,
+    req: &MtfRequest,
+    v: &VoltageRequest,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<Outcome, E> {
+    let r = voltage_mtf(g, req, v, &mut |phase, done, total| {
+        ev(Event::Progress(phase, done, total))
+    })?;
+    report::write_mtf_report(dir, &r.curves, r.details)?;
+    let (c, p) = (&r.curves, &r.voltage.points);
+    let mut lines = Vec::new();
+    for (i, f) in r.frequencies_cy_per_px.iter().enumerate() {
+        lines.push(format!(
+            "{f:.3} cy/px ({:.2} MHz, {:.2} lp/mm object): voltage {:.3}, digital {:.3}, analytic line {:.3}, digitised {:.3}",
+            p[i].line_frequency_mhz,
+            p[i].object_lp_per_mm,
+            c[0].mtf[i],
+            c[1].mtf[i],
+            c[2].mtf[i],
+            c[3].mtf[i]
+        ));
+    }
+    lines.push(wrote(&a.out, "mtf.json"));
+    Ok(Outcome {
+        main_json: Some("mtf.json"),
+        lines,
+    })
+}
+
+#[derive(Args)]
+pub struct CaptureArgs {
+    /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH],
+    /// serial:PATH[?baud=N], usb:VID:PID[:SERIAL].
+    #[arg(long)]
+    pub grabber: String,
+    /// Good frames to capture.
+    #[arg(long, default_value_t = 1)]
+    /// At most 1 000 000 (nine hours at 30 frames/s; split longer runs).
+    #[arg(value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    pub frames: u64,
+    /// Output directory (frame-NNNNNN.png + frames.jsonl).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Fixed gain (turns AGC off).
+    #[arg(long, conflicts_with = "agc")]
+    pub gain: Option<f64>,
+    /// Turn AGC on.
+    #[arg(long)]
+    pub agc: bool,
+    /// Digitizer bit depth.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["8", "12", "16"]))]
+    pub bits: Option<String>,
+    /// Exposure / gate time, seconds.
+    #[arg(long)]
+    pub exposure_s: Option<f64>,
+    /// Noise seed for sim: grabbers (the emulator takes its own --seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Give up after this many lost/damaged frames in a row.
+    #[arg(long, default_value_t = 1000)]
+    pub max_consecutive_failures: u64,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// How a capture went: frames kept, frames with exposure warnings, losses.
+#[derive(Default)]
+pub struct CaptureTally {
+    pub kept: u64,
+    pub frames_warned: u64,
+    pub losses: FrameLosses,
+}
+
+impl CaptureArgs {
+    /// Checks the options that clap cannot.
+    pub fn check(&self) -> Result<(), CalibError> {
+        if self.frames == 0 {
+            return Err(CalibError::Usage("--frames must be at least 1".into()));
+        }
+        Ok(())
+    }
+
+    /// Opens the grabber, records which camera it is in `dir`'s
+    /// `camera.json` (`calibrate apply` checks a LUT against it) and
+    /// applies the settings asked for.
+    pub fn open<E: From<CalibError> + From<GrabError>>(
+        &self,
+        registry: &Registry,
+        dir: &Path,
+        ev: &mut dyn FnMut(Event<'_>),
+    ) -> Result<Box<dyn FrameGrabber>, E> {
+        let opts = OpenOptions {
+            seed: self.seed,
+            ..OpenOptions::default()
+        };
+        let mut g = registry
+            .open(&self.grabber, &opts)
+            .map_err(|source| CalibError::Open {
+                uri: self.grabber.clone(),
+                source,
+            })?;
+        ev(Event::Note(format!("capturing from {}", g.describe())));
+        let camera = serde_json::json!({ "camera": g.describe(), "grabber": self.grabber });
+        report::write_json(&dir.join(crate::apply::CAMERA_FILE), &camera)?;
+        if let Some(b) = &self.bits {
+            g.set_bits(b.parse().expect("clap checked 8, 12 or 16"))?;
+        }
+        if let Some(e) = self.exposure_s {
+            g.set_exposure_s(e)?;
+        }
+        if let Some(gain) = self.gain {
+            let applied = g.set_gain(gain)?;
+            if (applied - gain).abs() > 1e-9 * gain.abs().max(1.0) {
+                ev(Event::Note(format!(
+                    "note: gain {gain} applied as {applied}"
+                )));
+            }
+        }
+        if self.agc {
+            g.set_agc(true)?;
+        }
+        Ok(g)
+    }
+
+    /// Grabs `--frames` good frames, handing each to `keep` with its index
+    /// and exposure warnings; rides out up to `--max-consecutive-failures`
+    /// lost or damaged frames in a row, and stops when `interrupted()`.
+    /// Each kind of exposure warning is noted once (every frame keeps its
+    /// own through `keep`). The tally is returned even when the run failed.
+    pub fn grab<E: From<CalibError>, K: FnMut(u64, &Frame, Vec<String>) -> Result<(), E>>(
+        &self,
+        g: &mut dyn FrameGrabber,
+        interrupted: &dyn Fn() -> bool,
+        mut keep: K,
+        ev: &mut dyn FnMut(Event<'_>),
+    ) -> (CaptureTally, Result<(), E>) {
+        let mut t = CaptureTally::default();
+        let mut consecutive = 0u64;
+        let mut warned = std::collections::BTreeSet::new();
+        let mut status = String::new();
+        let result = (|| {
+            while t.kept < self.frames {
+                if interrupted() {
+                    return Err(CalibError::Usage("interrupted (Ctrl-C)".into()).into());
+                }
+                match g.grab() {
+                    Ok(f) => {
+                        consecutive = 0;
+                        let exposure = f.exposure();
+                        for (w, k) in exposure.warnings.iter().zip(&exposure.warning_kinds) {
+                            if warned.insert(*k) {
+                                ev(Event::Note(format!("warning: frame {}: {w}", t.kept)));
+                            }
+                        }
+                        t.frames_warned += u64::from(!exposure.warnings.is_empty());
+                        keep(t.kept, &f, exposure.warnings)?;
+                        t.kept += 1;
+                    }
+                    Err(e) if t.losses.count(&e) => {
+                        consecutive += 1;
+                        ev(Event::Note(format!("warning: {e}")));
+                        let l = &t.losses;
+                        status = format!("{} damaged, {} lost", l.damaged, l.lost);
+                        if consecutive >= self.max_consecutive_failures {
+                            let m =
+                                format!("{consecutive} lost or damaged frames in a row; giving up");
+                            return Err(CalibError::Usage(m).into());
+                        }
+                    }
+                    Err(e) => return Err(CalibError::Grabbing(e).into()),
+                }
+                ev(Event::Progress(
+                    &status,
+                    t.kept as usize,
+                    self.frames as usize,
+                ));
+            }
+            Ok(())
+        })();
+        (t, result)
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Format {
+    #[value(name = "rs-170")]
+    Rs170,
+    Ccir,
+}
+
+#[derive(Args)]
+pub struct ScopeArgs {
+    /// Sensor preset or TOML file (or give --grabber sim:…).
+    #[arg(long, conflicts_with = "grabber")]
+    pub sensor: Option<String>,
+    /// A sim: grabber URI (sensor, rig, seed, size from it).
+    #[arg(long)]
+    pub grabber: Option<String>,
+    /// Rig the camera looks at: uniform, sine, edge, dark (default sine).
+    #[arg(long)]
+    pub rig: Option<String>,
+    /// Sine bars across the line, cycles/pixel.
+    #[arg(long, default_value_t = 0.05)]
+    pub frequency: f64,
+    /// Mean signal, fraction of the range above black.
+    #[arg(long, default_value_t = 0.4)]
+    pub level: f64,
+    /// Frame rows to show, comma-separated (default: the middle row).
+    #[arg(long, value_delimiter = ',')]
+    pub rows: Vec<usize>,
+    /// Frame size WxH (default: 640x480 RS-170, 768x576 CCIR).
+    #[arg(long)]
+    pub size: Option<String>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Fixed gain (AGC off).
+    #[arg(long)]
+    pub gain: Option<f64>,
+    /// Override the sensor file's line format.
+    #[arg(long, value_enum)]
+    pub format: Option<Format>,
+    /// Override the video amplifier's −3 dB bandwidth, Hz.
+    #[arg(long)]
+    pub bandwidth_hz: Option<f64>,
+    /// Frames captured before the one shown.
+    #[arg(long, default_value_t = 1)]
+    pub frames: usize,
+    /// Output directory: scope.csv, scope.png, scope.json.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl ScopeArgs {
+    /// The scope's options: the sensor, rig, seed and size from `--sensor`
+    /// (rig sine, seed 0) or the `--grabber` URI, each overridable.
+    pub fn options(&self) -> Result<ScopeOptions, CalibError> {
+        use gloam_sensor::stages::video_timing::VideoFormat;
+        let (sensor, rig, seed, size) = match (&self.sensor, &self.grabber) {
+            (Some(s), _) => (s.clone(), "sine".to_string(), 0, None),
+            (None, Some(u)) => sim_uri(u)?,
+            (None, None) => {
+                let m = "give --sensor PRESET_OR_FILE or --grabber sim:…";
+                return Err(CalibError::Usage(m.into()));
+            }
+        };
+        let size =
+            match &self.size {
+                Some(s) => Some(gloam_grabber::uri::parse_size(s).ok_or_else(|| {
+                    CalibError::Usage(format!("--size '{s}' is not WxH (1..4096)"))
+                })?),
+                None => size,
+            };
+        Ok(ScopeOptions {
+            sensor,
+            seed: self.seed.unwrap_or(seed),
+            size,
+            rows: self.rows.clone(),
+            rig: self.rig.clone().unwrap_or(rig),
+            level_fraction: self.level,
+            frequency_cy_per_px: self.frequency,
+            gain: self.gain,
+            format: self.format.map(|f| match f {
+                Format::Rs170 => VideoFormat::Rs170,
+                Format::Ccir => VideoFormat::Ccir,
+            }),
+            bandwidth_hz: self.bandwidth_hz,
+            frames: self.frames,
+        })
+    }
+}
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// Reference image (e.g. a calibrated radiance TIFF).
+    pub truth: PathBuf,
+    /// Image to validate (e.g. a gloam render), same size.
+    pub synthetic: PathBuf,
+    /// Ground-control regions: JSON array of {name,x,y,width,height} or TOML [[region]].
+    #[arg(long)]
+    pub regions: PathBuf,
+    /// Print the figures as JSON ({"spearman_rho", "rms", "regions"}).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Scope {
+        #[command(flatten)]
+        a: ScopeArgs,
+    }
+
+    #[test]
+    fn scope_takes_the_uri_and_lets_flags_override_it() {
+        let o = Scope::parse_from([
+            "scope",
+            "--grabber",
+            "sim:gen2-s20-iccd?rig=edge&seed=5&size=64x48",
+            "--out",
+            "o",
+        ])
+        .a
+        .options()
+        .unwrap();
+        assert_eq!(
+            (o.sensor.as_str(), o.rig.as_str(), o.seed, o.size),
+            ("gen2-s20-iccd", "edge", 5, Some((64, 48)))
+        );
+        let o = Scope::parse_from(["scope", "--sensor", "s", "--seed", "9", "--out", "o"])
+            .a
+            .options()
+            .unwrap();
+        assert_eq!((o.rig.as_str(), o.seed, o.size), ("sine", 9, None));
+        let e = Scope::parse_from(["scope", "--out", "o"]).a.options();
+        assert_eq!(
+            e.unwrap_err().to_string(),
+            "give --sensor PRESET_OR_FILE or --grabber sim:…"
+        );
+    }
+
+    #[test]
+    fn radiance_refuses_a_bad_gain_before_opening_anything() {
+        let a = RadianceArgs {
+            grabber: GrabberArgs {
+                grabber: "sim:scientific-ccd".into(),
+                seed: None,
+                exposure_s: None,
+            },
+            source: SourceArgs {
+                source: "missing.toml".into(),
+                levels: None,
+                auto_range: None,
+            },
+            gains: vec![1.0, -2.0],
+            frames: 1,
+            out: "o".into(),
+            force: false,
+        };
+        let mut begun = false;
+        let r = run_calibrate::<CalibError>(
+            &CalibrateCommand::Radiance(a),
+            &gloam_simcam::registry(),
+            &mut |_, _| {
+                begun = true;
+                Ok(PathBuf::new())
+            },
+            &mut |_| {},
+        );
+        let e = r.err().expect("a negative gain is refused");
+        assert_eq!(
+            e.to_string(),
+            "--gains: -2 is not a gain (each must be a finite number > 0)"
+        );
+        assert!(!begun);
+    }
+
+    fn capture(frames: u64) -> CaptureArgs {
+        CaptureArgs {
+            grabber: "sim:scientific-ccd".into(),
+            frames,
+            out: "o".into(),
+            gain: None,
+            agc: false,
+            bits: None,
+            exposure_s: None,
+            seed: None,
+            max_consecutive_failures: 3,
+            force: false,
+        }
+    }
+
+    #[test]
+    fn capture_keeps_each_frame_once_in_order_and_stops_when_interrupted() {
+        let mut g =
+            gloam_simcam::SimGrabber::from_preset("scientific-ccd", "uniform", 0, (16, 8)).unwrap();
+        let mut kept = Vec::new();
+        let (t, r) = capture(3).grab::<CalibError, _>(
+            &mut g,
+            &|| false,
+            |i, f: &Frame, _| {
+                kept.push((i, f.pixels.len()));
+                Ok(())
+            },
+            &mut |_| {},
+        );
+        r.unwrap();
+        assert_eq!(kept, [(0, 128), (1, 128), (2, 128)]);
+        assert_eq!((t.kept, t.losses), (3, FrameLosses::default()));
+        let (t, r) = capture(3).grab::<CalibError, _>(
+            &mut g,
+            &|| true,
+            |_, _: &Frame, _| Ok(()),
+            &mut |_| {},
+        );
+        assert_eq!(r.unwrap_err().to_string(), "interrupted (Ctrl-C)");
+        assert_eq!(t.kept, 0);
+        assert!(capture(0).check().is_err());
+    }
+}

@@ -1,0 +1,110 @@
+//! The command-line arguments of `gloam device` (feature `cli`): which
+//! simulated camera a device serves, over which link, with which faults.
+
+use std::time::Duration;
+
+use clap::Args;
+use gloam_grabber::emulator::{DEFAULT_BAUD, EmulatorConfig};
+use gloam_grabber::faults::FaultConfig;
+use gloam_grabber::uri::parse_size;
+
+#[derive(Args)]
+pub struct DeviceArgs {
+    /// Expose the emulated device on a pseudo-terminal; its path (the side a
+    /// client opens) is the first line of stdout.
+    #[arg(long, conflicts_with = "gige")]
+    pub pty: bool,
+    /// Serve the simulated camera as a GigE Vision device: GVCP on
+    /// ADDR[:PORT] (port 3956 by default), GVSP from the same address.
+    #[arg(long, value_name = "ADDR[:PORT]")]
+    pub gige: Option<String>,
+    /// GigE fault injection: probability of dropping each GVSP packet.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub gvsp_loss: f64,
+    /// GigE fault injection: probability of sending each GVSP packet after
+    /// the next one.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub gvsp_reorder: f64,
+    /// Sensor preset (or sensor TOML file) behind the HAL.
+    #[arg(long, default_value = "gen2-s20-iccd")]
+    pub sensor: String,
+    /// Scene file the camera looks at: rendered once by the tracer (default
+    /// settings) at the scene camera's resolution, or at --size.
+    #[arg(long, conflicts_with = "rig")]
+    pub scene: Option<String>,
+    /// Calibration rig the camera looks at: uniform, sine, edge, dark.
+    #[arg(long)]
+    pub rig: Option<String>,
+    /// Line rate to emulate (PTYs ignore baud, so the emulator paces itself,
+    /// 8N1 = 10 bits per byte).
+    #[arg(long, default_value_t = DEFAULT_BAUD)]
+    pub baud: u32,
+    /// Noise seed of the simulated sensor.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Image size WxH (default 320×240 for a rig, the scene camera's for a
+    /// scene).
+    #[arg(long, value_parser = parse_size_arg)]
+    pub size: Option<(u32, u32)>,
+    /// Serial number reported in the handshake.
+    #[arg(long, default_value_t = 1)]
+    pub serial_number: u32,
+    /// Fault injection: probability of dropping each outgoing message.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub fault_drop: f64,
+    /// Fault injection: probability of flipping a bit in each outgoing message.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub fault_corrupt: f64,
+    /// Fault injection: probability of truncating each outgoing message.
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
+    pub fault_truncate: f64,
+    /// Fault injection: stall the link this long before a message…
+    #[arg(long, default_value_t = 0)]
+    pub fault_delay_ms: u64,
+    /// …with this probability per message.
+    #[arg(long, default_value_t = 0.01, value_parser = probability)]
+    pub fault_delay_p: f64,
+    /// Fault injection: power-cycle the device in the middle of every N-th frame.
+    #[arg(long)]
+    pub fault_reset_every: Option<u64>,
+    /// Seed of the fault generator.
+    #[arg(long, default_value_t = 1)]
+    pub fault_seed: u64,
+}
+
+fn parse_size_arg(s: &str) -> Result<(u32, u32), String> {
+    parse_size(s).ok_or_else(|| format!("'{s}' is not WxH with 1..4096 each"))
+}
+
+fn probability(s: &str) -> Result<f64, String> {
+    let p: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if (0.0..=1.0).contains(&p) {
+        Ok(p)
+    } else {
+        Err(format!("{p} is not a probability in 0..=1"))
+    }
+}
+
+impl DeviceArgs {
+    /// The emulator's link and faults (`--pty`): a delay probability
+    /// counts only with a delay, and `--fault-reset-every 0` means never.
+    pub fn emulator_config(&self) -> EmulatorConfig {
+        EmulatorConfig {
+            baud: Some(self.baud),
+            faults: FaultConfig {
+                drop: self.fault_drop,
+                corrupt: self.fault_corrupt,
+                truncate: self.fault_truncate,
+                delay_p: if self.fault_delay_ms > 0 {
+                    self.fault_delay_p
+                } else {
+                    0.0
+                },
+                delay: Duration::from_millis(self.fault_delay_ms),
+                seed: self.fault_seed,
+            },
+            reset_every: self.fault_reset_every.filter(|n| *n > 0),
+            serial_number: self.serial_number,
+        }
+    }
+}
