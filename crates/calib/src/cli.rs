@@ -481,6 +481,17 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
         r.quantum_efficiency
             .map_or("— (no [rig])".into(), |q| format!("{q:.4}"))
     ));
+    // An intensified camera's K folds in the gain process's excess noise:
+    // say so beside it, with the conversion gain it implies.
+    if let (Some(g), Some(f_pix)) = (r.conversion_gain_dn_per_pe, r.pixel_noise_factor)
+        && (f_pix - 1.0).abs() > 1e-9
+    {
+        lines.push(format!(
+            "K_eff = g·F_pix: conversion gain g = {g:.4} DN/photoelectron, F_pix = {f_pix:.4}{}",
+            r.quantum_efficiency_from_conversion_gain
+                .map_or(String::new(), |q| format!(", QE = R/g = {q:.4}"))
+        ));
+    }
     lines.push(wrote(&a.out, "ptc.json"));
     Ok(Outcome {
         main_json: Some("ptc.json"),
