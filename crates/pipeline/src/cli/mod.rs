@@ -23,6 +23,9 @@ pub enum ArgError {
         flag: &'static str,
         value: String,
         expected: &'static str,
+        /// The number that did not parse, if one did not.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
     /// A camera flag given to a render without a camera would be ignored.
     #[error("{flag} needs a camera: give --sensor or a `sensor` entry in the scene{}",
@@ -207,9 +210,9 @@ impl ProbeArgs {
         let Some(px) = &self.pixel else {
             return Ok(None);
         };
-        match numbers::<u32>(px).as_deref() {
-            Some(&[c, r]) => Ok(Some((c, r))),
-            _ => Err(malformed("pixel", px, "COL,ROW")),
+        match numbers::<u32>(px).map_err(|e| malformed("pixel", px, "COL,ROW", Some(e)))?[..] {
+            [c, r] => Ok(Some((c, r))),
+            _ => Err(malformed("pixel", px, "COL,ROW", None)),
         }
     }
 
@@ -217,11 +220,11 @@ impl ProbeArgs {
     pub fn point_normal(&self) -> Result<(DVec3, DVec3), ArgError> {
         let triple = |flag, s: &Option<String>| {
             let s = s.as_deref().unwrap_or_default();
-            match numbers::<f64>(s).as_deref() {
-                Some(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => {
-                    Ok(DVec3::new(x, y, z))
-                }
-                _ => Err(malformed(flag, s, "three finite numbers X,Y,Z")),
+            let v = numbers::<f64>(s)
+                .map_err(|e| malformed(flag, s, "three numbers X,Y,Z", Some(e)))?;
+            match v[..] {
+                [x, y, z] if [x, y, z].iter().all(|v| v.is_finite()) => Ok(DVec3::new(x, y, z)),
+                _ => Err(malformed(flag, s, "three finite numbers X,Y,Z", None)),
             }
         };
         Ok((
@@ -231,14 +234,28 @@ impl ProbeArgs {
     }
 }
 
-fn numbers<T: std::str::FromStr>(s: &str) -> Option<Vec<T>> {
-    s.split(',').map(|x| x.trim().parse().ok()).collect()
+/// Comma-separated numbers, or the first that does not parse.
+fn numbers<T>(s: &str) -> Result<Vec<T>, Box<dyn std::error::Error + Send + Sync>>
+where
+    T: std::str::FromStr,
+    T::Err: std::error::Error + Send + Sync + 'static,
+{
+    Ok(s.split(',')
+        .map(|x| x.trim().parse())
+        .collect::<Result<_, T::Err>>()?)
 }
 
-fn malformed(flag: &'static str, value: &str, expected: &'static str) -> ArgError {
+fn malformed(
+    flag: &'static str,
+    value: &str,
+    expected: &'static str,
+    source: Option<Box<dyn std::error::Error + Send + Sync>>,
+) -> ArgError {
+    let value = value.to_string();
     ArgError::Malformed {
         flag,
-        value: value.to_string(),
+        value,
         expected,
+        source,
     }
 }
