@@ -758,3 +758,37 @@ pub fn ensure_all_done(s: &TaskStates) -> Result<(), SweepError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A task's record keeps its executor's error as anyhow prints it
+    /// (`outer: cause: cause`), the form records had before the boxing.
+    #[test]
+    fn chain_reads_as_anyhow_alternate() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::new(io)
+            .context("reading scene.toml")
+            .context("task 3");
+        let expected = format!("{e:#}");
+        let boxed: TaskError = e.into();
+        assert_eq!(chain(&*boxed), expected);
+        assert_eq!(expected, "task 3: reading scene.toml: no such file");
+    }
+
+    /// Opening a directory that is not a sweep names both files.
+    #[test]
+    fn open_names_the_missing_plan() {
+        let dir = tempfile::tempdir().unwrap();
+        let Err(e) = SweepDir::open(dir.path()) else {
+            panic!("opened an empty directory as a sweep");
+        };
+        assert!(matches!(e, SweepError::NotASweep { .. }));
+        let text = e.to_string();
+        assert!(
+            text.contains("plan.json") && text.contains("a sweep directory?"),
+            "{text}"
+        );
+    }
+}
