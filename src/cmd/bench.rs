@@ -1,219 +1,53 @@
-//! `gloam bench accuracy SCENE --out DIR …`, `gloam bench throughput`,
-//! `gloam bench plan` and `gloam bench scale`: arguments and printing. The measuring — truths,
-//! masks, metrics, the reference cache, the Pareto front — is
+//! `gloam bench accuracy|throughput|plan|scale`: dispatch and printing.
+//! The arguments are [`gloam_pipeline::cli::bench`], the measuring
 //! [`gloam_pipeline::bench`], whose docs say what each figure means.
 
-use std::path::{Path, PathBuf};
-
 use anyhow::Context;
-use clap::{Args, Subcommand};
-use gloam_pipeline::bench::{self, accuracy, find_path, plan_check, scale, throughput};
+use gloam_pipeline::bench::{accuracy, plan_check, scale, throughput};
+pub use gloam_pipeline::cli::bench::BenchCommand;
 
 use super::output::print_json;
-
-#[derive(Subcommand)]
-pub enum BenchCommand {
-    /// Error against the truth and wall time across the accuracy settings.
-    Accuracy(AccuracyArgs),
-    /// Rays/s, sensor-chain frames/s and protocol codec GB/s.
-    Throughput(ThroughputArgs),
-    /// Time the effect plan saves: each sim rendered with the plan and with
-    /// every effect forced on (`all_effects`), images checked to agree.
-    Plan(PlanBenchArgs),
-    /// Preparation time, peak memory, rays/s and time to a 1 % image
-    /// against the number of triangles (10³ … 10⁶) and of lamps (1 … 10⁴),
-    /// on scenes generated in Rust, each case in its own process.
-    Scale(ScaleArgs),
-}
-
-#[derive(Args)]
-pub struct ScaleArgs {
-    /// Output directory: scale.json and scale.png (required unless --case).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Triangle counts, comma-separated (e.g. 1e3,1e4,1e5,1e6; default
-    /// those, --quick: 1e3).
-    #[arg(long)]
-    pub triangles: Option<String>,
-    /// Lamp counts, comma-separated (e.g. 1,10,100,1e3,1e4; default those,
-    /// --quick: 1,10,100).
-    #[arg(long)]
-    pub lamps: Option<String>,
-    /// Small sizes, a small image, a 60 s timeout: a smoke run of seconds.
-    #[arg(long)]
-    pub quick: bool,
-    /// Image width per case, pixels (default 160, --quick 64).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height per case, pixels (default 120, --quick 48).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Camera samples per pixel (default 4, --quick 2).
-    #[arg(long)]
-    pub spp: Option<u32>,
-    /// Wall-time limit per case, seconds (default 900, --quick 60); a case
-    /// that outlives it is killed and recorded as `timeout`.
-    #[arg(long)]
-    pub timeout_s: Option<f64>,
-    /// Do not run the Mitsuba 3 comparison even when `import mitsuba` works.
-    #[arg(long)]
-    pub no_mitsuba: bool,
-    /// Worker threads per case (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
-    /// Run one case in this process and print its figures as JSON (what
-    /// the bench runs in each child process): `triangles:N` or `lamps:N`.
-    #[arg(long, hide = true)]
-    pub case: Option<String>,
-    /// Where the child writes its generated scene.
-    #[arg(long, hide = true, requires = "case")]
-    pub case_dir: Option<PathBuf>,
-}
-
-#[derive(Args)]
-pub struct PlanBenchArgs {
-    /// Scene files (default: every `sims/*/scene.toml`).
-    pub scenes: Vec<PathBuf>,
-    /// Camera samples per pixel (default 1: the plan's saving per sample).
-    #[arg(long, default_value_t = 1)]
-    pub spp: u32,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-}
-
-#[derive(Args)]
-pub struct AccuracyArgs {
-    /// The scene file (TOML).
-    pub scene: PathBuf,
-    /// Output directory: accuracy.csv, accuracy.png, summary.md, the
-    /// cached reference.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Total wall-time budget, seconds (the sweep stops cleanly when spent).
-    #[arg(long, default_value_t = 120.0)]
-    pub budget_s: f64,
-    /// Also render with every effect forced on and report the time the
-    /// effect plan saves (the tracer's `all_effects` setting).
-    #[arg(long)]
-    pub all_effects: bool,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print the summary as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-}
-
-#[derive(Args)]
-pub struct ThroughputArgs {
-    /// Scene for the ray figures (default: the office room).
-    #[arg(long)]
-    pub scene: Option<PathBuf>,
-    /// Fewer frames and shorter timings (for tests).
-    #[arg(long)]
-    pub quick: bool,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-}
 
 pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Accuracy(a) => {
-            let report = accuracy::run(&accuracy::AccuracyOptions {
-                scene: find_path(&a.scene),
-                out: a.out,
-                budget_s: a.budget_s,
-                all_effects: a.all_effects,
-                threads: a.threads,
-            })?;
-            if a.json {
-                print_json(&report.summary)
-            } else {
-                out!("{}", report.markdown);
-                Ok(())
+            let json = a.json;
+            let report = accuracy::run(&a.options())?;
+            if json {
+                return print_json(&report.summary);
             }
+            out!("{}", report.markdown);
         }
         BenchCommand::Throughput(a) => {
-            let scene = find_path(
-                a.scene
-                    .as_deref()
-                    .unwrap_or(Path::new("sims/office-room/scene.toml")),
-            );
-            let t = throughput::run(&scene, a.quick, a.threads)?;
+            let t = throughput::run(&a.scene(), a.quick, a.threads)?;
             if a.json {
-                print_json(&t)
-            } else {
-                out!("{}", t.text());
-                Ok(())
+                return print_json(&t);
             }
+            out!("{}", t.text());
         }
-        BenchCommand::Scale(a) => run_scale(a),
+        BenchCommand::Scale(a) => {
+            if let Some((case, dir)) = a.case()? {
+                let (w, h) = (a.width.unwrap_or(160), a.height.unwrap_or(120));
+                let spp = a.spp.unwrap_or(4);
+                return print_json(&scale::run_case(case, dir, w, h, spp, a.threads)?);
+            }
+            let exe =
+                std::env::current_exe().context("finding the gloam binary to run each case")?;
+            let report = scale::run(&a.options(exe)?)?;
+            if a.json {
+                return print_json(&report);
+            }
+            out!("{}", report.text());
+        }
         BenchCommand::Plan(a) => {
-            let scenes: Vec<PathBuf> = if a.scenes.is_empty() {
-                bench::default_scenes()?
-            } else {
-                a.scenes.iter().map(|p| find_path(p)).collect()
-            };
-            let check = plan_check::run(&scenes, a.spp, a.threads)?;
+            let check = plan_check::run(&a.scenes()?, a.spp, a.threads)?;
             if a.json {
                 print_json(&check.json())?;
             } else {
                 out!("{}", check.markdown());
             }
-            check.verdict().context("gloam bench plan")
+            check.verdict().context("gloam bench plan")?;
         }
     }
-}
-
-fn run_scale(a: ScaleArgs) -> anyhow::Result<()> {
-    if let Some(case) = &a.case {
-        let case = scale::Case::parse(case)?;
-        let dir = a
-            .case_dir
-            .context("--case needs --case-dir (the scratch directory for the scene)")?;
-        let r = scale::run_case(
-            case,
-            &dir,
-            a.width.unwrap_or(160),
-            a.height.unwrap_or(120),
-            a.spp.unwrap_or(4),
-            a.threads,
-        )?;
-        return print_json(&r);
-    }
-    let out = a
-        .out
-        .context("gloam bench scale: --out DIR is required (where scale.json and scale.png go)")?;
-    let exe = std::env::current_exe().context("finding the gloam binary to run each case")?;
-    let mut opts = scale::ScaleOptions::new(a.quick, out, exe);
-    if let Some(t) = &a.triangles {
-        opts.triangles = scale::parse_counts(t, "triangles", scale::MAX_TRIANGLES)?;
-    }
-    if let Some(l) = &a.lamps {
-        opts.lamps = scale::parse_counts(l, "lamps", scale::MAX_LAMPS)?;
-    }
-    opts.width = a.width.unwrap_or(opts.width);
-    opts.height = a.height.unwrap_or(opts.height);
-    opts.spp = a.spp.unwrap_or(opts.spp);
-    opts.timeout_s = a.timeout_s.unwrap_or(opts.timeout_s);
-    opts.threads = a.threads;
-    opts.no_mitsuba |= a.no_mitsuba;
-    let report = scale::run(&opts)?;
-    if a.json {
-        print_json(&report)
-    } else {
-        out!("{}", report.text());
-        Ok(())
-    }
+    Ok(())
 }

@@ -1,37 +1,14 @@
 //! `gloam plan SCENE [--json]`: which effects a render of the scene simulates
 //! and why (see `gloam_scene::plan`).
 
-use std::path::PathBuf;
-
-use clap::Args;
+pub use gloam_pipeline::cli::PlanArgs;
 
 use super::output::print_json;
-
-#[derive(Args)]
-pub struct PlanArgs {
-    /// The scene file (TOML).
-    pub scene: PathBuf,
-    /// Print `{"effects":[{"name","enabled","reason"}]}`.
-    #[arg(long)]
-    pub json: bool,
-    /// The plan's tolerance: effects whose estimated share of the band
-    /// signal at the camera is below it are not simulated (default 0.005).
-    #[arg(long)]
-    pub tolerance: Option<f64>,
-    /// Render settings the plan is made for, KEY=VALUE (repeatable).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-}
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     // The scene error already reads `file:line: field: message`.
     let scene = gloam_scene::load(&args.scene)?;
-    let settings = gloam_pipeline::SettingArgs {
-        set: args.set.clone(),
-        tolerance: args.tolerance,
-        ..Default::default()
-    }
-    .settings()?;
+    let settings = args.settings().settings()?;
     let (plan, prep) = gloam_trace::plan::effect_plan_observed(
         &scene,
         &settings,

@@ -1,6 +1,6 @@
-//! A spinner for preparation steps (BVH, light structure, sky, pilot,
-//! cache) that runs longer than a second, on a terminal only; quick steps
-//! and non-terminal stderr stay silent.
+//! Progress on a terminal only: a bar over tiles or tasks, and a spinner
+//! for preparation steps (BVH, light structure, sky, pilot, cache) that run
+//! longer than a second; quick steps and non-terminal stderr stay silent.
 
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -11,6 +11,16 @@ use gloam_trace::{PrepEvent, PrepObserver};
 
 /// A step runs this long before its spinner shows.
 const SHOW_AFTER: Duration = Duration::from_secs(1);
+
+/// A bar of `len` steps drawn with `template` and `chars` (None off a
+/// terminal).
+pub fn bar(template: &str, chars: &str, len: u64) -> Option<indicatif::ProgressBar> {
+    std::io::stderr().is_terminal().then(|| {
+        let style = indicatif::ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
+        indicatif::ProgressBar::new(len).with_style(style.progress_chars(chars))
+    })
+}
 
 /// The observer to hand to `Tracer::prepare_observed` (None off a terminal).
 pub fn prep_spinner() -> Option<PrepObserver> {

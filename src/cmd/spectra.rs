@@ -1,65 +1,27 @@
-//! `gloam spectra list|integrate`.
+//! `gloam spectra list|integrate` (arguments: [`gloam_spectra::cli`]).
 
-use clap::{Args, Subcommand};
-use gloam_spectra::{BandIntegral, library, parse_band};
+pub use gloam_spectra::cli::SpectraCommand;
+use gloam_spectra::{BandIntegral, library};
 
 use super::output::print_json;
 
-#[derive(Subcommand)]
-pub enum SpectraCommand {
-    /// List the built-in spectra with their provenance.
-    List {
-        /// Print JSON instead of a table.
-        #[arg(long)]
-        json: bool,
-    },
-    /// Integrate a spectrum over a band, optionally weighted by a response.
-    Integrate(IntegrateArgs),
-}
-
-#[derive(Args)]
-pub struct IntegrateArgs {
-    /// A built-in name (see `gloam spectra list`) or a CSV file
-    /// (`wavelength_nm,value` rows, `line,wavelength_nm,value` for lines).
-    pub spectrum: String,
-    /// The band, `LO:HI` in nm (half-open: lines at HI are excluded).
-    #[arg(long, value_parser = parse_band)]
-    pub band: (f64, f64),
-    /// Weight by this response (built-in name or CSV), e.g. `v-photopic`;
-    /// the product of the two is integrated exactly.
-    #[arg(long)]
-    pub weight: Option<String>,
-    /// Print `{"integral": …, "units": …}`.
-    #[arg(long)]
-    pub json: bool,
-}
-
 pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
     match cmd {
-        SpectraCommand::List { json } => {
-            if json {
-                print_json(&library::ENTRIES)?;
-            } else {
-                for e in library::ENTRIES {
-                    outln!(
-                        "{:<24} {:<13} {}",
-                        e.name,
-                        format!("{:?}", e.kind),
-                        e.description
-                    );
-                    outln!("{:<24} {:<13} source: {}", "", "", e.provenance);
-                }
+        SpectraCommand::List { json: true } => print_json(&library::ENTRIES)?,
+        SpectraCommand::List { json: false } => {
+            for e in library::ENTRIES {
+                let kind = format!("{:?}", e.kind);
+                outln!("{:<24} {kind:<13} {}", e.name, e.description);
+                outln!("{:<24} {:<13} source: {}", "", "", e.provenance);
             }
-            Ok(())
         }
         SpectraCommand::Integrate(a) => {
             let report = BandIntegral::of(&a.spectrum, a.band, a.weight.as_deref())?;
             if a.json {
-                print_json(&report)
-            } else {
-                outln!("{} ({})", report.integral, report.units);
-                Ok(())
+                return print_json(&report);
             }
+            outln!("{} ({})", report.integral, report.units);
         }
     }
+    Ok(())
 }

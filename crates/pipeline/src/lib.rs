@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 
 pub mod bench;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod detected;
 pub mod exposure;
 pub mod frames;

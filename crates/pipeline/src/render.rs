@@ -40,14 +40,33 @@ pub enum RenderError {
 
 /// The render settings a front end was given: `KEY=VALUE` pairs (`--set`,
 /// or the Python `settings` dict) and the flags that name one setting each.
+/// With the `cli` feature these are `gloam render`'s flags, in this order.
 #[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct SettingArgs {
-    pub set: Vec<String>,
+    /// Camera samples per pixel (default 4).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub spp: Option<u32>,
+    /// Seed of every random stream (default 0).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub seed: Option<u64>,
+    /// Area-source estimator: analytic (default), solid-angle or dirsig2001.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub estimator: Option<String>,
+    /// Any setting, KEY=VALUE (repeatable), e.g. --set recursion=2
+    /// --set MAX_SOURCE_SAMPLES=200. See `crates/trace/README.md`.
+    #[cfg_attr(feature = "cli", arg(long = "set", value_name = "KEY=VALUE"))]
+    pub set: Vec<String>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub threads: Option<usize>,
+    /// Sample each pixel adaptively until its estimated relative standard
+    /// error is below this (e.g. 0.01; dark pixels relative to 5 % of the
+    /// band mean). Same as `--set target_error=E`.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "E"))]
     pub target_error: Option<f64>,
+    /// The effect plan's tolerance (default 0.005 of the band signal).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub tolerance: Option<f64>,
 }
 

@@ -3,6 +3,8 @@
 mod analytic;
 pub mod bench;
 mod camera;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod config;
 mod effects;
 mod error;

@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 
 pub mod atmosphere;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod ephemeris;
 pub mod error;
 pub mod ground;

@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 
 pub mod band;
+#[cfg(feature = "cli")]
+pub mod cli;
 mod csv;
 mod error;
 pub mod input;

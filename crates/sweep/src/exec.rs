@@ -17,7 +17,7 @@ use gloam_simcam::FrameExposureExt;
 use gloam_trace::RenderOutput;
 use ndarray::Array2;
 
-use crate::run::{Executor, Figures};
+use crate::run::{Executor, Figures, TaskError};
 use crate::spec::{Flow, Sweep, Task};
 
 /// Runs tasks over the render and camera code.
@@ -72,7 +72,7 @@ fn render_point(sweep: &Sweep, task: &Task) -> anyhow::Result<Rendered> {
 impl Executor for Pipeline {
     type Shared = Shared;
 
-    fn prepare(&self, sweep: &Sweep, task: &Task) -> anyhow::Result<Shared> {
+    fn prepare(&self, sweep: &Sweep, task: &Task) -> Result<Shared, TaskError> {
         if task.flow() == Flow::Capture {
             return Ok(Shared::Nothing);
         }
@@ -85,8 +85,8 @@ impl Executor for Pipeline {
         task: &Task,
         shared: &Shared,
         out: &Path,
-    ) -> anyhow::Result<Figures> {
-        match shared {
+    ) -> Result<Figures, TaskError> {
+        let figures = match shared {
             Shared::Nothing => capture_stimulus(sweep, task, out),
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
@@ -95,7 +95,8 @@ impl Executor for Pipeline {
                 }
                 None => write_radiance(task, r, out),
             },
-        }
+        };
+        Ok(figures?)
     }
 }
 

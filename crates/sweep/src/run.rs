@@ -16,14 +16,99 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, bail, ensure};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use gloam_pipeline::output::write_atomic;
+use gloam_pipeline::output::{OutputError, write_atomic};
 
-use crate::spec::{Sweep, Task};
+use crate::spec::{SpecError, Sweep, Task};
+
+/// An executor's error, kept whole until the task's record states its chain.
+pub type TaskError = Box<dyn std::error::Error + Send + Sync>;
+
+/// Why a sweep directory could not be planned, opened or run (a task's
+/// own failure is not one: it goes into the task's record).
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    #[error("{what} {}", path.display())]
+    Io {
+        what: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("reading {} (is {} a sweep directory?)", plan.display(), dir.display())]
+    NotASweep {
+        plan: PathBuf,
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{} holds another sweep (its tasks differ from {}'s); use a new --out or remove it", dir.display(), file.display())]
+    AnotherSweep { dir: PathBuf, file: PathBuf },
+    #[error("{}: format '{found}', expected '{PLAN_FORMAT}'", path.display())]
+    Format { path: PathBuf, found: String },
+    #[error("{} changed since it was planned", .0.display())]
+    Changed(PathBuf),
+    #[error("{}: {planned} tasks planned, {now} now", path.display())]
+    TaskCount {
+        path: PathBuf,
+        planned: usize,
+        now: usize,
+    },
+    #[error("task {index} is outside 0..{count}")]
+    NoTask { index: usize, count: usize },
+    #[error("chunk {index} is outside 0..{count}")]
+    NoChunk { index: usize, count: usize },
+    #[error("task outputs are files; {} is not", .0.display())]
+    NotAFile(PathBuf),
+    #[error("renaming {} to {}", from.display(), to.display())]
+    Rename {
+        from: PathBuf,
+        to: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{} (JSON)", path.display())]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("starting the task pool")]
+    Pool(#[source] rayon::ThreadPoolBuildError),
+    #[error("{} task(s) failed:\n{}", .0.len(), .0.join("\n"))]
+    Failed(Vec<String>),
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> SweepError {
+    let path = path.to_path_buf();
+    move |source| SweepError::Io { what, path, source }
+}
+
+fn json(path: &Path) -> impl FnOnce(serde_json::Error) -> SweepError {
+    let path = path.to_path_buf();
+    move |source| SweepError::Json { path, source }
+}
+
+/// An error and its causes, `outer: cause: cause`, as a record keeps it.
+pub fn chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    // Bounded: a chain is finite, but guard a cyclic one.
+    for _ in 0..64 {
+        let Some(c) = cause else { break };
+        s.push_str(": ");
+        s.push_str(&c.to_string());
+        cause = c.source();
+    }
+    s
+}
 
 /// The figures a task reports (non-finite values are recorded as null).
 pub type Figures = BTreeMap<String, f64>;
@@ -34,7 +119,7 @@ pub trait Executor: Sync {
     /// The work shared by the tasks of one chunk (e.g. the scene's radiance).
     type Shared: Sync;
     /// Computes the shared work of `task`'s chunk once.
-    fn prepare(&self, sweep: &Sweep, task: &Task) -> anyhow::Result<Self::Shared>;
+    fn prepare(&self, sweep: &Sweep, task: &Task) -> Result<Self::Shared, TaskError>;
     /// Runs one task, writing its output files into `out` (an empty
     /// directory), and returns its figures.
     fn run(
@@ -43,7 +128,7 @@ pub trait Executor: Sync {
         task: &Task,
         shared: &Self::Shared,
         out: &Path,
-    ) -> anyhow::Result<Figures>;
+    ) -> Result<Figures, TaskError>;
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -121,6 +206,29 @@ pub struct Outcome {
     pub rerun_because: Vec<String>,
 }
 
+impl Outcome {
+    /// One line saying what happened to the task.
+    pub fn line(&self, task: &Task) -> String {
+        let (i, t) = (self.index, task.describe());
+        match &self.result {
+            None => format!("task {i} ({t}) already done"),
+            Some(Ok(())) => format!("task {i} ({t}) done in {:.2} s", self.seconds),
+            Some(Err(e)) => format!("task {i} ({t}) failed: {e}"),
+        }
+    }
+
+    /// Why a task recorded done ran again, when it did.
+    pub fn rerun_note(&self) -> Option<String> {
+        (!self.rerun_because.is_empty()).then(|| {
+            format!(
+                "task {}: its record is stale ({} since it ran); running it again",
+                self.index,
+                self.rerun_because.join(", ")
+            )
+        })
+    }
+}
+
 /// Why a task failed: its executor's error chain, as its record keeps it
 /// (the [`Outcome`] names the task).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
@@ -159,12 +267,12 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
-pub(crate) fn sha256_file(path: &Path) -> anyhow::Result<String> {
+pub(crate) fn sha256_file(path: &Path) -> Result<String, SweepError> {
     let mut f =
         gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-            .with_context(|| format!("reading {}", path.display()))?;
+            .map_err(io("reading", path))?;
     let mut h = Sha256::new();
-    std::io::copy(&mut f, &mut h).with_context(|| format!("reading {}", path.display()))?;
+    std::io::copy(&mut f, &mut h).map_err(io("reading", path))?;
     Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
 }
 
@@ -183,31 +291,30 @@ impl SweepDir {
         dir: &Path,
         command_line: &[String],
         provenance: serde_json::Value,
-    ) -> anyhow::Result<Self> {
+    ) -> Result<Self, SweepError> {
         let text =
             gloam_spectra::input::read_text(sweep_file, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .with_context(|| format!("reading {}", sweep_file.display()))?;
+                .map_err(io("reading", sweep_file))?;
         let base_dir = sweep_file
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
-        let base_dir = std::fs::canonicalize(base_dir)
-            .with_context(|| format!("resolving {}", base_dir.display()))?;
+        let base_dir = std::fs::canonicalize(base_dir).map_err(io("resolving", base_dir))?;
         let sweep = Sweep::parse(&text, sweep_file, &base_dir)?;
         let sha = sha256_hex(text.as_bytes());
         if dir.join("plan.json").exists() {
             let old = Self::open(dir)?;
             let ids = |s: &Sweep| s.tasks.iter().map(|t| t.id.clone()).collect::<Vec<_>>();
-            ensure!(
-                ids(&old.sweep) == ids(&sweep) && old.sweep.base_dir == sweep.base_dir,
-                "{} holds another sweep (its tasks differ from {}'s); use a new --out or remove it",
-                dir.display(),
-                sweep_file.display()
-            );
+            if ids(&old.sweep) != ids(&sweep) || old.sweep.base_dir != sweep.base_dir {
+                return Err(SweepError::AnotherSweep {
+                    dir: dir.to_path_buf(),
+                    file: sweep_file.to_path_buf(),
+                });
+            }
             return Ok(old);
         }
-        std::fs::create_dir_all(dir.join("tasks"))
-            .with_context(|| format!("creating {}", dir.display()))?;
+        std::fs::create_dir_all(dir.join("tasks")).map_err(io("creating", dir))?;
+        let plan_path = dir.join("plan.json");
         let plan = PlanFile {
             format: PLAN_FORMAT.into(),
             gloam_version: env!("CARGO_PKG_VERSION").into(),
@@ -222,15 +329,14 @@ impl SweepDir {
                 .tasks
                 .iter()
                 .map(serde_json::to_value)
-                .collect::<Result<_, _>>()?,
+                .collect::<Result<_, _>>()
+                .map_err(json(&plan_path))?,
             provenance,
         };
         // The sweep text first: plan.json is what marks the directory planned.
         write_atomic(&dir.join("sweep.toml"), text.as_bytes())?;
-        write_atomic(
-            &dir.join("plan.json"),
-            serde_json::to_string_pretty(&plan)?.as_bytes(),
-        )?;
+        let text = serde_json::to_string_pretty(&plan).map_err(json(&plan_path))?;
+        write_atomic(&plan_path, text.as_bytes())?;
         Ok(SweepDir {
             dir: dir.to_path_buf(),
             sweep,
@@ -239,41 +345,34 @@ impl SweepDir {
     }
 
     /// Opens a planned sweep directory.
-    pub fn open(dir: &Path) -> anyhow::Result<Self> {
+    pub fn open(dir: &Path) -> Result<Self, SweepError> {
         let pp = dir.join("plan.json");
-        let plan: PlanFile = serde_json::from_str(
-            &gloam_spectra::input::read_text(&pp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .with_context(|| {
-                    format!(
-                        "reading {} (is {} a sweep directory?)",
-                        pp.display(),
-                        dir.display()
-                    )
-                })?,
-        )
-        .with_context(|| format!("reading {}", pp.display()))?;
-        ensure!(
-            plan.format == PLAN_FORMAT,
-            "{}: format '{}', expected '{PLAN_FORMAT}'",
-            pp.display(),
-            plan.format
-        );
+        let text = gloam_spectra::input::read_text(&pp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .map_err(|source| SweepError::NotASweep {
+                plan: pp.clone(),
+                dir: dir.to_path_buf(),
+                source,
+            })?;
+        let plan: PlanFile = serde_json::from_str(&text).map_err(json(&pp))?;
+        if plan.format != PLAN_FORMAT {
+            let (path, found) = (pp, plan.format);
+            return Err(SweepError::Format { path, found });
+        }
         let sp = dir.join("sweep.toml");
         let text = gloam_spectra::input::read_text(&sp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .with_context(|| format!("reading {}", sp.display()))?;
-        ensure!(
-            sha256_hex(text.as_bytes()) == plan.sweep_sha256,
-            "{} changed since it was planned",
-            sp.display()
-        );
+            .map_err(io("reading", &sp))?;
+        if sha256_hex(text.as_bytes()) != plan.sweep_sha256 {
+            return Err(SweepError::Changed(sp));
+        }
         let sweep = Sweep::parse(&text, &sp, Path::new(&plan.base_dir))?;
-        ensure!(
-            sweep.tasks.len() == plan.task_count,
-            "{}: {} tasks planned, {} now",
-            pp.display(),
-            plan.task_count,
-            sweep.tasks.len()
-        );
+        if sweep.tasks.len() != plan.task_count {
+            let (planned, now) = (plan.task_count, sweep.tasks.len());
+            return Err(SweepError::TaskCount {
+                path: pp,
+                planned,
+                now,
+            });
+        }
         Ok(SweepDir {
             dir: dir.to_path_buf(),
             sweep,
@@ -281,12 +380,11 @@ impl SweepDir {
         })
     }
 
-    pub fn plan(&self) -> anyhow::Result<PlanFile> {
+    pub fn plan(&self) -> Result<PlanFile, SweepError> {
         let pp = self.dir.join("plan.json");
-        Ok(serde_json::from_str(&gloam_spectra::input::read_text(
-            &pp,
-            gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-        )?)?)
+        let text = gloam_spectra::input::read_text(&pp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .map_err(io("reading", &pp))?;
+        serde_json::from_str(&text).map_err(json(&pp))
     }
 
     pub fn task_dir(&self, index: usize) -> PathBuf {
@@ -355,12 +453,11 @@ impl SweepDir {
     }
 
     /// Runs `index` if it is not done.
-    pub fn run_task<E: Executor>(&self, exec: &E, index: usize) -> anyhow::Result<Outcome> {
-        ensure!(
-            index < self.sweep.tasks.len(),
-            "task {index} is outside 0..{}",
-            self.sweep.tasks.len()
-        );
+    pub fn run_task<E: Executor>(&self, exec: &E, index: usize) -> Result<Outcome, SweepError> {
+        let count = self.sweep.tasks.len();
+        if index >= count {
+            return Err(SweepError::NoTask { index, count });
+        }
         if self.is_done(index) {
             return Ok(self.skipped(index));
         }
@@ -371,7 +468,7 @@ impl SweepDir {
             gloam_spectra::input::collect_reads(|| exec.prepare(&self.sweep, task));
         let o = match shared {
             Ok(s) => self.run_prepared(exec, index, Ok(&s), &read, t0),
-            Err(e) => self.run_prepared::<E>(exec, index, Err(&format!("{e:#}")), &read, t0),
+            Err(e) => self.run_prepared::<E>(exec, index, Err(&chain(&*e)), &read, t0),
         }?;
         Ok(Outcome { rerun_because, ..o })
     }
@@ -394,12 +491,9 @@ impl SweepDir {
         c: usize,
         jobs: Option<usize>,
         on_task: &(dyn Fn(&Outcome) + Sync),
-    ) -> anyhow::Result<Vec<Outcome>> {
-        let members = self
-            .sweep
-            .chunks
-            .get(c)
-            .with_context(|| format!("chunk {c} is outside 0..{}", self.sweep.chunks.len()))?;
+    ) -> Result<Vec<Outcome>, SweepError> {
+        let count = self.sweep.chunks.len();
+        let members = (self.sweep.chunks.get(c)).ok_or(SweepError::NoChunk { index: c, count })?;
         let mut outcomes = Vec::new();
         let mut pending = Vec::new();
         let mut rerun_because = BTreeMap::new();
@@ -419,9 +513,9 @@ impl SweepDir {
         let t0 = Instant::now();
         let (shared, read) = gloam_spectra::input::collect_reads(|| {
             exec.prepare(&self.sweep, &self.sweep.tasks[first])
-                .map_err(|e| format!("{e:#}"))
+                .map_err(|e| chain(&*e))
         });
-        let run_one = |i: usize| -> anyhow::Result<Outcome> {
+        let run_one = |i: usize| -> Result<Outcome, SweepError> {
             let t = if i == first { t0 } else { Instant::now() };
             let o = match &shared {
                 Ok(s) => self.run_prepared(exec, i, Ok(s), &read, t)?,
@@ -434,12 +528,12 @@ impl SweepDir {
             on_task(&o);
             Ok(o)
         };
-        let ran: Vec<anyhow::Result<Outcome>> = match jobs {
+        let ran: Vec<Result<Outcome, SweepError>> = match jobs {
             Some(1) => pending.iter().map(|&i| run_one(i)).collect(),
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
-                .context("starting the task pool")?
+                .map_err(SweepError::Pool)?
                 .install(|| pending.par_iter().map(|&i| run_one(i)).collect()),
             None => pending.par_iter().map(|&i| run_one(i)).collect(),
         };
@@ -455,7 +549,7 @@ impl SweepDir {
         exec: &E,
         jobs: Option<usize>,
         on_task: &(dyn Fn(&Outcome) + Sync),
-    ) -> anyhow::Result<RunSummary> {
+    ) -> Result<RunSummary, SweepError> {
         self.remove_stale_temporaries();
         let mut s = RunSummary::default();
         for c in 0..self.sweep.chunks.len() {
@@ -486,21 +580,18 @@ impl SweepDir {
         shared: Result<&E::Shared, &str>,
         prepare_read: &[gloam_spectra::input::FileRead],
         t0: Instant,
-    ) -> anyhow::Result<Outcome> {
+    ) -> Result<Outcome, SweepError> {
         let task = &self.sweep.tasks[index];
         let tasks_dir = self.dir.join("tasks");
-        std::fs::create_dir_all(&tasks_dir)
-            .with_context(|| format!("creating {}", tasks_dir.display()))?;
+        std::fs::create_dir_all(&tasks_dir).map_err(io("creating", &tasks_dir))?;
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".tmp-{index:05}-"))
             .tempdir_in(&tasks_dir)
-            .with_context(|| {
-                format!("creating a temporary directory in {}", tasks_dir.display())
-            })?;
+            .map_err(io("creating a temporary directory in", &tasks_dir))?;
         let (result, run_read) = gloam_spectra::input::collect_reads(|| match shared {
             Ok(s) => exec
                 .run(&self.sweep, task, s, tmp.path())
-                .map_err(|e| format!("{e:#}")),
+                .map_err(|e| chain(&*e)),
             Err(e) => Err(e.to_string()),
         });
         // What the task read: its chunk's shared work and its own run.
@@ -538,16 +629,14 @@ impl SweepDir {
                     .iter()
                     .map(|(k, v)| (k.clone(), v.is_finite().then_some(*v)))
                     .collect();
-                let mut files: Vec<PathBuf> = std::fs::read_dir(tmp.path())?
-                    .map(|e| e.map(|e| e.path()))
-                    .collect::<Result<_, _>>()?;
+                let mut files: Vec<PathBuf> = std::fs::read_dir(tmp.path())
+                    .and_then(|rd| rd.map(|e| e.map(|e| e.path())).collect())
+                    .map_err(io("listing", tmp.path()))?;
                 files.sort();
                 for f in files {
-                    ensure!(
-                        f.is_file(),
-                        "task outputs are files; {} is not",
-                        f.display()
-                    );
+                    if !f.is_file() {
+                        return Err(SweepError::NotAFile(f));
+                    }
                     let name = f
                         .file_name()
                         .unwrap_or_default()
@@ -560,24 +649,28 @@ impl SweepDir {
                 record.status = Status::Failed;
                 record.error = Some(e.clone());
                 // A failed task keeps no partial outputs.
-                for e in std::fs::read_dir(tmp.path())?.flatten() {
+                let rd = std::fs::read_dir(tmp.path()).map_err(io("listing", tmp.path()))?;
+                for e in rd.flatten() {
                     let _ = std::fs::remove_file(e.path());
                 }
             }
         }
         record.seconds = t0.elapsed().as_secs_f64();
+        let rp = tmp.path().join(RECORD_FILE);
         write_atomic(
-            &tmp.path().join(RECORD_FILE),
-            serde_json::to_string_pretty(&record)?.as_bytes(),
+            &rp,
+            (serde_json::to_string_pretty(&record).map_err(json(&rp))?).as_bytes(),
         )?;
         let dest = self.task_dir(index);
         if dest.exists() {
-            std::fs::remove_dir_all(&dest)
-                .with_context(|| format!("replacing {}", dest.display()))?;
+            std::fs::remove_dir_all(&dest).map_err(io("replacing", &dest))?;
         }
         let kept = tmp.keep();
-        std::fs::rename(&kept, &dest)
-            .with_context(|| format!("renaming {} to {}", kept.display(), dest.display()))?;
+        std::fs::rename(&kept, &dest).map_err(|source| SweepError::Rename {
+            from: kept,
+            to: dest,
+            source,
+        })?;
         Ok(Outcome {
             index,
             id: task.id.clone(),
@@ -633,15 +726,69 @@ pub struct FailedTask {
     pub error: String,
 }
 
+/// `gloam sweep status`'s text: the counts, then each failed task.
+impl std::fmt::Display for TaskStates {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (n, done, failed) = (self.total, self.done, self.failed.len());
+        write!(
+            f,
+            "{n} task(s): {done} done, {failed} failed, {} pending",
+            self.pending
+        )?;
+        if !self.changed.is_empty() {
+            let k = self.changed.len();
+            write!(f, ", {k} with changed outputs or inputs (will rerun)")?;
+        }
+        for t in &self.failed {
+            write!(f, "\n  failed: task {} ({}): {}", t.index, t.axes, t.error)?;
+        }
+        Ok(())
+    }
+}
+
 /// Checks that no tasks are left to do.
-pub fn ensure_all_done(s: &TaskStates) -> anyhow::Result<()> {
+pub fn ensure_all_done(s: &TaskStates) -> Result<(), SweepError> {
     if !s.failed.is_empty() {
         let list: Vec<String> = s
             .failed
             .iter()
             .map(|f| format!("  task {} ({}): {}", f.index, f.axes, f.error))
             .collect();
-        bail!("{} task(s) failed:\n{}", s.failed.len(), list.join("\n"));
+        return Err(SweepError::Failed(list));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A task's record keeps its executor's error as anyhow prints it
+    /// (`outer: cause: cause`), the form records had before the boxing.
+    #[test]
+    fn chain_reads_as_anyhow_alternate() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::new(io)
+            .context("reading scene.toml")
+            .context("task 3");
+        let expected = format!("{e:#}");
+        let boxed: TaskError = e.into();
+        assert_eq!(chain(&*boxed), expected);
+        assert_eq!(expected, "task 3: reading scene.toml: no such file");
+    }
+
+    /// Opening a directory that is not a sweep names both files.
+    #[test]
+    fn open_names_the_missing_plan() {
+        let dir = tempfile::tempdir().unwrap();
+        let Err(e) = SweepDir::open(dir.path()) else {
+            panic!("opened an empty directory as a sweep");
+        };
+        assert!(matches!(e, SweepError::NotASweep { .. }));
+        let text = e.to_string();
+        assert!(
+            text.contains("plan.json") && text.contains("a sweep directory?"),
+            "{text}"
+        );
+    }
 }

@@ -210,6 +210,26 @@ fn run(cmd: &str, args: &[&str]) -> Result<String, QueryError> {
     }
 }
 
+/// `slurm job ID (source): STATE N, … [note]`.
+impl std::fmt::Display for JobStates {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let st: Vec<String> = self
+            .states
+            .iter()
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        write!(f, "slurm job {} ({}): ", self.job_id, self.source)?;
+        match st.is_empty() {
+            true => write!(f, "nothing queued or running")?,
+            false => write!(f, "{}", st.join(", "))?,
+        }
+        match &self.note {
+            Some(n) => write!(f, " [{n}]"),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Array-task states from `sacct`, or from `squeue` when accounting is
 /// off (as on a minimal cluster).
 pub fn job_states(job_id: &str) -> JobStates {

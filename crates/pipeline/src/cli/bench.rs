@@ -1,0 +1,189 @@
+//! `gloam bench`'s arguments and the options they give (the measuring is
+//! [`crate::bench`]).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+
+use crate::bench::{accuracy, find_path, scale};
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// Error against the truth and wall time across the accuracy settings.
+    Accuracy(AccuracyArgs),
+    /// Rays/s, sensor-chain frames/s and protocol codec GB/s.
+    Throughput(ThroughputArgs),
+    /// Time the effect plan saves: each sim rendered with the plan and with
+    /// every effect forced on (`all_effects`), images checked to agree.
+    Plan(PlanBenchArgs),
+    /// Preparation time, peak memory, rays/s and time to a 1 % image
+    /// against the number of triangles (10³ … 10⁶) and of lamps (1 … 10⁴),
+    /// on scenes generated in Rust, each case in its own process.
+    Scale(ScaleArgs),
+}
+
+#[derive(Args)]
+pub struct ScaleArgs {
+    /// Output directory: scale.json and scale.png (required unless --case).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Triangle counts, comma-separated (e.g. 1e3,1e4,1e5,1e6; default
+    /// those, --quick: 1e3).
+    #[arg(long)]
+    pub triangles: Option<String>,
+    /// Lamp counts, comma-separated (e.g. 1,10,100,1e3,1e4; default those,
+    /// --quick: 1,10,100).
+    #[arg(long)]
+    pub lamps: Option<String>,
+    /// Small sizes, a small image, a 60 s timeout: a smoke run of seconds.
+    #[arg(long)]
+    pub quick: bool,
+    /// Image width per case, pixels (default 160, --quick 64).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height per case, pixels (default 120, --quick 48).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Camera samples per pixel (default 4, --quick 2).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Wall-time limit per case, seconds (default 900, --quick 60); a case
+    /// that outlives it is killed and recorded as `timeout`.
+    #[arg(long)]
+    pub timeout_s: Option<f64>,
+    /// Do not run the Mitsuba 3 comparison even when `import mitsuba` works.
+    #[arg(long)]
+    pub no_mitsuba: bool,
+    /// Worker threads per case (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Run one case in this process and print its figures as JSON (what
+    /// the bench runs in each child process): `triangles:N` or `lamps:N`.
+    #[arg(long, hide = true)]
+    pub case: Option<String>,
+    /// Where the child writes its generated scene.
+    #[arg(long, hide = true, requires = "case")]
+    pub case_dir: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct PlanBenchArgs {
+    /// Scene files (default: every `sims/*/scene.toml`).
+    pub scenes: Vec<PathBuf>,
+    /// Camera samples per pixel (default 1: the plan's saving per sample).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct AccuracyArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output directory: accuracy.csv, accuracy.png, summary.md, the
+    /// cached reference.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Total wall-time budget, seconds (the sweep stops cleanly when spent).
+    #[arg(long, default_value_t = 120.0)]
+    pub budget_s: f64,
+    /// Also render with every effect forced on and report the time the
+    /// effect plan saves (the tracer's `all_effects` setting).
+    #[arg(long)]
+    pub all_effects: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print the summary as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct ThroughputArgs {
+    /// Scene for the ray figures (default: the office room).
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Fewer frames and shorter timings (for tests).
+    #[arg(long)]
+    pub quick: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl AccuracyArgs {
+    pub fn options(self) -> accuracy::AccuracyOptions {
+        accuracy::AccuracyOptions {
+            scene: find_path(&self.scene),
+            out: self.out,
+            budget_s: self.budget_s,
+            all_effects: self.all_effects,
+            threads: self.threads,
+        }
+    }
+}
+
+impl ThroughputArgs {
+    /// The scene for the ray figures, found from the working directory.
+    pub fn scene(&self) -> PathBuf {
+        let default = Path::new("sims/office-room/scene.toml");
+        find_path(self.scene.as_deref().unwrap_or(default))
+    }
+}
+
+impl PlanBenchArgs {
+    /// The scenes given, or every `sims/*/scene.toml`.
+    pub fn scenes(&self) -> anyhow::Result<Vec<PathBuf>> {
+        if self.scenes.is_empty() {
+            crate::bench::default_scenes()
+        } else {
+            Ok(self.scenes.iter().map(|p| find_path(p)).collect())
+        }
+    }
+}
+
+impl ScaleArgs {
+    /// `--case`'s child run: the case and its scratch directory.
+    pub fn case(&self) -> anyhow::Result<Option<(scale::Case, &Path)>> {
+        let Some(case) = &self.case else {
+            return Ok(None);
+        };
+        let dir = (self.case_dir.as_deref())
+            .context("--case needs --case-dir (the scratch directory for the scene)")?;
+        Ok(Some((scale::Case::parse(case)?, dir)))
+    }
+
+    /// The whole bench's options, each case run by `exe`.
+    pub fn options(&self, exe: PathBuf) -> anyhow::Result<scale::ScaleOptions> {
+        let out = (self.out.clone()).context(
+            "gloam bench scale: --out DIR is required (where scale.json and scale.png go)",
+        )?;
+        let mut opts = scale::ScaleOptions::new(self.quick, out, exe);
+        if let Some(t) = &self.triangles {
+            opts.triangles = scale::parse_counts(t, "triangles", scale::MAX_TRIANGLES)?;
+        }
+        if let Some(l) = &self.lamps {
+            opts.lamps = scale::parse_counts(l, "lamps", scale::MAX_LAMPS)?;
+        }
+        opts.width = self.width.unwrap_or(opts.width);
+        opts.height = self.height.unwrap_or(opts.height);
+        opts.spp = self.spp.unwrap_or(opts.spp);
+        opts.timeout_s = self.timeout_s.unwrap_or(opts.timeout_s);
+        opts.threads = self.threads;
+        opts.no_mitsuba |= self.no_mitsuba;
+        Ok(opts)
+    }
+}

@@ -1,0 +1,261 @@
+//! The command line's arguments for the pipeline's requests (feature
+//! `cli`): clap derives on the request types, so the flags, their help and
+//! the checks that turn them into a request are written next to the code
+//! they drive, and the binary only dispatches and prints.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use gloam_scene::Scene;
+use gloam_trace::DVec3;
+
+use crate::exposure::ExposureTarget;
+use crate::render::{SettingArgs, camera_of};
+use crate::{CaptureOptionsError, FrameCapture};
+
+pub mod bench;
+
+/// An argument that does not say what its flag asks for.
+#[derive(Debug, thiserror::Error)]
+pub enum ArgError {
+    #[error("--{flag} `{value}`: expected {expected}")]
+    Malformed {
+        flag: &'static str,
+        value: String,
+        expected: &'static str,
+        /// The number that did not parse, if one did not.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
+    },
+    /// A camera flag given to a render without a camera would be ignored.
+    #[error("{flag} needs a camera: give --sensor or a `sensor` entry in the scene{}",
+        if *.tile { " (a --tile render captures no frames)" } else { "" })]
+    NeedsCamera { flag: &'static str, tile: bool },
+    #[error(transparent)]
+    Capture(#[from] CaptureOptionsError),
+}
+
+/// `gloam render`.
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub settings: SettingArgs,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other files).
+    #[arg(long)]
+    pub force: bool,
+    /// Render only tile K of N: rows ⌊(K−1)H/N⌋ to ⌊KH/N⌋ (horizontal
+    /// bands), radiance only, plus `tile.json`; `gloam merge` reassembles
+    /// the tiles bit-identically. See docs/sweep.md.
+    #[arg(long, value_name = "K/N", conflicts_with = "sensor")]
+    pub tile: Option<String>,
+}
+
+/// The camera a render is captured through, and how.
+#[derive(Args)]
+pub struct CameraArgs {
+    /// Also capture the render through this camera (preset name, see
+    /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
+    /// `sensor` entry, if any. Writes `frame-NNNNNN.png` and `frames.jsonl`.
+    #[arg(long, value_name = "PRESET_OR_FILE")]
+    pub sensor: Option<String>,
+    /// Number of frames to capture (AGC and phosphor lag evolve over them;
+    /// default 1, at most 100 000). Needs a camera.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    pub frames: Option<u32>,
+    /// Manual (override) tube gain: output linear in input flux.
+    #[arg(long, conflicts_with = "agc")]
+    pub gain: Option<f64>,
+    /// Let the camera's AGC servo the gain.
+    #[arg(long)]
+    pub agc: bool,
+    /// Turn the camera's temporal noise off (deterministic mean response).
+    #[arg(long)]
+    pub no_noise: bool,
+    /// `auto`: choose the gain, gate (or exposure time) and ND filter that
+    /// put the frame's 99th percentile at 80 % of the camera's range, and
+    /// record the choice (report.json `sensor_capture.exposure`).
+    #[arg(long, value_name = "auto", value_parser = ["auto"], conflicts_with_all = ["gain", "agc"])]
+    pub exposure: Option<String>,
+}
+
+impl CameraArgs {
+    /// The camera the render is for ([`camera_of`]) and, unless the render
+    /// is a tile, its capture — checked now, not after the whole trace. A
+    /// tile is traced with the camera's band all the same (the effect plan
+    /// weighs every band, so a tile makes the whole render's decisions) but
+    /// captures nothing.
+    pub fn capture<'a>(
+        &'a self,
+        scene: &'a Scene,
+        seed: u64,
+        tile: bool,
+    ) -> Result<(Option<&'a str>, Option<FrameCapture<'a>>), ArgError> {
+        let camera = camera_of(self.sensor.as_deref(), scene);
+        let capture = camera.filter(|_| !tile).map(|sensor| FrameCapture {
+            sensor,
+            frames: self.frames.unwrap_or(1),
+            gain: self.gain,
+            agc: self.agc,
+            noise: !self.no_noise,
+            seed,
+            auto_exposure: self.exposure.as_ref().map(|_| ExposureTarget::default()),
+        });
+        match &capture {
+            Some(c) => c.check()?,
+            None => {
+                let given = [
+                    ("--frames", self.frames.is_some()),
+                    ("--gain", self.gain.is_some()),
+                    ("--agc", self.agc),
+                    ("--no-noise", self.no_noise),
+                    ("--exposure", self.exposure.is_some()),
+                ];
+                if let Some((flag, _)) = given.into_iter().find(|(_, g)| *g) {
+                    return Err(ArgError::NeedsCamera { flag, tile });
+                }
+            }
+        }
+        Ok((camera, capture))
+    }
+}
+
+/// `gloam plan`.
+#[derive(Args)]
+pub struct PlanArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Print `{"effects":[{"name","enabled","reason"}]}`.
+    #[arg(long)]
+    pub json: bool,
+    /// The plan's tolerance: effects whose estimated share of the band
+    /// signal at the camera is below it are not simulated (default 0.005).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+    /// Render settings the plan is made for, KEY=VALUE (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl PlanArgs {
+    pub fn settings(&self) -> SettingArgs {
+        SettingArgs {
+            set: self.set.clone(),
+            tolerance: self.tolerance,
+            ..Default::default()
+        }
+    }
+}
+
+/// `gloam probe`.
+#[derive(Args)]
+pub struct ProbeArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The point, scene units: X,Y,Z.
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "pixel")]
+    pub point: Option<String>,
+    /// The receiver's normal: X,Y,Z (need not be unit length).
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "pixel")]
+    pub normal: Option<String>,
+    /// Instead of a point: the radiance of pixel COL,ROW (as rendered).
+    #[arg(long, conflicts_with_all = ["point", "normal"])]
+    pub pixel: Option<String>,
+    /// Band name (default: the scene's first band).
+    #[arg(long)]
+    pub band: Option<String>,
+    /// Area-source estimator: analytic (default), solid-angle or dirsig2001.
+    #[arg(long)]
+    pub estimator: Option<String>,
+    /// Independent estimates averaged at the point (the standard error
+    /// comes from their spread).
+    #[arg(long, default_value_t = 16)]
+    /// At most 1 000 000 (each is a full estimate at the point).
+    #[arg(value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub samples: u32,
+    /// Camera samples per pixel for --pixel (default 4, as `render`).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Seed (default 0).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Any render setting, KEY=VALUE (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl ProbeArgs {
+    pub fn settings(&self) -> SettingArgs {
+        SettingArgs {
+            set: self.set.clone(),
+            spp: self.spp,
+            seed: self.seed,
+            estimator: self.estimator.clone(),
+            ..Default::default()
+        }
+    }
+
+    /// `--pixel COL,ROW`, if given.
+    pub fn pixel(&self) -> Result<Option<(u32, u32)>, ArgError> {
+        let Some(px) = &self.pixel else {
+            return Ok(None);
+        };
+        match numbers::<u32>(px).map_err(|e| malformed("pixel", px, "COL,ROW", Some(e)))?[..] {
+            [c, r] => Ok(Some((c, r))),
+            _ => Err(malformed("pixel", px, "COL,ROW", None)),
+        }
+    }
+
+    /// `--point` and `--normal` (clap requires both without `--pixel`).
+    pub fn point_normal(&self) -> Result<(DVec3, DVec3), ArgError> {
+        let triple = |flag, s: &Option<String>| {
+            let s = s.as_deref().unwrap_or_default();
+            let v = numbers::<f64>(s)
+                .map_err(|e| malformed(flag, s, "three numbers X,Y,Z", Some(e)))?;
+            match v[..] {
+                [x, y, z] if [x, y, z].iter().all(|v| v.is_finite()) => Ok(DVec3::new(x, y, z)),
+                _ => Err(malformed(flag, s, "three finite numbers X,Y,Z", None)),
+            }
+        };
+        Ok((
+            triple("point", &self.point)?,
+            triple("normal", &self.normal)?,
+        ))
+    }
+}
+
+/// Comma-separated numbers, or the first that does not parse.
+fn numbers<T>(s: &str) -> Result<Vec<T>, Box<dyn std::error::Error + Send + Sync>>
+where
+    T: std::str::FromStr,
+    T::Err: std::error::Error + Send + Sync + 'static,
+{
+    Ok(s.split(',')
+        .map(|x| x.trim().parse())
+        .collect::<Result<_, T::Err>>()?)
+}
+
+fn malformed(
+    flag: &'static str,
+    value: &str,
+    expected: &'static str,
+    source: Option<Box<dyn std::error::Error + Send + Sync>>,
+) -> ArgError {
+    let value = value.to_string();
+    ArgError::Malformed {
+        flag,
+        value,
+        expected,
+        source,
+    }
+}
