@@ -293,7 +293,7 @@ impl GrabberArgs {
             .open(&self.grabber, &opts)
             .map_err(|source| CalibError::Open {
                 uri: self.grabber.clone(),
-                source,
+                source: Box::new(source),
             })?;
         if let Some(e) = self.exposure_s {
             g.set_exposure_s(e)?;
@@ -685,7 +685,7 @@ impl CaptureArgs {
             .open(&self.grabber, &opts)
             .map_err(|source| CalibError::Open {
                 uri: self.grabber.clone(),
-                source,
+                source: Box::new(source),
             })?;
         ev(Event::Note(format!("capturing from {}", g.describe())));
         let camera = serde_json::json!({ "camera": g.describe(), "grabber": self.grabber });
@@ -755,7 +755,7 @@ impl CaptureArgs {
                             return Err(CalibError::Usage(m).into());
                         }
                     }
-                    Err(e) => return Err(CalibError::Grabbing(e).into()),
+                    Err(e) => return Err(CalibError::Grabbing(Box::new(e)).into()),
                 }
                 ev(Event::Progress(
                     &status,

@@ -94,11 +94,11 @@ pub enum CalibError {
     Open {
         uri: String,
         #[source]
-        source: GrabError,
+        source: Box<GrabError>,
     },
     /// A grab that failed for another reason than a lost or damaged frame.
     #[error("grabbing")]
-    Grabbing(#[source] GrabError),
+    Grabbing(#[source] Box<GrabError>),
     /// A sensor preset or file that does not load.
     #[error(transparent)]
     SensorConfig(#[from] gloam_sensor::ConfigError),
