@@ -125,7 +125,7 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
                     let file = format!("frame-{index:06}.png");
                     write_atomic(
                         &dir.join(&file),
-                        &png16_bytes(f.meta.width, f.meta.height, &f.pixels)?,
+                        &png16_bytes(f.meta.width, f.meta.height, f.meta.bits, &f.pixels)?,
                     )?;
                     let exposure = f.exposure();
                     for (w, k) in exposure.warnings.iter().zip(&exposure.warning_kinds) {

@@ -51,9 +51,15 @@ pub struct RenderArgs {
     pub tolerance: Option<f64>,
     /// Also capture the render through this camera (preset name, see
     /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
-    /// `sensor` entry, if any. Writes `frame-NNNNNN.png` and `frames.jsonl`.
+    /// `sensor` entry, if any; `none` renders radiance only. Writes the
+    /// frames, `frames.jsonl` and `frames-preview.png`.
     #[arg(long, value_name = "PRESET_OR_FILE")]
     pub sensor: Option<String>,
+    /// How frames are stored: png (16-bit, counts scaled to 16 bits with
+    /// sBIT; default), fits (one file per frame, with a header) or tiff
+    /// (one multi-page frames.tiff). Needs a camera.
+    #[arg(long, value_name = "FORMAT", value_parser = gloam_pipeline::FrameFormat::NAMES)]
+    pub frame_format: Option<String>,
     /// Number of frames to capture (AGC and phosphor lag evolve over them;
     /// default 1, at most 100 000). Needs a camera.
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=100_000))]
@@ -110,6 +116,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // plan weighs every band, so a tile must make the whole render's
     // decisions to be bit-identical to it.
     let camera = render::camera_of(args.sensor.as_deref(), &scene);
+    let frame_format = (args.frame_format.as_deref().map(str::parse))
+        .transpose()
+        .map_err(anyhow::Error::msg)?
+        .unwrap_or_default();
     let capture = camera
         .filter(|_| tile.is_none())
         .map(|sensor| FrameCapture {
@@ -120,6 +130,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             noise: !args.no_noise,
             seed: settings.seed,
             auto_exposure: (args.exposure.as_ref()).map(|_| ExposureTarget::default()),
+            frame_format,
         });
     // Refuse bad sensor options now, not after the whole trace.
     if let Some(c) = &capture {
@@ -132,6 +143,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             ("--agc", args.agc),
             ("--no-noise", args.no_noise),
             ("--exposure", args.exposure.is_some()),
+            ("--frame-format", args.frame_format.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
             anyhow::bail!(
@@ -195,7 +207,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     if let (Some(capture), Some(detected)) = (&capture, &rendered.detected) {
-        for line in capture.run(detected, &dir)? {
+        for line in capture.run(detected, &dir, Some(&provenance))? {
             eprintln!("{line}");
         }
         // No path: `dir` is the command's hidden staging directory until
