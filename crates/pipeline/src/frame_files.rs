@@ -193,18 +193,27 @@ impl FitsCard {
             FitsValue::Int(i) => format!("{i:>20}"),
             FitsValue::Float(x) => format!("{:>20}", fits_float(*x)),
             FitsValue::Str(s) => {
-                let clean: String = s
-                    .chars()
-                    .map(|c| if (' '..='~').contains(&c) { c } else { '?' })
-                    .collect::<String>()
-                    .replace('\'', "''");
-                // 68 characters fit between the quotes of one card.
-                let clean: String = clean.chars().take(66).collect();
+                // 68 characters fit between the quotes of one card; a
+                // quote is written twice, never split.
+                let mut clean = String::new();
+                for c in s.chars() {
+                    let c = if (' '..='~').contains(&c) { c } else { '?' };
+                    let add = if c == '\'' {
+                        "''".to_string()
+                    } else {
+                        c.to_string()
+                    };
+                    if clean.len() + add.len() > 68 {
+                        break;
+                    }
+                    clean.push_str(&add);
+                }
                 format!("'{clean:<8}'")
             }
         };
         let mut card = format!("{:<8}= {value}", self.key);
-        if !self.comment.is_empty() {
+        // A comment that does not fit whole is left out, not cut.
+        if !self.comment.is_empty() && card.len() + 3 + self.comment.len() <= 80 {
             card.push_str(" / ");
             card.push_str(self.comment);
         }
@@ -572,7 +581,10 @@ mod tests {
         assert_eq!(&t[10..30], format!("{:>20}", "2.0E1"));
         assert_eq!(&t[30..44], " / tube gain  ");
         let s = FitsCard::new("CAMERA", FitsValue::Str("it's".into()), "").text();
-        assert_eq!(s.trim_end(), "CAMERA  = 'it''s    '");
+        assert_eq!(s.trim_end(), "CAMERA  = 'it''s   '");
+        let long = FitsCard::new("INPUT1", FitsValue::Str("'".repeat(50)), "x").text();
+        assert_eq!(long.len(), 80);
+        assert_eq!(long.trim_end(), format!("INPUT1  = '{}'", "''".repeat(34)));
         assert_eq!(fits_float(1.25e-5), "1.25E-5");
         assert_eq!(fits_float(0.0), "0.0E0");
         assert_eq!(

@@ -390,7 +390,9 @@ fn fits_cards(rec: &FrameRecord, ctx: &FrameContext) -> Vec<FitsCard> {
         "software",
     ));
     if let Some(p) = &ctx.provenance {
-        c.push(FitsCard::new("DATE", Str(p.utc.clone()), "run start, UTC"));
+        // FITS dates are UTC without a zone letter.
+        let utc = p.utc.trim_end_matches('Z').to_string();
+        c.push(FitsCard::new("DATE", Str(utc), "run start, UTC"));
         const KEYS: [(&str, &str); 4] = [
             ("INPUT1", "ISHA1"),
             ("INPUT2", "ISHA2"),
