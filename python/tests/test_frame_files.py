@@ -72,8 +72,8 @@ def test_png_frames_declare_their_bits_and_fill_the_16_bit_range(gloam_bin, repo
     rec = jsonl(out / "frames.jsonl")[0]
     raw = (out / rec["file"]).read_bytes()
     # The sBIT chunk (length 1, value 12) before the image data.
-    k = raw.index(b"sBIT")
-    assert raw[k - 4:k] == b"\x00\x00\x00\x01" and raw[k + 4] == 12 and k < raw.index(b"IDAT")
+    k = raw.index(b"\x00\x00\x00\x01sBIT") + 8
+    assert raw[k] == 12 and k < raw.index(b"IDAT")
     counts = read_png_u16(out / rec["file"])
     assert float(counts.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
     # The contact sheet is there, 8-bit grey.
