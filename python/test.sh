@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The Python package's tests on a fresh machine: a new venv, maturin, numpy,
-# pytest and emva1288 (the EMVA reference analysis) from PyPI, the wheel built from this checkout, then pytest
+# pytest, emva1288 (the EMVA reference analysis) and astropy from PyPI, the wheel built from this checkout, then pytest
 # (python/tests; the bit-identity tests run the `gloam` CLI built here).
 #
 # The wheel is built with Cargo's dev profile in the workspace's target
@@ -17,7 +17,8 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 python3 -m venv "$work/venv"
 py="$work/venv/bin/python"
-"$py" -m pip install -q --disable-pip-version-check maturin numpy pytest emva1288
+# astropy: test_frame_files.py reads the FITS frames with it (a wheel, no build).
+"$py" -m pip install -q --disable-pip-version-check --only-binary astropy maturin numpy pytest emva1288 astropy
 t0=$(date +%s)
 cargo build -q --bin gloam --profile "$profile"
 "$work/venv/bin/maturin" build -q --profile "$profile" -m python/Cargo.toml --out "$work/wheels"

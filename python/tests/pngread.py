@@ -1,5 +1,9 @@
 """A minimal PNG reader for the CLI's 16-bit greyscale frames (numpy and
-zlib only), so the bit-identity test needs no imaging package."""
+zlib only), so the bit-identity test needs no imaging package.
+
+gloam stores b-bit counts scaled to 16 bits (left-bit replication) with an
+sBIT chunk declaring b, as the PNG specification asks; the counts are
+sample >> (16 - b). A PNG without sBIT holds its counts as they are."""
 
 import struct
 import zlib
@@ -10,13 +14,15 @@ import numpy as np
 def read_png_u16(path) -> np.ndarray:
     data = open(path, "rb").read()
     assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path}: not a PNG"
-    pos, idat, ihdr = 8, b"", None
+    pos, idat, ihdr, sbit = 8, b"", None, 16
     while pos < len(data):
         (n,) = struct.unpack(">I", data[pos : pos + 4])
         kind = data[pos + 4 : pos + 8]
         body = data[pos + 8 : pos + 8 + n]
         if kind == b"IHDR":
             ihdr = struct.unpack(">IIBBBBB", body)
+        elif kind == b"sBIT":
+            sbit = body[0]
         elif kind == b"IDAT":
             idat += body
         pos += 12 + n
@@ -49,4 +55,5 @@ def read_png_u16(path) -> np.ndarray:
                 cur[i] = (line[i] + p) & 0xFF
         out[y] = cur
         prev = cur
-    return (out[:, 0::2] * 256 + out[:, 1::2]).astype(np.uint16)
+    assert 1 <= sbit <= 16, f"{path}: sBIT {sbit}"
+    return ((out[:, 0::2] * 256 + out[:, 1::2]) >> (16 - sbit)).astype(np.uint16)

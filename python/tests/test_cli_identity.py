@@ -70,6 +70,10 @@ def test_captured_frames_are_bit_identical_to_render_sensor(gloam_bin, repo, tmp
     for i, rec in enumerate(records):
         png = read_png_u16(out / rec["file"])
         assert np.array_equal(png, cap.frames[i]), f"frame {i}"
+        # The file's storage is the writer's: 12-bit counts scaled to 16
+        # bits with sBIT 12 (count = sample >> 4); the rest is the record.
+        stored = rec.pop("stored")
+        assert stored == {"format": "png", "sample_shift": 4}, stored
         assert cap.meta[i] == rec, f"frames.jsonl line {i}"
     # The frames are not all alike (the noise is there).
     assert not np.array_equal(cap.frames[0], cap.frames[1])

@@ -41,7 +41,8 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     // whole frames, marked incomplete in manifest.json.
     if tally.kept > 0 || result.is_ok() {
         let why = result.as_ref().err().map(|e| format!("{e:#}"));
-        drop(writer);
+        // The contact sheet of what was kept (frames-preview.png).
+        writer.finish()?;
         set.publish(&provenance, why.as_deref())?;
     }
     let (kept, warned) = (tally.kept as usize, tally.frames_warned);

@@ -64,7 +64,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let report = serde_json::to_string_pretty(&report)?;
     write_atomic(&dir.join("report.json"), report.as_bytes())?;
     if let (Some(capture), Some(detected)) = (&capture, &rendered.detected) {
-        for line in capture.run(detected, &dir)? {
+        for line in capture.run(detected, &dir, Some(&provenance))? {
             eprintln!("{line}");
         }
         // No path: `dir` is the command's hidden staging directory until

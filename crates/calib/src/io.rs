@@ -63,7 +63,18 @@ pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
             data,
         });
     }
-    let img = image::open(path).map_err(|e| CalibError::file(path, e))?;
+    let bytes =
+        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+            .map_err(|e| CalibError::file(path, e))?;
+    if bytes.starts_with(PNG_SIGNATURE) {
+        let p = decode_png_counts(&bytes).map_err(|e| CalibError::file(path, e))?;
+        return Ok(GreyImage {
+            width: p.width as usize,
+            height: p.height as usize,
+            data: p.counts.into_iter().map(f64::from).collect(),
+        });
+    }
+    let img = image::load_from_memory(&bytes).map_err(|e| CalibError::file(path, e))?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     let data = match img {
         image::DynamicImage::ImageLuma8(b) => b.into_raw().into_iter().map(f64::from).collect(),
@@ -79,6 +90,81 @@ pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
         width: w,
         height: h,
         data,
+    })
+}
+
+const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+
+/// The counts of a grey PNG, with the bits that carry them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PngCounts {
+    pub width: u32,
+    pub height: u32,
+    /// Significant bits: the `sBIT` chunk's, else the sample depth.
+    pub bits: u8,
+    /// Row-major counts, each below 2^bits.
+    pub counts: Vec<u16>,
+}
+
+/// Why a PNG's counts could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum PngCountsError {
+    #[error(transparent)]
+    Decode(#[from] png::DecodingError),
+    #[error("expected an 8- or 16-bit grey PNG, found {colour:?} at {depth} bits")]
+    NotGrey { colour: png::ColorType, depth: u8 },
+    #[error("image larger than the decoder's output buffer")]
+    TooLarge,
+}
+
+/// The largest decoded PNG accepted, bytes (a 16-bit 16 384 × 16 384 frame).
+pub const MAX_PNG_DECODED_BYTES: usize = 1 << 29;
+
+/// Decodes a grey PNG (8 or 16 bits per sample) into counts, honouring
+/// `sBIT`: a PNG whose samples carry fewer significant bits `b` than its
+/// depth `d` holds them scaled to the full depth (PNG specification §12.4,
+/// by left-bit replication or linear scaling), and the counts are
+/// `sample >> (d − b)`, exact for either scaling. gloam writes its frames
+/// that way (so viewers show them) and reads them back here.
+pub fn decode_png_counts(bytes: &[u8]) -> Result<PngCounts, PngCountsError> {
+    let limits = png::Limits {
+        bytes: MAX_PNG_DECODED_BYTES,
+    };
+    let mut dec = png::Decoder::new_with_limits(std::io::Cursor::new(bytes), limits);
+    dec.set_transformations(png::Transformations::IDENTITY);
+    let mut reader = dec.read_info()?;
+    let info = reader.info();
+    let (colour, depth) = (info.color_type, info.bit_depth as u8);
+    if colour != png::ColorType::Grayscale || !matches!(depth, 8 | 16) {
+        return Err(PngCountsError::NotGrey { colour, depth });
+    }
+    let (width, height) = (info.width, info.height);
+    let bits = match info.sbit.as_deref() {
+        Some([b]) if (1..=depth).contains(b) => *b,
+        _ => depth,
+    };
+    let size = reader
+        .output_buffer_size()
+        .ok_or(PngCountsError::TooLarge)?;
+    if size > MAX_PNG_DECODED_BYTES {
+        return Err(PngCountsError::TooLarge);
+    }
+    let mut buf = vec![0u8; size];
+    let out = reader.next_frame(&mut buf)?;
+    buf.truncate(out.buffer_size());
+    let shift = depth - bits;
+    let counts = if depth == 16 {
+        buf.chunks_exact(2)
+            .map(|c| u16::from_be_bytes([c[0], c[1]]) >> shift)
+            .collect()
+    } else {
+        buf.iter().map(|&v| u16::from(v >> shift)).collect()
+    };
+    Ok(PngCounts {
+        width,
+        height,
+        bits,
+        counts,
     })
 }
 

@@ -11,7 +11,11 @@ use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
-use crate::output::{OutputError, png16_bytes, write_atomic};
+use crate::frame_files::{
+    ContactSheet, FitsCard, FitsValue, FrameFormat, FrameStorage, PREVIEW, TIFF_STACK, TiffStack,
+    fits_frame_bytes, png_frame_bytes,
+};
+use crate::output::{OutputError, write_atomic};
 
 /// One line of `frames.jsonl`.
 #[derive(Clone, Debug, Serialize)]
@@ -34,6 +38,16 @@ pub struct FrameRecord {
     /// The camera's saturated level when it reports one (simulated
     /// cameras), else the top code 2^bits − 1.
     pub saturated_at_dn: f64,
+    /// The camera's black level (no light) at this frame's gain, DN, when
+    /// it reports one (simulated cameras).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub black_dn: Option<f64>,
+    /// The ND filter's optical density and the photocathode's gate duty
+    /// cycle as configured (before the tube's ABC), for simulated cameras.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nd_density: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gate_duty: Option<f64>,
     /// The stage whose clip the saturated pixels hit (`ccd-full-well`,
     /// `video-clip` or `digitizer-rail`), when the camera reports it.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -49,6 +63,10 @@ pub struct FrameRecord {
     /// in process.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor: Option<gloam_sensor::FrameMeta>,
+    /// How the counts sit in `file` (format, shift, TIFF page); set by
+    /// the [`FrameWriter`] that wrote it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stored: Option<FrameStorage>,
 }
 
 impl FrameRecord {
@@ -75,10 +93,14 @@ impl FrameRecord {
                 .map_or(f64::from((1u32 << f.meta.bits.min(16)) - 1), |l| {
                     l.saturated_at_dn
                 }),
+            black_dn: f.meta.levels.map(|l| l.black_dn),
+            nd_density: None,
+            gate_duty: None,
             saturated_by: None,
             mcp_compressed_fraction: None,
             warnings,
             sensor: None,
+            stored: None,
         }
     }
 }
@@ -120,10 +142,14 @@ impl FrameRecord {
             mean_dn: m.mean_dn,
             saturated_fraction: m.saturated_fraction,
             saturated_at_dn: chain.saturated_threshold_dn(g),
+            black_dn: Some(black),
+            nd_density: Some(camera.config().optics.nd_density),
+            gate_duty: camera.config().photocathode.as_ref().map(|p| p.gate_duty),
             saturated_by: Some(m.saturation.saturated_by),
             mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
             warnings,
             sensor: Some(m.clone()),
+            stored: None,
         }
     }
 }
@@ -182,30 +208,203 @@ impl FrameLog {
     }
 }
 
-/// Writes frames as every command does: `frame-NNNNNN.png` (16-bit,
-/// atomically) and then its record appended to `frames.jsonl`, so the
-/// log never lists a frame that is not on disk.
+/// What a frame file's header names besides the frame's own record: the
+/// camera, the noise seed and the run's provenance (FITS only).
+#[derive(Clone, Debug, Default)]
+pub struct FrameContext {
+    /// The camera: preset name, sensor file or grabber URI.
+    pub camera: Option<String>,
+    pub seed: Option<u64>,
+    pub provenance: Option<crate::Provenance>,
+}
+
+/// The most frames [`FrameWriter`]'s contact sheet shows.
+pub const PREVIEW_FRAMES: usize = 16;
+
+/// Writes frames as every command does: each frame's file in the chosen
+/// [`FrameFormat`] (PNG and FITS atomically, one file per frame; TIFF as
+/// pages appended to `frames.tiff`), then its record appended to
+/// `frames.jsonl`, so the log never lists a frame that is not on disk;
+/// [`FrameWriter::finish`] adds the contact sheet `frames-preview.png`.
 pub struct FrameWriter {
     dir: PathBuf,
     log: FrameLog,
+    format: FrameFormat,
+    context: FrameContext,
+    tiff: Option<TiffStack>,
+    sheet: ContactSheet,
 }
 
 impl FrameWriter {
-    /// Creates (truncates) `dir/frames.jsonl`.
+    /// PNG frames; creates (truncates) `dir/frames.jsonl`.
     pub fn create(dir: &Path) -> Result<Self, FrameLogError> {
+        Self::with_format(dir, FrameFormat::Png, FrameContext::default())
+    }
+
+    /// Frames in `format`, FITS headers naming `context`.
+    pub fn with_format(
+        dir: &Path,
+        format: FrameFormat,
+        context: FrameContext,
+    ) -> Result<Self, FrameLogError> {
         Ok(Self {
             dir: dir.to_path_buf(),
             log: FrameLog::create(dir)?,
+            format,
+            context,
+            tiff: None,
+            sheet: ContactSheet::new(PREVIEW_FRAMES),
         })
     }
 
-    /// Writes the frame `rec` describes (its file name and size) with its
-    /// counts `pixels` in row order, then appends `rec` to the log.
+    /// Writes the frame `rec` describes (its index and size) with its
+    /// counts `pixels` in row order, then appends `rec` to the log with
+    /// its `file` and `stored` set to where and how the counts went.
     pub fn write(&mut self, rec: &FrameRecord, pixels: &[u16]) -> Result<(), FrameLogError> {
-        let png = png16_bytes(rec.width, rec.height, pixels)?;
-        write_atomic(&self.dir.join(&rec.file), &png)?;
-        self.log.append(rec)
+        let mut rec = rec.clone();
+        rec.file = self.format.file_name(rec.index);
+        let (w, h) = (rec.width, rec.height);
+        let stored = match self.format {
+            FrameFormat::Png => {
+                let (png, shift) = png_frame_bytes(w, h, rec.bits, pixels)?;
+                write_atomic(&self.dir.join(&rec.file), &png)?;
+                FrameStorage {
+                    format: self.format,
+                    sample_shift: shift,
+                    page: None,
+                }
+            }
+            FrameFormat::Fits => {
+                let cards = fits_cards(&rec, &self.context);
+                write_atomic(
+                    &self.dir.join(&rec.file),
+                    &fits_frame_bytes(w, h, pixels, &cards),
+                )?;
+                FrameStorage {
+                    format: self.format,
+                    sample_shift: 0,
+                    page: None,
+                }
+            }
+            FrameFormat::Tiff => {
+                let stack = match &mut self.tiff {
+                    Some(t) => t,
+                    None => self
+                        .tiff
+                        .insert(TiffStack::create(&self.dir.join(TIFF_STACK))?),
+                };
+                let page = stack.append(w, h, rec.bits, pixels)?;
+                FrameStorage {
+                    format: self.format,
+                    sample_shift: 0,
+                    page: Some(page),
+                }
+            }
+        };
+        rec.stored = Some(stored);
+        let black = rec.black_dn.unwrap_or(0.0);
+        (self.sheet).add(rec.index, w, h, pixels, black, rec.saturated_at_dn);
+        self.log.append(&rec)
     }
+
+    /// Writes `frames-preview.png` (the contact sheet) and closes the TIFF.
+    pub fn finish(self) -> Result<(), FrameLogError> {
+        drop(self.tiff);
+        if let Some(png) = self.sheet.png()? {
+            write_atomic(&self.dir.join(PREVIEW), &png)?;
+        }
+        Ok(())
+    }
+}
+
+/// A frame's FITS header cards after the mandatory ones: the frame's
+/// settings and levels from its record, then the context's camera, seed
+/// and provenance.
+fn fits_cards(rec: &FrameRecord, ctx: &FrameContext) -> Vec<FitsCard> {
+    use FitsValue::{Bool, Float, Int, Str};
+    let mut c = vec![
+        FitsCard::new("BUNIT", Str("DN".into()), "digital counts"),
+        FitsCard::new("FRAME", Int(rec.index.into()), "index in this capture"),
+        FitsCard::new("SEQ", Int(rec.seq.into()), "camera frame number"),
+        FitsCard::new(
+            "TSTAMPUS",
+            Int(rec.timestamp.into()),
+            "frame start, us from stream start",
+        ),
+    ];
+    if let Some(m) = &rec.sensor {
+        c.push(FitsCard::new(
+            "EXPTIME",
+            Float(m.exposure_s),
+            "exposure time, s",
+        ));
+    }
+    if let Some(d) = rec.gate_duty {
+        c.push(FitsCard::new(
+            "GATEDUTY",
+            Float(d),
+            "photocathode gate duty cycle",
+        ));
+    }
+    if let Some(nd) = rec.nd_density {
+        c.push(FitsCard::new(
+            "NDDENS",
+            Float(nd),
+            "ND filter optical density",
+        ));
+    }
+    c.extend([
+        FitsCard::new("GAIN", Float(rec.gain), "tube or system gain in effect"),
+        FitsCard::new("AGC", Bool(rec.agc), "gain set by the AGC"),
+        FitsCard::new("BITS", Int(rec.bits.into()), "digitizer bits"),
+    ]);
+    if let Some(b) = rec.black_dn {
+        c.push(FitsCard::new("BLACKDN", Float(b), "black level, DN"));
+    }
+    c.extend([
+        FitsCard::new(
+            "SATDN",
+            Float(rec.saturated_at_dn),
+            "saturated at or above, DN",
+        ),
+        FitsCard::new("MEANDN", Float(rec.mean_dn), "mean count, DN"),
+        FitsCard::new(
+            "SATFRAC",
+            Float(rec.saturated_fraction),
+            "saturated fraction",
+        ),
+    ]);
+    if let Some(cam) = &ctx.camera {
+        c.push(FitsCard::new(
+            "CAMERA",
+            Str(cam.clone()),
+            "sensor preset, file or URI",
+        ));
+    }
+    if let Some(seed) = ctx.seed {
+        c.push(FitsCard::new("SEED", Int(seed.into()), "noise seed"));
+    }
+    c.push(FitsCard::new(
+        "GLOAMVER",
+        Str(crate::provenance::VERSION_WITH_COMMIT.into()),
+        "software",
+    ));
+    if let Some(p) = &ctx.provenance {
+        // FITS dates are UTC without a zone letter.
+        let utc = p.utc.trim_end_matches('Z').to_string();
+        c.push(FitsCard::new("DATE", Str(utc), "run start, UTC"));
+        const KEYS: [(&str, &str); 4] = [
+            ("INPUT1", "ISHA1"),
+            ("INPUT2", "ISHA2"),
+            ("INPUT3", "ISHA3"),
+            ("INPUT4", "ISHA4"),
+        ];
+        for (f, (k, h)) in p.inputs.iter().zip(KEYS) {
+            c.push(FitsCard::new(k, Str(f.path.clone()), "input file"));
+            c.push(FitsCard::new(h, Str(f.sha256.clone()), "its SHA-256"));
+        }
+    }
+    c
 }
 
 /// Why a capture's options are refused.
@@ -311,6 +510,8 @@ pub struct FrameCapture<'a> {
     /// `--exposure auto`: choose gain, gate or exposure time and ND for
     /// this scene first ([`crate::exposure`]); the gain is then fixed.
     pub auto_exposure: Option<crate::exposure::ExposureTarget>,
+    /// How [`FrameCapture::run`] stores the frames (`--frame-format`).
+    pub frame_format: FrameFormat,
 }
 
 /// One frame of a capture, as the camera made it.
@@ -406,14 +607,15 @@ impl FrameCapture<'_> {
                 .capture_detected(detected.view())
                 .map_err(|source| CaptureError::Frame { index: i, source })?;
             let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
-            let file = format!("frame-{i:06}.png");
+            let file = self.frame_format.file_name(u64::from(i));
             let m = &frame.meta;
             let g = m.gain_in_effect;
             let chain = camera.chain();
             let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
             let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
             let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
-            let rec = FrameRecord::of_sensor_frame(u64::from(i), file, &frame, &pixels, &camera);
+            let rec =
+                FrameRecord::of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
             // The record's warnings are these kinds' messages, in order.
             for (w, k) in rec.warnings.iter().zip(&kinds) {
                 if warned.insert(*k) {
@@ -428,7 +630,7 @@ impl FrameCapture<'_> {
                 }
             }
             per_frame.push(serde_json::json!({
-                "file": format!("frame-{i:06}.png"),
+                "file": file,
                 "gain": g,
                 "mean_dn": m.mean_dn,
                 "saturated_fraction": m.saturated_fraction,
@@ -459,19 +661,38 @@ impl FrameCapture<'_> {
         Ok(Captured { notes, report })
     }
 
-    /// [`FrameCapture::capture`] into `out`: `frame-NNNNNN.png` and
-    /// `frames.jsonl` as frames are made, and `sensor_capture` added to
-    /// `out/report.json` when there is one. Returns what its user should
-    /// be told, as lines; the front end prints them.
-    pub fn run(&self, detected: &Array2<f64>, out: &Path) -> Result<Vec<String>, CaptureError> {
+    /// [`FrameCapture::capture`] into `out`: the frames in
+    /// `frame_format` and `frames.jsonl` as frames are made, then
+    /// `frames-preview.png`, and `sensor_capture` added to
+    /// `out/report.json` when there is one; FITS headers carry
+    /// `provenance`. Returns what its user should be told, as lines; the
+    /// front end prints them.
+    pub fn run(
+        &self,
+        detected: &Array2<f64>,
+        out: &Path,
+        provenance: Option<&crate::Provenance>,
+    ) -> Result<Vec<String>, CaptureError> {
         let mut writer = None;
+        let context = FrameContext {
+            camera: Some(self.sensor.to_string()),
+            seed: Some(self.seed),
+            provenance: provenance.cloned(),
+        };
         let captured = self.capture(detected, &mut |f| {
             let w = match &mut writer {
                 Some(w) => w,
-                None => writer.insert(FrameWriter::create(out)?),
+                None => writer.insert(FrameWriter::with_format(
+                    out,
+                    self.frame_format,
+                    context.clone(),
+                )?),
             };
             Ok(w.write(&f.record, &f.pixels)?)
         })?;
+        if let Some(w) = writer {
+            w.finish()?;
+        }
         record_in_report(out, captured.report)?;
         Ok(captured.notes)
     }

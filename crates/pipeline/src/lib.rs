@@ -5,6 +5,7 @@ pub mod bench;
 pub mod cli;
 pub mod detected;
 pub mod exposure;
+pub mod frame_files;
 pub mod frames;
 pub mod output;
 pub mod output_set;
@@ -13,9 +14,10 @@ pub mod render;
 pub mod scene_view;
 
 pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detected_band};
+pub use frame_files::FrameFormat;
 pub use frames::{
-    CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameLog,
-    FrameRecord, FrameWriter, check_options,
+    CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameContext,
+    FrameLog, FrameRecord, FrameWriter, check_options,
 };
 pub use output_set::OutputSet;
 pub use provenance::Provenance;

@@ -64,17 +64,17 @@ pub fn write_atomic_with(
     write_atomic(path, &bytes)
 }
 
-/// A 16-bit greyscale PNG of row-major `pixels` (any bit depth up to 16 is
-/// stored unscaled in the 16-bit container, so counts survive exactly).
-pub fn png16_bytes(width: u32, height: u32, pixels: &[u16]) -> Result<Vec<u8>, OutputError> {
-    use image::ImageEncoder;
-    let mut bytes = Vec::with_capacity(pixels.len() * 2 + 1024);
-    // The encoder takes 16-bit samples in native byte order (PNG itself is big-endian).
-    let ne: Vec<u8> = pixels.iter().flat_map(|p| p.to_ne_bytes()).collect();
-    image::codecs::png::PngEncoder::new(&mut bytes)
-        .write_image(&ne, width, height, image::ExtendedColorType::L16)
-        .map_err(OutputError::Png)?;
-    Ok(bytes)
+/// A 16-bit greyscale PNG of a frame's row-major `bits`-bit counts,
+/// scaled to the full depth with `sBIT` declared so viewers show it
+/// (see [`crate::frame_files::png_frame_bytes`]); gloam's readers return
+/// the exact counts.
+pub fn png16_bytes(
+    width: u32,
+    height: u32,
+    bits: u8,
+    pixels: &[u16],
+) -> Result<Vec<u8>, OutputError> {
+    Ok(crate::frame_files::png_frame_bytes(width, height, bits, pixels)?.0)
 }
 
 /// Float32 TIFF, one page per band.

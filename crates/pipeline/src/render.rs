@@ -141,9 +141,18 @@ fn refuse_both(set: &[String], key: &str, flag: &str) -> Result<(), RenderError>
 /// else the scene's own `sensor` entry. Every front end takes it so: the
 /// effect plan weighs every band, the camera's detected band included, so
 /// a render for a camera and one without are not bit-identical.
+/// [`NO_CAMERA`] (`--sensor none`) asks for radiance only, even when the
+/// scene names a camera.
 pub fn camera_of<'a>(given: Option<&'a str>, scene: &'a Scene) -> Option<&'a str> {
-    given.or(scene.sensor.as_deref())
+    match given {
+        Some(NO_CAMERA) => None,
+        Some(g) => Some(g),
+        None => scene.sensor.as_deref(),
+    }
 }
+
+/// The camera name that means "no camera: radiance only".
+pub const NO_CAMERA: &str = "none";
 
 /// A render to run: the scene, its settings and the camera it is for.
 pub struct RenderJob<'a> {

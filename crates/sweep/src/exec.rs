@@ -3,6 +3,7 @@
 //! detected band), and each task writes its images or captures its frames.
 //!
 //! Frames are written as every other command writes them: 16-bit PNGs
+//! (counts scaled to 16 bits, `sBIT` declared) and `frames-preview.png`
 //! through the one atomic writer and one [`FrameRecord`] per line of
 //! `frames.jsonl`, so a sweep task's frames read like `gloam capture`'s.
 
@@ -145,6 +146,7 @@ fn capture_detected(
         noise: task.noise(),
         seed: task.seed,
         auto_exposure: None,
+        frame_format: Default::default(),
     };
     let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
@@ -156,6 +158,7 @@ fn capture_detected(
         frames.push(f.pixels);
         Ok(())
     })?;
+    writer.finish()?;
     let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
     let mut f = crate::figures::frame_figures(&refs, Some(black));
     f.insert("gain_in_effect".into(), gain);
@@ -198,6 +201,7 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Fi
         gain = f.meta.gain;
         frames.push(f.pixels);
     }
+    writer.finish()?;
     let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
     let mut f = crate::figures::frame_figures(&refs, black);
     f.insert("gain_in_effect".into(), gain);

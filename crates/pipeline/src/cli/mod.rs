@@ -63,9 +63,15 @@ pub struct RenderArgs {
 pub struct CameraArgs {
     /// Also capture the render through this camera (preset name, see
     /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
-    /// `sensor` entry, if any. Writes `frame-NNNNNN.png` and `frames.jsonl`.
+    /// `sensor` entry, if any; `none` renders radiance only. Writes the
+    /// frames, `frames.jsonl` and `frames-preview.png`.
     #[arg(long, value_name = "PRESET_OR_FILE")]
     pub sensor: Option<String>,
+    /// How frames are stored: png (16-bit, counts scaled to 16 bits with
+    /// sBIT; default), fits (one file per frame, with a header) or tiff
+    /// (one multi-page frames.tiff). Needs a camera.
+    #[arg(long, value_name = "FORMAT", value_parser = crate::FrameFormat::NAMES)]
+    pub frame_format: Option<String>,
     /// Number of frames to capture (AGC and phosphor lag evolve over them;
     /// default 1, at most 100 000). Needs a camera.
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=100_000))]
@@ -99,6 +105,15 @@ impl CameraArgs {
         tile: bool,
     ) -> Result<(Option<&'a str>, Option<FrameCapture<'a>>), ArgError> {
         let camera = camera_of(self.sensor.as_deref(), scene);
+        let frame_format = match self.frame_format.as_deref() {
+            None => crate::FrameFormat::default(),
+            Some(v) => v.parse().map_err(|e: String| ArgError::Malformed {
+                flag: "frame-format",
+                value: v.to_string(),
+                expected: "png, fits or tiff",
+                source: Some(e.into()),
+            })?,
+        };
         let capture = camera.filter(|_| !tile).map(|sensor| FrameCapture {
             sensor,
             frames: self.frames.unwrap_or(1),
@@ -107,6 +122,7 @@ impl CameraArgs {
             noise: !self.no_noise,
             seed,
             auto_exposure: self.exposure.as_ref().map(|_| ExposureTarget::default()),
+            frame_format,
         });
         match &capture {
             Some(c) => c.check()?,
@@ -117,6 +133,7 @@ impl CameraArgs {
                     ("--agc", self.agc),
                     ("--no-noise", self.no_noise),
                     ("--exposure", self.exposure.is_some()),
+                    ("--frame-format", self.frame_format.is_some()),
                 ];
                 if let Some((flag, _)) = given.into_iter().find(|(_, g)| *g) {
                     return Err(ArgError::NeedsCamera { flag, tile });

@@ -1,0 +1,677 @@
+//! Frame files: how a capture's counts are stored so that a person can
+//! look at them in any viewer and a program reads the exact counts back.
+//!
+//! - **PNG** (default, `frame-NNNNNN.png`): 16-bit grey, the counts scaled
+//!   to the full 16 bits by left-bit replication and an `sBIT` chunk
+//!   declaring the camera's significant bits, as the PNG specification
+//!   (§12.4) asks; a viewer shows the image at its true brightness and a
+//!   reader recovers the counts as `sample >> (16 − bits)`
+//!   ([`gloam_calib::io::decode_png_counts`]).
+//! - **FITS** (`frame-NNNNNN.fits`): one primary HDU per frame, BITPIX 16
+//!   with BZERO 32768 (unsigned counts, as they are), and a header with
+//!   the frame's settings ([`fits_frame_bytes`]).
+//! - **TIFF** (`frames.tiff`): one 16-bit page per frame, counts as they
+//!   are, `MaxSampleValue` = 2^bits − 1.
+//!
+//! Beside them every capture writes `frames-preview.png`, an 8-bit
+//! contact sheet of up to 16 frames picked evenly ([`ContactSheet`]).
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::output::OutputError;
+
+/// How frames are stored (`--frame-format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameFormat {
+    #[default]
+    Png,
+    Fits,
+    Tiff,
+}
+
+impl FrameFormat {
+    pub const NAMES: [&'static str; 3] = ["png", "fits", "tiff"];
+
+    /// The file frame `index` is stored in (all frames share one TIFF).
+    pub fn file_name(self, index: u64) -> String {
+        match self {
+            Self::Png => format!("frame-{index:06}.png"),
+            Self::Fits => format!("frame-{index:06}.fits"),
+            Self::Tiff => TIFF_STACK.to_string(),
+        }
+    }
+}
+
+/// The multi-page TIFF of a capture.
+pub const TIFF_STACK: &str = "frames.tiff";
+
+/// The contact sheet of a capture.
+pub const PREVIEW: &str = "frames-preview.png";
+
+impl std::str::FromStr for FrameFormat {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "png" => Ok(Self::Png),
+            "fits" => Ok(Self::Fits),
+            "tiff" => Ok(Self::Tiff),
+            other => Err(format!(
+                "frame format '{other}' is none of {}",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+/// How one frame's counts sit in its file (`frames.jsonl`'s `stored`):
+/// counts = stored sample >> `sample_shift` (FITS after BZERO).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FrameStorage {
+    pub format: FrameFormat,
+    pub sample_shift: u8,
+    /// The page of `frames.tiff` (from 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub page: Option<u64>,
+}
+
+/// `v` (a `bits`-bit count) scaled to 16 bits by left-bit replication:
+/// the count's bits repeated down to the last bit, so 0 stays 0, the top
+/// code becomes 65 535, and `result >> (16 − bits)` is `v` again.
+pub fn replicate_to_16(v: u16, bits: u8) -> u16 {
+    let bits = u32::from(bits.clamp(1, 16));
+    let v = u32::from(v) & ((1 << bits) - 1);
+    let mut out = 0u32;
+    let mut filled = 0u32;
+    // At most 16 rounds (bits ≥ 1).
+    while filled < 16 {
+        let shift = 16i32 - (filled + bits) as i32;
+        out |= if shift >= 0 {
+            v << shift
+        } else {
+            v >> (-shift)
+        };
+        filled += bits;
+    }
+    out as u16
+}
+
+/// A 16-bit grey PNG of a frame's counts, and the shift that recovers
+/// them. With `bits` < 16 and every count below 2^bits, the samples are
+/// left-bit-replicated to 16 bits with `sBIT` = bits (shift 16 − bits);
+/// otherwise (16-bit cameras, or a device that sent counts beyond its
+/// declared depth) the counts are stored as they are, without `sBIT`
+/// (shift 0), so nothing is ever lost.
+pub fn png_frame_bytes(
+    width: u32,
+    height: u32,
+    bits: u8,
+    pixels: &[u16],
+) -> Result<(Vec<u8>, u8), OutputError> {
+    let fits_bits = (1..16).contains(&bits) && pixels.iter().all(|&p| p >> bits == 0);
+    let shift = if fits_bits { 16 - bits } else { 0 };
+    let be: Vec<u8> = pixels
+        .iter()
+        .flat_map(|&p| {
+            let s = if fits_bits {
+                replicate_to_16(p, bits)
+            } else {
+                p
+            };
+            s.to_be_bytes()
+        })
+        .collect();
+    let mut bytes = Vec::with_capacity(be.len() / 2 + 1024);
+    let enc_err = |e: png::EncodingError| OutputError::Encode {
+        path: PathBuf::from("frame PNG"),
+        source: Box::new(e),
+    };
+    {
+        let mut enc = png::Encoder::new(&mut bytes, width, height);
+        enc.set_color(png::ColorType::Grayscale);
+        enc.set_depth(png::BitDepth::Sixteen);
+        let note = if fits_bits {
+            format!(
+                "{bits}-bit counts left-bit-replicated to 16 bits (sBIT {bits}): count = sample >> {shift}"
+            )
+        } else {
+            "counts as they are (no scaling)".to_string()
+        };
+        enc.add_text_chunk("Comment".into(), note)
+            .map_err(enc_err)?;
+        enc.add_text_chunk(
+            "Software".into(),
+            format!("gloam {}", env!("CARGO_PKG_VERSION")),
+        )
+        .map_err(enc_err)?;
+        let mut w = enc.write_header().map_err(enc_err)?;
+        if fits_bits {
+            // sBIT must precede IDAT: declared right after the header.
+            w.write_chunk(png::chunk::sBIT, &[bits]).map_err(enc_err)?;
+        }
+        w.write_image_data(&be).map_err(enc_err)?;
+        w.finish().map_err(enc_err)?;
+    }
+    Ok((bytes, shift))
+}
+
+/// One FITS header value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FitsValue {
+    Bool(bool),
+    Int(i128),
+    Float(f64),
+    Str(String),
+}
+
+/// One 80-character header card: keyword (≤ 8 characters of A–Z, 0–9,
+/// `-`, `_`), value and comment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitsCard {
+    pub key: &'static str,
+    pub value: FitsValue,
+    pub comment: &'static str,
+}
+
+impl FitsCard {
+    pub fn new(key: &'static str, value: FitsValue, comment: &'static str) -> Self {
+        Self {
+            key,
+            value,
+            comment,
+        }
+    }
+
+    /// The card in the fixed format of the FITS standard (4.0, §4.2):
+    /// `= ` in columns 9–10, numbers and logicals right-justified to
+    /// column 30, strings quoted from column 11; printable ASCII only.
+    fn text(&self) -> String {
+        let value = match &self.value {
+            FitsValue::Bool(b) => format!("{:>20}", if *b { "T" } else { "F" }),
+            FitsValue::Int(i) => format!("{i:>20}"),
+            FitsValue::Float(x) => format!("{:>20}", fits_float(*x)),
+            FitsValue::Str(s) => {
+                // 68 characters fit between the quotes of one card; a
+                // quote is written twice, never split.
+                let mut clean = String::new();
+                for c in s.chars() {
+                    let c = if (' '..='~').contains(&c) { c } else { '?' };
+                    let add = if c == '\'' {
+                        "''".to_string()
+                    } else {
+                        c.to_string()
+                    };
+                    if clean.len() + add.len() > 68 {
+                        break;
+                    }
+                    clean.push_str(&add);
+                }
+                format!("'{clean:<8}'")
+            }
+        };
+        let mut card = format!("{:<8}= {value}", self.key);
+        // A comment that does not fit whole is left out, not cut.
+        if !self.comment.is_empty() && card.len() + 3 + self.comment.len() <= 80 {
+            card.push_str(" / ");
+            card.push_str(self.comment);
+        }
+        let mut card: String = card.chars().take(80).collect();
+        while card.len() < 80 {
+            card.push(' ');
+        }
+        card
+    }
+}
+
+/// A float as FITS writes it: Rust's shortest round-trip digits with an
+/// upper-case exponent and a decimal point (`2.0E1`); NaN and infinities,
+/// which FITS has no literal for, are written as strings by the caller.
+fn fits_float(x: f64) -> String {
+    let s = format!("{x:E}");
+    match s.split_once('E') {
+        Some((m, e)) if !m.contains('.') => format!("{m}.0E{e}"),
+        _ => s,
+    }
+}
+
+/// The FITS block: headers and data are padded to multiples of it.
+pub const FITS_BLOCK: usize = 2880;
+
+/// A FITS file of one frame: a primary HDU of `width × height` unsigned
+/// 16-bit counts (BITPIX 16, BZERO 32768: stored value = count − 32768,
+/// big-endian), row 0 of `pixels` first, with `cards` after the mandatory
+/// keywords. Non-finite floats are written as strings.
+pub fn fits_frame_bytes(width: u32, height: u32, pixels: &[u16], cards: &[FitsCard]) -> Vec<u8> {
+    let mandatory = [
+        FitsCard::new("SIMPLE", FitsValue::Bool(true), "conforms to FITS"),
+        FitsCard::new("BITPIX", FitsValue::Int(16), "16-bit integers"),
+        FitsCard::new("NAXIS", FitsValue::Int(2), "an image"),
+        FitsCard::new("NAXIS1", FitsValue::Int(width.into()), "columns"),
+        FitsCard::new("NAXIS2", FitsValue::Int(height.into()), "rows"),
+        FitsCard::new("BZERO", FitsValue::Int(32768), "unsigned 16-bit counts"),
+        FitsCard::new("BSCALE", FitsValue::Int(1), ""),
+    ];
+    let mut out = Vec::with_capacity(FITS_BLOCK * 2 + pixels.len() * 2);
+    for c in mandatory.iter().chain(cards) {
+        let c = match &c.value {
+            FitsValue::Float(x) if !x.is_finite() => {
+                FitsCard::new(c.key, FitsValue::Str(x.to_string()), c.comment)
+            }
+            _ => c.clone(),
+        };
+        out.extend_from_slice(c.text().as_bytes());
+    }
+    out.extend_from_slice(format!("{:<80}", "END").as_bytes());
+    pad_to_block(&mut out, b' ');
+    for &p in pixels {
+        // count − 32768 as a two's-complement i16 is the count with its
+        // top bit flipped.
+        out.extend_from_slice(&(p ^ 0x8000).to_be_bytes());
+    }
+    pad_to_block(&mut out, 0);
+    out
+}
+
+fn pad_to_block(v: &mut Vec<u8>, fill: u8) {
+    let n = v.len().div_ceil(FITS_BLOCK) * FITS_BLOCK;
+    v.resize(n, fill);
+}
+
+/// Classic TIFF addresses 4 GiB; a stack that would pass it is refused
+/// (use PNG or FITS frames for longer captures).
+pub const MAX_TIFF_STACK_BYTES: u64 = (4 << 30) - (64 << 20);
+
+/// `frames.tiff`, one 16-bit page per frame, appended as frames come: the
+/// file is a complete TIFF after every page (the encoder links each new
+/// page into the chain as it finishes it).
+pub struct TiffStack {
+    path: PathBuf,
+    encoder: tiff::encoder::TiffEncoder<std::fs::File>,
+    bytes: u64,
+    pages: u64,
+}
+
+impl TiffStack {
+    pub fn create(path: &Path) -> Result<Self, OutputError> {
+        let file = std::fs::File::create(path).map_err(|e| encode_err(path, e))?;
+        let encoder = tiff::encoder::TiffEncoder::new(file).map_err(|e| encode_err(path, e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            encoder,
+            bytes: 8,
+            pages: 0,
+        })
+    }
+
+    /// Appends one page; returns its index.
+    pub fn append(
+        &mut self,
+        width: u32,
+        height: u32,
+        bits: u8,
+        pixels: &[u16],
+    ) -> Result<u64, OutputError> {
+        let page_bytes = pixels.len() as u64 * 2 + 1024;
+        if self.bytes + page_bytes > MAX_TIFF_STACK_BYTES {
+            return Err(encode_err(
+                &self.path,
+                format!(
+                    "page {} would take the TIFF past 4 GiB; use --frame-format png or fits",
+                    self.pages
+                ),
+            ));
+        }
+        let path = &self.path;
+        let mut img = self
+            .encoder
+            .new_image::<tiff::encoder::colortype::Gray16>(width, height)
+            .map_err(|e| encode_err(path, e))?;
+        let max = if (1..16).contains(&bits) {
+            (1u16 << bits) - 1
+        } else {
+            u16::MAX
+        };
+        let enc = img.encoder();
+        enc.write_tag(tiff::tags::Tag::MaxSampleValue, max)
+            .and_then(|()| {
+                enc.write_tag(
+                    tiff::tags::Tag::Software,
+                    concat!("gloam ", env!("CARGO_PKG_VERSION")),
+                )
+            })
+            .map_err(|e| encode_err(path, e))?;
+        img.write_data(pixels).map_err(|e| encode_err(path, e))?;
+        self.bytes += page_bytes;
+        self.pages += 1;
+        Ok(self.pages - 1)
+    }
+}
+
+fn encode_err(path: &Path, e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> OutputError {
+    OutputError::Encode {
+        path: path.to_path_buf(),
+        source: e.into(),
+    }
+}
+
+/// The longest side of one frame in the contact sheet, pixels (larger
+/// frames are box-averaged down by a whole factor).
+pub const SHEET_TILE_PX: u32 = 512;
+
+/// Space between tiles, pixels, and its grey (neither black nor white,
+/// so empty and saturated frames both stand apart from it).
+const SHEET_GAP_PX: u32 = 4;
+const SHEET_GAP_GREY: u8 = 96;
+
+/// One frame, scaled to 8 bits and shrunk for the sheet.
+struct Tile {
+    index: u64,
+    width: u32,
+    height: u32,
+    grey: Vec<u8>,
+}
+
+/// `frames-preview.png`: up to `max_tiles` frames picked evenly from the
+/// capture, each scaled linearly from its black level (0) to its clip
+/// (255), in a grid. Frames arrive one at a time and their number is not
+/// known in advance (a capture may stop early), so it keeps every
+/// `stride`-th frame and doubles the stride whenever more than twice
+/// `max_tiles` are kept: at most 2·`max_tiles` small tiles in memory.
+pub struct ContactSheet {
+    max_tiles: usize,
+    stride: u64,
+    kept: Vec<Tile>,
+}
+
+impl ContactSheet {
+    pub fn new(max_tiles: usize) -> Self {
+        Self {
+            max_tiles: max_tiles.max(1),
+            stride: 1,
+            kept: Vec::new(),
+        }
+    }
+
+    /// Offers frame `index` (counts `pixels`, black level and clip in DN).
+    pub fn add(
+        &mut self,
+        index: u64,
+        width: u32,
+        height: u32,
+        pixels: &[u16],
+        black_dn: f64,
+        clip_dn: f64,
+    ) {
+        if index % self.stride != 0 || pixels.len() != width as usize * height as usize {
+            return;
+        }
+        self.kept
+            .push(tile(index, width, height, pixels, black_dn, clip_dn));
+        if self.kept.len() > 2 * self.max_tiles {
+            self.stride *= 2;
+            let s = self.stride;
+            self.kept.retain(|t| t.index % s == 0);
+        }
+    }
+
+    /// The indices of the frames the sheet shows, in order.
+    pub fn shown(&self) -> Vec<u64> {
+        self.picked().iter().map(|t| t.index).collect()
+    }
+
+    fn picked(&self) -> Vec<&Tile> {
+        let n = self.kept.len();
+        if n <= self.max_tiles {
+            return self.kept.iter().collect();
+        }
+        // Evenly over the kept frames, first and last included; distinct
+        // because n − 1 ≥ max_tiles − 1.
+        let m = self.max_tiles;
+        (0..m)
+            .map(|k| {
+                &self.kept[if m == 1 {
+                    0
+                } else {
+                    (k * (n - 1) + (m - 1) / 2) / (m - 1)
+                }]
+            })
+            .collect()
+    }
+
+    /// The sheet as an 8-bit grey PNG; None before any frame.
+    pub fn png(&self) -> Result<Option<Vec<u8>>, OutputError> {
+        let tiles = self.picked();
+        if tiles.is_empty() {
+            return Ok(None);
+        }
+        let cw = tiles.iter().map(|t| t.width).max().unwrap_or(1);
+        let ch = tiles.iter().map(|t| t.height).max().unwrap_or(1);
+        let cols = (tiles.len() as f64).sqrt().ceil() as u32;
+        let rows = (tiles.len() as u32).div_ceil(cols);
+        let (w, h) = (
+            cols * cw + (cols - 1) * SHEET_GAP_PX,
+            rows * ch + (rows - 1) * SHEET_GAP_PX,
+        );
+        let mut sheet = vec![SHEET_GAP_GREY; w as usize * h as usize];
+        for (k, t) in tiles.iter().enumerate() {
+            let (c, r) = (k as u32 % cols, k as u32 / cols);
+            let (x0, y0) = (c * (cw + SHEET_GAP_PX), r * (ch + SHEET_GAP_PX));
+            for y in 0..t.height {
+                let src = &t.grey[(y * t.width) as usize..][..t.width as usize];
+                let at = ((y0 + y) * w + x0) as usize;
+                sheet[at..at + t.width as usize].copy_from_slice(src);
+            }
+        }
+        let img = image::GrayImage::from_raw(w, h, sheet).ok_or(OutputError::PreviewSize)?;
+        let mut bytes = Vec::new();
+        img.write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .map_err(OutputError::Png)?;
+        Ok(Some(bytes))
+    }
+}
+
+/// A frame scaled from `black_dn` (0) to `clip_dn` (255) and box-averaged
+/// down to at most [`SHEET_TILE_PX`] on its longest side.
+fn tile(index: u64, width: u32, height: u32, pixels: &[u16], black_dn: f64, clip_dn: f64) -> Tile {
+    let f = width.max(height).div_ceil(SHEET_TILE_PX).max(1);
+    let (tw, th) = (width.div_ceil(f), height.div_ceil(f));
+    let span = if clip_dn > black_dn {
+        clip_dn - black_dn
+    } else {
+        f64::from(u16::MAX)
+    };
+    let black = if clip_dn > black_dn { black_dn } else { 0.0 };
+    let mut grey = Vec::with_capacity(tw as usize * th as usize);
+    for ty in 0..th {
+        for tx in 0..tw {
+            let (mut sum, mut n) = (0.0, 0u32);
+            for y in ty * f..((ty + 1) * f).min(height) {
+                for x in tx * f..((tx + 1) * f).min(width) {
+                    sum += f64::from(pixels[(y * width + x) as usize]);
+                    n += 1;
+                }
+            }
+            let v = sum / f64::from(n.max(1));
+            grey.push((255.0 * ((v - black) / span).clamp(0.0, 1.0)).round() as u8);
+        }
+    }
+    Tile {
+        index,
+        width: tw,
+        height: th,
+        grey,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn replication_repeats_the_bits_and_shifts_back_exactly() {
+        // Closed forms: 8 bits → v·257; 12 bits → v·16 + v>>8; 16 → v.
+        for v in 0..=255u16 {
+            assert_eq!(replicate_to_16(v, 8), v * 257);
+        }
+        for v in 0..4096u16 {
+            let r = replicate_to_16(v, 12);
+            assert_eq!(r, (v << 4) | (v >> 8));
+            assert_eq!(r >> 4, v);
+        }
+        assert_eq!(replicate_to_16(0x2AB, 10), (0x2AB << 6) | (0x2AB >> 4));
+        assert_eq!(replicate_to_16(1, 1), 0xFFFF);
+        assert_eq!(replicate_to_16(5, 3), 0b1011_0110_1101_1011);
+        assert_eq!(replicate_to_16(54_321, 16), 54_321);
+        // The top code is white, zero black.
+        for bits in 1..=16u8 {
+            let top = ((1u32 << bits) - 1) as u16;
+            assert_eq!(replicate_to_16(top, bits), u16::MAX);
+            assert_eq!(replicate_to_16(0, bits), 0);
+        }
+    }
+
+    fn counts_of(bits: u8, n: usize) -> Vec<u16> {
+        // Every code's neighbourhood: 0, the top code and a spread between.
+        let top = ((1u32 << bits) - 1) as u64;
+        (0..n as u64)
+            .map(|i| ((i * 2_654_435_761) % (top + 1)) as u16)
+            .chain([0, top as u16])
+            .collect()
+    }
+
+    #[test]
+    fn png_frames_round_trip_exactly_at_8_12_and_16_bits() {
+        for bits in [8u8, 12, 16] {
+            let px = counts_of(bits, 7 * 5 - 2);
+            let (bytes, shift) = png_frame_bytes(7, 5, bits, &px).unwrap();
+            assert_eq!(shift, if bits == 16 { 0 } else { 16 - bits });
+            // Read back by gloam's own reader: the exact counts and bits.
+            let back = gloam_calib::io::decode_png_counts(&bytes).unwrap();
+            assert_eq!((back.width, back.height, back.bits), (7, 5, bits));
+            assert_eq!(back.counts, px, "{bits} bits");
+            // An ordinary decoder (ignoring sBIT) sees the full 16-bit
+            // range: the top code is white.
+            let img = image::load_from_memory(&bytes).unwrap().into_luma16();
+            let top = ((1u32 << bits) - 1) as u16;
+            let i = px.iter().position(|&p| p == top).unwrap();
+            assert_eq!(img.as_raw()[i], u16::MAX);
+        }
+    }
+
+    #[test]
+    fn counts_beyond_the_declared_bits_are_stored_unscaled() {
+        let px = [0u16, 4095, 5000];
+        let (bytes, shift) = png_frame_bytes(3, 1, 12, &px).unwrap();
+        assert_eq!(shift, 0);
+        let back = gloam_calib::io::decode_png_counts(&bytes).unwrap();
+        assert_eq!((back.bits, back.counts), (16, px.to_vec()));
+    }
+
+    #[test]
+    fn fits_cards_follow_the_fixed_format() {
+        let c = FitsCard::new("GAIN", FitsValue::Float(20.0), "tube gain");
+        let t = c.text();
+        assert_eq!(t.len(), 80);
+        assert_eq!(&t[..10], "GAIN    = ");
+        assert_eq!(&t[10..30], format!("{:>20}", "2.0E1"));
+        assert_eq!(&t[30..44], " / tube gain  ");
+        let s = FitsCard::new("CAMERA", FitsValue::Str("it's".into()), "").text();
+        assert_eq!(s.trim_end(), "CAMERA  = 'it''s   '");
+        let long = FitsCard::new("INPUT1", FitsValue::Str("'".repeat(50)), "x").text();
+        assert_eq!(long.len(), 80);
+        assert_eq!(long.trim_end(), format!("INPUT1  = '{}'", "''".repeat(34)));
+        assert_eq!(fits_float(1.25e-5), "1.25E-5");
+        assert_eq!(fits_float(0.0), "0.0E0");
+        assert_eq!(
+            FitsCard::new("AGC", FitsValue::Bool(false), "").text()[10..30],
+            format!("{:>20}", "F")
+        );
+    }
+
+    /// An independent reading of the header: 80-column cards up to END.
+    fn header(bytes: &[u8]) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        for card in bytes.chunks(80) {
+            let card = std::str::from_utf8(card).unwrap();
+            if card.starts_with("END ") {
+                break;
+            }
+            let (k, rest) = card.split_at(8);
+            let v = rest.strip_prefix("= ").unwrap_or(rest);
+            let v = if v.trim_start().starts_with('\'') {
+                v.trim().split('\'').nth(1).unwrap().trim_end().to_string()
+            } else {
+                v.split(" /").next().unwrap().trim().to_string()
+            };
+            out.push((k.trim().to_string(), v));
+        }
+        out
+    }
+
+    #[test]
+    fn a_fits_frame_is_blocked_and_its_counts_come_back_through_bzero() {
+        let px: Vec<u16> = vec![0, 1, 4095, 32768, 65535, 7];
+        let cards = [FitsCard::new("EXPTIME", FitsValue::Float(0.04), "s")];
+        let b = fits_frame_bytes(3, 2, &px, &cards);
+        assert_eq!(b.len() % FITS_BLOCK, 0);
+        assert_eq!(b.len(), 2 * FITS_BLOCK);
+        let h = header(&b);
+        let get = |k: &str| h.iter().find(|(key, _)| key == k).unwrap().1.clone();
+        assert_eq!(h[0], ("SIMPLE".into(), "T".into()));
+        assert_eq!(
+            (get("BITPIX"), get("NAXIS"), get("NAXIS1"), get("NAXIS2")),
+            ("16".into(), "2".into(), "3".into(), "2".into())
+        );
+        assert_eq!(get("BZERO"), "32768");
+        assert_eq!(get("EXPTIME").parse::<f64>().unwrap(), 0.04);
+        // The data: big-endian i16 from the second block, + BZERO.
+        let data = &b[FITS_BLOCK..];
+        let back: Vec<u16> = data
+            .chunks(2)
+            .take(6)
+            .map(|c| (i32::from(i16::from_be_bytes([c[0], c[1]])) + 32768) as u16)
+            .collect();
+        assert_eq!(back, px);
+        assert!(data[12..].iter().all(|&z| z == 0));
+    }
+
+    #[test]
+    fn the_sheet_picks_frames_evenly_and_scales_black_to_clip() {
+        let mut s = ContactSheet::new(4);
+        for i in 0..100u64 {
+            s.add(i, 2, 1, &[100, 1100], 100.0, 1100.0);
+        }
+        let shown = s.shown();
+        assert_eq!(shown.len(), 4);
+        assert_eq!(shown[0], 0);
+        assert!(shown.windows(2).all(|w| w[1] > w[0]));
+        assert!(shown[3] >= 64, "{shown:?}");
+        let png = s.png().unwrap().unwrap();
+        let img = image::load_from_memory(&png).unwrap().into_luma8();
+        assert_eq!(img.dimensions(), (2 * 2 + SHEET_GAP_PX, 2 + SHEET_GAP_PX));
+        // Black level → 0, clip → 255.
+        assert_eq!(
+            (img.get_pixel(0, 0).0[0], img.get_pixel(1, 0).0[0]),
+            (0, 255)
+        );
+        assert_eq!(img.get_pixel(2, 0).0[0], SHEET_GAP_GREY);
+        // Few frames: all of them.
+        let mut few = ContactSheet::new(16);
+        for i in 0..3 {
+            few.add(i, 1, 1, &[5], 0.0, 10.0);
+        }
+        assert_eq!(few.shown(), vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn large_frames_shrink_to_the_tile_size() {
+        let t = tile(0, 1030, 10, &vec![50u16; 10_300], 0.0, 100.0);
+        assert_eq!((t.width, t.height), (344, 4));
+        assert!(t.grey.iter().all(|&g| g == 128));
+    }
+}

@@ -1,0 +1,81 @@
+"""Frame files as other tools read them: a FITS frame through astropy
+(header values and counts against frames.jsonl and the Python capture of
+the same seed), and the PNG frame's sBIT scaling."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import gloam
+from pngread import read_png_u16
+
+fits = pytest.importorskip("astropy.io.fits")
+
+
+def run(gloam_bin, *args, cwd):
+    subprocess.run([gloam_bin, *map(str, args)], cwd=cwd, check=True, capture_output=True)
+
+
+def jsonl(path):
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+SCENE = "sims/night-new-moon/scene.toml"
+COMMON = ["--spp", "1", "--seed", "5", "--set", "resolution_scale=0.25",
+          "--sensor", "gen3-gaas-iccd", "--frames", "2", "--gain", "30"]
+
+
+def test_fits_frames_open_in_astropy_with_the_recorded_header(gloam_bin, repo, tmp_path):
+    out = tmp_path / "fits"
+    run(gloam_bin, "render", repo / SCENE, "--out", out, *COMMON, "--frame-format", "fits", cwd=tmp_path)
+    records = jsonl(out / "frames.jsonl")
+    assert len(records) == 2
+    # The same frames through the Python package (same seed): the counts
+    # the FITS files must hold.
+    r = gloam.render(gloam.Scene.load(repo / SCENE), spp=1, seed=5, settings={"resolution_scale": 0.25},
+                     sensor="gen3-gaas-iccd")
+    cap = gloam.Sensor.preset("gen3-gaas-iccd").capture(r, frames=2, gain=30, seed=5)
+    for i, rec in enumerate(records):
+        assert rec["file"] == f"frame-{i:06d}.fits"
+        assert rec["stored"] == {"format": "fits", "sample_shift": 0}
+        with fits.open(out / rec["file"]) as hdul:
+            h, data = hdul[0].header, hdul[0].data
+            # BITPIX 16 + BZERO 32768: astropy gives unsigned counts.
+            assert h["BITPIX"] == 16 and h["BZERO"] == 32768
+            assert data.dtype == np.uint16
+            assert data.shape == (rec["height"], rec["width"])
+            assert np.array_equal(data, cap.frames[i]), f"frame {i}"
+            assert float(data.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
+            assert h["GAIN"] == rec["gain"] == 30.0
+            assert h["AGC"] is False
+            assert h["BITS"] == rec["bits"] == 12
+            assert h["BLACKDN"] == rec["black_dn"]
+            assert h["SATDN"] == rec["saturated_at_dn"]
+            assert h["GATEDUTY"] == rec["gate_duty"]
+            assert h["NDDENS"] == rec["nd_density"]
+            assert h["EXPTIME"] == rec["sensor"]["exposure_s"] > 0
+            assert h["TSTAMPUS"] == rec["timestamp"]
+            assert h["FRAME"] == i and h["SEQ"] == rec["seq"]
+            assert h["CAMERA"] == "gen3-gaas-iccd"
+            assert h["SEED"] == 5
+            assert h["GLOAMVER"].startswith(gloam.__version__)
+            # Provenance: the scene file named on the command line, hashed.
+            inputs = {h[f"INPUT{k}"]: h[f"ISHA{k}"] for k in range(1, 5) if f"INPUT{k}" in h}
+            assert any(p.endswith("night-new-moon/scene.toml") and len(s) == 64 for p, s in inputs.items()), inputs
+
+
+def test_png_frames_declare_their_bits_and_fill_the_16_bit_range(gloam_bin, repo, tmp_path):
+    out = tmp_path / "png"
+    run(gloam_bin, "render", repo / SCENE, "--out", out, *COMMON, cwd=tmp_path)
+    rec = jsonl(out / "frames.jsonl")[0]
+    raw = (out / rec["file"]).read_bytes()
+    # The sBIT chunk (length 1, value 12) before the image data.
+    k = raw.index(b"\x00\x00\x00\x01sBIT") + 8
+    assert raw[k] == 12 and k < raw.index(b"IDAT")
+    counts = read_png_u16(out / rec["file"])
+    assert float(counts.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
+    # The contact sheet is there, 8-bit grey.
+    sheet = (out / "frames-preview.png").read_bytes()
+    assert sheet[:8] == b"\x89PNG\r\n\x1a\n" and sheet[24] == 8
