@@ -175,8 +175,8 @@ pub const STRATIFICATION_GROUPS: usize = 64;
 /// A group pools at least this many pixels.
 const MIN_POOLED_PIXELS: usize = 256;
 
-/// Below this many samples a pixel's per-sample deviation is taken as at
-/// least its 3 × 3 neighbourhood's (adaptive renders).
+/// Below this many samples a pixel's per-sample deviation is its 3 × 3
+/// neighbourhood's RMS (adaptive renders).
 pub const TRUSTED_SPP: u32 = 8;
 
 /// Pixels within this distance (a square window) lend their scale to a
@@ -220,7 +220,9 @@ fn stated_std_errors(
             out[i * nb + b] = if e.band_lit[b] && bound_dark && e.n < TRUSTED_SPP {
                 // Few samples can all land on one side of a shadow edge
                 // and agree: until a pixel has TRUSTED_SPP, its per-sample
-                // deviation is at least its neighbours'.
+                // deviation is the RMS over its 3 × 3 neighbourhood (its
+                // own included), which a penumbra's neighbours raise and a
+                // smooth region leaves unbiased.
                 let (r, c) = (i / w, i % w);
                 let (sum, count) = (r.saturating_sub(1)..(r + 2).min(h))
                     .flat_map(|rr| (c.saturating_sub(1)..(c + 2).min(w)).map(move |cc| rr * w + cc))
@@ -228,7 +230,7 @@ fn stated_std_errors(
                     .fold((0.0, 0.0), |(s, k), v| (s + v * v, k + 1.0));
                 let near = (sum / f64::max(count, 1.0)).sqrt();
                 let d = e.mean(b).abs().max(floor.get(b).copied().unwrap_or(0.0));
-                (e.std_error(b) * factor[i]).max(near * d / (e.n as f64).sqrt())
+                near * d / (e.n as f64).sqrt()
             } else if e.band_lit[b] || e.n == 0 || !bound_dark {
                 e.std_error(b) * factor[i]
             } else {

@@ -28,6 +28,11 @@ pub struct Errors {
     /// Per pixel: `sqrt(mean(((x−t)/t)²))` (penumbrae and dark walls count
     /// as much as bright ones).
     pub pixel: f64,
+    /// Per pixel as `--target-error` defines it: `(x−t)/max(t, floor)`
+    /// with the render's dark floor (`DARK_FLOOR` × the image's band
+    /// mean), so a near-black pixel counts by its error against that
+    /// floor, as the target does — what "achieved vs asked" compares.
+    pub pixel_as_targeted: f64,
     /// `max |x−t|/t` over pixels above 1 % of the band mean.
     pub max_rel: f64,
 }
@@ -40,6 +45,7 @@ pub fn errors(img: &Array3<f64>, truth: &Truth) -> Errors {
     let mut n = 0usize;
     let mut nrel = 0usize;
     let mut max_rel: f64 = 0.0;
+    let mut rel2_floor = 0.0;
     for (b, (pi, pt)) in img
         .axis_iter(Axis(0))
         .zip(truth.image.axis_iter(Axis(0)))
@@ -53,6 +59,8 @@ pub fn errors(img: &Array3<f64>, truth: &Truth) -> Errors {
             }
         }
         let floor = 0.01 * sum_t / cnt.max(1) as f64;
+        let target_floor =
+            gloam_trace::render::DARK_FLOOR * pi.iter().sum::<f64>() / pi.len().max(1) as f64;
         for ((r, c), &m) in truth.mask.indexed_iter() {
             if !m {
                 continue;
@@ -65,6 +73,7 @@ pub fn errors(img: &Array3<f64>, truth: &Truth) -> Errors {
             n += 1;
             if t > 0.0 {
                 rel2 += ((x - t).powi(2) - var) / (t * t);
+                rel2_floor += ((x - t).powi(2) - var) / t.max(target_floor).powi(2);
                 nrel += 1;
             }
             if t > floor && t > 0.0 {
@@ -76,12 +85,14 @@ pub fn errors(img: &Array3<f64>, truth: &Truth) -> Errors {
         return Errors {
             energy: f64::NAN,
             pixel: f64::NAN,
+            pixel_as_targeted: f64::NAN,
             max_rel: f64::NAN,
         };
     }
     Errors {
         energy: ((se - sv).max(0.0) / st).sqrt(),
         pixel: (rel2 / nrel.max(1) as f64).max(0.0).sqrt(),
+        pixel_as_targeted: (rel2_floor / nrel.max(1) as f64).max(0.0).sqrt(),
         max_rel,
     }
 }
