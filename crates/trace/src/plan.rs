@@ -223,6 +223,7 @@ impl Tracer {
                 rays: self.settings.cache_rays,
                 tolerance: self.settings.cache_tolerance,
                 max_iterations: 200,
+                direct_cell_mean: false,
             });
             self.preparation.end(step, self.observer.clone().as_ref());
             d.cache = Some(cache.summary.clone());
@@ -404,6 +405,7 @@ impl Tracer {
             rays: PILOT_RAYS,
             tolerance: 1e-3,
             max_iterations: 200,
+            direct_cell_mean: true,
         });
         let cam = &self.camera;
         let cols = PILOT_COLS.min(cam.width).max(1);
