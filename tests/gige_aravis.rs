@@ -97,10 +97,14 @@ fn arv_test_reports_no_failure_and_arv_tool_reads_back_writes() {
         dir.path(),
         "",
         r#"arv-test-0.8 -c "$DIR/arv-test.cfg"; echo "arv-test rc=$?"
-arv-tool-0.8 control GainAuto=Off Gain=50 Width=200 PixelFormat=Mono16 ExposureTime=12345 AcquisitionFrameRate=12.5
-arv-tool-0.8 control Gain GainAuto Width Height PixelFormat ExposureTime PayloadSize AcquisitionFrameRate DeviceVendorName SensorWidth
-arv-tool-0.8 control Width=100000 Gain=2.5
-arv-tool-0.8 control Width Gain"#,
+arv-tool-0.8 control GainAuto=Off Gain=50 GainLinear Width=200 PixelFormat=Mono16 ExposureTime=12345 AcquisitionFrameRate=12.5 \
+  Gain GainAuto Width Height PixelFormat ExposureTime PayloadSize AcquisitionFrameRate DeviceVendorName SensorWidth \
+  Width=100000 Gain=2.5 Width Gain \
+  UserSetSelector=UserSet1 UserSetSave
+echo "second session"
+arv-tool-0.8 control Width AcquisitionFrameRate GainAuto=Continuous Gain=60 UserSetSelector=UserSet1 UserSetLoad Width DeviceReset
+echo "after reset"
+arv-tool-0.8 control Width"#,
         240,
     );
     let out = &run.stdout;
@@ -125,9 +129,13 @@ arv-tool-0.8 control Width Gain"#,
     ] {
         assert!(out.contains(t), "missing '{t}':\n{out}");
     }
-    // Values written through GenICam come back, in the units of the XML.
+    let (first, rest) = out.split_once("second session").expect("second session");
+    let (second, third) = rest.split_once("after reset").expect("after reset");
+    // Values written through GenICam come back, in the units of the XML:
+    // Gain in dB as SFNC defines it (50 dB: a factor of 316.228).
     for want in [
-        "Gain = 50 x",
+        "Gain = 50 dB",
+        "GainLinear = 316.228 x",
         "GainAuto = Off",
         "Width = 200",
         "Height = 240",
@@ -137,16 +145,28 @@ arv-tool-0.8 control Width Gain"#,
         "AcquisitionFrameRate = 12.5",
         "DeviceVendorName = gloam",
         "SensorWidth = 320",
+        "UserSetSave executed",
     ] {
-        assert!(out.contains(want), "missing '{want}':\n{out}");
+        assert!(first.contains(want), "missing '{want}':\n{out}");
     }
-    // Out-of-range writes (the preset's gain range is 14.55–7451) are
-    // refused with a GVCP status and change nothing.
-    assert!(out.contains("Width write error"), "{out}");
-    assert!(out.contains("Gain write error"), "{out}");
-    assert!(out.contains("invalid-parameter"), "{out}");
-    assert!(out.matches("Width = 200").count() >= 2, "{out}");
-    assert!(out.matches("Gain = 50 x").count() >= 2, "{out}");
+    // Out-of-range writes (the preset's gain range is 14.55–7451 ×,
+    // 23.3–77.4 dB) are refused with a GVCP status and change nothing.
+    assert!(first.contains("Width write error"), "{out}");
+    assert!(first.contains("Gain write error"), "{out}");
+    assert!(first.contains("invalid-parameter"), "{out}");
+    assert!(first.matches("Width = 200").count() >= 2, "{out}");
+    assert!(first.matches("Gain = 50 dB").count() >= 2, "{out}");
+    // A new session starts from the Default set, not from what the last
+    // client left; UserSet1 holds what was saved; under GainAuto a Gain
+    // write is refused as write-protected (locked), not access-denied.
+    assert!(second.contains("Width = 320"), "{out}");
+    assert!(!second.contains("AcquisitionFrameRate = 12.5"), "{out}");
+    assert!(second.contains("Gain write error"), "{out}");
+    assert!(second.contains("write-protect"), "{out}");
+    assert!(second.contains("UserSetLoad executed"), "{out}");
+    assert!(second.contains("Width = 200"), "{out}");
+    assert!(second.contains("DeviceReset executed"), "{out}");
+    assert!(third.contains("Width = 320"), "{out}");
 }
 
 #[test]

@@ -93,6 +93,19 @@ pub struct StreamCounters {
     pub resend_requests: u32,
 }
 
+/// The settings a user set holds: what a client configures, not the
+/// transport (stream channel, heartbeat) nor the world (`GloamStimulus`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UserSet {
+    settings: CaptureSettings,
+    pixel_format: u32,
+    frame_rate_hz: f32,
+    mcp_voltage_v: f32,
+    acquisition_mode: u32,
+    frame_count: u32,
+    trigger_mode: u32,
+}
+
 /// The device.
 pub struct Device {
     identity: Identity,
@@ -110,7 +123,6 @@ pub struct Device {
     settings: CaptureSettings,
     pixel_format: u32,
     frame_rate_hz: f32,
-    gain: f32,
     gain_in_effect_milli: Option<u32>,
     bright_source_protection: bool,
     mcp_voltage_v: f32,
@@ -126,6 +138,14 @@ pub struct Device {
     stimulus: Vec<u8>,
     counters: StreamCounters,
     events: Vec<Event>,
+    /// Default (the preset's, read-only) and UserSet1.
+    user_sets: [UserSet; 2],
+    user_set_selector: u32,
+    /// The set a new control session and DeviceReset load.
+    user_set_default: u32,
+    /// High word of an 8-byte double register written, waiting for its low
+    /// word: (address, value).
+    pending_high: Option<(u32, u32)>,
 }
 
 /// Byte offset of `addr` in the `GloamStimulus` string register.
@@ -153,6 +173,10 @@ impl Device {
             max_frame_rate_hz: facts.max_frame_rate_hz,
             has_agc: facts.has_agc,
             mcp_range_v: mcp,
+            gain_range: (
+                f64::from(facts.min_gain_milli) / 1000.0,
+                f64::from(facts.max_gain_milli) / 1000.0,
+            ),
         })
         .into_bytes();
         let url = format!(
@@ -172,9 +196,17 @@ impl Device {
         facts.defaults = settings;
         let mut user_name = [0u8; 16];
         put_str(&mut user_name, &identity.user_name);
+        let power_up = UserSet {
+            settings,
+            pixel_format: pf,
+            frame_rate_hz: facts.sensor_frame_rate_hz as f32,
+            mcp_voltage_v: settings.mcp_voltage_mv as f32 / 1000.0,
+            acquisition_mode: value::ACQUISITION_MODE_CONTINUOUS,
+            frame_count: 1,
+            trigger_mode: value::OFF,
+        };
         Self {
             frame_rate_hz: facts.sensor_frame_rate_hz as f32,
-            gain: settings.gain_milli as f32 / 1000.0,
             mcp_voltage_v: settings.mcp_voltage_mv as f32 / 1000.0,
             identity,
             facts,
@@ -203,7 +235,57 @@ impl Device {
             stimulus: vec![0; reg::STIMULUS_BYTES as usize],
             counters: StreamCounters::default(),
             events: Vec::new(),
+            user_sets: [power_up; 2],
+            user_set_selector: value::USER_SET_DEFAULT,
+            user_set_default: value::USER_SET_DEFAULT,
+            pending_high: None,
         }
+    }
+
+    fn current_set(&self) -> UserSet {
+        UserSet {
+            settings: self.settings,
+            pixel_format: self.pixel_format,
+            frame_rate_hz: self.frame_rate_hz,
+            mcp_voltage_v: self.mcp_voltage_v,
+            acquisition_mode: self.acquisition_mode,
+            frame_count: self.frame_count,
+            trigger_mode: self.trigger_mode,
+        }
+    }
+
+    fn load_set(&mut self, set: u32) {
+        let u = self.user_sets[(set as usize).min(1)];
+        self.settings = u.settings;
+        self.pixel_format = u.pixel_format;
+        self.frame_rate_hz = u.frame_rate_hz;
+        self.mcp_voltage_v = u.mcp_voltage_v;
+        self.acquisition_mode = u.acquisition_mode;
+        self.frame_count = u.frame_count;
+        self.trigger_mode = u.trigger_mode;
+    }
+
+    /// A new controller: it starts from the UserSetDefault set, not from
+    /// whatever the last client left (nor the gain its AGC reached).
+    fn start_session(&mut self) {
+        self.load_set(self.user_set_default);
+        self.gain_in_effect_milli = None;
+        self.pending_high = None;
+    }
+
+    /// DeviceReset: what a power cycle does, short of forgetting the user
+    /// sets (they are "non-volatile") and the stimulus (the world, not the
+    /// device).
+    fn reset(&mut self) {
+        if self.controller.is_some() {
+            self.release_control();
+        }
+        self.start_session();
+        self.heartbeat_ms = bs::DEFAULT_HEARTBEAT_MS;
+        self.gvcp_config = 0;
+        self.scps = bs::DEFAULT_PACKET_BYTES;
+        self.scpd = 0;
+        self.user_set_selector = value::USER_SET_DEFAULT;
     }
 
     /// The GenICam XML served at [`features::XML_ADDRESS`].
@@ -500,6 +582,9 @@ impl Device {
                 Ok(())
             }
             _ if wants => {
+                if self.controller.is_none() {
+                    self.start_session();
+                }
                 self.controller = Some(Controller {
                     addr: from,
                     exclusive: v & bs::CCP_EXCLUSIVE != 0,
@@ -599,10 +684,20 @@ impl Device {
         Ok(out)
     }
 
-    fn gain_read(&self) -> f32 {
-        match (self.settings.agc, self.gain_in_effect_milli) {
-            (true, Some(m)) => m as f32 / 1000.0,
-            _ => self.gain,
+    /// The gain in effect, linear: the AGC's under GainAuto, else the set one.
+    fn gain_read(&self) -> f64 {
+        let milli = match (self.settings.agc, self.gain_in_effect_milli) {
+            (true, Some(m)) => m,
+            _ => self.settings.gain_milli,
+        };
+        f64::from(milli) / 1000.0
+    }
+
+    /// The value of the 8-byte double register at `base`.
+    fn double_value(&self, base: u32) -> f64 {
+        match base {
+            reg::GAIN_DB => features::gain_db(self.gain_read()),
+            _ => self.gain_read(),
         }
     }
 
@@ -617,6 +712,14 @@ impl Device {
         }
         if let Some(o) = stimulus_offset(a) {
             return Ok(be32(&self.stimulus[o..]));
+        }
+        if let Some(&base) = reg::DOUBLES.iter().find(|&&b| a == b || a == b + 4) {
+            let bits = self.double_value(base).to_bits();
+            return Ok(if a == base {
+                (bits >> 32) as u32
+            } else {
+                bits as u32
+            });
         }
         let id = &self.identity;
         let s = &self.settings;
@@ -667,9 +770,9 @@ impl Device {
             reg::ACQUISITION_FRAME_COUNT => self.frame_count,
             reg::ACQUISITION_FRAME_RATE => self.frame_rate_hz.to_bits(),
             reg::EXPOSURE_TIME => (s.exposure_us as f32).to_bits(),
-            reg::GAIN => self.gain_read().to_bits(),
-            reg::GAIN_MIN => (f.min_gain_milli as f32 / 1000.0).to_bits(),
-            reg::GAIN_MAX => (f.max_gain_milli as f32 / 1000.0).to_bits(),
+            reg::USER_SET_SELECTOR => self.user_set_selector,
+            reg::USER_SET_DEFAULT => self.user_set_default,
+            reg::USER_SET_LOAD | reg::USER_SET_SAVE | reg::DEVICE_RESET => 0,
             reg::GAIN_AUTO => {
                 if s.agc {
                     value::GAIN_AUTO_CONTINUOUS
@@ -708,6 +811,34 @@ impl Device {
         } else {
             Err(Status::InvalidParameter)
         }
+    }
+
+    /// Sets the gain from `Gain` (dB, `base` = [`reg::GAIN_DB`]) or
+    /// `GainLinear`; out of range: INVALID_PARAMETER, nothing changes.
+    fn write_gain(&mut self, base: u32, x: f64) -> Result<(), Status> {
+        let f = &self.facts;
+        let (lo, hi) = (
+            f64::from(f.min_gain_milli) / 1000.0,
+            f64::from(f.max_gain_milli) / 1000.0,
+        );
+        let (lo, hi, linear) = if base == reg::GAIN_DB {
+            (
+                features::gain_db(lo),
+                features::gain_db(hi),
+                features::gain_linear(x),
+            )
+        } else {
+            (lo, hi, x)
+        };
+        // The XML's decimal range ends, parsed back, may differ in the last
+        // bit from the values computed here.
+        let tol = 1e-9 * hi.abs().max(1.0);
+        if !(x.is_finite() && x >= lo - tol && x <= hi + tol) {
+            return Err(Status::InvalidParameter);
+        }
+        self.settings.gain_milli =
+            ((linear * 1000.0).round() as u32).clamp(f.min_gain_milli, f.max_gain_milli);
+        Ok(())
     }
 
     /// One 4-byte register write by the controller.
@@ -805,16 +936,25 @@ impl Device {
                 let us = Self::float_in(v, 1.0, f64::from(f.max_exposure_us))?;
                 self.settings.exposure_us = us.round() as u32;
             }
-            reg::GAIN => {
+            _ if reg::DOUBLES.iter().any(|&b| a == b || a == b + 4) => {
                 if self.settings.agc {
-                    return Err(Status::AccessDenied);
+                    // Locked by GainAuto (the XML's pIsLocked): the
+                    // register is not writable now.
+                    self.pending_high = None;
+                    return Err(Status::WriteProtect);
                 }
-                let lo = f64::from(f.min_gain_milli) / 1000.0;
-                let hi = f64::from(f.max_gain_milli) / 1000.0;
-                let g = Self::float_in(v, lo, hi)?;
-                let milli = ((g * 1000.0).round() as u32).clamp(f.min_gain_milli, f.max_gain_milli);
-                self.settings.gain_milli = milli;
-                self.gain = milli as f32 / 1000.0;
+                if reg::DOUBLES.contains(&a) {
+                    // High word: wait for the low one.
+                    self.pending_high = Some((a, v));
+                    return Ok(());
+                }
+                let base = a - 4;
+                let high = match self.pending_high.take() {
+                    Some((b, h)) if b == base => h,
+                    _ => (self.double_value(base).to_bits() >> 32) as u32,
+                };
+                let x = f64::from_bits((u64::from(high) << 32) | u64::from(v));
+                self.write_gain(base, x)?;
             }
             reg::GAIN_AUTO => match v {
                 value::GAIN_AUTO_OFF => {
@@ -823,7 +963,6 @@ impl Device {
                         && let Some(m) = self.gain_in_effect_milli
                     {
                         self.settings.gain_milli = m.clamp(f.min_gain_milli, f.max_gain_milli);
-                        self.gain = self.settings.gain_milli as f32 / 1000.0;
                     }
                     self.settings.agc = false;
                 }
@@ -854,6 +993,35 @@ impl Device {
             reg::TRIGGER_SOFTWARE => {
                 if v != 0 && self.acquiring && self.triggered() {
                     self.events.push(Event::SoftwareTrigger);
+                }
+            }
+            reg::USER_SET_SELECTOR | reg::USER_SET_DEFAULT => {
+                if v > value::USER_SET_1 {
+                    return Err(Status::InvalidParameter);
+                }
+                if a == reg::USER_SET_SELECTOR {
+                    self.user_set_selector = v;
+                } else {
+                    self.user_set_default = v;
+                }
+            }
+            reg::USER_SET_LOAD if v != 0 => {
+                if frozen {
+                    return Err(Status::Busy);
+                }
+                self.load_set(self.user_set_selector);
+            }
+            reg::USER_SET_SAVE if v != 0 => {
+                if self.user_set_selector == value::USER_SET_DEFAULT {
+                    // The preset's settings cannot be overwritten.
+                    return Err(Status::WriteProtect);
+                }
+                self.user_sets[value::USER_SET_1 as usize] = self.current_set();
+            }
+            reg::USER_SET_LOAD | reg::USER_SET_SAVE => {}
+            reg::DEVICE_RESET => {
+                if v != 0 {
+                    self.reset();
                 }
             }
             reg::TL_PARAMS_LOCKED => {

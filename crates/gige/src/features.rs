@@ -25,8 +25,6 @@ pub mod reg {
     pub const ACQUISITION_FRAME_RATE: u32 = 0x0001_0030;
     /// IEEE-754 single, µs.
     pub const EXPOSURE_TIME: u32 = 0x0001_0034;
-    /// IEEE-754 single, linear gain factor (as `gloam capture --gain`).
-    pub const GAIN: u32 = 0x0001_0038;
     pub const GAIN_AUTO: u32 = 0x0001_003C;
     pub const TRIGGER_SELECTOR: u32 = 0x0001_0040;
     pub const TRIGGER_MODE: u32 = 0x0001_0044;
@@ -37,16 +35,30 @@ pub mod reg {
     pub const INTENSIFIER_MCP_VOLTAGE: u32 = 0x0001_0054;
     /// IEEE-754 single, fraction of full scale.
     pub const GAIN_AUTO_SETPOINT: u32 = 0x0001_0058;
-    pub const GAIN_MIN: u32 = 0x0001_005C;
-    pub const GAIN_MAX: u32 = 0x0001_0060;
     pub const FRAMES_SENT: u32 = 0x0001_0064;
     pub const PACKETS_DROPPED: u32 = 0x0001_0068;
     pub const PACKETS_RESENT: u32 = 0x0001_006C;
     pub const RESEND_REQUESTS: u32 = 0x0001_0070;
     /// 0 inactive, 1 active (AGC cameras).
     pub const BRIGHT_SOURCE_PROTECTION: u32 = 0x0001_0074;
+    /// `UserSetSelector`: 0 Default (read-only), 1 UserSet1.
+    pub const USER_SET_SELECTOR: u32 = 0x0001_0078;
+    pub const USER_SET_LOAD: u32 = 0x0001_007C;
+    pub const USER_SET_SAVE: u32 = 0x0001_0080;
+    /// `UserSetDefault`: the set a new control session and `DeviceReset` load.
+    pub const USER_SET_DEFAULT: u32 = 0x0001_0084;
+    pub const DEVICE_RESET: u32 = 0x0001_0088;
+    /// `Gain`: IEEE-754 double (8 bytes, high word first), dB (SFNC:
+    /// 20·log10 of the linear factor).
+    pub const GAIN_DB: u32 = 0x0001_0090;
+    /// `GainLinear`: IEEE-754 double (8 bytes), the linear factor, as
+    /// `gloam capture --gain`.
+    pub const GAIN_LINEAR: u32 = 0x0001_0098;
     /// First address past the feature block.
-    pub const END: u32 = 0x0001_0078;
+    pub const END: u32 = 0x0001_00A0;
+
+    /// The 8-byte double registers, by the address of their high word.
+    pub const DOUBLES: [u32; 2] = [GAIN_DB, GAIN_LINEAR];
     /// `GloamStimulus`: what the simulated camera looks at, as the JSON of
     /// `gloam_grabber::Stimulus` (NUL-terminated), [`STIMULUS_BYTES`] long.
     pub const STIMULUS: u32 = 0x0002_0000;
@@ -95,6 +107,18 @@ pub mod value {
     pub const TRIGGER_SOURCE_SOFTWARE: u32 = 0;
     pub const OFF: u32 = 0;
     pub const ON: u32 = 1;
+    pub const USER_SET_DEFAULT: u32 = 0;
+    pub const USER_SET_1: u32 = 1;
+}
+
+/// `Gain` (dB, SFNC) of a linear gain factor.
+pub fn gain_db(linear: f64) -> f64 {
+    20.0 * linear.log10()
+}
+
+/// The linear gain factor of `Gain` in dB.
+pub fn gain_linear(db: f64) -> f64 {
+    10f64.powf(db / 20.0)
 }
 
 /// What the XML needs to know about this camera's ranges.
@@ -111,6 +135,8 @@ pub struct XmlFacts {
     pub has_agc: bool,
     /// MCP voltage range, V, when the tube has an MCP.
     pub mcp_range_v: Option<(f64, f64)>,
+    /// Gain range, linear factor.
+    pub gain_range: (f64, f64),
 }
 
 fn int_reg(name: &str, addr: u32, access: &str) -> String {
@@ -122,6 +148,13 @@ fn int_reg(name: &str, addr: u32, access: &str) -> String {
 fn float_reg(name: &str, addr: u32, access: &str) -> String {
     format!(
         "  <FloatReg Name=\"{name}\">\n    <Address>0x{addr:x}</Address>\n    <Length>4</Length>\n    <AccessMode>{access}</AccessMode>\n    <pPort>Device</pPort>\n    <Cachable>NoCache</Cachable>\n    <Endianess>BigEndian</Endianess>\n  </FloatReg>\n"
+    )
+}
+
+/// An 8-byte (double precision) float register.
+fn double_reg(name: &str, addr: u32, access: &str) -> String {
+    format!(
+        "  <FloatReg Name=\"{name}\">\n    <Address>0x{addr:x}</Address>\n    <Length>8</Length>\n    <AccessMode>{access}</AccessMode>\n    <pPort>Device</pPort>\n    <Cachable>NoCache</Cachable>\n    <Endianess>BigEndian</Endianess>\n  </FloatReg>\n"
     )
 }
 
@@ -192,6 +225,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "DeviceSerialNumber",
         "DeviceID",
         "DeviceUserID",
+        "DeviceReset",
     ];
     let cat_image = [
         "Width",
@@ -217,7 +251,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "TriggerSource",
         "TriggerSoftware",
     ];
-    let mut cat_analog = vec!["Gain", "GainAuto"];
+    let mut cat_analog = vec!["Gain", "GainLinear", "GainAuto"];
     if f.has_agc {
         cat_analog.push("GainAutoSetpoint");
     }
@@ -252,6 +286,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "ImageFormatControl",
         "AcquisitionControl",
         "AnalogControl",
+        "UserSetControl",
         "TransportLayerControl",
     ];
     if !cat_intensifier.is_empty() {
@@ -263,6 +298,15 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     n += &category("ImageFormatControl", &cat_image);
     n += &category("AcquisitionControl", &cat_acq);
     n += &category("AnalogControl", &cat_analog);
+    n += &category(
+        "UserSetControl",
+        &[
+            "UserSetSelector",
+            "UserSetLoad",
+            "UserSetSave",
+            "UserSetDefault",
+        ],
+    );
     n += &category("TransportLayerControl", &cat_transport);
     if !cat_intensifier.is_empty() {
         n += &category("IntensifierControl", &cat_intensifier);
@@ -307,6 +351,48 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "RW",
         "User-defined name",
     );
+
+    n += &command(
+        "DeviceReset",
+        "Reset the device as a power cycle would: acquisition stops, control is released, the UserSetDefault set is loaded",
+        "DeviceResetReg",
+    );
+    n += &int_reg("DeviceResetReg", reg::DEVICE_RESET, "WO");
+
+    // User sets: Default holds the sensor preset's settings (read-only);
+    // UserSet1 starts as a copy of it.
+    let sets = [
+        ("Default", value::USER_SET_DEFAULT),
+        ("UserSet1", value::USER_SET_1),
+    ];
+    n += &enumeration(
+        "UserSetSelector",
+        "User set UserSetLoad and UserSetSave act on (Default: the sensor preset's settings, read-only)",
+        &sets,
+        "UserSetSelectorReg",
+        false,
+    );
+    n += &int_reg("UserSetSelectorReg", reg::USER_SET_SELECTOR, "RW");
+    n += &command(
+        "UserSetLoad",
+        "Load the selected user set (not while acquiring)",
+        "UserSetLoadReg",
+    );
+    n += &int_reg("UserSetLoadReg", reg::USER_SET_LOAD, "WO");
+    n += &command(
+        "UserSetSave",
+        "Save the current settings into the selected user set (not Default)",
+        "UserSetSaveReg",
+    );
+    n += &int_reg("UserSetSaveReg", reg::USER_SET_SAVE, "WO");
+    n += &enumeration(
+        "UserSetDefault",
+        "User set a new control session (a new controller) and DeviceReset start from",
+        &sets,
+        "UserSetDefaultReg",
+        false,
+    );
+    n += &int_reg("UserSetDefaultReg", reg::USER_SET_DEFAULT, "RW");
 
     // Image format.
     let wmin = if f.resizable { 1 } else { f.max_width };
@@ -465,10 +551,19 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     n += &int_reg("TriggerSoftwareReg", reg::TRIGGER_SOFTWARE, "WO");
 
     // Analog control.
-    n += "  <Float Name=\"Gain\" NameSpace=\"Standard\">\n    <ToolTip>Tube (or system) gain as a linear factor, as gloam capture --gain; reads back the gain in effect (under GainAuto, the AGC's)</ToolTip>\n    <pIsLocked>GainLocked</pIsLocked>\n    <pValue>GainReg</pValue>\n    <pMin>GainMinReg</pMin>\n    <pMax>GainMaxReg</pMax>\n    <Unit>x</Unit>\n  </Float>\n";
-    n += &float_reg("GainReg", reg::GAIN, "RW");
-    n += &float_reg("GainMinReg", reg::GAIN_MIN, "RO");
-    n += &float_reg("GainMaxReg", reg::GAIN_MAX, "RO");
+    // Gain in dB as SFNC defines it, and the linear factor gloam's CLI
+    // uses; both double precision, locked while GainAuto servoes them.
+    let (glo, ghi) = f.gain_range;
+    n += &format!(
+        "  <Float Name=\"Gain\" NameSpace=\"Standard\">\n    <ToolTip>Tube (or system) gain, dB: 20·log10 of GainLinear; reads back the gain in effect (under GainAuto, the AGC's); locked while GainAuto is Continuous</ToolTip>\n    <pIsLocked>GainLocked</pIsLocked>\n    <pValue>GainReg</pValue>\n    <Min>{}</Min>\n    <Max>{}</Max>\n    <Unit>dB</Unit>\n  </Float>\n",
+        gain_db(glo),
+        gain_db(ghi)
+    );
+    n += &double_reg("GainReg", reg::GAIN_DB, "RW");
+    n += &format!(
+        "  <Float Name=\"GainLinear\" NameSpace=\"Custom\">\n    <ToolTip>Tube (or system) gain as a linear factor, as gloam capture --gain (Gain is the same in dB); locked while GainAuto is Continuous</ToolTip>\n    <pIsLocked>GainLocked</pIsLocked>\n    <pValue>GainLinearReg</pValue>\n    <Min>{glo}</Min>\n    <Max>{ghi}</Max>\n    <Unit>x</Unit>\n  </Float>\n"
+    );
+    n += &double_reg("GainLinearReg", reg::GAIN_LINEAR, "RW");
     n += "  <IntSwissKnife Name=\"GainLocked\">\n    <pVariable Name=\"AUTO\">GainAutoReg</pVariable>\n    <Formula>AUTO != 0</Formula>\n  </IntSwissKnife>\n";
     let mut auto_entries = vec![("Off", value::GAIN_AUTO_OFF)];
     if f.has_agc {

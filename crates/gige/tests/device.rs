@@ -72,6 +72,18 @@ impl Client {
         self.send(d, 0, command::WRITEREG, &p).0
     }
 
+    /// An 8-byte double register, as Aravis writes it: one WRITEMEM.
+    fn write_double(&mut self, d: &mut Device, addr: u32, x: f64) -> u16 {
+        let mut p = addr.to_be_bytes().to_vec();
+        p.extend_from_slice(&x.to_be_bytes());
+        self.send(d, 0, command::WRITEMEM, &p).0
+    }
+
+    fn read_double(&mut self, d: &mut Device, addr: u32) -> f64 {
+        let b = self.read_mem(d, addr, 8).expect("READMEM of a double");
+        f64::from_be_bytes(b[..8].try_into().unwrap())
+    }
+
     fn take_control(&mut self, d: &mut Device) -> u16 {
         self.write(d, bs::CONTROL_CHANNEL_PRIVILEGE, bs::CCP_CONTROL)
     }
@@ -242,10 +254,7 @@ fn writes_need_control_and_respect_read_only_and_ranges() {
         INVALID_PARAMETER
     );
     assert_eq!(a.write(&mut d, reg::GAIN_AUTO, 0), SUCCESS);
-    assert_eq!(
-        a.write(&mut d, reg::GAIN, 1e9f32.to_bits()),
-        INVALID_PARAMETER
-    );
+    assert_eq!(a.write_double(&mut d, reg::GAIN_DB, 1e9), INVALID_PARAMETER);
     assert_eq!(a.read(&mut d, reg::WIDTH), Ok(32));
     // Concatenated WRITEREG stops at the first failure and says where.
     let mut p = Vec::new();
@@ -264,8 +273,8 @@ fn writes_need_control_and_respect_read_only_and_ranges() {
     );
     assert_eq!(a.read(&mut d, reg::HEIGHT), Ok(24));
     assert_eq!(a.read(&mut d, reg::WIDTH), Ok(32));
-    // Gain as a single-precision float; Mono8/12/16 as PFNC codes.
-    assert_eq!(a.write(&mut d, reg::GAIN, 2.5f32.to_bits()), SUCCESS);
+    // GainLinear as a double-precision float; Mono8/12/16 as PFNC codes.
+    assert_eq!(a.write_double(&mut d, reg::GAIN_LINEAR, 2.5), SUCCESS);
     assert_eq!(d.settings().gain_milli, 2500);
     assert_eq!(
         a.write(&mut d, reg::PIXEL_FORMAT, pixel_format::MONO8),
@@ -499,4 +508,112 @@ fn bright_source_protection_is_a_read_only_state() {
         "<Address>0x{:x}</Address>",
         reg::BRIGHT_SOURCE_PROTECTION
     )));
+}
+
+#[test]
+fn gain_is_in_db_as_sfnc_defines_it_and_the_linear_factor_sits_beside_it() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    a.take_control(&mut d);
+    assert_eq!(a.write(&mut d, reg::GAIN_AUTO, 0), SUCCESS);
+    // 40 dB is a factor of 100 (20·log10 100 = 40), and reads back exactly.
+    assert_eq!(a.write_double(&mut d, reg::GAIN_DB, 40.0), SUCCESS);
+    assert_eq!(d.settings().gain_milli, 100_000);
+    assert_eq!(a.read_double(&mut d, reg::GAIN_DB), 40.0);
+    assert_eq!(a.read_double(&mut d, reg::GAIN_LINEAR), 100.0);
+    // The linear factor 2.5 is 7.9588 dB (20·log10 2.5 = 7.958800173…).
+    assert_eq!(a.write_double(&mut d, reg::GAIN_LINEAR, 2.5), SUCCESS);
+    let db = a.read_double(&mut d, reg::GAIN_DB);
+    assert!((db - 7.958_800_173_440_752).abs() < 1e-12, "{db}");
+    // Two WRITEREGs, high word first, write one double too: 0 dB = 1×.
+    let bits = 0.0f64.to_bits();
+    assert_eq!(a.write(&mut d, reg::GAIN_DB, (bits >> 32) as u32), SUCCESS);
+    assert_eq!(a.write(&mut d, reg::GAIN_DB + 4, bits as u32), SUCCESS);
+    assert_eq!(d.settings().gain_milli, 1000);
+    // The range is the linear one in dB: 0.1…100 × is −20…40 dB.
+    assert_eq!(
+        a.write_double(&mut d, reg::GAIN_DB, 40.01),
+        INVALID_PARAMETER
+    );
+    assert_eq!(a.write_double(&mut d, reg::GAIN_DB, -20.0), SUCCESS);
+    assert_eq!(d.settings().gain_milli, 100);
+    assert_eq!(
+        a.write_double(&mut d, reg::GAIN_DB, f64::NAN),
+        INVALID_PARAMETER
+    );
+    // Under GainAuto the gain is the AGC's: writes are WRITE_PROTECT (the
+    // register is locked), not ACCESS_DENIED (another application has
+    // control), and change nothing.
+    assert_eq!(a.write(&mut d, reg::GAIN_AUTO, 2), SUCCESS);
+    assert_eq!(a.write_double(&mut d, reg::GAIN_DB, 6.0), WRITE_PROTECT);
+    assert_eq!(a.write_double(&mut d, reg::GAIN_LINEAR, 2.0), WRITE_PROTECT);
+    assert_eq!(d.settings().gain_milli, 100);
+    // The XML says so before a client writes: dB, double precision, locked
+    // by GainAuto, range −20…40 dB.
+    let xml = String::from_utf8(d.xml().to_vec()).unwrap();
+    let node = |open: &str, close: &str| {
+        let i = xml.find(open).unwrap();
+        xml[i..i + xml[i..].find(close).unwrap()].to_string()
+    };
+    let gain = node("<Float Name=\"Gain\"", "</Float>");
+    for want in [
+        "<pIsLocked>GainLocked</pIsLocked>",
+        "<Min>-20</Min>",
+        "<Max>40</Max>",
+        "<Unit>dB</Unit>",
+    ] {
+        assert!(gain.contains(want), "Gain lacks {want}: {gain}");
+    }
+    assert!(xml.contains("<Float Name=\"GainLinear\" NameSpace=\"Custom\">"));
+    assert!(node("<FloatReg Name=\"GainReg\"", "</FloatReg>").contains("<Length>8</Length>"));
+    assert!(xml.contains("<pVariable Name=\"AUTO\">GainAutoReg</pVariable>"));
+}
+
+#[test]
+fn a_new_session_and_device_reset_start_from_the_default_user_set() {
+    let mut d = test_device();
+    let (mut a, mut b) = (Client::new(A), Client::new(B));
+    let rate = |c: &mut Client, d: &mut Device| {
+        f32::from_bits(c.read(d, reg::ACQUISITION_FRAME_RATE).unwrap())
+    };
+    a.take_control(&mut d);
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
+        SUCCESS
+    );
+    assert_eq!(a.write(&mut d, reg::WIDTH, 16), SUCCESS);
+    assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    // What A left is not what B gets: the preset's 25 Hz, 64 pixels.
+    assert_eq!(b.take_control(&mut d), SUCCESS);
+    assert_eq!(rate(&mut b, &mut d), 25.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(64));
+    // Default is read-only; UserSet1 keeps what is saved into it.
+    assert_eq!(
+        b.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
+        SUCCESS
+    );
+    assert_eq!(b.write(&mut d, reg::USER_SET_SAVE, 1), WRITE_PROTECT);
+    assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
+    assert_eq!(b.write(&mut d, reg::USER_SET_SAVE, 1), SUCCESS);
+    assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 0), SUCCESS);
+    assert_eq!(b.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
+    assert_eq!(rate(&mut b, &mut d), 25.0);
+    assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
+    assert_eq!(b.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
+    assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(
+        b.write(&mut d, reg::USER_SET_SELECTOR, 2),
+        INVALID_PARAMETER
+    );
+    // DeviceReset: control released, the Default set back.
+    assert_eq!(b.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
+    assert_eq!(d.controller(), None);
+    assert!(d.take_events().contains(&Event::ControlReleased));
+    assert_eq!(rate(&mut a, &mut d), 25.0);
+    // With UserSetDefault = UserSet1, sessions start from UserSet1.
+    a.take_control(&mut d);
+    assert_eq!(a.write(&mut d, reg::USER_SET_DEFAULT, 1), SUCCESS);
+    assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    b.take_control(&mut d);
+    assert_eq!(rate(&mut b, &mut d), 5.0);
 }

@@ -9,7 +9,7 @@
 //!
 //! | grabber | GenICam |
 //! |---|---|
-//! | [`DeviceControl::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: gloam's device a linear factor, most cameras dB) |
+//! | [`DeviceControl::set_gain`] | `GainAuto=Off`, then `Gain` (in the camera's unit: `GainLinear` where the camera has it (gloam's device), else `Gain` in the camera's unit (dB by SFNC) |
 //! | [`DeviceControl::set_agc`] | `GainAuto=Continuous` / `Off` |
 //! | [`DeviceControl::set_bits`] | `PixelFormat` Mono8 / Mono12 / Mono16 |
 //! | [`DeviceControl::set_exposure_s`] | `ExposureTime`, µs |
@@ -50,6 +50,22 @@ const MAX_TRIGGER_TIMEOUTS: u32 = 3;
 /// The custom feature through which gloam's own GigE device takes a
 /// stimulus (JSON of [`Stimulus`]).
 pub const STIMULUS_FEATURE: &str = "GloamStimulus";
+/// gloam's own GigE device offers the linear gain factor (the grabber's
+/// unit) beside the SFNC `Gain`, which is in dB.
+pub const GAIN_LINEAR_FEATURE: &str = "GainLinear";
+
+/// The gain in the grabber's unit: `GainLinear` where the camera has it,
+/// else `Gain` in the camera's unit.
+fn camera_gain(camera: &Camera) -> Result<f64, GlibError> {
+    if camera
+        .is_feature_available(GAIN_LINEAR_FEATURE)
+        .unwrap_or(false)
+    {
+        camera.float(GAIN_LINEAR_FEATURE)
+    } else {
+        camera.gain()
+    }
+}
 
 /// The GenICam cameras on every interface Aravis knows (GigE Vision
 /// discovery is a broadcast on each network interface).
@@ -246,7 +262,7 @@ impl GenicamGrabber {
         let agc = camera.is_gain_auto_available().unwrap_or(false)
             && camera.gain_auto().is_ok_and(|a| a == Auto::Continuous);
         // A camera without a Gain feature reports unity gain.
-        let gain = camera.gain().unwrap_or(1.0);
+        let gain = camera_gain(&camera).unwrap_or(1.0);
         let has_stimulus = camera
             .is_feature_available(STIMULUS_FEATURE)
             .unwrap_or(false);
@@ -459,7 +475,7 @@ impl GenicamGrabber {
         let gain = if self.agc {
             // Under AGC the camera's Gain reads the gain in effect (gloam's
             // device: that of the frame just sent).
-            self.camera.gain().unwrap_or(self.gain)
+            camera_gain(&self.camera).unwrap_or(self.gain)
         } else {
             self.gain
         };
@@ -508,10 +524,16 @@ impl DeviceControl for GenicamGrabber {
                 self.label
             )));
         }
-        let (lo, hi) = self
+        let linear = self
             .camera
-            .gain_bounds()
-            .map_err(|e| dev("reading the Gain range", e))?;
+            .is_feature_available(GAIN_LINEAR_FEATURE)
+            .unwrap_or(false);
+        let (lo, hi) = if linear {
+            self.camera.float_bounds(GAIN_LINEAR_FEATURE)
+        } else {
+            self.camera.gain_bounds()
+        }
+        .map_err(|e| dev("reading the Gain range", e))?;
         if !within(gain, lo, hi) {
             return Err(GrabError::InvalidSetting(format!(
                 "gain {gain} is outside the camera's range {lo}–{hi}; the camera is not run at a clamped gain"
@@ -523,13 +545,13 @@ impl DeviceControl for GenicamGrabber {
                 .map_err(|e| dev("setting GainAuto=Off", e))?;
         }
         self.agc = false;
-        self.camera
-            .set_gain(gain)
-            .map_err(|e| dev(&format!("setting Gain={gain}"), e))?;
-        self.gain = self
-            .camera
-            .gain()
-            .map_err(|e| dev("reading Gain back", e))?;
+        if linear {
+            self.camera.set_float(GAIN_LINEAR_FEATURE, gain)
+        } else {
+            self.camera.set_gain(gain)
+        }
+        .map_err(|e| dev(&format!("setting Gain={gain}"), e))?;
+        self.gain = camera_gain(&self.camera).map_err(|e| dev("reading Gain back", e))?;
         self.settings_changed();
         Ok(self.gain)
     }
@@ -554,7 +576,7 @@ impl DeviceControl for GenicamGrabber {
             .map_err(|e| dev("reading GainAuto back", e))?;
         self.agc = now == Auto::Continuous;
         if !self.agc {
-            self.gain = self.camera.gain().unwrap_or(self.gain);
+            self.gain = camera_gain(&self.camera).unwrap_or(self.gain);
         }
         self.settings_changed();
         Ok(self.agc)
