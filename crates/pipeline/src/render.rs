@@ -9,7 +9,7 @@ use std::ops::Range;
 use std::path::Path;
 
 use gloam_scene::Scene;
-use gloam_scene::plan::EffectPlan;
+use gloam_scene::plan::{Effect, EffectPlan, names};
 use gloam_trace::{PrepObserver, RenderOutput, RenderSettings, SettingsError, TraceError, Tracer};
 use ndarray::Array2;
 
@@ -151,6 +151,30 @@ pub fn camera_of<'a>(given: Option<&'a str>, scene: &'a Scene) -> Option<&'a str
     }
 }
 
+/// The plan's `sensor` effect for a render whose camera (`--sensor`) is not
+/// the scene's own: the report names the camera the frames come from, one
+/// name everywhere, and says which the scene named.
+fn camera_effect(camera: Option<&str>, scene_sensor: Option<&str>) -> Effect {
+    let named = match scene_sensor {
+        Some(s) => format!("the scene names '{s}'"),
+        None => "the scene names none".into(),
+    };
+    match camera {
+        Some(c) => Effect::new(
+            names::SENSOR,
+            true,
+            format!(
+                "sensor '{c}', given for this render ({named}); its stages are planned by the sensor crate"
+            ),
+        ),
+        None => Effect::new(
+            names::SENSOR,
+            false,
+            format!("--sensor {NO_CAMERA}: the output is at-aperture radiance ({named})"),
+        ),
+    }
+}
+
 /// The camera name that means "no camera: radiance only".
 pub const NO_CAMERA: &str = "none";
 
@@ -189,7 +213,10 @@ impl<'a> RenderJob<'a> {
             None => self.scene,
         };
         let tracer = Tracer::prepare_observed(traced, self.settings, true, self.observer.clone())?;
-        let plan = tracer.effect_plan(self.scene);
+        let mut plan = tracer.effect_plan(self.scene);
+        if self.camera != self.scene.sensor.as_deref() {
+            plan.extend([camera_effect(self.camera, self.scene.sensor.as_deref())]);
+        }
         Ok(PreparedRender {
             tracer,
             plan,
