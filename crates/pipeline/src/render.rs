@@ -152,25 +152,27 @@ pub fn camera_of<'a>(given: Option<&'a str>, scene: &'a Scene) -> Option<&'a str
 }
 
 /// The plan's `sensor` effect for a render whose camera (`--sensor`) is not
-/// the scene's own: the report names the camera the frames come from, one
-/// name everywhere, and says which the scene named.
+/// the scene's own: the report names the camera the frames come from and
+/// no other, one name everywhere.
 fn camera_effect(camera: Option<&str>, scene_sensor: Option<&str>) -> Effect {
-    let named = match scene_sensor {
-        Some(s) => format!("the scene names '{s}'"),
-        None => "the scene names none".into(),
+    let instead = match scene_sensor {
+        Some(_) => "in place of the scene's own",
+        None => "the scene names none",
     };
     match camera {
         Some(c) => Effect::new(
             names::SENSOR,
             true,
             format!(
-                "sensor '{c}', given for this render ({named}); its stages are planned by the sensor crate"
+                "sensor '{c}' (--sensor, {instead}; its stages are planned by the sensor crate)"
             ),
         ),
         None => Effect::new(
             names::SENSOR,
             false,
-            format!("--sensor {NO_CAMERA}: the output is at-aperture radiance ({named})"),
+            format!(
+                "--sensor {NO_CAMERA}: the output is at-aperture radiance, the scene's camera unused"
+            ),
         ),
     }
 }
@@ -402,4 +404,28 @@ pub fn report_json(
         "preparation": out.stats.preparation,
         "bands": band_means,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plan_names_the_given_camera_and_no_other() {
+        let scene_own = "sims/night/../sensors/gen2-s20-iccd.toml";
+        let e = camera_effect(Some("gen3-gaas-iccd"), Some(scene_own));
+        assert!(e.enabled && e.name == names::SENSOR);
+        assert!(
+            e.reason.starts_with("sensor 'gen3-gaas-iccd' (--sensor"),
+            "{}",
+            e.reason
+        );
+        assert!(!e.reason.contains("gen2"), "{}", e.reason);
+        let off = camera_effect(None, Some(scene_own));
+        assert!(
+            !off.enabled && !off.reason.contains("gen2"),
+            "{}",
+            off.reason
+        );
+    }
 }
