@@ -16,6 +16,8 @@ use gloam_pipeline::{OutputSet, Provenance};
 use super::output::write_atomic;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    // The wall time the user waits, preparation and writing included.
+    let t_start = Instant::now();
     let mut provenance = Provenance::of_this_run();
     // Refused up front when --out is in use; the files appear at once.
     let set = OutputSet::begin(&args.out, args.force, false)?;
@@ -34,6 +36,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ..RenderJob::new(&scene, &settings)
     };
     let prepared = job.prepare()?;
+    let prep_s = t_start.elapsed().as_secs_f64();
     let full = prepared.image_size();
     let rows = tile.map(|t| t.rows(full.1)).transpose()?;
     let template = "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}";
@@ -74,14 +77,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     set.publish(&provenance, None)?;
     let s = &rendered.radiance.stats;
+    let total_s = t_start.elapsed().as_secs_f64();
     eprintln!(
-        "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s) → {}",
+        "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s); {:.2} s in all, {:.2} s ({:.0} %) of it preparation (scene, BVH, pilot, cache) → {}",
         s.width,
         s.height,
         s.bands,
         s.trace_seconds,
         s.rays.total(),
         s.rays_per_second,
+        total_s,
+        prep_s,
+        100.0 * prep_s / total_s.max(1e-9),
         args.out.display()
     );
     Ok(())

@@ -10,11 +10,16 @@
 //! error is the largest deviation of the overridden (fixed-gain) settled
 //! means from their straight line, % of span. With a LUT, every settled AGC
 //! frame is linearised through the LUT for its reported gain and compared
-//! with the true band radiance.
+//! with the true band radiance. The LUT must be this camera's, for its bit
+//! depth (checked on the first frame, before the staircase is spent) and
+//! span the gains the AGC visits (checked after: the AGC chooses them);
+//! when most settled frames lie outside its gains the run is refused, since
+//! a residual over the few inside would not describe the AGC.
 
 use gloam_grabber::FrameGrabber;
 use serde::Serialize;
 
+use crate::apply::{camera_identity, check_lut_fits_camera, lut_gain_range};
 use crate::capture::{frame_mean, grab_good};
 use crate::error::CalibError;
 use crate::radiance::Lut;
@@ -83,7 +88,13 @@ pub struct AgcReport {
     pub linearity_error_percent: f64,
     pub linearised_rms_error_percent: Option<f64>,
     pub linearised_max_error_percent: Option<f64>,
+    /// Settled AGC frames linearised through the LUT (0 without one).
+    pub frames_linearised: usize,
     pub frames_outside_lut: usize,
+    /// Lowest and highest gain the AGC reported over its run.
+    pub agc_gain_range: [f64; 2],
+    /// Lowest and highest gain the LUT was calibrated at.
+    pub lut_gain_range: Option<[f64; 2]>,
     pub agc_series: Vec<AgcSample>,
     pub fixed_series: Vec<AgcSample>,
 }
@@ -114,6 +125,7 @@ pub fn agc_linearisation(
     let stairs = staircase(n);
     let total = 2 * stairs.len();
     let mut done = 0;
+    let mut lut_checked = false;
     let mut run = |grabber: &mut dyn FrameGrabber,
                    source: &mut dyn CalibrationSource,
                    done: &mut usize|
@@ -124,6 +136,10 @@ pub fn agc_linearisation(
             grabber.present(&lv.stimulus)?;
             for _ in 0..opts.frames_per_step {
                 let f = grab_good(grabber)?;
+                if let Some(lut) = lut.filter(|_| !lut_checked) {
+                    check_lut_fits_camera(lut, &grabber.describe(), f.meta.bits)?;
+                    lut_checked = true;
+                }
                 out.push(AgcSample {
                     step: s,
                     timestamp_us: f.meta.timestamp_us,
@@ -257,7 +273,12 @@ pub fn agc_linearisation(
         0.0
     };
     // Linearisation through the LUT.
-    let (mut rms, mut mx, mut outside) = (None, None, 0usize);
+    let gains = agc.iter().map(|x| x.gain);
+    let agc_gain_range = [
+        gains.clone().fold(f64::INFINITY, f64::min),
+        gains.fold(f64::NEG_INFINITY, f64::max),
+    ];
+    let (mut rms, mut mx, mut outside, mut linearised) = (None, None, 0usize, 0usize);
     if let Some(lut) = lut {
         let mut errs = Vec::new();
         for s in 0..stairs.len() {
@@ -273,6 +294,22 @@ pub fn agc_linearisation(
                     Err(_) => outside += 1,
                 }
             }
+        }
+        linearised = errs.len();
+        if outside > 0 && outside >= linearised {
+            let [lo, hi] = agc_gain_range;
+            let lut_gains = lut_gain_range(lut).map_or("none".into(), |(a, b)| format!("{a}–{b}"));
+            return Err(CalibError::LutNotForCamera {
+                lut_camera: camera_identity(&lut.grabber).to_string(),
+                camera: camera_identity(&grabber.describe()).to_string(),
+                reason: format!(
+                    "{outside} of {} settled AGC frames were taken at gains outside its calibrated gains {lut_gains} (the AGC visited {lo}–{hi})",
+                    outside + linearised
+                ),
+                gains: format!(
+                    "gains spanning {lo}–{hi} (e.g. --gains {lo},{hi} and some between)"
+                ),
+            });
         }
         if !errs.is_empty() {
             rms = Some((errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt());
@@ -295,7 +332,10 @@ pub fn agc_linearisation(
         linearity_error_percent: lin,
         linearised_rms_error_percent: rms,
         linearised_max_error_percent: mx,
+        frames_linearised: linearised,
         frames_outside_lut: outside,
+        agc_gain_range,
+        lut_gain_range: lut.and_then(lut_gain_range).map(|(a, b)| [a, b]),
         agc_series: agc,
         fixed_series: fixed,
     })

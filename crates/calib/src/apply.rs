@@ -158,6 +158,45 @@ pub fn check_lut_fits_frame(
     }))
 }
 
+/// What `--gains` a LUT for a camera must span, said before the camera's
+/// gains are known.
+const GAINS_OF_THE_RUN: &str = "gains spanning the ones the frames are taken at";
+
+/// Refuses a LUT made on another camera than `described` (a grabber's
+/// [`describe`](gloam_grabber::FrameGrabber::describe)) or for another
+/// digitizer than `bits` deep: a LUT only converts the counts of the camera
+/// and bit depth it was made on.
+pub fn check_lut_fits_camera(lut: &Lut, described: &str, bits: u8) -> Result<(), CalibError> {
+    let (lut_camera, camera) = (camera_identity(&lut.grabber), camera_identity(described));
+    let refuse = |reason: String| CalibError::LutNotForCamera {
+        lut_camera: lut_camera.to_string(),
+        camera: camera.to_string(),
+        reason,
+        gains: GAINS_OF_THE_RUN.into(),
+    };
+    if lut_camera != camera {
+        return Err(refuse(
+            "it was made on another camera, whose counts mean other radiances".into(),
+        ));
+    }
+    let top = 2f64.powi(i32::from(bits.min(32))) - 1.0;
+    if lut.digitizer_max_dn > 0.0 && lut.digitizer_max_dn != top {
+        return Err(refuse(format!(
+            "it is for a digitizer whose top code is {} DN, but the camera delivers {bits}-bit frames (top code {top} DN)",
+            lut.digitizer_max_dn
+        )));
+    }
+    Ok(())
+}
+
+/// The lowest and highest gain a LUT was calibrated at (`None`: no gains).
+pub fn lut_gain_range(lut: &Lut) -> Option<(f64, f64)> {
+    let g = lut.gains.iter().map(|c| c.gain);
+    let lo = g.clone().fold(f64::INFINITY, f64::min);
+    let hi = g.fold(f64::NEG_INFINITY, f64::max);
+    (lo <= hi).then_some((lo, hi))
+}
+
 /// What [`apply_lut_file`] wrote.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Applied {

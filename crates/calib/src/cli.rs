@@ -426,7 +426,12 @@ fn agc<E: From<CalibError> + From<GrabError>>(
         &opts,
         lut.as_ref(),
         &mut progress(ev, "steps", silent),
-    )?;
+    )
+    .map_err(|e| match (e, &a.lut) {
+        // Name the file the user passed.
+        (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
+        (e, _) => e,
+    })?;
     report::write_agc_report(&dir, &r)?;
     let summary = format!(
         "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
@@ -438,10 +443,36 @@ fn agc<E: From<CalibError> + From<GrabError>>(
         r.hysteresis_gain_percent,
         r.linearity_error_percent
     );
+    let mut lines = vec![summary];
+    lines.extend(linearised_line(&r));
+    lines.push(wrote(&a.out, "agc.json"));
     Ok(Outcome {
         main_json: Some("agc.json"),
-        lines: vec![summary, wrote(&a.out, "agc.json")],
+        lines,
     })
+}
+
+/// What the LUT made of the AGC frames, against the source's true band
+/// radiance; `None` without a LUT.
+fn linearised_line(r: &crate::agc::AgcReport) -> Option<String> {
+    let [lo, hi] = r.agc_gain_range;
+    let lut = r.lut_gain_range?;
+    let outside = match r.frames_outside_lut {
+        0 => String::new(),
+        n => format!("; {n} frames outside the LUT's gains not linearised"),
+    };
+    Some(
+        match (
+            r.linearised_rms_error_percent,
+            r.linearised_max_error_percent,
+        ) {
+            (Some(rms), Some(max)) => format!(
+                "linearised radiance vs true: residual RMS {rms:.2} %, max {max:.2} % over {} settled AGC frames at gains {lo}–{hi} (LUT gains {}–{}){outside}",
+                r.frames_linearised, lut[0], lut[1]
+            ),
+            _ => format!("linearised radiance vs true: no settled AGC frame to linearise{outside}"),
+        },
+    )
 }
 
 fn ptc<E: From<CalibError> + From<GrabError>>(

@@ -78,6 +78,19 @@ pub enum CalibError {
         bits: u64,
         frame_max_dn: f64,
     },
+    /// A LUT that cannot linearise a camera's frames: made on another
+    /// camera, for another bit depth, or over gains the frames were not
+    /// taken at. Converting anyway would give wrong radiances silently.
+    #[error(
+        "a LUT made with '{lut_camera}' cannot linearise frames of '{camera}': {reason}; make one on this camera with `gloam calibrate radiance` at {gains}"
+    )]
+    LutNotForCamera {
+        lut_camera: String,
+        camera: String,
+        reason: String,
+        /// The gains to calibrate (a `--gains` list or what it must span).
+        gains: String,
+    },
     /// A frame holding counts the LUT's digitizer cannot produce.
     #[error("{}: holds {top_dn} DN, above the top code {lut_max_dn} DN of the camera {} was made for; the frame is from another camera or bit depth", frame.display(), lut.display())]
     CountsAboveLut {

@@ -9,7 +9,7 @@ use std::ops::Range;
 use std::path::Path;
 
 use gloam_scene::Scene;
-use gloam_scene::plan::EffectPlan;
+use gloam_scene::plan::{Effect, EffectPlan, names};
 use gloam_trace::{PrepObserver, RenderOutput, RenderSettings, SettingsError, TraceError, Tracer};
 use ndarray::Array2;
 
@@ -151,6 +151,32 @@ pub fn camera_of<'a>(given: Option<&'a str>, scene: &'a Scene) -> Option<&'a str
     }
 }
 
+/// The plan's `sensor` effect for a render whose camera (`--sensor`) is not
+/// the scene's own: the report names the camera the frames come from and
+/// no other, one name everywhere.
+fn camera_effect(camera: Option<&str>, scene_sensor: Option<&str>) -> Effect {
+    let instead = match scene_sensor {
+        Some(_) => "in place of the scene's own",
+        None => "the scene names none",
+    };
+    match camera {
+        Some(c) => Effect::new(
+            names::SENSOR,
+            true,
+            format!(
+                "sensor '{c}' (--sensor, {instead}; its stages are planned by the sensor crate)"
+            ),
+        ),
+        None => Effect::new(
+            names::SENSOR,
+            false,
+            format!(
+                "--sensor {NO_CAMERA}: the output is at-aperture radiance, the scene's camera unused"
+            ),
+        ),
+    }
+}
+
 /// The camera name that means "no camera: radiance only".
 pub const NO_CAMERA: &str = "none";
 
@@ -189,7 +215,10 @@ impl<'a> RenderJob<'a> {
             None => self.scene,
         };
         let tracer = Tracer::prepare_observed(traced, self.settings, true, self.observer.clone())?;
-        let plan = tracer.effect_plan(self.scene);
+        let mut plan = tracer.effect_plan(self.scene);
+        if self.camera != self.scene.sensor.as_deref() {
+            plan.extend([camera_effect(self.camera, self.scene.sensor.as_deref())]);
+        }
         Ok(PreparedRender {
             tracer,
             plan,
@@ -375,4 +404,28 @@ pub fn report_json(
         "preparation": out.stats.preparation,
         "bands": band_means,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plan_names_the_given_camera_and_no_other() {
+        let scene_own = "sims/night/../sensors/gen2-s20-iccd.toml";
+        let e = camera_effect(Some("gen3-gaas-iccd"), Some(scene_own));
+        assert!(e.enabled && e.name == names::SENSOR);
+        assert!(
+            e.reason.starts_with("sensor 'gen3-gaas-iccd' (--sensor"),
+            "{}",
+            e.reason
+        );
+        assert!(!e.reason.contains("gen2"), "{}", e.reason);
+        let off = camera_effect(None, Some(scene_own));
+        assert!(
+            !off.enabled && !off.reason.contains("gen2"),
+            "{}",
+            off.reason
+        );
+    }
 }
