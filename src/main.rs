@@ -131,6 +131,17 @@ fn main() -> ExitCode {
     // Every file the run reads goes into its provenance.
     gloam_spectra::input::record_reads();
     let matches = negative_numbers_are_values(Cli::command()).get_matches();
+    // The subcommand path (`calibrate agc`): its words are not inputs.
+    let mut words = Vec::new();
+    let mut m = &matches;
+    while let Some((name, sub)) = m.subcommand() {
+        words.push(name.into());
+        m = sub;
+        if words.len() > 8 {
+            break;
+        }
+    }
+    gloam_pipeline::output_set::set_command_words(words);
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(c) => c,
         Err(e) => e.exit(),

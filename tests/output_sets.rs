@@ -311,3 +311,54 @@ fn a_closed_stdout_ends_a_command_quietly() {
         assert!(!err.contains("panicked"), "gloam {args:?}: {err}");
     }
 }
+
+/// The command's own words are not inputs: `gloam render … --out render
+/// --force` run where a previous set `render/` exists (relative paths, as
+/// a user in the tour types `gloam calibrate agc … --out agc`) replaces
+/// it, while a positional input of the same name still protects it.
+#[test]
+fn a_subcommand_word_is_not_an_input_even_where_its_directory_exists() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene("panel-validation");
+    let render = |extra: &[&str]| {
+        Command::new(BIN)
+            .current_dir(dir.path())
+            .args([
+                "render",
+                s.to_str().unwrap(),
+                "--out",
+                "render",
+                "--spp",
+                "1",
+            ])
+            .args(extra)
+            .output()
+            .expect("running gloam")
+    };
+    let o = render(&[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = render(&["--force"]);
+    assert!(
+        o.status.success(),
+        "the word `render` was taken for an input: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // `gloam render render --out render --force`, where `render` is a
+    // directory holding the scene: the positional `render`… is an input
+    // path here (the second word), so the set is refused and untouched.
+    let before = std::fs::read(dir.path().join("render/radiance.npy")).unwrap();
+    std::fs::copy(&s, dir.path().join("render/s.toml")).unwrap();
+    let o = Command::new(BIN)
+        .current_dir(dir.path())
+        .args(["render", "render/s.toml", "--out", "render", "--force"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("input"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let after = std::fs::read(dir.path().join("render/radiance.npy")).unwrap();
+    assert_eq!(before, after);
+}

@@ -354,6 +354,16 @@ fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
     Ok(())
 }
 
+/// The command's own words (`calibrate`, `agc`), in order: an argument
+/// that is the next of them is the command's name, not an input, even
+/// where a directory of that name exists (`gloam calibrate agc --out agc`).
+static COMMAND_WORDS: std::sync::OnceLock<Vec<std::ffi::OsString>> = std::sync::OnceLock::new();
+
+/// Declares the subcommand path the binary parsed (once, at start-up).
+pub fn set_command_words(words: Vec<std::ffi::OsString>) {
+    let _ = COMMAND_WORDS.set(words);
+}
+
 /// Refuses a `target` that holds (or is) any existing path named on the
 /// command line — an input the run reads (`gloam merge t1 t2 --out t1`,
 /// `gloam render sd/s.toml --out sd`).
@@ -365,7 +375,12 @@ fn refuse_inputs_inside(
         return Ok(());
     };
     let mut after_out = false;
+    let mut words = COMMAND_WORDS.get().into_iter().flatten().peekable();
     for a in args.take(10_000) {
+        if words.peek().is_some_and(|w| **w == a) {
+            words.next();
+            continue;
+        }
         // The --out value itself names the target, not an input.
         let is_out_value = std::mem::replace(&mut after_out, a == "--out");
         if is_out_value || a.to_string_lossy().starts_with("--out=") {
