@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # The Python package's tests on a fresh machine: a new venv, maturin, numpy,
-# pytest, emva1288 (the EMVA reference analysis) and astropy from PyPI, the wheel built from this checkout, then pytest
-# (python/tests; the bit-identity tests run the `gloam` CLI built here).
+# pytest, emva1288 (the EMVA reference analysis), astropy, tqdm (progress
+# bars) and nbclient/nbformat/ipykernel (python/examples/quickstart.ipynb
+# runs in a Jupyter kernel) from PyPI, the wheel built from this checkout,
+# then pytest (python/tests; the bit-identity tests run the `gloam` CLI
+# built here).
 #
 # The wheel is built with Cargo's dev profile in the workspace's target
 # directory, so after `cargo test --workspace` (CI) only the extension
@@ -18,7 +21,8 @@ trap 'rm -rf "$work"' EXIT
 python3 -m venv "$work/venv"
 py="$work/venv/bin/python"
 # astropy: test_frame_files.py reads the FITS frames with it (a wheel, no build).
-"$py" -m pip install -q --disable-pip-version-check --only-binary astropy maturin numpy pytest emva1288 astropy
+"$py" -m pip install -q --disable-pip-version-check --only-binary astropy,pyzmq maturin numpy pytest emva1288 astropy \
+    tqdm nbclient nbformat ipykernel
 t0=$(date +%s)
 cargo build -q --bin gloam --profile "$profile"
 "$work/venv/bin/maturin" build -q --profile "$profile" -m python/Cargo.toml --out "$work/wheels"

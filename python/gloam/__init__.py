@@ -4,11 +4,21 @@ The heavy work runs in gloam's Rust crates (no subprocess): the spectral ray
 tracer (:func:`render`, :func:`probe`, :class:`Scene`), the intensified
 camera chain (:class:`Sensor`), frame grabbers (:func:`open_grabber`), the
 calibration flows (:func:`calibrate_radiance`, :func:`photon_transfer`,
-:func:`mtf`, :func:`agc_linearity`, :func:`compare`, :class:`Lut`) and the
-night sky (:func:`ephem`, :func:`sky`).
+:func:`mtf` — also in voltage space —, :func:`agc_linearity`,
+:func:`compare`, :class:`Lut`), the oscilloscope (:func:`scope`), sweeps
+(:func:`sweep`) and the night sky (:func:`ephem`, :func:`sky`).
+
+Results are classes with attributes and a readable ``repr``: arrays on
+:class:`RenderResult`, :class:`Capture` and :class:`Frame`, and the CLI's
+JSON documents as :class:`Result` subclasses (``r.mtf50``), which are
+dicts too (``r["mtf50"]``, ``r.to_dict()``). Images are accepted in any
+float dtype and memory layout. Renders, captures and sweeps take
+``progress=True`` (a tqdm bar when tqdm is installed) or a callable
+``progress(done, total, what)``.
 
 Long calls release the GIL (a thread pool of renders or captures uses every
-core) and honour Ctrl-C (``KeyboardInterrupt``). Errors are
+core) and honour Ctrl-C (``KeyboardInterrupt``), a render's scene
+preparation included. Errors are
 :class:`GloamError` (a ``ValueError``) with the CLI's message, e.g.
 ``scene.toml:15: materials.wall.reflectance: …``. Seeds give results
 bit-identical to the ``gloam`` CLI's files.
@@ -34,7 +44,27 @@ from ._gloam import (
     photon_transfer,
     probe,
     render,
+    scope,
     sky,
+    sweep,
+)
+from ._results import (
+    AgcLinearity,
+    Comparison,
+    Effect,
+    Ephemeris,
+    FrameMeta,
+    FrameRecord,
+    Mtf,
+    PhotonTransfer,
+    Probe,
+    RadianceCalibration,
+    RenderReport,
+    Result,
+    Scope,
+    SensorDescription,
+    SkyIlluminance,
+    SweepResult,
 )
 
 __all__ = [
@@ -57,5 +87,23 @@ __all__ = [
     "photon_transfer",
     "probe",
     "render",
+    "scope",
     "sky",
+    "sweep",
+    "Result",
+    "AgcLinearity",
+    "Comparison",
+    "Effect",
+    "Ephemeris",
+    "FrameMeta",
+    "FrameRecord",
+    "Mtf",
+    "PhotonTransfer",
+    "Probe",
+    "RadianceCalibration",
+    "RenderReport",
+    "Scope",
+    "SensorDescription",
+    "SkyIlluminance",
+    "SweepResult",
 ]

@@ -2,13 +2,36 @@
 
 from os import PathLike
 from types import TracebackType
-from typing import Any, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
+from ._results import (
+    AgcLinearity,
+    Comparison,
+    Effect,
+    Ephemeris,
+    FrameMeta,
+    FrameRecord,
+    Mtf,
+    PhotonTransfer,
+    Probe,
+    RadianceCalibration,
+    RenderReport,
+    Result,
+    Scope,
+    SensorDescription,
+    SkyIlluminance,
+    SweepResult,
+)
+
 _Path = Union[str, PathLike]
 _Settings = Dict[str, Union[str, int, float, bool]]
+# progress=True (a tqdm bar when tqdm is installed) or progress(done, total, what).
+_Progress = Union[bool, None, Callable[[int, int, str], Any]]
+# Any real dtype and memory layout; converted to float64 exactly.
+_Image = npt.ArrayLike
 
 __version__: str
 
@@ -22,8 +45,8 @@ class Scene:
     def load(path: _Path) -> "Scene": ...
     @staticmethod
     def from_toml(text: str, base_dir: Optional[_Path] = None, name: str = "scene.toml") -> "Scene": ...
-    def plan(self, settings: Optional[_Settings] = None, tolerance: Optional[float] = None) -> List[Dict[str, Any]]:
-        """The effect plan: one dict per effect (name, enabled, reason, estimated_share)."""
+    def plan(self, settings: Optional[_Settings] = None, tolerance: Optional[float] = None) -> List[Effect]:
+        """The effect plan: one Effect per effect (name, enabled, reason, estimated_share)."""
     @property
     def bands(self) -> List[Dict[str, Any]]: ...
     @property
@@ -44,8 +67,10 @@ class RenderResult:
     @property
     def bands(self) -> List[Dict[str, Any]]: ...
     @property
-    def report(self) -> Dict[str, Any]:
-        """The dict report.json holds."""
+    def report(self) -> RenderReport:
+        """The document report.json holds."""
+    def to_dict(self) -> Dict[str, Any]: ...
+    def __getitem__(self, key: str) -> Any: ...
 
 def render(
     scene: Scene,
@@ -57,6 +82,7 @@ def render(
     target_error: Optional[float] = None,
     tolerance: Optional[float] = None,
     sensor: Union["Sensor", str, None] = None,
+    progress: _Progress = None,
 ) -> RenderResult:
     """Renders a scene as `gloam render` does (bit-identical radiance for the same seed)."""
 
@@ -69,7 +95,7 @@ def probe(
     seed: Optional[int] = None,
     estimator: Optional[str] = None,
     settings: Optional[_Settings] = None,
-) -> Dict[str, Any]:
+) -> Probe:
     """Irradiance at a point (irradiance_w_m2, std_error_w_m2, radiance_w_m2_sr)."""
 
 class Sensor:
@@ -83,16 +109,17 @@ class Sensor:
     def presets() -> List[str]: ...
     @property
     def name(self) -> str: ...
-    def describe(self, gain: Optional[float] = None) -> Dict[str, Any]: ...
+    def describe(self, gain: Optional[float] = None) -> SensorDescription: ...
     def capture(
         self,
-        image: Union[RenderResult, npt.NDArray[np.float64]],
+        image: Union[RenderResult, _Image],
         frames: int = 1,
         gain: Optional[float] = None,
         agc: bool = False,
         seed: int = 0,
         noise: bool = True,
         input: Literal["detected", "photoelectrons"] = "detected",
+        progress: _Progress = None,
     ) -> "Capture": ...
 
 class Capture:
@@ -101,10 +128,12 @@ class Capture:
     @property
     def frames(self) -> npt.NDArray[np.uint16]: ...
     @property
-    def meta(self) -> List[Dict[str, Any]]: ...
+    def meta(self) -> List[FrameRecord]: ...
     @property
     def sensor(self) -> str: ...
     def __len__(self) -> int: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    def __getitem__(self, key: str) -> Any: ...
 
 class Frame:
     @property
@@ -112,7 +141,7 @@ class Frame:
     @property
     def gain(self) -> float: ...
     @property
-    def meta(self) -> Dict[str, Any]: ...
+    def meta(self) -> FrameMeta: ...
 
 class FrameStream(Iterator[Frame]):
     def __iter__(self) -> "FrameStream": ...
@@ -141,14 +170,14 @@ class Grabber:
     def stream(self, n: int) -> FrameStream: ...
 
 def open_grabber(uri: str, seed: Optional[int] = None) -> Grabber:
-    """Opens sim:…, serial:…, usb:… as the CLI's --grabber does."""
+    """Opens sim:…, serial:…, usb:…, genicam:… as the CLI's --grabber does."""
 
 class Lut:
     @staticmethod
     def load(path: _Path) -> "Lut": ...
     @staticmethod
     def from_dict(d: Dict[str, Any]) -> "Lut": ...
-    def to_dict(self) -> Dict[str, Any]: ...
+    def to_dict(self) -> RadianceCalibration: ...
     @property
     def gains(self) -> List[float]: ...
     def apply(self, frame: Union[Frame, npt.NDArray[np.uint16]], gain: Optional[float] = None) -> npt.NDArray[np.float32]: ...
@@ -161,7 +190,7 @@ def calibrate_radiance(
     levels: Optional[int] = None,
     auto_range: Optional[float] = None,
     exposure_s: Optional[float] = None,
-) -> Dict[str, Any]: ...
+) -> RadianceCalibration: ...
 def photon_transfer(
     grabber: Grabber,
     source: _Path,
@@ -171,7 +200,7 @@ def photon_transfer(
     auto_range: Optional[float] = None,
     exposure_s: Optional[float] = None,
     dataset_dir: Optional[_Path] = None,
-) -> Dict[str, Any]: ...
+) -> PhotonTransfer: ...
 def mtf(
     grabber: Grabber,
     target: Literal["edge", "sine"] = "edge",
@@ -182,7 +211,10 @@ def mtf(
     frequencies: Optional[Sequence[float]] = None,
     frames: int = 8,
     spectrum: str = "cie-a",
-) -> Dict[str, Any]: ...
+    space: Literal["digital", "voltage"] = "digital",
+    scope_rows: Optional[Sequence[int]] = None,
+    magnification: float = 1.0,
+) -> Mtf: ...
 def agc_linearity(
     grabber: Grabber,
     source: _Path,
@@ -192,13 +224,30 @@ def agc_linearity(
     auto_range: Optional[float] = None,
     lut: Optional[Lut] = None,
     allow_unsettled: bool = False,
-) -> Dict[str, Any]: ...
+) -> AgcLinearity: ...
 def compare(
-    truth: npt.NDArray[np.float64],
-    synthetic: npt.NDArray[np.float64],
+    truth: _Image,
+    synthetic: _Image,
     regions: List[Dict[str, Any]],
-) -> Dict[str, Any]: ...
-def ephem(lat: float, lon: float, utc: str, height_m: float = 0.0) -> Dict[str, Any]: ...
+) -> Comparison: ...
+def scope(
+    sensor: Optional[str] = None,
+    grabber: Optional[str] = None,
+    rig: Optional[Literal["uniform", "sine", "edge", "dark"]] = None,
+    frequency: float = 0.05,
+    level: float = 0.4,
+    rows: Optional[Sequence[int]] = None,
+    size: Optional[Tuple[int, int]] = None,
+    seed: Optional[int] = None,
+    gain: Optional[float] = None,
+    format: Optional[Literal["rs-170", "ccir"]] = None,
+    bandwidth_hz: Optional[float] = None,
+    frames: int = 1,
+) -> Scope:
+    """A simulated camera's video lines on the oscilloscope (gloam scope)."""
+def sweep(path: _Path, out: _Path, jobs: Optional[int] = None, progress: _Progress = None) -> SweepResult:
+    """Plans, runs (resuming) and collects a sweep, as gloam sweep SWEEP.toml --out DIR."""
+def ephem(lat: float, lon: float, utc: str, height_m: float = 0.0) -> Ephemeris: ...
 def sky(
     lat: float,
     lon: float,
@@ -207,4 +256,4 @@ def sky(
     visibility_km: float = 23.0,
     overcast: bool = False,
     spectra: bool = False,
-) -> Dict[str, Any]: ...
+) -> SkyIlluminance: ...

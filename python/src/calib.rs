@@ -9,7 +9,8 @@ use pyo3::prelude::*;
 
 use gloam_calib::agc::{AgcOptions, agc_linearisation};
 use gloam_calib::mtf_flow::{
-    DEFAULT_FRAMES, DEFAULT_MODULATION, DEFAULT_SPECTRUM, GrabberTarget, MtfRequest, measure_mtf,
+    DEFAULT_FRAMES, DEFAULT_MODULATION, DEFAULT_SPECTRUM, GrabberTarget, MtfRequest,
+    VoltageRequest, measure_mtf, voltage_mtf,
 };
 use gloam_calib::ptc::{PtcOptions, photon_transfer as ptc_flow};
 use gloam_calib::radiance::RadianceOptions;
@@ -18,7 +19,7 @@ use gloam_calib::source::open_for_grabber;
 use gloam_calib::validate::{Region, compare_images};
 use gloam_grabber::FrameGrabber;
 
-use crate::convert::{from_py, to_py};
+use crate::convert::{from_py, to_py_as};
 use crate::errors::{GloamError, OrPy};
 use crate::grabber::{Grabber, PyFrame};
 
@@ -29,6 +30,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mtf, m)?)?;
     m.add_function(wrap_pyfunction!(agc_linearity, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(scope, m)?)?;
     Ok(())
 }
 
@@ -37,8 +39,10 @@ fn no_progress(_: usize, _: usize) {}
 /// Radiance LUT across ``gains`` (``gloam calibrate radiance``): drives
 /// the grabber through the source file's levels (``levels`` generated when
 /// it lists none; ``auto_range`` rescales a simulated sphere to that
-/// fraction of full scale at the highest gain). Returns the ``lut.json``
-/// dict; ``Lut.from_dict`` makes it appliable.
+/// fraction of full scale at the highest gain), ``frames`` frames per
+/// level, at ``exposure_s`` when given. Returns the ``lut.json`` document
+/// as a ``RadianceCalibration`` (a dict with attribute access);
+/// ``Lut.from_dict`` makes it appliable. Ctrl-C stops it between frames.
 #[pyfunction]
 #[pyo3(signature = (grabber, source, gains, frames = gloam_calib::radiance::DEFAULT_FRAMES, levels = None, auto_range = None, exposure_s = None))]
 #[allow(clippy::too_many_arguments)]
@@ -74,7 +78,7 @@ fn calibrate_radiance<'py>(
             &mut no_progress,
         )?)
     })?;
-    to_py(py, &lut)
+    to_py_as(py, &lut, "RadianceCalibration")
 }
 
 /// EMVA 1288 photon transfer at a fixed ``gain`` (``gloam calibrate
@@ -87,7 +91,10 @@ fn calibrate_radiance<'py>(
 /// and ``excess_noise_relation`` (the EMVA caveat). ``dataset_dir``
 /// also writes the EMVA 1288 data set there. A ``[rig]`` that does not
 /// describe the simulated camera (so QE would read biased) is named first
-/// in ``warnings``.
+/// in ``warnings``. ``levels`` exposure levels, ``spatial_frames`` frames
+/// for the spatial noise, ``auto_range`` and ``exposure_s`` as in
+/// ``calibrate_radiance``. Returns a ``PhotonTransfer`` (a dict with
+/// attribute access).
 #[pyfunction]
 #[pyo3(signature = (grabber, source, gain = gloam_calib::ptc::DEFAULT_GAIN, levels = gloam_calib::ptc::DEFAULT_LEVELS, spatial_frames = gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES, auto_range = None, exposure_s = None, dataset_dir = None))]
 #[allow(clippy::too_many_arguments)]
@@ -122,17 +129,28 @@ fn photon_transfer<'py>(
         }
         Ok(r)
     })?;
-    to_py(py, &r)
+    to_py_as(py, &r, "PhotonTransfer")
 }
 
 /// MTF of the camera behind the grabber (``gloam calibrate mtf``):
 /// ``target="edge"`` (ISO 12233 slanted edge, ``angle_deg`` default 5) or
 /// ``"sine"`` (sine targets at ``frequencies``, cycles/pixel, default
 /// 0.02…0.48). ``radiance`` is the mean target radiance (default:
-/// auto-ranged to 40 % of full scale). Returns the curve as a dict
-/// (``frequencies_cy_per_px``, ``mtf``, ``mtf50``, ``mtf10``, …).
+/// auto-ranged to 40 % of full scale), ``modulation`` the sine's,
+/// ``frames`` frames averaged per target, ``spectrum`` the targets'
+/// relative spectrum. Returns an ``Mtf`` (a dict with attribute access:
+/// ``method``, ``frequencies_cy_per_px``, ``mtf``, ``mtf50``, ``mtf10``).
+///
+/// ``space="voltage"`` (sine targets on a ``sim:`` grabber, as ``gloam
+/// calibrate mtf --space voltage``) measures on the camera's analogue
+/// video line — the scope isolates ``scope_rows`` (default the four
+/// middle rows) — beside the digital-count sine flow and the chain's
+/// analytic curves: the result is ``mtf.json``'s document, the voltage
+/// curve first, every curve under ``curves`` and the scope's points under
+/// ``details`` (``magnification``: image size / chart size, for the
+/// object-space frequencies). ``frequencies`` default 0.04…0.48 there.
 #[pyfunction]
-#[pyo3(signature = (grabber, target = "edge", gain = None, radiance = None, modulation = DEFAULT_MODULATION, angle_deg = None, frequencies = None, frames = DEFAULT_FRAMES, spectrum = DEFAULT_SPECTRUM))]
+#[pyo3(signature = (grabber, target = "edge", gain = None, radiance = None, modulation = DEFAULT_MODULATION, angle_deg = None, frequencies = None, frames = DEFAULT_FRAMES, spectrum = DEFAULT_SPECTRUM, space = "digital", scope_rows = None, magnification = 1.0))]
 #[allow(clippy::too_many_arguments)]
 fn mtf<'py>(
     py: Python<'py>,
@@ -145,7 +163,20 @@ fn mtf<'py>(
     frequencies: Option<Vec<f64>>,
     frames: usize,
     spectrum: &str,
+    space: &str,
+    scope_rows: Option<Vec<usize>>,
+    magnification: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
+    if space != "digital" && space != "voltage" {
+        return Err(GloamError::new_err(format!(
+            "space: '{space}' is neither 'digital' nor 'voltage'"
+        )));
+    }
+    if space == "voltage" && target != "sine" {
+        return Err(GloamError::new_err(
+            "space='voltage' reads sine patterns: use target='sine'",
+        ));
+    }
     if target != "edge" && target != "sine" {
         return Err(GloamError::new_err(format!(
             "target: '{target}' is neither 'edge' nor 'sine'"
@@ -165,16 +196,133 @@ fn mtf<'py>(
         frames,
         spectrum: spectrum.to_string(),
     };
+    if space == "voltage" {
+        let v = VoltageRequest {
+            uri: grabber.borrow().uri().to_string(),
+            seed: grabber.borrow().seed(),
+            scope_rows: scope_rows.unwrap_or_default(),
+            magnification,
+        };
+        let r = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
+            Ok(voltage_mtf(g, &req, &v, &mut |_, _, _| {})?)
+        })?;
+        // mtf.json's document (`gloam_calib::report::write_mtf_report`).
+        let first = &r.curves[0];
+        let doc = serde_json::json!({
+            "method": first.method,
+            "frequencies_cy_per_px": first.frequencies_cy_per_px,
+            "mtf": first.mtf,
+            "mtf50": first.mtf50,
+            "mtf10": first.mtf10,
+            "curves": r.curves,
+            "details": r.details,
+        });
+        return to_py_as(py, &doc, "Mtf");
+    }
     let curve = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
         Ok(measure_mtf(g, &req, &mut no_progress)?.curve)
     })?;
-    to_py(py, &curve)
+    to_py_as(py, &curve, "Mtf")
+}
+
+/// A simulated camera's analogue video on the oscilloscope, as ``gloam
+/// scope``: the camera (``sensor``, a preset or sensor TOML, or the
+/// ``sim:`` URI ``grabber``, whose rig, seed and size it takes) looks at
+/// ``rig`` (``uniform``, ``sine``, ``edge``, ``dark``; default sine at
+/// ``frequency`` cycles/pixel) at ``level`` (mean signal, fraction of the
+/// range above black), ``frames`` frames at ``gain`` (AGC off); frame
+/// ``rows`` (default the middle row) are scoped. ``format``
+/// (``"rs-170"``/``"ccir"``) and ``bandwidth_hz`` override the sensor
+/// file's video stage; ``size`` is ``(width, height)``. Returns a
+/// ``Scope`` (a dict with attribute access): ``sensor``, ``format``,
+/// ``pixel_clock_hz``, ``readouts`` (``[row, {sync_tip_v, blanking_v,
+/// active_min_v, active_max_v, sync_width_s, line_period_s}]``, what the
+/// cursors read) and ``lines`` (per row: ``row``, ``field``, ``line``,
+/// ``time_s`` and ``volts`` as float64 arrays).
+#[pyfunction]
+#[pyo3(signature = (sensor = None, grabber = None, rig = None, frequency = 0.05, level = 0.4, rows = None, size = None, seed = None, gain = None, format = None, bandwidth_hz = None, frames = 1))]
+#[allow(clippy::too_many_arguments)]
+fn scope<'py>(
+    py: Python<'py>,
+    sensor: Option<String>,
+    grabber: Option<&str>,
+    rig: Option<String>,
+    frequency: f64,
+    level: f64,
+    rows: Option<Vec<usize>>,
+    size: Option<(u32, u32)>,
+    seed: Option<u64>,
+    gain: Option<f64>,
+    format: Option<&str>,
+    bandwidth_hz: Option<f64>,
+    frames: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    use gloam_sensor::stages::video_timing::VideoFormat;
+    // As `gloam scope`: the sensor (rig sine, seed 0) or the sim: URI.
+    let (sensor, uri_rig, uri_seed, uri_size) = match (sensor, grabber) {
+        (Some(_), Some(_)) => {
+            return Err(GloamError::new_err("give sensor= or grabber=, not both"));
+        }
+        (Some(s), None) => (s, "sine".to_string(), 0, None),
+        (None, Some(u)) => gloam_calib::scope_run::sim_uri(u).or_py()?,
+        (None, None) => {
+            return Err(GloamError::new_err(
+                "give sensor=PRESET_OR_FILE or grabber='sim:…'",
+            ));
+        }
+    };
+    let format = match format {
+        None => None,
+        Some("rs-170" | "rs170") => Some(VideoFormat::Rs170),
+        Some("ccir") => Some(VideoFormat::Ccir),
+        Some(f) => {
+            return Err(GloamError::new_err(format!(
+                "format: '{f}' is neither 'rs-170' nor 'ccir'"
+            )));
+        }
+    };
+    let o = gloam_calib::scope_run::ScopeOptions {
+        sensor,
+        seed: seed.unwrap_or(uri_seed),
+        size: size.or(uri_size),
+        rows: rows.unwrap_or_default(),
+        rig: rig.unwrap_or(uri_rig),
+        level_fraction: level,
+        frequency_cy_per_px: frequency,
+        gain,
+        format,
+        bandwidth_hz,
+        frames,
+    };
+    let r = py
+        .detach(|| gloam_calib::scope_run::run_scope(&o))
+        .or_py()?;
+    let out = to_py_as(py, &r, "Scope")?;
+    let lines = pyo3::types::PyList::empty(py);
+    for l in &r.lines {
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("row", l.row)?;
+        d.set_item("field", l.field)?;
+        d.set_item("line", l.line)?;
+        d.set_item("time_s", l.time_s.clone().into_pyarray(py))?;
+        d.set_item("volts", l.volts.clone().into_pyarray(py))?;
+        lines.append(
+            py.import("gloam._results")?
+                .getattr("Result")?
+                .call1((d,))?,
+        )?;
+    }
+    out.set_item("lines", lines)?;
+    Ok(out)
 }
 
 /// AGC staircase up and down, AGC on and overridden at ``fixed_gain``
 /// (``gloam calibrate agc``): settling time, overshoot, hysteresis and
-/// linearity (through ``lut``, a ``Lut``, when given). Returns the
-/// ``agc.json`` dict.
+/// linearity (through ``lut``, a ``Lut``, when given). ``frames`` frames
+/// per step, ``levels`` and ``auto_range`` as in ``calibrate_radiance``;
+/// ``allow_unsettled`` reports a servo that never settled instead of
+/// failing. Returns the ``agc.json`` document as an ``AgcLinearity`` (a
+/// dict with attribute access).
 #[pyfunction]
 #[pyo3(signature = (grabber, source, fixed_gain = None, frames = gloam_calib::agc::DEFAULT_FRAMES_PER_STEP, levels = None, auto_range = None, lut = None, allow_unsettled = false))]
 #[allow(clippy::too_many_arguments)]
@@ -206,20 +354,26 @@ fn agc_linearity<'py>(
             &mut no_progress,
         )?)
     })?;
-    to_py(py, &r)
+    to_py_as(py, &r, "AgcLinearity")
 }
 
 /// Compares two equally sized images over ``regions`` (dicts with
 /// ``name``, ``x``, ``y``, ``width``, ``height``), as ``gloam compare
-/// --json``: Spearman ρ of the region means and the RMS of their
-/// differences, and each region's two means.
+/// --json``: a ``Comparison`` (a dict with attribute access) with the
+/// Spearman ρ of the region means, the RMS of their differences, and each
+/// region's two means. The images are 2-D arrays of any float dtype and
+/// layout.
 #[pyfunction]
 fn compare<'py>(
     py: Python<'py>,
-    truth: PyReadonlyArray2<'py, f64>,
-    synthetic: PyReadonlyArray2<'py, f64>,
+    truth: &Bound<'py, PyAny>,
+    synthetic: &Bound<'py, PyAny>,
     regions: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (truth, synthetic) = (
+        as_f64_2d(py, truth, "truth")?,
+        as_f64_2d(py, synthetic, "synthetic")?,
+    );
     let (t, s) = (truth.as_array(), synthetic.as_array());
     if t.dim() != s.dim() {
         return Err(GloamError::new_err(format!(
@@ -237,7 +391,19 @@ fn compare<'py>(
     let c = py
         .detach(|| compare_images(&tv, &sv, w, h, &regions))
         .or_py()?;
-    to_py(py, &c)
+    to_py_as(py, &c, "Comparison")
+}
+
+/// A 2-D array of any real dtype and layout as float64 (exact).
+fn as_f64_2d<'py>(
+    py: Python<'py>,
+    a: &Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<PyReadonlyArray2<'py, f64>> {
+    let np = py.import("numpy")?;
+    np.call_method1("asarray", (a, np.getattr("float64")?))?
+        .extract()
+        .map_err(|_| GloamError::new_err(format!("{what}: expected a 2-D real array")))
 }
 
 /// A radiance look-up table (``lut.json``): ``Lut.load(path)`` or
@@ -267,7 +433,7 @@ impl Lut {
 
     /// The LUT as the ``lut.json`` dict.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.lut)
+        to_py_as(py, &self.lut, "RadianceCalibration")
     }
 
     /// Calibrated gains.
@@ -306,6 +472,7 @@ impl Lut {
         Ok(arr.into_pyarray(py))
     }
 
+    /// ``Lut(gains [...])``.
     fn __repr__(&self) -> String {
         format!("Lut(gains {:?})", self.gains())
     }

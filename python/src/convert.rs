@@ -8,10 +8,18 @@ use serde::Serialize;
 
 use crate::errors::OrPy;
 
-/// A serde value as the Python object `json.loads` makes of its JSON.
-pub fn to_py<'py>(py: Python<'py>, v: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
+/// A serde value as Python objects: its JSON read with every object a
+/// `gloam.Result` (a dict with attribute access, `gloam/_results.py`), the
+/// top-level object (or each of a top-level list's) the named result
+/// class (`""`: `Result`).
+pub fn to_py_as<'py>(
+    py: Python<'py>,
+    v: &impl Serialize,
+    class: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(v).or_py()?;
-    py.import("json")?.call_method1("loads", (text,))
+    py.import("gloam._results")?
+        .call_method1("load", (text, class))
 }
 
 /// A Python object (dicts, lists, numbers, strings) as a serde value.

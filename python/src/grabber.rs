@@ -7,7 +7,7 @@ use numpy::prelude::*;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
 
-use crate::convert::{from_py, to_py};
+use crate::convert::{from_py, to_py_as};
 use crate::errors::GloamError;
 use crate::interrupt::{SameThread, finish, signalled};
 
@@ -25,6 +25,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 pub struct Grabber {
     inner: Option<Box<dyn FrameGrabber>>,
     uri: String,
+    /// The `seed=` it was opened with (a `sim:` camera's noise seed).
+    seed: Option<u64>,
 }
 
 /// A grabber that stops a calibration flow at Ctrl-C: each grab first runs
@@ -74,6 +76,11 @@ impl Grabber {
         &self.uri
     }
 
+    /// The seed it was opened with, overriding the URI's.
+    pub fn seed(&self) -> Option<u64> {
+        self.seed
+    }
+
     /// The open grabber, or an error once closed.
     pub fn get(&mut self) -> PyResult<&mut Box<dyn FrameGrabber>> {
         self.inner
@@ -98,8 +105,12 @@ impl Grabber {
 }
 
 /// Opens a grabber by URI, as ``gloam capture --grabber URI``:
-/// ``sim:PRESET[?size=WxH&seed=S&scene=PATH]``, ``serial:PATH[?baud=N]``,
-/// ``usb:VID:PID[:SERIAL]``. ``seed`` overrides a ``sim:`` URI's seed.
+/// ``sim:PRESET[?size=WxH&seed=S&scene=PATH]`` (the simulated camera),
+/// ``serial:PATH[?baud=N]``, ``usb:VID:PID[:SERIAL]`` and, in a build
+/// with the ``genicam`` feature, ``genicam:[DEVICE-ID]`` (a GigE Vision
+/// camera through Aravis, e.g. gloam's own ``gloam device``). ``seed``
+/// overrides a ``sim:`` URI's seed. Returns a ``Grabber`` (a context
+/// manager); ``gloam grabbers`` lists the kinds this build has.
 #[pyfunction]
 #[pyo3(signature = (uri, seed = None))]
 fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabber> {
@@ -118,6 +129,7 @@ fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabbe
     Ok(Grabber {
         inner: Some(finish(r.0)?),
         uri: uri.to_string(),
+        seed,
     })
 }
 
@@ -131,17 +143,19 @@ fn frame_of(py: Python<'_>, f: gloam_grabber::Frame) -> PyResult<PyFrame> {
     })?;
     Ok(PyFrame {
         gain: f.meta.gain,
-        meta: to_py(py, &f.meta)?.unbind(),
+        meta: to_py_as(py, &f.meta, "FrameMeta")?.unbind(),
         pixels: pixels.into_pyarray(py).unbind(),
     })
 }
 
 #[pymethods]
 impl Grabber {
+    /// The grabber itself (``with gloam.open_grabber(uri) as g:``).
     fn __enter__(slf: Py<Self>) -> Py<Self> {
         slf
     }
 
+    /// Closes the grabber at the end of the ``with`` block.
     #[pyo3(signature = (*_args))]
     fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
         self.inner = None;
@@ -198,7 +212,7 @@ impl Grabber {
         frame_of(py, f)
     }
 
-    /// An iterator over the next ``n`` frames.
+    /// An iterator over the next ``n`` frames (a ``FrameStream`` of ``Frame``).
     fn stream(slf: Py<Self>, n: u64) -> FrameStream {
         FrameStream {
             grabber: slf,
@@ -206,6 +220,7 @@ impl Grabber {
         }
     }
 
+    /// ``Grabber('uri')`` (``, closed`` once closed).
     fn __repr__(&self) -> String {
         format!(
             "Grabber('{}'{})",
@@ -223,16 +238,20 @@ impl Grabber {
 /// its pixels as a NumPy array; `Frame` to Python.
 #[pyclass(name = "Frame", module = "gloam", frozen)]
 pub struct PyFrame {
+    /// The frame's counts: uint16, row × column.
     #[pyo3(get)]
     pub pixels: Py<PyArray2<u16>>,
+    /// The gain in effect for the frame (linear factor).
     #[pyo3(get)]
     pub gain: f64,
+    /// The frame's record: a ``FrameMeta`` (a dict with attribute access).
     #[pyo3(get)]
     pub meta: Py<PyAny>,
 }
 
 #[pymethods]
 impl PyFrame {
+    /// ``Frame((rows, columns), gain g)``.
     fn __repr__(&self, py: Python<'_>) -> String {
         format!(
             "Frame({:?}, gain {})",
@@ -251,10 +270,12 @@ pub struct FrameStream {
 
 #[pymethods]
 impl FrameStream {
+    /// The stream itself.
     fn __iter__(slf: Py<Self>) -> Py<Self> {
         slf
     }
 
+    /// The next frame (GIL released while it waits); StopIteration after ``n``.
     fn __next__(&mut self, py: Python<'_>) -> PyResult<Option<PyFrame>> {
         if self.left == 0 {
             return Ok(None);

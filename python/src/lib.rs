@@ -3,7 +3,8 @@
 //! Every call goes straight to the Rust crates (no subprocess). Long calls
 //! (renders, captures, calibrations) release the GIL and poll Python's
 //! signal handlers, so Ctrl-C raises `KeyboardInterrupt` within a tile or a
-//! frame; every other error is a `gloam.GloamError` carrying the CLI's
+//! frame (and pass progress to a `progress=` callback); results are
+//! `gloam.Result` dicts with attribute access; every other error is a `gloam.GloamError` carrying the CLI's
 //! message (`file:line: field: …` for scene files).
 
 use pyo3::prelude::*;
@@ -16,6 +17,7 @@ mod interrupt;
 mod render;
 mod sensor;
 mod sky;
+mod sweep;
 
 #[pymodule]
 fn _gloam(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -26,5 +28,6 @@ fn _gloam(m: &Bound<'_, PyModule>) -> PyResult<()> {
     grabber::register(m)?;
     calib::register(m)?;
     sky::register(m)?;
+    sweep::register(m)?;
     Ok(())
 }

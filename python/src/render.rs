@@ -1,6 +1,7 @@
 //! Scenes, the effect plan, renders and probes.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
@@ -12,9 +13,9 @@ use pyo3::types::{PyDict, PyList};
 use gloam_pipeline::{RenderJob, SettingArgs};
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 
-use crate::convert::{setting_pairs, to_py};
+use crate::convert::{setting_pairs, to_py_as};
 use crate::errors::OrPy;
-use crate::interrupt::detached_with_stop;
+use crate::interrupt::{ProgressSink, detached_owned, detached_with_stop};
 use crate::sensor::Sensor;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -31,7 +32,9 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// (OBJ paths relative to ``base_dir``). Errors name file, line and field.
 #[pyclass(module = "gloam", frozen)]
 pub struct Scene {
-    pub scene: gloam_scene::Scene,
+    /// Shared with a render's worker thread, which may outlive a call
+    /// interrupted during preparation.
+    pub scene: Arc<gloam_scene::Scene>,
     pub path: PathBuf,
     /// Seconds the load took (report.json `timings_s.load`).
     pub load_s: f64,
@@ -49,7 +52,7 @@ impl Scene {
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
         let t = Instant::now();
-        let scene = gloam_scene::load(&path).or_py()?;
+        let scene = Arc::new(gloam_scene::load(&path).or_py()?);
         let load_s = t.elapsed().as_secs_f64();
         Ok(Self {
             scene,
@@ -66,7 +69,7 @@ impl Scene {
     fn from_toml(text: &str, base_dir: Option<PathBuf>, name: &str) -> PyResult<Self> {
         let path = base_dir.unwrap_or_else(|| PathBuf::from(".")).join(name);
         let t = Instant::now();
-        let scene = gloam_scene::parse_str(text, &path).or_py()?;
+        let scene = Arc::new(gloam_scene::parse_str(text, &path).or_py()?);
         let load_s = t.elapsed().as_secs_f64();
         Ok(Self {
             scene,
@@ -75,9 +78,11 @@ impl Scene {
         })
     }
 
-    /// The effect plan: one dict per effect (``name``, ``enabled``,
-    /// ``reason``, ``estimated_share``), as ``gloam plan --json`` prints
-    /// its ``effects``. Runs the pilot (a fraction of a second).
+    /// The effect plan: one ``Effect`` per effect (``name``, ``enabled``,
+    /// ``reason``, ``estimated_share``; dicts with attribute access), as
+    /// ``gloam plan --json`` prints its ``effects``. ``settings`` and
+    /// ``tolerance`` are ``render``'s. Runs the pilot (a fraction of a
+    /// second); Ctrl-C stops it.
     #[pyo3(signature = (settings = None, tolerance = None))]
     fn plan<'py>(
         &self,
@@ -93,8 +98,11 @@ impl Scene {
             },
         )?;
         let scene = &self.scene;
-        let plan = detached_with_stop(py, |_| Ok(gloam_trace::plan::effect_plan(scene, &s)?))?;
-        to_py(py, &plan.effects)
+        let none = ProgressSink::new(py, None, "")?;
+        let plan = detached_with_stop(py, &none, |_, _| {
+            Ok(gloam_trace::plan::effect_plan(scene, &s)?)
+        })?;
+        to_py_as(py, &plan.effects, "Effect")
     }
 
     /// The scene's bands: dicts with ``name``, ``lo_nm``, ``hi_nm``.
@@ -109,6 +117,7 @@ impl Scene {
         self.path.clone()
     }
 
+    /// ``Scene('path': N facets, M point sources, bands [...])``.
     fn __repr__(&self) -> String {
         format!(
             "Scene('{}': {} facets, {} point sources, bands {:?})",
@@ -153,16 +162,23 @@ fn band_list<'py>(
 /// radiance e⁻ s⁻¹ m⁻² sr⁻¹, what ``Sensor.capture`` takes).
 #[pyclass(module = "gloam", frozen)]
 pub struct RenderResult {
+    /// Radiance of the scene's bands: float64, band × row × column, W m⁻² sr⁻¹.
     #[pyo3(get)]
     radiance: Py<PyArray3<f64>>,
+    /// Estimated standard error of each pixel (same shape and units).
     #[pyo3(get)]
     std_error: Py<PyArray3<f64>>,
+    /// Camera samples per pixel: uint32, row × column.
     #[pyo3(get)]
     spp: Py<PyArray2<u32>>,
+    /// Detected-electron radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (float64, row ×
+    /// column), when rendered with ``sensor=``; else None.
     #[pyo3(get)]
     detected: Option<Py<PyArray2<f64>>>,
+    /// The bands: dicts with ``name``, ``lo_nm``, ``hi_nm``, ``units``.
     #[pyo3(get)]
     bands: Py<PyAny>,
+    /// The ``report.json`` document (a dict with attribute access).
     #[pyo3(get)]
     report: Py<PyAny>,
 }
@@ -176,6 +192,27 @@ impl RenderResult {
 
 #[pymethods]
 impl RenderResult {
+    /// The arrays and the report as a plain dict (``radiance``,
+    /// ``std_error``, ``spp``, ``detected``, ``bands``, ``report``).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("radiance", &self.radiance)?;
+        d.set_item("std_error", &self.std_error)?;
+        d.set_item("spp", &self.spp)?;
+        d.set_item("detected", &self.detected)?;
+        d.set_item("bands", &self.bands)?;
+        d.set_item("report", &self.report)?;
+        Ok(d)
+    }
+
+    /// ``result["radiance"]`` as ``result.radiance`` (dict-style code keeps working).
+    fn __getitem__<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
+        self.to_dict(py)?
+            .get_item(key)?
+            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
+    }
+
+    /// ``RenderResult(radiance (bands, rows, columns), …)``.
     fn __repr__(&self, py: Python<'_>) -> String {
         format!(
             "RenderResult(radiance {:?}{})",
@@ -206,10 +243,16 @@ fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> 
 /// ``settings`` is any ``--set KEY=VALUE`` as a dict. ``sensor`` (a
 /// ``Sensor``, preset name or sensor TOML path; default the scene's own
 /// ``sensor`` entry, as the CLI) adds the camera's detected band as
-/// ``result.detected``. The GIL is released while it
-/// renders; Ctrl-C stops it within a tile (KeyboardInterrupt).
+/// ``result.detected``. ``progress`` is ``True`` (a tqdm bar when tqdm is
+/// installed, else a line on stderr) or a callable ``progress(done,
+/// total, what)``, told each preparation step (``what`` ``"prepare:
+/// bvh"`` …, ``done = total = 0``) and each finished tile (``"tiles"``);
+/// an exception it raises stops the render. The GIL is released while it
+/// renders; Ctrl-C raises KeyboardInterrupt within a tile, and during the
+/// scene's preparation at once (the abandoned preparation finishes its
+/// step in the background and is dropped).
 #[pyfunction]
-#[pyo3(signature = (scene, spp = None, seed = None, estimator = None, settings = None, threads = None, target_error = None, tolerance = None, sensor = None))]
+#[pyo3(signature = (scene, spp = None, seed = None, estimator = None, settings = None, threads = None, target_error = None, tolerance = None, sensor = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -222,6 +265,7 @@ fn render<'py>(
     target_error: Option<f64>,
     tolerance: Option<f64>,
     sensor: Option<&Bound<'py, PyAny>>,
+    progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<RenderResult> {
     let flags = SettingArgs {
         spp,
@@ -237,13 +281,30 @@ fn render<'py>(
     let sc = scene.get();
     let (scene_ref, path) = (&sc.scene, sc.path.as_path());
     // As `gloam render`: the scene's own `sensor` entry when none is given.
-    let camera = gloam_pipeline::render::camera_of(given.as_deref(), scene_ref);
-    let rendered = detached_with_stop(py, |stop| {
+    let camera = gloam_pipeline::render::camera_of(given.as_deref(), scene_ref).map(String::from);
+    let sink = ProgressSink::new(py, progress, "render")?;
+    let owned = Arc::clone(scene_ref);
+    let rendered = detached_owned(py, &sink, move |stop, rep| {
+        let prep_rep = Arc::clone(&rep);
+        let observer: gloam_trace::PrepObserver = Arc::new(move |ev| {
+            if let gloam_trace::PrepEvent::Begin(step) = ev {
+                prep_rep.set(&format!("prepare: {step}"), 0, 0);
+            }
+        });
         let job = RenderJob {
-            camera,
-            ..RenderJob::new(scene_ref, &s)
+            camera: camera.as_deref(),
+            observer: Some(observer),
+            ..RenderJob::new(&owned, &s)
         };
-        Ok(job.run(&|_, _| {}, &|| stop.load(Ordering::Relaxed))?)
+        let prepared = job.prepare()?;
+        if stop.load(Ordering::Relaxed) {
+            anyhow::bail!("interrupted");
+        }
+        Ok(
+            prepared.render(None, &|done, total| rep.set("tiles", done, total), &|| {
+                stop.load(Ordering::Relaxed)
+            })?,
+        )
     })?;
     let mut report = rendered.report_json(path, scene_ref, sc.load_s, 0.0);
     let (mut out, detected) = (rendered.radiance, rendered.detected);
@@ -259,7 +320,7 @@ fn render<'py>(
         spp,
         detected: detected.map(|d| d.into_pyarray(py).unbind()),
         bands,
-        report: to_py(py, &report)?.unbind(),
+        report: to_py_as(py, &report, "RenderReport")?.unbind(),
     })
 }
 
@@ -274,9 +335,11 @@ fn vec3(what: &str, v: Vec<f64>) -> PyResult<DVec3> {
 }
 
 /// Irradiance at a world-space ``point`` (scene units) on a receiver with
-/// ``normal``, in ``band`` (default: the first): a dict with
+/// ``normal``, in ``band`` (default: the first), from ``samples`` samples
+/// per source: a ``Probe`` (a dict with attribute access) with
 /// ``irradiance_w_m2``, ``std_error_w_m2`` and, on a facet, the reflected
 /// ``radiance_w_m2_sr`` — what ``gloam probe --point … --json`` prints.
+/// ``seed``, ``estimator`` and ``settings`` are ``render``'s.
 #[pyfunction]
 #[pyo3(signature = (scene, point, normal, band = None, samples = 16, seed = None, estimator = None, settings = None))]
 #[allow(clippy::too_many_arguments)]
@@ -299,8 +362,9 @@ fn probe<'py>(
     let s = self::settings(settings, flags)?;
     let (p, n) = (vec3("point", point)?, vec3("normal", normal)?);
     let sc = &scene.get().scene;
-    let r = detached_with_stop(py, |_| {
+    let none = ProgressSink::new(py, None, "")?;
+    let r = detached_with_stop(py, &none, |_, _| {
         Ok(Tracer::new(sc, &s)?.probe_point(p, n, band, samples)?)
     })?;
-    to_py(py, &r)
+    to_py_as(py, &r, "Probe")
 }

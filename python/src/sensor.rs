@@ -5,12 +5,13 @@ use ndarray::{Array2, Array3};
 use numpy::prelude::*;
 use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2};
 use pyo3::prelude::*;
+use pyo3::types::IntoPyDict;
 
 use gloam_sensor::{Camera, SensorConfig};
 
-use crate::convert::to_py;
+use crate::convert::to_py_as;
 use crate::errors::{GloamError, OrPy};
-use crate::interrupt::{SameThread, finish, signalled};
+use crate::interrupt::{ProgressSink, SameThread, finish, signalled};
 use crate::render::RenderResult;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -63,7 +64,7 @@ impl Sensor {
         Ok(Self { config, source })
     }
 
-    /// Names of the built-in presets.
+    /// Names of the built-in presets (what ``Sensor.preset`` takes).
     #[staticmethod]
     fn presets() -> Vec<&'static str> {
         gloam_sensor::PRESETS.iter().map(|p| p.0).collect()
@@ -76,12 +77,17 @@ impl Sensor {
     }
 
     /// Derived figures at ``gain`` (default: the configured gain), as
-    /// ``gloam sensor describe --json``: DN per photoelectron, excess noise
+    /// ``gloam sensor describe --json``: a ``SensorDescription`` (a dict
+    /// with attribute access) with DN per photoelectron, excess noise
     /// factor, read noise, black and saturation levels, bit depth, MTF.
     #[pyo3(signature = (gain = None))]
     fn describe<'py>(&self, py: Python<'py>, gain: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
         let camera = Camera::new(self.config.clone()).or_py()?;
-        to_py(py, &camera.chain().describe_checked(gain).or_py()?)
+        to_py_as(
+            py,
+            &camera.chain().describe_checked(gain).or_py()?,
+            "SensorDescription",
+        )
     }
 
     /// Captures ``frames`` frames through the camera; returns a
@@ -90,13 +96,18 @@ impl Sensor {
     /// gain, AGC state, saturation, CRC-32C).
     ///
     /// ``image`` is a ``RenderResult`` rendered with ``sensor=`` (its
-    /// detected band), or a 2-D float array: detected-electron radiance
-    /// (e⁻ s⁻¹ m⁻² sr⁻¹) with ``input="detected"`` (default), or mean
-    /// photoelectrons per pixel per frame with ``input="photoelectrons"``.
-    /// ``gain`` fixes the tube gain (override); ``agc=True`` lets the AGC
-    /// servo it; ``seed`` gives the same frames as ``gloam render --sensor
-    /// … --seed``. The GIL is released; Ctrl-C stops between frames.
-    #[pyo3(signature = (image, frames = 1, gain = None, agc = false, seed = 0, noise = true, input = "detected"))]
+    /// detected band), or a 2-D array of any float (or integer) dtype and
+    /// any layout (float32, Fortran order, strided views: converted to
+    /// float64, exactly): detected-electron radiance (e⁻ s⁻¹ m⁻² sr⁻¹)
+    /// with ``input="detected"`` (default), or mean photoelectrons per
+    /// pixel per frame with ``input="photoelectrons"``. ``gain`` fixes the
+    /// tube gain (override); ``agc=True`` lets the AGC servo it; ``noise``
+    /// False gives the mean response; ``seed`` gives the same frames as
+    /// ``gloam render --sensor … --seed``. ``progress`` (``True`` for a
+    /// tqdm bar, or a callable ``progress(done, total, "frames")``) is
+    /// told after each frame; an exception it raises stops the capture.
+    /// The GIL is released; Ctrl-C stops between frames.
+    #[pyo3(signature = (image, frames = 1, gain = None, agc = false, seed = 0, noise = true, input = "detected", progress = None))]
     #[allow(clippy::too_many_arguments)]
     fn capture(
         &self,
@@ -108,6 +119,7 @@ impl Sensor {
         seed: u64,
         noise: bool,
         input: &str,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Capture> {
         if frames == 0 {
             return Err(GloamError::new_err("frames must be at least 1"));
@@ -128,15 +140,7 @@ impl Sensor {
             })?;
             Input::Detected(d.readonly().as_array().to_owned())
         } else {
-            let a: PyReadonlyArray2<f64> = image.extract().map_err(|_| {
-                GloamError::new_err(
-                    "image: expected a RenderResult or a 2-D float64 array (row × column)",
-                )
-            })?;
-            // Checked before the copy: a broadcast view costs nothing to
-            // pass in and everything to copy.
-            let (h, w) = a.as_array().dim();
-            check_capture_size(h, w, frames)?;
+            let a = float64_image(py, image, frames)?;
             let a = a.as_array().to_owned();
             match input {
                 "detected" => Input::Detected(a),
@@ -151,7 +155,10 @@ impl Sensor {
         let mut config = self.config.clone();
         config.noise.seed = seed;
         let source = self.source.clone();
+        let sink = ProgressSink::new(py, progress, "capture")?;
+        let sink_ref = SameThread(&sink);
         let r = py.detach(move || -> anyhow::Result<_> {
+            let sink = sink_ref.into_inner();
             let mut camera = Camera::new(config)?;
             camera.set_noise(noise);
             if let Some(g) = gain {
@@ -183,21 +190,63 @@ impl Sensor {
                     &pixels,
                     &camera,
                 ));
+                if !sink.tell(u64::from(i) + 1, u64::from(frames), "frames") {
+                    anyhow::bail!("stopped by the progress callback");
+                }
             }
             Ok(SameThread((stack, records)))
         });
+        sink.close(py);
         let SameThread((stack, records)) = finish(r)?;
         let stack = stack.ok_or_else(|| GloamError::new_err("no frame was captured"))?;
         Ok(Capture {
             frames: stack.into_pyarray(py).unbind(),
-            meta: to_py(py, &records)?.unbind(),
+            meta: to_py_as(py, &records, "FrameRecord")?.unbind(),
             sensor: source,
         })
     }
 
+    /// ``Sensor('preset-or-path')``.
     fn __repr__(&self) -> String {
         format!("Sensor('{}')", self.source)
     }
+}
+
+/// `image` as a 2-D float64 array: any real dtype and layout, converted
+/// exactly (NumPy's `astype`), its size checked before anything is
+/// copied: a broadcast view costs nothing to pass in and everything to copy.
+fn float64_image<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    frames: u32,
+) -> PyResult<PyReadonlyArray2<'py, f64>> {
+    let refuse = |what: String| {
+        GloamError::new_err(format!(
+            "image: expected a RenderResult or a 2-D float array (row × column), got {what}"
+        ))
+    };
+    let np = py.import("numpy")?;
+    let a = np
+        .call_method1("asarray", (image,))
+        .map_err(|e| refuse(e.to_string()))?;
+    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    if !matches!(kind.as_str(), "f" | "i" | "u") {
+        let dtype = a.getattr("dtype")?.str()?.to_string();
+        return Err(refuse(format!("dtype {dtype}")));
+    }
+    let [h, w] = shape[..] else {
+        return Err(refuse(format!("{} dimensions", shape.len())));
+    };
+    check_capture_size(h, w, frames)?;
+    let f64_type = np.getattr("float64")?;
+    let a = a.call_method(
+        "astype",
+        (f64_type,),
+        Some(&[("copy", false)].into_py_dict(py)?),
+    )?;
+    a.extract::<PyReadonlyArray2<'py, f64>>()
+        .map_err(|e: PyErr| refuse(e.to_string()))
 }
 
 /// Frames from ``Sensor.capture``: ``frames`` (uint16, frames × row ×
@@ -206,20 +255,42 @@ impl Sensor {
 /// ``saturated_fraction``, ``pixels_crc32c``, …).
 #[pyclass(module = "gloam", frozen)]
 pub struct Capture {
+    /// The frames: uint16, frames × row × column, digital counts.
     #[pyo3(get)]
     frames: Py<PyArray3<u16>>,
+    /// One ``FrameRecord`` per frame (the ``frames.jsonl`` record, a dict
+    /// with attribute access).
     #[pyo3(get)]
     meta: Py<PyAny>,
+    /// The preset name or sensor file the frames were captured with.
     #[pyo3(get)]
     sensor: String,
 }
 
 #[pymethods]
 impl Capture {
+    /// The number of frames.
     fn __len__(&self, py: Python<'_>) -> usize {
         self.frames.bind(py).shape()[0]
     }
 
+    /// ``frames``, ``meta`` and ``sensor`` as a plain dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("frames", &self.frames)?;
+        d.set_item("meta", &self.meta)?;
+        d.set_item("sensor", &self.sensor)?;
+        Ok(d)
+    }
+
+    /// ``capture["frames"]`` as ``capture.frames``.
+    fn __getitem__<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
+        self.to_dict(py)?
+            .get_item(key)?
+            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
+    }
+
+    /// ``Capture('sensor', frames (n, rows, columns))``.
     fn __repr__(&self, py: Python<'_>) -> String {
         format!(
             "Capture('{}', frames {:?})",

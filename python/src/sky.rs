@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use gloam_sky::report::{InputNames, QueryError, checked_site, parse_instant};
 use gloam_sky::{Cloud, Refraction, Site, UtcInstant, ephemeris, ground_illuminance};
 
-use crate::convert::to_py;
+use crate::convert::to_py_as;
 use crate::errors::OrPy;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -29,8 +29,9 @@ fn site_and_time(
 
 /// Moon and Sun positions and the lunar phase at ``utc`` (ISO 8601) for a
 /// site (degrees north, degrees east, metres): Meeus with parallax and
-/// standard refraction. A dict: ``moon``, ``sun`` (elevation_deg,
-/// azimuth_deg, …), ``illuminated_fraction``, ``phase_angle_deg``, …
+/// standard refraction. An ``Ephemeris`` (a dict with attribute access):
+/// ``moon``, ``sun`` (elevation_deg, azimuth_deg, …),
+/// ``illuminated_fraction``, ``phase_angle_deg``, …
 #[pyfunction]
 #[pyo3(signature = (lat, lon, utc, height_m = 0.0))]
 fn ephem<'py>(
@@ -41,13 +42,16 @@ fn ephem<'py>(
     height_m: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
     let (site, t) = site_and_time(lat, lon, height_m, utc).or_py()?;
-    to_py(py, &ephemeris(t, &site, Refraction::STANDARD))
+    to_py_as(py, &ephemeris(t, &site, Refraction::STANDARD), "Ephemeris")
 }
 
 /// Illuminance on the ground from the Moon (direct and sky-scattered) and
-/// the night sky, as ``gloam sky``: a dict with ``illuminance_lux``
-/// (moon_direct, moon_sky, night_sky, total), the ephemeris, and with
-/// ``spectra=True`` the spectral irradiance tables (W m⁻² nm⁻¹).
+/// the night sky, as ``gloam sky``, at a site (degrees north, degrees
+/// east, metres) and ``utc`` (ISO 8601) under a clear sky of
+/// ``visibility_km`` or ``overcast``: a ``SkyIlluminance`` (a dict with
+/// attribute access) with ``illuminance_lux`` (moon_direct, moon_sky,
+/// night_sky, total), the ephemeris, and with ``spectra=True`` the
+/// spectral irradiance tables (W m⁻² nm⁻¹).
 #[pyfunction]
 #[pyo3(signature = (lat, lon, utc, height_m = 0.0, visibility_km = 23.0, overcast = false, spectra = false))]
 #[allow(clippy::too_many_arguments)]
@@ -70,5 +74,5 @@ fn sky<'py>(
     let g = py
         .detach(|| ground_illuminance(t, &site, visibility_km, cloud, spectra))
         .or_py()?;
-    to_py(py, &g)
+    to_py_as(py, &g, "SkyIlluminance")
 }

@@ -59,6 +59,10 @@ def test_ctrl_c_stops_a_long_render_with_keyboard_interrupt(repo):
     # Untouched, this render would take minutes (2000 spp at 320 × 240);
     # the render polls for Ctrl-C before each row of a tile.
     main = threading.main_thread().ident
+    # A shell's background job starts with SIGINT ignored, and Python then
+    # installs no KeyboardInterrupt handler: install it, as an interactive
+    # session has it.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: signal.pthread_kill(main, signal.SIGINT))
     t0 = time.monotonic()
     timer.start()
