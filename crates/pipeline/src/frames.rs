@@ -588,9 +588,21 @@ impl FrameCapture<'_> {
             }
             None => None,
         };
+        // Before the first frame: can this camera see this scene at any
+        // gain it reaches? (`--exposure auto` has already chosen its fit.)
+        let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
+        let fit = crate::fit::predict(&config, detected, start_gain)?;
+        let fixable_by_agc = matches!(
+            fit.verdict,
+            crate::fit::FitVerdict::SaturatesAtThisGain
+                | crate::fit::FitVerdict::InTheNoiseAtThisGain
+        ) && self.agc;
+        if self.auto_exposure.is_none() && !fit.note.is_empty() && !fixable_by_agc {
+            notes.push(format!("warning: {}", fit.note));
+        }
         let mut camera = Camera::new(config)?;
         camera.set_noise(self.noise);
-        if let Some(g) = self.gain.or(exposure.as_ref().map(|c| c.gain)) {
+        if let Some(g) = start_gain {
             camera
                 .set_override_gain(Some(g))
                 .map_err(CaptureError::Gain)?;
@@ -647,8 +659,19 @@ impl FrameCapture<'_> {
                 black_dn: black,
             })?;
         }
+        if summary.frames > 1 && summary.frames_over_warning > 0 {
+            notes.push(format!(
+                "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
+                summary.frames_over_warning,
+                summary.frames,
+                100.0 * gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                100.0 * summary.max_saturated_fraction,
+                100.0 * summary.mean_saturated_fraction
+            ));
+        }
         let report = serde_json::json!({
             "sensor": self.sensor,
+            "fit": fit,
             "exposure": exposure,
             "frames": per_frame,
             "saturation": summary,
