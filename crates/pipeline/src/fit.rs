@@ -45,7 +45,7 @@ pub struct PredictedLevel {
     pub saturated_fraction: f64,
     pub median_dn: f64,
     /// (median − black) over full scale `2^bits − 1`.
-    pub median_of_full_scale: f64,
+    pub median_above_black_of_full_scale: f64,
 }
 
 /// What the fit found.
@@ -172,7 +172,7 @@ impl Photoelectrons {
             gain: g,
             saturated_fraction: saturated,
             median_dn,
-            median_of_full_scale: (median_dn - black) / chain.max_code,
+            median_above_black_of_full_scale: (median_dn - black) / chain.max_code,
         }
     }
 
@@ -215,11 +215,11 @@ pub fn predict(
     let warn = gloam_sensor::levels::SATURATED_WARN_FRACTION;
     let verdict = if at_gain_min.saturated_fraction > warn {
         FitVerdict::SaturatesAtEveryGain
-    } else if at_gain_max.median_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
+    } else if at_gain_max.median_above_black_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
         FitVerdict::InTheNoiseAtEveryGain
     } else if at_gain.saturated_fraction > warn {
         FitVerdict::SaturatesAtThisGain
-    } else if at_gain.median_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
+    } else if at_gain.median_above_black_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
         FitVerdict::InTheNoiseAtThisGain
     } else {
         FitVerdict::Fits
@@ -271,7 +271,7 @@ pub fn predict(
     let lamps = if median_goal_saturated_fraction > warn {
         format!(
             "; even fitted, the median is {:.1} % of full scale, and lifting it to {:.0} % would saturate {:.1} % of the pixels: the scene's highlights and a readable median do not fit in one frame of this camera",
-            100.0 * fitted.median_of_full_scale,
+            100.0 * fitted.median_above_black_of_full_scale,
             100.0 * MEDIAN_GOAL_OF_FULL_SCALE,
             100.0 * median_goal_saturated_fraction
         )
@@ -298,7 +298,7 @@ pub fn predict(
         FitVerdict::InTheNoiseAtEveryGain => format!(
             "camera fit: this scene is in {}'s noise at every gain (predicted median {:.2} % of full scale above black at gain {g_max:.4}); {:.1} stops more light would lift it to {:.0} %{} — or use --exposure auto",
             config.name,
-            100.0 * at_gain_max.median_of_full_scale,
+            100.0 * at_gain_max.median_above_black_of_full_scale,
             s_fit.log2(),
             100.0 * MEDIAN_GOAL_OF_FULL_SCALE,
             exposure_s_to_fit.map_or(String::new(), |t| format!(" (exposure {t:.4e} s)"))
@@ -306,8 +306,8 @@ pub fn predict(
         FitVerdict::InTheNoiseAtThisGain => format!(
             "camera fit: at gain {g:.4} this scene is in {}'s noise (predicted median {:.2} % of full scale above black; {:.1} % at gain {g_max:.4}): raise the gain, or use --exposure auto",
             config.name,
-            100.0 * at_gain.median_of_full_scale,
-            100.0 * at_gain_max.median_of_full_scale
+            100.0 * at_gain.median_above_black_of_full_scale,
+            100.0 * at_gain_max.median_above_black_of_full_scale
         ),
     };
     Ok(Fit {
