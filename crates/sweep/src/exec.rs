@@ -186,6 +186,20 @@ fn capture_detected(
             f.insert(key.into(), v);
         }
     }
+    // What the frames gave, to set beside it: the median above black over
+    // full scale, averaged over the frames.
+    if let Some(frames) = captured.report["frames"].as_array() {
+        let m: Vec<f64> = frames
+            .iter()
+            .filter_map(|fr| fr["median_above_black_of_full_scale"].as_f64())
+            .collect();
+        if !m.is_empty() {
+            f.insert(
+                "median_above_black_of_full_scale".into(),
+                m.iter().sum::<f64>() / m.len() as f64,
+            );
+        }
+    }
     for note in captured.notes.iter().filter(|n| n.contains("camera fit:")) {
         eprintln!("task {}: {note}", task.id);
     }
