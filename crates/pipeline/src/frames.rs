@@ -588,9 +588,21 @@ impl FrameCapture<'_> {
             }
             None => None,
         };
+        // Before the first frame: can this camera see this scene at any
+        // gain it reaches? (`--exposure auto` has already chosen its fit.)
+        let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
+        let fit = crate::fit::predict(&config, detected, start_gain)?;
+        let fixable_by_agc = matches!(
+            fit.verdict,
+            crate::fit::FitVerdict::SaturatesAtThisGain
+                | crate::fit::FitVerdict::InTheNoiseAtThisGain
+        ) && self.agc;
+        if self.auto_exposure.is_none() && !fit.note.is_empty() && !fixable_by_agc {
+            notes.push(format!("warning: {}", fit.note));
+        }
         let mut camera = Camera::new(config)?;
         camera.set_noise(self.noise);
-        if let Some(g) = self.gain.or(exposure.as_ref().map(|c| c.gain)) {
+        if let Some(g) = start_gain {
             camera
                 .set_override_gain(Some(g))
                 .map_err(CaptureError::Gain)?;
@@ -629,10 +641,13 @@ impl FrameCapture<'_> {
                     notes.push(format!("warning: frame {i}: {w}{by}"));
                 }
             }
+            let median = median_dn(&pixels);
             per_frame.push(serde_json::json!({
                 "file": file,
                 "gain": g,
                 "mean_dn": m.mean_dn,
+                "median_dn": median,
+                "median_above_black_of_full_scale": (median - black) / chain.max_code,
                 "saturated_fraction": m.saturated_fraction,
                 "saturated_by": m.saturation.saturated_by,
                 "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
@@ -647,8 +662,19 @@ impl FrameCapture<'_> {
                 black_dn: black,
             })?;
         }
+        if summary.frames > 1 && summary.frames_over_warning > 0 {
+            notes.push(format!(
+                "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
+                summary.frames_over_warning,
+                summary.frames,
+                100.0 * gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                100.0 * summary.max_saturated_fraction,
+                100.0 * summary.mean_saturated_fraction
+            ));
+        }
         let report = serde_json::json!({
             "sensor": self.sensor,
+            "fit": fit,
             "exposure": exposure,
             "frames": per_frame,
             "saturation": summary,
@@ -696,6 +722,27 @@ impl FrameCapture<'_> {
         record_in_report(out, captured.report)?;
         Ok(captured.notes)
     }
+}
+
+/// The median count of a frame (0 for no pixels), by a histogram of the
+/// 16-bit codes: one pass, no sort.
+fn median_dn(pixels: &[u16]) -> f64 {
+    if pixels.is_empty() {
+        return 0.0;
+    }
+    let mut hist = vec![0u32; 1 << 16];
+    for &p in pixels {
+        hist[usize::from(p)] += 1;
+    }
+    let half = (pixels.len() as u64 - 1) / 2;
+    let mut seen = 0u64;
+    for (code, &n) in hist.iter().enumerate() {
+        seen += u64::from(n);
+        if seen > half {
+            return code as f64;
+        }
+    }
+    0.0
 }
 
 /// A stage's name in messages.
@@ -751,5 +798,16 @@ impl SaturationSummary {
             .max(s.mcp_compressed_fraction);
         self.bright_source_frames += u64::from(s.bright_source_in_view);
         self.abc_active_frames += u64::from(s.abc.gain_factor < 1.0 || s.abc.duty_factor < 1.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The median is the lower middle count, found without sorting.
+    #[test]
+    fn median_is_the_middle_count() {
+        assert_eq!(super::median_dn(&[5, 1, 3, 4, 2]), 3.0);
+        assert_eq!(super::median_dn(&[4095, 0, 7, 9]), 7.0);
+        assert_eq!(super::median_dn(&[]), 0.0);
     }
 }

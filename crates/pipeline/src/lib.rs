@@ -5,6 +5,7 @@ pub mod bench;
 pub mod cli;
 pub mod detected;
 pub mod exposure;
+pub mod fit;
 pub mod frame_files;
 pub mod frames;
 pub mod output;

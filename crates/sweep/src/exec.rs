@@ -151,7 +151,7 @@ fn capture_detected(
     let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
     let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
-    capture.capture(detected, &mut |f| {
+    let captured = capture.capture(detected, &mut |f| {
         writer.write(&f.record, &f.pixels)?;
         (black, gain) = (f.black_dn, f.record.gain);
         sat += f.record.saturated_fraction;
@@ -163,6 +163,46 @@ fn capture_detected(
     let mut f = crate::figures::frame_figures(&refs, Some(black));
     f.insert("gain_in_effect".into(), gain);
     f.insert("saturated_fraction".into(), sat / task.frames() as f64);
+    // The camera fit predicted before the first frame: how much of the
+    // frame saturates at this gain and at the least sensitive one, and
+    // the ND that would fit (absent: none within reach, or not needed).
+    let fit = &captured.report["fit"];
+    for (key, value) in [
+        (
+            "fit_saturated_fraction",
+            &fit["at_gain"]["saturated_fraction"],
+        ),
+        (
+            "fit_saturated_fraction_at_gain_min",
+            &fit["at_gain_min"]["saturated_fraction"],
+        ),
+        (
+            "fit_median_above_black_of_full_scale",
+            &fit["at_gain"]["median_above_black_of_full_scale"],
+        ),
+        ("fit_nd_density", &fit["nd_density_to_fit"]),
+    ] {
+        if let Some(v) = value.as_f64() {
+            f.insert(key.into(), v);
+        }
+    }
+    // What the frames gave, to set beside it: the median above black over
+    // full scale, averaged over the frames.
+    if let Some(frames) = captured.report["frames"].as_array() {
+        let m: Vec<f64> = frames
+            .iter()
+            .filter_map(|fr| fr["median_above_black_of_full_scale"].as_f64())
+            .collect();
+        if !m.is_empty() {
+            f.insert(
+                "median_above_black_of_full_scale".into(),
+                m.iter().sum::<f64>() / m.len() as f64,
+            );
+        }
+    }
+    for note in captured.notes.iter().filter(|n| n.contains("camera fit:")) {
+        eprintln!("task {}: {note}", task.id);
+    }
     Ok(f)
 }
 
