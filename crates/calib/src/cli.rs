@@ -278,6 +278,25 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     }
 }
 
+/// Opens grabber `uri` (noise seed `seed` for `sim:`), naming the URI if
+/// it will not open.
+fn open_uri(
+    registry: &Registry,
+    uri: &str,
+    seed: Option<u64>,
+) -> Result<Box<dyn FrameGrabber>, CalibError> {
+    let opts = OpenOptions {
+        seed,
+        ..OpenOptions::default()
+    };
+    registry
+        .open(uri, &opts)
+        .map_err(|source| CalibError::Open {
+            uri: uri.to_string(),
+            source: Box::new(source),
+        })
+}
+
 impl GrabberArgs {
     /// Opens the grabber and sets the exposure asked for.
     pub fn open<E: From<CalibError> + From<GrabError>>(
@@ -285,16 +304,7 @@ impl GrabberArgs {
         registry: &Registry,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Box<dyn FrameGrabber>, E> {
-        let opts = OpenOptions {
-            seed: self.seed,
-            ..OpenOptions::default()
-        };
-        let mut g = registry
-            .open(&self.grabber, &opts)
-            .map_err(|source| CalibError::Open {
-                uri: self.grabber.clone(),
-                source: Box::new(source),
-            })?;
+        let mut g = open_uri(registry, &self.grabber, self.seed)?;
         if let Some(e) = self.exposure_s {
             g.set_exposure_s(e)?;
         }
@@ -708,16 +718,7 @@ impl CaptureArgs {
         dir: &Path,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Box<dyn FrameGrabber>, E> {
-        let opts = OpenOptions {
-            seed: self.seed,
-            ..OpenOptions::default()
-        };
-        let mut g = registry
-            .open(&self.grabber, &opts)
-            .map_err(|source| CalibError::Open {
-                uri: self.grabber.clone(),
-                source: Box::new(source),
-            })?;
+        let mut g = open_uri(registry, &self.grabber, self.seed)?;
         ev(Event::Note(format!("capturing from {}", g.describe())));
         let camera = serde_json::json!({ "camera": g.describe(), "grabber": self.grabber });
         report::write_json(&dir.join(crate::apply::CAMERA_FILE), &camera)?;

@@ -17,12 +17,8 @@ pub struct LinearFit {
     pub n_points: usize,
 }
 
-/// Weighted least-squares line through `(x_i, y_i)` with weights `w_i ≥ 0`
-/// (use 1/σ² of each `y_i`, or all ones).
-///
-/// Errors (never NaN): fewer than two points with positive weight, all `x`
-/// equal (the slope is undetermined), or non-finite input.
-pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit, CalibError> {
+/// The inputs of a weighted fit: equal lengths, finite, weights ≥ 0.
+fn check_fit_input(x: &[f64], y: &[f64], w: &[f64]) -> Result<(), CalibError> {
     if x.len() != y.len() || x.len() != w.len() {
         return Err(CalibError::Invalid(format!(
             "fit input lengths differ: {} x, {} y, {} weights",
@@ -36,6 +32,16 @@ pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit,
             "fit input holds a non-finite value or a negative weight".into(),
         ));
     }
+    Ok(())
+}
+
+/// Weighted least-squares line through `(x_i, y_i)` with weights `w_i ≥ 0`
+/// (use 1/σ² of each `y_i`, or all ones).
+///
+/// Errors (never NaN): fewer than two points with positive weight, all `x`
+/// equal (the slope is undetermined), or non-finite input.
+pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit, CalibError> {
+    check_fit_input(x, y, w)?;
     let used = w.iter().filter(|&&v| v > 0.0).count();
     if used < 2 {
         return Err(CalibError::SingularFit(format!(
@@ -87,19 +93,7 @@ pub fn weighted_linear_fit(x: &[f64], y: &[f64], w: &[f64]) -> Result<LinearFit,
 /// [`weighted_linear_fit`]: mismatched lengths, non-finite input, negative
 /// weights, or no point with positive weight and `x ≠ 0`.
 pub fn weighted_slope_through_origin(x: &[f64], y: &[f64], w: &[f64]) -> Result<f64, CalibError> {
-    if x.len() != y.len() || x.len() != w.len() {
-        return Err(CalibError::Invalid(format!(
-            "fit input lengths differ: {} x, {} y, {} weights",
-            x.len(),
-            y.len(),
-            w.len()
-        )));
-    }
-    if x.iter().chain(y).chain(w).any(|v| !v.is_finite()) || w.iter().any(|&v| v < 0.0) {
-        return Err(CalibError::Invalid(
-            "fit input holds a non-finite value or a negative weight".into(),
-        ));
-    }
+    check_fit_input(x, y, w)?;
     let sxx: f64 = x.iter().zip(w).map(|(a, b)| b * a * a).sum();
     let sxy: f64 = x.iter().zip(y).zip(w).map(|((a, c), b)| b * a * c).sum();
     if !(sxx > 0.0) {
