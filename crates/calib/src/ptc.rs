@@ -349,7 +349,7 @@ pub fn photon_transfer(
     let _ = mu_p_sat;
     let declared = match declared_noise(rig_used.as_ref(), gain, k, resp) {
         Ok(d) => d,
-        Err(w) => {
+        Err(NoDeclaredFigures(w)) => {
             warnings.push(w);
             None
         }
@@ -458,6 +458,10 @@ struct Declared {
     other_camera: bool,
 }
 
+/// Why the rig's camera gives no declared noise figures: a warning for
+/// the report.
+struct NoDeclaredFigures(String);
+
 /// Conversion gain and QE from the measured `K_eff` and the declared pixel
 /// noise factor: `Ok(None)` without a camera in the rig, `Err(warning)` when
 /// the named camera won't load or has no such gain (so it is not the camera
@@ -467,14 +471,14 @@ fn declared_noise(
     gain: f64,
     k_eff: f64,
     responsivity: Option<f64>,
-) -> Result<Option<Declared>, String> {
+) -> Result<Option<Declared>, NoDeclaredFigures> {
     let Some(camera) = rig.and_then(|r| r.camera.clone()) else {
         return Ok(None);
     };
     let no_figures = |e: &dyn std::fmt::Display| {
-        format!(
+        NoDeclaredFigures(format!(
             "no conversion gain or excess noise: the [rig]'s camera '{camera}' gives none at gain {gain} ({e}); name the camera behind the grabber in [rig]"
-        )
+        ))
     };
     let cam = gloam_sensor::Camera::from_preset_or_file(&camera).map_err(|e| no_figures(&e))?;
     let chain = cam.chain();

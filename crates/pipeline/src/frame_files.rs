@@ -51,17 +51,19 @@ pub const TIFF_STACK: &str = "frames.tiff";
 /// The contact sheet of a capture.
 pub const PREVIEW: &str = "frames-preview.png";
 
+/// A frame format name that is none of [`FrameFormat::NAMES`].
+#[derive(Debug, thiserror::Error)]
+#[error("frame format '{0}' is none of png, fits, tiff")]
+pub struct UnknownFrameFormat(pub String);
+
 impl std::str::FromStr for FrameFormat {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownFrameFormat;
+    fn from_str(s: &str) -> Result<Self, UnknownFrameFormat> {
         match s {
             "png" => Ok(Self::Png),
             "fits" => Ok(Self::Fits),
             "tiff" => Ok(Self::Tiff),
-            other => Err(format!(
-                "frame format '{other}' is none of {}",
-                Self::NAMES.join(", ")
-            )),
+            other => Err(UnknownFrameFormat(other.to_string())),
         }
     }
 }

@@ -72,16 +72,30 @@ pub struct DeviceArgs {
     pub fault_seed: u64,
 }
 
-fn parse_size_arg(s: &str) -> Result<(u32, u32), String> {
-    parse_size(s).ok_or_else(|| format!("'{s}' is not WxH with 1..4096 each"))
+/// A flag value clap refuses, said as the value.
+#[derive(Debug)]
+struct BadValue(String);
+
+impl std::fmt::Display for BadValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
 }
 
-fn probability(s: &str) -> Result<f64, String> {
-    let p: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+impl std::error::Error for BadValue {}
+
+fn parse_size_arg(s: &str) -> Result<(u32, u32), BadValue> {
+    parse_size(s).ok_or_else(|| BadValue(format!("'{s}' is not WxH with 1..4096 each")))
+}
+
+fn probability(s: &str) -> Result<f64, BadValue> {
+    let p: f64 = s
+        .parse()
+        .map_err(|_| BadValue(format!("'{s}' is not a number")))?;
     if (0.0..=1.0).contains(&p) {
         Ok(p)
     } else {
-        Err(format!("{p} is not a probability in 0..=1"))
+        Err(BadValue(format!("{p} is not a probability in 0..=1")))
     }
 }
 

@@ -107,12 +107,16 @@ impl CameraArgs {
         let camera = camera_of(self.sensor.as_deref(), scene);
         let frame_format = match self.frame_format.as_deref() {
             None => crate::FrameFormat::default(),
-            Some(v) => v.parse().map_err(|e: String| ArgError::Malformed {
-                flag: "frame-format",
-                value: v.to_string(),
-                expected: "png, fits or tiff",
-                source: Some(e.into()),
-            })?,
+            Some(v) => v
+                .parse()
+                .map_err(
+                    |e: crate::frame_files::UnknownFrameFormat| ArgError::Malformed {
+                        flag: "frame-format",
+                        value: v.to_string(),
+                        expected: "png, fits or tiff",
+                        source: Some(Box::new(e)),
+                    },
+                )?,
         };
         let capture = camera.filter(|_| !tile).map(|sensor| FrameCapture {
             sensor,
