@@ -80,6 +80,11 @@ impl PixelEstimate {
         }
     }
 
+    /// Whether any band has had a non-zero sample.
+    fn lit(&self) -> bool {
+        self.band_lit.iter().any(|&l| l)
+    }
+
     fn mean(&self, b: usize) -> f64 {
         self.band_sum[b] / self.n.max(1) as f64
     }
@@ -204,11 +209,13 @@ fn stated_std_errors(
     let nb = ests.first().map_or(0, |e| e.band_sum.len());
     let h = ests.len() / w.max(1);
     let mut out = vec![0.0; ests.len() * nb];
-    // Per-sample relative deviation of each lit pixel and band, for the
-    // neighbourhood rule below.
+    // The denominator of a relative error, and each lit pixel's
+    // per-sample relative deviation, for the neighbourhood rule below.
+    let denom =
+        |e: &PixelEstimate, b: usize| e.mean(b).abs().max(floor.get(b).copied().unwrap_or(0.0));
     let dev = |i: usize, b: usize| -> f64 {
         let e = &ests[i];
-        let d = e.mean(b).abs().max(floor.get(b).copied().unwrap_or(0.0));
+        let d = denom(e, b);
         if !e.band_lit[b] || d <= 0.0 {
             0.0
         } else {
@@ -223,26 +230,15 @@ fn stated_std_errors(
                 // deviation is the RMS over its 3 × 3 neighbourhood (its
                 // own included), which a penumbra's neighbours raise and a
                 // smooth region leaves unbiased.
-                let (r, c) = (i / w, i % w);
-                let (sum, count) = (r.saturating_sub(1)..(r + 2).min(h))
-                    .flat_map(|rr| (c.saturating_sub(1)..(c + 2).min(w)).map(move |cc| rr * w + cc))
+                let (sum, count) = window(i, w, h, 1)
                     .map(|j| dev(j, b))
                     .fold((0.0, 0.0), |(s, k), v| (s + v * v, k + 1.0));
                 let near = (sum / f64::max(count, 1.0)).sqrt();
-                let d = e.mean(b).abs().max(floor.get(b).copied().unwrap_or(0.0));
-                near * d / (e.n as f64).sqrt()
+                near * denom(e, b) / (e.n as f64).sqrt()
             } else if e.band_lit[b] || e.n == 0 || !bound_dark {
                 e.std_error(b) * factor[i]
             } else {
-                let (r, c) = (i / w, i % w);
-                let rows =
-                    r.saturating_sub(DARK_NEIGHBOURHOOD)..(r + DARK_NEIGHBOURHOOD + 1).min(h);
-                let scale = rows
-                    .flat_map(|rr| {
-                        let cols = c.saturating_sub(DARK_NEIGHBOURHOOD)
-                            ..(c + DARK_NEIGHBOURHOOD + 1).min(w);
-                        cols.map(move |cc| rr * w + cc)
-                    })
+                let scale = window(i, w, h, DARK_NEIGHBOURHOOD)
                     .map(|j| ests[j].mean(b).abs())
                     .fold(0.0, f64::max);
                 scale / e.n as f64
@@ -250,6 +246,15 @@ fn stated_std_errors(
         }
     }
     out
+}
+
+/// Indices of the pixels within `radius` of pixel `i` (a square window,
+/// clipped to the `w × h` image, `i` included), row by row.
+fn window(i: usize, w: usize, h: usize, radius: usize) -> impl Iterator<Item = usize> {
+    let (r, c) = (i / w.max(1), i % w.max(1));
+    (r.saturating_sub(radius)..(r + radius + 1).min(h)).flat_map(move |rr| {
+        (c.saturating_sub(radius)..(c + radius + 1).min(w)).map(move |cc| rr * w + cc)
+    })
 }
 
 /// Largest relative stated error over bands, each relative to
@@ -288,8 +293,7 @@ fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(
     // Pixels at their cap keep their error (the report counts them); the
     // target holds for the rest.
     let cap_of = |e: &PixelEstimate| pixel_cap(e, cap);
-    let lit = |e: &PixelEstimate| e.band_lit.iter().any(|&l| l);
-    let free = |e: &PixelEstimate| e.n < cap_of(e) && lit(e) && !e.sees_emitter;
+    let free = |e: &PixelEstimate| e.n < cap_of(e) && e.lit() && !e.sees_emitter;
     let nfree = ests.iter().filter(|e| free(e)).count();
     let npix = nfree.max(1) as f64;
     let rms = (ests
@@ -305,7 +309,7 @@ fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(
     let dark_open = ests
         .iter()
         .zip(rel)
-        .any(|(e, &r)| !lit(e) && e.n < cap_of(e) && r > target);
+        .any(|(e, &r)| !e.lit() && e.n < cap_of(e) && r > target);
     if rms <= target && !below_min && !dark_open {
         return Vec::new();
     }
@@ -330,7 +334,7 @@ fn allocate(ests: &[PixelEstimate], rel: &[f64], target: f64, cap: u32) -> Vec<(
         .filter_map(|(i, e)| {
             let want = if e.sees_emitter {
                 0.0
-            } else if lit(e) {
+            } else if e.lit() {
                 (lambda * dev[i] * 1.05).ceil()
             } else if rel[i] > target {
                 f64::INFINITY
@@ -370,11 +374,7 @@ pub const DARK_MAX_SPP: u32 = 64;
 /// The sample cap of pixel `e`: `max_spp`, or [`DARK_MAX_SPP`] while every
 /// sample has been zero.
 fn pixel_cap(e: &PixelEstimate, cap: u32) -> u32 {
-    if e.band_lit.iter().any(|&l| l) {
-        cap
-    } else {
-        cap.min(DARK_MAX_SPP)
-    }
+    if e.lit() { cap } else { cap.min(DARK_MAX_SPP) }
 }
 
 /// Adaptive sampling: a pixel needs at least this many samples before its
@@ -572,7 +572,7 @@ fn error_summary(
         }
         (count, (count > 0).then_some(bbox))
     });
-    let governed = |e: &PixelEstimate| e.band_lit.iter().any(|&l| l) && !e.sees_emitter;
+    let governed = |e: &PixelEstimate| e.lit() && !e.sees_emitter;
     let (sq, count) = ests
         .iter()
         .zip(&rel)
@@ -582,9 +582,7 @@ fn error_summary(
     let bounded = ests
         .iter()
         .enumerate()
-        .filter(|(i, e)| {
-            e.band_lit.iter().all(|&l| !l) && stated[i * nb..(i + 1) * nb].iter().any(|&v| v > 0.0)
-        })
+        .filter(|(i, e)| !e.lit() && stated[i * nb..(i + 1) * nb].iter().any(|&v| v > 0.0))
         .count();
     rel.sort_by(f64::total_cmp);
     let q = |p: f64| {
