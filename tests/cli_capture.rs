@@ -251,3 +251,33 @@ fn capture_records_the_saturated_fraction_and_warns() {
         "{stderr}"
     );
 }
+
+#[test]
+fn capture_from_a_scene_warns_before_its_frames_when_no_gain_fits() {
+    // The lamp-lit new-moon street through Gen III: the fit (from the
+    // rendered scene, before any frame) says no gain fits; the frame taken
+    // at the camera's least gain is the independent check.
+    let gain_min = "14.5519";
+    let uri = "sim:gen3-gaas-iccd?scene=sims/night-new-moon-lamps/scene.toml&size=48x36";
+    let (rec, stderr) = capture_one(uri, gain_min);
+    let warned = stderr
+        .lines()
+        .position(|l| l.contains("saturates this scene at every gain it can reach"));
+    let capturing = stderr.lines().position(|l| l.starts_with("capturing from"));
+    assert!(
+        matches!((warned, capturing), (Some(w), Some(c)) if w < c),
+        "{stderr}"
+    );
+    assert!(stderr.contains("an ND of density"), "{stderr}");
+    // The render's own flag is not offered where there is none.
+    assert!(!stderr.contains("--exposure auto"), "{stderr}");
+    assert!(rec["saturated_fraction"].as_f64().unwrap() > 0.01, "{rec}");
+    // A scene that fits at gain 30 (the new-moon street, no lamps) is not
+    // warned about, and its frame indeed is not saturated.
+    let (rec, stderr) = capture_one(
+        "sim:gen3-gaas-iccd?scene=sims/night-new-moon/scene.toml&size=48x36",
+        "30",
+    );
+    assert!(!stderr.contains("camera fit"), "{stderr}");
+    assert!(rec["saturated_fraction"].as_f64().unwrap() < 0.01, "{rec}");
+}

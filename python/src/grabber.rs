@@ -119,13 +119,32 @@ fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabbe
         ..OpenOptions::default()
     };
     let u = uri.to_string();
+    // A `sim:…?scene=` camera that cannot fit its scene at any gain says so
+    // (as `gloam capture` does): a UserWarning once the grabber is open.
+    let notes = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+    let sink = notes.clone();
     let r = py.detach(move || {
+        let grabbers = gloam_pipeline::grabbers_noting(std::sync::Arc::new(move |n: &str| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(n.to_string());
+            }
+        }));
         SameThread(
-            gloam_pipeline::grabbers()
+            grabbers
                 .open(&u, &opts)
                 .map_err(|e| anyhow::Error::from(e).context(format!("opening {u}"))),
         )
     });
+    let notes: Vec<String> = notes.lock().map(|v| v.clone()).unwrap_or_default();
+    for n in notes {
+        let msg = std::ffi::CString::new(n).unwrap_or_default();
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+            &msg,
+            1,
+        )?;
+    }
     Ok(Grabber {
         inner: Some(finish(r.0)?),
         uri: uri.to_string(),

@@ -125,6 +125,19 @@ def test_photon_transfer_recovers_the_preset_gain_and_read_noise(repo):
     assert r["dark_noise_e"] == pytest.approx(3.0, rel=0.05)
 
 
+def test_a_scene_no_gain_fits_warns_when_the_grabber_opens(repo):
+    # As `gloam capture` does: the lamp-lit street through Gen III saturates
+    # at every gain; the frame at the least gain is the independent check.
+    lamps = repo / "sims/night-new-moon-lamps/scene.toml"
+    with pytest.warns(UserWarning, match="saturates this scene at every gain"):
+        g = gloam.open_grabber(f"sim:gen3-gaas-iccd?scene={lamps}&size=48x36")
+    with g:
+        g.set_gain(14.5519)
+        f = g.grab()
+    at = f.meta["levels"]["saturated_at_dn"]
+    assert (f.pixels >= at).mean() > 0.01
+
+
 def test_radiance_lut_fits_the_levels_and_applies_its_line(repo, tmp_path):
     with gloam.open_grabber(CCD, seed=3) as g:
         lut_dict = gloam.calibrate_radiance(g, repo / SPHERE, gains=[1, 2], levels=10, frames=8, auto_range=0.8)

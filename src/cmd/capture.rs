@@ -23,7 +23,13 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
             bar.set_position(done as u64);
         }
     };
-    let mut g = args.open::<anyhow::Error>(&gloam_pipeline::grabbers(), &dir, &mut ev)?;
+    // A `sim:…?scene=` camera that cannot fit its scene at any gain says so
+    // before its first frame, as `render --sensor` does.
+    let fit_bar = bar.clone();
+    let grabbers = gloam_pipeline::grabbers_noting(std::sync::Arc::new(move |note: &str| {
+        fit_bar.suspend(|| eprintln!("warning: {note}"))
+    }));
+    let mut g = args.open::<anyhow::Error>(&grabbers, &dir, &mut ev)?;
     // Appended as frames are written: an interrupted capture lists every
     // frame it kept.
     let mut writer = FrameWriter::create(&dir)?;

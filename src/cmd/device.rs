@@ -23,6 +23,9 @@ fn device_source(args: &DeviceArgs) -> anyhow::Result<(SensorSource, String, boo
             eprintln!("gloam device: rendering {path} …");
             let scene = gloam_pipeline::render_scene_view(path, &args.sensor, args.size)
                 .with_context(|| format!("rendering scene '{path}'"))?;
+            if let Some(note) = gloam_pipeline::scene_view_fit_note(&scene, &args.sensor) {
+                eprintln!("warning: {note}");
+            }
             let source =
                 SensorSource::with_scene(&args.sensor, scene, args.seed).with_context(sensor)?;
             (source, format!("scene '{path}'"), true)

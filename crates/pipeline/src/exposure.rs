@@ -82,6 +82,9 @@ pub struct ExposureChoice {
     pub saturated_fraction: f64,
     /// Median over full scale `2^bits − 1` (noise-free frame).
     pub median_of_full_scale: f64,
+    /// (median − black) over full scale: what the frame records and the
+    /// fit state, and what [`MEDIAN_GOAL_OF_FULL_SCALE`] is a goal for.
+    pub median_above_black_of_full_scale: f64,
     /// The fraction of pixels that would saturate if the exposure were
     /// raised until the median reached [`MEDIAN_GOAL_OF_FULL_SCALE`] (from
     /// the noise-free frame, the chain taken as linear): above 1 % the
@@ -238,8 +241,9 @@ fn measure(
     let pc = percentile(&mut v, target.percentile);
     let median = percentile(&mut v, 50.0);
     let max_code = chain.max_code;
-    // Lift the median to its goal (linearly): which pixels would clip?
-    let goal = MEDIAN_GOAL_OF_FULL_SCALE * max_code - black;
+    // Lift the median to its goal above black (linearly), as the fit and
+    // the frame records count it: which pixels would clip?
+    let goal = MEDIAN_GOAL_OF_FULL_SCALE * max_code;
     let lift = if median - black >= goal || goal <= 0.0 {
         0.0
     } else {
@@ -353,8 +357,8 @@ pub fn choose(
     };
     let note = if m.median_goal_saturated_fraction > gloam_sensor::levels::SATURATED_WARN_FRACTION {
         format!(
-            "{note}; the median is {:.1} % of full scale, and lifting it to {:.0} % would saturate {:.1} % of the pixels: the scene's highlights and a readable median do not fit in one frame of this camera",
-            100.0 * m.median / m.max_code,
+            "{note}; the median is {:.1} % of full scale above black, and lifting it to {:.0} % would saturate {:.1} % of the pixels: the scene's highlights and a readable median do not fit in one frame of this camera",
+            100.0 * (m.median - m.black) / m.max_code,
             100.0 * MEDIAN_GOAL_OF_FULL_SCALE,
             100.0 * m.median_goal_saturated_fraction
         )
@@ -373,6 +377,7 @@ pub fn choose(
         black_dn: m.black,
         saturation_dn: m.saturation,
         median_of_full_scale: m.median / m.max_code,
+        median_above_black_of_full_scale: (m.median - m.black) / m.max_code,
         median_goal_saturated_fraction: m.median_goal_saturated_fraction,
         stops_out_of_range: stops,
         note,

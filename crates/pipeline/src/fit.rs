@@ -37,6 +37,10 @@ pub const PHOTON_COUNTING_PE: f64 = 1.0;
 /// the range from black to saturation (the default of `--exposure auto`).
 pub const FIT_P99_FRACTION_OF_RANGE: f64 = 0.8;
 
+/// How the every-gain notes end: the render's flag that fits the camera
+/// (captures from a grabber have none, and drop it).
+pub const EXPOSURE_AUTO_HINT: &str = " — or use --exposure auto";
+
 /// The predicted frame at one gain.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct PredictedLevel {
@@ -302,7 +306,7 @@ pub fn predict(
     let note = match verdict {
         FitVerdict::Fits => String::new(),
         FitVerdict::SaturatesAtEveryGain => format!(
-            "camera fit: {} saturates this scene at every gain it can reach (predicted {:.1} % of pixels at gain {:.4}, {:.1} % at gain {:.4}); {fix} would fit{lamps} — or use --exposure auto",
+            "camera fit: {} saturates this scene at every gain it can reach (predicted {:.1} % of pixels at gain {:.4}, {:.1} % at gain {:.4}); {fix} would fit{lamps}{EXPOSURE_AUTO_HINT}",
             config.name,
             pct(&at_gain_min),
             g_min,
@@ -316,7 +320,7 @@ pub fn predict(
             pct(&at_gain_min)
         ),
         FitVerdict::InTheNoiseAtEveryGain => format!(
-            "camera fit: this scene is in {}'s noise at every gain (predicted median {:.2} % of full scale above black at gain {g_max:.4}); {:.1} stops more light would lift it to {:.0} %{} — or use --exposure auto",
+            "camera fit: this scene is in {}'s noise at every gain (predicted median {:.2} % of full scale above black at gain {g_max:.4}); {:.1} stops more light would lift it to {:.0} %{}{EXPOSURE_AUTO_HINT}",
             config.name,
             100.0 * at_gain_max.median_above_black_of_full_scale,
             s_fit.log2(),

@@ -10,6 +10,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use crate::fit::FitVerdict;
 use crate::render::{RenderError, RenderJob};
 use gloam_grabber::{GrabError, GrabberUri, Registry};
 use gloam_simcam::{SceneImage, SceneView};
@@ -55,30 +56,63 @@ pub fn render_scene_view(
     })
 }
 
+/// Whether the camera `sensor` can see `view` at any gain it reaches: the
+/// fit's note (the same words `render --sensor` prints) when it saturates
+/// or sits in the noise at every gain, `None` when some gain fits. A
+/// capture's gain is set later, so only the gain-independent verdicts speak.
+pub fn scene_view_fit_note(view: &SceneView, sensor: &str) -> Option<String> {
+    let SceneImage::Detected { e_s_m2_sr } = &view.image else {
+        return None;
+    };
+    let config = gloam_sensor::load_preset_or_file(sensor).ok()?;
+    let fit = crate::fit::predict(&config, e_s_m2_sr, None).ok()?;
+    matches!(
+        fit.verdict,
+        FitVerdict::SaturatesAtEveryGain | FitVerdict::InTheNoiseAtEveryGain
+    )
+    .then(|| {
+        let n = &fit.note;
+        n.strip_suffix(crate::fit::EXPOSURE_AUTO_HINT)
+            .unwrap_or(n)
+            .to_string()
+    })
+}
+
 /// Every grabber the CLI and Python open: the transports and `sim:` rigs
 /// ([`gloam_simcam::registry`]), with `sim:` here also taking
 /// `?scene=PATH`, rendered by [`render_scene_view`] before the camera
 /// looks — this crate owns scenes, so the camera never calls back up.
 pub fn grabbers() -> Registry {
+    grabbers_noting(Arc::new(|_| {}))
+}
+
+/// [`grabbers`], with `note` told (before the first frame) when a
+/// `sim:…?scene=` camera cannot fit its scene at any gain
+/// ([`scene_view_fit_note`]).
+pub fn grabbers_noting(note: Arc<dyn Fn(&str) + Send + Sync>) -> Registry {
     let mut r = gloam_simcam::registry();
     r.register(
         "sim",
-        Arc::new(|uri, opts| {
-            let view =
-                match GrabberUri::parse(uri)? {
-                    GrabberUri::Sim {
-                        preset,
-                        size,
-                        scene: Some(path),
-                        ..
-                    } => Some(render_scene_view(&path, &preset, size).map_err(|e| {
-                        GrabError::Scene {
+        Arc::new(move |uri, opts| {
+            let view = match GrabberUri::parse(uri)? {
+                GrabberUri::Sim {
+                    preset,
+                    size,
+                    scene: Some(path),
+                    ..
+                } => {
+                    let view =
+                        render_scene_view(&path, &preset, size).map_err(|e| GrabError::Scene {
                             path,
                             source: e.into(),
-                        }
-                    })?),
-                    _ => None,
-                };
+                        })?;
+                    if let Some(n) = scene_view_fit_note(&view, &preset) {
+                        note(&n);
+                    }
+                    Some(view)
+                }
+                _ => None,
+            };
             gloam_simcam::open_sim(uri, opts, view)
         }),
     );
