@@ -11,6 +11,7 @@ mod geometry;
 mod instance;
 pub mod plan;
 mod raw;
+pub mod sequence;
 
 pub use error::SceneError;
 pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};

@@ -1,0 +1,474 @@
+//! Sequence files: how a still scene's light groups change over time.
+//!
+//! Radiance is linear in each light group's emission, so a night that
+//! changes — a lamp switching on, a discharge lamp's mains flicker, a
+//! dimming ramp — is a weighted sum of per-group layers rendered once
+//! (`gloam render --layers`). A sequence file names the frame rate, the
+//! number of frames and, per group, its relative intensity over time:
+//!
+//! ```toml
+//! scene = "scene.toml"              # relative to this file
+//! frame_rate_hz = 25.0
+//! frames = 300
+//!
+//! [groups.street-lamps]
+//! # (time s, relative intensity): linear between keys, held before the
+//! # first and after the last; two keys at one time make a step.
+//! keys = [[0.0, 0.0], [4.0, 0.0], [4.0, 1.0]]
+//! # A discharge lamp on 50 Hz mains: its light ripples at 100 Hz,
+//! # I(t) = 1 − depth·cos(4π·mains_hz·t), mean 1.
+//! flicker = { mains_hz = 50.0, depth = 0.3 }
+//! ```
+//!
+//! Groups the file does not name keep intensity 1. A frame sees each
+//! group's intensity *averaged over its exposure window*, computed in
+//! closed form (piecewise-linear keys times the flicker cosine), so a
+//! lamp that switches on mid-exposure gives the fraction of the window it
+//! was on, and a short gate samples the flicker's phase.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::error::{FieldPath, Locator, SceneError};
+
+/// Most frames a sequence may have (an hour at 277 Hz).
+pub const MAX_SEQUENCE_FRAMES: u32 = 1_000_000;
+/// Highest frame rate, Hz.
+pub const MAX_FRAME_RATE_HZ: f64 = 10_000.0;
+/// Most keys in one group's track.
+pub const MAX_KEYS: usize = 100_000;
+/// Highest mains frequency a flicker may name, Hz.
+pub const MAX_MAINS_HZ: f64 = 1_000.0;
+/// Largest relative intensity a key may give.
+pub const MAX_INTENSITY: f64 = 1e12;
+
+/// A checked sequence file.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// The sequence file itself (for messages and provenance).
+    pub path: PathBuf,
+    /// The scene, resolved against the sequence file's directory.
+    pub scene: PathBuf,
+    pub frame_rate_hz: f64,
+    pub frames: u32,
+    /// Group name → its track, for the groups the file names.
+    pub groups: BTreeMap<String, Track>,
+    /// Group name → the line of its table, for errors found later (a name
+    /// the scene does not have).
+    group_lines: BTreeMap<String, usize>,
+}
+
+/// One group's relative intensity over time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Track {
+    /// (time s, intensity), times non-decreasing; at least one key.
+    pub keys: Vec<(f64, f64)>,
+    pub flicker: Option<Flicker>,
+}
+
+/// Mains flicker of a discharge lamp: `I(t) = 1 − depth·cos(4π f t)`.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Flicker {
+    pub mains_hz: f64,
+    /// Modulation depth, 0 (steady) … 1 (dark at each zero crossing).
+    pub depth: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSequence {
+    scene: String,
+    frame_rate_hz: f64,
+    frames: u32,
+    #[serde(default)]
+    groups: BTreeMap<String, RawTrack>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTrack {
+    #[serde(default)]
+    keys: Vec<(f64, f64)>,
+    flicker: Option<Flicker>,
+}
+
+/// Reads and checks a sequence file (bounded read, errors as
+/// `file:line: field: message`).
+pub fn load_sequence(path: &Path) -> Result<Sequence, SceneError> {
+    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    parse_sequence(&text, path)
+}
+
+/// Parses and checks sequence text; `path` names the file and is the base
+/// of the relative scene path.
+pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
+    let loc = Locator::new(text, path);
+    let raw: RawSequence = toml::from_str(text).map_err(|e| loc.error_at(e.span(), e.message()))?;
+    let field = |p: &[&str]| p.iter().fold(FieldPath::root(), |f, k| f.key(k));
+    if !(raw.frame_rate_hz.is_finite()
+        && raw.frame_rate_hz > 0.0
+        && raw.frame_rate_hz <= MAX_FRAME_RATE_HZ)
+    {
+        return Err(loc.error(
+            &field(&["frame_rate_hz"]),
+            format!(
+                "must be a frame rate in (0, {MAX_FRAME_RATE_HZ}] Hz, not {}",
+                raw.frame_rate_hz
+            ),
+        ));
+    }
+    if raw.frames == 0 || raw.frames > MAX_SEQUENCE_FRAMES {
+        return Err(loc.error(
+            &field(&["frames"]),
+            format!(
+                "must be 1 … {MAX_SEQUENCE_FRAMES} frames, not {}",
+                raw.frames
+            ),
+        ));
+    }
+    if raw.scene.trim().is_empty() {
+        return Err(loc.error(&field(&["scene"]), "names no scene file"));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    let scene = base.join(&raw.scene);
+    let mut groups = BTreeMap::new();
+    let mut group_lines = BTreeMap::new();
+    for (name, t) in raw.groups {
+        let here = |k: &str| field(&["groups", &name, k]);
+        if t.keys.is_empty() {
+            return Err(loc.error(&here("keys"), "needs at least one [time_s, intensity] key"));
+        }
+        if t.keys.len() > MAX_KEYS {
+            return Err(loc.error(
+                &here("keys"),
+                format!("has {} keys; at most {MAX_KEYS}", t.keys.len()),
+            ));
+        }
+        let mut last = f64::NEG_INFINITY;
+        for (i, &(time, value)) in t.keys.iter().enumerate() {
+            let at = here("keys").index(i);
+            if !(time.is_finite() && time >= 0.0) {
+                return Err(loc.error(&at, format!("time {time} s must be finite and ≥ 0")));
+            }
+            if time < last {
+                return Err(loc.error(
+                    &at,
+                    format!("time {time} s comes before the previous key's {last} s: keys go forward in time"),
+                ));
+            }
+            if !(value.is_finite() && (0.0..=MAX_INTENSITY).contains(&value)) {
+                return Err(loc.error(
+                    &at,
+                    format!("intensity {value} must be in [0, {MAX_INTENSITY:e}]"),
+                ));
+            }
+            last = time;
+        }
+        if let Some(f) = t.flicker {
+            if !(f.mains_hz.is_finite() && f.mains_hz > 0.0 && f.mains_hz <= MAX_MAINS_HZ) {
+                return Err(loc.error(
+                    &here("flicker"),
+                    format!(
+                        "mains_hz must be in (0, {MAX_MAINS_HZ}], not {}",
+                        f.mains_hz
+                    ),
+                ));
+            }
+            if !(f.depth.is_finite() && (0.0..=1.0).contains(&f.depth)) {
+                return Err(loc.error(
+                    &here("flicker"),
+                    format!("depth must be in [0, 1], not {}", f.depth),
+                ));
+            }
+        }
+        let line = {
+            let e = loc.error(&field(&["groups", &name]), "");
+            e.line()
+        };
+        group_lines.insert(name.clone(), line);
+        groups.insert(
+            name,
+            Track {
+                keys: t.keys,
+                flicker: t.flicker,
+            },
+        );
+    }
+    Ok(Sequence {
+        path: path.to_path_buf(),
+        scene,
+        frame_rate_hz: raw.frame_rate_hz,
+        frames: raw.frames,
+        groups,
+        group_lines,
+    })
+}
+
+impl Sequence {
+    /// Seconds from one frame's start to the next.
+    pub fn frame_period_s(&self) -> f64 {
+        1.0 / self.frame_rate_hz
+    }
+
+    /// Start time of frame `i`, s.
+    pub fn frame_start_s(&self, i: u32) -> f64 {
+        f64::from(i) / self.frame_rate_hz
+    }
+
+    /// Refuses a group the scene does not have, naming the sequence file's
+    /// line and the scene's groups.
+    pub fn check_groups<'a>(
+        &self,
+        scene_groups: impl IntoIterator<Item = &'a str> + Clone,
+    ) -> Result<(), SceneError> {
+        for name in self.groups.keys() {
+            if !scene_groups.clone().into_iter().any(|g| g == name) {
+                let known: Vec<&str> = scene_groups.clone().into_iter().collect();
+                return Err(SceneError::Invalid {
+                    path: self.path.clone(),
+                    line: self.group_lines.get(name).copied().unwrap_or(1),
+                    column: 1,
+                    field: format!("groups.{name}"),
+                    message: format!(
+                        "the scene {} has no light group '{name}' (its groups: {})",
+                        self.scene.display(),
+                        known.join(", ")
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Each of `scene_groups`' mean relative intensity over the window
+    /// `[t0, t1]` s (1 for a group the file does not name).
+    pub fn weights<'a>(
+        &self,
+        scene_groups: impl IntoIterator<Item = &'a str>,
+        t0: f64,
+        t1: f64,
+    ) -> Vec<f64> {
+        scene_groups
+            .into_iter()
+            .map(|g| self.groups.get(g).map_or(1.0, |t| t.mean_over(t0, t1)))
+            .collect()
+    }
+}
+
+impl Track {
+    /// The keys' piecewise-linear intensity at `t` (held outside them; at a
+    /// step, the later key).
+    pub fn keyed_at(&self, t: f64) -> f64 {
+        let k = &self.keys;
+        // The last key at or before t.
+        let i = k.partition_point(|&(time, _)| time <= t);
+        if i == 0 {
+            return k[0].1;
+        }
+        if i == k.len() {
+            return k[k.len() - 1].1;
+        }
+        let ((ta, va), (tb, vb)) = (k[i - 1], k[i]);
+        let span = tb - ta;
+        if span <= 0.0 {
+            return vb;
+        }
+        va + (vb - va) * (t - ta) / span
+    }
+
+    /// Intensity at `t`: the keys times the flicker.
+    pub fn at(&self, t: f64) -> f64 {
+        self.keyed_at(t) * self.flicker.map_or(1.0, |f| f.at(t))
+    }
+
+    /// Mean intensity over `[t0, t1]`, exact: the window is cut at the keys,
+    /// and on each piece the linear key `a + b t` times `1 − d cos(ω t)`
+    /// integrates in closed form. A window of zero width gives the value
+    /// at `t0`.
+    pub fn mean_over(&self, t0: f64, t1: f64) -> f64 {
+        let (t0, t1) = if t1 < t0 { (t1, t0) } else { (t0, t1) };
+        let width = t1 - t0;
+        if width <= 0.0 || !width.is_finite() {
+            return self.at(t0);
+        }
+        // Cut points: the window's ends and the keys strictly inside.
+        let mut cuts = vec![t0];
+        cuts.extend(
+            self.keys
+                .iter()
+                .map(|&(t, _)| t)
+                .filter(|&t| t > t0 && t < t1),
+        );
+        cuts.push(t1);
+        cuts.dedup();
+        let mut sum = 0.0f64;
+        for w in cuts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if b <= a {
+                continue;
+            }
+            // On (a, b) the keys are linear: v(t) = va + s (t − a), taken
+            // from inside the piece so a step at `a` counts its later side.
+            let mid = 0.5 * (a + b);
+            let (vm, s) = self.slope_at(mid);
+            let va = vm - s * (mid - a);
+            sum += linear_times_flicker(va, s, a, b, self.flicker);
+        }
+        sum / width
+    }
+
+    /// (value, slope) of the keys at `t` inside a piece.
+    fn slope_at(&self, t: f64) -> (f64, f64) {
+        let k = &self.keys;
+        let i = k.partition_point(|&(time, _)| time <= t);
+        if i == 0 || i == k.len() {
+            return (self.keyed_at(t), 0.0);
+        }
+        let ((ta, va), (tb, vb)) = (k[i - 1], k[i]);
+        let span = tb - ta;
+        if span <= 0.0 {
+            return (vb, 0.0);
+        }
+        let s = (vb - va) / span;
+        (va + s * (t - ta), s)
+    }
+}
+
+impl Flicker {
+    /// `2π · 2 · mains_hz`: the ripple's angular frequency, rad/s.
+    fn omega(&self) -> f64 {
+        4.0 * std::f64::consts::PI * self.mains_hz
+    }
+
+    /// Relative intensity at `t`, mean 1.
+    pub fn at(&self, t: f64) -> f64 {
+        1.0 - self.depth * (self.omega() * t).cos()
+    }
+}
+
+/// ∫ₐᵇ (va + s (t − a)) (1 − d cos ω t) dt.
+fn linear_times_flicker(va: f64, s: f64, a: f64, b: f64, flicker: Option<Flicker>) -> f64 {
+    let h = b - a;
+    let plain = va * h + 0.5 * s * h * h;
+    let Some(f) = flicker else {
+        return plain;
+    };
+    let w = f.omega();
+    // With u = t − a: ∫₀ʰ (va + s u) cos(ω (a + u)) du
+    //   = va [sin ω(a+u)]/ω + s ([u sin ω(a+u)]/ω + [cos ω(a+u)]/ω²), 0…h.
+    let (sa, ca) = (w * a).sin_cos();
+    let (sb, cb) = (w * b).sin_cos();
+    let osc = va * (sb - sa) / w + s * (h * sb / w + (cb - ca) / (w * w));
+    plain - f.depth * osc
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn track(keys: &[(f64, f64)], flicker: Option<Flicker>) -> Track {
+        Track {
+            keys: keys.to_vec(),
+            flicker,
+        }
+    }
+
+    /// The mean by a fine midpoint sum: the independent answer.
+    fn numeric_mean(t: &Track, a: f64, b: f64) -> f64 {
+        let n = 200_000;
+        let h = (b - a) / f64::from(n);
+        (0..n)
+            .map(|i| t.at(a + (f64::from(i) + 0.5) * h))
+            .sum::<f64>()
+            / f64::from(n)
+    }
+
+    #[test]
+    fn a_step_inside_the_window_gives_the_fraction_it_was_on() {
+        let t = track(&[(0.0, 0.0), (4.0, 0.0), (4.0, 1.0)], None);
+        assert_eq!(t.mean_over(3.0, 3.04), 0.0);
+        assert_eq!(t.mean_over(4.0, 4.04), 1.0);
+        assert!((t.mean_over(3.99, 4.03) - 0.75).abs() < 1e-12);
+        assert_eq!(t.keyed_at(4.0), 1.0);
+        assert_eq!(t.keyed_at(100.0), 1.0);
+    }
+
+    #[test]
+    fn flicker_and_ramps_average_as_the_integral_does() {
+        let f = Flicker {
+            mains_hz: 50.0,
+            depth: 0.7,
+        };
+        let t = track(
+            &[(0.0, 0.2), (0.013, 1.0), (0.05, 0.4), (0.05, 2.0)],
+            Some(f),
+        );
+        for (a, b) in [(0.0, 0.04), (0.001, 0.0011), (0.012, 0.061), (0.3, 0.34)] {
+            let exact = t.mean_over(a, b);
+            let num = numeric_mean(&t, a, b);
+            assert!(
+                (exact - num).abs() < 1e-7 * num.abs().max(1.0),
+                "{a}..{b}: {exact} vs {num}"
+            );
+        }
+        // A whole number of ripple periods (10 ms at 50 Hz) averages to 1.
+        let steady = track(&[(0.0, 1.0)], Some(f));
+        assert!((steady.mean_over(0.0137, 0.0337) - 1.0).abs() < 1e-12);
+        // A short gate at a zero crossing of the mains sees the dip.
+        assert!((steady.mean_over(0.0, 1e-7) - 0.3).abs() < 1e-6);
+    }
+
+    #[test]
+    fn files_parse_and_bad_ones_name_their_line() {
+        let p = Path::new("/tmp/x/seq.toml");
+        let s = parse_sequence(
+            "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 300\n[groups.lamps]\nkeys = [[0, 0], [4, 1]]\n",
+            p,
+        )
+        .unwrap();
+        assert_eq!(s.scene, Path::new("/tmp/x/scene.toml"));
+        assert_eq!(s.frames, 300);
+        assert_eq!(s.weights(["lamps", "moon"], 2.0, 2.0), vec![0.5, 1.0]);
+        let e = s.check_groups(["moon", "sky"]).unwrap_err().to_string();
+        assert!(e.starts_with("/tmp/x/seq.toml:4: groups.lamps:"), "{e}");
+        for (text, line, what) in [
+            (
+                "scene = \"s\"\nframe_rate_hz = 0\nframes = 3\n",
+                2,
+                "frame_rate_hz",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 0\n",
+                3,
+                "frames",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[groups.a]\nkeys = [[1, 0], [0.5, 1]]\n",
+                5,
+                "groups.a.keys[1]",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[groups.a]\nkeys = [[0, 1]]\nflicker = { mains_hz = 50, depth = 2 }\n",
+                6,
+                "groups.a.flicker",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\nfps = 2\n",
+                4,
+                "fps",
+            ),
+        ] {
+            let e = parse_sequence(text, p).unwrap_err();
+            let msg = e.to_string();
+            assert_eq!(e.line(), line, "{msg}");
+            assert!(msg.contains(what), "{msg}");
+        }
+    }
+}
