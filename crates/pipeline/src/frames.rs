@@ -67,6 +67,10 @@ pub struct FrameRecord {
     /// the [`FrameWriter`] that wrote it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stored: Option<FrameStorage>,
+    /// The frame's time and light-group weights, in a sequence
+    /// (`gloam sequence`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sequence: Option<crate::sequence::SequenceFrame>,
 }
 
 impl FrameRecord {
@@ -101,6 +105,7 @@ impl FrameRecord {
             warnings,
             sensor: None,
             stored: None,
+            sequence: None,
         }
     }
 }
@@ -150,6 +155,7 @@ impl FrameRecord {
             warnings,
             sensor: Some(m.clone()),
             stored: None,
+            sequence: None,
         }
     }
 }
@@ -555,6 +561,22 @@ impl FrameCapture<'_> {
         detected: &Array2<f64>,
         on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
+        self.capture_changing(detected, None, &mut |_| Ok(()), on_frame)
+    }
+
+    /// [`FrameCapture::capture`] of a scene that changes: frame `i` sees
+    /// `image(i)` (a sequence's mix of light-group layers), the camera's
+    /// AGC and lag running across frames; `configure` adjusts the camera
+    /// first (a sequence sets its frame rate). The fit and any automatic
+    /// exposure judge `first`, the first frame's image.
+    pub fn capture_changing(
+        &self,
+        first: &Array2<f64>,
+        mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
+        configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+    ) -> Result<Captured, CaptureError> {
+        let detected = first;
         if self.frames < 1 {
             return Err(CaptureOptionsError::NoFrames.into());
         }
@@ -565,6 +587,7 @@ impl FrameCapture<'_> {
             }
         })?;
         config.noise.seed = self.seed;
+        configure(&mut config)?;
         let mut notes = Vec::new();
         let exposure = match &self.auto_exposure {
             Some(target) => {
@@ -615,8 +638,9 @@ impl FrameCapture<'_> {
         let mut per_frame = Vec::new();
         let mut summary = SaturationSummary::default();
         for i in 0..self.frames {
+            let changed = image.as_mut().map(|f| f(i));
             let frame = camera
-                .capture_detected(detected.view())
+                .capture_detected(changed.as_ref().unwrap_or(detected).view())
                 .map_err(|source| CaptureError::Frame { index: i, source })?;
             let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
             let file = self.frame_format.file_name(u64::from(i));
