@@ -16,8 +16,8 @@ use crate::instance::{
 };
 use crate::raw::*;
 use crate::{
-    Band, Camera, Emission, Facet, Material, ObjectInfo, PointSource, PointSourceGroup, Scene,
-    SceneError, SkyConfig, Units, base_dir,
+    Band, Camera, Emission, Facet, Luminaire, Material, ObjectInfo, PointSource, PointSourceGroup,
+    Scene, SceneError, SkyConfig, Units, base_dir,
 };
 
 /// Support of a flat spectrum given as a plain number or `value`, nm.
@@ -1146,7 +1146,7 @@ fn point_source(
     let Some(placements) = placements else {
         check_budget(out.len(), 1, MAX_POINT_SOURCES, 0, None, "point sources")
             .map_err(|e| cx.err(field, e.to_string()))?;
-        out.push(proto);
+        out.push(tilted(cx, field, proto)?);
         return Ok(());
     };
     let s = &proto.intensity_w_sr_nm;
@@ -1172,13 +1172,55 @@ fn point_source(
             let msg = format!("point source '{name}' is not finite after the transform");
             return Err(placement_err(cx, &pfield, pl, msg));
         }
-        out.push(PointSource {
+        let luminaire = match &proto.luminaire {
+            Some(l) => {
+                let c0 = perpendicular(pl.xform.direction(l.c0), direction).ok_or_else(|| {
+                    let msg = format!(
+                        "point source '{name}': c0_direction is parallel to direction after the transform"
+                    );
+                    placement_err(cx, &pfield, pl, msg)
+                })?;
+                Some(Luminaire { c0, ..l.clone() })
+            }
+            None => None,
+        };
+        let placed = PointSource {
             position,
             direction,
+            luminaire,
             ..proto.clone()
-        });
+        };
+        out.push(tilted(cx, field, placed)?);
     }
     Ok(())
+}
+
+/// `v` made perpendicular to unit `d` and normalised (`None` when `v` is
+/// parallel to `d` or not finite).
+fn perpendicular(v: DVec3, d: DVec3) -> Option<DVec3> {
+    (v - v.dot(d) * d)
+        .try_normalize()
+        .filter(|u| u.is_finite() && u.dot(d).abs() < 1e-9)
+}
+
+/// Applies a TILT=INCLUDE table: the whole distribution times the factor
+/// at the angle between the luminaire's nadir and straight down (−z).
+fn tilted(cx: &Ctx, field: &FieldPath, mut p: PointSource) -> R<PointSource> {
+    let Some(tilt) = p.luminaire.as_ref().and_then(|l| l.table.tilt.as_ref()) else {
+        return Ok(p);
+    };
+    let angle = p
+        .direction
+        .dot(DVec3::NEG_Z)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    let k = tilt.factor(angle);
+    p.intensity_w_sr_nm = p
+        .intensity_w_sr_nm
+        .scaled(k)
+        .map_err(|e| cx.err(&field.key("photometry"), format!("tilt factor {k}: {e}")))?;
+    Ok(p)
 }
 
 fn point_source_prototype(
@@ -1196,6 +1238,15 @@ fn point_source_prototype(
             .ok_or_else(|| cx.err(&df, "direction is a zero vector"))?,
         None => DVec3::NEG_Z,
     };
+    if p.photometry.is_some() {
+        return luminaire_prototype(cx, field, name, p, position, direction);
+    }
+    if p.c0_direction.is_some() {
+        return Err(cx.err(
+            &field.key("c0_direction"),
+            "`c0_direction` orients a measured luminaire: it needs `photometry = \"file.ies\"`",
+        ));
+    }
     let m = p.shape_exponent.unwrap_or(0.0);
     if !(m.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m)) {
         return Err(cx.err(
@@ -1224,6 +1275,125 @@ fn point_source_prototype(
         direction,
         shape_exponent: m,
         intensity_w_sr_nm: intensity,
+        luminaire: None,
+    })
+}
+
+/// A point source with `photometry = "file"`: the file gives the
+/// distribution in candela, `spectrum`/`lines` the spectral shape, scaled
+/// so the luminous intensity toward the brightest direction is the file's
+/// largest candela value (× `scale`).
+fn luminaire_prototype(
+    cx: &Ctx,
+    field: &FieldPath,
+    name: &str,
+    p: &RawPointSource,
+    position: DVec3,
+    direction: DVec3,
+) -> R<PointSource> {
+    let pf = field.key("photometry");
+    let excluded = [
+        (
+            p.shape_exponent.is_some(),
+            "shape_exponent",
+            "the file gives the distribution",
+        ),
+        (
+            p.value.is_some(),
+            "value",
+            "the file gives the magnitude; give the spectral shape with `spectrum` (a name or CSV) and/or `lines`",
+        ),
+        (
+            p.normalize.is_some(),
+            "normalize",
+            "the file gives the magnitude (use `scale` to dim it)",
+        ),
+    ];
+    for (given, key, why) in excluded {
+        if given {
+            return Err(cx.err(
+                &field.key(key),
+                format!("`{key}` and `photometry` exclude each other: {why}"),
+            ));
+        }
+    }
+    if p.spectrum.is_none() && p.lines.as_ref().is_none_or(|l| l.is_empty()) {
+        return Err(cx.err(
+            field,
+            "a measured luminaire needs its spectral shape: `spectrum` (a built-in name or CSV file) and/or `lines`",
+        ));
+    }
+    let Some(file) = p.photometry.as_deref() else {
+        return Err(cx.err(&pf, "missing file name"));
+    };
+    let path = cx.resolve(file);
+    let table = crate::photometry::Photometry::read(&path)
+        .map_err(|e| cx.err(&pf, format!("photometry file: {e}")))?;
+    let shape = spectrum_parts(
+        cx,
+        field,
+        Parts {
+            spectrum: p.spectrum.as_deref(),
+            value: None,
+            lines: p.lines.as_deref(),
+            scale: None,
+            normalize: None,
+        },
+        Kind::Intensity,
+    )?;
+    let cd_per_unit = gloam_spectra::photopic(&shape);
+    if !(cd_per_unit.is_finite() && cd_per_unit > 0.0) {
+        return Err(cx.err(
+            field,
+            format!(
+                "the spectrum has no luminous content (683·∫V·S dλ = {}): it cannot carry the file's candela",
+                num(cd_per_unit)
+            ),
+        ));
+    }
+    let scale = match p.scale {
+        Some(k) if !(k.is_finite() && k >= 0.0) => {
+            return Err(cx.err(
+                &field.key("scale"),
+                format!("scale {k} must be a finite number ≥ 0"),
+            ));
+        }
+        Some(k) => k,
+        None => 1.0,
+    };
+    let intensity = shape
+        .scaled(table.max_candela * scale / cd_per_unit)
+        .map_err(|e| cx.err(&pf, e.to_string()))?;
+    let peak = intensity
+        .values()
+        .iter()
+        .chain(intensity.lines().iter().map(|l| &l.value))
+        .fold(0.0f64, |m, &v| m.max(v.abs()));
+    if peak.is_nan() || peak > MAX_EMISSION {
+        return Err(cx.err(
+            &pf,
+            format!("intensity {peak:e} W sr⁻¹ nm⁻¹ is out of range (at most {MAX_EMISSION:e})"),
+        ));
+    }
+    let cf = field.key("c0_direction");
+    let c0 = match p.c0_direction {
+        Some(v) => perpendicular(cx.vec3(&cf, v)?, direction)
+            .ok_or_else(|| cx.err(&cf, "c0_direction is parallel to direction (or zero)"))?,
+        None => perpendicular(DVec3::X, direction)
+            .or_else(|| perpendicular(DVec3::Y, direction))
+            .unwrap_or(DVec3::X),
+    };
+    Ok(PointSource {
+        name: name.to_string(),
+        position,
+        direction,
+        shape_exponent: 0.0,
+        intensity_w_sr_nm: intensity,
+        luminaire: Some(Luminaire {
+            table: std::sync::Arc::new(table),
+            c0,
+            file: path,
+        }),
     })
 }
 

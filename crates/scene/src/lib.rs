@@ -9,6 +9,7 @@ mod build;
 mod error;
 mod geometry;
 mod instance;
+pub mod photometry;
 pub mod plan;
 mod raw;
 pub mod sequence;
@@ -350,7 +351,9 @@ impl Facet {
 }
 
 /// A point source: intensity `I_s(λ) cos^m(alpha)` about `direction`
-/// (zero behind it for m > 0; m = 0 is isotropic).
+/// (zero behind it for m > 0; m = 0 is isotropic), or, with a measured
+/// [`Luminaire`], `I_s(λ) · I(γ, C) / I_max` with γ measured from
+/// `direction` (the nadir) and C from the luminaire's C0 plane.
 #[derive(Clone, Debug)]
 pub struct PointSource {
     pub name: String,
@@ -359,14 +362,48 @@ pub struct PointSource {
     /// Unit vector.
     pub direction: DVec3,
     pub shape_exponent: f64,
-    /// I_s, W sr⁻¹ nm⁻¹ (lines in W sr⁻¹).
+    /// I_s, W sr⁻¹ nm⁻¹ (lines in W sr⁻¹): with a luminaire, the intensity
+    /// toward its brightest direction (its luminous intensity is the
+    /// file's largest candela value × scale × tilt factor).
     pub intensity_w_sr_nm: Spectrum,
+    /// The measured distribution, when `photometry = "file"` gives one.
+    pub luminaire: Option<Luminaire>,
 }
 
 impl PointSource {
-    /// True for shaped sources (m > 0).
+    /// True for shaped sources (m > 0, or a measured distribution).
     pub fn is_shaped(&self) -> bool {
-        self.shape_exponent > 0.0
+        self.shape_exponent > 0.0 || self.luminaire.is_some()
+    }
+}
+
+/// A point source's measured intensity distribution in the scene: the
+/// table (shared by every placement) and the luminaire's C0 axis.
+#[derive(Clone, Debug)]
+pub struct Luminaire {
+    pub table: std::sync::Arc<photometry::Photometry>,
+    /// Unit vector of the C0 half-plane, perpendicular to the source's
+    /// `direction`; C90 is `−direction × c0` (counter-clockwise seen from
+    /// above the luminaire).
+    pub c0: DVec3,
+    /// The file it was read from (as resolved against the scene).
+    pub file: std::path::PathBuf,
+}
+
+impl Luminaire {
+    /// `I(γ, C) / I_max` toward unit `w` (from the lamp) for nadir `dir`:
+    /// bilinear in (γ, C) over the table (see [`photometry::Photometry::candela_at`]).
+    pub fn relative_toward(&self, dir: DVec3, w: DVec3) -> f64 {
+        let cos_g = dir.dot(w).clamp(-1.0, 1.0);
+        let gamma = cos_g.acos().to_degrees();
+        let c90 = -dir.cross(self.c0);
+        let (x, y) = (w.dot(self.c0), w.dot(c90));
+        let c = if x == 0.0 && y == 0.0 {
+            0.0
+        } else {
+            y.atan2(x).to_degrees()
+        };
+        self.table.candela_at(gamma, c) / self.table.max_candela
     }
 }
 

@@ -157,6 +157,10 @@ pub(crate) struct RawPointSource {
     pub normalize: Option<RawNormalize>,
     pub instances: Option<Vec<RawPlacement>>,
     pub instances_csv: Option<String>,
+    /// An IES or EULUMDAT file, relative to the scene.
+    pub photometry: Option<String>,
+    /// The luminaire's C0 axis (projected perpendicular to `direction`).
+    pub c0_direction: Option<V3>,
 }
 
 #[derive(Debug, Deserialize)]

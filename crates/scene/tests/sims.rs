@@ -184,3 +184,18 @@ fn office_room_scene() {
         "no [sky] block (indoor scene)"
     );
 }
+
+#[test]
+fn street_ies_scene_reads_its_luminaire() {
+    let s = load(&sim("street-ies")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.point_sources.len(), 1);
+    let p = &s.point_sources[0];
+    let lum = p.luminaire.as_ref().expect("a measured luminaire");
+    assert_eq!(lum.c0, DVec3::X);
+    assert!((lum.table.max_candela - 534.0 * 33.2).abs() < 1e-9);
+    // Its luminous intensity is the file's peak, 17 729 cd.
+    let cd = gloam_spectra::photopic(&p.intensity_w_sr_nm);
+    assert!((cd - 534.0 * 33.2).abs() < 1e-9 * cd, "{cd}");
+    let text = plan(&s).to_string();
+    assert!(text.contains("shaped"), "{text}");
+}

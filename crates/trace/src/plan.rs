@@ -305,13 +305,13 @@ impl Tracer {
                     names::POINT_SOURCES,
                     parts.point_sources,
                     parts.pixel_p90.point_sources,
-                    self.points.iter().any(|l| l.m <= 0.0),
+                    self.points.iter().any(|l| !l.is_shaped()),
                 ),
                 (
                     names::SHAPED_POINT_SOURCES,
                     parts.shaped_point_sources,
                     parts.pixel_p90.shaped_point_sources,
-                    self.points.iter().any(|l| l.m > 0.0),
+                    self.points.iter().any(|l| l.is_shaped()),
                 ),
                 (
                     names::MOON,

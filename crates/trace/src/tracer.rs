@@ -172,12 +172,16 @@ pub(crate) struct AreaSource {
     dirsig_points: Vec<DVec3>,
 }
 
-/// A shaped point source.
+/// A point source: `intensity · shape(ω)`, the shape `cos^m` about `dir`
+/// or a measured luminaire's `I(γ, C) / I_max` (see
+/// [`PointLight::shape_toward`]).
 #[derive(Clone, Debug)]
 pub(crate) struct PointLight {
     pub(crate) pos: DVec3,
     dir: DVec3,
     pub(crate) m: f64,
+    /// A measured distribution (IES / EULUMDAT); `m` is then 0.
+    luminaire: Option<gloam_scene::Luminaire>,
     pub(crate) intensity: Vec<f64>,
 }
 
@@ -572,6 +576,7 @@ impl Tracer {
                 pos: p.position - origin,
                 dir: p.direction.normalize_or_zero(),
                 m: p.shape_exponent.max(0.0),
+                luminaire: p.luminaire.clone(),
                 intensity: wl.emission(&p.intensity_w_sr_nm),
             })
             .collect();
@@ -784,7 +789,7 @@ impl Tracer {
             &self.points
         };
         for l in points {
-            let shaped = l.m > 0.0;
+            let shaped = l.is_shaped();
             if (shaped && (drop.shaped_point_sources || skip.shaped_point_sources))
                 || (!shaped && (drop.point_sources || skip.point_sources))
             {
@@ -894,7 +899,7 @@ impl Tracer {
             &self.points
         };
         for l in points {
-            let k = if l.m > 0.0 { 2 } else { 1 };
+            let k = if l.is_shaped() { 2 } else { 1 };
             self.point_irradiance(l, p, n, ignore, 1.0, c, &mut parts[k]);
         }
         if let Some(sky) = &self.sky {
@@ -1072,7 +1077,7 @@ impl Tracer {
         if cos_r <= 0.0 {
             return;
         }
-        let shape = shaping(l.dir.dot(-w), l.m);
+        let shape = l.shape_toward(-w);
         if shape == 0.0 {
             return;
         }
@@ -1452,7 +1457,7 @@ impl Tracer {
                 LightRef::Area(_) => {}
                 LightRef::Point(i) => {
                     let l = &self.points[i as usize];
-                    let k = if l.m > 0.0 { 2 } else { 1 };
+                    let k = if l.is_shaped() { 2 } else { 1 };
                     if !skipped[k] {
                         self.point_irradiance(l, p, n, ignore, w, c, &mut parts[k]);
                     }
@@ -1810,7 +1815,22 @@ fn build_light_tree(
     for (i, l) in points.iter().enumerate() {
         // Shaped: cos^m about `dir`, nothing behind; isotropic (or no
         // direction): every way.
-        let cone = if l.m > 0.0 && l.dir != DVec3::ZERO {
+        let cone = if let Some(lum) = &l.luminaire {
+            // Intensity ≤ I_max everywhere (phi below) and zero beyond the
+            // table's support angle from the nadir: a cone of that
+            // half-angle, no falloff assumed inside it.
+            let support = lum.table.support_deg().to_radians() + 1e-9;
+            if support >= std::f64::consts::PI || l.dir == DVec3::ZERO {
+                Cone::ALL
+            } else {
+                Cone {
+                    axis: l.dir,
+                    theta_o: 0.0,
+                    theta_e: support,
+                    exponent: 0.0,
+                }
+            }
+        } else if l.m > 0.0 && l.dir != DVec3::ZERO {
             Cone {
                 axis: l.dir,
                 theta_o: 0.0,
@@ -1832,9 +1852,24 @@ fn build_light_tree(
 }
 
 impl PointLight {
-    /// `cos^m(alpha)` toward unit direction `w` (from the lamp).
+    /// The intensity's shape toward unit direction `w` (from the lamp), in
+    /// [0, 1]: `cos^m(alpha)` about `dir`, or for a measured luminaire the
+    /// file's candela bilinearly interpolated in (γ, C) over its table,
+    /// divided by its largest value. Every point-light evaluation (direct
+    /// light, the camera's view of the lamp, the radiosity cache) goes
+    /// through here, so a tabulated lamp is evaluated exactly — no
+    /// sampling — wherever a `cos^m` one is.
     pub(crate) fn shape_toward(&self, w: DVec3) -> f64 {
-        shaping(self.dir.dot(w), self.m)
+        match &self.luminaire {
+            None => shaping(self.dir.dot(w), self.m),
+            Some(l) => l.relative_toward(self.dir, w),
+        }
+    }
+
+    /// Shaped (counted under `shaped-point-sources`): `cos^m` with m > 0,
+    /// or a measured distribution.
+    pub(crate) fn is_shaped(&self) -> bool {
+        self.m > 0.0 || self.luminaire.is_some()
     }
 }
 

@@ -1,0 +1,206 @@
+//! IES LM-63 (1986/1991/1995/2002): keyword lines, `TILT=`, then numbers.
+//! Type C photometry only (types A and B are goniometer conventions for
+//! floodlights and automotive lamps, refused by name).
+
+use super::{
+    Format, MAX_ANGLES, MAX_VALUES, Photometry, PhotometryError, Symmetry, TiltTable, Tokens,
+    check_angles, check_candela,
+};
+
+pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryError> {
+    let err = |line: usize, field: &str, msg: String| PhotometryError::Parse {
+        path: path.to_string(),
+        line,
+        field: field.to_string(),
+        msg,
+    };
+    // Keyword lines up to `TILT=`; the numbers follow that line.
+    let mut pos = 0usize;
+    let mut line = 0usize;
+    let mut tilt_line = None;
+    for l in text.split_inclusive('\n') {
+        line += 1;
+        pos += l.len();
+        let t = l.trim_start_matches('\u{feff}').trim();
+        if let Some(rest) = t.strip_prefix("TILT=").or_else(|| t.strip_prefix("TILT =")) {
+            tilt_line = Some((line, rest.trim().to_string()));
+            break;
+        }
+    }
+    let Some((tl, tilt)) = tilt_line else {
+        return Err(err(
+            line,
+            "TILT",
+            "no `TILT=` line: not an IES LM-63 file (or truncated before its data)".into(),
+        ));
+    };
+    let mut tok = Tokens::new(text, pos, tl + 1, path);
+    let tilt = match tilt.as_str() {
+        "NONE" => None,
+        "INCLUDE" => Some(tilt_table(&mut tok)?),
+        other => {
+            return Err(err(
+                tl,
+                "TILT",
+                format!(
+                    "TILT={other}: a tilt table in a separate file is not supported; copy it into this file as TILT=INCLUDE"
+                ),
+            ));
+        }
+    };
+    let lamps = tok.number("number of lamps")?;
+    let lumens_line = tok.line();
+    let lumens = tok.number("lumens per lamp")?;
+    let mult_line = tok.line();
+    let multiplier = tok.number("candela multiplier")?;
+    let nv = tok.count("number of vertical angles", MAX_ANGLES)?;
+    let nh = tok.count("number of horizontal angles", MAX_ANGLES)?;
+    let pt_line = tok.line();
+    let ptype = tok.number("photometric type")?;
+    for f in ["units type", "width", "length", "height"] {
+        tok.number(f)?;
+    }
+    let bf_line = tok.line();
+    let ballast = tok.number("ballast factor")?;
+    // 1995: the ballast-lamp photometric factor; 2002: "future use" (1).
+    let blf_line = tok.line();
+    let ballast_lamp = tok.number("ballast-lamp photometric factor")?;
+    tok.number("input watts")?;
+    if ptype != 1.0 {
+        let what = match ptype {
+            2.0 => "type B",
+            3.0 => "type A",
+            _ => "unknown",
+        };
+        return Err(err(
+            pt_line,
+            "photometric type",
+            format!("{ptype} ({what} photometry): only type C (1) is supported"),
+        ));
+    }
+    if !(lamps.is_finite() && lamps > 0.0) {
+        return Err(err(
+            lumens_line,
+            "number of lamps",
+            format!("{lamps} must be > 0"),
+        ));
+    }
+    if !(lumens == -1.0 || lumens > 0.0) {
+        return Err(err(
+            lumens_line,
+            "lumens per lamp",
+            format!("{lumens} must be > 0, or −1 for absolute photometry"),
+        ));
+    }
+    for (v, l, f) in [
+        (multiplier, mult_line, "candela multiplier"),
+        (ballast, bf_line, "ballast factor"),
+        (ballast_lamp, blf_line, "ballast-lamp photometric factor"),
+    ] {
+        if v <= 0.0 {
+            return Err(err(l, f, format!("{v} must be > 0")));
+        }
+    }
+    let values = nv.checked_mul(nh).filter(|&n| n <= MAX_VALUES);
+    let Some(values) = values else {
+        return Err(err(
+            pt_line,
+            "number of horizontal angles",
+            format!("{nv} × {nh} candela values is more than the limit of {MAX_VALUES}"),
+        ));
+    };
+    if nv + nh + values > tok.remaining_at_most() {
+        return Err(err(
+            tok.line(),
+            "candela values",
+            format!(
+                "the header promises {nv} vertical + {nh} horizontal angles and {values} values, more numbers than the rest of the file holds (truncated?)"
+            ),
+        ));
+    }
+    let (vertical, vl) = read_list(&mut tok, nv, "vertical angles")?;
+    check_angles(&vertical, 0.0, 180.0).map_err(|(i, m)| err(vl[i], "vertical angles", m))?;
+    let (horizontal, hl) = read_list(&mut tok, nh, "horizontal angles")?;
+    check_angles(&horizontal, 0.0, 360.0).map_err(|(i, m)| err(hl[i], "horizontal angles", m))?;
+    let symmetry = symmetry_of(&horizontal).map_err(|m| err(hl[0], "horizontal angles", m))?;
+    let (mut candela, cl) = read_list(&mut tok, values, "candela values")?;
+    let k = multiplier * ballast * ballast_lamp;
+    candela.iter_mut().for_each(|c| *c *= k);
+    let max_candela = check_candela(&candela).map_err(|(i, m)| err(cl[i], "candela values", m))?;
+    Ok(Photometry {
+        format: Format::Ies,
+        vertical_deg: vertical,
+        horizontal_deg: horizontal,
+        symmetry,
+        candela,
+        max_candela,
+        header_lumens: (lumens > 0.0).then_some(lamps * lumens),
+        tilt,
+    })
+}
+
+/// `n` numbers and the line each was on.
+fn read_list(
+    tok: &mut Tokens,
+    n: usize,
+    field: &str,
+) -> Result<(Vec<f64>, Vec<usize>), PhotometryError> {
+    let mut out = Vec::with_capacity(n);
+    let mut lines = Vec::with_capacity(n);
+    for _ in 0..n {
+        out.push(tok.number(field)?);
+        lines.push(tok.line());
+    }
+    Ok((out, lines))
+}
+
+fn tilt_table(tok: &mut Tokens) -> Result<TiltTable, PhotometryError> {
+    let gl = tok.line();
+    let geometry = tok.number("lamp-to-luminaire geometry")?;
+    if ![1.0, 2.0, 3.0].contains(&geometry) {
+        return Err(tok.err(
+            gl,
+            "lamp-to-luminaire geometry",
+            format!("{geometry} must be 1, 2 or 3"),
+        ));
+    }
+    let n = tok.count("number of tilt angles", MAX_ANGLES)?;
+    if 2 * n > tok.remaining_at_most() {
+        return Err(tok.err(
+            tok.line(),
+            "tilt angles",
+            format!("{n} tilt angles promised, more than the file holds (truncated?)"),
+        ));
+    }
+    let (angles, al) = read_list(tok, n, "tilt angles")?;
+    check_angles(&angles, 0.0, 180.0).map_err(|(i, m)| tok.err(al[i], "tilt angles", m))?;
+    let (factors, fl) = read_list(tok, n, "tilt multiplying factors")?;
+    if let Some(i) = factors.iter().position(|f| *f < 0.0) {
+        return Err(tok.err(
+            fl[i],
+            "tilt multiplying factors",
+            format!("{} must be ≥ 0", factors[i]),
+        ));
+    }
+    Ok(TiltTable {
+        geometry: geometry as u32,
+        angles_deg: angles,
+        factors,
+    })
+}
+
+/// The symmetry LM-63-2002 assigns to a type C horizontal angle list.
+fn symmetry_of(h: &[f64]) -> Result<Symmetry, String> {
+    let (first, last) = (h[0], h[h.len() - 1]);
+    match (h.len(), first, last) {
+        (1, 0.0, _) => Ok(Symmetry::Rotational),
+        (_, 0.0, 90.0) => Ok(Symmetry::Quadrant),
+        (_, 0.0, 180.0) => Ok(Symmetry::BilateralC0),
+        (_, 90.0, 270.0) => Ok(Symmetry::BilateralC90),
+        (_, 0.0, 360.0) => Ok(Symmetry::Full),
+        _ => Err(format!(
+            "{}° to {}°: type C horizontal angles must be 0 alone (rotational symmetry), or run 0–90, 0–180, 90–270 or 0–360",
+            first, last
+        )),
+    }
+}
