@@ -382,6 +382,7 @@ fn acquisition_locks_the_format_and_packetresend_is_an_event() {
 #[test]
 fn gvsp_frames_are_leader_payload_trailer() {
     let info = gvsp::ImageInfo {
+        payload_type: gvsp::PAYLOAD_TYPE_IMAGE,
         timestamp_ticks: 0x1_0000_0002,
         pixel_format: pixel_format::MONO12,
         width: 3,
