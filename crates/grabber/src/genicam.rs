@@ -15,6 +15,7 @@
 //! | [`DeviceControl::set_exposure_s`] | `ExposureTime`, µs |
 //! | frame size (`?size=WxH`) | `Width`, `Height` |
 //! | [`DeviceControl::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
+//! | each frame's `gain`, `agc` | the frame's own `ChunkGainLinear` (else `ChunkGain`) and `ChunkAgcActive` where the camera offers chunk data (gloam's device), else the features read after the frame |
 //!
 //! By default every [`FrameStream::grab`] fires `TriggerSoftware` and waits
 //! for that one frame (`?trigger=software`, when the camera has it), so a
