@@ -70,9 +70,9 @@ enum Command {
     Render(cmd::render::RenderArgs),
     /// Irradiance at a point, or one pixel's radiance, without a full render.
     Probe(cmd::probe::ProbeArgs),
-    /// Emulate a camera/frame-grabber device on a pseudo-terminal.
+    /// Serve the simulated camera as a device: emulated on a pseudo-terminal (--pty) or as a GigE Vision camera (--gige).
     Device(cmd::device::DeviceArgs),
-    /// Capture frames from a grabber into PNGs and frames.jsonl.
+    /// Capture frames from a grabber (sim:, serial:, usb:, genicam: GigE Vision / USB3 Vision) into PNGs and frames.jsonl.
     Capture(cmd::capture::CaptureArgs),
     /// List serial ports, USB devices and simulated cameras.
     Grabbers(cmd::grabbers::GrabbersArgs),

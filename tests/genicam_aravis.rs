@@ -148,8 +148,8 @@ fn genicam_grabber_streams_from_the_aravis_fake_camera_and_its_controls_read_bac
         let png = dir.path().join("mono8").join(r["file"].as_str().unwrap());
         // Read as gloam reads its frames (sBIT honoured): the exact counts.
         let (w, _, px) = gloam_calib::io::read_counts(&png).expect("png");
-        // The camera's own 16-bit block id, which the ramp uses.
-        let id = ((seq - 1) % 65535 + 1) as u32;
+        // The camera's own 16-bit block id (seq + 1), which the ramp uses.
+        let id = (seq % 65535 + 1) as u32;
         let mut wrong = 0;
         for (i, p) in px.iter().enumerate() {
             let (x, y) = ((i % w) as u32, (i / w) as u32);
@@ -217,8 +217,8 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
         let sim_recs = records(&sim_dir.join("sim"));
         assert_eq!(got.len(), 30, "{}", run.stderr);
         for (k, r) in got.iter().enumerate() {
-            // Block ids start at 1 with each acquisition.
-            assert_eq!(r["seq"].as_u64(), Some(k as u64 + 1), "{r}");
+            // Frame k of the acquisition is seq k, as with sim:.
+            assert_eq!(r["seq"].as_u64(), Some(k as u64), "{r}");
             assert_eq!(
                 r["pixels_crc32c"].as_u64(),
                 Some(u64::from(sim[k])),
@@ -228,11 +228,9 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
                 r["gain"].as_f64().unwrap(),
                 sim_recs[k]["gain"].as_f64().unwrap(),
             );
-            // The gain in effect crosses the wire as a single-precision float.
-            assert!(
-                (g / s - 1.0).abs() < 1e-6,
-                "{tag} frame {k}: gain {g} vs sim {s}"
-            );
+            // The gain in effect crosses the wire in double precision, in
+            // the frame's own ChunkGainLinear.
+            assert_eq!(g, s, "{tag} frame {k}: gain {g} vs sim {s}");
             assert_eq!(r["agc"], sim_recs[k]["agc"], "{tag} frame {k}");
         }
     }
@@ -306,7 +304,7 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
             let seq = r["seq"].as_u64().unwrap() as usize;
             assert_eq!(
                 r["pixels_crc32c"].as_u64(),
-                Some(u64::from(sim[seq - 1])),
+                Some(u64::from(sim[seq])),
                 "{tag}: frame {seq} accepted with wrong pixels"
             );
         }
@@ -327,6 +325,118 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
             assert!(damaged + lost > 0, "no loss reported with resends off");
         }
     }
+}
+
+/// `ChunkNAME = value` lines as `arv-camera-test-0.8 --chunks` prints
+/// them, one map per frame (a frame starts at its ChunkFrameID line).
+fn chunk_lines(out: &str) -> Vec<std::collections::BTreeMap<String, f64>> {
+    let mut frames: Vec<std::collections::BTreeMap<String, f64>> = Vec::new();
+    for l in out.lines() {
+        let Some((k, v)) = l.split_once(" = ") else {
+            continue;
+        };
+        let (Some(k), Ok(v)) = (k.strip_prefix("Chunk"), v.trim().parse::<f64>()) else {
+            continue;
+        };
+        if k == "FrameID" {
+            frames.push(Default::default());
+        }
+        if let Some(f) = frames.last_mut() {
+            f.insert(k.to_string(), v);
+        }
+    }
+    frames
+}
+
+#[test]
+fn arv_test_passes_without_a_config_and_chunks_carry_each_frames_gain_and_exposure() {
+    if !aravis_ready(
+        "arv-test / arv-camera-test --chunks vs gloam device --gige",
+        &["arv-test-0.8", "arv-camera-test-0.8", "ip"],
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    // No configuration file: arv-test's defaults, chunk test included
+    // (ChunkList "OffsetX OffsetY"). Then a client streaming 2 s with the
+    // chunks on, at the AGC's default settings, Mono16.
+    let client = [
+        r#"cd "$DIR" && arv-test-0.8; echo "arv-test rc=$?""#,
+        "timeout 30 arv-camera-test-0.8 --chunks FrameID,Gain,GainLinear,ExposureTime,AgcActive,GateDuty --features PixelFormat=Mono16 --duration 2",
+    ]
+    .join("\n");
+    let run = in_netns(dir.path(), "--size 160x120 --seed 7", &client, 120);
+    let out = &run.stdout;
+    assert!(run.ok, "{out}\n{}\n{}", run.stderr, run.device_stderr);
+    let results: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains("SUCCESS") || l.contains("FAILURE"))
+        .collect();
+    assert!(results.len() >= 15, "arv-test ran:\n{out}");
+    assert!(
+        results.iter().all(|l| !l.contains("FAILURE")),
+        "arv-test without a config:\n{out}"
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("Chunks:BufferCheck") && l.contains("SUCCESS")),
+        "{out}"
+    );
+    // The same frames in process: frame k of the acquisition is the sim:
+    // grabber's frame k, whose frames.jsonl holds the gain it was taken at.
+    let frames = chunk_lines(out);
+    assert!(
+        frames.len() >= 10,
+        "chunk values of {} frames:\n{out}",
+        frames.len()
+    );
+    let n = frames.iter().map(|f| f["FrameID"] as u32).max().unwrap();
+    let sim_dir = dir.path().join("sim-chunks");
+    std::fs::create_dir_all(&sim_dir).unwrap();
+    sim_crcs(
+        &sim_dir,
+        "sim:gen2-s20-iccd?rig=uniform&seed=7&size=160x120",
+        n,
+        &["--bits", "16", "--agc"],
+    );
+    let sim = records(&sim_dir.join("sim"));
+    // The exposure the device reported before streaming (ExposureTime).
+    let exposure_us: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("exposure "))
+        .and_then(|r| r.split('=').nth(1))
+        .and_then(|v| v.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no exposure line in:\n{out}"));
+    let mut gains_seen = std::collections::BTreeSet::new();
+    for f in &frames {
+        let k = f["FrameID"] as usize - 1;
+        let s = &sim[k];
+        let g = s["gain"].as_f64().unwrap();
+        // arv-camera-test prints with %g: 6 significant digits.
+        let close = |a: f64, b: f64| (a - b).abs() <= 5e-6 * b.abs();
+        assert!(
+            close(f["GainLinear"], g),
+            "frame {k}: {f:?} vs sim gain {g}"
+        );
+        assert!(
+            close(f["Gain"], 20.0 * g.log10()),
+            "frame {k}: {f:?} vs sim gain {g}"
+        );
+        assert_eq!(f["AgcActive"], 1.0, "frame {k}");
+        assert_eq!(s["agc"].as_bool(), Some(true));
+        assert_eq!(f["ExposureTime"], exposure_us, "frame {k}");
+        assert!(f["GateDuty"] > 0.0 && f["GateDuty"] <= 1.0, "{f:?}");
+        gains_seen.insert(g.to_bits());
+    }
+    // The AGC moved the gain: per-frame values, not one setting repeated.
+    assert!(gains_seen.len() > 3, "{frames:?}");
+    eprintln!(
+        "arv-camera-test --chunks: {} frames, gain {:.3}…{:.3} dB, each equal to sim:'s frames.jsonl",
+        frames.len(),
+        frames.iter().map(|f| f["Gain"]).fold(f64::MAX, f64::min),
+        frames.iter().map(|f| f["Gain"]).fold(f64::MIN, f64::max)
+    );
 }
 
 const SPHERE: &str = r#"

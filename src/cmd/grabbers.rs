@@ -65,5 +65,8 @@ pub fn run(args: GrabbersArgs) -> anyhow::Result<()> {
         outln!("  {:<32} {}", s.uri, s.description);
     }
     outln!("(emulated devices: run `gloam device --pty` and use the serial: URI it prints)");
+    outln!(
+        "(GigE Vision: `gloam device --gige ADDR` serves the simulated camera; any GenICam camera opens as genicam:DEVICE_ID or genicam:ADDR, with gloam built --features genicam, Debian packages libaravis-dev and libusb-1.0-0-dev)"
+    );
     Ok(())
 }

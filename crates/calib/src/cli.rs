@@ -48,7 +48,7 @@ pub enum CalibrateCommand {
 
 #[derive(Args, Clone)]
 pub struct GrabberArgs {
-    /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], serial:PATH[?baud=N], usb:VID:PID[:SERIAL].
+    /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], serial:PATH[?baud=N], usb:VID:PID[:SERIAL], genicam:DEVICE_ID|ADDR[?trigger=auto|software|off&resend=always|never&timeout_ms=N&size=WxH] (GigE Vision / USB3 Vision through Aravis; build with --features genicam).
     #[arg(long)]
     pub grabber: String,
     /// Noise seed for sim: grabbers.
@@ -657,7 +657,10 @@ fn mtf_voltage<E: From<CalibError>>(
 #[derive(Args)]
 pub struct CaptureArgs {
     /// Grabber URI: sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH],
-    /// serial:PATH[?baud=N], usb:VID:PID[:SERIAL].
+    /// serial:PATH[?baud=N], usb:VID:PID[:SERIAL],
+    /// genicam:DEVICE_ID|ADDR[?trigger=auto|software|off&resend=always|never&timeout_ms=N&size=WxH]
+    /// (GigE Vision / USB3 Vision cameras through Aravis, gloam's own
+    /// `gloam device --gige` included; build with --features genicam).
     #[arg(long)]
     pub grabber: String,
     /// Good frames to capture.

@@ -9,7 +9,7 @@ use std::net::{Ipv4Addr, SocketAddrV4};
 use gloam_grabber::{CaptureSettings, Stimulus};
 
 use crate::bootstrap as bs;
-use crate::features::{self, XmlFacts, pixel_format, reg, value};
+use crate::features::{self, XmlFacts, chunk, pixel_format, reg, value};
 use crate::gvcp::{self, Status, be32, command};
 
 /// Who the device says it is.
@@ -104,6 +104,9 @@ struct UserSet {
     acquisition_mode: u32,
     frame_count: u32,
     trigger_mode: u32,
+    chunk_mode: bool,
+    /// `ChunkEnable` bit mask over [`chunk::DEFS`].
+    chunk_enable: u32,
 }
 
 /// The device.
@@ -146,6 +149,9 @@ pub struct Device {
     /// High word of an 8-byte double register written, waiting for its low
     /// word: (address, value).
     pending_high: Option<(u32, u32)>,
+    chunk_mode: bool,
+    chunk_selector: u32,
+    chunk_enable: u32,
 }
 
 /// Byte offset of `addr` in the `GloamStimulus` string register.
@@ -204,6 +210,8 @@ impl Device {
             acquisition_mode: value::ACQUISITION_MODE_CONTINUOUS,
             frame_count: 1,
             trigger_mode: value::OFF,
+            chunk_mode: false,
+            chunk_enable: chunk::ALL_ENABLED,
         };
         Self {
             frame_rate_hz: facts.sensor_frame_rate_hz as f32,
@@ -239,6 +247,9 @@ impl Device {
             user_set_selector: value::USER_SET_DEFAULT,
             user_set_default: value::USER_SET_DEFAULT,
             pending_high: None,
+            chunk_mode: false,
+            chunk_selector: 0,
+            chunk_enable: chunk::ALL_ENABLED,
         }
     }
 
@@ -251,6 +262,8 @@ impl Device {
             acquisition_mode: self.acquisition_mode,
             frame_count: self.frame_count,
             trigger_mode: self.trigger_mode,
+            chunk_mode: self.chunk_mode,
+            chunk_enable: self.chunk_enable,
         }
     }
 
@@ -263,6 +276,8 @@ impl Device {
         self.acquisition_mode = u.acquisition_mode;
         self.frame_count = u.frame_count;
         self.trigger_mode = u.trigger_mode;
+        self.chunk_mode = u.chunk_mode;
+        self.chunk_enable = u.chunk_enable;
     }
 
     /// A new controller: it starts from the UserSetDefault set, not from
@@ -286,6 +301,7 @@ impl Device {
         self.scps = bs::DEFAULT_PACKET_BYTES;
         self.scpd = 0;
         self.user_set_selector = value::USER_SET_DEFAULT;
+        self.chunk_selector = 0;
     }
 
     /// The GenICam XML served at [`features::XML_ADDRESS`].
@@ -300,6 +316,12 @@ impl Device {
 
     pub fn pixel_format(&self) -> u32 {
         self.pixel_format
+    }
+
+    /// The chunks each frame carries (`ChunkEnable` bit mask over
+    /// [`chunk::DEFS`]), or `None` with `ChunkModeActive` off.
+    pub fn chunks(&self) -> Option<u32> {
+        self.chunk_mode.then_some(self.chunk_enable)
     }
 
     /// Frame period the stream is paced to, µs: the AcquisitionFrameRate
@@ -787,6 +809,9 @@ impl Device {
             reg::TRIGGER_MODE => self.trigger_mode,
             reg::TRIGGER_SOURCE => value::TRIGGER_SOURCE_SOFTWARE,
             reg::TL_PARAMS_LOCKED => self.tl_locked,
+            reg::CHUNK_MODE_ACTIVE => u32::from(self.chunk_mode),
+            reg::CHUNK_SELECTOR => self.chunk_selector,
+            reg::CHUNK_ENABLE => (self.chunk_enable >> self.chunk_selector) & 1,
             reg::FRAMES_SENT => self.counters.frames_sent,
             reg::PACKETS_DROPPED => self.counters.packets_dropped,
             reg::PACKETS_RESENT => self.counters.packets_resent,
@@ -795,11 +820,16 @@ impl Device {
         })
     }
 
-    /// Bytes of one frame's payload.
+    /// Bytes of one frame's payload: the image, and in chunk mode the
+    /// enabled chunks after it.
     pub fn payload_bytes(&self) -> u32 {
-        self.settings.width
+        let image = self.settings.width
             * self.settings.height
-            * pixel_format::bytes_per_pixel(self.pixel_format) as u32
+            * pixel_format::bytes_per_pixel(self.pixel_format) as u32;
+        match self.chunks() {
+            Some(enabled) => chunk::payload_bytes(image as usize, enabled) as u32,
+            None => image,
+        }
     }
 
     fn float_in(v: u32, lo: f64, hi: f64) -> Result<f64, Status> {
@@ -876,7 +906,16 @@ impl Device {
                     return Err(Status::InvalidParameter);
                 }
             }
-            reg::WIDTH | reg::HEIGHT | reg::PIXEL_FORMAT if frozen => return Err(Status::Busy),
+            // What sets PayloadSize cannot change while a host streams.
+            reg::WIDTH
+            | reg::HEIGHT
+            | reg::PIXEL_FORMAT
+            | reg::CHUNK_MODE_ACTIVE
+            | reg::CHUNK_ENABLE
+                if frozen =>
+            {
+                return Err(Status::Busy);
+            }
             reg::WIDTH => {
                 let lo = if f.resizable { 1 } else { f.max_width };
                 if !(lo..=f.max_width).contains(&v) {
@@ -1023,6 +1062,27 @@ impl Device {
                 if v != 0 {
                     self.reset();
                 }
+            }
+            reg::CHUNK_MODE_ACTIVE | reg::CHUNK_ENABLE => {
+                if v > 1 {
+                    return Err(Status::InvalidParameter);
+                }
+                if a == reg::CHUNK_MODE_ACTIVE {
+                    self.chunk_mode = v == 1;
+                } else {
+                    let bit = 1 << self.chunk_selector;
+                    self.chunk_enable = if v == 1 {
+                        self.chunk_enable | bit
+                    } else {
+                        self.chunk_enable & !bit
+                    };
+                }
+            }
+            reg::CHUNK_SELECTOR => {
+                if v as usize >= chunk::DEFS.len() {
+                    return Err(Status::InvalidParameter);
+                }
+                self.chunk_selector = v;
             }
             reg::TL_PARAMS_LOCKED => {
                 if v > 1 {

@@ -54,8 +54,14 @@ pub mod reg {
     /// `GainLinear`: IEEE-754 double (8 bytes), the linear factor, as
     /// `gloam capture --gain`.
     pub const GAIN_LINEAR: u32 = 0x0001_0098;
+    /// `ChunkModeActive`: 0 off (image payloads, as without chunks), 1 on.
+    pub const CHUNK_MODE_ACTIVE: u32 = 0x0001_00A0;
+    /// `ChunkSelector`: index into [`super::chunk::DEFS`].
+    pub const CHUNK_SELECTOR: u32 = 0x0001_00A4;
+    /// `ChunkEnable` of the selected chunk.
+    pub const CHUNK_ENABLE: u32 = 0x0001_00A8;
     /// First address past the feature block.
-    pub const END: u32 = 0x0001_00A0;
+    pub const END: u32 = 0x0001_00AC;
 
     /// The 8-byte double registers, by the address of their high word.
     pub const DOUBLES: [u32; 2] = [GAIN_DB, GAIN_LINEAR];
@@ -109,6 +115,203 @@ pub mod value {
     pub const ON: u32 = 1;
     pub const USER_SET_DEFAULT: u32 = 0;
     pub const USER_SET_1: u32 = 1;
+}
+
+/// Chunk data: what each frame says about itself when `ChunkModeActive`
+/// is on. One table drives the XML (selector entries, chunk features and
+/// their ports) and the bytes the stream sends.
+pub mod chunk {
+    /// Chunk id of the image itself (the first chunk of a payload).
+    pub const IMAGE_ID: u32 = 0x676C_0000;
+
+    /// How a chunk's value is encoded (big-endian, as every register here).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Kind {
+        U32,
+        U64,
+        F64,
+    }
+
+    impl Kind {
+        pub fn bytes(self) -> usize {
+            match self {
+                Kind::U32 => 4,
+                Kind::U64 | Kind::F64 => 8,
+            }
+        }
+    }
+
+    /// One chunk: its `ChunkSelector` entry is `name`, its feature
+    /// `Chunk{name}`, read from chunk `id` at offset 0.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Def {
+        pub name: &'static str,
+        pub id: u32,
+        pub kind: Kind,
+        /// SFNC name (Standard namespace) or gloam's own (Custom).
+        pub standard: bool,
+        pub unit: &'static str,
+        pub tip: &'static str,
+    }
+
+    const fn def(
+        name: &'static str,
+        id: u32,
+        kind: Kind,
+        standard: bool,
+        unit: &'static str,
+        tip: &'static str,
+    ) -> Def {
+        Def {
+            name,
+            id,
+            kind,
+            standard,
+            unit,
+            tip,
+        }
+    }
+
+    /// The chunks, in `ChunkSelector` order (the selector value is the index).
+    pub const DEFS: [Def; 10] = [
+        def(
+            "OffsetX",
+            0x676C_0001,
+            Kind::U32,
+            true,
+            "",
+            "OffsetX of the frame (always 0)",
+        ),
+        def(
+            "OffsetY",
+            0x676C_0002,
+            Kind::U32,
+            true,
+            "",
+            "OffsetY of the frame (always 0)",
+        ),
+        def(
+            "FrameID",
+            0x676C_0003,
+            Kind::U64,
+            true,
+            "",
+            "The frame's id: its GVSP block id, unwrapped (1 for the first frame of an acquisition)",
+        ),
+        def(
+            "Timestamp",
+            0x676C_0004,
+            Kind::U64,
+            true,
+            "",
+            "Exposure start, timestamp ticks (ns), as the leader's",
+        ),
+        def(
+            "Gain",
+            0x676C_0005,
+            Kind::F64,
+            true,
+            "dB",
+            "Gain in effect for this frame, dB (under GainAuto, the AGC's)",
+        ),
+        def(
+            "GainLinear",
+            0x676C_0006,
+            Kind::F64,
+            false,
+            "x",
+            "Gain in effect for this frame as a linear factor (GainLinear)",
+        ),
+        def(
+            "ExposureTime",
+            0x676C_0007,
+            Kind::F64,
+            true,
+            "us",
+            "Exposure of this frame, microseconds",
+        ),
+        def(
+            "GateDuty",
+            0x676C_0008,
+            Kind::F64,
+            false,
+            "",
+            "Fraction of the exposure the photocathode was gated on for this frame: the preset's duty times the tube's autogating (1 without a gated photocathode)",
+        ),
+        def(
+            "AgcActive",
+            0x676C_0009,
+            Kind::U32,
+            false,
+            "",
+            "1 when the AGC (GainAuto Continuous) set this frame's gain, 0 for a fixed gain",
+        ),
+        def(
+            "BrightSourceProtection",
+            0x676C_000A,
+            Kind::U32,
+            false,
+            "",
+            "1 when the AGC's bright-source protection was cutting the gain at this frame",
+        ),
+    ];
+
+    /// `ChunkEnable` of every chunk (the power-up state).
+    pub const ALL_ENABLED: u32 = (1 << DEFS.len()) - 1;
+
+    /// What one frame's chunks say.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Values {
+        pub frame_id: u64,
+        pub timestamp_ticks: u64,
+        /// Linear gain factor in effect.
+        pub gain_linear: f64,
+        pub exposure_us: f64,
+        pub gate_duty: f64,
+        pub agc_active: bool,
+        pub bright_source_protection: bool,
+    }
+
+    impl Values {
+        /// The bytes of chunk `def` (index into [`DEFS`]).
+        fn bytes(&self, index: usize) -> Vec<u8> {
+            let u = |x: u64, kind: Kind| match kind {
+                Kind::U32 => (x as u32).to_be_bytes().to_vec(),
+                _ => x.to_be_bytes().to_vec(),
+            };
+            let f = |x: f64| x.to_be_bytes().to_vec();
+            match DEFS[index].name {
+                "FrameID" => u(self.frame_id, Kind::U64),
+                "Timestamp" => u(self.timestamp_ticks, Kind::U64),
+                "Gain" => f(super::gain_db(self.gain_linear)),
+                "GainLinear" => f(self.gain_linear),
+                "ExposureTime" => f(self.exposure_us),
+                "GateDuty" => f(self.gate_duty),
+                "AgcActive" => u(u64::from(self.agc_active), Kind::U32),
+                "BrightSourceProtection" => u(u64::from(self.bright_source_protection), Kind::U32),
+                _ => vec![0; DEFS[index].kind.bytes()],
+            }
+        }
+
+        /// `(chunk id, bytes)` of the chunks enabled in the bit mask `enabled`.
+        pub fn chunks(&self, enabled: u32) -> Vec<(u32, Vec<u8>)> {
+            (0..DEFS.len())
+                .filter(|i| enabled & (1 << i) != 0)
+                .map(|i| (DEFS[i].id, self.bytes(i)))
+                .collect()
+        }
+    }
+
+    /// Payload bytes of an image of `image_bytes` with the chunks of
+    /// `enabled`.
+    pub fn payload_bytes(image_bytes: usize, enabled: u32) -> usize {
+        crate::gvsp::chunked_payload_bytes(
+            image_bytes,
+            (0..DEFS.len())
+                .filter(|i| enabled & (1 << i) != 0)
+                .map(|i| DEFS[i].kind.bytes()),
+        )
+    }
 }
 
 /// `Gain` (dB, SFNC) of a linear gain factor.
@@ -287,6 +490,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "AcquisitionControl",
         "AnalogControl",
         "UserSetControl",
+        "ChunkDataControl",
         "TransportLayerControl",
     ];
     if !cat_intensifier.is_empty() {
@@ -307,6 +511,13 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
             "UserSetDefault",
         ],
     );
+    let chunk_features: Vec<String> = chunk::DEFS
+        .iter()
+        .map(|d| format!("Chunk{}", d.name))
+        .collect();
+    let mut cat_chunk = vec!["ChunkModeActive", "ChunkSelector", "ChunkEnable"];
+    cat_chunk.extend(chunk_features.iter().map(String::as_str));
+    n += &category("ChunkDataControl", &cat_chunk);
     n += &category("TransportLayerControl", &cat_transport);
     if !cat_intensifier.is_empty() {
         n += &category("IntensifierControl", &cat_intensifier);
@@ -456,15 +667,62 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     n += &int_reg("PixelFormatReg", reg::PIXEL_FORMAT, "RW");
     n += &integer(
         "PayloadSize",
-        "Bytes per frame",
+        "Bytes per frame: the image, and with ChunkModeActive the enabled chunks",
         "PayloadSizeReg",
         "<Min>1</Min>",
         &format!(
             "<Max>{}</Max>",
-            u64::from(f.max_width) * u64::from(f.max_height) * 2
+            chunk::payload_bytes(
+                f.max_width as usize * f.max_height as usize * 2,
+                chunk::ALL_ENABLED
+            )
         ),
     );
     n += &int_reg("PayloadSizeReg", reg::PAYLOAD_SIZE, "RO");
+
+    // Chunk data: the mode, the per-chunk switches, and each chunk's value
+    // as a register on its own port, which reads from the buffer's chunk of
+    // that id (GenApi ChunkID) rather than from the device.
+    n += "  <Boolean Name=\"ChunkModeActive\" NameSpace=\"Standard\">\n    <ToolTip>Chunk data on: each frame's payload carries the image as a chunk, then the enabled chunks (PayloadSize grows); off: image payloads as without chunk support</ToolTip>\n    <pIsLocked>TLParamsLocked</pIsLocked>\n    <pValue>ChunkModeActiveReg</pValue>\n    <OnValue>1</OnValue>\n    <OffValue>0</OffValue>\n  </Boolean>\n";
+    n += &int_reg("ChunkModeActiveReg", reg::CHUNK_MODE_ACTIVE, "RW");
+    n += "  <Enumeration Name=\"ChunkSelector\" NameSpace=\"Standard\">\n    <ToolTip>Chunk ChunkEnable acts on</ToolTip>\n";
+    for (i, d) in chunk::DEFS.iter().enumerate() {
+        n += &format!(
+            "    <EnumEntry Name=\"{}\">\n      <Value>{i}</Value>\n    </EnumEntry>\n",
+            d.name
+        );
+    }
+    n += "    <pValue>ChunkSelectorReg</pValue>\n    <pSelected>ChunkEnable</pSelected>\n  </Enumeration>\n";
+    n += &int_reg("ChunkSelectorReg", reg::CHUNK_SELECTOR, "RW");
+    n += "  <Boolean Name=\"ChunkEnable\" NameSpace=\"Standard\">\n    <ToolTip>Whether the selected chunk is sent while ChunkModeActive is on</ToolTip>\n    <pIsLocked>TLParamsLocked</pIsLocked>\n    <pValue>ChunkEnableReg</pValue>\n    <OnValue>1</OnValue>\n    <OffValue>0</OffValue>\n  </Boolean>\n";
+    n += &int_reg("ChunkEnableReg", reg::CHUNK_ENABLE, "RW");
+    for d in &chunk::DEFS {
+        let name = format!("Chunk{}", d.name);
+        let ns = if d.standard { "Standard" } else { "Custom" };
+        let port = format!("{name}Port");
+        let len = d.kind.bytes();
+        n += &match d.kind {
+            chunk::Kind::F64 => {
+                let unit = if d.unit.is_empty() {
+                    String::new()
+                } else {
+                    format!("    <Unit>{}</Unit>\n", d.unit)
+                };
+                format!(
+                    "  <FloatReg Name=\"{name}\" NameSpace=\"{ns}\">\n    <ToolTip>{}</ToolTip>\n    <Address>0x0</Address>\n    <Length>{len}</Length>\n    <AccessMode>RO</AccessMode>\n    <pPort>{port}</pPort>\n    <Cachable>NoCache</Cachable>\n    <Endianess>BigEndian</Endianess>\n{unit}  </FloatReg>\n",
+                    d.tip
+                )
+            }
+            chunk::Kind::U32 | chunk::Kind::U64 => format!(
+                "  <IntReg Name=\"{name}\" NameSpace=\"{ns}\">\n    <ToolTip>{}</ToolTip>\n    <Address>0x0</Address>\n    <Length>{len}</Length>\n    <AccessMode>RO</AccessMode>\n    <pPort>{port}</pPort>\n    <Cachable>NoCache</Cachable>\n    <Sign>Unsigned</Sign>\n    <Endianess>BigEndian</Endianess>\n  </IntReg>\n",
+                d.tip
+            ),
+        };
+        n += &format!(
+            "  <Port Name=\"{port}\">\n    <ChunkID>{:08X}</ChunkID>\n  </Port>\n",
+            d.id
+        );
+    }
 
     // Acquisition.
     n += &enumeration(

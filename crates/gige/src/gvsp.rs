@@ -10,6 +10,12 @@ pub const CONTENT_TRAILER: u8 = 2;
 pub const CONTENT_PAYLOAD: u8 = 3;
 /// Payload type "image".
 pub const PAYLOAD_TYPE_IMAGE: u16 = 0x0001;
+/// Payload type "image" with the extended-chunk flag (bit 14): the image
+/// leader as for [`PAYLOAD_TYPE_IMAGE`], and a payload of chunks (see
+/// [`chunked_payload`]).
+pub const PAYLOAD_TYPE_IMAGE_EXTENDED_CHUNK: u16 = 0x4001;
+/// Bytes of a chunk trailer: chunk id and data length, both u32 big-endian.
+pub const CHUNK_TRAILER_BYTES: usize = 8;
 /// GVSP status: packet unavailable (answer to a resend we cannot serve).
 pub const STATUS_PACKET_UNAVAILABLE: u16 = 0x800C;
 /// IP + UDP + GVSP header bytes, which GigE Vision packet sizes include.
@@ -30,6 +36,9 @@ pub fn header(status: u16, block_id: u16, content: u8, packet_id: u32) -> [u8; 8
 /// What the leader describes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImageInfo {
+    /// [`PAYLOAD_TYPE_IMAGE`], or [`PAYLOAD_TYPE_IMAGE_EXTENDED_CHUNK`] when
+    /// the payload carries chunks.
+    pub payload_type: u16,
     pub timestamp_ticks: u64,
     pub pixel_format: u32,
     pub width: u32,
@@ -49,7 +58,7 @@ pub fn packetize(
     let mut out = Vec::with_capacity(n_payload + 2);
     let mut leader = header(0, block_id, CONTENT_LEADER, 0).to_vec();
     leader.extend_from_slice(&0u16.to_be_bytes());
-    leader.extend_from_slice(&PAYLOAD_TYPE_IMAGE.to_be_bytes());
+    leader.extend_from_slice(&info.payload_type.to_be_bytes());
     leader.extend_from_slice(&((info.timestamp_ticks >> 32) as u32).to_be_bytes());
     leader.extend_from_slice(&(info.timestamp_ticks as u32).to_be_bytes());
     for v in [info.pixel_format, info.width, info.height, 0, 0] {
@@ -64,7 +73,7 @@ pub fn packetize(
     }
     let mut trailer = header(0, block_id, CONTENT_TRAILER, n_payload as u32 + 1).to_vec();
     trailer.extend_from_slice(&0u16.to_be_bytes());
-    trailer.extend_from_slice(&PAYLOAD_TYPE_IMAGE.to_be_bytes());
+    trailer.extend_from_slice(&info.payload_type.to_be_bytes());
     trailer.extend_from_slice(&info.height.to_be_bytes());
     out.push(trailer);
     out
@@ -81,6 +90,38 @@ pub fn pixel_bytes(pixels: &[u16], bytes_per_pixel: usize, out: &mut Vec<u8>) {
             out.extend_from_slice(&p.to_le_bytes());
         }
     }
+}
+
+/// Turns the image bytes in `data` into a chunk payload (GigE Vision
+/// extended chunk mode): the image padded to a multiple of 4 bytes and
+/// framed as chunk `image_id`, then each `(id, bytes)` of `chunks` (each a
+/// multiple of 4 bytes long, never empty). Every chunk is its data followed
+/// by a trailer `[id u32 BE][length u32 BE]`, so a client finds a chunk by
+/// walking the trailers back from the end of the payload, as Aravis does.
+pub fn chunked_payload(data: &mut Vec<u8>, image_id: u32, chunks: &[(u32, Vec<u8>)]) {
+    let image_bytes = data.len().next_multiple_of(4);
+    data.resize(image_bytes, 0);
+    push_trailer(data, image_id, image_bytes);
+    for (id, bytes) in chunks {
+        data.extend_from_slice(bytes);
+        push_trailer(data, *id, bytes.len());
+    }
+}
+
+fn push_trailer(data: &mut Vec<u8>, id: u32, len: usize) {
+    data.extend_from_slice(&id.to_be_bytes());
+    data.extend_from_slice(&(len as u32).to_be_bytes());
+}
+
+/// Bytes [`chunked_payload`] makes of `image_bytes` of image and chunks of
+/// `chunk_bytes` (their data lengths).
+pub fn chunked_payload_bytes(
+    image_bytes: usize,
+    chunk_bytes: impl Iterator<Item = usize>,
+) -> usize {
+    image_bytes.next_multiple_of(4)
+        + CHUNK_TRAILER_BYTES
+        + chunk_bytes.map(|n| n + CHUNK_TRAILER_BYTES).sum::<usize>()
 }
 
 /// The next block id after `id` (16-bit ids skip 0).

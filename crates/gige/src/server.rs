@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use gloam_grabber::FrameSource;
 
 use crate::device::{Device, Event, StreamCounters};
-use crate::features::pixel_format;
+use crate::features::{chunk, pixel_format};
 use crate::gvsp::{self, FaultInjector, ImageInfo, ResendStore, StreamFaults};
 
 /// Longest time one frame's packets are spread over (a video-rate
@@ -427,6 +427,7 @@ impl GigeServer {
             let triggered = sh.device.triggered();
             let settings = sh.device.settings();
             let pf = sh.device.pixel_format();
+            let chunks = sh.device.chunks();
             let stream = sh.device.stream();
             let period = Duration::from_micros(sh.device.frame_period_us());
             let limit = sh.device.frames_per_acquisition();
@@ -459,7 +460,25 @@ impl GigeServer {
                 }
             };
             gvsp::pixel_bytes(&pixels, pixel_format::bytes_per_pixel(pf), &mut bytes);
+            // The values this frame was rendered with, as chunks after the image.
+            let payload_type = match chunks {
+                Some(enabled) => {
+                    let values = chunk::Values {
+                        frame_id: u64::from(frames_in_acquisition) + 1,
+                        timestamp_ticks,
+                        gain_linear: f64::from(rendered.gain_milli) / 1000.0,
+                        exposure_us: f64::from(settings.exposure_us),
+                        gate_duty: rendered.gate_duty.unwrap_or(1.0),
+                        agc_active: settings.agc,
+                        bright_source_protection: rendered.bright_source_protection,
+                    };
+                    gvsp::chunked_payload(&mut bytes, chunk::IMAGE_ID, &values.chunks(enabled));
+                    gvsp::PAYLOAD_TYPE_IMAGE_EXTENDED_CHUNK
+                }
+                None => gvsp::PAYLOAD_TYPE_IMAGE,
+            };
             let info = ImageInfo {
+                payload_type,
                 timestamp_ticks,
                 pixel_format: pf,
                 width: settings.width,

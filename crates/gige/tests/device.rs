@@ -382,6 +382,7 @@ fn acquisition_locks_the_format_and_packetresend_is_an_event() {
 #[test]
 fn gvsp_frames_are_leader_payload_trailer() {
     let info = gvsp::ImageInfo {
+        payload_type: gvsp::PAYLOAD_TYPE_IMAGE,
         timestamp_ticks: 0x1_0000_0002,
         pixel_format: pixel_format::MONO12,
         width: 3,
@@ -616,4 +617,133 @@ fn a_new_session_and_device_reset_start_from_the_default_user_set() {
     assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
     b.take_control(&mut d);
     assert_eq!(rate(&mut b, &mut d), 5.0);
+}
+
+/// The chunks of a payload as a client finds them: walking the trailers
+/// `[id u32 BE][length u32 BE]` back from the end, as Aravis's
+/// `arv_buffer_get_chunk_data` does. `(id, data)` from last to first.
+fn walk_chunks(payload: &[u8]) -> Vec<(u32, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut end = payload.len();
+    while end >= 8 {
+        let t = &payload[end - 8..end];
+        let id = u32::from_be_bytes(t[..4].try_into().unwrap());
+        let len = u32::from_be_bytes(t[4..].try_into().unwrap()) as usize;
+        assert!(len > 0 && len + 8 <= end, "chunk {id:#x}: length {len}");
+        out.push((id, payload[end - 8 - len..end - 8].to_vec()));
+        end -= 8 + len;
+    }
+    assert_eq!(end, 0, "the chunks tile the payload");
+    out
+}
+
+/// `<ChunkID>` of the port `Chunk{name}` reads through, from the XML text.
+fn chunk_id_in_xml(xml: &str, name: &str) -> u32 {
+    let port = format!("<Port Name=\"Chunk{name}Port\">");
+    let at = xml.find(&port).unwrap_or_else(|| panic!("no {port}")) + port.len();
+    let rest = &xml[at..];
+    let id = rest
+        .split("<ChunkID>")
+        .nth(1)
+        .and_then(|s| s.split("</ChunkID>").next())
+        .unwrap();
+    u32::from_str_radix(id, 16).unwrap()
+}
+
+#[test]
+fn chunk_payload_walked_from_its_end_gives_back_every_value_under_the_xmls_ids() {
+    use features::chunk;
+    let values = chunk::Values {
+        frame_id: 7,
+        timestamp_ticks: 0x0102_0304_0506_0708,
+        gain_linear: 100.0,
+        exposure_us: 2500.0,
+        gate_duty: 0.5,
+        agc_active: true,
+        bright_source_protection: false,
+    };
+    // Five image bytes: the image chunk is padded to eight.
+    let mut payload = vec![1u8, 2, 3, 4, 5];
+    gvsp::chunked_payload(
+        &mut payload,
+        chunk::IMAGE_ID,
+        &values.chunks(chunk::ALL_ENABLED),
+    );
+    // 8 image + 8 trailer; 2×4 offsets, 6×8 ids/floats, 2×4 flags = 64 data
+    // bytes in 10 chunks with 10 trailers.
+    assert_eq!(payload.len(), 8 + 8 + 64 + 10 * 8);
+    assert_eq!(payload.len(), chunk::payload_bytes(5, chunk::ALL_ENABLED));
+    let mut found = walk_chunks(&payload);
+    found.reverse();
+    assert_eq!(found.len(), 11);
+    assert_eq!(found[0], (chunk::IMAGE_ID, vec![1, 2, 3, 4, 5, 0, 0, 0]));
+    let xml = String::from_utf8(test_device().xml().to_vec()).unwrap();
+    let get = |name: &str| -> Vec<u8> {
+        let id = chunk_id_in_xml(&xml, name);
+        found
+            .iter()
+            .find(|c| c.0 == id)
+            .unwrap_or_else(|| panic!("no chunk {id:#x} ({name})"))
+            .1
+            .clone()
+    };
+    let f64_of = |b: Vec<u8>| f64::from_be_bytes(b[..8].try_into().unwrap());
+    let u_of = |b: Vec<u8>| b.iter().fold(0u64, |a, &x| a << 8 | u64::from(x));
+    assert_eq!(u_of(get("FrameID")), 7);
+    assert_eq!(u_of(get("Timestamp")), 0x0102_0304_0506_0708);
+    assert_eq!(f64_of(get("Gain")), 40.0, "20·log10(100) dB");
+    assert_eq!(f64_of(get("GainLinear")), 100.0);
+    assert_eq!(f64_of(get("ExposureTime")), 2500.0);
+    assert_eq!(f64_of(get("GateDuty")), 0.5);
+    assert_eq!(get("AgcActive"), vec![0, 0, 0, 1]);
+    assert_eq!(get("BrightSourceProtection"), vec![0, 0, 0, 0]);
+    assert_eq!(get("OffsetX"), vec![0, 0, 0, 0]);
+    // Only the enabled chunks are sent: Gain alone (selector entry 4).
+    let mut only_gain = vec![0u8; 8];
+    gvsp::chunked_payload(&mut only_gain, chunk::IMAGE_ID, &values.chunks(1 << 4));
+    let walked = walk_chunks(&only_gain);
+    assert_eq!(walked.len(), 2);
+    assert_eq!(walked[0].0, chunk_id_in_xml(&xml, "Gain"));
+}
+
+#[test]
+fn chunk_mode_grows_payload_size_and_a_new_session_starts_without_it() {
+    let mut d = test_device();
+    let (mut a, mut b) = (Client::new(A), Client::new(B));
+    a.take_control(&mut d);
+    let image = a.read(&mut d, reg::PAYLOAD_SIZE).unwrap();
+    let w = a.read(&mut d, reg::WIDTH).unwrap();
+    let h = a.read(&mut d, reg::HEIGHT).unwrap();
+    let bpp = pixel_format::bytes_per_pixel(a.read(&mut d, reg::PIXEL_FORMAT).unwrap()) as u32;
+    assert_eq!(image, w * h * bpp, "chunk mode is off at power-up");
+    assert_eq!(d.chunks(), None);
+    assert_eq!(a.write(&mut d, reg::CHUNK_MODE_ACTIVE, 1), SUCCESS);
+    // Image trailer, then 10 chunks of 64 data bytes with their trailers.
+    assert_eq!(
+        a.read(&mut d, reg::PAYLOAD_SIZE),
+        Ok((w * h * bpp).next_multiple_of(4) + 8 + 64 + 80)
+    );
+    // ChunkEnable is per selector entry: disable Gain (4), the rest stay.
+    assert_eq!(a.write(&mut d, reg::CHUNK_SELECTOR, 4), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::CHUNK_ENABLE), Ok(1));
+    assert_eq!(a.write(&mut d, reg::CHUNK_ENABLE, 0), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::CHUNK_ENABLE), Ok(0));
+    assert_eq!(a.write(&mut d, reg::CHUNK_SELECTOR, 5), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::CHUNK_ENABLE), Ok(1));
+    assert_eq!(d.chunks(), Some(features::chunk::ALL_ENABLED & !(1 << 4)));
+    assert_eq!(
+        a.read(&mut d, reg::PAYLOAD_SIZE),
+        Ok((w * h * bpp).next_multiple_of(4) + 8 + 64 + 80 - 16)
+    );
+    assert_eq!(a.write(&mut d, reg::CHUNK_SELECTOR, 10), INVALID_PARAMETER);
+    assert_eq!(a.write(&mut d, reg::CHUNK_ENABLE, 2), INVALID_PARAMETER);
+    // Locked while the host streams: PayloadSize may not change under it.
+    assert_eq!(a.write(&mut d, reg::TL_PARAMS_LOCKED, 1), SUCCESS);
+    assert_eq!(a.write(&mut d, reg::CHUNK_MODE_ACTIVE, 0), BUSY);
+    assert_eq!(a.write(&mut d, reg::TL_PARAMS_LOCKED, 0), SUCCESS);
+    // The next controller starts from the Default set: no chunks.
+    assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    b.take_control(&mut d);
+    assert_eq!(b.read(&mut d, reg::CHUNK_MODE_ACTIVE), Ok(0));
+    assert_eq!(b.read(&mut d, reg::PAYLOAD_SIZE), Ok(image));
 }

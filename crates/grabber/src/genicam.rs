@@ -15,6 +15,7 @@
 //! | [`DeviceControl::set_exposure_s`] | `ExposureTime`, µs |
 //! | frame size (`?size=WxH`) | `Width`, `Height` |
 //! | [`DeviceControl::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
+//! | each frame's `gain`, `agc` | the frame's own `ChunkGainLinear` (else `ChunkGain`) and `ChunkAgcActive` where the camera offers chunk data (gloam's device), else the features read after the frame |
 //!
 //! By default every [`FrameStream::grab`] fires `TriggerSoftware` and waits
 //! for that one frame (`?trigger=software`, when the camera has it), so a
@@ -53,6 +54,13 @@ pub const STIMULUS_FEATURE: &str = "GloamStimulus";
 /// gloam's own GigE device offers the linear gain factor (the grabber's
 /// unit) beside the SFNC `Gain`, which is in dB.
 pub const GAIN_LINEAR_FEATURE: &str = "GainLinear";
+/// `ChunkSelector` entries the grabber records per frame when the camera
+/// offers them: the gain the frame was taken at (`GainLinear`, gloam's
+/// device, else the SFNC `Gain` in the camera's unit) and whether the AGC
+/// set it (`AgcActive`, gloam's device). Read from the frame itself, they
+/// are the frame's values, not the camera's state when the grabber asks.
+const GAIN_CHUNKS: [&str; 2] = ["GainLinear", "Gain"];
+const AGC_CHUNK: &str = "AgcActive";
 
 /// The gain in the grabber's unit: `GainLinear` where the camera has it,
 /// else `Gain` in the camera's unit.
@@ -117,8 +125,10 @@ fn mono_layout(pf: PixelFormat) -> Option<(u8, usize)> {
     }
 }
 
-/// Frame ids as the camera numbers them, made monotonic: GigE Vision 1.x
-/// block ids run 1…65535 and wrap (0 is never used); extended ids do not.
+/// Frame ids as the camera numbers them, made monotonic and counted from 0
+/// (seq = id − 1, so frame *k* of an acquisition is seq *k* as with the
+/// `sim:` grabber): GigE Vision 1.x block ids run 1…65535 and wrap (0 is
+/// never used); extended ids do not.
 #[derive(Clone, Copy, Debug, Default)]
 struct FrameIds {
     last: Option<(u64, u64)>, // (raw id, unwrapped seq)
@@ -134,8 +144,9 @@ enum IdStep {
 impl FrameIds {
     fn step(&mut self, raw: u64) -> IdStep {
         let Some((last_raw, last_seq)) = self.last else {
-            self.last = Some((raw, raw));
-            return IdStep::Next { seq: raw, lost: 0 };
+            let seq = raw.saturating_sub(1);
+            self.last = Some((raw, seq));
+            return IdStep::Next { seq, lost: 0 };
         };
         let delta = if raw <= 0xFFFF && last_raw <= 0xFFFF {
             // 65535 ids in the cycle; forward distances beyond half of it
@@ -199,6 +210,16 @@ pub struct GenicamGrabber {
     /// A whole frame that arrived after a gap: returned by the next grab,
     /// after the gap was reported.
     pending: Option<Frame>,
+    /// The camera's chunk data, when it offers any the grabber records.
+    chunks: Option<Chunks>,
+}
+
+/// Chunk data switched on for this acquisition, and how to read it.
+struct Chunks {
+    parser: aravis::ChunkParser,
+    /// `Chunk…` feature of the gain, if the camera sends one.
+    gain: Option<String>,
+    agc: bool,
 }
 
 impl GenicamGrabber {
@@ -290,6 +311,7 @@ impl GenicamGrabber {
             trigger_timeouts: 0,
             timeout_us: 0,
             pending: None,
+            chunks: None,
         })
     }
 
@@ -313,7 +335,55 @@ impl GenicamGrabber {
         }
     }
 
+    /// Switches on the chunks the grabber records, where the camera offers
+    /// them (Aravis's fake camera offers none: the values then come from
+    /// the camera's features, as without chunk support).
+    fn enable_chunks(&mut self) {
+        self.chunks = None;
+        let cam = &self.camera;
+        if !cam.is_feature_available("ChunkModeActive").unwrap_or(false) {
+            return;
+        }
+        let Ok(offered) = cam.dup_available_enumerations_as_strings("ChunkSelector") else {
+            return;
+        };
+        let has = |c: &str| offered.iter().any(|o| o.as_str() == c);
+        let gain = GAIN_CHUNKS.into_iter().find(|c| has(c));
+        let agc = has(AGC_CHUNK);
+        let list: Vec<&str> = gain.into_iter().chain(agc.then_some(AGC_CHUNK)).collect();
+        if list.is_empty() || cam.set_chunks(&list.join(",")).is_err() {
+            let _ = cam.set_chunk_mode(false);
+            return;
+        }
+        self.chunks = cam.create_chunk_parser().map(|parser| Chunks {
+            parser,
+            gain: gain.map(|g| format!("Chunk{g}")),
+            agc,
+        });
+    }
+
+    /// The gain and AGC state a buffer's chunks carry (each `None` when not
+    /// there).
+    fn chunk_values(&self, b: &Buffer) -> (Option<f64>, Option<bool>) {
+        let Some(c) = self.chunks.as_ref().filter(|_| b.has_chunks()) else {
+            return (None, None);
+        };
+        let gain = c
+            .gain
+            .as_deref()
+            .and_then(|g| c.parser.float_value(b, g).ok())
+            .filter(|g| g.is_finite());
+        let agc = c
+            .agc
+            .then(|| c.parser.integer_value(b, "ChunkAgcActive").ok())
+            .flatten()
+            .map(|v| v != 0);
+        (gain, agc)
+    }
+
     fn start(&mut self) -> Result<(), GrabError> {
+        // Before PayloadSize is read: chunks make the payload longer.
+        self.enable_chunks();
         let payload = self
             .camera
             .payload()
@@ -472,19 +542,21 @@ impl GenicamGrabber {
         }
         let ts = b.timestamp();
         let first = *self.first_timestamp_ns.get_or_insert(ts);
-        let gain = if self.agc {
+        let (chunk_gain, chunk_agc) = self.chunk_values(b);
+        let gain = match chunk_gain {
+            Some(g) => g,
             // Under AGC the camera's Gain reads the gain in effect (gloam's
             // device: that of the frame just sent).
-            camera_gain(&self.camera).unwrap_or(self.gain)
-        } else {
-            self.gain
+            None if self.agc => camera_gain(&self.camera).unwrap_or(self.gain),
+            None => self.gain,
         };
+        let agc = chunk_agc.unwrap_or(self.agc);
         Ok(Frame {
             meta: FrameMeta {
                 seq,
                 timestamp_us: ts.saturating_sub(first) / 1000,
                 gain,
-                agc: self.agc,
+                agc,
                 bits,
                 width: w,
                 height: h,
@@ -500,6 +572,10 @@ impl GenicamGrabber {
 impl Drop for GenicamGrabber {
     fn drop(&mut self) {
         self.stop();
+        if self.chunks.is_some() {
+            // Leave the camera as found: image payloads for the next client.
+            let _ = self.camera.set_chunk_mode(false);
+        }
     }
 }
 
@@ -712,25 +788,26 @@ mod tests {
     #[test]
     fn frame_ids_unwrap_and_count_gaps() {
         let mut ids = FrameIds::default();
-        assert_eq!(next(&mut ids, 1), Some((1, 0)));
-        assert_eq!(next(&mut ids, 2), Some((2, 0)));
-        assert_eq!(next(&mut ids, 5), Some((5, 2)));
+        // Block id 1, the first of an acquisition, is seq 0 (as sim:'s).
+        assert_eq!(next(&mut ids, 1), Some((0, 0)));
+        assert_eq!(next(&mut ids, 2), Some((1, 0)));
+        assert_eq!(next(&mut ids, 5), Some((4, 2)));
         assert_eq!(next(&mut ids, 5), None);
         assert_eq!(next(&mut ids, 3), None);
         // 16-bit block ids skip 0 when they wrap.
         let mut ids = FrameIds::default();
-        assert_eq!(next(&mut ids, 65534), Some((65534, 0)));
-        assert_eq!(next(&mut ids, 65535), Some((65535, 0)));
-        assert_eq!(next(&mut ids, 1), Some((65536, 0)));
-        assert_eq!(next(&mut ids, 3), Some((65538, 1)));
+        assert_eq!(next(&mut ids, 65534), Some((65533, 0)));
+        assert_eq!(next(&mut ids, 65535), Some((65534, 0)));
+        assert_eq!(next(&mut ids, 1), Some((65535, 0)));
+        assert_eq!(next(&mut ids, 3), Some((65537, 1)));
         // A frame that timed out used its id: arriving late it is stale.
-        assert_eq!(ids.skip_one(), 65539);
+        assert_eq!(ids.skip_one(), 65538);
         assert_eq!(next(&mut ids, 4), None);
-        assert_eq!(next(&mut ids, 5), Some((65540, 0)));
+        assert_eq!(next(&mut ids, 5), Some((65539, 0)));
         // Extended (64-bit) ids do not wrap.
         let mut ids = FrameIds::default();
-        assert_eq!(next(&mut ids, 70_000), Some((70_000, 0)));
-        assert_eq!(next(&mut ids, 70_003), Some((70_003, 2)));
+        assert_eq!(next(&mut ids, 70_000), Some((69_999, 0)));
+        assert_eq!(next(&mut ids, 70_003), Some((70_002, 2)));
         assert_eq!(next(&mut ids, 69_999), None);
     }
 

@@ -167,7 +167,7 @@ fn open_transport(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>
 
 /// Why there are no `genicam:` grabbers in this build.
 #[cfg(not(feature = "genicam"))]
-const GENICAM_FEATURE_OFF: &str = "GenICam cameras need gloam built with the `genicam` feature (cargo build --features genicam; Debian: libaravis-dev)";
+const GENICAM_FEATURE_OFF: &str = "GenICam cameras need gloam built with the `genicam` feature (cargo build --features genicam; Debian: libaravis-dev and libusb-1.0-0-dev)";
 
 /// One simulated camera in [`GrabberList`].
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]

@@ -53,6 +53,9 @@ pub struct Rendered {
     pub levels: Option<crate::interface::DnLevels>,
     /// The AGC's bright-source protection was cutting the gain at this frame.
     pub bright_source_protection: bool,
+    /// Fraction of the exposure the photocathode was gated on for this
+    /// frame (configured duty × the tube's autogating), if it has one.
+    pub gate_duty: Option<f64>,
 }
 
 /// Fixed facts about a source.
@@ -241,6 +244,7 @@ impl FrameSource for SyntheticSource {
             gain_milli,
             levels: None,
             bright_source_protection: false,
+            gate_duty: None,
         })
     }
 }

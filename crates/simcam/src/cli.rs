@@ -15,7 +15,9 @@ pub struct DeviceArgs {
     #[arg(long, conflicts_with = "gige")]
     pub pty: bool,
     /// Serve the simulated camera as a GigE Vision device: GVCP on
-    /// ADDR[:PORT] (port 3956 by default), GVSP from the same address.
+    /// ADDR[:PORT] (port 3956 by default), GVSP from the same address, with
+    /// GenICam SFNC features and per-frame chunk data; any GenICam client
+    /// (Aravis, gloam's own genicam: grabber) streams from it.
     #[arg(long, value_name = "ADDR[:PORT]")]
     pub gige: Option<String>,
     /// GigE fault injection: probability of dropping each GVSP packet.

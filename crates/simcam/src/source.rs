@@ -260,6 +260,12 @@ impl FrameSource for SensorSource {
                 saturated_at_dn: chain.saturated_threshold_dn(g),
             }),
             bright_source_protection: frame.meta.agc_state == gloam_sensor::AgcState::Protecting,
+            gate_duty: self
+                .camera
+                .config()
+                .photocathode
+                .as_ref()
+                .map(|p| p.gate_duty * frame.meta.saturation.abc.duty_factor),
         })
     }
 }
