@@ -329,21 +329,10 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
     }
 }
 
-const SPHERE: &str = r#"
-[source]
-kind = "sphere"
-lamp = "cie-a"
-lamp_flux_w = 1.0
-sphere_diameter_m = 0.5
-reflectance = 0.98
-port_fraction = 0.02
-
-[dimming]
-method = "aperture"
-
-[rig]
-camera = "scientific-ccd"
-"#;
+// The photon-transfer tests' sphere source (its rig the scientific CCD).
+#[allow(dead_code)] // Only the source is used here, not the QE reference.
+#[path = "../crates/calib/tests/shared/reference.rs"]
+mod reference;
 
 #[test]
 fn calibration_rehearsal_through_genicam_matches_in_process() {
@@ -352,7 +341,7 @@ fn calibration_rehearsal_through_genicam_matches_in_process() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let src = dir.path().join("sphere.toml");
-    std::fs::write(&src, SPHERE).unwrap();
+    std::fs::write(&src, reference::sphere_toml("scientific-ccd")).unwrap();
     let radiance = "--gains 1,2 --levels 6 --frames 3 --auto-range 0.8";
     let ptc = "--levels 12 --gain 1 --auto-range 1.4 --spatial-frames 2";
     let calib = |kind: &str, uri: &str, out: &str, args: &str| {
