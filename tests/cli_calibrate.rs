@@ -4,6 +4,11 @@
 use std::path::Path;
 use std::process::Command;
 
+use reference::preset_qe_under_cie_a;
+
+#[path = "../crates/calib/tests/shared/reference.rs"]
+mod reference;
+
 fn gloam() -> Command {
     Command::new(env!("CARGO_BIN_EXE_gloam"))
 }
@@ -19,21 +24,10 @@ fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
-const SPHERE: &str = r#"
-[source]
-kind = "sphere"
-lamp = "cie-a"
-lamp_flux_w = 1.0
-sphere_diameter_m = 0.5
-reflectance = 0.98
-port_fraction = 0.02
-
-[dimming]
-method = "aperture"
-
-[rig]
-camera = "scientific-ccd"
-"#;
+/// The sphere source of the photon-transfer tests, its rig the camera `CAM`.
+fn sphere() -> String {
+    reference::sphere_toml("scientific-ccd")
+}
 
 const CAM: &str = "sim:scientific-ccd?size=48x48&seed=3";
 
@@ -61,7 +55,7 @@ fn true_line(gain: f64, l1: f64, l2: f64) -> (f64, f64) {
 fn radiance_lut_then_apply_recovers_radiance() {
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("sphere.toml");
-    std::fs::write(&src, SPHERE).unwrap();
+    std::fs::write(&src, sphere()).unwrap();
     let out = dir.path().join("cal");
     run_ok(
         gloam()
@@ -180,7 +174,7 @@ fn radiance_lut_then_apply_recovers_radiance() {
 fn ptc_writes_emva_figures_and_dataset() {
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("sphere.toml");
-    std::fs::write(&src, SPHERE).unwrap();
+    std::fs::write(&src, sphere()).unwrap();
     let out = dir.path().join("ptc");
     run_ok(
         gloam()
@@ -248,40 +242,6 @@ fn ptc_writes_emva_figures_and_dataset() {
     assert!(out.join("photon_transfer.png").exists());
 }
 
-/// The photon-weighted mean QE `∫ P(λ) λ QE(λ) dλ / ∫ P(λ) λ dλ` over
-/// 400–1000 nm of a plain-CCD preset's QE table under CIE illuminant A,
-/// computed here from Planck's law (CIE A is a 2856 K Planckian radiator with
-/// c₂ = 1.435e7 nm K) and linear interpolation of the table: independent of
-/// the spectra crate and the camera chain.
-fn preset_qe_under_cie_a(preset: &str) -> f64 {
-    let cfg = gloam_sensor::load_preset_or_file(preset).unwrap();
-    let Some(gloam_sensor::config::SpectrumRef::Table {
-        wavelength_nm,
-        value,
-    }) = cfg.ccd.qe
-    else {
-        panic!("{preset}: QE is not a table");
-    };
-    let qe = |l: f64| {
-        let i = wavelength_nm
-            .partition_point(|&w| w <= l)
-            .clamp(1, wavelength_nm.len() - 1);
-        let (w0, w1) = (wavelength_nm[i - 1], wavelength_nm[i]);
-        value[i - 1] + (value[i] - value[i - 1]) * (l - w0) / (w1 - w0)
-    };
-    let planck = |l: f64| l.powi(-5) / ((1.435e7 / (l * 2856.0)).exp() - 1.0);
-    let (mut num, mut den) = (0.0, 0.0);
-    let n = 60_000;
-    for i in 0..=n {
-        let l = 400.0 + 600.0 * i as f64 / n as f64;
-        let w = if i == 0 || i == n { 0.5 } else { 1.0 };
-        let p = w * planck(l) * l;
-        num += p * qe(l);
-        den += p;
-    }
-    num / den
-}
-
 #[test]
 fn ptc_warns_when_the_rig_is_not_the_simulated_camera() {
     // f/2 without τ (so τ = 1) in front of the scientific CCD, whose lens has
@@ -290,7 +250,7 @@ fn ptc_warns_when_the_rig_is_not_the_simulated_camera() {
     let src = dir.path().join("sphere.toml");
     std::fs::write(
         &src,
-        SPHERE.replace(
+        sphere().replace(
             "camera = \"scientific-ccd\"",
             "pixel_pitch_um = 13.5\nf_number = 2.0\nexposure_s = 1.0",
         ),
@@ -472,7 +432,7 @@ fn radiance_lut_through_the_emulator_matches_in_process() {
     use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("sphere.toml");
-    std::fs::write(&src, SPHERE).unwrap();
+    std::fs::write(&src, sphere()).unwrap();
     let mut dev = gloam()
         .args([
             "device",

@@ -1,5 +1,7 @@
 //! `gloam capture` and `gloam grabbers` from the command line.
 
+mod common;
+
 use std::process::Command;
 
 const BIN: &str = env!("CARGO_BIN_EXE_gloam");
@@ -32,21 +34,10 @@ fn capture_from_sim_writes_pngs_and_jsonl() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(out.join("frames.jsonl")).unwrap();
-    let lines: Vec<serde_json::Value> = text
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
+    let lines = common::records(&out);
     assert_eq!(lines.len(), 4);
     for (i, r) in lines.iter().enumerate() {
-        for k in [
-            "seq",
-            "timestamp",
-            "gain",
-            "agc",
-            "bits",
-            "pixels_crc32c",
-            "status",
-        ] {
+        for k in common::FRAME_RECORD_KEYS {
             assert!(r.get(k).is_some(), "missing {k} in {r}");
         }
         assert_eq!(r["seq"], i as u64);

@@ -4,8 +4,12 @@
 //! scaling, all three holding the same counts (CRC-32C of frames.jsonl),
 //! the contact sheet, and `--sensor none`.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
+
+use common::records;
 
 /// A new-moon street at gain 30 through the 12-bit Gen III camera: in
 /// range, so the frames carry structure and noise.
@@ -33,14 +37,6 @@ fn render(out: &Path, extra: &[&str]) {
         .output()
         .expect("run gloam");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-fn records(out: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(out.join("frames.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
 }
 
 /// FITS header cards up to END, as (keyword, value text): strings without

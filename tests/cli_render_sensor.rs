@@ -3,8 +3,12 @@
 //! the pixels, and the frames are exactly what the sensor library makes of
 //! the rendered radiance (the camera's physics is tested in `gloam-sensor`).
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
+
+use common::records;
 
 const SCENE: &str = "sims/panel-validation/scene.toml";
 
@@ -36,14 +40,6 @@ fn crc32c(pixels: &[u16]) -> u32 {
     !crc
 }
 
-fn records(out: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(out.join("frames.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
-
 fn crcs(recs: &[serde_json::Value]) -> Vec<u64> {
     recs.iter()
         .map(|r| r["pixels_crc32c"].as_u64().unwrap())
@@ -60,15 +56,7 @@ fn render_with_sensor_writes_frames_and_metadata() {
     let recs = records(out);
     assert_eq!(recs.len(), 2);
     for (i, rec) in recs.iter().enumerate() {
-        for key in [
-            "seq",
-            "timestamp",
-            "gain",
-            "agc",
-            "bits",
-            "pixels_crc32c",
-            "status",
-        ] {
+        for key in common::FRAME_RECORD_KEYS {
             assert!(rec.get(key).is_some(), "missing {key} in {rec}");
         }
         assert_eq!(rec["agc"], false);

@@ -455,6 +455,11 @@ method = "aperture"
 camera = "scientific-ccd"
 "#;
 
+// The photon-transfer tests' sphere source (its rig the scientific CCD).
+#[allow(dead_code)] // Only the source is used here, not the QE reference.
+#[path = "../crates/calib/tests/shared/reference.rs"]
+mod reference;
+
 #[test]
 fn calibration_rehearsal_through_genicam_matches_in_process() {
     if !aravis_ready("genicam: calibration rehearsal", &["ip"]) {
@@ -462,7 +467,7 @@ fn calibration_rehearsal_through_genicam_matches_in_process() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let src = dir.path().join("sphere.toml");
-    std::fs::write(&src, SPHERE).unwrap();
+    std::fs::write(&src, reference::sphere_toml("scientific-ccd")).unwrap();
     let radiance = "--gains 1,2 --levels 6 --frames 3 --auto-range 0.8";
     let ptc = "--levels 12 --gain 1 --auto-range 1.4 --spatial-frames 2";
     let calib = |kind: &str, uri: &str, out: &str, args: &str| {

@@ -48,24 +48,8 @@ from ._gloam import (
     sky,
     sweep,
 )
-from ._results import (
-    AgcLinearity,
-    Comparison,
-    Effect,
-    Ephemeris,
-    FrameMeta,
-    FrameRecord,
-    Mtf,
-    PhotonTransfer,
-    Probe,
-    RadianceCalibration,
-    RenderReport,
-    Result,
-    Scope,
-    SensorDescription,
-    SkyIlluminance,
-    SweepResult,
-)
+from . import _results
+from ._results import *  # noqa: F403 -- the result classes, named once in _results.__all__
 
 __all__ = [
     "Capture",
@@ -90,20 +74,6 @@ __all__ = [
     "scope",
     "sky",
     "sweep",
-    "Result",
-    "AgcLinearity",
-    "Comparison",
-    "Effect",
-    "Ephemeris",
-    "FrameMeta",
-    "FrameRecord",
-    "Mtf",
-    "PhotonTransfer",
-    "Probe",
-    "RadianceCalibration",
-    "RenderReport",
-    "Scope",
-    "SensorDescription",
-    "SkyIlluminance",
-    "SweepResult",
 ]
+# The static form type checkers read (pyright, mypy) for a submodule's names.
+__all__ += _results.__all__

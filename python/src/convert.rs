@@ -22,6 +22,14 @@ pub fn to_py_as<'py>(
         .call_method1("load", (text, class))
 }
 
+/// `result[key]` on the classes that hold arrays (`RenderResult`,
+/// `Capture`): the entry `key` of their `to_dict()`, a KeyError when there
+/// is none — so dict-style code keeps working.
+pub fn dict_item<'py>(d: Bound<'py, PyDict>, key: &str) -> PyResult<Bound<'py, PyAny>> {
+    d.get_item(key)?
+        .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
+}
+
 /// A Python object (dicts, lists, numbers, strings) as a serde value.
 pub fn from_py<T: serde::de::DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
     let text: String = obj

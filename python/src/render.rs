@@ -207,9 +207,7 @@ impl RenderResult {
 
     /// ``result["radiance"]`` as ``result.radiance`` (dict-style code keeps working).
     fn __getitem__<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
-        self.to_dict(py)?
-            .get_item(key)?
-            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
+        crate::convert::dict_item(self.to_dict(py)?, key)
     }
 
     /// ``RenderResult(radiance (bands, rows, columns), …)``.

@@ -285,9 +285,7 @@ impl Capture {
 
     /// ``capture["frames"]`` as ``capture.frames``.
     fn __getitem__<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
-        self.to_dict(py)?
-            .get_item(key)?
-            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
+        crate::convert::dict_item(self.to_dict(py)?, key)
     }
 
     /// ``Capture('sensor', frames (n, rows, columns))``.

@@ -353,8 +353,49 @@ fn progress<'a>(
     }
 }
 
-fn wrote(out: &Path, main_json: &str) -> String {
-    format!("wrote {}", out.join(main_json).display())
+/// A flow's outcome: its summary `lines`, then where `main_json` went.
+fn written(out: &Path, main_json: &'static str, mut lines: Vec<String>) -> Outcome {
+    lines.push(format!("wrote {}", out.join(main_json).display()));
+    Outcome {
+        main_json: Some(main_json),
+        lines,
+    }
+}
+
+/// What the grabber-and-source flows (radiance, AGC, photon transfer)
+/// start from, opened in the one order they share: the output set first
+/// (so a refused `--out` touches no camera), then the grabber, then the
+/// source against it.
+struct Bench {
+    dir: PathBuf,
+    g: Box<dyn FrameGrabber>,
+    src: Box<dyn CalibrationSource>,
+    /// A manual source prompts on the terminal: no progress bar then.
+    silent: bool,
+}
+
+impl Bench {
+    /// Opens the output set (`out`, `force`), the grabber and `source`,
+    /// auto-ranged at `gain` (`None`: the camera's current gain).
+    fn open<E: From<CalibError> + From<GrabError>>(
+        (out, force): (&Path, bool),
+        grabber: &GrabberArgs,
+        source: &SourceArgs,
+        gain: Option<f64>,
+        registry: &Registry,
+        begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+        ev: &mut dyn FnMut(Event<'_>),
+    ) -> Result<Self, E> {
+        let dir = begin(out, force)?;
+        let mut g = grabber.open::<E>(registry, ev)?;
+        let src = source.open(g.as_mut(), gain, ev)?;
+        Ok(Self {
+            dir,
+            g,
+            src,
+            silent: source.is_manual(),
+        })
+    }
 }
 
 fn radiance<E: From<CalibError> + From<GrabError>>(
@@ -370,24 +411,22 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
         let m = format!("--gains: {g} is not a gain (each must be a finite number > 0)");
         return Err(CalibError::Usage(m).into());
     }
-    let dir = begin(&a.out, a.force)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
     let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let mut src = a.source.open(g.as_mut(), Some(top), ev)?;
+    let out = (a.out.as_path(), a.force);
+    let mut b = Bench::open(out, &a.grabber, &a.source, Some(top), registry, begin, ev)?;
     let opts = RadianceOptions {
         gains: a.gains.clone(),
         frames: a.frames,
         exposure_s: a.grabber.exposure_s,
         ..Default::default()
     };
-    let silent = a.source.is_manual();
     let lut = calibrate_radiance(
-        g.as_mut(),
-        src.as_mut(),
+        b.g.as_mut(),
+        b.src.as_mut(),
         &opts,
-        &mut progress(ev, "levels", silent),
+        &mut progress(ev, "levels", b.silent),
     )?;
-    report::write_radiance_report(&dir, &lut)?;
+    report::write_radiance_report(&b.dir, &lut)?;
     let mut lines = Vec::new();
     for c in &lut.gains {
         lines.push(format!(
@@ -406,11 +445,7 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
                 .map(|w| format!("warning: gain {}: {w}", c.gain)),
         );
     }
-    lines.push(wrote(&a.out, "lut.json"));
-    Ok(Outcome {
-        main_json: Some("lut.json"),
-        lines,
-    })
+    Ok(written(&a.out, "lut.json", lines))
 }
 
 fn agc<E: From<CalibError> + From<GrabError>>(
@@ -420,29 +455,35 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let lut = a.lut.as_deref().map(crate::apply::load_lut).transpose()?;
-    let dir = begin(&a.out, a.force)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
-    let mut src = a.source.open(g.as_mut(), a.fixed_gain, ev)?;
+    let out = (a.out.as_path(), a.force);
+    let mut b = Bench::open(
+        out,
+        &a.grabber,
+        &a.source,
+        a.fixed_gain,
+        registry,
+        begin,
+        ev,
+    )?;
     let opts = AgcOptions {
         fixed_gain: a.fixed_gain,
         frames_per_step: a.frames,
         allow_unsettled: a.allow_unsettled,
         ..Default::default()
     };
-    let silent = a.source.is_manual();
     let r = agc_linearisation(
-        g.as_mut(),
-        src.as_mut(),
+        b.g.as_mut(),
+        b.src.as_mut(),
         &opts,
         lut.as_ref(),
-        &mut progress(ev, "steps", silent),
+        &mut progress(ev, "steps", b.silent),
     )
     .map_err(|e| match (e, &a.lut) {
         // Name the file the user passed.
         (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
         (e, _) => e,
     })?;
-    report::write_agc_report(&dir, &r)?;
+    report::write_agc_report(&b.dir, &r)?;
     let summary = format!(
         "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
         r.all_settled,
@@ -455,11 +496,7 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     );
     let mut lines = vec![summary];
     lines.extend(linearised_line(&r));
-    lines.push(wrote(&a.out, "agc.json"));
-    Ok(Outcome {
-        main_json: Some("agc.json"),
-        lines,
-    })
+    Ok(written(&a.out, "agc.json", lines))
 }
 
 /// What the LUT made of the AGC frames, against the source's true band
@@ -491,28 +528,28 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
     begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
-    let dir = begin(&a.out, a.force)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
     let mut sa = a.source.clone();
     sa.levels = sa.levels.or(Some(crate::ptc::DEFAULT_LEVELS));
-    let mut src = sa.open(g.as_mut(), Some(a.gain), ev)?;
-    if let Some(w) = rig_mismatch(&a.grabber.grabber, src.rig(), a.grabber.exposure_s) {
+    let out = (a.out.as_path(), a.force);
+    let mut b = Bench::open(out, &a.grabber, &sa, Some(a.gain), registry, begin, ev)?;
+    // Only photon transfer reports in photons (QE), so only it checks that
+    // the source's rig is the camera's.
+    if let Some(w) = rig_mismatch(&a.grabber.grabber, b.src.rig(), a.grabber.exposure_s) {
         ev(Event::Note(format!("warning: {w}")));
     }
     let opts = PtcOptions {
         gain: a.gain,
         exposure_s: a.grabber.exposure_s,
         spatial_frames: a.spatial_frames,
-        dataset_dir: Some(dir.join("emva1288")),
+        dataset_dir: Some(b.dir.join("emva1288")),
     };
-    let silent = a.source.is_manual();
     let r = photon_transfer(
-        g.as_mut(),
-        src.as_mut(),
+        b.g.as_mut(),
+        b.src.as_mut(),
         &opts,
-        &mut progress(ev, "levels", silent),
+        &mut progress(ev, "levels", b.silent),
     )?;
-    report::write_ptc_report(&dir, &r)?;
+    report::write_ptc_report(&b.dir, &r)?;
     let mut lines: Vec<String> = r.warnings.iter().map(|w| format!("warning: {w}")).collect();
     lines.push(format!(
         "K = {:.5} DN/e⁻, dark noise {:.3} e⁻, saturation {:.0} e⁻, QE {}",
@@ -533,11 +570,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
                 .map_or(String::new(), |q| format!(", QE = R/g = {q:.4}"))
         ));
     }
-    lines.push(wrote(&a.out, "ptc.json"));
-    Ok(Outcome {
-        main_json: Some("ptc.json"),
-        lines,
-    })
+    Ok(written(&a.out, "ptc.json", lines))
 }
 
 fn mtf<E: From<CalibError> + From<GrabError>>(
@@ -614,10 +647,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
         c.mtf50.map_or("—".into(), |v| format!("{v:.4}")),
         c.mtf10.map_or("—".into(), |v| format!("{v:.4}"))
     );
-    Ok(Outcome {
-        main_json: Some("mtf.json"),
-        lines: vec![line, wrote(&a.out, "mtf.json")],
-    })
+    Ok(written(&a.out, "mtf.json", vec![line]))
 }
 
 /// `--space voltage`: the scope flow on the sim: camera, the digital-count
@@ -647,11 +677,7 @@ fn mtf_voltage<E: From<CalibError>>(
             c[3].mtf[i]
         ));
     }
-    lines.push(wrote(&a.out, "mtf.json"));
-    Ok(Outcome {
-        main_json: Some("mtf.json"),
-        lines,
-    })
+    Ok(written(&a.out, "mtf.json", lines))
 }
 
 #[derive(Args)]

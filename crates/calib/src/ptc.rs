@@ -290,7 +290,7 @@ pub fn photon_transfer(
         )));
     }
     // Responsivity & QE.
-    let (resp, qe, lin_err, lin_res, mu_p_sat) = match rig {
+    let (resp, qe, lin_err, lin_res) = match rig {
         Some(_) => {
             let px: Vec<f64> = sel
                 .iter()
@@ -331,22 +331,15 @@ pub fn photon_transfer(
                     .push("fewer than 3 levels in 5–95 % of saturation: no linearity error".into());
                 (None, Vec::new())
             };
-            (
-                Some(r),
-                Some(r / k),
-                le,
-                res,
-                points[isat].photons_per_pixel,
-            )
+            (Some(r), Some(r / k), le, res)
         }
         None => {
             warnings.push(
                 "no [rig] in the source file: photon counts unknown, so no QE, responsivity, linearity error or photon-based DR".into(),
             );
-            (None, None, None, Vec::new(), None)
+            (None, None, None, Vec::new())
         }
     };
-    let _ = mu_p_sat;
     let declared = match declared_noise(rig_used.as_ref(), gain, k, resp) {
         Ok(d) => d,
         Err(NoDeclaredFigures(w)) => {

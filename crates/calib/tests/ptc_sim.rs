@@ -6,30 +6,14 @@ use std::path::Path;
 
 use gloam_calib::ptc::{PtcOptions, PtcResult, photon_transfer};
 use gloam_calib::source::open_for_grabber;
+use reference::preset_qe_under_cie_a;
+
+#[path = "shared/reference.rs"]
+mod reference;
 
 fn sphere(dir: &Path, camera: &str) -> std::path::PathBuf {
     let p = dir.join("sphere.toml");
-    std::fs::write(
-        &p,
-        format!(
-            r#"
-[source]
-kind = "sphere"
-lamp = "cie-a"
-lamp_flux_w = 1.0
-sphere_diameter_m = 0.5
-reflectance = 0.98
-port_fraction = 0.02
-
-[dimming]
-method = "aperture"
-
-[rig]
-camera = "{camera}"
-"#
-        ),
-    )
-    .unwrap();
+    std::fs::write(&p, reference::sphere_toml(camera)).unwrap();
     p
 }
 
@@ -49,41 +33,6 @@ fn run(uri: &str, camera: &str, gain: f64, dataset: Option<&Path>) -> PtcResult 
         dataset_dir: dataset.map(Path::to_path_buf),
     };
     photon_transfer(g.as_mut(), s.as_mut(), &opts, &mut |_, _| {}).unwrap()
-}
-
-/// The photon-weighted mean QE `∫ P(λ) λ QE(λ) dλ / ∫ P(λ) λ dλ` over
-/// 400–1000 nm of a plain-CCD preset's QE table under CIE illuminant A
-/// (a 2856 K Planckian radiator, c₂ = 1.435e7 nm K), linear interpolation of
-/// the table: independent of the spectra crate and the camera chain. The
-/// rig takes the camera's lens transmission into the photon count, so this
-/// is the QE·T photon transfer must recover.
-fn preset_qe_under_cie_a(preset: &str) -> f64 {
-    let cfg = gloam_sensor::load_preset_or_file(preset).unwrap();
-    let Some(gloam_sensor::config::SpectrumRef::Table {
-        wavelength_nm,
-        value,
-    }) = cfg.ccd.qe
-    else {
-        panic!("{preset}: QE is not a table");
-    };
-    let qe = |l: f64| {
-        let i = wavelength_nm
-            .partition_point(|&w| w <= l)
-            .clamp(1, wavelength_nm.len() - 1);
-        let (w0, w1) = (wavelength_nm[i - 1], wavelength_nm[i]);
-        value[i - 1] + (value[i] - value[i - 1]) * (l - w0) / (w1 - w0)
-    };
-    let planck = |l: f64| l.powi(-5) / ((1.435e7 / (l * 2856.0)).exp() - 1.0);
-    let (mut num, mut den) = (0.0, 0.0);
-    let n = 60_000;
-    for i in 0..=n {
-        let l = 400.0 + 600.0 * i as f64 / n as f64;
-        let w = if i == 0 || i == n { 0.5 } else { 1.0 };
-        let p = w * planck(l) * l;
-        num += p * qe(l);
-        den += p;
-    }
-    num / den
 }
 
 #[test]

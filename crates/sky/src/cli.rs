@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::report::{
     EphemReport, InputNames, NightsReport, QueryError, SkyReport, checked_site, parse_instant,
 };
-use crate::{Cloud, NightSearch, PhaseTarget};
+use crate::{Cloud, NightSearch, PhaseTarget, Site};
 
 /// Target phase for `--find`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -32,11 +32,10 @@ impl From<FindPhase> for PhaseTarget {
     }
 }
 
+// The observing site, shared by `ephem` and `sky` (a plain comment: a doc
+// comment on a flattened struct would become the command's about text).
 #[derive(Args, Debug)]
-#[command(group(
-    clap::ArgGroup::new("mode").required(true).args(["utc", "find"])
-))]
-pub struct EphemArgs {
+pub struct SiteArgs {
     /// Site latitude, degrees north (−90..90).
     #[arg(long, allow_negative_numbers = true)]
     pub lat: f64,
@@ -46,6 +45,22 @@ pub struct EphemArgs {
     /// Site height above sea level, metres.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub height_m: f64,
+}
+
+impl SiteArgs {
+    /// The site, each coordinate checked under its flag's name.
+    fn checked(&self, names: &InputNames) -> Result<Site, QueryError> {
+        checked_site(self.lat, self.lon, self.height_m, names)
+    }
+}
+
+#[derive(Args, Debug)]
+#[command(group(
+    clap::ArgGroup::new("mode").required(true).args(["utc", "find"])
+))]
+pub struct EphemArgs {
+    #[command(flatten)]
+    pub site: SiteArgs,
     /// The instant, ISO 8601 (`2024-12-15T07:20:00Z`; no zone = UTC).
     #[arg(long, conflicts_with_all = ["from", "to", "find"])]
     pub utc: Option<String>,
@@ -98,7 +113,7 @@ impl EphemArgs {
     /// (clap lets exactly one of the two through).
     pub fn report(&self) -> Result<Ephem, QueryError> {
         let names = InputNames::CLI;
-        let site = checked_site(self.lat, self.lon, self.height_m, &names)?;
+        let site = self.site.checked(&names)?;
         let Some(phase) = self.find else {
             let utc = self.utc.as_deref().unwrap_or_default();
             return Ok(Ephem::At(EphemReport::at(
@@ -121,15 +136,8 @@ impl EphemArgs {
 
 #[derive(Args, Debug)]
 pub struct SkyArgs {
-    /// Site latitude, degrees north (−90..90).
-    #[arg(long, allow_negative_numbers = true)]
-    pub lat: f64,
-    /// Site longitude, degrees east positive (−180..360).
-    #[arg(long, allow_negative_numbers = true)]
-    pub lon: f64,
-    /// Site height above sea level, metres.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub height_m: f64,
+    #[command(flatten)]
+    pub site: SiteArgs,
     /// The instant, ISO 8601 (`2024-12-15T07:20:00Z`; no zone = UTC).
     #[arg(long)]
     pub utc: String,
@@ -153,7 +161,7 @@ impl SkyArgs {
     /// The ground illuminance (with the spectral tables if `--spectra-out`).
     pub fn report(&self) -> Result<SkyReport, QueryError> {
         let names = InputNames::CLI;
-        let site = checked_site(self.lat, self.lon, self.height_m, &names)?;
+        let site = self.site.checked(&names)?;
         let t = parse_instant(names.utc, &self.utc)?;
         let cloud = if self.overcast {
             Cloud::Overcast

@@ -10,7 +10,6 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
-use anyhow::Context;
 use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
 
 use gloam_pipeline::output::write_atomic;
@@ -67,10 +66,55 @@ fn slug(s: &str) -> String {
     if out.is_empty() { "all".into() } else { out }
 }
 
+/// Why `results.csv`, `results.json` or `figures/` was not written, naming
+/// the file or directory.
+#[derive(Debug, thiserror::Error)]
+pub enum CollectError {
+    #[error("writing {}", path.display())]
+    Csv {
+        path: PathBuf,
+        #[source]
+        source: csv::Error,
+    },
+    #[error("writing {}", path.display())]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error(transparent)]
+    Write(#[from] gloam_pipeline::output::OutputError),
+    #[error("creating a temporary directory in {}", dir.display())]
+    TempDir {
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("plotting {name}")]
+    Plot {
+        name: String,
+        /// Boxed: the calibration error is large.
+        #[source]
+        source: Box<gloam_calib::CalibError>,
+    },
+    #[error("replacing {}", path.display())]
+    Replace {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("renaming into {}", path.display())]
+    Rename {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
 /// Writes `DIR/results.csv`, `DIR/results.json` and, when the sweep has a
 /// gain axis and camera figures, `DIR/figures/` (mean DN and SNR against
 /// gain, one plot per scene, one line per camera).
-pub fn collect(sd: &SweepDir) -> anyhow::Result<Collected> {
+pub fn collect(sd: &SweepDir) -> Result<Collected, CollectError> {
     let sweep = &sd.sweep;
     let records: Vec<Option<TaskRecord>> = sweep.tasks.iter().map(|t| sd.record(t.index)).collect();
     let figure_names: BTreeSet<String> = records
@@ -85,8 +129,13 @@ pub fn collect(sd: &SweepDir) -> anyhow::Result<Collected> {
     columns.extend(figure_names.iter().cloned());
     columns.extend(["outputs_sha256".to_string(), "error".to_string()]);
 
+    let mut files = vec![sd.dir.join("results.csv"), sd.dir.join("results.json")];
+    let csv_error = |source| CollectError::Csv {
+        path: files[0].clone(),
+        source,
+    };
     let mut csv_w = csv::Writer::from_writer(Vec::new());
-    csv_w.write_record(&columns)?;
+    csv_w.write_record(&columns).map_err(csv_error)?;
     let mut json_rows = Vec::new();
     let (mut done, mut failed, mut missing) = (0, 0, 0);
     for (t, r) in sweep.tasks.iter().zip(&records) {
@@ -136,18 +185,23 @@ pub fn collect(sd: &SweepDir) -> anyhow::Result<Collected> {
         let err = r.as_ref().and_then(|r| r.error.clone()).unwrap_or_default();
         row.push(err.clone());
         obj.insert("error".into(), err.into());
-        csv_w.write_record(&row)?;
+        csv_w.write_record(&row).map_err(csv_error)?;
         json_rows.push(serde_json::Value::Object(obj));
     }
-    let csv_bytes = csv_w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let csv_bytes = csv_w
+        .into_inner()
+        .map_err(|e| csv_error(e.into_error().into()))?;
     let json = serde_json::json!({
         "format": "gloam-sweep-results/1",
         "columns": columns,
         "rows": json_rows,
     });
-    let mut files = vec![sd.dir.join("results.csv"), sd.dir.join("results.json")];
     write_atomic(&files[0], &csv_bytes)?;
-    write_atomic(&files[1], serde_json::to_string_pretty(&json)?.as_bytes())?;
+    let text = serde_json::to_string_pretty(&json).map_err(|source| CollectError::Json {
+        path: files[1].clone(),
+        source,
+    })?;
+    write_atomic(&files[1], text.as_bytes())?;
     files.extend(plots(sd, &records)?);
     Ok(Collected {
         rows: sweep.tasks.len(),
@@ -160,7 +214,7 @@ pub fn collect(sd: &SweepDir) -> anyhow::Result<Collected> {
 
 /// Mean DN and SNR against gain, per scene, one line per camera (the mean
 /// over the tasks' other axes at each gain).
-fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> anyhow::Result<Vec<PathBuf>> {
+fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> Result<Vec<PathBuf>, CollectError> {
     let has_gain_axis = sd.sweep.axes.iter().any(|a| a.name == "gain");
     if !has_gain_axis {
         return Ok(Vec::new());
@@ -204,7 +258,10 @@ fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> anyhow::Result<Vec<Pa
     let tmp = tempfile::Builder::new()
         .prefix(".figures-")
         .tempdir_in(&sd.dir)
-        .with_context(|| format!("creating a temporary directory in {}", sd.dir.display()))?;
+        .map_err(|source| CollectError::TempDir {
+            dir: sd.dir.clone(),
+            source,
+        })?;
     let mut names = Vec::new();
     for (scene, cams) in &acc {
         let gain_scale = if cams
@@ -243,16 +300,25 @@ fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> anyhow::Result<Vec<Pa
                 (label, Scale::Linear),
                 &series,
             )
-            .with_context(|| format!("plotting {name}"))?;
+            .map_err(|source| CollectError::Plot {
+                name: name.clone(),
+                source: Box::new(source),
+            })?;
             names.push(name);
         }
     }
     // The plots are published as one directory.
     let dest = sd.dir.join("figures");
     if dest.exists() {
-        std::fs::remove_dir_all(&dest).with_context(|| format!("replacing {}", dest.display()))?;
+        std::fs::remove_dir_all(&dest).map_err(|source| CollectError::Replace {
+            path: dest.clone(),
+            source,
+        })?;
     }
     let kept = tmp.keep();
-    std::fs::rename(&kept, &dest).with_context(|| format!("renaming into {}", dest.display()))?;
+    std::fs::rename(&kept, &dest).map_err(|source| CollectError::Rename {
+        path: dest.clone(),
+        source,
+    })?;
     Ok(names.into_iter().map(|n| dest.join(n)).collect())
 }

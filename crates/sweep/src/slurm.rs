@@ -8,8 +8,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{Context, bail, ensure};
-use gloam_pipeline::output::write_atomic;
+use gloam_pipeline::output::{OutputError, write_atomic};
 use serde::{Deserialize, Serialize};
 
 /// `sbatch` options from the command line.
@@ -40,36 +39,90 @@ fn sh_quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
-fn check_word(what: &str, v: &str) -> anyhow::Result<()> {
-    ensure!(
-        !v.is_empty()
-            && v.chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_:.,+".contains(c)),
-        "{what} '{v}' has characters Slurm does not take there (letters, digits, - _ : . , + only)"
-    );
+/// Why an array job was not scripted or submitted, naming the option,
+/// path or command at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum SlurmError {
+    #[error("the sweep has no tasks")]
+    NoTasks,
+    #[error("{option} must be at least 1")]
+    NotPositive { option: &'static str },
+    #[error(
+        "{option} '{value}' has characters Slurm does not take there (letters, digits, - _ : . , + only)"
+    )]
+    BadWord { option: &'static str, value: String },
+    #[error("the {what}'s path is not UTF-8")]
+    NotUtf8 { what: &'static str },
+    #[error("paths with newlines cannot go into an sbatch script")]
+    Newline,
+    #[error("creating {}", path.display())]
+    CreateDir {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Write(#[from] OutputError),
+    #[error("writing {}", path.display())]
+    Json {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("running sbatch (is Slurm installed and on PATH? --dry-run only writes the script)")]
+    Spawn(#[source] std::io::Error),
+    #[error("sbatch failed ({status}): {stderr}")]
+    Sbatch {
+        status: std::process::ExitStatus,
+        stderr: String,
+    },
+    #[error("sbatch printed no job id: '{0}'")]
+    NoJobId(String),
+}
+
+fn check_word(option: &'static str, v: &str) -> Result<(), SlurmError> {
+    let ok = |c: char| c.is_ascii_alphanumeric() || "-_:.,+".contains(c);
+    if v.is_empty() || !v.chars().all(ok) {
+        let value = v.to_string();
+        return Err(SlurmError::BadWord { option, value });
+    }
     Ok(())
+}
+
+/// `Ok` when `n` (the value of `option`) is at least 1.
+fn check_positive(option: &'static str, n: u32) -> Result<(), SlurmError> {
+    match n {
+        0 => Err(SlurmError::NotPositive { option }),
+        _ => Ok(()),
+    }
 }
 
 /// The array-job script for `chunks` array indices of the sweep in `dir`
 /// (absolute), run by the `gloam` binary at `exe`.
-pub fn script(dir: &Path, exe: &Path, chunks: usize, o: &SlurmOptions) -> anyhow::Result<String> {
-    ensure!(chunks >= 1, "the sweep has no tasks");
-    let dir_s = dir
-        .to_str()
-        .context("the sweep directory's path is not UTF-8")?;
-    let exe_s = exe
-        .to_str()
-        .context("the gloam binary's path is not UTF-8")?;
-    ensure!(
-        !dir_s.contains('\n') && !exe_s.contains('\n'),
-        "paths with newlines cannot go into an sbatch script"
-    );
+pub fn script(
+    dir: &Path,
+    exe: &Path,
+    chunks: usize,
+    o: &SlurmOptions,
+) -> Result<String, SlurmError> {
+    if chunks == 0 {
+        return Err(SlurmError::NoTasks);
+    }
+    let dir_s = dir.to_str().ok_or(SlurmError::NotUtf8 {
+        what: "sweep directory",
+    })?;
+    let exe_s = exe.to_str().ok_or(SlurmError::NotUtf8 {
+        what: "gloam binary",
+    })?;
+    if dir_s.contains('\n') || exe_s.contains('\n') {
+        return Err(SlurmError::Newline);
+    }
     let mut s = String::from("#!/bin/sh\n");
     s.push_str("# Written by `gloam sweep --slurm`: one array index per chunk of tasks.\n");
     s.push_str("#SBATCH --job-name=gloam-sweep\n");
     let mut array = format!("0-{}", chunks - 1);
     if let Some(k) = o.max_parallel {
-        ensure!(k >= 1, "--max-parallel must be at least 1");
+        check_positive("--max-parallel", k)?;
         array.push_str(&format!("%{k}"));
     }
     s.push_str(&format!("#SBATCH --array={array}\n"));
@@ -84,7 +137,7 @@ pub fn script(dir: &Path, exe: &Path, chunks: usize, o: &SlurmOptions) -> anyhow
         s.push_str(&format!("#SBATCH --time={t}\n"));
     }
     if let Some(c) = o.cpus_per_task {
-        ensure!(c >= 1, "--cpus-per-task must be at least 1");
+        check_positive("--cpus-per-task", c)?;
         s.push_str(&format!("#SBATCH --cpus-per-task={c}\n"));
         s.push_str(&format!("export RAYON_NUM_THREADS={c}\n"));
     }
@@ -105,12 +158,13 @@ pub fn write_script(
     exe: &Path,
     chunks: usize,
     o: &SlurmOptions,
-) -> anyhow::Result<PathBuf> {
+) -> Result<PathBuf, SlurmError> {
     let text = script(dir, exe, chunks, o)?;
     let path = dir.join(SCRIPT_FILE);
     write_atomic(&path, text.as_bytes())?;
     let logs = dir.join("slurm");
-    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    std::fs::create_dir_all(&logs)
+        .map_err(|source| SlurmError::CreateDir { path: logs, source })?;
     Ok(path)
 }
 
@@ -121,7 +175,7 @@ pub fn submit_and_record(
     script: &Path,
     array_size: usize,
     options: SlurmOptions,
-) -> anyhow::Result<Submission> {
+) -> Result<Submission, SlurmError> {
     let job_id = submit(script)?;
     let sub = Submission {
         job_id,
@@ -129,10 +183,12 @@ pub fn submit_and_record(
         array_size,
         options,
     };
-    write_atomic(
-        &dir.join(SUBMISSION_FILE),
-        serde_json::to_string_pretty(&sub)?.as_bytes(),
-    )?;
+    let path = dir.join(SUBMISSION_FILE);
+    let text = serde_json::to_string_pretty(&sub).map_err(|source| SlurmError::Json {
+        path: path.clone(),
+        source,
+    })?;
+    write_atomic(&path, text.as_bytes())?;
     Ok(sub)
 }
 
@@ -148,29 +204,24 @@ pub fn read_submission(dir: &Path) -> Option<Submission> {
 }
 
 /// Submits `script` with `sbatch --parsable`; returns the job id.
-pub fn submit(script: &Path) -> anyhow::Result<String> {
+pub fn submit(script: &Path) -> Result<String, SlurmError> {
     let out = Command::new("sbatch")
         .arg("--parsable")
         .arg(script)
         .output()
-        .context(
-            "running sbatch (is Slurm installed and on PATH? --dry-run only writes the script)",
-        )?;
+        .map_err(SlurmError::Spawn)?;
     if !out.status.success() {
-        bail!(
-            "sbatch failed ({}): {}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr).trim()
-        );
+        return Err(SlurmError::Sbatch {
+            status: out.status,
+            stderr: String::from_utf8_lossy(&out.stderr).trim().to_string(),
+        });
     }
     let text = String::from_utf8_lossy(&out.stdout);
     // `JOBID` or `JOBID;CLUSTER`.
     let id = text.trim().split(';').next().unwrap_or("").to_string();
-    ensure!(
-        !id.is_empty() && id.chars().all(|c| c.is_ascii_digit()),
-        "sbatch printed no job id: '{}'",
-        text.trim()
-    );
+    if id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {
+        return Err(SlurmError::NoJobId(text.trim().to_string()));
+    }
     Ok(id)
 }
 

@@ -348,26 +348,19 @@ pub fn run(args: &AccuracyOptions) -> anyhow::Result<AccuracyReport> {
                 .clamp(256, 16384)
                 / 2
                 * 2;
-            truths.push(reference_truth(
-                &scene_path,
-                &scene,
-                &base_tracer,
-                &args.out,
-                args.threads,
-                spp,
-                ReferenceKind::WholeLight,
-            )?);
-            // The direct-only copy (index 1: no line variant here).
+            // The whole-light truth of [0], then that of the direct-only
+            // copy (index 1: no line variant here).
             scenes.push(scene.clone());
-            truths.push(reference_truth(
-                &scene_path,
-                &scene,
-                &base_tracer,
-                &args.out,
-                args.threads,
-                DIRECT_REFERENCE_SPP,
-                ReferenceKind::DirectOnly,
-            )?);
+            let kinds = [
+                (spp, ReferenceKind::WholeLight),
+                (DIRECT_REFERENCE_SPP, ReferenceKind::DirectOnly),
+            ];
+            for (spp, kind) in kinds {
+                let (out, threads) = (&args.out, args.threads);
+                let truth =
+                    reference_truth(&scene_path, &scene, &base_tracer, out, threads, spp, kind);
+                truths.push(truth?);
+            }
         }
     }
     let truth_seconds: f64 = truths.iter().map(|t| t.seconds).sum();

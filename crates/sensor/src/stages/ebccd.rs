@@ -121,18 +121,11 @@ mod tests {
             ebi_pe: 0.0,
             noise,
         };
-        let (mut s1, mut s2, mut n) = (0f64, 0f64, 0f64);
-        for r in 0..400 {
+        let (mean, var) = crate::stages::row_moments(400, |r| {
             let mut row = vec![lam as f32; 250];
             pass.row(r, &mut row);
-            for &q in &row {
-                s1 += q as f64;
-                s2 += (q as f64).powi(2);
-                n += 1.0;
-            }
-        }
-        let mean = s1 / n;
-        let var = s2 / n - mean * mean;
+            row
+        });
         assert!((mean / (lam * g) - 1.0).abs() < 0.01, "{mean}");
         let want = lam * g * g + 0.12 * lam * g;
         assert!((var / want - 1.0).abs() < 0.03, "{var} vs {want}");

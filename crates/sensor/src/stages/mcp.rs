@@ -188,26 +188,19 @@ mod tests {
         // variance η λ G² (1 + 1/s) (the Eberhardt excess noise factor).
         let m = Mcp::new(&plate(None), 0.01, 0.04);
         let (lam, g) = (3.0, 200.0);
-        let (mut s1, mut s2, mut n) = (0f64, 0f64, 0f64);
         let mut scratch = RowScratch::default();
-        for r in 0..400 {
-            let noise = FrameNoise {
-                enabled: true,
-                seed: 5,
-                frame: 0,
-                gaussian_above: 12.0,
-            };
-            let pass = McpPass::new(&m, g, 0.0, noise);
+        let noise = FrameNoise {
+            enabled: true,
+            seed: 5,
+            frame: 0,
+            gaussian_above: 12.0,
+        };
+        let pass = McpPass::new(&m, g, 0.0, noise);
+        let (mean, var) = crate::stages::row_moments(400, |r| {
             let mut row = vec![lam as f32; 250];
             pass.row(r, &mut row, &mut scratch);
-            for &q in &row {
-                s1 += q as f64;
-                s2 += (q as f64).powi(2);
-                n += 1.0;
-            }
-        }
-        let mean = s1 / n;
-        let var = s2 / n - mean * mean;
+            row
+        });
         let want_mean = 0.6 * lam * g;
         let want_var = 0.6 * lam * g * g * (1.0 + 1.0 / 1.5);
         assert!(

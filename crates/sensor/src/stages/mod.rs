@@ -107,6 +107,23 @@ pub use optics::image_irradiance_per_radiance;
 pub use phosphor::{PhosphorDefaults, phosphor_defaults, phosphor_spectrum};
 pub use photocathode::ELEMENTARY_CHARGE_C;
 
+/// The sample mean and (population) variance of the values in rows
+/// `0..rows`, each made by `row(r)`: the moments the stage tests compare with
+/// their closed forms.
+#[cfg(test)]
+pub(crate) fn row_moments(rows: usize, mut row: impl FnMut(usize) -> Vec<f32>) -> (f64, f64) {
+    let (mut s1, mut s2, mut n) = (0f64, 0f64, 0f64);
+    for r in 0..rows {
+        for q in row(r) {
+            s1 += q as f64;
+            s2 += (q as f64).powi(2);
+            n += 1.0;
+        }
+    }
+    let mean = s1 / n;
+    (mean, s2 / n - mean * mean)
+}
+
 /// The temporal-noise settings of one frame: every pass draws row `r` from
 /// its own stream `(seed, frame, pass, r)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
