@@ -22,5 +22,5 @@ pub use frames::{
 };
 pub use output_set::OutputSet;
 pub use provenance::Provenance;
-pub use render::{PreparedRender, RenderError, RenderJob, Rendered, SettingArgs};
+pub use render::{Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs};
 pub use scene_view::{SceneViewError, grabbers, render_scene_view};

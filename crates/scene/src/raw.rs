@@ -131,6 +131,8 @@ pub(crate) struct RawMaterial {
     pub specular_fraction: Option<f64>,
     pub transmission: Option<RawSpectrum>,
     pub emission: Option<RawEmission>,
+    /// Light group of the objects made of it (see `groups.rs`).
+    pub group: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -157,6 +159,8 @@ pub(crate) struct RawPointSource {
     pub normalize: Option<RawNormalize>,
     pub instances: Option<Vec<RawPlacement>>,
     pub instances_csv: Option<String>,
+    /// Light group (see `groups.rs`).
+    pub group: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -174,6 +178,8 @@ pub(crate) struct RawObject {
     pub scale: Option<RawScale>,
     pub instances: Option<Vec<RawPlacement>>,
     pub instances_csv: Option<String>,
+    /// Light group of an emissive object (see `groups.rs`).
+    pub group: Option<String>,
 }
 
 /// One placement of an instanced object or point source:
