@@ -136,3 +136,106 @@ pub(crate) fn light_groups(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    const BASE: &str = r#"
+units = "m"
+[camera]
+position = [0, 0, 5]
+look_at = [0, 1, 0]
+fov_deg = 60
+width = 4
+height = 4
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.grey]
+reflectance = 0.5
+[materials.glow]
+reflectance = 0.0
+emission = { value = 1.0 }
+[objects.floor]
+material = "grey"
+quad = { center = [0, 0, 0], size = [4, 4], normal = [0, 0, 1] }
+"#;
+
+    fn parse(extra: &str) -> Result<crate::Scene, crate::SceneError> {
+        crate::parse_str(&format!("{BASE}{extra}"), Path::new("t.toml"))
+    }
+
+    fn names(s: &crate::Scene) -> Vec<&str> {
+        s.light_groups
+            .groups
+            .iter()
+            .map(|g| g.name.as_str())
+            .collect()
+    }
+
+    #[test]
+    fn one_group_per_table_merged_by_key_then_moon_and_sky() {
+        let s = parse(
+            r#"
+[objects.panel]
+material = "glow"
+quad = { center = [0, 0, 2], size = [1, 1], normal = [0, 0, -1] }
+[point_sources.a]
+position = [1, 0, 2]
+value = 1
+instances = [{ translate = [0, 0, 0] }, { translate = [1, 0, 0] }]
+[point_sources.b]
+position = [2, 0, 2]
+value = 1
+group = "panel"
+[sky]
+utc = "2025-10-07T05:00:00Z"
+latitude_deg = 43
+longitude_deg = -77
+"#,
+        )
+        .unwrap();
+        assert_eq!(names(&s), ["panel", "a", "moon", "sky"]);
+        let g = &s.light_groups;
+        assert_eq!(g.object, [None, Some(0)]);
+        assert_eq!(g.point_table, [1, 0]);
+        assert_eq!((g.moon, g.sky), (Some(2), Some(3)));
+        assert_eq!(g.groups[0].sources, ["objects.panel", "point_sources.b"]);
+    }
+
+    #[test]
+    fn a_material_names_its_objects_group_and_an_object_overrides_it() {
+        let s = parse(
+            r#"
+[objects.p1]
+material = "glow2"
+quad = { center = [0, 0, 2], size = [1, 1], normal = [0, 0, -1] }
+[objects.p2]
+material = "glow2"
+group = "own"
+quad = { center = [1, 0, 2], size = [1, 1], normal = [0, 0, -1] }
+[materials.glow2]
+reflectance = 0.0
+emission = { value = 1.0 }
+group = "signs"
+"#,
+        )
+        .unwrap();
+        assert_eq!(names(&s), ["signs", "own"]);
+    }
+
+    #[test]
+    fn groups_on_non_emitters_and_unplain_names_are_refused() {
+        assert!(parse("").is_ok());
+        let bad = BASE.replace(
+            "[objects.floor]\nmaterial = \"grey\"",
+            "[objects.floor]\nmaterial = \"grey\"\ngroup = \"x\"",
+        );
+        let e = crate::parse_str(&bad, Path::new("t.toml")).unwrap_err();
+        assert_eq!(e.field(), "objects.floor.group");
+        let e = parse("[point_sources.a]\nposition = [0, 0, 1]\nvalue = 1\ngroup = \"../up\"\n")
+            .unwrap_err();
+        assert_eq!(e.field(), "point_sources.a.group");
+    }
+}
