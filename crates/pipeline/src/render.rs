@@ -215,6 +215,10 @@ impl<'a> RenderJob<'a> {
     /// Adds the camera's detected band and prepares the tracer (BVH,
     /// sources, pilot, cache) and the effect plan it runs.
     pub fn prepare(&self) -> Result<PreparedRender, RenderError> {
+        // Refused before the trace, not after the ordinary render.
+        if self.layers && self.settings.target_error.is_some() {
+            return Err(LayerError::Adaptive.into());
+        }
         let banded;
         let traced = match self.camera {
             Some(c) => {
