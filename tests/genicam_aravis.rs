@@ -439,22 +439,6 @@ fn arv_test_passes_without_a_config_and_chunks_carry_each_frames_gain_and_exposu
     );
 }
 
-const SPHERE: &str = r#"
-[source]
-kind = "sphere"
-lamp = "cie-a"
-lamp_flux_w = 1.0
-sphere_diameter_m = 0.5
-reflectance = 0.98
-port_fraction = 0.02
-
-[dimming]
-method = "aperture"
-
-[rig]
-camera = "scientific-ccd"
-"#;
-
 // The photon-transfer tests' sphere source (its rig the scientific CCD).
 #[allow(dead_code)] // Only the source is used here, not the QE reference.
 #[path = "../crates/calib/tests/shared/reference.rs"]

@@ -33,6 +33,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let job = RenderJob {
         camera,
         observer: super::progress::prep_spinner(),
+        layers: args.layers,
         ..RenderJob::new(&scene, &settings)
     };
     let prepared = job.prepare()?;
@@ -66,6 +67,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     report["provenance"] = serde_json::to_value(&provenance)?;
     let report = serde_json::to_string_pretty(&report)?;
     write_atomic(&dir.join("report.json"), report.as_bytes())?;
+    if let Some(layers) = &rendered.layers {
+        let mut index = layers.json(settings.seed);
+        index["provenance"] = serde_json::to_value(&provenance)?;
+        let index = serde_json::to_string_pretty(&index)?;
+        write_atomic(&dir.join("layers.json"), index.as_bytes())?;
+    }
     if let (Some(capture), Some(detected)) = (&capture, &rendered.detected) {
         for line in capture.run(detected, &dir, Some(&provenance))? {
             eprintln!("{line}");

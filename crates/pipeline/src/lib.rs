@@ -23,7 +23,7 @@ pub use frames::{
 };
 pub use output_set::OutputSet;
 pub use provenance::Provenance;
-pub use render::{PreparedRender, RenderError, RenderJob, Rendered, SettingArgs};
+pub use render::{Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs};
 pub use scene_view::{
     SceneViewError, grabbers, grabbers_noting, render_scene_view, scene_view_fit_note,
 };

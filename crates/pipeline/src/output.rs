@@ -90,6 +90,20 @@ pub fn write_tiff(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError
 }
 
 /// NPY, float64, band × row × column.
+/// Any-dimensional float64 array as `.npy` (the `--layers` stacks).
+pub fn write_npy_nd<D: ndarray::Dimension>(
+    path: &Path,
+    a: &ndarray::Array<f64, D>,
+) -> Result<(), OutputError> {
+    use ndarray_npy::WriteNpyExt;
+    write_atomic_with(path, |f| {
+        let mut w = std::io::BufWriter::new(f);
+        a.write_npy(&mut w)?;
+        std::io::Write::flush(&mut w)?;
+        Ok(())
+    })
+}
+
 pub fn write_npy(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError> {
     use ndarray_npy::WriteNpyExt;
     write_atomic_with(path, |f| {

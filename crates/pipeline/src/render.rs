@@ -10,7 +10,10 @@ use std::path::Path;
 
 use gloam_scene::Scene;
 use gloam_scene::plan::{Effect, EffectPlan, names};
-use gloam_trace::{PrepObserver, RenderOutput, RenderSettings, SettingsError, TraceError, Tracer};
+use gloam_trace::{
+    LayerError, LayerMap, PrepObserver, RenderOutput, RenderSettings, SettingsError, TraceError,
+    Tracer,
+};
 use ndarray::Array2;
 
 use crate::detected::{DetectedError, take_detected_band, with_detected_band};
@@ -34,6 +37,8 @@ pub enum RenderError {
     Detected(#[from] DetectedError),
     #[error(transparent)]
     Trace(#[from] TraceError),
+    #[error(transparent)]
+    Layers(#[from] LayerError),
     #[error("rows {start}..{end} are not rows of the {height}-row image")]
     Rows { start: u32, end: u32, height: u32 },
 }
@@ -190,6 +195,9 @@ pub struct RenderJob<'a> {
     pub camera: Option<&'a str>,
     /// Told as preparation steps begin and end (a progress display).
     pub observer: Option<PrepObserver>,
+    /// Also render one layer per light group (`--layers`, `layers.rs` in
+    /// gloam-trace).
+    pub layers: bool,
 }
 
 impl<'a> RenderJob<'a> {
@@ -200,12 +208,17 @@ impl<'a> RenderJob<'a> {
             settings,
             camera: None,
             observer: None,
+            layers: false,
         }
     }
 
     /// Adds the camera's detected band and prepares the tracer (BVH,
     /// sources, pilot, cache) and the effect plan it runs.
     pub fn prepare(&self) -> Result<PreparedRender, RenderError> {
+        // Refused before the trace, not after the ordinary render.
+        if self.layers && self.settings.target_error.is_some() {
+            return Err(LayerError::Adaptive.into());
+        }
         let banded;
         let traced = match self.camera {
             Some(c) => {
@@ -223,6 +236,12 @@ impl<'a> RenderJob<'a> {
             tracer,
             plan,
             camera: self.camera.is_some(),
+            layers: self.layers.then(|| {
+                (
+                    LayerMap::of(self.scene),
+                    self.scene.light_groups.groups.clone(),
+                )
+            }),
         })
     }
 
@@ -241,6 +260,7 @@ pub struct PreparedRender {
     tracer: Tracer,
     plan: EffectPlan,
     camera: bool,
+    layers: Option<(LayerMap, Vec<gloam_scene::LightGroup>)>,
 }
 
 impl PreparedRender {
@@ -263,7 +283,7 @@ impl PreparedRender {
     /// `progress(done, total)` is told per tile; once `stop()` returns
     /// true the render ends with [`TraceError::Interrupted`].
     pub fn render(
-        self,
+        mut self,
         rows: Option<Range<u32>>,
         progress: &(dyn Fn(u64, u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
@@ -284,8 +304,28 @@ impl PreparedRender {
             true => Some(take_detected_band(&mut radiance)?),
             false => None,
         };
+        let layers = match self.layers.take() {
+            Some((map, groups)) => {
+                let t0 = std::time::Instant::now();
+                let mut outputs = self
+                    .tracer
+                    .render_layers(&map, rows.clone(), progress, stop)?;
+                if self.camera {
+                    for o in &mut outputs {
+                        take_detected_band(o)?;
+                    }
+                }
+                Some(Layers {
+                    groups,
+                    outputs,
+                    seconds: t0.elapsed().as_secs_f64(),
+                })
+            }
+            None => None,
+        };
         Ok(Rendered {
             radiance,
+            layers,
             detected,
             plan: self.plan,
             rows,
@@ -294,10 +334,75 @@ impl PreparedRender {
     }
 }
 
+/// One radiance image per light group (`--layers`), in the scene's group
+/// order; they sum to [`Rendered::radiance`] (see gloam-trace `layers.rs`).
+pub struct Layers {
+    pub groups: Vec<gloam_scene::LightGroup>,
+    pub outputs: Vec<RenderOutput>,
+    /// Wall time of all the layers' renders (cache solves included).
+    pub seconds: f64,
+}
+
+impl Layers {
+    /// `group × band × row × column` stacks of the layers' radiance and
+    /// standard error.
+    pub fn stacked(&self) -> (ndarray::Array4<f64>, ndarray::Array4<f64>) {
+        let stack = |f: &dyn Fn(&RenderOutput) -> &ndarray::Array3<f64>| {
+            let views: Vec<_> = self.outputs.iter().map(|o| f(o).view()).collect();
+            ndarray::stack(ndarray::Axis(0), &views)
+                .unwrap_or_else(|_| ndarray::Array4::zeros((0, 0, 0, 0)))
+        };
+        (stack(&|o| &o.radiance), stack(&|o| &o.std_error))
+    }
+
+    /// The `layers.json` index (without provenance, which the caller adds).
+    pub fn json(&self, seed: u64) -> serde_json::Value {
+        let groups: Vec<serde_json::Value> = self
+            .groups
+            .iter()
+            .zip(&self.outputs)
+            .enumerate()
+            .map(|(i, (g, o))| {
+                let means: serde_json::Map<String, serde_json::Value> = o
+                    .band_names
+                    .iter()
+                    .enumerate()
+                    .map(|(b, n)| {
+                        let band = o.radiance.index_axis(ndarray::Axis(0), b);
+                        (n.clone(), serde_json::json!(band.mean().unwrap_or(0.0)))
+                    })
+                    .collect();
+                serde_json::json!({
+                    "index": i,
+                    "name": g.name,
+                    "sources": g.sources,
+                    "band_means_w_m2_sr": means,
+                })
+            })
+            .collect();
+        let bands = (self.outputs.first())
+            .map(|o| o.band_names.clone())
+            .unwrap_or_default();
+        serde_json::json!({
+            "radiance": "layers.npy",
+            "std_error": "layers_stderr.npy",
+            "shape": "group × band × row × column (index 0 is groups[0]), W m⁻² sr⁻¹ like radiance.npy",
+            "bands": bands,
+            "groups": groups,
+            "sum": "the layers sum to radiance.npy up to floating-point summation order (same seed, same samples; relative difference ≤ 1e-9)",
+            "method": "one render per group with every other group's emission set to zero: the ordinary render's light tree, plan, samples and random numbers; the interreflection cache solved per group with the whole scene's bounces and tail",
+            "seed": seed,
+            "seconds": self.seconds,
+        })
+    }
+}
+
 /// What a render made.
 pub struct Rendered {
     /// Radiance, standard error and samples of the scene's own bands.
     pub radiance: RenderOutput,
+    /// With [`RenderJob::layers`].
+    pub layers: Option<Layers>,
     /// The camera's detected-electron radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (rows ×
     /// columns), when the job had a camera.
     pub detected: Option<Array2<f64>>,
@@ -322,6 +427,11 @@ impl Rendered {
         write_npy(&dir.join("stderr.npy"), &r.std_error)?;
         write_npy_u32(&dir.join("spp.npy"), &r.spp)?;
         write_preview(&dir.join("preview.png"), &r.radiance)?;
+        if let Some(layers) = &self.layers {
+            let (radiance, std_error) = layers.stacked();
+            crate::output::write_npy_nd(&dir.join("layers.npy"), &radiance)?;
+            crate::output::write_npy_nd(&dir.join("layers_stderr.npy"), &std_error)?;
+        }
         Ok(())
     }
 

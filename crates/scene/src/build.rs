@@ -181,6 +181,11 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         });
     }
 
+    let light_groups =
+        crate::groups::light_groups(&raw, &materials, &objects, &point_source_groups, &|f, m| {
+            cx.err(f, m)
+        })?;
+
     let camera = camera(&cx, &root.key("camera"), &raw.camera)?;
 
     let mut bands = Vec::new();
@@ -224,6 +229,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         objects,
         point_sources,
         point_source_groups,
+        light_groups,
         camera,
         bands,
         sky,

@@ -8,6 +8,7 @@ pub use gloam_spectra::Spectrum;
 mod build;
 mod error;
 mod geometry;
+mod groups;
 mod instance;
 pub mod photometry;
 pub mod plan;
@@ -16,6 +17,7 @@ pub mod sequence;
 
 pub use error::SceneError;
 pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
+pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP};
 pub use instance::{
     MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, PLACEMENTS_CSV_HEADER, available_memory_bytes,
 };
@@ -84,6 +86,8 @@ pub struct Scene {
     /// The `[point_sources.NAME]` tables in file order, each with the range
     /// of [`Scene::point_sources`] it produced.
     pub point_source_groups: Vec<PointSourceGroup>,
+    /// Light groups (`--layers`) and each source table's group.
+    pub light_groups: LightGroups,
     pub camera: Camera,
     /// Bands in file order (at least one).
     pub bands: Vec<Band>,

@@ -131,6 +131,8 @@ pub(crate) struct RawMaterial {
     pub specular_fraction: Option<f64>,
     pub transmission: Option<RawSpectrum>,
     pub emission: Option<RawEmission>,
+    /// Light group of the objects made of it (see `groups.rs`).
+    pub group: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -161,6 +163,8 @@ pub(crate) struct RawPointSource {
     pub photometry: Option<String>,
     /// The luminaire's C0 axis (projected perpendicular to `direction`).
     pub c0_direction: Option<V3>,
+    /// Light group (see `groups.rs`).
+    pub group: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -178,6 +182,8 @@ pub(crate) struct RawObject {
     pub scale: Option<RawScale>,
     pub instances: Option<Vec<RawPlacement>>,
     pub instances_csv: Option<String>,
+    /// Light group of an emissive object (see `groups.rs`).
+    pub group: Option<String>,
 }
 
 /// One placement of an instanced object or point source:

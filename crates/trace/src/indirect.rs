@@ -744,6 +744,23 @@ impl Tracer {
 
     /// Builds and solves the radiosity cache (see the module docs).
     pub(crate) fn build_cache(&self, size: CacheSize) -> Cache {
+        self.build_cache_series(size, None)
+    }
+
+    /// [`Tracer::build_cache`]; with `fixed = Some((iterations, ratio))`
+    /// the series is cut after exactly that many bounces and its tail
+    /// extrapolated with that ratio, instead of both being read from this
+    /// cache's own increments. A light group's cache (`--layers`) takes the
+    /// whole scene's, so the solve is the same linear map for every group
+    /// and the groups' caches sum to the whole scene's.
+    pub(crate) fn build_cache_series(&self, size: CacheSize, fixed: Option<(u32, f64)>) -> Cache {
+        let size = match fixed {
+            Some((n, _)) => CacheSize {
+                max_iterations: n,
+                ..size
+            },
+            None => size,
+        };
         let t0 = std::time::Instant::now();
         let nwl = self.wl.len();
         let (layout, texels, h) = self.cache_layout(size.texels);
@@ -931,12 +948,18 @@ impl Tracer {
             } else {
                 f64::INFINITY
             };
+            if fixed.is_some() {
+                continue;
+            }
             if delta == 0.0
                 || (iterations >= 2 && remainder < size.tolerance)
                 || (iterations >= 6 && tail_uncertainty < size.tolerance)
             {
                 break;
             }
+        }
+        if let Some((_, r)) = fixed {
+            ratio = r;
         }
         // The geometric tail of the series beyond the last bounce solved.
         if ratio > 0.0 && ratio < 1.0 {

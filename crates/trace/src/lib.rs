@@ -4,6 +4,7 @@
 pub mod closed_form;
 pub mod geometry;
 pub mod indirect;
+pub mod layers;
 pub(crate) mod light_tree;
 pub mod plan;
 pub mod prep;
@@ -15,6 +16,7 @@ pub mod spectral;
 pub mod tracer;
 
 pub use glam::DVec3;
+pub use layers::{LayerError, LayerMap};
 pub use prep::{PrepEvent, PrepObserver, PrepStep, Preparation};
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{

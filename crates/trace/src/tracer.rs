@@ -151,7 +151,7 @@ enum Shape {
 /// An emitting facet.
 #[derive(Clone, Debug)]
 pub(crate) struct AreaSource {
-    facet: u32,
+    pub(crate) facet: u32,
     verts: Vec<DVec3>,
     normal: DVec3,
     centroid: DVec3,
@@ -161,7 +161,7 @@ pub(crate) struct AreaSource {
     /// `Some` when m is an integer the closed form handles.
     m_int: Option<u32>,
     /// Spectral radiance along the normal (emission slots).
-    radiance: Vec<f64>,
+    pub(crate) radiance: Vec<f64>,
     /// Σ over bands of the band radiance: a scalar size for choosing.
     size: f64,
     shape: Shape,
@@ -243,10 +243,10 @@ pub(crate) struct SkyState {
     /// (carrying zero irradiance).
     forced_moon_dir: DVec3,
     /// Direct lunar irradiance normal to the beam, W m⁻² nm⁻¹ per slot.
-    moon_en: Vec<f64>,
+    pub(crate) moon_en: Vec<f64>,
     /// Whether the dome is sampled (a sky term is on, or `all_effects`).
     pub(crate) dome: bool,
-    table: RadianceTable,
+    pub(crate) table: RadianceTable,
     pub(crate) summary: SkySummary,
 }
 

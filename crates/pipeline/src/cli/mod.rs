@@ -56,6 +56,12 @@ pub struct RenderArgs {
     /// the tiles bit-identically. See docs/sweep.md.
     #[arg(long, value_name = "K/N", conflicts_with = "sensor")]
     pub tile: Option<String>,
+    /// Also write one radiance layer per light group (`layers.npy`,
+    /// group × band × row × column; `layers_stderr.npy`; `layers.json`
+    /// naming each group and its sources). The layers sum to radiance.npy.
+    /// See docs/scene-format.md (light groups).
+    #[arg(long, conflicts_with = "tile")]
+    pub layers: bool,
 }
 
 /// The camera a render is captured through, and how.

@@ -1,0 +1,192 @@
+//! Light layers (`render_layers`): the layers sum to the ordinary render,
+//! and a lamp's layer is what a separate render of the scene with only that
+//! lamp shows.
+
+use std::path::Path;
+
+use gloam_scene::Scene;
+use gloam_trace::{LayerMap, RenderOutput, RenderSettings, Tracer};
+
+fn scene(text: &str) -> Scene {
+    gloam_scene::parse_str(text, Path::new("test.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A small room under a moonlit sky: an open-topped box (grey walls, a
+/// half-specular floor), an emissive ceiling panel, a table of two street
+/// lamps, one more lamp merged with the panel by `group`, plus `extra`.
+fn room(lamps: &str, extra: &str) -> String {
+    format!(
+        r#"
+units = "m"
+[camera]
+position = [1, 1, 2.5]
+look_at = [5, 4, 0.5]
+up = [0, 0, 1]
+fov_deg = 70
+width = 24
+height = 18
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[bands.nir]
+lo_nm = 700
+hi_nm = 900
+[sky]
+utc = "2025-10-07T05:00:00Z"
+latitude_deg = 43.0844
+longitude_deg = -77.6749
+[materials.wall]
+reflectance = 0.6
+[materials.floor]
+reflectance = 0.5
+specular_fraction = 0.3
+[materials.glow]
+reflectance = 0.0
+emission = {{ value = 1.0, normalize = {{ lo_nm = 400, hi_nm = 700, value = 2.0 }} }}
+[objects.room]
+material = "wall"
+box = {{ min = [0, 0, 0], max = [8, 6, 3], inward = true, omit = ["top", "bottom"] }}
+[objects.floor]
+material = "floor"
+quad = {{ center = [4, 3, 0], size = [8, 6], normal = [0, 0, 1] }}
+[objects.panel]
+material = "glow"
+quad = {{ center = [6, 4, 2.5], size = [1, 0.5], normal = [0, 0, -1] }}
+{lamps}
+{extra}
+"#
+    )
+}
+
+const LAMP_A: &str = r#"
+[point_sources.a]
+position = [2, 4, 2.8]
+value = 0.02
+instances = [{ translate = [0, 0, 0] }, { translate = [3, -2, 0] }]
+"#;
+
+const LAMP_B: &str = r#"
+[point_sources.b]
+position = [6, 1.5, 2.0]
+direction = [0, 0, -1]
+shape_exponent = 3
+value = 0.05
+group = "panel"
+"#;
+
+fn settings(spp: u32, indirect: &str) -> RenderSettings {
+    let mut s = RenderSettings::default();
+    s.set("spp", &spp.to_string()).unwrap();
+    s.set("indirect", indirect).unwrap();
+    s
+}
+
+fn layers(sc: &Scene, s: &RenderSettings) -> (RenderOutput, Vec<RenderOutput>) {
+    let mut t = Tracer::new(sc, s).unwrap();
+    let whole = t.render(&|_, _| {}).unwrap();
+    let h = t.image_size().1;
+    let map = LayerMap::of(sc);
+    let layers = t.render_layers(&map, 0..h, &|_, _| {}, &|| false).unwrap();
+    // The tracer is left as it was: a render after the layers is the same.
+    let again = t.render(&|_, _| {}).unwrap();
+    assert_eq!(again.radiance, whole.radiance);
+    (whole, layers)
+}
+
+#[test]
+fn layers_sum_to_the_ordinary_render() {
+    let sc = scene(&room(&format!("{LAMP_A}{LAMP_B}"), ""));
+    let names: Vec<&str> = (sc.light_groups.groups.iter())
+        .map(|g| g.name.as_str())
+        .collect();
+    assert_eq!(names, ["panel", "a", "moon", "sky"]);
+    assert_eq!(
+        sc.light_groups.groups[0].sources,
+        ["objects.panel", "point_sources.b"]
+    );
+    for indirect in ["off", "cache"] {
+        let (whole, layers) = layers(&sc, &settings(4, indirect));
+        assert_eq!(layers.len(), 4);
+        let mut sum = whole.radiance.clone();
+        sum.fill(0.0);
+        for l in &layers {
+            sum += &l.radiance;
+        }
+        // The lamps' layers carry light of their own (the moon's and the
+        // sky's may be left out by the effect plan next to the lamps).
+        for l in &layers[..2] {
+            assert!(
+                l.radiance.iter().any(|&x| x > 0.0),
+                "{indirect}: an empty layer"
+            );
+        }
+        let peak = whole.radiance.iter().copied().fold(0.0, f64::max);
+        assert!(peak > 0.0);
+        let worst = (sum.iter().zip(&whole.radiance))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst <= 1e-9 * peak,
+            "{indirect}: layers' sum off by {worst:e} (peak {peak:e})"
+        );
+    }
+}
+
+/// The image mean of band `b` and its standard error (pixels independent).
+fn mean_and_error(o: &RenderOutput, b: usize) -> (f64, f64) {
+    let r = o.radiance.index_axis(ndarray::Axis(0), b);
+    let e = o.std_error.index_axis(ndarray::Axis(0), b);
+    let n = r.len() as f64;
+    (r.sum() / n, e.iter().map(|x| x * x).sum::<f64>().sqrt() / n)
+}
+
+#[test]
+fn a_lamps_layer_is_the_scene_with_only_that_lamp() {
+    // No sky here: the lamp alone, against an independent render of the
+    // scene with the panel's group (panel and lamp b) removed.
+    let strip = |t: String| {
+        t.replace(
+            t.get(t.find("[sky]").unwrap()..t.find("[materials.wall]").unwrap())
+                .unwrap(),
+            "",
+        )
+    };
+    let both = scene(&strip(room(&format!("{LAMP_A}{LAMP_B}"), "")));
+    let only_a = room(LAMP_A, "").replace(
+        "[objects.panel]\nmaterial = \"glow\"",
+        "[objects.panel]\nmaterial = \"wall\"",
+    );
+    let only_a = scene(&strip(only_a));
+    let s = settings(16, "cache");
+    let (_, layers) = layers(&both, &s);
+    let a = both
+        .light_groups
+        .groups
+        .iter()
+        .position(|g| g.name == "a")
+        .unwrap();
+    let alone = Tracer::new(&only_a, &s)
+        .unwrap()
+        .render(&|_, _| {})
+        .unwrap();
+    for b in 0..2 {
+        let (m1, e1) = mean_and_error(&layers[a], b);
+        let (m2, e2) = mean_and_error(&alone, b);
+        assert!(m1 > 0.0);
+        let tol = 5.0 * (e1 * e1 + e2 * e2).sqrt() + 0.02 * m2;
+        assert!(
+            (m1 - m2).abs() <= tol,
+            "band {b}: layer {m1:e} vs alone {m2:e} (±{tol:e})"
+        );
+    }
+}
+
+#[test]
+fn adaptive_sampling_is_refused() {
+    let sc = scene(&room(LAMP_A, ""));
+    let mut s = settings(4, "off");
+    s.set("target_error", "0.1").unwrap();
+    let mut t = Tracer::new(&sc, &s).unwrap();
+    let err = t.render_layers(&LayerMap::of(&sc), 0..1, &|_, _| {}, &|| false);
+    assert!(matches!(err, Err(gloam_trace::LayerError::Adaptive)));
+}
