@@ -391,3 +391,84 @@ done"#,
     );
     assert_eq!(got, want, "{}", run.stdout);
 }
+
+/// `--sequence`: a street lamp switching on at 2 s, streamed live at the
+/// sequence's 25 Hz to an Aravis client under AGC. The frame the lamp
+/// switches on in is brighter than those before (its layer is mixed in
+/// from that frame), and the gain in effect, read through the `Gain`
+/// feature after each frame, then falls as the AGC answers.
+#[test]
+fn a_sequence_streams_a_lamp_switching_on_and_the_agc_answers() {
+    if !aravis_ready("aravis --sequence", &["cc", "pkg-config", "ip"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let client = build_client(dir.path());
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/sims/night-full-moon-lamps/scene.toml"
+    );
+    let seq = dir.path().join("lamp.toml");
+    std::fs::write(
+        &seq,
+        format!(
+            "scene = \"{scene}\"\nframe_rate_hz = 25\nframes = 100\n\
+             [groups.hps-streetlight]\nkeys = [[0, 0], [2, 0], [2, 1]]\n\
+             [groups.mercury-streetlight]\nkeys = [[0, 0]]\n\
+             [groups.halogen-floodlight]\nkeys = [[0, 0]]\n"
+        ),
+    )
+    .expect("sequence");
+    let run = in_netns(
+        dir.path(),
+        &format!("--sequence {} --size 64x48 --seed 3", seq.display()),
+        &format!(
+            r#"STREAM_GAIN=1 timeout 60 "{c}" 100 "PixelFormat=Mono16 GainAuto=Continuous""#,
+            c = client.display()
+        ),
+        180,
+    );
+    assert!(run.ok, "{}\n{}", run.stdout, run.device_stderr);
+    let streamed = parse_stream(&run.stdout);
+    assert_eq!(streamed.stats["failures"], 0.0, "{}", run.stdout);
+    // frame id (from 1) → (mean DN, gain dB)
+    let frames: BTreeMap<u64, (f64, f64)> = run
+        .stdout
+        .lines()
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            (f.len() == 4 && f[0] == "mean").then(|| {
+                (
+                    f[1].parse().expect("id"),
+                    (f[2].parse().expect("mean"), f[3].parse().expect("gain")),
+                )
+            })
+        })
+        .collect();
+    assert_eq!(frames.len(), 100, "{}", run.stdout);
+    // Frame k (id k + 1) starts at k / 25 s: the lamp is on from frame 50.
+    let mean = |ids: std::ops::RangeInclusive<u64>, i: usize| {
+        let n = ids.clone().count() as f64;
+        ids.map(|id| {
+            let f = frames[&id];
+            if i == 0 { f.0 } else { f.1 }
+        })
+        .sum::<f64>()
+            / n
+    };
+    // Frame 50 is the first with the lamp: brighter by its light (+29 % in
+    // the run this was written on) until the AGC, which sees the frame
+    // only once it is read out, cuts the gain for the next.
+    let (dn_before, dn_after) = (mean(46..=50, 0), mean(51..=51, 0));
+    assert!(
+        dn_after > 1.15 * dn_before,
+        "mean DN {dn_before} before the lamp, {dn_after} after:\n{}",
+        run.stdout
+    );
+    let (gain_before, gain_end) = (mean(46..=50, 1), mean(96..=100, 1));
+    assert!(
+        gain_end < gain_before - 1.0,
+        "gain {gain_before} dB before the lamp, {gain_end} dB 2 s after:\n{}",
+        run.stdout
+    );
+}

@@ -1,8 +1,12 @@
 //! `gloam device --pty`: the device emulator on a pseudo-terminal;
 //! `gloam device --gige ADDR[:PORT]`: the simulated camera as a GigE Vision
 //! device (crate `gloam-gige`). The arguments are `gloam_simcam::cli`'s.
+//! With `--sequence` either serves a night that changes: the sequence's
+//! light-group layers mixed per frame (`SceneImage::Layers`).
 
 use std::io::Write;
+use std::path::Path;
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, bail};
@@ -12,12 +16,55 @@ use gloam_grabber::FrameSource;
 use gloam_grabber::emulator::{EmulatorStats, run_emulator};
 use gloam_grabber::serial::PtyDevice;
 pub use gloam_simcam::cli::DeviceArgs;
-use gloam_simcam::{DEFAULT_RIG_SIZE, SensorSource};
+use gloam_simcam::{DEFAULT_RIG_SIZE, LayerWeights, SceneImage, SceneView, SensorSource};
 
-/// The source both `--pty` and `--gige` serve, from `--scene` or `--rig`,
-/// a label for messages, and whether it is a (fixed-size) rendered scene.
+/// `--sequence`: its scene's light-group layers, rendered once for the
+/// camera, and the sequence's weights for any exposure window (looped over
+/// its frames with `--loop`, else its last intensities held).
+fn sequence_view(args: &DeviceArgs, path: &str) -> anyhow::Result<SceneView> {
+    let seq = gloam_scene::sequence::load_sequence(Path::new(path))
+        .with_context(|| format!("sequence '{path}'"))?;
+    let scene = seq.scene.to_string_lossy().into_owned();
+    eprintln!("gloam device: rendering the light groups of {scene} …");
+    let (groups, layers) =
+        gloam_pipeline::scene_view::render_scene_layers(&scene, &args.sensor, args.size)
+            .with_context(|| format!("rendering the layers of scene '{scene}'"))?;
+    seq.check_groups(groups.iter().map(String::as_str))?;
+    let duration_s = f64::from(seq.frames) / seq.frame_rate_hz;
+    let looped = args.loop_sequence;
+    let frame_rate_hz = seq.frame_rate_hz;
+    let weights = move |t0: f64, t1: f64| {
+        let (start, width) = (
+            if looped {
+                t0.rem_euclid(duration_s)
+            } else {
+                t0
+            },
+            t1 - t0,
+        );
+        seq.weights(groups.iter().map(String::as_str), start, start + width)
+    };
+    Ok(SceneView {
+        label: path.to_string(),
+        image: SceneImage::Layers {
+            e_s_m2_sr: layers,
+            frame_rate_hz,
+            weights: LayerWeights(Arc::new(weights)),
+        },
+    })
+}
+
+/// The source both `--pty` and `--gige` serve, from `--scene`,
+/// `--sequence` or `--rig`, a label for messages, and whether it is a
+/// (fixed-size) rendered scene.
 fn device_source(args: &DeviceArgs) -> anyhow::Result<(SensorSource, String, bool)> {
     let sensor = || format!("sensor '{}'", args.sensor);
+    if let Some(path) = &args.sequence {
+        let view = sequence_view(args, path)?;
+        let source =
+            SensorSource::with_scene(&args.sensor, view, args.seed).with_context(sensor)?;
+        return Ok((source, format!("sequence '{path}'"), true));
+    }
     Ok(match &args.scene {
         Some(path) => {
             eprintln!("gloam device: rendering {path} …");
@@ -83,7 +130,8 @@ fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
         bail!("frame too large for GigE Vision");
     }
     let mcp_range_v = cfg.mcp.as_ref().map(|m| (m.min_voltage_v, m.max_voltage_v));
-    let rate_hz = cfg.timing.frame_rate_hz;
+    // A sequence's frame rate is the camera's default (its clock's).
+    let rate_hz = source.frame_rate_hz();
     let facts = gloam_gige::camera_facts(&info, !from_scene, rate_hz, mcp_range_v);
     let (name, seed) = (&info.name, args.seed);
     let identity = gloam_gige::simulated_identity(

@@ -15,6 +15,7 @@ use crate::render::{RenderError, RenderJob};
 use gloam_grabber::{GrabError, GrabberUri, Registry};
 use gloam_simcam::{SceneImage, SceneView};
 use gloam_trace::RenderSettings;
+use ndarray::Array2;
 
 /// Why a scene view was not rendered.
 #[derive(Debug, thiserror::Error)]
@@ -54,6 +55,44 @@ pub fn render_scene_view(
             e_s_m2_sr: detected,
         },
     })
+}
+
+/// Renders `path` as [`render_scene_view`] does, but one detected-radiance
+/// layer per light group (e⁻ s⁻¹ m⁻² sr⁻¹, row × column) instead of their
+/// sum: the group names in the scene's order and their layers, which any
+/// weighting of the groups mixes into a frame (`gloam device --sequence`).
+/// Only the layers are traced (not the ordinary image they sum to).
+pub fn render_scene_layers(
+    path: &str,
+    sensor: &str,
+    size: Option<(u32, u32)>,
+) -> Result<(Vec<String>, Vec<Array2<f64>>), SceneViewError> {
+    let mut scene = gloam_scene::load(Path::new(path))?;
+    if let Some((w, h)) = size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    let settings = RenderSettings::default();
+    // The layered render through `RenderJob` drops each layer's detected
+    // band; the tracer is driven here so the bands are kept.
+    let banded = crate::with_detected_band(&scene, sensor).map_err(RenderError::from)?;
+    let mut tracer = gloam_trace::Tracer::new(&banded, &settings).map_err(RenderError::from)?;
+    let map = gloam_trace::layers::LayerMap::of(&scene);
+    let height = tracer.image_size().1;
+    let outputs = tracer
+        .render_layers(&map, 0..height, &|_, _| {}, &|| false)
+        .map_err(RenderError::from)?;
+    let layers = outputs
+        .into_iter()
+        .map(|mut o| crate::take_detected_band(&mut o).map_err(RenderError::from))
+        .collect::<Result<Vec<_>, _>>()?;
+    let groups = scene
+        .light_groups
+        .groups
+        .iter()
+        .map(|g| g.name.clone())
+        .collect();
+    Ok((groups, layers))
 }
 
 /// Whether the camera `sensor` can see `view` at any gain it reaches: the

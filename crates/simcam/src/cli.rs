@@ -37,6 +37,18 @@ pub struct DeviceArgs {
     /// Calibration rig the camera looks at: uniform, sine, edge, dark.
     #[arg(long)]
     pub rig: Option<String>,
+    /// Sequence file (TOML) the camera looks at live: its scene's light
+    /// groups are rendered once, one layer each, and every frame mixes them
+    /// with the sequence's intensities over that frame's exposure (frame k
+    /// at k / the sequence's frame rate, which becomes the camera's default
+    /// rate; the clock restarts with each acquisition). After the
+    /// sequence's last frame its last intensities hold (flicker runs on),
+    /// unless --loop.
+    #[arg(long, value_name = "SEQ", conflicts_with_all = ["scene", "rig"])]
+    pub sequence: Option<String>,
+    /// With --sequence: start the sequence over after its last frame.
+    #[arg(long = "loop", requires = "sequence")]
+    pub loop_sequence: bool,
     /// Line rate to emulate (PTYs ignore baud, so the emulator paces itself,
     /// 8N1 = 10 bits per byte).
     #[arg(long, default_value_t = DEFAULT_BAUD)]

@@ -17,7 +17,7 @@ use gloam_grabber::{
 
 pub use exposure::{FrameExposure, FrameExposureExt};
 pub use grabber::{SimGrabber, gain_range_error};
-pub use scene::{SceneImage, SceneView};
+pub use scene::{LayerWeights, SceneImage, SceneView, mix_layers};
 pub use source::SensorSource;
 pub use stimulus::{DEFAULT_RIG_SIZE, DEFAULT_SPECTRUM, render_stimulus, rig_stimulus};
 

@@ -1,6 +1,8 @@
 //! A traced scene as the simulated camera sees it. Rendered by the caller
 //! (`gloam-pipeline` traces it): this crate does not trace.
 
+use std::sync::Arc;
+
 use ndarray::{Array2, Array3};
 
 use gloam_grabber::GrabError;
@@ -28,6 +30,44 @@ pub enum SceneImage {
     /// detector, e⁻ s⁻¹ m⁻² sr⁻¹, row × column: exact for any spectrum
     /// ([`gloam_sensor::Camera::capture_detected`]).
     Detected { e_s_m2_sr: Array2<f64> },
+    /// A scene that changes: detected-radiance layers (as `Detected`, one
+    /// per light group — radiance is linear in each group's emission) mixed
+    /// per frame with the weights of its exposure window. Frame `k` starts
+    /// at `k / frame_rate_hz` s of the view's clock (restarted with each
+    /// acquisition); its window is the camera's exposure, at most one
+    /// frame period.
+    Layers {
+        e_s_m2_sr: Vec<Array2<f64>>,
+        frame_rate_hz: f64,
+        weights: LayerWeights,
+    },
+}
+
+/// Each layer's weight over an exposure window `[t0, t1]`, s from the
+/// view's start: the caller's (a sequence file's) time course, so this
+/// crate need not know what a light group is.
+#[derive(Clone)]
+pub struct LayerWeights(pub Arc<dyn Fn(f64, f64) -> Vec<f64> + Send + Sync>);
+
+impl std::fmt::Debug for LayerWeights {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("LayerWeights(..)")
+    }
+}
+
+/// `Σ_i w_i · layer_i` into `out` (the layers' shape), in layer order in
+/// f64; a zero weight skips its layer. The caller checks the counts and
+/// shapes agree ([`SceneView::validate`]).
+pub fn mix_layers(layers: &[Array2<f64>], weights: &[f64], out: &mut Array2<f64>) {
+    out.fill(0.0);
+    for (layer, &w) in layers.iter().zip(weights) {
+        if w == 0.0 {
+            continue;
+        }
+        ndarray::Zip::from(&mut *out)
+            .and(layer)
+            .for_each(|o, &l| *o += w * l);
+    }
 }
 
 impl SceneView {
@@ -58,6 +98,23 @@ impl SceneView {
                 let (r, c) = e_s_m2_sr.dim();
                 (1, r, c)
             }
+            SceneImage::Layers {
+                e_s_m2_sr,
+                frame_rate_hz,
+                ..
+            } => {
+                if !(frame_rate_hz.is_finite() && *frame_rate_hz > 0.0) {
+                    return bad(format!("frame rate {frame_rate_hz} Hz is not positive"));
+                }
+                let (r, c) = e_s_m2_sr.first().map_or((0, 0), Array2::dim);
+                if let Some(i) = e_s_m2_sr.iter().position(|l| l.dim() != (r, c)) {
+                    let (ri, ci) = e_s_m2_sr[i].dim();
+                    return bad(format!(
+                        "layer {i} is {ci}×{ri}, layer 0 {c}×{r}: layers must share one size"
+                    ));
+                }
+                (e_s_m2_sr.len(), r, c)
+            }
         };
         if bands == 0 || rows == 0 || cols == 0 {
             return bad(format!(
@@ -78,6 +135,15 @@ impl SceneView {
                 .indexed_iter()
                 .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
                 .map(|((r, c), v)| format!("detected radiance {v} at row {r}, column {c}")),
+            SceneImage::Layers { e_s_m2_sr, .. } => {
+                e_s_m2_sr.iter().enumerate().find_map(|(i, l)| {
+                    l.indexed_iter()
+                        .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+                        .map(|((r, c), v)| {
+                            format!("detected radiance {v} at layer {i}, row {r}, column {c}")
+                        })
+                })
+            }
         };
         match first_bad {
             Some(what) => bad(format!("{what} is not finite and ≥ 0")),
@@ -95,7 +161,50 @@ impl SceneView {
                 (r, c)
             }
             SceneImage::Detected { e_s_m2_sr } => e_s_m2_sr.dim(),
+            SceneImage::Layers { e_s_m2_sr, .. } => e_s_m2_sr.first().map_or((0, 0), Array2::dim),
         };
         (cols as u32, rows as u32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The mix is the weighted sum, checked pixel by pixel against the sum
+    /// written out by hand.
+    #[test]
+    fn layers_mix_to_their_weighted_sum() {
+        let moon = Array2::from_shape_fn((2, 3), |(r, c)| (1 + r * 3 + c) as f64);
+        let lamp = Array2::from_shape_vec((2, 3), vec![10.0, 0.0, 20.0, 0.0, 40.0, 0.5]).unwrap();
+        let mut out = Array2::from_elem((2, 3), 7.0);
+        mix_layers(&[moon, lamp], &[0.5, 2.0], &mut out);
+        // 0.5·[1 2 3; 4 5 6] + 2·[10 0 20; 0 40 0.5]
+        let by_hand = [[20.5, 1.0, 41.5], [2.0, 82.5, 4.0]];
+        for ((r, c), v) in out.indexed_iter() {
+            assert_eq!(*v, by_hand[r][c], "row {r}, column {c}");
+        }
+        // The lamp off: the moon alone, whatever `out` held.
+        let moon = Array2::from_elem((2, 3), 3.0);
+        mix_layers(
+            &[moon, Array2::from_elem((2, 3), 9.0)],
+            &[1.0, 0.0],
+            &mut out,
+        );
+        assert!(out.iter().all(|&v| v == 3.0));
+    }
+
+    #[test]
+    fn layers_of_different_sizes_are_refused() {
+        let view = SceneView {
+            label: "street".into(),
+            image: SceneImage::Layers {
+                e_s_m2_sr: vec![Array2::zeros((2, 3)), Array2::zeros((3, 2))],
+                frame_rate_hz: 25.0,
+                weights: LayerWeights(Arc::new(|_, _| vec![1.0, 1.0])),
+            },
+        };
+        let e = view.validate().unwrap_err().to_string();
+        assert!(e.contains("layer 1 is 2×3, layer 0 3×2"), "{e}");
     }
 }

@@ -19,8 +19,14 @@ enum View {
         stimulus: Stimulus,
         radiance: Option<(u32, u32, Array2<f64>, Spectrum)>,
     },
-    /// A traced scene, fixed at its rendered size.
-    Scene(SceneView),
+    /// A traced scene, fixed at its rendered size; for a layered scene
+    /// the mix of the current frame and the frames since the acquisition
+    /// started (its clock).
+    Scene {
+        view: SceneView,
+        mixed: Array2<f64>,
+        frame: u64,
+    },
 }
 
 /// The sensor chain as a [`FrameSource`]: a preset (or sensor TOML file)
@@ -51,7 +57,18 @@ impl SensorSource {
     /// `preset`: a built-in sensor preset or a sensor TOML path; `rig`: a
     /// built-in rig name; `seed`: the noise seed; `size`: the image size.
     pub fn new(preset: &str, rig: &str, seed: u64, size: (u32, u32)) -> Result<Self, GrabError> {
-        let mut base = SensorConfig::load_preset_or_file(preset).map_err(cfg_err)?;
+        let base = SensorConfig::load_preset_or_file(preset).map_err(cfg_err)?;
+        Self::from_config(preset, base, rig, seed, size)
+    }
+
+    /// [`SensorSource::new`] from a loaded configuration.
+    fn from_config(
+        preset: &str,
+        mut base: SensorConfig,
+        rig: &str,
+        seed: u64,
+        size: (u32, u32),
+    ) -> Result<Self, GrabError> {
         base.noise.seed = seed;
         let camera = Camera::new(base.clone()).map_err(cfg_err)?;
         let chain = camera.chain();
@@ -127,13 +144,31 @@ impl SensorSource {
     }
 
     /// `preset` looking at a rendered scene: frames have the scene's size.
-    /// A stimulus presented later (calibration) replaces the scene.
+    /// A stimulus presented later (calibration) replaces the scene. A
+    /// layered scene sets the camera's frame rate to its own (the exposure
+    /// held within one period), so its clock runs in real time at the
+    /// camera's default rate and the AGC's time constants count in it.
     pub fn with_scene(preset: &str, scene: SceneView, seed: u64) -> Result<Self, GrabError> {
         scene.validate()?;
         let size = scene.size();
-        let mut src = Self::new(preset, gloam_grabber::uri::DEFAULT_RIG, seed, size)?;
-        src.view = View::Scene(scene);
+        let mut base = SensorConfig::load_preset_or_file(preset).map_err(cfg_err)?;
+        if let SceneImage::Layers { frame_rate_hz, .. } = &scene.image {
+            base.timing.frame_rate_hz = *frame_rate_hz;
+            base.timing.exposure_s = base.timing.exposure_s.min(1.0 / frame_rate_hz);
+        }
+        let mut src = Self::from_config(preset, base, gloam_grabber::uri::DEFAULT_RIG, seed, size)?;
+        let (w, h) = size;
+        src.view = View::Scene {
+            view: scene,
+            mixed: Array2::zeros((h as usize, w as usize)),
+            frame: 0,
+        };
         Ok(src)
+    }
+
+    /// The camera's frame rate as built, Hz (a layered scene's own rate).
+    pub fn frame_rate_hz(&self) -> f64 {
+        self.base.timing.frame_rate_hz
     }
 
     /// The preset or file this source was built from.
@@ -180,6 +215,9 @@ impl FrameSource for SensorSource {
     fn restart(&mut self) {
         self.camera.reset();
         self.mode = None;
+        if let View::Scene { frame, .. } = &mut self.view {
+            *frame = 0;
+        }
     }
 
     fn present(&mut self, stimulus: &Stimulus) -> Result<bool, GrabError> {
@@ -216,7 +254,11 @@ impl FrameSource for SensorSource {
                 };
                 self.camera.capture_mono(img.view(), shape)
             }
-            View::Scene(scene) => {
+            View::Scene {
+                view: scene,
+                mixed,
+                frame,
+            } => {
                 if scene.size() != (s.width, s.height) {
                     return Err(GrabError::Device(format!(
                         "scene '{}' was rendered at {}×{}, frames of {}×{} asked for",
@@ -234,6 +276,33 @@ impl FrameSource for SensorSource {
                     } => self.camera.capture(radiance_w_m2_sr.view(), band_shapes),
                     SceneImage::Detected { e_s_m2_sr } => {
                         self.camera.capture_detected(e_s_m2_sr.view())
+                    }
+                    SceneImage::Layers {
+                        e_s_m2_sr,
+                        frame_rate_hz,
+                        weights,
+                    } => {
+                        let t0 = *frame as f64 / frame_rate_hz;
+                        let window_s = self
+                            .camera
+                            .config()
+                            .timing
+                            .exposure_s
+                            .min(1.0 / frame_rate_hz);
+                        let w = (weights.0)(t0, t0 + window_s);
+                        if w.len() != e_s_m2_sr.len()
+                            || w.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+                        {
+                            return Err(GrabError::Device(format!(
+                                "scene '{}': {} weights for {} layers at {t0} s ({w:?})",
+                                scene.label,
+                                w.len(),
+                                e_s_m2_sr.len()
+                            )));
+                        }
+                        crate::scene::mix_layers(e_s_m2_sr, &w, mixed);
+                        *frame += 1;
+                        self.camera.capture_detected(mixed.view())
                     }
                 }
             }

@@ -180,7 +180,7 @@ fn bad_scenes_are_clear_errors() {
             SceneImage::Bands {
                 radiance_w_m2_sr, ..
             } => radiance_w_m2_sr,
-            SceneImage::Detected { .. } => unreachable!(),
+            SceneImage::Detected { .. } | SceneImage::Layers { .. } => unreachable!(),
         }
     }
     let mut nan = two_band_scene(8, 6);

@@ -10,6 +10,8 @@
  *
  * Output:
  *   frame <frame_id> <status> <crc32c hex> <width> <height>
+ *   mean <frame_id> <mean pixel value> [<Gain feature, dB>]   (the gain when
+ *       the environment has STREAM_GAIN=1: read after each frame)
  *   stats completed=<n> failures=<n> underruns=<n> resent=<n> missing=<n> seconds=<s> fps=<f>
  */
 #include <arv.h>
@@ -67,6 +69,8 @@ int main (int argc, char **argv)
 	for (int i = 0; i < 32; i++)
 		arv_stream_push_buffer (stream, arv_buffer_new (payload, NULL));
 
+	const char *sg = getenv ("STREAM_GAIN");
+	int want_gain = sg != NULL && sg[0] == '1';
 	gint64 t0 = g_get_monotonic_time ();
 	arv_camera_start_acquisition (camera, &error);
 	if (error) { fprintf (stderr, "start: %s\n", error->message); return 1; }
@@ -96,6 +100,21 @@ int main (int argc, char **argv)
 		printf ("frame %" G_GUINT64_FORMAT " %d %08x %d %d\n",
 			arv_buffer_get_frame_id (buffer), (int) status, c ^ 0xffffffffu,
 			arv_buffer_get_image_width (buffer), arv_buffer_get_image_height (buffer));
+		if (status == ARV_BUFFER_STATUS_SUCCESS && size > 0) {
+			double sum = 0.0;
+			size_t n = 0;
+			if (pf == ARV_PIXEL_FORMAT_MONO_8) {
+				for (size_t i = 0; i < size; i++, n++)
+					sum += data[i];
+			} else {
+				for (size_t i = 0; i + 1 < size; i += 2, n++)
+					sum += data[i] | (data[i + 1] << 8);
+			}
+			printf ("mean %" G_GUINT64_FORMAT " %.3f", arv_buffer_get_frame_id (buffer), sum / n);
+			if (want_gain)
+				printf (" %.6g", arv_camera_get_gain (camera, NULL));
+			printf ("\n");
+		}
 		arv_stream_push_buffer (stream, buffer);
 	}
 	double seconds = (g_get_monotonic_time () - t0) / 1e6;
