@@ -11,7 +11,9 @@ use std::time::Instant;
 
 pub use gloam_pipeline::cli::SequenceArgs;
 use gloam_pipeline::render::RenderJob;
-use gloam_pipeline::sequence::{capture_sequence, check_video_rate};
+use gloam_pipeline::sequence::{
+    ANIMATION_MAX_FRAMES, ANIMATION_MAX_WIDTH_PX, capture_sequence, check_video_rate,
+};
 use gloam_pipeline::{FrameContext, OutputSet, Provenance};
 
 use super::output::write_atomic;
@@ -56,8 +58,8 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let layers = (rendered.layers.as_ref())
-        .ok_or_else(|| anyhow::anyhow!("the render made no layers"))?;
+    let layers =
+        (rendered.layers.as_ref()).ok_or_else(|| anyhow::anyhow!("the render made no layers"))?;
     let detected = (layers.detected.as_ref())
         .ok_or_else(|| anyhow::anyhow!("the layered render carried no detected band"))?;
 
@@ -94,7 +96,9 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         "outputs": {
             "frames.jsonl": "one line per frame; its `sequence` gives time_s, window_s and each light group's mean intensity over the exposure",
             "gain-over-time.png": "the gain in effect per frame",
-            "frames-preview-animated.png": "APNG: the frames (at most 100, at most 320 px wide), black level to clip",
+            "frames-preview-animated.png": format!(
+                "APNG: the frames (at most {ANIMATION_MAX_FRAMES}, at most {ANIMATION_MAX_WIDTH_PX} px wide), each black level to clip"
+            ),
         },
         "timings_s": {
             "still_render": still_s,

@@ -225,7 +225,14 @@ pub fn capture_sequence(
             }
             let r = &f.record;
             let black = r.black_dn.unwrap_or(0.0);
-            animation.add(r.index, r.width, r.height, &f.pixels, black, r.saturated_at_dn);
+            animation.add(
+                r.index,
+                r.width,
+                r.height,
+                &f.pixels,
+                black,
+                r.saturated_at_dn,
+            );
             let w = match &mut writer {
                 Some(w) => w,
                 None => writer.insert(FrameWriter::with_format(
@@ -240,13 +247,10 @@ pub fn capture_sequence(
         w.finish().map_err(CaptureError::from)?;
     }
     let path = out.join(ANIMATION);
-    if let Some(bytes) = animation
-        .apng()
-        .map_err(|source| SequenceError::Preview {
-            path: path.clone(),
-            source,
-        })?
-    {
+    if let Some(bytes) = animation.apng().map_err(|source| SequenceError::Preview {
+        path: path.clone(),
+        source,
+    })? {
         crate::output::write_atomic(&path, &bytes)
             .map_err(|source| SequenceError::Preview { path, source })?;
     }
@@ -283,10 +287,10 @@ pub fn capture_sequence(
 /// viewers without animation show), every browser plays it.
 pub const ANIMATION: &str = "frames-preview-animated.png";
 /// Most frames in the animation (the sequence is subsampled evenly).
-pub const ANIMATION_MAX_FRAMES: u32 = 100;
+pub const ANIMATION_MAX_FRAMES: u32 = 50;
 /// Widest animation frame, pixels (frames box-averaged down by a whole
 /// factor).
-pub const ANIMATION_MAX_WIDTH_PX: u32 = 320;
+pub const ANIMATION_MAX_WIDTH_PX: u32 = 240;
 
 /// The frames of a sequence as an 8-bit grey animation, each scaled from
 /// its black level (0) to its clip (255) as the contact sheet is, shown at
@@ -471,5 +475,43 @@ mod tests {
         assert_eq!(line["sequence"]["light_groups"]["lamp"], 1.0);
         assert_eq!(line["sequence"]["light_groups"]["moon"], 1.0);
         assert!(dir.path().join("gain-over-time.png").is_file());
+        // The animation: 125 frames → every 3rd (≤ 50), 48 px wide (≤ 240).
+        let apng = std::fs::read(dir.path().join(ANIMATION)).unwrap();
+        let at = apng.windows(4).position(|w| w == b"acTL").unwrap();
+        let n = u32::from_be_bytes(apng[at + 4..at + 8].try_into().unwrap());
+        assert_eq!(n, 125u32.div_ceil(3));
+        let at = apng.windows(4).position(|w| w == b"IHDR").unwrap();
+        assert_eq!(
+            u32::from_be_bytes(apng[at + 4..at + 8].try_into().unwrap()),
+            48
+        );
+    }
+
+    #[test]
+    fn a_camera_s_video_standard_fixes_the_frame_rate() {
+        let seq = |hz: f64| {
+            gloam_scene::sequence::parse_sequence(
+                &format!("scene = \"s.toml\"\nframe_rate_hz = {hz}\nframes = 1\n"),
+                Path::new("seq.toml"),
+            )
+            .unwrap()
+        };
+        let gen3 = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        check_video_rate(&seq(25.0), "gen3", &gen3).unwrap();
+        let e = check_video_rate(&seq(30.0), "gen3", &gen3).unwrap_err();
+        assert!(
+            e.to_string().contains("CCIR (625/50) video at 25.000"),
+            "{e}"
+        );
+        // RS-170's 30000/1001 frames/s answers to `30`.
+        let mut rs170 = gen3.clone();
+        rs170.video.as_mut().unwrap().format =
+            gloam_sensor::stages::video_timing::VideoFormat::Rs170;
+        check_video_rate(&seq(30.0), "rs170", &rs170).unwrap();
+        check_video_rate(&seq(25.0), "rs170", &rs170).unwrap_err();
+        // A camera without analogue video takes any rate.
+        let mut ccd = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        ccd.video = None;
+        check_video_rate(&seq(30.0), "ccd", &ccd).unwrap();
     }
 }
