@@ -260,7 +260,12 @@ pub fn capture_sequence(
         &out.join("gain-over-time.png"),
         &format!(
             "gain in effect, {} frames at {} Hz ({})",
-            sequence.frames, sequence.frame_rate_hz, capture.sensor
+            sequence.frames,
+            sequence.frame_rate_hz,
+            // A sensor file's name, not its path: the title stays short.
+            Path::new(capture.sensor)
+                .file_stem()
+                .map_or(capture.sensor.into(), |s| s.to_string_lossy())
         ),
         ("time, s", gloam_calib::plot::Scale::Linear),
         ("gain in effect", gloam_calib::plot::Scale::Log10),
