@@ -68,6 +68,8 @@ enum Command {
     Sky(cmd::sky::SkyArgs),
     /// Render band radiance images of a scene (TIFF, NPY, PNG preview, report).
     Render(cmd::render::RenderArgs),
+    /// A night that changes (a sequence file: light groups switching, ramps, flicker) through a camera and its AGC.
+    Sequence(cmd::sequence::SequenceArgs),
     /// Irradiance at a point, or one pixel's radiance, without a full render.
     Probe(cmd::probe::ProbeArgs),
     /// Serve the simulated camera as a device: emulated on a pseudo-terminal (--pty) or as a GigE Vision camera (--gige).
@@ -110,6 +112,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ephem(args) => cmd::ephem::run(args),
         Command::Sky(args) => cmd::sky::run(args),
         Command::Render(args) => cmd::render::run(args),
+        Command::Sequence(args) => cmd::sequence::run(args),
         Command::Probe(args) => cmd::probe::run(args),
         Command::Bench(c) => cmd::bench::run(c),
         Command::Sweep(args) => cmd::sweep::run(args),

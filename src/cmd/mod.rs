@@ -16,6 +16,7 @@ pub mod progress;
 pub mod render;
 pub mod scope;
 pub mod sensor;
+pub mod sequence;
 pub mod sky;
 pub mod spectra;
 pub mod sweep;

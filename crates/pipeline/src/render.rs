@@ -310,14 +310,19 @@ impl PreparedRender {
                 let mut outputs = self
                     .tracer
                     .render_layers(&map, rows.clone(), progress, stop)?;
-                if self.camera {
-                    for o in &mut outputs {
-                        take_detected_band(o)?;
-                    }
-                }
+                let detected = match self.camera {
+                    true => Some(
+                        outputs
+                            .iter_mut()
+                            .map(take_detected_band)
+                            .collect::<Result<Vec<_>, _>>()?,
+                    ),
+                    false => None,
+                };
                 Some(Layers {
                     groups,
                     outputs,
+                    detected,
                     seconds: t0.elapsed().as_secs_f64(),
                 })
             }
@@ -339,6 +344,9 @@ impl PreparedRender {
 pub struct Layers {
     pub groups: Vec<gloam_scene::LightGroup>,
     pub outputs: Vec<RenderOutput>,
+    /// Each layer's camera-detected radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (rows ×
+    /// columns), when the job had a camera: what `gloam sequence` mixes.
+    pub detected: Option<Vec<Array2<f64>>>,
     /// Wall time of all the layers' renders (cache solves included).
     pub seconds: f64,
 }

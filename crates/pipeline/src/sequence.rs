@@ -39,6 +39,52 @@ pub enum SequenceError {
     },
     #[error("writing the sequence's plot")]
     Plot(#[source] gloam_calib::CalibError),
+    /// An analogue camera's video standard fixes its frame rate.
+    #[error(
+        "{}: frame_rate_hz = {sequence_hz} Hz, but camera '{sensor}' outputs {format} video at {format_hz:.3} frames/s: give the sequence that frame rate or use a camera without a [video] stage",
+        path.display()
+    )]
+    VideoRate {
+        path: std::path::PathBuf,
+        sequence_hz: f64,
+        sensor: String,
+        format: &'static str,
+        format_hz: f64,
+    },
+    #[error("writing {}", path.display())]
+    Preview {
+        path: std::path::PathBuf,
+        #[source]
+        source: crate::output::OutputError,
+    },
+}
+
+/// How far a sequence's frame rate may stray from an analogue camera's
+/// video standard: 0.2 %, so `30` Hz names RS-170's 29.97 frames/s.
+pub const VIDEO_RATE_TOLERANCE: f64 = 2e-3;
+
+/// Refuses a frame rate the camera's video standard cannot carry (two
+/// interlaced fields per frame); a camera without `[video]` takes any.
+pub fn check_video_rate(
+    sequence: &Sequence,
+    sensor: &str,
+    config: &gloam_sensor::SensorConfig,
+) -> Result<(), SequenceError> {
+    let Some(video) = &config.video else {
+        return Ok(());
+    };
+    let timing = gloam_sensor::stages::video_timing::LineTiming::of(video.format);
+    let format_hz = timing.field_rate_hz / 2.0;
+    if (sequence.frame_rate_hz / format_hz - 1.0).abs() > VIDEO_RATE_TOLERANCE {
+        return Err(SequenceError::VideoRate {
+            path: sequence.path.clone(),
+            sequence_hz: sequence.frame_rate_hz,
+            sensor: sensor.to_string(),
+            format: video.format.label(),
+            format_hz,
+        });
+    }
+    Ok(())
 }
 
 /// `Σ_g w_g · layer_g` into `out` (resized to the layers' shape), summed in
@@ -94,7 +140,7 @@ pub struct SequenceReport {
 /// Captures `sequence` from the layers (`groups[i]`'s detected radiance,
 /// e⁻ s⁻¹ m⁻² sr⁻¹, is `layers[i]`) through `capture`'s camera into `out`:
 /// the frames, `frames.jsonl` (each line with its `sequence` place),
-/// `frames-preview.png` and `gain-over-time.png`.
+/// `frames-preview.png`, the animated [`ANIMATION`] and `gain-over-time.png`.
 pub fn capture_sequence(
     sequence: &Sequence,
     groups: &[String],
@@ -147,6 +193,7 @@ pub fn capture_sequence(
                 source,
             })
             .map_err(CaptureError::from)?;
+        check_video_rate(sequence, capture.sensor, &c)?;
         configure(&mut c)?;
         mix(layers, &place(0).2, &mut first);
     }
@@ -166,6 +213,7 @@ pub fn capture_sequence(
         img
     };
     let mut writer = None;
+    let mut animation = Animation::new(sequence.frames, sequence.frame_rate_hz);
     let mut gain_over_time = Vec::new();
     let t_capture = Instant::now();
     let captured =
@@ -175,6 +223,16 @@ pub fn capture_sequence(
                 gain_over_time.push((p.time_s, f.record.gain));
                 f.record.sequence = Some(p.clone());
             }
+            let r = &f.record;
+            let black = r.black_dn.unwrap_or(0.0);
+            animation.add(
+                r.index,
+                r.width,
+                r.height,
+                &f.pixels,
+                black,
+                r.saturated_at_dn,
+            );
             let w = match &mut writer {
                 Some(w) => w,
                 None => writer.insert(FrameWriter::with_format(
@@ -188,13 +246,26 @@ pub fn capture_sequence(
     if let Some(w) = writer {
         w.finish().map_err(CaptureError::from)?;
     }
+    let path = out.join(ANIMATION);
+    if let Some(bytes) = animation.apng().map_err(|source| SequenceError::Preview {
+        path: path.clone(),
+        source,
+    })? {
+        crate::output::write_atomic(&path, &bytes)
+            .map_err(|source| SequenceError::Preview { path, source })?;
+    }
     let mix_s = *mix_s.borrow();
     let camera_s = t_capture.elapsed().as_secs_f64() - mix_s;
     gloam_calib::plot::xy_plot_scaled(
         &out.join("gain-over-time.png"),
         &format!(
             "gain in effect, {} frames at {} Hz ({})",
-            sequence.frames, sequence.frame_rate_hz, capture.sensor
+            sequence.frames,
+            sequence.frame_rate_hz,
+            // A sensor file's name, not its path: the title stays short.
+            Path::new(capture.sensor)
+                .file_stem()
+                .map_or(capture.sensor.into(), |s| s.to_string_lossy())
         ),
         ("time, s", gloam_calib::plot::Scale::Linear),
         ("gain in effect", gloam_calib::plot::Scale::Log10),
@@ -215,6 +286,106 @@ pub fn capture_sequence(
         notes: captured.notes,
         gain_over_time,
     })
+}
+
+/// The animated preview's file: an APNG (a PNG whose first frame is what
+/// viewers without animation show), every browser plays it.
+pub const ANIMATION: &str = "frames-preview-animated.png";
+/// Most frames in the animation (the sequence is subsampled evenly).
+pub const ANIMATION_MAX_FRAMES: u32 = 50;
+/// Widest animation frame, pixels (frames box-averaged down by a whole
+/// factor).
+pub const ANIMATION_MAX_WIDTH_PX: u32 = 240;
+
+/// The frames of a sequence as an 8-bit grey animation, each scaled from
+/// its black level (0) to its clip (255) as the contact sheet is, shown at
+/// the sequence's pace (each kept frame lasts `stride` frame periods).
+struct Animation {
+    stride: u64,
+    delay_ms: u16,
+    size: Option<(u32, u32)>,
+    frames: Vec<Vec<u8>>,
+}
+
+impl Animation {
+    fn new(frames: u32, frame_rate_hz: f64) -> Self {
+        let stride = u64::from(frames.div_ceil(ANIMATION_MAX_FRAMES).max(1));
+        let delay_ms = (1000.0 * stride as f64 / frame_rate_hz).round();
+        Self {
+            stride,
+            delay_ms: delay_ms.clamp(10.0, 10_000.0) as u16,
+            size: None,
+            frames: Vec::new(),
+        }
+    }
+
+    fn add(
+        &mut self,
+        index: u64,
+        width: u32,
+        height: u32,
+        pixels: &[u16],
+        black_dn: f64,
+        clip_dn: f64,
+    ) {
+        let n = width as usize * height as usize;
+        if index % self.stride != 0 || pixels.len() != n || n == 0 {
+            return;
+        }
+        if self.frames.len() >= ANIMATION_MAX_FRAMES as usize {
+            return;
+        }
+        let f = width.div_ceil(ANIMATION_MAX_WIDTH_PX).max(1);
+        let (w, h) = (width.div_ceil(f), height.div_ceil(f));
+        if *self.size.get_or_insert((w, h)) != (w, h) {
+            return;
+        }
+        let (black, span) = match clip_dn > black_dn {
+            true => (black_dn, clip_dn - black_dn),
+            false => (0.0, f64::from(u16::MAX)),
+        };
+        let mut grey = Vec::with_capacity(w as usize * h as usize);
+        for ty in 0..h {
+            for tx in 0..w {
+                let (mut sum, mut k) = (0.0, 0u32);
+                for y in ty * f..((ty + 1) * f).min(height) {
+                    for x in tx * f..((tx + 1) * f).min(width) {
+                        sum += f64::from(pixels[(y * width + x) as usize]);
+                        k += 1;
+                    }
+                }
+                let v = sum / f64::from(k.max(1));
+                grey.push((255.0 * ((v - black) / span).clamp(0.0, 1.0)).round() as u8);
+            }
+        }
+        self.frames.push(grey);
+    }
+
+    /// The APNG, looping; None before any frame.
+    fn apng(&self) -> Result<Option<Vec<u8>>, crate::output::OutputError> {
+        let Some((w, h)) = self.size else {
+            return Ok(None);
+        };
+        let enc_err = |e: png::EncodingError| crate::output::OutputError::Encode {
+            path: ANIMATION.into(),
+            source: e.into(),
+        };
+        let mut bytes = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut bytes, w, h);
+            enc.set_color(png::ColorType::Grayscale);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_animated(self.frames.len() as u32, 0)
+                .map_err(enc_err)?;
+            enc.set_frame_delay(self.delay_ms, 1000).map_err(enc_err)?;
+            let mut writer = enc.write_header().map_err(enc_err)?;
+            for f in &self.frames {
+                writer.write_image_data(f).map_err(enc_err)?;
+            }
+            writer.finish().map_err(enc_err)?;
+        }
+        Ok(Some(bytes))
+    }
 }
 
 #[cfg(test)]
@@ -309,5 +480,43 @@ mod tests {
         assert_eq!(line["sequence"]["light_groups"]["lamp"], 1.0);
         assert_eq!(line["sequence"]["light_groups"]["moon"], 1.0);
         assert!(dir.path().join("gain-over-time.png").is_file());
+        // The animation: 125 frames → every 3rd (≤ 50), 48 px wide (≤ 240).
+        let apng = std::fs::read(dir.path().join(ANIMATION)).unwrap();
+        let at = apng.windows(4).position(|w| w == b"acTL").unwrap();
+        let n = u32::from_be_bytes(apng[at + 4..at + 8].try_into().unwrap());
+        assert_eq!(n, 125u32.div_ceil(3));
+        let at = apng.windows(4).position(|w| w == b"IHDR").unwrap();
+        assert_eq!(
+            u32::from_be_bytes(apng[at + 4..at + 8].try_into().unwrap()),
+            48
+        );
+    }
+
+    #[test]
+    fn a_camera_s_video_standard_fixes_the_frame_rate() {
+        let seq = |hz: f64| {
+            gloam_scene::sequence::parse_sequence(
+                &format!("scene = \"s.toml\"\nframe_rate_hz = {hz}\nframes = 1\n"),
+                Path::new("seq.toml"),
+            )
+            .unwrap()
+        };
+        let gen3 = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        check_video_rate(&seq(25.0), "gen3", &gen3).unwrap();
+        let e = check_video_rate(&seq(30.0), "gen3", &gen3).unwrap_err();
+        assert!(
+            e.to_string().contains("CCIR (625/50) video at 25.000"),
+            "{e}"
+        );
+        // RS-170's 30000/1001 frames/s answers to `30`.
+        let mut rs170 = gen3.clone();
+        rs170.video.as_mut().unwrap().format =
+            gloam_sensor::stages::video_timing::VideoFormat::Rs170;
+        check_video_rate(&seq(30.0), "rs170", &rs170).unwrap();
+        check_video_rate(&seq(25.0), "rs170", &rs170).unwrap_err();
+        // A camera without analogue video takes any rate.
+        let mut ccd = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        ccd.video = None;
+        check_video_rate(&seq(30.0), "ccd", &ccd).unwrap();
     }
 }

@@ -14,6 +14,9 @@ use crate::render::{SettingArgs, camera_of};
 use crate::{CaptureOptionsError, FrameCapture};
 
 pub mod bench;
+pub mod sequence;
+
+pub use sequence::{SequenceArgError, SequenceArgs};
 
 /// An argument that does not say what its flag asks for.
 #[derive(Debug, thiserror::Error)]
