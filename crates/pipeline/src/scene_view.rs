@@ -73,8 +73,9 @@ pub fn render_scene_layers(
         scene.camera.height = h;
     }
     let settings = RenderSettings::default();
-    // The layered render through `RenderJob` drops each layer's detected
-    // band; the tracer is driven here so the bands are kept.
+    // Only the layers: `RenderJob` with `layers` also renders the ordinary
+    // image (their sum), which a device never shows, so the tracer is driven
+    // here and each layer's detected band taken off directly.
     let banded = crate::with_detected_band(&scene, sensor).map_err(RenderError::from)?;
     let mut tracer = gloam_trace::Tracer::new(&banded, &settings).map_err(RenderError::from)?;
     let map = gloam_trace::layers::LayerMap::of(&scene);
