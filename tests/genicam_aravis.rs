@@ -234,6 +234,15 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
             // the frame's own ChunkGainLinear.
             assert_eq!(g, s, "{tag} frame {k}: gain {g} vs sim {s}");
             assert_eq!(r["agc"], sim_recs[k]["agc"], "{tag} frame {k}");
+            // Exposure and gate duty come in the frame's own
+            // ChunkExposureTime / ChunkGateDuty, as sim: records them.
+            for key in ["exposure_us", "gate_duty"] {
+                assert!(r[key].is_f64(), "{tag} frame {k}: no {key}: {r}");
+                assert_eq!(r[key], sim_recs[k][key], "{tag} frame {k}: {key}");
+            }
+            if tag == "fixed" {
+                assert_eq!(r["exposure_us"].as_f64(), Some(2000.0), "{r}");
+            }
         }
     }
 }

@@ -453,6 +453,10 @@ impl<T: Transport> ProtocolGrabber<T> {
                         pixels_crc32c: crate::pixels_crc32c(&pixels),
                         status: FrameStatus::Ok,
                         levels: None,
+                        // The leader carries the exposure setting, not the
+                        // gate duty in effect (autogating is the camera's).
+                        exposure_us: Some(f64::from(l.exposure_us)),
+                        gate_duty: None,
                     };
                     (l.seq, Ok(Frame { meta, pixels }))
                 }

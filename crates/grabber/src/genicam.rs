@@ -16,6 +16,7 @@
 //! | frame size (`?size=WxH`) | `Width`, `Height` |
 //! | [`DeviceControl::present`] | `GloamStimulus` (gloam's own device only; real cameras: the operator sets the source) |
 //! | each frame's `gain`, `agc` | the frame's own `ChunkGainLinear` (else `ChunkGain`) and `ChunkAgcActive` where the camera offers chunk data (gloam's device), else the features read after the frame |
+//! | each frame's `exposure_us`, `gate_duty` | the frame's own `ChunkExposureTime` and `ChunkGateDuty` where the camera offers them (gloam's device), else not recorded |
 //!
 //! By default every [`FrameStream::grab`] fires `TriggerSoftware` and waits
 //! for that one frame (`?trigger=software`, when the camera has it), so a
@@ -61,6 +62,10 @@ pub const GAIN_LINEAR_FEATURE: &str = "GainLinear";
 /// are the frame's values, not the camera's state when the grabber asks.
 const GAIN_CHUNKS: [&str; 2] = ["GainLinear", "Gain"];
 const AGC_CHUNK: &str = "AgcActive";
+/// The exposure (SFNC `ExposureTime`, µs) and the photocathode's gate duty
+/// (gloam's device) a frame was taken with, recorded when offered.
+const EXPOSURE_CHUNK: &str = "ExposureTime";
+const GATE_DUTY_CHUNK: &str = "GateDuty";
 
 /// The gain in the grabber's unit: `GainLinear` where the camera has it,
 /// else `Gain` in the camera's unit.
@@ -220,6 +225,17 @@ struct Chunks {
     /// `Chunk…` feature of the gain, if the camera sends one.
     gain: Option<String>,
     agc: bool,
+    exposure: bool,
+    gate_duty: bool,
+}
+
+/// What one buffer's chunks say (each `None` when not there).
+#[derive(Clone, Copy, Debug, Default)]
+struct ChunkValues {
+    gain: Option<f64>,
+    agc: Option<bool>,
+    exposure_us: Option<f64>,
+    gate_duty: Option<f64>,
 }
 
 impl GenicamGrabber {
@@ -350,7 +366,14 @@ impl GenicamGrabber {
         let has = |c: &str| offered.iter().any(|o| o.as_str() == c);
         let gain = GAIN_CHUNKS.into_iter().find(|c| has(c));
         let agc = has(AGC_CHUNK);
-        let list: Vec<&str> = gain.into_iter().chain(agc.then_some(AGC_CHUNK)).collect();
+        let exposure = has(EXPOSURE_CHUNK);
+        let gate_duty = has(GATE_DUTY_CHUNK);
+        let list: Vec<&str> = gain
+            .into_iter()
+            .chain(agc.then_some(AGC_CHUNK))
+            .chain(exposure.then_some(EXPOSURE_CHUNK))
+            .chain(gate_duty.then_some(GATE_DUTY_CHUNK))
+            .collect();
         if list.is_empty() || cam.set_chunks(&list.join(",")).is_err() {
             let _ = cam.set_chunk_mode(false);
             return;
@@ -359,26 +382,31 @@ impl GenicamGrabber {
             parser,
             gain: gain.map(|g| format!("Chunk{g}")),
             agc,
+            exposure,
+            gate_duty,
         });
     }
 
-    /// The gain and AGC state a buffer's chunks carry (each `None` when not
-    /// there).
-    fn chunk_values(&self, b: &Buffer) -> (Option<f64>, Option<bool>) {
+    /// The gain, AGC state, exposure and gate duty a buffer's chunks carry.
+    fn chunk_values(&self, b: &Buffer) -> ChunkValues {
         let Some(c) = self.chunks.as_ref().filter(|_| b.has_chunks()) else {
-            return (None, None);
+            return ChunkValues::default();
         };
-        let gain = c
-            .gain
-            .as_deref()
-            .and_then(|g| c.parser.float_value(b, g).ok())
-            .filter(|g| g.is_finite());
-        let agc = c
-            .agc
-            .then(|| c.parser.integer_value(b, "ChunkAgcActive").ok())
-            .flatten()
-            .map(|v| v != 0);
-        (gain, agc)
+        let float = |on: bool, feature: &str| {
+            on.then(|| c.parser.float_value(b, feature).ok())
+                .flatten()
+                .filter(|v| v.is_finite())
+        };
+        ChunkValues {
+            gain: c.gain.as_deref().and_then(|g| float(true, g)),
+            agc: c
+                .agc
+                .then(|| c.parser.integer_value(b, "ChunkAgcActive").ok())
+                .flatten()
+                .map(|v| v != 0),
+            exposure_us: float(c.exposure, "ChunkExposureTime"),
+            gate_duty: float(c.gate_duty, "ChunkGateDuty"),
+        }
     }
 
     fn start(&mut self) -> Result<(), GrabError> {
@@ -542,15 +570,15 @@ impl GenicamGrabber {
         }
         let ts = b.timestamp();
         let first = *self.first_timestamp_ns.get_or_insert(ts);
-        let (chunk_gain, chunk_agc) = self.chunk_values(b);
-        let gain = match chunk_gain {
+        let chunk = self.chunk_values(b);
+        let gain = match chunk.gain {
             Some(g) => g,
             // Under AGC the camera's Gain reads the gain in effect (gloam's
             // device: that of the frame just sent).
             None if self.agc => camera_gain(&self.camera).unwrap_or(self.gain),
             None => self.gain,
         };
-        let agc = chunk_agc.unwrap_or(self.agc);
+        let agc = chunk.agc.unwrap_or(self.agc);
         Ok(Frame {
             meta: FrameMeta {
                 seq,
@@ -563,6 +591,8 @@ impl GenicamGrabber {
                 pixels_crc32c: crate::pixels_crc32c(&pixels),
                 status: FrameStatus::Ok,
                 levels: None,
+                exposure_us: chunk.exposure_us,
+                gate_duty: chunk.gate_duty,
             },
             pixels,
         })

@@ -37,6 +37,18 @@ pub struct FrameMeta {
     /// knows them (simulated cameras); `None` over the wire.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub levels: Option<DnLevels>,
+    /// Exposure this frame was taken with, µs, when the camera says
+    /// (simulated cameras; GenICam cameras with `ChunkExposureTime`). Left
+    /// out when `None`, so records of cameras that do not know it are as
+    /// before; the serial protocol does not carry it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_us: Option<f64>,
+    /// Fraction of the exposure the photocathode was gated on for this
+    /// frame (configured duty × the tube's autogating), when the camera
+    /// has a gated photocathode and says (simulated cameras; gloam's GigE
+    /// device's `ChunkGateDuty`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate_duty: Option<f64>,
 }
 
 /// A camera's output levels at the settings of one frame, DN.

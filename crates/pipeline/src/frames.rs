@@ -46,8 +46,14 @@ pub struct FrameRecord {
     /// cycle as configured (before the tube's ABC), for simulated cameras.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nd_density: Option<f64>,
+    /// For a grabbed frame, the gate duty in effect (configured duty ×
+    /// the tube's autogating), when the camera reports it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gate_duty: Option<f64>,
+    /// Exposure of a grabbed frame, µs, when the camera reports it (an
+    /// in-process render has it in `sensor.exposure_s`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exposure_us: Option<f64>,
     /// The stage whose clip the saturated pixels hit (`ccd-full-well`,
     /// `video-clip` or `digitizer-rail`), when the camera reports it.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -99,7 +105,8 @@ impl FrameRecord {
                 }),
             black_dn: f.meta.levels.map(|l| l.black_dn),
             nd_density: None,
-            gate_duty: None,
+            gate_duty: f.meta.gate_duty,
+            exposure_us: f.meta.exposure_us,
             saturated_by: None,
             mcp_compressed_fraction: None,
             warnings,
@@ -150,6 +157,7 @@ impl FrameRecord {
             black_dn: Some(black),
             nd_density: Some(camera.config().optics.nd_density),
             gate_duty: camera.config().photocathode.as_ref().map(|p| p.gate_duty),
+            exposure_us: None,
             saturated_by: Some(m.saturation.saturated_by),
             mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
             warnings,
@@ -342,6 +350,12 @@ fn fits_cards(rec: &FrameRecord, ctx: &FrameContext) -> Vec<FitsCard> {
         c.push(FitsCard::new(
             "EXPTIME",
             Float(m.exposure_s),
+            "exposure time, s",
+        ));
+    } else if let Some(us) = rec.exposure_us {
+        c.push(FitsCard::new(
+            "EXPTIME",
+            Float(us / 1e6),
             "exposure time, s",
         ));
     }

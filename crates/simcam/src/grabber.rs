@@ -178,6 +178,10 @@ impl<S: FrameSource> FrameStream for SimGrabber<S> {
                 pixels_crc32c: gloam_grabber::pixels_crc32c(&pixels),
                 status: FrameStatus::Ok,
                 levels: r.levels,
+                // As configured for this frame: the same values gloam's GigE
+                // device sends as `ChunkExposureTime` / `ChunkGateDuty`.
+                exposure_us: Some(f64::from(s.exposure_us)),
+                gate_duty: r.gate_duty,
             },
             pixels,
         })

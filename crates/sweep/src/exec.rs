@@ -10,7 +10,7 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use gloam_grabber::GrabError;
 use gloam_pipeline::frames::FrameWriter;
 use gloam_pipeline::output::{write_npy, write_npy_u32, write_preview, write_tiff};
 use gloam_pipeline::{FrameCapture, FrameRecord};
@@ -20,6 +20,28 @@ use ndarray::Array2;
 
 use crate::run::{Executor, Figures, TaskError};
 use crate::spec::{Flow, Sweep, Task};
+
+/// Why a task could not open or drive its camera (the render and file
+/// errors a task meets are their crates' own).
+#[derive(Debug, thiserror::Error)]
+pub enum ExecError {
+    #[error("the {0} flow needs a sensor")]
+    NoSensor(&'static str),
+    #[error("opening {uri}")]
+    Open {
+        uri: String,
+        #[source]
+        source: GrabError,
+    },
+    #[error("gain")]
+    Gain(#[source] GrabError),
+    #[error("grabbing frame {frame}")]
+    Grab {
+        frame: u32,
+        #[source]
+        source: GrabError,
+    },
+}
 
 /// Runs tasks over the render and camera code.
 pub struct Pipeline;
@@ -44,7 +66,7 @@ pub struct Rendered {
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
 /// when it has a sensor) through the pipeline's one render entry point.
-fn render_point(sweep: &Sweep, task: &Task) -> anyhow::Result<Rendered> {
+fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
     let scene = sweep.load_scene(task)?;
     let settings = task.render_settings()?;
     let sensor = sweep.sensor(task);
@@ -87,23 +109,22 @@ impl Executor for Pipeline {
         shared: &Shared,
         out: &Path,
     ) -> Result<Figures, TaskError> {
-        let figures = match shared {
+        match shared {
             Shared::Nothing => capture_stimulus(sweep, task, out),
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
-                    let sensor = sweep.sensor(task).context("no sensor")?;
+                    let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("render"))?;
                     capture_detected(&sensor, task, d, out)
                 }
                 None => write_radiance(task, r, out),
             },
-        };
-        Ok(figures?)
+        }
     }
 }
 
 /// A render task's images (and `tile.json` for a tile); its figures are
 /// each band's mean radiance.
-fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> anyhow::Result<Figures> {
+fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> Result<Figures, TaskError> {
     let o = &r.out;
     // Deterministic outputs only (no timings): their hashes are the task's.
     write_npy(&out.join("radiance.npy"), &o.radiance)?;
@@ -137,7 +158,7 @@ fn capture_detected(
     task: &Task,
     detected: &Array2<f64>,
     out: &Path,
-) -> anyhow::Result<Figures> {
+) -> Result<Figures, TaskError> {
     let capture = FrameCapture {
         sensor,
         frames: task.frames(),
@@ -207,10 +228,8 @@ fn capture_detected(
 }
 
 /// Frames of the sensor's default uniform stimulus (`sim:PRESET`).
-fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Figures> {
-    let sensor = sweep
-        .sensor(task)
-        .context("the capture flow needs a sensor")?;
+fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> Result<Figures, TaskError> {
+    let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("capture"))?;
     let uri = match task.size() {
         Some((w, h)) => format!("sim:{sensor}?size={w}x{h}"),
         None => format!("sim:{sensor}"),
@@ -221,9 +240,12 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Fi
     };
     let mut g = gloam_simcam::registry()
         .open(&uri, &opts)
-        .with_context(|| format!("opening {uri}"))?;
+        .map_err(|source| ExecError::Open {
+            uri: uri.clone(),
+            source,
+        })?;
     if let Some(gain) = task.gain() {
-        g.set_gain(gain).context("gain")?;
+        g.set_gain(gain).map_err(ExecError::Gain)?;
     }
     if task.agc() {
         g.set_agc(true)?;
@@ -233,7 +255,9 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> anyhow::Result<Fi
     let mut black = None;
     let mut gain = f64::NAN;
     for i in 0..task.frames() {
-        let f = g.grab().with_context(|| format!("grabbing frame {i}"))?;
+        let f = g
+            .grab()
+            .map_err(|source| ExecError::Grab { frame: i, source })?;
         let file = format!("frame-{i:06}.png");
         let rec = FrameRecord::of_grab(u64::from(i), file, &f, f.exposure().warnings);
         writer.write(&rec, &f.pixels)?;

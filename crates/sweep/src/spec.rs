@@ -287,11 +287,8 @@ impl Sweep {
     }
 
     /// The task's scene, with its dotted overrides applied.
-    pub fn load_scene(&self, task: &Task) -> anyhow::Result<gloam_scene::Scene> {
-        use anyhow::Context;
-        let rel = task
-            .text("scene")
-            .context("this task has no scene (set `scene` in [base] or [axes])")?;
+    pub fn load_scene(&self, task: &Task) -> Result<gloam_scene::Scene, TaskSceneError> {
+        let rel = task.text("scene").ok_or(TaskSceneError::NoScene)?;
         let path = self.resolve(&rel);
         let overrides = task.scene_overrides();
         if overrides.is_empty() {
@@ -299,20 +296,32 @@ impl Sweep {
         }
         let text =
             gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .with_context(|| format!("reading {}", path.display()))?;
-        let mut doc: toml::Table =
-            toml::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+                .map_err(|e| TaskSceneError::Read {
+                    path: path.clone(),
+                    source: e.into(),
+                })?;
+        let mut doc: toml::Table = toml::from_str(&text).map_err(|e| TaskSceneError::Read {
+            path: path.clone(),
+            source: e.into(),
+        })?;
         for (key, value) in &overrides {
-            set_dotted(&mut doc, key, value.clone())
-                .with_context(|| format!("{}: overriding {key}", path.display()))?;
+            set_dotted(&mut doc, key, value.clone()).map_err(|source| {
+                TaskSceneError::Override {
+                    path: path.clone(),
+                    key: key.clone(),
+                    source,
+                }
+            })?;
         }
         let text = toml::to_string(&doc)?;
         let desc: Vec<String> = overrides
             .iter()
             .map(|(k, v)| format!("{k} = {}", scalar_text(v).unwrap_or_default()))
             .collect();
-        gloam_scene::parse_str(&text, &path)
-            .with_context(|| format!("with {} from the sweep", desc.join(", ")))
+        gloam_scene::parse_str(&text, &path).map_err(|source| TaskSceneError::Overridden {
+            overrides: desc.join(", "),
+            source,
+        })
     }
 
     /// The task's sensor: a preset name, or a `.toml` path resolved against
@@ -347,7 +356,7 @@ impl SpecError {
 }
 
 /// Sets `a.b.c = value` in a TOML document, creating tables on the way.
-fn set_dotted(doc: &mut toml::Table, key: &str, value: toml::Value) -> anyhow::Result<()> {
+fn set_dotted(doc: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), NotATable> {
     let parts: Vec<&str> = key.split('.').collect();
     let (last, path) = parts.split_last().expect("split yields one part");
     let mut t = doc;
@@ -357,11 +366,48 @@ fn set_dotted(doc: &mut toml::Table, key: &str, value: toml::Value) -> anyhow::R
             .or_insert_with(|| toml::Value::Table(toml::Table::new()));
         t = match entry {
             toml::Value::Table(t) => t,
-            _ => anyhow::bail!("'{p}' is not a table in the scene file"),
+            _ => return Err(NotATable(p.to_string())),
         };
     }
     t.insert(last.to_string(), value);
     Ok(())
+}
+
+/// A dotted override runs through a key of the scene file that holds a
+/// value, not a table.
+#[derive(Debug, thiserror::Error)]
+#[error("'{0}' is not a table in the scene file")]
+pub struct NotATable(pub String);
+
+/// Why a task's scene could not be loaded, naming the file and the
+/// sweep's overrides.
+#[derive(Debug, thiserror::Error)]
+pub enum TaskSceneError {
+    #[error("this task has no scene (set `scene` in [base] or [axes])")]
+    NoScene,
+    #[error(transparent)]
+    Scene(#[from] gloam_scene::SceneError),
+    #[error("reading {}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    #[error("{}: overriding {key}", path.display())]
+    Override {
+        path: PathBuf,
+        key: String,
+        #[source]
+        source: NotATable,
+    },
+    #[error(transparent)]
+    Rewrite(#[from] toml::ser::Error),
+    #[error("with {overrides} from the sweep")]
+    Overridden {
+        overrides: String,
+        #[source]
+        source: gloam_scene::SceneError,
+    },
 }
 
 /// What is wrong with one value of a sweep file (the [`SpecError`] that
@@ -634,7 +680,9 @@ impl Task {
     }
 
     /// The task's render settings, its seed the sweep's `seed`.
-    pub fn render_settings(&self) -> anyhow::Result<gloam_trace::RenderSettings> {
+    pub fn render_settings(
+        &self,
+    ) -> Result<gloam_trace::RenderSettings, gloam_trace::SettingsError> {
         let mut s = gloam_trace::RenderSettings::default();
         for (k, v) in self.setting_pairs() {
             s.set(&k, &v)?;

@@ -10,8 +10,8 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail, ensure};
 use gloam_pipeline::Provenance;
+use gloam_pipeline::output::OutputError;
 use gloam_pipeline::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
 use ndarray::{Array2, Array3, Axis};
 use serde::{Deserialize, Serialize};
@@ -63,6 +63,87 @@ pub enum TileError {
     TooManyTiles { n: u32, height: u32 },
 }
 
+/// Why tiles could not be written, checked or merged, naming the file
+/// or directory at fault (or what differs between tiles).
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error("encoding {what} as JSON")]
+    Encode {
+        what: &'static str,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("reading {}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    #[error("reading {} (is {} a `gloam render --tile` output?)", path.display(), dir.display())]
+    NoTileInfo {
+        path: PathBuf,
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("reading {} (a tile is a published `gloam render --tile` set or a sweep task; without its manifest its files cannot be checked)", path.display())]
+    NoManifest {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: not a {what}", path.display())]
+    NotA {
+        path: PathBuf,
+        what: &'static str,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A tile file that is not what a whole, unaltered tile holds.
+    #[error("{}: {problem}", path.display())]
+    Invalid { path: PathBuf, problem: String },
+    #[error(transparent)]
+    Hash(#[from] crate::run::SweepError),
+    #[error("no tile directories given")]
+    NoTiles,
+    #[error("{} is a tile of another render than {}: {} differ{}", dir.display(), first.display(), differences.join("; "), if differences.len() == 1 { "s" } else { "" })]
+    AnotherRender {
+        dir: PathBuf,
+        first: PathBuf,
+        differences: Vec<String>,
+    },
+    #[error("tile {tile} given twice: {} and {}", a.display(), b.display())]
+    Twice {
+        tile: String,
+        a: PathBuf,
+        b: PathBuf,
+    },
+    #[error("missing tiles: {}", .0.join(", "))]
+    Missing(Vec<String>),
+    #[error("stacking the tiles' arrays")]
+    Stack(#[from] ndarray::ShapeError),
+}
+
+impl MergeError {
+    fn invalid(path: &Path, problem: String) -> MergeError {
+        MergeError::Invalid {
+            path: path.to_path_buf(),
+            problem,
+        }
+    }
+}
+
+/// `Err(MergeError::Invalid)` unless `ok`.
+fn ensure_valid(ok: bool, path: &Path, problem: impl FnOnce() -> String) -> Result<(), MergeError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(MergeError::invalid(path, problem()))
+    }
+}
+
 impl std::fmt::Display for TileSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}/{}", self.k, self.n)
@@ -111,7 +192,8 @@ pub fn write_tile_info(
     (width, height): (u32, u32),
     scene: &Path,
     out: &gloam_trace::RenderOutput,
-) -> anyhow::Result<()> {
+) -> Result<(), MergeError> {
+    let encode = |what| move |source| MergeError::Encode { what, source };
     let info = TileInfo {
         format: TILE_FORMAT.into(),
         tile: tile.k,
@@ -124,7 +206,7 @@ pub fn write_tile_info(
         scene_sha256: gloam_pipeline::provenance::hash_file(scene).map(|f| f.sha256),
         settings: {
             // The thread count does not change the image.
-            let mut s = serde_json::to_value(&out.settings)?;
+            let mut s = serde_json::to_value(&out.settings).map_err(encode("the settings"))?;
             if let Some(o) = s.as_object_mut() {
                 o.remove("threads");
             }
@@ -133,7 +215,9 @@ pub fn write_tile_info(
     };
     write_atomic(
         &dir.join(TILE_FILE),
-        serde_json::to_string_pretty(&info)?.as_bytes(),
+        serde_json::to_string_pretty(&info)
+            .map_err(encode(TILE_FILE))?
+            .as_bytes(),
     )?;
     Ok(())
 }
@@ -143,7 +227,7 @@ impl Merged {
     /// (radiance, standard error and spp as `.npy`/`.tiff`, a preview) and
     /// `report.json` naming each tile with its `radiance.npy` hash; the
     /// tiles' files read here join `provenance`'s inputs.
-    pub fn write(&self, dir: &Path, provenance: &mut Provenance) -> anyhow::Result<()> {
+    pub fn write(&self, dir: &Path, provenance: &mut Provenance) -> Result<(), MergeError> {
         write_tiff(&dir.join("radiance.tiff"), &self.radiance)?;
         write_npy(&dir.join("radiance.npy"), &self.radiance)?;
         write_tiff(&dir.join("stderr.tiff"), &self.std_error)?;
@@ -155,7 +239,10 @@ impl Merged {
             let p = d.join("radiance.npy");
             let bytes =
                 gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-                    .with_context(|| format!("reading {}", p.display()))?;
+                    .map_err(|e| MergeError::Read {
+                        path: p.clone(),
+                        source: e.into(),
+                    })?;
             tiles.push(serde_json::json!({
                 "dir": d.display().to_string(),
                 "radiance_npy_sha256": crate::run::sha256_hex(&bytes),
@@ -171,76 +258,73 @@ impl Merged {
         });
         write_atomic(
             &dir.join("report.json"),
-            serde_json::to_string_pretty(&report)?.as_bytes(),
+            serde_json::to_string_pretty(&report)
+                .map_err(|source| MergeError::Encode {
+                    what: "report.json",
+                    source,
+                })?
+                .as_bytes(),
         )?;
         Ok(())
     }
 }
 
-fn read_info(dir: &Path) -> anyhow::Result<TileInfo> {
+fn read_info(dir: &Path) -> Result<TileInfo, MergeError> {
     let p = dir.join(TILE_FILE);
     let text = gloam_spectra::input::read_text(&p, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .with_context(|| {
-            format!(
-                "reading {} (is {} a `gloam render --tile` output?)",
-                p.display(),
-                dir.display()
-            )
+        .map_err(|source| MergeError::NoTileInfo {
+            path: p.clone(),
+            dir: dir.to_path_buf(),
+            source,
         })?;
-    let info: TileInfo =
-        serde_json::from_str(&text).with_context(|| format!("reading {}", p.display()))?;
-    ensure!(
-        info.format == TILE_FORMAT,
-        "{}: format '{}', expected '{TILE_FORMAT}'",
-        p.display(),
-        info.format
-    );
+    let info: TileInfo = serde_json::from_str(&text).map_err(|e| MergeError::Read {
+        path: p.clone(),
+        source: e.into(),
+    })?;
+    ensure_valid(info.format == TILE_FORMAT, &p, || {
+        format!("format '{}', expected '{TILE_FORMAT}'", info.format)
+    })?;
     let want = TileSpec {
         k: info.tile,
         n: info.of,
     }
     .rows(info.height)
-    .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-    ensure!(
+    .map_err(|e| MergeError::invalid(&p, e.to_string()))?;
+    ensure_valid(
         TileSpec::parse(&format!("{}/{}", info.tile, info.of)).is_ok()
             && info.rows == [want.start, want.end],
-        "{}: rows {:?} are not tile {}/{} of {} rows",
-        p.display(),
-        info.rows,
-        info.tile,
-        info.of,
-        info.height
-    );
+        &p,
+        || {
+            format!(
+                "rows {:?} are not tile {}/{} of {} rows",
+                info.rows, info.tile, info.of, info.height
+            )
+        },
+    )?;
     Ok(info)
 }
 
 /// Reads an `.npy` whose shape must be `shape`, refusing a file larger
 /// than that shape needs (no allocation from an untrusted header).
-fn read_npy_checked<A>(path: &Path, shape: &[usize], elem: usize) -> anyhow::Result<A>
+fn read_npy_checked<A>(path: &Path, shape: &[usize], elem: usize) -> Result<A, MergeError>
 where
     A: ndarray_npy::ReadNpyExt + HasShape,
 {
+    let read = |e: Box<dyn std::error::Error + Send + Sync>| MergeError::Read {
+        path: path.to_path_buf(),
+        source: e,
+    };
     let need = shape.iter().product::<usize>().saturating_mul(elem);
-    let len = std::fs::metadata(path)
-        .with_context(|| format!("reading {}", path.display()))?
-        .len();
-    ensure!(
-        len <= need as u64 + 65_536,
-        "{}: {len} bytes, more than a {:?} array needs",
-        path.display(),
-        shape
-    );
+    let len = std::fs::metadata(path).map_err(|e| read(e.into()))?.len();
+    ensure_valid(len <= need as u64 + 65_536, path, || {
+        format!("{len} bytes, more than a {shape:?} array needs")
+    })?;
     let f = gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-        .with_context(|| format!("reading {}", path.display()))?;
-    let a = A::read_npy(std::io::BufReader::new(f))
-        .with_context(|| format!("reading {}", path.display()))?;
-    ensure!(
-        a.dims() == shape,
-        "{}: shape {:?}, expected {:?}",
-        path.display(),
-        a.dims(),
-        shape
-    );
+        .map_err(|e| read(e.into()))?;
+    let a = A::read_npy(std::io::BufReader::new(f)).map_err(|e| read(e.into()))?;
+    ensure_valid(a.dims() == shape, path, || {
+        format!("shape {:?}, expected {:?}", a.dims(), shape)
+    })?;
     Ok(a)
 }
 
@@ -267,28 +351,32 @@ pub const TILE_FILES: [&str; 4] = [TILE_FILE, "radiance.npy", "stderr.npy", "spp
 /// `gloam render --tile` set) or its `task.json` (a sweep task): a whole
 /// tile that lists every file in [`TILE_FILES`] with the SHA-256 the file
 /// has now. Returns the render's inputs (path → SHA-256) from the record.
-pub fn verify_tile_manifest(dir: &Path) -> anyhow::Result<BTreeMap<String, String>> {
+pub fn verify_tile_manifest(dir: &Path) -> Result<BTreeMap<String, String>, MergeError> {
     let mp = dir.join("manifest.json");
     let tp = dir.join(crate::run::RECORD_FILE);
     let task = !mp.exists() && tp.is_file();
     let rp = if task { &tp } else { &mp };
     let text = gloam_spectra::input::read_text(rp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .with_context(|| {
-            format!(
-                "reading {} (a tile is a published `gloam render --tile` set or a sweep task; without its manifest its files cannot be checked)",
-                rp.display()
-            )
+        .map_err(|source| MergeError::NoManifest {
+            path: rp.clone(),
+            source,
         })?;
-    let m: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a gloam manifest", rp.display()))?;
+    let not_a = |what| {
+        move |source| MergeError::NotA {
+            path: rp.clone(),
+            what,
+            source,
+        }
+    };
+    let m: serde_json::Value = serde_json::from_str(&text).map_err(not_a("gloam manifest"))?;
     let (whole, hashes, inputs): (bool, BTreeMap<String, String>, BTreeMap<String, String>) =
         if task {
-            let r: crate::run::TaskRecord = serde_json::from_value(m)
-                .with_context(|| format!("{}: not a sweep task record", rp.display()))?;
+            let r: crate::run::TaskRecord =
+                serde_json::from_value(m).map_err(not_a("sweep task record"))?;
             (r.status == crate::run::Status::Done, r.outputs, r.inputs)
         } else {
-            let files = m.get("files").and_then(|f| f.as_array()).with_context(|| {
-                format!("{}: no \"files\" list; not a gloam manifest", rp.display())
+            let files = m.get("files").and_then(|f| f.as_array()).ok_or_else(|| {
+                MergeError::invalid(rp, "no \"files\" list; not a gloam manifest".into())
             })?;
             let pairs = |list: Option<&Vec<serde_json::Value>>| -> BTreeMap<String, String> {
                 list.into_iter()
@@ -307,27 +395,27 @@ pub fn verify_tile_manifest(dir: &Path) -> anyhow::Result<BTreeMap<String, Strin
                 pairs(m.pointer("/provenance/inputs").and_then(|i| i.as_array())),
             )
         };
-    ensure!(
-        whole,
-        "{}: the render stopped early or failed; it is not a whole tile",
-        rp.display()
-    );
+    ensure_valid(whole, rp, || {
+        "the render stopped early or failed; it is not a whole tile".into()
+    })?;
     for name in TILE_FILES {
         let p = dir.join(name);
         let Some(want) = hashes.get(name) else {
-            bail!(
-                "{}: not listed in {} with a SHA-256; the tile set was altered",
-                p.display(),
-                rp.display()
-            );
+            return Err(MergeError::invalid(
+                &p,
+                format!(
+                    "not listed in {} with a SHA-256; the tile set was altered",
+                    rp.display()
+                ),
+            ));
         };
         let have = crate::run::sha256_file(&p)?;
-        ensure!(
-            &have == want,
-            "{}: changed since the render wrote it (its SHA-256 is {have}, {} records {want}); refusing to merge it",
-            p.display(),
-            rp.display()
-        );
+        ensure_valid(&have == want, &p, || {
+            format!(
+                "changed since the render wrote it (its SHA-256 is {have}, {} records {want}); refusing to merge it",
+                rp.display()
+            )
+        })?;
     }
     Ok(inputs)
 }
@@ -407,8 +495,10 @@ fn input_differences(a: &BTreeMap<String, String>, b: &BTreeMap<String, String>)
 /// manifest says, and all tiles must come from one render (the same scene
 /// and inputs, size, bands, settings and tile count); a refusal names the
 /// file, or what differs.
-pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
-    ensure!(!dirs.is_empty(), "no tile directories given");
+pub fn merge(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
+    if dirs.is_empty() {
+        return Err(MergeError::NoTiles);
+    }
     let mut tiles: Vec<(TileInfo, PathBuf)> = Vec::with_capacity(dirs.len());
     let mut inputs = Vec::with_capacity(dirs.len());
     for d in dirs {
@@ -419,25 +509,22 @@ pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
     for ((t, d), ins) in tiles.iter().zip(&inputs) {
         let mut diff = differences(t, &first);
         diff.extend(input_differences(ins, &inputs[0]));
-        ensure!(
-            diff.is_empty(),
-            "{} is a tile of another render than {}: {} differ{}",
-            d.display(),
-            tiles[0].1.display(),
-            diff.join("; "),
-            if diff.len() == 1 { "s" } else { "" }
-        );
+        if !diff.is_empty() {
+            return Err(MergeError::AnotherRender {
+                dir: d.clone(),
+                first: tiles[0].1.clone(),
+                differences: diff,
+            });
+        }
     }
     tiles.sort_by_key(|(t, _)| t.tile);
     for w in tiles.windows(2) {
         if w[0].0.tile == w[1].0.tile {
-            bail!(
-                "tile {}/{} given twice: {} and {}",
-                w[0].0.tile,
-                first.of,
-                w[0].1.display(),
-                w[1].1.display()
-            );
+            return Err(MergeError::Twice {
+                tile: format!("{}/{}", w[0].0.tile, first.of),
+                a: w[0].1.clone(),
+                b: w[1].1.clone(),
+            });
         }
     }
     if tiles.len() != first.of as usize {
@@ -446,7 +533,7 @@ pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
             .filter(|k| !have.contains(k))
             .map(|k| format!("{k}/{}", first.of))
             .collect();
-        bail!("missing tiles: {}", missing.join(", "));
+        return Err(MergeError::Missing(missing));
     }
     let nb = first.band_names.len();
     let (w, h) = (first.width as usize, first.height as usize);
@@ -479,7 +566,11 @@ pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
     let std_error = cat3(&parts_e)?;
     let views: Vec<_> = parts_s.iter().map(|a| a.view()).collect();
     let spp = ndarray::concatenate(Axis(0), &views)?;
-    ensure!(radiance.dim() == (nb, h, w), "merged shape mismatch");
+    if radiance.dim() != (nb, h, w) {
+        return Err(MergeError::Stack(ndarray::ShapeError::from_kind(
+            ndarray::ErrorKind::IncompatibleShape,
+        )));
+    }
     let mut info = first;
     info.tile = 1;
     info.of = 1;

@@ -231,6 +231,8 @@ impl FrameStream for MockCamera {
             pixels_crc32c: 0,
             status: FrameStatus::Ok,
             levels: None,
+            exposure_us: None,
+            gate_duty: None,
         };
         self.seq += 1;
         if self.agc_on

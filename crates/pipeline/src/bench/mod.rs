@@ -67,12 +67,43 @@ pub fn find_path(p: &Path) -> PathBuf {
     p.to_path_buf()
 }
 
+/// Why a benchmark could not run, or failed its own check, naming the
+/// directory, setting or check at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error("listing {}", path.display())]
+    List {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Scene(#[from] gloam_scene::SceneError),
+    #[error(transparent)]
+    Trace(#[from] gloam_trace::TraceError),
+    #[error(transparent)]
+    Setting(#[from] gloam_trace::SettingsError),
+    #[error("gloam-trace has no setting to force every effect on ({0})")]
+    NoForcingSetting(#[source] gloam_trace::SettingsError),
+    #[error(transparent)]
+    Sensor(#[from] gloam_sensor::ConfigError),
+    #[error("starting the benchmark's thread pool")]
+    ThreadPool(#[from] rayon::ThreadPoolBuildError),
+    #[error("encoding a chunk: {0}")]
+    Encode(String),
+    /// A check the benchmark makes of its own results failed.
+    #[error("{0}")]
+    Check(&'static str),
+}
+
 /// Every `sims/*/scene.toml`, sorted.
-pub fn default_scenes() -> anyhow::Result<Vec<PathBuf>> {
-    use anyhow::Context;
+pub fn default_scenes() -> Result<Vec<PathBuf>, BenchError> {
     let dir = find_path(Path::new("sims"));
     let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .with_context(|| format!("listing {}", dir.display()))?
+        .map_err(|source| BenchError::List {
+            path: dir.clone(),
+            source,
+        })?
         .filter_map(|e| e.ok().map(|e| e.path().join("scene.toml")))
         .filter(|p| p.exists())
         .collect();

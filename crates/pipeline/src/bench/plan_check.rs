@@ -10,6 +10,7 @@ use gloam_scene::plan::names;
 use gloam_trace::{RenderSettings, Tracer};
 use ndarray::{Array3, Axis};
 
+use super::BenchError;
 use super::metrics::rel_rms_diff;
 use super::truth::receiver_mask;
 
@@ -29,7 +30,7 @@ pub struct PlanCheck {
 /// Renders each scene with the plan, with every effect forced on, with
 /// another seed (the plan's own noise) and with the interreflection
 /// decision flipped.
-pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Result<PlanCheck> {
+pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanCheck, BenchError> {
     let mut out = Vec::new();
     let (mut t_plan, mut t_all) = (0.0, 0.0);
     for path in scenes {
@@ -40,10 +41,10 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> anyhow::Resu
             ..Default::default()
         };
         let mut forced = base.clone();
-        forced.set("all_effects", "true").map_err(|e| {
-            anyhow::anyhow!("gloam-trace has no setting to force every effect on ({e})")
-        })?;
-        let render = |s: &RenderSettings| -> anyhow::Result<(Array3<f64>, f64)> {
+        forced
+            .set("all_effects", "true")
+            .map_err(BenchError::NoForcingSetting)?;
+        let render = |s: &RenderSettings| -> Result<(Array3<f64>, f64), BenchError> {
             let t0 = Instant::now();
             let o = Tracer::new(&scene, s)?.render(&|_, _| {})?;
             Ok((o.radiance, t0.elapsed().as_secs_f64()))
@@ -352,21 +353,21 @@ impl PlanCheck {
     }
 
     /// An error when a check failed (the tables say which).
-    pub fn verdict(&self) -> anyhow::Result<()> {
-        let all_agree = self.all_agree;
-        let ir_consistent = self.interreflection_consistent;
-        anyhow::ensure!(
-            all_agree,
-            "rendering with every effect forced on changed an image beyond its noise"
-        );
-        anyhow::ensure!(
-            ir_consistent,
-            "an interreflection decision disagrees with its measured share (see the table)"
-        );
-        anyhow::ensure!(
-            self.effects_consistent,
-            "an effect's decision disagrees with the change measured when it is dropped or forced on (see the table)"
-        );
+    pub fn verdict(&self) -> Result<(), BenchError> {
+        let fail = |why| Err(BenchError::Check(why));
+        if !self.all_agree {
+            return fail("rendering with every effect forced on changed an image beyond its noise");
+        }
+        if !self.interreflection_consistent {
+            return fail(
+                "an interreflection decision disagrees with its measured share (see the table)",
+            );
+        }
+        if !self.effects_consistent {
+            return fail(
+                "an effect's decision disagrees with the change measured when it is dropped or forced on (see the table)",
+            );
+        }
         Ok(())
     }
 }

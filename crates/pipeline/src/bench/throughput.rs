@@ -5,6 +5,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use gloam_trace::{RenderSettings, Tracer};
+
+use super::BenchError;
 use serde::Serialize;
 
 // throughput
@@ -43,7 +45,11 @@ pub struct Throughput {
 
 /// Measures the ray, sensor-chain and codec figures (`quick`: fewer frames
 /// and shorter timings, for tests).
-pub fn run(scene_path: &Path, quick: bool, threads: Option<usize>) -> anyhow::Result<Throughput> {
+pub fn run(
+    scene_path: &Path,
+    quick: bool,
+    threads: Option<usize>,
+) -> Result<Throughput, BenchError> {
     let scene = gloam_scene::load(scene_path)?;
     let settings = RenderSettings {
         spp: if quick { 1 } else { 4 },
@@ -136,7 +142,7 @@ impl Throughput {
 /// u16 containers (many zero high bytes: short COBS blocks, the realistic
 /// worst case), as `firmware-protocol/benches/codec.rs`. GB = 1e9 bytes of
 /// pixel data.
-fn codec_throughput(seconds_each: f64) -> anyhow::Result<CodecFigures> {
+fn codec_throughput(seconds_each: f64) -> Result<CodecFigures, BenchError> {
     use firmware_protocol::{
         CobsAccumulator, Feed, FrameChunk, MAX_CHUNK_DATA_LEN, MAX_COBS_FRAME_LEN, MAX_MESSAGE_LEN,
         Message, Packet, decode_message,
@@ -162,7 +168,7 @@ fn codec_throughput(seconds_each: f64) -> anyhow::Result<CodecFigures> {
     let mut wire = vec![0u8; MAX_COBS_FRAME_LEN];
     let n = packet
         .encode_cobs(&mut wire)
-        .map_err(|e| anyhow::anyhow!("encoding a chunk: {e:?}"))?;
+        .map_err(|e| BenchError::Encode(format!("{e:?}")))?;
     let time = |f: &mut dyn FnMut() -> usize| -> f64 {
         let t0 = Instant::now();
         let mut bytes = 0usize;
@@ -200,7 +206,11 @@ fn codec_throughput(seconds_each: f64) -> anyhow::Result<CodecFigures> {
             }
         }
     });
-    anyhow::ensure!(ok, "the codec benchmark failed to decode its own chunk");
+    if !ok {
+        return Err(BenchError::Check(
+            "the codec benchmark failed to decode its own chunk",
+        ));
+    }
     Ok(CodecFigures {
         payload: "mono12 low-light pixels in u16",
         chunk_bytes: data.len(),

@@ -146,7 +146,7 @@ impl ThroughputArgs {
 
 impl PlanBenchArgs {
     /// The scenes given, or every `sims/*/scene.toml`.
-    pub fn scenes(&self) -> anyhow::Result<Vec<PathBuf>> {
+    pub fn scenes(&self) -> Result<Vec<PathBuf>, crate::bench::BenchError> {
         if self.scenes.is_empty() {
             crate::bench::default_scenes()
         } else {
