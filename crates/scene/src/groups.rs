@@ -63,13 +63,16 @@ impl LightGroups {
     }
 }
 
+/// A light group name that cannot be a file name or a JSON key.
+#[derive(Debug, thiserror::Error)]
+#[error("light group name '{0}': use 1 to 100 of A-Z a-z 0-9 - _ . (not starting with '.')")]
+struct BadGroupName(String);
+
 /// A group name becomes a file name and a JSON key: plain characters only.
-fn check_name(name: &str) -> Result<(), String> {
+fn check_name(name: &str) -> Result<(), BadGroupName> {
     let plain = |c: char| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.');
     if name.is_empty() || name.len() > 100 || !name.chars().all(plain) || name.starts_with('.') {
-        return Err(format!(
-            "light group name '{name}': use 1 to 100 of A-Z a-z 0-9 - _ . (not starting with '.')"
-        ));
+        return Err(BadGroupName(name.to_string()));
     }
     Ok(())
 }
@@ -86,7 +89,7 @@ pub(crate) fn light_groups(
         match g {
             Some(n) => check_name(n)
                 .map(|_| Some(n.clone()))
-                .map_err(|m| err(&field, m)),
+                .map_err(|m| err(&field, m.to_string())),
             None => Ok(None),
         }
     };
@@ -118,7 +121,7 @@ pub(crate) fn light_groups(
             .cloned()
             .flatten();
         let name = own.or(mat).unwrap_or_else(|| o.name.clone());
-        check_name(&name).map_err(|m| err(&field, m))?;
+        check_name(&name).map_err(|m| err(&field, m.to_string()))?;
         let i = out.index(&name, format!("objects.{}", o.name));
         out.object.push(Some(i));
     }
@@ -126,7 +129,7 @@ pub(crate) fn light_groups(
         let field = root.key("point_sources").key(&t.name);
         let own = raw.point_sources.get(&t.name).and_then(|r| r.group.clone());
         let name = named(field.key("group"), &own)?.unwrap_or_else(|| t.name.clone());
-        check_name(&name).map_err(|m| err(&field, m))?;
+        check_name(&name).map_err(|m| err(&field, m.to_string()))?;
         let i = out.index(&name, format!("point_sources.{}", t.name));
         out.point_table.push(i);
     }

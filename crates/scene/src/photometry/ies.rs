@@ -122,7 +122,8 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
     check_angles(&vertical, 0.0, 180.0).map_err(|(i, m)| err(vl[i], "vertical angles", m))?;
     let (horizontal, hl) = read_list(&mut tok, nh, "horizontal angles")?;
     check_angles(&horizontal, 0.0, 360.0).map_err(|(i, m)| err(hl[i], "horizontal angles", m))?;
-    let symmetry = symmetry_of(&horizontal).map_err(|m| err(hl[0], "horizontal angles", m))?;
+    let symmetry =
+        symmetry_of(&horizontal).map_err(|m| err(hl[0], "horizontal angles", m.to_string()))?;
     let (mut candela, cl) = read_list(&mut tok, values, "candela values")?;
     let k = multiplier * ballast * ballast_lamp;
     candela.iter_mut().for_each(|c| *c *= k);
@@ -189,8 +190,18 @@ fn tilt_table(tok: &mut Tokens) -> Result<TiltTable, PhotometryError> {
     })
 }
 
+/// Type C horizontal angles that name none of LM-63's symmetries.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{first}° to {last}°: type C horizontal angles must be 0 alone (rotational symmetry), or run 0–90, 0–180, 90–270 or 0–360"
+)]
+struct UnknownSymmetry {
+    first: f64,
+    last: f64,
+}
+
 /// The symmetry LM-63-2002 assigns to a type C horizontal angle list.
-fn symmetry_of(h: &[f64]) -> Result<Symmetry, String> {
+fn symmetry_of(h: &[f64]) -> Result<Symmetry, UnknownSymmetry> {
     let (first, last) = (h[0], h[h.len() - 1]);
     match (h.len(), first, last) {
         (1, 0.0, _) => Ok(Symmetry::Rotational),
@@ -198,9 +209,6 @@ fn symmetry_of(h: &[f64]) -> Result<Symmetry, String> {
         (_, 0.0, 180.0) => Ok(Symmetry::BilateralC0),
         (_, 90.0, 270.0) => Ok(Symmetry::BilateralC90),
         (_, 0.0, 360.0) => Ok(Symmetry::Full),
-        _ => Err(format!(
-            "{}° to {}°: type C horizontal angles must be 0 alone (rotational symmetry), or run 0–90, 0–180, 90–270 or 0–360",
-            first, last
-        )),
+        _ => Err(UnknownSymmetry { first, last }),
     }
 }

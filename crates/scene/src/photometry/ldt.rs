@@ -51,16 +51,16 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
     let f = Lines { lines, path };
     let isym_v = f.number(3, "Isym (symmetry indicator)")?;
     let mc = check_count(f.number(4, "Mc (number of C-planes)")?, MAX_ANGLES)
-        .map_err(|m| f.err(4, "Mc (number of C-planes)", m))?;
+        .map_err(|m| f.err(4, "Mc (number of C-planes)", m.to_string()))?;
     let ng = check_count(
         f.number(6, "Ng (number of intensities per C-plane)")?,
         MAX_ANGLES,
     )
-    .map_err(|m| f.err(6, "Ng (number of intensities per C-plane)", m))?;
+    .map_err(|m| f.err(6, "Ng (number of intensities per C-plane)", m.to_string()))?;
     let lorl = f.number(23, "LORL (light output ratio)")?;
     let conv = f.number(24, "conversion factor for luminous intensities")?;
     let n = check_count(f.number(26, "n (number of lamp sets)")?, MAX_LAMP_SETS)
-        .map_err(|m| f.err(26, "n (number of lamp sets)", m))?;
+        .map_err(|m| f.err(26, "n (number of lamp sets)", m.to_string()))?;
     if !(0.0..=100.0).contains(&lorl) {
         return Err(f.err(
             23,

@@ -376,7 +376,7 @@ impl<'a> Tokens<'a> {
     pub(crate) fn count(&mut self, field: &str, max: usize) -> Result<usize, PhotometryError> {
         let line = self.line;
         let v = self.number(field)?;
-        check_count(v, max).map_err(|m| self.err(line.max(self.line), field, m))
+        check_count(v, max).map_err(|m| self.err(line.max(self.line), field, m.to_string()))
     }
 
     /// How many more tokens the text holds (a bound for claimed counts).
@@ -386,12 +386,21 @@ impl<'a> Tokens<'a> {
     }
 }
 
-pub(crate) fn check_count(v: f64, max: usize) -> Result<usize, String> {
+/// A count in a photometric file that cannot size a table.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum BadCount {
+    #[error("{0} must be a whole number ≥ 1")]
+    NotWhole(f64),
+    #[error("{0} is more than the limit of {1}")]
+    OverLimit(f64, usize),
+}
+
+pub(crate) fn check_count(v: f64, max: usize) -> Result<usize, BadCount> {
     if v.fract() != 0.0 || v < 1.0 {
-        return Err(format!("{v} must be a whole number ≥ 1"));
+        return Err(BadCount::NotWhole(v));
     }
     if v > max as f64 {
-        return Err(format!("{v} is more than the limit of {max}"));
+        return Err(BadCount::OverLimit(v, max));
     }
     Ok(v as usize)
 }
