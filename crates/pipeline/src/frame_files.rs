@@ -477,17 +477,24 @@ impl ContactSheet {
     }
 }
 
-/// A frame scaled from `black_dn` (0) to `clip_dn` (255) and box-averaged
-/// down to at most [`SHEET_TILE_PX`] on its longest side.
-fn tile(index: u64, width: u32, height: u32, pixels: &[u16], black_dn: f64, clip_dn: f64) -> Tile {
-    let f = width.max(height).div_ceil(SHEET_TILE_PX).max(1);
+/// 8-bit grey of a frame for people to look at: counts scaled from
+/// `black_dn` (0) to `clip_dn` (255) — or over the 16-bit range when the
+/// levels are unknown — box-averaged over `f × f` pixels. Returns the
+/// reduced width, height and pixels.
+pub(crate) fn scaled_grey(
+    width: u32,
+    height: u32,
+    pixels: &[u16],
+    black_dn: f64,
+    clip_dn: f64,
+    f: u32,
+) -> (u32, u32, Vec<u8>) {
+    let f = f.max(1);
     let (tw, th) = (width.div_ceil(f), height.div_ceil(f));
-    let span = if clip_dn > black_dn {
-        clip_dn - black_dn
-    } else {
-        f64::from(u16::MAX)
+    let (black, span) = match clip_dn > black_dn {
+        true => (black_dn, clip_dn - black_dn),
+        false => (0.0, f64::from(u16::MAX)),
     };
-    let black = if clip_dn > black_dn { black_dn } else { 0.0 };
     let mut grey = Vec::with_capacity(tw as usize * th as usize);
     for ty in 0..th {
         for tx in 0..tw {
@@ -502,6 +509,14 @@ fn tile(index: u64, width: u32, height: u32, pixels: &[u16], black_dn: f64, clip
             grey.push((255.0 * ((v - black) / span).clamp(0.0, 1.0)).round() as u8);
         }
     }
+    (tw, th, grey)
+}
+
+/// A frame scaled from `black_dn` (0) to `clip_dn` (255) and box-averaged
+/// down to at most [`SHEET_TILE_PX`] on its longest side.
+fn tile(index: u64, width: u32, height: u32, pixels: &[u16], black_dn: f64, clip_dn: f64) -> Tile {
+    let f = width.max(height).div_ceil(SHEET_TILE_PX).max(1);
+    let (tw, th, grey) = scaled_grey(width, height, pixels, black_dn, clip_dn, f);
     Tile {
         index,
         width: tw,

@@ -97,15 +97,8 @@ pub fn mix(layers: &[Array2<f64>], weights: &[f64], out: &mut Array2<f64>) {
     if out.dim() != first.dim() {
         *out = Array2::zeros(first.dim());
     }
-    out.fill(0.0);
-    for (layer, &w) in layers.iter().zip(weights) {
-        if w == 0.0 {
-            continue;
-        }
-        ndarray::Zip::from(&mut *out)
-            .and(layer)
-            .for_each(|o, &l| *o += w * l);
-    }
+    // The device's mix (`gloam device --sequence`) is the same sum.
+    gloam_simcam::mix_layers(layers, weights, out);
 }
 
 /// One frame's place in the sequence (added to its `frames.jsonl` line).
@@ -340,24 +333,8 @@ impl Animation {
         if *self.size.get_or_insert((w, h)) != (w, h) {
             return;
         }
-        let (black, span) = match clip_dn > black_dn {
-            true => (black_dn, clip_dn - black_dn),
-            false => (0.0, f64::from(u16::MAX)),
-        };
-        let mut grey = Vec::with_capacity(w as usize * h as usize);
-        for ty in 0..h {
-            for tx in 0..w {
-                let (mut sum, mut k) = (0.0, 0u32);
-                for y in ty * f..((ty + 1) * f).min(height) {
-                    for x in tx * f..((tx + 1) * f).min(width) {
-                        sum += f64::from(pixels[(y * width + x) as usize]);
-                        k += 1;
-                    }
-                }
-                let v = sum / f64::from(k.max(1));
-                grey.push((255.0 * ((v - black) / span).clamp(0.0, 1.0)).round() as u8);
-            }
-        }
+        let (_, _, grey) =
+            crate::frame_files::scaled_grey(width, height, pixels, black_dn, clip_dn, f);
         self.frames.push(grey);
     }
 
