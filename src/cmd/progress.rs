@@ -76,3 +76,24 @@ pub fn prep_spinner() -> Option<PrepObserver> {
         }
     }))
 }
+
+/// Renders `prepared` (all rows, or `rows`) with a tile progress bar on a
+/// terminal: `render` and `sequence` run their traces through this.
+pub fn render_with_bar(
+    prepared: gloam_pipeline::PreparedRender,
+    rows: Option<std::ops::Range<u32>>,
+) -> Result<gloam_pipeline::Rendered, gloam_pipeline::RenderError> {
+    let template = "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}";
+    let bar = bar(template, "=> ", 0);
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let rendered = prepared.render(rows, &progress, &|| false);
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    rendered
+}

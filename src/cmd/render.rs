@@ -40,18 +40,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let prep_s = t_start.elapsed().as_secs_f64();
     let full = prepared.image_size();
     let rows = tile.map(|t| t.rows(full.1)).transpose()?;
-    let template = "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}";
-    let bar = super::progress::bar(template, "=> ", 0);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
-    let rendered = prepared.render(rows, &progress, &|| false)?;
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
+    let rendered = super::progress::render_with_bar(prepared, rows)?;
 
     let t_write = Instant::now();
     rendered.write_images(&dir)?;

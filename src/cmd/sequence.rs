@@ -46,18 +46,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         ..RenderJob::new(&scene, &settings)
     };
     let prepared = job.prepare()?;
-    let template = "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}";
-    let bar = super::progress::bar(template, "=> ", 0);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
-    let rendered = prepared.render(None, &progress, &|| false)?;
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
+    let rendered = super::progress::render_with_bar(prepared, None)?;
     let layers =
         (rendered.layers.as_ref()).ok_or_else(|| anyhow::anyhow!("the render made no layers"))?;
     let detected = (layers.detected.as_ref())

@@ -53,15 +53,12 @@ pub fn is_emitter(scene: &Scene, facet: usize) -> bool {
         .is_some()
 }
 
-/// Pixels whose four corners and `k × k` interior sub-pixel primary rays
-/// all hit the same non-emitting facet (a convex facet then holds the
-/// pixel's whole footprint), and none of whose eight neighbours shows an
-/// emitter at any of its test points (an emitter's corner can poke into a
-/// pixel between the test points; it then shows in a neighbour).
-pub fn receiver_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
+/// What a pixel's four corners and `k × k` interior sub-pixel primary rays
+/// hit, per pixel in row order: (all on one non-emitting facet, some
+/// non-emitting surface, any emitter).
+fn probe_pixels(scene: &Scene, tracer: &Tracer, k: usize) -> Vec<(bool, bool, bool)> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    // (all on one non-emitting facet, any emitter seen)
-    let v: Vec<(bool, bool)> = (0..w * h)
+    (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (col, row) = (i % w, i / w);
@@ -73,66 +70,59 @@ pub fn receiver_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
                 )
             });
             let mut facet = None;
-            let mut same = true;
-            let mut emitter = false;
+            let (mut same, mut surface, mut emitter) = (true, false, false);
             for (dx, dy) in corners.into_iter().chain(inner) {
                 match primary_hit(scene, tracer, col as f64 + dx, row as f64 + dy) {
                     Some((f, _, _)) if is_emitter(scene, f as usize) => {
                         emitter = true;
                         same = false;
                     }
-                    Some((f, _, _)) => same &= *facet.get_or_insert(f) == f,
+                    Some((f, _, _)) => {
+                        surface = true;
+                        same &= *facet.get_or_insert(f) == f;
+                    }
                     None => same = false,
                 }
             }
-            (same, emitter)
+            (same, surface, emitter)
         })
-        .collect();
+        .collect()
+}
+
+/// The pixels `keep` selects whose 3 × 3 neighbourhood (itself included)
+/// shows no emitter: an emitter's corner can poke into a pixel between the
+/// test points, and then shows in a neighbour.
+fn away_from_emitters(
+    probes: &[(bool, bool, bool)],
+    (w, h): (usize, usize),
+    keep: impl Fn(&(bool, bool, bool)) -> bool,
+) -> Array2<bool> {
     Array2::from_shape_fn((h, w), |(r, c)| {
-        v[r * w + c].0
+        keep(&probes[r * w + c])
             && (r.saturating_sub(1)..(r + 2).min(h))
-                .all(|rr| (c.saturating_sub(1)..(c + 2).min(w)).all(|cc| !v[rr * w + cc].1))
+                .all(|rr| (c.saturating_sub(1)..(c + 2).min(w)).all(|cc| !probes[rr * w + cc].2))
     })
+}
+
+/// Pixels whose four corners and `k × k` interior sub-pixel primary rays
+/// all hit the same non-emitting facet (a convex facet then holds the
+/// pixel's whole footprint), and none of whose eight neighbours shows an
+/// emitter at any of its test points.
+pub fn receiver_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
+    let size = (scene.camera.width as usize, scene.camera.height as usize);
+    away_from_emitters(&probe_pixels(scene, tracer, k), size, |p| p.0)
 }
 
 /// Pixels the error target governs, as the reference sees them: every pixel
 /// that shows no emitter at any of its four corners and `k × k` interior
-/// test points, nor in any of its eight neighbours (an emitter's corner can
-/// poke in between the test points), and that sees some surface —
-/// silhouettes and penumbrae included. [`receiver_mask`] keeps only pixels
-/// whose footprint lies on one facet, where renders are over-converged (the
-/// target spends on the edges): an error measured there says little about
-/// what `--target-error` was asked for.
+/// test points, nor in any of its eight neighbours, and that sees some
+/// surface — silhouettes and penumbrae included. [`receiver_mask`] keeps
+/// only pixels whose footprint lies on one facet, where renders are
+/// over-converged (the target spends on the edges): an error measured there
+/// says little about what `--target-error` was asked for.
 pub fn no_emitter_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool> {
-    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    // (some surface seen, any emitter seen)
-    let v: Vec<(bool, bool)> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (col, row) = (i % w, i / w);
-            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
-            let inner = (0..k * k).map(|j| {
-                (
-                    ((j % k) as f64 + 0.5) / k as f64,
-                    ((j / k) as f64 + 0.5) / k as f64,
-                )
-            });
-            let (mut surface, mut emitter) = (false, false);
-            for (dx, dy) in corners.into_iter().chain(inner) {
-                match primary_hit(scene, tracer, col as f64 + dx, row as f64 + dy) {
-                    Some((f, _, _)) if is_emitter(scene, f as usize) => emitter = true,
-                    Some(_) => surface = true,
-                    None => {}
-                }
-            }
-            (surface, emitter)
-        })
-        .collect();
-    Array2::from_shape_fn((h, w), |(r, c)| {
-        v[r * w + c].0
-            && (r.saturating_sub(1)..(r + 2).min(h))
-                .all(|rr| (c.saturating_sub(1)..(c + 2).min(w)).all(|cc| !v[rr * w + cc].1))
-    })
+    let size = (scene.camera.width as usize, scene.camera.height as usize);
+    away_from_emitters(&probe_pixels(scene, tracer, k), size, |p| p.1)
 }
 
 /// Why the scene has no closed form (None: it has one).
