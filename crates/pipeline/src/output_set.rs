@@ -117,7 +117,7 @@ fn io_err(doing: impl FnOnce() -> String) -> impl FnOnce(std::io::Error) -> Outp
 
 /// An error and its sources as `error: cause: cause`, as the command line
 /// prints them.
-fn chain(e: &dyn std::error::Error) -> String {
+pub(crate) fn chain(e: &dyn std::error::Error) -> String {
     let mut s = e.to_string();
     let mut next = e.source();
     while let Some(c) = next {

@@ -7,13 +7,13 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Context;
 use gloam_scene::Scene;
 use gloam_trace::{Estimator, RenderSettings, Tracer};
 use ndarray::Axis;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::BenchError;
 use super::metrics::{error_coverage, errors};
 use super::truth::{
     REFERENCE_PIXELS, ReferenceKind, Truth, closed_form_obstacle, closed_form_truth,
@@ -296,16 +296,15 @@ pub struct AccuracyReport {
 }
 
 /// Runs the sweep and writes its files (see the module docs).
-pub fn run(args: &AccuracyOptions) -> anyhow::Result<AccuracyReport> {
+pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     let t_start = Instant::now();
-    anyhow::ensure!(
+    ensure_valid!(
         args.budget_s.is_finite() && args.budget_s > 0.0,
         "--budget-s must be a positive number of seconds"
     );
     let scene_path = args.scene.clone();
     let scene = gloam_scene::load(&scene_path)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out).map_err(BenchError::io("creating", &args.out))?;
     let budget = args.budget_s;
     let elapsed = || t_start.elapsed().as_secs_f64();
     let base_tracer = Tracer::new(&scene, &with(Estimator::Analytic, args.threads, |_| {}))?;
@@ -365,7 +364,7 @@ pub fn run(args: &AccuracyOptions) -> anyhow::Result<AccuracyReport> {
     }
     let truth_seconds: f64 = truths.iter().map(|t| t.seconds).sum();
     let mask_px = truths[0].mask.iter().filter(|&&m| m).count();
-    anyhow::ensure!(
+    ensure_valid!(
         mask_px > 0,
         "no pixel of {} sees a non-emitting surface: nothing to measure",
         scene_path.display()
@@ -375,7 +374,7 @@ pub fn run(args: &AccuracyOptions) -> anyhow::Result<AccuracyReport> {
     // Time per spp unit, per estimator (predicts the next run's cost).
     let mut cost: BTreeMap<String, f64> = BTreeMap::new();
     // Runs only when `limit` (s since the start) is not predicted to pass.
-    let mut exec = |plan: &Plan, rows: &mut Vec<Row>, limit: f64| -> anyhow::Result<bool> {
+    let mut exec = |plan: &Plan, rows: &mut Vec<Row>, limit: f64| -> Result<bool, BenchError> {
         let key = plan.estimator.to_string();
         let predicted = cost.get(&key).map_or(0.0, |c| c * plan.settings.spp as f64);
         if elapsed() + predicted > limit {
@@ -617,7 +616,7 @@ fn sensor_noise_rows(
     scene: &Scene,
     threads: Option<usize>,
     truth: &Truth,
-) -> anyhow::Result<Vec<Row>> {
+) -> Result<Vec<Row>, BenchError> {
     let out =
         Tracer::new(scene, &with(Estimator::Analytic, threads, |_| {}))?.render(&|_, _| {})?;
     let img = out.radiance.index_axis(Axis(0), 0);
@@ -706,7 +705,7 @@ fn effect_plan_saving(
     scene: &Scene,
     threads: Option<usize>,
     truth: &Truth,
-) -> anyhow::Result<serde_json::Value> {
+) -> Result<serde_json::Value, BenchError> {
     let plan = with(Estimator::Analytic, threads, |_| {});
     let mut forced = plan.clone();
     if let Err(e) = forced.set("all_effects", "true") {
@@ -892,7 +891,7 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
 
 /// Error against time, log–log, one curve per estimator's spp ladder, the
 /// other settings as points, the Pareto front marked.
-fn plot(path: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
+fn plot(path: &Path, scene: &Path, rows: &[Row]) -> Result<(), BenchError> {
     use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
     // An exact result (error 0) is drawn at 1e-9 rather than dropped.
     let lg = |r: &Row| (r.time_s.max(1e-6), r.rel_rms_error.max(1e-9));
@@ -939,6 +938,8 @@ fn plot(path: &Path, scene: &Path, rows: &[Row]) -> anyhow::Result<()> {
         ("relative RMS error", Scale::Log10),
         &series,
     )
-    .map_err(|e| anyhow::anyhow!("{e}"))
-    .with_context(|| format!("writing {}", path.display()))
+    .map_err(|e| BenchError::Plot {
+        path: path.to_path_buf(),
+        why: e.to_string(),
+    })
 }

@@ -39,6 +39,17 @@
 //! The command line (`src/cmd/bench.rs`) parses arguments and prints; the
 //! measuring happens here.
 
+/// `ensure_valid!(cond, "fmt", …)`: returns [`BenchError::Invalid`] with
+/// the message when `cond` does not hold (the benchmarks' argument and
+/// self-consistency checks).
+macro_rules! ensure_valid {
+    ($cond:expr, $($fmt:tt)+) => {
+        if !$cond {
+            return Err($crate::bench::BenchError::Invalid(format!($($fmt)+)));
+        }
+    };
+}
+
 pub mod accuracy;
 pub mod metrics;
 pub mod plan_check;
@@ -87,6 +98,8 @@ pub enum BenchError {
     NoForcingSetting(#[source] gloam_trace::SettingsError),
     #[error(transparent)]
     Sensor(#[from] gloam_sensor::ConfigError),
+    #[error(transparent)]
+    Capture(#[from] gloam_sensor::CaptureError),
     #[error("starting the benchmark's thread pool")]
     ThreadPool(#[from] rayon::ThreadPoolBuildError),
     #[error("encoding a chunk: {0}")]
@@ -94,6 +107,40 @@ pub enum BenchError {
     /// A check the benchmark makes of its own results failed.
     #[error("{0}")]
     Check(&'static str),
+    /// A file or directory the benchmark reads or writes.
+    #[error("{action} {}", path.display())]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A flag, size or scene the benchmark cannot use; the message names
+    /// the flag or the scene and the allowed range.
+    #[error("{0}")]
+    Invalid(String),
+    /// A child process (a case's `gloam`, Mitsuba 3's `python3`) failed.
+    #[error("{what}: {why}")]
+    Child { what: String, why: String },
+    /// A plot could not be drawn or written.
+    #[error("drawing {}: {why}", path.display())]
+    Plot { path: PathBuf, why: String },
+    #[error("encoding or decoding a report as JSON")]
+    Json(#[from] serde_json::Error),
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+}
+
+impl BenchError {
+    /// An I/O error's mapper naming the action and the path.
+    pub(crate) fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Self {
+        let path = path.to_path_buf();
+        move |source| BenchError::Io {
+            action,
+            path,
+            source,
+        }
+    }
 }
 
 /// Every `sims/*/scene.toml`, sorted.

@@ -58,8 +58,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, bail, ensure};
 use gloam_trace::prep::peak_rss_bytes;
+
+use super::BenchError;
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 use serde::{Deserialize, Serialize};
 
@@ -114,30 +115,36 @@ pub struct Case {
 
 impl Case {
     /// `triangles:N` or `lamps:N` (N may be written `1e4`).
-    pub fn parse(s: &str) -> anyhow::Result<Case> {
-        let (k, n) = s
-            .split_once(':')
-            .with_context(|| format!("--case {s:?}: expected KIND:N, e.g. triangles:1000"))?;
+    pub fn parse(s: &str) -> Result<Case, BenchError> {
+        let (k, n) = s.split_once(':').ok_or_else(|| {
+            BenchError::Invalid(format!(
+                "--case {s:?}: expected KIND:N, e.g. triangles:1000"
+            ))
+        })?;
         let kind = match k {
             "triangles" => Kind::Triangles,
             "lamps" => Kind::Lamps,
-            _ => bail!("--case {s:?}: the kind must be `triangles` or `lamps`"),
+            _ => {
+                return Err(BenchError::Invalid(format!(
+                    "--case {s:?}: the kind must be `triangles` or `lamps`"
+                )));
+            }
         };
         let case = Case {
             kind,
-            size: parse_count(n).with_context(|| format!("--case {s:?}"))?,
+            size: parse_count(n).map_err(|e| BenchError::Invalid(format!("--case {s:?}: {e}")))?,
         };
         case.check()?;
         Ok(case)
     }
 
     /// The size check: within 1 … the family's maximum.
-    pub fn check(&self) -> anyhow::Result<()> {
+    pub fn check(&self) -> Result<(), BenchError> {
         let max = match self.kind {
             Kind::Triangles => MAX_TRIANGLES,
             Kind::Lamps => MAX_LAMPS,
         };
-        ensure!(
+        ensure_valid!(
             (1..=max).contains(&self.size),
             "{} {}: must be within 1 … {max}",
             self.kind.as_str(),
@@ -152,12 +159,12 @@ impl Case {
 }
 
 /// A count such as `1000`, `1e4` or `2.5e3` (a whole number ≥ 1).
-pub fn parse_count(s: &str) -> anyhow::Result<u64> {
+pub fn parse_count(s: &str) -> Result<u64, BenchError> {
     let t = s.trim();
-    let v: f64 = t
-        .parse()
-        .map_err(|_| anyhow::anyhow!("{t:?} is not a number (write e.g. 1000 or 1e4)"))?;
-    ensure!(
+    let v: f64 = t.parse().map_err(|_| {
+        BenchError::Invalid(format!("{t:?} is not a number (write e.g. 1000 or 1e4)"))
+    })?;
+    ensure_valid!(
         (1.0..=1e12).contains(&v) && v.fract() == 0.0,
         "{t:?}: a count must be a whole number ≥ 1"
     );
@@ -165,15 +172,15 @@ pub fn parse_count(s: &str) -> anyhow::Result<u64> {
 }
 
 /// A comma-separated list of counts (`1e3,1e4`), each checked against `max`.
-pub fn parse_counts(s: &str, what: &str, max: u64) -> anyhow::Result<Vec<u64>> {
+pub fn parse_counts(s: &str, what: &str, max: u64) -> Result<Vec<u64>, BenchError> {
     let mut v = Vec::new();
     for part in s.split(',').filter(|p| !p.trim().is_empty()) {
-        let n = parse_count(part).with_context(|| format!("--{what}"))?;
-        ensure!(n <= max, "--{what}: {n} exceeds the largest size, {max}");
+        let n = parse_count(part).map_err(|e| BenchError::Invalid(format!("--{what}: {e}")))?;
+        ensure_valid!(n <= max, "--{what}: {n} exceeds the largest size, {max}");
         v.push(n);
     }
-    ensure!(!v.is_empty(), "--{what}: no sizes given");
-    ensure!(v.len() <= 32, "--{what}: at most 32 sizes");
+    ensure_valid!(!v.is_empty(), "--{what}: no sizes given");
+    ensure_valid!(v.len() <= 32, "--{what}: at most 32 sizes");
     Ok(v)
 }
 
@@ -254,9 +261,9 @@ fn panel_vertices(lamp: DVec3) -> [DVec3; 4] {
 }
 
 /// Writes the case's scene into `dir` and returns the `scene.toml` path.
-pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> anyhow::Result<PathBuf> {
+pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> Result<PathBuf, BenchError> {
     case.check()?;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
     let mut toml = String::new();
     let _ = writeln!(
         toml,
@@ -287,7 +294,8 @@ pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> anyhow::Resu
                 toml,
                 "\n[objects.spheres]   # {k} spheres of {b} bands\nmaterial = \"grey\"\nobj = \"spheres.obj\""
             );
-            write_spheres(&dir.join("spheres.obj"), k, b)?;
+            let spheres = dir.join("spheres.obj");
+            write_spheres(&spheres, k, b).map_err(BenchError::io("writing", &spheres))?;
         }
         Kind::Lamps => {
             let lamps = lamp_positions(case.size);
@@ -302,19 +310,21 @@ pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> anyhow::Resu
                  [objects.ground]\nmaterial = \"ground\"\nquad = {{ center = [0.0, 0.0, 0.0], size = [{ground}, {ground}], normal = [0.0, 0.0, 1.0] }}\n\
                  [objects.panels]\nmaterial = \"panel\"\nobj = \"panels.obj\"\n"
             );
-            let mut obj = std::io::BufWriter::new(
-                std::fs::File::create(dir.join("panels.obj")).context("creating panels.obj")?,
-            );
-            for l in &lamps {
-                for v in panel_vertices(*l) {
-                    writeln!(obj, "v {} {} {}", v.x, v.y, v.z)?;
+            let panels = dir.join("panels.obj");
+            let write_panels = || -> std::io::Result<()> {
+                let mut obj = std::io::BufWriter::new(std::fs::File::create(&panels)?);
+                for l in &lamps {
+                    for v in panel_vertices(*l) {
+                        writeln!(obj, "v {} {} {}", v.x, v.y, v.z)?;
+                    }
                 }
-            }
-            for i in 0..lamps.len() {
-                let k = 4 * i + 1;
-                writeln!(obj, "f {} {} {} {}", k, k + 1, k + 2, k + 3)?;
-            }
-            obj.flush()?;
+                for i in 0..lamps.len() {
+                    let k = 4 * i + 1;
+                    writeln!(obj, "f {} {} {} {}", k, k + 1, k + 2, k + 3)?;
+                }
+                obj.flush()
+            };
+            write_panels().map_err(BenchError::io("writing", &panels))?;
             for (i, l) in lamps.iter().enumerate() {
                 let _ = writeln!(
                     toml,
@@ -325,16 +335,14 @@ pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> anyhow::Resu
         }
     }
     let path = dir.join("scene.toml");
-    std::fs::write(&path, toml).with_context(|| format!("writing {}", path.display()))?;
+    std::fs::write(&path, toml).map_err(BenchError::io("writing", &path))?;
     Ok(path)
 }
 
 /// `k` UV spheres of `b` latitude bands and `2b` segments, as triangles,
 /// on a square grid over the room's floor.
-fn write_spheres(path: &Path, k: u64, b: u64) -> anyhow::Result<()> {
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    );
+fn write_spheres(path: &Path, k: u64, b: u64) -> std::io::Result<()> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     let side = (k as f64).sqrt().ceil() as u64;
     let spacing = 16.0 / side as f64;
     let r = 0.35 * spacing;
@@ -444,13 +452,13 @@ pub fn run_case(
     height: u32,
     spp: u32,
     threads: Option<usize>,
-) -> anyhow::Result<CaseResult> {
+) -> Result<CaseResult, BenchError> {
     case.check()?;
-    ensure!(
+    ensure_valid!(
         (1..=4096).contains(&width) && (1..=4096).contains(&height),
         "image {width}×{height}: each side must be within 1 … 4096"
     );
-    ensure!(
+    ensure_valid!(
         (2..=4096).contains(&spp),
         "spp {spp}: must be within 2 … 4096 (a pixel's standard error needs two samples)"
     );
@@ -472,7 +480,7 @@ pub fn run_case(
         point_sources: scene.point_sources.len() as u64,
         emitting_facets: scene.emitting_facets().len() as u64,
     };
-    ensure!(
+    ensure_valid!(
         got == expected,
         "size check: {} generated {got:?}, the closed form says {expected:?}",
         case.label()
@@ -497,7 +505,7 @@ pub fn run_case(
     .max();
     let out = tracer.render(&|_, _| {})?;
     let s = &out.stats;
-    ensure!(
+    ensure_valid!(
         s.triangles as u64 == expected.triangles,
         "size check: the tracer holds {} triangles, the generator made {}",
         s.triangles,
@@ -648,9 +656,12 @@ fn wait_with_timeout(
     child: &mut std::process::Child,
     t0: Instant,
     timeout: Duration,
-) -> anyhow::Result<Option<std::process::ExitStatus>> {
+) -> Result<Option<std::process::ExitStatus>, BenchError> {
     loop {
-        if let Some(st) = child.try_wait()? {
+        if let Some(st) = child.try_wait().map_err(BenchError::io(
+            "waiting for a child process of",
+            &std::env::temp_dir(),
+        ))? {
             return Ok(Some(st));
         }
         if t0.elapsed() >= timeout {
@@ -668,9 +679,9 @@ const MITSUBA_SCRIPT: &str = include_str!("scale_mitsuba.py");
 /// Renders the generated scene in `dir` with Mitsuba 3 (`scale_mitsuba.py`)
 /// within `timeout_s`; its JSON, or `{"error": …}`.
 fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
-    let go = || -> anyhow::Result<serde_json::Value> {
+    let go = || -> Result<serde_json::Value, BenchError> {
         let script = dir.join("scale_mitsuba.py");
-        std::fs::write(&script, MITSUBA_SCRIPT)?;
+        std::fs::write(&script, MITSUBA_SCRIPT).map_err(BenchError::io("writing", &script))?;
         let (out, err) = (dir.join("mitsuba.json"), dir.join("mitsuba.err"));
         let t0 = Instant::now();
         let mut child = Command::new("python3")
@@ -678,12 +689,15 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
             .arg(dir.join("scene"))
             .arg(spp.to_string())
             .stdin(Stdio::null())
-            .stdout(std::fs::File::create(&out)?)
-            .stderr(std::fs::File::create(&err)?)
+            .stdout(std::fs::File::create(&out).map_err(BenchError::io("creating", &out))?)
+            .stderr(std::fs::File::create(&err).map_err(BenchError::io("creating", &err))?)
             .spawn()
-            .context("starting python3")?;
+            .map_err(BenchError::io("starting python3 for", &script))?;
         match wait_with_timeout(&mut child, t0, Duration::from_secs_f64(timeout_s))? {
-            None => bail!("killed after {timeout_s:.0} s"),
+            None => Err(BenchError::Child {
+                what: "Mitsuba 3".into(),
+                why: format!("killed after {timeout_s:.0} s"),
+            }),
             Some(st) if !st.success() => {
                 let e = gloam_spectra::input::read_text(
                     &err,
@@ -691,23 +705,26 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
                 )
                 .unwrap_or_default();
                 let tail: Vec<&str> = e.lines().rev().take(3).collect();
-                bail!(
-                    "{st}: {}",
-                    tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
-                )
+                Err(BenchError::Child {
+                    what: "Mitsuba 3".into(),
+                    why: format!(
+                        "{st}: {}",
+                        tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
+                    ),
+                })
             }
-            Some(_) => Ok(serde_json::from_str(&gloam_spectra::input::read_text(
-                &out,
-                gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-            )?)?),
+            Some(_) => Ok(serde_json::from_str(
+                &gloam_spectra::input::read_text(&out, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                    .map_err(BenchError::io("reading", &out))?,
+            )?),
         }
     };
-    go().unwrap_or_else(|e| serde_json::json!({ "error": format!("{e:#}") }))
+    go().unwrap_or_else(|e| serde_json::json!({ "error": crate::output_set::chain(&e) }))
 }
 
 /// Runs one case in a child process with a timeout (and then in Mitsuba 3
 /// when `mitsuba`).
-fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<Row> {
+fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, BenchError> {
     let t0 = Instant::now();
     let mut row = Row {
         case: case.label(),
@@ -731,7 +748,10 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
         ));
         return Ok(row);
     }
-    let work = tempfile::tempdir().context("creating a scratch directory")?;
+    let work = tempfile::tempdir().map_err(BenchError::io(
+        "creating a scratch directory in",
+        &std::env::temp_dir(),
+    ))?;
     let stdout_path = work.path().join("stdout.json");
     let stderr_path = work.path().join("stderr.txt");
     let mut cmd = Command::new(&opts.exe);
@@ -746,14 +766,18 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
             &opts.spp.to_string(),
         ])
         .stdin(Stdio::null())
-        .stdout(std::fs::File::create(&stdout_path)?)
-        .stderr(std::fs::File::create(&stderr_path)?);
+        .stdout(
+            std::fs::File::create(&stdout_path)
+                .map_err(BenchError::io("creating", &stdout_path))?,
+        )
+        .stderr(
+            std::fs::File::create(&stderr_path)
+                .map_err(BenchError::io("creating", &stderr_path))?,
+        );
     if let Some(n) = opts.threads {
         cmd.args(["--threads", &n.to_string()]);
     }
-    let mut child = cmd
-        .spawn()
-        .with_context(|| format!("starting {}", opts.exe.display()))?;
+    let mut child = cmd.spawn().map_err(BenchError::io("starting", &opts.exe))?;
     let status = wait_with_timeout(
         &mut child,
         t0,
@@ -780,7 +804,8 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> anyhow::Result<R
             let text = gloam_spectra::input::read_text(
                 &stdout_path,
                 gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-            )?;
+            )
+            .map_err(BenchError::io("reading", &stdout_path))?;
             match serde_json::from_str::<CaseResult>(&text) {
                 Ok(r) => row.result = Some(r),
                 Err(e) => {
@@ -830,19 +855,19 @@ fn mitsuba_check(skip: bool) -> (bool, String) {
 
 /// Runs every case (triangles first, then lamps), writes `scale.json` and
 /// `scale.png` into `opts.out`, and returns the report.
-pub fn run(opts: &ScaleOptions) -> anyhow::Result<ScaleReport> {
-    ensure!(
+pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
+    ensure_valid!(
         (1..=4096).contains(&opts.width) && (1..=4096).contains(&opts.height),
         "--width/--height {}×{}: each must be within 1 … 4096",
         opts.width,
         opts.height
     );
-    ensure!(
+    ensure_valid!(
         (2..=4096).contains(&opts.spp),
         "--spp {}: must be within 2 … 4096 (a pixel's standard error needs two samples)",
         opts.spp
     );
-    ensure!(
+    ensure_valid!(
         opts.timeout_s.is_finite() && opts.timeout_s > 0.0,
         "--timeout-s {}: must be a positive number of seconds",
         opts.timeout_s
@@ -863,8 +888,7 @@ pub fn run(opts: &ScaleOptions) -> anyhow::Result<ScaleReport> {
     for c in &cases {
         c.check()?;
     }
-    std::fs::create_dir_all(&opts.out)
-        .with_context(|| format!("creating {}", opts.out.display()))?;
+    std::fs::create_dir_all(&opts.out).map_err(BenchError::io("creating", &opts.out))?;
     let (mitsuba, mitsuba_note) = mitsuba_check(opts.no_mitsuba);
     let mut rows = Vec::new();
     for c in cases {
@@ -904,7 +928,7 @@ pub fn run(opts: &ScaleOptions) -> anyhow::Result<ScaleReport> {
     Ok(report)
 }
 
-fn plot(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
+fn plot(path: &Path, rows: &[Row]) -> Result<(), BenchError> {
     use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
     let mut series = Vec::new();
     for kind in [Kind::Triangles, Kind::Lamps] {
@@ -937,8 +961,10 @@ fn plot(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
         ("seconds", Scale::Log10),
         &series,
     )
-    .map_err(|e| anyhow::anyhow!("{e}"))
-    .with_context(|| format!("writing {}", path.display()))
+    .map_err(|e| BenchError::Plot {
+        path: path.to_path_buf(),
+        why: e.to_string(),
+    })
 }
 
 impl ScaleReport {

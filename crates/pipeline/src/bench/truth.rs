@@ -6,13 +6,13 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Context;
 use gloam_scene::Scene;
 use gloam_trace::closed_form::shaped_polygon_irradiance_factor;
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 use ndarray::{Array2, Array3, Axis};
 use rayon::prelude::*;
 
+use super::BenchError;
 use crate::output::{write_atomic, write_atomic_with};
 
 /// What each run is compared against.
@@ -338,12 +338,12 @@ pub fn reference_truth(
     threads: Option<usize>,
     spp: u32,
     kind: ReferenceKind,
-) -> anyhow::Result<Truth> {
+) -> Result<Truth, BenchError> {
     use ndarray_npy::{ReadNpyExt, WriteNpyExt};
     let t0 = Instant::now();
     let text =
         gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .with_context(|| format!("reading {}", scene_path.display()))?;
+            .map_err(BenchError::io("reading", scene_path))?;
     let settings_for = |threads, spp| match kind {
         ReferenceKind::WholeLight => reference_settings(threads, spp),
         ReferenceKind::DirectOnly => direct_reference_settings(threads, spp),
@@ -413,7 +413,7 @@ pub fn reference_truth(
         .collect();
     let stride = pixels.len().div_ceil(REFERENCE_PIXELS).max(1);
     let subset: Vec<(usize, usize)> = pixels.into_iter().step_by(stride).collect();
-    let half = |seed: u64| -> anyhow::Result<Vec<Vec<f64>>> {
+    let half = |seed: u64| -> Result<Vec<Vec<f64>>, BenchError> {
         let s = RenderSettings {
             seed,
             spp: spp.div_ceil(2),
@@ -436,7 +436,7 @@ pub fn reference_truth(
             stack[[1, bi, r, c]] = (a[k][bi] - b[k][bi]).powi(2) / 4.0;
         }
     }
-    std::fs::create_dir_all(dir)?;
+    std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
     write_atomic_with(&npy, |f| {
         let mut w = std::io::BufWriter::new(f);
         stack.write_npy(&mut w)?;

@@ -3,10 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::{Args, Subcommand};
 
-use crate::bench::{accuracy, find_path, scale};
+use crate::bench::{BenchError, accuracy, find_path, scale};
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
@@ -157,20 +156,26 @@ impl PlanBenchArgs {
 
 impl ScaleArgs {
     /// `--case`'s child run: the case and its scratch directory.
-    pub fn case(&self) -> anyhow::Result<Option<(scale::Case, &Path)>> {
+    pub fn case(&self) -> Result<Option<(scale::Case, &Path)>, BenchError> {
         let Some(case) = &self.case else {
             return Ok(None);
         };
-        let dir = (self.case_dir.as_deref())
-            .context("--case needs --case-dir (the scratch directory for the scene)")?;
+        let dir = (self.case_dir.as_deref()).ok_or_else(|| {
+            BenchError::Invalid(
+                "--case needs --case-dir (the scratch directory for the scene)".into(),
+            )
+        })?;
         Ok(Some((scale::Case::parse(case)?, dir)))
     }
 
     /// The whole bench's options, each case run by `exe`.
-    pub fn options(&self, exe: PathBuf) -> anyhow::Result<scale::ScaleOptions> {
-        let out = (self.out.clone()).context(
-            "gloam bench scale: --out DIR is required (where scale.json and scale.png go)",
-        )?;
+    pub fn options(&self, exe: PathBuf) -> Result<scale::ScaleOptions, BenchError> {
+        let out = (self.out.clone()).ok_or_else(|| {
+            BenchError::Invalid(
+                "gloam bench scale: --out DIR is required (where scale.json and scale.png go)"
+                    .into(),
+            )
+        })?;
         let mut opts = scale::ScaleOptions::new(self.quick, out, exe);
         if let Some(t) = &self.triangles {
             opts.triangles = scale::parse_counts(t, "triangles", scale::MAX_TRIANGLES)?;
