@@ -38,6 +38,7 @@ fn accuracy_on_the_panel_writes_csv_png_summary_and_json() {
         "--budget-s",
         "20",
         "--json",
+        "--no-mitsuba",
     ]));
     let csv = std::fs::read_to_string(dir.path().join("accuracy.csv")).unwrap();
     let mut lines = csv.lines();

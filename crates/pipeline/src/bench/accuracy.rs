@@ -213,6 +213,10 @@ pub struct Summary {
     /// error along its spp ladder and its target-error rows, and the rows.
     #[serde(skip_serializing_if = "Option::is_none")]
     direct_only: Option<serde_json::Value>,
+    /// Mitsuba 3 side by side: its ladders against the same truths, times
+    /// to 1 % and 0.1 % per-pixel error on both sides and their ratio, or
+    /// why it did not run.
+    mitsuba3: serde_json::Value,
     scene: String,
     truth: String,
     truth_seconds: f64,
@@ -260,7 +264,12 @@ fn time_to(rows: &[&Row], target: f64, metric: fn(&Row) -> f64) -> Option<f64> {
 fn pareto(rows: &[Row]) -> Vec<(f64, f64)> {
     let mut pts: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r.rel_rms_error.is_finite() && r.time_s > 0.0 && r.estimator != "sensor")
+        .filter(|r| {
+            r.rel_rms_error.is_finite()
+                && r.time_s > 0.0
+                && r.estimator != "sensor"
+                && r.estimator != MITSUBA
+        })
         .map(|r| (r.time_s, r.rel_rms_error))
         .collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
@@ -287,6 +296,9 @@ pub struct AccuracyOptions {
     /// Also render with every effect forced on (the effect plan's saving).
     pub all_effects: bool,
     pub threads: Option<usize>,
+    /// Render the scene in Mitsuba 3 too, side by side, when `python3`
+    /// can import it ([`super::accuracy_mitsuba`]).
+    pub mitsuba: bool,
 }
 
 /// The sweep's summary, and the same as the Markdown of `summary.md`.
@@ -460,6 +472,9 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
         }
     }
     let skipped = planned.saturating_sub(rows.len());
+    // 4b. Mitsuba 3 side by side, with its own time (it never shortens
+    //     gloam's rows).
+    let mitsuba3 = mitsuba_rows(args, &scene, obstacle.is_some(), &truths, &mut rows);
     // 5. The effect plan against every effect forced on.
     let effect_plan = if args.all_effects {
         Some(effect_plan_saving(&scenes[0], args.threads, &truths[0])?)
@@ -584,6 +599,7 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
             .collect(),
         time_to_1pct_pixel_adaptive_s: time_to(&adaptive, 0.01, |r| r.pixel_rms_error),
         time_to_0_1pct_pixel_adaptive_s: time_to(&adaptive, 0.001, |r| r.pixel_rms_error),
+        mitsuba3: side_by_side_summary(mitsuba3, &rows),
         direct_only,
         scene: scene_path.display().to_string(),
         truth: truths[0].note.clone(),
@@ -749,6 +765,167 @@ fn effect_plan_saving(
     }))
 }
 
+/// The estimator name of the Mitsuba 3 rows.
+const MITSUBA: &str = "mitsuba3";
+
+/// Runs the Mitsuba 3 side (when asked, importable and the scene can go
+/// over), appends its rungs to `rows` (estimator `mitsuba3`, setting `spp`
+/// for the whole light, `direct_only_spp` for direct light only), and
+/// returns its note or why it did not run.
+fn mitsuba_rows(
+    args: &AccuracyOptions,
+    scene: &Scene,
+    referenced: bool,
+    truths: &[Truth],
+    rows: &mut Vec<Row>,
+) -> serde_json::Value {
+    use super::accuracy_mitsuba as mi;
+    let skip = |why: String| serde_json::json!({ "ran": false, "why": why });
+    if !args.mitsuba {
+        return skip("--no-mitsuba".into());
+    }
+    if let Some(why) = mi::obstacle(scene) {
+        return skip(format!("the scene has {why}"));
+    }
+    if !mi::available() {
+        return skip("`python3 -c 'import mitsuba'` failed".into());
+    }
+    // With a path-traced truth, [1] is the direct-only reference; with a
+    // closed form, [1] is the line-spectrum variant's.
+    let direct = referenced.then(|| truths.get(1)).flatten();
+    let limit_s = (0.5 * args.budget_s).max(60.0);
+    eprintln!("bench accuracy: Mitsuba 3 side by side (up to {limit_s:.0} s) …");
+    match mi::side_by_side(
+        scene,
+        &args.out.join("mitsuba3"),
+        &truths[0],
+        direct,
+        limit_s,
+    ) {
+        Ok(side) => {
+            for r in &side.rungs {
+                let direct_only = r.max_depth == mi::DIRECT_ONLY_DEPTH;
+                rows.push(Row {
+                    estimator: MITSUBA.into(),
+                    setting: if direct_only {
+                        "direct_only_spp"
+                    } else {
+                        "spp"
+                    }
+                    .into(),
+                    value: r.spp.to_string(),
+                    spp: r.spp,
+                    time_s: r.render_s,
+                    rel_rms_error: r.errors.energy,
+                    max_rel_error: r.errors.max_rel,
+                    pixel_rms_error: r.errors.pixel,
+                    pixel_rms_error_as_targeted: r.errors.pixel_as_targeted,
+                    within_2x_target: None,
+                    within_2x_estimate: None,
+                    prepare_s: 0.0,
+                });
+            }
+            serde_json::json!({ "ran": true, "note": side.note })
+        }
+        Err(e) => skip(crate::output_set::chain(&e)),
+    }
+}
+
+/// Time to `target` along `rows` (interpolated), or extrapolated from the
+/// lowest-error row as error ∝ 1/√time (the Monte Carlo rate); the flag
+/// says which.
+fn time_to_or_extrapolated(rows: &[&Row], target: f64) -> Option<(f64, bool)> {
+    if let Some(t) = time_to(rows, target, |r| r.pixel_rms_error) {
+        return Some((t, false));
+    }
+    let best = rows
+        .iter()
+        .filter(|r| r.pixel_rms_error.is_finite() && r.pixel_rms_error > 0.0)
+        .min_by(|a, b| a.pixel_rms_error.total_cmp(&b.pixel_rms_error))?;
+    Some((best.time_s * (best.pixel_rms_error / target).powi(2), true))
+}
+
+/// Both ladders' times to 1 % and 0.1 % per-pixel error and the ratio
+/// Mitsuba / gloam, whole light and direct only.
+fn side_by_side_summary(mut side: serde_json::Value, rows: &[Row]) -> serde_json::Value {
+    if side["ran"] != serde_json::Value::Bool(true) {
+        return side;
+    }
+    let pick = |est: &str, setting: &str| -> Vec<&Row> {
+        rows.iter()
+            .filter(|r| r.estimator == est && r.setting == setting)
+            .collect()
+    };
+    let analytic = Estimator::Analytic.to_string();
+    for (key, mitsuba, gloam_adaptive, gloam_spp) in [
+        (
+            "whole_light",
+            pick(MITSUBA, "spp"),
+            pick(&analytic, "target_error"),
+            pick(&analytic, "spp"),
+        ),
+        (
+            "direct_only",
+            pick(MITSUBA, "direct_only_spp"),
+            pick(&analytic, "direct_only_target_error"),
+            pick(&analytic, "direct_only_spp"),
+        ),
+    ] {
+        if mitsuba.is_empty() {
+            continue;
+        }
+        let mut v = serde_json::Map::new();
+        for (target, label) in [(0.01, "1pct"), (0.001, "0_1pct")] {
+            let m = time_to_or_extrapolated(&mitsuba, target);
+            // gloam's best of its two ways to an error: asking for it
+            // (target-error rows) or a fixed spp ladder.
+            let g = [
+                time_to_or_extrapolated(&gloam_adaptive, target),
+                time_to_or_extrapolated(&gloam_spp, target),
+            ]
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+            v.insert(
+                format!("mitsuba3_time_to_{label}_pixel_s"),
+                serde_json::json!(m.map(|x| x.0)),
+            );
+            v.insert(
+                format!("mitsuba3_{label}_extrapolated"),
+                serde_json::json!(m.map(|x| x.1)),
+            );
+            v.insert(
+                format!("gloam_time_to_{label}_pixel_s"),
+                serde_json::json!(g.map(|x| x.0)),
+            );
+            v.insert(
+                format!("gloam_{label}_extrapolated"),
+                serde_json::json!(g.map(|x| x.1)),
+            );
+            v.insert(
+                format!("ratio_{label}"),
+                serde_json::json!(m.zip(g).map(|(m, g)| m.0 / g.0.max(1e-12))),
+            );
+        }
+        v.insert(
+            "ladder".into(),
+            mitsuba
+                .iter()
+                .map(|r| {
+                    serde_json::json!({
+                        "spp": r.spp,
+                        "render_s": r.time_s,
+                        "pixel_rms_error": r.pixel_rms_error,
+                        "rel_rms_error": r.rel_rms_error,
+                    })
+                })
+                .collect(),
+        );
+        side[key] = serde_json::Value::Object(v);
+    }
+    side
+}
+
 fn fmt_opt(v: Option<f64>) -> String {
     v.map_or("not reached".into(), |t| format!("{t:.3} s"))
 }
@@ -847,6 +1024,7 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
             fmt_opt(d["time_to_1pct_pixel_adaptive_s"].as_f64())
         );
     }
+    mitsuba_markdown(&mut m, &s.mitsuba3);
     let a = s.time_to_1pct_s.get("analytic").copied().flatten();
     let d = s.time_to_1pct_s.get("dirsig2001").copied().flatten();
     let _ = writeln!(
@@ -887,6 +1065,78 @@ fn summary_markdown(s: &Summary, rows: &[Row], truth_kind: &str, mask_px: usize)
     }
     let _ = writeln!(m, "\nFiles: `{}`, `{}`.", s.csv, s.png);
     m
+}
+
+/// The side-by-side section of `summary.md`: both ladders' times to 1 %
+/// and 0.1 % per-pixel error and the ratio.
+fn mitsuba_markdown(m: &mut String, side: &serde_json::Value) {
+    let _ = writeln!(m, "\n## Side by side with Mitsuba 3\n");
+    if side["ran"] != serde_json::Value::Bool(true) {
+        let _ = writeln!(m, "Not run: {}.", side["why"].as_str().unwrap_or("unknown"));
+        return;
+    }
+    let _ = writeln!(m, "{}.\n", side["note"].as_str().unwrap_or(""));
+    let secs = |v: &serde_json::Value, k: &str, x: &str| -> String {
+        let t = v[k].as_f64();
+        let ex = v[x].as_bool() == Some(true);
+        t.map_or("–".into(), |t| {
+            format!("{t:.2} s{}", if ex { " (extrapolated)" } else { "" })
+        })
+    };
+    let _ = writeln!(
+        m,
+        "| light | Mitsuba 3 to 1 % | gloam to 1 % | ratio | Mitsuba 3 to 0.1 % | gloam to 0.1 % | ratio |\n|---|---|---|---|---|---|---|"
+    );
+    for key in ["whole_light", "direct_only"] {
+        let v = &side[key];
+        if v.is_null() {
+            continue;
+        }
+        let ratio = |k: &str| v[k].as_f64().map_or("–".into(), |r| format!("{r:.1}×"));
+        let _ = writeln!(
+            m,
+            "| {key} | {} | {} | {} | {} | {} | {} |",
+            secs(
+                v,
+                "mitsuba3_time_to_1pct_pixel_s",
+                "mitsuba3_1pct_extrapolated"
+            ),
+            secs(v, "gloam_time_to_1pct_pixel_s", "gloam_1pct_extrapolated"),
+            ratio("ratio_1pct"),
+            secs(
+                v,
+                "mitsuba3_time_to_0_1pct_pixel_s",
+                "mitsuba3_0_1pct_extrapolated"
+            ),
+            secs(
+                v,
+                "gloam_time_to_0_1pct_pixel_s",
+                "gloam_0_1pct_extrapolated"
+            ),
+            ratio("ratio_0_1pct"),
+        );
+    }
+    let _ = writeln!(
+        m,
+        "\nMitsuba 3's ladders (render time only; per-pixel RMS relative error against the same truth as gloam's rows, the truth's noise subtracted):\n\n| light | spp | time (s) | per-pixel RMS error | energy RMS error |\n|---|---|---|---|---|"
+    );
+    for key in ["whole_light", "direct_only"] {
+        for r in side[key]["ladder"].as_array().into_iter().flatten() {
+            let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+            let _ = writeln!(
+                m,
+                "| {key} | {} | {:.2} | {:.3e} | {:.3e} |",
+                r["spp"],
+                f("render_s"),
+                f("pixel_rms_error"),
+                f("rel_rms_error")
+            );
+        }
+    }
+    let _ = writeln!(
+        m,
+        "\ngloam's time to an error is the better of its target-error rows and its analytic spp ladder (whole light), or of the direct-only rows; a time not reached within the ladder is extrapolated from its lowest-error row as error ∝ 1/√time."
+    );
 }
 
 /// Error against time, log–log, one curve per estimator's spp ladder, the

@@ -652,7 +652,7 @@ rays_per_s = all rays per second of trace time; time_to_1pct_s = prepare_s + tra
 
 /// Waits for `child` until `timeout` after `t0`; kills it then.
 /// `None`: timed out.
-fn wait_with_timeout(
+pub(super) fn wait_with_timeout(
     child: &mut std::process::Child,
     t0: Instant,
     timeout: Duration,

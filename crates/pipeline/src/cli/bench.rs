@@ -105,6 +105,10 @@ pub struct AccuracyArgs {
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Skip the side-by-side with Mitsuba 3 (run whenever `python3` can
+    /// import `mitsuba`).
+    #[arg(long)]
+    pub no_mitsuba: bool,
 }
 
 #[derive(Args)]
@@ -131,6 +135,7 @@ impl AccuracyArgs {
             budget_s: self.budget_s,
             all_effects: self.all_effects,
             threads: self.threads,
+            mitsuba: !self.no_mitsuba,
         }
     }
 }

@@ -1,0 +1,321 @@
+//! `gloam bench accuracy`'s side-by-side with Mitsuba 3 (when `python3`
+//! can import it; never needed by tests): the same loaded scene rendered
+//! by Mitsuba's path tracer along an spp ladder, each image measured
+//! against the same truth with the same metric as gloam's rows, so the two
+//! ladders and their times to 1 % and 0.1 % per-pixel error stand side by
+//! side in one run on one machine.
+//!
+//! The scene goes over as what gloam loaded: every facet (boxes, quads,
+//! inline geometry and OBJ alike) triangulated into one OBJ per material,
+//! each band's diffuse reflectance and emitted band radiance as one RGB
+//! channel (Mitsuba `scalar_rgb`: with spectrally flat reflectances each
+//! band is an independent grey transport, so this is exact; a spectrally
+//! varying reflectance is band-averaged and the report says so). Scenes
+//! with what that cannot carry (point sources, sky or moon, specular or
+//! transmissive materials, shaped emitters, more than 3 bands) are
+//! skipped with the reason.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use gloam_scene::Scene;
+use ndarray::Array3;
+
+use super::BenchError;
+use super::metrics::{Errors, errors};
+use super::truth::Truth;
+
+/// The Mitsuba 3 side (Python, run by `python3`).
+const SCRIPT: &str = include_str!("accuracy_mitsuba.py");
+
+/// Whole light: Mitsuba's `path` with unbounded depth (Russian roulette).
+pub const WHOLE_LIGHT_DEPTH: i32 = -1;
+/// Direct light only: camera → surface → emitter.
+pub const DIRECT_ONLY_DEPTH: i32 = 2;
+const WHOLE_LIGHT_LADDER: [u32; 5] = [4, 16, 64, 256, 1024];
+const DIRECT_ONLY_LADDER: [u32; 5] = [4, 16, 64, 256, 1024];
+/// Largest image the side-by-side reads back (pixels).
+const MAX_PIXELS: usize = 16_777_216;
+
+/// One rung of a Mitsuba ladder, measured.
+#[derive(Clone, Debug)]
+pub struct Rung {
+    pub max_depth: i32,
+    pub spp: u32,
+    /// `mi.render` wall time (the scene loaded once before, `load_s`).
+    pub render_s: f64,
+    pub errors: Errors,
+}
+
+/// What the side-by-side produced.
+pub struct SideBySide {
+    pub rungs: Vec<Rung>,
+    /// What ran and how (version, variant, threads, load time, exactness).
+    pub note: String,
+}
+
+/// Why `scene` cannot go to Mitsuba as this module writes it, if it cannot.
+pub fn obstacle(scene: &Scene) -> Option<String> {
+    if !scene.point_sources.is_empty() {
+        return Some("point sources (Mitsuba has no cos^m point emitter)".into());
+    }
+    if scene.sky.is_some() {
+        return Some("a [sky] (moon and night-sky models are gloam's own)".into());
+    }
+    if scene.bands.len() > 3 {
+        return Some(format!(
+            "{} bands (RGB carries at most 3)",
+            scene.bands.len()
+        ));
+    }
+    for m in &scene.materials {
+        if m.specular_fraction > 0.0 || m.is_transmissive() {
+            return Some(format!("material {:?} is specular or transmissive", m.name));
+        }
+        if let Some(e) = &m.emission
+            && e.shape_exponent != 0.0
+        {
+            return Some(format!(
+                "material {:?} emits cos^{} (Mitsuba's area emitter is Lambertian)",
+                m.name, e.shape_exponent
+            ));
+        }
+    }
+    None
+}
+
+/// Each band's mean diffuse reflectance of material `m`, and whether it
+/// is flat over every band (then the RGB transport is exact).
+fn band_reflectance(scene: &Scene, m: usize) -> ([f64; 3], bool) {
+    let mat = &scene.materials[m];
+    let mut v = [0.0; 3];
+    let mut flat = true;
+    for (k, b) in scene.bands.iter().enumerate().take(3) {
+        const N: usize = 61;
+        let xs: Vec<f64> = (0..N)
+            .map(|i| {
+                mat.diffuse_reflectance(b.lo_nm + (b.hi_nm - b.lo_nm) * i as f64 / (N - 1) as f64)
+            })
+            .collect();
+        let (lo, hi) = xs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, z), &x| {
+                (a.min(x), z.max(x))
+            });
+        flat &= hi - lo <= 1e-12 * hi.abs().max(1.0);
+        v[k] = xs.iter().sum::<f64>() / N as f64;
+    }
+    (v, flat)
+}
+
+/// Writes `scene.json` and one OBJ per material into `dir`; false when the
+/// reflectances had to be band-averaged (not exact).
+fn export(scene: &Scene, dir: &Path, seed: u32, time_limit_s: f64) -> Result<bool, BenchError> {
+    std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
+    let mut meshes = Vec::new();
+    let mut exact = true;
+    for (m, mat) in scene.materials.iter().enumerate() {
+        let facets: Vec<_> = scene.facets.iter().filter(|f| f.material == m).collect();
+        if facets.is_empty() {
+            continue;
+        }
+        let name = format!("material-{m}.obj");
+        let path = dir.join(&name);
+        let write = || -> std::io::Result<()> {
+            let mut w = std::io::BufWriter::new(std::fs::File::create(&path)?);
+            writeln!(w, "# {} (gloam material {:?})", name, mat.name)?;
+            let mut base = 1usize;
+            for f in &facets {
+                for v in &f.vertices {
+                    writeln!(w, "v {:.9} {:.9} {:.9}", v.x, v.y, v.z)?;
+                }
+                // A convex facet: a fan from its first vertex keeps the
+                // winding (and so the front face) of the facet.
+                for k in 1..f.vertices.len() - 1 {
+                    writeln!(w, "f {} {} {}", base, base + k, base + k + 1)?;
+                }
+                base += f.vertices.len();
+            }
+            w.flush()
+        };
+        write().map_err(BenchError::io("writing", &path))?;
+        let (rho, flat) = band_reflectance(scene, m);
+        exact &= flat;
+        let emission = mat.emission.as_ref().map(|e| {
+            let mut v = [0.0; 3];
+            for (k, b) in scene.bands.iter().enumerate().take(3) {
+                v[k] = e
+                    .radiance_w_m2_sr_nm
+                    .integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm);
+            }
+            v
+        });
+        meshes.push(serde_json::json!({
+            "obj": name,
+            "reflectance": rho,
+            "emission": emission,
+        }));
+    }
+    let c = &scene.camera;
+    let json = serde_json::json!({
+        "camera": {
+            "position": [c.position.x, c.position.y, c.position.z],
+            "look_at": [c.look_at.x, c.look_at.y, c.look_at.z],
+            "up": [c.up.x, c.up.y, c.up.z],
+            "fov_deg": c.fov_deg,
+            "width": c.width,
+            "height": c.height,
+        },
+        "sampler": "multijitter",
+        "seed": seed,
+        "time_limit_s": time_limit_s,
+        "meshes": meshes,
+        "ladders": [
+            [WHOLE_LIGHT_DEPTH, WHOLE_LIGHT_LADDER],
+            [DIRECT_ONLY_DEPTH, DIRECT_ONLY_LADDER],
+        ],
+    });
+    let path = dir.join("scene.json");
+    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)
+        .map_err(BenchError::io("writing", &path))?;
+    let script = dir.join("accuracy_mitsuba.py");
+    std::fs::write(&script, SCRIPT).map_err(BenchError::io("writing", &script))?;
+    Ok(exact)
+}
+
+/// True when `python3 -c 'import mitsuba'` works.
+pub fn available() -> bool {
+    Command::new("python3")
+        .args(["-c", "import mitsuba"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// Renders `scene` with Mitsuba 3 into `dir` (whole-light and direct-only
+/// ladders, each stopping once `time_limit_s` is spent) and measures each
+/// image against `whole` and `direct` (the truths of gloam's rows).
+pub fn side_by_side(
+    scene: &Scene,
+    dir: &Path,
+    whole: &Truth,
+    direct: Option<&Truth>,
+    time_limit_s: f64,
+) -> Result<SideBySide, BenchError> {
+    let exact = export(scene, dir, 0, time_limit_s)?;
+    let (log, err) = (dir.join("mitsuba.log"), dir.join("mitsuba.err"));
+    let t0 = Instant::now();
+    let mut child = Command::new("python3")
+        .arg(dir.join("accuracy_mitsuba.py"))
+        .arg(dir)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&log).map_err(BenchError::io("creating", &log))?)
+        .stderr(std::fs::File::create(&err).map_err(BenchError::io("creating", &err))?)
+        .spawn()
+        .map_err(BenchError::io("starting python3 in", dir))?;
+    // The script stops climbing at the limit; the timeout only guards a
+    // rung that hangs (4× the limit, as a rung is at most ~4× the last).
+    let status = super::scale::wait_with_timeout(
+        &mut child,
+        t0,
+        Duration::from_secs_f64(4.0 * time_limit_s + 60.0),
+    )?;
+    let tail = || {
+        let e = gloam_spectra::input::read_text(&err, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .unwrap_or_default();
+        let t: Vec<&str> = e.lines().rev().take(3).collect();
+        t.into_iter().rev().collect::<Vec<_>>().join(" / ")
+    };
+    match status {
+        None => {
+            return Err(BenchError::Child {
+                what: "Mitsuba 3".into(),
+                why: format!("killed after {:.0} s", t0.elapsed().as_secs_f64()),
+            });
+        }
+        Some(st) if !st.success() => {
+            return Err(BenchError::Child {
+                what: "Mitsuba 3".into(),
+                why: format!("{st}: {}", tail()),
+            });
+        }
+        Some(_) => {}
+    }
+    let json_path = dir.join("mitsuba.json");
+    let text =
+        gloam_spectra::input::read_text(&json_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .map_err(BenchError::io("reading", &json_path))?;
+    let report: serde_json::Value = serde_json::from_str(&text)?;
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let nb = scene.bands.len();
+    ensure_valid!(
+        w * h <= MAX_PIXELS,
+        "Mitsuba side-by-side: {w}×{h} exceeds {MAX_PIXELS} pixels"
+    );
+    let mut rungs = Vec::new();
+    let runs = report["runs"].as_array().cloned().unwrap_or_default();
+    for r in runs.iter().take(64) {
+        let (Some(depth), Some(spp), Some(render_s), Some(file)) = (
+            r["max_depth"].as_i64(),
+            r["spp"].as_u64(),
+            r["render_s"].as_f64(),
+            r["file"].as_str(),
+        ) else {
+            return Err(BenchError::Invalid(format!(
+                "{}: a run lacks max_depth, spp, render_s or file",
+                json_path.display()
+            )));
+        };
+        let path = dir.join(file);
+        let bytes = gloam_spectra::input::read_bounded(&path, (w * h * 3 * 4) as u64)
+            .map_err(BenchError::io("reading", &path))?;
+        ensure_valid!(
+            bytes.len() == w * h * 3 * 4,
+            "{}: {} bytes, expected {h}×{w}×3 float32",
+            path.display(),
+            bytes.len()
+        );
+        let mut img = Array3::<f64>::zeros((nb, h, w));
+        for (i, px) in bytes.chunks_exact(12).enumerate() {
+            let (y, x) = (i / w, i % w);
+            for b in 0..nb {
+                let c = &px[4 * b..4 * b + 4];
+                img[[b, y, x]] = f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64;
+            }
+        }
+        let truth = if depth as i32 == DIRECT_ONLY_DEPTH {
+            match direct {
+                Some(t) => t,
+                None => continue,
+            }
+        } else {
+            whole
+        };
+        rungs.push(Rung {
+            max_depth: depth as i32,
+            spp: spp as u32,
+            render_s,
+            errors: errors(&img, truth),
+        });
+    }
+    let mut note = String::new();
+    let _ = write!(
+        note,
+        "Mitsuba {} ({}, {} threads), path tracer, multijitter sampler, box pixel filter; scene load {:.2} s (not counted in the times); {}",
+        report["version"].as_str().unwrap_or("?"),
+        report["variant"].as_str().unwrap_or("?"),
+        report["threads"].as_u64().unwrap_or(0),
+        report["load_s"].as_f64().unwrap_or(f64::NAN),
+        if exact {
+            "reflectances spectrally flat: each band is an exact grey transport in one RGB channel"
+        } else {
+            "reflectances band-averaged (not exact for spectrally varying materials)"
+        }
+    );
+    Ok(SideBySide { rungs, note })
+}
