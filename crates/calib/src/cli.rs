@@ -657,7 +657,7 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
         _ => "no frames".into(),
     };
     lines.push(format!(
-        "linearised vs true radiance (median per frame): steady {}; switch-on transient ({:.2} s after {} switch(es)) {}; acquiring {}{}",
+        "linearised vs true radiance, residual per frame: steady {}; transient ({:.2} s after {} switch(es)) {}; acquiring {}{}",
         fmt(&r.steady),
         r.transient_window_s,
         r.switches_s.len(),
