@@ -587,8 +587,15 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
     let mut g = a.grabber.open::<E>(registry, ev)?;
     g.set_exposure_s(captured.exposure_s)?;
     let mut lines = Vec::new();
+    // The source gives the LUT's units (its lamp's spectrum) even when the
+    // LUT is given, and measures the LUT when it is not.
+    let source = SourceArgs {
+        levels: a.source.levels.or(Some(SEQUENCE_LUT_LEVELS)),
+        auto_range: a.source.auto_range.or(Some(SEQUENCE_LUT_AUTO_RANGE)),
+        ..a.source.clone()
+    };
     let (lut, mut src) = match lut {
-        Some(lut) => (lut, a.source.open(g.as_mut(), None, ev)?),
+        Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
         None => {
             // The gains the loop went through once it left its power-up
             // gain (the acquisition window is not judged).
@@ -598,11 +605,6 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
                 .iter()
                 .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
             let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
-            let source = SourceArgs {
-                levels: a.source.levels.or(Some(SEQUENCE_LUT_LEVELS)),
-                auto_range: a.source.auto_range.or(Some(SEQUENCE_LUT_AUTO_RANGE)),
-                ..a.source.clone()
-            };
             let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             let mut src = source.open(g.as_mut(), Some(top), ev)?;
             let ropts = RadianceOptions {
