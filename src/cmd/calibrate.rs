@@ -1,40 +1,137 @@
-//! `gloam calibrate …`: radiance LUTs, applying them, AGC linearisation,
-//! EMVA 1288 photon transfer and MTF. The arguments and flows are
-//! `gloam_calib::cli`'s; here the output set, progress bar and printing.
-//! See docs/calibration.md.
+//! `gloam calibrate …`: radiance LUTs, applying them, AGC linearisation
+//! (on a rig's staircase, or on a sequence), EMVA 1288 photon transfer and
+//! MTF. The arguments and flows are `gloam_calib::cli`'s; here the output
+//! set, progress bar and printing, and for `calibrate agc --sequence` the
+//! sequence's render and capture (`gloam_pipeline::sequence`, which calib
+//! sits below). See docs/calibration.md.
 
 use std::io::IsTerminal;
 use std::path::Path;
 
 pub use gloam_calib::cli::CalibrateCommand;
-use gloam_calib::cli::{Event, run_calibrate};
-use gloam_pipeline::{OutputSet, Provenance};
+use gloam_calib::cli::{CapturedSequence, Event, agc_sequence, run_calibrate};
+use gloam_pipeline::sequence::{capture_sequence, check_video_rate};
+use gloam_pipeline::{
+    FrameCapture, FrameContext, FrameFormat, OutputSet, Provenance, RenderJob, SettingArgs,
+};
+use gloam_scene::sequence::Sequence;
+use gloam_trace::RenderSettings;
+
+/// A sequence and its scene, read and checked before any output opens.
+struct LoadedSequence {
+    sequence: Sequence,
+    scene: gloam_scene::Scene,
+    groups: Vec<String>,
+    settings: RenderSettings,
+}
+
+fn load_sequence(path: &Path, set: &[String]) -> anyhow::Result<LoadedSequence> {
+    let sequence = gloam_scene::sequence::load_sequence(path)?;
+    let scene = gloam_scene::load(&sequence.scene)?;
+    let groups: Vec<String> = (scene.light_groups.groups.iter())
+        .map(|g| g.name.clone())
+        .collect();
+    sequence.check_groups(groups.iter().map(String::as_str))?;
+    let settings = SettingArgs {
+        set: set.to_vec(),
+        ..SettingArgs::default()
+    }
+    .settings()?;
+    Ok(LoadedSequence {
+        sequence,
+        scene,
+        groups,
+        settings,
+    })
+}
+
+/// Renders the sequence's layers once and captures its frames through
+/// `sensor` with its AGC into `dir` (the frames and `frames.jsonl`).
+fn capture(
+    l: &LoadedSequence,
+    dir: &Path,
+    sensor: &str,
+    seed: u64,
+) -> anyhow::Result<CapturedSequence> {
+    let config = gloam_sensor::load_preset_or_file(sensor)
+        .map_err(|e| anyhow::anyhow!(e).context(format!("camera '{sensor}'")))?;
+    check_video_rate(&l.sequence, sensor, &config)?;
+    let job = RenderJob {
+        camera: Some(sensor),
+        observer: super::progress::prep_spinner(),
+        layers: true,
+        ..RenderJob::new(&l.scene, &l.settings)
+    };
+    let rendered = super::progress::render_with_bar(job.prepare()?, None)?;
+    let detected = (rendered.layers.as_ref())
+        .and_then(|layers| layers.detected.as_ref())
+        .ok_or_else(|| anyhow::anyhow!("the layered render carried no detected band"))?;
+    let capture = FrameCapture {
+        sensor,
+        frames: l.sequence.frames,
+        gain: None,
+        agc: true,
+        // The sensor's own setting: a noise-free camera file stays so.
+        noise: config.noise.enabled,
+        seed,
+        auto_exposure: None,
+        frame_format: FrameFormat::Png,
+    };
+    let context = FrameContext {
+        camera: Some(sensor.to_string()),
+        seed: Some(seed),
+        provenance: None,
+    };
+    let captured = capture_sequence(&l.sequence, &l.groups, detected, &capture, dir, context)?;
+    for line in &captured.notes {
+        eprintln!("{line}");
+    }
+    Ok(CapturedSequence {
+        groups: l.groups.clone(),
+        layers: detected.clone(),
+        // The window `capture_sequence` gives the camera.
+        exposure_s: config.timing.exposure_s.min(l.sequence.frame_period_s()),
+    })
+}
 
 pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
+    let loaded = match &cmd {
+        CalibrateCommand::Agc(a) => (a.sequence.as_deref())
+            .map(|p| load_sequence(p, &a.set))
+            .transpose()?,
+        _ => None,
+    };
     let mut set = None;
     let mut bar: Option<indicatif::ProgressBar> = None;
-    let r = run_calibrate::<anyhow::Error>(
-        &cmd,
-        &gloam_pipeline::grabbers(),
-        &mut |out: &Path, force| {
-            let s = OutputSet::begin(out, force, false)?;
-            let dir = s.dir().to_path_buf();
-            set = Some(s);
-            Ok(dir)
+    let registry = gloam_pipeline::grabbers();
+    let mut begin = |out: &Path, force| -> anyhow::Result<_> {
+        let s = OutputSet::begin(out, force, false)?;
+        let dir = s.dir().to_path_buf();
+        set = Some(s);
+        Ok(dir)
+    };
+    let mut ev = |e: Event<'_>| match e {
+        Event::Note(line) => match &bar {
+            Some(b) => b.suspend(|| eprintln!("{line}")),
+            None => eprintln!("{line}"),
         },
-        &mut |e| match e {
-            Event::Note(line) => match &bar {
-                Some(b) => b.suspend(|| eprintln!("{line}")),
-                None => eprintln!("{line}"),
-            },
-            Event::Progress(phase, done, total) => {
-                let b = bar.get_or_insert_with(progress_bar);
-                b.set_message(phase.to_string());
-                b.set_length(total as u64);
-                b.set_position(done as u64);
-            }
-        },
-    );
+        Event::Progress(phase, done, total) => {
+            let b = bar.get_or_insert_with(progress_bar);
+            b.set_message(phase.to_string());
+            b.set_length(total as u64);
+            b.set_position(done as u64);
+        }
+    };
+    let r = match (&cmd, &loaded) {
+        (CalibrateCommand::Agc(a), Some(l)) => agc_sequence::<anyhow::Error>(
+            a,
+            &registry,
+            &mut begin,
+            &mut ev,
+            &mut |dir, sensor, seed| capture(l, dir, sensor, seed),
+        ),
+        _ => run_calibrate::<anyhow::Error>(&cmd, &registry, &mut begin, &mut ev),
+    };
     if let Some(b) = bar {
         b.finish_and_clear();
     }

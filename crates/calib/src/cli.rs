@@ -127,6 +127,18 @@ pub struct AgcArgs {
     /// Report instead of failing when the AGC does not settle.
     #[arg(long)]
     pub allow_unsettled: bool,
+    /// A sequence file (docs/sequences.md) instead of the staircase: its
+    /// scene's light-group layers are rendered once and mixed per frame
+    /// through the --grabber's simulated camera with its AGC; each frame is
+    /// linearised through --lut (without one, a LUT is measured first on
+    /// --source over the gains the AGC visited) and compared with the true
+    /// radiance → OUT/agc_sequence.json (docs/calibration.md).
+    #[arg(long, conflicts_with_all = ["fixed_gain", "allow_unsettled"])]
+    pub sequence: Option<PathBuf>,
+    /// --sequence: a render setting, KEY=VALUE (repeatable), as `gloam
+    /// render --set` (e.g. resolution_scale=0.5, spp=2, seed=3).
+    #[arg(long = "set", value_name = "KEY=VALUE", requires = "sequence")]
+    pub set: Vec<String>,
     #[arg(long)]
     pub out: PathBuf,
     /// Replace a previous gloam output set at `--out` whole (only a set whose
@@ -272,6 +284,10 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
                 lines: vec![line],
             })
         }
+        CalibrateCommand::Agc(a) if a.sequence.is_some() => Err(CalibError::Usage(
+            "--sequence renders a scene: run it from the gloam command line".into(),
+        )
+        .into()),
         CalibrateCommand::Agc(a) => agc(a, registry, begin, ev),
         CalibrateCommand::Ptc(a) => ptc(a, registry, begin, ev),
         CalibrateCommand::Mtf(a) => mtf(a, registry, begin, ev),
@@ -497,6 +513,164 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     let mut lines = vec![summary];
     lines.extend(linearised_line(&r));
     Ok(written(&a.out, "agc.json", lines))
+}
+
+/// What the front end's renderer returns for `calibrate agc --sequence`:
+/// the sequence captured into the output directory (frames,
+/// `frames.jsonl`) and the layers it was mixed from.
+pub struct CapturedSequence {
+    /// The scene's light groups, in the layers' order.
+    pub groups: Vec<String>,
+    /// Each group's detected radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (rows × columns).
+    pub layers: Vec<ndarray::Array2<f64>>,
+    /// The camera's exposure window per frame, s.
+    pub exposure_s: f64,
+}
+
+/// Gains a LUT measured for a sequence steps by at most (its responsivity
+/// is interpolated linearly in gain between them).
+pub const SEQUENCE_LUT_GAIN_RATIO: f64 = 1.25;
+/// Levels and auto-range of a LUT measured for a sequence when
+/// `--levels` / `--auto-range` are not given.
+pub const SEQUENCE_LUT_LEVELS: usize = 10;
+pub const SEQUENCE_LUT_AUTO_RANGE: f64 = 0.8;
+
+/// `gloam calibrate agc --sequence`: checks the camera (a `sim:` grabber)
+/// and the LUT, opens the output set, lets `capture(dir, sensor, seed)`
+/// render the sequence's layers and capture it through the camera with its
+/// AGC (the front end's renderer: `gloam_pipeline::sequence`), measures a
+/// LUT over the gains the AGC settled through if none was given, and
+/// compares each frame linearised through the LUT with the true radiance.
+pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
+    a: &AgcArgs,
+    registry: &Registry,
+    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
+    ev: &mut dyn FnMut(Event<'_>),
+    capture: &mut dyn FnMut(&Path, &str, u64) -> Result<CapturedSequence, E>,
+) -> Result<Outcome, E> {
+    use crate::agc_sequence::{
+        AgcSequenceOptions, SequenceLayers, detected_per_band_radiance, linearise_sequence,
+        lut_gains_spanning, write_agc_sequence_report,
+    };
+    let (preset, _, uri_seed, _) = crate::scope_run::sim_uri(&a.grabber.grabber).map_err(|_| {
+        CalibError::Usage(format!(
+            "--sequence: --grabber '{}' is not a simulated camera; a sequence is rendered, so it needs a sim:PRESET grabber",
+            a.grabber.grabber
+        ))
+    })?;
+    if a.grabber.exposure_s.is_some() {
+        return Err(CalibError::Usage(
+            "--sequence sets the exposure (the camera's, within the sequence's frame period); drop --exposure-s".into(),
+        )
+        .into());
+    }
+    let config = gloam_sensor::load_preset_or_file(&preset).map_err(CalibError::from)?;
+    let camera = format!("simulated {preset}");
+    let lut = match &a.lut {
+        Some(path) => {
+            let lut = crate::apply::load_lut(path)?;
+            crate::apply::check_lut_fits_camera(&lut, &camera, config.digitizer.bits)
+                .map_err(|e| CalibError::file(path, e))?;
+            Some(lut)
+        }
+        None => None,
+    };
+    let opts = AgcSequenceOptions::for_sensor(&config)?.ok_or_else(|| {
+        CalibError::Usage(format!(
+            "--sequence: camera '{preset}' has no AGC ([agc] in its sensor file)"
+        ))
+    })?;
+    let tau_s = opts.agc_time_constant_s;
+    let dir = begin(&a.out, a.force)?;
+    let seed = a.grabber.seed.unwrap_or(uri_seed);
+    let captured = capture(&dir, &preset, seed)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    g.set_exposure_s(captured.exposure_s)?;
+    let mut lines = Vec::new();
+    // The source gives the LUT's units (its lamp's spectrum) even when the
+    // LUT is given, and measures the LUT when it is not.
+    let source = SourceArgs {
+        levels: a.source.levels.or(Some(SEQUENCE_LUT_LEVELS)),
+        auto_range: a.source.auto_range.or(Some(SEQUENCE_LUT_AUTO_RANGE)),
+        ..a.source.clone()
+    };
+    let (lut, mut src) = match lut {
+        Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
+        None => {
+            // The gains the loop went through once it left its power-up
+            // gain (the acquisition window is not judged).
+            let from_s = opts.transient_time_constants * tau_s;
+            let gains = crate::agc_sequence::gains_in_effect(&dir, from_s)?;
+            let (lo, hi) = gains
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
+            let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
+            let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mut src = source.open(g.as_mut(), Some(top), ev)?;
+            let ropts = RadianceOptions {
+                gains: gains.clone(),
+                exposure_s: Some(captured.exposure_s),
+                ..Default::default()
+            };
+            let silent = source.is_manual();
+            let lut = calibrate_radiance(
+                g.as_mut(),
+                src.as_mut(),
+                &ropts,
+                &mut progress(ev, "LUT levels", silent),
+            )?;
+            report::write_radiance_report(&dir, &lut)?;
+            lines.push(format!(
+                "LUT measured on {} at {} gains {}–{} (the gains the AGC visited from {from_s} s on) → lut.json",
+                a.source.source.display(),
+                lut.gains.len(),
+                gains[0],
+                gains[gains.len() - 1]
+            ));
+            (lut, src)
+        }
+    };
+    let k = detected_per_band_radiance(src.as_mut(), &config)?;
+    let truth = SequenceLayers {
+        groups: &captured.groups,
+        layers: &captured.layers,
+    };
+    let r = linearise_sequence(
+        &dir,
+        &lut,
+        &g.describe(),
+        &truth,
+        k,
+        &opts,
+        &mut progress(ev, "frames", false),
+    )
+    .map_err(|e| match (e, &a.lut) {
+        (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
+        (e, _) => e,
+    })?;
+    write_agc_sequence_report(&dir, &r)?;
+    let fmt = |s: &crate::agc_sequence::PhaseSummary| match (
+        s.rms_residual_percent,
+        s.max_abs_residual_percent,
+    ) {
+        (Some(rms), Some(max)) => {
+            format!("RMS {rms:.2} %, max {max:.2} % over {} frames", s.frames)
+        }
+        _ => "no frames".into(),
+    };
+    lines.push(format!(
+        "linearised vs true radiance, residual per frame: steady {}; transient ({:.2} s after {} switch(es)) {}; acquiring {}{}",
+        fmt(&r.steady),
+        r.transient_window_s,
+        r.switches_s.len(),
+        fmt(&r.transient),
+        fmt(&r.acquiring),
+        match r.frames_outside_lut {
+            0 => String::new(),
+            n => format!("; {n} frames outside the LUT's gains not linearised"),
+        }
+    ));
+    Ok(written(&a.out, "agc_sequence.json", lines))
 }
 
 /// What the LUT made of the AGC frames, against the source's true band

@@ -4,6 +4,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod agc;
+pub mod agc_sequence;
 pub mod apply;
 pub mod capture;
 #[cfg(feature = "cli")]
