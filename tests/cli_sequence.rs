@@ -134,7 +134,6 @@ fn a_sequence_is_captured_with_the_file_s_weights_and_the_agc_answers_the_lamp()
     assert_eq!(s["frame_rate_hz"], 25.0);
     assert_eq!(s["groups"], serde_json::json!(["glow", "lamp"]));
     for key in [
-        "still_render",
         "layered_render",
         "mix",
         "camera",
@@ -151,10 +150,14 @@ fn a_sequence_is_captured_with_the_file_s_weights_and_the_agc_answers_the_lamp()
                 && i["sha256"].as_str().unwrap().len() == 64),
         "{inputs:?}"
     );
+    // One layered render, every frame reusing it; no ordinary image (the
+    // layers sum to it).
+    assert_eq!(s["renders"]["renders"], 1);
+    assert_eq!(s["renders"]["poses"][0]["frames"], 60);
+    assert!(!out.join("radiance.npy").exists());
     for f in [
         "layers.npy",
         "layers.json",
-        "radiance.npy",
         "gain-over-time.png",
         "frames-preview.png",
     ] {
