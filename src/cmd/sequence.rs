@@ -153,7 +153,11 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         renders.poses.len(),
         if renders.poses.len() == 1 { "" } else { "s" },
         sequence.moves.len(),
-        if sequence.moves.len() == 1 { "y" } else { "ies" },
+        if sequence.moves.len() == 1 {
+            "y"
+        } else {
+            "ies"
+        },
         renders.frames.saturating_sub(renders.renders as u32),
         renders.seconds,
         renders.seconds / (renders.renders.max(1) as f64),

@@ -279,12 +279,23 @@ pub fn capture_scene_sequence(
         .collect();
     sequence.check_groups(groups.iter().map(String::as_str))?;
     sequence.check_moves(job.scene)?;
+    // The tracer's image size: the camera's times `resolution_scale`
+    // (rounded, ≥ 1), as `gloam_trace` sizes it; the layers are checked
+    // against it.
     let cam = &job.scene.camera;
-    let want = (cam.height as usize, cam.width as usize);
+    let scaled = |n: u32| ((f64::from(n) * job.settings.resolution_scale).round() as usize).max(1);
+    let want = (scaled(cam.height), scaled(cam.width));
     let mut cache = PoseCache::new(job, capture.sensor, groups.len(), want);
     let mut feed = |f: &Frame, weights: &[f64], img: &mut Array2<f64>| {
         let layers = cache.layers(f)?;
         check_layers(layers, weights.len())?;
+        if let Some(l) = layers.first().filter(|l| l.dim() != want) {
+            return Err(SequenceError::LayerShape {
+                index: 0,
+                got: l.dim(),
+                want,
+            });
+        }
         mix(layers, weights, img);
         cache.done(f);
         Ok(())
@@ -336,6 +347,9 @@ struct PoseCache<'a> {
     window_s: Option<f64>,
     live: std::collections::HashMap<usize, Vec<Array2<f64>>>,
     rendered: Vec<bool>,
+    /// Layered renders made (a pose dropped and needed again would count
+    /// twice; the plan keeps each pose until its last frame, so none is).
+    calls: usize,
     seconds: f64,
     /// Of `seconds`, the renders for frame 0's look before the capture.
     seconds_before: f64,
@@ -363,6 +377,7 @@ impl<'a> PoseCache<'a> {
             window_s: None,
             live: std::collections::HashMap::new(),
             rendered: Vec::new(),
+            calls: 0,
             seconds: 0.0,
             seconds_before: 0.0,
             first: None,
@@ -420,7 +435,8 @@ impl<'a> PoseCache<'a> {
             * (self.size.0 as u128)
             * (self.size.1 as u128)
             * 8;
-        let max_bytes = gloam_scene::available_memory_bytes().map_or(u128::MAX, |b| u128::from(b) / 2);
+        let max_bytes =
+            gloam_scene::available_memory_bytes().map_or(u128::MAX, |b| u128::from(b) / 2);
         if self.planned.len() > MAX_POSES || bytes > max_bytes {
             return Err(SequenceError::TooManyPoses {
                 path: seq.path.clone(),
@@ -455,6 +471,7 @@ impl<'a> PoseCache<'a> {
                 self.seconds_before += s;
             }
             self.rendered[id] = true;
+            self.calls += 1;
             let detected = layers.detected.clone().unwrap_or_default();
             if f.index == 0 && self.first.is_none() {
                 self.first = Some((layers, poses, plan));
@@ -493,15 +510,12 @@ impl<'a> PoseCache<'a> {
         };
         let prepared = job.prepare()?;
         let plan = prepared.plan().clone();
-        Ok((
-            prepared.render_layers(self.job.progress, &|| false)?,
-            plan,
-        ))
+        Ok((prepared.render_layers(self.job.progress, &|| false)?, plan))
     }
 
     fn summary(&self, frames: u32) -> PoseRenders {
         PoseRenders {
-            renders: self.rendered.iter().filter(|r| **r).count(),
+            renders: self.calls,
             frames,
             groups_per_render: self.groups,
             seconds: self.seconds,
@@ -510,13 +524,16 @@ impl<'a> PoseCache<'a> {
     }
 }
 
+/// Writes frame `f`'s image for its weights into the array given.
+type Feed<'a> = dyn FnMut(&Frame, &[f64], &mut Array2<f64>) -> Result<(), SequenceError> + 'a;
+
 /// The one capture loop of a sequence: frame `i`'s image is `feed`'s mix
 /// for its place and weights.
 fn capture_with(
     sequence: &Sequence,
     groups: &[String],
     want: (usize, usize),
-    feed: &mut dyn FnMut(&Frame, &[f64], &mut Array2<f64>) -> Result<(), SequenceError>,
+    feed: &mut Feed<'_>,
     capture: &FrameCapture<'_>,
     out: &Path,
     context: FrameContext,
@@ -573,40 +590,39 @@ fn capture_with(
     let mut animation = Animation::new(sequence.frames, sequence.frame_rate_hz);
     let mut gain_over_time = Vec::new();
     let t_capture = Instant::now();
-    let captured =
-        capture.capture_configured(config, &first, Some(&mut image), &mut |mut f| {
-            if failed.borrow().is_some() {
-                // A pose's render failed: stop here; the error returned
-                // below is that failure, not this placeholder.
-                return Err(CaptureError::Encode(serde::de::Error::custom(
-                    "stopped: a render failed",
-                )));
-            }
-            let i = f.record.index as usize;
-            if let Some(p) = places.borrow().get(i) {
-                gain_over_time.push((p.time_s, f.record.gain));
-                f.record.sequence = Some(p.clone());
-            }
-            let r = &f.record;
-            let black = r.black_dn.unwrap_or(0.0);
-            animation.add(
-                r.index,
-                r.width,
-                r.height,
-                &f.pixels,
-                black,
-                r.saturated_at_dn,
-            );
-            let w = match &mut writer {
-                Some(w) => w,
-                None => writer.insert(FrameWriter::with_format(
-                    out,
-                    capture.frame_format,
-                    context.clone(),
-                )?),
-            };
-            Ok(w.write(&f.record, &f.pixels)?)
-        });
+    let captured = capture.capture_configured(config, &first, Some(&mut image), &mut |mut f| {
+        if failed.borrow().is_some() {
+            // A pose's render failed: stop here; the error returned
+            // below is that failure, not this placeholder.
+            return Err(CaptureError::Encode(serde::de::Error::custom(
+                "stopped: a render failed",
+            )));
+        }
+        let i = f.record.index as usize;
+        if let Some(p) = places.borrow().get(i) {
+            gain_over_time.push((p.time_s, f.record.gain));
+            f.record.sequence = Some(p.clone());
+        }
+        let r = &f.record;
+        let black = r.black_dn.unwrap_or(0.0);
+        animation.add(
+            r.index,
+            r.width,
+            r.height,
+            &f.pixels,
+            black,
+            r.saturated_at_dn,
+        );
+        let w = match &mut writer {
+            Some(w) => w,
+            None => writer.insert(FrameWriter::with_format(
+                out,
+                capture.frame_format,
+                context.clone(),
+            )?),
+        };
+        Ok(w.write(&f.record, &f.pixels)?)
+    });
     if let Some(e) = failed.borrow_mut().take() {
         return Err(e);
     }
@@ -843,6 +859,219 @@ mod tests {
             u32::from_be_bytes(apng[at + 4..at + 8].try_into().unwrap()),
             48
         );
+    }
+
+    /// A small road, a static lamp and a car (a box body and a headlamp);
+    /// `car` and `heads` are extra lines of their tables.
+    fn car_scene(car: &str, heads: &str) -> String {
+        format!(
+            r#"units = "m"
+[camera]
+position = [-12, -1, 2]
+look_at = [5, 0, 0]
+up = [0, 0, 1]
+fov_deg = 60
+width = 32
+height = 24
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.road]
+reflectance = 0.2
+[materials.paint]
+reflectance = 0.5
+specular_fraction = 0.3
+[objects.road]
+material = "road"
+quad = {{ center = [0, 0, 0], size = [60, 20], normal = [0, 0, 1] }}
+[objects.car]
+material = "paint"
+box = {{ min = [-2, -0.9, 0.3], max = [2, 0.9, 1.4], omit = ["bottom"] }}
+{car}
+[point_sources.lamp]
+position = [6, -4, 8]
+value = 1e-4
+[point_sources.heads]
+position = [-2.1, 0.6, 0.6]
+direction = [-1, 0.1, -0.05]
+shape_exponent = 6
+value = 1e-4
+{heads}
+"#
+        )
+    }
+
+    fn scene_and_sequence(dir: &Path, seq: &str) -> (gloam_scene::Scene, Sequence) {
+        let scene_path = dir.join("scene.toml");
+        std::fs::write(&scene_path, car_scene("", "")).unwrap();
+        let sequence = gloam_scene::sequence::parse_sequence(seq, &dir.join("seq.toml")).unwrap();
+        (gloam_scene::load(&scene_path).unwrap(), sequence)
+    }
+
+    fn quiet_capture(frames: u32) -> FrameCapture<'static> {
+        FrameCapture {
+            sensor: "gen3-gaas-iccd",
+            frames,
+            gain: Some(100.0),
+            agc: false,
+            noise: false,
+            seed: 1,
+            auto_exposure: None,
+            frame_format: crate::FrameFormat::Png,
+        }
+    }
+
+    fn no_context() -> FrameContext {
+        FrameContext {
+            camera: None,
+            seed: None,
+            provenance: None,
+        }
+    }
+
+    fn settings() -> gloam_trace::RenderSettings {
+        let mut s = gloam_trace::RenderSettings::default();
+        s.set("spp", "2").unwrap();
+        s
+    }
+
+    /// The moved scene's layers are the layers of a still render of a
+    /// scene *file* that writes the car at that pose (the body's own
+    /// `rotate_z_deg`/`translate`, the headlamp as a placement): same
+    /// seed, same spp, bit-identical; and their sum is that still's
+    /// ordinary image to floating-point summation order (≤ 1e-9).
+    #[test]
+    fn a_moved_body_renders_as_the_still_of_that_pose() {
+        let dir = tempfile::tempdir().unwrap();
+        let (scene, seq) = scene_and_sequence(
+            dir.path(),
+            "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[0, 3.5, 1.75, 0, 30]]\n",
+        );
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: &seq,
+            scene: &scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        let got =
+            capture_scene_sequence(&job, &quiet_capture(2), dir.path(), no_context()).unwrap();
+        assert_eq!(got.report.renders.as_ref().unwrap().renders, 1);
+        let placed = gloam_scene::parse_str(
+            &car_scene(
+                "rotate_z_deg = 30\ntranslate = [3.5, 1.75, 0]",
+                "instances = [{ translate = [3.5, 1.75, 0], rotate_z_deg = 30 }]",
+            ),
+            &dir.path().join("placed.toml"),
+        )
+        .unwrap();
+        let still = crate::render::RenderJob {
+            camera: Some("gen3-gaas-iccd"),
+            layers: true,
+            ..crate::render::RenderJob::new(&placed, &settings)
+        }
+        .run(&|_, _| {}, &|| false)
+        .unwrap();
+        let still_layers = still.layers.unwrap().detected.unwrap();
+        assert_eq!(still_layers.len(), 2);
+        assert_eq!(got.first.detected.as_ref().unwrap(), &still_layers);
+        let sum = still_layers
+            .iter()
+            .fold(Array2::<f64>::zeros(still_layers[0].dim()), |a, l| a + l);
+        let whole = still.detected.unwrap();
+        let rel = (&sum - &whole)
+            .iter()
+            .map(|d: &f64| d.abs())
+            .fold(0.0, f64::max)
+            / whole.iter().copied().fold(0.0, f64::max);
+        assert!(rel < 1e-9, "{rel}");
+        // And the car is in the picture: the scene as written differs.
+        let written = crate::render::RenderJob {
+            camera: Some("gen3-gaas-iccd"),
+            ..crate::render::RenderJob::new(&scene, &settings)
+        }
+        .run(&|_, _| {}, &|| false)
+        .unwrap();
+        assert_ne!(written.detected.unwrap(), whole);
+    }
+
+    /// Frames whose mid-exposure pose is the same share one render: the
+    /// car parked until 0.15 s, driving until 0.29 s, parked after. At
+    /// 25 Hz with a 40 ms window the mid-exposures are 0.02, 0.06, …:
+    /// four frames before the first key, three between, three after.
+    #[test]
+    fn frames_without_motion_reuse_their_pose_s_render() {
+        let dir = tempfile::tempdir().unwrap();
+        let (scene, seq) = scene_and_sequence(
+            dir.path(),
+            "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 10\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[0.15, 0, 0, 0], [0.29, 5, 0, 0]]\n",
+        );
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: &seq,
+            scene: &scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        let got =
+            capture_scene_sequence(&job, &quiet_capture(10), dir.path(), no_context()).unwrap();
+        let r = got.report.renders.unwrap();
+        let frames: Vec<(u32, u32, u32)> = (r.poses.iter())
+            .map(|p| (p.first_frame, p.last_frame, p.frames))
+            .collect();
+        assert_eq!(
+            frames,
+            [(0, 3, 4), (4, 4, 1), (5, 5, 1), (6, 6, 1), (7, 9, 3)]
+        );
+        assert_eq!(r.renders, 5);
+        // Frame 4's pose is the path's at its mid-exposure, 0.18 s.
+        let x = r.poses[1].poses[0].translate[0];
+        assert!((x - 5.0 * (0.18 - 0.15) / 0.14).abs() < 1e-12, "{x}");
+        // The frames between differ (the car moved), those within a pose
+        // do not (no noise, fixed gain; the phosphor's lag has settled).
+        let recs: Vec<serde_json::Value> =
+            (std::fs::read_to_string(dir.path().join("frames.jsonl"))
+                .unwrap()
+                .lines())
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(recs[0]["sequence"]["window_s"], 0.04);
+        let mean = |i: usize| recs[i]["mean_dn"].as_f64().unwrap();
+        assert_ne!(mean(5), mean(6));
+    }
+
+    /// A path with more distinct poses than [`MAX_POSES`] is refused
+    /// before any render, naming the file and the move's line.
+    #[test]
+    fn too_many_poses_are_refused_before_rendering() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = MAX_POSES as u32 + 1;
+        let (scene, seq) = scene_and_sequence(
+            dir.path(),
+            &format!(
+                "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = {frames}\n\n[[move]]\nobjects = [\"car\"]\nkeys = [[0, 0, 0, 0], [1000, 100, 0, 0]]\n"
+            ),
+        );
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: &seq,
+            scene: &scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        let t = Instant::now();
+        let e = capture_scene_sequence(&job, &quiet_capture(frames), dir.path(), no_context())
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("seq.toml:5: move:") && e.contains("10001 distinct poses"),
+            "{e}"
+        );
+        assert!(t.elapsed().as_secs_f64() < 5.0);
     }
 
     #[test]

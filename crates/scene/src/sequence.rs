@@ -337,7 +337,11 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
         for (kind, names) in [("objects", &r.objects), ("point_sources", &r.point_sources)] {
             for (i, name) in names.iter().enumerate() {
                 let taken = moves.iter().any(|o| {
-                    let theirs = if kind == "objects" { &o.objects } else { &o.point_sources };
+                    let theirs = if kind == "objects" {
+                        &o.objects
+                    } else {
+                        &o.point_sources
+                    };
                     theirs.contains(name)
                 }) || names[..i].contains(name);
                 if taken {
@@ -385,7 +389,10 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
                     format!("time {time} s comes before the previous key's {last} s: keys go forward in time"),
                 ));
             }
-            if let Some(v) = k[1..].iter().find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE)) {
+            if let Some(v) = k[1..]
+                .iter()
+                .find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE))
+            {
                 return Err(loc.error(
                     &at,
                     format!("{v} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}"),
@@ -502,7 +509,11 @@ impl Sequence {
                         message: format!(
                             "the scene {} has no [{kind}.{name}] (its {kind}: {})",
                             self.scene.display(),
-                            if known.is_empty() { "none".into() } else { known.join(", ") }
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                known.join(", ")
+                            }
                         ),
                     });
                 }
@@ -535,7 +546,11 @@ impl Sequence {
                 continue;
             }
             let x = pose.xform();
-            for o in scene.objects.iter().filter(|o| mv.objects.contains(&o.name)) {
+            for o in scene
+                .objects
+                .iter()
+                .filter(|o| mv.objects.contains(&o.name))
+            {
                 for f in &mut out.facets[o.facets()] {
                     for v in &mut f.vertices {
                         *v = x.point(*v);
@@ -795,6 +810,105 @@ mod tests {
             let msg = e.to_string();
             assert_eq!(e.line(), line, "{msg}");
             assert!(msg.contains(what), "{msg}");
+        }
+    }
+
+    const MOVE: &str = "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 3\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[1, 0, 0, 0, 0], [3, 10, 2, 0, 90]]\n";
+
+    #[test]
+    fn a_move_s_pose_is_linear_between_keys_and_held_outside() {
+        let s = parse_sequence(MOVE, Path::new("seq.toml")).unwrap();
+        let m = &s.moves[0];
+        assert_eq!(m.pose_at(0.0), Pose::IDENTITY);
+        assert_eq!(
+            m.pose_at(2.0),
+            Pose {
+                translate: [5.0, 1.0, 0.0],
+                rotate_z_deg: 45.0
+            }
+        );
+        assert_eq!(m.pose_at(9.0).translate, [10.0, 2.0, 0.0]);
+        // Held poses are the same to the bit: one render serves them.
+        assert_eq!(m.pose_at(3.5).bits(), m.pose_at(100.0).bits());
+    }
+
+    #[test]
+    fn a_scene_at_a_pose_moves_its_tables_only() {
+        let scene = crate::parse_str(
+            "units = \"m\"\n[camera]\nposition = [0, -10, 1]\nlook_at = [0, 0, 0]\nfov_deg = 60\nwidth = 4\nheight = 4\n[bands.v]\nlo_nm = 400\nhi_nm = 700\n[materials.m]\nreflectance = 0.5\n[objects.car]\nmaterial = \"m\"\nquad = { center = [1, 0, 0], size = [1, 1], normal = [0, 0, 1] }\n[objects.road]\nmaterial = \"m\"\nquad = { center = [0, 0, -1], size = [9, 9], normal = [0, 0, 1] }\n[point_sources.heads]\nposition = [1, 0, 1]\ndirection = [1, 0, 0]\nvalue = 1\n",
+            Path::new("s.toml"),
+        )
+        .unwrap();
+        let s = parse_sequence(MOVE, Path::new("seq.toml")).unwrap();
+        s.check_moves(&scene).unwrap();
+        let at = s.scene_at(&scene, &s.poses_at(3.0));
+        // Turned 90° about +z, then moved by (10, 2, 0): (1, 0, 1) → (10, 3, 1).
+        let p = &at.point_sources[0];
+        assert!((p.position - DVec3::new(10.0, 3.0, 1.0)).length() < 1e-12);
+        assert!((p.direction - DVec3::Y).length() < 1e-12);
+        let c = at.facets[scene.objects[0].facets()][0].centroid();
+        assert!((c - DVec3::new(10.0, 3.0, 0.0)).length() < 1e-12, "{c}");
+        assert_eq!(at.facets[1], scene.facets[1]);
+        // A table the scene lacks: the sequence file's line and the names.
+        let e = parse_sequence(
+            &MOVE.replace("[\"car\"]", "[\"truck\"]"),
+            Path::new("seq.toml"),
+        )
+        .unwrap()
+        .check_moves(&scene)
+        .unwrap_err();
+        assert_eq!(e.line(), 5, "{e}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("move[0].objects[0]")
+                && msg.contains("[objects.truck]")
+                && msg.contains("car, road"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn bad_moves_name_their_line_and_key() {
+        let p = Path::new("seq.toml");
+        for (text, line, what) in [
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[0.5, 10, 2, 0, 90]"),
+                7,
+                "keys go forward",
+            ),
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[3, 10, 2, 0]"),
+                7,
+                "every key",
+            ),
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[3, 1e300, 2, 0, 0]"),
+                7,
+                "pose coordinate",
+            ),
+            (
+                MOVE.replace("objects = [\"car\"]\npoint_sources = [\"heads\"]\n", ""),
+                4,
+                "moves nothing",
+            ),
+            (
+                MOVE.replace("[\"heads\"]", "[\"heads\", \"heads\"]"),
+                6,
+                "named twice",
+            ),
+            (
+                MOVE.replace("keys = [[1, 0, 0, 0, 0], [3, 10, 2, 0, 90]]", "keys = []"),
+                7,
+                "at least one",
+            ),
+        ] {
+            let e = parse_sequence(&text, p).unwrap_err();
+            let msg = e.to_string();
+            assert_eq!(e.line(), line, "{msg}");
+            assert!(
+                msg.starts_with("seq.toml:") && msg.contains("move[0]") && msg.contains(what),
+                "{msg}"
+            );
         }
     }
 }
