@@ -209,6 +209,7 @@ pub fn capture_sequence(
     context: FrameContext,
 ) -> Result<SequenceReport, SequenceError> {
     sequence.check_groups(groups.iter().map(String::as_str))?;
+    sequence.check_static("a sequence captured from layers given")?;
     check_layers(layers, groups.len())?;
     let want = layers.first().map_or((0, 0), Array2::dim);
     let mut feed = |_: &Frame, weights: &[f64], img: &mut Array2<f64>| {

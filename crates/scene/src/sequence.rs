@@ -522,6 +522,24 @@ impl Sequence {
         Ok(())
     }
 
+    /// Refuses moving bodies where `user` mixes layers rendered once (a
+    /// live device, a caller with its own layers): a body's pose changes
+    /// every layer, so ignoring its `[[move]]` would be silently wrong.
+    pub fn check_static(&self, user: &str) -> Result<(), SceneError> {
+        match self.moves.first() {
+            None => Ok(()),
+            Some(m) => Err(SceneError::Invalid {
+                path: self.path.clone(),
+                line: m.lines.table,
+                column: 1,
+                field: "move[0]".into(),
+                message: format!(
+                    "{user} mixes layers rendered once and cannot move bodies (a body changes every layer): use `gloam sequence`, which renders each pose, or drop the [[move]] tables"
+                ),
+            }),
+        }
+    }
+
     /// Each move's pose at time `t` s (in file order).
     pub fn poses_at(&self, t: f64) -> Vec<Pose> {
         self.moves.iter().map(|m| m.pose_at(t)).collect()
@@ -828,6 +846,8 @@ mod tests {
             }
         );
         assert_eq!(m.pose_at(9.0).translate, [10.0, 2.0, 0.0]);
+        let e = s.check_static("gloam device --sequence").unwrap_err();
+        assert_eq!((e.line(), e.field()), (4, "move[0]"), "{e}");
         // Held poses are the same to the bit: one render serves them.
         assert_eq!(m.pose_at(3.5).bits(), m.pose_at(100.0).bits());
     }
