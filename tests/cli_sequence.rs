@@ -133,13 +133,7 @@ fn a_sequence_is_captured_with_the_file_s_weights_and_the_agc_answers_the_lamp()
     assert_eq!(s["frames"], 60);
     assert_eq!(s["frame_rate_hz"], 25.0);
     assert_eq!(s["groups"], serde_json::json!(["glow", "lamp"]));
-    for key in [
-        "still_render",
-        "layered_render",
-        "mix",
-        "camera",
-        "mix_per_frame_ms",
-    ] {
+    for key in ["layered_render", "mix", "camera", "mix_per_frame_ms"] {
         assert!(s["timings_s"][key].as_f64().unwrap() >= 0.0, "{key}");
     }
     // The sequence file is an input of the run, with its hash.
@@ -151,10 +145,14 @@ fn a_sequence_is_captured_with_the_file_s_weights_and_the_agc_answers_the_lamp()
                 && i["sha256"].as_str().unwrap().len() == 64),
         "{inputs:?}"
     );
+    // One layered render, every frame reusing it; no ordinary image (the
+    // layers sum to it).
+    assert_eq!(s["renders"]["renders"], 1);
+    assert_eq!(s["renders"]["poses"][0]["frames"], 60);
+    assert!(!out.join("radiance.npy").exists());
     for f in [
         "layers.npy",
         "layers.json",
-        "radiance.npy",
         "gain-over-time.png",
         "frames-preview.png",
     ] {
@@ -241,6 +239,28 @@ fn bad_sequences_are_clear_errors() {
     // No camera: neither --sensor nor a `sensor` entry.
     let e = fails(SEQUENCE, &[]);
     assert!(e.contains("give --sensor"), "{e}");
+    // A moving body the scene does not have: the file's line and key.
+    let moving = format!(
+        "{SEQUENCE}\n[[move]]\nobjects = [\"truck\"]\nkeys = [[1, 0, 0, 0], [2, 5, 0, 0]]\n"
+    );
+    let e = fails(&moving, &camera);
+    assert!(
+        e.contains("seq.toml:9")
+            && e.contains("move[0].objects[0]")
+            && e.contains("[objects.truck]"),
+        "{e}"
+    );
+    // Pose keys that go back in time.
+    let e = fails(
+        &moving
+            .replace("[\"truck\"]", "[\"road\"]")
+            .replace("[2, 5, 0, 0]", "[0.5, 5, 0, 0]"),
+        &camera,
+    );
+    assert!(
+        e.contains("seq.toml:10") && e.contains("move[0].keys[1]") && e.contains("forward in time"),
+        "{e}"
+    );
     // A scene that is not there.
     let e = fails(&SEQUENCE.replace("scene.toml", "nowhere.toml"), &camera);
     assert!(e.contains("nowhere.toml"), "{e}");

@@ -24,6 +24,7 @@ use gloam_simcam::{DEFAULT_RIG_SIZE, LayerWeights, SceneImage, SceneView, Sensor
 fn sequence_view(args: &DeviceArgs, path: &str) -> anyhow::Result<SceneView> {
     let seq = gloam_scene::sequence::load_sequence(Path::new(path))
         .with_context(|| format!("sequence '{path}'"))?;
+    seq.check_static("gloam device --sequence")?;
     let scene = seq.scene.to_string_lossy().into_owned();
     eprintln!("gloam device: rendering the light groups of {scene} …");
     let (groups, layers) =

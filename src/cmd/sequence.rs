@@ -1,18 +1,19 @@
 //! `gloam sequence SEQ --out DIR …`: a night that changes, through a camera.
 //!
-//! Renders the sequence's scene once into one layer per light group
-//! (`layers.npy`, `layers.json`, and the ordinary render's files, as
-//! `render --layers` writes them), then captures the sequence's frames from
-//! the layers mixed at each frame's weights ([`capture_sequence`]): the
-//! frames, `frames.jsonl`, `frames-preview.png`, the animated
-//! `frames-preview-animated.png`, `gain-over-time.png` and `report.json`.
+//! Renders the sequence's scene into one layer per light group — once, or,
+//! with moving bodies (`[[move]]`), once per distinct pose of the bodies —
+//! and captures the frames from the layers mixed at each frame's weights
+//! ([`capture_scene_sequence`]): the frames, `frames.jsonl`,
+//! `frames-preview.png`, the animated `frames-preview-animated.png`,
+//! `gain-over-time.png`, frame 0's layers (`layers.npy`, `layers.json`, as
+//! `render --layers` writes them) and `report.json`. No ordinary image is
+//! rendered: the layers sum to it.
 
 use std::time::Instant;
 
 pub use gloam_pipeline::cli::SequenceArgs;
-use gloam_pipeline::render::RenderJob;
 use gloam_pipeline::sequence::{
-    ANIMATION_MAX_FRAMES, ANIMATION_MAX_WIDTH_PX, capture_sequence, check_video_rate,
+    ANIMATION_MAX_FRAMES, ANIMATION_MAX_WIDTH_PX, SceneSequence, capture_scene_sequence,
 };
 use gloam_pipeline::{FrameContext, OutputSet, Provenance};
 
@@ -27,99 +28,141 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let sequence = gloam_scene::sequence::load_sequence(&args.sequence)?;
     let scene = gloam_scene::load(&sequence.scene)?;
     let load_s = t_load.elapsed().as_secs_f64();
-    let groups: Vec<String> = (scene.light_groups.groups.iter())
-        .map(|g| g.name.clone())
-        .collect();
-    // Refused before the render: a group the scene lacks, a camera whose
-    // video standard cannot run at the sequence's rate.
-    sequence.check_groups(groups.iter().map(String::as_str))?;
+    // Refused before any render: a group or moving table the scene lacks
+    // (the camera's video rate is checked before the first render too).
+    let groups = scene.light_groups.groups.iter().map(|g| g.name.as_str());
+    sequence.check_groups(groups)?;
+    sequence.check_moves(&scene)?;
     let settings = args.settings.settings()?;
     let (camera, capture) = args.capture(&sequence, &scene, settings.seed)?;
-    let config = gloam_sensor::load_preset_or_file(camera)
-        .map_err(|e| anyhow::anyhow!(e).context(format!("camera '{camera}'")))?;
-    check_video_rate(&sequence, camera, &config)?;
 
-    let job = RenderJob {
-        camera: Some(camera),
-        observer: super::progress::prep_spinner(),
-        layers: true,
-        ..RenderJob::new(&scene, &settings)
+    let bar = super::progress::bar(
+        "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}",
+        "=> ",
+        0,
+    );
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
     };
-    let prepared = job.prepare()?;
-    let rendered = super::progress::render_with_bar(prepared, None)?;
-    let layers =
-        (rendered.layers.as_ref()).ok_or_else(|| anyhow::anyhow!("the render made no layers"))?;
-    let detected = (layers.detected.as_ref())
-        .ok_or_else(|| anyhow::anyhow!("the layered render carried no detected band"))?;
-
-    let t_write = Instant::now();
-    rendered.write_images(&dir)?;
-    let write_s = t_write.elapsed().as_secs_f64();
-    provenance.add_inputs_read();
-    let mut index = layers.json(settings.seed);
-    index["provenance"] = serde_json::to_value(&provenance)?;
-    write_atomic(
-        &dir.join("layers.json"),
-        serde_json::to_string_pretty(&index)?.as_bytes(),
-    )?;
-
+    let job = SceneSequence {
+        sequence: &sequence,
+        scene: &scene,
+        settings: &settings,
+        observer: super::progress::prep_spinner(),
+        progress: &progress,
+    };
     let context = FrameContext {
         camera: Some(camera.to_string()),
         seed: Some(settings.seed),
         provenance: Some(provenance.clone()),
     };
-    let captured = capture_sequence(&sequence, &groups, detected, &capture, &dir, context)?;
-    for line in &captured.notes {
+    let captured = capture_scene_sequence(&job, &capture, &dir, context)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    for line in &captured.report.notes {
         eprintln!("{line}");
     }
 
-    let still_s = rendered.radiance.stats.trace_seconds;
-    let frames = f64::from(captured.frames.max(1));
-    let mut report = rendered.report_json(&sequence.scene, &scene, load_s, write_s);
-    report["sequence"] = serde_json::json!({
-        "file": args.sequence.display().to_string(),
-        "frames": captured.frames,
-        "frame_rate_hz": captured.frame_rate_hz,
-        "groups": captured.groups,
-        "camera": camera,
-        "outputs": {
-            "frames.jsonl": "one line per frame; its `sequence` gives time_s, window_s and each light group's mean intensity over the exposure",
-            "gain-over-time.png": "the gain in effect per frame",
-            "frames-preview-animated.png": format!(
-                "APNG: the frames (at most {ANIMATION_MAX_FRAMES}, at most {ANIMATION_MAX_WIDTH_PX} px wide), each black level to clip"
-            ),
-        },
-        "timings_s": {
-            "still_render": still_s,
-            "layered_render": layers.seconds,
-            "layered_over_still": layers.seconds / still_s.max(1e-9),
-            "mix": captured.mix_s,
-            "camera": captured.camera_s,
-            "mix_per_frame_ms": 1e3 * captured.mix_s / frames,
-            "camera_per_frame_ms": 1e3 * captured.camera_s / frames,
-        },
-        "method": "the scene rendered once as it is (still_render) and once per light group with the other groups dark (layered_render); frame i mixes the layers' detected radiance with the groups' mean intensities over its exposure window and runs it through one camera, whose AGC, lag and bright-source protection carry over between frames",
+    let t_write = Instant::now();
+    let layers = &captured.first;
+    let (radiance, std_error) = layers.stacked();
+    gloam_pipeline::output::write_npy_nd(&dir.join("layers.npy"), &radiance)?;
+    gloam_pipeline::output::write_npy_nd(&dir.join("layers_stderr.npy"), &std_error)?;
+    provenance.add_inputs_read();
+    let mut index = layers.json(settings.seed);
+    index["pose"] = serde_json::json!({
+        "frame": 0,
+        "moves": captured.first_poses,
+        "note": "the layers of frame 0's pose; with [[move]] each distinct pose was rendered so (report.json sequence.renders)",
     });
-    report["sensor_capture"] = captured.sensor_capture.clone();
-    report["provenance"] = serde_json::to_value(&provenance)?;
+    index["provenance"] = serde_json::to_value(&provenance)?;
+    write_atomic(
+        &dir.join("layers.json"),
+        serde_json::to_string_pretty(&index)?.as_bytes(),
+    )?;
+    let write_s = t_write.elapsed().as_secs_f64();
+
+    let r = &captured.report;
+    let renders = r.renders.clone().unwrap_or_default();
+    let frames = f64::from(r.frames.max(1));
+    let first_out = layers.outputs.first();
+    let report = serde_json::json!({
+        "scene": sequence.scene.display().to_string(),
+        "units": scene.units.as_str(),
+        "image": {
+            "width": scene.camera.width,
+            "height": scene.camera.height,
+            "bands": first_out.map(|o| o.band_names.clone()),
+        },
+        "settings": first_out.map(|o| &o.settings),
+        "effect_plan": captured.plan,
+        "sequence": {
+            "file": args.sequence.display().to_string(),
+            "frames": r.frames,
+            "frame_rate_hz": r.frame_rate_hz,
+            "groups": r.groups,
+            "camera": camera,
+            "moves": sequence.moves.iter().map(|m| serde_json::json!({
+                "objects": m.objects,
+                "point_sources": m.point_sources,
+                "keys": m.keys.len(),
+            })).collect::<Vec<_>>(),
+            "renders": renders,
+            "outputs": {
+                "frames.jsonl": "one line per frame; its `sequence` gives time_s, window_s and each light group's mean intensity over the exposure",
+                "gain-over-time.png": "the gain in effect per frame",
+                "frames-preview-animated.png": format!(
+                    "APNG: the frames (at most {ANIMATION_MAX_FRAMES}, at most {ANIMATION_MAX_WIDTH_PX} px wide), each black level to clip"
+                ),
+                "layers.npy": "frame 0's pose: group × band × row × column, W m⁻² sr⁻¹ (their sum is the still render of that pose)",
+            },
+            "timings_s": {
+                "load": load_s,
+                "layered_render": renders.seconds,
+                "layered_render_per_pose": renders.seconds / (renders.renders.max(1) as f64),
+                "mix": r.mix_s,
+                "camera": r.camera_s,
+                "write_layers": write_s,
+                "mix_per_frame_ms": 1e3 * r.mix_s / frames,
+                "camera_per_frame_ms": 1e3 * r.camera_s / frames,
+            },
+            "method": "each distinct pose of the moving bodies (at each frame's mid-exposure; one pose without [[move]]) rendered once into one layer per light group (the group's light alone, the others dark: the still render's samples and random numbers), the whole scene moved, so each pose's layers sum to the still render of that pose; frame i mixes its pose's layers' detected radiance with the groups' mean intensities over its exposure window and runs it through one camera, whose AGC, lag and bright-source protection carry over between frames",
+        },
+        "sensor_capture": r.sensor_capture,
+        "provenance": provenance,
+    });
     write_atomic(
         &dir.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     set.publish(&provenance, None)?;
 
-    let gains = captured.gain_over_time.iter().map(|g| g.1);
+    let gains = r.gain_over_time.iter().map(|g| g.1);
     let (lo, hi) = gains.fold((f64::INFINITY, 0.0f64), |(l, h), g| (l.min(g), h.max(g)));
     eprintln!(
-        "sequence: {} frames at {} Hz through '{camera}', {} light groups; still render {:.2} s, layers {:.2} s ({:.1}× the still), mixing {:.2} ms/frame, camera {:.1} ms/frame; gain in effect {:.4}–{:.4}; {:.2} s in all → {}",
-        captured.frames,
-        captured.frame_rate_hz,
-        captured.groups.len(),
-        still_s,
-        layers.seconds,
-        layers.seconds / still_s.max(1e-9),
-        1e3 * captured.mix_s / frames,
-        1e3 * captured.camera_s / frames,
+        "sequence: {} frames at {} Hz through '{camera}', {} light groups; {} layered render{} ({} pose{} of {} moving bod{}, {} frames reused a render) {:.2} s, {:.2} s a render; mixing {:.2} ms/frame, camera {:.1} ms/frame; gain in effect {:.4}–{:.4}; {:.2} s in all → {}",
+        r.frames,
+        r.frame_rate_hz,
+        r.groups.len(),
+        renders.renders,
+        if renders.renders == 1 { "" } else { "s" },
+        renders.poses.len(),
+        if renders.poses.len() == 1 { "" } else { "s" },
+        sequence.moves.len(),
+        if sequence.moves.len() == 1 {
+            "y"
+        } else {
+            "ies"
+        },
+        renders.frames.saturating_sub(renders.renders as u32),
+        renders.seconds,
+        renders.seconds / (renders.renders.max(1) as f64),
+        1e3 * r.mix_s / frames,
+        1e3 * r.camera_s / frames,
         lo,
         hi,
         t_start.elapsed().as_secs_f64(),

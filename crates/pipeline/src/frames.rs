@@ -586,22 +586,36 @@ impl FrameCapture<'_> {
     pub fn capture_changing(
         &self,
         first: &Array2<f64>,
-        mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
+        image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
         configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
         on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
-        let detected = first;
-        if self.frames < 1 {
-            return Err(CaptureOptionsError::NoFrames.into());
-        }
         let mut config = gloam_sensor::load_preset_or_file(self.sensor).map_err(|source| {
             CaptureOptionsError::Sensor {
                 sensor: self.sensor.to_string(),
                 source,
             }
         })?;
-        config.noise.seed = self.seed;
         configure(&mut config)?;
+        self.capture_configured(config, first, image, on_frame)
+    }
+
+    /// [`FrameCapture::capture_changing`] with the sensor already loaded
+    /// (from `self.sensor`) and configured: a caller that needs the
+    /// configuration before the first image (a sequence's exposure
+    /// window) loads it once.
+    pub fn capture_configured(
+        &self,
+        mut config: gloam_sensor::SensorConfig,
+        first: &Array2<f64>,
+        mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
+        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+    ) -> Result<Captured, CaptureError> {
+        let detected = first;
+        if self.frames < 1 {
+            return Err(CaptureOptionsError::NoFrames.into());
+        }
+        config.noise.seed = self.seed;
         let mut notes = Vec::new();
         let exposure = match &self.auto_exposure {
             Some(target) => {

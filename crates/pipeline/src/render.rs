@@ -305,27 +305,7 @@ impl PreparedRender {
             false => None,
         };
         let layers = match self.layers.take() {
-            Some((map, groups)) => {
-                let t0 = std::time::Instant::now();
-                let mut outputs = self
-                    .tracer
-                    .render_layers(&map, rows.clone(), progress, stop)?;
-                let detected = match self.camera {
-                    true => Some(
-                        outputs
-                            .iter_mut()
-                            .map(take_detected_band)
-                            .collect::<Result<Vec<_>, _>>()?,
-                    ),
-                    false => None,
-                };
-                Some(Layers {
-                    groups,
-                    outputs,
-                    detected,
-                    seconds: t0.elapsed().as_secs_f64(),
-                })
-            }
+            Some(groups) => Some(self.layers_of(groups, rows.clone(), progress, stop)?),
             None => None,
         };
         Ok(Rendered {
@@ -335,6 +315,47 @@ impl PreparedRender {
             plan: self.plan,
             rows,
             image_size,
+        })
+    }
+}
+
+impl PreparedRender {
+    /// The layers alone, all rows, without the ordinary image (their sum
+    /// is that image): what `gloam sequence` needs. The job must have
+    /// asked for [`RenderJob::layers`].
+    pub fn render_layers(
+        mut self,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Layers, RenderError> {
+        let groups = self.layers.take().ok_or(LayerError::NoGroups)?;
+        let rows = 0..self.image_size().1;
+        self.layers_of(groups, rows, progress, stop)
+    }
+
+    fn layers_of(
+        &mut self,
+        (map, groups): (LayerMap, Vec<gloam_scene::LightGroup>),
+        rows: Range<u32>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Layers, RenderError> {
+        let t0 = std::time::Instant::now();
+        let mut outputs = self.tracer.render_layers(&map, rows, progress, stop)?;
+        let detected = match self.camera {
+            true => Some(
+                outputs
+                    .iter_mut()
+                    .map(take_detected_band)
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            false => None,
+        };
+        Ok(Layers {
+            groups,
+            outputs,
+            detected,
+            seconds: t0.elapsed().as_secs_f64(),
         })
     }
 }

@@ -7,6 +7,14 @@
 //! bright-source protection run across the frames at the sequence's frame
 //! rate. Mixing costs one multiply-add per pixel and group, so a sequence
 //! costs the layered render plus the camera's time per frame.
+//!
+//! Moving bodies (`[[move]]`) break the sum: a car shadows and reflects
+//! every group's light. [`capture_scene_sequence`] therefore renders every
+//! group's layer once per *distinct pose* of the bodies (the poses at each
+//! frame's mid-exposure), each pose exactly the still render of the scene
+//! with the bodies placed there; frames that share a pose (a car parked,
+//! or not yet started) share its render, which is kept from the pose's
+//! first frame to its last and then dropped.
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -50,6 +58,24 @@ pub enum SequenceError {
         sensor: String,
         format: &'static str,
         format_hz: f64,
+    },
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// More distinct poses than [`MAX_POSES`] (each one is a full layered
+    /// render), or more held at once than memory allows.
+    #[error(
+        "{}:{line}: move: the moving bodies take {poses} distinct poses over the {frames} frames (poses at mid-exposure), {held} of them needed at once ({bytes} bytes of layers); at most {max} poses and {max_bytes} bytes: each pose is a full render of every light group — use fewer frames, or hold the bodies still for part of the sequence",
+        path.display()
+    )]
+    TooManyPoses {
+        path: std::path::PathBuf,
+        line: usize,
+        poses: usize,
+        frames: u32,
+        held: usize,
+        bytes: u128,
+        max: usize,
+        max_bytes: u128,
     },
     #[error("writing {}", path.display())]
     Preview {
@@ -128,12 +154,52 @@ pub struct SequenceReport {
     pub notes: Vec<String>,
     /// (time s, gain in effect) per frame: what `gain-over-time.png` draws.
     pub gain_over_time: Vec<(f64, f64)>,
+    /// With a scene ([`capture_scene_sequence`]): what was rendered, pose
+    /// by pose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub renders: Option<PoseRenders>,
+}
+
+/// Most distinct poses a sequence may render (each a full layered render).
+pub const MAX_POSES: usize = 10_000;
+
+/// The renders a sequence from a scene made: one layered render per
+/// distinct pose of its moving bodies (one in all without `[[move]]`).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PoseRenders {
+    /// Layered renders made (= distinct poses).
+    pub renders: usize,
+    /// Frames in all; `frames − renders` frames reused a render.
+    pub frames: u32,
+    /// Light groups rendered per pose (every group: a moving body changes
+    /// every group's light).
+    pub groups_per_render: usize,
+    /// Wall time of all renders (preparation — BVH, pilot, cache — and
+    /// layers), s.
+    pub seconds: f64,
+    /// Each render: its pose per move, its frames and its time.
+    pub poses: Vec<PoseRender>,
+}
+
+/// One layered render of a sequence.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PoseRender {
+    /// One pose per `[[move]]`, in file order.
+    pub poses: Vec<gloam_scene::sequence::Pose>,
+    /// First and last frame seeing it (every frame between with the same
+    /// pose counted in `frames`).
+    pub first_frame: u32,
+    pub last_frame: u32,
+    pub frames: u32,
+    pub seconds: f64,
 }
 
 /// Captures `sequence` from the layers (`groups[i]`'s detected radiance,
 /// e⁻ s⁻¹ m⁻² sr⁻¹, is `layers[i]`) through `capture`'s camera into `out`:
 /// the frames, `frames.jsonl` (each line with its `sequence` place),
 /// `frames-preview.png`, the animated [`ANIMATION`] and `gain-over-time.png`.
+/// The layers are the whole sequence's: a sequence with `[[move]]` needs
+/// [`capture_scene_sequence`].
 pub fn capture_sequence(
     sequence: &Sequence,
     groups: &[String],
@@ -143,10 +209,22 @@ pub fn capture_sequence(
     context: FrameContext,
 ) -> Result<SequenceReport, SequenceError> {
     sequence.check_groups(groups.iter().map(String::as_str))?;
-    if layers.len() != groups.len() {
+    sequence.check_static("a sequence captured from layers given")?;
+    check_layers(layers, groups.len())?;
+    let want = layers.first().map_or((0, 0), Array2::dim);
+    let mut feed = |_: &Frame, weights: &[f64], img: &mut Array2<f64>| {
+        mix(layers, weights, img);
+        Ok(())
+    };
+    capture_with(sequence, groups, want, &mut feed, capture, out, context)
+}
+
+/// Refuses layers that are not one per group and of one size.
+fn check_layers(layers: &[Array2<f64>], groups: usize) -> Result<(), SequenceError> {
+    if layers.len() != groups {
         return Err(SequenceError::LayerCount {
             layers: layers.len(),
-            groups: groups.len(),
+            groups,
         });
     }
     let want = layers.first().map_or((0, 0), Array2::dim);
@@ -159,47 +237,351 @@ pub fn capture_sequence(
             });
         }
     }
-    let names = || groups.iter().map(String::as_str);
-    // The camera runs at the sequence's frame rate; its exposure time is
-    // each frame's window (clamped to the frame period).
-    let window_s = RefCell::new(sequence.frame_period_s());
-    let mut configure = |c: &mut gloam_sensor::SensorConfig| {
-        c.timing.frame_rate_hz = sequence.frame_rate_hz;
-        c.timing.exposure_s = c.timing.exposure_s.min(sequence.frame_period_s());
-        *window_s.borrow_mut() = c.timing.exposure_s;
+    Ok(())
+}
+
+/// A sequence to render from its scene: [`capture_scene_sequence`]'s job.
+pub struct SceneSequence<'a> {
+    pub sequence: &'a Sequence,
+    /// The sequence's scene as loaded (its bodies at the identity pose).
+    pub scene: &'a gloam_scene::Scene,
+    pub settings: &'a gloam_trace::RenderSettings,
+    /// Told of each render's preparation steps.
+    pub observer: Option<gloam_trace::PrepObserver>,
+    /// Told of each render's tiles, `(done, total)`.
+    pub progress: &'a (dyn Fn(u64, u64) + Sync),
+}
+
+/// What [`capture_scene_sequence`] made besides the frames.
+pub struct SceneCaptured {
+    pub report: SequenceReport,
+    /// The layers of frame 0's pose (for `layers.npy`; with no `[[move]]`,
+    /// the layers of every frame).
+    pub first: crate::render::Layers,
+    /// Frame 0's bodies' poses, one per move.
+    pub first_poses: Vec<gloam_scene::sequence::Pose>,
+    /// The effect plan frame 0's render ran (each pose's render plans
+    /// itself, as a still of that pose would).
+    pub plan: gloam_scene::plan::EffectPlan,
+}
+
+/// Renders `job`'s scene into layers once per distinct pose of its moving
+/// bodies (see the module docs) and captures the sequence through
+/// `capture`'s camera into `out`, as [`capture_sequence`] does.
+pub fn capture_scene_sequence(
+    job: &SceneSequence<'_>,
+    capture: &FrameCapture<'_>,
+    out: &Path,
+    context: FrameContext,
+) -> Result<SceneCaptured, SequenceError> {
+    let sequence = job.sequence;
+    let groups: Vec<String> = (job.scene.light_groups.groups.iter())
+        .map(|g| g.name.clone())
+        .collect();
+    sequence.check_groups(groups.iter().map(String::as_str))?;
+    sequence.check_moves(job.scene)?;
+    // The tracer's image size: the camera's times `resolution_scale`
+    // (rounded, ≥ 1), as `gloam_trace` sizes it; the layers are checked
+    // against it.
+    let cam = &job.scene.camera;
+    let scaled = |n: u32| ((f64::from(n) * job.settings.resolution_scale).round() as usize).max(1);
+    let want = (scaled(cam.height), scaled(cam.width));
+    let mut cache = PoseCache::new(job, capture.sensor, groups.len(), want);
+    let mut feed = |f: &Frame, weights: &[f64], img: &mut Array2<f64>| {
+        let layers = cache.layers(f)?;
+        check_layers(layers, weights.len())?;
+        if let Some(l) = layers.first().filter(|l| l.dim() != want) {
+            return Err(SequenceError::LayerShape {
+                index: 0,
+                got: l.dim(),
+                want,
+            });
+        }
+        mix(layers, weights, img);
+        cache.done(f);
         Ok(())
     };
-    let place = |i: u32| {
-        let t0 = sequence.frame_start_s(i);
-        let w = *window_s.borrow();
-        let weights = sequence.weights(names(), t0, t0 + w);
-        (t0, w, weights)
+    let mut report = capture_with(sequence, &groups, want, &mut feed, capture, out, context)?;
+    let renders = cache.summary(sequence.frames);
+    // The renders after frame 0's look ran inside the frames' mixing:
+    // their time is theirs.
+    report.mix_s = (report.mix_s - (renders.seconds - cache.seconds_before)).max(0.0);
+    report.renders = Some(renders);
+    let (first, first_poses, plan) = cache.first.take().ok_or(SequenceError::LayerCount {
+        layers: 0,
+        groups: groups.len(),
+    })?;
+    Ok(SceneCaptured {
+        report,
+        first,
+        first_poses,
+        plan,
+    })
+}
+
+/// One frame's place: its index, exposure start and window, s.
+pub struct Frame {
+    pub index: u32,
+    pub start_s: f64,
+    pub window_s: f64,
+    /// False for the look at frame 0 the fit takes before the capture.
+    count: bool,
+}
+
+impl Frame {
+    /// Mid-exposure: the instant a frame's moving bodies are drawn at.
+    pub fn mid_s(&self) -> f64 {
+        self.start_s + 0.5 * self.window_s
+    }
+}
+
+/// The layered renders of each distinct pose, each kept from its first
+/// frame to its last.
+struct PoseCache<'a> {
+    job: &'a SceneSequence<'a>,
+    camera: &'a str,
+    groups: usize,
+    size: (usize, usize),
+    /// Per frame, its pose's id; per id, its poses and frames.
+    ids: Vec<usize>,
+    planned: Vec<PoseRender>,
+    window_s: Option<f64>,
+    live: std::collections::HashMap<usize, Vec<Array2<f64>>>,
+    rendered: Vec<bool>,
+    /// Layered renders made (a pose dropped and needed again would count
+    /// twice; the plan keeps each pose until its last frame, so none is).
+    calls: usize,
+    seconds: f64,
+    /// Of `seconds`, the renders for frame 0's look before the capture.
+    seconds_before: f64,
+    first: Option<(
+        crate::render::Layers,
+        Vec<gloam_scene::sequence::Pose>,
+        gloam_scene::plan::EffectPlan,
+    )>,
+}
+
+impl<'a> PoseCache<'a> {
+    fn new(
+        job: &'a SceneSequence<'a>,
+        camera: &'a str,
+        groups: usize,
+        size: (usize, usize),
+    ) -> Self {
+        Self {
+            job,
+            camera,
+            groups,
+            size,
+            ids: Vec::new(),
+            planned: Vec::new(),
+            window_s: None,
+            live: std::collections::HashMap::new(),
+            rendered: Vec::new(),
+            calls: 0,
+            seconds: 0.0,
+            seconds_before: 0.0,
+            first: None,
+        }
+    }
+
+    /// Plans every frame's pose for exposure window `window_s` (known once
+    /// the camera is configured), refusing more than [`MAX_POSES`] or more
+    /// layers held at once than half the memory available.
+    fn plan(&mut self, window_s: f64) -> Result<(), SequenceError> {
+        let seq = self.job.sequence;
+        let mut by_bits: std::collections::HashMap<Vec<[u64; 4]>, usize> =
+            std::collections::HashMap::new();
+        self.ids = Vec::with_capacity(seq.frames as usize);
+        self.planned.clear();
+        for i in 0..seq.frames {
+            let f = Frame {
+                index: i,
+                start_s: seq.frame_start_s(i),
+                window_s,
+                count: true,
+            };
+            let poses = seq.poses_at(f.mid_s());
+            let key: Vec<[u64; 4]> = poses.iter().map(|p| p.bits()).collect();
+            let next = self.planned.len();
+            let id = *by_bits.entry(key).or_insert(next);
+            if id == next {
+                self.planned.push(PoseRender {
+                    poses,
+                    first_frame: i,
+                    last_frame: i,
+                    frames: 0,
+                    seconds: 0.0,
+                });
+            }
+            let p = &mut self.planned[id];
+            p.last_frame = i;
+            p.frames += 1;
+            self.ids.push(id);
+        }
+        // Poses held at once: each from its first frame to its last.
+        let mut delta = vec![0i64; seq.frames as usize + 1];
+        for p in &self.planned {
+            delta[p.first_frame as usize] += 1;
+            delta[p.last_frame as usize + 1] -= 1;
+        }
+        let (mut held, mut now) = (0i64, 0i64);
+        for d in &delta {
+            now += d;
+            held = held.max(now);
+        }
+        let held = held.max(1) as usize;
+        let bytes = (held as u128)
+            * (self.groups.max(1) as u128)
+            * (self.size.0 as u128)
+            * (self.size.1 as u128)
+            * 8;
+        let max_bytes =
+            gloam_scene::available_memory_bytes().map_or(u128::MAX, |b| u128::from(b) / 2);
+        if self.planned.len() > MAX_POSES || bytes > max_bytes {
+            return Err(SequenceError::TooManyPoses {
+                path: seq.path.clone(),
+                line: seq.move_line(0),
+                poses: self.planned.len(),
+                frames: seq.frames,
+                held,
+                bytes,
+                max: MAX_POSES,
+                max_bytes,
+            });
+        }
+        self.rendered = vec![false; self.planned.len()];
+        self.window_s = Some(window_s);
+        Ok(())
+    }
+
+    /// Frame `f`'s layers: its pose's, rendered now if not yet.
+    fn layers(&mut self, f: &Frame) -> Result<&[Array2<f64>], SequenceError> {
+        if self.window_s != Some(f.window_s) {
+            self.plan(f.window_s)?;
+        }
+        let id = self.ids[f.index as usize];
+        if !self.live.contains_key(&id) {
+            let poses = self.planned[id].poses.clone();
+            let t0 = Instant::now();
+            let (layers, plan) = self.render(&poses)?;
+            let s = t0.elapsed().as_secs_f64();
+            self.planned[id].seconds += s;
+            self.seconds += s;
+            if !f.count {
+                self.seconds_before += s;
+            }
+            self.rendered[id] = true;
+            self.calls += 1;
+            let detected = layers.detected.clone().unwrap_or_default();
+            if f.index == 0 && self.first.is_none() {
+                self.first = Some((layers, poses, plan));
+            }
+            self.live.insert(id, detected);
+        }
+        Ok(self.live.get(&id).map_or(&[][..], Vec::as_slice))
+    }
+
+    /// Drops frame `f`'s pose after its last frame.
+    fn done(&mut self, f: &Frame) {
+        let id = self.ids[f.index as usize];
+        if f.count && self.planned[id].last_frame == f.index {
+            self.live.remove(&id);
+        }
+    }
+
+    /// The scene with its bodies at `poses`, rendered into layers.
+    fn render(
+        &self,
+        poses: &[gloam_scene::sequence::Pose],
+    ) -> Result<(crate::render::Layers, gloam_scene::plan::EffectPlan), SequenceError> {
+        let moved;
+        let scene = match self.job.sequence.moves.is_empty() {
+            true => self.job.scene,
+            false => {
+                moved = self.job.sequence.scene_at(self.job.scene, poses);
+                &moved
+            }
+        };
+        let job = crate::render::RenderJob {
+            camera: Some(self.camera),
+            observer: self.job.observer.clone(),
+            layers: true,
+            ..crate::render::RenderJob::new(scene, self.job.settings)
+        };
+        let prepared = job.prepare()?;
+        let plan = prepared.plan().clone();
+        Ok((prepared.render_layers(self.job.progress, &|| false)?, plan))
+    }
+
+    fn summary(&self, frames: u32) -> PoseRenders {
+        PoseRenders {
+            renders: self.calls,
+            frames,
+            groups_per_render: self.groups,
+            seconds: self.seconds,
+            poses: self.planned.clone(),
+        }
+    }
+}
+
+/// Writes frame `f`'s image for its weights into the array given.
+type Feed<'a> = dyn FnMut(&Frame, &[f64], &mut Array2<f64>) -> Result<(), SequenceError> + 'a;
+
+/// The one capture loop of a sequence: frame `i`'s image is `feed`'s mix
+/// for its place and weights.
+fn capture_with(
+    sequence: &Sequence,
+    groups: &[String],
+    want: (usize, usize),
+    feed: &mut Feed<'_>,
+    capture: &FrameCapture<'_>,
+    out: &Path,
+    context: FrameContext,
+) -> Result<SequenceReport, SequenceError> {
+    let names = || groups.iter().map(String::as_str);
+    // The sensor, loaded once: the camera runs at the sequence's frame
+    // rate, its exposure time each frame's window (clamped to the frame
+    // period), which frame 0's look below needs before the capture.
+    let mut config = gloam_sensor::load_preset_or_file(capture.sensor)
+        .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
+            sensor: capture.sensor.to_string(),
+            source,
+        })
+        .map_err(CaptureError::from)?;
+    check_video_rate(sequence, capture.sensor, &config)?;
+    config.timing.frame_rate_hz = sequence.frame_rate_hz;
+    config.timing.exposure_s = config.timing.exposure_s.min(sequence.frame_period_s());
+    let window_s = config.timing.exposure_s;
+    let frame = |i: u32, count: bool| Frame {
+        index: i,
+        start_s: sequence.frame_start_s(i),
+        window_s,
+        count,
     };
+    // Frame 0's image for the fit and any automatic exposure.
     let mut first = Array2::zeros(want);
     {
-        // The configured window is known once the camera is configured;
-        // the fit judges frame 0 with the preset's exposure, as a lab
-        // would set up on the opening scene.
-        let mut c = gloam_sensor::load_preset_or_file(capture.sensor)
-            .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
-                sensor: capture.sensor.to_string(),
-                source,
-            })
-            .map_err(CaptureError::from)?;
-        check_video_rate(sequence, capture.sensor, &c)?;
-        configure(&mut c)?;
-        mix(layers, &place(0).2, &mut first);
+        let f = frame(0, false);
+        let weights = sequence.weights(names(), f.start_s, f.start_s + f.window_s);
+        feed(&f, &weights, &mut first)?;
     }
     let places: RefCell<Vec<SequenceFrame>> = RefCell::new(Vec::new());
     let mix_s = RefCell::new(0.0f64);
+    let failed: RefCell<Option<SequenceError>> = RefCell::new(None);
     let mut image = |i: u32| {
         let t = Instant::now();
-        let (time_s, w, weights) = place(i);
+        let f = frame(i, true);
+        let weights = sequence.weights(names(), f.start_s, f.start_s + f.window_s);
         let mut img = Array2::zeros(want);
-        mix(layers, &weights, &mut img);
+        if failed.borrow().is_none() {
+            if let Err(e) = feed(&f, &weights, &mut img) {
+                *failed.borrow_mut() = Some(e);
+            }
+        }
         places.borrow_mut().push(SequenceFrame {
-            time_s,
-            window_s: w,
+            time_s: f.start_s,
+            window_s: f.window_s,
             light_groups: groups.iter().cloned().zip(weights).collect(),
         });
         *mix_s.borrow_mut() += t.elapsed().as_secs_f64();
@@ -209,33 +591,43 @@ pub fn capture_sequence(
     let mut animation = Animation::new(sequence.frames, sequence.frame_rate_hz);
     let mut gain_over_time = Vec::new();
     let t_capture = Instant::now();
-    let captured =
-        capture.capture_changing(&first, Some(&mut image), &mut configure, &mut |mut f| {
-            let i = f.record.index as usize;
-            if let Some(p) = places.borrow().get(i) {
-                gain_over_time.push((p.time_s, f.record.gain));
-                f.record.sequence = Some(p.clone());
-            }
-            let r = &f.record;
-            let black = r.black_dn.unwrap_or(0.0);
-            animation.add(
-                r.index,
-                r.width,
-                r.height,
-                &f.pixels,
-                black,
-                r.saturated_at_dn,
-            );
-            let w = match &mut writer {
-                Some(w) => w,
-                None => writer.insert(FrameWriter::with_format(
-                    out,
-                    capture.frame_format,
-                    context.clone(),
-                )?),
-            };
-            Ok(w.write(&f.record, &f.pixels)?)
-        })?;
+    let captured = capture.capture_configured(config, &first, Some(&mut image), &mut |mut f| {
+        if failed.borrow().is_some() {
+            // A pose's render failed: stop here; the error returned
+            // below is that failure, not this placeholder.
+            return Err(CaptureError::Encode(serde::de::Error::custom(
+                "stopped: a render failed",
+            )));
+        }
+        let i = f.record.index as usize;
+        if let Some(p) = places.borrow().get(i) {
+            gain_over_time.push((p.time_s, f.record.gain));
+            f.record.sequence = Some(p.clone());
+        }
+        let r = &f.record;
+        let black = r.black_dn.unwrap_or(0.0);
+        animation.add(
+            r.index,
+            r.width,
+            r.height,
+            &f.pixels,
+            black,
+            r.saturated_at_dn,
+        );
+        let w = match &mut writer {
+            Some(w) => w,
+            None => writer.insert(FrameWriter::with_format(
+                out,
+                capture.frame_format,
+                context.clone(),
+            )?),
+        };
+        Ok(w.write(&f.record, &f.pixels)?)
+    });
+    if let Some(e) = failed.borrow_mut().take() {
+        return Err(e);
+    }
+    let captured = captured?;
     if let Some(w) = writer {
         w.finish().map_err(CaptureError::from)?;
     }
@@ -278,6 +670,7 @@ pub fn capture_sequence(
         sensor_capture: captured.report,
         notes: captured.notes,
         gain_over_time,
+        renders: None,
     })
 }
 
@@ -467,6 +860,219 @@ mod tests {
             u32::from_be_bytes(apng[at + 4..at + 8].try_into().unwrap()),
             48
         );
+    }
+
+    /// A small road, a static lamp and a car (a box body and a headlamp);
+    /// `car` and `heads` are extra lines of their tables.
+    fn car_scene(car: &str, heads: &str) -> String {
+        format!(
+            r#"units = "m"
+[camera]
+position = [-12, -1, 2]
+look_at = [5, 0, 0]
+up = [0, 0, 1]
+fov_deg = 60
+width = 32
+height = 24
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.road]
+reflectance = 0.2
+[materials.paint]
+reflectance = 0.5
+specular_fraction = 0.3
+[objects.road]
+material = "road"
+quad = {{ center = [0, 0, 0], size = [60, 20], normal = [0, 0, 1] }}
+[objects.car]
+material = "paint"
+box = {{ min = [-2, -0.9, 0.3], max = [2, 0.9, 1.4], omit = ["bottom"] }}
+{car}
+[point_sources.lamp]
+position = [6, -4, 8]
+value = 1e-4
+[point_sources.heads]
+position = [-2.1, 0.6, 0.6]
+direction = [-1, 0.1, -0.05]
+shape_exponent = 6
+value = 1e-4
+{heads}
+"#
+        )
+    }
+
+    fn scene_and_sequence(dir: &Path, seq: &str) -> (gloam_scene::Scene, Sequence) {
+        let scene_path = dir.join("scene.toml");
+        std::fs::write(&scene_path, car_scene("", "")).unwrap();
+        let sequence = gloam_scene::sequence::parse_sequence(seq, &dir.join("seq.toml")).unwrap();
+        (gloam_scene::load(&scene_path).unwrap(), sequence)
+    }
+
+    fn quiet_capture(frames: u32) -> FrameCapture<'static> {
+        FrameCapture {
+            sensor: "gen3-gaas-iccd",
+            frames,
+            gain: Some(100.0),
+            agc: false,
+            noise: false,
+            seed: 1,
+            auto_exposure: None,
+            frame_format: crate::FrameFormat::Png,
+        }
+    }
+
+    fn no_context() -> FrameContext {
+        FrameContext {
+            camera: None,
+            seed: None,
+            provenance: None,
+        }
+    }
+
+    fn settings() -> gloam_trace::RenderSettings {
+        let mut s = gloam_trace::RenderSettings::default();
+        s.set("spp", "2").unwrap();
+        s
+    }
+
+    /// The moved scene's layers are the layers of a still render of a
+    /// scene *file* that writes the car at that pose (the body's own
+    /// `rotate_z_deg`/`translate`, the headlamp as a placement): same
+    /// seed, same spp, bit-identical; and their sum is that still's
+    /// ordinary image to floating-point summation order (≤ 1e-9).
+    #[test]
+    fn a_moved_body_renders_as_the_still_of_that_pose() {
+        let dir = tempfile::tempdir().unwrap();
+        let (scene, seq) = scene_and_sequence(
+            dir.path(),
+            "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[0, 3.5, 1.75, 0, 30]]\n",
+        );
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: &seq,
+            scene: &scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        let got =
+            capture_scene_sequence(&job, &quiet_capture(2), dir.path(), no_context()).unwrap();
+        assert_eq!(got.report.renders.as_ref().unwrap().renders, 1);
+        let placed = gloam_scene::parse_str(
+            &car_scene(
+                "rotate_z_deg = 30\ntranslate = [3.5, 1.75, 0]",
+                "instances = [{ translate = [3.5, 1.75, 0], rotate_z_deg = 30 }]",
+            ),
+            &dir.path().join("placed.toml"),
+        )
+        .unwrap();
+        let still = crate::render::RenderJob {
+            camera: Some("gen3-gaas-iccd"),
+            layers: true,
+            ..crate::render::RenderJob::new(&placed, &settings)
+        }
+        .run(&|_, _| {}, &|| false)
+        .unwrap();
+        let still_layers = still.layers.unwrap().detected.unwrap();
+        assert_eq!(still_layers.len(), 2);
+        assert_eq!(got.first.detected.as_ref().unwrap(), &still_layers);
+        let sum = still_layers
+            .iter()
+            .fold(Array2::<f64>::zeros(still_layers[0].dim()), |a, l| a + l);
+        let whole = still.detected.unwrap();
+        let rel = (&sum - &whole)
+            .iter()
+            .map(|d: &f64| d.abs())
+            .fold(0.0, f64::max)
+            / whole.iter().copied().fold(0.0, f64::max);
+        assert!(rel < 1e-9, "{rel}");
+        // And the car is in the picture: the scene as written differs.
+        let written = crate::render::RenderJob {
+            camera: Some("gen3-gaas-iccd"),
+            ..crate::render::RenderJob::new(&scene, &settings)
+        }
+        .run(&|_, _| {}, &|| false)
+        .unwrap();
+        assert_ne!(written.detected.unwrap(), whole);
+    }
+
+    /// Frames whose mid-exposure pose is the same share one render: the
+    /// car parked until 0.15 s, driving until 0.29 s, parked after. At
+    /// 25 Hz with a 40 ms window the mid-exposures are 0.02, 0.06, …:
+    /// four frames before the first key, three between, three after.
+    #[test]
+    fn frames_without_motion_reuse_their_pose_s_render() {
+        let dir = tempfile::tempdir().unwrap();
+        let (scene, seq) = scene_and_sequence(
+            dir.path(),
+            "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 10\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[0.15, 0, 0, 0], [0.29, 5, 0, 0]]\n",
+        );
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: &seq,
+            scene: &scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        let got =
+            capture_scene_sequence(&job, &quiet_capture(10), dir.path(), no_context()).unwrap();
+        let r = got.report.renders.unwrap();
+        let frames: Vec<(u32, u32, u32)> = (r.poses.iter())
+            .map(|p| (p.first_frame, p.last_frame, p.frames))
+            .collect();
+        assert_eq!(
+            frames,
+            [(0, 3, 4), (4, 4, 1), (5, 5, 1), (6, 6, 1), (7, 9, 3)]
+        );
+        assert_eq!(r.renders, 5);
+        // Frame 4's pose is the path's at its mid-exposure, 0.18 s.
+        let x = r.poses[1].poses[0].translate[0];
+        assert!((x - 5.0 * (0.18 - 0.15) / 0.14).abs() < 1e-12, "{x}");
+        // The frames between differ (the car moved), those within a pose
+        // do not (no noise, fixed gain; the phosphor's lag has settled).
+        let recs: Vec<serde_json::Value> =
+            (std::fs::read_to_string(dir.path().join("frames.jsonl"))
+                .unwrap()
+                .lines())
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(recs[0]["sequence"]["window_s"], 0.04);
+        let mean = |i: usize| recs[i]["mean_dn"].as_f64().unwrap();
+        assert_ne!(mean(5), mean(6));
+    }
+
+    /// A path with more distinct poses than [`MAX_POSES`] is refused
+    /// before any render, naming the file and the move's line.
+    #[test]
+    fn too_many_poses_are_refused_before_rendering() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = MAX_POSES as u32 + 1;
+        let (scene, seq) = scene_and_sequence(
+            dir.path(),
+            &format!(
+                "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = {frames}\n\n[[move]]\nobjects = [\"car\"]\nkeys = [[0, 0, 0, 0], [1000, 100, 0, 0]]\n"
+            ),
+        );
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: &seq,
+            scene: &scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        let t = Instant::now();
+        let e = capture_scene_sequence(&job, &quiet_capture(frames), dir.path(), no_context())
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("seq.toml:5: move:") && e.contains("10001 distinct poses"),
+            "{e}"
+        );
+        assert!(t.elapsed().as_secs_f64() < 5.0);
     }
 
     #[test]

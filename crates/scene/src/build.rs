@@ -1203,7 +1203,7 @@ fn point_source(
 
 /// `v` made perpendicular to unit `d` and normalised (`None` when `v` is
 /// parallel to `d` or not finite).
-fn perpendicular(v: DVec3, d: DVec3) -> Option<DVec3> {
+pub(crate) fn perpendicular(v: DVec3, d: DVec3) -> Option<DVec3> {
     (v - v.dot(d) * d)
         .try_normalize()
         .filter(|u| u.is_finite() && u.dot(d).abs() < 1e-9)

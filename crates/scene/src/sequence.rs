@@ -25,13 +25,36 @@
 //! closed form (piecewise-linear keys times the flicker cosine), so a
 //! lamp that switches on mid-exposure gives the fraction of the window it
 //! was on, and a short gate samples the flicker's phase.
+//!
+//! Moving bodies (`[[move]]`) cannot be a weighted sum: a car changes
+//! every group's light (its shadow, its reflections). A move names scene
+//! tables that travel as one rigid body — objects and point sources, a
+//! car's body and its headlights — and keys its pose over time:
+//!
+//! ```toml
+//! [[move]]
+//! objects = ["car"]                 # [objects.NAME] tables, all placements
+//! point_sources = ["headlights"]    # [point_sources.NAME] tables
+//! # (time s, x, y, z[, rotate_z_deg]): p ↦ R_z(θ)·p + (x, y, z) applied to
+//! # the tables as the scene writes them; linear between keys, held
+//! # outside them.
+//! keys = [[0.0, -60.0, 0.0, 0.0], [4.0, 60.0, 0.0, 0.0]]
+//! ```
+//!
+//! A frame sees each body at its pose at mid-exposure ([`Sequence::poses_at`]);
+//! [`Sequence::scene_at`] builds the scene with the bodies so placed, which
+//! the pipeline renders once per distinct pose.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use glam::DVec3;
+
 use crate::error::{FieldPath, Locator, SceneError};
+use crate::instance::Xform;
+use crate::{Luminaire, Scene};
 
 /// Most frames a sequence may have (an hour at 277 Hz).
 pub const MAX_SEQUENCE_FRAMES: u32 = 1_000_000;
@@ -43,6 +66,11 @@ pub const MAX_KEYS: usize = 100_000;
 pub const MAX_MAINS_HZ: f64 = 1_000.0;
 /// Largest relative intensity a key may give.
 pub const MAX_INTENSITY: f64 = 1e12;
+/// Most `[[move]]` bodies in one file.
+pub const MAX_MOVES: usize = 100;
+/// Largest coordinate a pose key may give, scene units (as the scene's
+/// own coordinates).
+pub const MAX_POSE_COORDINATE: f64 = 1e12;
 
 /// A checked sequence file.
 #[derive(Clone, Debug)]
@@ -58,6 +86,66 @@ pub struct Sequence {
     /// Group name → the line of its table, for errors found later (a name
     /// the scene does not have).
     group_lines: BTreeMap<String, usize>,
+    /// The `[[move]]` bodies, in file order.
+    pub moves: Vec<Move>,
+}
+
+/// One `[[move]]`: scene tables that travel as one rigid body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Move {
+    /// `[objects.NAME]` tables (every placement of each).
+    pub objects: Vec<String>,
+    /// `[point_sources.NAME]` tables (every placement of each).
+    pub point_sources: Vec<String>,
+    /// Keyed poses, times non-decreasing; at least one.
+    pub keys: Vec<PoseKey>,
+    /// Lines of `move[i]`, its `objects` and `point_sources` and `keys`
+    /// entries, for errors found against the scene.
+    lines: MoveLines,
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+struct MoveLines {
+    table: usize,
+    objects: usize,
+    point_sources: usize,
+}
+
+/// A body's pose at one time: `p ↦ R_z(rotate_z_deg)·p + translate`,
+/// applied to its tables as the scene writes them (after their own
+/// transforms and placements). The scene as written is the identity pose.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Pose {
+    /// Scene units.
+    pub translate: [f64; 3],
+    /// Counter-clockwise about +z seen from above, degrees.
+    pub rotate_z_deg: f64,
+}
+
+impl Pose {
+    /// The pose that leaves the scene as written.
+    pub const IDENTITY: Pose = Pose {
+        translate: [0.0; 3],
+        rotate_z_deg: 0.0,
+    };
+
+    /// The same pose to the bit (`-0.0` and `0.0` differ, and so may the
+    /// renders' last bits): what a pose cache keys on.
+    pub fn bits(&self) -> [u64; 4] {
+        let [x, y, z] = self.translate;
+        [x, y, z, self.rotate_z_deg].map(f64::to_bits)
+    }
+
+    fn xform(&self) -> Xform {
+        Xform::new(DVec3::ONE, self.rotate_z_deg, DVec3::from(self.translate))
+    }
+}
+
+/// One key of a move: its time and pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseKey {
+    pub time_s: f64,
+    pub pose: Pose,
 }
 
 /// One group's relative intensity over time.
@@ -85,6 +173,19 @@ struct RawSequence {
     frames: u32,
     #[serde(default)]
     groups: BTreeMap<String, RawTrack>,
+    #[serde(default, rename = "move")]
+    moves: Vec<RawMove>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMove {
+    #[serde(default)]
+    objects: Vec<String>,
+    #[serde(default)]
+    point_sources: Vec<String>,
+    #[serde(default)]
+    keys: Vec<Vec<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -201,6 +302,7 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
             },
         );
     }
+    let moves = parse_moves(&loc, raw.moves)?;
     Ok(Sequence {
         path: path.to_path_buf(),
         scene,
@@ -208,7 +310,117 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
         frames: raw.frames,
         groups,
         group_lines,
+        moves,
     })
+}
+
+/// Checks the `[[move]]` tables: something to move, at most [`MAX_MOVES`],
+/// keys `[time_s, x, y, z]` or `[time_s, x, y, z, rotate_z_deg]` (all of
+/// one length), finite, bounded, forward in time; no table in two moves.
+fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError> {
+    let root = FieldPath::root().key("move");
+    if raw.len() > MAX_MOVES {
+        return Err(loc.error(
+            &root,
+            format!("{} moving bodies; at most {MAX_MOVES}", raw.len()),
+        ));
+    }
+    let mut moves: Vec<Move> = Vec::with_capacity(raw.len());
+    for (m, r) in raw.into_iter().enumerate() {
+        let here = root.index(m);
+        if r.objects.is_empty() && r.point_sources.is_empty() {
+            return Err(loc.error(
+                &here,
+                "moves nothing: name `objects = [\"…\"]` and/or `point_sources = [\"…\"]` of the scene",
+            ));
+        }
+        for (kind, names) in [("objects", &r.objects), ("point_sources", &r.point_sources)] {
+            for (i, name) in names.iter().enumerate() {
+                let taken = moves.iter().any(|o| {
+                    let theirs = if kind == "objects" {
+                        &o.objects
+                    } else {
+                        &o.point_sources
+                    };
+                    theirs.contains(name)
+                }) || names[..i].contains(name);
+                if taken {
+                    return Err(loc.error(
+                        &here.key(kind).index(i),
+                        format!("{kind}.{name} is named twice: a table moves with one body"),
+                    ));
+                }
+            }
+        }
+        let kf = here.key("keys");
+        if r.keys.is_empty() {
+            return Err(loc.error(
+                &kf,
+                "needs at least one [time_s, x, y, z] or [time_s, x, y, z, rotate_z_deg] key",
+            ));
+        }
+        if r.keys.len() > MAX_KEYS {
+            return Err(loc.error(
+                &kf,
+                format!("has {} keys; at most {MAX_KEYS}", r.keys.len()),
+            ));
+        }
+        let width = r.keys[0].len();
+        let mut keys = Vec::with_capacity(r.keys.len());
+        let mut last = f64::NEG_INFINITY;
+        for (i, k) in r.keys.iter().enumerate() {
+            let at = kf.index(i);
+            if !(k.len() == 4 || k.len() == 5) || k.len() != width {
+                return Err(loc.error(
+                    &at,
+                    format!(
+                        "has {} numbers: every key is [time_s, x, y, z] or every key [time_s, x, y, z, rotate_z_deg]",
+                        k.len()
+                    ),
+                ));
+            }
+            let time = k[0];
+            if !(time.is_finite() && time >= 0.0) {
+                return Err(loc.error(&at, format!("time {time} s must be finite and ≥ 0")));
+            }
+            if time < last {
+                return Err(loc.error(
+                    &at,
+                    format!("time {time} s comes before the previous key's {last} s: keys go forward in time"),
+                ));
+            }
+            if let Some(v) = k[1..]
+                .iter()
+                .find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE))
+            {
+                return Err(loc.error(
+                    &at,
+                    format!("{v} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}"),
+                ));
+            }
+            last = time;
+            keys.push(PoseKey {
+                time_s: time,
+                pose: Pose {
+                    translate: [k[1], k[2], k[3]],
+                    rotate_z_deg: k.get(4).copied().unwrap_or(0.0),
+                },
+            });
+        }
+        let line = |f: &FieldPath| loc.error(f, "").line();
+        let lines = MoveLines {
+            table: line(&here),
+            objects: line(&here.key("objects")),
+            point_sources: line(&here.key("point_sources")),
+        };
+        moves.push(Move {
+            objects: r.objects,
+            point_sources: r.point_sources,
+            keys,
+            lines,
+        });
+    }
+    Ok(moves)
 }
 
 impl Sequence {
@@ -259,6 +471,153 @@ impl Sequence {
             .into_iter()
             .map(|g| self.groups.get(g).map_or(1.0, |t| t.mean_over(t0, t1)))
             .collect()
+    }
+}
+
+impl Sequence {
+    /// Refuses a move naming a table the scene lacks, with the sequence
+    /// file's line and the scene's tables of that kind.
+    pub fn check_moves(&self, scene: &Scene) -> Result<(), SceneError> {
+        for (m, mv) in self.moves.iter().enumerate() {
+            let kinds: [(&str, &[String], Vec<&str>, usize); 2] = [
+                (
+                    "objects",
+                    &mv.objects,
+                    scene.objects.iter().map(|o| o.name.as_str()).collect(),
+                    mv.lines.objects,
+                ),
+                (
+                    "point_sources",
+                    &mv.point_sources,
+                    (scene.point_source_groups.iter())
+                        .map(|g| g.name.as_str())
+                        .collect(),
+                    mv.lines.point_sources,
+                ),
+            ];
+            for (kind, names, known, line) in kinds {
+                if let Some((i, name)) = names
+                    .iter()
+                    .enumerate()
+                    .find(|(_, n)| !known.contains(&n.as_str()))
+                {
+                    return Err(SceneError::Invalid {
+                        path: self.path.clone(),
+                        line: if line > 0 { line } else { mv.lines.table },
+                        column: 1,
+                        field: format!("move[{m}].{kind}[{i}]"),
+                        message: format!(
+                            "the scene {} has no [{kind}.{name}] (its {kind}: {})",
+                            self.scene.display(),
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                known.join(", ")
+                            }
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses moving bodies where `user` mixes layers rendered once (a
+    /// live device, a caller with its own layers): a body's pose changes
+    /// every layer, so ignoring its `[[move]]` would be silently wrong.
+    pub fn check_static(&self, user: &str) -> Result<(), SceneError> {
+        match self.moves.first() {
+            None => Ok(()),
+            Some(m) => Err(SceneError::Invalid {
+                path: self.path.clone(),
+                line: m.lines.table,
+                column: 1,
+                field: "move[0]".into(),
+                message: format!(
+                    "{user} mixes layers rendered once and cannot move bodies (a body changes every layer): use `gloam sequence`, which renders each pose, or drop the [[move]] tables"
+                ),
+            }),
+        }
+    }
+
+    /// Each move's pose at time `t` s (in file order).
+    pub fn poses_at(&self, t: f64) -> Vec<Pose> {
+        self.moves.iter().map(|m| m.pose_at(t)).collect()
+    }
+
+    /// The line of `move[m]` (for errors the pipeline finds, e.g. a path
+    /// with more distinct poses than it renders).
+    pub fn move_line(&self, m: usize) -> usize {
+        self.moves.get(m).map_or(1, |mv| mv.lines.table)
+    }
+
+    /// `scene` with each move's tables at its pose in `poses` (one per
+    /// move; [`Sequence::check_moves`] first). Facets and point sources
+    /// are moved in place, so facet and source indices, light groups and
+    /// everything else stay the scene's: the render of the result is the
+    /// render of a scene file that writes those tables at that pose (the
+    /// same arithmetic as an object's own `rotate_z_deg`/`translate`).
+    pub fn scene_at(&self, scene: &Scene, poses: &[Pose]) -> Scene {
+        let mut out = scene.clone();
+        for (mv, pose) in self.moves.iter().zip(poses) {
+            if pose.bits() == Pose::IDENTITY.bits() {
+                continue;
+            }
+            let x = pose.xform();
+            for o in scene
+                .objects
+                .iter()
+                .filter(|o| mv.objects.contains(&o.name))
+            {
+                for f in &mut out.facets[o.facets()] {
+                    for v in &mut f.vertices {
+                        *v = x.point(*v);
+                    }
+                }
+            }
+            let tables = scene.point_source_groups.iter();
+            for g in tables.filter(|g| mv.point_sources.contains(&g.name)) {
+                for p in &mut out.point_sources[g.first..g.first + g.instances] {
+                    p.position = x.point(p.position);
+                    p.direction = x.direction(p.direction).normalize_or_zero();
+                    // A rotation about +z keeps the C0 axis perpendicular to
+                    // the nadir and the nadir's angle to −z (the tilt factor).
+                    if let Some(l) = &p.luminaire {
+                        let c0 = crate::build::perpendicular(x.direction(l.c0), p.direction)
+                            .unwrap_or(l.c0);
+                        p.luminaire = Some(Luminaire { c0, ..l.clone() });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+impl Move {
+    /// The pose at `t` s: translation and angle linear between keys, held
+    /// before the first and after the last (at a step, the later key).
+    pub fn pose_at(&self, t: f64) -> Pose {
+        let k = &self.keys;
+        let i = k.partition_point(|key| key.time_s <= t);
+        if i == 0 {
+            return k[0].pose;
+        }
+        if i == k.len() {
+            return k[k.len() - 1].pose;
+        }
+        let (a, b) = (k[i - 1], k[i]);
+        let span = b.time_s - a.time_s;
+        if span <= 0.0 {
+            return b.pose;
+        }
+        let u = (t - a.time_s) / span;
+        let lerp = |p: f64, q: f64| p + (q - p) * u;
+        let (pa, pb) = (a.pose.translate, b.pose.translate);
+        Pose {
+            translate: [lerp(pa[0], pb[0]), lerp(pa[1], pb[1]), lerp(pa[2], pb[2])],
+            rotate_z_deg: lerp(a.pose.rotate_z_deg, b.pose.rotate_z_deg),
+        }
     }
 }
 
@@ -469,6 +828,107 @@ mod tests {
             let msg = e.to_string();
             assert_eq!(e.line(), line, "{msg}");
             assert!(msg.contains(what), "{msg}");
+        }
+    }
+
+    const MOVE: &str = "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 3\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[1, 0, 0, 0, 0], [3, 10, 2, 0, 90]]\n";
+
+    #[test]
+    fn a_move_s_pose_is_linear_between_keys_and_held_outside() {
+        let s = parse_sequence(MOVE, Path::new("seq.toml")).unwrap();
+        let m = &s.moves[0];
+        assert_eq!(m.pose_at(0.0), Pose::IDENTITY);
+        assert_eq!(
+            m.pose_at(2.0),
+            Pose {
+                translate: [5.0, 1.0, 0.0],
+                rotate_z_deg: 45.0
+            }
+        );
+        assert_eq!(m.pose_at(9.0).translate, [10.0, 2.0, 0.0]);
+        let e = s.check_static("gloam device --sequence").unwrap_err();
+        assert_eq!((e.line(), e.field()), (4, "move[0]"), "{e}");
+        // Held poses are the same to the bit: one render serves them.
+        assert_eq!(m.pose_at(3.5).bits(), m.pose_at(100.0).bits());
+    }
+
+    #[test]
+    fn a_scene_at_a_pose_moves_its_tables_only() {
+        let scene = crate::parse_str(
+            "units = \"m\"\n[camera]\nposition = [0, -10, 1]\nlook_at = [0, 0, 0]\nfov_deg = 60\nwidth = 4\nheight = 4\n[bands.v]\nlo_nm = 400\nhi_nm = 700\n[materials.m]\nreflectance = 0.5\n[objects.car]\nmaterial = \"m\"\nquad = { center = [1, 0, 0], size = [1, 1], normal = [0, 0, 1] }\n[objects.road]\nmaterial = \"m\"\nquad = { center = [0, 0, -1], size = [9, 9], normal = [0, 0, 1] }\n[point_sources.heads]\nposition = [1, 0, 1]\ndirection = [1, 0, 0]\nvalue = 1\n",
+            Path::new("s.toml"),
+        )
+        .unwrap();
+        let s = parse_sequence(MOVE, Path::new("seq.toml")).unwrap();
+        s.check_moves(&scene).unwrap();
+        let at = s.scene_at(&scene, &s.poses_at(3.0));
+        // Turned 90° about +z, then moved by (10, 2, 0): (1, 0, 1) → (10, 3, 1).
+        let p = &at.point_sources[0];
+        assert!((p.position - DVec3::new(10.0, 3.0, 1.0)).length() < 1e-12);
+        assert!((p.direction - DVec3::Y).length() < 1e-12);
+        let c = at.facets[scene.objects[0].facets()][0].centroid();
+        assert!((c - DVec3::new(10.0, 3.0, 0.0)).length() < 1e-12, "{c}");
+        assert_eq!(at.facets[1], scene.facets[1]);
+        // A table the scene lacks: the sequence file's line and the names.
+        let e = parse_sequence(
+            &MOVE.replace("[\"car\"]", "[\"truck\"]"),
+            Path::new("seq.toml"),
+        )
+        .unwrap()
+        .check_moves(&scene)
+        .unwrap_err();
+        assert_eq!(e.line(), 5, "{e}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("move[0].objects[0]")
+                && msg.contains("[objects.truck]")
+                && msg.contains("car, road"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn bad_moves_name_their_line_and_key() {
+        let p = Path::new("seq.toml");
+        for (text, line, what) in [
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[0.5, 10, 2, 0, 90]"),
+                7,
+                "keys go forward",
+            ),
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[3, 10, 2, 0]"),
+                7,
+                "every key",
+            ),
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[3, 1e300, 2, 0, 0]"),
+                7,
+                "pose coordinate",
+            ),
+            (
+                MOVE.replace("objects = [\"car\"]\npoint_sources = [\"heads\"]\n", ""),
+                4,
+                "moves nothing",
+            ),
+            (
+                MOVE.replace("[\"heads\"]", "[\"heads\", \"heads\"]"),
+                6,
+                "named twice",
+            ),
+            (
+                MOVE.replace("keys = [[1, 0, 0, 0, 0], [3, 10, 2, 0, 90]]", "keys = []"),
+                7,
+                "at least one",
+            ),
+        ] {
+            let e = parse_sequence(&text, p).unwrap_err();
+            let msg = e.to_string();
+            assert_eq!(e.line(), line, "{msg}");
+            assert!(
+                msg.starts_with("seq.toml:") && msg.contains("move[0]") && msg.contains(what),
+                "{msg}"
+            );
         }
     }
 }
