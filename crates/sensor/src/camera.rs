@@ -80,6 +80,7 @@ pub struct Camera {
     stages: Stages,
     buf: Vec<f32>,
     tmp: Vec<f32>,
+    wide: Vec<f64>,
     /// Rows whose analogue line the next captures keep (`gloam scope`).
     scope_rows: Vec<usize>,
     /// `(row, CCD electrons per pixel)` of those rows in the last capture.
@@ -117,6 +118,7 @@ impl Camera {
             stages: Stages::of(&chain),
             buf: Vec::new(),
             tmp: Vec::new(),
+            wide: Vec::new(),
             scope_rows: Vec::new(),
             scope_lines: Vec::new(),
             chain,
@@ -361,6 +363,7 @@ impl Camera {
         let mut f = InFlight {
             pe,
             tmp: std::mem::take(&mut self.tmp),
+            wide: std::mem::take(&mut self.wide),
             rows,
             cols,
             apply_vignette,
@@ -412,7 +415,7 @@ impl Camera {
             noise: self.noise,
             saturation: f.account,
         };
-        (self.buf, self.tmp, self.scope_lines) = (f.pe, f.tmp, f.scope_lines);
+        (self.buf, self.tmp, self.wide, self.scope_lines) = (f.pe, f.tmp, f.wide, f.scope_lines);
         self.seq += 1;
         if self.mode == Mode::Agc
             && let Some(agc) = &self.agc
