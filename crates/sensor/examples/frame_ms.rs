@@ -7,10 +7,23 @@
 //! a bright source in view). With LAYERS.npy (a `gloam sequence`
 //! `layers.npy`, radiance W m⁻² sr⁻¹ per light group), the sum of its
 //! layers at the size it was rendered instead, through a flat 400–700 nm
-//! band. Compare two builds by running both alternately: the figures are
-//! wall times on whatever the cores are doing.
+//! band. Compare two builds by running both alternately: the wall times
+//! depend on whatever else the cores are doing; the CPU time per frame
+//! (all threads) much less.
 
 use std::time::Instant;
+
+/// User + system CPU time of this process, s (Linux; fields 14 and 15 of
+/// `/proc/self/stat`, in 100 Hz ticks): robust to other work on the cores.
+fn cpu_s() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let rest = stat.rfind(')').map_or("", |i| &stat[i + 2..]);
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .map(|v| v.parse().unwrap_or(f64::NAN))
+        .collect();
+    (f.get(11).copied().unwrap_or(f64::NAN) + f.get(12).copied().unwrap_or(f64::NAN)) / 100.0
+}
 
 use gloam_sensor::{Camera, SensorConfig, bench::test_scene};
 use gloam_spectra::Spectrum;
@@ -40,7 +53,11 @@ fn main() {
         let mut cam =
             Camera::new(SensorConfig::load_preset_or_file(preset).expect("preset")).expect("valid");
         let mut ms = Vec::with_capacity(frames);
-        for _ in 0..frames.max(1) + 2 {
+        let mut cpu0 = 0.0;
+        for i in 0..frames.max(1) + 2 {
+            if i == 2 {
+                cpu0 = cpu_s();
+            }
             let t = Instant::now();
             if radiance {
                 cam.capture_mono(img.view(), &band).expect("capture");
@@ -49,12 +66,13 @@ fn main() {
             }
             ms.push(t.elapsed().as_secs_f64() * 1e3);
         }
+        let cpu_ms = (cpu_s() - cpu0) * 1e3 / frames.max(1) as f64;
         // The first two frames build the caches (patterns, kernels).
         let mut ms = ms.split_off(2);
         ms.sort_by(f64::total_cmp);
         let q = |p: f64| ms[((ms.len() - 1) as f64 * p).round() as usize];
         println!(
-            "{preset} {label}: {:.1} ms per frame (quartiles {:.1}–{:.1}, {} frames, {} threads)",
+            "{preset} {label}: {:.1} ms per frame (quartiles {:.1}–{:.1}), {cpu_ms:.1} CPU-ms per frame; {} frames, {} threads",
             q(0.5),
             q(0.25),
             q(0.75),

@@ -353,7 +353,10 @@ impl McpStage {
                     .sum();
             f.account.mcp_compressed_fraction = compressed as f64 / n_px;
             mean_q = f.pe.par_iter().map(|&v| v as f64).sum::<f64>() / n_px;
-            let recovered = !in_view && state.par_iter().all(|&s| s > 0.999);
+            let recovered = !in_view
+                && state
+                    .par_chunks(1 << 14)
+                    .all(|c| c.iter().all(|&s| s > 0.999));
             self.reservoir = (!recovered).then_some(state);
         }
         f.mean_screen_e = Some(mean_q);
