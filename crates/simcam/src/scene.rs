@@ -58,12 +58,36 @@ impl std::fmt::Debug for LayerWeights {
 /// `Σ_i w_i · layer_i` into `out` (the layers' shape), in layer order in
 /// f64; a zero weight skips its layer. The caller checks the counts and
 /// shapes agree ([`SceneView::validate`]).
+///
+/// Row blocks in parallel when every array is contiguous (a live device
+/// mixes at frame rate); each pixel's sum is the same either way.
 pub fn mix_layers(layers: &[Array2<f64>], weights: &[f64], out: &mut Array2<f64>) {
+    use rayon::prelude::*;
+    let used: Vec<(&Array2<f64>, f64)> = layers
+        .iter()
+        .zip(weights.iter().copied())
+        .filter(|&(_, w)| w != 0.0)
+        .collect();
+    let slices: Option<Vec<(&[f64], f64)>> = used
+        .iter()
+        .map(|&(l, w)| l.as_slice().map(|s| (s, w)))
+        .collect();
+    if let (Some(slices), Some(o)) = (slices, out.as_slice_mut())
+        && slices.iter().all(|(s, _)| s.len() == o.len())
+    {
+        const BLOCK: usize = 1 << 14;
+        o.par_chunks_mut(BLOCK).enumerate().for_each(|(i, o)| {
+            o.fill(0.0);
+            for &(l, w) in &slices {
+                for (o, &l) in o.iter_mut().zip(&l[i * BLOCK..]) {
+                    *o += w * l;
+                }
+            }
+        });
+        return;
+    }
     out.fill(0.0);
-    for (layer, &w) in layers.iter().zip(weights) {
-        if w == 0.0 {
-            continue;
-        }
+    for (layer, w) in used {
         ndarray::Zip::from(&mut *out)
             .and(layer)
             .for_each(|o, &l| *o += w * l);
