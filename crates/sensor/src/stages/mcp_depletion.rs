@@ -160,6 +160,22 @@ mod tests {
 
     /// The closed form against a fourth-order Runge–Kutta integration of
     /// `ds/dt = (1 − s)/τ − r s/Q`, `dQ_out/dt = r s`.
+    /// The row pass (its shared decay for pixels without demand) gives
+    /// pixel by pixel what [`Depletion::step`] gives, to the bit.
+    #[test]
+    fn row_is_step_per_pixel() {
+        let d = dep(0.04, 0.04);
+        let demand = [0.0f32, 0.0, 1e3, 3e6, 0.0, -2.0, 5e7, 0.0];
+        let state0 = [1.0f32, 0.4, 1.0, 0.7, 0.95, 1.0, 0.2, 0.0];
+        let (mut row, mut state) = (demand, state0);
+        d.row(&mut row, &mut state);
+        for i in 0..demand.len() {
+            let (out, next) = d.step(demand[i] as f64, state0[i] as f64);
+            assert_eq!(row[i].to_bits(), (out as f32).to_bits(), "pixel {i}");
+            assert_eq!(state[i].to_bits(), (next as f32).to_bits(), "pixel {i}");
+        }
+    }
+
     #[test]
     fn closed_form_matches_integrating_the_reservoir() {
         for &(on, demand, s0) in &[
