@@ -80,6 +80,7 @@ pub struct Camera {
     stages: Stages,
     buf: Vec<f32>,
     tmp: Vec<f32>,
+    wide: Vec<f64>,
     /// Rows whose analogue line the next captures keep (`gloam scope`).
     scope_rows: Vec<usize>,
     /// `(row, CCD electrons per pixel)` of those rows in the last capture.
@@ -117,6 +118,7 @@ impl Camera {
             stages: Stages::of(&chain),
             buf: Vec::new(),
             tmp: Vec::new(),
+            wide: Vec::new(),
             scope_rows: Vec::new(),
             scope_lines: Vec::new(),
             chain,
@@ -281,11 +283,8 @@ impl Camera {
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
         }
-        check_input(detected_e_s_m2_sr, 0)?;
         let k = self.chain.etendue_m2_sr_s;
-        let mut pe = std::mem::take(&mut self.buf);
-        pe.clear();
-        pe.extend(detected_e_s_m2_sr.iter().map(|&v| (v * k) as f32));
+        let pe = self.convert_checked(detected_e_s_m2_sr, k)?;
         self.run(pe, rows, cols, true)
     }
 
@@ -311,37 +310,41 @@ impl Camera {
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
         }
-        let mut pe = std::mem::take(&mut self.buf);
-        match pe_per_pixel.as_slice() {
-            Some(sl) => {
-                // Convert and check in one pass (every element is
-                // overwritten, so no clearing first).
-                pe.resize(sl.len(), 0.0);
-                let ok = pe
-                    .par_chunks_mut(1 << 14)
-                    .zip(sl.par_chunks(1 << 14))
-                    .map(|(o, i)| {
-                        let mut ok = true;
-                        for (o, &v) in o.iter_mut().zip(i) {
-                            ok &= v.is_finite() & (v >= 0.0);
-                            *o = v as f32;
-                        }
-                        ok
-                    })
-                    .reduce(|| true, |a, b| a & b);
-                if !ok {
-                    self.buf = pe;
-                    check_input(pe_per_pixel, 0)?;
-                    unreachable!("check_input reports the bad value the scan saw");
-                }
-            }
-            None => {
-                check_input(pe_per_pixel, 0)?;
-                pe.clear();
-                pe.extend(pe_per_pixel.iter().map(|&v| v as f32));
-            }
-        }
+        let pe = self.convert_checked(pe_per_pixel, 1.0)?;
         self.run(pe, rows, cols, false)
+    }
+
+    /// `img · k` as f32 into the camera's frame buffer, checking every
+    /// value is finite and ≥ 0 in the same pass (row chunks in parallel;
+    /// the first bad value is reported).
+    fn convert_checked(&mut self, img: ArrayView2<f64>, k: f64) -> Result<Vec<f32>, CaptureError> {
+        let mut pe = std::mem::take(&mut self.buf);
+        let Some(sl) = img.as_slice() else {
+            check_input(img, 0)?;
+            pe.clear();
+            pe.extend(img.iter().map(|&v| (v * k) as f32));
+            return Ok(pe);
+        };
+        // Every element is overwritten, so no clearing first.
+        pe.resize(sl.len(), 0.0);
+        let ok = pe
+            .par_chunks_mut(1 << 14)
+            .zip(sl.par_chunks(1 << 14))
+            .map(|(o, i)| {
+                let mut ok = true;
+                for (o, &v) in o.iter_mut().zip(i) {
+                    ok &= v.is_finite() & (v >= 0.0);
+                    *o = (v * k) as f32;
+                }
+                ok
+            })
+            .reduce(|| true, |a, b| a & b);
+        if !ok {
+            self.buf = pe;
+            check_input(img, 0)?;
+            unreachable!("check_input reports the bad value the scan saw");
+        }
+        Ok(pe)
     }
 
     /// Runs the stages ([`Stages`], in the order the light travels) over a
@@ -361,6 +364,7 @@ impl Camera {
         let mut f = InFlight {
             pe,
             tmp: std::mem::take(&mut self.tmp),
+            wide: std::mem::take(&mut self.wide),
             rows,
             cols,
             apply_vignette,
@@ -412,7 +416,7 @@ impl Camera {
             noise: self.noise,
             saturation: f.account,
         };
-        (self.buf, self.tmp, self.scope_lines) = (f.pe, f.tmp, f.scope_lines);
+        (self.buf, self.tmp, self.wide, self.scope_lines) = (f.pe, f.tmp, f.wide, f.scope_lines);
         self.seq += 1;
         if self.mode == Mode::Agc
             && let Some(agc) = &self.agc

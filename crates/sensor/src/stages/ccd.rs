@@ -200,12 +200,34 @@ impl<'a> CcdPass<'a> {
 
 /// Spills charge above `fw` along each column: half up, half down, filling
 /// neighbours until it is absorbed (charge off the ends is lost to the drain).
+///
+/// The columns holding charge above full well are found in one row-major
+/// pass (a column-wise scan of the whole frame misses the cache on every
+/// pixel); only those are walked.
 pub fn bloom(img: &mut [f32], rows: usize, cols: usize, fw: f32) {
-    for c in 0..cols {
-        if !(0..rows).any(|r| img[r * cols + c] > fw) {
-            continue;
-        }
-        let mut down = vec![0f32; rows];
+    let over = img
+        .par_chunks(cols)
+        .fold(
+            || vec![false; cols],
+            |mut over, row| {
+                for (o, &v) in over.iter_mut().zip(row) {
+                    *o |= v > fw;
+                }
+                over
+            },
+        )
+        .reduce(
+            || vec![false; cols],
+            |mut a, b| {
+                for (a, b) in a.iter_mut().zip(b) {
+                    *a |= b;
+                }
+                a
+            },
+        );
+    let mut down = vec![0f32; rows];
+    for c in (0..cols).filter(|&c| over[c]) {
+        down.fill(0.0);
         for r in 0..rows {
             let v = &mut img[r * cols + c];
             if *v > fw {

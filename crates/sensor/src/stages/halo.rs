@@ -74,13 +74,26 @@ impl Halo {
     /// binned by `b = ⌊R/8⌋` and interpolated back (bilinear), which blurs
     /// the halo's rim by about `b` pixels and costs ~`1/b³` as much.
     pub fn apply(&self, pe: &mut [f32], rows: usize, cols: usize) {
+        self.apply_with(pe, rows, cols, &mut Vec::new());
+    }
+
+    /// [`Halo::apply`] with `prefix` as scratch for the row prefix sums,
+    /// kept by the caller from frame to frame (no allocation per frame).
+    pub fn apply_with(&self, pe: &mut [f32], rows: usize, cols: usize, prefix: &mut Vec<f64>) {
         let b = ((self.radius_px / 8.0).floor() as usize).max(1);
         let (keep, f) = (1.0 - self.fraction, self.fraction);
         if b == 1 {
-            let mean = disc_mean(pe, rows, cols, &chords(self.radius_px));
-            pe.par_iter_mut()
-                .zip(mean.par_iter())
-                .for_each(|(o, &m)| *o = (keep * *o as f64 + f * m) as f32);
+            // The disc mean of each row is taken from the prefix sums only,
+            // so the row can be overwritten as soon as it is known.
+            let disc = Disc::new(pe, rows, cols, chords(self.radius_px), prefix);
+            pe.par_chunks_mut(cols)
+                .enumerate()
+                .for_each_init(Vec::new, |mean, (r, out)| {
+                    disc.row_mean(r, mean);
+                    for (o, &m) in out.iter_mut().zip(mean.iter()) {
+                        *o = (keep * *o as f64 + f * m) as f32;
+                    }
+                });
             return;
         }
         // Bin b × b (edge blocks average the pixels they have).
@@ -102,7 +115,14 @@ impl Halo {
                 *o = (sum / ((r1 - r0) * (c1 - c0)) as f64) as f32;
             }
         });
-        let mean = disc_mean(&binned, rb, cb, &chords(self.radius_px / b as f64));
+        let disc = Disc::new(&binned, rb, cb, chords(self.radius_px / b as f64), prefix);
+        let mut mean = vec![0f64; rb * cb];
+        mean.par_chunks_mut(cb)
+            .enumerate()
+            .for_each_init(Vec::new, |m, (r, out)| {
+                disc.row_mean(r, m);
+                out.copy_from_slice(m);
+            });
         // Bilinear back to full resolution at the pixel centres.
         let at = |x: usize, n: usize| {
             let t = ((x as f64 + 0.5) / b as f64 - 0.5).clamp(0.0, (n - 1) as f64);
@@ -132,41 +152,82 @@ fn chords(r: f64) -> Vec<usize> {
         .collect()
 }
 
-/// The mean of `img` over the disc of `chords` around every pixel, edge
-/// pixels repeated beyond the frame.
-fn disc_mean(img: &[f32], rows: usize, cols: usize, chords: &[usize]) -> Vec<f64> {
-    let n = chords.len() / 2;
-    let pad = n;
-    let width = cols + 2 * pad + 1;
-    // Prefix sums of each row with its edge pixels repeated `pad` times.
-    let mut prefix = vec![0f64; rows * width];
-    prefix
-        .par_chunks_mut(width)
-        .zip(img.par_chunks(cols))
-        .for_each(|(p, row)| {
-            let mut acc = 0f64;
-            p[0] = 0.0;
-            for k in 0..width - 1 {
-                let c = (k as i64 - pad as i64).clamp(0, cols as i64 - 1) as usize;
-                acc += row[c] as f64;
-                p[k + 1] = acc;
-            }
-        });
-    let count: f64 = chords.iter().map(|&w| (2 * w + 1) as f64).sum();
-    let mut out = vec![0f64; rows * cols];
-    out.par_chunks_mut(cols).enumerate().for_each(|(r, out)| {
-        for (c, o) in out.iter_mut().enumerate() {
-            let mut sum = 0f64;
-            for (j, &w) in chords.iter().enumerate() {
-                let rr = (r as i64 + j as i64 - n as i64).clamp(0, rows as i64 - 1) as usize;
-                let p = &prefix[rr * width..(rr + 1) * width];
-                // Columns c − w … c + w, shifted by the padding.
-                sum += p[c + pad + w + 1] - p[c + pad - w];
-            }
-            *o = sum / count;
+/// The mean of an image over the disc of `chords` around every pixel,
+/// edge pixels repeated beyond the frame, from its rows' prefix sums.
+struct Disc<'a> {
+    /// Prefix sums of each row with its edge pixels repeated `pad` times.
+    prefix: &'a [f64],
+    rows: usize,
+    cols: usize,
+    width: usize,
+    chords: Vec<usize>,
+    count: f64,
+}
+
+impl<'a> Disc<'a> {
+    fn new(
+        img: &[f32],
+        rows: usize,
+        cols: usize,
+        chords: Vec<usize>,
+        prefix: &'a mut Vec<f64>,
+    ) -> Self {
+        let pad = chords.len() / 2;
+        let width = cols + 2 * pad + 1;
+        // Every element is written below.
+        prefix.resize(rows * width, 0.0);
+        prefix
+            .par_chunks_mut(width)
+            .zip(img.par_chunks(cols))
+            .for_each(|(p, row)| {
+                let mut acc = 0f64;
+                p[0] = 0.0;
+                let padded = std::iter::repeat_n(&row[0], pad)
+                    .chain(row)
+                    .chain(std::iter::repeat_n(&row[cols - 1], pad));
+                for (o, &v) in p[1..].iter_mut().zip(padded) {
+                    acc += v as f64;
+                    *o = acc;
+                }
+            });
+        let count = chords.iter().map(|&w| (2 * w + 1) as f64).sum();
+        Self {
+            prefix,
+            rows,
+            cols,
+            width,
+            chords,
+            count,
         }
-    });
-    out
+    }
+
+    /// Row `r`'s disc means into `out`: chord by chord across the row (so
+    /// the loop runs over contiguous columns and vectorises), each pixel's
+    /// sum taken over the chords in the same order as pixel by pixel.
+    fn row_mean(&self, r: usize, out: &mut Vec<f64>) {
+        let (n, cols) = (self.chords.len() / 2, self.cols);
+        let pad = n;
+        out.clear();
+        out.resize(cols, 0.0);
+        for (j, &w) in self.chords.iter().enumerate() {
+            let rr = (r as i64 + j as i64 - n as i64).clamp(0, self.rows as i64 - 1) as usize;
+            let p = &self.prefix[rr * self.width..(rr + 1) * self.width];
+            // Columns c − w … c + w, shifted by the padding.
+            accumulate_chord(out, &p[pad + w + 1..], &p[pad - w..]);
+        }
+        for o in out.iter_mut() {
+            *o /= self.count;
+        }
+    }
+}
+
+/// `out[c] += hi[c] − lo[c]`: compiled for AVX2 as well as the baseline
+/// (no fused multiply-add, so the same bits either way).
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+fn accumulate_chord(out: &mut [f64], hi: &[f64], lo: &[f64]) {
+    for ((o, &h), &l) in out.iter_mut().zip(hi).zip(lo) {
+        *o += h - l;
+    }
 }
 
 #[cfg(test)]

@@ -35,6 +35,8 @@ pub(crate) struct InFlight<'a> {
     pub pe: Vec<f32>,
     /// Scratch of the frame's size for the blurs.
     pub tmp: Vec<f32>,
+    /// Scratch for the halo's prefix sums.
+    pub wide: Vec<f64>,
     pub rows: usize,
     pub cols: usize,
     /// Apply the cos⁴θ fall-off (not to photoelectrons given at the cathode).
@@ -272,7 +274,7 @@ impl Stage {
                 }
             }
             Stage::Halo(Some(h)) if f.account.bright_source_in_view => {
-                h.apply(&mut f.pe, rows, cols);
+                h.apply_with(&mut f.pe, rows, cols, &mut f.wide);
                 f.account.halo_fraction = h.fraction;
             }
             Stage::Halo(_) => {}
@@ -351,7 +353,10 @@ impl McpStage {
                     .sum();
             f.account.mcp_compressed_fraction = compressed as f64 / n_px;
             mean_q = f.pe.par_iter().map(|&v| v as f64).sum::<f64>() / n_px;
-            let recovered = !in_view && state.par_iter().all(|&s| s > 0.999);
+            let recovered = !in_view
+                && state
+                    .par_chunks(1 << 14)
+                    .all(|c| c.iter().all(|&s| s > 0.999));
             self.reservoir = (!recovered).then_some(state);
         }
         f.mean_screen_e = Some(mean_q);

@@ -133,7 +133,10 @@ pub(crate) fn read(chain: &Chain, pat: &Patterns, f: &mut InFlight) {
     // Can any pixel reach full well? (Upper bound: the blur and patterns
     // cannot raise the maximum by more than a few per cent.)
     let pe = &mut f.pe;
-    let max_q = pe.par_iter().copied().reduce(|| 0f32, f32::max) as f64;
+    let max_q = pe
+        .par_chunks(1 << 14)
+        .map(|c| c.iter().copied().fold(0f32, f32::max))
+        .reduce(|| 0f32, f32::max) as f64;
     let bound = max_q * conversion * 1.1 * pat.flat_field_max + chain.dark_e_per_frame;
     let bound = bound + 8.0 * bound.sqrt() + 10.0;
     let stats: Vec<(f64, usize)> = if !chain.config.ccd.blooming || bound < full_well {
