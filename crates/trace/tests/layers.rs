@@ -1,6 +1,7 @@
-//! Light layers (`render_layers`): the layers sum to the ordinary render,
-//! and a lamp's layer is what a separate render of the scene with only that
-//! lamp shows.
+//! Light layers (`render_layers`, one pass): the layers sum to the
+//! ordinary render, which the pass reproduces bit for bit, adaptive
+//! sampling included; and a lamp's layer is what a separate render of the
+//! scene with only that lamp shows.
 
 use std::path::Path;
 
@@ -107,11 +108,6 @@ fn layers_sum_to_the_ordinary_render() {
     for indirect in ["off", "cache"] {
         let (whole, layers) = layers(&sc, &settings(4, indirect));
         assert_eq!(layers.len(), 4);
-        let mut sum = whole.radiance.clone();
-        sum.fill(0.0);
-        for l in &layers {
-            sum += &l.radiance;
-        }
         // The lamps' layers carry light of their own (the moon's and the
         // sky's may be left out by the effect plan next to the lamps).
         for l in &layers[..2] {
@@ -120,16 +116,30 @@ fn layers_sum_to_the_ordinary_render() {
                 "{indirect}: an empty layer"
             );
         }
-        let peak = whole.radiance.iter().copied().fold(0.0, f64::max);
-        assert!(peak > 0.0);
-        let worst = (sum.iter().zip(&whole.radiance))
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        assert!(
-            worst <= 1e-9 * peak,
-            "{indirect}: layers' sum off by {worst:e} (peak {peak:e})"
-        );
+        assert_sums_to(&layers, &whole, indirect);
     }
+}
+
+/// The layers sum to `whole` within 1e-12 of its peak (floating-point
+/// summation order: the clamp of negative penumbra sums is the whole's)
+/// and none is negative.
+fn assert_sums_to(layers: &[RenderOutput], whole: &RenderOutput, what: &str) {
+    let mut sum = whole.radiance.clone();
+    sum.fill(0.0);
+    for l in layers {
+        sum += &l.radiance;
+        assert!(l.radiance.iter().all(|&x| x >= 0.0), "{what}: negative");
+        assert_eq!(l.spp, whole.spp, "{what}: the whole's samples");
+    }
+    let peak = whole.radiance.iter().copied().fold(0.0, f64::max);
+    assert!(peak > 0.0);
+    let worst = (sum.iter().zip(&whole.radiance))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-12 * peak,
+        "{what}: layers' sum off by {worst:e} (peak {peak:e})"
+    );
 }
 
 /// The image mean of band `b` and its standard error (pixels independent).
@@ -181,12 +191,42 @@ fn a_lamps_layer_is_the_scene_with_only_that_lamp() {
     }
 }
 
+/// Adaptive sampling: the pass's whole is the adaptive render bit for
+/// bit (its sample counts follow the whole's errors), and every layer has
+/// those samples and sums to it.
 #[test]
-fn adaptive_sampling_is_refused() {
-    let sc = scene(&room(LAMP_A, ""));
-    let mut s = settings(4, "off");
-    s.set("target_error", "0.1").unwrap();
-    let mut t = Tracer::new(&sc, &s).unwrap();
+fn adaptive_layers_take_the_wholes_samples() {
+    let sc = scene(&room(&format!("{LAMP_A}{LAMP_B}"), ""));
+    let mut s = settings(4, "cache");
+    s.set("target_error", "0.05").unwrap();
+    s.set("max_spp", "64").unwrap();
+    let map = LayerMap::of(&sc);
+    let mut t = Tracer::prepare_layered(&sc, &s, None, &map).unwrap();
+    let h = t.image_size().1;
+    let (whole, layers) = t.render_layered(&map, 0..h, &|_, _| {}, &|| false).unwrap();
+    let plain = Tracer::new(&sc, &s).unwrap().render(&|_, _| {}).unwrap();
+    assert_eq!(whole.radiance, plain.radiance);
+    assert_eq!(whole.spp, plain.spp);
+    assert!(whole.spp.iter().any(|&n| n > 4), "nothing adaptive");
+    assert_sums_to(&layers, &whole, "adaptive");
+}
+
+/// More light groups than a layered render takes: a clear error.
+#[test]
+fn too_many_groups_are_refused() {
+    let lamps: String = (0..=gloam_trace::layers::MAX_LAYER_GROUPS)
+        .map(|i| {
+            format!(
+                "[point_sources.l{i}]\nposition = [{}, 3, 2.8]\nvalue = 0.001\n",
+                1.0 + 0.05 * i as f64
+            )
+        })
+        .collect();
+    let sc = scene(&room(&lamps, ""));
+    let mut t = Tracer::new(&sc, &settings(1, "off")).unwrap();
     let err = t.render_layers(&LayerMap::of(&sc), 0..1, &|_, _| {}, &|| false);
-    assert!(matches!(err, Err(gloam_trace::LayerError::Adaptive)));
+    assert!(
+        matches!(err, Err(gloam_trace::LayerError::TooManyGroups(n)) if n > gloam_trace::layers::MAX_LAYER_GROUPS),
+        "{err:?}"
+    );
 }
