@@ -98,7 +98,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
             "mix_per_frame_ms": 1e3 * captured.mix_s / frames,
             "camera_per_frame_ms": 1e3 * captured.camera_s / frames,
         },
-        "method": "the scene rendered once as it is (still_render) and once per light group with the other groups dark (layered_render); frame i mixes the layers' detected radiance with the groups' mean intensities over its exposure window and runs it through one camera, whose AGC, lag and bright-source protection carry over between frames",
+        "method": "the scene rendered in one pass that gives the still and one layer per light group (each path's light attributed to its emitter's group; layered_render is that pass, still_render its trace time); frame i mixes the layers' detected radiance with the groups' mean intensities over its exposure window and runs it through one camera, whose AGC, lag and bright-source protection carry over between frames",
     });
     report["sensor_capture"] = captured.sensor_capture.clone();
     report["provenance"] = serde_json::to_value(&provenance)?;
