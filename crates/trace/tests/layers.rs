@@ -230,3 +230,47 @@ fn too_many_groups_are_refused() {
         "{err:?}"
     );
 }
+
+/// Each lamp's layer against its closed form: a Lambertian floor (ρ = 0.5)
+/// under two isotropic lamps of their own groups, seen straight down by a
+/// one-pixel camera (0.35 m of floor), direct light only:
+/// `L = ρ/π · I cos θ / R²` per lamp, with `I` = 0.02 and 0.01 W sr⁻¹ nm⁻¹
+/// over the 300 nm band, R = 5 m, cos θ = 0.8 and 0.6.
+#[test]
+fn each_lamps_layer_is_its_closed_form() {
+    let sc = scene(
+        r#"
+units = "m"
+[camera]
+position = [0, 0, 10]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 2
+width = 1
+height = 1
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.floor]
+reflectance = 0.5
+[objects.floor]
+material = "floor"
+quad = { center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] }
+[point_sources.a]
+position = [3, 0, 4]
+value = 0.02
+[point_sources.b]
+position = [0, -4, 3]
+value = 0.01
+"#,
+    );
+    let (whole, layers) = layers(&sc, &settings(16, "off"));
+    let closed = |i: f64, cos: f64| 0.5 / std::f64::consts::PI * i * 300.0 * cos / 25.0;
+    for (l, want) in layers.iter().zip([closed(0.02, 0.8), closed(0.01, 0.6)]) {
+        let got = l.radiance[[0, 0, 0]];
+        // The pixel averages E over its 0.35 m footprint: < 0.2 % off the
+        // centre's value.
+        assert!(((got - want) / want).abs() < 2e-3, "{got} vs {want}");
+    }
+    assert_sums_to(&layers, &whole, "two lamps");
+}
