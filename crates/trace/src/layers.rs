@@ -35,8 +35,8 @@
 //! Cost: one pass with more additions per term (each group a term
 //! reaches) and per cache reading (every lit group), plus the groups'
 //! bounce series — not one render per group. Measured, CPU time over a
-//! plain render: office (2 groups, cache-heavy) 1.9×, night lamps (5
-//! groups) 1.4×, street-switch-on at 640 × 480 (3 groups) 1.2–1.3× (one
+//! plain render: office (2 groups, cache-heavy) 1.8–1.9×, night lamps (5
+//! groups) 1.3–1.4×, street-switch-on at 640 × 480 (3 groups) 1.2–1.3× (one
 //! render per group before: 3.1× office, 5.4× night lamps). At most
 //! [`MAX_LAYER_GROUPS`] groups, and their images and cache must fit in
 //! memory.
