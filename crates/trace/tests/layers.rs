@@ -241,27 +241,12 @@ fn each_lamps_layer_is_its_closed_form() {
     let sc = scene(
         r#"
 units = "m"
-[camera]
-position = [0, 0, 10]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov_deg = 2
-width = 1
-height = 1
-[bands.vis]
-lo_nm = 400
-hi_nm = 700
-[materials.floor]
-reflectance = 0.5
-[objects.floor]
-material = "floor"
-quad = { center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] }
-[point_sources.a]
-position = [3, 0, 4]
-value = 0.02
-[point_sources.b]
-position = [0, -4, 3]
-value = 0.01
+camera = { position = [0, 0, 10], look_at = [0, 0, 0], up = [0, 1, 0], fov_deg = 2, width = 1, height = 1 }
+bands.vis = { lo_nm = 400, hi_nm = 700 }
+materials.floor = { reflectance = 0.5 }
+objects.floor = { material = "floor", quad = { center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] } }
+point_sources.a = { position = [3, 0, 4], value = 0.02 }
+point_sources.b = { position = [0, -4, 3], value = 0.01 }
 "#,
     );
     let (whole, layers) = layers(&sc, &settings(16, "off"));
