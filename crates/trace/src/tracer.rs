@@ -1008,10 +1008,26 @@ impl Tracer {
         if cos.is_nan() || cos <= 0.0 {
             return;
         }
-        if let Some(tau) = self.shadow(p, d, f64::INFINITY, [ignore, u32::MAX], c) {
-            out.add_from(sky.moon_group, |o| {
-                add_emission(o, cos, &sky.moon_en, tau.as_deref())
-            });
+        let moon = (sky.moon_group, cos, &sky.moon_en[..]);
+        self.add_if_visible(p, d, f64::INFINITY, ignore, moon, c, out);
+    }
+
+    /// One shadow ray from `p` along unit `dir` over `dist`; unless it is
+    /// blocked, adds `g · spectrum · τ` (`light = (group, g, spectrum)`)
+    /// to `out` and to that light group.
+    #[allow(clippy::too_many_arguments)]
+    fn add_if_visible(
+        &self,
+        p: DVec3,
+        dir: DVec3,
+        dist: f64,
+        ignore: u32,
+        (group, g, spectrum): (Option<usize>, f64, &[f64]),
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) {
+        if let Some(tau) = self.shadow(p, dir, dist, [ignore, u32::MAX], c) {
+            out.add_from(group, |o| add_emission(o, g, spectrum, tau.as_deref()));
         }
     }
 
@@ -1135,11 +1151,7 @@ impl Tracer {
         let r_m = r * self.mpu;
         // scale·shape is exactly shape for scale = 1 (no light tree).
         let g = scale * shape * cos_r / (r_m * r_m);
-        if let Some(tau) = self.shadow(p, w, r, [ignore, u32::MAX], c) {
-            out.add_from(l.group, |o| {
-                add_emission(o, g, &l.intensity, tau.as_deref())
-            });
-        }
+        self.add_if_visible(p, w, r, ignore, (l.group, g, &l.intensity), c, out);
     }
 
     /// Draws `nsamp` light samples (Latin-hypercube stratified) of `s` seen from `p` (normal `n`),
