@@ -130,7 +130,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
                 "mix_per_frame_ms": 1e3 * r.mix_s / frames,
                 "camera_per_frame_ms": 1e3 * r.camera_s / frames,
             },
-            "method": "each distinct pose of the moving bodies (at each frame's mid-exposure; one pose without [[move]]) rendered once into one layer per light group (the group's light alone, the others dark: the still render's samples and random numbers), the whole scene moved, so each pose's layers sum to the still render of that pose; frame i mixes its pose's layers' detected radiance with the groups' mean intensities over its exposure window and runs it through one camera, whose AGC, lag and bright-source protection carry over between frames",
+            "method": "each distinct pose of the moving bodies (at each frame's mid-exposure; one pose without [[move]]) rendered once, in one pass that attributes each path's light to its emitter's light group (one layer per group, the still render's samples and random numbers), the whole scene moved, so each pose's layers sum to the still render of that pose; frame i mixes its pose's layers' detected radiance with the groups' mean intensities over its exposure window and runs it through one camera, whose AGC, lag and bright-source protection carry over between frames",
         },
         "sensor_capture": r.sensor_capture,
         "provenance": provenance,

@@ -215,10 +215,6 @@ impl<'a> RenderJob<'a> {
     /// Adds the camera's detected band and prepares the tracer (BVH,
     /// sources, pilot, cache) and the effect plan it runs.
     pub fn prepare(&self) -> Result<PreparedRender, RenderError> {
-        // Refused before the trace, not after the ordinary render.
-        if self.layers && self.settings.target_error.is_some() {
-            return Err(LayerError::Adaptive.into());
-        }
         let banded;
         let traced = match self.camera {
             Some(c) => {
@@ -227,7 +223,14 @@ impl<'a> RenderJob<'a> {
             }
             None => self.scene,
         };
-        let tracer = Tracer::prepare_observed(traced, self.settings, true, self.observer.clone())?;
+        let map = self.layers.then(|| LayerMap::of(self.scene));
+        let observer = self.observer.clone();
+        let tracer = match &map {
+            // Layers: the emitters carry their groups and the cache is
+            // solved per group at preparation (`layers.rs` in gloam-trace).
+            Some(map) => Tracer::prepare_layered(traced, self.settings, observer, map)?,
+            None => Tracer::prepare_observed(traced, self.settings, true, observer)?,
+        };
         let mut plan = tracer.effect_plan(self.scene);
         if self.camera != self.scene.sensor.as_deref() {
             plan.extend([camera_effect(self.camera, self.scene.sensor.as_deref())]);
@@ -236,12 +239,7 @@ impl<'a> RenderJob<'a> {
             tracer,
             plan,
             camera: self.camera.is_some(),
-            layers: self.layers.then(|| {
-                (
-                    LayerMap::of(self.scene),
-                    self.scene.light_groups.groups.clone(),
-                )
-            }),
+            layers: map.map(|m| (m, self.scene.light_groups.groups.clone())),
         })
     }
 
@@ -297,16 +295,30 @@ impl PreparedRender {
                 height: image_size.1,
             });
         }
-        let mut radiance = self
-            .tracer
-            .render_rows_until(rows.clone(), progress, stop)?;
+        // With layers, one pass gives the ordinary image (bit-identical)
+        // and the layers.
+        let t0 = std::time::Instant::now();
+        let (mut radiance, layered) = match &self.layers {
+            Some((map, _)) => {
+                let (whole, layers) =
+                    self.tracer
+                        .render_layered(map, rows.clone(), progress, stop)?;
+                (whole, Some(layers))
+            }
+            None => (
+                self.tracer
+                    .render_rows_until(rows.clone(), progress, stop)?,
+                None,
+            ),
+        };
+        let seconds = t0.elapsed().as_secs_f64();
         let detected = match self.camera {
             true => Some(take_detected_band(&mut radiance)?),
             false => None,
         };
-        let layers = match self.layers.take() {
-            Some(groups) => Some(self.layers_of(groups, rows.clone(), progress, stop)?),
-            None => None,
+        let layers = match (self.layers.take(), layered) {
+            (Some((_, groups)), Some(outputs)) => Some(self.layers_from(groups, outputs, seconds)?),
+            _ => None,
         };
         Ok(Rendered {
             radiance,
@@ -341,7 +353,17 @@ impl PreparedRender {
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Layers, RenderError> {
         let t0 = std::time::Instant::now();
-        let mut outputs = self.tracer.render_layers(&map, rows, progress, stop)?;
+        let outputs = self.tracer.render_layers(&map, rows, progress, stop)?;
+        self.layers_from(groups, outputs, t0.elapsed().as_secs_f64())
+    }
+
+    /// The traced layers with the camera's detected band split off each.
+    fn layers_from(
+        &self,
+        groups: Vec<gloam_scene::LightGroup>,
+        mut outputs: Vec<RenderOutput>,
+        seconds: f64,
+    ) -> Result<Layers, RenderError> {
         let detected = match self.camera {
             true => Some(
                 outputs
@@ -355,7 +377,7 @@ impl PreparedRender {
             groups,
             outputs,
             detected,
-            seconds: t0.elapsed().as_secs_f64(),
+            seconds,
         })
     }
 }
@@ -368,7 +390,8 @@ pub struct Layers {
     /// Each layer's camera-detected radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (rows ×
     /// columns), when the job had a camera: what `gloam sequence` mixes.
     pub detected: Option<Vec<Array2<f64>>>,
-    /// Wall time of all the layers' renders (cache solves included).
+    /// Wall time of the one pass that traced the image and its layers
+    /// (the per-group cache solves are in the preparation).
     pub seconds: f64,
 }
 
@@ -418,8 +441,8 @@ impl Layers {
             "shape": "group × band × row × column (index 0 is groups[0]), W m⁻² sr⁻¹ like radiance.npy",
             "bands": bands,
             "groups": groups,
-            "sum": "the layers sum to radiance.npy up to floating-point summation order (same seed, same samples; relative difference ≤ 1e-9)",
-            "method": "one render per group with every other group's emission set to zero: the ordinary render's light tree, plan, samples and random numbers; the interreflection cache solved per group with the whole scene's bounces and tail",
+            "sum": "the layers sum to radiance.npy up to floating-point summation order (same seed, same samples; difference ≤ 1e-12 of the peak)",
+            "method": "one pass: each path traced once, as the ordinary render (same light tree, plan, samples, random numbers), each term it adds (a light sample, an emitter or the sky seen, cached interreflection) attributed to its emitter's group; a negative penumbra sum clamped on the whole with the groups scaled to follow; the interreflection cache gathered once and its bounce series solved per group with the whole scene's bounces and tail",
             "seed": seed,
             "seconds": self.seconds,
         })

@@ -35,6 +35,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::light::Light;
 use crate::sky_light::{cosine_hemisphere, orthonormal_basis};
 use crate::tracer::{RayCounts, Tracer, latin_hypercube, stream};
 
@@ -148,16 +149,50 @@ struct Entry {
     tau: u32,
 }
 
+/// One texel's row of the gathering operator: its entries and the
+/// spectral transmissions they index.
+type OperatorRow = (Vec<Entry>, Vec<Vec<f64>>);
+
+/// The solved bounce series over the texels ([`Tracer::bounce_series`]).
+struct Series {
+    radiance: Vec<f64>,
+    e_ind: Vec<f64>,
+    iterations: u32,
+    remainder: f64,
+    ratio: f64,
+    bounce_norms: Vec<f64>,
+}
+
 /// The solved cache.
 pub(crate) struct Cache {
     /// Where each facet side's texels are.
     layout: Layout,
     nwl: usize,
-    /// Outgoing diffuse radiance `k_d (E_d + E_ind)/π` per texel × slot.
+    /// Outgoing diffuse radiance `k_d (E_d + E_ind)/π` per texel × slot:
+    /// the whole scene's light, then under `--layers` that of each lit
+    /// group alone (`[texel][whole, lit groups…][slot]`, so a reading
+    /// finds a texel's groups beside its whole).
     radiance: Vec<f64>,
-    /// Indirect irradiance per texel × slot.
+    /// Indirect irradiance per texel × slot, laid out the same (groups
+    /// kept only where a render reads it, `gather_rays = 0`).
     e_ind: Vec<f64>,
+    /// Under `--layers`, the light groups that light some texel (empty
+    /// otherwise).
+    lit: Vec<usize>,
+    /// Values per texel in `radiance` and in `e_ind`: `nwl` times the
+    /// lights they hold.
+    stride: usize,
+    e_stride: usize,
     pub(crate) summary: CacheSummary,
+}
+
+/// Which cached value a reading takes.
+#[derive(Clone, Copy)]
+pub(crate) enum Field {
+    /// Outgoing radiance (a final gather reads it where its rays land).
+    Radiance,
+    /// Indirect irradiance (read directly, `gather_rays = 0`).
+    Indirect,
 }
 
 /// How large the cache should be.
@@ -176,57 +211,75 @@ pub(crate) struct CacheSize {
 }
 
 impl Cache {
-    /// Bilinear cached value (`radiance` or `e_ind`) at `p` on `facet`'s side
-    /// `side`, times `scale`, added to `out`. False when there is no grid.
-    fn add_bilinear(
+    /// Adds `scale ·` the whole scene's cached value `field` (bilinear) at
+    /// `p` on `facet`'s side seen from the front or not, to `out`. With
+    /// `split = Some((sums, τ))` (a reading split by group) it also adds
+    /// each lit group's value times `τ(λ)` (1 for `None`) to that group's
+    /// block of `sums` (`nwl` slots each), unscaled: a reading sums its
+    /// rays first and scales the groups once ([`Cache::add_sums`]).
+    #[allow(clippy::too_many_arguments)]
+    fn add(
         &self,
-        field: &[f64],
+        field: Field,
         facet: u32,
-        side: usize,
+        front: bool,
         p: DVec3,
         scale: &[f64],
         out: &mut [f64],
-    ) -> bool {
-        let Some(weights) = self.layout.weights(facet, side, p) else {
-            return false;
+        mut split: Option<(&mut [f64], Option<&[f64]>)>,
+    ) {
+        let Some(weights) = self.layout.weights(facet, usize::from(!front), p) else {
+            return;
         };
         let n = self.nwl;
+        let (values, stride) = match field {
+            Field::Radiance => (&self.radiance, self.stride),
+            Field::Indirect => (&self.e_ind, self.e_stride),
+        };
         for (k, w) in weights {
             if w == 0.0 {
                 continue;
             }
-            let v = &field[k as usize * n..(k as usize + 1) * n];
+            let texel = &values[k as usize * stride..(k as usize + 1) * stride];
             out.iter_mut()
-                .zip(v)
+                .zip(&texel[..n])
                 .zip(scale)
                 .for_each(|((o, v), s)| *o += w * s * v);
+            match split.as_mut() {
+                Some((sums, None)) => sums
+                    .iter_mut()
+                    .zip(&texel[n..])
+                    .for_each(|(o, v)| *o += w * v),
+                Some((sums, Some(t))) => {
+                    for (o, v) in sums.chunks_mut(n).zip(texel[n..].chunks(n)) {
+                        o.iter_mut()
+                            .zip(v)
+                            .zip(t.iter())
+                            .for_each(|((o, v), t)| *o += w * t * v);
+                    }
+                }
+                None => {}
+            }
         }
-        true
     }
 
-    /// Adds `scale ·` the cached outgoing radiance at `p` on `facet` (side
-    /// seen from direction `d`) to `out`.
-    pub(crate) fn add_radiance(
-        &self,
-        facet: u32,
-        front: bool,
-        p: DVec3,
-        scale: &[f64],
-        out: &mut [f64],
-    ) {
-        self.add_bilinear(&self.radiance, facet, usize::from(!front), p, scale, out);
+    /// The sums a reading split by group adds into (one block of `nwl`
+    /// slots per lit group), or `None` when `out` is not split or no group
+    /// lights the cache.
+    fn group_sums(&self, out: &Light) -> Option<Vec<f64>> {
+        (out.groups() > 0 && !self.lit.is_empty()).then(|| vec![0.0; self.lit.len() * self.nwl])
     }
 
-    /// Adds `scale ·` the cached indirect irradiance at `p` to `out`.
-    pub(crate) fn add_indirect_irradiance(
-        &self,
-        facet: u32,
-        front: bool,
-        p: DVec3,
-        scale: &[f64],
-        out: &mut [f64],
-    ) {
-        self.add_bilinear(&self.e_ind, facet, usize::from(!front), p, scale, out);
+    /// Adds `scale ·` each lit group's `sums` to its part of `out`.
+    fn add_sums(&self, sums: &[f64], scale: &[f64], out: &mut Light) {
+        for (&g, s) in self.lit.iter().zip(sums.chunks(self.nwl)) {
+            if let Some(part) = out.part_mut(g) {
+                part.iter_mut()
+                    .zip(s)
+                    .zip(scale)
+                    .for_each(|((o, s), k)| *o += k * s);
+            }
+        }
     }
 }
 
@@ -742,25 +795,32 @@ impl Tracer {
         )
     }
 
-    /// Builds and solves the radiosity cache (see the module docs).
-    pub(crate) fn build_cache(&self, size: CacheSize) -> Cache {
-        self.build_cache_series(size, None)
+    /// The size of a render's cache (not the pilot's), from the settings.
+    pub(crate) fn render_cache_size(&self) -> CacheSize {
+        CacheSize {
+            texels: self.settings.cache_texels,
+            rays: self.settings.cache_rays,
+            tolerance: self.settings.cache_tolerance,
+            max_iterations: 200,
+            direct_cell_mean: false,
+        }
     }
 
-    /// [`Tracer::build_cache`]; with `fixed = Some((iterations, ratio))`
-    /// the series is cut after exactly that many bounces and its tail
-    /// extrapolated with that ratio, instead of both being read from this
-    /// cache's own increments. A light group's cache (`--layers`) takes the
-    /// whole scene's, so the solve is the same linear map for every group
-    /// and the groups' caches sum to the whole scene's.
-    pub(crate) fn build_cache_series(&self, size: CacheSize, fixed: Option<(u32, f64)>) -> Cache {
-        let size = match fixed {
-            Some((n, _)) => CacheSize {
-                max_iterations: n,
-                ..size
-            },
-            None => size,
-        };
+    /// Builds and solves the radiosity cache (see the module docs).
+    pub(crate) fn build_cache(&self, size: CacheSize) -> Cache {
+        self.build_cache_split(size, 0)
+    }
+
+    /// [`Tracer::build_cache`], and with `groups` > 0 (`--layers`) each
+    /// light group's cache beside the whole scene's, from the same gather:
+    /// the texels' direct irradiance is taken once, split by group, and
+    /// the operator's rays are traced once; only the bounce series is
+    /// solved again per group (its cost is the Jacobi iterations, not the
+    /// rays), with the whole scene's number of bounces and tail ratio, so
+    /// every group's solve is the same linear map and the groups' caches
+    /// sum to the whole scene's. The whole is bit-identical to an unsplit
+    /// build.
+    pub(crate) fn build_cache_split(&self, size: CacheSize, groups: usize) -> Cache {
         let t0 = std::time::Instant::now();
         let nwl = self.wl.len();
         let (layout, texels, h) = self.cache_layout(size.texels);
@@ -772,6 +832,9 @@ impl Tracer {
                 nwl,
                 radiance: Vec::new(),
                 e_ind: Vec::new(),
+                lit: Vec::new(),
+                stride: nwl,
+                e_stride: nwl,
                 summary: CacheSummary::default(),
             };
         }
@@ -779,21 +842,21 @@ impl Tracer {
         let w_ray = std::f64::consts::PI / rays as f64;
         // Direct irradiance and the operator's rows, per texel (parallel,
         // each texel its own random stream: deterministic).
-        type Row = (Vec<f64>, Vec<Entry>, Vec<Vec<f64>>);
+        type Row = (Light, Vec<Entry>, Vec<Vec<f64>>);
         let rows: Vec<Row> = texels
             .par_iter()
             .enumerate()
             .map(|(k, &(f, p, n, area))| {
                 let mut rng = stream(self.settings.seed, DOMAIN_CACHE, k as u64);
                 let mut c = RayCounts::default();
-                let mut e = vec![0.0; nwl];
+                let mut e = Light::dark(nwl, groups);
                 // A texel's noise persists into every bounce and every
                 // pixel that gathers from it. The pilot takes the direct
                 // irradiance as the texel's mean (CACHE_DIRECT_REPEATS
                 // points 2 × 2 stratified over the cell, kept on the facet,
                 // one light-tree selection each); the render's cache, whose
                 // texels are finer, at the centre.
-                let mut e1 = vec![0.0; nwl];
+                let mut e1 = e.dark_like();
                 // A cluster texel (the last `layout.clusters`) stands for
                 // many small facets through one of them: its points stay
                 // within that facet.
@@ -804,12 +867,12 @@ impl Tracer {
                         area
                     };
                     for q in self.texel_points(f, p, cell, &mut rng) {
-                        e1.iter_mut().for_each(|x| *x = 0.0);
+                        e1.clear();
                         self.irradiance_with(q, n, f, 1, None, &mut rng, &mut c, &mut e1);
-                        e.iter_mut().zip(&e1).for_each(|(a, b)| *a += b);
+                        e.add_each(&e1, |a, b| a.iter_mut().zip(b).for_each(|(a, b)| *a += b));
                     }
                     let inv = 1.0 / CACHE_DIRECT_REPEATS as f64;
-                    e.iter_mut().for_each(|x| *x *= inv);
+                    e.each_mut(|v| v.iter_mut().for_each(|x| *x *= inv));
                 } else {
                     // With the light tree (one selection picks only
                     // `light_tree_branches` emitters) CACHE_DIRECT_REPEATS
@@ -867,21 +930,110 @@ impl Tracer {
             })
             .collect();
         let operator_entries = rows.iter().map(|r| r.1.len()).sum();
-        // k_d per texel.
-        let kd = |k: usize| &self.mats[self.facet_mat[texels[k].0 as usize] as usize].kd;
+        let (direct, ops): (Vec<Light>, Vec<OperatorRow>) =
+            rows.into_iter().map(|(e, m, t)| (e, (m, t))).unzip();
+        // The whole scene's light and each lit group's, side by side: one
+        // pass over the operator per bounce for all, the series cut and
+        // extrapolated by the whole's increments alone.
+        let lit: Vec<usize> = (0..groups)
+            .filter(|&g| direct.iter().any(|d| d.part(g).is_some()))
+            .collect();
+        let lights = 1 + lit.len();
+        let side_by_side = |k: usize| -> Vec<f64> {
+            let d = &direct[k];
+            let mut v = d.whole.clone();
+            for &g in &lit {
+                v.extend_from_slice(d.part(g).unwrap_or(&vec![0.0; nwl]));
+            }
+            v
+        };
+        let series = self.bounce_series(&ops, &texels, lights, side_by_side, size);
+        let (iterations, remainder, ratio) = (series.iterations, series.remainder, series.ratio);
+        let (radiance, e_ind, bounce_norms) = (series.radiance, series.e_ind, series.bounce_norms);
+        let stride = lights * nwl;
+        // The groups' indirect irradiance only where it is read.
+        let (e_ind, e_stride) = if lights > 1 && self.settings.gather_rays > 0 {
+            let whole: Vec<f64> = e_ind
+                .chunks(stride)
+                .flat_map(|t| &t[..nwl])
+                .copied()
+                .collect();
+            (whole, nwl)
+        } else {
+            (e_ind, stride)
+        };
+        let total: f64 = bounce_norms.iter().sum::<f64>()
+            + if ratio > 0.0 && ratio < 1.0 {
+                bounce_norms.last().copied().unwrap_or(0.0) * ratio / (1.0 - ratio)
+            } else {
+                0.0
+            };
+        let bounce_shares = bounce_norms
+            .iter()
+            .map(|b| if total > 0.0 { b / total } else { 0.0 })
+            .collect();
+        Cache {
+            layout,
+            nwl,
+            radiance,
+            e_ind,
+            lit,
+            stride,
+            e_stride,
+            summary: CacheSummary {
+                texels: n_tex,
+                cluster_texels,
+                texel_size: h,
+                gather_rays_per_texel: rays,
+                operator_entries,
+                iterations,
+                remainder_estimate: remainder,
+                bounce_ratio: ratio,
+                bounce_shares,
+                seconds: t0.elapsed().as_secs_f64(),
+            },
+        }
+    }
+
+    /// The bounce series of one light over the cache's texels, from each
+    /// texel's direct irradiance `direct(k)`: Jacobi iteration of
+    /// `L_r = k_d (E_d + G L_r) / π` (iteration `k` adds bounce `k`) until
+    /// the estimated remainder is below `size.tolerance`, then the
+    /// geometric tail. `lights` series are solved side by side (the
+    /// whole scene's light, then light groups', `build_cache_split`):
+    /// `direct(k)` holds each light's slots in turn, and so does the result
+    /// per texel; the stopping rule, the tail ratio and the statistics
+    /// are the first light's alone, so it is solved exactly as if alone
+    /// and the others are the same linear map of their direct light.
+    fn bounce_series(
+        &self,
+        ops: &[OperatorRow],
+        texels: &[Texel],
+        lights: usize,
+        direct: impl Fn(usize) -> Vec<f64>,
+        size: CacheSize,
+    ) -> Series {
+        let first = self.wl.len();
+        let nwl = first * lights;
+        let n_tex = texels.len();
+        // k_d per texel, once per light.
+        let kd = |k: usize| {
+            let kd = &self.mats[self.facet_mat[texels[k].0 as usize] as usize].kd;
+            kd.iter().cycle().take(nwl)
+        };
         let inv_pi = std::f64::consts::FRAC_1_PI;
         let mut radiance = vec![0.0; n_tex * nwl];
         for k in 0..n_tex {
-            let kdk = kd(k);
-            for s in 0..nwl {
-                radiance[k * nwl + s] = kdk[s] * rows[k].0[s] * inv_pi;
+            let e = direct(k);
+            for (s, kd_s) in kd(k).enumerate() {
+                radiance[k * nwl + s] = kd_s * e[s] * inv_pi;
             }
         }
         let weight: Vec<f64> = texels.iter().map(|t| t.3).collect();
         let norm = |v: &[f64]| -> f64 {
             v.chunks(nwl.max(1))
                 .zip(&weight)
-                .map(|(c, w)| w * c.iter().map(|x| x.abs()).sum::<f64>())
+                .map(|(c, w)| w * c[..first].iter().map(|x| x.abs()).sum::<f64>())
                 .sum()
         };
         let direct_norm = norm(&radiance);
@@ -899,8 +1051,8 @@ impl Tracer {
             // Next bounce: G applied to the last increment.
             next_e
                 .par_chunks_mut(nwl)
-                .zip(&rows)
-                .for_each(|(e, (_, entries, taus))| {
+                .zip(ops)
+                .for_each(|(e, (entries, taus))| {
                     e.iter_mut().for_each(|x| *x = 0.0);
                     for en in entries {
                         let t = en.texel as usize;
@@ -917,8 +1069,7 @@ impl Tracer {
                 });
             iterations += 1;
             for k in 0..n_tex {
-                let kdk = kd(k);
-                for (s, &k_s) in kdk.iter().enumerate().take(nwl) {
+                for (s, &k_s) in kd(k).enumerate() {
                     let i = k * nwl + s;
                     e_ind[i] += next_e[i];
                     delta_l[i] = k_s * next_e[i] * inv_pi;
@@ -948,18 +1099,12 @@ impl Tracer {
             } else {
                 f64::INFINITY
             };
-            if fixed.is_some() {
-                continue;
-            }
             if delta == 0.0
                 || (iterations >= 2 && remainder < size.tolerance)
                 || (iterations >= 6 && tail_uncertainty < size.tolerance)
             {
                 break;
             }
-        }
-        if let Some((_, r)) = fixed {
-            ratio = r;
         }
         // The geometric tail of the series beyond the last bounce solved.
         if ratio > 0.0 && ratio < 1.0 {
@@ -969,33 +1114,13 @@ impl Tracer {
                 radiance[i] += tail * increment[i];
             }
         }
-        let total: f64 = bounce_norms.iter().sum::<f64>()
-            + if ratio > 0.0 && ratio < 1.0 {
-                bounce_norms.last().copied().unwrap_or(0.0) * ratio / (1.0 - ratio)
-            } else {
-                0.0
-            };
-        let bounce_shares = bounce_norms
-            .iter()
-            .map(|b| if total > 0.0 { b / total } else { 0.0 })
-            .collect();
-        Cache {
-            layout,
-            nwl,
+        Series {
             radiance,
             e_ind,
-            summary: CacheSummary {
-                texels: n_tex,
-                cluster_texels,
-                texel_size: h,
-                gather_rays_per_texel: rays,
-                operator_entries,
-                iterations,
-                remainder_estimate: remainder,
-                bounce_ratio: ratio,
-                bounce_shares,
-                seconds: t0.elapsed().as_secs_f64(),
-            },
+            iterations,
+            remainder,
+            ratio,
+            bounce_norms,
         }
     }
 
@@ -1051,11 +1176,24 @@ impl Tracer {
         points: Option<&[[f64; 2]]>,
         rng: &mut rand_pcg::Pcg64Mcg,
         c: &mut RayCounts,
-        acc: &mut [f64],
+        acc: &mut Light,
     ) {
         let k = self.settings.gather_rays as usize;
         if k == 0 {
-            cache.add_indirect_irradiance(facet, front, p, scale, acc);
+            let mut sums = cache.group_sums(acc);
+            let split = sums.as_deref_mut().map(|s| (s, None));
+            cache.add(
+                Field::Indirect,
+                facet,
+                front,
+                p,
+                scale,
+                &mut acc.whole,
+                split,
+            );
+            if let Some(sums) = sums {
+                cache.add_sums(&sums, scale, acc);
+            }
             return;
         }
         self.final_gather(cache, p, ns, facet, k, points, scale, rng, c, acc);
@@ -1077,7 +1215,7 @@ impl Tracer {
         scale: &[f64],
         rng: &mut rand_pcg::Pcg64Mcg,
         c: &mut RayCounts,
-        acc: &mut [f64],
+        acc: &mut Light,
     ) {
         let mut u = Vec::with_capacity(k);
         match points {
@@ -1088,23 +1226,30 @@ impl Tracer {
         // E = π/K Σ L(y_j).
         let w = std::f64::consts::PI / k as f64;
         let mut s = scale.to_vec();
+        // The groups' parts: Σ_j τ_j L_g(y_j), scaled once at the end.
+        let mut sums = cache.group_sums(acc);
         for uv in u {
             let l = cosine_hemisphere(uv);
             let d = (tx * l.x + ty * l.y + ns * l.z).normalize_or_zero();
             if let Some((g, gfront, y, tau)) = self.gather_hit(p, d, facet, c) {
-                match tau {
+                match &tau {
                     None => {
                         s.iter_mut().zip(scale).for_each(|(a, b)| *a = w * b);
                     }
                     Some(t) => {
                         s.iter_mut()
                             .zip(scale)
-                            .zip(&t)
+                            .zip(t)
                             .for_each(|((a, b), t)| *a = w * b * t);
                     }
                 }
-                cache.add_radiance(g, gfront, y, &s, acc);
+                let split = sums.as_deref_mut().map(|s| (s, tau.as_deref()));
+                cache.add(Field::Radiance, g, gfront, y, &s, &mut acc.whole, split);
             }
+        }
+        if let Some(sums) = sums {
+            let ws: Vec<f64> = scale.iter().map(|k| w * k).collect();
+            cache.add_sums(&sums, &ws, acc);
         }
     }
 }

@@ -5,6 +5,7 @@ pub mod closed_form;
 pub mod geometry;
 pub mod indirect;
 pub mod layers;
+pub(crate) mod light;
 pub(crate) mod light_tree;
 pub mod plan;
 pub mod prep;

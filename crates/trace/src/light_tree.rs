@@ -730,7 +730,7 @@ quad = {{ center = [0, 0, 0], size = [{g}, {g}], normal = [0, 0, 1] }}
                 );
                 assert!(t.light_tree.is_some());
                 let mut c = RayCounts::default();
-                let mut e = vec![0.0; t.wl.len()];
+                let mut e = crate::light::Light::dark(t.wl.len(), 0);
                 let mut rng = crate::tracer::stream(0, 27, n as u64);
                 let k = 400;
                 let half = 0.5 * (n as f64).sqrt();

@@ -218,13 +218,7 @@ impl Tracer {
         .into();
         if method == Indirect::Cache && solve {
             let step = crate::prep::Preparation::begin("cache", self.observer.as_ref());
-            let cache = self.build_cache(CacheSize {
-                texels: self.settings.cache_texels,
-                rays: self.settings.cache_rays,
-                tolerance: self.settings.cache_tolerance,
-                max_iterations: 200,
-                direct_cell_mean: false,
-            });
+            let cache = self.build_cache_split(self.render_cache_size(), self.layer_groups());
             self.preparation.end(step, self.observer.clone().as_ref());
             d.cache = Some(cache.summary.clone());
             self.cache = Some(cache);
@@ -358,7 +352,7 @@ impl Tracer {
         let rows = PILOT_ROWS.min(cam.height).max(1);
         let mut c = RayCounts::default();
         let mut sum = vec![0.0; self.wl.len()];
-        let mut acc = vec![0.0; self.wl.len()];
+        let mut acc = crate::light::Light::dark(self.wl.len(), 0);
         for j in 0..rows {
             for i in 0..cols {
                 let x = (i as f64 + 0.5) * cam.width as f64 / cols as f64;
@@ -376,7 +370,7 @@ impl Tracer {
                     Some(_) => {}
                 }
                 let mut rng = stream(self.settings.seed, 0x0009_1108, (j * cols + i) as u64);
-                acc.iter_mut().for_each(|a| *a = 0.0);
+                acc.clear();
                 self.trace(
                     cam.position,
                     d,
@@ -391,7 +385,7 @@ impl Tracer {
                     &mut c,
                     &mut acc,
                 );
-                sum.iter_mut().zip(&acc).for_each(|(s, a)| *s += a);
+                sum.iter_mut().zip(&acc.whole).for_each(|(s, a)| *s += a);
             }
         }
         self.wl.integrate(&sum)
@@ -460,7 +454,7 @@ impl Tracer {
                 // Indirect irradiance by a final gather on the pilot cache
                 // (reading the coarse cache directly misjudges small lit
                 // patches such as the pools under street lamps).
-                let mut e_i = vec![0.0; nwl];
+                let mut e_i = crate::light::Light::dark(nwl, 0);
                 if mat.has_diffuse {
                     self.final_gather(
                         &cache,
@@ -475,6 +469,7 @@ impl Tracer {
                         &mut e_i,
                     );
                 }
+                let e_i = e_i.into_whole();
                 let mut pix_ind = vec![0.0; nwl];
                 let mut pix_tot = vec![0.0; nwl];
                 for s in 0..nwl {
@@ -536,7 +531,7 @@ impl Tracer {
                 let npilot = (cols * rows) as f64;
                 let npix = cam.width as f64 * cam.height as f64;
                 let mut dep = vec![0.0; self.wl.band_names.len()];
-                for (_, _, v) in self.point_deposits(&mut c) {
+                for (_, _, v, _) in self.point_deposits(&mut c) {
                     dep.iter_mut().zip(&v).for_each(|(a, b)| *a += b / npix);
                 }
                 let (em, tot) = (self.wl.integrate(&emitted_all), self.wl.integrate(&tot_all));

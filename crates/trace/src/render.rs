@@ -9,8 +9,13 @@ use ndarray::Array3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::light::Light;
 use crate::settings::{LightStrataMode, RenderSettings};
 use crate::tracer::{LightStrata, RayCounts, TraceError, Tracer, latin_hypercube, stream};
+
+/// A point source seen directly: pixel column and row, band radiances,
+/// and its light group (`--layers`).
+pub(crate) type Deposit = (u32, u32, Vec<f64>, Option<usize>);
 
 /// Side of the square image tiles handed to rayon.
 pub const TILE: u32 = 16;
@@ -44,10 +49,17 @@ struct PixelEstimate {
     /// radiance), which the error target leaves out, as the accuracy
     /// metric does.
     sees_emitter: bool,
+    /// Light groups (`--layers`; 0 without), and per group and band the
+    /// sum and sum of squares of the samples' parts (`[g * nb + b]`): the
+    /// same samples as the whole, split by the emitter the light came
+    /// from.
+    groups: usize,
+    layer_sum: Vec<f64>,
+    layer_sq: Vec<f64>,
 }
 
 impl PixelEstimate {
-    fn new(nwl: usize, nb: usize) -> Self {
+    fn new(nwl: usize, nb: usize, groups: usize) -> Self {
         Self {
             n: 0,
             spectral: vec![0.0; nwl],
@@ -57,7 +69,35 @@ impl PixelEstimate {
             rep_sum: [vec![0.0; nb], vec![0.0; nb]],
             band_lit: vec![false; nb],
             sees_emitter: false,
+            groups,
+            layer_sum: vec![0.0; groups * nb],
+            layer_sq: vec![0.0; groups * nb],
         }
+    }
+
+    /// Adds group `g`'s part `bands` of the sample just added with
+    /// [`PixelEstimate::add`] (a group that added nothing adds zeros, so it
+    /// need not be called).
+    fn add_layer(&mut self, g: usize, bands: &[f64]) {
+        let nb = bands.len();
+        for (b, v) in bands.iter().enumerate() {
+            self.layer_sum[g * nb + b] += v;
+            self.layer_sq[g * nb + b] += v * v;
+        }
+    }
+
+    /// Group `g`'s band `b`: the mean of its parts and their standard error
+    /// from the per-sample variance (as [`PixelEstimate::std_error`]).
+    fn layer(&self, g: usize, b: usize) -> (f64, f64) {
+        let nb = self.band_sum.len();
+        let (sum, sq) = (self.layer_sum[g * nb + b], self.layer_sq[g * nb + b]);
+        let n = self.n.max(1) as f64;
+        let m = sum / n;
+        if self.n < 2 {
+            return (m, 0.0);
+        }
+        let var = ((sq - n * m * m) / (n - 1.0)).max(0.0);
+        (m, (var / n).sqrt())
     }
 
     fn add(&mut self, spectral: &[f64], bands: &[f64], replicate: Option<usize>) {
@@ -686,7 +726,7 @@ impl Tracer {
     /// samples (without point sources seen directly): the first batch of
     /// [`Tracer::render`].
     fn pixel_spectral(&self, col: u32, row: u32, c: &mut RayCounts) -> Vec<f64> {
-        let mut est = PixelEstimate::new(self.wl.len(), self.wl.band_names.len());
+        let mut est = PixelEstimate::new(self.wl.len(), self.wl.band_names.len(), 0);
         self.pixel_batch(
             col,
             row,
@@ -749,7 +789,7 @@ impl Tracer {
         let mut rng = stream(self.settings.seed, domain, idx);
         let mut sub = Vec::with_capacity(n);
         latin_hypercube(n, &mut rng, &mut sub);
-        let mut acc = vec![0.0; self.wl.len()];
+        let mut acc = Light::dark(self.wl.len(), est.groups);
         // Final-gather directions: one Owen-scrambled Sobol sequence per
         // pixel (per replicate), continued across batches (the samples it
         // has so far), each sample taking the next block of `gather_rays`
@@ -768,7 +808,7 @@ impl Tracer {
         let strata = (self.settings.light_strata == LightStrataMode::Sobol)
             .then(|| crate::tracer::mix64(scramble ^ 0x005E_ED11_6475));
         for [sx, sy] in sub {
-            acc.iter_mut().for_each(|a| *a = 0.0);
+            acc.clear();
             pts.clear();
             let so_far = replicate.map_or(est.n, |r| est.rep_n[r]);
             let first = so_far as u64 * k as u64;
@@ -794,13 +834,19 @@ impl Tracer {
                 c,
                 &mut acc,
             );
-            est.add(&acc, &self.wl.integrate(&acc), replicate);
+            est.add(&acc.whole, &self.wl.integrate(&acc.whole), replicate);
+            for g in 0..est.groups {
+                if let Some(part) = acc.part(g) {
+                    est.add_layer(g, &self.wl.integrate(part));
+                }
+            }
         }
     }
 
-    /// Point sources seen directly: `(col, row, band radiances)` for each
-    /// unoccluded source in the field of view (see the crate docs).
-    pub(crate) fn point_deposits(&self, c: &mut RayCounts) -> Vec<(u32, u32, Vec<f64>)> {
+    /// Point sources seen directly: `(col, row, band radiances, light
+    /// group)` for each unoccluded source in the field of view (see the
+    /// crate docs).
+    pub(crate) fn point_deposits(&self, c: &mut RayCounts) -> Vec<Deposit> {
         let cam = &self.camera;
         let (_, _, fwd) = cam.basis();
         let mut out = Vec::new();
@@ -847,7 +893,7 @@ impl Tracer {
                 None => l.intensity.iter().map(|i| g * i).collect(),
                 Some(t) => l.intensity.iter().zip(&t).map(|(i, t)| g * i * t).collect(),
             };
-            out.push((px as u32, py as u32, self.wl.integrate(&spec)));
+            out.push((px as u32, py as u32, self.wl.integrate(&spec), l.group));
         }
         out
     }
@@ -899,6 +945,24 @@ impl Tracer {
         progress: &(dyn Fn(u64, u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<RenderOutput, TraceError> {
+        Ok(self.render_split(rows, progress, stop, 0)?.0)
+    }
+
+    /// [`Tracer::render_rows_until`], and with `groups` > 0 (`--layers`,
+    /// the emitters' groups assigned) one output per light group from the
+    /// same samples: each pixel's samples split by the group of the
+    /// emitter each term came from (`light.rs`). The whole is bit-identical
+    /// to an unsplit render; the sample counts (adaptive or not) are the
+    /// whole's. A layer's standard error is its per-sample one (times the
+    /// whole's measured stratification factor, adaptive renders); its spp,
+    /// error summary and statistics are the whole's.
+    pub(crate) fn render_split(
+        &self,
+        rows: std::ops::Range<u32>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+        groups: usize,
+    ) -> Result<(RenderOutput, Vec<RenderOutput>), TraceError> {
         let stopped = std::sync::atomic::AtomicBool::new(false);
         let halt = || {
             if stopped.load(Ordering::Relaxed) || stop() {
@@ -954,7 +1018,7 @@ impl Tracer {
                             break;
                         }
                         for col in x0..x1 {
-                            let mut e = PixelEstimate::new(nwl, nb);
+                            let mut e = PixelEstimate::new(nwl, nb, groups);
                             self.pixel_batch(col, row, 0, spp as usize, replicated, &mut e, &mut c);
                             out.push(((row - row0) as usize * w as usize + col as usize, e));
                         }
@@ -974,7 +1038,7 @@ impl Tracer {
             }
             let mut ests: Vec<PixelEstimate> = ests
                 .into_iter()
-                .map(|e| e.unwrap_or_else(|| PixelEstimate::new(nwl, nb)))
+                .map(|e| e.unwrap_or_else(|| PixelEstimate::new(nwl, nb, groups)))
                 .collect();
             let mut rounds = 1u32;
             if let Some(target) = self.settings.target_error {
@@ -1061,18 +1125,37 @@ impl Tracer {
         } else {
             self.point_deposits(&mut c)
         };
-        for (col, row, vals) in deposits {
-            if !rows.contains(&row) {
-                continue;
+        let deposit = |radiance: &mut Array3<f64>, group: Option<Option<usize>>| {
+            for (col, row, vals, g) in &deposits {
+                if !rows.contains(row) || group.is_some_and(|want| want != *g) {
+                    continue;
+                }
+                for (b, v) in vals.iter().enumerate() {
+                    radiance[[b, (row - row0) as usize, *col as usize]] += v;
+                }
             }
-            for (b, v) in vals.iter().enumerate() {
-                radiance[[b, (row - row0) as usize, col as usize]] += v;
-            }
-        }
+        };
+        deposit(&mut radiance, None);
+        let layers: Vec<(Array3<f64>, Array3<f64>)> = (0..groups)
+            .map(|g| {
+                let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
+                let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
+                for (i, e) in ests.iter().enumerate() {
+                    let (row, col) = (i / w as usize, i % w as usize);
+                    for b in 0..nb {
+                        let (m, se) = e.layer(g, b);
+                        radiance[[b, row, col]] = m;
+                        std_error[[b, row, col]] = se * factor[i];
+                    }
+                }
+                deposit(&mut radiance, Some(Some(g)));
+                (radiance, std_error)
+            })
+            .collect();
         rays.add(&c);
         let trace_seconds = t0.elapsed().as_secs_f64();
         let lines = self.wl.len() - self.wl.n_continuum;
-        Ok(RenderOutput {
+        let whole = RenderOutput {
             radiance,
             std_error,
             spp: spp_map,
@@ -1097,7 +1180,20 @@ impl Tracer {
                 sky: self.sky_summary().cloned(),
                 interreflection: self.interreflection.clone(),
             },
-        })
+        };
+        let layers = layers
+            .into_iter()
+            .map(|(radiance, std_error)| RenderOutput {
+                radiance,
+                std_error,
+                spp: whole.spp.clone(),
+                error: whole.error.clone(),
+                band_names: whole.band_names.clone(),
+                settings: whole.settings.clone(),
+                stats: whole.stats.clone(),
+            })
+            .collect();
+        Ok((whole, layers))
     }
 
     /// Band radiances of one pixel, bit-identical to the same pixel of
@@ -1109,7 +1205,7 @@ impl Tracer {
         }
         let mut c = RayCounts::default();
         let mut v = self.wl.integrate(&self.pixel_spectral(col, row, &mut c));
-        for (x, y, vals) in self.point_deposits(&mut c) {
+        for (x, y, vals, _) in self.point_deposits(&mut c) {
             if (x, y) == (col, row) {
                 v.iter_mut().zip(&vals).for_each(|(a, b)| *a += b);
             }
@@ -1147,12 +1243,14 @@ impl Tracer {
         let indirect = self.probe_indirect_method();
         for i in 0..k {
             let mut rng = stream(self.settings.seed, DOMAIN_PROBE, i as u64);
-            let mut e = vec![0.0; self.wl.len()];
+            let mut e = Light::dark(self.wl.len(), 0);
             self.irradiance(p, n, ignore, &mut rng, &mut c, &mut e);
+            let mut e = e.into_whole();
             direct_sum += self.wl.integrate(&e)[b];
             if indirect.is_some() {
-                let mut ei = vec![0.0; self.wl.len()];
+                let mut ei = Light::dark(self.wl.len(), 0);
                 self.probe_indirect(p, n, ignore, &mut rng, &mut c, &mut ei);
+                let ei = ei.into_whole();
                 indirect_sum += self.wl.integrate(&ei)[b];
                 e.iter_mut().zip(&ei).for_each(|(a, b)| *a += b);
             }
@@ -1212,7 +1310,7 @@ impl Tracer {
         ignore: u32,
         rng: &mut rand_pcg::Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         let k = (self.settings.gather_rays as usize).max(PROBE_GATHER_RAYS);
         if let Some(cache) = &self.cache {
@@ -1272,7 +1370,7 @@ mod tests {
         for m in [4usize, 8, 16] {
             let ests: Vec<PixelEstimate> = (0..4096)
                 .map(|_| {
-                    let mut e = PixelEstimate::new(1, 1);
+                    let mut e = PixelEstimate::new(1, 1, 0);
                     stratified(&mut e, m, 0, &mut rng);
                     stratified(&mut e, m, 1, &mut rng);
                     e
@@ -1295,14 +1393,15 @@ mod tests {
     #[test]
     fn all_zero_pixels_state_an_upper_bound() {
         let w = 8;
-        let mut ests: Vec<PixelEstimate> = (0..w * w).map(|_| PixelEstimate::new(1, 1)).collect();
+        let mut ests: Vec<PixelEstimate> =
+            (0..w * w).map(|_| PixelEstimate::new(1, 1, 0)).collect();
         for e in ests.iter_mut() {
             for _ in 0..16 {
                 e.add(&[0.0], &[0.0], None);
             }
         }
         // Pixel (row 0, col 0) is lit: mean 2.0 (half its samples 4.0).
-        let mut lit = PixelEstimate::new(1, 1);
+        let mut lit = PixelEstimate::new(1, 1, 0);
         for k in 0..16 {
             let v = if k % 2 == 0 { 4.0 } else { 0.0 };
             lit.add(&[v], &[v], None);
@@ -1322,7 +1421,7 @@ mod tests {
     /// `n` samples alternating between `lo` and `hi` (mean (lo+hi)/2,
     /// per-sample sd |hi−lo|/2·√(n/(n−1))).
     fn two_level(n: u32, lo: f64, hi: f64) -> PixelEstimate {
-        let mut e = PixelEstimate::new(1, 1);
+        let mut e = PixelEstimate::new(1, 1, 0);
         for k in 0..n {
             let v = if k % 2 == 0 { hi } else { lo };
             e.add(&[v], &[v], None);

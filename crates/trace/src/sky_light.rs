@@ -405,11 +405,6 @@ impl RadianceTable {
         }
     }
 
-    /// Sets every radiance to zero (a layer without the sky, `layers.rs`).
-    pub(crate) fn zero(&mut self) {
-        self.values.fill(0.0);
-    }
-
     /// True when the dome is uniform (one radiance for every direction).
     pub fn is_uniform(&self) -> bool {
         self.uniform

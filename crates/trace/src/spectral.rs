@@ -255,13 +255,7 @@ mod tests {
     fn band_weights_are_exact_for_flat_and_line_spectra() {
         let text = r#"
 units = "m"
-[camera]
-position = [0, 0, 1]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov_deg = 10
-width = 2
-height = 2
+camera = { position = [0, 0, 1], look_at = [0, 0, 0], up = [0, 1, 0], fov_deg = 10, width = 2, height = 2 }
 [bands.a]
 lo_nm = 400
 hi_nm = 553

@@ -9,6 +9,7 @@ use rand_pcg::Pcg64Mcg;
 
 use crate::closed_form;
 use crate::geometry::{Geometry, Visibility};
+use crate::light::Light;
 use crate::prep::{PrepObserver, Preparation};
 use crate::sampling::{SphericalRectangle, SphericalTriangle, sample_triangle_area};
 use crate::settings::{Estimator, Occlusion, RenderSettings};
@@ -170,6 +171,8 @@ pub(crate) struct AreaSource {
     tri_cdf: Vec<f64>,
     /// The 2001 method's pre-drawn sample points.
     dirsig_points: Vec<DVec3>,
+    /// Its light group under `--layers` (`layers.rs`; None otherwise).
+    pub(crate) group: Option<usize>,
 }
 
 /// A point source: `intensity · shape(ω)`, the shape `cos^m` about `dir`
@@ -183,6 +186,8 @@ pub(crate) struct PointLight {
     /// A measured distribution (IES / EULUMDAT); `m` is then 0.
     luminaire: Option<gloam_scene::Luminaire>,
     pub(crate) intensity: Vec<f64>,
+    /// Its light group under `--layers` (`layers.rs`; None otherwise).
+    pub(crate) group: Option<usize>,
 }
 
 /// One light sample toward an area source: unit direction, distance (scene
@@ -192,6 +197,48 @@ struct LightSample {
     dir: DVec3,
     dist: f64,
     w: f64,
+}
+
+/// What of a set of shadow rays' weight reaches a source: `Σ_j w_j` (the
+/// unoccluded estimate), the weight of the clear rays, and the weight
+/// times τ(λ) of those through transmissive facets.
+struct Visible {
+    sum_w: f64,
+    vis_scalar: f64,
+    vis_spec: Option<Vec<f64>>,
+}
+
+impl Visible {
+    /// Adds `scale · L(λ) Σ_j w_j V_j τ_j(λ)` to `out`.
+    fn add_to(&self, out: &mut [f64], scale: f64, radiance: &[f64]) {
+        match &self.vis_spec {
+            None => {
+                let g = scale * self.vis_scalar;
+                if g != 0.0 {
+                    add_emission(out, g, radiance, None);
+                }
+            }
+            Some(v) => out
+                .iter_mut()
+                .zip(radiance)
+                .zip(v)
+                .for_each(|((o, l), v)| *o += scale * l * (self.vis_scalar + v)),
+        }
+    }
+}
+
+/// Adds `g · spectrum(λ) · τ(λ)` slot by slot to `out` (τ = 1 for `None`:
+/// a clear line of sight), over `spectrum`'s slots (the sky's: the
+/// continuum only).
+fn add_emission(out: &mut [f64], g: f64, spectrum: &[f64], tau: Option<&[f64]>) {
+    match tau {
+        None => out.iter_mut().zip(spectrum).for_each(|(o, s)| *o += g * s),
+        Some(t) => out
+            .iter_mut()
+            .zip(spectrum)
+            .zip(t)
+            .for_each(|((o, s), t)| *o += g * s * t),
+    }
 }
 
 /// A scene prepared for tracing with given settings.
@@ -230,6 +277,9 @@ pub struct Tracer {
     pub(crate) preparation: Preparation,
     /// Told as preparation steps begin and end (`prepare_observed`).
     pub(crate) observer: Option<PrepObserver>,
+    /// The light groups its emitters and its cache are split by
+    /// (`--layers`, `layers.rs`), when a layered render asked for them.
+    pub(crate) layers: Option<crate::layers::LayerMap>,
 }
 
 /// The sky as the tracer uses it: on the continuum slots only (the sky has
@@ -248,6 +298,10 @@ pub(crate) struct SkyState {
     pub(crate) dome: bool,
     pub(crate) table: RadianceTable,
     pub(crate) summary: SkySummary,
+    /// The light groups of the direct beam and of the dome under
+    /// `--layers` (`layers.rs`; None otherwise).
+    pub(crate) moon_group: Option<usize>,
+    pub(crate) sky_group: Option<usize>,
 }
 
 /// What [`Tracer::sky_probe`] reports: the two sky terms separately, in one
@@ -345,6 +399,8 @@ fn build_sky(
         dome: moon || night || settings.all_effects,
         table,
         summary,
+        moon_group: None,
+        sky_group: None,
     }))
 }
 
@@ -415,7 +471,7 @@ impl Tracer {
         solve: bool,
         observer: Option<PrepObserver>,
     ) -> Result<Self, TraceError> {
-        Self::prepare_inner(scene, settings, solve, observer)
+        Self::prepare_inner(scene, settings, solve, observer, None)
     }
 
     /// As [`Tracer::new`]; `solve` = false stops after the interreflection
@@ -425,14 +481,15 @@ impl Tracer {
         settings: &RenderSettings,
         solve: bool,
     ) -> Result<Self, TraceError> {
-        Self::prepare_inner(scene, settings, solve, None)
+        Self::prepare_inner(scene, settings, solve, None, None)
     }
 
-    fn prepare_inner(
+    pub(crate) fn prepare_inner(
         scene: &Scene,
         settings: &RenderSettings,
         solve: bool,
         observer: Option<PrepObserver>,
+        layers: Option<&crate::layers::LayerMap>,
     ) -> Result<Self, TraceError> {
         let counts = scene.counts();
         let mut prep = Preparation {
@@ -556,6 +613,7 @@ impl Tracer {
                 tris,
                 tri_cdf,
                 dirsig_points: Vec::new(),
+                group: None,
             };
             if settings.estimator == Estimator::Dirsig2001 {
                 let d = &settings.dirsig2001;
@@ -578,6 +636,7 @@ impl Tracer {
                 m: p.shape_exponent.max(0.0),
                 luminaire: p.luminaire.clone(),
                 intensity: wl.emission(&p.intensity_w_sr_nm),
+                group: None,
             })
             .collect();
         let light_tree =
@@ -619,7 +678,11 @@ impl Tracer {
             build_seconds: 0.0,
             preparation: prep,
             observer,
+            layers: None,
         };
+        if let Some(map) = layers {
+            tracer.assign_groups(map);
+        }
         tracer.decide_interreflection(solve);
         tracer.build_seconds = t0.elapsed().as_secs_f64();
         Ok(tracer)
@@ -755,7 +818,7 @@ impl Tracer {
         ignore: u32,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         self.irradiance_with(p, n, ignore, 1, None, rng, c, out);
     }
@@ -774,7 +837,7 @@ impl Tracer {
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         // A dropped term that draws random numbers (dome, area sources) is
         // still computed, into a scratch buffer, so the render shares every
@@ -797,24 +860,23 @@ impl Tracer {
             }
             self.point_irradiance(l, p, n, ignore, 1.0, c, out);
         }
-        let mut scratch = Vec::new();
+        // Dropped terms are discarded whole: no groups.
+        let nwl = out.len();
+        let scratch = || Light::dark(nwl, 0);
         if let Some(sky) = &self.sky {
             if !(drop.moon || skip.moon) {
                 self.moon_irradiance(sky, p, n, ignore, c, out);
             }
             if skip.night_sky {
             } else if drop.night_sky {
-                scratch.resize(out.len(), 0.0);
-                self.dome_irradiance(sky, p, n, ignore, rng, c, &mut scratch);
+                self.dome_irradiance(sky, p, n, ignore, rng, c, &mut scratch());
             } else {
                 self.dome_irradiance(sky, p, n, ignore, rng, c, out);
             }
         }
         if skip.area_sources {
         } else if drop.area_sources {
-            scratch.clear();
-            scratch.resize(out.len(), 0.0);
-            self.area_irradiance(p, n, ignore, strata, rng, c, &mut scratch);
+            self.area_irradiance(p, n, ignore, strata, rng, c, &mut scratch());
         } else {
             self.area_irradiance(p, n, ignore, strata, rng, c, out);
         }
@@ -834,10 +896,12 @@ impl Tracer {
             let repeats = tree_repeats.max(1);
             let w = 1.0 / repeats as f64;
             for _ in 0..repeats {
-                let parts = self.tree_irradiance(tree, p, n, ignore, skipped, strata, rng, c);
+                let parts = self.tree_irradiance(tree, p, n, ignore, skipped, strata, rng, c, out);
                 // w = 1 for one selection: x · 1 is x exactly.
                 for (part, _) in parts.iter().zip(dropped).filter(|(_, d)| !d) {
-                    out.iter_mut().zip(part).for_each(|(o, x)| *o += w * x);
+                    out.add_each(part, |o, x| {
+                        o.iter_mut().zip(x).for_each(|(o, x)| *o += w * x)
+                    });
                 }
             }
         }
@@ -854,7 +918,7 @@ impl Tracer {
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         if self.area.is_empty() && !self.settings.all_effects {
             return;
@@ -891,7 +955,7 @@ impl Tracer {
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
     ) -> [Vec<f64>; 5] {
-        let z = || vec![0.0; self.wl.len()];
+        let z = || Light::dark(self.wl.len(), 0);
         let mut parts = [z(), z(), z(), z(), z()];
         let points: &[PointLight] = if self.light_tree.is_some() {
             &[]
@@ -911,12 +975,16 @@ impl Tracer {
         // into its own term (unbiased per term, as each pick's weight is
         // its own 1/pmf).
         if let Some(tree) = &self.light_tree {
-            let tree_parts = self.tree_irradiance(tree, p, n, ignore, [false; 3], None, rng, c);
+            let like = &parts[0];
+            let tree_parts =
+                self.tree_irradiance(tree, p, n, ignore, [false; 3], None, rng, c, like);
             for (k, part) in tree_parts.iter().enumerate() {
-                parts[k].iter_mut().zip(part).for_each(|(o, x)| *o += x);
+                (parts[k].whole.iter_mut())
+                    .zip(&part.whole)
+                    .for_each(|(o, x)| *o += x);
             }
         }
-        parts
+        parts.map(Light::into_whole)
     }
 
     /// Direct moonlight at `p` (normal `n`): `E_n(λ) cos θ τ(λ)` with one
@@ -929,7 +997,7 @@ impl Tracer {
         n: DVec3,
         ignore: u32,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         let d = match sky.moon_dir {
             Some(d) => d,
@@ -940,17 +1008,26 @@ impl Tracer {
         if cos.is_nan() || cos <= 0.0 {
             return;
         }
-        match self.shadow(p, d, f64::INFINITY, [ignore, u32::MAX], c) {
-            None => {}
-            Some(None) => out[..sky.nc]
-                .iter_mut()
-                .zip(&sky.moon_en)
-                .for_each(|(o, e)| *o += e * cos),
-            Some(Some(t)) => out[..sky.nc]
-                .iter_mut()
-                .zip(&sky.moon_en)
-                .zip(&t)
-                .for_each(|((o, e), t)| *o += e * cos * t),
+        let moon = (sky.moon_group, cos, &sky.moon_en[..]);
+        self.add_if_visible(p, d, f64::INFINITY, ignore, moon, c, out);
+    }
+
+    /// One shadow ray from `p` along unit `dir` over `dist`; unless it is
+    /// blocked, adds `g · spectrum · τ` (`light = (group, g, spectrum)`)
+    /// to `out` and to that light group.
+    #[allow(clippy::too_many_arguments)]
+    fn add_if_visible(
+        &self,
+        p: DVec3,
+        dir: DVec3,
+        dist: f64,
+        ignore: u32,
+        (group, g, spectrum): (Option<usize>, f64, &[f64]),
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) {
+        if let Some(tau) = self.shadow(p, dir, dist, [ignore, u32::MAX], c) {
+            out.add_from(group, |o| add_emission(o, g, spectrum, tau.as_deref()));
         }
     }
 
@@ -967,7 +1044,7 @@ impl Tracer {
         ignore: u32,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         if !sky.dome {
             return;
@@ -988,17 +1065,7 @@ impl Tracer {
                 continue;
             };
             sky.table.radiance_into(dir, &mut l);
-            match tau {
-                None => out[..sky.nc]
-                    .iter_mut()
-                    .zip(&l)
-                    .for_each(|(o, l)| *o += w * l),
-                Some(tr) => out[..sky.nc]
-                    .iter_mut()
-                    .zip(&l)
-                    .zip(&tr)
-                    .for_each(|((o, l), tr)| *o += w * l * tr),
-            }
+            out.add_from(sky.sky_group, |o| add_emission(o, w, &l, tau.as_deref()));
         }
     }
 
@@ -1023,16 +1090,16 @@ impl Tracer {
         let p = point - self.geom.origin;
         let ignore = self.facet_at(p).unwrap_or(u32::MAX);
         let mut c = RayCounts::default();
-        let mut e = vec![0.0; self.wl.len()];
+        let mut e = Light::dark(self.wl.len(), 0);
         self.moon_irradiance(sky, p, n, ignore, &mut c, &mut e);
-        let moon = self.wl.integrate(&e)[b];
+        let moon = self.wl.integrate(&e.whole)[b];
         let k = samples.max(1);
         let mut es = Vec::with_capacity(k as usize);
         for i in 0..k {
             let mut rng = stream(self.settings.seed, 0x5C1E_D0E5, i as u64);
-            e.iter_mut().for_each(|x| *x = 0.0);
+            e.clear();
             self.dome_irradiance(sky, p, n, ignore, &mut rng, &mut c, &mut e);
-            es.push(self.wl.integrate(&e)[b]);
+            es.push(self.wl.integrate(&e.whole)[b]);
         }
         let mean = es.iter().sum::<f64>() / k as f64;
         let se = if k > 1 {
@@ -1065,7 +1132,7 @@ impl Tracer {
         ignore: u32,
         scale: f64,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         let v = l.pos - p;
         let r = v.length();
@@ -1084,18 +1151,7 @@ impl Tracer {
         let r_m = r * self.mpu;
         // scale·shape is exactly shape for scale = 1 (no light tree).
         let g = scale * shape * cos_r / (r_m * r_m);
-        match self.shadow(p, w, r, [ignore, u32::MAX], c) {
-            None => {}
-            Some(None) => out
-                .iter_mut()
-                .zip(&l.intensity)
-                .for_each(|(o, i)| *o += g * i),
-            Some(Some(t)) => out
-                .iter_mut()
-                .zip(&l.intensity)
-                .zip(&t)
-                .for_each(|((o, i), t)| *o += g * i * t),
-        }
+        self.add_if_visible(p, w, r, ignore, (l.group, g, &l.intensity), c, out);
     }
 
     /// Draws `nsamp` light samples (Latin-hypercube stratified) of `s` seen from `p` (normal `n`),
@@ -1194,19 +1250,16 @@ impl Tracer {
         true
     }
 
-    /// Occluded MC sum over `samples` times L: adds
-    /// `scale · L(λ) Σ_j w_j V_j τ_j(λ)` to `out`; returns `Σ_j w_j` (unoccluded MC).
-    #[allow(clippy::too_many_arguments)]
-    fn occluded_sum(
+    /// The shadow rays of `samples` toward `s` from `p`: what of their
+    /// weight arrives ([`Visible::add_to`] turns it into light).
+    fn occlusion(
         &self,
         s: &AreaSource,
         p: DVec3,
         ignore: u32,
         samples: &[LightSample],
-        scale: f64,
         c: &mut RayCounts,
-        out: &mut [f64],
-    ) -> f64 {
+    ) -> Visible {
         let mut sum_w = 0.0;
         let mut vis_scalar = 0.0;
         let mut vis_spec: Option<Vec<f64>> = None;
@@ -1224,22 +1277,30 @@ impl Tracer {
                 }
             }
         }
-        match vis_spec {
-            None => {
-                let g = scale * vis_scalar;
-                if g != 0.0 {
-                    out.iter_mut()
-                        .zip(&s.radiance)
-                        .for_each(|(o, l)| *o += g * l);
-                }
-            }
-            Some(v) => out
-                .iter_mut()
-                .zip(&s.radiance)
-                .zip(&v)
-                .for_each(|((o, l), v)| *o += scale * l * (vis_scalar + v)),
+        Visible {
+            sum_w,
+            vis_scalar,
+            vis_spec,
         }
-        sum_w
+    }
+
+    /// Occluded MC sum over `samples` times L: adds
+    /// `scale · L(λ) Σ_j w_j V_j τ_j(λ)` to `out` (to `s`'s group);
+    /// returns `Σ_j w_j` (unoccluded MC).
+    #[allow(clippy::too_many_arguments)]
+    fn occluded_sum(
+        &self,
+        s: &AreaSource,
+        p: DVec3,
+        ignore: u32,
+        samples: &[LightSample],
+        scale: f64,
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) -> f64 {
+        let v = self.occlusion(s, p, ignore, samples, c);
+        out.add_from(s.group, |o| v.add_to(o, scale, &s.radiance));
+        v.sum_w
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -1253,7 +1314,7 @@ impl Tracer {
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         let mut samples = Vec::new();
         if self.light_samples(
@@ -1283,7 +1344,7 @@ impl Tracer {
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         // Closed-form unoccluded factor of each source (None: non-integer m).
         let factors: Vec<Option<f64>> = self
@@ -1307,7 +1368,7 @@ impl Tracer {
         let mut samples = Vec::new();
         let mut occ = vec![0.0; out.len()];
         // The area sources' sum at this point, clamped at 0 at the end.
-        let mut area = vec![0.0; out.len()];
+        let mut area = out.dark_like();
         for (s, f) in self.area.iter().zip(&factors) {
             self.analytic_source(
                 s,
@@ -1327,9 +1388,7 @@ impl Tracer {
         }
         // No negative irradiance (see the crate docs): the control variate
         // can undershoot in deep penumbra.
-        out.iter_mut()
-            .zip(&area)
-            .for_each(|(o, a)| *o += a.max(0.0));
+        out.add_clamped(&area);
     }
 
     /// One area source's `analytic` estimate times `scale` (1, or the light
@@ -1352,7 +1411,7 @@ impl Tracer {
         c: &mut RayCounts,
         samples: &mut Vec<LightSample>,
         occ: &mut [f64],
-        area: &mut [f64],
+        area: &mut Light,
     ) {
         let frac = self.settings.source_roulette_fraction;
         let n_full = self.settings.area_samples.max(1);
@@ -1380,36 +1439,44 @@ impl Tracer {
         let sampled = factor > 0.0 && self.light_samples(s, p, n, n_s, strata, rng, samples);
         occ.iter_mut().for_each(|x| *x = 0.0);
         let sum_w = if sampled {
-            self.occluded_sum(s, p, ignore, samples, 1.0, c, occ)
+            let v = self.occlusion(s, p, ignore, samples, c);
+            v.add_to(occ, 1.0, &s.radiance);
+            v.sum_w
         } else {
             0.0
         };
         if sum_w <= 0.0 {
             // No sample carries weight: no visibility information, the
             // closed form stands.
-            area.iter_mut()
-                .zip(&s.radiance)
-                .for_each(|(o, l)| *o += scale * (factor * l));
+            area.add_from(s.group, |o| {
+                o.iter_mut()
+                    .zip(&s.radiance)
+                    .for_each(|(o, l)| *o += scale * (factor * l))
+            });
             return;
         }
         match self.settings.occlusion {
             Occlusion::Cv => {
                 // E = E_closed + (MC_occ − MC_unocc), same samples;
                 // exactly 0 where every sample is blocked (MC_occ = 0).
-                area.iter_mut()
-                    .zip(occ.iter())
-                    .zip(&s.radiance)
-                    .for_each(|((o, mo), l)| {
-                        if *mo != 0.0 {
-                            *o += scale * (factor * l + (mo - sum_w * l));
-                        }
-                    });
+                area.add_from(s.group, |o| {
+                    o.iter_mut()
+                        .zip(occ.iter())
+                        .zip(&s.radiance)
+                        .for_each(|((o, mo), l)| {
+                            if *mo != 0.0 {
+                                *o += scale * (factor * l + (mo - sum_w * l));
+                            }
+                        })
+                });
             }
             Occlusion::Ratio => {
                 let k = factor / sum_w;
-                area.iter_mut()
-                    .zip(occ.iter())
-                    .for_each(|(o, mo)| *o += scale * (k * mo));
+                area.add_from(s.group, |o| {
+                    o.iter_mut()
+                        .zip(occ.iter())
+                        .for_each(|(o, mo)| *o += scale * (k * mo))
+                });
             }
         }
     }
@@ -1431,10 +1498,11 @@ impl Tracer {
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-    ) -> [Vec<f64>; 3] {
+        like: &Light,
+    ) -> [Light; 3] {
         use crate::light_tree::LightRef;
         let nwl = self.wl.len();
-        let mut parts = [vec![0.0; nwl], vec![0.0; nwl], vec![0.0; nwl]];
+        let mut parts = [like.dark_like(), like.dark_like(), like.dark_like()];
         let mut picks = Vec::new();
         tree.select(p, n, rng, &mut picks);
         // Area picks: closed forms first, for the shadow-ray shares.
@@ -1471,7 +1539,7 @@ impl Tracer {
                 .sum();
             let mut samples = Vec::new();
             let mut occ = vec![0.0; nwl];
-            let mut area = vec![0.0; nwl];
+            let mut area = like.dark_like();
             for &(s, f, w) in &area_picks {
                 self.analytic_source(
                     s,
@@ -1489,10 +1557,7 @@ impl Tracer {
                     &mut area,
                 );
             }
-            parts[0]
-                .iter_mut()
-                .zip(&area)
-                .for_each(|(o, a)| *o += a.max(0.0));
+            parts[0].add_clamped(&area);
         }
         parts
     }
@@ -1507,7 +1572,7 @@ impl Tracer {
         ignore: u32,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        out: &mut [f64],
+        out: &mut Light,
     ) {
         let d = &self.settings.dirsig2001;
         let to_p = p - s.centroid;
@@ -1581,7 +1646,7 @@ impl Tracer {
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        acc: &mut [f64],
+        acc: &mut Light,
     ) -> bool {
         let mut met_emitter = false;
         let mut thr = thr.to_vec();
@@ -1609,11 +1674,13 @@ impl Tracer {
                 {
                     let mut l = vec![0.0; sky.nc];
                     sky.table.radiance_into(d, &mut l);
-                    acc[..sky.nc]
-                        .iter_mut()
-                        .zip(&thr)
-                        .zip(&l)
-                        .for_each(|((a, t), l)| *a += t * l);
+                    acc.add_from(sky.sky_group, |a| {
+                        a[..sky.nc]
+                            .iter_mut()
+                            .zip(&thr)
+                            .zip(&l)
+                            .for_each(|((a, t), l)| *a += t * l)
+                    });
                 }
                 return met_emitter;
             };
@@ -1635,21 +1702,25 @@ impl Tracer {
             {
                 let s = &self.area[src as usize];
                 let g = shaping(-d.dot(ng), s.m);
-                acc.iter_mut()
-                    .zip(&thr)
-                    .zip(&s.radiance)
-                    .for_each(|((a, t), l)| *a += g * t * l);
+                acc.add_from(s.group, |a| {
+                    a.iter_mut()
+                        .zip(&thr)
+                        .zip(&s.radiance)
+                        .for_each(|((a, t), l)| *a += g * t * l)
+                });
             }
 
             // Direct lighting of the Lambertian part: L = kd E / π.
             let all = self.settings.all_effects;
             if mat.has_diffuse || all {
-                let mut e = vec![0.0; acc.len()];
+                let mut e = acc.dark_like();
                 self.irradiance_with(p, ns, f, 1, strata.take(), rng, c, &mut e);
                 let inv_pi = std::f64::consts::FRAC_1_PI;
-                for (((a, t), k), e) in acc.iter_mut().zip(&thr).zip(&mat.kd).zip(&e) {
-                    *a += t * k * e * inv_pi;
-                }
+                acc.add_each(&e, |acc, e| {
+                    for (((a, t), k), e) in acc.iter_mut().zip(&thr).zip(&mat.kd).zip(e) {
+                        *a += t * k * e * inv_pi;
+                    }
+                });
             }
 
             // Diffuse interreflection from the radiosity cache (not after a
@@ -1682,8 +1753,8 @@ impl Tracer {
                 // random numbers stay those of the full render.
                 let mut scratch;
                 let target = if self.settings.drop.specular_recursion {
-                    scratch = vec![0.0; acc.len()];
-                    scratch.as_mut_slice()
+                    scratch = Light::dark(acc.len(), 0);
+                    &mut scratch
                 } else {
                     &mut *acc
                 };

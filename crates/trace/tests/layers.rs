@@ -1,6 +1,7 @@
-//! Light layers (`render_layers`): the layers sum to the ordinary render,
-//! and a lamp's layer is what a separate render of the scene with only that
-//! lamp shows.
+//! Light layers (`render_layers`, one pass): the layers sum to the
+//! ordinary render, which the pass reproduces bit for bit, adaptive
+//! sampling included; and a lamp's layer is what a separate render of the
+//! scene with only that lamp shows.
 
 use std::path::Path;
 
@@ -107,11 +108,6 @@ fn layers_sum_to_the_ordinary_render() {
     for indirect in ["off", "cache"] {
         let (whole, layers) = layers(&sc, &settings(4, indirect));
         assert_eq!(layers.len(), 4);
-        let mut sum = whole.radiance.clone();
-        sum.fill(0.0);
-        for l in &layers {
-            sum += &l.radiance;
-        }
         // The lamps' layers carry light of their own (the moon's and the
         // sky's may be left out by the effect plan next to the lamps).
         for l in &layers[..2] {
@@ -120,16 +116,30 @@ fn layers_sum_to_the_ordinary_render() {
                 "{indirect}: an empty layer"
             );
         }
-        let peak = whole.radiance.iter().copied().fold(0.0, f64::max);
-        assert!(peak > 0.0);
-        let worst = (sum.iter().zip(&whole.radiance))
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        assert!(
-            worst <= 1e-9 * peak,
-            "{indirect}: layers' sum off by {worst:e} (peak {peak:e})"
-        );
+        assert_sums_to(&layers, &whole, indirect);
     }
+}
+
+/// The layers sum to `whole` within 1e-12 of its peak (floating-point
+/// summation order: the clamp of negative penumbra sums is the whole's)
+/// and none is negative.
+fn assert_sums_to(layers: &[RenderOutput], whole: &RenderOutput, what: &str) {
+    let mut sum = whole.radiance.clone();
+    sum.fill(0.0);
+    for l in layers {
+        sum += &l.radiance;
+        assert!(l.radiance.iter().all(|&x| x >= 0.0), "{what}: negative");
+        assert_eq!(l.spp, whole.spp, "{what}: the whole's samples");
+    }
+    let peak = whole.radiance.iter().copied().fold(0.0, f64::max);
+    assert!(peak > 0.0);
+    let worst = (sum.iter().zip(&whole.radiance))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-12 * peak,
+        "{what}: layers' sum off by {worst:e} (peak {peak:e})"
+    );
 }
 
 /// The image mean of band `b` and its standard error (pixels independent).
@@ -181,12 +191,71 @@ fn a_lamps_layer_is_the_scene_with_only_that_lamp() {
     }
 }
 
+/// Adaptive sampling: the pass's whole is the adaptive render bit for
+/// bit (its sample counts follow the whole's errors), and every layer has
+/// those samples and sums to it.
 #[test]
-fn adaptive_sampling_is_refused() {
-    let sc = scene(&room(LAMP_A, ""));
-    let mut s = settings(4, "off");
-    s.set("target_error", "0.1").unwrap();
-    let mut t = Tracer::new(&sc, &s).unwrap();
+fn adaptive_layers_take_the_wholes_samples() {
+    let sc = scene(&room(&format!("{LAMP_A}{LAMP_B}"), ""));
+    let mut s = settings(4, "cache");
+    s.set("target_error", "0.05").unwrap();
+    s.set("max_spp", "64").unwrap();
+    let map = LayerMap::of(&sc);
+    let mut t = Tracer::prepare_layered(&sc, &s, None, &map).unwrap();
+    let h = t.image_size().1;
+    let (whole, layers) = t.render_layered(&map, 0..h, &|_, _| {}, &|| false).unwrap();
+    let plain = Tracer::new(&sc, &s).unwrap().render(&|_, _| {}).unwrap();
+    assert_eq!(whole.radiance, plain.radiance);
+    assert_eq!(whole.spp, plain.spp);
+    assert!(whole.spp.iter().any(|&n| n > 4), "nothing adaptive");
+    assert_sums_to(&layers, &whole, "adaptive");
+}
+
+/// More light groups than a layered render takes: a clear error.
+#[test]
+fn too_many_groups_are_refused() {
+    let lamps: String = (0..=gloam_trace::layers::MAX_LAYER_GROUPS)
+        .map(|i| {
+            format!(
+                "[point_sources.l{i}]\nposition = [{}, 3, 2.8]\nvalue = 0.001\n",
+                1.0 + 0.05 * i as f64
+            )
+        })
+        .collect();
+    let sc = scene(&room(&lamps, ""));
+    let mut t = Tracer::new(&sc, &settings(1, "off")).unwrap();
     let err = t.render_layers(&LayerMap::of(&sc), 0..1, &|_, _| {}, &|| false);
-    assert!(matches!(err, Err(gloam_trace::LayerError::Adaptive)));
+    assert!(
+        matches!(err, Err(gloam_trace::LayerError::TooManyGroups(n)) if n > gloam_trace::layers::MAX_LAYER_GROUPS),
+        "{err:?}"
+    );
+}
+
+/// Each lamp's layer against its closed form: a Lambertian floor (ρ = 0.5)
+/// under two isotropic lamps of their own groups, seen straight down by a
+/// one-pixel camera (0.35 m of floor), direct light only:
+/// `L = ρ/π · I cos θ / R²` per lamp, with `I` = 0.02 and 0.01 W sr⁻¹ nm⁻¹
+/// over the 300 nm band, R = 5 m, cos θ = 0.8 and 0.6.
+#[test]
+fn each_lamps_layer_is_its_closed_form() {
+    let sc = scene(
+        r#"
+units = "m"
+camera = { position = [0, 0, 10], look_at = [0, 0, 0], up = [0, 1, 0], fov_deg = 2, width = 1, height = 1 }
+bands.vis = { lo_nm = 400, hi_nm = 700 }
+materials.floor = { reflectance = 0.5 }
+objects.floor = { material = "floor", quad = { center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] } }
+point_sources.a = { position = [3, 0, 4], value = 0.02 }
+point_sources.b = { position = [0, -4, 3], value = 0.01 }
+"#,
+    );
+    let (whole, layers) = layers(&sc, &settings(16, "off"));
+    let closed = |i: f64, cos: f64| 0.5 / std::f64::consts::PI * i * 300.0 * cos / 25.0;
+    for (l, want) in layers.iter().zip([closed(0.02, 0.8), closed(0.01, 0.6)]) {
+        let got = l.radiance[[0, 0, 0]];
+        // The pixel averages E over its 0.35 m footprint: < 0.2 % off the
+        // centre's value.
+        assert!(((got - want) / want).abs() < 2e-3, "{got} vs {want}");
+    }
+    assert_sums_to(&layers, &whole, "two lamps");
 }
