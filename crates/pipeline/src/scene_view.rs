@@ -73,12 +73,13 @@ pub fn render_scene_layers(
         scene.camera.height = h;
     }
     let settings = RenderSettings::default();
-    // Only the layers: `RenderJob` with `layers` also renders the ordinary
-    // image (their sum), which a device never shows, so the tracer is driven
-    // here and each layer's detected band taken off directly.
+    // Only the layers (a device never shows their sum): the tracer is
+    // prepared for them — its cache solved per group once — and each
+    // layer's detected band taken off directly.
     let banded = crate::with_detected_band(&scene, sensor).map_err(RenderError::from)?;
-    let mut tracer = gloam_trace::Tracer::new(&banded, &settings).map_err(RenderError::from)?;
     let map = gloam_trace::layers::LayerMap::of(&scene);
+    let mut tracer = gloam_trace::Tracer::prepare_layered(&banded, &settings, None, &map)
+        .map_err(RenderError::from)?;
     let height = tracer.image_size().1;
     let outputs = tracer
         .render_layers(&map, 0..height, &|_, _| {}, &|| false)
