@@ -12,7 +12,7 @@ use ndarray::{Array3, Axis};
 
 use super::BenchError;
 use super::metrics::rel_rms_diff;
-use super::truth::receiver_mask;
+use super::truth::no_emitter_mask;
 
 /// What `gloam bench plan` measured.
 pub struct PlanCheck {
@@ -25,16 +25,35 @@ pub struct PlanCheck {
     /// Every other effect's decision held (kept: dropping it changes the
     /// signal by more than the tolerance; skipped: forcing it on, by less).
     pub effects_consistent: bool,
+    /// Every pilot share lies within [`SHARE_RATIO_LIMIT`]× of the
+    /// measured one, or, at or below the tolerance, the measured share
+    /// within the pilot's bound (see [`share_check`]).
+    pub shares_ok: bool,
 }
 
 /// Renders each scene with the plan, with every effect forced on, with
 /// another seed (the plan's own noise) and with the interreflection
 /// decision flipped.
-pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanCheck, BenchError> {
+/// `resolution_scale` multiplies each camera's width and height (as the
+/// render setting of that name does, the field of view kept).
+pub fn run(
+    scenes: &[PathBuf],
+    spp: u32,
+    resolution_scale: f64,
+    threads: Option<usize>,
+) -> Result<PlanCheck, BenchError> {
     let mut out = Vec::new();
     let (mut t_plan, mut t_all) = (0.0, 0.0);
     for path in scenes {
-        let scene = gloam_scene::load(path)?;
+        let mut scene = gloam_scene::load(path)?;
+        if resolution_scale != 1.0 {
+            // On the scene, not the settings: the masks below are the
+            // scene camera's size.
+            let cam = &mut scene.camera;
+            let scaled = |n: u32| ((n as f64 * resolution_scale).round() as u32).max(1);
+            cam.width = scaled(cam.width);
+            cam.height = scaled(cam.height);
+        }
         let base = RenderSettings {
             spp,
             threads,
@@ -59,15 +78,17 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanC
         let noise = rel_rms_diff(&a2, &a);
         let diff = rel_rms_diff(&b, &a);
         // Interreflection, both directions: flip the plan's decision and
-        // measure the change of the signal over the pixels that do not see
-        // an emitter (the pilot's own pixel set), against the tolerance.
+        // measure the change of the mean signal over the pixels that see a
+        // surface and no emitter, nor one beside them (the set the pilot's
+        // share is defined over, and the one `--target-error` governs),
+        // against the tolerance.
         let tracer = Tracer::prepare(&scene, &base, false)?;
         let decision = tracer.interreflection().clone();
         let kept = decision.method != "off";
         let mut flipped = base.clone();
         flipped.set("indirect", if kept { "off" } else { "cache" })?;
         let (c, _) = render(&flipped)?;
-        let mask = receiver_mask(&scene, &tracer, 2);
+        let mask = no_emitter_mask(&scene, &tracer, 2);
         let masked_mean = |img: &Array3<f64>| -> Vec<f64> {
             img.axis_iter(Axis(0))
                 .map(|band| {
@@ -202,6 +223,7 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanC
                 "per_pixel_change": px,
                 "per_pixel_noise": pixel_noise,
                 "consistent": ok,
+                "share_check": share_check(e.estimated_share, measured, tol, mean_noise),
             }));
         }
         let effects_ok = effects.iter().all(|v| v["consistent"] != false);
@@ -223,6 +245,7 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanC
                 "decision": decision.method,
                 "estimated_share": decision.estimated_share,
                 "measured_share": change,
+                "share_check": share_check(decision.estimated_share, Some(change), tol, mean_noise),
                 "tolerance": tol,
                 "mean_noise_between_seeds": mean_noise,
                 "consistent": ir_ok,
@@ -236,6 +259,14 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanC
         .iter()
         .all(|v| v["interreflection"]["consistent"] == true);
     let effects_consistent = out.iter().all(|v| v["effects_consistent"] == true);
+    let shares_ok = out.iter().all(|v| {
+        v["interreflection"]["share_check"]["pass"] != false
+            && v["effects"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .all(|e| e["share_check"]["pass"] != false)
+    });
     let total = serde_json::json!({
         "effects_consistent": effects_consistent,
         "plan_s": t_plan,
@@ -244,6 +275,7 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanC
         "saved_fraction": 1.0 - t_plan / f64::max(t_all, 1e-12),
         "all_agree_within_noise": all_agree,
         "interreflection_decisions_consistent": ir_consistent,
+        "shares_within_limit": shares_ok,
     });
     Ok(PlanCheck {
         spp,
@@ -252,7 +284,39 @@ pub fn run(scenes: &[PathBuf], spp: u32, threads: Option<usize>) -> Result<PlanC
         all_agree,
         interreflection_consistent: ir_consistent,
         effects_consistent,
+        shares_ok,
     })
+}
+
+/// Ratio allowed between the pilot's share and the measured one.
+pub const SHARE_RATIO_LIMIT: f64 = 1.5;
+
+/// The pilot's share against the measured one: `{"ratio", "bound",
+/// "pass"}`. A share above the tolerance must lie within
+/// [`SHARE_RATIO_LIMIT`]× of the measured share. At or below the tolerance
+/// the pilot claims only that bound — `[0, tolerance]`, which is all a
+/// decision needs and more than a coarse pilot resolves — and passes when
+/// the measured share lies in it (within 3 × `noise`, the seed-to-seed
+/// change of the mean). `null` when nothing was measured.
+fn share_check(
+    estimated: Option<f64>,
+    measured: Option<f64>,
+    tol: f64,
+    noise: f64,
+) -> serde_json::Value {
+    let (Some(e), Some(m)) = (estimated, measured) else {
+        return serde_json::Value::Null;
+    };
+    let ratio = if m > 0.0 { Some(e / m) } else { None };
+    let (bound, pass) = if e <= tol {
+        (Some([0.0, tol]), m <= tol + 3.0 * noise)
+    } else {
+        (
+            None,
+            ratio.is_some_and(|r| (1.0 / SHARE_RATIO_LIMIT..=SHARE_RATIO_LIMIT).contains(&r)),
+        )
+    };
+    serde_json::json!({"ratio": ratio, "bound": bound, "pass": pass})
 }
 
 impl PlanCheck {
@@ -269,6 +333,10 @@ impl PlanCheck {
         let t_all = total["all_effects_s"].as_f64().unwrap_or(f64::NAN);
         let all_agree = self.all_agree;
         let mut m = String::new();
+        let pct = |x: &serde_json::Value| match x.as_f64() {
+            Some(v) => format!("{:.3} %", 100.0 * v),
+            None => "-".into(),
+        };
 
         let _ = writeln!(
             m,
@@ -315,13 +383,53 @@ impl PlanCheck {
         }
         let _ = writeln!(
             m,
+            "\n| scene | effect | estimated share (pilot) | measured | ratio | pass |"
+        );
+        let _ = writeln!(m, "|---|---|---|---|---|---|");
+        for v in out.iter() {
+            let ir = std::iter::once((
+                "interreflection",
+                &v["interreflection"]["estimated_share"],
+                &v["interreflection"]["measured_share"],
+                &v["interreflection"]["share_check"],
+            ));
+            let rest = v["effects"].as_array().into_iter().flatten().map(|e| {
+                (
+                    e["effect"].as_str().unwrap_or_default(),
+                    &e["estimated_share"],
+                    &e["measured_change"],
+                    &e["share_check"],
+                )
+            });
+            for (name, est, meas, chk) in ir.chain(rest) {
+                if chk.is_null() {
+                    continue;
+                }
+                let estimated = match chk["bound"].as_array() {
+                    Some(b) => format!(
+                        "{} (≤ {})",
+                        pct(est),
+                        pct(b.get(1).unwrap_or(&serde_json::Value::Null))
+                    ),
+                    None => pct(est),
+                };
+                let _ = writeln!(
+                    m,
+                    "| {} | {name} | {estimated} | {} | {} | {} |",
+                    v["scene"].as_str().unwrap_or_default(),
+                    pct(meas),
+                    chk["ratio"]
+                        .as_f64()
+                        .map_or("-".into(), |r| format!("{r:.2}")),
+                    if chk["pass"] == true { "yes" } else { "**no**" },
+                );
+            }
+        }
+        let _ = writeln!(
+            m,
             "\n| scene | effect | on | estimated share | check | measured change (mean) | per pixel (noise) | consistent |"
         );
         let _ = writeln!(m, "|---|---|---|---|---|---|---|---|");
-        let pct = |x: &serde_json::Value| match x.as_f64() {
-            Some(v) => format!("{:.3} %", 100.0 * v),
-            None => "-".into(),
-        };
         for v in out.iter() {
             for e in v["effects"].as_array().into_iter().flatten() {
                 let _ = writeln!(
@@ -363,11 +471,65 @@ impl PlanCheck {
                 "an interreflection decision disagrees with its measured share (see the table)",
             );
         }
+        if !self.shares_ok {
+            return fail(
+                "a pilot share is not within 1.5× of the measured share, nor, when at most the tolerance, is the measured share (see the table)",
+            );
+        }
         if !self.effects_consistent {
             return fail(
                 "an effect's decision disagrees with the change measured when it is dropped or forced on (see the table)",
             );
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::share_check;
+
+    /// Above the tolerance the ratio decides (1.5× either way, inclusive);
+    /// at or below it the estimate is the bound [0, tolerance] and the
+    /// measured share must lie in it, within 3 × noise.
+    #[test]
+    fn share_check_ratio_and_bound() {
+        let tol = 0.005;
+        let c = share_check(Some(0.0174), Some(0.0198), tol, 0.0);
+        assert_eq!(c["pass"], true);
+        assert!((c["ratio"].as_f64().unwrap() - 0.0174 / 0.0198).abs() < 1e-12);
+        assert!(c["bound"].is_null());
+        // The old night figures: 0.85 % against 2.3 % fails; 1.45 %
+        // against 0.12 % fails.
+        assert_eq!(
+            share_check(Some(0.0085), Some(0.023), tol, 0.0)["pass"],
+            false
+        );
+        assert_eq!(
+            share_check(Some(0.0145), Some(0.0012), tol, 0.0)["pass"],
+            false
+        );
+        assert_eq!(share_check(Some(0.03), Some(0.02), tol, 0.0)["pass"], true);
+        assert_eq!(
+            share_check(Some(0.0301), Some(0.02), tol, 0.0)["pass"],
+            false
+        );
+        // Below the tolerance: a bound.
+        let b = share_check(Some(0.0018), Some(0.00004), tol, 0.0);
+        assert_eq!(b["pass"], true);
+        assert_eq!(b["bound"][1], tol);
+        assert_eq!(
+            share_check(Some(0.0018), Some(0.006), tol, 0.0)["pass"],
+            false
+        );
+        assert_eq!(
+            share_check(Some(0.0018), Some(0.006), tol, 0.001)["pass"],
+            true
+        );
+        // Measured zero and an estimate above the tolerance: no ratio, fail.
+        let z = share_check(Some(0.01), Some(0.0), tol, 0.0);
+        assert!(z["ratio"].is_null());
+        assert_eq!(z["pass"], false);
+        assert!(share_check(None, Some(0.01), tol, 0.0).is_null());
     }
 }
