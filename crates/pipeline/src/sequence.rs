@@ -930,6 +930,25 @@ value = 1e-4
         }
     }
 
+    /// The sequence captured with the tests' settings, no progress and a
+    /// noise-free camera.
+    fn capture_quietly(
+        scene: &gloam_scene::Scene,
+        seq: &Sequence,
+        frames: u32,
+        dir: &Path,
+    ) -> Result<SceneCaptured, SequenceError> {
+        let settings = settings();
+        let job = SceneSequence {
+            sequence: seq,
+            scene,
+            settings: &settings,
+            observer: None,
+            progress: &|_, _| {},
+        };
+        capture_scene_sequence(&job, &quiet_capture(frames), dir, no_context())
+    }
+
     fn settings() -> gloam_trace::RenderSettings {
         let mut s = gloam_trace::RenderSettings::default();
         s.set("spp", "2").unwrap();
@@ -948,16 +967,7 @@ value = 1e-4
             dir.path(),
             "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[0, 3.5, 1.75, 0, 30]]\n",
         );
-        let settings = settings();
-        let job = SceneSequence {
-            sequence: &seq,
-            scene: &scene,
-            settings: &settings,
-            observer: None,
-            progress: &|_, _| {},
-        };
-        let got =
-            capture_scene_sequence(&job, &quiet_capture(2), dir.path(), no_context()).unwrap();
+        let got = capture_quietly(&scene, &seq, 2, dir.path()).unwrap();
         assert_eq!(got.report.renders.as_ref().unwrap().renders, 1);
         let placed = gloam_scene::parse_str(
             &car_scene(
@@ -970,7 +980,7 @@ value = 1e-4
         let still = crate::render::RenderJob {
             camera: Some("gen3-gaas-iccd"),
             layers: true,
-            ..crate::render::RenderJob::new(&placed, &settings)
+            ..crate::render::RenderJob::new(&placed, &settings())
         }
         .run(&|_, _| {}, &|| false)
         .unwrap();
@@ -990,7 +1000,7 @@ value = 1e-4
         // And the car is in the picture: the scene as written differs.
         let written = crate::render::RenderJob {
             camera: Some("gen3-gaas-iccd"),
-            ..crate::render::RenderJob::new(&scene, &settings)
+            ..crate::render::RenderJob::new(&scene, &settings())
         }
         .run(&|_, _| {}, &|| false)
         .unwrap();
@@ -1008,16 +1018,7 @@ value = 1e-4
             dir.path(),
             "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 10\n[[move]]\nobjects = [\"car\"]\npoint_sources = [\"heads\"]\nkeys = [[0.15, 0, 0, 0], [0.29, 5, 0, 0]]\n",
         );
-        let settings = settings();
-        let job = SceneSequence {
-            sequence: &seq,
-            scene: &scene,
-            settings: &settings,
-            observer: None,
-            progress: &|_, _| {},
-        };
-        let got =
-            capture_scene_sequence(&job, &quiet_capture(10), dir.path(), no_context()).unwrap();
+        let got = capture_quietly(&scene, &seq, 10, dir.path()).unwrap();
         let r = got.report.renders.unwrap();
         let frames: Vec<(u32, u32, u32)> = (r.poses.iter())
             .map(|p| (p.first_frame, p.last_frame, p.frames))
@@ -1055,16 +1056,8 @@ value = 1e-4
                 "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = {frames}\n\n[[move]]\nobjects = [\"car\"]\nkeys = [[0, 0, 0, 0], [1000, 100, 0, 0]]\n"
             ),
         );
-        let settings = settings();
-        let job = SceneSequence {
-            sequence: &seq,
-            scene: &scene,
-            settings: &settings,
-            observer: None,
-            progress: &|_, _| {},
-        };
         let t = Instant::now();
-        let e = capture_scene_sequence(&job, &quiet_capture(frames), dir.path(), no_context())
+        let e = capture_quietly(&scene, &seq, frames, dir.path())
             .err()
             .unwrap()
             .to_string();

@@ -255,15 +255,7 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
         let mut last = f64::NEG_INFINITY;
         for (i, &(time, value)) in t.keys.iter().enumerate() {
             let at = here("keys").index(i);
-            if !(time.is_finite() && time >= 0.0) {
-                return Err(loc.error(&at, format!("time {time} s must be finite and ≥ 0")));
-            }
-            if time < last {
-                return Err(loc.error(
-                    &at,
-                    format!("time {time} s comes before the previous key's {last} s: keys go forward in time"),
-                ));
-            }
+            check_key_time(&loc, &at, time, last)?;
             if !(value.is_finite() && (0.0..=MAX_INTENSITY).contains(&value)) {
                 return Err(loc.error(
                     &at,
@@ -317,6 +309,22 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
 /// Checks the `[[move]]` tables: something to move, at most [`MAX_MOVES`],
 /// keys `[time_s, x, y, z]` or `[time_s, x, y, z, rotate_z_deg]` (all of
 /// one length), finite, bounded, forward in time; no table in two moves.
+/// A key's time: finite, ≥ 0 and not before the previous key's `last`.
+fn check_key_time(loc: &Locator, at: &FieldPath, time: f64, last: f64) -> Result<(), SceneError> {
+    if !(time.is_finite() && time >= 0.0) {
+        return Err(loc.error(at, format!("time {time} s must be finite and ≥ 0")));
+    }
+    if time < last {
+        return Err(loc.error(
+            at,
+            format!(
+                "time {time} s comes before the previous key's {last} s: keys go forward in time"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError> {
     let root = FieldPath::root().key("move");
     if raw.len() > MAX_MOVES {
@@ -380,15 +388,7 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
                 ));
             }
             let time = k[0];
-            if !(time.is_finite() && time >= 0.0) {
-                return Err(loc.error(&at, format!("time {time} s must be finite and ≥ 0")));
-            }
-            if time < last {
-                return Err(loc.error(
-                    &at,
-                    format!("time {time} s comes before the previous key's {last} s: keys go forward in time"),
-                ));
-            }
+            check_key_time(loc, &at, time, last)?;
             if let Some(v) = k[1..]
                 .iter()
                 .find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE))

@@ -886,26 +886,13 @@ fn side_by_side_summary(mut side: serde_json::Value, rows: &[Row]) -> serde_json
             .into_iter()
             .flatten()
             .min_by(|a, b| a.0.total_cmp(&b.0));
-            v.insert(
-                format!("mitsuba3_time_to_{label}_pixel_s"),
-                serde_json::json!(m.map(|x| x.0)),
-            );
-            v.insert(
-                format!("mitsuba3_{label}_extrapolated"),
-                serde_json::json!(m.map(|x| x.1)),
-            );
-            v.insert(
-                format!("gloam_time_to_{label}_pixel_s"),
-                serde_json::json!(g.map(|x| x.0)),
-            );
-            v.insert(
-                format!("gloam_{label}_extrapolated"),
-                serde_json::json!(g.map(|x| x.1)),
-            );
-            v.insert(
-                format!("ratio_{label}"),
-                serde_json::json!(m.zip(g).map(|(m, g)| m.0 / g.0.max(1e-12))),
-            );
+            for (side, t) in [("mitsuba3", m), ("gloam", g)] {
+                let (secs, extrapolated) = (t.map(|x| x.0), t.map(|x| x.1));
+                v.insert(format!("{side}_time_to_{label}_pixel_s"), secs.into());
+                v.insert(format!("{side}_{label}_extrapolated"), extrapolated.into());
+            }
+            let ratio = m.zip(g).map(|(m, g)| m.0 / g.0.max(1e-12));
+            v.insert(format!("ratio_{label}"), ratio.into());
         }
         v.insert(
             "ladder".into(),
