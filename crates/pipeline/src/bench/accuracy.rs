@@ -534,9 +534,10 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
         .iter()
         .filter(|r| r.setting == "target_error")
         .collect();
+    // gloam's own direct-only rows (Mitsuba's have their own section).
     let direct_spp: Vec<&Row> = rows
         .iter()
-        .filter(|r| r.setting == "direct_only_spp")
+        .filter(|r| r.setting == "direct_only_spp" && r.estimator != MITSUBA)
         .collect();
     let direct_adaptive: Vec<&Row> = rows
         .iter()

@@ -8,7 +8,8 @@
 //! The scene goes over as what gloam loaded: every facet (boxes, quads,
 //! inline geometry and OBJ alike) triangulated into one OBJ per material,
 //! each band's diffuse reflectance and emitted band radiance as one RGB
-//! channel (Mitsuba `scalar_rgb`: with spectrally flat reflectances each
+//! channel (Mitsuba `llvm_ad_rgb`, or `scalar_rgb` where LLVM cannot
+//! start: with spectrally flat reflectances each
 //! band is an independent grey transport, so this is exact; a spectrally
 //! varying reflectance is band-averaged and the report says so). Scenes
 //! with what that cannot carry (point sources, sky or moon, specular or
@@ -312,11 +313,12 @@ pub fn side_by_side(
     let mut note = String::new();
     let _ = write!(
         note,
-        "Mitsuba {} ({}, {} threads), path tracer, multijitter sampler, box pixel filter; scene load {:.2} s (not counted in the times); {}",
+        "Mitsuba {} ({}, {} threads), path tracer, multijitter sampler, box pixel filter; scene load {:.2} s and one untimed 1-spp render per ladder (JIT compile: {}) not counted in the times; {}",
         report["version"].as_str().unwrap_or("?"),
         report["variant"].as_str().unwrap_or("?"),
         report["threads"].as_u64().unwrap_or(0),
         report["load_s"].as_f64().unwrap_or(f64::NAN),
+        report["warmup_s"],
         if exact {
             "reflectances spectrally flat: each band is an exact grey transport in one RGB channel"
         } else {
