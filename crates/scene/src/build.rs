@@ -517,8 +517,48 @@ fn check_fraction(cx: &Ctx, field: &FieldPath, s: &Spectrum, kind: Kind) -> R<()
 fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Material> {
     let emission = match &m.emission {
         None => None,
+        Some(e) if e.photometry.is_some() => {
+            let f = field.key("emission");
+            let (table, intensity, path) = measured(
+                cx,
+                &f,
+                Measured {
+                    photometry: e.photometry.as_deref(),
+                    shape_exponent: e.shape_exponent.is_some(),
+                    value: e.value.is_some(),
+                    normalize: e.normalize.is_some(),
+                    spectrum: e.spectrum.as_deref(),
+                    lines: e.lines.as_deref(),
+                    scale: e.scale,
+                },
+            )?;
+            let cf = f.key("c0_direction");
+            let c0_direction = match e.c0_direction {
+                Some(v) => cx
+                    .vec3(&cf, v)?
+                    .try_normalize()
+                    .ok_or_else(|| cx.err(&cf, "c0_direction is a zero vector"))?,
+                None => DVec3::X,
+            };
+            Some(Emission {
+                // W sr⁻¹ nm⁻¹ over 1 m²: the tracer divides by the area.
+                radiance_w_m2_sr_nm: intensity,
+                shape_exponent: 0.0,
+                luminaire: Some(crate::AreaLuminaire {
+                    table: std::sync::Arc::new(table),
+                    c0_direction,
+                    file: path,
+                }),
+            })
+        }
         Some(e) => {
             let f = field.key("emission");
+            if e.c0_direction.is_some() {
+                return Err(cx.err(
+                    &f.key("c0_direction"),
+                    "`c0_direction` orients a measured luminaire: it needs `photometry = \"file.ies\"`",
+                ));
+            }
             let radiance = spectrum_parts(
                 cx,
                 &f,
@@ -544,6 +584,7 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
             Some(Emission {
                 radiance_w_m2_sr_nm: radiance,
                 shape_exponent: m_exp,
+                luminaire: None,
             })
         }
     };
@@ -1297,20 +1338,75 @@ fn luminaire_prototype(
     position: DVec3,
     direction: DVec3,
 ) -> R<PointSource> {
+    let (table, intensity, path) = measured(
+        cx,
+        field,
+        Measured {
+            photometry: p.photometry.as_deref(),
+            shape_exponent: p.shape_exponent.is_some(),
+            value: p.value.is_some(),
+            normalize: p.normalize.is_some(),
+            spectrum: p.spectrum.as_deref(),
+            lines: p.lines.as_deref(),
+            scale: p.scale,
+        },
+    )?;
+    let cf = field.key("c0_direction");
+    let c0 = match p.c0_direction {
+        Some(v) => perpendicular(cx.vec3(&cf, v)?, direction)
+            .ok_or_else(|| cx.err(&cf, "c0_direction is parallel to direction (or zero)"))?,
+        None => perpendicular(DVec3::X, direction)
+            .or_else(|| perpendicular(DVec3::Y, direction))
+            .unwrap_or(DVec3::X),
+    };
+    Ok(PointSource {
+        name: name.to_string(),
+        position,
+        direction,
+        shape_exponent: 0.0,
+        intensity_w_sr_nm: intensity,
+        luminaire: Some(Luminaire {
+            table: std::sync::Arc::new(table),
+            c0,
+            file: path,
+        }),
+    })
+}
+
+/// The keys of a source given by a photometric file.
+struct Measured<'a> {
+    photometry: Option<&'a str>,
+    shape_exponent: bool,
+    value: bool,
+    normalize: bool,
+    spectrum: Option<&'a str>,
+    lines: Option<&'a [Vec<f64>]>,
+    scale: Option<f64>,
+}
+
+/// Reads a photometric file and scales the spectral shape so its luminous
+/// intensity (683·∫V·S dλ) is the file's largest candela value × `scale`:
+/// the table, that spectral intensity (W sr⁻¹ nm⁻¹), and the resolved path.
+/// Shared by point sources and emitting materials.
+fn measured(
+    cx: &Ctx,
+    field: &FieldPath,
+    m: Measured,
+) -> R<(crate::photometry::Photometry, Spectrum, std::path::PathBuf)> {
     let pf = field.key("photometry");
     let excluded = [
         (
-            p.shape_exponent.is_some(),
+            m.shape_exponent,
             "shape_exponent",
             "the file gives the distribution",
         ),
         (
-            p.value.is_some(),
+            m.value,
             "value",
             "the file gives the magnitude; give the spectral shape with `spectrum` (a name or CSV) and/or `lines`",
         ),
         (
-            p.normalize.is_some(),
+            m.normalize,
             "normalize",
             "the file gives the magnitude (use `scale` to dim it)",
         ),
@@ -1323,13 +1419,13 @@ fn luminaire_prototype(
             ));
         }
     }
-    if p.spectrum.is_none() && p.lines.as_ref().is_none_or(|l| l.is_empty()) {
+    if m.spectrum.is_none() && m.lines.is_none_or(|l| l.is_empty()) {
         return Err(cx.err(
             field,
             "a measured luminaire needs its spectral shape: `spectrum` (a built-in name or CSV file) and/or `lines`",
         ));
     }
-    let Some(file) = p.photometry.as_deref() else {
+    let Some(file) = m.photometry else {
         return Err(cx.err(&pf, "missing file name"));
     };
     let path = cx.resolve(file);
@@ -1339,9 +1435,9 @@ fn luminaire_prototype(
         cx,
         field,
         Parts {
-            spectrum: p.spectrum.as_deref(),
+            spectrum: m.spectrum,
             value: None,
-            lines: p.lines.as_deref(),
+            lines: m.lines,
             scale: None,
             normalize: None,
         },
@@ -1357,7 +1453,7 @@ fn luminaire_prototype(
             ),
         ));
     }
-    let scale = match p.scale {
+    let scale = match m.scale {
         Some(k) if !(k.is_finite() && k >= 0.0) => {
             return Err(cx.err(
                 &field.key("scale"),
@@ -1381,26 +1477,7 @@ fn luminaire_prototype(
             format!("intensity {peak:e} W sr⁻¹ nm⁻¹ is out of range (at most {MAX_EMISSION:e})"),
         ));
     }
-    let cf = field.key("c0_direction");
-    let c0 = match p.c0_direction {
-        Some(v) => perpendicular(cx.vec3(&cf, v)?, direction)
-            .ok_or_else(|| cx.err(&cf, "c0_direction is parallel to direction (or zero)"))?,
-        None => perpendicular(DVec3::X, direction)
-            .or_else(|| perpendicular(DVec3::Y, direction))
-            .unwrap_or(DVec3::X),
-    };
-    Ok(PointSource {
-        name: name.to_string(),
-        position,
-        direction,
-        shape_exponent: 0.0,
-        intensity_w_sr_nm: intensity,
-        luminaire: Some(Luminaire {
-            table: std::sync::Arc::new(table),
-            c0,
-            file: path,
-        }),
-    })
+    Ok((table, intensity, path))
 }
 
 fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {

@@ -311,13 +311,93 @@ impl Material {
 }
 
 /// Emission of an area source: radiance `L(λ) cos^m(alpha)` about the facet
-/// normal, emitted from the front side only.
+/// normal, emitted from the front side only — or, with a measured
+/// [`AreaLuminaire`], `L(λ) · I(γ, C) / (I_max cos γ)` per square metre of
+/// the emitting object's area (see there).
 #[derive(Clone, Debug)]
 pub struct Emission {
     /// Radiance along the normal, W m⁻² sr⁻¹ nm⁻¹ (lines in W m⁻² sr⁻¹).
+    /// With a luminaire: the radiance a luminous area of 1 m² has where
+    /// `I / cos γ` is `I_max` (numerically the spectral intensity of the
+    /// file's largest candela value × scale, W sr⁻¹ nm⁻¹); the tracer
+    /// divides it by each emitting object's area in m².
     pub radiance_w_m2_sr_nm: Spectrum,
-    /// m in `cos^m(alpha)`; 0 is Lambertian.
+    /// m in `cos^m(alpha)`; 0 is Lambertian (and with a luminaire).
     pub shape_exponent: f64,
+    /// The measured distribution, when `photometry = "file"` gives one.
+    pub luminaire: Option<AreaLuminaire>,
+}
+
+/// A measured luminaire spread over an emitting object: the far-field
+/// equivalence `L(ω) = I(γ, C) / (A cos γ)` — the intensity divided by the
+/// object's area A projected toward ω, γ from each facet's normal (the
+/// nadir), C from the C0 axis projected into the facet's plane. Exact for a
+/// planar object; the object's flux is the file's flux below γ = 90° ×
+/// scale (a facet emits from its front only, so light the file gives
+/// above its plane is dropped).
+#[derive(Clone, Debug)]
+pub struct AreaLuminaire {
+    pub table: std::sync::Arc<photometry::Photometry>,
+    /// The C0 axis as given (unit; the tracer projects it per facet, see
+    /// [`AreaLuminaire::c0_for`]).
+    pub c0_direction: DVec3,
+    /// The file it was read from (as resolved against the scene).
+    pub file: std::path::PathBuf,
+}
+
+impl AreaLuminaire {
+    /// `cos γ` below which the radiance is held at its value at this
+    /// cosine (γ > 89.94°): `1 / cos γ` stays bounded (≤ 1000 × I/A) where
+    /// a file gives light at the horizon, at a flux cost of at most the
+    /// file's intensity there times a 1.1e-3 sr band.
+    pub const MIN_COS_GAMMA: f64 = 1e-3;
+
+    /// The C0 axis in the plane of a facet with unit `normal`: the given
+    /// axis projected, else x, else y.
+    pub fn c0_for(&self, normal: DVec3) -> DVec3 {
+        [self.c0_direction, DVec3::X, DVec3::Y]
+            .into_iter()
+            .find_map(|v| {
+                (v - v.dot(normal) * normal)
+                    .try_normalize()
+                    .filter(|u| u.dot(normal).abs() < 1e-9)
+            })
+            .unwrap_or(DVec3::X)
+    }
+
+    /// The TILT=INCLUDE factor for a facet with unit `normal` (its tilt
+    /// from straight down, −z); 1 without a tilt table.
+    pub fn tilt_factor(&self, normal: DVec3) -> f64 {
+        self.table.tilt.as_ref().map_or(1.0, |t| {
+            t.factor(
+                normal
+                    .dot(DVec3::NEG_Z)
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees(),
+            )
+        })
+    }
+
+    /// `I(γ, C) / (I_max cos γ)` toward unit `w` leaving a facet with unit
+    /// `normal` and C0 axis `c0` (from [`Self::c0_for`]): the radiance
+    /// relative to `I_max / A`; 0 behind the facet, `cos γ` held at
+    /// [`Self::MIN_COS_GAMMA`] below it.
+    pub fn relative_radiance(&self, normal: DVec3, c0: DVec3, w: DVec3) -> f64 {
+        let cos_g = normal.dot(w);
+        if cos_g.is_nan() || cos_g <= 0.0 {
+            return 0.0;
+        }
+        let gamma = cos_g.min(1.0).acos().to_degrees();
+        let c90 = -normal.cross(c0);
+        let (x, y) = (w.dot(c0), w.dot(c90));
+        let c = if x == 0.0 && y == 0.0 {
+            0.0
+        } else {
+            y.atan2(x).to_degrees()
+        };
+        self.table.candela_at(gamma, c) / self.table.max_candela / cos_g.max(Self::MIN_COS_GAMMA)
+    }
 }
 
 /// A planar, convex triangle or quad.

@@ -206,15 +206,28 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             .iter()
             .enumerate()
             .filter(|(i, m)| {
-                used[*i] && m.emission.as_ref().is_some_and(|e| e.shape_exponent > 0.0)
+                used[*i]
+                    && m.emission
+                        .as_ref()
+                        .is_some_and(|e| e.shape_exponent > 0.0 || e.luminaire.is_some())
             })
-            .map(|(_, m)| {
-                format!(
-                    "{} m = {}",
-                    m.name,
-                    fmt_num(m.emission.as_ref().map_or(0.0, |e| e.shape_exponent))
-                )
-            })
+            .map(
+                |(_, m)| match m.emission.as_ref().and_then(|e| e.luminaire.as_ref()) {
+                    // A measured distribution: its file, not an exponent.
+                    Some(l) => format!(
+                        "{} {}",
+                        m.name,
+                        l.file
+                            .file_name()
+                            .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
+                    ),
+                    None => format!(
+                        "{} m = {}",
+                        m.name,
+                        fmt_num(m.emission.as_ref().map_or(0.0, |e| e.shape_exponent))
+                    ),
+                },
+            )
             .collect();
         let shape = if shaped.is_empty() {
             "Lambertian".to_string()

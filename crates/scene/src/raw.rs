@@ -144,6 +144,12 @@ pub(crate) struct RawEmission {
     pub scale: Option<f64>,
     pub normalize: Option<RawNormalize>,
     pub shape_exponent: Option<f64>,
+    /// An IES or EULUMDAT file, relative to the scene (a measured area
+    /// luminaire: see `AreaLuminaire`).
+    pub photometry: Option<String>,
+    /// The luminaire's C0 axis (projected perpendicular to each facet's
+    /// normal).
+    pub c0_direction: Option<V3>,
 }
 
 #[derive(Debug, Deserialize)]

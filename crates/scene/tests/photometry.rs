@@ -192,3 +192,125 @@ fn tilt_table_scales_each_placement_by_its_tilt() {
     let cd = gloam_spectra::photopic(&s.point_sources[0].intensity_w_sr_nm);
     assert!((cd - 80.0).abs() < 1e-9, "tilted 45°: {cd}");
 }
+
+fn area_scene_with(emission: &str, dir: &Path) -> Result<gloam_scene::Scene, String> {
+    let text = format!(
+        r#"
+units = "m"
+[camera]
+position = [0, -10, 5]
+look_at = [0, 0, 0]
+fov_deg = 60
+width = 8
+height = 8
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.lens]
+emission = {{ {emission} }}
+[objects.lens]
+material = "lens"
+quad = {{ center = [0, 0, 8], size = [0.6, 0.3], normal = [0, 0, -1] }}
+"#
+    );
+    parse_str(&text, &dir.join("scene.toml")).map_err(|e| e.to_string())
+}
+
+/// An area luminaire's flux: with `L = I_max·scale/A × I(γ, C)/(I_max cos γ)`
+/// the object emits `∫_A ∫_hemisphere L cos γ dω dA = scale × ∫ I dω` —
+/// the published road luminaire's 27 933.95 lm (all below γ = 90°),
+/// halved by `scale = 0.5`. Quadrature (midpoint in cos γ and C) of the
+/// profile the tracer evaluates, times the luminance the spectrum carries.
+#[test]
+fn an_area_luminaire_emits_the_files_flux() {
+    let dir = data("");
+    let s = area_scene_with(
+        "photometry = \"road-luminaire-son-tpp-250w.ldt\", spectrum = \"hps\", c0_direction = [0, 1, 0], scale = 0.5",
+        &dir,
+    )
+    .unwrap();
+    let e = s.materials[s.objects[0].material]
+        .emission
+        .as_ref()
+        .unwrap();
+    let lum = e.luminaire.as_ref().unwrap();
+    assert_eq!(e.shape_exponent, 0.0);
+    // The 1 m² radiance: I_max × scale in candela, per m².
+    let i_max = gloam_spectra::photopic(&e.radiance_w_m2_sr_nm);
+    assert!((i_max - 0.5 * 534.0 * 33.2).abs() < 1e-9 * i_max, "{i_max}");
+    let n = DVec3::NEG_Z;
+    let c0 = lum.c0_for(n);
+    assert_eq!(c0, DVec3::Y);
+    let c90 = -n.cross(c0);
+    let (ng, nc) = (4000, 720);
+    let mut sum = 0.0;
+    for i in 0..ng {
+        let mu = (i as f64 + 0.5) / ng as f64;
+        let sin = (1.0 - mu * mu).sqrt();
+        for j in 0..nc {
+            let c = ((j as f64 + 0.5) * 360.0 / nc as f64).to_radians();
+            let w = mu * n + sin * (c.cos() * c0 + c.sin() * c90);
+            sum += lum.relative_radiance(n, c0, w) * mu;
+        }
+    }
+    // A cancels: L·A = I_max·scale × profile.
+    let flux = i_max * sum / ng as f64 * (2.0 * std::f64::consts::PI / nc as f64);
+    let want = 0.5 * lum.table.flux_lm();
+    assert!((want - 0.5 * 27933.951).abs() < 0.01, "{want}");
+    assert!(((flux - want) / want).abs() < 2e-4, "{flux} vs {want}");
+    // Orientation: the peak (C350, γ = 65°) with C90 = −n × C0 = −x.
+    let (g, c) = (65f64.to_radians(), 350f64.to_radians());
+    let w = g.cos() * n + g.sin() * (c.cos() * c0 + c.sin() * c90);
+    let peak = 1.0 / g.cos();
+    assert!((lum.relative_radiance(n, c0, w) - peak).abs() < 1e-9 * peak);
+    // Behind the facet: nothing; at the horizon: bounded.
+    assert_eq!(lum.relative_radiance(n, c0, -n), 0.0);
+    let grazing = lum.relative_radiance(n, c0, (c0 + 1e-9 * n).normalize());
+    assert!(grazing.is_finite() && grazing <= 1.0 / gloam_scene::AreaLuminaire::MIN_COS_GAMMA);
+    eprintln!("area luminaire flux {flux:.3} lm vs file × scale {want:.3} lm");
+}
+
+#[test]
+fn area_photometry_excludes_the_keys_that_would_contradict_it() {
+    let dir = data("");
+    let f = "photometry = \"road-luminaire-son-tpp-250w.ldt\"";
+    for (extra, want) in [
+        (
+            ", spectrum = \"hps\", shape_exponent = 2",
+            "materials.lens.emission.shape_exponent: `shape_exponent` and `photometry` exclude each other",
+        ),
+        (
+            ", value = 1.0",
+            "materials.lens.emission.value: `value` and `photometry` exclude each other",
+        ),
+        (
+            "",
+            "materials.lens.emission: a measured luminaire needs its spectral shape",
+        ),
+        (
+            ", spectrum = \"hps\", c0_direction = [0, 0, 0]",
+            "materials.lens.emission.c0_direction: c0_direction is a zero vector",
+        ),
+        (
+            ", spectrum = \"hps\", scale = -1",
+            "materials.lens.emission.scale: scale -1 must be",
+        ),
+    ] {
+        let e = area_scene_with(&format!("{f}{extra}"), &dir).unwrap_err();
+        assert!(e.contains(want), "{e}\n  should contain: {want}");
+        assert!(e.contains("scene.toml:"), "{e}");
+    }
+    let e = area_scene_with("value = 1, c0_direction = [1, 0, 0]", &dir).unwrap_err();
+    assert!(
+        e.contains(
+            "materials.lens.emission.c0_direction: `c0_direction` orients a measured luminaire"
+        ),
+        "{e}"
+    );
+    let e = area_scene_with("photometry = \"missing.ldt\", spectrum = \"hps\"", &dir).unwrap_err();
+    assert!(
+        e.contains("materials.lens.emission.photometry: photometry file:")
+            && e.contains("missing.ldt"),
+        "{e}"
+    );
+}

@@ -158,10 +158,14 @@ pub(crate) struct AreaSource {
     centroid: DVec3,
     /// Scene units².
     area: f64,
-    m: f64,
-    /// `Some` when m is an integer the closed form handles.
+    /// How the radiance varies with the direction it leaves in.
+    profile: Profile,
+    /// `Some` when the profile is `cos^m` with an integer m the closed
+    /// form handles (None: sampled).
     m_int: Option<u32>,
-    /// Spectral radiance along the normal (emission slots).
+    /// Spectral radiance along the normal (emission slots); for a
+    /// tabulated profile, `I_max / A` with the tilt factor (the profile
+    /// supplies `I(γ, C) / (I_max cos γ)`).
     pub(crate) radiance: Vec<f64>,
     /// Σ over bands of the band radiance: a scalar size for choosing.
     size: f64,
@@ -173,6 +177,22 @@ pub(crate) struct AreaSource {
     dirsig_points: Vec<DVec3>,
     /// Its light group under `--layers` (`layers.rs`; None otherwise).
     pub(crate) group: Option<usize>,
+}
+
+/// An area source's directional profile: the one place its radiance's
+/// dependence on the leaving direction is evaluated (direct view, light
+/// samples, the 2001 method, the light tree's bound).
+#[derive(Clone, Debug)]
+enum Profile {
+    /// `cos^m` about the facet normal (m = 0: Lambertian).
+    CosPower(f64),
+    /// A measured luminaire, `I(γ, C) / (I_max cos γ)` (see
+    /// [`gloam_scene::AreaLuminaire::relative_radiance`]), with the C0 axis
+    /// projected into this facet's plane.
+    Table {
+        lum: gloam_scene::AreaLuminaire,
+        c0: DVec3,
+    },
 }
 
 /// A point source: `intensity · shape(ω)`, the shape `cos^m` about `dir`
@@ -439,6 +459,23 @@ pub(crate) fn latin_hypercube(n: usize, rng: &mut Pcg64Mcg, out: &mut Vec<[f64; 
     }
 }
 
+/// The area of each scene object's facets of one measured-luminaire
+/// material, scene units², by (material, object): the luminous area A in
+/// `L = I / (A cos γ)`. One pass over the facets.
+fn luminous_areas(scene: &gloam_scene::Scene) -> std::collections::HashMap<(usize, &str), f64> {
+    let mut out = std::collections::HashMap::new();
+    for f in &scene.facets {
+        if scene.materials[f.material]
+            .emission
+            .as_ref()
+            .is_some_and(|e| e.luminaire.is_some())
+        {
+            *out.entry((f.material, f.object.as_str())).or_insert(0.0) += f.area();
+        }
+    }
+    out
+}
+
 fn shaping(cos: f64, m: f64) -> f64 {
     if m == 0.0 {
         1.0
@@ -571,15 +608,41 @@ impl Tracer {
         let mut facet_source = vec![u32::MAX; scene.facets.len()];
         let mut area = Vec::new();
         let mut rng = stream(settings.seed, 0x00D1_2516_2001, 0);
+        let lum_areas = luminous_areas(scene);
         for (i, f) in scene.facets.iter().enumerate() {
             let Some(e) = &scene.materials[f.material].emission else {
                 continue;
             };
             let verts = facet_verts[i].clone();
             let normal = facet_normal[i];
-            let m = e.shape_exponent.max(0.0);
-            let m_int = (m.fract() == 0.0 && m <= u32::MAX as f64).then_some(m as u32);
-            let radiance = wl.emission(&e.radiance_w_m2_sr_nm);
+            let (profile, m_int, radiance) = match &e.luminaire {
+                None => {
+                    let m = e.shape_exponent.max(0.0);
+                    let m_int = (m.fract() == 0.0 && m <= u32::MAX as f64).then_some(m as u32);
+                    (
+                        Profile::CosPower(m),
+                        m_int,
+                        wl.emission(&e.radiance_w_m2_sr_nm),
+                    )
+                }
+                Some(lum) => {
+                    // I_max (× tilt) over the object's luminous area, m².
+                    let a_su2 = lum_areas
+                        .get(&(f.material, f.object.as_str()))
+                        .copied()
+                        .unwrap_or(0.0);
+                    let a_m2 = a_su2 * scene.meters_per_unit.powi(2);
+                    let k = lum.tilt_factor(normal) / a_m2.max(f64::MIN_POSITIVE);
+                    let radiance = wl
+                        .emission(&e.radiance_w_m2_sr_nm)
+                        .into_iter()
+                        .map(|v| v * k)
+                        .collect();
+                    let c0 = lum.c0_for(normal);
+                    let lum = lum.clone();
+                    (Profile::Table { lum, c0 }, None, radiance)
+                }
+            };
             let size = wl.total(&radiance);
             let tris: Vec<[DVec3; 3]> = (1..verts.len() - 1)
                 .map(|k| [verts[0], verts[k], verts[k + 1]])
@@ -605,7 +668,7 @@ impl Tracer {
                 verts,
                 normal,
                 area: area_su,
-                m,
+                profile,
                 m_int,
                 radiance,
                 size,
@@ -1196,7 +1259,7 @@ impl Tracer {
             let cos_e = -dir.dot(s.normal);
             let cos_r = dir.dot(n);
             let f = if cos_e > 0.0 && cos_r > 0.0 {
-                cos_r * shaping(cos_e, s.m)
+                cos_r * s.shape(cos_e, -dir)
             } else {
                 0.0
             };
@@ -1600,7 +1663,7 @@ impl Tracer {
             return;
         }
         // cos^m(alpha) once, alpha at the source centre.
-        let shape = shaping(h / to_p.length(), s.m);
+        let shape = s.shape(h / to_p.length(), to_p.normalize());
         let cos_r_c = (-to_p.normalize()).dot(n).max(0.0);
         if s.size * omega * cos_r_c * shape < d.IRRADIANCE_THRESHOLD {
             return;
@@ -1701,7 +1764,7 @@ impl Tracer {
                 && !(seen_directly && self.settings.drop.direct_view)
             {
                 let s = &self.area[src as usize];
-                let g = shaping(-d.dot(ng), s.m);
+                let g = s.shape(-d.dot(ng), -d);
                 acc.add_from(s.group, |a| {
                     a.iter_mut()
                         .zip(&thr)
@@ -1876,8 +1939,12 @@ fn build_light_tree(
                     axis: s.normal,
                     theta_o: 0.0,
                     theta_e: std::f64::consts::FRAC_PI_2,
-                    // Projected area × cos^m shaping.
-                    exponent: s.m + 1.0,
+                    // Projected area × cos^m shaping; a table is
+                    // bounded by its I_max (phi) with no falloff assumed.
+                    exponent: match s.profile {
+                        Profile::CosPower(m) => m + 1.0,
+                        Profile::Table { .. } => 0.0,
+                    },
                 },
             });
         }
@@ -1945,9 +2012,28 @@ impl PointLight {
 }
 
 impl AreaSource {
-    /// Radiance at slot `slot` leaving at emission cosine `cos_e`.
+    /// Radiance at slot `slot` leaving at emission cosine `cos_e`; a
+    /// tabulated profile is read in its C0 plane (this is for estimates
+    /// that know only the cosine — [`Self::shape`] is exact).
     pub(crate) fn radiance_at(&self, slot: usize, cos_e: f64) -> f64 {
-        shaping(cos_e, self.m) * self.radiance[slot]
+        let w = match &self.profile {
+            Profile::CosPower(_) => DVec3::ZERO,
+            Profile::Table { c0, .. } => {
+                let c = cos_e.clamp(-1.0, 1.0);
+                c * self.normal + (1.0 - c * c).sqrt() * *c0
+            }
+        };
+        self.shape(cos_e, w) * self.radiance[slot]
+    }
+
+    /// The profile toward unit `w` leaving the facet, whose cosine with
+    /// the normal is `cos_e` (the caller's, so `cos^m` sources evaluate
+    /// exactly as before): `cos^m`, or a table's `I / (I_max cos γ)`.
+    fn shape(&self, cos_e: f64, w: DVec3) -> f64 {
+        match &self.profile {
+            Profile::CosPower(m) => shaping(cos_e, *m),
+            Profile::Table { lum, c0 } => lum.relative_radiance(self.normal, *c0, w),
+        }
     }
 
     /// A point uniform in area, `u ∈ [0,1)²`.
