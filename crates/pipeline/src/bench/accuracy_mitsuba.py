@@ -26,6 +26,7 @@ if "DRJIT_LIBLLVM_PATH" not in os.environ:
     for cand in sorted(glob.glob("/usr/lib/*/libLLVM-1[7-9]*.so") + glob.glob("/usr/lib/*/libLLVM-2[0-9]*.so"), reverse=True):
         os.environ["DRJIT_LIBLLVM_PATH"] = cand
         break
+import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
 
@@ -93,7 +94,8 @@ for depth, ladder in s["ladders"]:
     # One untimed 1-spp render compiles (llvm) the kernels every rung
     # reuses; its time is reported apart as the JIT's.
     t0 = time.perf_counter()
-    mi.render(scene, spp=1, seed=s["seed"] + 1)
+    dr.eval(mi.render(scene, spp=1, seed=s["seed"] + 1))
+    dr.sync_thread()
     warmup_s[str(depth)] = time.perf_counter() - t0
     last_s, t_ladder, limit = 0.0, time.perf_counter(), s["time_limit_s"] / len(s["ladders"])
     for spp in ladder:
@@ -103,6 +105,10 @@ for depth, ladder in s["ladders"]:
             break
         t0 = time.perf_counter()
         img = mi.render(scene, spp=spp, seed=s["seed"])
+        # The llvm variant records lazily: the time counts once the image
+        # is computed.
+        dr.eval(img)
+        dr.sync_thread()
         render_s = time.perf_counter() - t0
         last_s = render_s
         name = f"mi-{depth}-{spp}.f32"
