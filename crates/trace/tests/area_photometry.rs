@@ -6,6 +6,7 @@
 //! for `cos^m` only) must match the Lambertian closed form within noise.
 //! Likewise `I0 cos^(m+1) γ` is `shape_exponent = m` (m = 2 here).
 
+mod common;
 use std::path::Path;
 
 use glam::DVec3;
@@ -46,23 +47,7 @@ quad = {{ center = [0, 0, 3], size = [0.8, 0.5], normal = [0, 0, -1] }}
 
 /// `I0 cos^power γ` on a vertical grid of `step_deg` over [0°, 90°].
 fn cos_ies(step_deg: f64, power: i32) -> String {
-    let n = (90.0 / step_deg).round() as usize + 1;
-    let g: Vec<f64> = (0..n).map(|k| k as f64 * step_deg).collect();
-    let join = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    };
-    let cd: Vec<f64> = g
-        .iter()
-        .map(|x| I0_CD * x.to_radians().cos().max(0.0).powi(power))
-        .collect();
-    format!(
-        "IESNA:LM-63-2002\n[TEST] cos\nTILT=NONE\n1 -1 1 {n} 1 1 2 0 0 0\n1 1 1\n{}\n0\n{}\n",
-        join(&g),
-        join(&cd)
-    )
+    common::cos_power_ies(step_deg, f64::from(power), I0_CD)
 }
 
 /// The panel as `shape_exponent = m` with luminance `I0 / A` along the

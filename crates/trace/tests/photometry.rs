@@ -3,6 +3,7 @@
 //! image as `shape_exponent = m`, to the interpolation error the grid
 //! allows.
 
+mod common;
 use std::path::Path;
 
 use gloam_trace::RenderSettings;
@@ -44,23 +45,7 @@ spectrum = "cie-a"
 
 /// `I0 cos^m γ` on a vertical grid of `step_deg`, rotationally symmetric.
 fn cos_m_ies(step_deg: f64) -> String {
-    let n = (90.0 / step_deg).round() as usize + 1;
-    let g: Vec<f64> = (0..n).map(|k| k as f64 * step_deg).collect();
-    let join = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    };
-    let cd: Vec<f64> = g
-        .iter()
-        .map(|x| I0_CD * x.to_radians().cos().max(0.0).powf(M))
-        .collect();
-    format!(
-        "IESNA:LM-63-2002\n[TEST] cos^{M}\nTILT=NONE\n1 -1 1 {n} 1 1 2 0 0 0\n1 1 1\n{}\n0\n{}\n",
-        join(&g),
-        join(&cd)
-    )
+    common::cos_power_ies(step_deg, M, I0_CD)
 }
 
 fn render(text: &str, dir: &Path) -> ndarray::Array3<f64> {
