@@ -18,7 +18,9 @@
 //! heads, whose radiance swamped the mean (the measured interreflection
 //! share of `night-full-moon-lamps` was 4.8 % over whole-facet pixels, 2.7 %
 //! over the pixel centres the pilot saw, 2.0 % over this set; the pilot
-//! says 1.7 %). Light terms are also judged per pixel (the 90th
+//! says 1.7 %). The light terms' shares and direct view also sample a
+//! window around each point source's image (`Tracer::pilot_samples`):
+//! a lamp's housing and pool are a few pixels the grid misses. Light terms are also judged per pixel (the 90th
 //! percentile, [`PartShares::pixel_p90`]), since one source can be all the
 //! light a few pixels get. The pilot's
 //! bounce ratio q (the enclosure's multiple-bounce albedo) also fixes how
