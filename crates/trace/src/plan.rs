@@ -915,3 +915,39 @@ pub fn interreflection_effect(d: &InterreflectionDecision) -> gloam_scene::plan:
     e.estimated_share = d.estimated_share;
     e
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pilot's samples stand for the whole image (weights in pixels
+    /// sum to its pixel count), and the road lamp's window of
+    /// `street-switch-on` covers both its image and its pool's: the road
+    /// under the lamp, 8 m below it, which is the surface in its brightest
+    /// lattice direction or nearer.
+    #[test]
+    fn pilot_window_covers_the_lamp_and_its_pool() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../sims/street-switch-on/scene.toml"
+        );
+        let mut scene = gloam_scene::load(std::path::Path::new(path)).unwrap();
+        scene.camera.width = 80;
+        scene.camera.height = 60;
+        let t = Tracer::new(&scene, &RenderSettings::default()).unwrap();
+        let s = t.pilot_samples(PILOT_COLS, PILOT_ROWS);
+        let total: f64 = s.iter().map(|p| p.2).sum();
+        assert!((total - 4800.0).abs() < 1e-9, "{total}");
+        let covered = |p: DVec3| {
+            let (x, y) = t.camera.project(p).unwrap();
+            let (px, py) = (x.floor(), y.floor());
+            s.iter()
+                .any(|q| !q.3 && q.0.floor() == px && q.1.floor() == py)
+        };
+        assert!(covered(DVec3::new(175.0, -3.5, 8.0)));
+        assert!(covered(DVec3::new(175.0, -3.5, 0.0)));
+        // The grid's own points (3072) are all there, those inside a
+        // window at weight 0.
+        assert_eq!(s.iter().filter(|q| q.3).count(), 3072);
+    }
+}
