@@ -788,7 +788,7 @@ fn mitsuba_rows(
     if let Some(why) = mi::obstacle(scene) {
         return skip(format!("the scene has {why}"));
     }
-    if !mi::available() {
+    if !super::child::mitsuba_importable() {
         return skip("`python3 -c 'import mitsuba'` failed".into());
     }
     // With a path-traced truth, [1] is the direct-only reference; with a

@@ -19,13 +19,13 @@
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use gloam_scene::Scene;
 use ndarray::Array3;
 
 use super::BenchError;
+use super::child::run_mitsuba_script;
 use super::metrics::{Errors, errors};
 use super::truth::Truth;
 
@@ -120,7 +120,13 @@ fn band_reflectance(scene: &Scene, m: usize) -> ([f64; 3], bool) {
 
 /// Writes `scene.json` and one OBJ per material into `dir`; false when the
 /// reflectances had to be band-averaged (not exact).
-fn export(scene: &Scene, dir: &Path, seed: u32, time_limit_s: f64) -> Result<bool, BenchError> {
+fn export(
+    scene: &Scene,
+    dir: &Path,
+    seed: u32,
+    time_limit_s: f64,
+    direct_ladder: bool,
+) -> Result<bool, BenchError> {
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
     let mut meshes = Vec::new();
     let mut exact = true;
@@ -166,6 +172,10 @@ fn export(scene: &Scene, dir: &Path, seed: u32, time_limit_s: f64) -> Result<boo
             "emission": emission,
         }));
     }
+    let mut ladders = vec![serde_json::json!([WHOLE_LIGHT_DEPTH, WHOLE_LIGHT_LADDER])];
+    if direct_ladder {
+        ladders.push(serde_json::json!([DIRECT_ONLY_DEPTH, DIRECT_ONLY_LADDER]));
+    }
     let c = &scene.camera;
     let json = serde_json::json!({
         "camera": {
@@ -180,10 +190,7 @@ fn export(scene: &Scene, dir: &Path, seed: u32, time_limit_s: f64) -> Result<boo
         "seed": seed,
         "time_limit_s": time_limit_s,
         "meshes": meshes,
-        "ladders": [
-            [WHOLE_LIGHT_DEPTH, WHOLE_LIGHT_LADDER],
-            [DIRECT_ONLY_DEPTH, DIRECT_ONLY_LADDER],
-        ],
+        "ladders": ladders,
     });
     let path = dir.join("scene.json");
     std::fs::write(&path, serde_json::to_vec_pretty(&json)?)
@@ -191,17 +198,6 @@ fn export(scene: &Scene, dir: &Path, seed: u32, time_limit_s: f64) -> Result<boo
     let script = dir.join("accuracy_mitsuba.py");
     std::fs::write(&script, SCRIPT).map_err(BenchError::io("writing", &script))?;
     Ok(exact)
-}
-
-/// True when `python3 -c 'import mitsuba'` works.
-pub fn available() -> bool {
-    Command::new("python3")
-        .args(["-c", "import mitsuba"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
 }
 
 /// Renders `scene` with Mitsuba 3 into `dir` (whole-light and direct-only
@@ -214,56 +210,30 @@ pub fn side_by_side(
     direct: Option<&Truth>,
     time_limit_s: f64,
 ) -> Result<SideBySide, BenchError> {
-    let exact = export(scene, dir, 0, time_limit_s)?;
-    let (log, err) = (dir.join("mitsuba.log"), dir.join("mitsuba.err"));
-    let t0 = Instant::now();
-    let mut child = Command::new("python3")
-        .arg(dir.join("accuracy_mitsuba.py"))
-        .arg(dir)
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(&log).map_err(BenchError::io("creating", &log))?)
-        .stderr(std::fs::File::create(&err).map_err(BenchError::io("creating", &err))?)
-        .spawn()
-        .map_err(BenchError::io("starting python3 in", dir))?;
-    // The script stops climbing at the limit; the timeout only guards a
-    // rung that hangs (4× the limit, as a rung is at most ~4× the last).
-    let status = super::scale::wait_with_timeout(
-        &mut child,
-        t0,
-        Duration::from_secs_f64(4.0 * time_limit_s + 60.0),
-    )?;
-    let tail = || {
-        let e = gloam_spectra::input::read_text(&err, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .unwrap_or_default();
-        let t: Vec<&str> = e.lines().rev().take(3).collect();
-        t.into_iter().rev().collect::<Vec<_>>().join(" / ")
-    };
-    match status {
-        None => {
-            return Err(BenchError::Child {
-                what: "Mitsuba 3".into(),
-                why: format!("killed after {:.0} s", t0.elapsed().as_secs_f64()),
-            });
-        }
-        Some(st) if !st.success() => {
-            return Err(BenchError::Child {
-                what: "Mitsuba 3".into(),
-                why: format!("{st}: {}", tail()),
-            });
-        }
-        Some(_) => {}
-    }
-    let json_path = dir.join("mitsuba.json");
-    let text =
-        gloam_spectra::input::read_text(&json_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(BenchError::io("reading", &json_path))?;
-    let report: serde_json::Value = serde_json::from_str(&text)?;
+    // Checked before Mitsuba renders (and before an image is read back).
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let nb = scene.bands.len();
     ensure_valid!(
         w * h <= MAX_PIXELS,
         "Mitsuba side-by-side: {w}×{h} exceeds {MAX_PIXELS} pixels"
     );
+    // The direct-only ladder only where there is a direct-only truth.
+    let exact = export(scene, dir, 0, time_limit_s, direct.is_some())?;
+    let (log, err) = (dir.join("mitsuba.log"), dir.join("mitsuba.err"));
+    // The script stops climbing at the limit; the timeout only guards a
+    // rung that hangs (4× the limit, as a rung is at most ~4× the last).
+    run_mitsuba_script(
+        &dir.join("accuracy_mitsuba.py"),
+        &[dir.as_os_str()],
+        &log,
+        &err,
+        Duration::from_secs_f64(4.0 * time_limit_s + 60.0),
+    )?;
+    let json_path = dir.join("mitsuba.json");
+    let text =
+        gloam_spectra::input::read_text(&json_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            .map_err(BenchError::io("reading", &json_path))?;
+    let report: serde_json::Value = serde_json::from_str(&text)?;
     let mut rungs = Vec::new();
     let runs = report["runs"].as_array().cloned().unwrap_or_default();
     for r in runs.iter().take(64) {
@@ -277,6 +247,13 @@ pub fn side_by_side(
                 "{}: a run lacks max_depth, spp, render_s or file",
                 json_path.display()
             )));
+        };
+        // A direct-only rung is measured against the direct-only truth
+        // (the script renders that ladder only when there is one).
+        let truth = match (depth as i32 == DIRECT_ONLY_DEPTH, direct) {
+            (false, _) => whole,
+            (true, Some(t)) => t,
+            (true, None) => continue,
         };
         let path = dir.join(file);
         let bytes = gloam_spectra::input::read_bounded(&path, (w * h * 3 * 4) as u64)
@@ -295,14 +272,6 @@ pub fn side_by_side(
                 img[[b, y, x]] = f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64;
             }
         }
-        let truth = if depth as i32 == DIRECT_ONLY_DEPTH {
-            match direct {
-                Some(t) => t,
-                None => continue,
-            }
-        } else {
-            whole
-        };
         rungs.push(Rung {
             max_depth: depth as i32,
             spp: spp as u32,
@@ -343,7 +312,7 @@ mod tests {
         assert_eq!(obstacle(&scene), None);
         let dir = tempfile::tempdir().unwrap();
         assert!(
-            export(&scene, dir.path(), 0, 10.0).unwrap(),
+            export(&scene, dir.path(), 0, 10.0, true).unwrap(),
             "flat reflectances: exact"
         );
         let json: serde_json::Value =

@@ -52,6 +52,7 @@ macro_rules! ensure_valid {
 
 pub mod accuracy;
 pub mod accuracy_mitsuba;
+pub mod child;
 pub mod metrics;
 pub mod plan_check;
 pub mod scale;

@@ -61,6 +61,7 @@ use std::time::{Duration, Instant};
 use gloam_trace::prep::peak_rss_bytes;
 
 use super::BenchError;
+use super::child::{mitsuba_importable, run_mitsuba_script, stderr_tail, wait_with_timeout};
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 use serde::{Deserialize, Serialize};
 
@@ -650,29 +651,6 @@ prepare_s = the tracer's prepare_seconds (BVH, effect-plan pilot, radiosity cach
 peak_rss_bytes = VmHWM from the child's /proc/self/status after the render (prepare_peak_rss_bytes: right after preparation); \
 rays_per_s = all rays per second of trace time; time_to_1pct_s = prepare_s + trace_s * max(1, spp * (e / 0.01)^2) / spp with e the RMS over pixels of the render's relative standard error at the fixed spp (at least one sample per pixel)";
 
-/// Waits for `child` until `timeout` after `t0`; kills it then.
-/// `None`: timed out.
-pub(super) fn wait_with_timeout(
-    child: &mut std::process::Child,
-    t0: Instant,
-    timeout: Duration,
-) -> Result<Option<std::process::ExitStatus>, BenchError> {
-    loop {
-        if let Some(st) = child.try_wait().map_err(BenchError::io(
-            "waiting for a child process of",
-            &std::env::temp_dir(),
-        ))? {
-            return Ok(Some(st));
-        }
-        if t0.elapsed() >= timeout {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Ok(None);
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
 /// The Mitsuba 3 side of the comparison (Python, run by `python3`).
 const MITSUBA_SCRIPT: &str = include_str!("scale_mitsuba.py");
 
@@ -683,41 +661,19 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
         let script = dir.join("scale_mitsuba.py");
         std::fs::write(&script, MITSUBA_SCRIPT).map_err(BenchError::io("writing", &script))?;
         let (out, err) = (dir.join("mitsuba.json"), dir.join("mitsuba.err"));
-        let t0 = Instant::now();
-        let mut child = Command::new("python3")
-            .arg(&script)
-            .arg(dir.join("scene"))
-            .arg(spp.to_string())
-            .stdin(Stdio::null())
-            .stdout(std::fs::File::create(&out).map_err(BenchError::io("creating", &out))?)
-            .stderr(std::fs::File::create(&err).map_err(BenchError::io("creating", &err))?)
-            .spawn()
-            .map_err(BenchError::io("starting python3 for", &script))?;
-        match wait_with_timeout(&mut child, t0, Duration::from_secs_f64(timeout_s))? {
-            None => Err(BenchError::Child {
-                what: "Mitsuba 3".into(),
-                why: format!("killed after {timeout_s:.0} s"),
-            }),
-            Some(st) if !st.success() => {
-                let e = gloam_spectra::input::read_text(
-                    &err,
-                    gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-                )
-                .unwrap_or_default();
-                let tail: Vec<&str> = e.lines().rev().take(3).collect();
-                Err(BenchError::Child {
-                    what: "Mitsuba 3".into(),
-                    why: format!(
-                        "{st}: {}",
-                        tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
-                    ),
-                })
-            }
-            Some(_) => Ok(serde_json::from_str(
-                &gloam_spectra::input::read_text(&out, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                    .map_err(BenchError::io("reading", &out))?,
-            )?),
-        }
+        let (scene, spp) = (dir.join("scene"), spp.to_string());
+        let args = [scene.as_os_str(), spp.as_ref()];
+        run_mitsuba_script(
+            &script,
+            &args,
+            &out,
+            &err,
+            Duration::from_secs_f64(timeout_s),
+        )?;
+        Ok(serde_json::from_str(
+            &gloam_spectra::input::read_text(&out, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+                .map_err(BenchError::io("reading", &out))?,
+        )?)
     };
     go().unwrap_or_else(|e| serde_json::json!({ "error": crate::output_set::chain(&e) }))
 }
@@ -784,9 +740,6 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
         Duration::from_secs_f64(opts.timeout_s.max(0.1)),
     )?;
     row.wall_s = t0.elapsed().as_secs_f64();
-    let stderr =
-        gloam_spectra::input::read_text(&stderr_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .unwrap_or_default();
     match status {
         None => {
             row.status = "timeout".into();
@@ -794,11 +747,7 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
         }
         Some(st) if !st.success() => {
             row.status = "failed".into();
-            let tail: Vec<&str> = stderr.lines().rev().take(5).collect();
-            row.message = Some(format!(
-                "{st}: {}",
-                tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
-            ));
+            row.message = Some(format!("{st}: {}", stderr_tail(&stderr_path, 5)));
         }
         Some(_) => {
             let text = gloam_spectra::input::read_text(
@@ -829,14 +778,7 @@ fn mitsuba_check(skip: bool) -> (bool, String) {
     if skip {
         return (false, "skipped (--quick or --no-mitsuba)".into());
     }
-    let ok = Command::new("python3")
-        .args(["-c", "import mitsuba"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
+    if mitsuba_importable() {
         (
             true,
             "Mitsuba 3 (scalar_rgb, path max_depth 3, isotropic point lights) on the same generated \

@@ -1,0 +1,86 @@
+//! Child processes of the benches — each `bench scale` case in its own
+//! `gloam`, Mitsuba 3's side in `python3` — run with a timeout, their
+//! output in files, a failure reported by the last lines of its stderr.
+
+use std::ffi::OsStr;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use super::BenchError;
+
+/// Waits for `child` until `timeout` after `t0`; kills it then.
+/// `None`: timed out.
+pub fn wait_with_timeout(
+    child: &mut std::process::Child,
+    t0: Instant,
+    timeout: Duration,
+) -> Result<Option<std::process::ExitStatus>, BenchError> {
+    loop {
+        if let Some(st) = child.try_wait().map_err(BenchError::io(
+            "waiting for a child process of",
+            &std::env::temp_dir(),
+        ))? {
+            return Ok(Some(st));
+        }
+        if t0.elapsed() >= timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Ok(None);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The last `lines` lines of the text file at `path`, joined by " / "
+/// (empty when it cannot be read): what a failed child said last.
+pub fn stderr_tail(path: &Path, lines: usize) -> String {
+    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        .unwrap_or_default();
+    let tail: Vec<&str> = text.lines().rev().take(lines).collect();
+    tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
+}
+
+/// True when `python3 -c 'import mitsuba'` works.
+pub fn mitsuba_importable() -> bool {
+    Command::new("python3")
+        .args(["-c", "import mitsuba"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// Runs Mitsuba 3's side of a bench, `python3 SCRIPT ARGS…`, its stdout
+/// and stderr into those files, within `timeout`: killed or failed, a
+/// [`BenchError::Child`] naming Mitsuba 3 with its stderr's last 3 lines.
+pub fn run_mitsuba_script(
+    script: &Path,
+    args: &[&OsStr],
+    stdout: &Path,
+    stderr: &Path,
+    timeout: Duration,
+) -> Result<(), BenchError> {
+    let t0 = Instant::now();
+    let mut child = Command::new("python3")
+        .arg(script)
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(stdout).map_err(BenchError::io("creating", stdout))?)
+        .stderr(std::fs::File::create(stderr).map_err(BenchError::io("creating", stderr))?)
+        .spawn()
+        .map_err(BenchError::io("starting python3 for", script))?;
+    let failed = |why: String| BenchError::Child {
+        what: "Mitsuba 3".into(),
+        why,
+    };
+    match wait_with_timeout(&mut child, t0, timeout)? {
+        None => Err(failed(format!(
+            "killed after {:.0} s",
+            timeout.as_secs_f64()
+        ))),
+        Some(st) if !st.success() => Err(failed(format!("{st}: {}", stderr_tail(stderr, 3)))),
+        Some(_) => Ok(()),
+    }
+}
