@@ -10,10 +10,8 @@ use std::path::Path;
 
 pub use gloam_calib::cli::CalibrateCommand;
 use gloam_calib::cli::{CapturedSequence, Event, agc_sequence, run_calibrate};
-use gloam_pipeline::sequence::{capture_sequence, check_video_rate};
-use gloam_pipeline::{
-    FrameCapture, FrameContext, FrameFormat, OutputSet, Provenance, RenderJob, SettingArgs,
-};
+use gloam_pipeline::sequence::{SceneSequence, capture_scene_sequence};
+use gloam_pipeline::{FrameCapture, FrameContext, FrameFormat, OutputSet, Provenance, SettingArgs};
 use gloam_scene::sequence::Sequence;
 use gloam_trace::RenderSettings;
 
@@ -32,6 +30,9 @@ fn load_sequence(path: &Path, set: &[String]) -> anyhow::Result<LoadedSequence> 
         .map(|g| g.name.clone())
         .collect();
     sequence.check_groups(groups.iter().map(String::as_str))?;
+    // The true radiance is one set of layers mixed: refused here, before
+    // any render or output, when bodies move.
+    sequence.check_static("gloam calibrate agc --sequence")?;
     let settings = SettingArgs {
         set: set.to_vec(),
         ..SettingArgs::default()
@@ -46,7 +47,8 @@ fn load_sequence(path: &Path, set: &[String]) -> anyhow::Result<LoadedSequence> 
 }
 
 /// Renders the sequence's layers once and captures its frames through
-/// `sensor` with its AGC into `dir` (the frames and `frames.jsonl`).
+/// `sensor` with its AGC into `dir` (the frames and `frames.jsonl`), as
+/// `gloam sequence` does.
 fn capture(
     l: &LoadedSequence,
     dir: &Path,
@@ -55,17 +57,6 @@ fn capture(
 ) -> anyhow::Result<CapturedSequence> {
     let config = gloam_sensor::load_preset_or_file(sensor)
         .map_err(|e| anyhow::anyhow!(e).context(format!("camera '{sensor}'")))?;
-    check_video_rate(&l.sequence, sensor, &config)?;
-    let job = RenderJob {
-        camera: Some(sensor),
-        observer: super::progress::prep_spinner(),
-        layers: true,
-        ..RenderJob::new(&l.scene, &l.settings)
-    };
-    let rendered = super::progress::render_with_bar(job.prepare()?, None)?;
-    let detected = (rendered.layers.as_ref())
-        .and_then(|layers| layers.detected.as_ref())
-        .ok_or_else(|| anyhow::anyhow!("the layered render carried no detected band"))?;
     let capture = FrameCapture {
         sensor,
         frames: l.sequence.frames,
@@ -82,13 +73,26 @@ fn capture(
         seed: Some(seed),
         provenance: None,
     };
-    let captured = capture_sequence(&l.sequence, &l.groups, detected, &capture, dir, context)?;
-    for line in &captured.notes {
+    // The one sequence path: the layers rendered once (a static
+    // sequence), the video rate checked, the frames through the AGC.
+    let bar = super::progress::TileBar::new();
+    let job = SceneSequence {
+        sequence: &l.sequence,
+        scene: &l.scene,
+        settings: &l.settings,
+        observer: super::progress::prep_spinner(),
+        progress: &|d, t| bar.progress(d, t),
+    };
+    let captured = capture_scene_sequence(&job, &capture, dir, context)?;
+    bar.finish();
+    for line in &captured.report.notes {
         eprintln!("{line}");
     }
+    let detected = (captured.first.detected)
+        .ok_or_else(|| anyhow::anyhow!("the layered render carried no detected band"))?;
     Ok(CapturedSequence {
         groups: l.groups.clone(),
-        layers: detected.clone(),
+        layers: detected,
         // The window `capture_sequence` gives the camera.
         exposure_s: config.timing.exposure_s.min(l.sequence.frame_period_s()),
     })

@@ -77,23 +77,39 @@ pub fn prep_spinner() -> Option<PrepObserver> {
     }))
 }
 
-/// Renders `prepared` (all rows, or `rows`) with a tile progress bar on a
-/// terminal: `render` and `sequence` run their traces through this.
+/// A tile progress bar on a terminal (nothing elsewhere): what a render's
+/// `progress(done, total)` callback drives.
+pub struct TileBar(Option<indicatif::ProgressBar>);
+
+impl TileBar {
+    pub fn new() -> Self {
+        let template = "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}";
+        TileBar(bar(template, "=> ", 0))
+    }
+
+    /// The render's progress callback.
+    pub fn progress(&self, done: u64, total: u64) {
+        if let Some(b) = &self.0 {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    }
+
+    pub fn finish(&self) {
+        if let Some(b) = &self.0 {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Renders `prepared` (all rows, or `rows`) with a [`TileBar`]: `render`
+/// runs its traces through this.
 pub fn render_with_bar(
     prepared: gloam_pipeline::PreparedRender,
     rows: Option<std::ops::Range<u32>>,
 ) -> Result<gloam_pipeline::Rendered, gloam_pipeline::RenderError> {
-    let template = "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}";
-    let bar = bar(template, "=> ", 0);
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
-    let rendered = prepared.render(rows, &progress, &|| false);
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
+    let bar = TileBar::new();
+    let rendered = prepared.render(rows, &|d, t| bar.progress(d, t), &|| false);
+    bar.finish();
     rendered
 }

@@ -36,23 +36,13 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let settings = args.settings.settings()?;
     let (camera, capture) = args.capture(&sequence, &scene, settings.seed)?;
 
-    let bar = super::progress::bar(
-        "{spinner} rendering [{bar:40}] {pos}/{len} tiles {elapsed}/{eta}",
-        "=> ",
-        0,
-    );
-    let progress = |done: u64, total: u64| {
-        if let Some(b) = &bar {
-            b.set_length(total);
-            b.set_position(done);
-        }
-    };
+    let bar = super::progress::TileBar::new();
     let job = SceneSequence {
         sequence: &sequence,
         scene: &scene,
         settings: &settings,
         observer: super::progress::prep_spinner(),
-        progress: &progress,
+        progress: &|d, t| bar.progress(d, t),
     };
     let context = FrameContext {
         camera: Some(camera.to_string()),
@@ -60,9 +50,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         provenance: Some(provenance.clone()),
     };
     let captured = capture_scene_sequence(&job, &capture, &dir, context)?;
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
+    bar.finish();
     for line in &captured.report.notes {
         eprintln!("{line}");
     }
