@@ -93,7 +93,7 @@ fn capture(
     Ok(CapturedSequence {
         groups: l.groups.clone(),
         layers: detected,
-        // The window `capture_sequence` gives the camera.
+        // The window the sequence capture gives the camera.
         exposure_s: config.timing.exposure_s.min(l.sequence.frame_period_s()),
     })
 }
