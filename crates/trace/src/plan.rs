@@ -528,7 +528,7 @@ impl Tracer {
                     pix_tot[s] = k * (e_d[s] + e_i[s]);
                     if emitter {
                         let a = &self.area[src as usize];
-                        let le = tau[s] * a.radiance_at(s, -d.dot(ng));
+                        let le = tau[s] * a.radiance_toward(s, -d);
                         pix_tot[s] += le;
                         emitted_all[s] += w * le;
                     }

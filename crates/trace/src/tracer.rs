@@ -2012,18 +2012,10 @@ impl PointLight {
 }
 
 impl AreaSource {
-    /// Radiance at slot `slot` leaving at emission cosine `cos_e`; a
-    /// tabulated profile is read in its C0 plane (this is for estimates
-    /// that know only the cosine — [`Self::shape`] is exact).
-    pub(crate) fn radiance_at(&self, slot: usize, cos_e: f64) -> f64 {
-        let w = match &self.profile {
-            Profile::CosPower(_) => DVec3::ZERO,
-            Profile::Table { c0, .. } => {
-                let c = cos_e.clamp(-1.0, 1.0);
-                c * self.normal + (1.0 - c * c).sqrt() * *c0
-            }
-        };
-        self.shape(cos_e, w) * self.radiance[slot]
+    /// Radiance at slot `slot` leaving toward unit `w` (from the facet):
+    /// the profile read exactly, tabulated (γ, C) or `cos^m`.
+    pub(crate) fn radiance_toward(&self, slot: usize, w: DVec3) -> f64 {
+        self.shape(w.dot(self.normal), w) * self.radiance[slot]
     }
 
     /// The profile toward unit `w` leaving the facet, whose cosine with
