@@ -852,13 +852,16 @@ fn time_to_or_extrapolated(
     Some((best.time_s * (metric(best) / target).powi(2), true))
 }
 
+/// One error of a row.
+type RowMetric = fn(&Row) -> f64;
+
 /// The two per-pixel metrics both ladders are timed on: the plain relative
 /// error (`pixel`), which a pixel lit by a sliver no renderer resolves at
 /// these sample counts can hold up on its own (the office's direct light
 /// has pixels at 0.04 % of the mean), and the error as `--target-error`
 /// defines it (`pixel_floor`: each pixel against `max(t, 5 % of the band
 /// mean)`, relMSE's ε), the metric the target promises.
-const PIXEL_METRICS: [(&str, fn(&Row) -> f64); 2] = [
+const PIXEL_METRICS: [(&str, RowMetric); 2] = [
     ("pixel", |r| r.pixel_rms_error),
     ("pixel_floor", |r| r.pixel_rms_error_as_targeted),
 ];
@@ -912,8 +915,14 @@ fn side_by_side_summary(mut side: serde_json::Value, rows: &[Row]) -> serde_json
             let sfx = if metric_name == "pixel" { "" } else { "_floor" };
             for (side, t) in [("mitsuba3", m), ("gloam", g)] {
                 let (secs, extrapolated) = (t.map(|x| x.0), t.map(|x| x.1));
-                v.insert(format!("{side}_time_to_{label}_{metric_name}_s"), secs.into());
-                v.insert(format!("{side}_{label}{sfx}_extrapolated"), extrapolated.into());
+                v.insert(
+                    format!("{side}_time_to_{label}_{metric_name}_s"),
+                    secs.into(),
+                );
+                v.insert(
+                    format!("{side}_{label}{sfx}_extrapolated"),
+                    extrapolated.into(),
+                );
             }
             let ratio = m.zip(g).map(|(m, g)| m.0 / g.0.max(1e-12));
             v.insert(format!("ratio_{label}{sfx}"), ratio.into());
