@@ -165,3 +165,108 @@ fn bad_input_is_a_clear_error() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// The panel's floor radiance at a floor point, W m⁻² sr⁻¹: `ρ L F / π`
+/// with `F` the closed-form irradiance factor of the 4 × 2 ft panel 9 ft up
+/// (independent of the tracer's estimators).
+fn floor_truth(p: gloam_trace::DVec3) -> f64 {
+    use gloam_trace::DVec3;
+    let v =
+        [(-2.0, -1.0), (2.0, -1.0), (2.0, 1.0), (-2.0, 1.0)].map(|(x, y)| DVec3::new(x, y, 9.0));
+    let f = gloam_trace::closed_form::polygon_irradiance_factor(p, DVec3::Z, &v, -DVec3::Z);
+    0.9 * 15.058 * f / std::f64::consts::PI
+}
+
+/// The per-pixel truth of the small panel scene where a pixel sees only
+/// the floor: the closed form averaged over a 4 × 4 grid in the pixel
+/// (None where any of it looks up, at the panel or the sky, or past
+/// the floor's edge).
+fn floor_pixel_truth(cam: &gloam_scene::Camera, col: u32, row: u32) -> Option<f64> {
+    let mut sum = 0.0;
+    for (i, j) in (0..16).map(|k| (k % 4, k / 4)) {
+        let (px, py) = (
+            col as f64 + (i as f64 + 0.5) / 4.0,
+            row as f64 + (j as f64 + 0.5) / 4.0,
+        );
+        let d = cam.pixel_direction(px, py);
+        // The camera (6 ft up) sees the panel (9 ft) and the sky upwards.
+        if d.z >= -1e-9 {
+            return None;
+        }
+        let p = cam.position + d * (-cam.position.z / d.z);
+        if p.x.abs() > 19.0 || p.y.abs() > 19.0 {
+            return None;
+        }
+        sum += floor_truth(p);
+    }
+    Some(sum / 16.0)
+}
+
+/// With no sampling flag a whole-image render samples to the default error
+/// and says so; its achieved per-pixel error against the closed form is
+/// within that target. `--spp 4` keeps the fixed count (this floor is
+/// easy: 4 stratified samples already give ~1 %).
+#[test]
+fn render_without_sampling_flags_samples_to_the_default_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_scene(dir.path());
+    let (d, f) = (dir.path().join("d"), dir.path().join("f"));
+    // solid-angle with one shadow ray per hit: noisy enough that 4 spp
+    // misses 2 % and the sampling shows.
+    let common = ["--estimator", "solid-angle", "--set", "area_samples=1"];
+    let d_s = d.display().to_string();
+    let f_s = f.display().to_string();
+    let out = ok(&[&["render", &scene, "--out", &d_s][..], &common].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("default per-pixel error 2 %"), "{stderr}");
+    ok(&[
+        &["render", &scene, "--out", &f_s, "--spp", "4"][..],
+        &common,
+    ]
+    .concat());
+    let report = |dir: &Path| -> Value {
+        serde_json::from_slice(&std::fs::read(dir.join("report.json")).unwrap()).unwrap()
+    };
+    let (rd, rf) = (report(&d), report(&f));
+    assert_eq!(rd["target_error_source"], "default");
+    assert_eq!(rd["settings"]["target_error"], 0.02);
+    assert_eq!(rd["error"]["target"], 0.02);
+    assert_eq!(rf["target_error_source"], Value::Null);
+    assert_eq!(rf["error"]["target"], Value::Null);
+    assert_eq!(rf["rays"]["primary"], 64 * 48 * 4);
+    let spp_f: ndarray::Array2<u32> = ndarray_npy::read_npy(f.join("spp.npy")).unwrap();
+    assert!(spp_f.iter().all(|&n| n == 4));
+
+    let cam = gloam_scene::load(Path::new(&scene)).unwrap().camera;
+    let rms = |dir: &Path| {
+        let img: ndarray::Array3<f64> = ndarray_npy::read_npy(dir.join("radiance.npy")).unwrap();
+        let (mut sq, mut n) = (0.0, 0usize);
+        for row in 0..48 {
+            for col in 0..64 {
+                if let Some(t) = floor_pixel_truth(&cam, col, row) {
+                    let v = img[[0, row as usize, col as usize]];
+                    sq += ((v - t) / t).powi(2);
+                    n += 1;
+                }
+            }
+        }
+        assert!(n > 1000, "{n} floor pixels");
+        (sq / n as f64).sqrt()
+    };
+    let (e_default, e_fixed) = (rms(&d), rms(&f));
+    eprintln!("per-pixel RMS vs closed form: default {e_default:.4}, --spp 4 {e_fixed:.4}");
+    // The achieved error is within the target (the estimate errs high,
+    // issue 30) but not far below it: the render stopped at the target,
+    // not at a large fixed count.
+    assert!(
+        (0.4 * 0.02..=1.2 * 0.02).contains(&e_default),
+        "default render's per-pixel error {e_default} for a 2 % target"
+    );
+    let spp_d: ndarray::Array2<u32> = ndarray_npy::read_npy(d.join("spp.npy")).unwrap();
+    let mean_spp = spp_d.iter().map(|&n| n as f64).sum::<f64>() / spp_d.len() as f64;
+    assert!(
+        spp_d.iter().all(|&n| n >= 4) && mean_spp > 5.0,
+        "{mean_spp}"
+    );
+    assert!(e_fixed < 0.05, "--spp 4: {e_fixed}");
+}

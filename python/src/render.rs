@@ -238,7 +238,10 @@ fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> 
 ///
 /// ``spp``, ``seed``, ``estimator`` (analytic, solid-angle, dirsig2001),
 /// ``threads`` and ``target_error``/``tolerance`` are the CLI's flags;
-/// ``settings`` is any ``--set KEY=VALUE`` as a dict. ``sensor`` (a
+/// ``settings`` is any ``--set KEY=VALUE`` as a dict. With neither
+/// ``spp`` nor ``target_error`` (nor either in ``settings``) and no
+/// camera, it samples to ``target_error = 0.02`` as the CLI does
+/// (``report["target_error_source"] == "default"``). ``sensor`` (a
 /// ``Sensor``, preset name or sensor TOML path; default the scene's own
 /// ``sensor`` entry, as the CLI) adds the camera's detected band as
 /// ``result.detected``. ``progress`` is ``True`` (a tqdm bar when tqdm is
@@ -274,12 +277,17 @@ fn render<'py>(
         tolerance,
         ..Default::default()
     };
-    let s = self::settings(settings, flags)?;
     let given = sensor_source(sensor)?;
     let sc = scene.get();
     let (scene_ref, path) = (&sc.scene, sc.path.as_path());
     // As `gloam render`: the scene's own `sensor` entry when none is given.
     let camera = gloam_pipeline::render::camera_of(given.as_deref(), scene_ref).map(String::from);
+    // As `gloam render`, whose render with a camera captures frames and
+    // keeps the fixed default spp: the default error target only without one.
+    let set = setting_pairs(settings)?;
+    let (s, target_error_source) = SettingArgs { set, ..flags }
+        .render_settings(camera.is_none())
+        .or_py()?;
     let sink = ProgressSink::new(py, progress, "render")?;
     let owned = Arc::clone(scene_ref);
     let rendered = detached_owned(py, &sink, move |stop, rep| {
@@ -305,6 +313,7 @@ fn render<'py>(
         )
     })?;
     let mut report = rendered.report_json(path, scene_ref, sc.load_s, 0.0);
+    report["target_error_source"] = serde_json::to_value(target_error_source).or_py()?;
     let (mut out, detected) = (rendered.radiance, rendered.detected);
     report["provenance"] =
         serde_json::to_value(gloam_pipeline::Provenance::of_this_run()).or_py()?;

@@ -3,15 +3,17 @@
 //! Writes `DIR/radiance.tiff` (float32, one page per band),
 //! `DIR/radiance.npy` (float64, band × row × column, W m⁻² sr⁻¹),
 //! `DIR/preview.png` (tone-mapped first band, for people) and
-//! `DIR/report.json` (settings, effect plan, timings, rays, rays/s), each
-//! atomically. The arguments and their checks are
+//! `DIR/report.json` (settings, effect plan, timings, rays, rays/s, and
+//! `target_error_source`: `"default"` when no sampling was named and the
+//! render sampled to [`DEFAULT_TARGET_ERROR`], `"given"`, or null for a
+//! fixed spp), each atomically. The arguments and their checks are
 //! [`gloam_pipeline::cli::RenderArgs`]; the render is [`RenderJob`].
 
 use std::time::Instant;
 
 pub use gloam_pipeline::cli::RenderArgs;
 use gloam_pipeline::render::RenderJob;
-use gloam_pipeline::{OutputSet, Provenance};
+use gloam_pipeline::{DEFAULT_TARGET_ERROR, OutputSet, Provenance, TargetErrorSource};
 
 use super::output::write_atomic;
 
@@ -25,11 +27,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let t_load = Instant::now();
     let scene = gloam_scene::load(&args.scene)?;
     let load_s = t_load.elapsed().as_secs_f64();
-    let settings = args.settings.settings()?;
     let tile = (args.tile.as_deref())
         .map(gloam_sweep::TileSpec::parse)
         .transpose()?;
-    let (camera, capture) = args.camera.capture(&scene, settings.seed, tile.is_some())?;
+    let seed = args.settings.settings()?.seed;
+    let (camera, capture) = args.camera.capture(&scene, seed, tile.is_some())?;
+    // A tile or a capture keeps the fixed default spp (see render_settings).
+    let whole_image = tile.is_none() && capture.is_none();
+    let (settings, target_error_source) = args.settings.render_settings(whole_image)?;
     let job = RenderJob {
         camera,
         observer: super::progress::prep_spinner(),
@@ -50,6 +55,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let write_s = t_write.elapsed().as_secs_f64();
     let mut report = rendered.report_json(&args.scene, &scene, load_s, write_s);
+    report["target_error_source"] = serde_json::to_value(target_error_source)?;
     // The scene's OBJ, spectrum and instance files were read after the
     // provenance was first taken.
     provenance.add_inputs_read();
@@ -72,6 +78,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("captured {n} frame(s) through '{sensor}'");
     }
     set.publish(&provenance, None)?;
+    if target_error_source == Some(TargetErrorSource::Default) {
+        let e = &rendered.radiance.error;
+        eprintln!(
+            "no --spp or --target-error: sampled to the default per-pixel error {:.0} % (--target-error {DEFAULT_TARGET_ERROR}): estimated RMS {:.2} %, mean {:.1} spp; --spp N renders a fixed count",
+            100.0 * DEFAULT_TARGET_ERROR,
+            100.0
+                * e.rel_std_error_rms_target_pixels
+                    .unwrap_or(e.rel_std_error_rms),
+            e.mean_spp,
+        );
+    }
     let s = &rendered.radiance.stats;
     let total_s = t_start.elapsed().as_secs_f64();
     eprintln!(

@@ -23,7 +23,10 @@ pub use frames::{
 };
 pub use output_set::OutputSet;
 pub use provenance::Provenance;
-pub use render::{Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs};
+pub use render::{
+    DEFAULT_TARGET_ERROR, Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs,
+    TargetErrorSource,
+};
 pub use scene_view::{
     SceneViewError, grabbers, grabbers_noting, render_scene_view, scene_view_fit_note,
 };

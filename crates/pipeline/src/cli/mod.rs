@@ -210,7 +210,8 @@ pub struct ProbeArgs {
     /// At most 1 000 000 (each is a full estimate at the point).
     #[arg(value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub samples: u32,
-    /// Camera samples per pixel for --pixel (default 4, as `render`).
+    /// Camera samples per pixel for --pixel (default 4, as a fixed-count
+    /// `render --spp`).
     #[arg(long)]
     pub spp: Option<u32>,
     /// Seed (default 0).
