@@ -166,42 +166,6 @@ fn bad_input_is_a_clear_error() {
     }
 }
 
-/// The panel's floor radiance at a floor point, W m⁻² sr⁻¹: `ρ L F / π`
-/// with `F` the closed-form irradiance factor of the 4 × 2 ft panel 9 ft up
-/// (independent of the tracer's estimators).
-fn floor_truth(p: gloam_trace::DVec3) -> f64 {
-    use gloam_trace::DVec3;
-    let v =
-        [(-2.0, -1.0), (2.0, -1.0), (2.0, 1.0), (-2.0, 1.0)].map(|(x, y)| DVec3::new(x, y, 9.0));
-    let f = gloam_trace::closed_form::polygon_irradiance_factor(p, DVec3::Z, &v, -DVec3::Z);
-    0.9 * 15.058 * f / std::f64::consts::PI
-}
-
-/// The per-pixel truth of the small panel scene where a pixel sees only
-/// the floor: the closed form averaged over a 4 × 4 grid in the pixel
-/// (None where any of it looks up, at the panel or the sky, or past
-/// the floor's edge).
-fn floor_pixel_truth(cam: &gloam_scene::Camera, col: u32, row: u32) -> Option<f64> {
-    let mut sum = 0.0;
-    for (i, j) in (0..16).map(|k| (k % 4, k / 4)) {
-        let (px, py) = (
-            col as f64 + (i as f64 + 0.5) / 4.0,
-            row as f64 + (j as f64 + 0.5) / 4.0,
-        );
-        let d = cam.pixel_direction(px, py);
-        // The camera (6 ft up) sees the panel (9 ft) and the sky upwards.
-        if d.z >= -1e-9 {
-            return None;
-        }
-        let p = cam.position + d * (-cam.position.z / d.z);
-        if p.x.abs() > 19.0 || p.y.abs() > 19.0 {
-            return None;
-        }
-        sum += floor_truth(p);
-    }
-    Some(sum / 16.0)
-}
-
 /// With no sampling flag a whole-image render samples to the default error
 /// and says so; its achieved per-pixel error against the closed form is
 /// within that target. `--spp 4` keeps the fixed count (this floor is
@@ -237,21 +201,17 @@ fn render_without_sampling_flags_samples_to_the_default_error() {
     let spp_f: ndarray::Array2<u32> = ndarray_npy::read_npy(f.join("spp.npy")).unwrap();
     assert!(spp_f.iter().all(|&n| n == 4));
 
-    let cam = gloam_scene::load(Path::new(&scene)).unwrap().camera;
+    // The closed form per pixel (Lambert/Arvo, 8 × 8 sub-pixel hits,
+    // independent of the tracer's estimators) over the pixels that see
+    // one receiving facet.
+    let loaded = gloam_scene::load(Path::new(&scene)).unwrap();
+    let tracer = gloam_trace::Tracer::new(&loaded, &Default::default()).unwrap();
+    let truth = gloam_pipeline::bench::truth::closed_form_truth(&loaded, &tracer);
+    let n = truth.mask.iter().filter(|&&m| m).count();
+    assert!(n > 1000, "{n} floor pixels");
     let rms = |dir: &Path| {
         let img: ndarray::Array3<f64> = ndarray_npy::read_npy(dir.join("radiance.npy")).unwrap();
-        let (mut sq, mut n) = (0.0, 0usize);
-        for row in 0..48 {
-            for col in 0..64 {
-                if let Some(t) = floor_pixel_truth(&cam, col, row) {
-                    let v = img[[0, row as usize, col as usize]];
-                    sq += ((v - t) / t).powi(2);
-                    n += 1;
-                }
-            }
-        }
-        assert!(n > 1000, "{n} floor pixels");
-        (sq / n as f64).sqrt()
+        gloam_pipeline::bench::metrics::errors(&img, &truth).pixel
     };
     let (e_default, e_fixed) = (rms(&d), rms(&f));
     eprintln!("per-pixel RMS vs closed form: default {e_default:.4}, --spp 4 {e_fixed:.4}");
