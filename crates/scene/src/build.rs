@@ -1256,13 +1256,7 @@ fn tilted(cx: &Ctx, field: &FieldPath, mut p: PointSource) -> R<PointSource> {
     let Some(tilt) = p.luminaire.as_ref().and_then(|l| l.table.tilt.as_ref()) else {
         return Ok(p);
     };
-    let angle = p
-        .direction
-        .dot(DVec3::NEG_Z)
-        .clamp(-1.0, 1.0)
-        .acos()
-        .to_degrees();
-    let k = tilt.factor(angle);
+    let k = tilt.factor_for_nadir(p.direction);
     p.intensity_w_sr_nm = p
         .intensity_w_sr_nm
         .scaled(k)

@@ -357,26 +357,14 @@ impl AreaLuminaire {
     pub fn c0_for(&self, normal: DVec3) -> DVec3 {
         [self.c0_direction, DVec3::X, DVec3::Y]
             .into_iter()
-            .find_map(|v| {
-                (v - v.dot(normal) * normal)
-                    .try_normalize()
-                    .filter(|u| u.dot(normal).abs() < 1e-9)
-            })
+            .find_map(|v| build::perpendicular(v, normal))
             .unwrap_or(DVec3::X)
     }
 
     /// The TILT=INCLUDE factor for a facet with unit `normal` (its tilt
     /// from straight down, −z); 1 without a tilt table.
     pub fn tilt_factor(&self, normal: DVec3) -> f64 {
-        self.table.tilt.as_ref().map_or(1.0, |t| {
-            t.factor(
-                normal
-                    .dot(DVec3::NEG_Z)
-                    .clamp(-1.0, 1.0)
-                    .acos()
-                    .to_degrees(),
-            )
-        })
+        (self.table.tilt.as_ref()).map_or(1.0, |t| t.factor_for_nadir(normal))
     }
 
     /// `I(γ, C) / (I_max cos γ)` toward unit `w` leaving a facet with unit

@@ -84,6 +84,18 @@ impl TiltTable {
     pub fn factor(&self, tilt_deg: f64) -> f64 {
         interp_clamped(&self.angles_deg, &self.factors, tilt_deg)
     }
+
+    /// The multiplier for a luminaire whose nadir is unit `nadir`: at its
+    /// tilt from straight down (−z), as gloam applies every geometry.
+    pub fn factor_for_nadir(&self, nadir: glam::DVec3) -> f64 {
+        self.factor(
+            nadir
+                .dot(glam::DVec3::NEG_Z)
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees(),
+        )
+    }
 }
 
 /// A measured intensity distribution, type C photometry: γ = 0° is the
