@@ -284,10 +284,12 @@ fn render<'py>(
     let camera = gloam_pipeline::render::camera_of(given.as_deref(), scene_ref).map(String::from);
     // As `gloam render`, whose render with a camera captures frames and
     // keeps the fixed default spp: the default error target only without one.
-    let set = setting_pairs(settings)?;
-    let (s, target_error_source) = SettingArgs { set, ..flags }
-        .render_settings(camera.is_none())
-        .or_py()?;
+    let args = SettingArgs {
+        set: setting_pairs(settings)?,
+        ..flags
+    };
+    let (s, target_error_source) =
+        args.with_default_error(args.settings().or_py()?, camera.is_none());
     let sink = ProgressSink::new(py, progress, "render")?;
     let owned = Arc::clone(scene_ref);
     let rendered = detached_owned(py, &sink, move |stop, rep| {

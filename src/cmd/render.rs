@@ -30,11 +30,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let tile = (args.tile.as_deref())
         .map(gloam_sweep::TileSpec::parse)
         .transpose()?;
-    let seed = args.settings.settings()?.seed;
-    let (camera, capture) = args.camera.capture(&scene, seed, tile.is_some())?;
-    // A tile or a capture keeps the fixed default spp (see render_settings).
+    let settings = args.settings.settings()?;
+    let (camera, capture) = args.camera.capture(&scene, settings.seed, tile.is_some())?;
+    // A tile or a capture keeps the fixed default spp (see with_default_error).
     let whole_image = tile.is_none() && capture.is_none();
-    let (settings, target_error_source) = args.settings.render_settings(whole_image)?;
+    let (settings, target_error_source) = args.settings.with_default_error(settings, whole_image);
     let job = RenderJob {
         camera,
         observer: super::progress::prep_spinner(),

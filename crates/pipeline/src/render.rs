@@ -152,18 +152,13 @@ impl SettingArgs {
     /// Whether the arguments name the sampling: `--spp`, `--target-error`,
     /// or `spp`/`target_error` as a pair.
     pub fn names_sampling(&self) -> bool {
-        let pair = |key: &str| {
-            self.set.iter().any(|p| {
-                p.split_once('=')
-                    .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case(key))
-            })
-        };
+        let pair = |key| pair_setting(&self.set, key).is_some();
         self.spp.is_some() || self.target_error.is_some() || pair("spp") || pair("target_error")
     }
 
-    /// The settings of a render and where its error target came from:
-    /// [`settings`](Self::settings), and for a `whole_image` render (one
-    /// that nothing else must match bit for bit) whose arguments name no
+    /// A render's `settings` (from [`settings`](Self::settings)) and where
+    /// its error target came from: for a `whole_image` render (one that
+    /// nothing else must match bit for bit) whose arguments name no
     /// sampling, [`DEFAULT_TARGET_ERROR`]. Only `gloam render`
     /// without `--tile` and without a camera capture, and the Python
     /// `render` without a camera, take this. Every other caller of
@@ -173,27 +168,32 @@ impl SettingArgs {
     /// bit-identically; sequences, calibration and captures must give the
     /// same radiance for a frame whichever command rendered it; and
     /// `plan`/`probe` take no samples per pixel.
-    pub fn render_settings(
+    pub fn with_default_error(
         &self,
+        mut s: RenderSettings,
         whole_image: bool,
-    ) -> Result<(RenderSettings, Option<TargetErrorSource>), RenderError> {
-        let mut s = self.settings()?;
+    ) -> (RenderSettings, Option<TargetErrorSource>) {
         let source = if self.names_sampling() || !whole_image {
             s.target_error.map(|_| TargetErrorSource::Given)
         } else {
             s.target_error = Some(DEFAULT_TARGET_ERROR);
             Some(TargetErrorSource::Default)
         };
-        Ok((s, source))
+        (s, source)
     }
+}
+
+/// The `--set` pair that sets `key` (case-insensitive), if any.
+fn pair_setting<'a>(set: &'a [String], key: &str) -> Option<&'a String> {
+    set.iter().find(|p| {
+        p.split_once('=')
+            .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case(key))
+    })
 }
 
 /// Refuses a setting given twice, as `--set KEY=…` and as its own flag.
 fn refuse_both(set: &[String], key: &str, flag: &str) -> Result<(), RenderError> {
-    match set.iter().find(|p| {
-        p.split_once('=')
-            .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case(key))
-    }) {
+    match pair_setting(set, key) {
         Some(pair) => Err(RenderError::GivenTwice {
             pair: pair.clone(),
             flag: flag.to_string(),
@@ -641,14 +641,18 @@ mod tests {
             set: set.iter().map(|s| s.to_string()).collect(),
             ..Default::default()
         };
-        let (s, src) = args(None, None, &["seed=3"]).render_settings(true).unwrap();
+        // As `gloam render` resolves them: the settings, then the default.
+        let resolve = |a: SettingArgs, whole_image: bool| {
+            a.with_default_error(a.settings().unwrap(), whole_image)
+        };
+        let (s, src) = resolve(args(None, None, &["seed=3"]), true);
         assert_eq!(s.target_error, Some(DEFAULT_TARGET_ERROR));
         assert_eq!(
             (s.spp, s.seed, src),
             (4, 3, Some(TargetErrorSource::Default))
         );
         // A tile, sweep or capture keeps the fixed default spp.
-        let (s, src) = args(None, None, &[]).render_settings(false).unwrap();
+        let (s, src) = resolve(args(None, None, &[]), false);
         assert_eq!((s.target_error, s.spp, src), (None, 4, None));
         // Any named sampling is taken as given, `none` included.
         for (spp, target, set) in [
@@ -656,17 +660,15 @@ mod tests {
             (None, None, &["SPP = 8"][..]),
             (None, None, &["target_error=none"][..]),
         ] {
-            let (s, src) = args(spp, target, set).render_settings(true).unwrap();
+            let (s, src) = resolve(args(spp, target, set), true);
             assert_eq!((s.target_error, src), (None, None), "{spp:?} {set:?}");
         }
-        let (s, src) = args(None, Some(0.05), &[]).render_settings(true).unwrap();
+        let (s, src) = resolve(args(None, Some(0.05), &[]), true);
         assert_eq!(
             (s.target_error, src),
             (Some(0.05), Some(TargetErrorSource::Given))
         );
-        let (s, _) = args(None, None, &["target_error=0.1"])
-            .render_settings(true)
-            .unwrap();
+        let (s, _) = resolve(args(None, None, &["target_error=0.1"]), true);
         assert_eq!(s.target_error, Some(0.1));
     }
 
