@@ -237,7 +237,7 @@ pub struct Summary {
 /// Time at which the estimator's spp ladder first reaches `target`,
 /// interpolated log–log between the rungs that bracket it; the first rung's
 /// time when it is already below (an upper bound); None if never.
-fn time_to(rows: &[&Row], target: f64, metric: fn(&Row) -> f64) -> Option<f64> {
+fn time_to(rows: &[&Row], target: f64, metric: RowMetric) -> Option<f64> {
     let mut prev: Option<&Row> = None;
     for r in rows {
         if metric(r).is_finite() && metric(r) <= target {
@@ -837,11 +837,7 @@ fn mitsuba_rows(
 /// Time to `target` along `rows` (interpolated), or extrapolated from the
 /// lowest-error row as error ∝ 1/√time (the Monte Carlo rate); the flag
 /// says which.
-fn time_to_or_extrapolated(
-    rows: &[&Row],
-    target: f64,
-    metric: fn(&Row) -> f64,
-) -> Option<(f64, bool)> {
+fn time_to_or_extrapolated(rows: &[&Row], target: f64, metric: RowMetric) -> Option<(f64, bool)> {
     if let Some(t) = time_to(rows, target, metric) {
         return Some((t, false));
     }
@@ -861,10 +857,31 @@ type RowMetric = fn(&Row) -> f64;
 /// has pixels at 0.04 % of the mean), and the error as `--target-error`
 /// defines it (`pixel_floor`: each pixel against `max(t, 5 % of the band
 /// mean)`, relMSE's ε), the metric the target promises.
-const PIXEL_METRICS: [(&str, RowMetric); 2] = [
-    ("pixel", |r| r.pixel_rms_error),
-    ("pixel_floor", |r| r.pixel_rms_error_as_targeted),
+/// Each with the name in its time keys (`…_{key}_s`), the suffix of its
+/// ratio and extrapolation keys (the plain metric keeps the original
+/// keys), and its label in `summary.md`.
+const PIXEL_METRICS: [PixelMetric; 2] = [
+    PixelMetric {
+        key: "pixel",
+        suffix: "",
+        label: "plain",
+        of: |r| r.pixel_rms_error,
+    },
+    PixelMetric {
+        key: "pixel_floor",
+        suffix: "_floor",
+        label: "dark floor (as targeted)",
+        of: |r| r.pixel_rms_error_as_targeted,
+    },
 ];
+
+/// A per-pixel metric of [`PIXEL_METRICS`].
+struct PixelMetric {
+    key: &'static str,
+    suffix: &'static str,
+    label: &'static str,
+    of: RowMetric,
+}
 
 /// Both ladders' times to 1 % and 0.1 % per-pixel error and the ratio
 /// Mitsuba / gloam, whole light and direct only.
@@ -896,10 +913,12 @@ fn side_by_side_summary(mut side: serde_json::Value, rows: &[Row]) -> serde_json
             continue;
         }
         let mut v = serde_json::Map::new();
-        for ((target, label), (metric_name, metric)) in [(0.01, "1pct"), (0.001, "0_1pct")]
+        for ((target, label), metric) in [(0.01, "1pct"), (0.001, "0_1pct")]
             .into_iter()
-            .flat_map(|t| PIXEL_METRICS.into_iter().map(move |m| (t, m)))
+            .flat_map(|t| PIXEL_METRICS.iter().map(move |m| (t, m)))
         {
+            let (name, sfx) = (metric.key, metric.suffix);
+            let metric = metric.of;
             let m = time_to_or_extrapolated(&mitsuba, target, metric);
             // gloam's best of its two ways to an error: asking for it
             // (target-error rows) or a fixed spp ladder.
@@ -910,15 +929,9 @@ fn side_by_side_summary(mut side: serde_json::Value, rows: &[Row]) -> serde_json
             .into_iter()
             .flatten()
             .min_by(|a, b| a.0.total_cmp(&b.0));
-            // The plain metric keeps its original keys; the floor's carry
-            // its name.
-            let sfx = if metric_name == "pixel" { "" } else { "_floor" };
             for (side, t) in [("mitsuba3", m), ("gloam", g)] {
                 let (secs, extrapolated) = (t.map(|x| x.0), t.map(|x| x.1));
-                v.insert(
-                    format!("{side}_time_to_{label}_{metric_name}_s"),
-                    secs.into(),
-                );
+                v.insert(format!("{side}_time_to_{label}_{name}_s"), secs.into());
                 v.insert(
                     format!("{side}_{label}{sfx}_extrapolated"),
                     extrapolated.into(),
@@ -1116,10 +1129,13 @@ fn mitsuba_markdown(m: &mut String, side: &serde_json::Value) {
             continue;
         }
         let ratio = |k: &str| v[k].as_f64().map_or("–".into(), |r| format!("{r:.1}×"));
-        for (metric, sfx, what) in [
-            ("pixel", "", "plain"),
-            ("pixel_floor", "_floor", "dark floor (as targeted)"),
-        ] {
+        for PixelMetric {
+            key: metric,
+            suffix: sfx,
+            label: what,
+            ..
+        } in &PIXEL_METRICS
+        {
             let k = |side: &str, label: &str| format!("{side}_time_to_{label}_{metric}_s");
             let x = |side: &str, label: &str| format!("{side}_{label}{sfx}_extrapolated");
             let _ = writeln!(
