@@ -469,96 +469,94 @@ impl Tracer {
         // outside the windows, a window's sub-samples for their pixel.
         let total_weight: f64 = samples.iter().map(|s| s.2).sum();
         for &(x, y, w, on_grid) in &samples {
-            {
-                let d = cam.pixel_direction(x, y);
-                let Some((f, front, p, tau)) = self.gather_hit(cam.position, d, u32::MAX, &mut c)
-                else {
-                    continue;
-                };
-                let tau = tau.unwrap_or_else(|| self.ones.clone());
-                let ng = self.facet_normal[f as usize];
-                let ns = if front { ng } else { -ng };
-                let mat = &self.mats[self.facet_mat[f as usize] as usize];
-                let mut e_d = vec![0.0; nwl];
-                let src = self.facet_source[f as usize];
-                let emitter = src != u32::MAX && front;
-                // Pixels beside an emitter show some of it in their
-                // footprint: left out of the share's pixel set, as from
-                // the set `--target-error` governs.
-                let beside = !emitter && self.emitter_beside(x, y, &mut c);
-                let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
-                if mat.has_diffuse {
-                    let parts = self.irradiance_parts(p, ns, f, &mut rng, &mut c);
-                    for (k, part) in parts.iter().enumerate() {
-                        for s in 0..nwl {
-                            let l = mat.kd[s] * inv_pi * tau[s] * part[s];
-                            e_d[s] += part[s];
-                            pix_parts[k][s] = l;
-                            part_sums[k].1[s] += w * l;
-                            if !emitter && !beside {
-                                part_sums[k].0[s] += w * l;
-                            }
+            let d = cam.pixel_direction(x, y);
+            let Some((f, front, p, tau)) = self.gather_hit(cam.position, d, u32::MAX, &mut c)
+            else {
+                continue;
+            };
+            let tau = tau.unwrap_or_else(|| self.ones.clone());
+            let ng = self.facet_normal[f as usize];
+            let ns = if front { ng } else { -ng };
+            let mat = &self.mats[self.facet_mat[f as usize] as usize];
+            let mut e_d = vec![0.0; nwl];
+            let src = self.facet_source[f as usize];
+            let emitter = src != u32::MAX && front;
+            // Pixels beside an emitter show some of it in their
+            // footprint: left out of the share's pixel set, as from
+            // the set `--target-error` governs.
+            let beside = !emitter && self.emitter_beside(x, y, &mut c);
+            let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
+            if mat.has_diffuse {
+                let parts = self.irradiance_parts(p, ns, f, &mut rng, &mut c);
+                for (k, part) in parts.iter().enumerate() {
+                    for s in 0..nwl {
+                        let l = mat.kd[s] * inv_pi * tau[s] * part[s];
+                        e_d[s] += part[s];
+                        pix_parts[k][s] = l;
+                        part_sums[k].1[s] += w * l;
+                        if !emitter && !beside {
+                            part_sums[k].0[s] += w * l;
                         }
                     }
                 }
-                // Indirect irradiance by a final gather on the pilot cache
-                // (reading the coarse cache directly misjudges small lit
-                // patches such as the pools under street lamps).
-                let mut e_i = crate::light::Light::dark(nwl, 0);
-                if mat.has_diffuse {
-                    self.final_gather(
-                        &cache,
-                        p,
-                        ns,
-                        f,
-                        PILOT_GATHER,
-                        None,
-                        &self.ones,
-                        &mut rng,
-                        &mut c,
-                        &mut e_i,
-                    );
+            }
+            // Indirect irradiance by a final gather on the pilot cache
+            // (reading the coarse cache directly misjudges small lit
+            // patches such as the pools under street lamps).
+            let mut e_i = crate::light::Light::dark(nwl, 0);
+            if mat.has_diffuse {
+                self.final_gather(
+                    &cache,
+                    p,
+                    ns,
+                    f,
+                    PILOT_GATHER,
+                    None,
+                    &self.ones,
+                    &mut rng,
+                    &mut c,
+                    &mut e_i,
+                );
+            }
+            let e_i = e_i.into_whole();
+            let mut pix_ind = vec![0.0; nwl];
+            let mut pix_tot = vec![0.0; nwl];
+            for s in 0..nwl {
+                let k = mat.kd[s] * inv_pi * tau[s];
+                pix_ind[s] = k * e_i[s];
+                pix_tot[s] = k * (e_d[s] + e_i[s]);
+                if emitter {
+                    let a = &self.area[src as usize];
+                    let le = tau[s] * a.radiance_toward(s, -d);
+                    pix_tot[s] += le;
+                    emitted_all[s] += w * le;
                 }
-                let e_i = e_i.into_whole();
-                let mut pix_ind = vec![0.0; nwl];
-                let mut pix_tot = vec![0.0; nwl];
-                for s in 0..nwl {
-                    let k = mat.kd[s] * inv_pi * tau[s];
-                    pix_ind[s] = k * e_i[s];
-                    pix_tot[s] = k * (e_d[s] + e_i[s]);
-                    if emitter {
-                        let a = &self.area[src as usize];
-                        let le = tau[s] * a.radiance_toward(s, -d);
-                        pix_tot[s] += le;
-                        emitted_all[s] += w * le;
-                    }
+            }
+            // Interreflection's share stays the grid's: the coarse
+            // cache's gather at a lamp's housing or pool is no better
+            // than a guess, and the windows hold little of it.
+            for s in 0..nwl {
+                if on_grid {
+                    ind_all[s] += pix_ind[s];
+                    tot_all[s] += pix_tot[s];
                 }
-                // Interreflection's share stays the grid's: the coarse
-                // cache's gather at a lamp's housing or pool is no better
-                // than a guess, and the windows hold little of it.
-                for s in 0..nwl {
-                    if on_grid {
-                        ind_all[s] += pix_ind[s];
-                        tot_all[s] += pix_tot[s];
-                    }
-                    all_w[s] += w * pix_tot[s];
-                    if !emitter && !beside && on_grid {
-                        ind[s] += pix_ind[s];
-                        tot[s] += pix_tot[s];
-                    }
+                all_w[s] += w * pix_tot[s];
+                if !emitter && !beside && on_grid {
+                    ind[s] += pix_ind[s];
+                    tot[s] += pix_tot[s];
                 }
-                // The per-pixel percentiles stay the grid's (a uniform
-                // sample of the pixels).
-                if on_grid && !emitter && !beside {
-                    plain_pixels += 1;
-                    per_pixel.push((
-                        pix_parts
-                            .iter()
-                            .map(|v| self.wl.integrate(v))
-                            .collect::<Vec<_>>(),
-                        self.wl.integrate(&pix_tot),
-                    ));
-                }
+            }
+            // The per-pixel percentiles stay the grid's (a uniform
+            // sample of the pixels).
+            if on_grid && !emitter && !beside {
+                plain_pixels += 1;
+                per_pixel.push((
+                    pix_parts
+                        .iter()
+                        .map(|v| self.wl.integrate(v))
+                        .collect::<Vec<_>>(),
+                    self.wl.integrate(&pix_tot),
+                ));
             }
         }
         let max_share = |num: &[f64], den: &[f64]| -> f64 {
