@@ -28,6 +28,17 @@
 //! estimation counted them), nor do escaping rays (the sky dome is sampled
 //! at each vertex).
 //!
+//! Averaging does not undo a texel that misrepresents its own cell: a
+//! street lamp's pool smaller than a 4 m texel, or a reflector a lamp
+//! stands 5 cm from, whose centre outshines its mean 20×. So the render's
+//! cache splits direct light into smooth terms (sky dome, area sources)
+//! and sharp ones (point sources, the Moon, the light tree's picks), tests
+//! the sharp light at 3 × 3 points of each texel against the bilinear
+//! interpolation between centres, and where it strays (a *sharp* texel) a
+//! gather ray that lands nearby reads only the smooth part and computes
+//! the sharp light where it landed. Area-lit rooms have no sharp texels
+//! and are unchanged.
+//!
 //! Brute-force path tracing (`indirect = path`, `diffuse_bounces`) is kept
 //! as the reference the cache is measured against (`gloam bench accuracy`).
 
@@ -37,7 +48,7 @@ use serde::Serialize;
 
 use crate::light::Light;
 use crate::sky_light::{cosine_hemisphere, orthonormal_basis};
-use crate::tracer::{RayCounts, Tracer, latin_hypercube, stream};
+use crate::tracer::{RayCounts, Smooth, Tracer, latin_hypercube, stream};
 
 /// Facet sides per budgeted texel up to which every side gets its own grid.
 const PER_FACET_MAX_SIDES_PER_TEXEL: f64 = 2.0;
@@ -47,6 +58,20 @@ pub const CACHE_DIRECT_REPEATS: u32 = 4;
 
 /// Random-stream domain of the cache's texels.
 const DOMAIN_CACHE: u64 = 0xCAC4E;
+
+/// Random-stream domain of the test for direct light that varies within a
+/// texel (its own, so the cache's gather rays draw what they always drew).
+const DOMAIN_SHARP: u64 = 0x5AA4E;
+
+/// Sub-cells per side at whose centres a texel's sharp direct light (point
+/// sources, the Moon, the light tree's picks: `Smooth`) is compared with
+/// its centre's.
+const SHARP_TEST_SIDE: u32 = 3;
+
+/// Departure of those values from the bilinear interpolation between texel
+/// centres, relative to their mean, above which a texel's sharp light is
+/// deemed to vary within it: a gather ray recomputes it where it lands.
+const SHARP_VARIATION: f64 = 0.25;
 
 /// What the cache solve did (recorded in `report.json`).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -71,6 +96,14 @@ pub struct CacheSummary {
     /// Share of each bounce in the cache's total reflected radiance
     /// (bounce 0 = direct), area-weighted over texels, all slots.
     pub bounce_shares: Vec<f64>,
+    /// Texels whose sharp direct light (point sources, the Moon, the light
+    /// tree's picks) departs from the interpolation between texel centres
+    /// by more than `SHARP_VARIATION` of its mean — a lamp's pool or a
+    /// shadow's edge crosses them, or a lamp stands close by: a
+    /// final-gather ray that lands near one reads only the smooth part
+    /// (sky dome, area sources, interreflection) and computes the sharp
+    /// light at the point it hit.
+    pub sharp_texels: usize,
     pub seconds: f64,
 }
 
@@ -176,6 +209,14 @@ pub(crate) struct Cache {
     /// Indirect irradiance per texel × slot, laid out the same (groups
     /// kept only where a render reads it, `gather_rays = 0`).
     e_ind: Vec<f64>,
+    /// Per texel, whether its sharp direct light varies within it
+    /// (empty when none does, or the cache is never read by a final
+    /// gather).
+    sharp: Vec<bool>,
+    /// Where some texel's does: `radiance` without the sharp direct light,
+    /// laid out as `radiance` (what a final-gather ray reads around such a
+    /// texel).
+    smooth: Vec<f64>,
     /// Under `--layers`, the light groups that light some texel (empty
     /// otherwise).
     lit: Vec<usize>,
@@ -193,6 +234,9 @@ pub(crate) enum Field {
     Radiance,
     /// Indirect irradiance (read directly, `gather_rays = 0`).
     Indirect,
+    /// Outgoing radiance without the sharp direct light (read around
+    /// texels where it varies).
+    Smooth,
 }
 
 /// How large the cache should be.
@@ -235,6 +279,7 @@ impl Cache {
         let (values, stride) = match field {
             Field::Radiance => (&self.radiance, self.stride),
             Field::Indirect => (&self.e_ind, self.e_stride),
+            Field::Smooth => (&self.smooth, self.stride),
         };
         for (k, w) in weights {
             if w == 0.0 {
@@ -261,6 +306,16 @@ impl Cache {
                 None => {}
             }
         }
+    }
+
+    /// Whether a reading at `p` on `facet`'s side touches a texel whose
+    /// sharp direct light varies within it.
+    fn reads_sharp(&self, facet: u32, front: bool, p: DVec3) -> bool {
+        !self.sharp.is_empty()
+            && self
+                .layout
+                .weights(facet, usize::from(!front), p)
+                .is_some_and(|w| w.iter().any(|&(k, w)| w > 0.0 && self.sharp[k as usize]))
     }
 
     /// The sums a reading split by group adds into (one block of `nwl`
@@ -443,6 +498,20 @@ impl Layout {
 /// the area it stands for.
 type Texel = (u32, DVec3, DVec3, f64);
 
+/// A texel's sharp direct light, sampled over its cell where it varies
+/// ([`Tracer::sharp_samples`]).
+struct SharpSamples {
+    /// Its sum over slots, averaged over the points and the centre.
+    mean: f64,
+    /// The points and the light's sum over slots at each.
+    points: Vec<(DVec3, f64)>,
+}
+
+/// A light's sum over its slots (the whole).
+fn total(e: &Light) -> f64 {
+    e.whole.iter().sum()
+}
+
 impl Tracer {
     /// The square texel grid of facet `f` at texel size `h` (`first` = 0).
     fn facet_grid(&self, f: usize, h: f64) -> Grid {
@@ -498,6 +567,23 @@ impl Tracer {
         rng: &mut rand_pcg::Pcg64Mcg,
     ) -> Vec<DVec3> {
         use rand::Rng;
+        let m = (CACHE_DIRECT_REPEATS as f64).sqrt().round().max(1.0) as u32;
+        let on_cell = self.cell_mapping(f, p, area);
+        (0..CACHE_DIRECT_REPEATS)
+            .map(|r| {
+                let (i, j) = (r % m, (r / m) % m);
+                let u = (i as f64 + rng.random::<f64>()) / m as f64 - 0.5;
+                let w = (j as f64 + rng.random::<f64>()) / m as f64 - 0.5;
+                on_cell(u, w).0
+            })
+            .collect()
+    }
+
+    /// The point at cell coordinates `(u, w)` ∈ [−½, ½]² of the square cell
+    /// of area `area` around texel point `p` on facet `f` (the facet
+    /// grid's axes), kept on the facet by `into_polygon`, and whether it
+    /// lay on the facet already.
+    fn cell_mapping(&self, f: u32, p: DVec3, area: f64) -> impl Fn(f64, f64) -> (DVec3, bool) + '_ {
         let v = &self.facet_verts[f as usize];
         let nf = self.facet_normal[f as usize];
         let t = (v[1] - v[0]).normalize_or_zero();
@@ -509,15 +595,68 @@ impl Tracer {
         let b = nf.cross(t);
         let hf = area.max(0.0).sqrt();
         let centroid = v.iter().copied().sum::<DVec3>() / v.len() as f64;
-        let m = (CACHE_DIRECT_REPEATS as f64).sqrt().round().max(1.0) as u32;
-        (0..CACHE_DIRECT_REPEATS)
-            .map(|r| {
-                let (i, j) = (r % m, (r / m) % m);
-                let u = (i as f64 + rng.random::<f64>()) / m as f64 - 0.5;
-                let w = (j as f64 + rng.random::<f64>()) / m as f64 - 0.5;
-                into_polygon(p + t * (u * hf) + b * (w * hf), v, nf, centroid, hf)
-            })
-            .collect()
+        move |u, w| {
+            let q = p + t * (u * hf) + b * (w * hf);
+            let kept = into_polygon(q, v, nf, centroid, hf);
+            // Inside, `into_polygon` moves a point by 1e-4 · hf at most.
+            (kept, (kept - q).length() <= 2e-4 * hf)
+        }
+    }
+
+    /// Texel `k`'s sharp direct light (`Smooth`) at the centres
+    /// of `SHARP_TEST_SIDE`² sub-cells of its cell (area `area` around `p`
+    /// on facet `f`, side normal `n`; `centre` is that light at `p`), if
+    /// its spread over them exceeds `SHARP_VARIATION` of their mean (`None`
+    /// for a texel lit evenly, or not at all). Whether bilinear
+    /// interpolation between texel centres misses that variation is told
+    /// once every centre is known ([`Tracer::build_cache_split`]).
+    #[allow(clippy::too_many_arguments)]
+    fn sharp_samples(
+        &self,
+        f: u32,
+        p: DVec3,
+        n: DVec3,
+        area: f64,
+        centre: &Light,
+        k: usize,
+        c: &mut RayCounts,
+    ) -> Option<SharpSamples> {
+        let mut rng = stream(self.settings.seed, DOMAIN_SHARP, k as u64);
+        let on_cell = self.cell_mapping(f, p, area);
+        let e0 = total(centre);
+        let (mut lo, mut hi) = (e0, e0);
+        let m = SHARP_TEST_SIDE;
+        let mut e = centre.dark_like();
+        let mut points = Vec::with_capacity((m * m - 1) as usize);
+        for r in (0..m * m).filter(|&r| r != m * m / 2) {
+            let u = ((r % m) as f64 + 0.5) / m as f64 - 0.5;
+            let w = ((r / m) as f64 + 0.5) / m as f64 - 0.5;
+            // Only points on the facet: one pulled in from beyond an edge
+            // would sit on a seam, where a shadow ray can slip through.
+            let (q, on_facet) = on_cell(u, w);
+            if !on_facet {
+                continue;
+            }
+            e.clear();
+            let smooth = Smooth::Omitted;
+            self.irradiance_split(
+                q,
+                n,
+                f,
+                CACHE_DIRECT_REPEATS,
+                None,
+                smooth,
+                &mut rng,
+                c,
+                &mut e,
+            );
+            let x = total(&e);
+            lo = lo.min(x);
+            hi = hi.max(x);
+            points.push((q, x));
+        }
+        let mean = (e0 + points.iter().map(|p| p.1).sum::<f64>()) / (1 + points.len()) as f64;
+        (hi - lo > SHARP_VARIATION * mean).then_some(SharpSamples { mean, points })
     }
 
     /// Texel sample points of a grid (`into_polygon` keeps them on the facet).
@@ -832,6 +971,8 @@ impl Tracer {
                 nwl,
                 radiance: Vec::new(),
                 e_ind: Vec::new(),
+                sharp: Vec::new(),
+                smooth: Vec::new(),
                 lit: Vec::new(),
                 stride: nwl,
                 e_stride: nwl,
@@ -842,7 +983,17 @@ impl Tracer {
         let w_ray = std::f64::consts::PI / rays as f64;
         // Direct irradiance and the operator's rows, per texel (parallel,
         // each texel its own random stream: deterministic).
-        type Row = (Light, Vec<Entry>, Vec<Vec<f64>>);
+        // (Sharp direct light at the centre; the smooth; the sharp over the
+        // cell where it varies; the operator's row.)
+        type Row = (
+            Light,
+            Light,
+            Option<SharpSamples>,
+            Vec<Entry>,
+            Vec<Vec<f64>>,
+        );
+        // Only a final gather reads a texel at the point a ray hit.
+        let test_sharp = !size.direct_cell_mean && self.settings.gather_rays > 0;
         let rows: Vec<Row> = texels
             .par_iter()
             .enumerate()
@@ -860,12 +1011,14 @@ impl Tracer {
                 // A cluster texel (the last `layout.clusters`) stands for
                 // many small facets through one of them: its points stay
                 // within that facet.
+                let cell = if k + cluster_texels >= n_tex {
+                    polygon_area(&self.facet_verts[f as usize])
+                } else {
+                    area
+                };
+                let mut smooth = e.dark_like();
+                let mut samples = None;
                 if size.direct_cell_mean {
-                    let cell = if k + cluster_texels >= n_tex {
-                        polygon_area(&self.facet_verts[f as usize])
-                    } else {
-                        area
-                    };
                     for q in self.texel_points(f, p, cell, &mut rng) {
                         e1.clear();
                         self.irradiance_with(q, n, f, 1, None, &mut rng, &mut c, &mut e1);
@@ -877,17 +1030,22 @@ impl Tracer {
                     // With the light tree (one selection picks only
                     // `light_tree_branches` emitters) CACHE_DIRECT_REPEATS
                     // selections are averaged; without it the closed forms
-                    // are exact and the count is unused.
-                    self.irradiance_with(
+                    // are exact and the count is unused. The smooth
+                    // terms (`Smooth`) are kept apart.
+                    self.irradiance_split(
                         p,
                         n,
                         f,
                         CACHE_DIRECT_REPEATS,
                         None,
+                        Smooth::Apart(&mut smooth),
                         &mut rng,
                         &mut c,
                         &mut e,
                     );
+                    if test_sharp {
+                        samples = self.sharp_samples(f, p, n, cell, &e, k, &mut c);
+                    }
                 }
                 let mut entries: Vec<Entry> = Vec::new();
                 let mut taus: Vec<Vec<f64>> = Vec::new();
@@ -926,12 +1084,48 @@ impl Tracer {
                         _ => merged.push(e),
                     }
                 }
-                (e, merged, taus)
+                (e, smooth, samples, merged, taus)
             })
             .collect();
-        let operator_entries = rows.iter().map(|r| r.1.len()).sum();
-        let (direct, ops): (Vec<Light>, Vec<OperatorRow>) =
-            rows.into_iter().map(|(e, m, t)| (e, (m, t))).unzip();
+        let operator_entries = rows.iter().map(|r| r.3.len()).sum();
+        // A texel is sharp where its sharp direct light strays from the
+        // bilinear interpolation between texel centres — what a reading
+        // would take — by more than SHARP_VARIATION of its mean: a pool or
+        // a shadow's edge inside it, or a lamp close by. A linear gradient
+        // over a fine grid is no reason.
+        let centre: Vec<f64> = rows.iter().map(|r| total(&r.0)).collect();
+        let sharp: Vec<bool> = rows
+            .iter()
+            .zip(&texels)
+            .map(|(r, &(f, _, n, _))| {
+                let Some(samples) = &r.2 else { return false };
+                let side = usize::from(n.dot(self.facet_normal[f as usize]) < 0.0);
+                let spread = samples.points.iter().map(|&(q, x)| {
+                    let interpolated: f64 = layout.weights(f, side, q).map_or(0.0, |w| {
+                        w.iter().map(|&(k, w)| w * centre[k as usize]).sum()
+                    });
+                    (x - interpolated).abs()
+                });
+                spread.fold(0.0, f64::max) > SHARP_VARIATION * samples.mean
+            })
+            .collect();
+        let sharp_texels = sharp.iter().filter(|&&s| s).count();
+        // The bounce series still starts from every texel's centre (a mean
+        // over a cell that a wall crosses would carry light through it);
+        // a gather ray recomputes the sharp light where it lands.
+        let mut direct = Vec::with_capacity(n_tex);
+        let mut sharp_direct = Vec::with_capacity(n_tex);
+        let mut ops: Vec<OperatorRow> = Vec::with_capacity(n_tex);
+        for (mut e, smooth, _, m, t) in rows {
+            if test_sharp {
+                sharp_direct.push(e.clone());
+            }
+            e.add_each(&smooth, |a, b| {
+                a.iter_mut().zip(b).for_each(|(a, b)| *a += b)
+            });
+            direct.push(e);
+            ops.push((m, t));
+        }
         // The whole scene's light and each lit group's, side by side: one
         // pass over the operator per bounce for all, the series cut and
         // extrapolated by the whole's increments alone.
@@ -939,18 +1133,37 @@ impl Tracer {
             .filter(|&g| direct.iter().any(|d| d.part(g).is_some()))
             .collect();
         let lights = 1 + lit.len();
-        let side_by_side = |k: usize| -> Vec<f64> {
-            let d = &direct[k];
+        let side_by_side = |d: &Light| -> Vec<f64> {
             let mut v = d.whole.clone();
             for &g in &lit {
                 v.extend_from_slice(d.part(g).unwrap_or(&vec![0.0; nwl]));
             }
             v
         };
-        let series = self.bounce_series(&ops, &texels, lights, side_by_side, size);
+        let series = self.bounce_series(&ops, &texels, lights, |k| side_by_side(&direct[k]), size);
         let (iterations, remainder, ratio) = (series.iterations, series.remainder, series.ratio);
         let (radiance, e_ind, bounce_norms) = (series.radiance, series.e_ind, series.bounce_norms);
         let stride = lights * nwl;
+        // Around texels whose direct light varies, a gather ray reads the
+        // rest (k_d/π times the smooth irradiance) and adds the direct
+        // light where it lands (`final_gather`).
+        let (sharp, smooth) = if sharp_texels == 0 {
+            (Vec::new(), Vec::new())
+        } else {
+            let inv_pi = std::f64::consts::FRAC_1_PI;
+            let mut smooth = radiance.clone();
+            for (k, s) in sharp_direct.iter().enumerate() {
+                let kd = &self.mats[self.facet_mat[texels[k].0 as usize] as usize].kd;
+                for ((o, e), kd) in smooth[k * stride..(k + 1) * stride]
+                    .iter_mut()
+                    .zip(side_by_side(s))
+                    .zip(kd.iter().cycle())
+                {
+                    *o -= kd * e * inv_pi;
+                }
+            }
+            (sharp, smooth)
+        };
         // The groups' indirect irradiance only where it is read.
         let (e_ind, e_stride) = if lights > 1 && self.settings.gather_rays > 0 {
             let whole: Vec<f64> = e_ind
@@ -977,6 +1190,8 @@ impl Tracer {
             nwl,
             radiance,
             e_ind,
+            sharp,
+            smooth,
             lit,
             stride,
             e_stride,
@@ -990,6 +1205,7 @@ impl Tracer {
                 remainder_estimate: remainder,
                 bounce_ratio: ratio,
                 bounce_shares,
+                sharp_texels,
                 seconds: t0.elapsed().as_secs_f64(),
             },
         }
@@ -1244,7 +1460,24 @@ impl Tracer {
                     }
                 }
                 let split = sums.as_deref_mut().map(|s| (s, tau.as_deref()));
-                cache.add(Field::Radiance, g, gfront, y, &s, &mut acc.whole, split);
+                if !cache.reads_sharp(g, gfront, y) {
+                    cache.add(Field::Radiance, g, gfront, y, &s, &mut acc.whole, split);
+                    continue;
+                }
+                // The texel's direct light varies within it: its smooth
+                // part from the cache, the rest where the ray landed.
+                cache.add(Field::Smooth, g, gfront, y, &s, &mut acc.whole, split);
+                let n = self.facet_normal[g as usize];
+                let ny = if gfront { n } else { -n };
+                let mut e = acc.dark_like();
+                let smooth = Smooth::Omitted;
+                self.irradiance_split(y, ny, g, 1, None, smooth, rng, c, &mut e);
+                let kd = &self.mats[self.facet_mat[g as usize] as usize].kd;
+                acc.add_each(&e, |o, e| {
+                    for (((o, e), s), kd) in o.iter_mut().zip(e).zip(&s).zip(kd) {
+                        *o += s * kd * e * std::f64::consts::FRAC_1_PI;
+                    }
+                });
             }
         }
         if let Some(sums) = sums {

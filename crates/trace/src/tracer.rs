@@ -105,6 +105,19 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
     Ok(())
 }
 
+/// Where [`Tracer::irradiance_split`] puts the smooth terms of the
+/// irradiance: the sky dome's, and that of area sources outside a light
+/// tree (extended emitters: no sharp pools or shadow edges). Point sources,
+/// the Moon and the light tree's picks are the sharp terms.
+pub(crate) enum Smooth<'a> {
+    /// With the rest, in `out`.
+    Included,
+    /// In this buffer of their own.
+    Apart(&'a mut Light),
+    /// Not computed (no random numbers drawn for them).
+    Omitted,
+}
+
 /// Ray counters (summed over threads; integers, so deterministic).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RayCounts {
@@ -902,6 +915,27 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut Light,
     ) {
+        let smooth = Smooth::Included;
+        self.irradiance_split(p, n, ignore, tree_repeats, strata, smooth, rng, c, out);
+    }
+
+    /// [`Tracer::irradiance_with`], its smooth terms ([`Smooth`]) added to
+    /// `out`, kept apart or left out: the radiosity cache reads the smooth
+    /// light from its texels and recomputes the rest — the part that can
+    /// change within a texel — where a gather ray lands.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn irradiance_split(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        tree_repeats: u32,
+        strata: Option<LightStrata>,
+        mut smooth: Smooth<'_>,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) {
         // A dropped term that draws random numbers (dome, area sources) is
         // still computed, into a scratch buffer, so the render shares every
         // other random number with the full one: the difference is the
@@ -930,18 +964,24 @@ impl Tracer {
             if !(drop.moon || skip.moon) {
                 self.moon_irradiance(sky, p, n, ignore, c, out);
             }
-            if skip.night_sky {
-            } else if drop.night_sky {
-                self.dome_irradiance(sky, p, n, ignore, rng, c, &mut scratch());
-            } else {
-                self.dome_irradiance(sky, p, n, ignore, rng, c, out);
+            match &mut smooth {
+                _ if skip.night_sky => {}
+                Smooth::Omitted => {}
+                _ if drop.night_sky => {
+                    self.dome_irradiance(sky, p, n, ignore, rng, c, &mut scratch())
+                }
+                Smooth::Included => self.dome_irradiance(sky, p, n, ignore, rng, c, out),
+                Smooth::Apart(apart) => self.dome_irradiance(sky, p, n, ignore, rng, c, apart),
             }
         }
-        if skip.area_sources {
-        } else if drop.area_sources {
-            self.area_irradiance(p, n, ignore, strata, rng, c, &mut scratch());
-        } else {
-            self.area_irradiance(p, n, ignore, strata, rng, c, out);
+        match &mut smooth {
+            _ if skip.area_sources => {}
+            Smooth::Omitted => {}
+            _ if drop.area_sources => {
+                self.area_irradiance(p, n, ignore, strata, rng, c, &mut scratch())
+            }
+            Smooth::Included => self.area_irradiance(p, n, ignore, strata, rng, c, out),
+            Smooth::Apart(apart) => self.area_irradiance(p, n, ignore, strata, rng, c, apart),
         }
         if let Some(tree) = &self.light_tree {
             // Point sources draw no random numbers: a dropped one need not

@@ -304,3 +304,74 @@ fn probe_answers_with_the_whole_light_of_a_render() {
     assert!((r.irradiance_w_m2 - direct).abs() < 1e-6 * direct);
     assert!(r.terms.contains("direct light only"), "{}", r.terms);
 }
+
+#[test]
+fn a_lamp_beside_a_coarse_texel_is_recomputed_where_gather_rays_land() {
+    // An isotropic lamp 0.1 m in front of a 1 m × 1 m grey panel (ρ = 0.5)
+    // above a black floor, one cache texel a side: the panel's direct
+    // irradiance falls 50× from its centre to its corners, so its centre
+    // stands for ≈ 19× the panel's mean. The floor's interreflected
+    // irradiance at X is the panel integral
+    //   E_ind(X) = ∫ (ρ/π) E_lamp(y) cos θ_X cos θ_y / r² dA,
+    // here by a 1 mm midpoint quadrature, in units of the lamp's direct
+    // irradiance straight below it at 2 m (I/4).
+    let rho = 0.5;
+    let s = scene(&format!(
+        r#"
+units = "m"
+[camera]
+position = [4, 0, 1]
+look_at = [0, 0, 1]
+up = [0, 0, 1]
+fov_deg = 60
+width = 8
+height = 6
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.grey]
+reflectance = {rho}
+[materials.black]
+reflectance = 0.0
+[objects.floor]
+material = "black"
+quad = {{ center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] }}
+[objects.panel]
+material = "grey"
+quad = {{ center = [0, 0, 2], size = [1, 1], normal = [1, 0, 0] }}
+[point_sources.lamp]
+position = [0.1, 0, 2]
+value = 1.0
+"#
+    ));
+    let x = gloam_trace::DVec3::new(2.0, 0.0, 0.0);
+    let n = 1000;
+    let h = 1.0 / n as f64;
+    let mut integral = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let (y, z) = (-0.5 + (i as f64 + 0.5) * h, 1.5 + (j as f64 + 0.5) * h);
+            let rl2 = 0.01 + y * y + (z - 2.0).powi(2);
+            let e_lamp = 0.1 / (rl2 * rl2.sqrt()); // I cos/r², I = 1
+            let r2 = (x.x * x.x) + y * y + z * z;
+            let (cos_x, cos_y) = (z / r2.sqrt(), x.x / r2.sqrt());
+            integral += rho / std::f64::consts::PI * e_lamp * cos_x * cos_y / r2 * h * h;
+        }
+    }
+    let want = integral / 0.25;
+    let mut set = RenderSettings::default();
+    set.set("indirect", "cache").unwrap();
+    set.set("cache_texels", "2").unwrap();
+    let t = Tracer::new(&s, &set).unwrap();
+    let below = gloam_trace::DVec3::new(0.1, 0.0, 0.0);
+    let unit = t
+        .probe_point(below, gloam_trace::DVec3::Z, None, 1)
+        .unwrap();
+    let r = t.probe_point(x, gloam_trace::DVec3::Z, None, 4000).unwrap();
+    let got = r.indirect_irradiance_w_m2.expect("interreflection") / unit.direct_irradiance_w_m2;
+    let se = r.std_error_w_m2 / unit.direct_irradiance_w_m2;
+    assert!(
+        (got - want).abs() < 0.03 * want + 4.0 * se,
+        "E_ind at X: {got} ± {se} (in I/4) vs the panel integral {want}"
+    );
+}
