@@ -32,7 +32,7 @@
 //! street lamp's pool smaller than a 4 m texel, or a reflector a lamp
 //! stands 5 cm from, whose centre outshines its mean 20×. So the render's
 //! cache splits direct light into smooth terms (sky dome, area sources)
-//! and sharp ones (point sources, the Moon, the light tree's picks), tests
+//! and sharp ones (point sources and the Moon), tests
 //! the sharp light at 3 × 3 points of each texel against the bilinear
 //! interpolation between centres, and where it strays (a *sharp* texel) a
 //! gather ray that lands nearby reads only the smooth part and computes
@@ -64,7 +64,7 @@ const DOMAIN_CACHE: u64 = 0xCAC4E;
 const DOMAIN_SHARP: u64 = 0x5AA4E;
 
 /// Sub-cells per side at whose centres a texel's sharp direct light (point
-/// sources, the Moon, the light tree's picks: `Smooth`) is compared with
+/// sources and the Moon: `Smooth`) is compared with
 /// its centre's.
 const SHARP_TEST_SIDE: u32 = 3;
 
@@ -96,8 +96,8 @@ pub struct CacheSummary {
     /// Share of each bounce in the cache's total reflected radiance
     /// (bounce 0 = direct), area-weighted over texels, all slots.
     pub bounce_shares: Vec<f64>,
-    /// Texels whose sharp direct light (point sources, the Moon, the light
-    /// tree's picks) departs from the interpolation between texel centres
+    /// Texels whose sharp direct light (point sources and the Moon)
+    /// departs from the interpolation between texel centres
     /// by more than `SHARP_VARIATION` of its mean — a lamp's pool or a
     /// shadow's edge crosses them, or a lamp stands close by: a
     /// final-gather ray that lands near one reads only the smooth part
@@ -603,13 +603,19 @@ impl Tracer {
         }
     }
 
-    /// Texel `k`'s sharp direct light (`Smooth`) at the centres
-    /// of `SHARP_TEST_SIDE`² sub-cells of its cell (area `area` around `p`
-    /// on facet `f`, side normal `n`; `centre` is that light at `p`), if
-    /// its spread over them exceeds `SHARP_VARIATION` of their mean (`None`
-    /// for a texel lit evenly, or not at all). Whether bilinear
-    /// interpolation between texel centres misses that variation is told
-    /// once every centre is known ([`Tracer::build_cache_split`]).
+    /// Texel `k`'s sharp direct light (`Smooth`) summed over slots at its
+    /// centre `p` (facet `f`, side normal `n`; `centre` is that light as
+    /// the cache took it) and at the centres of `SHARP_TEST_SIDE`²
+    /// sub-cells of its cell (area `area`): the points only if their spread
+    /// exceeds `SHARP_VARIATION` of their mean (`None` for a texel lit
+    /// evenly, or not at all). Whether bilinear interpolation between
+    /// texel centres misses that variation is told once every centre is
+    /// known ([`Tracer::build_cache_split`]).
+    ///
+    /// A light tree's picks are random: every point of every texel draws
+    /// the same random numbers (one stream, restarted), so neighbouring
+    /// points pick alike and the values differ where the light does, not
+    /// where the picks do. Without a tree the sharp terms draw none.
     #[allow(clippy::too_many_arguments)]
     fn sharp_samples(
         &self,
@@ -618,25 +624,11 @@ impl Tracer {
         n: DVec3,
         area: f64,
         centre: &Light,
-        k: usize,
         c: &mut RayCounts,
-    ) -> Option<SharpSamples> {
-        let mut rng = stream(self.settings.seed, DOMAIN_SHARP, k as u64);
-        let on_cell = self.cell_mapping(f, p, area);
-        let e0 = total(centre);
-        let (mut lo, mut hi) = (e0, e0);
-        let m = SHARP_TEST_SIDE;
+    ) -> (f64, Option<SharpSamples>) {
         let mut e = centre.dark_like();
-        let mut points = Vec::with_capacity((m * m - 1) as usize);
-        for r in (0..m * m).filter(|&r| r != m * m / 2) {
-            let u = ((r % m) as f64 + 0.5) / m as f64 - 0.5;
-            let w = ((r / m) as f64 + 0.5) / m as f64 - 0.5;
-            // Only points on the facet: one pulled in from beyond an edge
-            // would sit on a seam, where a shadow ray can slip through.
-            let (q, on_facet) = on_cell(u, w);
-            if !on_facet {
-                continue;
-            }
+        let mut at = |q: DVec3, c: &mut RayCounts| -> f64 {
+            let mut rng = stream(self.settings.seed, DOMAIN_SHARP, 0);
             e.clear();
             let smooth = Smooth::Omitted;
             self.irradiance_split(
@@ -650,13 +642,34 @@ impl Tracer {
                 c,
                 &mut e,
             );
-            let x = total(&e);
+            total(&e)
+        };
+        let e0 = if self.light_tree.is_some() {
+            at(p, c)
+        } else {
+            total(centre)
+        };
+        let on_cell = self.cell_mapping(f, p, area);
+        let (mut lo, mut hi) = (e0, e0);
+        let m = SHARP_TEST_SIDE;
+        let mut points = Vec::with_capacity((m * m - 1) as usize);
+        for r in (0..m * m).filter(|&r| r != m * m / 2) {
+            let u = ((r % m) as f64 + 0.5) / m as f64 - 0.5;
+            let w = ((r / m) as f64 + 0.5) / m as f64 - 0.5;
+            // Only points on the facet: one pulled in from beyond an edge
+            // would sit on a seam, where a shadow ray can slip through.
+            let (q, on_facet) = on_cell(u, w);
+            if !on_facet {
+                continue;
+            }
+            let x = at(q, c);
             lo = lo.min(x);
             hi = hi.max(x);
             points.push((q, x));
         }
         let mean = (e0 + points.iter().map(|p| p.1).sum::<f64>()) / (1 + points.len()) as f64;
-        (hi - lo > SHARP_VARIATION * mean).then_some(SharpSamples { mean, points })
+        let samples = (hi - lo > SHARP_VARIATION * mean).then_some(SharpSamples { mean, points });
+        (e0, samples)
     }
 
     /// Texel sample points of a grid (`into_polygon` keeps them on the facet).
@@ -988,7 +1001,7 @@ impl Tracer {
         type Row = (
             Light,
             Light,
-            Option<SharpSamples>,
+            (f64, Option<SharpSamples>),
             Vec<Entry>,
             Vec<Vec<f64>>,
         );
@@ -1017,7 +1030,7 @@ impl Tracer {
                     area
                 };
                 let mut smooth = e.dark_like();
-                let mut samples = None;
+                let mut samples = (0.0, None);
                 if size.direct_cell_mean {
                     for q in self.texel_points(f, p, cell, &mut rng) {
                         e1.clear();
@@ -1044,7 +1057,7 @@ impl Tracer {
                         &mut e,
                     );
                     if test_sharp {
-                        samples = self.sharp_samples(f, p, n, cell, &e, k, &mut c);
+                        samples = self.sharp_samples(f, p, n, cell, &e, &mut c);
                     }
                 }
                 let mut entries: Vec<Entry> = Vec::new();
@@ -1093,12 +1106,12 @@ impl Tracer {
         // would take — by more than SHARP_VARIATION of its mean: a pool or
         // a shadow's edge inside it, or a lamp close by. A linear gradient
         // over a fine grid is no reason.
-        let centre: Vec<f64> = rows.iter().map(|r| total(&r.0)).collect();
+        let centre: Vec<f64> = rows.iter().map(|r| r.2.0).collect();
         let sharp: Vec<bool> = rows
             .iter()
             .zip(&texels)
             .map(|(r, &(f, _, n, _))| {
-                let Some(samples) = &r.2 else { return false };
+                let Some(samples) = &r.2.1 else { return false };
                 let side = usize::from(n.dot(self.facet_normal[f as usize]) < 0.0);
                 let spread = samples.points.iter().map(|&(q, x)| {
                     let interpolated: f64 = layout.weights(f, side, q).map_or(0.0, |w| {

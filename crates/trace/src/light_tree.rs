@@ -376,24 +376,28 @@ impl LightTree {
     }
 
     /// The emitters chosen at `p` (normal `n`), each with `1 / pmf`, into
-    /// `out` (cleared first). See the module docs.
-    pub(crate) fn select(
+    /// `out` (cleared first), splitting into at most `branches` subtrees
+    /// and the tree's own branch count (one: a single emitter, for
+    /// estimates averaged over many rays anyway). See the module docs.
+    pub(crate) fn select_in(
         &self,
         p: DVec3,
         n: DVec3,
+        branches: usize,
         rng: &mut Pcg64Mcg,
         out: &mut Vec<(LightRef, f64)>,
     ) {
         out.clear();
+        let branches = branches.clamp(1, self.branches);
         let (i0, s0) = self.importance(0, p, n);
         if i0 <= 0.0 {
             return;
         }
         // (node, importance × spread): split deterministically.
-        let mut frontier: Vec<(usize, f64)> = Vec::with_capacity(self.branches + 1);
+        let mut frontier: Vec<(usize, f64)> = Vec::with_capacity(branches + 1);
         frontier.push((0, i0 * s0));
         let mut steps = 0usize;
-        while frontier.len() < self.branches && steps < self.nodes.len() {
+        while frontier.len() < branches && steps < self.nodes.len() {
             steps += 1;
             let best = frontier
                 .iter()
@@ -515,7 +519,7 @@ mod tests {
         let mut inv = [0.0; 40];
         let draws = 200_000;
         for _ in 0..draws {
-            t.select(p, DVec3::Z, &mut rng, &mut out);
+            t.select_in(p, DVec3::Z, usize::MAX, &mut rng, &mut out);
             assert!(out.len() <= 2);
             for &(l, w) in &out {
                 let LightRef::Point(i) = l else { panic!() };

@@ -106,15 +106,17 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
 }
 
 /// Where [`Tracer::irradiance_split`] puts the smooth terms of the
-/// irradiance: the sky dome's, and that of area sources outside a light
-/// tree (extended emitters: no sharp pools or shadow edges). Point sources,
-/// the Moon and the light tree's picks are the sharp terms.
+/// irradiance: the sky dome's and the area sources' (extended emitters:
+/// no pools or shadow edges sharper than a texel, as the office's cache
+/// shows). Point sources and the Moon are the sharp terms.
 pub(crate) enum Smooth<'a> {
     /// With the rest, in `out`.
     Included,
     /// In this buffer of their own.
     Apart(&'a mut Light),
-    /// Not computed (no random numbers drawn for them).
+    /// Not computed (no random numbers drawn for them), and a light tree
+    /// picks a single emitter: the sharp terms alone, as a final-gather
+    /// ray reads them where it lands (its many rays average the picks).
     Omitted,
 }
 
@@ -986,8 +988,11 @@ impl Tracer {
         if let Some(tree) = &self.light_tree {
             // Point sources draw no random numbers: a dropped one need not
             // be traced at all. Dropped area picks are traced and discarded.
+            // The sharp terms alone take a single pick (a gather ray's
+            // reading, averaged over many).
+            let sharp_only = matches!(smooth, Smooth::Omitted);
             let skipped = [
-                skip.area_sources,
+                skip.area_sources || sharp_only,
                 skip.point_sources || drop.point_sources,
                 skip.shaped_point_sources || drop.shaped_point_sources,
             ];
@@ -996,13 +1001,25 @@ impl Tracer {
                 drop.point_sources,
                 drop.shaped_point_sources,
             ];
+            let branches = if sharp_only { 1 } else { usize::MAX };
             let repeats = tree_repeats.max(1);
             let w = 1.0 / repeats as f64;
             for _ in 0..repeats {
-                let parts = self.tree_irradiance(tree, p, n, ignore, skipped, strata, rng, c, out);
-                // w = 1 for one selection: x · 1 is x exactly.
-                for (part, _) in parts.iter().zip(dropped).filter(|(_, d)| !d) {
-                    out.add_each(part, |o, x| {
+                let parts = self
+                    .tree_irradiance(tree, p, n, ignore, skipped, branches, strata, rng, c, out);
+                // w = 1 for one selection: x · 1 is x exactly. Area picks
+                // are smooth terms.
+                for (k, (part, _)) in parts
+                    .iter()
+                    .zip(dropped)
+                    .enumerate()
+                    .filter(|(_, (_, d))| !d)
+                {
+                    let to = match &mut smooth {
+                        Smooth::Apart(apart) if k == 0 => &mut **apart,
+                        _ => &mut *out,
+                    };
+                    to.add_each(part, |o, x| {
                         o.iter_mut().zip(x).for_each(|(o, x)| *o += w * x)
                     });
                 }
@@ -1079,8 +1096,18 @@ impl Tracer {
         // its own 1/pmf).
         if let Some(tree) = &self.light_tree {
             let like = &parts[0];
-            let tree_parts =
-                self.tree_irradiance(tree, p, n, ignore, [false; 3], None, rng, c, like);
+            let tree_parts = self.tree_irradiance(
+                tree,
+                p,
+                n,
+                ignore,
+                [false; 3],
+                usize::MAX,
+                None,
+                rng,
+                c,
+                like,
+            );
             for (k, part) in tree_parts.iter().enumerate() {
                 (parts[k].whole.iter_mut())
                     .zip(&part.whole)
@@ -1598,6 +1625,7 @@ impl Tracer {
         n: DVec3,
         ignore: u32,
         skipped: [bool; 3],
+        branches: usize,
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
@@ -1607,7 +1635,7 @@ impl Tracer {
         let nwl = self.wl.len();
         let mut parts = [like.dark_like(), like.dark_like(), like.dark_like()];
         let mut picks = Vec::new();
-        tree.select(p, n, rng, &mut picks);
+        tree.select_in(p, n, branches, rng, &mut picks);
         // Area picks: closed forms first, for the shadow-ray shares.
         let mut area_picks: Vec<(&AreaSource, Option<f64>, f64)> = Vec::new();
         for &(l, w) in &picks {
