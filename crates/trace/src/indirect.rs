@@ -68,6 +68,14 @@ const DOMAIN_SHARP: u64 = 0x5AA4E;
 /// its centre's.
 const SHARP_TEST_SIDE: u32 = 3;
 
+/// A sharp texel whose outgoing radiance exceeds this many times the
+/// texels' area-weighted mean is also a target of guided gather rays: a
+/// lamp's housing lit from 5 cm, a pool under a street lamp.
+const GUIDE_CONTRAST: f64 = 10.0;
+
+/// Guided gather rays per final gather, per this many cosine-weighted ones.
+const GUIDED_PER_COSINE: usize = 4;
+
 /// Departure of those values from the bilinear interpolation between texel
 /// centres, relative to their mean, above which a texel's sharp light is
 /// deemed to vary within it: a gather ray recomputes it where it lands.
@@ -104,6 +112,12 @@ pub struct CacheSummary {
     /// (sky dome, area sources, interreflection) and computes the sharp
     /// light at the point it hit.
     pub sharp_texels: usize,
+    /// Of these, the bright ones (`GUIDE_CONTRAST` × the mean radiance)
+    /// that final gathers also sample directly, weighted against their
+    /// cosine-weighted rays by multiple importance sampling (balance
+    /// heuristic): a small reflector a lamp lights from close by is hit by
+    /// one cosine ray in hundreds, and its light would come in rare spikes.
+    pub guided_texels: usize,
     pub seconds: f64,
 }
 
@@ -217,6 +231,8 @@ pub(crate) struct Cache {
     /// laid out as `radiance` (what a final-gather ray reads around such a
     /// texel).
     smooth: Vec<f64>,
+    /// Bright sharp texels that gather rays also aim at (`None`: none).
+    guide: Option<Guide>,
     /// Under `--layers`, the light groups that light some texel (empty
     /// otherwise).
     lit: Vec<usize>,
@@ -338,21 +354,24 @@ impl Cache {
     }
 }
 
+/// Whether `p` (in the plane of the convex polygon `v`, normal `n`) lies
+/// inside it, either winding.
+fn inside_polygon(p: DVec3, v: &[DVec3], n: DVec3) -> bool {
+    let k = v.len();
+    let side = |j: usize| {
+        let a = v[j];
+        let b = v[(j + 1) % k];
+        (b - a).cross(p - a).dot(n)
+    };
+    (0..k).all(|j| side(j) >= 0.0) || (0..k).all(|j| side(j) <= 0.0)
+}
+
 /// The point of the convex-or-not polygon `v` (plane normal `n`) nearest to
 /// `p` (which lies in the plane), pulled a hair towards the centroid so it is
 /// strictly inside.
 fn into_polygon(p: DVec3, v: &[DVec3], n: DVec3, centroid: DVec3, h: f64) -> DVec3 {
     let k = v.len();
-    let inside = (0..k).all(|j| {
-        let a = v[j];
-        let b = v[(j + 1) % k];
-        (b - a).cross(p - a).dot(n) >= 0.0
-    }) || (0..k).all(|j| {
-        let a = v[j];
-        let b = v[(j + 1) % k];
-        (b - a).cross(p - a).dot(n) <= 0.0
-    });
-    let q = if inside {
+    let q = if inside_polygon(p, v, n) {
         p
     } else {
         let mut best = v[0];
@@ -505,6 +524,28 @@ struct SharpSamples {
     mean: f64,
     /// The points and the light's sum over slots at each.
     points: Vec<(DVec3, f64)>,
+}
+
+/// The texels a final gather aims at besides its cosine-weighted rays, and
+/// how often ([`Tracer::final_gather`]).
+struct Guide {
+    cells: Vec<GuideCell>,
+    /// Cumulative selection probability over `cells` (last = 1).
+    cdf: Vec<f64>,
+    /// Per texel: its selection probability over its cell's area, the
+    /// density (per unit area) of a guided ray's landing point there;
+    /// 0 for texels not aimed at.
+    density: Vec<f64>,
+}
+
+/// One texel aimed at: its facet and side, its square cell (corner and
+/// edge vectors; a point drawn in the cell off the facet is a miss).
+struct GuideCell {
+    facet: u32,
+    front: bool,
+    corner: DVec3,
+    du: DVec3,
+    dv: DVec3,
 }
 
 /// A light's sum over its slots (the whole).
@@ -986,6 +1027,7 @@ impl Tracer {
                 e_ind: Vec::new(),
                 sharp: Vec::new(),
                 smooth: Vec::new(),
+                guide: None,
                 lit: Vec::new(),
                 stride: nwl,
                 e_stride: nwl,
@@ -1177,6 +1219,8 @@ impl Tracer {
             }
             (sharp, smooth)
         };
+        let guide = self.guide(&layout, &texels, &sharp, &radiance, stride);
+        let guided_texels = guide.as_ref().map_or(0, |g| g.cells.len());
         // The groups' indirect irradiance only where it is read.
         let (e_ind, e_stride) = if lights > 1 && self.settings.gather_rays > 0 {
             let whole: Vec<f64> = e_ind
@@ -1205,6 +1249,7 @@ impl Tracer {
             e_ind,
             sharp,
             smooth,
+            guide,
             lit,
             stride,
             e_stride,
@@ -1219,9 +1264,87 @@ impl Tracer {
                 bounce_ratio: ratio,
                 bounce_shares,
                 sharp_texels,
+                guided_texels,
                 seconds: t0.elapsed().as_secs_f64(),
             },
         }
+    }
+
+    /// The texels a final gather also aims at: sharp grid texels whose
+    /// outgoing radiance exceeds `GUIDE_CONTRAST` × the area-weighted mean
+    /// over texels, chosen in proportion to their power (radiance × cell
+    /// area). `None` when there are none.
+    fn guide(
+        &self,
+        layout: &Layout,
+        texels: &[Texel],
+        sharp: &[bool],
+        radiance: &[f64],
+        stride: usize,
+    ) -> Option<Guide> {
+        if sharp.is_empty() || stride == 0 {
+            return None;
+        }
+        let nwl = self.wl.len();
+        let level = |k: usize| radiance[k * stride..k * stride + nwl].iter().sum::<f64>();
+        let (mut sum, mut area) = (0.0, 0.0);
+        for (k, t) in texels.iter().enumerate() {
+            sum += level(k) * t.3;
+            area += t.3;
+        }
+        if !(sum > 0.0 && area > 0.0) {
+            return None;
+        }
+        let mean = sum / area;
+        let mut cells = Vec::new();
+        let mut power = Vec::new();
+        let mut texel_of = Vec::new();
+        for (k, &(f, _, n, _)) in texels.iter().enumerate() {
+            if !sharp[k] || level(k) <= GUIDE_CONTRAST * mean {
+                continue;
+            }
+            let front = n.dot(self.facet_normal[f as usize]) >= 0.0;
+            let side = usize::from(!front);
+            let Some(&loc) = layout.locs.get(f as usize).map(|l| &l[side]) else {
+                continue;
+            };
+            if loc == NO_TEXEL || loc & CLUSTER != 0 {
+                continue;
+            }
+            let g = &layout.grids[loc as usize];
+            let local = k as u32 - g.first;
+            let (i, j) = (local % g.nu, local / g.nu);
+            let h = 1.0 / g.inv_h;
+            cells.push(GuideCell {
+                facet: f,
+                front,
+                corner: g.origin + g.t * (i as f64 * h) + g.b * (j as f64 * h),
+                du: g.t * h,
+                dv: g.b * h,
+            });
+            power.push(level(k) * h * h);
+            texel_of.push((k, h * h));
+        }
+        let total: f64 = power.iter().sum();
+        if cells.is_empty() || total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        let mut density = vec![0.0; texels.len()];
+        let mut cdf = Vec::with_capacity(power.len());
+        let mut run = 0.0;
+        for (&w, &(k, a)) in power.iter().zip(&texel_of) {
+            run += w / total;
+            cdf.push(run);
+            density[k] = w / total / a;
+        }
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        Some(Guide {
+            cells,
+            cdf,
+            density,
+        })
     }
 
     /// The bounce series of one light over the cache's texels, from each
@@ -1432,6 +1555,13 @@ impl Tracer {
     /// normal `ns`) along `points` (or a fresh Latin hypercube), each adding
     /// `π/k · scale · τ ·` the cached outgoing radiance where it lands, so
     /// `acc` gains `scale ·` the indirect irradiance.
+    ///
+    /// Where the cache has bright sharp texels ([`Guide`]), `k/4` more rays
+    /// aim at points drawn on them, and every ray is weighted by the
+    /// balance heuristic: a ray of direction ω that lands at `y` adds
+    /// `L(y) cos θ / (k cos θ/π + k_g p_g(ω))`, `p_g` the guided rays'
+    /// solid-angle density there (0 off the guided texels, where the
+    /// weight is the plain `π/k`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn final_gather(
         &self,
@@ -1446,6 +1576,7 @@ impl Tracer {
         c: &mut RayCounts,
         acc: &mut Light,
     ) {
+        use rand::Rng;
         let mut u = Vec::with_capacity(k);
         match points {
             Some(pts) if pts.len() == k => u.extend_from_slice(pts),
@@ -1457,46 +1588,147 @@ impl Tracer {
         let mut s = scale.to_vec();
         // The groups' parts: Σ_j τ_j L_g(y_j), scaled once at the end.
         let mut sums = cache.group_sums(acc);
+        let guide = cache.guide.as_ref();
+        let kg = guide.map_or(0, |_| k.div_ceil(GUIDED_PER_COSINE));
+        // The balance-heuristic weight of a ray (direction d, cosine
+        // cos_p at p) landing at y on texel side (g, front), relative to w.
+        let weight = |g: u32, front: bool, y: DVec3, d: DVec3, cos_p: f64| -> Option<f64> {
+            let guide = guide?;
+            let texel = cache.layout.nearest(g, usize::from(!front), y)?;
+            let density = guide.density[texel as usize];
+            if density <= 0.0 {
+                return None;
+            }
+            let n = self.facet_normal[g as usize];
+            let cos_y = (if front { n } else { -n }).dot(-d);
+            if cos_y <= 0.0 {
+                return None;
+            }
+            let pdf_g = density * (y - p).length_squared() / cos_y;
+            let pdf_c = cos_p * std::f64::consts::FRAC_1_PI;
+            Some(cos_p / (k as f64 * pdf_c + kg as f64 * pdf_g) / w)
+        };
         for uv in u {
             let l = cosine_hemisphere(uv);
             let d = (tx * l.x + ty * l.y + ns * l.z).normalize_or_zero();
             if let Some((g, gfront, y, tau)) = self.gather_hit(p, d, facet, c) {
-                match &tau {
-                    None => {
-                        s.iter_mut().zip(scale).for_each(|(a, b)| *a = w * b);
-                    }
-                    Some(t) => {
-                        s.iter_mut()
-                            .zip(scale)
-                            .zip(t)
-                            .for_each(|((a, b), t)| *a = w * b * t);
-                    }
-                }
-                let split = sums.as_deref_mut().map(|s| (s, tau.as_deref()));
-                if !cache.reads_sharp(g, gfront, y) {
-                    cache.add(Field::Radiance, g, gfront, y, &s, &mut acc.whole, split);
+                let ratio = weight(g, gfront, y, d, l.z);
+                let hit = (g, gfront, y);
+                let sums = sums.as_deref_mut();
+                self.gather_read(cache, hit, tau, w, ratio, scale, &mut s, sums, rng, c, acc);
+            }
+        }
+        if let Some(guide) = guide {
+            for _ in 0..kg {
+                let x: f64 = rng.random();
+                let i = guide
+                    .cdf
+                    .partition_point(|&q| q < x)
+                    .min(guide.cells.len() - 1);
+                let cell = &guide.cells[i];
+                let y = cell.corner + cell.du * rng.random::<f64>() + cell.dv * rng.random::<f64>();
+                let f = cell.facet as usize;
+                if cell.facet == facet
+                    || !inside_polygon(y, &self.facet_verts[f], self.facet_normal[f])
+                {
                     continue;
                 }
-                // The texel's direct light varies within it: its smooth
-                // part from the cache, the rest where the ray landed.
-                cache.add(Field::Smooth, g, gfront, y, &s, &mut acc.whole, split);
-                let n = self.facet_normal[g as usize];
-                let ny = if gfront { n } else { -n };
-                let mut e = acc.dark_like();
-                let smooth = Smooth::Omitted;
-                self.irradiance_split(y, ny, g, 1, None, smooth, rng, c, &mut e);
-                let kd = &self.mats[self.facet_mat[g as usize] as usize].kd;
-                acc.add_each(&e, |o, e| {
-                    for (((o, e), s), kd) in o.iter_mut().zip(e).zip(&s).zip(kd) {
-                        *o += s * kd * e * std::f64::consts::FRAC_1_PI;
-                    }
-                });
+                let Some(d) = (y - p).try_normalize() else {
+                    continue;
+                };
+                let cos_p = d.dot(ns);
+                if cos_p <= 0.0 {
+                    continue;
+                }
+                // Seen from p, the first surface along d must be that side
+                // of that facet (transmissive ones between pass τ).
+                let Some((g, gfront, _, tau)) = self.gather_hit(p, d, facet, c) else {
+                    continue;
+                };
+                if g != cell.facet || gfront != cell.front {
+                    continue;
+                }
+                let Some(ratio) = weight(g, gfront, y, d, cos_p) else {
+                    continue;
+                };
+                let sums = sums.as_deref_mut();
+                let hit = (g, gfront, y);
+                self.gather_read(
+                    cache,
+                    hit,
+                    tau,
+                    w,
+                    Some(ratio),
+                    scale,
+                    &mut s,
+                    sums,
+                    rng,
+                    c,
+                    acc,
+                );
             }
         }
         if let Some(sums) = sums {
             let ws: Vec<f64> = scale.iter().map(|k| w * k).collect();
             cache.add_sums(&sums, &ws, acc);
         }
+    }
+
+    /// Adds one gather ray's reading to `acc`: `w · ratio · scale · τ ·`
+    /// the outgoing radiance at `y` on facet `g`'s side (`ratio` 1 for
+    /// `None`) — the cached radiance, or around a sharp texel the cached
+    /// smooth part plus k_d/π × the sharp light computed at `y`. Group parts
+    /// go to `sums` (times τ · ratio, scaled by `w · scale` at the end).
+    #[allow(clippy::too_many_arguments)]
+    fn gather_read(
+        &self,
+        cache: &Cache,
+        (g, gfront, y): (u32, bool, DVec3),
+        tau: Option<Vec<f64>>,
+        w: f64,
+        ratio: Option<f64>,
+        scale: &[f64],
+        s: &mut [f64],
+        sums: Option<&mut [f64]>,
+        rng: &mut rand_pcg::Pcg64Mcg,
+        c: &mut RayCounts,
+        acc: &mut Light,
+    ) {
+        let wr = ratio.map_or(w, |r| w * r);
+        match &tau {
+            None => {
+                s.iter_mut().zip(scale).for_each(|(a, b)| *a = wr * b);
+            }
+            Some(t) => {
+                s.iter_mut()
+                    .zip(scale)
+                    .zip(t)
+                    .for_each(|((a, b), t)| *a = wr * b * t);
+            }
+        }
+        let split_tau: Option<Vec<f64>> = ratio.map(|r| match &tau {
+            None => vec![r; scale.len()],
+            Some(t) => t.iter().map(|t| t * r).collect(),
+        });
+        let split = sums.map(|s| (s, split_tau.as_deref().or(tau.as_deref())));
+        if !cache.reads_sharp(g, gfront, y) {
+            cache.add(Field::Radiance, g, gfront, y, s, &mut acc.whole, split);
+            return;
+        }
+        // The texel's direct light varies within it: its smooth part from
+        // the cache, the rest where the ray landed.
+        cache.add(Field::Smooth, g, gfront, y, s, &mut acc.whole, split);
+        let n = self.facet_normal[g as usize];
+        let ny = if gfront { n } else { -n };
+        let mut e = acc.dark_like();
+        let smooth = Smooth::Omitted;
+        self.irradiance_split(y, ny, g, 1, None, smooth, rng, c, &mut e);
+        let kd = &self.mats[self.facet_mat[g as usize] as usize].kd;
+        acc.add_each(&e, |o, e| {
+            for (((o, e), s), kd) in o.iter_mut().zip(e).zip(s.iter()).zip(kd) {
+                *o += s * kd * e * std::f64::consts::FRAC_1_PI;
+            }
+        });
     }
 }
 

@@ -305,16 +305,15 @@ fn probe_answers_with_the_whole_light_of_a_render() {
     assert!(r.terms.contains("direct light only"), "{}", r.terms);
 }
 
-#[test]
-fn a_lamp_beside_a_coarse_texel_is_recomputed_where_gather_rays_land() {
-    // An isotropic lamp 0.1 m in front of a 1 m × 1 m grey panel (ρ = 0.5)
-    // above a black floor, one cache texel a side: the panel's direct
-    // irradiance falls 50× from its centre to its corners, so its centre
-    // stands for ≈ 19× the panel's mean. The floor's interreflected
-    // irradiance at X is the panel integral
-    //   E_ind(X) = ∫ (ρ/π) E_lamp(y) cos θ_X cos θ_y / r² dA,
-    // here by a 1 mm midpoint quadrature, in units of the lamp's direct
-    // irradiance straight below it at 2 m (I/4).
+/// An isotropic lamp 0.1 m in front of a 1 m × 1 m grey panel (ρ = 0.5)
+/// above a black floor, cache texels 20 m or more (`extra` adds objects).
+/// Returns the floor's interreflected irradiance at X = (2, 0, 0) in units
+/// of the lamp's direct irradiance straight below it at 2 m (I/4), its
+/// standard error, and the panel integral it must equal,
+///   E_ind(X) = ∫ (ρ/π) E_lamp(y) cos θ_X cos θ_y / r² dA,
+/// by a 1 mm midpoint quadrature. The panel's direct irradiance falls 50×
+/// from its centre to its corners: its centre stands for ≈ 19× its mean.
+fn lamp_beside_a_panel(extra: &str, samples: u32) -> (f64, f64, f64, Tracer) {
     let rho = 0.5;
     let s = scene(&format!(
         r#"
@@ -342,6 +341,7 @@ quad = {{ center = [0, 0, 2], size = [1, 1], normal = [1, 0, 0] }}
 [point_sources.lamp]
 position = [0.1, 0, 2]
 value = 1.0
+{extra}
 "#
     ));
     let x = gloam_trace::DVec3::new(2.0, 0.0, 0.0);
@@ -358,20 +358,42 @@ value = 1.0
             integral += rho / std::f64::consts::PI * e_lamp * cos_x * cos_y / r2 * h * h;
         }
     }
-    let want = integral / 0.25;
     let mut set = RenderSettings::default();
     set.set("indirect", "cache").unwrap();
     set.set("cache_texels", "2").unwrap();
     let t = Tracer::new(&s, &set).unwrap();
     let below = gloam_trace::DVec3::new(0.1, 0.0, 0.0);
-    let unit = t
-        .probe_point(below, gloam_trace::DVec3::Z, None, 1)
-        .unwrap();
-    let r = t.probe_point(x, gloam_trace::DVec3::Z, None, 4000).unwrap();
-    let got = r.indirect_irradiance_w_m2.expect("interreflection") / unit.direct_irradiance_w_m2;
-    let se = r.std_error_w_m2 / unit.direct_irradiance_w_m2;
+    let unit = t.probe_point(below, gloam_trace::DVec3::Z, None, 1).unwrap();
+    let unit = unit.direct_irradiance_w_m2;
+    let r = t.probe_point(x, gloam_trace::DVec3::Z, None, samples).unwrap();
+    let got = r.indirect_irradiance_w_m2.expect("interreflection") / unit;
+    (got, r.std_error_w_m2 / unit, integral / 0.25, t)
+}
+
+#[test]
+fn a_lamp_beside_a_coarse_texel_is_recomputed_where_gather_rays_land() {
+    // One texel a side: a gather ray that lands on the panel must
+    // recompute the lamp's light there (the centre's: 18× too much).
+    let (got, se, want, t) = lamp_beside_a_panel("", 4000);
+    assert_eq!(t.interreflection().cache.as_ref().map(|c| c.guided_texels), Some(0));
     assert!(
         (got - want).abs() < 0.03 * want + 4.0 * se,
         "E_ind at X: {got} ± {se} (in I/4) vs the panel integral {want}"
     );
+}
+
+#[test]
+fn gather_rays_aimed_at_a_bright_texel_keep_the_integral_and_cut_its_noise() {
+    // A grey sheet under the black floor (unlit, unseen) makes the panel
+    // far brighter than the texels' mean: final gathers also aim at it,
+    // weighted by the balance heuristic. Same integral; at equal samples
+    // the cosine-weighted rays alone left ~3 % noise.
+    let under = "[objects.under]\nmaterial = \"grey\"\nquad = { center = [0, 0, -5], size = [20, 20], normal = [0, 0, -1] }\n";
+    let (got, se, want, t) = lamp_beside_a_panel(under, 4000);
+    assert_eq!(t.interreflection().cache.as_ref().map(|c| c.guided_texels), Some(1));
+    assert!(
+        (got - want).abs() < 0.01 * want + 4.0 * se,
+        "E_ind at X: {got} ± {se} (in I/4) vs the panel integral {want}"
+    );
+    assert!(se < 0.01 * want, "standard error {se} of {want}");
 }
