@@ -233,7 +233,11 @@ fn emulator_looking_at_a_scene_is_bit_identical_to_sim() {
     );
     assert!((recs[0]["width"].as_u64(), recs[0]["height"].as_u64()) == (Some(96), Some(72)));
     println!("frame 4: {lo}..{hi} DN at gain {}", gains[4]);
-    assert!(hi > 4.0 * lo.max(1.0), "no structure: {lo}..{hi}");
+    // At the tube's least gain most of the frame still saturates; the
+    // darkest ground (the moonless sky's and the lamp heads' reflected
+    // light, which the radiosity cache now reads where each gather ray
+    // lands: 1 527 DN, 861 before) lies well below.
+    assert!(hi > 2.0 * lo.max(1.0), "no structure: {lo}..{hi}");
 }
 
 /// With faults injected on the PTY link, capture completes, reports the

@@ -73,6 +73,10 @@ const SHARP_TEST_SIDE: u32 = 3;
 /// lamp's housing lit from 5 cm, a pool under a street lamp.
 const GUIDE_CONTRAST: f64 = 10.0;
 
+/// At most this many texels are aimed at (the brightest by power): a
+/// gather weighs each against its distance.
+const GUIDE_MAX_CELLS: usize = 256;
+
 /// Guided gather rays per final gather, per this many cosine-weighted ones.
 const GUIDED_PER_COSINE: usize = 4;
 
@@ -530,22 +534,46 @@ struct SharpSamples {
 /// how often ([`Tracer::final_gather`]).
 struct Guide {
     cells: Vec<GuideCell>,
-    /// Cumulative selection probability over `cells` (last = 1).
-    cdf: Vec<f64>,
-    /// Per texel: its selection probability over its cell's area, the
-    /// density (per unit area) of a guided ray's landing point there;
-    /// 0 for texels not aimed at.
-    density: Vec<f64>,
+    /// Per texel: 1 + its index in `cells`, 0 for texels not aimed at.
+    cell_of: Vec<u32>,
 }
 
 /// One texel aimed at: its facet and side, its square cell (corner and
-/// edge vectors; a point drawn in the cell off the facet is a miss).
+/// edge vectors; a point drawn in the cell off the facet is a miss), the
+/// cell's area and power (radiance summed over slots × area).
+#[derive(Clone)]
 struct GuideCell {
     facet: u32,
     front: bool,
     corner: DVec3,
     du: DVec3,
     dv: DVec3,
+    area: f64,
+    power: f64,
+}
+
+impl Guide {
+    /// How often a final gather at `p` (on `facet`) aims at each cell:
+    /// power over squared distance (the cell's area at least), 0 for cells
+    /// on `facet` or facing away from `p`. Returns the weights and their
+    /// sum.
+    fn weights(&self, p: DVec3, facet: u32, normal: &[DVec3]) -> (Vec<f64>, f64) {
+        let w: Vec<f64> = self
+            .cells
+            .iter()
+            .map(|cell| {
+                let n = normal[cell.facet as usize];
+                let n = if cell.front { n } else { -n };
+                let centre = cell.corner + 0.5 * (cell.du + cell.dv);
+                if cell.facet == facet || n.dot(p - centre) <= 0.0 {
+                    return 0.0;
+                }
+                cell.power / (centre - p).length_squared().max(cell.area)
+            })
+            .collect();
+        let sum = w.iter().sum();
+        (w, sum)
+    }
 }
 
 /// A light's sum over its slots (the whole).
@@ -1296,8 +1324,7 @@ impl Tracer {
             return None;
         }
         let mean = sum / area;
-        let mut cells = Vec::new();
-        let mut power = Vec::new();
+        let mut cells: Vec<GuideCell> = Vec::new();
         let mut texel_of = Vec::new();
         for (k, &(f, _, n, _)) in texels.iter().enumerate() {
             if !sharp[k] || level(k) <= GUIDE_CONTRAST * mean {
@@ -1321,29 +1348,28 @@ impl Tracer {
                 corner: g.origin + g.t * (i as f64 * h) + g.b * (j as f64 * h),
                 du: g.t * h,
                 dv: g.b * h,
+                area: h * h,
+                power: level(k) * h * h,
             });
-            power.push(level(k) * h * h);
-            texel_of.push((k, h * h));
+            texel_of.push(k);
         }
-        let total: f64 = power.iter().sum();
-        if cells.is_empty() || total.is_nan() || total <= 0.0 {
+        if cells.is_empty() {
             return None;
         }
-        let mut density = vec![0.0; texels.len()];
-        let mut cdf = Vec::with_capacity(power.len());
-        let mut run = 0.0;
-        for (&w, &(k, a)) in power.iter().zip(&texel_of) {
-            run += w / total;
-            cdf.push(run);
-            density[k] = w / total / a;
-        }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
+        // The brightest GUIDE_MAX_CELLS (a gather weighs every cell).
+        let mut order: Vec<usize> = (0..cells.len()).collect();
+        order.sort_by(|&a, &b| cells[b].power.total_cmp(&cells[a].power));
+        order.truncate(GUIDE_MAX_CELLS);
+        order.sort_unstable();
+        let mut cell_of = vec![0; texels.len()];
+        let mut kept = Vec::with_capacity(order.len());
+        for (i, &j) in order.iter().enumerate() {
+            cell_of[texel_of[j]] = i as u32 + 1;
+            kept.push(cells[j].clone());
         }
         Some(Guide {
-            cells,
-            cdf,
-            density,
+            cells: kept,
+            cell_of,
         })
     }
 
@@ -1588,14 +1614,23 @@ impl Tracer {
         let mut s = scale.to_vec();
         // The groups' parts: Σ_j τ_j L_g(y_j), scaled once at the end.
         let mut sums = cache.group_sums(acc);
-        let guide = cache.guide.as_ref();
+        // Guided rays where some bright cell faces p: cell i is aimed at
+        // with probability aim[i] / aim_sum.
+        let (guide, aim, aim_sum) = match cache.guide.as_ref() {
+            Some(g) => {
+                let (aim, sum) = g.weights(p, facet, &self.facet_normal);
+                (Some(g).filter(|_| sum > 0.0), aim, sum)
+            }
+            None => (None, Vec::new(), 0.0),
+        };
         let kg = guide.map_or(0, |_| k.div_ceil(GUIDED_PER_COSINE));
         // The balance-heuristic weight of a ray (direction d, cosine
         // cos_p at p) landing at y on texel side (g, front), relative to w.
         let weight = |g: u32, front: bool, y: DVec3, d: DVec3, cos_p: f64| -> Option<f64> {
             let guide = guide?;
             let texel = cache.layout.nearest(g, usize::from(!front), y)?;
-            let density = guide.density[texel as usize];
+            let i = guide.cell_of[texel as usize].checked_sub(1)? as usize;
+            let density = aim[i] / aim_sum / guide.cells[i].area;
             if density <= 0.0 {
                 return None;
             }
@@ -1620,11 +1655,13 @@ impl Tracer {
         }
         if let Some(guide) = guide {
             for _ in 0..kg {
-                let x: f64 = rng.random();
-                let i = guide
-                    .cdf
-                    .partition_point(|&q| q < x)
-                    .min(guide.cells.len() - 1);
+                // The cell by inversion of the cumulative weights.
+                let mut x = rng.random::<f64>() * aim_sum;
+                let mut i = 0;
+                while i + 1 < aim.len() && (x >= aim[i] || aim[i] == 0.0) {
+                    x -= aim[i];
+                    i += 1;
+                }
                 let cell = &guide.cells[i];
                 let y = cell.corner + cell.du * rng.random::<f64>() + cell.dv * rng.random::<f64>();
                 let f = cell.facet as usize;

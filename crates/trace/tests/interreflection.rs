@@ -363,9 +363,13 @@ value = 1.0
     set.set("cache_texels", "2").unwrap();
     let t = Tracer::new(&s, &set).unwrap();
     let below = gloam_trace::DVec3::new(0.1, 0.0, 0.0);
-    let unit = t.probe_point(below, gloam_trace::DVec3::Z, None, 1).unwrap();
+    let unit = t
+        .probe_point(below, gloam_trace::DVec3::Z, None, 1)
+        .unwrap();
     let unit = unit.direct_irradiance_w_m2;
-    let r = t.probe_point(x, gloam_trace::DVec3::Z, None, samples).unwrap();
+    let r = t
+        .probe_point(x, gloam_trace::DVec3::Z, None, samples)
+        .unwrap();
     let got = r.indirect_irradiance_w_m2.expect("interreflection") / unit;
     (got, r.std_error_w_m2 / unit, integral / 0.25, t)
 }
@@ -375,7 +379,10 @@ fn a_lamp_beside_a_coarse_texel_is_recomputed_where_gather_rays_land() {
     // One texel a side: a gather ray that lands on the panel must
     // recompute the lamp's light there (the centre's: 18× too much).
     let (got, se, want, t) = lamp_beside_a_panel("", 4000);
-    assert_eq!(t.interreflection().cache.as_ref().map(|c| c.guided_texels), Some(0));
+    assert_eq!(
+        t.interreflection().cache.as_ref().map(|c| c.guided_texels),
+        Some(0)
+    );
     assert!(
         (got - want).abs() < 0.03 * want + 4.0 * se,
         "E_ind at X: {got} ± {se} (in I/4) vs the panel integral {want}"
@@ -390,7 +397,10 @@ fn gather_rays_aimed_at_a_bright_texel_keep_the_integral_and_cut_its_noise() {
     // the cosine-weighted rays alone left ~3 % noise.
     let under = "[objects.under]\nmaterial = \"grey\"\nquad = { center = [0, 0, -5], size = [20, 20], normal = [0, 0, -1] }\n";
     let (got, se, want, t) = lamp_beside_a_panel(under, 4000);
-    assert_eq!(t.interreflection().cache.as_ref().map(|c| c.guided_texels), Some(1));
+    assert_eq!(
+        t.interreflection().cache.as_ref().map(|c| c.guided_texels),
+        Some(1)
+    );
     assert!(
         (got - want).abs() < 0.01 * want + 4.0 * se,
         "E_ind at X: {got} ± {se} (in I/4) vs the panel integral {want}"
