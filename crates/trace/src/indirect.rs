@@ -32,12 +32,12 @@
 //! street lamp's pool smaller than a 4 m texel, or a reflector a lamp
 //! stands 5 cm from, whose centre outshines its mean 20×. So the render's
 //! cache splits direct light into smooth terms (sky dome, area sources)
-//! and sharp ones (point sources and the Moon), tests
-//! the sharp light at 3 × 3 points of each texel against the bilinear
-//! interpolation between centres, and where it strays (a *sharp* texel) a
-//! gather ray that lands nearby reads only the smooth part and computes
-//! the sharp light where it landed. Area-lit rooms have no sharp texels
-//! and are unchanged.
+//! and sharp ones (point sources and the Moon), tests the sharp light at
+//! 3 × 3 points of each texel against the bilinear interpolation between
+//! centres, and where it strays (a *sharp* texel) a gather ray that lands
+//! nearby reads only the smooth part and computes the sharp light where
+//! it landed. Bright sharp texels are also aimed at (`Guide`). Area-lit
+//! rooms have no sharp texels and are unchanged.
 //!
 //! Brute-force path tracing (`indirect = path`, `diffuse_bounces`) is kept
 //! as the reference the cache is measured against (`gloam bench accuracy`).
@@ -64,8 +64,7 @@ const DOMAIN_CACHE: u64 = 0xCAC4E;
 const DOMAIN_SHARP: u64 = 0x5AA4E;
 
 /// Sub-cells per side at whose centres a texel's sharp direct light (point
-/// sources and the Moon: `Smooth`) is compared with
-/// its centre's.
+/// sources and the Moon: `Smooth`) is compared with its centre's.
 const SHARP_TEST_SIDE: u32 = 3;
 
 /// A sharp texel whose outgoing radiance exceeds this many times the
@@ -111,9 +110,9 @@ pub struct CacheSummary {
     /// Share of each bounce in the cache's total reflected radiance
     /// (bounce 0 = direct), area-weighted over texels, all slots.
     pub bounce_shares: Vec<f64>,
-    /// Texels whose sharp direct light (point sources and the Moon)
-    /// departs from the interpolation between texel centres
-    /// by more than `SHARP_VARIATION` of its mean — a lamp's pool or a
+    /// Texels whose sharp direct light (point sources and the Moon) departs
+    /// from the interpolation between texel centres by more than
+    /// `SHARP_VARIATION` of its mean — a lamp's pool or a
     /// shadow's edge crosses them, or a lamp stands close by: a
     /// final-gather ray that lands near one reads only the smooth part
     /// (sky dome, area sources, interreflection) and computes the sharp
@@ -544,7 +543,6 @@ struct Guide {
 /// One texel aimed at: its facet and side, its square cell (corner and
 /// edge vectors; a point drawn in the cell off the facet is a miss), the
 /// cell's area and power (radiance summed over slots × area).
-#[derive(Clone)]
 struct GuideCell {
     facet: u32,
     front: bool,
@@ -559,8 +557,8 @@ impl Guide {
     /// How often a final gather at `p` (on `facet`) aims at each cell:
     /// power over squared distance (the cell's area at least), 0 for cells
     /// on `facet` or facing away from `p`. Returns the weights and their
-    /// sum.
-    fn weights(&self, p: DVec3, facet: u32, normal: &[DVec3]) -> (Vec<f64>, f64) {
+    /// running sums (the last: the total).
+    fn weights(&self, p: DVec3, facet: u32, normal: &[DVec3]) -> (Vec<f64>, Vec<f64>) {
         let w: Vec<f64> = self
             .cells
             .iter()
@@ -574,8 +572,14 @@ impl Guide {
                 cell.power / (centre - p).length_squared().max(cell.area)
             })
             .collect();
-        let sum = w.iter().sum();
-        (w, sum)
+        let cumulative = w
+            .iter()
+            .scan(0.0, |run, &x| {
+                *run += x;
+                Some(*run)
+            })
+            .collect();
+        (w, cumulative)
     }
 }
 
@@ -688,7 +692,6 @@ impl Tracer {
     /// the same random numbers (one stream, restarted), so neighbouring
     /// points pick alike and the values differ where the light does, not
     /// where the picks do. Without a tree the sharp terms draw none.
-    #[allow(clippy::too_many_arguments)]
     fn sharp_samples(
         &self,
         f: u32,
@@ -1200,10 +1203,10 @@ impl Tracer {
         // over a cell that a wall crosses would carry light through it);
         // a gather ray recomputes the sharp light where it lands.
         let mut direct = Vec::with_capacity(n_tex);
-        let mut sharp_direct = Vec::with_capacity(n_tex);
+        let mut sharp_direct = Vec::new();
         let mut ops: Vec<OperatorRow> = Vec::with_capacity(n_tex);
         for (mut e, smooth, _, m, t) in rows {
-            if test_sharp {
+            if sharp_texels > 0 {
                 sharp_direct.push(e.clone());
             }
             e.add_each(&smooth, |a, b| {
@@ -1327,8 +1330,7 @@ impl Tracer {
             return None;
         }
         let mean = sum / area;
-        let mut cells: Vec<GuideCell> = Vec::new();
-        let mut texel_of = Vec::new();
+        let mut chosen: Vec<(usize, GuideCell)> = Vec::new();
         for (k, &(f, _, n, _)) in texels.iter().enumerate() {
             if !sharp[k] || level(k) <= GUIDE_CONTRAST * mean {
                 continue;
@@ -1345,7 +1347,7 @@ impl Tracer {
             let local = k as u32 - g.first;
             let (i, j) = (local % g.nu, local / g.nu);
             let h = 1.0 / g.inv_h;
-            cells.push(GuideCell {
+            let cell = GuideCell {
                 facet: f,
                 front,
                 corner: g.origin + g.t * (i as f64 * h) + g.b * (j as f64 * h),
@@ -1353,27 +1355,23 @@ impl Tracer {
                 dv: g.b * h,
                 area: h * h,
                 power: level(k) * h * h,
-            });
-            texel_of.push(k);
+            };
+            chosen.push((k, cell));
         }
-        if cells.is_empty() {
+        if chosen.is_empty() {
             return None;
         }
-        // The brightest GUIDE_MAX_CELLS (a gather weighs every cell).
-        let mut order: Vec<usize> = (0..cells.len()).collect();
-        order.sort_by(|&a, &b| cells[b].power.total_cmp(&cells[a].power));
-        order.truncate(GUIDE_MAX_CELLS);
-        order.sort_unstable();
+        // The brightest GUIDE_MAX_CELLS (a gather weighs every cell), in
+        // texel order.
+        chosen.sort_by(|a, b| b.1.power.total_cmp(&a.1.power));
+        chosen.truncate(GUIDE_MAX_CELLS);
+        chosen.sort_unstable_by_key(|&(k, _)| k);
         let mut cell_of = vec![0; texels.len()];
-        let mut kept = Vec::with_capacity(order.len());
-        for (i, &j) in order.iter().enumerate() {
-            cell_of[texel_of[j]] = i as u32 + 1;
-            kept.push(cells[j].clone());
+        for (i, &(k, _)) in chosen.iter().enumerate() {
+            cell_of[k] = i as u32 + 1;
         }
-        Some(Guide {
-            cells: kept,
-            cell_of,
-        })
+        let cells = chosen.into_iter().map(|(_, cell)| cell).collect();
+        Some(Guide { cells, cell_of })
     }
 
     /// The bounce series of one light over the cache's texels, from each
@@ -1586,8 +1584,8 @@ impl Tracer {
     /// `acc` gains `scale ·` the indirect irradiance.
     ///
     /// Where the cache has bright sharp texels ([`Guide`]),
-    /// `GUIDED_PER_GATHER_RAY · k` more rays aim at points drawn on them, and every ray is weighted by the
-    /// balance heuristic: a ray of direction ω that lands at `y` adds
+    /// `GUIDED_PER_GATHER_RAY · k` more rays aim at points drawn on them,
+    /// and every ray is weighted by the balance heuristic: a ray of direction ω that lands at `y` adds
     /// `L(y) cos θ / (k cos θ/π + k_g p_g(ω))`, `p_g` the guided rays'
     /// solid-angle density there (0 off the guided texels, where the
     /// weight is the plain `π/k`).
@@ -1619,13 +1617,15 @@ impl Tracer {
         let mut sums = cache.group_sums(acc);
         // Guided rays where some bright cell faces p: cell i is aimed at
         // with probability aim[i] / aim_sum.
-        let (guide, aim, aim_sum) = match cache.guide.as_ref() {
+        let (guide, aim, cumulative) = match cache.guide.as_ref() {
             Some(g) => {
-                let (aim, sum) = g.weights(p, facet, &self.facet_normal);
-                (Some(g).filter(|_| sum > 0.0), aim, sum)
+                let (aim, cumulative) = g.weights(p, facet, &self.facet_normal);
+                let sum = cumulative.last().copied().unwrap_or(0.0);
+                (Some(g).filter(|_| sum > 0.0), aim, cumulative)
             }
-            None => (None, Vec::new(), 0.0),
+            None => (None, Vec::new(), Vec::new()),
         };
+        let aim_sum = cumulative.last().copied().unwrap_or(0.0);
         let kg = guide.map_or(0, |_| GUIDED_PER_GATHER_RAY * k);
         // The balance-heuristic weight of a ray (direction d, cosine
         // cos_p at p) landing at y on texel side (g, front), relative to w.
@@ -1658,14 +1658,11 @@ impl Tracer {
         }
         if let Some(guide) = guide {
             for _ in 0..kg {
-                // The cell by inversion of the cumulative weights.
-                let mut x = rng.random::<f64>() * aim_sum;
-                let mut i = 0;
-                while i + 1 < aim.len() && (x >= aim[i] || aim[i] == 0.0) {
-                    x -= aim[i];
-                    i += 1;
-                }
-                let cell = &guide.cells[i];
+                // The cell by inversion of the running sums (a cell of
+                // weight 0 adds nothing to them and is never picked).
+                let x = rng.random::<f64>() * aim_sum;
+                let i = cumulative.partition_point(|&run| run <= x);
+                let cell = &guide.cells[i.min(guide.cells.len() - 1)];
                 let y = cell.corner + cell.du * rng.random::<f64>() + cell.dv * rng.random::<f64>();
                 let f = cell.facet as usize;
                 if cell.facet == facet
@@ -1746,10 +1743,14 @@ impl Tracer {
                     .for_each(|((a, b), t)| *a = wr * b * t);
             }
         }
-        let split_tau: Option<Vec<f64>> = ratio.map(|r| match &tau {
-            None => vec![r; scale.len()],
-            Some(t) => t.iter().map(|t| t * r).collect(),
-        });
+        // Group parts: τ · ratio per slot, built only for a split reading.
+        let split_tau: Option<Vec<f64>> = match (&sums, ratio) {
+            (Some(_), Some(r)) => Some(match &tau {
+                None => vec![r; scale.len()],
+                Some(t) => t.iter().map(|t| t * r).collect(),
+            }),
+            _ => None,
+        };
         let split = sums.map(|s| (s, split_tau.as_deref().or(tau.as_deref())));
         if !cache.reads_sharp(g, gfront, y) {
             cache.add(Field::Radiance, g, gfront, y, s, &mut acc.whole, split);
