@@ -40,7 +40,13 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
             out!("{}", report.text());
         }
         BenchCommand::Plan(a) => {
-            let check = plan_check::run(&a.scenes()?, a.spp, a.resolution_scale, a.threads)?;
+            let check = plan_check::run(
+                &a.scenes()?,
+                a.spp,
+                a.share_spp,
+                a.resolution_scale,
+                a.threads,
+            )?;
             if a.json {
                 print_json(&check.json())?;
             } else {

@@ -880,6 +880,17 @@ impl Tracer {
         }
     }
 
+    /// The pixels that show a point source directly (unoccluded, facing
+    /// the camera, in the field of view): emitters for every mask of
+    /// pixels "that see no emitter" (the pilot's share, `gloam bench`).
+    pub fn point_source_pixels(&self) -> Vec<(u32, u32)> {
+        let mut c = RayCounts::default();
+        self.point_deposits(&mut c)
+            .into_iter()
+            .map(|(col, row, _, _)| (col, row))
+            .collect()
+    }
+
     /// Point sources seen directly: `(col, row, band radiances, light
     /// group)` for each unoccluded source in the field of view (see the
     /// crate docs).

@@ -17,6 +17,8 @@ use super::truth::no_emitter_mask;
 /// What `gloam bench plan` measured.
 pub struct PlanCheck {
     pub spp: u32,
+    /// Samples per pixel of the renders that measure the shares.
+    pub share_spp: u32,
     /// One JSON object per scene.
     pub scenes: Vec<serde_json::Value>,
     pub total: serde_json::Value,
@@ -39,6 +41,7 @@ pub struct PlanCheck {
 pub fn run(
     scenes: &[PathBuf],
     spp: u32,
+    share_spp: u32,
     resolution_scale: f64,
     threads: Option<usize>,
 ) -> Result<PlanCheck, BenchError> {
@@ -77,6 +80,29 @@ pub fn run(
         })?;
         let noise = rel_rms_diff(&a2, &a);
         let diff = rel_rms_diff(&b, &a);
+        // Shares are measured at `share_spp`: at one sample per pixel a
+        // sub-pixel pool's change of the mean is itself noise
+        // (`street-switch-on`'s lamps: 50 % at 1 spp, 36 % at 4, 88 % at
+        // 16, 84 % at 64, 82 % at 256).
+        let sbase = RenderSettings {
+            spp: share_spp,
+            ..base.clone()
+        };
+        let (sa, sb, sa2) = if share_spp == spp {
+            (a.clone(), b.clone(), a2.clone())
+        } else {
+            let mut sforced = forced.clone();
+            sforced.spp = share_spp;
+            (
+                render(&sbase)?.0,
+                render(&sforced)?.0,
+                render(&RenderSettings {
+                    seed: base.seed + 1,
+                    ..sbase.clone()
+                })?
+                .0,
+            )
+        };
         // Interreflection, both directions: flip the plan's decision and
         // measure the change of the mean signal over the pixels that see a
         // surface and no emitter, nor one beside them (the set the pilot's
@@ -85,7 +111,7 @@ pub fn run(
         let tracer = Tracer::prepare(&scene, &base, false)?;
         let decision = tracer.interreflection().clone();
         let kept = decision.method != "off";
-        let mut flipped = base.clone();
+        let mut flipped = sbase.clone();
         flipped.set("indirect", if kept { "off" } else { "cache" })?;
         let (c, _) = render(&flipped)?;
         let mask = no_emitter_mask(&scene, &tracer, 2);
@@ -102,7 +128,7 @@ pub fn run(
                 })
                 .collect()
         };
-        let (ma, mc, ma2) = (masked_mean(&a), masked_mean(&c), masked_mean(&a2));
+        let (ma, mc, ma2) = (masked_mean(&sa), masked_mean(&c), masked_mean(&sa2));
         let with_ir = if kept { &ma } else { &mc };
         let change = (0..ma.len())
             .map(|b| {
@@ -161,9 +187,9 @@ pub fn run(
                 })
                 .fold(0.0, f64::max)
         };
-        let pixel_noise = pixel_change(&a, &a2);
-        let (wa, wb) = (whole_mean(&a), whole_mean(&b));
-        let forced_change = rel_change(&ma, &masked_mean(&b));
+        let pixel_noise = pixel_change(&sa, &sa2);
+        let (wa, wb) = (whole_mean(&sa), whole_mean(&sb));
+        let forced_change = rel_change(&ma, &masked_mean(&sb));
         let mut effects = Vec::new();
         let mut pixel_changes: Vec<(String, f64)> = Vec::new();
         for e in &plan.effects {
@@ -181,7 +207,7 @@ pub fn run(
                     None,
                 )
             } else if e.enabled {
-                let mut d = base.clone();
+                let mut d = sbase.clone();
                 d.set("drop", name)?;
                 let (img, _) = render(&d)?;
                 let m = if whole {
@@ -194,7 +220,7 @@ pub fn run(
                 // discarded (`gloam_trace::Dropped`), so both renders share
                 // every other random number: the change is the effect's,
                 // not noise (the seed-to-seed figure is listed beside it).
-                let px = pixel_change(&a, &img);
+                let px = pixel_change(&sa, &img);
                 let ok = m > tol || (!whole && px > tol);
                 pixel_changes.push((name.to_string(), px));
                 ("dropped".to_string(), Some(m), Some(ok))
@@ -279,6 +305,7 @@ pub fn run(
     });
     Ok(PlanCheck {
         spp,
+        share_spp,
         scenes: out,
         total,
         all_agree,
@@ -322,7 +349,7 @@ fn share_check(
 impl PlanCheck {
     /// The JSON `gloam bench plan --json` prints.
     pub fn json(&self) -> serde_json::Value {
-        serde_json::json!({"spp": self.spp, "scenes": self.scenes, "total": self.total})
+        serde_json::json!({"spp": self.spp, "share_spp": self.share_spp, "scenes": self.scenes, "total": self.total})
     }
 
     /// The tables `gloam bench plan` prints.
@@ -383,7 +410,8 @@ impl PlanCheck {
         }
         let _ = writeln!(
             m,
-            "\n| scene | effect | estimated share (pilot) | measured | ratio | pass |"
+            "\nShares measured at {} samples per pixel.\n\n| scene | effect | estimated share (pilot) | measured | ratio | pass |",
+            self.share_spp
         );
         let _ = writeln!(m, "|---|---|---|---|---|---|");
         for v in out.iter() {

@@ -56,9 +56,10 @@ pub fn is_emitter(scene: &Scene, facet: usize) -> bool {
 /// What a pixel's four corners and `k × k` interior sub-pixel primary rays
 /// hit, per pixel in row order: (all on one non-emitting facet, some
 /// non-emitting surface, any emitter).
+/// A pixel that shows a point source counts as showing an emitter.
 fn probe_pixels(scene: &Scene, tracer: &Tracer, k: usize) -> Vec<(bool, bool, bool)> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
-    (0..w * h)
+    let mut probes: Vec<(bool, bool, bool)> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (col, row) = (i % w, i / w);
@@ -86,7 +87,14 @@ fn probe_pixels(scene: &Scene, tracer: &Tracer, k: usize) -> Vec<(bool, bool, bo
             }
             (same, surface, emitter)
         })
-        .collect()
+        .collect();
+    for (col, row) in tracer.point_source_pixels() {
+        if let Some(p) = probes.get_mut(row as usize * w + col as usize) {
+            p.0 = false;
+            p.2 = true;
+        }
+    }
+    probes
 }
 
 /// The pixels `keep` selects whose 3 × 3 neighbourhood (itself included)

@@ -76,6 +76,10 @@ pub struct PlanBenchArgs {
     /// Camera samples per pixel (default 1: the plan's saving per sample).
     #[arg(long, default_value_t = 1)]
     pub spp: u32,
+    /// Camera samples per pixel of the renders that measure each effect's
+    /// share (a sub-pixel pool's share is noise at 1 spp).
+    #[arg(long, default_value_t = 16)]
+    pub share_spp: u32,
     /// Multiplies each scene camera's width and height (the field of view
     /// is kept): a quicker check on a shared machine.
     #[arg(long, default_value_t = 1.0)]
