@@ -12,15 +12,16 @@
 //!
 //! "Share" is the share of the *mean* over that pixel set — the pixels
 //! `--target-error` governs, and the set `gloam bench plan` measures over
-//! (`gloam_pipeline::bench::truth::no_emitter_mask`). Pixels beside an
-//! emitter are left out because their footprint holds some of it: at a
+//! (`gloam_pipeline::bench::truth::no_emitter_mask`; a pixel that shows
+//! a point source shows an emitter). Pixels beside an emitter are left out because their footprint holds some of it: at a
 //! quarter of the night scenes' resolution they held the street lamps'
 //! heads, whose radiance swamped the mean (the measured interreflection
 //! share of `night-full-moon-lamps` was 4.8 % over whole-facet pixels, 2.7 %
 //! over the pixel centres the pilot saw, 2.0 % over this set; the pilot
-//! says 1.7 %). The light terms' shares and direct view also sample a
-//! window around each point source's image (`Tracer::pilot_samples`):
-//! a lamp's housing and pool are a few pixels the grid misses. Light terms are also judged per pixel (the 90th
+//! says 1.7 %). Every share also samples a window around each point
+//! source's image (`Tracer::pilot_samples`), more densely where a pixel's
+//! footprint is long against the source's height: a lamp's housing and
+//! pool are a few pixels the grid misses. Light terms are also judged per pixel (the 90th
 //! percentile, [`PartShares::pixel_p90`]), since one source can be all the
 //! light a few pixels get. The pilot's
 //! bounce ratio q (the enclosure's multiple-bounce albedo) also fixes how
@@ -80,8 +81,9 @@ struct Pilot {
 }
 
 /// The pilot's shares of the other light terms. A light term's share is
-/// its share of the direct light (so, to first order, of the whole signal
-/// with the interreflection it feeds), over the interreflection pixel set.
+/// its share of the whole signal with the interreflection it feeds (split
+/// among the terms as one bounce of each splits), over the
+/// interreflection pixel set.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct PartShares {
     pub area_sources: f64,
