@@ -149,7 +149,7 @@ impl Tracer {
         let pilot_step = crate::prep::Preparation::begin("pilot", self.observer.as_ref());
         let pilot = (possible
             && (requested == Indirect::Auto || self.settings.diffuse_bounces == 0))
-            .then(|| self.pilot());
+            .then(|| self.pilot(requested != Indirect::Off));
         if let Some(p) = &pilot {
             let share = p.share_by_band.iter().copied().fold(0.0, f64::max);
             d.estimated_share = Some(share);
@@ -449,15 +449,19 @@ impl Tracer {
         })
     }
 
-    /// The pilot: a coarse cache and a coarse grid of camera rays.
-    fn pilot(&self) -> Pilot {
+    /// The pilot: a coarse cache and a coarse grid of camera rays. Without
+    /// `interreflection` (the user set `indirect = off`) no cache is built
+    /// and nothing gathered: the shares are the direct light's.
+    fn pilot(&self, interreflection: bool) -> Pilot {
         let t0 = std::time::Instant::now();
-        let cache = self.build_cache(CacheSize {
-            texels: PILOT_TEXELS,
-            rays: PILOT_RAYS,
-            tolerance: 1e-3,
-            max_iterations: 200,
-            direct_cell_mean: true,
+        let cache = interreflection.then(|| {
+            self.build_cache(CacheSize {
+                texels: PILOT_TEXELS,
+                rays: PILOT_RAYS,
+                tolerance: 1e-3,
+                max_iterations: 200,
+                direct_cell_mean: true,
+            })
         });
         let cam = &self.camera;
         let cols = PILOT_COLS.min(cam.width).max(1);
@@ -521,7 +525,7 @@ impl Tracer {
                     }
                 }
             }
-            if mat.has_diffuse && on_grid && !emitter && !beside {
+            if cache.is_some() && mat.has_diffuse && on_grid && !emitter && !beside {
                 self.bounce_split(
                     p,
                     ns,
@@ -537,9 +541,9 @@ impl Tracer {
             // (reading the coarse cache directly misjudges small lit
             // patches such as the pools under street lamps).
             let mut e_i = crate::light::Light::dark(nwl, 0);
-            if mat.has_diffuse {
+            if let Some(cache) = cache.as_ref().filter(|_| mat.has_diffuse) {
                 self.final_gather(
-                    &cache,
+                    cache,
                     p,
                     ns,
                     f,
@@ -701,7 +705,7 @@ impl Tracer {
             .collect();
         Pilot {
             share_by_band,
-            ratio: cache.summary.bounce_ratio,
+            ratio: cache.as_ref().map_or(0.0, |c| c.summary.bounce_ratio),
             seconds: t0.elapsed().as_secs_f64(),
             parts,
         }
