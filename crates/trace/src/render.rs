@@ -178,7 +178,8 @@ impl PixelEstimate {
 /// Returns the factor per pixel (1 where nothing was measured) and the
 /// image-wide factor.
 fn stratification(ests: &[PixelEstimate], floor: &[f64]) -> (Vec<f64>, f64) {
-    let terms: Vec<Option<(f64, f64)>> = ests.iter().map(|e| e.replicate_terms(floor)).collect();
+    let terms: Vec<Option<(f64, f64)>> =
+        ests.par_iter().map(|e| e.replicate_terms(floor)).collect();
     let mut order: Vec<usize> = (0..ests.len())
         .filter(|&i| terms[i].is_some_and(|(_, v)| v > 0.0))
         .collect();
@@ -299,29 +300,34 @@ fn stated_std_errors(
             e.std_error(b) * factor[i] * (e.n as f64).sqrt() / d
         }
     };
-    for (i, e) in ests.iter().enumerate() {
-        for b in 0..nb {
-            out[i * nb + b] = if e.band_lit[b] && bound_dark && e.n < TRUSTED_SPP {
-                // Few samples can all land on one side of a shadow edge
-                // and agree: until a pixel has TRUSTED_SPP, its per-sample
-                // deviation is the RMS over its 3 × 3 neighbourhood (its
-                // own included), which a penumbra's neighbours raise and a
-                // smooth region leaves unbiased.
-                let (sum, count) = window(i, w, h, 1)
-                    .map(|j| dev(j, b))
-                    .fold((0.0, 0.0), |(s, k), v| (s + v * v, k + 1.0));
-                let near = (sum / f64::max(count, 1.0)).sqrt();
-                near * denom(e, b) / (e.n as f64).sqrt()
-            } else if e.band_lit[b] || e.n == 0 || !bound_dark {
-                e.std_error(b) * factor[i]
-            } else {
-                let scale = window(i, w, h, DARK_NEIGHBOURHOOD)
-                    .map(|j| ests[j].mean(b).abs())
-                    .fold(0.0, f64::max);
-                scale / e.n as f64
-            };
-        }
-    }
+    // Each pixel's entries depend on its neighbours' estimates only:
+    // computed in parallel (between adaptive rounds one core would idle).
+    out.par_chunks_mut(nb.max(1))
+        .enumerate()
+        .for_each(|(i, row)| {
+            let e = &ests[i];
+            for (b, slot) in row.iter_mut().enumerate() {
+                *slot = if e.band_lit[b] && bound_dark && e.n < TRUSTED_SPP {
+                    // Few samples can all land on one side of a shadow edge
+                    // and agree: until a pixel has TRUSTED_SPP, its per-sample
+                    // deviation is the RMS over its 3 × 3 neighbourhood (its
+                    // own included), which a penumbra's neighbours raise and a
+                    // smooth region leaves unbiased.
+                    let (sum, count) = window(i, w, h, 1)
+                        .map(|j| dev(j, b))
+                        .fold((0.0, 0.0), |(s, k), v| (s + v * v, k + 1.0));
+                    let near = (sum / f64::max(count, 1.0)).sqrt();
+                    near * denom(e, b) / (e.n as f64).sqrt()
+                } else if e.band_lit[b] || e.n == 0 || !bound_dark {
+                    e.std_error(b) * factor[i]
+                } else {
+                    let scale = window(i, w, h, DARK_NEIGHBOURHOOD)
+                        .map(|j| ests[j].mean(b).abs())
+                        .fold(0.0, f64::max);
+                    scale / e.n as f64
+                };
+            }
+        });
     out
 }
 
@@ -469,17 +475,19 @@ fn aggregate_lambda(
     min: u32,
     free_dev: f64,
 ) -> f64 {
+    // The free pixels' (n, s, cap), gathered once: the bisection passes
+    // over them a dozen times, in the same order as the pixels.
+    let items: Vec<(f64, f64, f64)> = ests
+        .iter()
+        .zip(dev)
+        .filter(|(e, _)| free(e))
+        .map(|(e, &d)| (e.n.max(1) as f64, d, cap_of(e) as f64))
+        .collect();
     let predicted = |lambda: f64| -> f64 {
-        ests.iter()
-            .zip(dev)
-            .filter(|(e, _)| free(e))
-            .map(|(e, &d)| {
-                let n = e.n.max(1) as f64;
-                let grown = (lambda * d)
-                    .min(4.0 * n)
-                    .min(cap_of(e) as f64)
-                    .max(min as f64)
-                    .max(n);
+        items
+            .iter()
+            .map(|&(n, d, cap)| {
+                let grown = (lambda * d).min(4.0 * n).min(cap).max(min as f64).max(n);
                 d * d / grown
             })
             .sum::<f64>()
@@ -1099,7 +1107,7 @@ impl Tracer {
                     let (factor, _) = stratification(&ests, &floor);
                     let stated = stated_std_errors(&ests, w as usize, &factor, &floor, true);
                     let rel: Vec<f64> = ests
-                        .iter()
+                        .par_iter()
                         .enumerate()
                         .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
                         .collect();
