@@ -278,9 +278,13 @@ impl SphericalRectangle {
         } else {
             self.x0
         };
-        let d = xu.hypot(self.z0);
-        let h0 = self.y0 / d.hypot(self.y0);
-        let h1 = self.y1 / d.hypot(self.y1);
+        // Plain square roots, not `hypot`: these are distances within the
+        // scene (no overflow or underflow to guard against), and glibc's
+        // `hypot` cost 5 % of a direct-light render.
+        let d2 = xu * xu + self.z0 * self.z0;
+        let d = d2.sqrt();
+        let h0 = self.y0 / (d2 + self.y0 * self.y0).sqrt();
+        let h1 = self.y1 / (d2 + self.y1 * self.y1).sqrt();
         let hv = h0 + u[1] * (h1 - h0);
         let hv2 = hv * hv;
         let yv = if hv2 < 1.0 - 1e-14 {
