@@ -45,6 +45,8 @@ pub const PILOT_COLS: u32 = 64;
 pub const PILOT_ROWS: u32 = 48;
 /// Final-gather rays per pilot pixel.
 pub const PILOT_GATHER: usize = 64;
+/// Final-gather rays per pilot point inside a window, at least.
+pub const PILOT_GATHER_MIN: usize = 4;
 
 /// How interreflection was decided for a render (in `report.json`).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -490,6 +492,8 @@ impl Tracer {
         let inv_pi = std::f64::consts::FRAC_1_PI;
         let samples = self.pilot_samples(cols, rows);
         let seen_points = self.point_source_pixels();
+        let mut beside_memo: std::collections::HashMap<(i64, i64), bool> =
+            std::collections::HashMap::new();
         // Weights are in pixels: the grid's samples stand for the pixels
         // outside the windows, a window's sub-samples for their pixel.
         let total_weight: f64 = samples.iter().map(|s| s.2).sum();
@@ -509,7 +513,11 @@ impl Tracer {
             // Pixels beside an emitter show some of it in their
             // footprint: left out of the share's pixel set, as from
             // the set `--target-error` governs.
-            let beside = !emitter && self.emitter_beside(x, y, &seen_points, &mut c);
+            // Per pixel, not per point (a window pixel has up to 4096).
+            let beside = !emitter
+                && *beside_memo
+                    .entry((x.floor() as i64, y.floor() as i64))
+                    .or_insert_with(|| self.emitter_beside(x, y, &seen_points, &mut c));
             let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
             if mat.has_diffuse {
                 let parts = self.irradiance_parts(p, ns, f, &mut rng, &mut c);
@@ -540,19 +548,18 @@ impl Tracer {
             // Indirect irradiance by a final gather on the pilot cache
             // (reading the coarse cache directly misjudges small lit
             // patches such as the pools under street lamps).
+            // A window pixel's points share its PILOT_GATHER rays (at
+            // least PILOT_GATHER_MIN each): a grazing road pixel of 64 × 2
+            // points would otherwise cost 128 grid pixels' gathers.
+            let gather = if on_grid {
+                PILOT_GATHER
+            } else {
+                ((PILOT_GATHER as f64 * w).round() as usize).clamp(PILOT_GATHER_MIN, PILOT_GATHER)
+            };
             let mut e_i = crate::light::Light::dark(nwl, 0);
             if let Some(cache) = cache.as_ref().filter(|_| mat.has_diffuse) {
                 self.final_gather(
-                    cache,
-                    p,
-                    ns,
-                    f,
-                    PILOT_GATHER,
-                    None,
-                    &self.ones,
-                    &mut rng,
-                    &mut c,
-                    &mut e_i,
+                    cache, p, ns, f, gather, None, &self.ones, &mut rng, &mut c, &mut e_i,
                 );
             }
             let e_i = e_i.into_whole();
