@@ -13,18 +13,19 @@
 //! "Share" is the share of the *mean* over that pixel set — the pixels
 //! `--target-error` governs, and the set `gloam bench plan` measures over
 //! (`gloam_pipeline::bench::truth::no_emitter_mask`; a pixel that shows
-//! a point source shows an emitter). Pixels beside an emitter are left out because their footprint holds some of it: at a
-//! quarter of the night scenes' resolution they held the street lamps'
+//! a point source shows an emitter). Pixels beside an emitter are left
+//! out because their footprint holds some of it: at a quarter of the
+//! night scenes' resolution they held the street lamps'
 //! heads, whose radiance swamped the mean (the measured interreflection
 //! share of `night-full-moon-lamps` was 4.8 % over whole-facet pixels, 2.7 %
 //! over the pixel centres the pilot saw, 2.0 % over this set; the pilot
 //! says 1.7 %). Every share also samples a window around each point
 //! source's image (`Tracer::pilot_samples`), more densely where a pixel's
 //! footprint is long against the source's height: a lamp's housing and
-//! pool are a few pixels the grid misses. Light terms are also judged per pixel (the 90th
-//! percentile, [`PartShares::pixel_p90`]), since one source can be all the
-//! light a few pixels get. The pilot's
-//! bounce ratio q (the enclosure's multiple-bounce albedo) also fixes how
+//! pool are a few pixels the grid misses. Light terms are also judged
+//! per pixel (the 90th percentile, [`PartShares::pixel_p90`]), since one
+//! source can be all the light a few pixels get. The pilot's bounce ratio
+//! q (the enclosure's multiple-bounce albedo) also fixes how
 //! many bounces brute-force path tracing needs for its truncated remainder
 //! `share · q^k` to fall below the tolerance.
 
@@ -491,7 +492,10 @@ impl Tracer {
         let mut all_w = vec![0.0; nwl];
         let inv_pi = std::f64::consts::FRAC_1_PI;
         let samples = self.pilot_samples(cols, rows);
-        let seen_points = self.point_source_pixels();
+        // Point sources seen directly: their pixels are emitter pixels, and
+        // their deposits are direct view's share below.
+        let deposits = self.point_deposits(&mut c);
+        let seen_points: Vec<(u32, u32)> = deposits.iter().map(|d| (d.0, d.1)).collect();
         let mut beside_memo: std::collections::HashMap<(i64, i64), bool> =
             std::collections::HashMap::new();
         // Weights are in pixels: the grid's samples stand for the pixels
@@ -533,7 +537,7 @@ impl Tracer {
                     }
                 }
             }
-            if cache.is_some() && mat.has_diffuse && on_grid && !emitter && !beside {
+            if interreflection && mat.has_diffuse && on_grid && !emitter && !beside {
                 self.bounce_split(
                     p,
                     ns,
@@ -670,8 +674,8 @@ impl Tracer {
                 let npilot = total_weight.max(1e-300);
                 let npix = cam.width as f64 * cam.height as f64;
                 let mut dep = vec![0.0; self.wl.band_names.len()];
-                for (_, _, v, _) in self.point_deposits(&mut c) {
-                    dep.iter_mut().zip(&v).for_each(|(a, b)| *a += b / npix);
+                for (_, _, v, _) in &deposits {
+                    dep.iter_mut().zip(v).for_each(|(a, b)| *a += b / npix);
                 }
                 let (em, tot) = (self.wl.integrate(&emitted_all), self.wl.integrate(&all_w));
                 (0..dep.len())
@@ -845,8 +849,9 @@ impl Tracer {
         // Each window pixel: at least WINDOW_SUB² points, more along a
         // side whose footprint is long against the height of its sources
         // above the surface it shows (a point source's pool varies on that
-        // scale): at most WINDOW_SUB_MAX² points, WINDOW_POINTS_MAX in
-        // all. The pool 205 m down `street-switch-on`'s road is a sliver of
+        // scale): at most WINDOW_SUB_MAX² points, and refined only while
+        // WINDOW_POINTS_MAX are not spent (every window pixel keeps its
+        // WINDOW_SUB²). The pool 205 m down `street-switch-on`'s road is a sliver of
         // one pixel row at grazing view, 380 m of road per pixel: 2 × 2
         // points put its lamps at 3.7 % of the mean where 82 % was
         // measured.
@@ -891,17 +896,19 @@ impl Tracer {
 
 /// Pilot windows around point sources: the least radius (scene metres at
 /// the source; a luminaire's housing), the most pixels either side, the
-/// least and most sub-samples per pixel side, the most points over all
-/// windows, and the most sources a pixel's refinement looks at.
+/// least and most sub-samples per pixel side, the points past which no
+/// window pixel is refined, and the most sources a pixel's refinement
+/// looks at.
 const WINDOW_RADIUS_M: f64 = 0.5;
-/// Rays per plain grid pixel that split the pilot's interreflection by
-/// light term.
-const BOUNCE_SPLIT_RAYS: usize = 4;
 const WINDOW_MAX_PX: u32 = 8;
 const WINDOW_SUB: usize = 2;
 const WINDOW_SUB_MAX: usize = 64;
 const WINDOW_POINTS_MAX: usize = 1 << 16;
 const WINDOW_MAX_HOLDERS: usize = 8;
+
+/// Rays per plain grid pixel that split the pilot's interreflection by
+/// light term.
+const BOUNCE_SPLIT_RAYS: usize = 4;
 
 impl Tracer {
     /// Sub-samples `(across, down)` for window pixel `(x, y)` (its

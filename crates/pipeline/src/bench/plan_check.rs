@@ -88,20 +88,24 @@ pub fn run(
             spp: share_spp,
             ..base.clone()
         };
+        let measured;
         let (sa, sb, sa2) = if share_spp == spp {
-            (a.clone(), b.clone(), a2.clone())
+            (&a, &b, &a2)
         } else {
-            let mut sforced = forced.clone();
-            sforced.spp = share_spp;
-            (
+            measured = (
                 render(&sbase)?.0,
-                render(&sforced)?.0,
+                render(&RenderSettings {
+                    spp: share_spp,
+                    ..forced.clone()
+                })?
+                .0,
                 render(&RenderSettings {
                     seed: base.seed + 1,
                     ..sbase.clone()
                 })?
                 .0,
-            )
+            );
+            (&measured.0, &measured.1, &measured.2)
         };
         // Interreflection, both directions: flip the plan's decision and
         // measure the change of the mean signal over the pixels that see a
@@ -128,7 +132,7 @@ pub fn run(
                 })
                 .collect()
         };
-        let (ma, mc, ma2) = (masked_mean(&sa), masked_mean(&c), masked_mean(&sa2));
+        let (ma, mc, ma2) = (masked_mean(sa), masked_mean(&c), masked_mean(sa2));
         let with_ir = if kept { &ma } else { &mc };
         let change = (0..ma.len())
             .map(|b| {
@@ -187,9 +191,9 @@ pub fn run(
                 })
                 .fold(0.0, f64::max)
         };
-        let pixel_noise = pixel_change(&sa, &sa2);
-        let (wa, wb) = (whole_mean(&sa), whole_mean(&sb));
-        let forced_change = rel_change(&ma, &masked_mean(&sb));
+        let pixel_noise = pixel_change(sa, sa2);
+        let (wa, wb) = (whole_mean(sa), whole_mean(sb));
+        let forced_change = rel_change(&ma, &masked_mean(sb));
         let mut effects = Vec::new();
         let mut pixel_changes: Vec<(String, f64)> = Vec::new();
         for e in &plan.effects {
@@ -220,7 +224,7 @@ pub fn run(
                 // discarded (`gloam_trace::Dropped`), so both renders share
                 // every other random number: the change is the effect's,
                 // not noise (the seed-to-seed figure is listed beside it).
-                let px = pixel_change(&sa, &img);
+                let px = pixel_change(sa, &img);
                 let ok = m > tol || (!whole && px > tol);
                 pixel_changes.push((name.to_string(), px));
                 ("dropped".to_string(), Some(m), Some(ok))
