@@ -1121,6 +1121,19 @@ fn object(
     if let Some(placements) = &placements {
         expand(cx, &placements_field, placements, &prototype, scene_facets)?;
     }
+    // A measured luminaire's C0 axis turns with each placement
+    // (`Scene::luminaire_c0`): its transforms are kept, and only its.
+    let luminaire_placements = match &placements {
+        Some(pl)
+            if materials[material]
+                .emission
+                .as_ref()
+                .is_some_and(|e| e.luminaire.is_some()) =>
+        {
+            pl.iter().map(|p| p.xform).collect()
+        }
+        _ => Vec::new(),
+    };
     Ok(ObjectInfo {
         name: name.to_string(),
         material,
@@ -1128,6 +1141,7 @@ fn object(
         instances: placements.as_ref().map_or(1, Vec::len),
         instanced: placements.is_some(),
         first_facet: before,
+        luminaire_placements,
     })
 }
 

@@ -71,6 +71,18 @@ impl Xform {
         self.rotate(d * self.scale)
     }
 
+    /// A placed facet's normal carried back into the prototype's frame:
+    /// `Mᵀ n` for the linear part `M = R_z(θ)·diag(scale)` (normals map
+    /// by `M⁻ᵀ`, so this undoes it up to length); not normalised.
+    pub(crate) fn normal_back(&self, n: DVec3) -> DVec3 {
+        let r = DVec3::new(
+            self.cos * n.x + self.sin * n.y,
+            -self.sin * n.x + self.cos * n.y,
+            n.z,
+        );
+        r * self.scale
+    }
+
     /// True when the transform preserves shape (uniform scale): a valid
     /// facet stays valid, so the per-facet checks need not be repeated.
     pub(crate) fn is_similarity(&self) -> bool {

@@ -148,6 +148,31 @@ impl Scene {
         })
     }
 
+    /// The C0 axis (unit, in the facet's plane) of facet `i` when its
+    /// material is a measured luminaire, `None` otherwise. The material's
+    /// `c0_direction` is in the scene's frame (an object's own
+    /// `rotate_z_deg` does not turn it); each placement turns it with the
+    /// geometry, as a point source's: projected into the prototype facet's
+    /// plane ([`AreaLuminaire::c0_for`]), carried by the placement's
+    /// scale and rotation, projected into the placed facet's plane.
+    pub fn luminaire_c0(&self, i: usize) -> Option<DVec3> {
+        let f = self.facets.get(i)?;
+        let lum = self.materials[f.material]
+            .emission
+            .as_ref()?
+            .luminaire
+            .as_ref()?;
+        let n = f.normal();
+        let placed = self.facet_origin(i).and_then(|o| {
+            let x = self.objects[o.object]
+                .luminaire_placements
+                .get(o.instance)?;
+            let n_proto = x.normal_back(n).try_normalize()?;
+            build::perpendicular(x.direction(lum.c0_for(n_proto)), n)
+        });
+        Some(placed.unwrap_or_else(|| lum.c0_for(n)))
+    }
+
     /// Which `[point_sources.NAME]` table (index into
     /// [`Scene::point_source_groups`]) and which of its placements point
     /// source `i` came from.
@@ -188,6 +213,10 @@ pub struct ObjectInfo {
     pub instanced: bool,
     /// Index of its first facet in [`Scene::facets`].
     pub first_facet: usize,
+    /// Each placement's transform, kept only for an instanced object of a
+    /// measured-luminaire material (its C0 axis turns with the placement,
+    /// see [`Scene::luminaire_c0`]); empty otherwise.
+    pub(crate) luminaire_placements: Vec<instance::Xform>,
 }
 
 impl ObjectInfo {
@@ -320,7 +349,8 @@ pub struct Emission {
     /// With a luminaire: the radiance a luminous area of 1 m² has where
     /// `I / cos γ` is `I_max` (numerically the spectral intensity of the
     /// file's largest candela value × scale, W sr⁻¹ nm⁻¹); the tracer
-    /// divides it by each emitting object's area in m².
+    /// divides it by each emitting object's area in m² (each placement's:
+    /// an instanced object is one luminaire per placement).
     pub radiance_w_m2_sr_nm: Spectrum,
     /// m in `cos^m(alpha)`; 0 is Lambertian (and with a luminaire).
     pub shape_exponent: f64,
@@ -338,8 +368,9 @@ pub struct Emission {
 #[derive(Clone, Debug)]
 pub struct AreaLuminaire {
     pub table: std::sync::Arc<photometry::Photometry>,
-    /// The C0 axis as given (unit; the tracer projects it per facet, see
-    /// [`AreaLuminaire::c0_for`]).
+    /// The C0 axis as given, in the scene's frame (unit; projected per
+    /// facet by [`AreaLuminaire::c0_for`], and turned by each placement of
+    /// an instanced object: [`Scene::luminaire_c0`]).
     pub c0_direction: DVec3,
     /// The file it was read from (as resolved against the scene).
     pub file: std::path::PathBuf,

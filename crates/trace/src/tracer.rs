@@ -474,21 +474,35 @@ pub(crate) fn latin_hypercube(n: usize, rng: &mut Pcg64Mcg, out: &mut Vec<[f64; 
     }
 }
 
-/// The area of each scene object's facets of one measured-luminaire
-/// material, scene units², by (material, object): the luminous area A in
-/// `L = I / (A cos γ)`. One pass over the facets.
-fn luminous_areas(scene: &gloam_scene::Scene) -> std::collections::HashMap<(usize, &str), f64> {
+/// The luminous area A in `L = I / (A cos γ)` of each measured luminaire,
+/// scene units²: the area of its facets of one measured-luminaire material
+/// by (material, object, placement) — each placement of an instanced
+/// object is a luminaire of its own (summing over placements made N
+/// placements each emit 1/N of the file's flux). Keyed by the facet's
+/// index when it has no object. One pass over the facets.
+fn luminous_areas(scene: &gloam_scene::Scene) -> std::collections::HashMap<LuminaireKey, f64> {
     let mut out = std::collections::HashMap::new();
-    for f in &scene.facets {
+    for (i, f) in scene.facets.iter().enumerate() {
         if scene.materials[f.material]
             .emission
             .as_ref()
             .is_some_and(|e| e.luminaire.is_some())
         {
-            *out.entry((f.material, f.object.as_str())).or_insert(0.0) += f.area();
+            *out.entry(luminaire_key(scene, i)).or_insert(0.0) += f.area();
         }
     }
     out
+}
+
+/// (material, object, placement) of a measured-luminaire facet: which
+/// luminaire it belongs to (see [`luminous_areas`]).
+type LuminaireKey = (usize, usize, usize);
+
+fn luminaire_key(scene: &gloam_scene::Scene, i: usize) -> LuminaireKey {
+    let m = scene.facets[i].material;
+    scene
+        .facet_origin(i)
+        .map_or((m, usize::MAX, i), |o| (m, o.object, o.instance))
 }
 
 fn shaping(cos: f64, m: f64) -> f64 {
@@ -641,9 +655,10 @@ impl Tracer {
                     )
                 }
                 Some(lum) => {
-                    // I_max (× tilt) over the object's luminous area, m².
+                    // I_max (× tilt) over the luminous area of the
+                    // object's placement, m².
                     let a_su2 = lum_areas
-                        .get(&(f.material, f.object.as_str()))
+                        .get(&luminaire_key(scene, i))
                         .copied()
                         .unwrap_or(0.0);
                     let a_m2 = a_su2 * scene.meters_per_unit.powi(2);
@@ -653,7 +668,8 @@ impl Tracer {
                         .into_iter()
                         .map(|v| v * k)
                         .collect();
-                    let c0 = lum.c0_for(normal);
+                    // Turned by the facet's placement, as a point source's.
+                    let c0 = scene.luminaire_c0(i).unwrap_or_else(|| lum.c0_for(normal));
                     let lum = lum.clone();
                     (Profile::Table { lum, c0 }, None, radiance)
                 }
