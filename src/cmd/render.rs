@@ -89,6 +89,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             e.mean_spp,
         );
     }
+    if let Some(b) = &rendered.radiance.error.bias
+        && let Some(band) = b.bands.first()
+    {
+        eprintln!(
+            "radiosity cache bias ({}): {:+.2} % ± {:.2} % of the signal, measured against path tracing at {} pixels (report.json: error.bias); the per-pixel errors above and in stderr.npy are noise only",
+            band.band,
+            100.0 * band.relative_bias,
+            100.0 * band.relative_bias_std_error,
+            b.pixels
+        );
+    }
     let s = &rendered.radiance.stats;
     let total_s = t_start.elapsed().as_secs_f64();
     eprintln!(

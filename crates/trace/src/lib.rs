@@ -1,6 +1,7 @@
 // The README is the crate doc; its usage sketch is not a compiled doctest.
 #![cfg_attr(not(doctest), doc = include_str!("../README.md"))]
 
+pub mod cache_check;
 pub mod closed_form;
 pub(crate) mod direct_view;
 pub mod geometry;

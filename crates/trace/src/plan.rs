@@ -36,7 +36,7 @@ use serde::Serialize;
 
 use crate::indirect::{CacheSize, CacheSummary};
 use crate::settings::{Indirect, RenderSettings};
-use crate::tracer::{RayCounts, TraceError, Tracer, stream};
+use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
 
 /// Pilot cache size: coarse, but the share it estimates only decides.
 pub const PILOT_TEXELS: u32 = 1024;
@@ -401,10 +401,7 @@ impl Tracer {
                     d,
                     u32::MAX,
                     &self.ones,
-                    1,
-                    0,
-                    false,
-                    false,
+                    PathState::camera(self.settings.diffuse_bounces, false),
                     None,
                     None,
                     &mut rng,

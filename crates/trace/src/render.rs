@@ -12,7 +12,9 @@ use serde::Serialize;
 use crate::direct_view::ViewTerm;
 use crate::light::Light;
 use crate::settings::{LightStrataMode, RenderSettings};
-use crate::tracer::{LightStrata, RayCounts, TraceError, Tracer, latin_hypercube, stream};
+use crate::tracer::{
+    LightStrata, PathState, RayCounts, TraceError, Tracer, latin_hypercube, stream,
+};
 
 /// A point source seen directly: pixel column and row, band radiances,
 /// and its light group (`--layers`).
@@ -581,6 +583,16 @@ pub struct ErrorSummary {
     pub mean_spp: f64,
     pub max_spp: u32,
     pub rounds: u32,
+    /// The radiosity cache's bias over the image, measured by the render
+    /// against path tracing at a sparse set of pixels (whole-image renders
+    /// that read the cache; see [`crate::cache_check`]). The per-pixel
+    /// errors above are noise only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias: Option<crate::cache_check::CacheBias>,
+    /// With `bias`: the stated error with the bias in, √(RMS noise² +
+    /// bias bound²), relative (the noise is the target pixels' RMS).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_error_rms_with_bias: Option<f64>,
 }
 
 /// Timings and ray counts of a render.
@@ -764,6 +776,8 @@ fn error_summary(
         mean_spp: ests.iter().map(|e| e.n as f64).sum::<f64>() / n,
         max_spp: ests.iter().map(|e| e.n).max().unwrap_or(0),
         rounds,
+        bias: None,
+        rel_error_rms_with_bias: None,
     }
 }
 
@@ -868,10 +882,7 @@ impl Tracer {
                 d,
                 u32::MAX,
                 &self.ones,
-                1,
-                0,
-                false,
-                true,
+                PathState::camera(self.settings.diffuse_bounces, true),
                 (k > 0).then_some(pts.as_slice()),
                 strata.map(|scramble| LightStrata {
                     scramble,
@@ -1188,7 +1199,27 @@ impl Tracer {
             .settings
             .target_error
             .map(|t| (t, self.settings.max_spp.max(spp)));
-        let error = error_summary(&ests, &floor, &stated, pooled, adaptive, rounds, w as usize);
+        let mut error = error_summary(&ests, &floor, &stated, pooled, adaptive, rounds, w as usize);
+        if !partial && !halt() {
+            let skip: Vec<bool> = ests.iter().map(|e| e.sees_emitter).collect();
+            let by_band: Vec<Vec<f64>> = (0..nb)
+                .map(|b| {
+                    radiance
+                        .index_axis(ndarray::Axis(0), b)
+                        .iter()
+                        .copied()
+                        .collect()
+                })
+                .collect();
+            error.bias = with_pool(threads, || self.cache_bias(&by_band, &skip));
+            let noise = error
+                .rel_std_error_rms_target_pixels
+                .unwrap_or(error.rel_std_error_rms);
+            error.rel_error_rms_with_bias = error
+                .bias
+                .as_ref()
+                .map(|b| noise.hypot(b.relative_bias_bound));
+        }
         let mut c = RayCounts::default();
         let deposits = if self.settings.drop.direct_view {
             Vec::new()
@@ -1402,9 +1433,12 @@ impl Tracer {
         for uv in u {
             let l = crate::sky_light::cosine_hemisphere(uv);
             let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
-            self.trace(
-                p, d, ignore, &thr, 1, 1, true, false, None, None, rng, c, out,
-            );
+            let state = PathState {
+                diffuse: 1,
+                after_diffuse: true,
+                ..PathState::camera(self.settings.diffuse_bounces, false)
+            };
+            self.trace(p, d, ignore, &thr, state, None, None, rng, c, out);
         }
     }
 

@@ -451,6 +451,37 @@ pub(crate) fn mix64(mut z: u64) -> u64 {
 }
 
 /// The random stream of item `index` (a pixel, a probe repetition) under `seed`.
+/// Where a ray of [`Tracer::trace`] is in its path: what it adds where it
+/// lands and how far it may go on.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathState {
+    /// 1 for camera rays, +1 per specular bounce (up to `recursion`).
+    pub(crate) spec_depth: u32,
+    /// Diffuse bounces taken; a diffuse vertex bounces on while fewer
+    /// than `max_diffuse` (`diffuse_bounces`: 0 unless path tracing).
+    pub(crate) diffuse: u32,
+    pub(crate) max_diffuse: u32,
+    /// After a diffuse bounce emitter hits are not added (next-event
+    /// estimation counted them) and the cache is not read.
+    pub(crate) after_diffuse: bool,
+    /// A render's camera ray: the faces [`crate::direct_view`] computes
+    /// apart are not added where it meets them.
+    pub(crate) view_apart: bool,
+}
+
+impl PathState {
+    /// A camera ray (or a probe's), the render's bounces.
+    pub(crate) fn camera(max_diffuse: u32, view_apart: bool) -> Self {
+        Self {
+            spec_depth: 1,
+            diffuse: 0,
+            max_diffuse,
+            after_diffuse: false,
+            view_apart,
+        }
+    }
+}
+
 pub(crate) fn stream(seed: u64, domain: u64, index: u64) -> Pcg64Mcg {
     let a = mix64(seed ^ mix64(domain));
     let b = mix64(a ^ index);
@@ -1790,11 +1821,8 @@ impl Tracer {
     }
 
     /// Spectral radiance arriving along the unit ray `(o, d)` (centred), times
-    /// `thr`, added to `acc`. `spec_depth` is 1 for camera rays; `diffuse`
-    /// counts diffuse bounces taken; `after_diffuse` suppresses emitter
-    /// hits (already counted by next-event estimation). With `view_apart`
-    /// (a camera ray of a render), the faces [`crate::direct_view`]
-    /// computes apart are not added where the camera ray meets them.
+    /// `thr`, added to `acc`, from where `state` says the ray is in its
+    /// path (see [`PathState`]).
     /// Returns whether the ray (a camera ray, through transmissive facets)
     /// met the front of an emitter it added: such a pixel's error is the
     /// emitter edge's, not the scene's.
@@ -1805,16 +1833,20 @@ impl Tracer {
         d: DVec3,
         mut ignore: u32,
         thr: &[f64],
-        spec_depth: u32,
-        diffuse: u32,
-        after_diffuse: bool,
-        view_apart: bool,
+        state: PathState,
         gather: Option<&[[f64; 2]]>,
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         acc: &mut Light,
     ) -> bool {
+        let PathState {
+            spec_depth,
+            diffuse,
+            after_diffuse,
+            view_apart,
+            max_diffuse,
+        } = state;
         let mut met_emitter = false;
         let mut thr = thr.to_vec();
         // The pixel's stratified light-sample points, for the first
@@ -1932,10 +1964,12 @@ impl Tracer {
                     r,
                     f,
                     &t2,
-                    spec_depth + 1,
-                    diffuse,
-                    false,
-                    false,
+                    PathState {
+                        spec_depth: spec_depth + 1,
+                        after_diffuse: false,
+                        view_apart: false,
+                        ..state
+                    },
                     None,
                     None,
                     rng,
@@ -1945,7 +1979,7 @@ impl Tracer {
             }
 
             // Diffuse bounce with Russian roulette.
-            if mat.has_diffuse && diffuse < self.settings.diffuse_bounces {
+            if mat.has_diffuse && diffuse < max_diffuse {
                 let mut t2: Vec<f64> = thr.iter().zip(&mat.kd).map(|(a, b)| a * b).collect();
                 let mut alive = true;
                 if diffuse >= self.settings.rr_start {
@@ -1971,10 +2005,12 @@ impl Tracer {
                         dir,
                         f,
                         &t2,
-                        spec_depth,
-                        diffuse + 1,
-                        true,
-                        false,
+                        PathState {
+                            diffuse: diffuse + 1,
+                            after_diffuse: true,
+                            view_apart: false,
+                            ..state
+                        },
                         None,
                         None,
                         rng,
