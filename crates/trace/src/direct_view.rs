@@ -362,12 +362,8 @@ impl Tracer {
         let (mut o, mut ignore) = (o, u32::MAX);
         let pass_through =
             !(self.settings.drop.transmissive_occluders || self.skip.transmissive_occluders);
-        for pass in 0..64 {
-            if pass == 0 {
-                c.primary += 1;
-            } else {
-                c.secondary += 1;
-            }
+        for _ in 0..64 {
+            c.direct_view += 1;
             let eps = if ignore == u32::MAX {
                 0.0
             } else {

@@ -693,11 +693,16 @@ fn with_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T
     }
 }
 
-/// Per band, the dark-pixel floor: [`DARK_FLOOR`] × the mean over pixels.
-fn band_floor(ests: &[PixelEstimate], nb: usize) -> Vec<f64> {
+/// [`DARK_FLOOR`] × each band's image mean, the emitters seen directly
+/// (computed apart, `views`) included as in the image.
+fn band_floor(ests: &[PixelEstimate], views: &[Option<ViewTerm>], nb: usize) -> Vec<f64> {
     (0..nb)
         .map(|b| {
-            let s: f64 = ests.iter().map(|e| e.mean(b).abs()).sum();
+            let s: f64 = ests
+                .iter()
+                .zip(views)
+                .map(|(e, v)| (e.mean(b) + v.as_ref().map_or(0.0, |v| v.bands[b])).abs())
+                .sum();
             DARK_FLOOR * s / ests.len().max(1) as f64
         })
         .collect()
@@ -1121,7 +1126,7 @@ impl Tracer {
                 .collect();
             let mut rounds = 1u32;
             if let Some(target) = self.settings.target_error {
-                let floor = band_floor(&ests, nb);
+                let floor = band_floor(&ests, &views, nb);
                 let cap = self.settings.max_spp.max(spp);
                 loop {
                     if halt() {
@@ -1175,7 +1180,7 @@ impl Tracer {
         let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
         let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
         let mut spp_map = ndarray::Array2::<u32>::zeros((h as usize, w as usize));
-        let floor = band_floor(&ests, nb);
+        let floor = band_floor(&ests, &views, nb);
         let (factor, pooled) = if replicated {
             let (f, g) = stratification(&ests, &floor);
             (f, Some(g))

