@@ -133,6 +133,68 @@ pub fn no_emitter_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool>
     away_from_emitters(&probe_pixels(scene, tracer, k), size, |p| p.1)
 }
 
+/// Both pixel sets of the resolution axis from one probe: the
+/// [`no_emitter_mask`] and every pixel with a surface (any of its test
+/// points hits a facet, emitters included, or it shows a point source).
+pub fn no_emitter_and_surface_masks(
+    scene: &Scene,
+    tracer: &Tracer,
+    k: usize,
+) -> (Array2<bool>, Array2<bool>) {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let probes = probe_pixels(scene, tracer, k);
+    let no_emitter = away_from_emitters(&probes, (w, h), |p| p.1);
+    let surface = Array2::from_shape_fn((h, w), |(r, c)| {
+        let p = probes[r * w + c];
+        p.1 || p.2
+    });
+    (no_emitter, surface)
+}
+
+/// The band radiance of the emitters seen directly, per pixel: the mean
+/// over a `k × k` grid of sub-pixel primary hits of `L_b cos^m θ` (the
+/// emitter's band radiance toward the camera; 0 from its back and where a
+/// hit is no emitter). Exact band integrals as [`closed_form_truth`]; with
+/// it, the closed form of every pixel with a surface.
+pub fn emitters_seen_directly(scene: &Scene, tracer: &Tracer, k: usize) -> Array3<f64> {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let nb = scene.bands.len();
+    let vals: Vec<Vec<f64>> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (col, row) = (i % w, i / w);
+            let mut acc = vec![0.0; nb];
+            for j in 0..k * k {
+                let px = col as f64 + ((j % k) as f64 + 0.5) / k as f64;
+                let py = row as f64 + ((j / k) as f64 + 0.5) / k as f64;
+                let Some((f, _, d)) = primary_hit(scene, tracer, px, py) else {
+                    continue;
+                };
+                let facet = &scene.facets[f as usize];
+                let Some(e) = &scene.materials[facet.material].emission else {
+                    continue;
+                };
+                let cos = -facet.normal().dot(d);
+                if cos <= 0.0 {
+                    continue;
+                }
+                let shape = cos.powf(e.shape_exponent);
+                for (a, b) in acc.iter_mut().zip(&scene.bands) {
+                    *a += shape
+                        * e.radiance_w_m2_sr_nm.integrate_weighted_band(
+                            &b.response,
+                            b.lo_nm,
+                            b.hi_nm,
+                        );
+                }
+            }
+            acc.iter_mut().for_each(|a| *a /= (k * k) as f64);
+            acc
+        })
+        .collect();
+    Array3::from_shape_fn((nb, h, w), |(b, r, c)| vals[r * w + c][b])
+}
+
 /// Why the scene has no closed form (None: it has one).
 pub fn closed_form_obstacle(scene: &Scene) -> Option<String> {
     if !scene.point_sources.is_empty() {
@@ -279,7 +341,7 @@ pub fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
 }
 
 /// 64-bit FNV-1a.
-fn fnv1a(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
     })
