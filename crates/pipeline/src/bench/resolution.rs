@@ -44,6 +44,12 @@ pub const MAX_SCALE: f64 = 4.0;
 /// no-emitter pixels: sampled until below this.
 pub const TRUTH_NOISE_ON_MEAN: f64 = 1e-3;
 
+/// The per-pixel RMS relative noise the path-traced truth aims at besides
+/// (half the default target, so that `within_2x_stated` measures the
+/// render's stated error more than the truth's noise) when that fits in
+/// its share of the budget.
+pub const TRUTH_PIXEL_NOISE: f64 = 0.5 * DEFAULT_TARGET_ERROR;
+
 /// Parses `--resolution-scales`: comma-separated positive finite numbers,
 /// each ≤ [`MAX_SCALE`].
 pub fn parse_scales(list: &str) -> Result<Vec<f64>, BenchError> {
@@ -105,6 +111,9 @@ pub struct ScaleRow {
     /// pixels and over all pixels with a surface (0 for a closed form).
     pub truth_noise_on_mean: f64,
     pub truth_noise_on_mean_all_pixels: f64,
+    /// The truth's per-pixel RMS relative noise (no-emitter pixels, each
+    /// against `max(t, the dark floor)`; 0 for a closed form).
+    pub truth_pixel_noise: f64,
     /// Pixels counted: no-emitter, all with a surface.
     pub pixels_no_emitter: usize,
     pub pixels_all: usize,
@@ -138,6 +147,11 @@ struct ScaleTruth {
     /// Weight of each pixel in the all-pixels mean (0: not counted).
     weight: Array2<f64>,
     spp: Option<u32>,
+    /// Per-pixel RMS relative noise over the no-emitter pixels, against
+    /// `max(t, the dark floor)` (0 for a closed form): pooled, it stands
+    /// for each pixel's noise in `within_2x_stated` (a pixel's own
+    /// estimate from two halves has one degree of freedom).
+    pixel_noise: f64,
     seconds: f64,
 }
 
@@ -167,7 +181,7 @@ pub fn run(
     let mut axis = ResolutionAxis::default();
     // Render seconds per pixel of the last scale (predicts the next).
     let mut render_per_px: Option<f64> = None;
-    for &scale in scales {
+    for (i, &scale) in scales.iter().enumerate() {
         let scaled = scaled_scene(scene, scale);
         let px = (scaled.camera.width * scaled.camera.height) as f64;
         let render_guess = render_per_px.map_or(0.0, |c| c * px);
@@ -274,6 +288,13 @@ fn figures(
         truth.image.index_axis(Axis(0), 0),
         truth.var.index_axis(Axis(0), 0),
     );
+    let floor = {
+        let v: Vec<f64> = (truth.mask.indexed_iter())
+            .filter(|(ix, m)| **m && t[*ix].is_finite())
+            .map(|(ix, _)| t[ix])
+            .collect();
+        gloam_trace::render::DARK_FLOOR * v.iter().sum::<f64>() / v.len().max(1) as f64
+    };
     let (mut masked, mut all) = (Sums::default(), Sums::default());
     let mut sixths = [Sums::default(); 6];
     let (mut within, mut counted) = (0usize, 0usize);
@@ -289,7 +310,8 @@ fn figures(
             masked.add(1.0, x[ix], s[ix], t[ix], vt[ix]);
             sixths[(6 * r / h).min(5)].add(1.0, x[ix], s[ix], t[ix], vt[ix]);
             counted += 1;
-            if (x[ix] - t[ix]).abs() <= 2.0 * (s[ix] * s[ix] + vt[ix]).sqrt() {
+            let vt_pooled = (truth.pixel_noise * t[ix].max(floor)).powi(2);
+            if (x[ix] - t[ix]).abs() <= 2.0 * (s[ix] * s[ix] + vt_pooled).sqrt() {
                 within += 1;
             }
         }
@@ -316,6 +338,7 @@ fn figures(
         truth_kind: truth.kind,
         truth_noise_on_mean: noise,
         truth_noise_on_mean_all_pixels: noise_all,
+        truth_pixel_noise: truth.pixel_noise,
         pixels_no_emitter: masked.n,
         pixels_all: all.n,
         truth_s: truth.seconds,
@@ -336,6 +359,7 @@ fn closed_form_scale_truth(scaled: &Scene, geometry: &Tracer) -> ScaleTruth {
         mask,
         weight: surface.mapv(|b| if b { 1.0 } else { 0.0 }),
         spp: None,
+        pixel_noise: 0.0,
         seconds: t0.elapsed().as_secs_f64(),
     }
 }
@@ -368,15 +392,14 @@ fn reference_pixels(
 /// The path-traced truth at one scale, cached in `dir`: sampled in two
 /// independent halves (their difference gives its noise per pixel), the
 /// spp raised until its noise on the no-emitter mean is below
-/// [`TRUTH_NOISE_ON_MEAN`]. `Ok(Err(why))` when it would not fit in
-/// `left()` seconds.
+/// [`TRUTH_NOISE_ON_MEAN`] and, when that fits in `share_s` seconds, its
+/// per-pixel RMS noise below [`TRUTH_PIXEL_NOISE`]. `Ok(Err(why))` when
+/// the first would not fit in `left()` seconds.
 fn reference_scale_truth(
     scene_path: &Path,
     scaled: &Scene,
     geometry: &Tracer,
-    dir: &Path,
-    threads: Option<usize>,
-    scale: f64,
+    (dir, threads, scale, share_s): (&Path, Option<usize>, f64, f64),
     left: impl Fn() -> f64,
 ) -> Result<Result<ScaleTruth, String>, BenchError> {
     use ndarray_npy::{ReadNpyExt, WriteNpyExt};
@@ -399,7 +422,7 @@ fn reference_scale_truth(
     let stem = format!("reference-scale-{scale}");
     let npy = dir.join(format!("{stem}.npy"));
     let meta = dir.join(format!("{stem}.json"));
-    let finish = |stack: ndarray::Array4<f64>, spp: u32, seconds: f64| {
+    let finish = |stack: ndarray::Array4<f64>, spp: u32, pixel_noise: f64, seconds: f64| {
         let image = stack.index_axis(Axis(0), 0).to_owned();
         let var = stack.index_axis(Axis(0), 1).to_owned();
         let mask = Array2::from_shape_fn((h, w), |(r, c)| {
@@ -412,6 +435,7 @@ fn reference_scale_truth(
             mask,
             weight: weight.clone(),
             spp: Some(spp),
+            pixel_noise,
             seconds,
         }
     };
@@ -424,14 +448,16 @@ fn reference_scale_truth(
             if let Ok(stack) = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)) {
                 if stack.dim() == (2, nb, h, w) {
                     let spp = m["spp"].as_u64().unwrap_or(0) as u32;
-                    return Ok(Ok(finish(stack, spp, 0.0)));
+                    let pixel_noise = m["pixel_noise"].as_f64().unwrap_or(f64::NAN);
+                    return Ok(Ok(finish(stack, spp, pixel_noise, 0.0)));
                 }
             }
         }
     }
     // Both halves at `spp` (each spp/2): the stack of mean and variance,
-    // and the relative noise on the no-emitter mean.
-    let render = |spp: u32| -> Result<(ndarray::Array4<f64>, f64), BenchError> {
+    // the relative noise on the no-emitter mean and the per-pixel RMS
+    // relative noise there.
+    let render = |spp: u32| -> Result<(ndarray::Array4<f64>, f64, f64), BenchError> {
         let half = |seed: u64| -> Result<Vec<Vec<f64>>, BenchError> {
             let s = RenderSettings {
                 seed,
@@ -447,7 +473,7 @@ fn reference_scale_truth(
         };
         let (a, b) = (half(1_000_001)?, half(1_000_002)?);
         let mut stack = ndarray::Array4::<f64>::from_elem((2, nb, h, w), f64::NAN);
-        let (mut sum, mut var) = (0.0, 0.0);
+        let mut tv = Vec::new();
         for (k, &(r, c)) in subset.iter().enumerate() {
             for bi in 0..nb {
                 stack[[0, bi, r, c]] = 0.5 * (a[k][bi] + b[k][bi]);
@@ -455,28 +481,46 @@ fn reference_scale_truth(
                 stack[[1, bi, r, c]] = (a[k][bi] - b[k][bi]).powi(2) / 4.0;
             }
             if mask_all[[r, c]] {
-                sum += stack[[0, 0, r, c]];
-                var += stack[[1, 0, r, c]];
+                tv.push((stack[[0, 0, r, c]], stack[[1, 0, r, c]]));
             }
         }
-        Ok((stack, if sum > 0.0 { var.sqrt() / sum } else { 0.0 }))
+        let (on_mean, per_pixel) = noise_of(&tv);
+        Ok((stack, on_mean, per_pixel))
     };
     // A pilot at 16 spp, then the spp its noise asks for (with a tenth to
     // spare), checked and raised again if the noise is still above.
     let mut spp = 16u32;
-    let (stack, noise) = loop {
+    let mut pixel_goal = true;
+    let (stack, noise, pixel_noise) = loop {
         let t1 = Instant::now();
-        let (stack, noise) = render(spp)?;
+        let (stack, noise, pixel_noise) = render(spp)?;
         let dt = t1.elapsed().as_secs_f64();
-        if noise < TRUTH_NOISE_ON_MEAN {
-            break (stack, noise);
+        let per_spp = dt / spp as f64;
+        let spp_for = |ratio: f64| {
+            ((spp as f64 * ratio.powi(2) * 1.1).ceil() as u32)
+                .max(2 * spp)
+                .div_ceil(2)
+                * 2
+        };
+        let mean_ok = noise < TRUTH_NOISE_ON_MEAN;
+        let pixel_ok = !pixel_goal || pixel_noise < TRUTH_PIXEL_NOISE;
+        if mean_ok && pixel_ok {
+            break (stack, noise, pixel_noise);
         }
-        let factor = (noise / TRUTH_NOISE_ON_MEAN).powi(2) * 1.1;
-        let next = ((spp as f64 * factor).ceil() as u32)
-            .max(2 * spp)
-            .div_ceil(2)
-            * 2;
-        let need_s = dt * next as f64 / spp as f64;
+        if pixel_goal && !pixel_ok {
+            let next = spp_for((pixel_noise / TRUTH_PIXEL_NOISE).max(noise / TRUTH_NOISE_ON_MEAN));
+            if per_spp * next as f64 <= share_s.min(left()) {
+                spp = next;
+                continue;
+            }
+            // Not in its share: the mean's goal alone.
+            pixel_goal = false;
+            if mean_ok {
+                break (stack, noise, pixel_noise);
+            }
+        }
+        let next = spp_for(noise / TRUTH_NOISE_ON_MEAN);
+        let need_s = per_spp * next as f64;
         let left_s = left();
         if need_s > left_s {
             return Ok(Err(format!(
@@ -504,11 +548,25 @@ fn reference_scale_truth(
             "spp": spp,
             "pixels": subset.len(),
             "noise_on_mean": noise,
+            "pixel_noise": pixel_noise,
             "seconds": seconds,
         }))?
         .as_bytes(),
     )?;
-    Ok(Ok(finish(stack, spp, seconds)))
+    Ok(Ok(finish(stack, spp, pixel_noise, seconds)))
+}
+
+/// Of a truth's (value, variance) over the no-emitter pixels (first band):
+/// its relative noise on the mean, and its per-pixel RMS relative noise
+/// as `--target-error` counts it (each pixel against `max(t, the dark
+/// floor)`).
+fn noise_of(tv: &[(f64, f64)]) -> (f64, f64) {
+    let sum: f64 = tv.iter().map(|p| p.0).sum();
+    let var: f64 = tv.iter().map(|p| p.1).sum();
+    let floor = gloam_trace::render::DARK_FLOOR * sum / tv.len().max(1) as f64;
+    let rel2: f64 = tv.iter().map(|&(t, v)| v / t.max(floor).powi(2)).sum();
+    let on_mean = if sum > 0.0 { var.sqrt() / sum } else { 0.0 };
+    (on_mean, (rel2 / tv.len().max(1) as f64).sqrt())
 }
 
 /// `summary.md`'s section.
@@ -518,7 +576,7 @@ pub fn markdown(axis: &ResolutionAxis) -> String {
     let _ = writeln!(
         m,
         "\n## Resolution axis (default render, `--target-error {DEFAULT_TARGET_ERROR}`, against a truth at the same scale; first band)\n\n\
-         | scale | pixels | mean bias, no-emitter (± s.e.) | mean bias, all pixels (± s.e.) | bias per sixth (top → bottom) | within 2× stated | time (s) | mean spp | truth | truth spp | truth noise on mean |\n\
+         | scale | pixels | mean bias, no-emitter (± s.e.) | mean bias, all pixels (± s.e.) | bias per sixth (top → bottom) | within 2× stated | time (s) | mean spp | truth | truth spp | truth noise: on mean, per pixel |\n\
          |---|---|---|---|---|---|---|---|---|---|---|"
     );
     let pct = |v: f64| format!("{:+.2} %", 100.0 * v);
@@ -530,7 +588,7 @@ pub fn markdown(axis: &ResolutionAxis) -> String {
             .collect();
         let _ = writeln!(
             m,
-            "| {} | {}×{} | {} ± {:.2} % | {} ± {:.2} % | {} % | {:.1} % | {:.2} | {:.1} | {} | {} | {:.3} % |",
+            "| {} | {}×{} | {} ± {:.2} % | {} ± {:.2} % | {} % | {:.1} % | {:.2} | {:.1} | {} | {} | {:.3} %, {:.2} % |",
             r.resolution_scale,
             r.width,
             r.height,
@@ -544,7 +602,8 @@ pub fn markdown(axis: &ResolutionAxis) -> String {
             r.mean_spp,
             r.truth_kind,
             r.truth_spp.map_or("–".into(), |n| n.to_string()),
-            100.0 * r.truth_noise_on_mean
+            100.0 * r.truth_noise_on_mean,
+            100.0 * r.truth_pixel_noise
         );
     }
     for s in &axis.skipped {
