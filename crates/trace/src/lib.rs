@@ -2,6 +2,7 @@
 #![cfg_attr(not(doctest), doc = include_str!("../README.md"))]
 
 pub mod closed_form;
+pub(crate) mod direct_view;
 pub mod geometry;
 pub mod indirect;
 pub mod layers;

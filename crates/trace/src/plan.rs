@@ -404,6 +404,7 @@ impl Tracer {
                     1,
                     0,
                     false,
+                    false,
                     None,
                     None,
                     &mut rng,

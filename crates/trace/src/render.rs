@@ -9,6 +9,7 @@ use ndarray::Array3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::direct_view::ViewTerm;
 use crate::light::Light;
 use crate::settings::{LightStrataMode, RenderSettings};
 use crate::tracer::{LightStrata, RayCounts, TraceError, Tracer, latin_hypercube, stream};
@@ -870,6 +871,7 @@ impl Tracer {
                 1,
                 0,
                 false,
+                true,
                 (k > 0).then_some(pts.as_slice()),
                 strata.map(|scramble| LightStrata {
                     scramble,
@@ -1053,13 +1055,14 @@ impl Tracer {
         // estimate is measured rather than assumed (see `stratification`).
         let replicated = self.settings.target_error.is_some();
         let done = AtomicU64::new(0);
-        let (ests, rays, rounds, threads_used) = with_pool(threads, || {
+        let (ests, views, rays, rounds, threads_used) = with_pool(threads, || {
             // Round 0: every pixel, one batch of spp, tile by tile.
             let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
                 .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, row0 + ty * TILE)))
                 .collect();
             let total = tiles.len() as u64;
-            let res: Vec<(Vec<(usize, PixelEstimate)>, RayCounts)> = tiles
+            type Pixel = (usize, PixelEstimate, Option<ViewTerm>);
+            let res: Vec<(Vec<Pixel>, RayCounts)> = tiles
                 .par_iter()
                 .map(|&(x0, y0)| {
                     if halt() {
@@ -1075,8 +1078,15 @@ impl Tracer {
                         }
                         for col in x0..x1 {
                             let mut e = PixelEstimate::new(nwl, nb, groups);
+                            // Emitters seen directly: computed apart, and
+                            // whether the pixel sees one decided by them,
+                            // not by its samples (`direct_view.rs`).
+                            let view = self.view_term(col, row, &mut c);
+                            e.sees_emitter = view
+                                .as_ref()
+                                .is_some_and(|v| v.bands.iter().any(|&x| x > 0.0));
                             self.pixel_batch(col, row, 0, spp as usize, replicated, &mut e, &mut c);
-                            out.push(((row - row0) as usize * w as usize + col as usize, e));
+                            out.push(((row - row0) as usize * w as usize + col as usize, e, view));
                         }
                     }
                     let n = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -1086,10 +1096,12 @@ impl Tracer {
                 .collect();
             let mut rays = RayCounts::default();
             let mut ests: Vec<Option<PixelEstimate>> = vec![None; npix];
+            let mut views: Vec<Option<ViewTerm>> = (0..npix).map(|_| None).collect();
             for (tile, c) in res {
                 rays.add(&c);
-                for (i, e) in tile {
+                for (i, e, v) in tile {
                     ests[i] = Some(e);
+                    views[i] = v;
                 }
             }
             let mut ests: Vec<PixelEstimate> = ests
@@ -1143,7 +1155,7 @@ impl Tracer {
                     }
                 }
             }
-            (ests, rays, rounds, rayon::current_num_threads())
+            (ests, views, rays, rounds, rayon::current_num_threads())
         });
         if stopped.load(Ordering::Relaxed) {
             return Err(TraceError::Interrupted);
@@ -1164,9 +1176,11 @@ impl Tracer {
             let (row, col) = (i / w as usize, i % w as usize);
             let inv = 1.0 / e.n.max(1) as f64;
             let mean: Vec<f64> = e.spectral.iter().map(|a| a * inv).collect();
+            let view = views[i].as_ref();
             for (b, v) in self.wl.integrate(&mean).into_iter().enumerate() {
-                radiance[[b, row, col]] = v;
-                std_error[[b, row, col]] = stated[i * nb + b];
+                let (add, se) = view.map_or((0.0, 0.0), |t| (t.bands[b], t.std_error[b]));
+                radiance[[b, row, col]] = v + add;
+                std_error[[b, row, col]] = stated[i * nb + b].hypot(se);
             }
             spp_map[[row, col]] = e.n;
         }
@@ -1198,9 +1212,14 @@ impl Tracer {
                 let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
                 for (i, e) in ests.iter().enumerate() {
                     let (row, col) = (i / w as usize, i % w as usize);
+                    let view = views[i]
+                        .as_ref()
+                        .and_then(|t| t.light.part(g))
+                        .map(|part| self.wl.integrate(part));
                     for b in 0..nb {
                         let (m, se) = e.layer(g, b);
-                        radiance[[b, row, col]] = m;
+                        let add = view.as_ref().map_or(0.0, |v| v[b]);
+                        radiance[[b, row, col]] = m + add;
                         std_error[[b, row, col]] = se * factor[i];
                     }
                 }
@@ -1261,6 +1280,9 @@ impl Tracer {
         }
         let mut c = RayCounts::default();
         let mut v = self.wl.integrate(&self.pixel_spectral(col, row, &mut c));
+        if let Some(t) = self.view_term(col, row, &mut c) {
+            v.iter_mut().zip(&t.bands).for_each(|(a, b)| *a += b);
+        }
         for (x, y, vals, _) in self.point_deposits(&mut c) {
             if (x, y) == (col, row) {
                 v.iter_mut().zip(&vals).for_each(|(a, b)| *a += b);
@@ -1380,7 +1402,9 @@ impl Tracer {
         for uv in u {
             let l = crate::sky_light::cosine_hemisphere(uv);
             let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
-            self.trace(p, d, ignore, &thr, 1, 1, true, None, None, rng, c, out);
+            self.trace(
+                p, d, ignore, &thr, 1, 1, true, false, None, None, rng, c, out,
+            );
         }
     }
 

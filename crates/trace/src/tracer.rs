@@ -315,6 +315,9 @@ pub struct Tracer {
     /// The light groups its emitters and its cache are split by
     /// (`--layers`, `layers.rs`), when a layered render asked for them.
     pub(crate) layers: Option<crate::layers::LayerMap>,
+    /// Which pixels each emitter's face covers: the faces seen directly
+    /// are computed apart from the camera samples (`direct_view.rs`).
+    pub(crate) view: crate::direct_view::Footprints,
 }
 
 /// The sky as the tracer uses it: on the continuum slots only (the sky has
@@ -750,6 +753,18 @@ impl Tracer {
         let step = Preparation::begin("sky", observer.as_ref());
         let sky = build_sky(scene, settings, &wl)?;
         prep.end(step, observer.as_ref());
+        let view = if settings.drop.direct_view {
+            Default::default()
+        } else {
+            let sources: Vec<(Vec<[DVec3; 3]>, bool)> = area
+                .iter()
+                .map(|s| {
+                    let faces = (camera.position - s.centroid).dot(s.normal) > 0.0;
+                    (s.tris.clone(), faces)
+                })
+                .collect();
+            crate::direct_view::Footprints::build(&camera, &sources)
+        };
         let mut tracer = Self {
             settings: settings.clone(),
             wl,
@@ -773,6 +788,7 @@ impl Tracer {
             preparation: prep,
             observer,
             layers: None,
+            view,
         };
         if let Some(map) = layers {
             tracer.assign_groups(map);
@@ -1776,9 +1792,12 @@ impl Tracer {
     /// Spectral radiance arriving along the unit ray `(o, d)` (centred), times
     /// `thr`, added to `acc`. `spec_depth` is 1 for camera rays; `diffuse`
     /// counts diffuse bounces taken; `after_diffuse` suppresses emitter
-    /// hits (already counted by next-event estimation). Returns whether the
-    /// ray (a camera ray, through transmissive facets) met an emitter's
-    /// front: such a pixel's error is the emitter edge's, not the scene's.
+    /// hits (already counted by next-event estimation). With `view_apart`
+    /// (a camera ray of a render), the faces [`crate::direct_view`]
+    /// computes apart are not added where the camera ray meets them.
+    /// Returns whether the ray (a camera ray, through transmissive facets)
+    /// met the front of an emitter it added: such a pixel's error is the
+    /// emitter edge's, not the scene's.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn trace(
         &self,
@@ -1789,6 +1808,7 @@ impl Tracer {
         spec_depth: u32,
         diffuse: u32,
         after_diffuse: bool,
+        view_apart: bool,
         gather: Option<&[[f64; 2]]>,
         strata: Option<LightStrata>,
         rng: &mut Pcg64Mcg,
@@ -1841,10 +1861,12 @@ impl Tracer {
             // Emitter seen along the ray: L cos^m(alpha) from the front.
             let src = self.facet_source[f as usize];
             let seen_directly = spec_depth == 1 && !after_diffuse;
-            met_emitter |= seen_directly && src != u32::MAX && front;
+            let apart = seen_directly && view_apart && self.view.apart(src);
+            met_emitter |= seen_directly && src != u32::MAX && front && !apart;
             if src != u32::MAX
                 && front
                 && !after_diffuse
+                && !apart
                 && !(seen_directly && self.settings.drop.direct_view)
             {
                 let s = &self.area[src as usize];
@@ -1913,6 +1935,7 @@ impl Tracer {
                     spec_depth + 1,
                     diffuse,
                     false,
+                    false,
                     None,
                     None,
                     rng,
@@ -1951,6 +1974,7 @@ impl Tracer {
                         spec_depth,
                         diffuse + 1,
                         true,
+                        false,
                         None,
                         None,
                         rng,
@@ -2105,7 +2129,7 @@ impl AreaSource {
     /// The profile toward unit `w` leaving the facet, whose cosine with
     /// the normal is `cos_e` (the caller's, so `cos^m` sources evaluate
     /// exactly as before): `cos^m`, or a table's `I / (I_max cos γ)`.
-    fn shape(&self, cos_e: f64, w: DVec3) -> f64 {
+    pub(crate) fn shape(&self, cos_e: f64, w: DVec3) -> f64 {
         match &self.profile {
             Profile::CosPower(m) => shaping(cos_e, *m),
             Profile::Table { lum, c0 } => lum.relative_radiance(self.normal, *c0, w),
