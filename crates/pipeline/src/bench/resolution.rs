@@ -4,11 +4,12 @@
 //! `gloam render SCENE` does with no `--spp`/`--target-error`: sampled to
 //! [`DEFAULT_TARGET_ERROR`]) at that scale, against a truth at the same
 //! scale: the closed form where the scene has one (reflected light on an
-//! 8 × 8 grid of sub-pixel hits plus the emitters seen directly), else a
-//! path-traced reference ([`reference_settings`]: `indirect = path`, 64
-//! diffuse bounces) sampled until its own noise on the mean over the
-//! no-emitter pixels is below [`TRUTH_NOISE_ON_MEAN`], cached in the output
-//! directory per scale. Reported per scale: the mean bias
+//! 8 × 8 grid of sub-pixel hits plus the emitters seen directly, pixels on
+//! more than one facet on 256 × 256), else a path-traced reference
+//! ([`reference_settings`]: `indirect = path`, 64 diffuse bounces) sampled
+//! until its own noise on the mean over the no-emitter pixels is below
+//! [`TRUTH_NOISE_ON_MEAN`] (and per pixel below [`TRUTH_PIXEL_NOISE`] when
+//! that fits), cached in the output directory per scale. Reported per scale: the mean bias
 //! `mean(render)/mean(truth) − 1` over the pixels that see no emitter
 //! ([`no_emitter_mask`]) and over every pixel with a surface (emitters seen
 //! directly included), each with its standard error (the render's own
@@ -28,8 +29,8 @@ use serde::Serialize;
 
 use super::BenchError;
 use super::truth::{
-    REFERENCE_PIXELS, closed_form_obstacle, closed_form_truth, emitters_seen_directly, fnv1a,
-    no_emitter_and_surface_masks, reference_settings,
+    REFERENCE_PIXELS, closed_form_image, closed_form_obstacle, fnv1a, no_emitter_and_surface_masks,
+    reference_settings,
 };
 use crate::DEFAULT_TARGET_ERROR;
 use crate::output::{write_atomic, write_atomic_with};
@@ -202,8 +203,10 @@ pub fn run(
         } else {
             let truth_deadline = deadline_s - render_guess;
             let left = || truth_deadline - elapsed();
-            match reference_scale_truth(scene_path, &scaled, &geometry, dir, threads, scale, left)?
-            {
+            // The per-pixel goal only within an even share of what is left.
+            let share_s = left() / (scales.len() - i) as f64;
+            let at = (dir, threads, scale, share_s);
+            match reference_scale_truth(scene_path, &scaled, &geometry, at, left)? {
                 Ok(t) => t,
                 Err(why) => {
                     axis.skipped.push(Skipped {
@@ -349,8 +352,7 @@ fn figures(
 /// directly, every pixel with a surface.
 fn closed_form_scale_truth(scaled: &Scene, geometry: &Tracer) -> ScaleTruth {
     let t0 = Instant::now();
-    let cf = closed_form_truth(scaled, geometry);
-    let image = cf.image + emitters_seen_directly(scaled, geometry, 8);
+    let image = closed_form_image(scaled, geometry, true);
     let (mask, surface) = no_emitter_and_surface_masks(scaled, geometry, 4);
     ScaleTruth {
         kind: "closed-form",
