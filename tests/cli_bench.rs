@@ -298,3 +298,77 @@ fn night_town_generator_output_parses() {
         String::from_utf8_lossy(&plan.stderr)
     );
 }
+
+/// The resolution axis on the panel (closed-form truth): every key per
+/// scale, and the default render unbiased within its standard error at
+/// both coarse scales, over the no-emitter pixels and over all of them
+/// (the panel seen directly included).
+#[test]
+fn accuracy_resolution_axis_on_the_panel() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = run_json(gloam().args([
+        "bench",
+        "accuracy",
+        "sims/panel-validation/scene.toml",
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--resolution-scales",
+        "0.125,0.25",
+        "--resolution-only",
+        "--json",
+        "--no-mitsuba",
+    ]));
+    let rows = v["resolution"]
+        .as_array()
+        .unwrap_or_else(|| panic!("resolution missing: {v}"));
+    assert_eq!(rows.len(), 2, "{v}");
+    for (r, scale) in rows.iter().zip([0.125, 0.25]) {
+        assert_eq!(r["resolution_scale"].as_f64(), Some(scale), "{r}");
+        for k in [
+            "mean_bias",
+            "mean_bias_std_error",
+            "mean_bias_all_pixels",
+            "mean_bias_all_pixels_std_error",
+            "within_2x_stated",
+            "time_s",
+        ] {
+            assert!(r[k].as_f64().is_some_and(f64::is_finite), "{k} in {r}");
+        }
+        assert!(r.get("truth_spp").is_some(), "truth_spp in {r}");
+        let sixths = r["sixths"].as_array().expect("sixths");
+        assert_eq!(sixths.len(), 6, "{r}");
+        for (bias, se) in [
+            ("mean_bias", "mean_bias_std_error"),
+            ("mean_bias_all_pixels", "mean_bias_all_pixels_std_error"),
+        ] {
+            let (b, s) = (r[bias].as_f64().unwrap(), r[se].as_f64().unwrap());
+            assert!(b.abs() < 3.0 * s + 1e-3, "{bias} {b:.5} ± {s:.5} in {r}");
+        }
+    }
+    let md = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
+    assert!(md.contains("Resolution axis"), "{md}");
+}
+
+#[test]
+fn accuracy_refuses_a_bad_resolution_list() {
+    for bad in ["0", "-1", "nan", "abc", "", "0.5,,1", "5"] {
+        let out = gloam()
+            .args([
+                "bench",
+                "accuracy",
+                "sims/panel-validation/scene.toml",
+                "--out",
+                "unused",
+                &format!("--resolution-scales={bad}"),
+                "--resolution-only",
+            ])
+            .output()
+            .expect("runs gloam");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{bad:?} was accepted");
+        assert!(
+            err.contains("--resolution-scales") && err.contains(&format!("{bad:?}")),
+            "{bad:?}: {err}"
+        );
+    }
+}

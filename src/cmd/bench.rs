@@ -12,7 +12,7 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Accuracy(a) => {
             let json = a.json;
-            let report = accuracy::run(&a.options())?;
+            let report = accuracy::run(&a.options()?)?;
             if json {
                 return print_json(&report.summary);
             }

@@ -13,12 +13,12 @@ use ndarray::Axis;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::BenchError;
 use super::metrics::{error_coverage, errors};
 use super::truth::{
     REFERENCE_PIXELS, ReferenceKind, Truth, closed_form_obstacle, closed_form_truth,
     reference_settings, reference_truth,
 };
+use super::{BenchError, resolution};
 use crate::output::write_atomic;
 
 #[derive(Clone, Debug, Serialize)]
@@ -229,7 +229,16 @@ pub struct Summary {
     effect_plan: Option<serde_json::Value>,
     /// What the `spectral_step_nm` rows were rendered on.
     spectral_sweep: String,
+    /// `--resolution-scales`: the default render against a truth at each
+    /// scale ([`resolution::ScaleRow`]), and the scales skipped (why).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    resolution: Option<Vec<resolution::ScaleRow>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    resolution_skipped: Option<Vec<resolution::Skipped>>,
+    /// Empty (and left out) with `--resolution-only`.
+    #[serde(skip_serializing_if = "String::is_empty")]
     csv: String,
+    #[serde(skip_serializing_if = "String::is_empty")]
     png: String,
     summary_md: String,
 }
@@ -299,6 +308,10 @@ pub struct AccuracyOptions {
     /// Render the scene in Mitsuba 3 too, side by side, when `python3`
     /// can import it ([`super::accuracy_mitsuba`]).
     pub mitsuba: bool,
+    /// The resolution axis's scales ([`resolution`]), if any.
+    pub resolution_scales: Option<Vec<f64>>,
+    /// Run only the resolution axis.
+    pub resolution_only: bool,
 }
 
 /// The sweep's summary, and the same as the Markdown of `summary.md`.
@@ -319,6 +332,25 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     std::fs::create_dir_all(&args.out).map_err(BenchError::io("creating", &args.out))?;
     let budget = args.budget_s;
     let elapsed = || t_start.elapsed().as_secs_f64();
+    // The resolution axis first: all of the budget with
+    // --resolution-only, else half of it (the sweep takes what is left).
+    let axis = match &args.resolution_scales {
+        Some(scales) => {
+            let deadline = if args.resolution_only {
+                budget
+            } else {
+                0.5 * budget
+            };
+            let (out, threads) = (&args.out, args.threads);
+            let axis =
+                resolution::run(&scene_path, &scene, out, threads, scales, t_start, deadline)?;
+            if args.resolution_only {
+                return resolution_only_report(args, &scene_path, axis, elapsed());
+            }
+            Some(axis)
+        }
+        None => None,
+    };
     let base_tracer = Tracer::new(&scene, &with(Estimator::Analytic, args.threads, |_| {}))?;
 
     // Scenes: [0] the scene, [1] a line-spectrum variant for the spectral
@@ -618,11 +650,62 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
         } else {
             "the scene itself".into()
         },
+        resolution: axis.as_ref().map(|a| a.rows.clone()),
+        resolution_skipped: axis.as_ref().map(|a| a.skipped.clone()),
         csv: csv_path.display().to_string(),
         png: png_path.display().to_string(),
         summary_md: md_path.display().to_string(),
     };
-    let markdown = summary_markdown(&summary, &rows, truths[0].kind, mask_px);
+    let mut markdown = summary_markdown(&summary, &rows, truths[0].kind, mask_px);
+    if let Some(a) = &axis {
+        markdown.push_str(&resolution::markdown(a));
+    }
+    write_atomic(&md_path, markdown.as_bytes())?;
+    Ok(AccuracyReport { summary, markdown })
+}
+
+/// The report of `--resolution-only`: the resolution axis alone.
+fn resolution_only_report(
+    args: &AccuracyOptions,
+    scene_path: &Path,
+    axis: resolution::ResolutionAxis,
+    elapsed_s: f64,
+) -> Result<AccuracyReport, BenchError> {
+    let md_path = args.out.join("summary.md");
+    let summary = Summary {
+        time_to_1pct_s: BTreeMap::new(),
+        time_to_0_1pct_s: BTreeMap::new(),
+        time_to_1pct_pixel_s: BTreeMap::new(),
+        time_to_0_1pct_pixel_s: BTreeMap::new(),
+        target_error: Vec::new(),
+        time_to_1pct_pixel_adaptive_s: None,
+        time_to_0_1pct_pixel_adaptive_s: None,
+        direct_only: None,
+        mitsuba3: serde_json::json!({ "ran": false, "why": "--resolution-only" }),
+        scene: scene_path.display().to_string(),
+        truth: "a truth per resolution scale (see `resolution`)".into(),
+        truth_seconds: axis.rows.iter().map(|r| r.truth_s).sum(),
+        runs: axis.rows.len(),
+        skipped_for_budget: axis.skipped.len(),
+        budget_s: args.budget_s,
+        elapsed_s,
+        best: BTreeMap::new(),
+        effect_plan: None,
+        spectral_sweep: String::new(),
+        resolution: Some(axis.rows.clone()),
+        resolution_skipped: Some(axis.skipped.clone()),
+        csv: String::new(),
+        png: String::new(),
+        summary_md: md_path.display().to_string(),
+    };
+    let mut markdown = format!(
+        "# Accuracy against resolution: `{}`\n\n{} of {} scales in {elapsed_s:.1} s of a {:.0} s budget (`--resolution-only`: the rest of the sweep skipped).\n",
+        summary.scene,
+        axis.rows.len(),
+        axis.rows.len() + axis.skipped.len(),
+        args.budget_s
+    );
+    markdown.push_str(&resolution::markdown(&axis));
     write_atomic(&md_path, markdown.as_bytes())?;
     Ok(AccuracyReport { summary, markdown })
 }

@@ -55,6 +55,7 @@ pub mod accuracy_mitsuba;
 pub mod child;
 pub mod metrics;
 pub mod plan_check;
+pub mod resolution;
 pub mod scale;
 pub mod throughput;
 pub mod truth;

@@ -133,6 +133,24 @@ pub fn no_emitter_mask(scene: &Scene, tracer: &Tracer, k: usize) -> Array2<bool>
     away_from_emitters(&probe_pixels(scene, tracer, k), size, |p| p.1)
 }
 
+/// Both pixel sets of the resolution axis from one probe: the
+/// [`no_emitter_mask`] and every pixel with a surface (any of its test
+/// points hits a facet, emitters included, or it shows a point source).
+pub fn no_emitter_and_surface_masks(
+    scene: &Scene,
+    tracer: &Tracer,
+    k: usize,
+) -> (Array2<bool>, Array2<bool>) {
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let probes = probe_pixels(scene, tracer, k);
+    let no_emitter = away_from_emitters(&probes, (w, h), |p| p.1);
+    let surface = Array2::from_shape_fn((h, w), |(r, c)| {
+        let p = probes[r * w + c];
+        p.1 || p.2
+    });
+    (no_emitter, surface)
+}
+
 /// Why the scene has no closed form (None: it has one).
 pub fn closed_form_obstacle(scene: &Scene) -> Option<String> {
     if !scene.point_sources.is_empty() {
@@ -180,6 +198,28 @@ pub fn closed_form_obstacle(scene: &Scene) -> Option<String> {
 /// The closed-form truth (see the module docs).
 pub fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
     let t0 = Instant::now();
+    let image = closed_form_image(scene, tracer, false);
+    let mask = receiver_mask(scene, tracer, 4);
+    let k = 8;
+    Truth {
+        kind: "closed-form",
+        image,
+        mask,
+        noise_var: None,
+        seconds: t0.elapsed().as_secs_f64(),
+        note: format!(
+            "closed form (Lambert/Arvo per source, {k}×{k} sub-pixel hits per pixel, exact band integrals)"
+        ),
+    }
+}
+
+/// The closed form per pixel: the reflected light averaged over an 8 × 8
+/// grid of sub-pixel primary hits; `with_emitters`, also the emitters seen
+/// directly (`L_b cos^m θ` toward the camera, exact band integrals), and
+/// every pixel whose 8 × 8 hits are not all on one facet (silhouettes,
+/// emitter edges) redone on a 256 × 256 grid, so that a partly covered
+/// pixel's share is right to well under 1 %.
+pub fn closed_form_image(scene: &Scene, tracer: &Tracer, with_emitters: bool) -> Array3<f64> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let nb = scene.bands.len();
     // Sources: vertices, normal, m, and per receiver material and band the
@@ -228,58 +268,70 @@ pub fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
             })
         })
         .collect();
-    let k = 8usize;
-    let mask = receiver_mask(scene, tracer, 4);
-    let vals: Vec<Vec<f64>> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (col, row) = (i % w, i / w);
-            let mut acc = vec![0.0; nb];
-            for j in 0..k * k {
-                let px = col as f64 + ((j % k) as f64 + 0.5) / k as f64;
-                let py = row as f64 + ((j / k) as f64 + 0.5) / k as f64;
-                let Some((f, p, d)) = primary_hit(scene, tracer, px, py) else {
-                    continue;
-                };
-                let facet = &scene.facets[f as usize];
-                if is_emitter(scene, f as usize) {
-                    continue;
-                }
-                let mut n = facet.normal();
-                if n.dot(d) > 0.0 {
-                    n = -n;
-                }
-                for s in &srcs {
-                    let fac = shaped_polygon_irradiance_factor(p, n, &s.verts, s.normal, s.m);
-                    if let Some(c) = s.coef.get(&facet.material) {
-                        acc.iter_mut().zip(c).for_each(|(a, c)| *a += fac * c);
-                    }
-                }
-            }
-            acc.iter_mut().for_each(|a| *a /= (k * k) as f64);
-            acc
+    // Per emitting material and band, `∫ R_b L dλ` (direct view).
+    let emitted: BTreeMap<usize, Vec<f64>> = (scene.materials.iter().enumerate())
+        .filter_map(|(i, m)| {
+            let e = m.emission.as_ref()?;
+            let v = (scene.bands.iter())
+                .map(|b| {
+                    e.radiance_w_m2_sr_nm
+                        .integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
+                })
+                .collect();
+            Some((i, v))
         })
         .collect();
-    let mut image = Array3::<f64>::zeros((nb, h, w));
-    for (i, v) in vals.iter().enumerate() {
-        for (b, x) in v.iter().enumerate() {
-            image[[b, i / w, i % w]] = *x;
+    // A pixel's mean over a k × k grid of sub-pixel hits, and whether they
+    // land on more than one facet (or some miss).
+    let pixel = |col: usize, row: usize, k: usize| -> (Vec<f64>, bool) {
+        let mut acc = vec![0.0; nb];
+        let mut first = None;
+        let mut mixed = false;
+        for j in 0..k * k {
+            let px = col as f64 + ((j % k) as f64 + 0.5) / k as f64;
+            let py = row as f64 + ((j / k) as f64 + 0.5) / k as f64;
+            let hit = primary_hit(scene, tracer, px, py);
+            let f = hit.map(|h| h.0);
+            mixed |= *first.get_or_insert(f) != f;
+            let Some((f, p, d)) = hit else {
+                continue;
+            };
+            let facet = &scene.facets[f as usize];
+            if let Some(e) = &scene.materials[facet.material].emission {
+                let cos = -facet.normal().dot(d);
+                if with_emitters && cos > 0.0 {
+                    let shape = cos.powf(e.shape_exponent);
+                    let l = &emitted[&facet.material];
+                    acc.iter_mut().zip(l).for_each(|(a, l)| *a += shape * l);
+                }
+                continue;
+            }
+            let mut n = facet.normal();
+            if n.dot(d) > 0.0 {
+                n = -n;
+            }
+            for s in &srcs {
+                let fac = shaped_polygon_irradiance_factor(p, n, &s.verts, s.normal, s.m);
+                if let Some(c) = s.coef.get(&facet.material) {
+                    acc.iter_mut().zip(c).for_each(|(a, c)| *a += fac * c);
+                }
+            }
         }
-    }
-    Truth {
-        kind: "closed-form",
-        image,
-        mask,
-        noise_var: None,
-        seconds: t0.elapsed().as_secs_f64(),
-        note: format!(
-            "closed form (Lambert/Arvo per source, {k}×{k} sub-pixel hits per pixel, exact band integrals)"
-        ),
-    }
+        acc.iter_mut().for_each(|a| *a /= (k * k) as f64);
+        (acc, mixed)
+    };
+    let vals: Vec<Vec<f64>> = (0..w * h)
+        .into_par_iter()
+        .map(|i| match pixel(i % w, i / w, 8) {
+            (_, true) if with_emitters => pixel(i % w, i / w, 256).0,
+            (v, _) => v,
+        })
+        .collect();
+    Array3::from_shape_fn((nb, h, w), |(b, r, c)| vals[r * w + c][b])
 }
 
 /// 64-bit FNV-1a.
-fn fnv1a(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
     })

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 
-use crate::bench::{BenchError, accuracy, find_path, scale};
+use crate::bench::{BenchError, accuracy, find_path, resolution, scale};
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
@@ -117,6 +117,17 @@ pub struct AccuracyArgs {
     /// import `mitsuba`).
     #[arg(long)]
     pub no_mitsuba: bool,
+    /// The resolution axis: for each `resolution_scale` of this
+    /// comma-separated list (each > 0 and ≤ 4, e.g. 0.125,0.25,0.5,1), the
+    /// default render (`--target-error 0.02`) against a truth at the same
+    /// scale: its mean bias over the pixels that see no emitter and over
+    /// all pixels with a surface, per sixth of the image, and the time.
+    #[arg(long, value_name = "LIST")]
+    pub resolution_scales: Option<String>,
+    /// With --resolution-scales: run only the resolution axis (skip the
+    /// rest of the sweep).
+    #[arg(long, requires = "resolution_scales")]
+    pub resolution_only: bool,
 }
 
 #[derive(Args)]
@@ -136,15 +147,23 @@ pub struct ThroughputArgs {
 }
 
 impl AccuracyArgs {
-    pub fn options(self) -> accuracy::AccuracyOptions {
-        accuracy::AccuracyOptions {
+    /// The sweep's options; a bad `--resolution-scales` list is an error
+    /// naming the flag and the value.
+    pub fn options(self) -> Result<accuracy::AccuracyOptions, BenchError> {
+        let resolution_scales = match &self.resolution_scales {
+            Some(list) => Some(resolution::parse_scales(list)?),
+            None => None,
+        };
+        Ok(accuracy::AccuracyOptions {
             scene: find_path(&self.scene),
             out: self.out,
             budget_s: self.budget_s,
             all_effects: self.all_effects,
             threads: self.threads,
             mitsuba: !self.no_mitsuba,
-        }
+            resolution_scales,
+            resolution_only: self.resolution_only,
+        })
     }
 }
 
