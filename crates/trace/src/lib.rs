@@ -9,6 +9,7 @@ pub mod indirect;
 pub mod layers;
 pub(crate) mod light;
 pub(crate) mod light_tree;
+pub(crate) mod lights;
 pub mod plan;
 pub mod prep;
 pub mod render;
