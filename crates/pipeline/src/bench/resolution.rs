@@ -33,7 +33,7 @@ use super::truth::{
     reference_settings,
 };
 use crate::DEFAULT_TARGET_ERROR;
-use crate::output::{write_atomic, write_atomic_with};
+use crate::output::write_atomic;
 
 /// The flag, as errors name it.
 const FLAG: &str = "--resolution-scales";
@@ -404,7 +404,7 @@ fn reference_scale_truth(
     (dir, threads, scale, share_s): (&Path, Option<usize>, f64, f64),
     left: impl Fn() -> f64,
 ) -> Result<Result<ScaleTruth, String>, BenchError> {
-    use ndarray_npy::{ReadNpyExt, WriteNpyExt};
+    use ndarray_npy::ReadNpyExt;
     let t0 = Instant::now();
     let text =
         gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
@@ -533,12 +533,7 @@ fn reference_scale_truth(
         spp = next;
     };
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    write_atomic_with(&npy, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        stack.write_npy(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })?;
+    super::truth::write_npy_atomic(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,

@@ -399,7 +399,7 @@ pub fn reference_truth(
     spp: u32,
     kind: ReferenceKind,
 ) -> Result<Truth, BenchError> {
-    use ndarray_npy::{ReadNpyExt, WriteNpyExt};
+    use ndarray_npy::ReadNpyExt;
     let t0 = Instant::now();
     let text =
         gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
@@ -497,13 +497,7 @@ pub fn reference_truth(
         }
     }
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    write_atomic_with(&npy, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        stack.write_npy(&mut w)?;
-        // Flush here: a BufWriter dropped with unwritten data loses the error.
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })?;
+    write_npy_atomic(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,
@@ -529,6 +523,23 @@ pub fn reference_truth(
             npy.display()
         ),
     })
+}
+
+/// Writes a cached reference (`mean, noise` × band × row × column) as
+/// `.npy`, atomically.
+pub(crate) fn write_npy_atomic(
+    path: &Path,
+    stack: &ndarray::Array4<f64>,
+) -> Result<(), BenchError> {
+    use ndarray_npy::WriteNpyExt;
+    write_atomic_with(path, |f| {
+        let mut w = std::io::BufWriter::new(f);
+        stack.write_npy(&mut w)?;
+        // Flush here: a BufWriter dropped with unwritten data loses the error.
+        std::io::Write::flush(&mut w)?;
+        Ok(())
+    })?;
+    Ok(())
 }
 
 #[cfg(test)]
