@@ -30,7 +30,7 @@ use serde::Serialize;
 use super::BenchError;
 use super::truth::{
     REFERENCE_PIXELS, closed_form_image, closed_form_obstacle, fnv1a, no_emitter_and_surface_masks,
-    reference_settings,
+    read_cached_reference, reference_settings,
 };
 use crate::DEFAULT_TARGET_ERROR;
 use crate::output::write_atomic;
@@ -404,7 +404,6 @@ fn reference_scale_truth(
     (dir, threads, scale, share_s): (&Path, Option<usize>, f64, f64),
     left: impl Fn() -> f64,
 ) -> Result<Result<ScaleTruth, String>, BenchError> {
-    use ndarray_npy::ReadNpyExt;
     let t0 = Instant::now();
     let text =
         gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
@@ -441,20 +440,10 @@ fn reference_scale_truth(
             seconds,
         }
     };
-    if let (Ok(m), Ok(f)) = (
-        gloam_spectra::input::read_text(&meta, gloam_spectra::input::MAX_TEXT_FILE_BYTES),
-        gloam_spectra::input::open_bounded(&npy, gloam_spectra::input::MAX_IMAGE_FILE_BYTES),
-    ) {
-        let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
-        if m["key"] == key {
-            if let Ok(stack) = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)) {
-                if stack.dim() == (2, nb, h, w) {
-                    let spp = m["spp"].as_u64().unwrap_or(0) as u32;
-                    let pixel_noise = m["pixel_noise"].as_f64().unwrap_or(f64::NAN);
-                    return Ok(Ok(finish(stack, spp, pixel_noise, 0.0)));
-                }
-            }
-        }
+    if let Some((m, stack)) = read_cached_reference(&meta, &npy, &key, (2, nb, h, w)) {
+        let spp = m["spp"].as_u64().unwrap_or(0) as u32;
+        let pixel_noise = m["pixel_noise"].as_f64().unwrap_or(f64::NAN);
+        return Ok(Ok(finish(stack, spp, pixel_noise, 0.0)));
     }
     // Both halves at `spp` (each spp/2): the stack of mean and variance,
     // the relative noise on the no-emitter mean and the per-pixel RMS
@@ -533,7 +522,7 @@ fn reference_scale_truth(
         spp = next;
     };
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    super::truth::write_npy_atomic(&npy, &stack)?;
+    crate::output::write_npy_nd(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,

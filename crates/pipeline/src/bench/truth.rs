@@ -13,7 +13,7 @@ use ndarray::{Array2, Array3, Axis};
 use rayon::prelude::*;
 
 use super::BenchError;
-use crate::output::{write_atomic, write_atomic_with};
+use crate::output::write_atomic;
 
 /// What each run is compared against.
 pub struct Truth {
@@ -399,7 +399,6 @@ pub fn reference_truth(
     spp: u32,
     kind: ReferenceKind,
 ) -> Result<Truth, BenchError> {
-    use ndarray_npy::ReadNpyExt;
     let t0 = Instant::now();
     let text =
         gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
@@ -442,26 +441,16 @@ pub fn reference_truth(
         });
         (image, var, mask)
     };
-    if let (Ok(m), Ok(f)) = (
-        gloam_spectra::input::read_text(&meta, gloam_spectra::input::MAX_TEXT_FILE_BYTES),
-        gloam_spectra::input::open_bounded(&npy, gloam_spectra::input::MAX_IMAGE_FILE_BYTES),
-    ) {
-        let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
-        if m["key"] == key {
-            if let Ok(stack) = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)) {
-                if stack.dim() == (2, nb, h, w) {
-                    let (image, var, mask) = from_stack(&stack);
-                    return Ok(Truth {
-                        kind: "reference",
-                        image,
-                        mask,
-                        noise_var: Some(var),
-                        seconds: 0.0,
-                        note: format!("cached reference ({npy}, key {key})", npy = npy.display()),
-                    });
-                }
-            }
-        }
+    if let Some((_, stack)) = read_cached_reference(&meta, &npy, &key, (2, nb, h, w)) {
+        let (image, var, mask) = from_stack(&stack);
+        return Ok(Truth {
+            kind: "reference",
+            image,
+            mask,
+            noise_var: Some(var),
+            seconds: 0.0,
+            note: format!("cached reference ({npy}, key {key})", npy = npy.display()),
+        });
     }
     // A strided subset of the counted pixels, each rendered in two
     // independent halves (seeds differ): their mean is the reference,
@@ -497,7 +486,7 @@ pub fn reference_truth(
         }
     }
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    write_npy_atomic(&npy, &stack)?;
+    crate::output::write_npy_nd(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,
@@ -525,21 +514,28 @@ pub fn reference_truth(
     })
 }
 
-/// Writes a cached reference (`mean, noise` × band × row × column) as
-/// `.npy`, atomically.
-pub(crate) fn write_npy_atomic(
-    path: &Path,
-    stack: &ndarray::Array4<f64>,
-) -> Result<(), BenchError> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        stack.write_npy(&mut w)?;
-        // Flush here: a BufWriter dropped with unwritten data loses the error.
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })?;
-    Ok(())
+/// A cached reference (`mean, noise` × band × row × column) of `dims`
+/// under `key`: its metadata and stack, or None when the files are
+/// missing, unreadable, of another key or another shape (then it is
+/// rendered again).
+pub(crate) fn read_cached_reference(
+    meta: &Path,
+    npy: &Path,
+    key: &str,
+    dims: (usize, usize, usize, usize),
+) -> Option<(serde_json::Value, ndarray::Array4<f64>)> {
+    use gloam_spectra::input::{
+        MAX_IMAGE_FILE_BYTES, MAX_TEXT_FILE_BYTES, open_bounded, read_text,
+    };
+    use ndarray_npy::ReadNpyExt;
+    let m = read_text(meta, MAX_TEXT_FILE_BYTES).ok()?;
+    let f = open_bounded(npy, MAX_IMAGE_FILE_BYTES).ok()?;
+    let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
+    if m["key"] != key {
+        return None;
+    }
+    let stack = ndarray::Array4::<f64>::read_npy(std::io::BufReader::new(f)).ok()?;
+    (stack.dim() == dims).then_some((m, stack))
 }
 
 #[cfg(test)]
