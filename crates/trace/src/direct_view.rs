@@ -130,6 +130,40 @@ fn point_in(poly: &[[f64; 2]], a: f64, u: [f64; 2]) -> [f64; 2] {
     o
 }
 
+/// Triangle `t` clipped in front of the camera (a face through the
+/// camera's plane keeps its visible part), projected by the camera and
+/// clipped to the image; None when nothing of it is in view.
+fn project_to_image(camera: &gloam_scene::Camera, t: &[DVec3; 3]) -> Option<Vec<[f64; 2]>> {
+    let (_, _, fwd) = camera.basis();
+    let depth = |p: DVec3| (p - camera.position).dot(fwd);
+    let scale = t
+        .iter()
+        .map(|p| (*p - camera.position).abs().max_element())
+        .fold(0.0, f64::max);
+    let z_min = 1e-9 * scale;
+    let mut front = Vec::with_capacity(4);
+    for i in 0..3 {
+        let (a, b) = (t[i], t[(i + 1) % 3]);
+        let (fa, fb) = (depth(a) - z_min, depth(b) - z_min);
+        if fa >= 0.0 {
+            front.push(a);
+        }
+        if (fa >= 0.0) != (fb >= 0.0) {
+            front.push(a + (b - a) * (fa / (fa - fb)));
+        }
+    }
+    let image: Vec<[f64; 2]> = front
+        .iter()
+        .filter_map(|&p| camera.project(p).map(|(x, y)| [x, y]))
+        .collect();
+    if image.len() < 3 {
+        return None;
+    }
+    let (w, h) = (camera.width as f64, camera.height as f64);
+    let clipped = clip_rect(&image, 0.0, w, 0.0, h);
+    (clipped.len() >= 3 && area(&clipped) > 0.0).then_some(clipped)
+}
+
 impl Footprints {
     /// The footprints of `tris` (per area source: its triangles and
     /// whether its front faces the camera) in `camera`'s image, at most
@@ -138,8 +172,6 @@ impl Footprints {
         let (w, h) = (camera.width as usize, camera.height as usize);
         let npix = w * h;
         let budget = PAIRS_PER_PIXEL.saturating_mul(npix as u64);
-        let (r, u, f) = camera.basis();
-        let (th, tv) = camera.tan_half_fov();
         let mut out = Footprints {
             tris: vec![Vec::new(); sources.len()],
             apart: vec![false; sources.len()],
@@ -154,51 +186,7 @@ impl Footprints {
             }
             let mut projected = Vec::new();
             for t in tris {
-                // Camera frame, clipped in front of the camera (a face
-                // through the camera's plane keeps its visible part), then
-                // projected and clipped to the image.
-                let cam: Vec<[f64; 3]> = t
-                    .iter()
-                    .map(|p| {
-                        let d = *p - camera.position;
-                        [d.dot(r), d.dot(u), d.dot(f)]
-                    })
-                    .collect();
-                let scale = cam
-                    .iter()
-                    .map(|c| c[0].abs().max(c[1].abs()).max(c[2].abs()))
-                    .fold(0.0, f64::max);
-                let z_min = 1e-9 * scale;
-                let mut front = Vec::with_capacity(4);
-                for i in 0..3 {
-                    let (a, b) = (cam[i], cam[(i + 1) % 3]);
-                    let (fa, fb) = (a[2] - z_min, b[2] - z_min);
-                    if fa >= 0.0 {
-                        front.push(a);
-                    }
-                    if (fa >= 0.0) != (fb >= 0.0) {
-                        let k = fa / (fa - fb);
-                        front.push([
-                            a[0] + (b[0] - a[0]) * k,
-                            a[1] + (b[1] - a[1]) * k,
-                            a[2] + (b[2] - a[2]) * k,
-                        ]);
-                    }
-                }
-                if front.len() < 3 {
-                    continue;
-                }
-                let image: Vec<[f64; 2]> = front
-                    .iter()
-                    .map(|c| {
-                        [
-                            (c[0] / (c[2] * th) + 1.0) * 0.5 * w as f64,
-                            (1.0 - c[1] / (c[2] * tv)) * 0.5 * h as f64,
-                        ]
-                    })
-                    .collect();
-                let clipped = clip_rect(&image, 0.0, w as f64, 0.0, h as f64);
-                if clipped.len() >= 3 && area(&clipped) > 0.0 {
+                if let Some(clipped) = project_to_image(camera, t) {
                     projected.push(clipped);
                 }
             }
@@ -315,7 +303,6 @@ impl Tracer {
                 let u0 = (t / a).clamp(0.0, 1.0 - f64::EPSILON);
                 let p = point_in(poly, *a, [u0, rng.random::<f64>()]);
                 let d = cam.pixel_direction(p[0], p[1]);
-                sample.iter_mut().for_each(|v| *v = 0.0);
                 if self.view_ray(cam.position, d, src.facet, &mut sample, c) {
                     let g = src.shape(-d.dot(self.facet_normal[src.facet as usize]), -d);
                     sample
@@ -348,8 +335,8 @@ impl Tracer {
 
     /// Follows the camera ray `(o, d)` through transmissive facets (as
     /// [`Tracer::trace`] does) to `target`; true when it meets the target's
-    /// front, `tau` then holding the transmission of what it crossed
-    /// (`tau` must come in as zeros; it is set to the product).
+    /// front. `tau` is overwritten: the transmission of what the ray
+    /// crossed, or zeros when it does not reach the target.
     fn view_ray(
         &self,
         o: DVec3,
