@@ -47,10 +47,10 @@ struct PixelEstimate {
     /// Per band, whether any sample was non-zero (a pixel whose samples
     /// are all zero has no per-sample variance to state an error from).
     band_lit: Vec<bool>,
-    /// Whether a camera sample met an emitter's face: the pixel's error is
-    /// then the emitter edge's (a few samples carrying the emitter's whole
-    /// radiance), which the error target leaves out, as the accuracy
-    /// metric does.
+    /// Whether the pixel shows an emitter's face: its direct-view term
+    /// (`direct_view.rs`, decided before any sample) is lit, or a camera
+    /// sample met a face left to the samples. The error target leaves such
+    /// a pixel out, as the accuracy metric does.
     sees_emitter: bool,
     /// Light groups (`--layers`; 0 without), and per group and band the
     /// sum and sum of squares of the samples' parts (`[g * nb + b]`): the
@@ -559,8 +559,8 @@ pub struct ErrorSummary {
     pub rel_std_error_rms_target_pixels: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target_pixels: Option<usize>,
-    /// Pixels a camera sample showed an emitter's face (left out of the
-    /// target; they keep the minimum sample count).
+    /// Pixels that show an emitter's face (left out of the target; they
+    /// keep the minimum sample count).
     pub pixels_seeing_emitters: usize,
     /// Pixels whose every sample was zero and whose stated error is the
     /// neighbourhood bound (not zero) — deep penumbrae, or dark.
