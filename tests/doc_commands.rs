@@ -144,6 +144,7 @@ fn run_blocks(files: &[PathBuf]) {
                 c.args(["-euo", "pipefail", "-c", &script]);
                 c
             };
+            let t0 = std::time::Instant::now();
             let out = cmd
                 .current_dir(dir.path())
                 .env("PATH", &path)
@@ -164,7 +165,7 @@ fn run_blocks(files: &[PathBuf]) {
                 String::from_utf8_lossy(&out.stdout),
                 String::from_utf8_lossy(&out.stderr)
             );
-            eprintln!("{rel}:{}: ok", b.line);
+            eprintln!("{rel}:{}: ok ({:.1} s)", b.line, t0.elapsed().as_secs_f64());
             ran += 1;
         }
     }

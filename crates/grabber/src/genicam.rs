@@ -33,7 +33,9 @@ use std::sync::Mutex;
 
 use aravis::glib::object::Cast;
 use aravis::prelude::*;
-use aravis::{Auto, Buffer, BufferStatus, Camera, PixelFormat, Stream};
+use aravis::{Auto, Buffer, BufferStatus, Camera, Stream};
+
+use crate::stream_ids::{FrameIds, IdStep, mono_layout};
 
 use crate::interface::{
     DeviceControl, Frame, FrameMeta, FrameStatus, FrameStream, GrabError, Stimulus,
@@ -116,83 +118,6 @@ fn dev(what: &str, e: GlibError) -> GrabError {
 fn within(x: f64, lo: f64, hi: f64) -> bool {
     let slack = |v: f64| v.abs() * 1e-6;
     x >= lo - slack(lo) && x <= hi + slack(hi)
-}
-
-/// Bits per pixel value and bytes per pixel of the unpacked Mono formats.
-fn mono_layout(pf: PixelFormat) -> Option<(u8, usize)> {
-    match pf {
-        PixelFormat::MONO_8 => Some((8, 1)),
-        PixelFormat::MONO_10 => Some((10, 2)),
-        PixelFormat::MONO_12 => Some((12, 2)),
-        PixelFormat::MONO_14 => Some((14, 2)),
-        PixelFormat::MONO_16 => Some((16, 2)),
-        _ => None,
-    }
-}
-
-/// Frame ids as the camera numbers them, made monotonic and counted from 0
-/// (seq = id − 1, so frame *k* of an acquisition is seq *k* as with the
-/// `sim:` grabber): GigE Vision 1.x block ids run 1…65535 and wrap (0 is
-/// never used); extended ids do not.
-#[derive(Clone, Copy, Debug, Default)]
-struct FrameIds {
-    last: Option<(u64, u64)>, // (raw id, unwrapped seq)
-}
-
-enum IdStep {
-    /// The next frame, after `lost` missing ones; its unwrapped sequence number.
-    Next { seq: u64, lost: u64 },
-    /// Already seen or older than the last frame: not new.
-    Stale,
-}
-
-impl FrameIds {
-    fn step(&mut self, raw: u64) -> IdStep {
-        let Some((last_raw, last_seq)) = self.last else {
-            let seq = raw.saturating_sub(1);
-            self.last = Some((raw, seq));
-            return IdStep::Next { seq, lost: 0 };
-        };
-        let delta = if raw <= 0xFFFF && last_raw <= 0xFFFF {
-            // 65535 ids in the cycle; forward distances beyond half of it
-            // are older frames arriving late.
-            let d = (raw + 65535 - last_raw) % 65535;
-            if d == 0 || d > 32767 {
-                return IdStep::Stale;
-            }
-            d
-        } else if raw > last_raw {
-            raw - last_raw
-        } else {
-            return IdStep::Stale;
-        };
-        let seq = last_seq + delta;
-        self.last = Some((raw, seq));
-        IdStep::Next {
-            seq,
-            lost: delta - 1,
-        }
-    }
-
-    /// A frame that never arrived still used up the next id.
-    fn skip_one(&mut self) -> u64 {
-        match self.last {
-            Some((raw, seq)) => {
-                let next = if raw <= 0xFFFF {
-                    raw % 65535 + 1
-                } else {
-                    raw + 1
-                };
-                self.last = Some((next, seq + 1));
-                seq + 1
-            }
-            None => 0,
-        }
-    }
-
-    fn reset(&mut self) {
-        self.last = None;
-    }
 }
 
 /// A GenICam camera as a frame grabber.
@@ -530,7 +455,7 @@ impl GenicamGrabber {
     /// The buffer's pixels as counts, checked against its own description.
     fn pixels(&mut self, b: &Buffer, seq: u64) -> Result<Frame, GrabError> {
         let pf = b.image_pixel_format();
-        let (bits, bytes_per_px) = mono_layout(pf).ok_or_else(|| {
+        let (bits, bytes_per_px) = mono_layout(pf.raw()).ok_or_else(|| {
             GrabError::Unsupported(format!(
                 "pixel format 0x{:08x}: only unpacked Mono8/10/12/14/16 are read",
                 pf.raw()
@@ -723,7 +648,7 @@ impl DeviceControl for GenicamGrabber {
             .camera
             .pixel_format()
             .map_err(|e| dev("reading PixelFormat back", e))?;
-        mono_layout(now).map(|(b, _)| b).ok_or_else(|| {
+        mono_layout(now.raw()).map(|(b, _)| b).ok_or_else(|| {
             GrabError::Device(format!(
                 "PixelFormat reads 0x{:08x} after writing {name}",
                 now.raw()
@@ -801,51 +726,5 @@ impl FrameStream for GenicamGrabber {
     fn stop(&mut self) -> Result<(), GrabError> {
         GenicamGrabber::stop(self);
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn next(ids: &mut FrameIds, raw: u64) -> Option<(u64, u64)> {
-        match ids.step(raw) {
-            IdStep::Next { seq, lost } => Some((seq, lost)),
-            IdStep::Stale => None,
-        }
-    }
-
-    #[test]
-    fn frame_ids_unwrap_and_count_gaps() {
-        let mut ids = FrameIds::default();
-        // Block id 1, the first of an acquisition, is seq 0 (as sim:'s).
-        assert_eq!(next(&mut ids, 1), Some((0, 0)));
-        assert_eq!(next(&mut ids, 2), Some((1, 0)));
-        assert_eq!(next(&mut ids, 5), Some((4, 2)));
-        assert_eq!(next(&mut ids, 5), None);
-        assert_eq!(next(&mut ids, 3), None);
-        // 16-bit block ids skip 0 when they wrap.
-        let mut ids = FrameIds::default();
-        assert_eq!(next(&mut ids, 65534), Some((65533, 0)));
-        assert_eq!(next(&mut ids, 65535), Some((65534, 0)));
-        assert_eq!(next(&mut ids, 1), Some((65535, 0)));
-        assert_eq!(next(&mut ids, 3), Some((65537, 1)));
-        // A frame that timed out used its id: arriving late it is stale.
-        assert_eq!(ids.skip_one(), 65538);
-        assert_eq!(next(&mut ids, 4), None);
-        assert_eq!(next(&mut ids, 5), Some((65539, 0)));
-        // Extended (64-bit) ids do not wrap.
-        let mut ids = FrameIds::default();
-        assert_eq!(next(&mut ids, 70_000), Some((69_999, 0)));
-        assert_eq!(next(&mut ids, 70_003), Some((70_002, 2)));
-        assert_eq!(next(&mut ids, 69_999), None);
-    }
-
-    #[test]
-    fn mono_layouts() {
-        assert_eq!(mono_layout(PixelFormat::MONO_8), Some((8, 1)));
-        assert_eq!(mono_layout(PixelFormat::MONO_12), Some((12, 2)));
-        assert_eq!(mono_layout(PixelFormat::MONO_16), Some((16, 2)));
-        assert_eq!(mono_layout(PixelFormat::MONO_12_PACKED), None);
     }
 }

@@ -10,6 +10,7 @@ pub mod genicam;
 pub mod memory;
 pub mod serial;
 pub mod source;
+mod stream_ids;
 pub mod transport;
 pub mod uri;
 pub mod usb;
