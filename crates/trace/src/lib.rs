@@ -5,6 +5,7 @@ pub mod cache_check;
 pub mod closed_form;
 pub(crate) mod direct_view;
 pub mod geometry;
+pub(crate) mod guide;
 pub mod indirect;
 pub mod layers;
 pub(crate) mod light;

@@ -70,6 +70,10 @@ pub struct InterreflectionDecision {
     /// The full cache's solve (method `cache`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cache: Option<CacheSummary>,
+    /// Method `path`: how many hot facets its bounces are guided toward
+    /// (`path_guide`; absent when none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub guided_facets: Option<usize>,
 }
 
 /// What the pilot measured.

@@ -17,6 +17,7 @@
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
 //! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
 //! | `light_strata` | sobol | camera-vertex light samples: `sobol` (one Owen-scrambled Sobol sequence per pixel and source, stratified across the pixel's samples: office, direct light only, 16 spp: per-pixel error 2.61 % → 0.92 % against the path-traced reference; whole light 0.98 % → 0.91 %) or `random` (an independent Latin-hypercube set per sample, the default before issue 30) |
+//! | `path_guide` | true | `indirect = path`: a share of each diffuse bounce aims at the few facets lit far above the rest (a lamp's own housing), weighted by the mixture's density so the estimate stays unbiased (`guide.rs`; night-full-moon-lamps, one eighth size, 64 spp: noise of the lower sixths' sums 1.2–3.4 % → 0.3–0.5 %) |
 //! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
 //! | `drop` | (none) | comma-separated effects left out of the render, to measure what each is worth (`gloam bench plan`): `area-sources`, `point-sources`, `shaped-point-sources`, `moon`, `night-sky`, `direct-view`, `specular-recursion`, `transmissive-occluders` (they become opaque), `interreflection`; `none` clears |
 //! | `SAMPLE_AREA_DENSITY` | 1 | `dirsig2001`: sample points per scene unit² of source |
@@ -265,6 +266,9 @@ pub struct RenderSettings {
     pub resolution_scale: f64,
     /// Compute every effect, planned or not (benchmarking the plan).
     pub all_effects: bool,
+    /// Path tracing: guide a share of the diffuse bounces toward hot
+    /// facets (`guide.rs`).
+    pub path_guide: bool,
     /// Light samples at the camera vertex drawn from one scrambled Sobol
     /// sequence per pixel and source, stratified across the pixel's
     /// samples (`sobol`), or independently per sample (`random`).
@@ -314,6 +318,7 @@ impl Default for RenderSettings {
             sky_samples: 16,
             resolution_scale: 1.0,
             all_effects: false,
+            path_guide: true,
             light_strata: LightStrataMode::Sobol,
             drop: Dropped::default(),
             indirect: Indirect::Auto,
@@ -385,6 +390,7 @@ impl RenderSettings {
         "sky_samples",
         "resolution_scale",
         "all_effects",
+        "path_guide",
         "light_strata",
         "drop",
         "indirect",
@@ -482,6 +488,19 @@ impl RenderSettings {
                     parse(key, value, "a finite number in (0, 16]", |x: &f64| {
                         x.is_finite() && *x > 0.0 && *x <= 16.0
                     })?
+            }
+            "path_guide" => {
+                self.path_guide = match value.to_ascii_lowercase().as_str() {
+                    "true" | "1" | "yes" | "on" => true,
+                    "false" | "0" | "no" | "off" => false,
+                    _ => {
+                        return Err(SettingsError::BadValue {
+                            key: key.into(),
+                            value: value.into(),
+                            expected: "true or false",
+                        });
+                    }
+                }
             }
             "all_effects" => {
                 self.all_effects = match value.to_ascii_lowercase().as_str() {
@@ -602,7 +621,7 @@ mod tests {
                 "estimator" => "analytic",
                 "occlusion" => "ratio",
                 "source_roulette_fraction" | "resolution_scale" => "0.5",
-                "all_effects" => "true",
+                "all_effects" | "path_guide" => "true",
                 "light_strata" => "random",
                 "indirect" => "cache",
                 "drop" => "moon",

@@ -204,6 +204,9 @@ pub struct Tracer {
     /// Which pixels each emitter's face covers: the faces seen directly
     /// are computed apart from the camera samples (`direct_view.rs`).
     pub(crate) view: crate::direct_view::Footprints,
+    /// Path tracing's bounce guide toward hot facets (`guide.rs`; None
+    /// unless `indirect = path` with `path_guide` and such facets exist).
+    pub(crate) guide: Option<crate::guide::HotFacets>,
 }
 
 /// SplitMix64 finaliser: decorrelates (seed, index) into a stream seed.
@@ -441,11 +444,16 @@ impl Tracer {
             observer,
             layers: None,
             view,
+            guide: None,
         };
         if let Some(map) = layers {
             tracer.assign_groups(map);
         }
         tracer.decide_interreflection(solve);
+        if tracer.settings.path_guide && tracer.interreflection.method == "path" {
+            tracer.guide = crate::guide::HotFacets::find(&tracer);
+            tracer.interreflection.guided_facets = tracer.guide.as_ref().map(|g| g.len());
+        }
         tracer.build_seconds = t0.elapsed().as_secs_f64();
         Ok(tracer)
     }
@@ -760,6 +768,45 @@ impl Tracer {
         parts.map(Light::into_whole)
     }
 
+    /// A diffuse bounce's direction from `p` (shading normal `ns`, on
+    /// facet `f`): cosine-weighted, or with a bounce guide (`guide.rs`)
+    /// drawn from its one-sample mixture, `t2` then scaled by
+    /// (cos/π) / pdf. None when a guided draw falls behind the surface.
+    fn bounce_direction(
+        &self,
+        p: DVec3,
+        ns: DVec3,
+        f: u32,
+        rng: &mut Pcg64Mcg,
+        t2: &mut [f64],
+    ) -> Option<DVec3> {
+        let local = self.guide.as_ref().and_then(|g| g.at(p, ns, f));
+        let guided = local.is_some() && rng.random::<f64>() < crate::guide::GUIDED_FRACTION;
+        let (tx, ty) = orthonormal(ns);
+        let u1: f64 = rng.random();
+        let u2: f64 = rng.random();
+        let dir = match &local {
+            Some(l) if guided => l.sample(p, [u1, u2, rng.random()])?,
+            _ => {
+                let r = u1.sqrt();
+                let phi = 2.0 * std::f64::consts::PI * u2;
+                (tx * (r * phi.cos()) + ty * (r * phi.sin()) + ns * (1.0 - u1).max(0.0).sqrt())
+                    .normalize()
+            }
+        };
+        if let Some(l) = &local {
+            let cos = dir.dot(ns);
+            if cos <= 0.0 {
+                return None;
+            }
+            let a = crate::guide::GUIDED_FRACTION;
+            let cos_pdf = cos * std::f64::consts::FRAC_1_PI;
+            let w = cos_pdf / ((1.0 - a) * cos_pdf + a * l.pdf(p, dir));
+            t2.iter_mut().for_each(|x| *x *= w);
+        }
+        Some(dir)
+    }
+
     /// Spectral radiance arriving along the unit ray `(o, d)` (centred), times
     /// `thr`, added to `acc`, from where `state` says the ray is in its
     /// path (see [`PathState`]).
@@ -930,16 +977,12 @@ impl Tracer {
                         alive = false;
                     }
                 }
-                if alive {
-                    let (tx, ty) = orthonormal(ns);
-                    let u1: f64 = rng.random();
-                    let u2: f64 = rng.random();
-                    let r = u1.sqrt();
-                    let phi = 2.0 * std::f64::consts::PI * u2;
-                    let dir = (tx * (r * phi.cos())
-                        + ty * (r * phi.sin())
-                        + ns * (1.0 - u1).max(0.0).sqrt())
-                    .normalize();
+                let dir = if alive {
+                    self.bounce_direction(p, ns, f, rng, &mut t2)
+                } else {
+                    None
+                };
+                if let Some(dir) = dir {
                     self.trace(
                         p,
                         dir,
