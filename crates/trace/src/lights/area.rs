@@ -339,8 +339,8 @@ impl Tracer {
         self.area.iter().map(|s| s.centroid).collect()
     }
 
-    /// The area sources' part of [`Tracer::irradiance`], by the chosen
-    /// estimator.
+    /// Every area source's part of [`Tracer::irradiance`], by the chosen
+    /// estimator (`LightSource::Area(AreaSet::Every)`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn area_irradiance(
         &self,
@@ -352,12 +352,9 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut Light,
     ) {
-        if self.area.is_empty() && !self.settings.all_effects {
-            return;
-        }
+        // Not called when the light tree picks the area sources, nor when
+        // there are none (`LightSampler::every`).
         match self.settings.estimator {
-            // The light tree picks the area sources (`tree_irradiance`).
-            Estimator::Analytic if self.light_tree.as_ref().is_some_and(|t| t.has_area) => {}
             Estimator::Analytic => self.analytic(p, n, ignore, strata, rng, c, out),
             Estimator::SolidAngle => {
                 for s in &self.area {
