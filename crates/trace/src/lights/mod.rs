@@ -281,7 +281,7 @@ impl LightSource<'_> {
                 t.area_irradiance(p, n, ignore, strata, rng, c, out)
             }
             LightSource::Area(AreaSet::Picked(picks)) => {
-                t.analytic_picks(picks, p, n, ignore, strata, rng, c, out)
+                t.analytic(picks, p, n, ignore, strata, rng, c, out)
             }
             LightSource::Moon(sky) => t.moon_irradiance(sky, p, n, ignore, c, out),
             LightSource::Dome(sky) => t.dome_irradiance(sky, p, n, ignore, rng, c, out),
