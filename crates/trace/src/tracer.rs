@@ -1,7 +1,8 @@
 //! The prepared scene and everything that happens along a ray: direct
-//! lighting summed over the light families (each family's sources and
-//! estimators are in `lights/`), directly viewed emitters, specular
-//! recursion, diffuse path tracing.
+//! lighting over the scene's lights (`lights/`: one `LightSource`
+//! interface over the families and a `LightSampler`; here, which terms a
+//! shading point computes, keeps apart or drops), directly viewed
+//! emitters, specular recursion, diffuse path tracing.
 
 use glam::DVec3;
 use gloam_scene::Scene;
@@ -11,8 +12,8 @@ use rand_pcg::Pcg64Mcg;
 use crate::geometry::{Geometry, Visibility};
 use crate::light::Light;
 use crate::lights::{
-    AreaSource, PointLight, SkyState, area_footprints, area_sources, build_light_tree, build_sky,
-    point_lights,
+    AreaSource, PointLight, Route, SkyState, Term, area_footprints, area_sources, build_light_tree,
+    build_sky, point_lights,
 };
 // Their old paths, which `render.rs` and the crate root use.
 pub(crate) use crate::lights::LightStrata;
@@ -621,103 +622,64 @@ impl Tracer {
         ignore: u32,
         tree_repeats: u32,
         strata: Option<LightStrata>,
-        mut smooth: Smooth<'_>,
+        smooth: Smooth<'_>,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         out: &mut Light,
     ) {
-        // A dropped term that draws random numbers (dome, area sources) is
-        // still computed, into a scratch buffer, so the render shares every
-        // other random number with the full one: the difference is the
-        // term, not noise (`gloam bench plan`).
-        let (drop, skip) = (&self.settings.drop, &self.skip);
-        // With a light tree the point sources are among the emitters it
-        // picks (below).
-        let points: &[PointLight] = if self.light_tree.is_some() {
-            &[]
+        let sharp_only = matches!(smooth, Smooth::Omitted);
+        let routes = Term::ALL.map(|t| self.route(t, &smooth));
+        // The sharp terms alone take a single pick (a gather ray's
+        // reading, averaged over many).
+        let branches = if sharp_only { 1 } else { usize::MAX };
+        let mut bufs: Vec<&mut Light> = vec![out];
+        if let Smooth::Apart(apart) = smooth {
+            bufs.push(apart);
+        }
+        self.direct_light(
+            p,
+            n,
+            ignore,
+            tree_repeats,
+            branches,
+            strata,
+            routes,
+            rng,
+            c,
+            &mut bufs,
+        );
+    }
+
+    /// The one table of what happens to a light term at a render's shading
+    /// point ([`Route`]): a term the plan skips (`self.skip`), or a smooth
+    /// term under [`Smooth::Omitted`], is not computed; a dropped one
+    /// (`settings.drop`) is not computed if it draws no random numbers, and
+    /// otherwise computed into a scratch buffer, so the render shares every
+    /// other random number with the full one; the rest go to `out`
+    /// (buffer 0), or the smooth ones to [`Smooth::Apart`]'s (buffer 1).
+    fn route(&self, term: Term, smooth: &Smooth<'_>) -> Route {
+        let (dropped, skipped) = (term.flag(&self.settings.drop), term.flag(&self.skip));
+        let smooth_term = term.is_smooth();
+        if skipped
+            || (dropped && !term.draws_random())
+            || (smooth_term && matches!(smooth, Smooth::Omitted))
+        {
+            Route::Skip
+        } else if dropped {
+            Route::Scratch
+        } else if smooth_term && matches!(smooth, Smooth::Apart(_)) {
+            Route::To(1)
         } else {
-            &self.points
-        };
-        for l in points {
-            let shaped = l.is_shaped();
-            if (shaped && (drop.shaped_point_sources || skip.shaped_point_sources))
-                || (!shaped && (drop.point_sources || skip.point_sources))
-            {
-                continue;
-            }
-            self.point_irradiance(l, p, n, ignore, 1.0, c, out);
-        }
-        // Dropped terms are discarded whole: no groups.
-        let nwl = out.len();
-        let scratch = || Light::dark(nwl, 0);
-        if let Some(sky) = &self.sky {
-            if !(drop.moon || skip.moon) {
-                self.moon_irradiance(sky, p, n, ignore, c, out);
-            }
-            match &mut smooth {
-                _ if skip.night_sky => {}
-                Smooth::Omitted => {}
-                _ if drop.night_sky => {
-                    self.dome_irradiance(sky, p, n, ignore, rng, c, &mut scratch())
-                }
-                Smooth::Included => self.dome_irradiance(sky, p, n, ignore, rng, c, out),
-                Smooth::Apart(apart) => self.dome_irradiance(sky, p, n, ignore, rng, c, apart),
-            }
-        }
-        match &mut smooth {
-            _ if skip.area_sources => {}
-            Smooth::Omitted => {}
-            _ if drop.area_sources => {
-                self.area_irradiance(p, n, ignore, strata, rng, c, &mut scratch())
-            }
-            Smooth::Included => self.area_irradiance(p, n, ignore, strata, rng, c, out),
-            Smooth::Apart(apart) => self.area_irradiance(p, n, ignore, strata, rng, c, apart),
-        }
-        if let Some(tree) = &self.light_tree {
-            // Point sources draw no random numbers: a dropped one need not
-            // be traced at all. Dropped area picks are traced and discarded.
-            // The sharp terms alone take a single pick (a gather ray's
-            // reading, averaged over many).
-            let sharp_only = matches!(smooth, Smooth::Omitted);
-            let skipped = [
-                skip.area_sources || sharp_only,
-                skip.point_sources || drop.point_sources,
-                skip.shaped_point_sources || drop.shaped_point_sources,
-            ];
-            let dropped = [
-                drop.area_sources,
-                drop.point_sources,
-                drop.shaped_point_sources,
-            ];
-            let branches = if sharp_only { 1 } else { usize::MAX };
-            let repeats = tree_repeats.max(1);
-            let w = 1.0 / repeats as f64;
-            for _ in 0..repeats {
-                let parts = self
-                    .tree_irradiance(tree, p, n, ignore, skipped, branches, strata, rng, c, out);
-                // w = 1 for one selection: x · 1 is x exactly. Area picks
-                // are smooth terms.
-                for (k, (part, _)) in parts
-                    .iter()
-                    .zip(dropped)
-                    .enumerate()
-                    .filter(|(_, (_, d))| !d)
-                {
-                    let to = match &mut smooth {
-                        Smooth::Apart(apart) if k == 0 => &mut **apart,
-                        _ => &mut *out,
-                    };
-                    to.add_each(part, |o, x| {
-                        o.iter_mut().zip(x).for_each(|(o, x)| *o += w * x)
-                    });
-                }
-            }
+            Route::To(0)
         }
     }
 
     /// [`Tracer::irradiance`] split by what it comes from, for the effect
     /// plan's pilot: `[area sources, isotropic point sources, shaped point
-    /// sources, Moon, sky dome]`.
+    /// sources, Moon, sky dome]` (by [`Term`]), every term computed
+    /// whatever `drop` and the plan say. The pilot stays cheap with many
+    /// lamps: the tree's picks, each into its own term (unbiased per term,
+    /// as each pick's weight is its own 1/pmf).
     pub(crate) fn irradiance_parts(
         &self,
         p: DVec3,
@@ -726,45 +688,10 @@ impl Tracer {
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
     ) -> [Vec<f64>; 5] {
-        let z = || Light::dark(self.wl.len(), 0);
-        let mut parts = [z(), z(), z(), z(), z()];
-        let points: &[PointLight] = if self.light_tree.is_some() {
-            &[]
-        } else {
-            &self.points
-        };
-        for l in points {
-            let k = if l.is_shaped() { 2 } else { 1 };
-            self.point_irradiance(l, p, n, ignore, 1.0, c, &mut parts[k]);
-        }
-        if let Some(sky) = &self.sky {
-            self.moon_irradiance(sky, p, n, ignore, c, &mut parts[3]);
-            self.dome_irradiance(sky, p, n, ignore, rng, c, &mut parts[4]);
-        }
-        self.area_irradiance(p, n, ignore, None, rng, c, &mut parts[0]);
-        // The pilot stays cheap with many lamps: the tree's picks, each
-        // into its own term (unbiased per term, as each pick's weight is
-        // its own 1/pmf).
-        if let Some(tree) = &self.light_tree {
-            let like = &parts[0];
-            let tree_parts = self.tree_irradiance(
-                tree,
-                p,
-                n,
-                ignore,
-                [false; 3],
-                usize::MAX,
-                None,
-                rng,
-                c,
-                like,
-            );
-            for (k, part) in tree_parts.iter().enumerate() {
-                (parts[k].whole.iter_mut())
-                    .zip(&part.whole)
-                    .for_each(|(o, x)| *o += x);
-            }
-        }
+        let mut parts: [Light; 5] = std::array::from_fn(|_| Light::dark(self.wl.len(), 0));
+        let routes = Term::ALL.map(|t| Route::To(t as usize));
+        let mut bufs: Vec<&mut Light> = parts.iter_mut().collect();
+        self.direct_light(p, n, ignore, 1, usize::MAX, None, routes, rng, c, &mut bufs);
         parts.map(Light::into_whole)
     }
 

@@ -339,8 +339,8 @@ impl Tracer {
         self.area.iter().map(|s| s.centroid).collect()
     }
 
-    /// The area sources' part of [`Tracer::irradiance`], by the chosen
-    /// estimator.
+    /// Every area source's part of [`Tracer::irradiance`], by the chosen
+    /// estimator (`LightSource::Area(AreaSet::Every)`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn area_irradiance(
         &self,
@@ -352,13 +352,13 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut Light,
     ) {
-        if self.area.is_empty() && !self.settings.all_effects {
-            return;
-        }
+        // Not called when the light tree picks the area sources, nor when
+        // there are none (`LightSampler::every`).
         match self.settings.estimator {
-            // The light tree picks the area sources (`tree_irradiance`).
-            Estimator::Analytic if self.light_tree.as_ref().is_some_and(|t| t.has_area) => {}
-            Estimator::Analytic => self.analytic(p, n, ignore, strata, rng, c, out),
+            Estimator::Analytic => {
+                let every: Vec<(&AreaSource, f64)> = self.area.iter().map(|s| (s, 1.0)).collect();
+                self.analytic(&every, p, n, ignore, strata, rng, c, out)
+            }
             Estimator::SolidAngle => {
                 for s in &self.area {
                     if s.facet != ignore {
@@ -552,67 +552,6 @@ impl Tracer {
         }
     }
 
-    /// The `analytic` estimator (see the crate docs, "Occlusion rule"):
-    /// per source, the closed form corrected by `n_s` shadow rays; a source
-    /// whose every sample is blocked at a wavelength contributes exactly 0
-    /// there, and the summed area-source irradiance at the hit point is
-    /// clamped at 0 per wavelength.
-    #[allow(clippy::too_many_arguments)]
-    fn analytic(
-        &self,
-        p: DVec3,
-        n: DVec3,
-        ignore: u32,
-        strata: Option<LightStrata>,
-        rng: &mut Pcg64Mcg,
-        c: &mut RayCounts,
-        out: &mut Light,
-    ) {
-        // Closed-form unoccluded factor of each source (None: non-integer m).
-        let factors: Vec<Option<f64>> = self
-            .area
-            .iter()
-            .map(|s| {
-                if s.facet == ignore {
-                    return Some(0.0);
-                }
-                s.m_int.map(|m| {
-                    closed_form::shaped_polygon_irradiance_factor(p, n, &s.verts, s.normal, m)
-                })
-            })
-            .collect();
-        let total: f64 = self
-            .area
-            .iter()
-            .zip(&factors)
-            .map(|(s, f)| f.unwrap_or(0.0) * s.size)
-            .sum();
-        let mut samples = Vec::new();
-        let mut occ = vec![0.0; out.len()];
-        // The area sources' sum at this point, clamped at 0 at the end.
-        let mut area = out.dark_like();
-        for (s, f) in self.area.iter().zip(&factors) {
-            self.analytic_source(
-                s,
-                *f,
-                total,
-                1.0,
-                p,
-                n,
-                ignore,
-                strata,
-                rng,
-                c,
-                &mut samples,
-                &mut occ,
-                &mut area,
-            );
-        }
-        // No negative irradiance (see the crate docs): the control variate
-        // can undershoot in deep penumbra.
-        out.add_clamped(&area);
-    }
-
     /// One area source's `analytic` estimate times `scale` (1, or the light
     /// tree's 1/pmf) into `area`: the closed form `factor` (None: non-integer
     /// m, sampled instead) corrected by shadow rays, their number set by the
@@ -703,12 +642,16 @@ impl Tracer {
         }
     }
 
-    /// The light tree's area picks `(source, 1/pmf)` at `p`, into `out`:
-    /// closed forms first, for the shadow-ray shares, then each pick's
-    /// `analytic_source` estimate times its weight; the sum clamped at 0 per
-    /// wavelength like `analytic`'s.
+    /// The `analytic` estimator (see the crate docs, "Occlusion rule") over
+    /// `picks` `(source, weight)` at `p`, into `out`: every area source
+    /// with weight 1, or the light tree's picks with their 1/pmf. Closed
+    /// forms first, for the shadow-ray shares, then each source's
+    /// `analytic_source` estimate times its weight (a source whose every
+    /// sample is blocked at a wavelength contributes exactly 0 there); the
+    /// sum is clamped at 0 per wavelength (the control variate can
+    /// undershoot in deep penumbra).
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn analytic_picks(
+    pub(super) fn analytic(
         &self,
         picks: &[(&AreaSource, f64)],
         p: DVec3,
@@ -737,7 +680,7 @@ impl Tracer {
             .map(|(s, f, w)| f.unwrap_or(0.0) * s.size * w)
             .sum();
         let mut samples = Vec::new();
-        let mut occ = vec![0.0; self.wl.len()];
+        let mut occ = vec![0.0; out.len()];
         let mut area = out.dark_like();
         for &(s, f, w) in &area_picks {
             self.analytic_source(

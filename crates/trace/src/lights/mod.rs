@@ -2,17 +2,32 @@
 //! (`point.rs`), and the sky — the Moon's beam and the dome (`sky.rs`;
 //! the sky's model stays in `sky_light.rs`, this is its use as a light).
 //! Each family holds its data as prepared from the scene and the
-//! `impl Tracer` methods that compute its direct light at a shading point;
-//! this module holds what they share (adding emission through a shadow
-//! ray, the light tree across families, the light samples' strata).
+//! `impl Tracer` methods that compute its direct light at a shading point.
 //!
-//! This is the first step of issue 44 (the tracer in pbrt-v4's shape):
-//! the families are apart, a common light interface (pbrt's `Light`,
-//! `LightSampler`) is to come; until then `Tracer` calls each family's
-//! methods by name.
+//! Over the families, one interface (issue 44, after pbrt-v4's `Light`
+//! and `LightSampler`): a [`LightSource`] (`Point`, `Area`, `Moon`,
+//! `Dome`) has a [`Term`] — the five parts the effect plan knows and
+//! `drop` names — and its direct irradiance at a shading point by its
+//! family's estimator; the [`LightSampler`] (`sampler.rs`) yields a
+//! shading point's lights with their weights (every light with 1, and the
+//! light tree's picks with their 1/pmf); [`Tracer::direct_light`] is the
+//! one loop over them, sending each term where a [`Route`] says. Adding a
+//! family is a file here, an arm of [`LightSource`] (and of [`Term`] if
+//! it is a new term), and its place in [`LightSampler::every`].
+//!
+//! Area sources enter as one [`AreaSet`], not one by one: the `analytic`
+//! estimator shares the closed-form total between them (each one's
+//! shadow-ray count follows its share) and clamps their sum at 0, so they
+//! are estimated together. The light tree's bounds stay per emitter
+//! (`AreaSource::tree_info`, `PointLight::tree_info`).
+//!
+//! This module also holds what the families share: adding emission
+//! through a shadow ray, the light tree's construction, the light
+//! samples' strata.
 
 mod area;
 mod point;
+mod sampler;
 mod sky;
 
 use glam::DVec3;
@@ -20,11 +35,12 @@ use rand_pcg::Pcg64Mcg;
 
 pub(crate) use area::{AreaSource, area_footprints, area_sources};
 pub(crate) use point::{PointLight, point_lights};
+use sampler::LightSampler;
 pub use sky::SkyProbeResult;
 pub(crate) use sky::{SkyState, build_sky};
 
 use crate::light::Light;
-use crate::settings::{Estimator, RenderSettings};
+use crate::settings::{Dropped, Estimator, RenderSettings};
 use crate::spectral::Wavelengths;
 use crate::tracer::{RayCounts, Tracer, mix64};
 
@@ -74,48 +90,202 @@ impl Tracer {
         }
     }
 
-    /// Direct light from the emitters the light tree picks at `p`, split as
-    /// `[area sources, isotropic point sources, shaped point sources]`: each
-    /// pick's usual estimate (area: `analytic_source`; point: one shadow
-    /// ray) times its 1/pmf, so each part is unbiased. Categories in
-    /// `skipped` are neither traced nor counted. The area part is clamped at
-    /// 0 per wavelength like `analytic`'s sum.
+    /// Direct light at `p` (normal `n`, on facet `ignore`) from every
+    /// light the [`LightSampler`] yields, each term sent where `routes`
+    /// says ([`Route`], indexed by [`Term`]): `To(i)` adds it to
+    /// `bufs[i]`, `Scratch` computes and discards it (its random numbers
+    /// are still drawn), `Skip` neither computes nor counts it. The light
+    /// tree's picks are averaged over `tree_repeats` selections of at most
+    /// `branches` picks each; within a selection each term gathers in a
+    /// buffer of its own and is added to its destination once.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn tree_irradiance(
+    pub(crate) fn direct_light(
         &self,
-        tree: &crate::light_tree::LightTree,
         p: DVec3,
         n: DVec3,
         ignore: u32,
-        skipped: [bool; 3],
+        tree_repeats: u32,
         branches: usize,
         strata: Option<LightStrata>,
+        routes: [Route; 5],
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-        like: &Light,
-    ) -> [Light; 3] {
-        use crate::light_tree::LightRef;
-        let mut parts = [like.dark_like(), like.dark_like(), like.dark_like()];
-        let mut picks = Vec::new();
-        tree.select_in(p, n, branches, rng, &mut picks);
-        let mut area_picks: Vec<(&AreaSource, f64)> = Vec::new();
-        for &(l, w) in &picks {
-            match l {
-                LightRef::Area(i) if !skipped[0] => area_picks.push((&self.area[i as usize], w)),
-                LightRef::Area(_) => {}
-                LightRef::Point(i) => {
-                    let l = &self.points[i as usize];
-                    let k = if l.is_shaped() { 2 } else { 1 };
-                    if !skipped[k] {
-                        self.point_irradiance(l, p, n, ignore, w, c, &mut parts[k]);
-                    }
+        bufs: &mut [&mut Light],
+    ) {
+        let sampler = LightSampler::new(self);
+        // Dropped terms are discarded whole: no groups.
+        let nwl = bufs[0].len();
+        for (light, w) in sampler.every() {
+            match routes[light.term() as usize] {
+                Route::Skip => {}
+                Route::Scratch => {
+                    let scratch = &mut Light::dark(nwl, 0);
+                    light.irradiance(self, p, n, ignore, w, strata, rng, c, scratch)
+                }
+                Route::To(i) => light.irradiance(self, p, n, ignore, w, strata, rng, c, bufs[i]),
+            }
+        }
+        if sampler.tree().is_none() {
+            return;
+        }
+        let repeats = tree_repeats.max(1);
+        let w = 1.0 / repeats as f64;
+        for _ in 0..repeats {
+            // The tree picks area and point sources: their three terms.
+            let mut parts: [Light; 3] = std::array::from_fn(|_| bufs[0].dark_like());
+            for (light, pw) in sampler.pick(p, n, branches, rng) {
+                let k = light.term() as usize;
+                if !matches!(routes[k], Route::Skip) {
+                    light.irradiance(self, p, n, ignore, pw, strata, rng, c, &mut parts[k]);
+                }
+            }
+            // w = 1 for one selection: x · 1 is x exactly. A skipped term's
+            // part is all +0 and is not added: the sums here start at +0
+            // and only grow by `+=`, so they never hold −0, and x + 0 = x.
+            for (part, route) in parts.iter().zip(routes) {
+                if let Route::To(i) = route {
+                    bufs[i].add_each(part, |o, x| {
+                        o.iter_mut().zip(x).for_each(|(o, x)| *o += w * x)
+                    });
                 }
             }
         }
-        if !area_picks.is_empty() {
-            self.analytic_picks(&area_picks, p, n, ignore, strata, rng, c, &mut parts[0]);
+    }
+}
+
+/// The five light terms the effect plan knows and `drop` names; a
+/// term's number is its place in [`Tracer::direct_light`]'s `routes` and
+/// in the pilot's `irradiance_parts`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Term {
+    /// Area sources (`area-sources`).
+    Area = 0,
+    /// Isotropic point sources (`point-sources`).
+    Point = 1,
+    /// Shaped and measured point sources (`shaped-point-sources`).
+    ShapedPoint = 2,
+    /// The Moon's beam (`moon`).
+    Moon = 3,
+    /// The sky dome (`night-sky`).
+    NightSky = 4,
+}
+
+impl Term {
+    /// In order of their numbers.
+    pub(crate) const ALL: [Term; 5] = [
+        Term::Area,
+        Term::Point,
+        Term::ShapedPoint,
+        Term::Moon,
+        Term::NightSky,
+    ];
+
+    /// Whether its estimate draws random numbers: then a dropped term is
+    /// still computed, into a scratch buffer, so the render shares every
+    /// other random number with the full one (the difference is the term,
+    /// not noise: `gloam bench plan`); a dropped term that draws none is
+    /// not computed at all.
+    pub(crate) fn draws_random(self) -> bool {
+        matches!(self, Term::Area | Term::NightSky)
+    }
+
+    /// A smooth term: extended emitters, with no pools or shadow edges
+    /// sharper than a cache texel (`tracer::Smooth`).
+    pub(crate) fn is_smooth(self) -> bool {
+        matches!(self, Term::Area | Term::NightSky)
+    }
+
+    /// Its flag in a `drop` (or the plan's skip) list.
+    pub(crate) fn flag(self, d: &Dropped) -> bool {
+        match self {
+            Term::Area => d.area_sources,
+            Term::Point => d.point_sources,
+            Term::ShapedPoint => d.shaped_point_sources,
+            Term::Moon => d.moon,
+            Term::NightSky => d.night_sky,
         }
-        parts
+    }
+}
+
+/// Where [`Tracer::direct_light`] sends a term's light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Route {
+    /// Not computed: no shadow rays, no random numbers.
+    Skip,
+    /// Computed and discarded (a dropped term that draws random numbers).
+    Scratch,
+    /// Added to buffer `i`.
+    To(usize),
+}
+
+/// A light source: one interface over the families. The per-family data
+/// and estimators stay in their files (`area.rs`, `point.rs`, `sky.rs`);
+/// this dispatches.
+#[derive(Clone)]
+pub(crate) enum LightSource<'a> {
+    /// A point source, isotropic or shaped (`cos^m`, measured): one shadow
+    /// ray.
+    Point(&'a PointLight),
+    /// Area sources, estimated together (see [`AreaSet`]).
+    Area(AreaSet<'a>),
+    /// The Moon's beam: a directional source, one shadow ray.
+    Moon(&'a SkyState),
+    /// The sky dome: `sky_samples` cosine-weighted shadow rays.
+    Dome(&'a SkyState),
+}
+
+/// Area sources as their estimators take them: together, since the
+/// `analytic` estimator shares the closed-form total between them (each
+/// one's shadow-ray count follows its share) and clamps their sum at 0.
+#[derive(Clone)]
+pub(crate) enum AreaSet<'a> {
+    /// Every area source, by the chosen estimator.
+    Every,
+    /// The light tree's picks, each with its 1/pmf (`analytic`).
+    Picked(Vec<(&'a AreaSource, f64)>),
+}
+
+impl LightSource<'_> {
+    /// The term its light counts under.
+    pub(crate) fn term(&self) -> Term {
+        match self {
+            LightSource::Point(l) if l.is_shaped() => Term::ShapedPoint,
+            LightSource::Point(_) => Term::Point,
+            LightSource::Area(_) => Term::Area,
+            LightSource::Moon(_) => Term::Moon,
+            LightSource::Dome(_) => Term::NightSky,
+        }
+    }
+
+    /// Its direct irradiance at `p` (normal `n`, on facet `ignore`) times
+    /// `weight` (the sampler's 1/pmf; the lights no tree picks — Moon,
+    /// dome, every area source — always have 1, and picked area sources
+    /// carry their own), added to `out` and its light groups: the family's
+    /// own estimator. `strata` feed the area sources' light samples.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn irradiance(
+        &self,
+        t: &Tracer,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        weight: f64,
+        strata: Option<LightStrata>,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) {
+        match self {
+            LightSource::Point(l) => t.point_irradiance(l, p, n, ignore, weight, c, out),
+            LightSource::Area(AreaSet::Every) => {
+                t.area_irradiance(p, n, ignore, strata, rng, c, out)
+            }
+            LightSource::Area(AreaSet::Picked(picks)) => {
+                t.analytic(picks, p, n, ignore, strata, rng, c, out)
+            }
+            LightSource::Moon(sky) => t.moon_irradiance(sky, p, n, ignore, c, out),
+            LightSource::Dome(sky) => t.dome_irradiance(sky, p, n, ignore, rng, c, out),
+        }
     }
 }
 
