@@ -9,7 +9,10 @@
 //! ([`reference_settings`]: `indirect = path`, 64 diffuse bounces) sampled
 //! until its own noise on the mean over the no-emitter pixels is below
 //! [`TRUTH_NOISE_ON_MEAN`] (and per pixel below [`TRUTH_PIXEL_NOISE`] when
-//! that fits), cached in the output directory per scale. Reported per scale: the mean bias
+//! that fits), each pixel's share of the samples set by a pilot (samples
+//! ∝ the pilot's spread, up to 1024× the least: the few pixels that see
+//! a lamp head's lit inside in part would otherwise set every pixel's
+//! spp), cached in the output directory per scale. Reported per scale: the mean bias
 //! `mean(render)/mean(truth) − 1` over the pixels that see no emitter
 //! ([`no_emitter_mask`]) and over every pixel with a surface (emitters seen
 //! directly included), each with its standard error (the render's own
@@ -416,7 +419,7 @@ fn reference_scale_truth(
         scaled.camera.width as usize,
     );
     let key = format!(
-        "{:016x}-{:016x}-scale-{scale}-{w}x{h}-noise-{TRUTH_NOISE_ON_MEAN}-v1",
+        "{:016x}-{:016x}-scale-{scale}-{w}x{h}-noise-{TRUTH_NOISE_ON_MEAN}-v2",
         fnv1a(&text),
         fnv1a(serde_json::to_string(&reference_settings(None, 0))?.as_bytes())
     );
@@ -445,24 +448,43 @@ fn reference_scale_truth(
         let pixel_noise = m["pixel_noise"].as_f64().unwrap_or(f64::NAN);
         return Ok(Ok(finish(stack, spp, pixel_noise, 0.0)));
     }
-    // Both halves at `spp` (each spp/2): the stack of mean and variance,
-    // the relative noise on the no-emitter mean and the per-pixel RMS
-    // relative noise there.
-    let render = |spp: u32| -> Result<(ndarray::Array4<f64>, f64, f64), BenchError> {
+    // Both halves at `spp` × each pixel's multiplier (each half spp/2):
+    // the stack of mean and variance, the relative noise on the no-emitter
+    // mean and the per-pixel RMS relative noise there. `seeds`: the
+    // halves' seeds (the pilot's apart from the rest, so the multipliers
+    // it sets do not depend on the samples they multiply).
+    let render = |spp: u32,
+                  mult: &[u32],
+                  seeds: (u64, u64)|
+     -> Result<(ndarray::Array4<f64>, f64, f64), BenchError> {
         let half = |seed: u64| -> Result<Vec<Vec<f64>>, BenchError> {
-            let s = RenderSettings {
-                seed,
-                spp: (spp / 2).max(1),
-                ..reference_settings(threads, spp)
-            };
-            let t = Tracer::new(scaled, &s)?;
-            let v: Result<Vec<Vec<f64>>, _> = subset
-                .par_iter()
-                .map(|&(r, c)| t.probe_pixel(c as u32, r as u32))
-                .collect();
-            Ok(v?)
+            let mut v = vec![Vec::new(); subset.len()];
+            let mut classes: Vec<u32> = mult.to_vec();
+            classes.sort_unstable();
+            classes.dedup();
+            for m in classes {
+                let n = (spp / 2)
+                    .max(1)
+                    .saturating_mul(m)
+                    .min(gloam_trace::settings::MAX_SPP);
+                let s = RenderSettings {
+                    seed,
+                    spp: n,
+                    ..reference_settings(threads, n)
+                };
+                let t = Tracer::new(scaled, &s)?;
+                let picked: Vec<usize> = (0..subset.len()).filter(|&k| mult[k] == m).collect();
+                let got: Result<Vec<Vec<f64>>, _> = picked
+                    .par_iter()
+                    .map(|&k| t.probe_pixel(subset[k].1 as u32, subset[k].0 as u32))
+                    .collect();
+                for (k, x) in picked.into_iter().zip(got?) {
+                    v[k] = x;
+                }
+            }
+            Ok(v)
         };
-        let (a, b) = (half(1_000_001)?, half(1_000_002)?);
+        let (a, b) = (half(seeds.0)?, half(seeds.1)?);
         let mut stack = ndarray::Array4::<f64>::from_elem((2, nb, h, w), f64::NAN);
         let mut tv = Vec::new();
         for (k, &(r, c)) in subset.iter().enumerate() {
@@ -478,13 +500,19 @@ fn reference_scale_truth(
         let (on_mean, per_pixel) = noise_of(&tv);
         Ok((stack, on_mean, per_pixel))
     };
-    // A pilot at 16 spp, then the spp its noise asks for (with a tenth to
+    // A pilot at 16 spp sets each pixel's share of the samples (a few
+    // pixels — the inside of a lamp's head seen partly — can hold most of
+    // the mean's noise); then the spp its noise asks for (with a tenth to
     // spare), checked and raised again if the noise is still above.
     let mut spp = 16u32;
+    let flat = vec![1u32; subset.len()];
+    let (pilot, ..) = render(spp, &flat, (1_000_001, 1_000_002))?;
+    let mult = multipliers(&pilot, &subset);
+    let mean_mult = mult.iter().map(|&m| m as f64).sum::<f64>() / mult.len().max(1) as f64;
     let mut pixel_goal = true;
     let (stack, noise, pixel_noise) = loop {
         let t1 = Instant::now();
-        let (stack, noise, pixel_noise) = render(spp)?;
+        let (stack, noise, pixel_noise) = render(spp, &mult, (1_000_003, 1_000_004))?;
         let dt = t1.elapsed().as_secs_f64();
         let per_spp = dt / spp as f64;
         let spp_for = |ratio: f64| {
@@ -521,6 +549,7 @@ fn reference_scale_truth(
         }
         spp = next;
     };
+    let mean_spp = (spp as f64 * mean_mult).round() as u32;
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
     crate::output::write_npy_nd(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
@@ -531,7 +560,9 @@ fn reference_scale_truth(
             "scene": scene_path.display().to_string(),
             "resolution_scale": scale,
             "settings": reference_settings(None, spp),
-            "spp": spp,
+            "spp": mean_spp,
+            "base_spp": spp,
+            "max_multiplier": mult.iter().max().copied().unwrap_or(1),
             "pixels": subset.len(),
             "noise_on_mean": noise,
             "pixel_noise": pixel_noise,
@@ -539,7 +570,39 @@ fn reference_scale_truth(
         }))?
         .as_bytes(),
     )?;
-    Ok(Ok(finish(stack, spp, pixel_noise, seconds)))
+    Ok(Ok(finish(stack, mean_spp, pixel_noise, seconds)))
+}
+
+/// Most samples one pixel of a truth gets, as a multiple of the least.
+const MAX_MULTIPLIER: u32 = 1024;
+
+/// Each subset pixel's sample multiplier from a pilot `stack` (mean and
+/// variance of the mean): the pilot's per-sample spread over the median
+/// spread of the pixels, as a power of two in 1..=[`MAX_MULTIPLIER`] —
+/// Neyman's allocation (samples ∝ σ) for the noise on the mean, floored
+/// so no pixel gets fewer samples than a uniform truth would.
+fn multipliers(stack: &ndarray::Array4<f64>, subset: &[(usize, usize)]) -> Vec<u32> {
+    let sd: Vec<f64> = subset
+        .iter()
+        .map(|&(r, c)| stack[[1, 0, r, c]].max(0.0).sqrt())
+        .collect();
+    let mut lit: Vec<f64> = sd
+        .iter()
+        .copied()
+        .filter(|x| *x > 0.0 && x.is_finite())
+        .collect();
+    if lit.is_empty() {
+        return vec![1; subset.len()];
+    }
+    lit.sort_by(f64::total_cmp);
+    let median = lit[lit.len() / 2];
+    sd.iter()
+        .map(|&x| {
+            let ratio = if x.is_finite() { x / median } else { 1.0 };
+            let m = ratio.clamp(1.0, MAX_MULTIPLIER as f64);
+            1u32 << (m.log2().floor() as u32)
+        })
+        .collect()
 }
 
 /// Of a truth's (value, variance) over the no-emitter pixels (first band):
