@@ -134,8 +134,31 @@ fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
         .mut_subcommands(negative_numbers_are_values)
 }
 
+/// Refuses a `RAYON_NUM_THREADS` past the tracer's own thread limit:
+/// rayon would try to start that many workers (100 000 hang the start).
+fn check_thread_env() -> Result<(), String> {
+    let Some(v) = std::env::var_os("RAYON_NUM_THREADS") else {
+        return Ok(());
+    };
+    let max = gloam_trace::tracer::MAX_THREADS;
+    match v.to_str().map(str::trim).map(str::parse::<u64>) {
+        Some(Ok(n)) if n as u128 > max as u128 => Err(format!(
+            "RAYON_NUM_THREADS={n}: at most {max} worker threads (unset it, or use --threads where a command has it)"
+        )),
+        Some(Ok(_)) => Ok(()),
+        _ => Err(format!(
+            "RAYON_NUM_THREADS={}: not a whole number of threads",
+            v.to_string_lossy()
+        )),
+    }
+}
+
 fn main() -> ExitCode {
     use clap::{CommandFactory, FromArgMatches};
+    if let Err(e) = check_thread_env() {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
     // Every file the run reads goes into its provenance.
     gloam_spectra::input::record_reads();
     let matches = negative_numbers_are_values(Cli::command()).get_matches();

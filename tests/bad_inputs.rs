@@ -89,9 +89,15 @@ fn run(case: &Case, dir: &Path) -> (Option<i32>, String) {
         }
         std::fs::write(&p, text).unwrap();
     }
-    let mut child = Command::new(BIN)
-        .args(case.args)
-        .current_dir(dir)
+    let mut cmd = Command::new(BIN);
+    cmd.args(case.args).current_dir(dir);
+    finish(cmd)
+}
+
+/// Runs `cmd` (stdin empty, stdout discarded) to its end or [`TIMEOUT`]:
+/// its exit code and stderr.
+fn finish(mut cmd: Command) -> (Option<i32>, String) {
+    let mut child = cmd
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -1880,6 +1886,9 @@ const CASES: &[Case] = &[
     case!("sweep: gain NaN", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [nan]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
     case!("sweep: gain negative", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [-1]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
     case!("sweep: seed count huge", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\nseed = { from = 0, count = 1000000000000 }\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "seed"]),
+    case!("bench plan: spp past the renderer's limit", ["s.toml" => "{base}"], ["bench", "plan", "s.toml", "--spp", "4294967295"], ["--spp", "65536"]),
+    case!("bench plan: share spp 0", ["s.toml" => "{base}"], ["bench", "plan", "s.toml", "--share-spp", "0"], ["--share-spp"]),
+    case!("probe: point past the coordinate limit", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1e300", "--normal", "0,0,1"], ["point", "out of range"]),
     case!("sweep: gain a string", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [\"x\"]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
 ];
 
@@ -1918,4 +1927,43 @@ fn every_bad_input_gets_a_clear_error() {
         failures.join("\n")
     );
     eprintln!("{} bad inputs, each a clear error", CASES.len());
+}
+
+/// What a case list cannot spell: arguments that are not UTF-8 and the
+/// environment (issue 46's "environment and process" class).
+#[test]
+fn odd_paths_and_environments_get_clear_errors() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let odd = std::ffi::OsStr::from_bytes(b"sc\xffene.toml");
+    let mut failures = Vec::new();
+    let mut check = |name: &str, cmd: Command, expect: &[&str]| {
+        let (code, err) = finish(cmd);
+        let ok = code == Some(1)
+            && !err.contains("panicked")
+            && err.to_lowercase().contains("error")
+            && expect.iter().all(|w| err.contains(w));
+        if !ok {
+            failures.push(format!("{name}: exit {code:?}: {err}"));
+        }
+    };
+    // A scene path that is not UTF-8 (and does not exist): named, no panic.
+    let mut c = Command::new(BIN);
+    c.arg("render")
+        .arg(odd)
+        .args(["--out", "o"])
+        .current_dir(dir.path());
+    check("render: non-UTF-8 scene path", c, &["sc"]);
+    let mut c = Command::new(BIN);
+    c.args(["plan"]).arg(odd).current_dir(dir.path());
+    check("plan: non-UTF-8 scene path", c, &["sc"]);
+    // Thread counts from the environment, bounded before a pool starts.
+    for v in ["100000", "18446744073709551616", "many"] {
+        let mut c = Command::new(BIN);
+        c.args(["spectra", "list"])
+            .env("RAYON_NUM_THREADS", v)
+            .current_dir(dir.path());
+        check(&format!("RAYON_NUM_THREADS={v}"), c, &["RAYON_NUM_THREADS"]);
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

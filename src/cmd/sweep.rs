@@ -39,7 +39,9 @@ fn plan_and_run(args: SweepArgs) -> anyhow::Result<()> {
     let (Some(file), Some(out)) = (&args.sweep, &args.out) else {
         bail!("usage: gloam sweep SWEEP.toml --out DIR");
     };
-    let argv: Vec<String> = std::env::args().collect();
+    let argv: Vec<String> = std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
     let provenance = serde_json::to_value(gloam_pipeline::Provenance::of_this_run())?;
     let sd = SweepDir::create(file, out, &argv, provenance)?;
     let n = sd.sweep.tasks.len();

@@ -57,19 +57,47 @@ pub const MAX_HASHED_BYTES: u64 = 1 << 30;
 impl Provenance {
     /// The provenance of this process's run.
     pub fn of_this_run() -> Self {
-        Self::of_command_line(std::env::args().collect())
+        // As the OS gave them: a path need not be UTF-8 (the command line
+        // is recorded lossily, the files are found by their own bytes).
+        use std::os::unix::ffi::OsStrExt;
+        let words: Vec<std::ffi::OsString> = std::env::args_os().collect();
+        let candidates = words
+            .iter()
+            .skip(1)
+            .map(|w| {
+                let b = w.as_bytes();
+                let v = b.rsplit(|&c| c == b'=').next().unwrap_or(b);
+                std::path::PathBuf::from(std::ffi::OsStr::from_bytes(v))
+            })
+            .collect();
+        let lossy = words
+            .iter()
+            .map(|w| w.to_string_lossy().into_owned())
+            .collect();
+        Self::of_words(lossy, candidates)
     }
 
     /// The provenance of a run with `command_line` (its first word the
     /// program).
     pub fn of_command_line(command_line: Vec<String>) -> Self {
+        let candidates = command_line
+            .iter()
+            .skip(1)
+            .map(|w| w.rsplit_once('=').map_or(w.as_str(), |(_, v)| v).into())
+            .collect();
+        Self::of_words(command_line, candidates)
+    }
+
+    /// `command_line` as recorded, with each word's (after an `=`, its
+    /// value's) path: those that name regular files are hashed.
+    fn of_words(command_line: Vec<String>, candidates: Vec<std::path::PathBuf>) -> Self {
         let mut inputs: Vec<InputFile> = Vec::new();
-        for word in command_line.iter().skip(1) {
-            let candidate = word.rsplit_once('=').map_or(word.as_str(), |(_, v)| v);
-            let path = Path::new(candidate);
-            if !path.is_file() || inputs.iter().any(|i| i.path == candidate) {
+        let mut seen: Vec<&Path> = Vec::new();
+        for path in &candidates {
+            if !path.is_file() || seen.contains(&path.as_path()) {
                 continue;
             }
+            seen.push(path);
             if let Some(f) = hash_file(path) {
                 inputs.push(f);
             }

@@ -34,7 +34,7 @@ pub enum SceneError {
         message: String,
     },
     /// The scene file itself could not be read.
-    #[error("{}:1: (file): cannot read the scene: {source}", path.display())]
+    #[error("{}: cannot read the scene file", path.display())]
     Io {
         path: PathBuf,
         #[source]

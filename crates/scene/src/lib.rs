@@ -15,6 +15,7 @@ pub mod plan;
 mod raw;
 pub mod sequence;
 
+pub use build::MAX_COORDINATE;
 pub use error::SceneError;
 pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
 pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP};

@@ -859,8 +859,20 @@ fn file_order_of_materials_and_objects() {
 
 #[test]
 fn unreadable_file() {
+    // The path, no made-up line, and the OS's reason once (as the source,
+    // which `{:#}` chains).
     let e = crate::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
-    assert!(e.to_string().starts_with("/nonexistent/scene.toml:1: "));
+    assert_eq!(
+        e.to_string(),
+        "/nonexistent/scene.toml: cannot read the scene file"
+    );
+    let source = std::error::Error::source(&e).map(|s| s.to_string());
+    assert!(
+        source
+            .as_deref()
+            .is_some_and(|s| s.contains("No such file")),
+        "{source:?}"
+    );
 }
 
 // --- geometry helpers against closed forms ---------------------------------------

@@ -1346,6 +1346,15 @@ impl Tracer {
         if !point.is_finite() {
             return Err(TraceError::BadInput("the point must be finite".into()));
         }
+        // The scene's own coordinate limit: beyond it the centred offset
+        // loses every digit and the answer would be a silent 0 ± 0.
+        let lim = gloam_scene::MAX_COORDINATE;
+        if point.abs().max_element() > lim {
+            return Err(TraceError::BadInput(format!(
+                "the point {},{},{} is out of range (|x| ≤ {lim:e} scene units, as scene coordinates)",
+                point.x, point.y, point.z
+            )));
+        }
         let p = point - self.geom.origin;
         let facet = self.facet_at(p);
         let ignore = facet.unwrap_or(u32::MAX);

@@ -73,12 +73,13 @@ pub struct ScaleArgs {
 pub struct PlanBenchArgs {
     /// Scene files (default: every `sims/*/scene.toml`).
     pub scenes: Vec<PathBuf>,
-    /// Camera samples per pixel (default 1: the plan's saving per sample).
-    #[arg(long, default_value_t = 1)]
+    /// Camera samples per pixel (default 1: the plan's saving per sample;
+    /// 1 to 65 536, the renderer's own limit).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=gloam_trace::settings::MAX_SPP as i64))]
     pub spp: u32,
     /// Camera samples per pixel of the renders that measure each effect's
     /// share (a sub-pixel pool's share is noise at 1 spp).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=gloam_trace::settings::MAX_SPP as i64))]
     pub share_spp: u32,
     /// Multiplies each scene camera's width and height (the field of view
     /// is kept): a quicker check on a shared machine.
