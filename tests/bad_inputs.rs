@@ -19,6 +19,8 @@ use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_gloam");
 const BASE: &str = include_str!("bad_inputs/base.toml");
+/// The calibration sphere of the docs' rehearsal (calibrate cases).
+const SPHERE: &str = include_str!("../sims/calibration/sphere.toml");
 /// `{sensor}` in a file: the gen3-gaas-iccd preset, patched with
 /// `{spatch:FROM=>TO}` like the scene.
 const SENSOR: &str = include_str!("../sims/sensors/gen3-gaas-iccd.toml");
@@ -1889,6 +1891,29 @@ const CASES: &[Case] = &[
     case!("bench plan: spp past the renderer's limit", ["s.toml" => "{base}"], ["bench", "plan", "s.toml", "--spp", "4294967295"], ["--spp", "65536"]),
     case!("bench plan: share spp 0", ["s.toml" => "{base}"], ["bench", "plan", "s.toml", "--share-spp", "0"], ["--share-spp"]),
     case!("probe: point past the coordinate limit", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1e300", "--normal", "0,0,1"], ["point", "out of range"]),
+    case!("calibrate radiance: levels past the bound", ["s.toml" => SPHERE], ["calibrate", "radiance", "--grabber", "sim:scientific-ccd?size=16x16", "--source", "s.toml", "--gains", "1", "--levels", "1000000000", "--out", "o"], ["--levels", "10000"]),
+    case!("calibrate radiance: frames past the bound", ["s.toml" => SPHERE], ["calibrate", "radiance", "--grabber", "sim:scientific-ccd?size=16x16", "--source", "s.toml", "--gains", "1", "--frames", "1000000000", "--out", "o"], ["--frames"]),
+    case!("calibrate radiance: a frame stack past memory", ["s.toml" => SPHERE], ["calibrate", "radiance", "--grabber", "sim:scientific-ccd?size=1024x1024", "--source", "s.toml", "--gains", "1", "--levels", "2", "--frames", "100000", "--out", "o"], ["100000 frames", "GiB"]),
+    case!("calibrate ptc: spatial frames past the bound", ["s.toml" => SPHERE], ["calibrate", "ptc", "--grabber", "sim:scientific-ccd?size=16x16", "--source", "s.toml", "--spatial-frames", "1000000000", "--out", "o"], ["--spatial-frames"]),
+    case!(
+        "calibrate mtf: frames past the bound",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "edge",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--gain",
+            "56",
+            "--frames",
+            "1000000000",
+            "--out",
+            "o"
+        ],
+        ["--frames"]
+    ),
     case!("sweep: gain a string", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [\"x\"]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
 ];
 

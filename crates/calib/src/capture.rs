@@ -97,11 +97,28 @@ impl FrameLosses {
     }
 }
 
-/// `n` good frames of the same size.
+/// Most bytes of pixels one stack of frames may hold at once.
+pub const MAX_STACK_BYTES: u64 = 4 << 30;
+
+/// `n` good frames of the same size; refused once the first frame's size
+/// shows the stack would pass [`MAX_STACK_BYTES`].
 pub fn grab_frames(grabber: &mut dyn FrameGrabber, n: usize) -> Result<Vec<Frame>, CalibError> {
-    let mut out: Vec<Frame> = Vec::with_capacity(n);
+    let mut out: Vec<Frame> = Vec::new();
     for _ in 0..n {
         let f = grab_good(grabber)?;
+        if out.is_empty() {
+            let bytes = (n as u64).saturating_mul(2 * f.pixels.len() as u64);
+            if bytes > MAX_STACK_BYTES {
+                return Err(CalibError::Invalid(format!(
+                    "{n} frames of {}×{} at one setting would hold {:.1} GiB at once (at most {} GiB): take fewer frames",
+                    f.meta.width,
+                    f.meta.height,
+                    bytes as f64 / (1u64 << 30) as f64,
+                    MAX_STACK_BYTES >> 30
+                )));
+            }
+            out.reserve_exact(n);
+        }
         if let Some(first) = out.first()
             && (first.meta.width, first.meta.height) != (f.meta.width, f.meta.height)
         {

@@ -32,6 +32,23 @@ pub enum Event<'a> {
     Progress(&'a str, usize, usize),
 }
 
+/// Most radiance levels a sweep takes (`--levels`).
+pub const MAX_LEVELS: usize = 10_000;
+/// Most frames taken at one setting (`--frames`, `--spatial-frames`).
+pub const MAX_FRAMES_PER_SETTING: usize = 100_000;
+
+/// A count flag's parser: a whole number in 1..=`max`, refused before
+/// anything is sized by it.
+fn count_up_to(
+    max: usize,
+) -> impl Fn(&str) -> Result<usize, String> + Clone + Send + Sync + 'static {
+    move |s: &str| match s.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        Ok(n) => Err(format!("{n} is not in 1..={max}")),
+        Err(e) => Err(format!("{e} (give a whole number in 1..={max})")),
+    }
+}
+
 #[derive(Subcommand)]
 pub enum CalibrateCommand {
     /// Radiance LUT across gains → OUT/lut.json, radiance.md, plots.
@@ -65,7 +82,7 @@ pub struct SourceArgs {
     #[arg(long)]
     pub source: PathBuf,
     /// Number of radiance levels (generated linear in radiance when the file lists none).
-    #[arg(long)]
+    #[arg(long, value_parser = count_up_to(MAX_LEVELS))]
     pub levels: Option<usize>,
     /// Simulated cameras only: rescale a sphere source so its brightest level
     /// puts the camera at this fraction of full scale (at the highest gain).
@@ -83,7 +100,7 @@ pub struct RadianceArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub gains: Vec<f64>,
     /// Frames per level.
-    #[arg(long, default_value_t = crate::radiance::DEFAULT_FRAMES)]
+    #[arg(long, default_value_t = crate::radiance::DEFAULT_FRAMES, value_parser = count_up_to(MAX_FRAMES_PER_SETTING))]
     pub frames: usize,
     /// Output directory.
     #[arg(long)]
@@ -119,7 +136,7 @@ pub struct AgcArgs {
     #[arg(long)]
     pub fixed_gain: Option<f64>,
     /// Frames per staircase step.
-    #[arg(long, default_value_t = crate::agc::DEFAULT_FRAMES_PER_STEP)]
+    #[arg(long, default_value_t = crate::agc::DEFAULT_FRAMES_PER_STEP, value_parser = count_up_to(MAX_FRAMES_PER_SETTING))]
     pub frames: usize,
     /// A LUT (lut.json) to linearise the AGC frames through.
     #[arg(long)]
@@ -157,7 +174,7 @@ pub struct PtcArgs {
     #[arg(long, default_value_t = crate::ptc::DEFAULT_GAIN)]
     pub gain: f64,
     /// Frames averaged for DSNU/PRNU.
-    #[arg(long, default_value_t = crate::ptc::DEFAULT_SPATIAL_FRAMES)]
+    #[arg(long, default_value_t = crate::ptc::DEFAULT_SPATIAL_FRAMES, value_parser = count_up_to(MAX_FRAMES_PER_SETTING))]
     pub spatial_frames: usize,
     #[arg(long)]
     pub out: PathBuf,
@@ -213,7 +230,7 @@ pub struct MtfArgs {
     #[arg(long, value_delimiter = ',')]
     pub frequencies: Vec<f64>,
     /// Frames averaged per target.
-    #[arg(long, default_value_t = mtf_flow::DEFAULT_FRAMES)]
+    #[arg(long, default_value_t = mtf_flow::DEFAULT_FRAMES, value_parser = count_up_to(MAX_FRAMES_PER_SETTING))]
     pub frames: usize,
     /// Relative spectrum of the targets (built-in name).
     #[arg(long, default_value = mtf_flow::DEFAULT_SPECTRUM)]
