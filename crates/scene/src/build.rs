@@ -1157,16 +1157,26 @@ fn expand(
     facets.reserve(prototype.len() * placements.len());
     for pl in placements {
         let x = pl.xform;
-        let check = !x.is_similarity();
+        let check = !x.is_similarity() || x.scale_is_extreme();
         for (j, f) in prototype.iter().enumerate() {
             let verts: Vec<DVec3> = f.vertices.iter().map(|&p| x.point(p)).collect();
-            // A similarity keeps a valid facet valid (planar, convex, of
-            // non-zero area); only finiteness can change. A per-axis scale
+            // The scene's coordinate limit holds after the transform, as
+            // before it. A similarity of moderate scale keeps a valid facet
+            // valid (planar, convex, of non-zero area); a per-axis scale,
+            // or one so large or small that areas may overflow or vanish,
             // is checked facet by facet.
-            let bad = if check {
-                check_facet(&verts).err().map(|e| e.to_string())
-            } else if !verts.iter().all(|v| v.is_finite()) {
+            let bad = if !verts.iter().all(|v| v.is_finite()) {
                 Some("a vertex is not finite after the transform".to_string())
+            } else if let Some(v) = verts
+                .iter()
+                .find(|v| v.abs().max_element() > MAX_COORDINATE)
+            {
+                Some(format!(
+                    "a vertex at ({:e}, {:e}, {:e}) after the transform is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
+                    v.x, v.y, v.z
+                ))
+            } else if check {
+                check_facet(&verts).err().map(|e| e.to_string())
             } else {
                 None
             };
@@ -1231,6 +1241,13 @@ fn point_source(
         let direction = pl.xform.direction(proto.direction).normalize_or_zero();
         if !(position.is_finite() && direction.is_finite() && direction != DVec3::ZERO) {
             let msg = format!("point source '{name}' is not finite after the transform");
+            return Err(placement_err(cx, &pfield, pl, msg));
+        }
+        if position.abs().max_element() > MAX_COORDINATE {
+            let msg = format!(
+                "point source '{name}' at ({:e}, {:e}, {:e}) after the transform is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
+                position.x, position.y, position.z
+            );
             return Err(placement_err(cx, &pfield, pl, msg));
         }
         let luminaire = match &proto.luminaire {

@@ -83,6 +83,15 @@ impl Xform {
         r * self.scale
     }
 
+    /// True when a scale factor is outside 1e-6..=1e6: areas (squares of
+    /// lengths) of a prototype's facets may then vanish or overflow.
+    pub(crate) fn scale_is_extreme(&self) -> bool {
+        self.scale
+            .to_array()
+            .iter()
+            .any(|s| !(1e-6..=1e6).contains(s))
+    }
+
     /// True when the transform preserves shape (uniform scale): a valid
     /// facet stays valid, so the per-facet checks need not be repeated.
     pub(crate) fn is_similarity(&self) -> bool {
