@@ -155,6 +155,9 @@ fn read_list(
     Ok((out, lines))
 }
 
+/// Largest TILT=INCLUDE multiplying factor accepted.
+pub const MAX_TILT_FACTOR: f64 = 10.0;
+
 fn tilt_table(tok: &mut Tokens) -> Result<TiltTable, PhotometryError> {
     let gl = tok.line();
     let geometry = tok.number("lamp-to-luminaire geometry")?;
@@ -176,11 +179,17 @@ fn tilt_table(tok: &mut Tokens) -> Result<TiltTable, PhotometryError> {
     let (angles, al) = read_list(tok, n, "tilt angles")?;
     check_angles(&angles, 0.0, 180.0).map_err(|(i, m)| tok.err(al[i], "tilt angles", m))?;
     let (factors, fl) = read_list(tok, n, "tilt multiplying factors")?;
-    if let Some(i) = factors.iter().position(|f| *f < 0.0) {
+    // A tilt factor scales the lamp's rated output for its burning
+    // position (LM-63: typically 0.5–1.2); past MAX_TILT_FACTOR it is not
+    // a tilt, and 1e300 would carry the emission past every limit.
+    if let Some(i) = factors
+        .iter()
+        .position(|f| !(0.0..=MAX_TILT_FACTOR).contains(f))
+    {
         return Err(tok.err(
             fl[i],
             "tilt multiplying factors",
-            format!("{} must be ≥ 0", factors[i]),
+            format!("{:e} must be in 0..={MAX_TILT_FACTOR}", factors[i]),
         ));
     }
     Ok(TiltTable {

@@ -317,7 +317,15 @@ fn bad_ies_files_are_refused_by_line_and_field() {
         ),
         (
             good.replace("TILT=NONE", "TILT=INCLUDE\n1\n2\n0 90\n1 -1"),
-            "tilt multiplying factors: -1 must be ≥ 0",
+            "tilt multiplying factors: -1e0 must be in 0..=10",
+        ),
+        (
+            good.replace("TILT=NONE", "TILT=INCLUDE\n1\n2\n0 90\n1 1e300"),
+            "tilt multiplying factors: 1e300 must be in 0..=10",
+        ),
+        (
+            good.replace("TILT=NONE", "TILT=INCLUDE\n1\n2\n0 90\nNaN 1"),
+            "tilt multiplying factors",
         ),
         (
             good.replace("TILT=NONE", "TILT=INCLUDE\n7\n2\n0 90\n1 1"),
