@@ -261,6 +261,18 @@ fn bad_sequences_are_clear_errors() {
         e.contains("seq.toml:10") && e.contains("move[0].keys[1]") && e.contains("forward in time"),
         "{e}"
     );
+    // A key that carries the body past the scene's coordinate limit
+    // (1e12 scene units), as a placement there would be refused.
+    let e = fails(
+        &moving
+            .replace("[\"truck\"]", "[\"road\"]")
+            .replace("[2, 5, 0, 0]", "[2, 1e12, 0, 0]"),
+        &camera,
+    );
+    assert!(
+        e.contains("seq.toml:8") && e.contains("move[0].keys[1]") && e.contains("limit"),
+        "{e}"
+    );
     // A scene that is not there.
     let e = fails(&SEQUENCE.replace("scene.toml", "nowhere.toml"), &camera);
     assert!(e.contains("nowhere.toml"), "{e}");

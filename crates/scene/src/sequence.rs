@@ -518,6 +518,45 @@ impl Sequence {
                     });
                 }
             }
+            // The scene's coordinate limit holds at every pose, as it does
+            // for the tables where the scene puts them: |R p + t| ≤ |p| +
+            // |t| for any turn about +z, so checking each key bounds the
+            // path between keys too.
+            let reach = scene
+                .objects
+                .iter()
+                .filter(|o| mv.objects.contains(&o.name))
+                .flat_map(|o| scene.facets[o.facets()].iter())
+                .flat_map(|f| f.vertices.iter().copied())
+                .chain(
+                    scene
+                        .point_source_groups
+                        .iter()
+                        .filter(|g| mv.point_sources.contains(&g.name))
+                        .flat_map(|g| scene.point_sources[g.first..g.first + g.instances].iter())
+                        .map(|p| p.position),
+                )
+                .map(|v| v.length())
+                .fold(0.0f64, f64::max);
+            let lim = crate::build::MAX_COORDINATE;
+            if let Some((k, key)) = mv
+                .keys
+                .iter()
+                .enumerate()
+                .find(|(_, k)| reach + glam::DVec3::from(k.pose.translate).length() > lim)
+            {
+                return Err(SceneError::Invalid {
+                    path: self.path.clone(),
+                    line: mv.lines.table,
+                    column: 1,
+                    field: format!("move[{m}].keys[{k}]"),
+                    message: format!(
+                        "at t = {} s the body would reach {:.4e} scene units from the origin, past the scene's limit of {lim:e}",
+                        key.time_s,
+                        reach + glam::DVec3::from(key.pose.translate).length()
+                    ),
+                });
+            }
         }
         Ok(())
     }
