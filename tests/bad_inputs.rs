@@ -1918,6 +1918,21 @@ const CASES: &[Case] = &[
     case!("scene: an instance scaled past the coordinate limit", ["s.toml" => "{patch:[objects.floor]=>[objects.floor]\ninstances = [{ scale = 1e300 }]}\n"], ["render", "s.toml", "--out", "o"], ["s.toml", "instances[0]", "out of range"]),
     case!("scene: an instance scaled to nothing", ["s.toml" => "{patch:[objects.floor]=>[objects.floor]\ninstances = [{ scale = 1e-300 }]}\n"], ["render", "s.toml", "--out", "o"], ["s.toml", "instances[0]"]),
     case!("scene: a point source placed past the coordinate limit", ["s.toml" => "{base}\n[point_sources.far]\nposition = [0, 0, 5]\nvalue = 1.0\ninstances = [{ translate = [5e12, 0, 0] }]\n"], ["render", "s.toml", "--out", "o"], ["s.toml", "far", "out of range"]),
+    case!("sweep: jobs 0", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [20]\n"], ["sweep", "w.toml", "--out", "o", "--jobs", "0"], ["--jobs", "1..=1024"]),
+    case!(
+        "capture: a grabber parameter given twice",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16&size=32x32",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["size", "twice"]
+    ),
     case!("sweep: gain a string", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [\"x\"]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
 ];
 

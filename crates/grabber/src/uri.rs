@@ -118,6 +118,12 @@ impl GrabberUri {
                 .collect::<Result<_, _>>()?,
             None => Vec::new(),
         };
+        // Each parameter once: with two, one would silently win.
+        for (i, (k, _)) in params.iter().enumerate() {
+            if params[..i].iter().any(|(k0, _)| k0 == k) {
+                return Err(bad(uri, format!("parameter '{k}' is given twice")));
+            }
+        }
         match scheme {
             "sim" => {
                 let is_rig = RIGS.iter().any(|r| r.0 == body);
@@ -388,6 +394,8 @@ mod tests {
 
     #[test]
     fn rejects_garbage_with_clear_errors() {
+        let e = GrabberUri::parse("sim:scientific-ccd?size=16x16&size=32x32").unwrap_err();
+        assert!(e.to_string().contains("'size' is given twice"), "{e}");
         for bad in [
             "",
             "sim",

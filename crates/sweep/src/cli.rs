@@ -18,8 +18,8 @@ pub struct SweepArgs {
     /// The sweep directory (plan, task records, results).
     #[arg(long, required = true)]
     pub out: Option<PathBuf>,
-    /// Tasks run at once within a chunk (default: all cores).
-    #[arg(long)]
+    /// Tasks run at once within a chunk (default: all cores; 1 to 1 024).
+    #[arg(long, value_parser = jobs_in_range)]
     pub jobs: Option<usize>,
     /// Write DIR/sweep.sbatch (an array job, one index per chunk of tasks
     /// sharing a render) and submit it with sbatch.
@@ -58,8 +58,17 @@ pub struct RunArgs {
     pub task: Option<usize>,
     #[arg(long)]
     pub chunk: Option<usize>,
-    #[arg(long)]
+    #[arg(long, value_parser = jobs_in_range)]
     pub jobs: Option<usize>,
+}
+
+/// `--jobs`: 1 to 1 024 tasks at once (0 ran nothing and said nothing).
+fn jobs_in_range(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=1024).contains(&n) => Ok(n),
+        Ok(n) => Err(format!("{n} is not in 1..=1024")),
+        Err(e) => Err(format!("{e} (give a whole number in 1..=1024)")),
+    }
 }
 
 #[derive(Args)]
