@@ -22,6 +22,17 @@ macro_rules! out {
     }};
 }
 
+/// `eprintln!` that never panics (std's does when stderr is full or
+/// closed: `2>/dev/full` ended every run with a panic): the message is
+/// lost, the run and its exit status are not. Defined before `mod cmd` so
+/// every command's messages go through them.
+macro_rules! eprintln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 mod cmd;
 
 /// mimalloc: a tracer's vertices allocate small spectral buffers by the

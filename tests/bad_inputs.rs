@@ -2009,5 +2009,19 @@ fn odd_paths_and_environments_get_clear_errors() {
             .current_dir(dir.path());
         check(&format!("RAYON_NUM_THREADS={v}"), c, &["RAYON_NUM_THREADS"]);
     }
+    // A full stderr loses the message, not the run: exit 1, no panic.
+    if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
+        let status = Command::new(BIN)
+            .args(["render", "nowhere.toml", "--out", "o"])
+            .current_dir(dir.path())
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(full)
+            .status()
+            .unwrap();
+        if status.code() != Some(1) {
+            failures.push(format!("stderr on /dev/full: exit {status}"));
+        }
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

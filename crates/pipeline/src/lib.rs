@@ -1,5 +1,14 @@
 #![doc = include_str!("../README.md")]
 
+/// `eprintln!` that never panics (std's does when stderr is full or
+/// closed): the message is lost, the run is not.
+macro_rules! eprintln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 pub mod bench;
 #[cfg(feature = "cli")]
 pub mod cli;

@@ -1,6 +1,15 @@
 #![doc = include_str!("../README.md")]
 
 #[cfg(feature = "cli")]
+/// `eprintln!` that never panics (std's does when stderr is full or
+/// closed): the message is lost, the run is not.
+macro_rules! eprintln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 pub mod cli;
 pub mod collect;
 pub mod exec;
