@@ -1933,6 +1933,7 @@ const CASES: &[Case] = &[
         ],
         ["size", "twice"]
     ),
+    case!("bench plan: resolution scale 0", ["s.toml" => "{base}"], ["bench", "plan", "s.toml", "--resolution-scale", "0"], ["--resolution-scale", "(0, 4]"]),
     case!("sweep: gain a string", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [\"x\"]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
 ];
 

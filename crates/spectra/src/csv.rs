@@ -45,6 +45,9 @@ pub const MAX_WAVELENGTH_NM: f64 = 1e6;
 /// number, trimmed line, fields)`, skipping blank lines and `#` comments;
 /// fields are separated by commas, semicolons, tabs or spaces.
 pub fn data_rows(text: &str) -> impl Iterator<Item = (usize, &str, Vec<&str>)> {
+    // A UTF-8 byte-order mark (spreadsheets write one) is not part of the
+    // first field: with it, a header row read as a rejected data row.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     text.lines().enumerate().filter_map(|(i, raw)| {
         let line = raw.trim();
         if line.is_empty() || line.starts_with('#') {
@@ -261,6 +264,14 @@ mod tests {
 
     fn message(text: &str) -> String {
         parse(text).unwrap_err().to_string()
+    }
+
+    /// A spreadsheet's byte-order mark is not part of the first field.
+    #[test]
+    fn a_byte_order_mark_is_not_data() {
+        let rows: Vec<_> = data_rows("\u{feff}x,y,z\n1,2,3\n").collect();
+        assert_eq!(rows[0].2, vec!["x", "y", "z"]);
+        assert_eq!(rows[1], (2, "1,2,3", vec!["1", "2", "3"]));
     }
 
     #[test]

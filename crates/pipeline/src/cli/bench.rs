@@ -82,8 +82,8 @@ pub struct PlanBenchArgs {
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=gloam_trace::settings::MAX_SPP as i64))]
     pub share_spp: u32,
     /// Multiplies each scene camera's width and height (the field of view
-    /// is kept): a quicker check on a shared machine.
-    #[arg(long, default_value_t = 1.0)]
+    /// is kept): a quicker check on a shared machine (above 0, at most 4).
+    #[arg(long, default_value_t = 1.0, value_parser = resolution_scale_in_range)]
     pub resolution_scale: f64,
     /// Worker threads (default: all cores).
     #[arg(long)]
@@ -223,5 +223,15 @@ impl ScaleArgs {
         opts.threads = self.threads;
         opts.no_mitsuba |= self.no_mitsuba;
         Ok(opts)
+    }
+}
+
+/// `bench plan --resolution-scale`: finite, above 0, at most 4 (0 ended
+/// in a misleading share mismatch).
+fn resolution_scale_in_range(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 && x <= 4.0 => Ok(x),
+        Ok(x) => Err(format!("{x} is not in (0, 4]")),
+        Err(e) => Err(format!("{e} (give a number in (0, 4])")),
     }
 }
