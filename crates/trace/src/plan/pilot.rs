@@ -1,379 +1,15 @@
-//! The quantitative half of the effect plan: what each effect is worth at
-//! the camera, estimated by a cheap pilot, and the decision that follows.
-//!
-//! The scene crate's plan says which effects are *possible*; the tracer
-//! knows what they cost and can estimate what they bring. Interreflection
-//! is decided here: a pilot radiosity cache (`PILOT_TEXELS` texels,
-//! `PILOT_RAYS` gather rays each) and a coarse grid of camera rays give the
-//! indirect light's share of the band signal over the pixels that see a
-//! surface and no emitter, neither in the pixel nor in its eight
-//! neighbours (all pixels when every pixel does, as in a furnace); the
-//! effect is simulated when that share exceeds `tolerance`.
-//!
-//! "Share" is the share of the *mean* over that pixel set — the pixels
-//! `--target-error` governs, and the set `gloam bench plan` measures over
-//! (`gloam_pipeline::bench::truth::no_emitter_mask`; a pixel that shows
-//! a point source shows an emitter). Pixels beside an emitter are left
-//! out because their footprint holds some of it: at a quarter of the
-//! night scenes' resolution they held the street lamps'
-//! heads, whose radiance swamped the mean (the measured interreflection
-//! share of `night-full-moon-lamps` was 4.8 % over whole-facet pixels, 2.7 %
-//! over the pixel centres the pilot saw, 2.0 % over this set; the pilot
-//! says 1.7 %). Every share also samples a window around each point
-//! source's image (`Tracer::pilot_samples`), more densely where a pixel's
-//! footprint is long against the source's height: a lamp's housing and
-//! pool are a few pixels the grid misses. Light terms are also judged
-//! per pixel (the 90th percentile, [`PartShares::pixel_p90`]), since one
-//! source can be all the light a few pixels get. The pilot's bounce ratio
-//! q (the enclosure's multiple-bounce albedo) also fixes how
-//! many bounces brute-force path tracing needs for its truncated remainder
-//! `share · q^k` to fall below the tolerance.
+//! The pilot: a coarse grid of camera rays (with windows around lamps)
+//! and a pilot radiosity cache, giving each term's share of the signal.
 
-use glam::DVec3;
-use gloam_scene::Scene;
-use gloam_scene::plan::{EffectPlan, names};
-use serde::Serialize;
-
-use crate::indirect::{CacheSize, CacheSummary};
-use crate::settings::{Indirect, RenderSettings};
-use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
-
-/// Pilot cache size: coarse, but the share it estimates only decides.
-pub const PILOT_TEXELS: u32 = 1024;
-pub const PILOT_RAYS: u32 = 64;
-/// Pilot camera grid (at most; never finer than the image).
-pub const PILOT_COLS: u32 = 64;
-pub const PILOT_ROWS: u32 = 48;
-/// Final-gather rays per pilot pixel.
-pub const PILOT_GATHER: usize = 64;
-/// Final-gather rays per pilot point inside a window, at least.
-pub const PILOT_GATHER_MIN: usize = 4;
-
-/// How interreflection was decided for a render (in `report.json`).
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct InterreflectionDecision {
-    /// `off`, `cache` or `path` (what ran).
-    pub method: String,
-    /// The pilot's estimated share per band, over non-emitter pixels.
-    pub estimated_share_by_band: Vec<(String, f64)>,
-    /// Largest over bands (`None` when no pilot ran).
-    pub estimated_share: Option<f64>,
-    /// Pilot bounce ratio q.
-    pub bounce_ratio: Option<f64>,
-    /// Path tracing: the bounces used.
-    pub diffuse_bounces: u32,
-    pub reason: String,
-    pub pilot_seconds: f64,
-    /// The pilot's shares of the other light terms (None: no pilot ran).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub parts: Option<PartShares>,
-    /// The full cache's solve (method `cache`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cache: Option<CacheSummary>,
-    /// Method `path`: how many hot facets its bounces are guided toward
-    /// (`path_guide`; absent when none).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub guided_facets: Option<usize>,
-}
-
-/// What the pilot measured.
-struct Pilot {
-    share_by_band: Vec<f64>,
-    ratio: f64,
-    seconds: f64,
-    /// Shares (largest over bands, over the pilot's pixels that do not see
-    /// an emitter, or all pixels when every one does) of the direct-light
-    /// terms and of emitters seen directly (over all pixels).
-    parts: PartShares,
-}
-
-/// The pilot's shares of the other light terms. A light term's share is
-/// its share of the whole signal with the interreflection it feeds (split
-/// among the terms as one bounce of each splits), over the
-/// interreflection pixel set.
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct PartShares {
-    pub area_sources: f64,
-    pub point_sources: f64,
-    pub shaped_point_sources: f64,
-    pub moon: f64,
-    pub night_sky: f64,
-    /// Emitters seen directly, share of the whole image's signal.
-    pub direct_view: f64,
-    /// Specular recursion: the change of the signal over the pilot's
-    /// non-emitter pixels when mirror bounces are left out (None: no
-    /// material on a facet reflects specularly).
-    pub specular_recursion: Option<f64>,
-    /// Transmissive occluders: the change when they stop light instead of
-    /// attenuating it (None: nothing transmissive).
-    pub transmissive_occluders: Option<f64>,
-    /// The atmosphere (an upper bound): the Moon's direct light lost on its
-    /// slant path, `moon · (1/T(550 nm) − 1)`, plus the whole dome term
-    /// (scattered moonlight exists only through the atmosphere). None: no
-    /// sky.
-    pub atmosphere: Option<f64>,
-    /// Whether the plan keeps specular recursion and transmissive
-    /// occluders (each is left out when worth no more than the tolerance).
-    pub specular_simulated: bool,
-    pub transmissive_simulated: bool,
-    pub tolerance: f64,
-    /// Each light term's 90th percentile over the pilot's pixels of its
-    /// share of the pixel, `part / max(pixel, 5 % of the mean pixel)`.
-    pub pixel_p90: TermShares,
-    /// Light terms the plan leaves out (worth ≤ tolerance in the mean and
-    /// at the 90th percentile).
-    pub skipped: Vec<String>,
-    /// Whether the pilot's pixels saw any signal at all; with none, a
-    /// share of 0 is no evidence, and no light term is left out (a probe
-    /// may ask about points the camera does not see).
-    pub signal_seen: bool,
-}
-
-/// A value per light term.
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct TermShares {
-    pub area_sources: f64,
-    pub point_sources: f64,
-    pub shaped_point_sources: f64,
-    pub moon: f64,
-    pub night_sky: f64,
-}
+use super::*;
 
 impl Tracer {
-    /// Decides interreflection (see the module docs); with `solve`, builds
-    /// the full cache when the decision is `cache`.
-    pub(crate) fn decide_interreflection(&mut self, solve: bool) {
-        let s = &self.settings;
-        let tol = s.tolerance;
-        let requested = match s.indirect {
-            _ if s.drop.interreflection => Indirect::Off,
-            Indirect::Auto if s.diffuse_bounces > 0 => Indirect::Path,
-            m => m,
-        };
-        let mut d = InterreflectionDecision::default();
-        let possible = self.mats.iter().any(|m| m.has_diffuse)
-            && (!self.area.is_empty() || !self.points.is_empty() || self.sky.is_some());
-        let pilot_step = crate::prep::Preparation::begin("pilot", self.observer.as_ref());
-        let pilot = (possible
-            && (requested == Indirect::Auto || self.settings.diffuse_bounces == 0))
-            .then(|| self.pilot(requested != Indirect::Off));
-        if let Some(p) = &pilot {
-            let share = p.share_by_band.iter().copied().fold(0.0, f64::max);
-            d.estimated_share = Some(share);
-            d.estimated_share_by_band = self
-                .wl
-                .band_names
-                .iter()
-                .cloned()
-                .zip(p.share_by_band.iter().copied())
-                .collect();
-            d.bounce_ratio = Some(p.ratio);
-            d.pilot_seconds = p.seconds;
-            d.parts = Some(p.parts.clone());
-        } else if !possible {
-            d.estimated_share = Some(0.0);
-        }
-        if let Some(parts) = d.parts.as_mut() {
-            self.decide_specular_and_transmission(parts, &d.estimated_share_by_band);
-        }
-        if pilot.is_some() {
-            self.preparation
-                .end(pilot_step, self.observer.clone().as_ref());
-        }
-        let share = d.estimated_share.unwrap_or(0.0);
-        let method = match requested {
-            Indirect::Auto if share > tol => {
-                d.reason = format!(
-                    "pilot: interreflection is {:.2} % of the signal (> tolerance {:.2} %): radiosity cache + final gather",
-                    100.0 * share,
-                    100.0 * tol
-                );
-                Indirect::Cache
-            }
-            Indirect::Auto => {
-                d.reason = if possible {
-                    format!(
-                        "pilot: interreflection is at most the tolerance {:.2e} of the signal (pilot {:.2e}; below the tolerance the coarse pilot claims only the bound): not simulated",
-                        tol, share
-                    )
-                } else {
-                    "no diffusely reflecting material, or nothing lights the scene".into()
-                };
-                Indirect::Off
-            }
-            Indirect::Off if self.settings.drop.interreflection => {
-                d.reason = "dropped (drop = interreflection): direct light only".into();
-                Indirect::Off
-            }
-            Indirect::Off => {
-                d.reason = "indirect = off (set by the user): direct light only".into();
-                Indirect::Off
-            }
-            Indirect::Cache => {
-                d.reason = "indirect = cache (set by the user)".into();
-                Indirect::Cache
-            }
-            Indirect::Path => {
-                d.reason = "brute-force path tracing (set by the user)".into();
-                Indirect::Path
-            }
-        };
-        if method == Indirect::Path {
-            if self.settings.diffuse_bounces == 0 {
-                // share · q^k ≤ tol.
-                let q = d.bounce_ratio.unwrap_or(0.5).clamp(1e-6, 0.999_999);
-                let k = if share > tol {
-                    ((tol / share).ln() / q.ln()).ceil() + 1.0
-                } else {
-                    1.0
-                };
-                self.settings.diffuse_bounces = (k as u32).clamp(1, 100_000);
-                d.reason.push_str(&format!(
-                    "; {} bounces so the truncated remainder share·q^k < tolerance (q = {q:.3})",
-                    self.settings.diffuse_bounces
-                ));
-            }
-            d.diffuse_bounces = self.settings.diffuse_bounces;
-        } else {
-            self.settings.diffuse_bounces = 0;
-        }
-        d.method = match method {
-            Indirect::Cache => "cache",
-            Indirect::Path => "path",
-            _ => "off",
-        }
-        .into();
-        if method == Indirect::Cache && solve {
-            let step = crate::prep::Preparation::begin("cache", self.observer.as_ref());
-            let cache = self.build_cache_split(self.render_cache_size(), self.layer_groups());
-            self.preparation.end(step, self.observer.clone().as_ref());
-            d.cache = Some(cache.summary.clone());
-            self.cache = Some(cache);
-        }
-        self.interreflection = d;
-    }
-
-    /// Estimates specular recursion, transmissive occluders and the
-    /// atmosphere (see [`PartShares`]) and leaves out the first two when
-    /// each is worth no more than the tolerance (never under
-    /// `all_effects`). `ir_share` (per band) rescales the direct-light sums
-    /// of [`Tracer::pilot_traced`] to the whole signal.
-    fn decide_specular_and_transmission(
-        &mut self,
-        parts: &mut PartShares,
-        ir_share: &[(String, f64)],
-    ) {
-        let tol = self.settings.tolerance;
-        parts.tolerance = tol;
-        let spec =
-            self.mats.iter().any(|m| !m.ks.is_empty()) && !self.settings.drop.specular_recursion;
-        let trans = self.mats.iter().any(|m| m.trans.is_some())
-            && !self.settings.drop.transmissive_occluders;
-        if spec || trans {
-            let saved = self.settings.clone();
-            self.settings.diffuse_bounces = 0;
-            let full = self.pilot_traced();
-            let share = |t: &mut Tracer, set: fn(&mut RenderSettings)| -> f64 {
-                set(&mut t.settings);
-                let without = t.pilot_traced();
-                t.settings = saved.clone();
-                t.settings.diffuse_bounces = 0;
-                full.iter()
-                    .zip(&without)
-                    .enumerate()
-                    .map(|(b, (f, w))| {
-                        let ir = ir_share.get(b).map_or(0.0, |x| x.1).clamp(0.0, 0.99);
-                        let whole = f / (1.0 - ir);
-                        if whole > 0.0 {
-                            (f - w).abs() / whole
-                        } else {
-                            0.0
-                        }
-                    })
-                    .fold(0.0, f64::max)
-            };
-            if spec {
-                parts.specular_recursion = Some(share(self, |s| s.drop.specular_recursion = true));
-            }
-            if trans {
-                parts.transmissive_occluders =
-                    Some(share(self, |s| s.drop.transmissive_occluders = true));
-            }
-            self.settings = saved;
-        }
-        let keep = |x: Option<f64>, all: bool| x.is_some_and(|x| x > tol || all);
-        parts.specular_simulated = keep(parts.specular_recursion, self.settings.all_effects);
-        parts.transmissive_simulated =
-            keep(parts.transmissive_occluders, self.settings.all_effects);
-        if spec && !parts.specular_simulated {
-            self.skip.specular_recursion = true;
-        }
-        if trans && !parts.transmissive_simulated {
-            self.skip.transmissive_occluders = true;
-        }
-        // Light terms the scene has: left out only when worth no more than
-        // the tolerance both in the mean and at the 90th percentile of the
-        // pixels (a source can be all the light a few pixels get).
-        if !self.settings.all_effects && parts.signal_seen {
-            let terms: [(&str, f64, f64, bool); 5] = [
-                (
-                    names::AREA_SOURCES,
-                    parts.area_sources,
-                    parts.pixel_p90.area_sources,
-                    !self.area.is_empty(),
-                ),
-                (
-                    names::POINT_SOURCES,
-                    parts.point_sources,
-                    parts.pixel_p90.point_sources,
-                    self.points.iter().any(|l| !l.is_shaped()),
-                ),
-                (
-                    names::SHAPED_POINT_SOURCES,
-                    parts.shaped_point_sources,
-                    parts.pixel_p90.shaped_point_sources,
-                    self.points.iter().any(|l| l.is_shaped()),
-                ),
-                (
-                    names::MOON,
-                    parts.moon,
-                    parts.pixel_p90.moon,
-                    self.sky.as_ref().is_some_and(|s| s.moon_dir.is_some()),
-                ),
-                (
-                    names::NIGHT_SKY,
-                    parts.night_sky,
-                    parts.pixel_p90.night_sky,
-                    self.sky.as_ref().is_some_and(|s| s.dome),
-                ),
-            ];
-            for (name, mean, p90, present) in terms {
-                if present && mean.max(p90) <= tol {
-                    parts.skipped.push(name.to_string());
-                    self.skip.set(name);
-                }
-            }
-        }
-        if let Some(sky) = &self.sky {
-            let s = &sky.summary;
-            let t = gloam_sky::Atmosphere::new(s.height_m, s.visibility_km)
-                .map(|a| a.direct_transmittance(550.0, s.moon_elevation_deg))
-                .unwrap_or(1.0);
-            let lost = if t > 0.0 && s.moon_direct {
-                parts.moon * (1.0 / t - 1.0)
-            } else {
-                0.0
-            };
-            parts.atmosphere = Some(lost + parts.night_sky);
-        }
-    }
-
     /// Band sums of the traced radiance (direct light, specular bounces,
     /// transmission; no interreflection) over the pilot grid's pixels whose
     /// first hit is a facet that does not emit. Each pixel has its own fixed random
     /// stream, so two calls with different settings differ by the effect,
     /// not by noise.
-    fn pilot_traced(&self) -> Vec<f64> {
+    pub(super) fn pilot_traced(&self) -> Vec<f64> {
         let cam = &self.camera;
         let cols = PILOT_COLS.min(cam.width).max(1);
         let rows = PILOT_ROWS.min(cam.height).max(1);
@@ -426,7 +62,7 @@ impl Tracer {
     /// 52 primary rays per pilot pixel.
     /// `seen_points`: the pixels that show a point source
     /// ([`Tracer::point_source_pixels`]), emitters too.
-    fn emitter_beside(
+    pub(super) fn emitter_beside(
         &self,
         x: f64,
         y: f64,
@@ -457,7 +93,7 @@ impl Tracer {
     /// The pilot: a coarse cache and a coarse grid of camera rays. Without
     /// `interreflection` (the user set `indirect = off`) no cache is built
     /// and nothing gathered: the shares are the direct light's.
-    fn pilot(&self, interreflection: bool) -> Pilot {
+    pub(super) fn pilot(&self, interreflection: bool) -> Pilot {
         let t0 = std::time::Instant::now();
         let cache = interreflection.then(|| {
             self.build_cache(CacheSize {
@@ -732,7 +368,7 @@ impl Tracer {
     /// cosine-weighted rays, each hit's direct light by term
     /// ([`Tracer::irradiance_parts`]) reflected by its Lambertian part.
     #[allow(clippy::too_many_arguments)]
-    fn bounce_split(
+    pub(super) fn bounce_split(
         &self,
         p: DVec3,
         n: DVec3,
@@ -784,7 +420,7 @@ impl Tracer {
     /// held 90 % of the lamps' share of the mean): a stratum of its own
     /// finds them at a known weight. The grid's samples inside a window
     /// are left out, the rest stand for the pixels outside every window.
-    fn pilot_samples(&self, cols: u32, rows: u32) -> Vec<(f64, f64, f64, bool)> {
+    pub(super) fn pilot_samples(&self, cols: u32, rows: u32) -> Vec<(f64, f64, f64, bool)> {
         let mut c = RayCounts::default();
         let mut hit = |p: DVec3, d: DVec3| self.gather_hit(p, d, u32::MAX, &mut c).map(|h| h.2);
         let cam = &self.camera;
@@ -919,7 +555,7 @@ impl Tracer {
     /// a surface and its neighbour none) over half the least height of
     /// `sources` above those surfaces' planes, between WINDOW_SUB and
     /// WINDOW_SUB_MAX, within `left` points.
-    fn window_sub(
+    pub(super) fn window_sub(
         &self,
         x: f64,
         y: f64,
@@ -980,7 +616,7 @@ impl Tracer {
 
 /// The 90th percentile over pixels of term `k`'s share of the pixel,
 /// `part / max(pixel, 5 % of the mean pixel)` (largest over bands).
-fn term_p90(pixels: &[(Vec<Vec<f64>>, Vec<f64>)], k: usize) -> f64 {
+pub(super) fn term_p90(pixels: &[(Vec<Vec<f64>>, Vec<f64>)], k: usize) -> f64 {
     let Some(first) = pixels.first() else {
         return 0.0;
     };
@@ -996,164 +632,4 @@ fn term_p90(pixels: &[(Vec<Vec<f64>>, Vec<f64>)], k: usize) -> f64 {
             *v.select_nth_unstable_by(i, f64::total_cmp).1
         })
         .fold(0.0, f64::max)
-}
-
-/// The effect plan of `scene` as a render with `settings` would run it:
-/// the scene's structural plan with the tracer's pilot estimate and
-/// decision for interreflection.
-pub fn effect_plan(scene: &Scene, settings: &RenderSettings) -> Result<EffectPlan, TraceError> {
-    Ok(effect_plan_observed(scene, settings, None)?.0)
-}
-
-/// As [`effect_plan`], telling `observer` about each preparation step, and
-/// returning where the preparation's time and memory went.
-pub fn effect_plan_observed(
-    scene: &Scene,
-    settings: &RenderSettings,
-    observer: Option<crate::prep::PrepObserver>,
-) -> Result<(EffectPlan, crate::prep::Preparation), TraceError> {
-    let t = Tracer::prepare_observed(scene, settings, false, observer)?;
-    Ok((t.effect_plan(scene), t.preparation))
-}
-
-impl Tracer {
-    /// The effect plan this tracer runs: `scene`'s structural plan with the
-    /// pilot's interreflection decision and the shares it measured. The one
-    /// place the plan of a render is put together (`gloam plan`, and `gloam
-    /// render` and the Python package through `gloam_pipeline`'s
-    /// `RenderJob`). `scene` is the
-    /// scene as its user wrote it: a band added for a camera
-    /// (`gloam_pipeline::detected`) is no effect of the scene's.
-    pub fn effect_plan(&self, scene: &Scene) -> EffectPlan {
-        let mut plan = gloam_scene::plan::plan(scene);
-        plan.extend([interreflection_effect(&self.interreflection)]);
-        annotate_shares(&mut plan, &self.interreflection);
-        plan
-    }
-}
-
-/// Fills in `estimated_share` of the light terms the pilot measured. These
-/// terms stay as the scene plan decided (a term the scene has is simulated:
-/// the pilot reports its worth; a term it lacks is exactly 0).
-pub fn annotate_shares(plan: &mut EffectPlan, d: &InterreflectionDecision) {
-    let Some(p) = &d.parts else { return };
-    for e in &mut plan.effects {
-        let decided = |e: &mut gloam_scene::plan::Effect, share: f64, kept: bool, what: &str| {
-            e.estimated_share = Some(share);
-            if e.enabled && !kept {
-                e.enabled = false;
-                e.reason = format!(
-                    "pilot: {what} is {share:.2e} of the signal (≤ tolerance {:.2e}): not simulated ({})",
-                    p.tolerance, e.reason
-                );
-            } else if e.enabled {
-                e.reason = format!(
-                    "pilot: {what} is {:.2} % of the signal (> tolerance {:.2} %): {}",
-                    100.0 * share,
-                    100.0 * p.tolerance,
-                    e.reason
-                );
-            }
-        };
-        match (
-            e.name.as_str(),
-            p.specular_recursion,
-            p.transmissive_occluders,
-        ) {
-            (names::SPECULAR_RECURSION, Some(x), _) => {
-                decided(e, x, p.specular_simulated, "specular recursion");
-                continue;
-            }
-            (names::TRANSMISSIVE_OCCLUDERS, _, Some(x)) => {
-                decided(
-                    e,
-                    x,
-                    p.transmissive_simulated,
-                    "light through transmissive occluders",
-                );
-                continue;
-            }
-            _ => {}
-        }
-        if e.name == names::ATMOSPHERE
-            && let Some(x) = p.atmosphere
-        {
-            e.estimated_share = Some(x);
-            e.reason.push_str(" (share: an upper bound, Moon's slant-path loss + dome; the sky model has no airless mode)");
-            continue;
-        }
-        let term = match e.name.as_str() {
-            names::AREA_SOURCES => Some((p.area_sources, p.pixel_p90.area_sources)),
-            names::POINT_SOURCES => Some((p.point_sources, p.pixel_p90.point_sources)),
-            names::SHAPED_POINT_SOURCES => {
-                Some((p.shaped_point_sources, p.pixel_p90.shaped_point_sources))
-            }
-            names::MOON => Some((p.moon, p.pixel_p90.moon)),
-            names::NIGHT_SKY => Some((p.night_sky, p.pixel_p90.night_sky)),
-            _ => None,
-        };
-        if let Some((mean, p90)) = term {
-            if p.skipped.contains(&e.name) {
-                e.enabled = false;
-                e.reason = format!(
-                    "pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile (both ≤ tolerance {:.2e}): not simulated ({})",
-                    p.tolerance, e.reason
-                );
-                e.estimated_share = Some(mean);
-            } else {
-                if e.enabled {
-                    e.reason.push_str(&format!(
-                        " (pilot: {mean:.2e} of the signal, {p90:.2e} of the pixel at the 90th percentile)"
-                    ));
-                }
-                e.estimated_share.get_or_insert(mean);
-            }
-        } else if e.name == names::DIRECT_VIEW {
-            e.estimated_share.get_or_insert(p.direct_view);
-        }
-    }
-}
-
-/// The plan entry for a decision.
-pub fn interreflection_effect(d: &InterreflectionDecision) -> gloam_scene::plan::Effect {
-    let mut e =
-        gloam_scene::plan::Effect::new(names::INTERREFLECTION, d.method != "off", d.reason.clone());
-    e.estimated_share = d.estimated_share;
-    e
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The pilot's samples stand for the whole image (weights in pixels
-    /// sum to its pixel count), and the road lamp's window of
-    /// `street-switch-on` covers both its image and its pool's: the road
-    /// under the lamp, 8 m below it, which is the surface in its brightest
-    /// lattice direction or nearer.
-    #[test]
-    fn pilot_window_covers_the_lamp_and_its_pool() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../sims/street-switch-on/scene.toml"
-        );
-        let mut scene = gloam_scene::load(std::path::Path::new(path)).unwrap();
-        scene.camera.width = 80;
-        scene.camera.height = 60;
-        let t = Tracer::new(&scene, &RenderSettings::default()).unwrap();
-        let s = t.pilot_samples(PILOT_COLS, PILOT_ROWS);
-        let total: f64 = s.iter().map(|p| p.2).sum();
-        assert!((total - 4800.0).abs() < 1e-9, "{total}");
-        let covered = |p: DVec3| {
-            let (x, y) = t.camera.project(p).unwrap();
-            let (px, py) = (x.floor(), y.floor());
-            s.iter()
-                .any(|q| !q.3 && q.0.floor() == px && q.1.floor() == py)
-        };
-        assert!(covered(DVec3::new(175.0, -3.5, 8.0)));
-        assert!(covered(DVec3::new(175.0, -3.5, 0.0)));
-        // The grid's own points (3072) are all there, those inside a
-        // window at weight 0.
-        assert_eq!(s.iter().filter(|q| q.3).count(), 3072);
-    }
 }
