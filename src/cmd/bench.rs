@@ -29,7 +29,7 @@ pub fn run(c: BenchCommand) -> anyhow::Result<()> {
             if let Some((case, dir)) = a.case()? {
                 let (w, h) = (a.width.unwrap_or(160), a.height.unwrap_or(120));
                 let spp = a.spp.unwrap_or(4);
-                return print_json(&scale::run_case(case, dir, w, h, spp, a.threads)?);
+                return print_json(&scale::run_case(case, dir, w, h, spp, a.threads, &a.set)?);
             }
             let exe =
                 std::env::current_exe().context("finding the gloam binary to run each case")?;

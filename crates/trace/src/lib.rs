@@ -25,7 +25,8 @@ pub use layers::{LayerError, LayerMap};
 pub use prep::{PrepEvent, PrepObserver, PrepStep, Preparation};
 pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{
-    Dirsig2001Settings, Dropped, Estimator, Indirect, Occlusion, RenderSettings, SettingsError,
+    Dirsig2001Settings, Dropped, Estimator, Indirect, LightTreeSplit, Occlusion, RenderSettings,
+    SettingsError,
 };
 pub use sky_light::SkySummary;
 pub use tracer::{RayCounts, SkyProbeResult, TraceError, Tracer};

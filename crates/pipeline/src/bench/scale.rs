@@ -453,6 +453,7 @@ pub fn run_case(
     height: u32,
     spp: u32,
     threads: Option<usize>,
+    set: &[String],
 ) -> Result<CaseResult, BenchError> {
     case.check()?;
     ensure_valid!(
@@ -486,11 +487,14 @@ pub fn run_case(
         "size check: {} generated {got:?}, the closed form says {expected:?}",
         case.label()
     );
-    let settings = RenderSettings {
+    let mut settings = RenderSettings {
         spp,
         threads,
         ..Default::default()
     };
+    for pair in set {
+        settings.set_pair(pair)?;
+    }
     // Preparation resets the kernel's peak mark at each step (to time each
     // step's peak), so the process peak is the largest of the peak after
     // loading, the steps' peaks and the peak since the last step.
@@ -583,6 +587,8 @@ pub struct ScaleOptions {
     pub exe: PathBuf,
     /// Skip the Mitsuba 3 comparison even when `import mitsuba` works.
     pub no_mitsuba: bool,
+    /// Render settings for every case (`--set KEY=VALUE`).
+    pub set: Vec<String>,
 }
 
 impl ScaleOptions {
@@ -607,6 +613,7 @@ impl ScaleOptions {
             timeout_s: if quick { 60.0 } else { 900.0 },
             exe,
             no_mitsuba: quick,
+            set: Vec::new(),
         }
     }
 }
@@ -638,6 +645,8 @@ pub struct ScaleReport {
     pub spp: u32,
     pub threads: Option<usize>,
     pub timeout_s: f64,
+    /// The `--set KEY=VALUE` settings every case ran with.
+    pub set: Vec<String>,
     pub method: &'static str,
     pub cases: Vec<Row>,
     pub mitsuba: String,
@@ -732,6 +741,9 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
         );
     if let Some(n) = opts.threads {
         cmd.args(["--threads", &n.to_string()]);
+    }
+    for pair in &opts.set {
+        cmd.args(["--set", pair]);
     }
     let mut child = cmd.spawn().map_err(BenchError::io("starting", &opts.exe))?;
     let status = wait_with_timeout(
@@ -852,6 +864,7 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         spp: opts.spp,
         threads: opts.threads,
         timeout_s: opts.timeout_s,
+        set: opts.set.clone(),
         method: METHOD,
         cases: rows,
         mitsuba: mitsuba_note,
@@ -915,8 +928,16 @@ impl ScaleReport {
         let mut m = String::new();
         let _ = writeln!(
             m,
-            "gloam bench scale: {}×{} px, spp {}, timeout {:.0} s per case",
-            self.width, self.height, self.spp, self.timeout_s
+            "gloam bench scale: {}×{} px, spp {}, timeout {:.0} s per case{}",
+            self.width,
+            self.height,
+            self.spp,
+            self.timeout_s,
+            if self.set.is_empty() {
+                String::new()
+            } else {
+                format!(", --set {}", self.set.join(" --set "))
+            }
         );
         let _ = writeln!(
             m,
@@ -1075,7 +1096,7 @@ mod tests {
             },
         ] {
             let dir = tempfile::tempdir().unwrap();
-            let r = run_case(case, dir.path(), 48, 36, 2, Some(2))
+            let r = run_case(case, dir.path(), 48, 36, 2, Some(2), &[])
                 .unwrap_or_else(|e| panic!("{}: {e:#}", case.label()));
             assert_eq!(r.expected, expected_counts(case));
             assert_eq!(

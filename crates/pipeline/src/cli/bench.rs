@@ -57,6 +57,10 @@ pub struct ScaleArgs {
     /// Worker threads per case (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Render settings for every case, KEY=VALUE (repeatable; e.g.
+    /// `--set light_tree_split=fixed` to compare the light tree's rules).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -222,6 +226,12 @@ impl ScaleArgs {
         opts.timeout_s = self.timeout_s.unwrap_or(opts.timeout_s);
         opts.threads = self.threads;
         opts.no_mitsuba |= self.no_mitsuba;
+        // Checked here, so a bad key fails before any case runs.
+        let mut check = gloam_trace::RenderSettings::default();
+        for pair in &self.set {
+            check.set_pair(pair)?;
+        }
+        opts.set = self.set.clone();
         Ok(opts)
     }
 }

@@ -264,7 +264,7 @@ impl Tracer {
         let ny = if gfront { n } else { -n };
         let mut e = acc.dark_like();
         let smooth = Smooth::Omitted;
-        self.irradiance_split(y, ny, g, 1, None, smooth, rng, c, &mut e);
+        self.irradiance_split(y, ny, g, 1, 1, None, smooth, rng, c, &mut e);
         let kd = &self.mats[self.facet_mat[g as usize] as usize].kd;
         acc.add_each(&e, |o, e| {
             for (((o, e), s), kd) in o.iter_mut().zip(e).zip(s.iter()).zip(kd) {

@@ -131,6 +131,7 @@ impl Tracer {
                 n,
                 f,
                 CACHE_DIRECT_REPEATS,
+                1,
                 None,
                 smooth,
                 &mut rng,

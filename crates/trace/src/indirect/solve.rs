@@ -81,13 +81,14 @@ impl Tracer {
                 if size.direct_cell_mean {
                     for q in self.texel_points(f, p, cell, &mut rng) {
                         e1.clear();
-                        self.irradiance_with(q, n, f, 1, None, &mut rng, &mut c, &mut e1);
+                        let picks = self.cache_picks();
+                        self.irradiance_with(q, n, f, 1, picks, None, &mut rng, &mut c, &mut e1);
                         e.add_each(&e1, |a, b| a.iter_mut().zip(b).for_each(|(a, b)| *a += b));
                     }
                     let inv = 1.0 / CACHE_DIRECT_REPEATS as f64;
                     e.each_mut(|v| v.iter_mut().for_each(|x| *x *= inv));
                 } else {
-                    // With the light tree (one selection picks only
+                    // With the light tree (one selection picks at most
                     // `light_tree_branches` emitters) CACHE_DIRECT_REPEATS
                     // selections are averaged; without it the closed forms
                     // are exact and the count is unused. The smooth
@@ -97,6 +98,7 @@ impl Tracer {
                         n,
                         f,
                         CACHE_DIRECT_REPEATS,
+                        self.cache_picks(),
                         None,
                         Smooth::Apart(&mut smooth),
                         &mut rng,

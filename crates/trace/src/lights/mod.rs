@@ -301,7 +301,8 @@ pub(crate) fn build_light_tree(
     mpu: f64,
     extent: f64,
 ) -> Option<crate::light_tree::LightTree> {
-    use crate::light_tree::LightTree;
+    use crate::light_tree::{LightTree, Split};
+    use crate::settings::LightTreeSplit;
     if (area.len() + points.len()) as u64 <= settings.light_tree_min_lights as u64 {
         return None;
     }
@@ -316,7 +317,16 @@ pub(crate) fn build_light_tree(
             .enumerate()
             .map(|(i, l)| l.tree_info(i, wl, mpu2)),
     );
-    LightTree::build(infos, extent, settings.light_tree_branches)
+    let rule = match settings.light_tree_split {
+        LightTreeSplit::Fixed => Split::Fixed {
+            branches: settings.light_tree_branches as usize,
+        },
+        LightTreeSplit::Adaptive => Split::Adaptive {
+            threshold: settings.light_split_threshold,
+            max_picks: settings.light_tree_max_picks as usize,
+        },
+    };
+    LightTree::build(infos, extent, rule)
 }
 
 /// A scalar size of an emitter for the tree: the band total, or (emitting
