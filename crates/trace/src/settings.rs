@@ -544,32 +544,8 @@ impl RenderSettings {
                         x.is_finite() && *x > 0.0 && *x <= 16.0
                     })?
             }
-            "path_guide" => {
-                self.path_guide = match value.to_ascii_lowercase().as_str() {
-                    "true" | "1" | "yes" | "on" => true,
-                    "false" | "0" | "no" | "off" => false,
-                    _ => {
-                        return Err(SettingsError::BadValue {
-                            key: key.into(),
-                            value: value.into(),
-                            expected: "true or false",
-                        });
-                    }
-                }
-            }
-            "all_effects" => {
-                self.all_effects = match value.to_ascii_lowercase().as_str() {
-                    "true" | "1" | "yes" | "on" => true,
-                    "false" | "0" | "no" | "off" => false,
-                    _ => {
-                        return Err(SettingsError::BadValue {
-                            key: key.into(),
-                            value: value.into(),
-                            expected: "true or false",
-                        });
-                    }
-                }
-            }
+            "path_guide" => self.path_guide = parse_bool(key, value)?,
+            "all_effects" => self.all_effects = parse_bool(key, value)?,
             "light_strata" => {
                 self.light_strata = match value.to_ascii_lowercase().as_str() {
                     "sobol" => LightStrataMode::Sobol,
@@ -687,6 +663,19 @@ mod tests {
             };
             s.set(k, v).unwrap();
         }
+    }
+}
+
+/// A `true`/`false` setting (also 1/0, yes/no, on/off).
+fn parse_bool(key: &str, value: &str) -> Result<bool, SettingsError> {
+    match value.to_ascii_lowercase().as_str() {
+        "true" | "1" | "yes" | "on" => Ok(true),
+        "false" | "0" | "no" | "off" => Ok(false),
+        _ => Err(SettingsError::BadValue {
+            key: key.into(),
+            value: value.into(),
+            expected: "true or false",
+        }),
     }
 }
 
