@@ -9,7 +9,6 @@ pub(crate) mod guide;
 pub mod indirect;
 pub mod layers;
 pub(crate) mod light;
-pub(crate) mod light_tree;
 pub(crate) mod lights;
 pub mod plan;
 pub mod prep;

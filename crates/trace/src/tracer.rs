@@ -192,7 +192,7 @@ pub struct Tracer {
     pub(crate) skip: crate::settings::Dropped,
     /// The light tree over the emitters, when there are more than
     /// `light_tree_min_lights` (else every emitter is evaluated, as always).
-    pub(crate) light_tree: Option<crate::light_tree::LightTree>,
+    pub(crate) light_tree: Option<crate::lights::tree::LightTree>,
     /// Seconds spent building the BVH and spectral tables.
     pub(crate) build_seconds: f64,
     /// The scene's size and each preparation step's time and peak memory.

@@ -10,7 +10,7 @@ use rand_pcg::Pcg64Mcg;
 use super::{LightStrata, add_emission, shaping, tree_size};
 use crate::closed_form;
 use crate::light::Light;
-use crate::light_tree::{Cone, LightInfo, LightRef};
+use crate::lights::tree::{Cone, LightInfo, LightRef};
 use crate::sampling::{SphericalRectangle, SphericalTriangle, sample_triangle_area};
 use crate::settings::{Estimator, Occlusion, RenderSettings};
 use crate::spectral::Wavelengths;

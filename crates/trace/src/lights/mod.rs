@@ -29,6 +29,7 @@ mod area;
 mod point;
 mod sampler;
 mod sky;
+pub(crate) mod tree;
 
 use glam::DVec3;
 use rand_pcg::Pcg64Mcg;
@@ -300,8 +301,8 @@ pub(crate) fn build_light_tree(
     settings: &RenderSettings,
     mpu: f64,
     extent: f64,
-) -> Option<crate::light_tree::LightTree> {
-    use crate::light_tree::{LightTree, Split};
+) -> Option<crate::lights::tree::LightTree> {
+    use crate::lights::tree::{LightTree, Split};
     use crate::settings::LightTreeSplit;
     if (area.len() + points.len()) as u64 <= settings.light_tree_min_lights as u64 {
         return None;

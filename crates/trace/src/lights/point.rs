@@ -6,7 +6,7 @@ use gloam_scene::Scene;
 
 use super::{shaping, tree_size};
 use crate::light::Light;
-use crate::light_tree::{Cone, LightInfo, LightRef};
+use crate::lights::tree::{Cone, LightInfo, LightRef};
 use crate::spectral::Wavelengths;
 use crate::tracer::{RayCounts, Tracer};
 

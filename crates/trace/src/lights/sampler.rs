@@ -12,7 +12,7 @@ use glam::DVec3;
 use rand_pcg::Pcg64Mcg;
 
 use super::{AreaSet, AreaSource, LightSource};
-use crate::light_tree::{LightRef, LightTree};
+use crate::lights::tree::{LightRef, LightTree};
 use crate::tracer::Tracer;
 
 /// The lights of one prepared scene, as a shading point meets them.
