@@ -476,17 +476,16 @@ impl RenderSettings {
             }
             "area_samples" => self.area_samples = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
             "occlusion" => {
-                self.occlusion = match value.to_ascii_lowercase().as_str() {
-                    "cv" | "control-variate" => Occlusion::Cv,
-                    "ratio" => Occlusion::Ratio,
-                    _ => {
-                        return Err(SettingsError::BadValue {
-                            key: key.into(),
-                            value: value.into(),
-                            expected: "cv or ratio",
-                        });
-                    }
-                }
+                self.occlusion = parse_word(
+                    key,
+                    value,
+                    &[
+                        ("cv", Occlusion::Cv),
+                        ("control-variate", Occlusion::Cv),
+                        ("ratio", Occlusion::Ratio),
+                    ],
+                    "cv or ratio",
+                )?
             }
             "source_roulette_fraction" => {
                 self.source_roulette_fraction =
@@ -514,17 +513,11 @@ impl RenderSettings {
                     })?
             }
             "light_tree_split" => {
-                self.light_tree_split = match value.to_ascii_lowercase().as_str() {
-                    "adaptive" => LightTreeSplit::Adaptive,
-                    "fixed" => LightTreeSplit::Fixed,
-                    _ => {
-                        return Err(SettingsError::BadValue {
-                            key: key.into(),
-                            value: value.into(),
-                            expected: "adaptive or fixed",
-                        });
-                    }
-                }
+                let words = [
+                    ("adaptive", LightTreeSplit::Adaptive),
+                    ("fixed", LightTreeSplit::Fixed),
+                ];
+                self.light_tree_split = parse_word(key, value, &words, "adaptive or fixed")?
             }
             "light_split_threshold" => {
                 self.light_split_threshold = parse(key, value, "a number in [0, 1]", |x: &f64| {
@@ -547,17 +540,11 @@ impl RenderSettings {
             "path_guide" => self.path_guide = parse_bool(key, value)?,
             "all_effects" => self.all_effects = parse_bool(key, value)?,
             "light_strata" => {
-                self.light_strata = match value.to_ascii_lowercase().as_str() {
-                    "sobol" => LightStrataMode::Sobol,
-                    "random" => LightStrataMode::Random,
-                    _ => {
-                        return Err(SettingsError::BadValue {
-                            key: key.into(),
-                            value: value.into(),
-                            expected: "sobol or random",
-                        });
-                    }
-                }
+                let words = [
+                    ("sobol", LightStrataMode::Sobol),
+                    ("random", LightStrataMode::Random),
+                ];
+                self.light_strata = parse_word(key, value, &words, "sobol or random")?
             }
             "drop" => self.drop = Dropped::parse(value)?,
             "indirect" => self.indirect = value.parse()?,
@@ -668,15 +655,36 @@ mod tests {
 
 /// A `true`/`false` setting (also 1/0, yes/no, on/off).
 fn parse_bool(key: &str, value: &str) -> Result<bool, SettingsError> {
-    match value.to_ascii_lowercase().as_str() {
-        "true" | "1" | "yes" | "on" => Ok(true),
-        "false" | "0" | "no" | "off" => Ok(false),
-        _ => Err(SettingsError::BadValue {
+    let words = [
+        ("true", true),
+        ("1", true),
+        ("yes", true),
+        ("on", true),
+        ("false", false),
+        ("0", false),
+        ("no", false),
+        ("off", false),
+    ];
+    parse_word(key, value, &words, "true or false")
+}
+
+/// `value` as one of `words` (case-insensitive), or an error naming
+/// `key` and what it accepts.
+fn parse_word<T: Copy>(
+    key: &str,
+    value: &str,
+    words: &[(&str, T)],
+    expected: &'static str,
+) -> Result<T, SettingsError> {
+    words
+        .iter()
+        .find(|(w, _)| w.eq_ignore_ascii_case(value))
+        .map(|&(_, v)| v)
+        .ok_or_else(|| SettingsError::BadValue {
             key: key.into(),
             value: value.into(),
-            expected: "true or false",
-        }),
-    }
+            expected,
+        })
 }
 
 /// How the camera vertex draws its light samples (see `light_strata`).

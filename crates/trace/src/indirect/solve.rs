@@ -1,6 +1,8 @@
 //! Building and solving the cache: each texel's direct light, the gather
 //! operator, the Jacobi bounce series with its geometric tail.
 
+use rand_pcg::Pcg64Mcg;
+
 use super::*;
 
 impl Tracer {
@@ -40,137 +42,36 @@ impl Tracer {
             };
         }
         let rays = size.rays.max(1);
-        let w_ray = std::f64::consts::PI / rays as f64;
-        // Direct irradiance and the operator's rows, per texel (parallel,
-        // each texel its own random stream: deterministic).
-        // (Sharp direct light at the centre; the smooth; the sharp over the
-        // cell where it varies; the operator's row.)
-        type Row = (
-            Light,
-            Light,
-            (f64, Option<SharpSamples>),
-            Vec<Entry>,
-            Vec<Vec<f64>>,
-        );
         // Only a final gather reads a texel at the point a ray hit.
         let test_sharp = !size.direct_cell_mean && self.settings.gather_rays > 0;
-        let rows: Vec<Row> = texels
+        // Direct irradiance and the operator's rows, per texel (parallel,
+        // each texel its own random stream: deterministic).
+        let rows: Vec<TexelRow> = texels
             .par_iter()
             .enumerate()
-            .map(|(k, &(f, p, n, area))| {
+            .map(|(k, &texel)| {
                 let mut rng = stream(self.settings.seed, DOMAIN_CACHE, k as u64);
                 let mut c = RayCounts::default();
-                let mut e = Light::dark(nwl, groups);
-                // A texel's noise persists into every bounce and every
-                // pixel that gathers from it. The pilot takes the direct
-                // irradiance as the texel's mean (CACHE_DIRECT_REPEATS
-                // points 2 × 2 stratified over the cell, kept on the facet,
-                // one light-tree selection each); the render's cache, whose
-                // texels are finer, at the centre.
-                let mut e1 = e.dark_like();
                 // A cluster texel (the last `layout.clusters`) stands for
                 // many small facets through one of them: its points stay
                 // within that facet.
                 let cell = if k + cluster_texels >= n_tex {
-                    polygon_area(&self.facet_verts[f as usize])
+                    polygon_area(&self.facet_verts[texel.0 as usize])
                 } else {
-                    area
+                    texel.3
                 };
-                let mut smooth = e.dark_like();
-                let mut samples = (0.0, None);
-                if size.direct_cell_mean {
-                    for q in self.texel_points(f, p, cell, &mut rng) {
-                        e1.clear();
-                        let picks = self.cache_picks();
-                        self.irradiance_with(q, n, f, 1, picks, None, &mut rng, &mut c, &mut e1);
-                        e.add_each(&e1, |a, b| a.iter_mut().zip(b).for_each(|(a, b)| *a += b));
-                    }
-                    let inv = 1.0 / CACHE_DIRECT_REPEATS as f64;
-                    e.each_mut(|v| v.iter_mut().for_each(|x| *x *= inv));
-                } else {
-                    // With the light tree (one selection picks at most
-                    // `light_tree_branches` emitters) CACHE_DIRECT_REPEATS
-                    // selections are averaged; without it the closed forms
-                    // are exact and the count is unused. The smooth
-                    // terms (`Smooth`) are kept apart.
-                    self.irradiance_split(
-                        p,
-                        n,
-                        f,
-                        CACHE_DIRECT_REPEATS,
-                        self.cache_picks(),
-                        None,
-                        Smooth::Apart(&mut smooth),
-                        &mut rng,
-                        &mut c,
-                        &mut e,
-                    );
-                    if test_sharp {
-                        samples = self.sharp_samples(f, p, n, cell, &e, &mut c);
-                    }
-                }
-                let mut entries: Vec<Entry> = Vec::new();
-                let mut taus: Vec<Vec<f64>> = Vec::new();
-                let mut u = Vec::with_capacity(rays as usize);
-                latin_hypercube(rays as usize, &mut rng, &mut u);
-                let (tx, ty) = orthonormal_basis(n);
-                for uv in u {
-                    let l = cosine_hemisphere(uv);
-                    let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
-                    if let Some((g, front, y, tau)) = self.gather_hit(p, d, f, &mut c) {
-                        let Some(texel) = layout.nearest(g, usize::from(!front), y) else {
-                            continue;
-                        };
-                        let ti = match tau {
-                            None => u32::MAX,
-                            Some(t) => {
-                                taus.push(t);
-                                (taus.len() - 1) as u32
-                            }
-                        };
-                        entries.push(Entry {
-                            texel,
-                            w: w_ray,
-                            tau: ti,
-                        });
-                    }
-                }
-                // Merge rays that landed on the same texel (unattenuated).
-                entries.sort_by_key(|e| (e.tau != u32::MAX, e.texel));
-                let mut merged: Vec<Entry> = Vec::with_capacity(entries.len());
-                for e in entries {
-                    match merged.last_mut() {
-                        Some(m) if m.texel == e.texel && m.tau == u32::MAX && e.tau == u32::MAX => {
-                            m.w += e.w
-                        }
-                        _ => merged.push(e),
-                    }
-                }
-                (e, smooth, samples, merged, taus)
+                let direct = TexelDirect {
+                    size,
+                    groups,
+                    test_sharp,
+                };
+                let (e, smooth, samples) = self.texel_direct(texel, cell, direct, &mut rng, &mut c);
+                let (entries, taus) = self.operator_row(&layout, texel, rays, &mut rng, &mut c);
+                (e, smooth, samples, entries, taus)
             })
             .collect();
         let operator_entries = rows.iter().map(|r| r.3.len()).sum();
-        // A texel is sharp where its sharp direct light strays from the
-        // bilinear interpolation between texel centres — what a reading
-        // would take — by more than SHARP_VARIATION of its mean: a pool or
-        // a shadow's edge inside it, or a lamp close by. A linear gradient
-        // over a fine grid is no reason.
-        let centre: Vec<f64> = rows.iter().map(|r| r.2.0).collect();
-        let sharp: Vec<bool> = rows
-            .iter()
-            .zip(&texels)
-            .map(|(r, &(f, _, n, _))| {
-                let Some(samples) = &r.2.1 else { return false };
-                let side = usize::from(n.dot(self.facet_normal[f as usize]) < 0.0);
-                let spread = samples.points.iter().map(|&(q, x)| {
-                    let interpolated: f64 = layout.weights(f, side, q).map_or(0.0, |w| {
-                        w.iter().map(|&(k, w)| w * centre[k as usize]).sum()
-                    });
-                    (x - interpolated).abs()
-                });
-                spread.fold(0.0, f64::max) > SHARP_VARIATION * samples.mean
-            })
-            .collect();
+        let sharp = self.sharp_flags(&rows, &texels, &layout);
         let sharp_texels = sharp.iter().filter(|&&s| s).count();
         // The bounce series still starts from every texel's centre (a mean
         // over a cell that a wall crosses would carry light through it);
@@ -212,19 +113,11 @@ impl Tracer {
         let (sharp, smooth) = if sharp_texels == 0 {
             (Vec::new(), Vec::new())
         } else {
-            let inv_pi = std::f64::consts::FRAC_1_PI;
-            let mut smooth = radiance.clone();
-            for (k, s) in sharp_direct.iter().enumerate() {
-                let kd = &self.mats[self.facet_mat[texels[k].0 as usize] as usize].kd;
-                for ((o, e), kd) in smooth[k * stride..(k + 1) * stride]
-                    .iter_mut()
-                    .zip(side_by_side(s))
-                    .zip(kd.iter().cycle())
-                {
-                    *o -= kd * e * inv_pi;
-                }
-            }
-            (sharp, smooth)
+            let sharp_direct: Vec<Vec<f64>> = sharp_direct.iter().map(side_by_side).collect();
+            (
+                sharp,
+                self.smooth_radiance(&radiance, &sharp_direct, &texels, stride),
+            )
         };
         let guide = self.guide(&layout, &texels, &sharp, &radiance, stride);
         let guided_texels = guide.as_ref().map_or(0, |g| g.cells.len());
@@ -239,16 +132,7 @@ impl Tracer {
         } else {
             (e_ind, stride)
         };
-        let total: f64 = bounce_norms.iter().sum::<f64>()
-            + if ratio > 0.0 && ratio < 1.0 {
-                bounce_norms.last().copied().unwrap_or(0.0) * ratio / (1.0 - ratio)
-            } else {
-                0.0
-            };
-        let bounce_shares = bounce_norms
-            .iter()
-            .map(|b| if total > 0.0 { b / total } else { 0.0 })
-            .collect();
+        let bounce_shares = bounce_shares(&bounce_norms, ratio);
         Cache {
             layout,
             nwl,
@@ -275,6 +159,162 @@ impl Tracer {
                 seconds: t0.elapsed().as_secs_f64(),
             },
         }
+    }
+
+    /// A texel's direct irradiance: sharp and smooth parts (the smooth
+    /// apart only for the render's cache) and, where a final gather will
+    /// read it, the sharp light over its cell.
+    fn texel_direct(
+        &self,
+        (f, p, n, _): Texel,
+        cell: f64,
+        how: TexelDirect,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+    ) -> (Light, Light, (f64, Option<SharpSamples>)) {
+        let mut e = Light::dark(self.wl.len(), how.groups);
+        let mut smooth = e.dark_like();
+        let mut samples = (0.0, None);
+        // A texel's noise persists into every bounce and every pixel that
+        // gathers from it. The pilot takes the direct irradiance as the
+        // texel's mean (CACHE_DIRECT_REPEATS points 2 × 2 stratified over
+        // the cell, kept on the facet, one light-tree selection each); the
+        // render's cache, whose texels are finer, at the centre.
+        if how.size.direct_cell_mean {
+            let mut e1 = e.dark_like();
+            for q in self.texel_points(f, p, cell, rng) {
+                e1.clear();
+                let picks = self.cache_picks();
+                self.irradiance_with(q, n, f, 1, picks, None, rng, c, &mut e1);
+                e.add_each(&e1, |a, b| a.iter_mut().zip(b).for_each(|(a, b)| *a += b));
+            }
+            let inv = 1.0 / CACHE_DIRECT_REPEATS as f64;
+            e.each_mut(|v| v.iter_mut().for_each(|x| *x *= inv));
+        } else {
+            // With the light tree (one selection picks at most
+            // `light_tree_branches` emitters) CACHE_DIRECT_REPEATS
+            // selections are averaged; without it the closed forms are
+            // exact and the count is unused. The smooth terms (`Smooth`)
+            // are kept apart.
+            self.irradiance_split(
+                p,
+                n,
+                f,
+                CACHE_DIRECT_REPEATS,
+                self.cache_picks(),
+                None,
+                Smooth::Apart(&mut smooth),
+                rng,
+                c,
+                &mut e,
+            );
+            if how.test_sharp {
+                samples = self.sharp_samples(f, p, n, cell, &e, c);
+            }
+        }
+        (e, smooth, samples)
+    }
+
+    /// A texel's row of the gather operator: `rays` cosine-weighted rays
+    /// (Latin hypercube), each to the texel it hits, weight π/rays; rays
+    /// to the same texel unattenuated are merged; attenuated ones keep
+    /// their transmittance (the second vector, indexed by `Entry::tau`).
+    fn operator_row(
+        &self,
+        layout: &Layout,
+        (f, p, n, _): Texel,
+        rays: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+    ) -> (Vec<Entry>, Vec<Vec<f64>>) {
+        let w_ray = std::f64::consts::PI / rays as f64;
+        let mut entries: Vec<Entry> = Vec::new();
+        let mut taus: Vec<Vec<f64>> = Vec::new();
+        let mut u = Vec::with_capacity(rays as usize);
+        latin_hypercube(rays as usize, rng, &mut u);
+        let (tx, ty) = orthonormal_basis(n);
+        for uv in u {
+            let l = cosine_hemisphere(uv);
+            let d = (tx * l.x + ty * l.y + n * l.z).normalize_or_zero();
+            if let Some((g, front, y, tau)) = self.gather_hit(p, d, f, c) {
+                let Some(texel) = layout.nearest(g, usize::from(!front), y) else {
+                    continue;
+                };
+                let ti = match tau {
+                    None => u32::MAX,
+                    Some(t) => {
+                        taus.push(t);
+                        (taus.len() - 1) as u32
+                    }
+                };
+                entries.push(Entry {
+                    texel,
+                    w: w_ray,
+                    tau: ti,
+                });
+            }
+        }
+        // Merge rays that landed on the same texel (unattenuated).
+        entries.sort_by_key(|e| (e.tau != u32::MAX, e.texel));
+        let mut merged: Vec<Entry> = Vec::with_capacity(entries.len());
+        for e in entries {
+            match merged.last_mut() {
+                Some(m) if m.texel == e.texel && m.tau == u32::MAX && e.tau == u32::MAX => {
+                    m.w += e.w
+                }
+                _ => merged.push(e),
+            }
+        }
+        (merged, taus)
+    }
+
+    /// Which texels are sharp: where the sharp direct light strays from the
+    /// bilinear interpolation between texel centres — what a reading would
+    /// take — by more than SHARP_VARIATION of its mean: a pool or a
+    /// shadow's edge inside it, or a lamp close by. A linear gradient over
+    /// a fine grid is no reason.
+    fn sharp_flags(&self, rows: &[TexelRow], texels: &[Texel], layout: &Layout) -> Vec<bool> {
+        let centre: Vec<f64> = rows.iter().map(|r| r.2.0).collect();
+        rows.iter()
+            .zip(texels)
+            .map(|(r, &(f, _, n, _))| {
+                let Some(samples) = &r.2.1 else { return false };
+                let side = usize::from(n.dot(self.facet_normal[f as usize]) < 0.0);
+                let spread = samples.points.iter().map(|&(q, x)| {
+                    let interpolated: f64 = layout.weights(f, side, q).map_or(0.0, |w| {
+                        w.iter().map(|&(k, w)| w * centre[k as usize]).sum()
+                    });
+                    (x - interpolated).abs()
+                });
+                spread.fold(0.0, f64::max) > SHARP_VARIATION * samples.mean
+            })
+            .collect()
+    }
+
+    /// The cache's radiance without each texel's sharp direct light
+    /// (k_d/π times `sharp_direct`, side by side like `radiance`): what a
+    /// gather ray reads around sharp texels before adding the direct light
+    /// where it lands (`final_gather`).
+    fn smooth_radiance(
+        &self,
+        radiance: &[f64],
+        sharp_direct: &[Vec<f64>],
+        texels: &[Texel],
+        stride: usize,
+    ) -> Vec<f64> {
+        let inv_pi = std::f64::consts::FRAC_1_PI;
+        let mut smooth = radiance.to_vec();
+        for (k, s) in sharp_direct.iter().enumerate() {
+            let kd = &self.mats[self.facet_mat[texels[k].0 as usize] as usize].kd;
+            for ((o, e), kd) in smooth[k * stride..(k + 1) * stride]
+                .iter_mut()
+                .zip(s)
+                .zip(kd.iter().cycle())
+            {
+                *o -= kd * e * inv_pi;
+            }
+        }
+        smooth
     }
 
     /// The texels a final gather also aims at: sharp grid texels whose
@@ -475,4 +515,39 @@ impl Tracer {
             bounce_norms,
         }
     }
+}
+
+/// A texel's direct light (sharp; smooth; its cell's sharp samples) and
+/// its operator row with the row's transmittances.
+type TexelRow = (
+    Light,
+    Light,
+    (f64, Option<SharpSamples>),
+    Vec<Entry>,
+    Vec<Vec<f64>>,
+);
+
+/// How a cache takes its texels' direct light.
+#[derive(Clone, Copy)]
+struct TexelDirect {
+    size: CacheSize,
+    groups: usize,
+    /// Whether to sample the sharp light over the cell (only a final
+    /// gather reads a texel at the point a ray hit).
+    test_sharp: bool,
+}
+
+/// Each bounce's share of the whole interreflection, the geometric tail
+/// (ratio `ratio` after the last bounce) counted in the total.
+fn bounce_shares(norms: &[f64], ratio: f64) -> Vec<f64> {
+    let tail = if ratio > 0.0 && ratio < 1.0 {
+        norms.last().copied().unwrap_or(0.0) * ratio / (1.0 - ratio)
+    } else {
+        0.0
+    };
+    let total: f64 = norms.iter().sum::<f64>() + tail;
+    norms
+        .iter()
+        .map(|b| if total > 0.0 { b / total } else { 0.0 })
+        .collect()
 }

@@ -1,7 +1,11 @@
 //! The pilot: a coarse grid of camera rays (with windows around lamps)
 //! and a pilot radiosity cache, giving each term's share of the signal.
 
+use rand_pcg::Pcg64Mcg as Rng;
+
 use super::*;
+use crate::indirect::Cache;
+use crate::render::Deposit;
 
 impl Tracer {
     /// Band sums of the traced radiance (direct light, specular bounces,
@@ -107,145 +111,166 @@ impl Tracer {
         let cam = &self.camera;
         let cols = PILOT_COLS.min(cam.width).max(1);
         let rows = PILOT_ROWS.min(cam.height).max(1);
-        let nwl = self.wl.len();
-        let mut c = RayCounts::default();
-        let mut rng = stream(self.settings.seed, 0x0009_1107, 0);
-        // Spectral sums: (indirect, total) over non-emitter pixels and over
-        // all pixels.
-        let mut ind = vec![0.0; nwl];
-        let mut tot = vec![0.0; nwl];
-        let mut ind_all = vec![0.0; nwl];
-        let mut tot_all = vec![0.0; nwl];
-        let mut plain_pixels = 0u32;
-        // Plain pixels: (band integrals of each term, band totals).
-        let mut per_pixel: Vec<(Vec<Vec<f64>>, Vec<f64>)> = Vec::new();
-        // Per term: (sum over plain pixels, sum over all pixels).
-        let mut part_sums = vec![(vec![0.0; nwl], vec![0.0; nwl]); 5];
-        let mut emitted_all = vec![0.0; nwl];
-        // One bounce of each term's light, seen from the plain grid pixels
-        // (spectral): how the interreflection splits among the terms.
-        let mut bounce_parts = vec![vec![0.0; nwl]; 5];
-        let mut split_rng = stream(self.settings.seed, 0x0009_110A, 0);
-        // The weighted total over all samples (windows included).
-        let mut all_w = vec![0.0; nwl];
-        let inv_pi = std::f64::consts::FRAC_1_PI;
         let samples = self.pilot_samples(cols, rows);
+        let mut c = RayCounts::default();
         // Point sources seen directly: their pixels are emitter pixels, and
         // their deposits are direct view's share below.
         let deposits = self.point_deposits(&mut c);
-        let seen_points: Vec<(u32, u32)> = deposits.iter().map(|d| (d.0, d.1)).collect();
-        let mut beside_memo: std::collections::HashMap<(i64, i64), bool> =
-            std::collections::HashMap::new();
+        let mut walk = PilotWalk {
+            rng: stream(self.settings.seed, 0x0009_1107, 0),
+            split_rng: stream(self.settings.seed, 0x0009_110A, 0),
+            c,
+            seen_points: deposits.iter().map(|d| (d.0, d.1)).collect(),
+            beside: std::collections::HashMap::new(),
+        };
+        let mut tally = Tally::new(self.wl.len());
+        for &sample in &samples {
+            self.pilot_sample(sample, cache.as_ref(), &mut walk, &mut tally);
+        }
         // Weights are in pixels: the grid's samples stand for the pixels
         // outside the windows, a window's sub-samples for their pixel.
         let total_weight: f64 = samples.iter().map(|s| s.2).sum();
-        for &(x, y, w, on_grid) in &samples {
-            let d = cam.pixel_direction(x, y);
-            let Some((f, front, p, tau)) = self.gather_hit(cam.position, d, u32::MAX, &mut c)
-            else {
-                continue;
-            };
-            let tau = tau.unwrap_or_else(|| self.ones.clone());
-            let ng = self.facet_normal[f as usize];
-            let ns = if front { ng } else { -ng };
-            let mat = &self.mats[self.facet_mat[f as usize] as usize];
-            let mut e_d = vec![0.0; nwl];
-            let src = self.facet_source[f as usize];
-            let emitter = src != u32::MAX && front;
-            // Pixels beside an emitter show some of it in their
-            // footprint: left out of the share's pixel set, as from
-            // the set `--target-error` governs.
-            // Per pixel, not per point (a window pixel has up to 4096).
-            let beside = !emitter
-                && *beside_memo
-                    .entry((x.floor() as i64, y.floor() as i64))
-                    .or_insert_with(|| self.emitter_beside(x, y, &seen_points, &mut c));
-            let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
-            if mat.has_diffuse {
-                let parts = self.irradiance_parts(p, ns, f, &mut rng, &mut c);
-                for (k, part) in parts.iter().enumerate() {
-                    for s in 0..nwl {
-                        let l = mat.kd[s] * inv_pi * tau[s] * part[s];
-                        e_d[s] += part[s];
-                        pix_parts[k][s] = l;
-                        part_sums[k].1[s] += w * l;
-                        if !emitter && !beside {
-                            part_sums[k].0[s] += w * l;
-                        }
+        let parts = self.part_shares(&tally, &deposits, total_weight);
+        let (ind, tot) = if tally.plain_pixels > 0 {
+            (&tally.ind, &tally.tot)
+        } else {
+            (&tally.ind_all, &tally.tot_all)
+        };
+        let bi = self.wl.integrate(ind);
+        let bt = self.wl.integrate(tot);
+        let share_by_band = bi
+            .iter()
+            .zip(&bt)
+            .map(|(i, t)| if *t > 0.0 { i / t } else { 0.0 })
+            .collect();
+        Pilot {
+            share_by_band,
+            ratio: cache.as_ref().map_or(0.0, |c| c.summary.bounce_ratio),
+            seconds: t0.elapsed().as_secs_f64(),
+            parts,
+        }
+    }
+
+    /// One pilot sample `(x, y, weight, on_grid)`: its hit's direct light
+    /// by term, one bounce of each term (grid pixels, with a cache), and
+    /// its indirect light by a final gather on the pilot `cache`, added to
+    /// `t`.
+    fn pilot_sample(
+        &self,
+        (x, y, w, on_grid): (f64, f64, f64, bool),
+        cache: Option<&Cache>,
+        walk: &mut PilotWalk,
+        t: &mut Tally,
+    ) {
+        let cam = &self.camera;
+        let nwl = self.wl.len();
+        let inv_pi = std::f64::consts::FRAC_1_PI;
+        let d = cam.pixel_direction(x, y);
+        let Some((f, front, p, tau)) = self.gather_hit(cam.position, d, u32::MAX, &mut walk.c)
+        else {
+            return;
+        };
+        let tau = tau.unwrap_or_else(|| self.ones.clone());
+        let ng = self.facet_normal[f as usize];
+        let ns = if front { ng } else { -ng };
+        let mat = &self.mats[self.facet_mat[f as usize] as usize];
+        let mut e_d = vec![0.0; nwl];
+        let src = self.facet_source[f as usize];
+        let emitter = src != u32::MAX && front;
+        // Pixels beside an emitter show some of it in their footprint: left
+        // out of the share's pixel set, as from the set `--target-error`
+        // governs. Per pixel, not per point (a window pixel has up to 4096).
+        let beside = !emitter
+            && *walk
+                .beside
+                .entry((x.floor() as i64, y.floor() as i64))
+                .or_insert_with(|| self.emitter_beside(x, y, &walk.seen_points, &mut walk.c));
+        let plain = !emitter && !beside;
+        let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
+        if mat.has_diffuse {
+            let parts = self.irradiance_parts(p, ns, f, &mut walk.rng, &mut walk.c);
+            for (k, part) in parts.iter().enumerate() {
+                for s in 0..nwl {
+                    let l = mat.kd[s] * inv_pi * tau[s] * part[s];
+                    e_d[s] += part[s];
+                    pix_parts[k][s] = l;
+                    t.part_sums[k].1[s] += w * l;
+                    if plain {
+                        t.part_sums[k].0[s] += w * l;
                     }
                 }
             }
-            if interreflection && mat.has_diffuse && on_grid && !emitter && !beside {
-                self.bounce_split(
-                    p,
-                    ns,
-                    f,
-                    &mat.kd,
-                    &tau,
-                    &mut split_rng,
-                    &mut c,
-                    &mut bounce_parts,
-                );
-            }
-            // Indirect irradiance by a final gather on the pilot cache
-            // (reading the coarse cache directly misjudges small lit
-            // patches such as the pools under street lamps).
-            // A window pixel's points share its PILOT_GATHER rays (at
-            // least PILOT_GATHER_MIN each): a grazing road pixel of 64 × 2
-            // points would otherwise cost 128 grid pixels' gathers.
-            let gather = if on_grid {
-                PILOT_GATHER
-            } else {
-                ((PILOT_GATHER as f64 * w).round() as usize).clamp(PILOT_GATHER_MIN, PILOT_GATHER)
-            };
-            let mut e_i = crate::light::Light::dark(nwl, 0);
-            if let Some(cache) = cache.as_ref().filter(|_| mat.has_diffuse) {
-                self.final_gather(
-                    cache, p, ns, f, gather, None, &self.ones, &mut rng, &mut c, &mut e_i,
-                );
-            }
-            let e_i = e_i.into_whole();
-            let mut pix_ind = vec![0.0; nwl];
-            let mut pix_tot = vec![0.0; nwl];
-            for s in 0..nwl {
-                let k = mat.kd[s] * inv_pi * tau[s];
-                pix_ind[s] = k * e_i[s];
-                pix_tot[s] = k * (e_d[s] + e_i[s]);
-                if emitter {
-                    let a = &self.area[src as usize];
-                    let le = tau[s] * a.radiance_toward(s, -d);
-                    pix_tot[s] += le;
-                    emitted_all[s] += w * le;
-                }
-            }
-            // Interreflection's share over the plain pixels is weighted
-            // like the light terms' (windows at their pixels' weight):
-            // `street-switch-on`'s pool and the pole it lights hold 3 %
-            // of the mean in interreflection, which the grid never sees.
-            for s in 0..nwl {
-                if on_grid {
-                    ind_all[s] += pix_ind[s];
-                    tot_all[s] += pix_tot[s];
-                }
-                all_w[s] += w * pix_tot[s];
-                if !emitter && !beside {
-                    ind[s] += w * pix_ind[s];
-                    tot[s] += w * pix_tot[s];
-                }
-            }
-            // The per-pixel percentiles stay the grid's (a uniform
-            // sample of the pixels).
-            if on_grid && !emitter && !beside {
-                plain_pixels += 1;
-                per_pixel.push((
-                    pix_parts
-                        .iter()
-                        .map(|v| self.wl.integrate(v))
-                        .collect::<Vec<_>>(),
-                    self.wl.integrate(&pix_tot),
-                ));
+        }
+        if cache.is_some() && mat.has_diffuse && on_grid && plain {
+            self.bounce_split(
+                p,
+                ns,
+                f,
+                &mat.kd,
+                &tau,
+                &mut walk.split_rng,
+                &mut walk.c,
+                &mut t.bounce_parts,
+            );
+        }
+        // Indirect irradiance by a final gather on the pilot cache (reading
+        // the coarse cache directly misjudges small lit patches such as the
+        // pools under street lamps). A window pixel's points share its
+        // PILOT_GATHER rays (at least PILOT_GATHER_MIN each): a grazing
+        // road pixel of 64 × 2 points would otherwise cost 128 grid pixels'
+        // gathers.
+        let gather = if on_grid {
+            PILOT_GATHER
+        } else {
+            ((PILOT_GATHER as f64 * w).round() as usize).clamp(PILOT_GATHER_MIN, PILOT_GATHER)
+        };
+        let mut e_i = crate::light::Light::dark(nwl, 0);
+        if let Some(cache) = cache.filter(|_| mat.has_diffuse) {
+            let (rng, c) = (&mut walk.rng, &mut walk.c);
+            self.final_gather(cache, p, ns, f, gather, None, &self.ones, rng, c, &mut e_i);
+        }
+        let e_i = e_i.into_whole();
+        let mut pix_ind = vec![0.0; nwl];
+        let mut pix_tot = vec![0.0; nwl];
+        for s in 0..nwl {
+            let k = mat.kd[s] * inv_pi * tau[s];
+            pix_ind[s] = k * e_i[s];
+            pix_tot[s] = k * (e_d[s] + e_i[s]);
+            if emitter {
+                let a = &self.area[src as usize];
+                let le = tau[s] * a.radiance_toward(s, -d);
+                pix_tot[s] += le;
+                t.emitted_all[s] += w * le;
             }
         }
+        // Interreflection's share over the plain pixels is weighted like
+        // the light terms' (windows at their pixels' weight):
+        // `street-switch-on`'s pool and the pole it lights hold 3 % of the
+        // mean in interreflection, which the grid never sees.
+        for s in 0..nwl {
+            if on_grid {
+                t.ind_all[s] += pix_ind[s];
+                t.tot_all[s] += pix_tot[s];
+            }
+            t.all_w[s] += w * pix_tot[s];
+            if plain {
+                t.ind[s] += w * pix_ind[s];
+                t.tot[s] += w * pix_tot[s];
+            }
+        }
+        // The per-pixel percentiles stay the grid's (a uniform sample of
+        // the pixels).
+        if on_grid && plain {
+            t.plain_pixels += 1;
+            let parts = pix_parts.iter().map(|v| self.wl.integrate(v)).collect();
+            t.per_pixel.push((parts, self.wl.integrate(&pix_tot)));
+        }
+    }
+
+    /// Each light term's share of the signal, emitters seen directly's,
+    /// the terms' 90th percentiles over the pixels, from the pilot's sums.
+    fn part_shares(&self, t: &Tally, deposits: &[Deposit], total_weight: f64) -> PartShares {
+        let nwl = self.wl.len();
         let max_share = |num: &[f64], den: &[f64]| -> f64 {
             let (n, d) = (self.wl.integrate(num), self.wl.integrate(den));
             n.iter()
@@ -253,7 +278,7 @@ impl Tracer {
                 .map(|(a, b)| if *b > 0.0 { a / b } else { 0.0 })
                 .fold(0.0, f64::max)
         };
-        let plain = plain_pixels > 0;
+        let plain = t.plain_pixels > 0;
         // Leaving a source out takes away its direct light and the
         // interreflection it feeds. Over the plain pixels the
         // interreflection is split among the terms as one bounce of each
@@ -266,7 +291,7 @@ impl Tracer {
         let direct_sum = |all: bool| -> Vec<f64> {
             (0..nwl)
                 .map(|s| {
-                    part_sums
+                    t.part_sums
                         .iter()
                         .map(|p| if all { p.1[s] } else { p.0[s] })
                         .sum()
@@ -275,7 +300,7 @@ impl Tracer {
         };
         let (direct_plain, direct_all) = (direct_sum(false), direct_sum(true));
         let bounce_total: Vec<f64> = (0..nwl)
-            .map(|s| bounce_parts.iter().map(|b| b[s]).sum())
+            .map(|s| t.bounce_parts.iter().map(|b| b[s]).sum())
             .collect();
         let part = |k: usize| {
             if plain {
@@ -285,78 +310,116 @@ impl Tracer {
                     .map(|s| {
                         let d = direct_plain[s];
                         let frac = if bounce_total[s] > 0.0 {
-                            bounce_parts[k][s] / bounce_total[s]
+                            t.bounce_parts[k][s] / bounce_total[s]
                         } else if d > 0.0 {
-                            part_sums[k].0[s] / d
+                            t.part_sums[k].0[s] / d
                         } else {
                             0.0
                         };
-                        (part_sums[k].0[s] + ind[s] * frac, d + ind[s])
+                        (t.part_sums[k].0[s] + t.ind[s] * frac, d + t.ind[s])
                     })
                     .unzip();
                 max_share(&num, &den)
             } else {
-                max_share(&part_sums[k].1, &direct_all)
+                max_share(&t.part_sums[k].1, &direct_all)
             }
         };
-        let parts = PartShares {
+        let p90 = |k: usize| term_p90(&t.per_pixel, k);
+        PartShares {
             area_sources: part(0),
             point_sources: part(1),
             shaped_point_sources: part(2),
             moon: part(3),
             night_sky: part(4),
-            direct_view: {
-                // Emitting facets seen (sampled on the pilot grid) plus
-                // point sources seen (deposited in one pixel each: their
-                // share of the image mean is deposit / pixel count).
-                let npilot = total_weight.max(1e-300);
-                let npix = cam.width as f64 * cam.height as f64;
-                let mut dep = vec![0.0; self.wl.band_names.len()];
-                for (_, _, v, _) in &deposits {
-                    dep.iter_mut().zip(v).for_each(|(a, b)| *a += b / npix);
-                }
-                let (em, tot) = (self.wl.integrate(&emitted_all), self.wl.integrate(&all_w));
-                (0..dep.len())
-                    .map(|b| {
-                        let seen = em[b] / npilot + dep[b];
-                        let all = tot[b] / npilot + dep[b];
-                        if all > 0.0 { seen / all } else { 0.0 }
-                    })
-                    .fold(0.0, f64::max)
-            },
-            pixel_p90: {
-                let p90 = |k: usize| term_p90(&per_pixel, k);
-                TermShares {
-                    area_sources: p90(0),
-                    point_sources: p90(1),
-                    shaped_point_sources: p90(2),
-                    moon: p90(3),
-                    night_sky: p90(4),
-                }
+            direct_view: self.direct_view_share(t, deposits, total_weight),
+            pixel_p90: TermShares {
+                area_sources: p90(0),
+                point_sources: p90(1),
+                shaped_point_sources: p90(2),
+                moon: p90(3),
+                night_sky: p90(4),
             },
             signal_seen: {
-                let t = self.wl.integrate(if plain { &tot } else { &tot_all });
-                t.iter().any(|&x| x > 0.0)
+                let tot = self.wl.integrate(if plain { &t.tot } else { &t.tot_all });
+                tot.iter().any(|&x| x > 0.0)
             },
             ..Default::default()
-        };
-        let (ind, tot) = if plain {
-            (ind, tot)
-        } else {
-            (ind_all, tot_all)
-        };
-        let bi = self.wl.integrate(&ind);
-        let bt = self.wl.integrate(&tot);
-        let share_by_band = bi
-            .iter()
-            .zip(&bt)
-            .map(|(i, t)| if *t > 0.0 { i / t } else { 0.0 })
-            .collect();
-        Pilot {
-            share_by_band,
-            ratio: cache.as_ref().map_or(0.0, |c| c.summary.bounce_ratio),
-            seconds: t0.elapsed().as_secs_f64(),
-            parts,
+        }
+    }
+
+    /// Emitters seen directly: emitting facets seen (sampled on the pilot
+    /// grid) plus point sources seen (deposited in one pixel each: their
+    /// share of the image mean is deposit / pixel count), largest over
+    /// bands.
+    fn direct_view_share(&self, t: &Tally, deposits: &[Deposit], total_weight: f64) -> f64 {
+        let npilot = total_weight.max(1e-300);
+        let npix = self.camera.width as f64 * self.camera.height as f64;
+        let mut dep = vec![0.0; self.wl.band_names.len()];
+        for (_, _, v, _) in deposits {
+            dep.iter_mut().zip(v).for_each(|(a, b)| *a += b / npix);
+        }
+        let (em, tot) = (
+            self.wl.integrate(&t.emitted_all),
+            self.wl.integrate(&t.all_w),
+        );
+        (0..dep.len())
+            .map(|b| {
+                let seen = em[b] / npilot + dep[b];
+                let all = tot[b] / npilot + dep[b];
+                if all > 0.0 { seen / all } else { 0.0 }
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The pilot's random streams, ray counts and per-pixel memo of which
+/// pixels lie beside an emitter.
+struct PilotWalk {
+    rng: Rng,
+    split_rng: Rng,
+    c: RayCounts,
+    /// Pixels showing a point source ([`Tracer::point_deposits`]).
+    seen_points: Vec<(u32, u32)>,
+    beside: std::collections::HashMap<(i64, i64), bool>,
+}
+
+/// The pilot's sums over its samples, spectral, weighted in pixels.
+/// "Plain" samples see no emitter and lie beside none.
+struct Tally {
+    /// Indirect and total radiance over the plain samples.
+    ind: Vec<f64>,
+    tot: Vec<f64>,
+    /// Indirect and total radiance over every grid sample, unweighted.
+    ind_all: Vec<f64>,
+    tot_all: Vec<f64>,
+    /// Plain grid samples, and each one's (band integrals of each term,
+    /// band totals) for the percentiles.
+    plain_pixels: u32,
+    per_pixel: Vec<(Vec<Vec<f64>>, Vec<f64>)>,
+    /// Per term: (sum over plain samples, sum over all samples).
+    part_sums: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Emitted radiance seen, over all samples.
+    emitted_all: Vec<f64>,
+    /// One bounce of each term's light, seen from the plain grid samples:
+    /// how the interreflection splits among the terms.
+    bounce_parts: Vec<Vec<f64>>,
+    /// The weighted total over all samples (windows included).
+    all_w: Vec<f64>,
+}
+
+impl Tally {
+    fn new(nwl: usize) -> Self {
+        Self {
+            ind: vec![0.0; nwl],
+            tot: vec![0.0; nwl],
+            ind_all: vec![0.0; nwl],
+            tot_all: vec![0.0; nwl],
+            plain_pixels: 0,
+            per_pixel: Vec::new(),
+            part_sums: vec![(vec![0.0; nwl], vec![0.0; nwl]); 5],
+            emitted_all: vec![0.0; nwl],
+            bounce_parts: vec![vec![0.0; nwl]; 5],
+            all_w: vec![0.0; nwl],
         }
     }
 }

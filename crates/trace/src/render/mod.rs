@@ -1,4 +1,7 @@
-//! The parallel render loop, point sources seen directly, and probes.
+//! The render: a pixel's camera samples (here), the image sampled with
+//! adaptive stopping (`adaptive.rs`), the estimates and the errors they
+//! state (`estimate.rs`), the film they are developed on (`film.rs`),
+//! point sources seen directly (here) and probes (`probe.rs`).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -16,12 +19,16 @@ use crate::tracer::{
     LightStrata, PathState, RayCounts, TraceError, Tracer, latin_hypercube, stream,
 };
 
+mod adaptive;
 mod estimate;
+mod film;
 mod probe;
 #[cfg(test)]
 mod tests;
 
+use adaptive::{Halt, Region};
 pub use estimate::*;
+use film::Image;
 
 /// A point source seen directly: pixel column and row, band radiances,
 /// and its light group (`--layers`).
@@ -385,266 +392,48 @@ impl Tracer {
         stop: &(dyn Fn() -> bool + Sync),
         groups: usize,
     ) -> Result<(RenderOutput, Vec<RenderOutput>), TraceError> {
-        let stopped = std::sync::atomic::AtomicBool::new(false);
-        let halt = || {
-            if stopped.load(Ordering::Relaxed) || stop() {
-                stopped.store(true, Ordering::Relaxed);
-                return true;
-            }
-            false
-        };
-        let cam = &self.camera;
-        let (w, full_h) = (cam.width, cam.height);
-        if rows.start >= rows.end || rows.end > full_h {
-            return Err(TraceError::BadInput(format!(
-                "rows {}..{} are not a non-empty part of the image's 0..{full_h}",
-                rows.start, rows.end
-            )));
-        }
-        let partial = rows.start != 0 || rows.end != full_h;
-        if partial && self.settings.target_error.is_some() {
-            return Err(TraceError::BadInput(
-                "target_error needs the whole image (its dark-pixel floor is relative to the image mean); render a tile at a fixed spp".into(),
-            ));
-        }
-        let row0 = rows.start;
-        let h = rows.end - rows.start;
-        let nb = self.wl.band_names.len();
-        let nwl = self.wl.len();
-        let npix = w as usize * h as usize;
+        let halt = Halt::new(stop);
+        let region = self.region(rows)?;
         let t0 = Instant::now();
-        let threads = self.settings.threads;
-        let spp = self.settings.spp.max(1);
-        // Adaptive renders sample in two replicates, so their error
-        // estimate is measured rather than assumed (see `stratification`).
-        let replicated = self.settings.target_error.is_some();
-        let done = AtomicU64::new(0);
-        let (ests, views, rays, rounds, threads_used) = with_pool(threads, || {
-            // Round 0: every pixel, one batch of spp, tile by tile.
-            let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-                .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, row0 + ty * TILE)))
-                .collect();
-            let total = tiles.len() as u64;
-            type Pixel = (usize, PixelEstimate, Option<ViewTerm>);
-            let res: Vec<(Vec<Pixel>, RayCounts)> = tiles
-                .par_iter()
-                .map(|&(x0, y0)| {
-                    if halt() {
-                        return (Vec::new(), RayCounts::default());
-                    }
-                    let x1 = (x0 + TILE).min(w);
-                    let y1 = (y0 + TILE).min(rows.end);
-                    let mut c = RayCounts::default();
-                    let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                    for row in y0..y1 {
-                        if row > y0 && halt() {
-                            break;
-                        }
-                        for col in x0..x1 {
-                            let mut e = PixelEstimate::new(nwl, nb, groups);
-                            // Emitters seen directly: computed apart, and
-                            // whether the pixel sees one decided by them,
-                            // not by its samples (`direct_view.rs`).
-                            let view = self.view_term(col, row, &mut c);
-                            e.sees_emitter = view
-                                .as_ref()
-                                .is_some_and(|v| v.bands.iter().any(|&x| x > 0.0));
-                            self.pixel_batch(col, row, 0, spp as usize, replicated, &mut e, &mut c);
-                            out.push(((row - row0) as usize * w as usize + col as usize, e, view));
-                        }
-                    }
-                    let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    progress(n, total);
-                    (out, c)
-                })
-                .collect();
-            let mut rays = RayCounts::default();
-            let mut ests: Vec<Option<PixelEstimate>> = vec![None; npix];
-            let mut views: Vec<Option<ViewTerm>> = (0..npix).map(|_| None).collect();
-            for (tile, c) in res {
-                rays.add(&c);
-                for (i, e, v) in tile {
-                    ests[i] = Some(e);
-                    views[i] = v;
-                }
-            }
-            let mut ests: Vec<PixelEstimate> = ests
-                .into_iter()
-                .map(|e| e.unwrap_or_else(|| PixelEstimate::new(nwl, nb, groups)))
-                .collect();
-            let mut rounds = 1u32;
-            if let Some(target) = self.settings.target_error {
-                let floor = band_floor(&ests, &views, nb);
-                let cap = self.settings.max_spp.max(spp);
-                loop {
-                    if halt() {
-                        break;
-                    }
-                    let (factor, _) = stratification(&ests, &floor);
-                    let stated = stated_std_errors(&ests, w as usize, &factor, &floor, true);
-                    let rel: Vec<f64> = ests
-                        .par_iter()
-                        .enumerate()
-                        .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
-                        .collect();
-                    let work = allocate(&ests, &rel, target, cap);
-                    if work.is_empty() {
-                        break;
-                    }
-                    let total = work.len() as u64;
-                    let done = AtomicU64::new(0);
-                    let batch = rounds;
-                    let updated: Vec<(usize, PixelEstimate, RayCounts)> = work
-                        .par_iter()
-                        .map(|&(i, add)| {
-                            let mut c = RayCounts::default();
-                            let mut e = ests[i].clone();
-                            let (col, row) =
-                                ((i % w as usize) as u32, row0 + (i / w as usize) as u32);
-                            self.pixel_batch(col, row, batch, add as usize, true, &mut e, &mut c);
-                            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                            if n % 1024 == 0 || n == total {
-                                progress(n, total);
-                            }
-                            (i, e, c)
-                        })
-                        .collect();
-                    for (i, e, c) in updated {
-                        ests[i] = e;
-                        rays.add(&c);
-                    }
-                    rounds += 1;
-                    if rounds > 64 {
-                        break;
-                    }
-                }
-            }
-            (ests, views, rays, rounds, rayon::current_num_threads())
+        let (mut samples, threads) = with_pool(self.settings.threads, || {
+            let s = self.sample_image(&region, groups, progress, &halt);
+            (s, rayon::current_num_threads())
         });
-        if stopped.load(Ordering::Relaxed) {
+        if halt.stopped() {
             return Err(TraceError::Interrupted);
         }
-        let mut rays = rays;
-        let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
-        let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
-        let mut spp_map = ndarray::Array2::<u32>::zeros((h as usize, w as usize));
-        let floor = band_floor(&ests, &views, nb);
-        let (factor, pooled) = if replicated {
-            let (f, g) = stratification(&ests, &floor);
-            (f, Some(g))
-        } else {
-            (vec![1.0; ests.len()], None)
-        };
-        let stated = stated_std_errors(&ests, w as usize, &factor, &floor, replicated);
-        for (i, e) in ests.iter().enumerate() {
-            let (row, col) = (i / w as usize, i % w as usize);
-            let inv = 1.0 / e.n.max(1) as f64;
-            let mean: Vec<f64> = e.spectral.iter().map(|a| a * inv).collect();
-            let view = views[i].as_ref();
-            for (b, v) in self.wl.integrate(&mean).into_iter().enumerate() {
-                let (add, se) = view.map_or((0.0, 0.0), |t| (t.bands[b], t.std_error[b]));
-                radiance[[b, row, col]] = v + add;
-                std_error[[b, row, col]] = stated[i * nb + b].hypot(se);
-            }
-            spp_map[[row, col]] = e.n;
+        let mut film = self.develop(&samples, &region);
+        if !region.partial && !halt.now() {
+            self.state_cache_bias(&mut film, &samples);
         }
-        let adaptive = self
-            .settings
-            .target_error
-            .map(|t| (t, self.settings.max_spp.max(spp)));
-        let mut error = error_summary(&ests, &floor, &stated, pooled, adaptive, rounds, w as usize);
-        if !partial && !halt() {
-            let skip: Vec<bool> = ests.iter().map(|e| e.sees_emitter).collect();
-            let by_band: Vec<Vec<f64>> = (0..nb)
-                .map(|b| {
-                    radiance
-                        .index_axis(ndarray::Axis(0), b)
-                        .iter()
-                        .copied()
-                        .collect()
-                })
-                .collect();
-            error.bias = with_pool(threads, || self.cache_bias(&by_band, &skip));
-            let noise = error
-                .rel_std_error_rms_target_pixels
-                .unwrap_or(error.rel_std_error_rms);
-            error.rel_error_rms_with_bias = error
-                .bias
-                .as_ref()
-                .map(|b| noise.hypot(b.relative_bias_bound));
-        }
-        let mut c = RayCounts::default();
         let deposits = if self.settings.drop.direct_view {
             Vec::new()
         } else {
-            self.point_deposits(&mut c)
+            self.point_deposits(&mut samples.rays)
         };
-        let deposit = |radiance: &mut Array3<f64>, group: Option<Option<usize>>| {
-            for (col, row, vals, g) in &deposits {
-                if !rows.contains(row) || group.is_some_and(|want| want != *g) {
-                    continue;
-                }
-                for (b, v) in vals.iter().enumerate() {
-                    radiance[[b, (row - row0) as usize, *col as usize]] += v;
-                }
-            }
-        };
-        deposit(&mut radiance, None);
-        let layers: Vec<(Array3<f64>, Array3<f64>)> = (0..groups)
+        film.image.deposit(&deposits, &region, None);
+        let layers: Vec<Image> = (0..groups)
             .map(|g| {
-                let mut radiance = Array3::<f64>::zeros((nb, h as usize, w as usize));
-                let mut std_error = Array3::<f64>::zeros((nb, h as usize, w as usize));
-                for (i, e) in ests.iter().enumerate() {
-                    let (row, col) = (i / w as usize, i % w as usize);
-                    let view = views[i]
-                        .as_ref()
-                        .and_then(|t| t.light.part(g))
-                        .map(|part| self.wl.integrate(part));
-                    for b in 0..nb {
-                        let (m, se) = e.layer(g, b);
-                        let add = view.as_ref().map_or(0.0, |v| v[b]);
-                        radiance[[b, row, col]] = m + add;
-                        std_error[[b, row, col]] = se * factor[i];
-                    }
-                }
-                deposit(&mut radiance, Some(Some(g)));
-                (radiance, std_error)
+                let mut layer = self.develop_layer(&samples, &region, &film, g);
+                layer.deposit(&deposits, &region, Some(g));
+                layer
             })
             .collect();
-        rays.add(&c);
-        let trace_seconds = t0.elapsed().as_secs_f64();
-        let lines = self.wl.len() - self.wl.n_continuum;
+        let stats = self.render_stats(&region, threads, samples.rays, t0.elapsed().as_secs_f64());
         let whole = RenderOutput {
-            radiance,
-            std_error,
-            spp: spp_map,
-            error,
+            radiance: film.image.radiance,
+            std_error: film.image.std_error,
+            spp: film.spp,
+            error: film.error,
             band_names: self.wl.band_names.clone(),
             settings: self.settings.clone(),
-            stats: RenderStats {
-                width: w,
-                height: h,
-                bands: nb,
-                wavelengths: self.wl.len(),
-                emission_lines: lines,
-                triangles: self.geom.triangle_count(),
-                area_sources: self.area.len(),
-                point_sources: self.points.len(),
-                threads: threads_used,
-                prepare_seconds: self.build_seconds,
-                preparation: self.preparation.clone(),
-                trace_seconds,
-                rays,
-                rays_per_second: rays.total() as f64 / trace_seconds.max(1e-9),
-                sky: self.sky_summary().cloned(),
-                interreflection: self.interreflection.clone(),
-            },
+            stats,
         };
         let layers = layers
             .into_iter()
-            .map(|(radiance, std_error)| RenderOutput {
-                radiance,
-                std_error,
+            .map(|layer| RenderOutput {
+                radiance: layer.radiance,
+                std_error: layer.std_error,
                 spp: whole.spp.clone(),
                 error: whole.error.clone(),
                 band_names: whole.band_names.clone(),
@@ -653,5 +442,33 @@ impl Tracer {
             })
             .collect();
         Ok((whole, layers))
+    }
+
+    /// A render's statistics: its size, the scene's, rays and timings.
+    fn render_stats(
+        &self,
+        region: &Region,
+        threads: usize,
+        rays: RayCounts,
+        trace_seconds: f64,
+    ) -> RenderStats {
+        RenderStats {
+            width: region.w,
+            height: region.h,
+            bands: self.wl.band_names.len(),
+            wavelengths: self.wl.len(),
+            emission_lines: self.wl.len() - self.wl.n_continuum,
+            triangles: self.geom.triangle_count(),
+            area_sources: self.area.len(),
+            point_sources: self.points.len(),
+            threads,
+            prepare_seconds: self.build_seconds,
+            preparation: self.preparation.clone(),
+            trace_seconds,
+            rays,
+            rays_per_second: rays.total() as f64 / trace_seconds.max(1e-9),
+            sky: self.sky_summary().cloned(),
+            interreflection: self.interreflection.clone(),
+        }
     }
 }

@@ -1,0 +1,239 @@
+//! Sampling the image: a first round over every pixel of the region, tile
+//! by tile, then — with a target error — rounds of more samples where a
+//! pixel's stated error is still above the target (adaptive stopping).
+//! What comes out is the pixels' estimates; `film.rs` develops them.
+
+use std::sync::atomic::AtomicBool;
+
+use super::*;
+
+/// Most adaptive rounds after the first: a bound on the loop (the caps
+/// and the target end it long before, in practice).
+const MAX_ROUNDS: u32 = 64;
+
+/// The rows a render covers, checked against the image.
+pub(super) struct Region {
+    pub(super) rows: std::ops::Range<u32>,
+    pub(super) w: u32,
+    pub(super) h: u32,
+    /// A tile (not the whole image): no cache-bias statement, no target.
+    pub(super) partial: bool,
+}
+
+impl Region {
+    pub(super) fn row0(&self) -> u32 {
+        self.rows.start
+    }
+
+    pub(super) fn pixels(&self) -> usize {
+        self.w as usize * self.h as usize
+    }
+}
+
+/// A stop request, polled by every tile and round; once seen it stays.
+pub(super) struct Halt<'a> {
+    stopped: AtomicBool,
+    stop: &'a (dyn Fn() -> bool + Sync),
+}
+
+impl<'a> Halt<'a> {
+    pub(super) fn new(stop: &'a (dyn Fn() -> bool + Sync)) -> Self {
+        Self {
+            stopped: AtomicBool::new(false),
+            stop,
+        }
+    }
+
+    /// Whether to stop now (asks the caller's `stop`).
+    pub(super) fn now(&self) -> bool {
+        if self.stopped.load(Ordering::Relaxed) || (self.stop)() {
+            self.stopped.store(true, Ordering::Relaxed);
+            return true;
+        }
+        false
+    }
+
+    /// Whether a stop was seen.
+    pub(super) fn stopped(&self) -> bool {
+        self.stopped.load(Ordering::Relaxed)
+    }
+}
+
+/// The pixels' estimates, in row-major order over the region, with the
+/// emitters each pixel sees directly (computed apart), rays and rounds.
+pub(super) struct Samples {
+    pub(super) ests: Vec<PixelEstimate>,
+    pub(super) views: Vec<Option<ViewTerm>>,
+    pub(super) rays: RayCounts,
+    pub(super) rounds: u32,
+}
+
+impl Tracer {
+    /// The rows `rows` as a region to render, or why not.
+    pub(super) fn region(&self, rows: std::ops::Range<u32>) -> Result<Region, TraceError> {
+        let (w, full_h) = (self.camera.width, self.camera.height);
+        if rows.start >= rows.end || rows.end > full_h {
+            return Err(TraceError::BadInput(format!(
+                "rows {}..{} are not a non-empty part of the image's 0..{full_h}",
+                rows.start, rows.end
+            )));
+        }
+        let partial = rows.start != 0 || rows.end != full_h;
+        if partial && self.settings.target_error.is_some() {
+            return Err(TraceError::BadInput(
+                "target_error needs the whole image (its dark-pixel floor is relative to the image mean); render a tile at a fixed spp".into(),
+            ));
+        }
+        let h = rows.end - rows.start;
+        Ok(Region {
+            rows,
+            w,
+            h,
+            partial,
+        })
+    }
+
+    /// Every pixel of `region` sampled: `spp` each, then adaptive rounds
+    /// when a target error is set. Runs in the caller's thread pool.
+    pub(super) fn sample_image(
+        &self,
+        region: &Region,
+        groups: usize,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        halt: &Halt,
+    ) -> Samples {
+        let mut samples = self.first_round(region, groups, progress, halt);
+        if let Some(target) = self.settings.target_error {
+            self.adaptive_rounds(&mut samples, region, target, progress, halt);
+        }
+        samples
+    }
+
+    /// Round 0: every pixel, one batch of spp, tile by tile.
+    fn first_round(
+        &self,
+        region: &Region,
+        groups: usize,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        halt: &Halt,
+    ) -> Samples {
+        let (w, row0) = (region.w, region.row0());
+        let (nb, nwl) = (self.wl.band_names.len(), self.wl.len());
+        let spp = self.settings.spp.max(1) as usize;
+        // Adaptive renders sample in two replicates, so their error
+        // estimate is measured rather than assumed (see `stratification`).
+        let replicated = self.settings.target_error.is_some();
+        let tiles: Vec<(u32, u32)> = (0..region.h.div_ceil(TILE))
+            .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, row0 + ty * TILE)))
+            .collect();
+        let total = tiles.len() as u64;
+        let done = AtomicU64::new(0);
+        type Pixel = (usize, PixelEstimate, Option<ViewTerm>);
+        let res: Vec<(Vec<Pixel>, RayCounts)> = tiles
+            .par_iter()
+            .map(|&(x0, y0)| {
+                if halt.now() {
+                    return (Vec::new(), RayCounts::default());
+                }
+                let x1 = (x0 + TILE).min(w);
+                let y1 = (y0 + TILE).min(region.rows.end);
+                let mut c = RayCounts::default();
+                let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                for row in y0..y1 {
+                    if row > y0 && halt.now() {
+                        break;
+                    }
+                    for col in x0..x1 {
+                        let mut e = PixelEstimate::new(nwl, nb, groups);
+                        // Emitters seen directly: computed apart, and
+                        // whether the pixel sees one decided by them,
+                        // not by its samples (`direct_view.rs`).
+                        let view = self.view_term(col, row, &mut c);
+                        e.sees_emitter = view
+                            .as_ref()
+                            .is_some_and(|v| v.bands.iter().any(|&x| x > 0.0));
+                        self.pixel_batch(col, row, 0, spp, replicated, &mut e, &mut c);
+                        out.push(((row - row0) as usize * w as usize + col as usize, e, view));
+                    }
+                }
+                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(n, total);
+                (out, c)
+            })
+            .collect();
+        let npix = region.pixels();
+        let mut rays = RayCounts::default();
+        let mut ests: Vec<Option<PixelEstimate>> = vec![None; npix];
+        let mut views: Vec<Option<ViewTerm>> = (0..npix).map(|_| None).collect();
+        for (tile, c) in res {
+            rays.add(&c);
+            for (i, e, v) in tile {
+                ests[i] = Some(e);
+                views[i] = v;
+            }
+        }
+        let ests = ests
+            .into_iter()
+            .map(|e| e.unwrap_or_else(|| PixelEstimate::new(nwl, nb, groups)))
+            .collect();
+        Samples {
+            ests,
+            views,
+            rays,
+            rounds: 1,
+        }
+    }
+
+    /// Rounds of more samples where the stated relative error is above
+    /// `target`, each pixel up to its cap, until none is or [`MAX_ROUNDS`].
+    fn adaptive_rounds(
+        &self,
+        s: &mut Samples,
+        region: &Region,
+        target: f64,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        halt: &Halt,
+    ) {
+        let (w, row0) = (region.w as usize, region.row0());
+        let nb = self.wl.band_names.len();
+        let floor = band_floor(&s.ests, &s.views, nb);
+        let cap = self.settings.max_spp.max(self.settings.spp.max(1));
+        while s.rounds <= MAX_ROUNDS && !halt.now() {
+            let (factor, _) = stratification(&s.ests, &floor);
+            let stated = stated_std_errors(&s.ests, w, &factor, &floor, true);
+            let rel: Vec<f64> = s
+                .ests
+                .par_iter()
+                .enumerate()
+                .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
+                .collect();
+            let work = allocate(&s.ests, &rel, target, cap);
+            if work.is_empty() {
+                break;
+            }
+            let total = work.len() as u64;
+            let done = AtomicU64::new(0);
+            let batch = s.rounds;
+            let ests = &s.ests;
+            let updated: Vec<(usize, PixelEstimate, RayCounts)> = work
+                .par_iter()
+                .map(|&(i, add)| {
+                    let mut c = RayCounts::default();
+                    let mut e = ests[i].clone();
+                    let (col, row) = ((i % w) as u32, row0 + (i / w) as u32);
+                    self.pixel_batch(col, row, batch, add as usize, true, &mut e, &mut c);
+                    let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    if n % 1024 == 0 || n == total {
+                        progress(n, total);
+                    }
+                    (i, e, c)
+                })
+                .collect();
+            for (i, e, c) in updated {
+                s.ests[i] = e;
+                s.rays.add(&c);
+            }
+            s.rounds += 1;
+        }
+    }
+}
