@@ -39,7 +39,7 @@ const DOMAIN_VIEW: u64 = 0x0071_E3F0_0D00;
 
 /// Which pixels each emitter's face covers, built once per tracer from the
 /// camera and the emitters' geometry (no rays).
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub(crate) struct Footprints {
     /// Per area source: its triangles projected to pixel coordinates and
     /// clipped to the image (empty: not in view, facing away, or left to

@@ -56,6 +56,7 @@ pub enum Visibility {
 }
 
 /// The BVH and the triangles it indexes.
+#[derive(Clone)]
 pub struct Geometry {
     /// World position (scene units) of the centred frame's origin.
     pub origin: DVec3,

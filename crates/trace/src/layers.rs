@@ -181,7 +181,9 @@ impl Tracer {
         map.check()?;
         self.check_layer_memory(map.groups, rows.len())?;
         if self.layers.as_ref() != Some(map) {
-            self.assign_groups(map);
+            // The world is this tracer's alone here (a copy only if a
+            // pilot's probe still shared it).
+            std::sync::Arc::make_mut(&mut self.world).assign_groups(map);
             if self.cache.is_some() {
                 let size = self.render_cache_size();
                 self.cache = Some(self.build_cache_split(size, map.groups));
@@ -213,6 +215,13 @@ impl Tracer {
         }
     }
 
+    /// The number of light groups the emitters carry (0: none assigned).
+    pub(crate) fn layer_groups(&self) -> usize {
+        self.layers.as_ref().map_or(0, |m| m.groups)
+    }
+}
+
+impl crate::tracer::World {
     /// Gives every emitter its group of `map` (None where it has none).
     pub(crate) fn assign_groups(&mut self, map: &LayerMap) {
         for s in self.area.iter_mut() {
@@ -226,10 +235,5 @@ impl Tracer {
             sky.sky_group = map.sky;
         }
         self.layers = Some(map.clone());
-    }
-
-    /// The number of light groups the emitters carry (0: none assigned).
-    pub(crate) fn layer_groups(&self) -> usize {
-        self.layers.as_ref().map_or(0, |m| m.groups)
     }
 }

@@ -163,9 +163,12 @@ pub(crate) struct MatSpec {
     pub(crate) has_diffuse: bool,
 }
 
-/// A scene prepared for tracing with given settings.
-pub struct Tracer {
-    pub(crate) settings: RenderSettings,
+/// The scene as the tracer sees it — geometry, materials, lights, camera,
+/// the carried wavelengths — built once by preparation and shared,
+/// immutable, by every tracer made from it (pbrt-v4's scene, apart from
+/// the integrator's settings and plan).
+#[derive(Clone)]
+pub struct World {
     pub(crate) wl: Wavelengths,
     pub(crate) geom: Geometry,
     pub(crate) mpu: f64,
@@ -182,6 +185,24 @@ pub struct Tracer {
     /// The Moon and the sky dome, when the effect plan (or `all_effects`)
     /// calls for them.
     pub(crate) sky: Option<SkyState>,
+    /// The light tree over the emitters, when there are more than
+    /// `light_tree_min_lights` (else every emitter is evaluated, as always).
+    pub(crate) light_tree: Option<crate::lights::tree::LightTree>,
+    /// The light groups its emitters are split by (`--layers`,
+    /// `layers.rs`), when a layered render asked for them.
+    pub(crate) layers: Option<crate::layers::LayerMap>,
+    /// Which pixels each emitter's face covers: the faces seen directly
+    /// are computed apart from the camera samples (`direct_view.rs`).
+    pub(crate) view: crate::direct_view::Footprints,
+}
+
+/// A scene prepared for tracing with given settings: its [`World`] (the
+/// tracer dereferences to it), the settings, and what the pilot's plan
+/// chose — the method and bounces of interreflection, the effects left
+/// out, the solved cache.
+pub struct Tracer {
+    pub(crate) world: std::sync::Arc<World>,
+    pub(crate) settings: RenderSettings,
     /// The solved radiosity cache (`indirect = cache`).
     pub(crate) cache: Option<crate::indirect::Cache>,
     /// How interreflection was decided (method, pilot estimate, bounces).
@@ -190,24 +211,22 @@ pub struct Tracer {
     /// more than the tolerance (skipped outright, unlike `settings.drop`,
     /// which computes and discards to keep the random numbers).
     pub(crate) skip: crate::settings::Dropped,
-    /// The light tree over the emitters, when there are more than
-    /// `light_tree_min_lights` (else every emitter is evaluated, as always).
-    pub(crate) light_tree: Option<crate::lights::tree::LightTree>,
     /// Seconds spent building the BVH and spectral tables.
     pub(crate) build_seconds: f64,
     /// The scene's size and each preparation step's time and peak memory.
     pub(crate) preparation: Preparation,
     /// Told as preparation steps begin and end (`prepare_observed`).
     pub(crate) observer: Option<PrepObserver>,
-    /// The light groups its emitters and its cache are split by
-    /// (`--layers`, `layers.rs`), when a layered render asked for them.
-    pub(crate) layers: Option<crate::layers::LayerMap>,
-    /// Which pixels each emitter's face covers: the faces seen directly
-    /// are computed apart from the camera samples (`direct_view.rs`).
-    pub(crate) view: crate::direct_view::Footprints,
     /// Path tracing's bounce guide toward hot facets (`guide.rs`; None
     /// unless `indirect = path` with `path_guide` and such facets exist).
     pub(crate) guide: Option<crate::guide::HotFacets>,
+}
+
+impl std::ops::Deref for Tracer {
+    type Target = World;
+    fn deref(&self) -> &World {
+        &self.world
+    }
 }
 
 /// SplitMix64 finaliser: decorrelates (seed, index) into a stream seed.
@@ -421,8 +440,7 @@ impl Tracer {
         } else {
             area_footprints(&camera, &area)
         };
-        let mut tracer = Self {
-            settings: settings.clone(),
+        let mut world = World {
             wl,
             geom,
             mpu: scene.meters_per_unit,
@@ -436,21 +454,32 @@ impl Tracer {
             camera,
             ones,
             sky,
+            light_tree,
+            layers: None,
+            view,
+        };
+        if let Some(map) = layers {
+            world.assign_groups(map);
+        }
+        let mut tracer = Self {
+            world: std::sync::Arc::new(world),
+            settings: settings.clone(),
             cache: None,
             interreflection: Default::default(),
             skip: Default::default(),
-            light_tree,
             build_seconds: 0.0,
             preparation: prep,
             observer,
-            layers: None,
-            view,
             guide: None,
         };
-        if let Some(map) = layers {
-            tracer.assign_groups(map);
+        let pilot_step = Preparation::begin("pilot", tracer.observer.as_ref());
+        let plan = tracer.plan();
+        if plan.piloted {
+            tracer
+                .preparation
+                .end(pilot_step, tracer.observer.clone().as_ref());
         }
-        tracer.decide_interreflection(solve);
+        tracer.adopt(plan, solve);
         if tracer.settings.path_guide && tracer.interreflection.method == "path" {
             tracer.guide = crate::guide::HotFacets::find(&tracer);
             tracer.interreflection.guided_facets = tracer.guide.as_ref().map(|g| g.len());

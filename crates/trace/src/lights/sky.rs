@@ -17,6 +17,7 @@ use crate::tracer::{RayCounts, TraceError, Tracer, latin_hypercube, stream};
 
 /// The sky as the tracer uses it: on the continuum slots only (the sky has
 /// no emission lines), scene frame +x east, +y north, +z up.
+#[derive(Clone)]
 pub(crate) struct SkyState {
     /// Continuum slots (the first `nc` of every spectral vector).
     pub(crate) nc: usize,

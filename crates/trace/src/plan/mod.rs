@@ -141,10 +141,25 @@ pub struct TermShares {
     pub night_sky: f64,
 }
 
+/// What the pilot decided (see the module docs): the interreflection
+/// decision with the shares it measured, the diffuse bounces path tracing
+/// takes, and the effects left out as worth no more than the tolerance.
+/// [`Tracer::plan`] makes it without changing the tracer;
+/// [`Tracer::adopt`] takes it.
+pub(crate) struct RenderPlan {
+    pub(crate) decision: InterreflectionDecision,
+    /// Diffuse bounces per path (0 unless the method is path tracing).
+    pub(crate) diffuse_bounces: u32,
+    /// Effects the pilot found worth no more than the tolerance.
+    pub(crate) skip: crate::settings::Dropped,
+    /// Whether a pilot ran (else the plan follows from the settings alone).
+    pub(crate) piloted: bool,
+}
+
 impl Tracer {
-    /// Decides interreflection (see the module docs); with `solve`, builds
-    /// the full cache when the decision is `cache`.
-    pub(crate) fn decide_interreflection(&mut self, solve: bool) {
+    /// The pilot's plan for this tracer's scene and settings: reads the
+    /// tracer, changes nothing.
+    pub(crate) fn plan(&self) -> RenderPlan {
         let s = &self.settings;
         let tol = s.tolerance;
         let requested = match s.indirect {
@@ -153,11 +168,10 @@ impl Tracer {
             m => m,
         };
         let mut d = InterreflectionDecision::default();
+        let mut skip = crate::settings::Dropped::default();
         let possible = self.mats.iter().any(|m| m.has_diffuse)
             && (!self.area.is_empty() || !self.points.is_empty() || self.sky.is_some());
-        let pilot_step = crate::prep::Preparation::begin("pilot", self.observer.as_ref());
-        let pilot = (possible
-            && (requested == Indirect::Auto || self.settings.diffuse_bounces == 0))
+        let pilot = (possible && (requested == Indirect::Auto || s.diffuse_bounces == 0))
             .then(|| self.pilot(requested != Indirect::Off));
         if let Some(p) = &pilot {
             let share = p.share_by_band.iter().copied().fold(0.0, f64::max);
@@ -176,52 +190,14 @@ impl Tracer {
             d.estimated_share = Some(0.0);
         }
         if let Some(parts) = d.parts.as_mut() {
-            self.decide_specular_and_transmission(parts, &d.estimated_share_by_band);
-        }
-        if pilot.is_some() {
-            self.preparation
-                .end(pilot_step, self.observer.clone().as_ref());
+            self.decide_specular_and_transmission(parts, &d.estimated_share_by_band, &mut skip);
         }
         let share = d.estimated_share.unwrap_or(0.0);
-        let method = match requested {
-            Indirect::Auto if share > tol => {
-                d.reason = format!(
-                    "pilot: interreflection is {:.2} % of the signal (> tolerance {:.2} %): radiosity cache + final gather",
-                    100.0 * share,
-                    100.0 * tol
-                );
-                Indirect::Cache
-            }
-            Indirect::Auto => {
-                d.reason = if possible {
-                    format!(
-                        "pilot: interreflection is at most the tolerance {:.2e} of the signal (pilot {:.2e}; below the tolerance the coarse pilot claims only the bound): not simulated",
-                        tol, share
-                    )
-                } else {
-                    "no diffusely reflecting material, or nothing lights the scene".into()
-                };
-                Indirect::Off
-            }
-            Indirect::Off if self.settings.drop.interreflection => {
-                d.reason = "dropped (drop = interreflection): direct light only".into();
-                Indirect::Off
-            }
-            Indirect::Off => {
-                d.reason = "indirect = off (set by the user): direct light only".into();
-                Indirect::Off
-            }
-            Indirect::Cache => {
-                d.reason = "indirect = cache (set by the user)".into();
-                Indirect::Cache
-            }
-            Indirect::Path => {
-                d.reason = "brute-force path tracing (set by the user)".into();
-                Indirect::Path
-            }
-        };
+        let method = interreflection_method(requested, share, tol, possible, s, &mut d);
+        let mut diffuse_bounces = 0;
         if method == Indirect::Path {
-            if self.settings.diffuse_bounces == 0 {
+            diffuse_bounces = s.diffuse_bounces;
+            if diffuse_bounces == 0 {
                 // share · q^k ≤ tol.
                 let q = d.bounce_ratio.unwrap_or(0.5).clamp(1e-6, 0.999_999);
                 let k = if share > tol {
@@ -229,15 +205,12 @@ impl Tracer {
                 } else {
                     1.0
                 };
-                self.settings.diffuse_bounces = (k as u32).clamp(1, 100_000);
+                diffuse_bounces = (k as u32).clamp(1, 100_000);
                 d.reason.push_str(&format!(
-                    "; {} bounces so the truncated remainder share·q^k < tolerance (q = {q:.3})",
-                    self.settings.diffuse_bounces
+                    "; {diffuse_bounces} bounces so the truncated remainder share·q^k < tolerance (q = {q:.3})"
                 ));
             }
-            d.diffuse_bounces = self.settings.diffuse_bounces;
-        } else {
-            self.settings.diffuse_bounces = 0;
+            d.diffuse_bounces = diffuse_bounces;
         }
         d.method = match method {
             Indirect::Cache => "cache",
@@ -245,7 +218,21 @@ impl Tracer {
             _ => "off",
         }
         .into();
-        if method == Indirect::Cache && solve {
+        RenderPlan {
+            decision: d,
+            diffuse_bounces,
+            skip,
+            piloted: pilot.is_some(),
+        }
+    }
+
+    /// Takes `plan`: its bounces and skipped effects, and with `solve` the
+    /// full cache when its method is `cache`.
+    pub(crate) fn adopt(&mut self, plan: RenderPlan, solve: bool) {
+        let mut d = plan.decision;
+        self.settings.diffuse_bounces = plan.diffuse_bounces;
+        self.skip = plan.skip;
+        if d.method == "cache" && solve {
             let step = crate::prep::Preparation::begin("cache", self.observer.as_ref());
             let cache = self.build_cache_split(self.render_cache_size(), self.layer_groups());
             self.preparation.end(step, self.observer.clone().as_ref());
@@ -255,15 +242,33 @@ impl Tracer {
         self.interreflection = d;
     }
 
+    /// This tracer's world under other settings, with nothing planned: the
+    /// pilot's probes of an effect left out.
+    fn with_settings(&self, settings: RenderSettings) -> Tracer {
+        Tracer {
+            world: self.world.clone(),
+            settings,
+            cache: None,
+            interreflection: Default::default(),
+            skip: Default::default(),
+            build_seconds: 0.0,
+            preparation: Default::default(),
+            observer: None,
+            guide: None,
+        }
+    }
+
     /// Estimates specular recursion, transmissive occluders and the
-    /// atmosphere (see [`PartShares`]) and leaves out the first two when
-    /// each is worth no more than the tolerance (never under
-    /// `all_effects`). `ir_share` (per band) rescales the direct-light sums
-    /// of [`Tracer::pilot_traced`] to the whole signal.
+    /// atmosphere (see [`PartShares`]) and leaves out (in `skip`) the first
+    /// two when each is worth no more than the tolerance (never under
+    /// `all_effects`), and any light term worth no more. `ir_share` (per
+    /// band) rescales the direct-light sums of [`Tracer::pilot_traced`] to
+    /// the whole signal.
     fn decide_specular_and_transmission(
-        &mut self,
+        &self,
         parts: &mut PartShares,
         ir_share: &[(String, f64)],
+        skip: &mut crate::settings::Dropped,
     ) {
         let tol = self.settings.tolerance;
         parts.tolerance = tol;
@@ -272,14 +277,13 @@ impl Tracer {
         let trans = self.mats.iter().any(|m| m.trans.is_some())
             && !self.settings.drop.transmissive_occluders;
         if spec || trans {
-            let saved = self.settings.clone();
-            self.settings.diffuse_bounces = 0;
-            let full = self.pilot_traced();
-            let share = |t: &mut Tracer, set: fn(&mut RenderSettings)| -> f64 {
-                set(&mut t.settings);
-                let without = t.pilot_traced();
-                t.settings = saved.clone();
-                t.settings.diffuse_bounces = 0;
+            let mut direct_only = self.settings.clone();
+            direct_only.diffuse_bounces = 0;
+            let full = self.with_settings(direct_only.clone()).pilot_traced();
+            let share = |set: fn(&mut RenderSettings)| -> f64 {
+                let mut without = direct_only.clone();
+                set(&mut without);
+                let without = self.with_settings(without).pilot_traced();
                 full.iter()
                     .zip(&without)
                     .enumerate()
@@ -295,23 +299,22 @@ impl Tracer {
                     .fold(0.0, f64::max)
             };
             if spec {
-                parts.specular_recursion = Some(share(self, |s| s.drop.specular_recursion = true));
+                parts.specular_recursion = Some(share(|s| s.drop.specular_recursion = true));
             }
             if trans {
                 parts.transmissive_occluders =
-                    Some(share(self, |s| s.drop.transmissive_occluders = true));
+                    Some(share(|s| s.drop.transmissive_occluders = true));
             }
-            self.settings = saved;
         }
         let keep = |x: Option<f64>, all: bool| x.is_some_and(|x| x > tol || all);
         parts.specular_simulated = keep(parts.specular_recursion, self.settings.all_effects);
         parts.transmissive_simulated =
             keep(parts.transmissive_occluders, self.settings.all_effects);
         if spec && !parts.specular_simulated {
-            self.skip.specular_recursion = true;
+            skip.specular_recursion = true;
         }
         if trans && !parts.transmissive_simulated {
-            self.skip.transmissive_occluders = true;
+            skip.transmissive_occluders = true;
         }
         // Light terms the scene has: left out only when worth no more than
         // the tolerance both in the mean and at the 90th percentile of the
@@ -352,7 +355,7 @@ impl Tracer {
             for (name, mean, p90, present) in terms {
                 if present && mean.max(p90) <= tol {
                     parts.skipped.push(name.to_string());
-                    self.skip.set(name);
+                    skip.set(name);
                 }
             }
         }
@@ -367,6 +370,55 @@ impl Tracer {
                 0.0
             };
             parts.atmosphere = Some(lost + parts.night_sky);
+        }
+    }
+}
+
+/// The interreflection method for the `requested` one, given the pilot's
+/// `share` of the signal, with its reason in `d`.
+fn interreflection_method(
+    requested: Indirect,
+    share: f64,
+    tol: f64,
+    possible: bool,
+    s: &RenderSettings,
+    d: &mut InterreflectionDecision,
+) -> Indirect {
+    match requested {
+        Indirect::Auto if share > tol => {
+            d.reason = format!(
+                "pilot: interreflection is {:.2} % of the signal (> tolerance {:.2} %): radiosity cache + final gather",
+                100.0 * share,
+                100.0 * tol
+            );
+            Indirect::Cache
+        }
+        Indirect::Auto => {
+            d.reason = if possible {
+                format!(
+                    "pilot: interreflection is at most the tolerance {:.2e} of the signal (pilot {:.2e}; below the tolerance the coarse pilot claims only the bound): not simulated",
+                    tol, share
+                )
+            } else {
+                "no diffusely reflecting material, or nothing lights the scene".into()
+            };
+            Indirect::Off
+        }
+        Indirect::Off if s.drop.interreflection => {
+            d.reason = "dropped (drop = interreflection): direct light only".into();
+            Indirect::Off
+        }
+        Indirect::Off => {
+            d.reason = "indirect = off (set by the user): direct light only".into();
+            Indirect::Off
+        }
+        Indirect::Cache => {
+            d.reason = "indirect = cache (set by the user)".into();
+            Indirect::Cache
+        }
+        Indirect::Path => {
+            d.reason = "brute-force path tracing (set by the user)".into();
+            Indirect::Path
         }
     }
 }
