@@ -189,7 +189,7 @@ impl Tracer {
                 self.cache = Some(self.build_cache_split(size, map.groups));
             }
         }
-        Ok(self.render_split(rows, progress, stop, map.groups)?)
+        Ok(self.render_split(rows, progress, stop, map.groups, None)?)
     }
 
     /// Refuses layers whose images and cache would not fit: per pixel and

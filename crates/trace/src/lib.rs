@@ -22,7 +22,7 @@ pub mod tracer;
 pub use glam::DVec3;
 pub use layers::{LayerError, LayerMap};
 pub use prep::{PrepEvent, PrepObserver, PrepStep, Preparation};
-pub use render::{ProbeResult, RenderOutput, RenderStats, probe_point, render};
+pub use render::{PixelGoal, ProbeResult, RenderOutput, RenderStats, probe_point, render};
 pub use settings::{
     Dirsig2001Settings, Dropped, Estimator, Indirect, LightTreeSplit, Occlusion, RenderSettings,
     SettingsError,

@@ -59,9 +59,25 @@ impl<'a> Halt<'a> {
     }
 }
 
+/// A per-pixel bound on the render's standard error in one band, set from
+/// the first round's estimate: a camera's own temporal noise at each pixel
+/// for `--target-error camera` (gloam-pipeline's `camera_goal.rs`), so
+/// each pixel is rendered only as well as the camera can see.
+pub trait PixelGoal: Sync {
+    /// The band the bounds are for.
+    fn band(&self) -> usize;
+    /// Per pixel of the image (row-major), the largest standard error of
+    /// [`PixelGoal::band`] the render may keep, from that band's image
+    /// so far (asked after each round); or why no bound can be set.
+    fn bounds(&self, first_round: ndarray::ArrayView2<f64>) -> Result<Vec<f64>, String>;
+}
+
 /// The pixels' estimates, in row-major order over the region, with the
 /// emitters each pixel sees directly (computed apart), rays and rounds.
 pub(super) struct Samples {
+    /// Whether each batch was split into two replicates (adaptive renders:
+    /// their error is measured from the replicates' difference).
+    pub(super) replicated: bool,
     pub(super) ests: Vec<PixelEstimate>,
     pub(super) views: Vec<Option<ViewTerm>>,
     pub(super) rays: RayCounts,
@@ -70,7 +86,11 @@ pub(super) struct Samples {
 
 impl Tracer {
     /// The rows `rows` as a region to render, or why not.
-    pub(super) fn region(&self, rows: std::ops::Range<u32>) -> Result<Region, TraceError> {
+    pub(super) fn region(
+        &self,
+        rows: std::ops::Range<u32>,
+        goal: bool,
+    ) -> Result<Region, TraceError> {
         let (w, full_h) = (self.camera.width, self.camera.height);
         if rows.start >= rows.end || rows.end > full_h {
             return Err(TraceError::BadInput(format!(
@@ -79,7 +99,7 @@ impl Tracer {
             )));
         }
         let partial = rows.start != 0 || rows.end != full_h;
-        if partial && self.settings.target_error.is_some() {
+        if partial && (self.settings.target_error.is_some() || goal) {
             return Err(TraceError::BadInput(
                 "target_error needs the whole image (its dark-pixel floor is relative to the image mean); render a tile at a fixed spp".into(),
             ));
@@ -94,19 +114,24 @@ impl Tracer {
     }
 
     /// Every pixel of `region` sampled: `spp` each, then adaptive rounds
-    /// when a target error is set. Runs in the caller's thread pool.
+    /// to the per-pixel `goal`, or to the image's target error when one is
+    /// set. Runs in the caller's thread pool.
     pub(super) fn sample_image(
         &self,
         region: &Region,
         groups: usize,
+        goal: Option<&dyn PixelGoal>,
         progress: &(dyn Fn(u64, u64) + Sync),
         halt: &Halt,
-    ) -> Samples {
-        let mut samples = self.first_round(region, groups, progress, halt);
-        if let Some(target) = self.settings.target_error {
+    ) -> Result<Samples, TraceError> {
+        let replicated = goal.is_some() || self.settings.target_error.is_some();
+        let mut samples = self.first_round(region, groups, replicated, progress, halt);
+        if let Some(goal) = goal {
+            self.goal_rounds(&mut samples, region, goal, progress, halt)?;
+        } else if let Some(target) = self.settings.target_error {
             self.adaptive_rounds(&mut samples, region, target, progress, halt);
         }
-        samples
+        Ok(samples)
     }
 
     /// Round 0: every pixel, one batch of spp, tile by tile.
@@ -114,6 +139,7 @@ impl Tracer {
         &self,
         region: &Region,
         groups: usize,
+        replicated: bool,
         progress: &(dyn Fn(u64, u64) + Sync),
         halt: &Halt,
     ) -> Samples {
@@ -122,7 +148,6 @@ impl Tracer {
         let spp = self.settings.spp.max(1) as usize;
         // Adaptive renders sample in two replicates, so their error
         // estimate is measured rather than assumed (see `stratification`).
-        let replicated = self.settings.target_error.is_some();
         let tiles: Vec<(u32, u32)> = (0..region.h.div_ceil(TILE))
             .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, row0 + ty * TILE)))
             .collect();
@@ -177,6 +202,7 @@ impl Tracer {
             .map(|e| e.unwrap_or_else(|| PixelEstimate::new(nwl, nb, groups)))
             .collect();
         Samples {
+            replicated,
             ests,
             views,
             rays,
@@ -194,7 +220,7 @@ impl Tracer {
         progress: &(dyn Fn(u64, u64) + Sync),
         halt: &Halt,
     ) {
-        let (w, row0) = (region.w as usize, region.row0());
+        let w = region.w as usize;
         let nb = self.wl.band_names.len();
         let floor = band_floor(&s.ests, &s.views, nb);
         let cap = self.settings.max_spp.max(self.settings.spp.max(1));
@@ -211,29 +237,138 @@ impl Tracer {
             if work.is_empty() {
                 break;
             }
-            let total = work.len() as u64;
-            let done = AtomicU64::new(0);
-            let batch = s.rounds;
-            let ests = &s.ests;
-            let updated: Vec<(usize, PixelEstimate, RayCounts)> = work
-                .par_iter()
-                .map(|&(i, add)| {
-                    let mut c = RayCounts::default();
-                    let mut e = ests[i].clone();
-                    let (col, row) = ((i % w) as u32, row0 + (i / w) as u32);
-                    self.pixel_batch(col, row, batch, add as usize, true, &mut e, &mut c);
-                    let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if n % 1024 == 0 || n == total {
-                        progress(n, total);
-                    }
-                    (i, e, c)
+            self.run_round(s, region, &work, progress);
+        }
+    }
+
+    /// One round: `(pixel, samples to add)` for each pixel in `work`, as
+    /// batch number `s.rounds` (each batch its own random streams).
+    fn run_round(
+        &self,
+        s: &mut Samples,
+        region: &Region,
+        work: &[(usize, u32)],
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) {
+        let (w, row0) = (region.w as usize, region.row0());
+        let total = work.len() as u64;
+        let done = AtomicU64::new(0);
+        let batch = s.rounds;
+        let ests = &s.ests;
+        let updated: Vec<(usize, PixelEstimate, RayCounts)> = work
+            .par_iter()
+            .map(|&(i, add)| {
+                let mut c = RayCounts::default();
+                let mut e = ests[i].clone();
+                let (col, row) = ((i % w) as u32, row0 + (i / w) as u32);
+                self.pixel_batch(col, row, batch, add as usize, true, &mut e, &mut c);
+                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if n % 1024 == 0 || n == total {
+                    progress(n, total);
+                }
+                (i, e, c)
+            })
+            .collect();
+        for (i, e, c) in updated {
+            s.ests[i] = e;
+            s.rays.add(&c);
+        }
+        s.rounds += 1;
+    }
+
+    /// The goal's per-pixel bounds from the image of its band so far (the
+    /// emitters seen directly included, as in the image), checked.
+    fn goal_bounds(
+        &self,
+        s: &Samples,
+        region: &Region,
+        goal: &dyn PixelGoal,
+    ) -> Result<Vec<f64>, TraceError> {
+        let band = goal.band();
+        if band >= self.wl.band_names.len() {
+            return Err(TraceError::BadInput(format!(
+                "the per-pixel error goal is for band {band}; the render has {}",
+                self.wl.band_names.len()
+            )));
+        }
+        let image: Vec<f64> = s
+            .ests
+            .iter()
+            .zip(&s.views)
+            .map(|(e, v)| e.mean(band) + v.as_ref().map_or(0.0, |v| v.bands[band]))
+            .collect();
+        let shape = (region.h as usize, region.w as usize);
+        let view = ndarray::ArrayView2::from_shape(shape, &image)
+            .map_err(|e| TraceError::BadInput(format!("per-pixel error goal: {e}")))?;
+        let bounds = goal.bounds(view).map_err(TraceError::BadInput)?;
+        if bounds.len() != image.len() {
+            return Err(TraceError::BadInput(format!(
+                "the per-pixel error goal gave {} bounds for {} pixels",
+                bounds.len(),
+                image.len()
+            )));
+        }
+        Ok(bounds)
+    }
+
+    /// Rounds of more samples for the pixels whose stated standard error in
+    /// the goal's band is above their bound — the bounds set again each
+    /// round from the estimate so far, so a first round that overshot a
+    /// pixel does not leave it with a loose bound: each grows to
+    /// `n (σ/τ)²` (at most 4× per round, at least [`MIN_ADAPTIVE_SPP`],
+    /// never past its cap), until every pixel is within its bound or
+    /// capped. Pixels that see an
+    /// emitter's face are held to their bound too (unlike under a target
+    /// error, whose metric leaves them out): the camera sees their error.
+    fn goal_rounds(
+        &self,
+        s: &mut Samples,
+        region: &Region,
+        goal: &dyn PixelGoal,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        halt: &Halt,
+    ) -> Result<(), TraceError> {
+        let band = goal.band();
+        let nb = self.wl.band_names.len();
+        let floor = band_floor(&s.ests, &s.views, nb);
+        let cap = self.settings.max_spp.max(self.settings.spp.max(1));
+        let min = MIN_ADAPTIVE_SPP.min(cap);
+        while s.rounds <= MAX_ROUNDS && !halt.now() {
+            let bounds = self.goal_bounds(s, region, goal)?;
+            let (factor, _) = stratification(&s.ests, &floor);
+            let stated = stated_std_errors(&s.ests, region.w as usize, &factor, &floor, true);
+            let work: Vec<(usize, u32)> = s
+                .ests
+                .iter()
+                .enumerate()
+                .filter_map(|(i, e)| {
+                    let (sigma, tau) = (stated[i * nb + band], bounds[i]);
+                    let n = e.n.max(1) as f64;
+                    let want = if sigma <= tau || tau.is_nan() {
+                        0.0
+                    } else if tau > 0.0 {
+                        n * (sigma / tau).powi(2)
+                    } else {
+                        f64::INFINITY
+                    };
+                    let goal = want.ceil().min(4.0 * n).max(min as f64);
+                    let goal = goal.min(pixel_cap(e, cap) as f64) as u32;
+                    // Replicated batches add an even count (half to each
+                    // replicate) without passing the cap.
+                    let add = goal.saturating_sub(e.n).div_ceil(2) * 2;
+                    let add = if e.n + add > pixel_cap(e, cap) {
+                        add.saturating_sub(2)
+                    } else {
+                        add
+                    };
+                    (add > 0).then_some((i, add))
                 })
                 .collect();
-            for (i, e, c) in updated {
-                s.ests[i] = e;
-                s.rays.add(&c);
+            if work.is_empty() {
+                break;
             }
-            s.rounds += 1;
+            self.run_round(s, region, &work, progress);
         }
+        Ok(())
     }
 }

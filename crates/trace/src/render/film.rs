@@ -50,7 +50,7 @@ impl Tracer {
     /// quadrature), and the error summary.
     pub(super) fn develop(&self, s: &Samples, region: &Region) -> Film {
         let (w, nb) = (region.w as usize, self.wl.band_names.len());
-        let replicated = self.settings.target_error.is_some();
+        let replicated = s.replicated;
         let mut image = Image::zeros(nb, region);
         let mut spp = ndarray::Array2::<u32>::zeros((region.h as usize, w));
         let floor = band_floor(&s.ests, &s.views, nb);

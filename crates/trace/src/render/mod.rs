@@ -26,6 +26,7 @@ mod probe;
 #[cfg(test)]
 mod tests;
 
+pub use adaptive::PixelGoal;
 use adaptive::{Halt, Region};
 pub use estimate::*;
 use film::Image;
@@ -374,7 +375,22 @@ impl Tracer {
         progress: &(dyn Fn(u64, u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<RenderOutput, TraceError> {
-        Ok(self.render_split(rows, progress, stop, 0)?.0)
+        Ok(self.render_split(rows, progress, stop, 0, None)?.0)
+    }
+
+    /// The whole image sampled until every pixel's standard error in the
+    /// goal's band is within the bound the goal sets for it from the first
+    /// round (`spp` samples each): a camera's own noise for `--target-error
+    /// camera`. The settings' `target_error` is not used. Stoppable as
+    /// [`Tracer::render_rows_until`].
+    pub fn render_to_goal(
+        &self,
+        goal: &dyn PixelGoal,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<RenderOutput, TraceError> {
+        let rows = 0..self.camera.height;
+        Ok(self.render_split(rows, progress, stop, 0, Some(goal))?.0)
     }
 
     /// [`Tracer::render_rows_until`], and with `groups` > 0 (`--layers`,
@@ -391,14 +407,16 @@ impl Tracer {
         progress: &(dyn Fn(u64, u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
         groups: usize,
+        goal: Option<&dyn PixelGoal>,
     ) -> Result<(RenderOutput, Vec<RenderOutput>), TraceError> {
         let halt = Halt::new(stop);
-        let region = self.region(rows)?;
+        let region = self.region(rows, goal.is_some())?;
         let t0 = Instant::now();
-        let (mut samples, threads) = with_pool(self.settings.threads, || {
-            let s = self.sample_image(&region, groups, progress, &halt);
+        let (samples, threads) = with_pool(self.settings.threads, || {
+            let s = self.sample_image(&region, groups, goal, progress, &halt);
             (s, rayon::current_num_threads())
         });
+        let mut samples = samples?;
         if halt.stopped() {
             return Err(TraceError::Interrupted);
         }
