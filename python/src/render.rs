@@ -273,7 +273,8 @@ fn render<'py>(
         seed,
         estimator: estimator.map(str::to_string),
         threads,
-        target_error,
+        // A relative target; `camera[:K]` is the CLI's for now.
+        target_error: target_error.map(gloam_pipeline::camera_goal::TargetError::Relative),
         tolerance,
         ..Default::default()
     };

@@ -11,6 +11,7 @@
 
 use std::time::Instant;
 
+use gloam_pipeline::camera_goal::{self, CameraGoal};
 pub use gloam_pipeline::cli::RenderArgs;
 use gloam_pipeline::render::RenderJob;
 use gloam_pipeline::{DEFAULT_TARGET_ERROR, OutputSet, Provenance, TargetErrorSource};
@@ -32,9 +33,26 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .transpose()?;
     let settings = args.settings.settings()?;
     let (camera, capture) = args.camera.capture(&scene, settings.seed, tile.is_some())?;
+    // `--target-error camera[:K]`: each pixel to the camera's own noise.
+    let camera_k = args.settings.camera_target();
+    if camera_k.is_some() && (capture.is_none() || args.layers) {
+        anyhow::bail!(
+            "--target-error camera needs a camera (--sensor NAME, or the scene's sensor), the whole image (no --tile) and no --layers"
+        );
+    }
     // A tile or a capture keeps the fixed default spp (see with_default_error).
     let whole_image = tile.is_none() && capture.is_none();
-    let (settings, target_error_source) = args.settings.with_default_error(settings, whole_image);
+    let (settings, mut target_error_source) =
+        args.settings.with_default_error(settings, whole_image);
+    let mut settings = settings;
+    if camera_k.is_some() {
+        target_error_source = Some(TargetErrorSource::Given);
+        // The first round: one sample per replicate unless --spp says more
+        // (a camera's noise mostly asks for no more; see camera_goal.rs).
+        if !args.settings.names_spp() {
+            settings.spp = 2;
+        }
+    }
     let job = RenderJob {
         camera,
         observer: super::progress::prep_spinner(),
@@ -45,7 +63,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let prep_s = t_start.elapsed().as_secs_f64();
     let full = prepared.image_size();
     let rows = tile.map(|t| t.rows(full.1)).transpose()?;
-    let rendered = super::progress::render_with_bar(prepared, rows)?;
+    let goal = match (camera_k, &capture) {
+        (Some(k), Some(c)) => {
+            let band = prepared.tracer().wavelengths().band_names.len() - 1;
+            Some(CameraGoal::new(band, k, c)?)
+        }
+        _ => None,
+    };
+    let rendered = match &goal {
+        Some(g) => super::progress::render_goal_with_bar(prepared, g)?,
+        None => super::progress::render_with_bar(prepared, rows)?,
+    };
 
     let t_write = Instant::now();
     rendered.write_images(&dir)?;
@@ -56,6 +84,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let write_s = t_write.elapsed().as_secs_f64();
     let mut report = rendered.report_json(&args.scene, &scene, load_s, write_s);
     report["target_error_source"] = serde_json::to_value(target_error_source)?;
+    let camera_target = match (&goal, &rendered.detected, &rendered.detected_std_error) {
+        (Some(g), Some(d), Some(se)) => g.settled().map(|s| {
+            let mut v = camera_goal::summary(g.k(), s, d, se);
+            v["mean_spp"] = rendered.radiance.error.mean_spp.into();
+            v["trace_seconds"] = rendered.radiance.stats.trace_seconds.into();
+            v
+        }),
+        _ => None,
+    };
+    if let Some(t) = &camera_target {
+        report["camera_target"] = t.clone();
+    }
     // The scene's OBJ, spectrum and instance files were read after the
     // provenance was first taken.
     provenance.add_inputs_read();
@@ -87,6 +127,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 * e.rel_std_error_rms_target_pixels
                     .unwrap_or(e.rel_std_error_rms),
             e.mean_spp,
+        );
+    }
+    if let Some(t) = &camera_target {
+        let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
+        eprintln!(
+            "--target-error camera:{}: each pixel rendered until its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
+            f("k"),
+            100.0 * f("asked_added_variance_fraction"),
+            f("gain"),
+            100.0 * f("added_variance_fraction_median"),
+            100.0 * f("added_variance_fraction_p99"),
+            f("mean_spp"),
         );
     }
     if let Some(b) = &rendered.radiance.error.bias

@@ -10,6 +10,7 @@ macro_rules! eprintln {
 }
 
 pub mod bench;
+pub mod camera_goal;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod detected;

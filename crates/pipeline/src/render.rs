@@ -69,9 +69,11 @@ pub struct SettingArgs {
     pub threads: Option<usize>,
     /// Sample each pixel adaptively until its estimated relative standard
     /// error is below this (e.g. 0.01; dark pixels relative to 5 % of the
-    /// band mean). Same as `--set target_error=E`.
-    #[cfg_attr(feature = "cli", arg(long, value_name = "E"))]
-    pub target_error: Option<f64>,
+    /// band mean; same as `--set target_error=E`), or with `camera[:K]`
+    /// (a render with a camera) until the render's variance is under K²
+    /// (default 0.3² = 9 %) of the camera's own frame variance at each pixel.
+    #[cfg_attr(feature = "cli", arg(long, value_name = "E|camera[:K]"))]
+    pub target_error: Option<crate::camera_goal::TargetError>,
     /// The effect plan's tolerance (default 0.005 of the band signal).
     #[cfg_attr(feature = "cli", arg(long))]
     pub tolerance: Option<f64>,
@@ -119,7 +121,7 @@ impl SettingArgs {
             ),
             ("tolerance", "--tolerance", self.tolerance.is_some()),
         ])?;
-        if let Some(e) = self.target_error {
+        if let Some(crate::camera_goal::TargetError::Relative(e)) = self.target_error {
             s.set("target_error", &e.to_string())?;
         }
         if let Some(t) = self.tolerance {
@@ -149,6 +151,19 @@ pub enum TargetErrorSource {
 }
 
 impl SettingArgs {
+    /// `K` of `--target-error camera[:K]`, if given.
+    pub fn camera_target(&self) -> Option<f64> {
+        match self.target_error {
+            Some(crate::camera_goal::TargetError::Camera { k }) => Some(k),
+            _ => None,
+        }
+    }
+
+    /// Whether the arguments fix the sample count (`--spp` or `spp=`).
+    pub fn names_spp(&self) -> bool {
+        self.spp.is_some() || pair_setting(&self.set, "spp").is_some()
+    }
+
     /// Whether the arguments name the sampling: `--spp`, `--target-error`,
     /// or `spp`/`target_error` as a pair.
     pub fn names_sampling(&self) -> bool {
@@ -359,7 +374,7 @@ impl PreparedRender {
         // With layers, one pass gives the ordinary image (bit-identical)
         // and the layers.
         let t0 = std::time::Instant::now();
-        let (mut radiance, layered) = match &self.layers {
+        let (radiance, layered) = match &self.layers {
             Some((map, _)) => {
                 let (whole, layers) =
                     self.tracer
@@ -373,18 +388,56 @@ impl PreparedRender {
             ),
         };
         let seconds = t0.elapsed().as_secs_f64();
-        let detected = match self.camera {
-            true => Some(take_detected_band(&mut radiance)?),
-            false => None,
-        };
         let layers = match (self.layers.take(), layered) {
             (Some((_, groups)), Some(outputs)) => Some(self.layers_from(groups, outputs, seconds)?),
             _ => None,
+        };
+        self.finish(radiance, layers, rows, image_size)
+    }
+
+    /// The whole image rendered to a per-pixel `goal` on the camera's
+    /// detected band (`--target-error camera`, [`crate::camera_goal`]);
+    /// otherwise as [`PreparedRender::render`]. Not with layers.
+    pub fn render_to_goal(
+        self,
+        goal: &dyn gloam_trace::PixelGoal,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Rendered, RenderError> {
+        if self.layers.is_some() || !self.camera {
+            return Err(RenderError::Trace(TraceError::BadInput(
+                "--target-error camera needs a render with a camera (--sensor NAME or the scene's sensor) and without --layers".into(),
+            )));
+        }
+        let image_size = self.image_size();
+        let radiance = self.tracer.render_to_goal(goal, progress, stop)?;
+        self.finish(radiance, None, 0..image_size.1, image_size)
+    }
+
+    /// Splits the camera's detected band (and its standard error) off.
+    fn finish(
+        self,
+        mut radiance: RenderOutput,
+        layers: Option<Layers>,
+        rows: Range<u32>,
+        image_size: (u32, u32),
+    ) -> Result<Rendered, RenderError> {
+        let (detected, detected_std_error) = match self.camera {
+            true => {
+                let last = radiance.std_error.dim().0.saturating_sub(1);
+                let se = radiance
+                    .std_error
+                    .index_axis(ndarray::Axis(0), last)
+                    .to_owned();
+                (Some(take_detected_band(&mut radiance)?), Some(se))
+            }
+            false => (None, None),
         };
         Ok(Rendered {
             radiance,
             layers,
             detected,
+            detected_std_error,
             plan: self.plan,
             rows,
             image_size,
@@ -519,6 +572,8 @@ pub struct Rendered {
     /// The camera's detected-electron radiance, e⁻ s⁻¹ m⁻² sr⁻¹ (rows ×
     /// columns), when the job had a camera.
     pub detected: Option<Array2<f64>>,
+    /// The detected band's standard error, same units and shape.
+    pub detected_std_error: Option<Array2<f64>>,
     /// The effect plan the render ran.
     pub plan: EffectPlan,
     /// The rows rendered, of the whole image.
@@ -637,7 +692,7 @@ mod tests {
     fn only_an_unnamed_whole_image_render_takes_the_default_error() {
         let args = |spp: Option<u32>, target: Option<f64>, set: &[&str]| SettingArgs {
             spp,
-            target_error: target,
+            target_error: target.map(crate::camera_goal::TargetError::Relative),
             set: set.iter().map(|s| s.to_string()).collect(),
             ..Default::default()
         };

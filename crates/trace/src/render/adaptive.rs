@@ -315,8 +315,8 @@ impl Tracer {
     /// the goal's band is above their bound — the bounds set again each
     /// round from the estimate so far, so a first round that overshot a
     /// pixel does not leave it with a loose bound: each grows to
-    /// `n (σ/τ)²` (at most 4× per round, at least [`MIN_ADAPTIVE_SPP`],
-    /// never past its cap), until every pixel is within its bound or
+    /// `n (σ/τ)²` (at most 4× per round, at least the first round's spp
+    /// up to [`MIN_ADAPTIVE_SPP`], never past its cap), until every pixel is within its bound or
     /// capped. Pixels that see an
     /// emitter's face are held to their bound too (unlike under a target
     /// error, whose metric leaves them out): the camera sees their error.
@@ -332,7 +332,10 @@ impl Tracer {
         let nb = self.wl.band_names.len();
         let floor = band_floor(&s.ests, &s.views, nb);
         let cap = self.settings.max_spp.max(self.settings.spp.max(1));
-        let min = MIN_ADAPTIVE_SPP.min(cap);
+        // A bound loose against the pixel's error needs no more than the
+        // first round (`spp`, at least one sample per replicate): a camera
+        // whose frame is mostly its own noise asks little of the render.
+        let min = self.settings.spp.clamp(2, MIN_ADAPTIVE_SPP).min(cap);
         while s.rounds <= MAX_ROUNDS && !halt.now() {
             let bounds = self.goal_bounds(s, region, goal)?;
             let (factor, _) = stratification(&s.ests, &floor);
