@@ -234,6 +234,12 @@ fn scale_rejects_bad_sizes_with_a_message() {
         ("--lamps", "0", "whole number ≥ 1"),
         ("--lamps", "ten", "is not a number"),
         ("--spp", "1", "needs two samples"),
+        // 1e20 s overflowed the clock's duration (a panic).
+        ("--timeout-s", "1e20", "(0, 1e6]"),
+        ("--timeout-s", "0", "(0, 1e6]"),
+        // 100 000 threads made every case fail and the bench exit 0.
+        ("--threads", "100000", "within 1 … 1024"),
+        ("--threads", "0", "within 1 … 1024"),
     ] {
         let out = gloam()
             .args(["bench", "scale", "--out", dir.path().to_str().unwrap()])
@@ -251,6 +257,98 @@ fn scale_rejects_bad_sizes_with_a_message() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--out DIR is required"));
+}
+
+/// A case's hidden `--case-dir` is a new directory only: it never
+/// replaces a user's `scene.toml`.
+#[test]
+fn scale_case_dir_never_replaces_a_users_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, "# mine\n").unwrap();
+    let out = gloam()
+        .args(["bench", "scale", "--case", "lamps:4", "--case-dir"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "wrote into an existing directory");
+    assert!(err.contains("already exists"), "{err}");
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), "# mine\n");
+}
+
+/// SIGTERM to `bench scale` ends its running case too: the case runs in
+/// its own process group and the bench kills that group as it goes.
+#[cfg(unix)]
+#[test]
+fn scale_case_does_not_outlive_a_terminated_bench() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    // A lamp grid large enough to take seconds per case.
+    let mut bench = gloam()
+        .args([
+            "bench",
+            "scale",
+            "--no-mitsuba",
+            "--triangles",
+            "1000000",
+            "--lamps",
+            "1",
+        ])
+        .args([
+            "--width",
+            "320",
+            "--height",
+            "240",
+            "--timeout-s",
+            "120",
+            "--out",
+        ])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let parent = bench.id();
+    // The case: a process whose parent is the bench.
+    let child_of = |ppid: u32| -> Vec<u32> {
+        std::fs::read_dir("/proc")
+            .unwrap()
+            .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
+            .filter(|pid| {
+                std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|st| {
+                    // Fields after the command's closing parenthesis:
+                    // state, ppid, …
+                    st.rsplit_once(')')
+                        .and_then(|(_, rest)| rest.split_whitespace().nth(1)?.parse::<u32>().ok())
+                        == Some(ppid)
+                })
+            })
+            .collect()
+    };
+    let t0 = std::time::Instant::now();
+    let case = loop {
+        if let Some(&c) = child_of(parent).first() {
+            break c;
+        }
+        assert!(t0.elapsed().as_secs() < 60, "no case started");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    // SAFETY: kill(2) on the bench's own pid.
+    let rc = unsafe { libc::kill(parent as i32, libc::SIGTERM) };
+    assert_eq!(rc, 0);
+    let st = bench.wait().unwrap();
+    assert!(!st.success(), "the bench ended successfully on SIGTERM");
+    let t1 = std::time::Instant::now();
+    while std::path::Path::new(&format!("/proc/{case}")).exists()
+        && std::fs::read_to_string(format!("/proc/{case}/stat")).is_ok_and(|s| !s.contains(") Z "))
+    {
+        assert!(
+            t1.elapsed().as_secs() < 10,
+            "case {case} still runs after the bench ended"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
 }
 
 /// `sims/night-town/generate.py --lamps 10` writes a scene the loader

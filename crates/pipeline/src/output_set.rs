@@ -22,6 +22,39 @@ use crate::provenance::{InputFile, Provenance, hash_file};
 
 /// Staging directories of this process, removed on Ctrl-C.
 static STAGING: Mutex<Vec<(PathBuf, bool)>> = Mutex::new(Vec::new());
+/// Process groups of this process's children (`bench::child::Reaper`),
+/// killed on Ctrl-C or SIGTERM so none outlives the parent.
+static CHILD_GROUPS: Mutex<Vec<u32>> = Mutex::new(Vec::new());
+
+/// Kills child process group `pgid` if this process is interrupted (until
+/// [`forget_child_group`]); installs the interrupt handler.
+pub fn kill_child_group_on_interrupt(pgid: u32) {
+    install_handler();
+    if let Ok(mut g) = CHILD_GROUPS.lock() {
+        g.push(pgid);
+    }
+}
+
+/// Stops tracking `pgid` (the child was reaped).
+pub fn forget_child_group(pgid: u32) {
+    if let Ok(mut g) = CHILD_GROUPS.lock() {
+        g.retain(|&p| p != pgid);
+    }
+}
+
+/// SIGKILL to every process of group `pgid`.
+pub fn kill_group(pgid: u32) {
+    #[cfg(unix)]
+    if let Ok(pid) = i32::try_from(pgid)
+        && pid > 0
+    {
+        // SAFETY: kill(2) with a negative pid signals that process group;
+        // no memory is shared with the callee.
+        unsafe {
+            libc::kill(-pid, libc::SIGKILL);
+        }
+    }
+}
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 static HANDLER: std::sync::Once = std::sync::Once::new();
 
@@ -33,6 +66,8 @@ pub fn interrupted() -> bool {
 fn install_handler() {
     HANDLER.call_once(|| {
         let _ = ctrlc::set_handler(|| {
+            let groups = CHILD_GROUPS.lock().map(|g| g.clone()).unwrap_or_default();
+            groups.into_iter().for_each(kill_group);
             let staging = STAGING.lock().map(|s| s.clone()).unwrap_or_default();
             if staging.iter().any(|(_, polls)| *polls) && !interrupted() {
                 // A loop will stop and publish what it has.

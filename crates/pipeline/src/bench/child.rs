@@ -9,8 +9,31 @@ use std::time::{Duration, Instant};
 
 use super::BenchError;
 
-/// Waits for `child` until `timeout` after `t0`; kills it then.
-/// `None`: timed out.
+/// While alive, a child started in its own process group is killed with
+/// its group if this process gets Ctrl-C or SIGTERM; dropped (the child
+/// reaped or given up), its group is killed too — a case never outlives the
+/// bench that started it.
+pub struct Reaper {
+    pgid: u32,
+}
+
+impl Reaper {
+    pub fn new(child: &std::process::Child) -> Self {
+        let pgid = child.id();
+        crate::output_set::kill_child_group_on_interrupt(pgid);
+        Self { pgid }
+    }
+}
+
+impl Drop for Reaper {
+    fn drop(&mut self) {
+        crate::output_set::forget_child_group(self.pgid);
+        crate::output_set::kill_group(self.pgid);
+    }
+}
+
+/// Waits for `child` until `timeout` after `t0`; past it, kills it (and
+/// its process group, when it leads one) and returns `None`.
 pub fn wait_with_timeout(
     child: &mut std::process::Child,
     t0: Instant,
@@ -24,6 +47,7 @@ pub fn wait_with_timeout(
             return Ok(Some(st));
         }
         if t0.elapsed() >= timeout {
+            crate::output_set::kill_group(child.id());
             let _ = child.kill();
             let _ = child.wait();
             return Ok(None);

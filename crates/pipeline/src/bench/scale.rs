@@ -264,7 +264,18 @@ fn panel_vertices(lamp: DVec3) -> [DVec3; 4] {
 /// Writes the case's scene into `dir` and returns the `scene.toml` path.
 pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> Result<PathBuf, BenchError> {
     case.check()?;
-    std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
+    // A new directory only: the case writes scene.toml and OBJ files into
+    // it, and nothing the bench did not create is replaced.
+    std::fs::create_dir(dir).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::AlreadyExists {
+            BenchError::Invalid(format!(
+                "{}: already exists; a bench case writes its generated scene into a new directory only",
+                dir.display()
+            ))
+        } else {
+            BenchError::io("creating", dir)(e)
+        }
+    })?;
     let mut toml = String::new();
     let _ = writeln!(
         toml,
@@ -745,7 +756,13 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
     for pair in &opts.set {
         cmd.args(["--set", pair]);
     }
+    // Its own process group, so a timeout kills the case and anything it
+    // started; and killed with the parent on Ctrl-C or SIGTERM
+    // (`child::Reaper`).
+    #[cfg(unix)]
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let mut child = cmd.spawn().map_err(BenchError::io("starting", &opts.exe))?;
+    let _reaper = super::child::Reaper::new(&child);
     let status = wait_with_timeout(
         &mut child,
         t0,
@@ -822,9 +839,16 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         opts.spp
     );
     ensure_valid!(
-        opts.timeout_s.is_finite() && opts.timeout_s > 0.0,
-        "--timeout-s {}: must be a positive number of seconds",
+        opts.timeout_s.is_finite() && opts.timeout_s > 0.0 && opts.timeout_s <= MAX_TIMEOUT_S,
+        "--timeout-s {}: must be a number of seconds in (0, {MAX_TIMEOUT_S:e}]",
         opts.timeout_s
+    );
+    ensure_valid!(
+        opts.threads
+            .is_none_or(|n| (1..=gloam_trace::tracer::MAX_THREADS).contains(&n)),
+        "--threads {}: must be within 1 … {}",
+        opts.threads.unwrap_or(0),
+        gloam_trace::tracer::MAX_THREADS
     );
     let mut cases = Vec::new();
     for &n in &opts.triangles {
@@ -880,8 +904,26 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         &json_path,
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
+    // A bench whose every case failed measured nothing: say so by the
+    // exit status too (the report, written above, says why).
+    let failed = report.cases.iter().filter(|r| r.status == "failed").count();
+    ensure_valid!(
+        failed == 0 || failed < report.cases.len(),
+        "every case failed ({failed} of {}); first: {} (the report is in {})",
+        report.cases.len(),
+        report
+            .cases
+            .first()
+            .and_then(|r| r.message.as_deref())
+            .unwrap_or("no message"),
+        json_path.display()
+    );
     Ok(report)
 }
+
+/// Longest `--timeout-s` (about 11.6 days): a wall-time limit, not
+/// "forever" (1e20 s overflowed the clock's duration).
+pub const MAX_TIMEOUT_S: f64 = 1e6;
 
 fn plot(path: &Path, rows: &[Row]) -> Result<(), BenchError> {
     use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
