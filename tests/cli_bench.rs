@@ -344,7 +344,7 @@ fn scale_case_does_not_outlive_a_terminated_bench() {
         && std::fs::read_to_string(format!("/proc/{case}/stat")).is_ok_and(|s| !s.contains(") Z "))
     {
         assert!(
-            t1.elapsed().as_secs() < 10,
+            t1.elapsed().as_secs() < 3,
             "case {case} still runs after the bench ended"
         );
         std::thread::sleep(std::time::Duration::from_millis(50));
