@@ -432,6 +432,10 @@ pub enum ValueError {
     RangeOverflow,
     #[error("`from` and `step` must be numbers")]
     RangeNotNumbers,
+    #[error("step 0 repeats one value `count` times (identical tasks)")]
+    ZeroStep,
+    #[error("values {first} and {again} (from 0) are the same value: identical tasks")]
+    RepeatedValue { first: usize, again: usize },
     #[error("an axis is a list of values or a range {{ from, count[, step] }}")]
     NotAnAxis,
     #[error("a table; a dotted scene key is quoted: \"{key}.…\" = value")]
@@ -493,6 +497,29 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
                     return Err(ValueError::NotScalarAt { index: i });
                 }
             }
+            // The same value twice would be two identical tasks (numbers
+            // compared as numbers: 2 and 2.0 are one value). Sorted, so a
+            // long axis costs n log n.
+            let mut keyed: Vec<(String, usize)> = a
+                .iter()
+                .enumerate()
+                .map(|(i, x)| {
+                    let key = match x {
+                        toml::Value::Integer(n) => format!("n:{n}"),
+                        toml::Value::Float(f) if f.fract() == 0.0 && f.abs() < 9.0e15 => {
+                            format!("n:{}", *f as i64)
+                        }
+                        toml::Value::Float(f) => format!("f:{f:e}"),
+                        other => format!("t:{}", scalar_text(other).unwrap_or_default()),
+                    };
+                    (key, i)
+                })
+                .collect();
+            keyed.sort();
+            if let Some(w) = keyed.windows(2).find(|w| w[0].0 == w[1].0) {
+                let (first, again) = (w[0].1.min(w[1].1), w[0].1.max(w[1].1));
+                return Err(ValueError::RepeatedValue { first, again });
+            }
             Ok(a.clone())
         }
         toml::Value::Table(t) => {
@@ -508,6 +535,13 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
                 Some(_) => return Err(ValueError::BadCount),
                 None => return Err(ValueError::IncompleteRange),
             };
+            let zero_step = t
+                .get("step")
+                .and_then(|s| s.as_float().or(s.as_integer().map(|i| i as f64)))
+                .is_some_and(|s| s == 0.0);
+            if zero_step && count > 1 {
+                return Err(ValueError::ZeroStep);
+            }
             match (t.get("from"), t.get("step")) {
                 (Some(toml::Value::Integer(a)), None | Some(toml::Value::Integer(_))) => {
                     let step = t.get("step").and_then(|s| s.as_integer()).unwrap_or(1);
@@ -771,6 +805,42 @@ gain = [20, 100, 500]
 spp = [1, 2]
 seed = { from = 7, count = 2 }
 "#;
+
+    /// A zero step or a value given twice would make identical tasks:
+    /// refused, naming the values (numbers compared as numbers); distinct
+    /// values that print alike as floats are kept.
+    #[test]
+    fn repeated_values_and_zero_steps_are_refused() {
+        for (axis, want) in [
+            ("gain = [20, 100, 20]", "values 0 and 2"),
+            ("gain = [20, 20.0]", "values 0 and 1"),
+            ("gain = { from = 20, count = 3, step = 0 }", "step 0"),
+            ("gain = { from = 2.5, count = 2, step = 0.0 }", "step 0"),
+            ("sensor = [\"a\", \"b\", \"a\"]", "values 0 and 2"),
+        ] {
+            let text = format!(
+                "[base]\nscene = \"s.toml\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\n{axis}\n"
+            );
+            let e = parse(&text)
+                .err()
+                .map(|e| format!("{e:#}"))
+                .unwrap_or_default();
+            let chain = format!("{:?}", parse(&text).err());
+            assert!(
+                e.contains(want) || chain.contains(want),
+                "{axis}: {e} / {chain}"
+            );
+        }
+        for ok in [
+            "gain = { from = 20, count = 1, step = 0 }",
+            "gain = [0.1, 0.10000000000000002]",
+            "gain = [20, 21]",
+        ] {
+            let text =
+                format!("[base]\nscene = \"s.toml\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\n{ok}\n");
+            assert!(parse(&text).is_ok(), "{ok}: {:?}", parse(&text).err());
+        }
+    }
 
     #[test]
     fn tasks_are_the_product_with_stable_ids_and_shared_renders() {
