@@ -292,6 +292,13 @@ fn merged_tiles_are_bit_identical_to_the_untiled_render() {
             assert!(a == b, "N = {n}: {f} differs from the untiled render");
         }
         if n == 4 {
+            // --out inside one of the tiles (also through `..`) is refused
+            // before anything is written.
+            for out in [dirs[1].join("merged"), dirs[2].join("x/../y")] {
+                let err = run_err(gloam().arg("merge").args(&dirs).arg("--out").arg(&out));
+                assert!(err.contains("inside the tile directory"), "{err}");
+                assert!(!out.exists());
+            }
             // A tile short, a tile twice, and tiles of another render are refused.
             let err = run_err(
                 gloam()

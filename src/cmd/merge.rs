@@ -6,6 +6,7 @@ use gloam_pipeline::{OutputSet, Provenance};
 pub use gloam_sweep::cli::MergeArgs;
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    refuse_out_inside_a_tile(&args)?;
     let mut provenance = Provenance::of_this_run();
     let m = gloam_sweep::tile::merge(&args.tiles)?;
     let set = OutputSet::begin(&args.out, args.force, false)?;
@@ -13,5 +14,34 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     set.publish(&provenance, None)?;
     let (n, w, h) = (m.tiles.len(), m.info.width, m.info.height);
     eprintln!("merged {n} tile(s) into {w}×{h} → {}", args.out.display());
+    Ok(())
+}
+
+/// `--out` inside a tile directory would add the merged set to an input
+/// (and a later merge of the same tiles would meet it there): refused.
+/// Compared canonically (links and `..` resolved) from the nearest part of
+/// `--out` that exists.
+fn refuse_out_inside_a_tile(args: &MergeArgs) -> anyhow::Result<()> {
+    let mut probe = args.out.as_path();
+    let existing = loop {
+        if let Ok(c) = std::fs::canonicalize(probe) {
+            break c;
+        }
+        match probe.parent() {
+            Some(p) if !p.as_os_str().is_empty() => probe = p,
+            _ => break std::env::current_dir()?,
+        }
+    };
+    for tile in &args.tiles {
+        if let Ok(t) = std::fs::canonicalize(tile)
+            && existing.starts_with(&t)
+        {
+            anyhow::bail!(
+                "--out {}: inside the tile directory {}; write the merged image outside its inputs",
+                args.out.display(),
+                tile.display()
+            );
+        }
+    }
     Ok(())
 }
