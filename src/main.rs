@@ -164,7 +164,27 @@ fn check_thread_env() -> Result<(), String> {
     }
 }
 
+/// The stack the command runs on: its own thread's, so a small main-thread
+/// stack (`ulimit -s 64` aborted every command, even `--help`) does not
+/// decide it. Reserved, not committed: pages are touched as used.
+const MAIN_STACK_BYTES: usize = 64 << 20;
+
 fn main() -> ExitCode {
+    let spawned = std::thread::Builder::new()
+        .name("gloam".into())
+        .stack_size(MAIN_STACK_BYTES)
+        .spawn(gloam_main);
+    match spawned {
+        // A panic has printed its message; 101 as Rust's own.
+        Ok(h) => h.join().unwrap_or(ExitCode::from(101)),
+        Err(e) => {
+            eprintln!("error: starting the main thread ({MAIN_STACK_BYTES} bytes of stack): {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn gloam_main() -> ExitCode {
     use clap::{CommandFactory, FromArgMatches};
     if let Err(e) = check_thread_env() {
         eprintln!("error: {e}");

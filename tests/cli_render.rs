@@ -230,3 +230,40 @@ fn render_without_sampling_flags_samples_to_the_default_error() {
     );
     assert!(e_fixed < 0.05, "--spp 4: {e_fixed}");
 }
+
+/// A 64 KiB main-thread stack (`ulimit -s 64`) aborted every command, even
+/// `--help`: the command now runs on a thread with its own stack. The
+/// render must equal the one under the default stack bit for bit.
+#[cfg(unix)]
+#[test]
+fn a_small_main_stack_still_renders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = panel_scene();
+    let (small, normal) = (tmp.path().join("small"), tmp.path().join("normal"));
+    let args = |out: &Path| {
+        vec![
+            "render".to_string(),
+            scene.clone(),
+            "--out".into(),
+            out.display().to_string(),
+            "--spp".into(),
+            "2".into(),
+        ]
+    };
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -s 64 && exec \"$0\" \"$@\"")
+        .arg(BIN)
+        .args(args(&small))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "under a 64 KiB stack: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let a: Vec<String> = args(&normal);
+    ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let read = |d: &Path| std::fs::read(d.join("radiance.npy")).unwrap();
+    assert!(read(&small) == read(&normal), "the images differ");
+}
