@@ -12,6 +12,7 @@ import gloam
 from pngread import read_png_u16
 
 fits = pytest.importorskip("astropy.io.fits")
+Time = pytest.importorskip("astropy.time").Time
 
 
 def run(gloam_bin, *args, cwd):
@@ -48,7 +49,17 @@ def test_fits_frames_open_in_astropy_with_the_recorded_header(gloam_bin, repo, t
             assert data.shape == (rec["height"], rec["width"])
             assert np.array_equal(data, cap.frames[i]), f"frame {i}"
             assert float(data.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
-            assert h["GAIN"] == rec["gain"] == 30.0
+            # GAIN is e-/DN as astropy/ccdproc read it: 1 / the camera's
+            # DN per photoelectron at the frame's gain (independently from
+            # Sensor.describe); the tube's linear gain is TUBEGAIN.
+            assert h["TUBEGAIN"] == rec["gain"] == 30.0
+            dn_per_pe = gloam.Sensor.preset("gen3-gaas-iccd").describe(gain=30)["dn_per_photoelectron"]
+            assert h["GAIN"] == pytest.approx(1.0 / dn_per_pe, rel=1e-12)
+            assert h["GAIN"] == rec["electrons_per_dn"]
+            # DATE-OBS: the scene's [sky] utc + the frame's start at 25 Hz.
+            assert h["DATE-OBS"] == ["2025-10-22T04:00:00.000", "2025-10-22T04:00:00.040"][i]
+            assert Time(h["DATE-OBS"], scale="utc").unix == pytest.approx(1761105600.0 + 0.04 * i, abs=1e-6)
+            assert h["INSTRUME"] == "gen3-gaas-iccd"
             assert h["AGC"] is False
             assert h["BITS"] == rec["bits"] == 12
             assert h["BLACKDN"] == rec["black_dn"]
