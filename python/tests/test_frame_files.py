@@ -90,3 +90,27 @@ def test_png_frames_declare_their_bits_and_fill_the_16_bit_range(gloam_bin, repo
     # The contact sheet is there, 8-bit grey.
     sheet = (out / "frames-preview.png").read_bytes()
     assert sheet[:8] == b"\x89PNG\r\n\x1a\n" and sheet[24] == 8
+
+
+def test_capture_fits_frames_open_in_astropy_with_gain_in_electrons_per_dn(gloam_bin, repo, tmp_path):
+    """`gloam capture --frame-format fits`: astropy reads the counts and a
+    header whose GAIN is e-/DN (the scientific CCD's 1.6 e-/DN at unit
+    analogue gain, halved at gain 2) and whose DATE-OBS is a UTC time
+    within the run."""
+    out = tmp_path / "cap"
+    before = Time.now()
+    run(gloam_bin, "capture", "--grabber", "sim:scientific-ccd?size=32x24", "--gain", "2", "--frames", "2",
+        "--seed", "4", "--frame-format", "fits", "--out", out, cwd=tmp_path)
+    after = Time.now()
+    for i, rec in enumerate(jsonl(out / "frames.jsonl")):
+        assert rec["file"] == f"frame-{i:06d}.fits"
+        with fits.open(out / rec["file"]) as hdul:
+            hdul.verify("exception")
+            h, data = hdul[0].header, hdul[0].data
+            assert data.dtype == np.uint16 and data.shape == (24, 32)
+            assert float(data.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
+            assert h["GAIN"] == pytest.approx(1.6 / 2, rel=1e-12)
+            assert h["TUBEGAIN"] == rec["gain"] == 2.0
+            assert h["INSTRUME"] == "sim:scientific-ccd"
+            t = Time(h["DATE-OBS"], format="isot", scale="utc")
+            assert before.unix - 0.01 <= t.unix <= after.unix + 0.01
