@@ -90,7 +90,7 @@ enum Command {
     Probe(cmd::probe::ProbeArgs),
     /// Serve the simulated camera as a device: emulated on a pseudo-terminal (--pty) or as a GigE Vision camera (--gige).
     Device(cmd::device::DeviceArgs),
-    /// Capture frames from a grabber (sim:, serial:, usb:, genicam: GigE Vision / USB3 Vision) into PNGs and frames.jsonl.
+    /// Capture frames from a grabber (sim:, serial:, usb:, genicam: GigE Vision / USB3 Vision) into PNG, FITS or TIFF frames and frames.jsonl.
     Capture(cmd::capture::CaptureArgs),
     /// List serial ports, USB devices and simulated cameras.
     Grabbers(cmd::grabbers::GrabbersArgs),
@@ -192,7 +192,8 @@ fn gloam_main() -> ExitCode {
     }
     // Every file the run reads goes into its provenance.
     gloam_spectra::input::record_reads();
-    let matches = negative_numbers_are_values(Cli::command()).get_matches();
+    let matches =
+        negative_numbers_are_values(cmd::capture::with_out_help(Cli::command())).get_matches();
     // The subcommand path (`calibrate agc`): its words are not inputs.
     let mut words = Vec::new();
     let mut m = &matches;

@@ -272,3 +272,141 @@ fn capture_from_a_scene_warns_before_its_frames_when_no_gain_fits() {
     assert!(!stderr.contains("camera fit"), "{stderr}");
     assert!(rec["saturated_fraction"].as_f64().unwrap() < 0.01, "{rec}");
 }
+
+/// Seconds since the Unix epoch now.
+fn unix_now() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64()
+}
+
+#[test]
+fn capture_frame_format_fits_carries_date_instrument_and_gain_in_electrons_per_dn() {
+    // The test's own date reader, checked on a known instant.
+    assert_eq!(
+        common::fits_date_unix_s("2025-10-22T04:00:00.040"),
+        1_761_105_600.04
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cap");
+    let before = unix_now();
+    let o = Command::new(BIN)
+        .args([
+            "capture",
+            "--grabber",
+            "sim:scientific-ccd?size=32x24",
+            "--frames",
+            "3",
+            "--gain",
+            "2",
+            "--seed",
+            "4",
+            "--frame-format",
+            "fits",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let after = unix_now();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let recs = common::records(&out);
+    assert_eq!(recs.len(), 3);
+    // The preset's digitizer: 1.6 e⁻/DN at analogue gain 1
+    // (sims/sensors/scientific-ccd.toml), so 0.8 e⁻/DN at gain 2.
+    let toml = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("sims/sensors/scientific-ccd.toml"),
+    )
+    .unwrap();
+    let e_per_dn: f64 = toml
+        .lines()
+        .find_map(|l| l.strip_prefix("e_per_dn = "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    assert_eq!(e_per_dn, 1.6);
+    let want_gain = e_per_dn / 2.0;
+    let mut last = f64::NEG_INFINITY;
+    for (i, r) in recs.iter().enumerate() {
+        let name = format!("frame-{i:06}.fits");
+        assert_eq!(r["file"], name.as_str());
+        assert_eq!(r["stored"]["format"], "fits");
+        let bytes = std::fs::read(out.join(&name)).unwrap();
+        assert_eq!(bytes.len() % 2880, 0);
+        let cards = common::fits_cards(&bytes);
+        let get = |k: &str| {
+            let c = cards.iter().find(|c| c.0 == k);
+            c.unwrap_or_else(|| panic!("no {k} in {cards:?}")).clone()
+        };
+        let num = |k: &str| get(k).1.parse::<f64>().unwrap();
+        assert!((num("GAIN") - want_gain).abs() < 1e-12, "{}", num("GAIN"));
+        assert!((r["electrons_per_dn"].as_f64().unwrap() - want_gain).abs() < 1e-12);
+        assert_eq!(num("TUBEGAIN"), 2.0);
+        assert_eq!(get("INSTRUME").1, "sim:scientific-ccd");
+        assert_eq!(get("CAMERA").1, "sim:scientific-ccd?size=32x24");
+        // The host's clock as the frame arrived: within the run, in order.
+        let (_, date, why) = get("DATE-OBS");
+        assert!(why.contains("host clock"), "{why}");
+        let t = common::fits_date_unix_s(&date);
+        assert!(t >= before - 0.002 && t <= after + 0.002, "{date}");
+        assert!(t >= last);
+        last = t;
+        assert_eq!(num("EXPTIME"), 1.0);
+        // The counts, through BZERO, are the record's.
+        let end = bytes
+            .chunks(80)
+            .position(|c| c.starts_with(b"END "))
+            .unwrap();
+        let data = &bytes[(end * 80 + 80).div_ceil(2880) * 2880..][..32 * 24 * 2];
+        let counts: Vec<u16> = data
+            .chunks(2)
+            .map(|c| (i32::from(i16::from_be_bytes([c[0], c[1]])) + 32768) as u16)
+            .collect();
+        assert_eq!(
+            r["pixels_crc32c"],
+            u64::from(gloam_grabber::pixels_crc32c(&counts))
+        );
+    }
+    // The other formats by the same flag; a bad value names flag and value.
+    let tiff = dir.path().join("tiff");
+    let o = gloam(&[
+        "capture",
+        "--grabber",
+        "sim:uniform?size=8x8",
+        "--bits",
+        "8",
+        "--frames",
+        "2",
+        "--frame-format",
+        "tiff",
+        "--out",
+        tiff.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let recs = common::records(&tiff);
+    assert_eq!(recs[1]["file"], "frames.tiff");
+    assert_eq!(
+        recs[1]["stored"],
+        serde_json::json!({"format": "tiff", "sample_shift": 8, "page": 1})
+    );
+    assert!(tiff.join("frames.tiff").exists() && tiff.join("frames-preview.png").exists());
+    let o = gloam(&[
+        "capture",
+        "--grabber",
+        "sim:uniform",
+        "--frame-format",
+        "jpeg",
+        "--out",
+        dir.path().join("bad").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("--frame-format") && err.contains("jpeg"),
+        "{err}"
+    );
+    assert!(err.contains("fits") && !err.contains("panicked"), "{err}");
+    assert!(!dir.path().join("bad").exists());
+}

@@ -60,6 +60,26 @@ fn fits_header(bytes: &[u8]) -> (Vec<(String, String)>, usize) {
     panic!("no END card");
 }
 
+/// The whole header as text, up to END (comments included).
+fn header_text(bytes: &[u8]) -> String {
+    let end = bytes
+        .chunks(80)
+        .position(|c| c.starts_with(b"END "))
+        .unwrap();
+    String::from_utf8(bytes[..end * 80].to_vec()).unwrap()
+}
+
+/// `gloam sensor describe PRESET --gain G --json`'s DN per photoelectron.
+fn describe_dn_per_photoelectron(preset: &str, gain: &str) -> f64 {
+    let o = Command::new(env!("CARGO_BIN_EXE_gloam"))
+        .args(["sensor", "describe", preset, "--gain", gain, "--json"])
+        .output()
+        .expect("run gloam");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    v["dn_per_photoelectron"].as_f64().unwrap()
+}
+
 #[test]
 fn png_fits_and_tiff_frames_hold_the_same_counts_and_fits_has_the_header() {
     let dir = tempfile::tempdir().unwrap();
@@ -73,6 +93,7 @@ fn png_fits_and_tiff_frames_hold_the_same_counts_and_fits_has_the_header() {
     render(&tiff, &[&ARGS[..], &["--frame-format", "tiff"]].concat());
     let (rp, rf, rt) = (records(&png), records(&fits), records(&tiff));
     assert_eq!(rp.len(), 2);
+    let dn_per_pe = describe_dn_per_photoelectron("gen3-gaas-iccd", "30");
     let tiff_bytes = std::fs::read(tiff.join("frames.tiff")).unwrap();
     let mut tiff_pages = tiff::decoder::Decoder::new(std::io::Cursor::new(tiff_bytes)).unwrap();
     for i in 0..2 {
@@ -112,8 +133,19 @@ fn png_fits_and_tiff_frames_hold_the_same_counts_and_fits_has_the_header() {
         // (the header's digits are Rust's exact shortest form; astropy's
         // test compares exactly).
         let close = |a: f64, b: f64| assert!((a - b).abs() <= 1e-14 * b.abs(), "{a} vs {b}");
-        assert_eq!(num("GAIN"), r["gain"].as_f64().unwrap());
-        assert_eq!(num("GAIN"), 30.0);
+        // The tube's linear gain under its own keyword; GAIN is e⁻/DN as
+        // astropy and ccdproc read it: 1 / the DN per photoelectron
+        // `gloam sensor describe` gives at that gain.
+        assert_eq!(num("TUBEGAIN"), r["gain"].as_f64().unwrap());
+        assert_eq!(num("TUBEGAIN"), 30.0);
+        close(num("GAIN"), 1.0 / dn_per_pe);
+        close(num("GAIN"), r["electrons_per_dn"].as_f64().unwrap());
+        // The scene's [sky] utc (2025-10-22T04:00:00Z) + the frame's start
+        // at the camera's 25 Hz: 0 and 40 ms.
+        let date_obs = ["2025-10-22T04:00:00.000", "2025-10-22T04:00:00.040"][i];
+        assert_eq!(get("DATE-OBS"), date_obs);
+        assert!(header_text(&f).contains("scene [sky] utc + frame start"));
+        assert_eq!(get("INSTRUME"), "gen3-gaas-iccd");
         assert_eq!(num("BITS"), 12.0);
         close(num("BLACKDN"), r["black_dn"].as_f64().unwrap());
         close(num("SATDN"), r["saturated_at_dn"].as_f64().unwrap());
@@ -135,15 +167,28 @@ fn png_fits_and_tiff_frames_hold_the_same_counts_and_fits_has_the_header() {
             .collect();
         assert_eq!(fits_counts, counts);
 
-        // TIFF: page i, counts as they are.
+        // TIFF: page i, the 12-bit counts left-bit-replicated to 16 bits
+        // as in the PNGs (a viewer shows the top code white), the scale
+        // in the record and the page's ImageDescription.
         assert_eq!(rt[i]["file"], "frames.tiff");
-        assert_eq!(rt[i]["stored"]["page"], i);
+        assert_eq!(
+            rt[i]["stored"],
+            serde_json::json!({"format": "tiff", "sample_shift": 4, "page": i})
+        );
         if i > 0 {
             assert!(tiff_pages.more_images());
             tiff_pages.next_image().unwrap();
         }
+        let description = tiff_pages
+            .get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
+            .unwrap();
+        assert!(description.contains("count = sample >> 4"), "{description}");
         match tiff_pages.read_image().unwrap() {
-            tiff::decoder::DecodingResult::U16(v) => assert_eq!(v, counts),
+            tiff::decoder::DecodingResult::U16(v) => {
+                let replicated: Vec<u16> = counts.iter().map(|c| (c << 4) | (c >> 8)).collect();
+                assert_eq!(v, replicated);
+                assert_eq!(v.iter().map(|s| s >> 4).collect::<Vec<_>>(), counts);
+            }
             other => panic!("page {i}: not 16-bit: {other:?}"),
         }
     }

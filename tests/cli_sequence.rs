@@ -277,3 +277,60 @@ fn bad_sequences_are_clear_errors() {
     let e = fails(&SEQUENCE.replace("scene.toml", "nowhere.toml"), &camera);
     assert!(e.contains("nowhere.toml"), "{e}");
 }
+
+/// `--frame-format fits` on a scene with a time: each frame's `DATE-OBS`
+/// is the scene's `[sky] utc` plus its exposure start in the sequence
+/// (frame i at i / 25 s), `GAIN` e⁻/DN and the tube gain in `TUBEGAIN`.
+#[test]
+fn sequence_fits_frames_are_dated_by_the_scene_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = format!(
+        "{SCENE}[sky]\nutc = \"2025-10-22T04:00:00Z\"\nlatitude_deg = 32.2\nlongitude_deg = -110.9\nmoon = false\nnight_sky = false\n"
+    );
+    std::fs::write(dir.path().join("scene.toml"), scene).unwrap();
+    let seq = dir.path().join("seq.toml");
+    std::fs::write(
+        &seq,
+        "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 3\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    ok(&[
+        "sequence",
+        seq.to_str().unwrap(),
+        "--sensor",
+        "gen3-gaas-iccd",
+        "--spp",
+        "1",
+        "--gain",
+        "100",
+        "--frame-format",
+        "fits",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let recs = common::records(&out);
+    assert_eq!(recs.len(), 3);
+    for (i, r) in recs.iter().enumerate() {
+        assert_eq!(r["file"], format!("frame-{i:06}.fits"));
+        let bytes = std::fs::read(out.join(format!("frame-{i:06}.fits"))).unwrap();
+        let cards = common::fits_cards(&bytes);
+        let get = |k: &str| cards.iter().find(|c| c.0 == k).unwrap().clone();
+        let (_, date, why) = get("DATE-OBS");
+        assert_eq!(
+            date,
+            [
+                "2025-10-22T04:00:00.000",
+                "2025-10-22T04:00:00.040",
+                "2025-10-22T04:00:00.080"
+            ][i]
+        );
+        assert_eq!(why, "UTC, scene [sky] utc + frame start");
+        let t = r["sequence"]["time_s"].as_f64().unwrap();
+        assert!((common::fits_date_unix_s(&date) - (1_761_105_600.0 + t)).abs() < 1e-6);
+        assert_eq!(get("TUBEGAIN").1.parse::<f64>().unwrap(), 100.0);
+        let gain: f64 = get("GAIN").1.parse().unwrap();
+        assert_eq!(gain, r["electrons_per_dn"].as_f64().unwrap());
+        assert_eq!(get("INSTRUME").1, "gen3-gaas-iccd");
+    }
+}

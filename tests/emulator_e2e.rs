@@ -295,3 +295,53 @@ fn faulty_pty_link_keeps_only_whole_frames() {
         );
     }
 }
+
+/// `--frame-format fits` from the emulator over a PTY: FITS frames named
+/// in frames.jsonl, `INSTRUME` naming the link and device, `DATE-OBS` the
+/// host's clock, and no `GAIN`: the serial protocol carries no
+/// conversion, so none is guessed (the tube's gain is in `TUBEGAIN`).
+#[test]
+fn pty_capture_writes_fits_without_a_guessed_gain() {
+    let emu = start_device(&["--sensor", "gen3-gaas-iccd", "--rig", "uniform"]);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fits");
+    let grabber = format!("serial:{}", emu.path);
+    capture(
+        &[
+            "--grabber",
+            &grabber,
+            "--frames",
+            "2",
+            "--gain",
+            "20",
+            "--frame-format",
+            "fits",
+        ],
+        &out,
+        Duration::from_secs(120),
+    );
+    let recs = records(&out);
+    assert_eq!(recs.len(), 2);
+    for (i, r) in recs.iter().enumerate() {
+        assert_eq!(r["file"], format!("frame-{i:06}.fits"));
+        assert!(r.get("electrons_per_dn").is_none(), "{r}");
+        let bytes = std::fs::read(out.join(format!("frame-{i:06}.fits"))).unwrap();
+        let text = String::from_utf8_lossy(&bytes[..2880]).to_string();
+        let key = |k: &str| {
+            text.as_bytes()
+                .chunks(80)
+                .map(|c| String::from_utf8_lossy(c).to_string())
+                .find(|c| c.starts_with(&format!("{k:<8}=")))
+        };
+        assert!(key("GAIN").is_none(), "{text}");
+        let tube = key("TUBEGAIN").unwrap();
+        let tube: f64 = tube[10..30].trim().parse().unwrap();
+        assert_eq!(tube, r["gain"].as_f64().unwrap());
+        let instrument = key("INSTRUME").unwrap();
+        assert!(
+            instrument.contains("'serial:gloam protocol"),
+            "{instrument}"
+        );
+        assert!(key("DATE-OBS").unwrap().contains("host clock"));
+    }
+}

@@ -12,6 +12,7 @@ import gloam
 from pngread import read_png_u16
 
 fits = pytest.importorskip("astropy.io.fits")
+Time = pytest.importorskip("astropy.time").Time
 
 
 def run(gloam_bin, *args, cwd):
@@ -48,7 +49,17 @@ def test_fits_frames_open_in_astropy_with_the_recorded_header(gloam_bin, repo, t
             assert data.shape == (rec["height"], rec["width"])
             assert np.array_equal(data, cap.frames[i]), f"frame {i}"
             assert float(data.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
-            assert h["GAIN"] == rec["gain"] == 30.0
+            # GAIN is e-/DN as astropy/ccdproc read it: 1 / the camera's
+            # DN per photoelectron at the frame's gain (independently from
+            # Sensor.describe); the tube's linear gain is TUBEGAIN.
+            assert h["TUBEGAIN"] == rec["gain"] == 30.0
+            dn_per_pe = gloam.Sensor.preset("gen3-gaas-iccd").describe(gain=30)["dn_per_photoelectron"]
+            assert h["GAIN"] == pytest.approx(1.0 / dn_per_pe, rel=1e-12)
+            assert h["GAIN"] == rec["electrons_per_dn"]
+            # DATE-OBS: the scene's [sky] utc + the frame's start at 25 Hz.
+            assert h["DATE-OBS"] == ["2025-10-22T04:00:00.000", "2025-10-22T04:00:00.040"][i]
+            assert Time(h["DATE-OBS"], scale="utc").unix == pytest.approx(1761105600.0 + 0.04 * i, abs=1e-6)
+            assert h["INSTRUME"] == "gen3-gaas-iccd"
             assert h["AGC"] is False
             assert h["BITS"] == rec["bits"] == 12
             assert h["BLACKDN"] == rec["black_dn"]
@@ -79,3 +90,27 @@ def test_png_frames_declare_their_bits_and_fill_the_16_bit_range(gloam_bin, repo
     # The contact sheet is there, 8-bit grey.
     sheet = (out / "frames-preview.png").read_bytes()
     assert sheet[:8] == b"\x89PNG\r\n\x1a\n" and sheet[24] == 8
+
+
+def test_capture_fits_frames_open_in_astropy_with_gain_in_electrons_per_dn(gloam_bin, repo, tmp_path):
+    """`gloam capture --frame-format fits`: astropy reads the counts and a
+    header whose GAIN is e-/DN (the scientific CCD's 1.6 e-/DN at unit
+    analogue gain, halved at gain 2) and whose DATE-OBS is a UTC time
+    within the run."""
+    out = tmp_path / "cap"
+    before = Time.now()
+    run(gloam_bin, "capture", "--grabber", "sim:scientific-ccd?size=32x24", "--gain", "2", "--frames", "2",
+        "--seed", "4", "--frame-format", "fits", "--out", out, cwd=tmp_path)
+    after = Time.now()
+    for i, rec in enumerate(jsonl(out / "frames.jsonl")):
+        assert rec["file"] == f"frame-{i:06d}.fits"
+        with fits.open(out / rec["file"]) as hdul:
+            hdul.verify("exception")
+            h, data = hdul[0].header, hdul[0].data
+            assert data.dtype == np.uint16 and data.shape == (24, 32)
+            assert float(data.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
+            assert h["GAIN"] == pytest.approx(1.6 / 2, rel=1e-12)
+            assert h["TUBEGAIN"] == rec["gain"] == 2.0
+            assert h["INSTRUME"] == "sim:scientific-ccd"
+            t = Time(h["DATE-OBS"], format="isot", scale="utc")
+            assert before.unix - 0.01 <= t.unix <= after.unix + 0.01

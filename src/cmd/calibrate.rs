@@ -72,6 +72,8 @@ fn capture(
         camera: Some(sensor.to_string()),
         seed: Some(seed),
         provenance: None,
+        scene_utc: gloam_pipeline::frames::scene_utc(&l.scene),
+        ..FrameContext::default()
     };
     // The one sequence path: the layers rendered once (a static
     // sequence), the video rate checked, the frames through the AGC.

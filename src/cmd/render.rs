@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use gloam_pipeline::camera_goal::{self, CameraGoal};
 pub use gloam_pipeline::cli::RenderArgs;
+use gloam_pipeline::frames::scene_utc;
 use gloam_pipeline::render::RenderJob;
 use gloam_pipeline::{DEFAULT_TARGET_ERROR, OutputSet, Provenance, TargetErrorSource};
 
@@ -109,7 +110,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         write_atomic(&dir.join("layers.json"), index.as_bytes())?;
     }
     if let (Some(capture), Some(detected)) = (&capture, &rendered.detected) {
-        for line in capture.run(detected, &dir, Some(&provenance))? {
+        for line in capture.run(detected, &dir, Some(&provenance), scene_utc(&scene))? {
             eprintln!("{line}");
         }
         // No path: `dir` is the command's hidden staging directory until

@@ -48,6 +48,8 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         camera: Some(camera.to_string()),
         seed: Some(settings.seed),
         provenance: Some(provenance.clone()),
+        scene_utc: gloam_pipeline::frames::scene_utc(&scene),
+        ..FrameContext::default()
     };
     let captured = capture_scene_sequence(&job, &capture, &dir, context)?;
     bar.finish();

@@ -60,6 +60,12 @@ pub struct DnLevels {
     pub saturation_dn: f64,
     /// Pixels at or above this count as saturated.
     pub saturated_at_dn: f64,
+    /// The camera's mean conversion at this frame's gain, photoelectrons
+    /// per DN (1/K of photon transfer; FITS `GAIN` as astropy and ccdproc
+    /// read it), when it knows it (simulated cameras). Left out when
+    /// `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub electrons_per_dn: Option<f64>,
 }
 
 /// One digitised frame, as a grabber hands it out: row-major `height ×

@@ -10,8 +10,11 @@
 //! - **FITS** (`frame-NNNNNN.fits`): one primary HDU per frame, BITPIX 16
 //!   with BZERO 32768 (unsigned counts, as they are), and a header with
 //!   the frame's settings ([`fits_frame_bytes`]).
-//! - **TIFF** (`frames.tiff`): one 16-bit page per frame, counts as they
-//!   are, `MaxSampleValue` = 2^bits − 1.
+//! - **TIFF** (`frames.tiff`): one 16-bit page per frame, the counts
+//!   scaled to 16 bits by left-bit replication as in the PNGs (viewers
+//!   ignore `MaxSampleValue`, so 12-bit counts as they are showed near
+//!   black), the scale stated in each page's `ImageDescription` and in
+//!   `frames.jsonl`'s `stored.sample_shift`.
 //!
 //! Beside them every capture writes `frames-preview.png`, an 8-bit
 //! contact sheet of up to 16 frames picked evenly ([`ContactSheet`]).
@@ -112,19 +115,9 @@ pub fn png_frame_bytes(
     bits: u8,
     pixels: &[u16],
 ) -> Result<(Vec<u8>, u8), OutputError> {
-    let fits_bits = (1..16).contains(&bits) && pixels.iter().all(|&p| p >> bits == 0);
-    let shift = if fits_bits { 16 - bits } else { 0 };
-    let be: Vec<u8> = pixels
-        .iter()
-        .flat_map(|&p| {
-            let s = if fits_bits {
-                replicate_to_16(p, bits)
-            } else {
-                p
-            };
-            s.to_be_bytes()
-        })
-        .collect();
+    let (samples, shift) = scaled_to_16(bits, pixels);
+    let fits_bits = shift != 0;
+    let be: Vec<u8> = samples.iter().flat_map(|s| s.to_be_bytes()).collect();
     let mut bytes = Vec::with_capacity(be.len() / 2 + 1024);
     let enc_err = |e: png::EncodingError| OutputError::Encode {
         path: PathBuf::from("frame PNG"),
@@ -157,6 +150,20 @@ pub fn png_frame_bytes(
         w.finish().map_err(enc_err)?;
     }
     Ok((bytes, shift))
+}
+
+/// The 16-bit samples PNG and TIFF frames store for `bits`-bit counts,
+/// and the shift that recovers the counts: left-bit-replicated
+/// ([`replicate_to_16`], shift 16 − bits) when `bits` < 16 and every count
+/// is below 2^bits; otherwise the counts as they are (shift 0), so a
+/// device that sent counts beyond its declared depth loses nothing.
+pub fn scaled_to_16(bits: u8, pixels: &[u16]) -> (std::borrow::Cow<'_, [u16]>, u8) {
+    if (1..16).contains(&bits) && pixels.iter().all(|&p| p >> bits == 0) {
+        let s = pixels.iter().map(|&p| replicate_to_16(p, bits)).collect();
+        (std::borrow::Cow::Owned(s), 16 - bits)
+    } else {
+        (std::borrow::Cow::Borrowed(pixels), 0)
+    }
 }
 
 /// One FITS header value.
@@ -287,7 +294,9 @@ pub const MAX_TIFF_STACK_BYTES: u64 = (4 << 30) - (64 << 20);
 
 /// `frames.tiff`, one 16-bit page per frame, appended as frames come: the
 /// file is a complete TIFF after every page (the encoder links each new
-/// page into the chain as it finishes it).
+/// page into the chain as it finishes it). Counts are stored as
+/// [`scaled_to_16`] scales them, so viewers show a frame at its true
+/// brightness; each page's `ImageDescription` states the scale.
 pub struct TiffStack {
     path: PathBuf,
     encoder: tiff::encoder::TiffEncoder<std::fs::File>,
@@ -307,14 +316,15 @@ impl TiffStack {
         })
     }
 
-    /// Appends one page; returns its index.
+    /// Appends one page; returns its index and the shift that recovers
+    /// the counts from its samples (count = sample >> shift).
     pub fn append(
         &mut self,
         width: u32,
         height: u32,
         bits: u8,
         pixels: &[u16],
-    ) -> Result<u64, OutputError> {
+    ) -> Result<(u64, u8), OutputError> {
         let page_bytes = pixels.len() as u64 * 2 + 1024;
         if self.bytes + page_bytes > MAX_TIFF_STACK_BYTES {
             return Err(encode_err(
@@ -330,13 +340,16 @@ impl TiffStack {
             .encoder
             .new_image::<tiff::encoder::colortype::Gray16>(width, height)
             .map_err(|e| encode_err(path, e))?;
-        let max = if (1..16).contains(&bits) {
-            (1u16 << bits) - 1
+        let (samples, shift) = scaled_to_16(bits, pixels);
+        let note = if shift != 0 {
+            format!("{bits}-bit counts left-bit-replicated to 16 bits: count = sample >> {shift}")
         } else {
-            u16::MAX
+            "counts as they are (no scaling)".to_string()
         };
         let enc = img.encoder();
-        enc.write_tag(tiff::tags::Tag::MaxSampleValue, max)
+        // The samples span 0..=65 535 either way.
+        enc.write_tag(tiff::tags::Tag::MaxSampleValue, u16::MAX)
+            .and_then(|()| enc.write_tag(tiff::tags::Tag::ImageDescription, note.as_str()))
             .and_then(|()| {
                 enc.write_tag(
                     tiff::tags::Tag::Software,
@@ -344,10 +357,10 @@ impl TiffStack {
                 )
             })
             .map_err(|e| encode_err(path, e))?;
-        img.write_data(pixels).map_err(|e| encode_err(path, e))?;
+        img.write_data(&samples).map_err(|e| encode_err(path, e))?;
         self.bytes += page_bytes;
         self.pages += 1;
-        Ok(self.pages - 1)
+        Ok((self.pages - 1, shift))
     }
 }
 
@@ -578,6 +591,55 @@ mod tests {
             let i = px.iter().position(|&p| p == top).unwrap();
             assert_eq!(img.as_raw()[i], u16::MAX);
         }
+    }
+
+    /// TIFF pages hold the counts scaled as the PNGs do (the top code
+    /// white in any viewer), the scale in the page's description; 16-bit
+    /// counts and counts beyond the declared depth as they are.
+    #[test]
+    fn tiff_pages_scale_counts_to_16_bits_and_say_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(TIFF_STACK);
+        let px12 = counts_of(12, 4);
+        let px8 = counts_of(8, 4);
+        let beyond = [0u16, 5000, 4095, 1, 2, 3];
+        {
+            let mut t = TiffStack::create(&path).unwrap();
+            assert_eq!(t.append(3, 2, 12, &px12).unwrap(), (0, 4));
+            assert_eq!(t.append(3, 2, 8, &px8).unwrap(), (1, 8));
+            assert_eq!(t.append(3, 2, 12, &beyond).unwrap(), (2, 0));
+        }
+        let bytes = std::fs::read(&path).unwrap();
+        let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).unwrap();
+        let page = |d: &mut tiff::decoder::Decoder<_>| {
+            let desc = d
+                .get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
+                .unwrap();
+            let max = d.get_tag_u32(tiff::tags::Tag::MaxSampleValue).unwrap();
+            match d.read_image().unwrap() {
+                tiff::decoder::DecodingResult::U16(v) => (desc, max, v),
+                other => panic!("not 16-bit: {other:?}"),
+            }
+        };
+        let (desc, max, v) = page(&mut d);
+        assert_eq!(
+            desc,
+            "12-bit counts left-bit-replicated to 16 bits: count = sample >> 4"
+        );
+        assert_eq!(max, 65_535);
+        // v·16 + v/256: 4095 → 65 535.
+        let want: Vec<u16> = px12.iter().map(|&c| c * 16 + c / 256).collect();
+        assert_eq!(v, want);
+        assert_eq!(v[px12.iter().position(|&c| c == 4095).unwrap()], u16::MAX);
+        d.next_image().unwrap();
+        let (desc, _, v) = page(&mut d);
+        assert!(desc.contains("sample >> 8"), "{desc}");
+        assert_eq!(v, px8.iter().map(|&c| c * 257).collect::<Vec<_>>());
+        d.next_image().unwrap();
+        let (desc, _, v) = page(&mut d);
+        assert_eq!(desc, "counts as they are (no scaling)");
+        assert_eq!(v, beyond);
+        assert!(!d.more_images());
     }
 
     #[test]

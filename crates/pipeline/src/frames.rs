@@ -42,6 +42,11 @@ pub struct FrameRecord {
     /// it reports one (simulated cameras).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub black_dn: Option<f64>,
+    /// The camera's mean conversion at this frame's gain, photoelectrons
+    /// per DN (1/K of photon transfer: FITS `GAIN`), when it knows it
+    /// (simulated cameras; not real cameras over a link).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub electrons_per_dn: Option<f64>,
     /// The ND filter's optical density and the photocathode's gate duty
     /// cycle as configured (before the tube's ABC), for simulated cameras.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -104,6 +109,7 @@ impl FrameRecord {
                     l.saturated_at_dn
                 }),
             black_dn: f.meta.levels.map(|l| l.black_dn),
+            electrons_per_dn: f.meta.levels.and_then(|l| l.electrons_per_dn),
             nd_density: None,
             gate_duty: f.meta.gate_duty,
             exposure_us: f.meta.exposure_us,
@@ -155,6 +161,7 @@ impl FrameRecord {
             saturated_fraction: m.saturated_fraction,
             saturated_at_dn: chain.saturated_threshold_dn(g),
             black_dn: Some(black),
+            electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
             nd_density: Some(camera.config().optics.nd_density),
             gate_duty: camera.config().photocathode.as_ref().map(|p| p.gate_duty),
             exposure_us: None,
@@ -228,8 +235,65 @@ impl FrameLog {
 pub struct FrameContext {
     /// The camera: preset name, sensor file or grabber URI.
     pub camera: Option<String>,
+    /// FITS `INSTRUME`: the camera model ([`instrument_of_grabber`] for
+    /// a grabber); `None` takes the preset or sensor file name of
+    /// `camera`.
+    pub instrument: Option<String>,
     pub seed: Option<u64>,
     pub provenance: Option<crate::Provenance>,
+    /// The scene's time (`[sky] utc`) at the start of frame 0, for
+    /// simulated frames of a scene that has one: `DATE-OBS` is it plus
+    /// the frame's start. Without it `DATE-OBS` is the host's clock.
+    pub scene_utc: Option<gloam_sky::time::UtcInstant>,
+}
+
+/// FITS `INSTRUME` of a grabber opened from `uri` that describes itself
+/// as `describe`: `sim:PRESET` (the preset's or sensor file's name) for a
+/// simulated camera, `genicam:VENDOR MODEL` for a GenICam camera, else
+/// the URI's scheme and the device's description up to its details
+/// (`serial:gloam protocol 1.0 device #7`).
+pub fn instrument_of_grabber(uri: &str, describe: &str) -> String {
+    let scheme = uri.split_once(':').map_or(uri, |(s, _)| s);
+    if let Ok(gloam_grabber::uri::GrabberUri::Sim { preset, .. }) =
+        gloam_grabber::uri::GrabberUri::parse(uri)
+    {
+        return format!("sim:{}", sensor_name(&preset));
+    }
+    let model = describe.strip_prefix("GenICam ").unwrap_or(describe);
+    let model = model.split(" (").next().unwrap_or(model);
+    let model = model.split(" over ").next().unwrap_or(model);
+    format!("{scheme}:{}", model.trim())
+}
+
+/// The time of `scene` (its `[sky] utc`), if it has one: the start of
+/// frame 0 of its simulated captures ([`FrameContext::scene_utc`]).
+pub fn scene_utc(scene: &gloam_scene::Scene) -> Option<gloam_sky::time::UtcInstant> {
+    // The loader has checked the text; one it could not read dates nothing.
+    let sky = scene.sky.as_ref()?;
+    gloam_sky::time::UtcInstant::parse_iso8601(&sky.utc).ok()
+}
+
+/// A sensor preset's name as it is, a sensor file's by its file name.
+fn sensor_name(sensor: &str) -> String {
+    Path::new(sensor)
+        .file_name()
+        .map_or(sensor.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// A UTC instant as FITS dates are written: ISO-8601 without the zone
+/// letter (FITS 4.0 §4.4.2.1: UTC unless `TIMESYS` says otherwise).
+fn fits_date(t: &gloam_sky::time::UtcInstant) -> String {
+    t.to_iso8601().trim_end_matches('Z').to_string()
+}
+
+/// The host's clock now.
+fn utc_now() -> Option<gloam_sky::time::UtcInstant> {
+    let unix_s = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .ok()?
+        .as_secs_f64();
+    // JD 2440587.5 is the Unix epoch.
+    gloam_sky::time::UtcInstant::from_julian_date(unix_s / 86_400.0 + 2_440_587.5).ok()
 }
 
 /// The most frames [`FrameWriter`]'s contact sheet shows.
@@ -289,7 +353,7 @@ impl FrameWriter {
                 }
             }
             FrameFormat::Fits => {
-                let cards = fits_cards(&rec, &self.context);
+                let cards = fits_cards(&rec, &self.context, utc_now());
                 write_atomic(
                     &self.dir.join(&rec.file),
                     &fits_frame_bytes(w, h, pixels, &cards),
@@ -307,10 +371,10 @@ impl FrameWriter {
                         .tiff
                         .insert(TiffStack::create(&self.dir.join(TIFF_STACK))?),
                 };
-                let page = stack.append(w, h, rec.bits, pixels)?;
+                let (page, shift) = stack.append(w, h, rec.bits, pixels)?;
                 FrameStorage {
                     format: self.format,
-                    sample_shift: 0,
+                    sample_shift: shift,
                     page: Some(page),
                 }
             }
@@ -332,9 +396,14 @@ impl FrameWriter {
 }
 
 /// A frame's FITS header cards after the mandatory ones: the frame's
-/// settings and levels from its record, then the context's camera, seed
-/// and provenance.
-fn fits_cards(rec: &FrameRecord, ctx: &FrameContext) -> Vec<FitsCard> {
+/// time, settings and levels from its record, then the context's camera,
+/// seed and provenance; `now` is the host's clock as the frame is written
+/// (`DATE-OBS` of a frame with no scene time).
+fn fits_cards(
+    rec: &FrameRecord,
+    ctx: &FrameContext,
+    now: Option<gloam_sky::time::UtcInstant>,
+) -> Vec<FitsCard> {
     use FitsValue::{Bool, Float, Int, Str};
     let mut c = vec![
         FitsCard::new("BUNIT", Str("DN".into()), "digital counts"),
@@ -346,6 +415,29 @@ fn fits_cards(rec: &FrameRecord, ctx: &FrameContext) -> Vec<FitsCard> {
             "frame start, us from stream start",
         ),
     ];
+    // A simulated frame of a scene with a time: that time plus the frame's
+    // start (a sequence's exposure start, else seq / frame rate).
+    let scene_time = match (&rec.sensor, ctx.scene_utc) {
+        (Some(m), Some(t0)) => {
+            Some(t0.plus_seconds(rec.sequence.as_ref().map_or(m.time_s, |s| s.time_s)))
+        }
+        _ => None,
+    };
+    let date_obs = match (scene_time, now) {
+        (Some(t), _) => Some((t, "UTC, scene [sky] utc + frame start")),
+        (None, Some(t)) if rec.sensor.is_some() => {
+            Some((t, "UTC, host clock at capture (no scene time)"))
+        }
+        (None, Some(t)) => Some((t, "UTC, host clock when the frame arrived")),
+        (None, None) => None,
+    };
+    if let Some((t, why)) = date_obs {
+        c.push(FitsCard::new("DATE-OBS", Str(fits_date(&t)), why));
+    }
+    let instrument = (ctx.instrument.clone()).or_else(|| ctx.camera.as_deref().map(sensor_name));
+    if let Some(i) = instrument {
+        c.push(FitsCard::new("INSTRUME", Str(i), "camera"));
+    }
     if let Some(m) = &rec.sensor {
         c.push(FitsCard::new(
             "EXPTIME",
@@ -374,10 +466,23 @@ fn fits_cards(rec: &FrameRecord, ctx: &FrameContext) -> Vec<FitsCard> {
         ));
     }
     c.extend([
-        FitsCard::new("GAIN", Float(rec.gain), "tube or system gain in effect"),
+        FitsCard::new(
+            "TUBEGAIN",
+            Float(rec.gain),
+            "tube or system gain in effect, linear",
+        ),
         FitsCard::new("AGC", Bool(rec.agc), "gain set by the AGC"),
         FitsCard::new("BITS", Int(rec.bits.into()), "digitizer bits"),
     ]);
+    // ccdproc's and astropy's GAIN: electrons per DN. Only a camera that
+    // knows its conversion says; a real camera's is not guessed.
+    if let Some(k) = rec.electrons_per_dn.filter(|k| k.is_finite() && *k > 0.0) {
+        c.push(FitsCard::new(
+            "GAIN",
+            Float(k),
+            "e-/DN, photoelectrons per DN at TUBEGAIN",
+        ));
+    }
     if let Some(b) = rec.black_dn {
         c.push(FitsCard::new("BLACKDN", Float(b), "black level, DN"));
     }
@@ -743,19 +848,23 @@ impl FrameCapture<'_> {
     /// `frame_format` and `frames.jsonl` as frames are made, then
     /// `frames-preview.png`, and `sensor_capture` added to
     /// `out/report.json` when there is one; FITS headers carry
-    /// `provenance`. Returns what its user should be told, as lines; the
-    /// front end prints them.
+    /// `provenance` and date frames from `scene_utc` (the scene's
+    /// `[sky] utc`) when given. Returns what its user should be told, as
+    /// lines; the front end prints them.
     pub fn run(
         &self,
         detected: &Array2<f64>,
         out: &Path,
         provenance: Option<&crate::Provenance>,
+        scene_utc: Option<gloam_sky::time::UtcInstant>,
     ) -> Result<Vec<String>, CaptureError> {
         let mut writer = None;
         let context = FrameContext {
             camera: Some(self.sensor.to_string()),
             seed: Some(self.seed),
             provenance: provenance.cloned(),
+            scene_utc,
+            ..FrameContext::default()
         };
         let captured = self.capture(detected, &mut |f| {
             let w = match &mut writer {
@@ -855,11 +964,94 @@ impl SaturationSummary {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    #[test]
+    fn instruments_name_the_camera_model() {
+        assert_eq!(
+            instrument_of_grabber("sim:gen3-gaas-iccd?rig=edge&seed=2", "simulated …"),
+            "sim:gen3-gaas-iccd"
+        );
+        assert_eq!(
+            instrument_of_grabber("sim:my/cams/cam.toml", ""),
+            "sim:cam.toml"
+        );
+        assert_eq!(
+            instrument_of_grabber(
+                "genicam:127.0.0.1?resend=always",
+                "GenICam Aravis Fake (Fake_1) via Aravis, software trigger"
+            ),
+            "genicam:Aravis Fake"
+        );
+        assert_eq!(
+            instrument_of_grabber(
+                "serial:/dev/pts/3",
+                "gloam protocol 1.0 device #7 (firmware 1.2.3, 640×480 max) over serial /dev/pts/3 @ 115200 baud"
+            ),
+            "serial:gloam protocol 1.0 device #7"
+        );
+    }
+
+    fn grabbed(levels: Option<gloam_grabber::DnLevels>) -> FrameRecord {
+        let f = Frame {
+            meta: gloam_grabber::FrameMeta {
+                seq: 4,
+                timestamp_us: 160_000,
+                gain: 25.0,
+                agc: false,
+                bits: 12,
+                width: 2,
+                height: 1,
+                pixels_crc32c: 0,
+                status: FrameStatus::Ok,
+                levels,
+                exposure_us: None,
+                gate_duty: None,
+            },
+            pixels: vec![100, 200],
+        };
+        FrameRecord::of_grab(4, String::new(), &f, Vec::new())
+    }
+
+    fn card<'a>(cards: &'a [FitsCard], key: &str) -> Option<&'a FitsCard> {
+        cards.iter().find(|c| c.key == key)
+    }
+
+    /// GAIN only from a camera that knows its conversion; the tube's
+    /// gain always under TUBEGAIN; DATE-OBS the host clock for a grab.
+    #[test]
+    fn a_grabbed_frame_has_gain_only_when_the_camera_knows_it() {
+        let now = gloam_sky::time::UtcInstant::parse_iso8601("2026-01-02T03:04:05.5Z").unwrap();
+        let ctx = FrameContext {
+            instrument: Some("serial:gloam protocol 1.0 device #7".into()),
+            ..FrameContext::default()
+        };
+        let c = fits_cards(&grabbed(None), &ctx, Some(now));
+        assert!(card(&c, "GAIN").is_none());
+        assert_eq!(card(&c, "TUBEGAIN").unwrap().value, FitsValue::Float(25.0));
+        let d = card(&c, "DATE-OBS").unwrap();
+        assert_eq!(d.value, FitsValue::Str("2026-01-02T03:04:05.500".into()));
+        assert!(d.comment.contains("host clock when the frame arrived"));
+        assert_eq!(
+            card(&c, "INSTRUME").unwrap().value,
+            FitsValue::Str("serial:gloam protocol 1.0 device #7".into())
+        );
+        let levels = gloam_grabber::DnLevels {
+            black_dn: 0.0,
+            saturation_dn: 4095.0,
+            saturated_at_dn: 4090.0,
+            electrons_per_dn: Some(0.25),
+        };
+        let c = fits_cards(&grabbed(Some(levels)), &ctx, Some(now));
+        assert_eq!(card(&c, "GAIN").unwrap().value, FitsValue::Float(0.25));
+        assert!(c.iter().all(|c| c.key.len() <= 8));
+    }
+
     /// The median is the lower middle count, found without sorting.
     #[test]
     fn median_is_the_middle_count() {
-        assert_eq!(super::median_dn(&[5, 1, 3, 4, 2]), 3.0);
-        assert_eq!(super::median_dn(&[4095, 0, 7, 9]), 7.0);
-        assert_eq!(super::median_dn(&[]), 0.0);
+        assert_eq!(median_dn(&[5, 1, 3, 4, 2]), 3.0);
+        assert_eq!(median_dn(&[4095, 0, 7, 9]), 7.0);
+        assert_eq!(median_dn(&[]), 0.0);
     }
 }

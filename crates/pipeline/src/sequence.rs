@@ -810,6 +810,7 @@ mod tests {
                 camera: None,
                 seed: None,
                 provenance: None,
+                ..FrameContext::default()
             },
         )
         .unwrap();
@@ -927,6 +928,7 @@ value = 1e-4
             camera: None,
             seed: None,
             provenance: None,
+            ..FrameContext::default()
         }
     }
 

@@ -327,6 +327,7 @@ impl FrameSource for SensorSource {
                 black_dn: chain.black_dn(g),
                 saturation_dn: chain.saturation_dn(g),
                 saturated_at_dn: chain.saturated_threshold_dn(g),
+                electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
             }),
             bright_source_protection: frame.meta.agc_state == gloam_sensor::AgcState::Protecting,
             gate_duty: self

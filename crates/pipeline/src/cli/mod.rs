@@ -114,19 +114,7 @@ impl CameraArgs {
         tile: bool,
     ) -> Result<(Option<&'a str>, Option<FrameCapture<'a>>), ArgError> {
         let camera = camera_of(self.sensor.as_deref(), scene);
-        let frame_format = match self.frame_format.as_deref() {
-            None => crate::FrameFormat::default(),
-            Some(v) => v
-                .parse()
-                .map_err(
-                    |e: crate::frame_files::UnknownFrameFormat| ArgError::Malformed {
-                        flag: "frame-format",
-                        value: v.to_string(),
-                        expected: "png, fits or tiff",
-                        source: Some(Box::new(e)),
-                    },
-                )?,
-        };
+        let frame_format = frame_format(self.frame_format.as_deref())?;
         let capture = camera.filter(|_| !tile).map(|sensor| FrameCapture {
             sensor,
             frames: self.frames.unwrap_or(1),
@@ -154,6 +142,25 @@ impl CameraArgs {
             }
         }
         Ok((camera, capture))
+    }
+}
+
+/// `--frame-format` (`render`, `sequence`, `capture`): PNG when not
+/// given; a value that is none of [`crate::FrameFormat::NAMES`] is
+/// refused naming the flag (clap's value parser refuses it first).
+pub fn frame_format(value: Option<&str>) -> Result<crate::FrameFormat, ArgError> {
+    match value {
+        None => Ok(crate::FrameFormat::default()),
+        Some(v) => {
+            v.parse().map_err(
+                |e: crate::frame_files::UnknownFrameFormat| ArgError::Malformed {
+                    flag: "frame-format",
+                    value: v.to_string(),
+                    expected: "png, fits or tiff",
+                    source: Some(Box::new(e)),
+                },
+            )
+        }
     }
 }
 
