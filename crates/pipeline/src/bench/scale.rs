@@ -1138,7 +1138,7 @@ mod tests {
             },
         ] {
             let dir = tempfile::tempdir().unwrap();
-            let r = run_case(case, dir.path(), 48, 36, 2, Some(2), &[])
+            let r = run_case(case, &dir.path().join("scene"), 48, 36, 2, Some(2), &[])
                 .unwrap_or_else(|e| panic!("{}: {e:#}", case.label()));
             assert_eq!(r.expected, expected_counts(case));
             assert_eq!(
