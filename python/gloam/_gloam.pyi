@@ -79,7 +79,7 @@ def render(
     estimator: Optional[Literal["analytic", "solid-angle", "dirsig2001"]] = None,
     settings: Optional[_Settings] = None,
     threads: Optional[int] = None,
-    target_error: Optional[float] = None,
+    target_error: Union[float, str, None] = None,
     tolerance: Optional[float] = None,
     sensor: Union["Sensor", str, None] = None,
     progress: _Progress = None,

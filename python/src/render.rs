@@ -237,7 +237,9 @@ fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> 
 /// ``gloam render`` (``radiance`` is bit-identical to its radiance.npy).
 ///
 /// ``spp``, ``seed``, ``estimator`` (analytic, solid-angle, dirsig2001),
-/// ``threads`` and ``target_error``/``tolerance`` are the CLI's flags;
+/// ``threads`` and ``target_error``/``tolerance`` are the CLI's flags
+/// (``target_error="camera"`` or ``"camera:K"`` with a camera: each pixel
+/// to the camera's own noise at its preset gain, ``report["camera_target"]``);
 /// ``settings`` is any ``--set KEY=VALUE`` as a dict. With neither
 /// ``spp`` nor ``target_error`` (nor either in ``settings``) and no
 /// camera, it samples to ``target_error = 0.02`` as the CLI does
@@ -263,18 +265,34 @@ fn render<'py>(
     estimator: Option<&str>,
     settings: Option<&Bound<'py, PyDict>>,
     threads: Option<usize>,
-    target_error: Option<f64>,
+    target_error: Option<&Bound<'py, PyAny>>,
     tolerance: Option<f64>,
     sensor: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<RenderResult> {
+    use gloam_pipeline::camera_goal::TargetError;
+    // A number (relative error per pixel) or "camera" / "camera:K".
+    let target_error = match target_error {
+        None => None,
+        Some(t) => Some(match t.extract::<f64>() {
+            Ok(e) => TargetError::Relative(e),
+            Err(_) => t
+                .extract::<String>()
+                .map_err(|_| {
+                    crate::errors::GloamError::new_err(
+                        "target_error: a number (e.g. 0.02) or \"camera\" / \"camera:K\"",
+                    )
+                })?
+                .parse::<TargetError>()
+                .map_err(|e| crate::errors::GloamError::new_err(e.to_string()))?,
+        }),
+    };
     let flags = SettingArgs {
         spp,
         seed,
         estimator: estimator.map(str::to_string),
         threads,
-        // A relative target; `camera[:K]` is the CLI's for now.
-        target_error: target_error.map(gloam_pipeline::camera_goal::TargetError::Relative),
+        target_error,
         tolerance,
         ..Default::default()
     };
@@ -289,8 +307,22 @@ fn render<'py>(
         set: setting_pairs(settings)?,
         ..flags
     };
-    let (s, target_error_source) =
+    let (mut s, mut target_error_source) =
         args.with_default_error(args.settings().or_py()?, camera.is_none());
+    // `target_error="camera[:K]"`, as `gloam render --target-error camera`:
+    // each pixel to the camera's own noise at its preset gain.
+    let camera_k = args.camera_target();
+    if camera_k.is_some() {
+        if camera.is_none() {
+            return Err(crate::errors::GloamError::new_err(
+                "target_error=\"camera\" needs a camera: sensor=… or the scene's sensor",
+            ));
+        }
+        target_error_source = Some(gloam_pipeline::TargetErrorSource::Given);
+        if !args.names_spp() {
+            s.spp = 2;
+        }
+    }
     let sink = ProgressSink::new(py, progress, "render")?;
     let owned = Arc::clone(scene_ref);
     let rendered = detached_owned(py, &sink, move |stop, rep| {
@@ -309,14 +341,42 @@ fn render<'py>(
         if stop.load(Ordering::Relaxed) {
             anyhow::bail!("interrupted");
         }
-        Ok(
-            prepared.render(None, &|done, total| rep.set("tiles", done, total), &|| {
-                stop.load(Ordering::Relaxed)
-            })?,
-        )
+        let progress = |done, total| rep.set("tiles", done, total);
+        let stop = || stop.load(Ordering::Relaxed);
+        match (camera_k, camera.as_deref()) {
+            (Some(k), Some(sensor)) => {
+                let capture = gloam_pipeline::frames::FrameCapture {
+                    sensor,
+                    frames: 1,
+                    gain: None,
+                    agc: false,
+                    noise: true,
+                    seed: s.seed,
+                    auto_exposure: None,
+                    frame_format: Default::default(),
+                };
+                let band = prepared.tracer().wavelengths().band_names.len() - 1;
+                let goal = gloam_pipeline::camera_goal::CameraGoal::new(band, k, &capture)?;
+                let r = prepared.render_to_goal(&goal, &progress, &stop)?;
+                let summary = match (goal.settled(), &r.detected, &r.detected_std_error) {
+                    (Some(st), Some(d), Some(se)) => {
+                        let mut v = gloam_pipeline::camera_goal::summary(k, st, d, se);
+                        v["mean_spp"] = r.radiance.error.mean_spp.into();
+                        Some(v)
+                    }
+                    _ => None,
+                };
+                Ok((r, summary))
+            }
+            _ => Ok((prepared.render(None, &progress, &stop)?, None)),
+        }
     })?;
+    let (rendered, camera_target) = rendered;
     let mut report = rendered.report_json(path, scene_ref, sc.load_s, 0.0);
     report["target_error_source"] = serde_json::to_value(target_error_source).or_py()?;
+    if let Some(t) = camera_target {
+        report["camera_target"] = t;
+    }
     let (mut out, detected) = (rendered.radiance, rendered.detected);
     report["provenance"] =
         serde_json::to_value(gloam_pipeline::Provenance::of_this_run()).or_py()?;

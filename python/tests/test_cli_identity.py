@@ -6,6 +6,7 @@ import json
 import subprocess
 
 import numpy as np
+import pytest
 
 import gloam
 from pngread import read_png_u16
@@ -77,6 +78,25 @@ def test_captured_frames_are_bit_identical_to_render_sensor(gloam_bin, repo, tmp
         assert cap.meta[i] == rec, f"frames.jsonl line {i}"
     # The frames are not all alike (the noise is there).
     assert not np.array_equal(cap.frames[0], cap.frames[1])
+
+
+def test_camera_target_matches_render_target_error_camera(gloam_bin, repo, tmp_path):
+    # target_error="camera" (issue 45): each pixel to the camera's own noise
+    # at its preset gain, as `gloam render --target-error camera`.
+    scene = repo / "sims/night-new-moon/scene.toml"
+    out = tmp_path / "camtarget"
+    run(gloam_bin, "render", scene, "--out", out, "--seed", "5", "--set", "resolution_scale=0.25",
+        "--sensor", "gen3-gaas-iccd", "--target-error", "camera", cwd=tmp_path)
+    r = gloam.render(gloam.Scene.load(scene), seed=5, settings={"resolution_scale": 0.25},
+                     sensor="gen3-gaas-iccd", target_error="camera")
+    assert np.array_equal(np.load(out / "radiance.npy"), r.radiance)
+    report = json.loads((out / "report.json").read_text())
+    cli, py = report["camera_target"], r.report["camera_target"]
+    for key in ["k", "gain", "added_variance_fraction_median", "added_variance_fraction_p99", "mean_spp"]:
+        assert cli[key] == py[key], key
+    assert py["k"] == 0.3 and py["added_variance_fraction_p99"] <= 0.09 * 1.25
+    with pytest.raises(gloam.GloamError, match="camera:K"):
+        gloam.render(gloam.Scene.load(scene), sensor="gen3-gaas-iccd", target_error="camera:2")
 
 
 def test_grabber_frames_are_bit_identical_to_gloam_capture(gloam_bin, tmp_path):

@@ -38,6 +38,10 @@ use crate::exposure::ExposureTarget;
 /// frame's temporal variance.
 pub const DEFAULT_CAMERA_K: f64 = 0.3;
 
+/// A pixel needs no bound once its estimate is this many times the
+/// photoelectrons that clip the frame.
+pub const CLIP_MARGIN: f64 = 2.0;
+
 /// Most noise-free frames the AGC is run for to find where it settles.
 pub const AGC_SETTLE_FRAMES: u32 = 200;
 
@@ -228,8 +232,10 @@ impl gloam_trace::PixelGoal for CameraGoal {
         Ok(image
             .iter()
             .map(|&l| {
-                if l * s.etendue_m2_sr_s >= s.saturation_pe {
+                if l * s.etendue_m2_sr_s >= CLIP_MARGIN * s.saturation_pe {
                     // Clipped in every frame: its render error is not seen.
+                    // (With a margin: an estimate of few samples near the
+                    // clip may yet fall below it.)
                     f64::INFINITY
                 } else {
                     self.k * s.frame_variance_dn2(l).sqrt() / per_unit
@@ -242,7 +248,10 @@ impl gloam_trace::PixelGoal for CameraGoal {
 /// What `report.json`'s `camera_target` states: the chosen K, the gain the
 /// bounds were set at, and the render's variance as a fraction of the
 /// frame's temporal variance per pixel (median, 99th percentile, largest)
-/// over the pixels the frame does not clip, and how many it clips.
+/// over the pixels the frame does not clip and that some sample lit, and
+/// how many it clips and how many are dark (every sample zero: their
+/// stated error is a bound borrowed from their neighbours, and they stop
+/// at `DARK_MAX_SPP` samples).
 pub fn summary(
     k: f64,
     s: &Settled,
@@ -252,7 +261,7 @@ pub fn summary(
     let mut f: Vec<f64> = detected
         .iter()
         .zip(std_error.iter())
-        .filter(|(l, _)| **l * s.etendue_m2_sr_s < s.saturation_pe)
+        .filter(|(l, _)| **l > 0.0 && **l * s.etendue_m2_sr_s < s.saturation_pe)
         .map(|(&l, &se)| {
             let v = s.frame_variance_dn2(l);
             if v > 0.0 {
@@ -277,7 +286,11 @@ pub fn summary(
         "added_variance_fraction_median": q(0.5),
         "added_variance_fraction_p99": q(0.99),
         "added_variance_fraction_max": f.last().copied().unwrap_or(0.0),
-        "clipped_pixels": detected.len() - f.len(),
+        "clipped_pixels": detected
+            .iter()
+            .filter(|&&l| l * s.etendue_m2_sr_s >= s.saturation_pe)
+            .count(),
+        "dark_pixels": detected.iter().filter(|&&l| l <= 0.0).count(),
     })
 }
 
