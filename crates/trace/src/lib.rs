@@ -18,6 +18,7 @@ pub mod settings;
 pub mod sky_light;
 pub mod spectral;
 pub mod tracer;
+pub(crate) mod world;
 
 pub use glam::DVec3;
 pub use layers::{LayerError, LayerMap};

@@ -12,8 +12,7 @@ use rand_pcg::Pcg64Mcg;
 use crate::geometry::{Geometry, Visibility};
 use crate::light::Light;
 use crate::lights::{
-    AreaSource, PointLight, Route, SkyState, Term, area_footprints, area_sources, build_light_tree,
-    build_sky, point_lights,
+    Route, Term, area_footprints, area_sources, build_light_tree, build_sky, point_lights,
 };
 // Their old paths, which `render.rs` and the crate root use.
 pub(crate) use crate::lights::LightStrata;
@@ -21,6 +20,9 @@ pub use crate::lights::SkyProbeResult;
 use crate::prep::{PrepObserver, Preparation};
 use crate::settings::RenderSettings;
 use crate::spectral::Wavelengths;
+pub(crate) use crate::world::MatSpec;
+pub use crate::world::World;
+use crate::world::centre_of;
 
 /// Why a scene cannot be traced.
 #[derive(Debug, thiserror::Error)]
@@ -149,51 +151,6 @@ impl RayCounts {
     pub fn total(&self) -> u64 {
         self.primary + self.secondary + self.shadow + self.direct_view
     }
-}
-
-/// Per-material spectral factors at the carried wavelengths.
-#[derive(Clone, Debug)]
-pub(crate) struct MatSpec {
-    /// Lambertian albedo (1 − s)ρ.
-    pub(crate) kd: Vec<f64>,
-    /// Specular reflectance sρ (empty when none).
-    pub(crate) ks: Vec<f64>,
-    /// Straight-through transmission.
-    pub(crate) trans: Option<Vec<f64>>,
-    pub(crate) has_diffuse: bool,
-}
-
-/// The scene as the tracer sees it — geometry, materials, lights, camera,
-/// the carried wavelengths — built once by preparation and shared,
-/// immutable, by every tracer made from it (pbrt-v4's scene, apart from
-/// the integrator's settings and plan).
-#[derive(Clone)]
-pub struct World {
-    pub(crate) wl: Wavelengths,
-    pub(crate) geom: Geometry,
-    pub(crate) mpu: f64,
-    pub(crate) facet_mat: Vec<u32>,
-    pub(crate) facet_normal: Vec<DVec3>,
-    pub(crate) facet_verts: Vec<Vec<DVec3>>,
-    pub(crate) facet_source: Vec<u32>,
-    pub(crate) mats: Vec<MatSpec>,
-    pub(crate) area: Vec<AreaSource>,
-    pub(crate) points: Vec<PointLight>,
-    /// Camera in centred coordinates.
-    pub(crate) camera: gloam_scene::Camera,
-    pub(crate) ones: Vec<f64>,
-    /// The Moon and the sky dome, when the effect plan (or `all_effects`)
-    /// calls for them.
-    pub(crate) sky: Option<SkyState>,
-    /// The light tree over the emitters, when there are more than
-    /// `light_tree_min_lights` (else every emitter is evaluated, as always).
-    pub(crate) light_tree: Option<crate::lights::tree::LightTree>,
-    /// The light groups its emitters are split by (`--layers`,
-    /// `layers.rs`), when a layered render asked for them.
-    pub(crate) layers: Option<crate::layers::LayerMap>,
-    /// Which pixels each emitter's face covers: the faces seen directly
-    /// are computed apart from the camera samples (`direct_view.rs`).
-    pub(crate) view: crate::direct_view::Footprints,
 }
 
 /// A scene prepared for tracing with given settings: its [`World`] (the
@@ -353,47 +310,12 @@ impl Tracer {
         let wl = Wavelengths::for_scene(scene, settings.spectral_step_nm);
 
         // Scene-centred origin: centre of the box around facets, camera, lamps.
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        let mut grow = |p: DVec3| {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        };
-        for f in &scene.facets {
-            f.vertices.iter().for_each(|&v| grow(v));
-        }
-        grow(scene.camera.position);
-        scene.point_sources.iter().for_each(|p| grow(p.position));
-        let origin = 0.5 * (lo + hi);
-        let extent = 0.5 * (hi - lo).length();
+        let (origin, extent) = centre_of(scene);
 
         let mats: Vec<MatSpec> = scene
             .materials
             .iter()
-            .map(|m| {
-                let rho = wl.factor(&m.reflectance);
-                let s = m.specular_fraction.clamp(0.0, 1.0);
-                let kd: Vec<f64> = rho.iter().map(|r| (1.0 - s) * r).collect();
-                let ks: Vec<f64> = if s > 0.0 {
-                    rho.iter().map(|r| s * r).collect()
-                } else {
-                    Vec::new()
-                };
-                MatSpec {
-                    has_diffuse: kd.iter().any(|&k| k > 0.0),
-                    kd,
-                    ks: if ks.iter().any(|&k| k > 0.0) {
-                        ks
-                    } else {
-                        Vec::new()
-                    },
-                    trans: m
-                        .transmission
-                        .as_ref()
-                        .filter(|_| m.is_transmissive())
-                        .map(|t| wl.factor(t)),
-                }
-            })
+            .map(|m| MatSpec::of(m, &wl))
             .collect();
 
         let facet_verts: Vec<Vec<DVec3>> = scene
