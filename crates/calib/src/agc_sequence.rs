@@ -290,8 +290,19 @@ pub fn detected_per_band_radiance(
 /// of at most `ratio`, the ends rounded outwards to the 0.001 a simulated
 /// camera sets (at most 24 gains).
 pub fn lut_gains_spanning(lo: f64, hi: f64, ratio: f64) -> Vec<f64> {
-    let lo = (lo * 1000.0).floor() / 1000.0;
-    let hi = (hi * 1000.0).ceil() / 1000.0;
+    // A gain within a relative GAIN_MATCH_TOLERANCE of a setting is that
+    // setting (the AGC's floor 14.5519 is the setting 14.552): rounding it
+    // outwards would ask for a gain below the camera's range (14.551).
+    let outward = |v: f64, round: fn(f64) -> f64| {
+        let near = (v * 1000.0).round() / 1000.0;
+        if (near - v).abs() <= crate::radiance::GAIN_MATCH_TOLERANCE * v.abs() {
+            near
+        } else {
+            round(v * 1000.0) / 1000.0
+        }
+    };
+    let lo = outward(lo, f64::floor);
+    let hi = outward(hi, f64::ceil);
     if !(lo > 0.0 && hi > lo && ratio > 1.0) {
         return vec![lo.max(hi)];
     }
@@ -698,6 +709,47 @@ mod tests {
             assert!(w[1] / w[0] <= 1.25 + 1e-9 && w[1] > w[0], "{g:?}");
         }
         assert_eq!(lut_gains_spanning(50.0, 50.0, 1.25), vec![50.0]);
+    }
+
+    #[test]
+    fn the_agc_floor_is_the_lowest_setting_not_one_below_it() {
+        // Gen III's MCP at 500 V: 1000 (500/800)^9 = 14.5519…, which the
+        // camera sets as 14.552 (its lowest setting); flooring it asked
+        // for 14.551 and the camera refused a gain nobody wanted.
+        let floor = 1000.0 * 0.625f64.powi(9);
+        assert!((floor - 14.551_915_228_366_852).abs() < 1e-12);
+        let g = lut_gains_spanning(floor, 30.012, 1.25);
+        assert_eq!(g.first(), Some(&14.552), "{g:?}");
+        assert_eq!(g.last(), Some(&30.012), "{g:?}");
+        // Farther than the tolerance from a setting still rounds outwards.
+        let g = lut_gains_spanning(1.0006, 2.0004, 1.25);
+        assert_eq!((g[0], g[g.len() - 1]), (1.0, 2.001), "{g:?}");
+        // And a LUT measured at the setting linearises frames at the floor.
+        let lut = crate::radiance::Lut {
+            grabber: "simulated gen3-gaas-iccd".into(),
+            source: "sphere".into(),
+            band_nm: [400.0, 900.0],
+            digitizer_max_dn: 4095.0,
+            gains: [14.552, 20.0]
+                .iter()
+                .map(|&gain| crate::radiance::GainCalibration {
+                    gain,
+                    g_w_m2_sr_per_dn: 1e-6 / gain,
+                    b_w_m2_sr: 0.0,
+                    r_squared: 1.0,
+                    fit_range_dn: [10.0, 2000.0],
+                    dark_dn: 10.0,
+                    dark_std_dn: 1.0,
+                    saturation_dn: None,
+                    n_fit_points: 5,
+                    max_abs_residual_percent: 0.1,
+                    levels: Vec::new(),
+                    warnings: Vec::new(),
+                })
+                .collect(),
+        };
+        assert_eq!(lut.coefficients(floor).unwrap(), (1e-6 / 14.552, 0.0));
+        assert!(lut.coefficients(14.55).is_err());
     }
 
     #[test]

@@ -294,6 +294,11 @@ pub fn fit_gain(
     })
 }
 
+/// Two gains within this relative difference are one setting: a camera
+/// sets gains in thousandths, so the AGC's floor of 14.5519 (Gen III's MCP
+/// at 500 V) is the setting 14.552 a LUT is measured at.
+pub const GAIN_MATCH_TOLERANCE: f64 = 1e-4;
+
 impl Lut {
     /// Slope and offset for `gain`: exact at a calibrated gain; between two
     /// calibrated gains the responsivity `1/g` (DN per radiance) and the
@@ -302,7 +307,7 @@ impl Lut {
     pub fn coefficients(&self, gain: f64) -> Result<(f64, f64), CalibError> {
         let mut g: Vec<&GainCalibration> = self.gains.iter().collect();
         g.sort_by(|a, b| a.gain.total_cmp(&b.gain));
-        let tol = |a: f64| 1e-6 * a.abs().max(1e-12);
+        let tol = |a: f64| GAIN_MATCH_TOLERANCE * a.abs().max(1e-12);
         if let Some(c) = g.iter().find(|c| (c.gain - gain).abs() <= tol(c.gain)) {
             return Ok((c.g_w_m2_sr_per_dn, c.b_w_m2_sr));
         }
