@@ -12,18 +12,26 @@ use crate::radiance::Lut;
 /// (`{"camera": describe(), "grabber": uri}`).
 pub const CAMERA_FILE: &str = "camera.json";
 
-/// Reads a `lut.json` written by the radiance flow.
+/// Reads a `lut.json` written by the radiance flow and checks it
+/// ([`Lut::check`]): a LUT whose numbers leave physics is refused at the
+/// line holding the bad value, before it converts a count.
 pub fn load_lut(path: &Path) -> Result<Lut, CalibError> {
     let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
         .map_err(|source| CalibError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-    serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
+    let lut: Lut = serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
         path: path.to_path_buf(),
         what: "LUT",
         source,
-    })
+    })?;
+    lut.check().map_err(|p| CalibError::Line {
+        path: path.to_path_buf(),
+        line: p.line_in(&text),
+        message: format!("--lut: {p}"),
+    })?;
+    Ok(lut)
 }
 
 /// The camera in a grabber's description, without the scene, rig, seed or

@@ -771,6 +771,10 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
+    if matches!(a.target, Target::Sine) {
+        // Before the output set opens: nothing is measured above Nyquist.
+        mtf_flow::check_sine_frequencies(&a.frequencies)?;
+    }
     let dir = begin(&a.out, a.force)?;
     let (curves, details) = match a.target {
         Target::Usaf => {
@@ -781,7 +785,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             let pitch = a
                 .pixel_pitch_um
                 .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
-            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification)?
+            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification, ctf_path)?
         }
         Target::Sine | Target::Edge => {
             let uri =
