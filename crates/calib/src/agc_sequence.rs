@@ -328,6 +328,9 @@ struct Record {
     clip_dn: f64,
     time_s: f64,
     weights: Vec<f64>,
+    /// Its 1-based line and `pixels_crc32c` (checked against the counts).
+    line: usize,
+    crc: Option<serde_json::Value>,
 }
 
 fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError> {
@@ -381,6 +384,8 @@ fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError
                 .and_then(serde_json::Value::as_f64)
                 .ok_or_else(|| at("no numeric \"sequence.time_s\"".into()))?,
             weights,
+            line: i + 1,
+            crc: v.get("pixels_crc32c").cloned(),
         });
     }
     Ok(out)
@@ -493,6 +498,10 @@ pub fn linearise_sequence(
     for (n, r) in records.iter().enumerate() {
         let path = dir.join(&r.file);
         let (w, h, px) = crate::io::read_counts(&path)?;
+        if let Some(crc) = &r.crc {
+            let rec = serde_json::json!({ "pixels_crc32c": crc });
+            crate::io::check_frame_crc(&path, &dir.join("frames.jsonl"), r.line, &rec, &px)?;
+        }
         if (h, w) != shape {
             return Err(CalibError::file(
                 &path,

@@ -278,6 +278,20 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
+    // An --out set holding one of the run's inputs would replace it.
+    let (out, inputs): (&Path, Vec<(&'static str, &Path)>) = match cmd {
+        CalibrateCommand::Radiance(a) => (&a.out, vec![("--source", &a.source.source)]),
+        CalibrateCommand::Agc(a) => (&a.out, agc_inputs(a)),
+        CalibrateCommand::Ptc(a) => (&a.out, vec![("--source", &a.source.source)]),
+        CalibrateCommand::Mtf(a) => (
+            &a.out,
+            a.ctf.iter().map(|c| ("--ctf", c.as_path())).collect(),
+        ),
+        CalibrateCommand::Apply(_) => (Path::new(""), Vec::new()),
+    };
+    if !out.as_os_str().is_empty() {
+        report::refuse_out_dir_holding_inputs(out, &inputs)?;
+    }
     match cmd {
         CalibrateCommand::Radiance(a) => radiance(a, registry, begin, ev),
         CalibrateCommand::Apply(a) => {
@@ -309,6 +323,14 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
         CalibrateCommand::Ptc(a) => ptc(a, registry, begin, ev),
         CalibrateCommand::Mtf(a) => mtf(a, registry, begin, ev),
     }
+}
+
+/// The files `calibrate agc` reads (`--source`, `--lut`, `--sequence`).
+fn agc_inputs(a: &AgcArgs) -> Vec<(&'static str, &Path)> {
+    let mut v = vec![("--source", a.source.source.as_path())];
+    v.extend(a.lut.iter().map(|l| ("--lut", l.as_path())));
+    v.extend(a.sequence.iter().map(|l| ("--sequence", l.as_path())));
+    v
 }
 
 /// Opens grabber `uri` (noise seed `seed` for `sim:`), naming the URI if
@@ -569,6 +591,7 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
         AgcSequenceOptions, SequenceLayers, detected_per_band_radiance, linearise_sequence,
         lut_gains_spanning, write_agc_sequence_report,
     };
+    report::refuse_out_dir_holding_inputs(&a.out, &agc_inputs(a))?;
     let (preset, _, uri_seed, _) = crate::scope_run::sim_uri(&a.grabber.grabber).map_err(|_| {
         CalibError::Usage(format!(
             "--sequence: --grabber '{}' is not a simulated camera; a sequence is rendered, so it needs a sim:PRESET grabber",

@@ -226,6 +226,48 @@ pub fn frame_record(image: &Path) -> Result<Option<(usize, serde_json::Value)>, 
     find_record(&jl, name, "")
 }
 
+/// Checks a frame's counts against the CRC-32C its `frames.jsonl` line
+/// records (`pixels_crc32c`, of the counts as little-endian `u16`, as the
+/// grabber checksums them): a frame altered since its capture, or another
+/// frame's file under this one's name (another gain's), is refused naming
+/// the file, the line and both CRCs. `Ok(false)`: the line records no CRC,
+/// so nothing could be checked.
+pub fn check_frame_crc(
+    frame: &Path,
+    frames_jsonl: &Path,
+    line: usize,
+    record: &serde_json::Value,
+    counts: &[u16],
+) -> Result<bool, CalibError> {
+    let Some(v) = record.get("pixels_crc32c") else {
+        return Ok(false);
+    };
+    let at = |message: String| CalibError::Line {
+        path: frames_jsonl.to_path_buf(),
+        line,
+        message,
+    };
+    let recorded = v
+        .as_u64()
+        .and_then(|c| u32::try_from(c).ok())
+        .ok_or_else(|| {
+            at(format!(
+                "\"pixels_crc32c\" {v} is not a CRC-32C (a whole number below 2^32)"
+            ))
+        })?;
+    let actual = gloam_grabber::pixels_crc32c(counts);
+    if actual != recorded {
+        return Err(CalibError::FrameCrc {
+            frame: frame.to_path_buf(),
+            frames_jsonl: frames_jsonl.to_path_buf(),
+            line,
+            recorded,
+            actual,
+        });
+    }
+    Ok(true)
+}
+
 /// The gain recorded for `image` in the `frames.jsonl` beside it (lines
 /// of JSON objects with at least `"file"` and `"gain"`), matched by file
 /// name.
