@@ -238,6 +238,17 @@ pub fn apply_lut_file(
             ("INPUT's", &dir.join(CAMERA_FILE)),
         ],
     )?;
+    // Nothing gloam did not create is replaced: an existing OUTPUT must be
+    // a radiance image this command wrote (links, directories and devices
+    // are refused when writing).
+    if std::fs::symlink_metadata(output).is_ok_and(|m| m.is_file())
+        && crate::io::tiff_description(output).as_deref() != Some(crate::io::APPLIED_DESCRIPTION)
+    {
+        return Err(CalibError::Usage(format!(
+            "OUTPUT {}: exists and is not a radiance image `gloam calibrate apply` wrote; gloam replaces only what it created — remove it or choose another path",
+            output.display()
+        )));
+    }
     let lut = load_lut(lut_path)?;
     let record = crate::io::frame_record(input)?;
     let (w, h, px) = crate::io::read_counts(input)?;
@@ -257,7 +268,7 @@ pub fn apply_lut_file(
         warn(&w);
     }
     let out = lut.apply(gain, &px)?;
-    crate::io::write_tiff_f32(output, w, h, &out)?;
+    crate::io::write_tiff_f32_described(output, w, h, &out, crate::io::APPLIED_DESCRIPTION)?;
     Ok(Applied {
         width: w,
         height: h,
@@ -404,15 +415,28 @@ mod tests {
             .map(|n| std::fs::read(p(n)).unwrap())
             .collect();
         assert_eq!(before, after);
-        // Beside the input is where outputs go.
-        apply_lut_file(
-            &p("lut.json"),
-            &p("a.png"),
-            &p("sub/../o.tiff"),
-            None,
-            &mut |_| {},
-        )
-        .unwrap();
+        // Beside the input is where outputs go, and what apply wrote it
+        // may replace.
+        let apply =
+            |out: &str| apply_lut_file(&p("lut.json"), &p("a.png"), &p(out), None, &mut |_| {});
+        apply("sub/../o.tiff").unwrap();
+        apply("o.tiff").unwrap();
+        // Anything else already there is not its to replace: a user's file,
+        // or a TIFF it did not write.
+        std::fs::write(p("notes.tiff"), "mine").unwrap();
+        crate::io::write_tiff_f32(&p("other.tiff"), 2, 2, &[0.0; 4]).unwrap();
+        for out in ["notes.tiff", "other.tiff"] {
+            let before = std::fs::read(p(out)).unwrap();
+            let e = apply(out).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "OUTPUT {}: exists and is not a radiance image `gloam calibrate apply` wrote; gloam replaces only what it created — remove it or choose another path",
+                    p(out).display()
+                )
+            );
+            assert_eq!(std::fs::read(p(out)).unwrap(), before);
+        }
     }
 
     #[test]

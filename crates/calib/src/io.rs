@@ -189,6 +189,47 @@ pub fn write_tiff_f32(path: &Path, w: usize, h: usize, data: &[f32]) -> Result<(
     write_tiff_f32_pages(path, w, h, &[data])
 }
 
+/// The ImageDescription `calibrate apply` gives its radiance TIFFs: how it
+/// knows a file at its OUTPUT path is its own to replace.
+pub const APPLIED_DESCRIPTION: &str = "gloam calibrate apply: band radiance, W m-2 sr-1";
+
+/// Writes a 32-bit float grey TIFF with an ImageDescription, atomically.
+pub fn write_tiff_f32_described(
+    path: &Path,
+    w: usize,
+    h: usize,
+    data: &[f32],
+    description: &str,
+) -> Result<(), CalibError> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    {
+        let mut enc =
+            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
+        let mut image = enc
+            .new_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32)
+            .map_err(|e| CalibError::file(path, e))?;
+        image
+            .encoder()
+            .write_tag(tiff::tags::Tag::ImageDescription, description)
+            .map_err(|e| CalibError::file(path, e))?;
+        image
+            .write_data(data)
+            .map_err(|e| CalibError::file(path, e))?;
+    }
+    crate::report::write_bytes(path, buf.get_ref())
+}
+
+/// The ImageDescription of the TIFF at `path`; `None` when it is not a
+/// readable TIFF or has none.
+pub fn tiff_description(path: &Path) -> Option<String> {
+    let bytes =
+        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+            .ok()?;
+    let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).ok()?;
+    d.get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
+        .ok()
+}
+
 /// Writes a multi-page 32-bit float grey TIFF, one `w × h` page per slice
 /// (e.g. one per spectral band), atomically.
 pub fn write_tiff_f32_pages(
