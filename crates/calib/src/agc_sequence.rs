@@ -762,6 +762,81 @@ mod tests {
     }
 
     #[test]
+    fn a_sequence_frame_not_matching_its_recorded_crc_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let px: Vec<u16> = vec![100, 200, 300, 400];
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(2, 2, px.clone())
+            .unwrap()
+            .save(d.path().join("f.png"))
+            .unwrap();
+        let line = |crc: u32| {
+            format!(
+                "{{\"index\":0,\"file\":\"f.png\",\"gain\":1.0,\"bits\":16,\"saturated_at_dn\":60000,\"pixels_crc32c\":{crc},\"sequence\":{{\"time_s\":0.0,\"light_groups\":{{\"lamp\":1.0}}}}}}\n"
+            )
+        };
+        let lut = crate::radiance::Lut {
+            grabber: "simulated x".into(),
+            source: "s".into(),
+            band_nm: [400.0, 900.0],
+            digitizer_max_dn: 65535.0,
+            gains: vec![crate::radiance::GainCalibration {
+                gain: 1.0,
+                g_w_m2_sr_per_dn: 1e-6,
+                b_w_m2_sr: 0.0,
+                r_squared: 1.0,
+                fit_range_dn: [0.0, 1000.0],
+                dark_dn: 0.0,
+                dark_std_dn: 1.0,
+                saturation_dn: None,
+                n_fit_points: 3,
+                max_abs_residual_percent: 0.0,
+                levels: Vec::new(),
+                warnings: Vec::new(),
+            }],
+        };
+        let groups = ["lamp".to_string()];
+        let layers = [Array2::from_elem((2, 2), 1e-4)];
+        let truth = SequenceLayers {
+            groups: &groups,
+            layers: &layers,
+        };
+        let opts = AgcSequenceOptions {
+            noise_floor_sigma: 3.0,
+            transient_time_constants: 3.0,
+            switch_threshold: 0.1,
+            agc_time_constant_s: 0.1,
+            top_fraction: 0.5,
+            spread_radius_px: 0,
+            spread_tolerance: 0.01,
+        };
+        let run = || {
+            linearise_sequence(
+                d.path(),
+                &lut,
+                "simulated x",
+                &truth,
+                1.0,
+                &opts,
+                &mut |_, _| {},
+            )
+        };
+        let good = gloam_grabber::pixels_crc32c(&px);
+        std::fs::write(d.path().join("frames.jsonl"), line(good)).unwrap();
+        run().unwrap();
+        std::fs::write(d.path().join("frames.jsonl"), line(good ^ 1)).unwrap();
+        let e = run().unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!(
+                "{}: its counts have CRC-32C {good:#010x}, but {}:1 records {:#010x}",
+                d.path().join("f.png").display(),
+                d.path().join("frames.jsonl").display(),
+                good ^ 1
+            )),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn the_box_mean_spreads_a_pixel_over_its_square() {
         let (rows, cols) = (7, 9);
         let mut m = vec![0.0; rows * cols];
