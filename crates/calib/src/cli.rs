@@ -278,18 +278,19 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
-    // An --out set holding one of the run's inputs would replace it.
-    let (out, inputs): (&Path, Vec<(&'static str, &Path)>) = match cmd {
-        CalibrateCommand::Radiance(a) => (&a.out, vec![("--source", &a.source.source)]),
-        CalibrateCommand::Agc(a) => (&a.out, agc_inputs(a)),
-        CalibrateCommand::Ptc(a) => (&a.out, vec![("--source", &a.source.source)]),
-        CalibrateCommand::Mtf(a) => (
+    // An --out set holding one of the run's inputs would replace it
+    // (apply writes one file, checked against its inputs in apply.rs).
+    let out_and_inputs: Option<(&Path, Vec<(&'static str, &Path)>)> = match cmd {
+        CalibrateCommand::Radiance(a) => Some((&a.out, vec![("--source", &a.source.source)])),
+        CalibrateCommand::Agc(a) => Some((&a.out, agc_inputs(a))),
+        CalibrateCommand::Ptc(a) => Some((&a.out, vec![("--source", &a.source.source)])),
+        CalibrateCommand::Mtf(a) => Some((
             &a.out,
             a.ctf.iter().map(|c| ("--ctf", c.as_path())).collect(),
-        ),
-        CalibrateCommand::Apply(_) => (Path::new(""), Vec::new()),
+        )),
+        CalibrateCommand::Apply(_) => None,
     };
-    if !out.as_os_str().is_empty() {
+    if let Some((out, inputs)) = out_and_inputs {
         report::refuse_out_dir_holding_inputs(out, &inputs)?;
     }
     match cmd {

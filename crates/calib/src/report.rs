@@ -24,9 +24,6 @@ pub fn write_text(path: &Path, text: &str) -> Result<(), CalibError> {
     write_bytes(path, text.as_bytes())
 }
 
-/// Writes bytes atomically: a uniquely named temporary file beside `path`
-/// (so two writers never share one), flushed to disk, then renamed over it,
-/// so an interrupted run never leaves a half-written report, plot or image.
 /// The file `path` names, resolved (links followed, `..` gone) as far as
 /// it exists: its own canonical path, or its parent's joined with its name.
 fn resolved(path: &Path) -> Option<std::path::PathBuf> {
@@ -101,6 +98,9 @@ pub fn refuse_out_dir_holding_inputs(
     Ok(())
 }
 
+/// Writes bytes atomically: a uniquely named temporary file beside `path`
+/// (so two writers never share one), flushed to disk, then renamed over it,
+/// so an interrupted run never leaves a half-written report, plot or image.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CalibError> {
     use std::io::Write;
     // Only a regular file (or nothing) is replaced: renaming over a device,
