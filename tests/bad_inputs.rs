@@ -66,6 +66,73 @@ fn fixture_tiff() -> PathBuf {
     d.path().join("o/radiance.tiff")
 }
 
+/// `{lpatch:FROM=>TO}` in a file: this LUT (gains 1 and 2 of the
+/// scientific CCD, as `calibrate radiance` writes one) with one substring
+/// replaced (`{lpatch:}`: as it is).
+const LUT: &str = r#"{
+  "grabber": "simulated scientific-ccd looking at rig 'sphere' (seed 0, 16×16)",
+  "source": "sphere",
+  "band_nm": [400.0, 1000.0],
+  "digitizer_max_dn": 65535.0,
+  "gains": [
+    {
+      "gain": 1.0,
+      "g_w_m2_sr_per_dn": 2.5e-8,
+      "b_w_m2_sr": -1.25e-5,
+      "r_squared": 1.0,
+      "fit_range_dn": [500.0, 40000.0],
+      "dark_dn": 500.0,
+      "dark_std_dn": 3.0,
+      "saturation_dn": 62994.0,
+      "n_fit_points": 6,
+      "max_abs_residual_percent": 0.1,
+      "levels": [],
+      "warnings": []
+    },
+    {
+      "gain": 2.0,
+      "g_w_m2_sr_per_dn": 1.25e-8,
+      "b_w_m2_sr": -6.25e-6,
+      "r_squared": 1.0,
+      "fit_range_dn": [500.0, 40000.0],
+      "dark_dn": 500.0,
+      "dark_std_dn": 3.0,
+      "saturation_dn": 62994.0,
+      "n_fit_points": 6,
+      "max_abs_residual_percent": 0.1,
+      "levels": [],
+      "warnings": []
+    }
+  ]
+}
+"#;
+
+/// `{capture:g1/FILE}` / `{capture:g2/FILE}` in a file: that file of a
+/// real capture (`gloam capture`, the scientific CCD at 16 × 16, one frame
+/// at gain 1 into g1 and one at gain 2 into g2: `frame-000000.png`,
+/// `frames.jsonl` with each frame's CRC-32C, `camera.json`).
+fn fixture_capture() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let d = tempfile::tempdir().unwrap();
+        for (gain, out) in [("1", "g1"), ("2", "g2")] {
+            let ok = Command::new(BIN)
+                .args(["capture", "--grabber", "sim:scientific-ccd?size=16x16"])
+                .args(["--frames", "1", "--gain", gain, "--out", out])
+                .current_dir(d.path())
+                .stderr(Stdio::null())
+                .status()
+                .unwrap();
+            assert!(
+                ok.success(),
+                "capturing the {{capture}} fixture at gain {gain}"
+            );
+        }
+        d
+    })
+    .path()
+}
+
 fn run(case: &Case, dir: &Path) -> (Option<i32>, String) {
     for (name, content) in case.files {
         let text = content.replace("{base}", BASE).replace("{sensor}", SENSOR);
@@ -77,6 +144,10 @@ fn run(case: &Case, dir: &Path) -> (Option<i32>, String) {
         if let Some(target) = text.strip_prefix("{link:") {
             // A symbolic link to TARGET (`{link:/dev/zero}`).
             std::os::unix::fs::symlink(target.trim_end_matches('}'), &p).unwrap();
+            continue;
+        }
+        if let Some(file) = text.strip_prefix("{capture:") {
+            std::fs::copy(fixture_capture().join(file.trim_end_matches('}')), &p).unwrap();
             continue;
         }
         if text == "{tiff}" {
@@ -124,6 +195,14 @@ fn finish(mut cmd: Command) -> (Option<i32>, String) {
 /// `{patch:FROM=>TO}` on the first line of a file: the base scene with one
 /// substring replaced (`{spatch:…}`: the base sensor).
 fn scene_patch(text: &str) -> String {
+    if let Some(rest) = text.strip_prefix("{lpatch:") {
+        let spec = rest.trim_end_matches('}');
+        let Some((from, to)) = spec.split_once("=>") else {
+            return LUT.to_string();
+        };
+        assert!(LUT.contains(from), "the LUT has no `{from}`");
+        return LUT.replacen(from, to, 1);
+    }
     if let Some(rest) = text.strip_prefix("{spatch:") {
         let (spec, tail) = rest
             .split_once("}\n")
@@ -1935,6 +2014,126 @@ const CASES: &[Case] = &[
     ),
     case!("bench plan: resolution scale 0", ["s.toml" => "{base}"], ["bench", "plan", "s.toml", "--resolution-scale", "0"], ["--resolution-scale", "(0, 4]"]),
     case!("sweep: gain a string", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [\"x\"]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml", "gain"]),
+    // --- calibration numerics held to physics (issue 46): a LUT whose
+    // numbers leave physics, refused at its line wherever it is loaded
+    case!("calibrate apply: LUT slope negative", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 1.25e-8=>\"g_w_m2_sr_per_dn\": -1.25e-8}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:23:", "--lut", "gains[1].g_w_m2_sr_per_dn", "not positive"]),
+    case!("calibrate apply: LUT slope zero", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 0}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:9:", "gains[0].g_w_m2_sr_per_dn", "slope 0 "]),
+    case!("calibrate apply: LUT slope 1e308", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 1e308}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:9:", "slope 1e308", "above 1e20"]),
+    case!("calibrate apply: LUT slope past the radiance limit", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 2e15}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:9:", "above 1e20"]),
+    case!("calibrate apply: LUT offset 1e308", ["l.json" => "{lpatch:\"b_w_m2_sr\": -1.25e-5=>\"b_w_m2_sr\": -1e308}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:10:", "gains[0].b_w_m2_sr"]),
+    case!("calibrate apply: LUT fit range of zero width", ["l.json" => "{lpatch:\"fit_range_dn\": [500.0, 40000.0]=>\"fit_range_dn\": [500.0, 500.0]}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:12:", "gains[0].fit_range_dn", "positive width"]),
+    case!("calibrate apply: LUT fit range reversed", ["l.json" => "{lpatch:\"fit_range_dn\": [500.0, 40000.0]=>\"fit_range_dn\": [40000.0, 500.0]}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:12:", "gains[0].fit_range_dn"]),
+    case!("calibrate apply: LUT reversed across gains", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 1.25e-8=>\"g_w_m2_sr_per_dn\": 5e-8}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:23:", "gains[1]", "reversed"]),
+    case!("calibrate apply: LUT gain twice", ["l.json" => "{lpatch:\"gain\": 2.0=>\"gain\": 1.00001}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:22:", "gains[1].gain", "repeats gains[0]"]),
+    case!("calibrate apply: LUT gain zero", ["l.json" => "{lpatch:\"gain\": 1.0=>\"gain\": 0}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:8:", "gains[0].gain", "not a positive gain"]),
+    case!("calibrate apply: LUT top code zero", ["l.json" => "{lpatch:\"digitizer_max_dn\": 65535.0=>\"digitizer_max_dn\": 0}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:5:", "digitizer_max_dn", "top code"]),
+    case!("calibrate apply: LUT top code fractional", ["l.json" => "{lpatch:\"digitizer_max_dn\": 65535.0=>\"digitizer_max_dn\": 4095.5}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:5:", "digitizer_max_dn"]),
+    case!("calibrate apply: LUT without gains", ["l.json" => "{lpatch:\"gains\": [=>\"gains\": [], \"x\": [}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json"]),
+    case!("calibrate agc: --lut slope negative", ["s.toml" => SPHERE, "l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": -2.5e-8}"], ["calibrate", "agc", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "s.toml", "--lut", "l.json", "--out", "o"], ["l.json:9:", "--lut", "not positive"]),
+    // counts above the LUT's top code: refused, naming frame, count and LUT
+    case!("calibrate apply: counts above the LUT's top code", ["l.json" => "{lpatch:\"digitizer_max_dn\": 65535.0=>\"digitizer_max_dn\": 255.0}", "d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/f.png", "above the top code 255 DN", "l.json"]),
+    // frames checked against their recorded CRC-32C before use
+    case!("calibrate apply: a frame renamed to another gain's name", ["d/frame-000000.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{capture:g2/frames.jsonl}", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/frame-000000.png", "o.tiff"], ["d/frame-000000.png", "crc-32c", "d/frames.jsonl:1", "records 0x"]),
+    case!("calibrate apply: a frame whose counts were altered", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"pixels_crc32c\":12345}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/f.png", "d/frames.jsonl:1", "records 0x00003039"]),
+    case!("calibrate apply: a frame's CRC not a number", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "\n{\"file\":\"f.png\",\"gain\":1,\"pixels_crc32c\":\"x\"}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:2", "pixels_crc32c", "not a CRC-32C"]),
+    case!("calibrate apply: a frame's CRC past 32 bits", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"pixels_crc32c\":4294967296}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "not a CRC-32C"]),
+    // outputs never equal to an input
+    case!("calibrate apply: output is the input", ["f.png" => "x", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "f.png"], ["OUTPUT f.png", "same file as INPUT f.png"]),
+    case!("calibrate apply: output is the LUT", ["f.png" => "x", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "l.json"], ["OUTPUT l.json", "same file as --lut l.json"]),
+    case!("calibrate apply: output is the input through ..", ["f.png" => "x", "d/x" => "", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "d/../f.png"], ["OUTPUT d/../f.png", "INPUT f.png"]),
+    case!("calibrate apply: output a link to the LUT", ["f.png" => "x", "l.json" => "{lpatch:}", "o.tiff" => "{link:l.json}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["OUTPUT o.tiff", "--lut l.json"]),
+    case!("calibrate apply: output is the frames.jsonl beside the input", ["d/f.png" => "x", "d/frames.jsonl" => "{}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "d/frames.jsonl"], ["OUTPUT d/frames.jsonl", "INPUT's d/frames.jsonl"]),
+    case!("calibrate apply: output is the camera.json beside the input", ["d/f.png" => "x", "d/camera.json" => "{}", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "./d/camera.json"], ["OUTPUT ./d/camera.json", "d/camera.json"]),
+    case!("calibrate apply: output a file gloam did not write", ["f.png" => "x", "l.json" => "{lpatch:}", "notes.txt" => "mine"], ["calibrate", "apply", "--lut", "l.json", "f.png", "notes.txt"], ["OUTPUT notes.txt", "not a radiance image"]),
+    case!("calibrate apply: output a radiance TIFF gloam render wrote", ["f.png" => "x", "l.json" => "{lpatch:}", "r.tiff" => "{tiff}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "r.tiff"], ["OUTPUT r.tiff", "replaces only what it created"]),
+    case!("calibrate mtf: --out holds the --ctf", ["o/c.csv" => "0,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "o/c.csv", "--pixel-pitch-um", "10", "--out", "o", "--force"], ["--out o", "--ctf o/c.csv"]),
+    case!("calibrate radiance: --out holds the --source", ["o/s.toml" => SPHERE], ["calibrate", "radiance", "--grabber", "sim:scientific-ccd?size=16x16", "--source", "o/s.toml", "--gains", "1", "--out", "o", "--force"], ["--out o", "--source o/s.toml"]),
+    case!("calibrate agc: --out holds the --lut", ["s.toml" => SPHERE, "d/x" => "", "o/lut.json" => "{lpatch:}"], ["calibrate", "agc", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "s.toml", "--lut", "d/../o/lut.json", "--out", "o", "--force"], ["--out o", "--lut d/../o/lut.json"]),
+    // MTF from bar contrasts: rows held to the chart and to physics
+    case!("calibrate mtf: CTF modulation above 1", ["c.csv" => "group,element,modulation\n0,1,0.9\n0,2,1.18\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:3:", "modulation 1.18", "[0, 1]"]),
+    case!("calibrate mtf: CTF modulation negative", ["c.csv" => "0,1,0.9\n0,2,-0.39\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:2:", "modulation -0.39", "[0, 1]"]),
+    case!("calibrate mtf: CTF group 100", ["c.csv" => "0,1,0.9\n100,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:2:", "group 100", "usaf 1951 chart"]),
+    case!("calibrate mtf: CTF group below the chart", ["c.csv" => "-3,1,0.9\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:1:", "group -3"]),
+    case!("calibrate mtf: CTF first row unparsable", ["c.csv" => "# bars\n0,1,0.9x\n1,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:2:", "0,1,0.9x", "not a 'group,element,modulation' row"]),
+    case!("calibrate mtf: CTF row after the header unparsable", ["c.csv" => "group,element,modulation\n0;1\n1,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:2:", "not a 'group,element,modulation' row"]),
+    case!("calibrate mtf: CTF a second header", ["c.csv" => "group,element,modulation\nG,E,M\n1,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:2:"]),
+    case!("calibrate mtf: CTF element 0", ["c.csv" => "0,0,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:1:", "element 0"]),
+    case!("calibrate mtf: CTF bar twice", ["c.csv" => "0,1,0.5\n1,1,0.4\n0,1,0.45\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv:3:", "again (first at line 1)"]),
+    case!("calibrate mtf: CTF bars above Nyquist", ["c.csv" => "0,1,0.6\n0,2,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "500", "--out", "o"], ["c.csv:2:", "above nyquist", "--pixel-pitch-um 500"]),
+    case!("calibrate mtf: CTF bars above Nyquist through the magnification", ["c.csv" => "4,1,0.6\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--magnification", "0.25", "--out", "o"], ["c.csv:1:", "above nyquist", "--magnification 0.25"]),
+    case!("calibrate mtf: CTF contrasts that give MTF past 1.05", ["c.csv" => "0,1,1\n1,5,1\n2,3,0\n2,6,1\n3,4,1\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "1", "--out", "o"], ["c.csv:1:", "outside [0, 1.05]"]),
+    case!("calibrate mtf: pixel pitch 0", ["c.csv" => "0,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "0", "--out", "o"], ["--pixel-pitch-um 0"]),
+    case!("calibrate mtf: magnification negative", ["c.csv" => "0,1,0.5\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--magnification=-1", "--out", "o"], ["--magnification -1"]),
+    case!(
+        "calibrate mtf: sine above Nyquist",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "sine",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frequencies",
+            "0.1,0.6",
+            "--out",
+            "o"
+        ],
+        ["--frequencies 0.6", "(0, 0.5]"]
+    ),
+    case!(
+        "calibrate mtf: sine just above Nyquist",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "sine",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frequencies",
+            "0.5000001",
+            "--out",
+            "o"
+        ],
+        ["--frequencies 0.5000001"]
+    ),
+    case!(
+        "calibrate mtf: sine at zero frequency",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "sine",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frequencies",
+            "0",
+            "--out",
+            "o"
+        ],
+        ["--frequencies 0"]
+    ),
+    case!(
+        "calibrate mtf: voltage sine above Nyquist",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "sine",
+            "--space",
+            "voltage",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16",
+            "--frequencies",
+            "0.75",
+            "--out",
+            "o"
+        ],
+        ["--frequencies 0.75"]
+    ),
 ];
 
 #[test]

@@ -290,8 +290,19 @@ pub fn detected_per_band_radiance(
 /// of at most `ratio`, the ends rounded outwards to the 0.001 a simulated
 /// camera sets (at most 24 gains).
 pub fn lut_gains_spanning(lo: f64, hi: f64, ratio: f64) -> Vec<f64> {
-    let lo = (lo * 1000.0).floor() / 1000.0;
-    let hi = (hi * 1000.0).ceil() / 1000.0;
+    // A gain within a relative GAIN_MATCH_TOLERANCE of a setting is that
+    // setting (the AGC's floor 14.5519 is the setting 14.552): rounding it
+    // outwards would ask for a gain below the camera's range (14.551).
+    let outward = |v: f64, round: fn(f64) -> f64| {
+        let near = (v * 1000.0).round() / 1000.0;
+        if (near - v).abs() <= crate::radiance::GAIN_MATCH_TOLERANCE * v.abs() {
+            near
+        } else {
+            round(v * 1000.0) / 1000.0
+        }
+    };
+    let lo = outward(lo, f64::floor);
+    let hi = outward(hi, f64::ceil);
     if !(lo > 0.0 && hi > lo && ratio > 1.0) {
         return vec![lo.max(hi)];
     }
@@ -317,6 +328,9 @@ struct Record {
     clip_dn: f64,
     time_s: f64,
     weights: Vec<f64>,
+    /// Its 1-based line and `pixels_crc32c` (checked against the counts).
+    line: usize,
+    crc: Option<serde_json::Value>,
 }
 
 fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError> {
@@ -370,6 +384,8 @@ fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError
                 .and_then(serde_json::Value::as_f64)
                 .ok_or_else(|| at("no numeric \"sequence.time_s\"".into()))?,
             weights,
+            line: i + 1,
+            crc: v.get("pixels_crc32c").cloned(),
         });
     }
     Ok(out)
@@ -482,6 +498,10 @@ pub fn linearise_sequence(
     for (n, r) in records.iter().enumerate() {
         let path = dir.join(&r.file);
         let (w, h, px) = crate::io::read_counts(&path)?;
+        if let Some(crc) = &r.crc {
+            let rec = serde_json::json!({ "pixels_crc32c": crc });
+            crate::io::check_frame_crc(&path, &dir.join("frames.jsonl"), r.line, &rec, &px)?;
+        }
         if (h, w) != shape {
             return Err(CalibError::file(
                 &path,
@@ -698,6 +718,122 @@ mod tests {
             assert!(w[1] / w[0] <= 1.25 + 1e-9 && w[1] > w[0], "{g:?}");
         }
         assert_eq!(lut_gains_spanning(50.0, 50.0, 1.25), vec![50.0]);
+    }
+
+    #[test]
+    fn the_agc_floor_is_the_lowest_setting_not_one_below_it() {
+        // Gen III's MCP at 500 V: 1000 (500/800)^9 = 14.5519…, which the
+        // camera sets as 14.552 (its lowest setting); flooring it asked
+        // for 14.551 and the camera refused a gain nobody wanted.
+        let floor = 1000.0 * 0.625f64.powi(9);
+        assert!((floor - 14.551_915_228_366_852).abs() < 1e-12);
+        let g = lut_gains_spanning(floor, 30.012, 1.25);
+        assert_eq!(g.first(), Some(&14.552), "{g:?}");
+        assert_eq!(g.last(), Some(&30.012), "{g:?}");
+        // Farther than the tolerance from a setting still rounds outwards.
+        let g = lut_gains_spanning(1.0006, 2.0004, 1.25);
+        assert_eq!((g[0], g[g.len() - 1]), (1.0, 2.001), "{g:?}");
+        // And a LUT measured at the setting linearises frames at the floor.
+        let lut = crate::radiance::Lut {
+            grabber: "simulated gen3-gaas-iccd".into(),
+            source: "sphere".into(),
+            band_nm: [400.0, 900.0],
+            digitizer_max_dn: 4095.0,
+            gains: [14.552, 20.0]
+                .iter()
+                .map(|&gain| crate::radiance::GainCalibration {
+                    gain,
+                    g_w_m2_sr_per_dn: 1e-6 / gain,
+                    b_w_m2_sr: 0.0,
+                    r_squared: 1.0,
+                    fit_range_dn: [10.0, 2000.0],
+                    dark_dn: 10.0,
+                    dark_std_dn: 1.0,
+                    saturation_dn: None,
+                    n_fit_points: 5,
+                    max_abs_residual_percent: 0.1,
+                    levels: Vec::new(),
+                    warnings: Vec::new(),
+                })
+                .collect(),
+        };
+        assert_eq!(lut.coefficients(floor).unwrap(), (1e-6 / 14.552, 0.0));
+        assert!(lut.coefficients(14.55).is_err());
+    }
+
+    #[test]
+    fn a_sequence_frame_not_matching_its_recorded_crc_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let px: Vec<u16> = vec![100, 200, 300, 400];
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(2, 2, px.clone())
+            .unwrap()
+            .save(d.path().join("f.png"))
+            .unwrap();
+        let line = |crc: u32| {
+            format!(
+                "{{\"index\":0,\"file\":\"f.png\",\"gain\":1.0,\"bits\":16,\"saturated_at_dn\":60000,\"pixels_crc32c\":{crc},\"sequence\":{{\"time_s\":0.0,\"light_groups\":{{\"lamp\":1.0}}}}}}\n"
+            )
+        };
+        let lut = crate::radiance::Lut {
+            grabber: "simulated x".into(),
+            source: "s".into(),
+            band_nm: [400.0, 900.0],
+            digitizer_max_dn: 65535.0,
+            gains: vec![crate::radiance::GainCalibration {
+                gain: 1.0,
+                g_w_m2_sr_per_dn: 1e-6,
+                b_w_m2_sr: 0.0,
+                r_squared: 1.0,
+                fit_range_dn: [0.0, 1000.0],
+                dark_dn: 0.0,
+                dark_std_dn: 1.0,
+                saturation_dn: None,
+                n_fit_points: 3,
+                max_abs_residual_percent: 0.0,
+                levels: Vec::new(),
+                warnings: Vec::new(),
+            }],
+        };
+        let groups = ["lamp".to_string()];
+        let layers = [Array2::from_elem((2, 2), 1e-4)];
+        let truth = SequenceLayers {
+            groups: &groups,
+            layers: &layers,
+        };
+        let opts = AgcSequenceOptions {
+            noise_floor_sigma: 3.0,
+            transient_time_constants: 3.0,
+            switch_threshold: 0.1,
+            agc_time_constant_s: 0.1,
+            top_fraction: 0.5,
+            spread_radius_px: 0,
+            spread_tolerance: 0.01,
+        };
+        let run = || {
+            linearise_sequence(
+                d.path(),
+                &lut,
+                "simulated x",
+                &truth,
+                1.0,
+                &opts,
+                &mut |_, _| {},
+            )
+        };
+        let good = gloam_grabber::pixels_crc32c(&px);
+        std::fs::write(d.path().join("frames.jsonl"), line(good)).unwrap();
+        run().unwrap();
+        std::fs::write(d.path().join("frames.jsonl"), line(good ^ 1)).unwrap();
+        let e = run().unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!(
+                "{}: its counts have CRC-32C {good:#010x}, but {}:1 records {:#010x}",
+                d.path().join("f.png").display(),
+                d.path().join("frames.jsonl").display(),
+                good ^ 1
+            )),
+            "{e}"
+        );
     }
 
     #[test]

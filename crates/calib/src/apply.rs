@@ -12,18 +12,26 @@ use crate::radiance::Lut;
 /// (`{"camera": describe(), "grabber": uri}`).
 pub const CAMERA_FILE: &str = "camera.json";
 
-/// Reads a `lut.json` written by the radiance flow.
+/// Reads a `lut.json` written by the radiance flow and checks it
+/// ([`Lut::check`]): a LUT whose numbers leave physics is refused at the
+/// line holding the bad value, before it converts a count.
 pub fn load_lut(path: &Path) -> Result<Lut, CalibError> {
     let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
         .map_err(|source| CalibError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-    serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
+    let lut: Lut = serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
         path: path.to_path_buf(),
         what: "LUT",
         source,
-    })
+    })?;
+    lut.check().map_err(|p| CalibError::Line {
+        path: path.to_path_buf(),
+        line: p.line_in(&text),
+        message: format!("--lut: {p}"),
+    })?;
+    Ok(lut)
 }
 
 /// The camera in a grabber's description, without the scene, rig, seed or
@@ -219,15 +227,48 @@ pub fn apply_lut_file(
     gain: Option<f64>,
     warn: &mut dyn FnMut(&str),
 ) -> Result<Applied, CalibError> {
+    let dir = input.parent().unwrap_or(Path::new("."));
+    crate::report::refuse_output_over_inputs(
+        "OUTPUT",
+        output,
+        &[
+            ("INPUT", input),
+            ("--lut", lut_path),
+            ("INPUT's", &dir.join("frames.jsonl")),
+            ("INPUT's", &dir.join(CAMERA_FILE)),
+        ],
+    )?;
+    // Nothing gloam did not create is replaced: an existing OUTPUT must be
+    // a radiance image this command wrote (links, directories and devices
+    // are refused when writing).
+    if std::fs::symlink_metadata(output).is_ok_and(|m| m.is_file())
+        && crate::io::tiff_description(output).as_deref() != Some(crate::io::APPLIED_DESCRIPTION)
+    {
+        return Err(CalibError::Usage(format!(
+            "OUTPUT {}: exists and is not a radiance image `gloam calibrate apply` wrote; gloam replaces only what it created — remove it or choose another path",
+            output.display()
+        )));
+    }
     let lut = load_lut(lut_path)?;
     let record = crate::io::frame_record(input)?;
-    let gain = frame_gain(input, gain, record.as_ref())?;
     let (w, h, px) = crate::io::read_counts(input)?;
+    // The counts first: a frame that is not the one its line records (a
+    // renamed or altered file) must not be given that line's gain.
+    if let Some((line, v)) = &record
+        && !crate::io::check_frame_crc(input, &frames_jsonl(input), *line, v, &px)?
+    {
+        warn(&format!(
+            "{}:{line} records no pixels_crc32c for {}, so the frame cannot be checked against its capture",
+            frames_jsonl(input).display(),
+            input.display()
+        ));
+    }
+    let gain = frame_gain(input, gain, record.as_ref())?;
     if let Some(w) = check_lut_fits_frame(&lut, lut_path, input, record.as_ref(), &px)? {
         warn(&w);
     }
     let out = lut.apply(gain, &px)?;
-    crate::io::write_tiff_f32(output, w, h, &out)?;
+    crate::io::write_tiff_f32_described(output, w, h, &out, crate::io::APPLIED_DESCRIPTION)?;
     Ok(Applied {
         width: w,
         height: h,
@@ -248,6 +289,154 @@ mod tests {
         );
         assert_eq!(camera_identity("serial cam (fw 1.2)"), "serial cam");
         assert_eq!(camera_identity(" plain "), "plain");
+    }
+
+    /// A directory with a LUT over gains 1 and 2 and two 2×2 frames,
+    /// `a.png` at gain 1 and `b.png` at gain 2, recorded with their CRCs.
+    fn bench() -> (tempfile::TempDir, [u32; 2]) {
+        let d = tempfile::tempdir().unwrap();
+        let px = [vec![1u16, 2, 3, 4], vec![5u16, 6, 7, 8]];
+        let crc = [
+            gloam_grabber::pixels_crc32c(&px[0]),
+            gloam_grabber::pixels_crc32c(&px[1]),
+        ];
+        let mut jl = String::new();
+        for (i, name) in ["a.png", "b.png"].iter().enumerate() {
+            image::ImageBuffer::<image::Luma<u16>, _>::from_raw(2, 2, px[i].clone())
+                .unwrap()
+                .save(d.path().join(name))
+                .unwrap();
+            jl += &format!(
+                "{{\"file\":\"{name}\",\"gain\":{},\"pixels_crc32c\":{}}}\n",
+                i + 1,
+                crc[i]
+            );
+        }
+        std::fs::write(d.path().join("frames.jsonl"), jl).unwrap();
+        let gain = |g: f64| {
+            serde_json::json!({"gain": g, "g_w_m2_sr_per_dn": 1e-6 / g, "b_w_m2_sr": 0.0,
+                "r_squared": 1.0, "fit_range_dn": [0.0, 100.0], "dark_dn": 0.0, "dark_std_dn": 1.0,
+                "saturation_dn": null, "n_fit_points": 3, "max_abs_residual_percent": 0.0,
+                "levels": [], "warnings": []})
+        };
+        let lut = serde_json::json!({"grabber": "simulated x", "source": "s", "band_nm": [400.0, 900.0],
+            "digitizer_max_dn": 65535.0, "gains": [gain(1.0), gain(2.0)]});
+        std::fs::write(
+            d.path().join("lut.json"),
+            serde_json::to_string_pretty(&lut).unwrap(),
+        )
+        .unwrap();
+        (d, crc)
+    }
+
+    #[test]
+    fn a_frame_that_is_not_the_one_recorded_is_refused_by_its_crc() {
+        let (d, crc) = bench();
+        let p = |n: &str| d.path().join(n);
+        let apply = |frame: &str| {
+            apply_lut_file(&p("lut.json"), &p(frame), &p("o.tiff"), None, &mut |_| {})
+        };
+        assert_eq!(apply("a.png").unwrap().gain, 1.0);
+        assert_eq!(apply("b.png").unwrap().gain, 2.0);
+        // The gain-1 frame renamed to the gain-2 frame's name.
+        std::fs::copy(p("a.png"), p("b.png")).unwrap();
+        let e = apply("b.png").unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: its counts have CRC-32C {:#010x}, but {}:2 records {:#010x} for it; the frame was altered or is another frame's file under its name (another gain's?), so its recorded gain and settings are not its own",
+                p("b.png").display(),
+                crc[0],
+                p("frames.jsonl").display(),
+                crc[1]
+            )
+        );
+        // A CRC that is not one is named at its line.
+        std::fs::write(
+            p("frames.jsonl"),
+            "{\"file\":\"a.png\",\"gain\":1,\"pixels_crc32c\":-1}\n",
+        )
+        .unwrap();
+        let e = apply("a.png").unwrap_err().to_string();
+        assert!(
+            e.contains("frames.jsonl:1: \"pixels_crc32c\" -1 is not a CRC-32C"),
+            "{e}"
+        );
+        // A line without a CRC cannot be checked: said, not refused.
+        std::fs::write(p("frames.jsonl"), "{\"file\":\"a.png\",\"gain\":1}\n").unwrap();
+        let mut warned = Vec::new();
+        apply_lut_file(&p("lut.json"), &p("a.png"), &p("o.tiff"), None, &mut |w| {
+            warned.push(w.to_string())
+        })
+        .unwrap();
+        assert!(
+            warned
+                .iter()
+                .any(|w| w.contains("records no pixels_crc32c")),
+            "{warned:?}"
+        );
+    }
+
+    #[test]
+    fn an_output_that_is_an_input_is_refused_however_spelled() {
+        let (d, _) = bench();
+        let p = |n: &str| d.path().join(n);
+        std::fs::create_dir(p("sub")).unwrap();
+        std::os::unix::fs::symlink(p("lut.json"), p("link.tiff")).unwrap();
+        std::fs::hard_link(p("a.png"), p("hard.tiff")).unwrap();
+        let before: Vec<Vec<u8>> = ["a.png", "lut.json", "frames.jsonl"]
+            .iter()
+            .map(|n| std::fs::read(p(n)).unwrap())
+            .collect();
+        for (out, flag, input) in [
+            ("a.png", "INPUT", "a.png"),
+            ("lut.json", "--lut", "lut.json"),
+            ("sub/../a.png", "INPUT", "a.png"),
+            ("./sub/../lut.json", "--lut", "lut.json"),
+            ("link.tiff", "--lut", "lut.json"),
+            ("hard.tiff", "INPUT", "a.png"),
+            ("frames.jsonl", "INPUT's", "frames.jsonl"),
+        ] {
+            let e = apply_lut_file(&p("lut.json"), &p("a.png"), &p(out), None, &mut |_| {})
+                .unwrap_err()
+                .to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "OUTPUT {}: is the same file as {flag} {}; gloam never writes over its own inputs — choose another output",
+                    p(out).display(),
+                    p(input).display()
+                ),
+                "{out}"
+            );
+        }
+        let after: Vec<Vec<u8>> = ["a.png", "lut.json", "frames.jsonl"]
+            .iter()
+            .map(|n| std::fs::read(p(n)).unwrap())
+            .collect();
+        assert_eq!(before, after);
+        // Beside the input is where outputs go, and what apply wrote it
+        // may replace.
+        let apply =
+            |out: &str| apply_lut_file(&p("lut.json"), &p("a.png"), &p(out), None, &mut |_| {});
+        apply("sub/../o.tiff").unwrap();
+        apply("o.tiff").unwrap();
+        // Anything else already there is not its to replace: a user's file,
+        // or a TIFF it did not write.
+        std::fs::write(p("notes.tiff"), "mine").unwrap();
+        crate::io::write_tiff_f32(&p("other.tiff"), 2, 2, &[0.0; 4]).unwrap();
+        for out in ["notes.tiff", "other.tiff"] {
+            let before = std::fs::read(p(out)).unwrap();
+            let e = apply(out).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "OUTPUT {}: exists and is not a radiance image `gloam calibrate apply` wrote; gloam replaces only what it created — remove it or choose another path",
+                    p(out).display()
+                )
+            );
+            assert_eq!(std::fs::read(p(out)).unwrap(), before);
+        }
     }
 
     #[test]

@@ -278,6 +278,21 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
+    // An --out set holding one of the run's inputs would replace it
+    // (apply writes one file, checked against its inputs in apply.rs).
+    let out_and_inputs: Option<(&Path, Vec<(&'static str, &Path)>)> = match cmd {
+        CalibrateCommand::Radiance(a) => Some((&a.out, vec![("--source", &a.source.source)])),
+        CalibrateCommand::Agc(a) => Some((&a.out, agc_inputs(a))),
+        CalibrateCommand::Ptc(a) => Some((&a.out, vec![("--source", &a.source.source)])),
+        CalibrateCommand::Mtf(a) => Some((
+            &a.out,
+            a.ctf.iter().map(|c| ("--ctf", c.as_path())).collect(),
+        )),
+        CalibrateCommand::Apply(_) => None,
+    };
+    if let Some((out, inputs)) = out_and_inputs {
+        report::refuse_out_dir_holding_inputs(out, &inputs)?;
+    }
     match cmd {
         CalibrateCommand::Radiance(a) => radiance(a, registry, begin, ev),
         CalibrateCommand::Apply(a) => {
@@ -309,6 +324,14 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
         CalibrateCommand::Ptc(a) => ptc(a, registry, begin, ev),
         CalibrateCommand::Mtf(a) => mtf(a, registry, begin, ev),
     }
+}
+
+/// The files `calibrate agc` reads (`--source`, `--lut`, `--sequence`).
+fn agc_inputs(a: &AgcArgs) -> Vec<(&'static str, &Path)> {
+    let mut v = vec![("--source", a.source.source.as_path())];
+    v.extend(a.lut.iter().map(|l| ("--lut", l.as_path())));
+    v.extend(a.sequence.iter().map(|l| ("--sequence", l.as_path())));
+    v
 }
 
 /// Opens grabber `uri` (noise seed `seed` for `sim:`), naming the URI if
@@ -569,6 +592,7 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
         AgcSequenceOptions, SequenceLayers, detected_per_band_radiance, linearise_sequence,
         lut_gains_spanning, write_agc_sequence_report,
     };
+    report::refuse_out_dir_holding_inputs(&a.out, &agc_inputs(a))?;
     let (preset, _, uri_seed, _) = crate::scope_run::sim_uri(&a.grabber.grabber).map_err(|_| {
         CalibError::Usage(format!(
             "--sequence: --grabber '{}' is not a simulated camera; a sequence is rendered, so it needs a sim:PRESET grabber",
@@ -771,6 +795,10 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
+    if matches!(a.target, Target::Sine) {
+        // Before the output set opens: nothing is measured above Nyquist.
+        mtf_flow::check_sine_frequencies(&a.frequencies)?;
+    }
     let dir = begin(&a.out, a.force)?;
     let (curves, details) = match a.target {
         Target::Usaf => {
@@ -781,7 +809,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             let pitch = a
                 .pixel_pitch_um
                 .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
-            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification)?
+            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification, ctf_path)?
         }
         Target::Sine | Target::Edge => {
             let uri =

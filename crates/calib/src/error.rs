@@ -99,6 +99,23 @@ pub enum CalibError {
         lut_max_dn: f64,
         lut: PathBuf,
     },
+    /// A frame whose counts do not match the CRC-32C recorded for it.
+    #[error("{}: its counts have CRC-32C {actual:#010x}, but {}:{line} records {recorded:#010x} for it; the frame was altered or is another frame's file under its name (another gain's?), so its recorded gain and settings are not its own", frame.display(), frames_jsonl.display())]
+    FrameCrc {
+        frame: PathBuf,
+        frames_jsonl: PathBuf,
+        line: usize,
+        recorded: u32,
+        actual: u32,
+    },
+    /// An output path that is one of the run's inputs.
+    #[error("{flag} {}: is the same file as {input_flag} {}; gloam never writes over its own inputs — choose another output", output.display(), input.display())]
+    OutputIsInput {
+        flag: &'static str,
+        output: PathBuf,
+        input_flag: &'static str,
+        input: PathBuf,
+    },
     /// A missing or contradictory command-line option, said as the option.
     #[error("{0}")]
     Usage(String),

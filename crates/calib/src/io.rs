@@ -189,6 +189,47 @@ pub fn write_tiff_f32(path: &Path, w: usize, h: usize, data: &[f32]) -> Result<(
     write_tiff_f32_pages(path, w, h, &[data])
 }
 
+/// The ImageDescription `calibrate apply` gives its radiance TIFFs: how it
+/// knows a file at its OUTPUT path is its own to replace.
+pub const APPLIED_DESCRIPTION: &str = "gloam calibrate apply: band radiance, W m-2 sr-1";
+
+/// Writes a 32-bit float grey TIFF with an ImageDescription, atomically.
+pub fn write_tiff_f32_described(
+    path: &Path,
+    w: usize,
+    h: usize,
+    data: &[f32],
+    description: &str,
+) -> Result<(), CalibError> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    {
+        let mut enc =
+            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
+        let mut image = enc
+            .new_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32)
+            .map_err(|e| CalibError::file(path, e))?;
+        image
+            .encoder()
+            .write_tag(tiff::tags::Tag::ImageDescription, description)
+            .map_err(|e| CalibError::file(path, e))?;
+        image
+            .write_data(data)
+            .map_err(|e| CalibError::file(path, e))?;
+    }
+    crate::report::write_bytes(path, buf.get_ref())
+}
+
+/// The ImageDescription of the TIFF at `path`; `None` when it is not a
+/// readable TIFF or has none.
+pub fn tiff_description(path: &Path) -> Option<String> {
+    let bytes =
+        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+            .ok()?;
+    let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).ok()?;
+    d.get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
+        .ok()
+}
+
 /// Writes a multi-page 32-bit float grey TIFF, one `w × h` page per slice
 /// (e.g. one per spectral band), atomically.
 pub fn write_tiff_f32_pages(
@@ -224,6 +265,48 @@ pub fn frame_record(image: &Path) -> Result<Option<(usize, serde_json::Value)>, 
         return Ok(None);
     }
     find_record(&jl, name, "")
+}
+
+/// Checks a frame's counts against the CRC-32C its `frames.jsonl` line
+/// records (`pixels_crc32c`, of the counts as little-endian `u16`, as the
+/// grabber checksums them): a frame altered since its capture, or another
+/// frame's file under this one's name (another gain's), is refused naming
+/// the file, the line and both CRCs. `Ok(false)`: the line records no CRC,
+/// so nothing could be checked.
+pub fn check_frame_crc(
+    frame: &Path,
+    frames_jsonl: &Path,
+    line: usize,
+    record: &serde_json::Value,
+    counts: &[u16],
+) -> Result<bool, CalibError> {
+    let Some(v) = record.get("pixels_crc32c") else {
+        return Ok(false);
+    };
+    let at = |message: String| CalibError::Line {
+        path: frames_jsonl.to_path_buf(),
+        line,
+        message,
+    };
+    let recorded = v
+        .as_u64()
+        .and_then(|c| u32::try_from(c).ok())
+        .ok_or_else(|| {
+            at(format!(
+                "\"pixels_crc32c\" {v} is not a CRC-32C (a whole number below 2^32)"
+            ))
+        })?;
+    let actual = gloam_grabber::pixels_crc32c(counts);
+    if actual != recorded {
+        return Err(CalibError::FrameCrc {
+            frame: frame.to_path_buf(),
+            frames_jsonl: frames_jsonl.to_path_buf(),
+            line,
+            recorded,
+            actual,
+        });
+    }
+    Ok(true)
 }
 
 /// The gain recorded for `image` in the `frames.jsonl` beside it (lines

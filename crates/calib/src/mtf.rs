@@ -295,7 +295,16 @@ pub fn sine_mtf(
             ))
         })?;
         let m_out = (sol[1] * sol[1] + sol[2] * sol[2]).sqrt() / sol[0];
-        out.push(m_out / opts.modulation);
+        let m = m_out / opts.modulation;
+        // An MTF is at most 1 (plus noise): beyond [0, 1.05] the grey
+        // scale did not linearise the camera at this target.
+        if !(0.0..=crate::mtf_flow::MAX_MTF).contains(&m) {
+            return Err(CalibError::InsufficientData(format!(
+                "the sine target at {f} cy/px measures MTF {m:.4}, outside [0, {}]: the grey-scale map does not linearise the camera there (clipping, or the light changed between the grey scale and the targets); lower the radiance or the gain",
+                crate::mtf_flow::MAX_MTF
+            )));
+        }
+        out.push(m);
         progress(i + 3, total);
     }
     Ok(MtfCurve::new(

@@ -128,6 +128,9 @@ pub fn measure_mtf(
     req: &MtfRequest,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<MtfMeasurement, CalibError> {
+    if req.target == GrabberTarget::Sine {
+        check_sine_frequencies(&req.frequencies_cy_per_px)?;
+    }
     prepare(g, req)?;
     let level = mean_radiance(g, req)?;
     let curve = match req.target {
@@ -197,6 +200,7 @@ pub fn voltage_mtf(
     v: &VoltageRequest,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<VoltageReport, CalibError> {
+    check_sine_frequencies(&req.frequencies_cy_per_px)?;
     prepare(g, req)?;
     let (preset, _, seed, size) = crate::scope_run::sim_uri(&v.uri)?;
     let size = size.unwrap_or(gloam_simcam::DEFAULT_RIG_SIZE);
@@ -267,47 +271,100 @@ pub struct UsafBar {
     pub element: i32,
     /// Measured square-wave (bar) modulation.
     pub modulation: f64,
+    /// Its 1-based line in the CTF file (0: not from a file).
+    #[serde(skip)]
+    pub line: usize,
+}
+
+/// The groups of a real USAF 1951 chart: −2 (0.25 lp/mm) on the large
+/// targets to 11 (≈ 3650 lp/mm, element 6) on the finest high-resolution
+/// glass targets. A group outside is a typo, not a chart (group 100 would
+/// be 10³⁰ lp/mm).
+pub const USAF_GROUPS: std::ops::RangeInclusive<i32> = -2..=11;
+/// Nyquist frequency, cycles per pixel: a target above it aliases onto a
+/// lower frequency, and its modulation is not the MTF there.
+pub const NYQUIST_CY_PER_PX: f64 = 0.5;
+/// Most an MTF value is taken to be: 1 plus measurement noise. A Coltman
+/// result above it (or below 0) means bar contrasts no imaging system gives.
+pub const MAX_MTF: f64 = 1.05;
+
+/// Refuses sine frequencies outside (0, Nyquist]: above 0.5 cycles/pixel
+/// a target aliases and its modulation is not the MTF at its frequency.
+/// 0.5 itself is accepted (at 0° its sine's phase cannot be measured and
+/// the fit says so; tilt it with `--angle-deg`).
+pub fn check_sine_frequencies(f: &[f64]) -> Result<(), CalibError> {
+    for &x in f {
+        if !(x > 0.0 && x <= NYQUIST_CY_PER_PX) {
+            return Err(CalibError::Usage(format!(
+                "--frequencies {x}: a sine target's frequency must lie in (0, {NYQUIST_CY_PER_PX}] cycles/pixel; above Nyquist it aliases onto a lower frequency, so its modulation is not MTF"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Parses a CTF file's text: rows of `group,element,modulation` (commas,
 /// semicolons, tabs or spaces), `#` comments and blank lines skipped, and
-/// header lines before the first row. `path` names the file in errors.
+/// one header line (no field a number) before the first row. Every other
+/// line must be a row: one that does not parse is an error naming its
+/// line, never skipped. A group outside the chart's [`USAF_GROUPS`], an
+/// element outside 1–6 or a bar modulation outside [0, 1] (a contrast
+/// (max − min)/(max + min)) is refused at its line. `path` names the file
+/// in errors.
 pub fn parse_usaf_ctf(text: &str, path: &Path) -> Result<Vec<UsafBar>, CalibError> {
     let mut out = Vec::new();
+    let mut content_lines = 0;
     for (i, line) in text.lines().enumerate() {
-        let l = line.trim();
+        let l = line.trim().trim_start_matches('\u{feff}');
         if l.is_empty() || l.starts_with('#') {
             continue;
         }
+        content_lines += 1;
         let f: Vec<&str> = l
             .split([',', ';', '\t', ' '])
             .filter(|s| !s.is_empty())
             .collect();
+        let at = |message: String| CalibError::Line {
+            path: path.to_path_buf(),
+            line: i + 1,
+            message,
+        };
+        let header = content_lines == 1 && f.iter().all(|x| x.parse::<f64>().is_err());
+        if header {
+            continue;
+        }
         let parsed = (|| -> Option<(i32, i32, f64)> {
             if f.len() != 3 {
                 return None;
             }
             Some((f[0].parse().ok()?, f[1].parse().ok()?, f[2].parse().ok()?))
         })();
-        let at = |message: &str| CalibError::Line {
-            path: path.to_path_buf(),
-            line: i + 1,
-            message: message.to_string(),
+        let Some((group, element, modulation)) = parsed else {
+            return Err(at(format!(
+                "'{l}' is not a 'group,element,modulation' row (whole group and element, numeric modulation)"
+            )));
         };
-        match parsed {
-            Some((group, element, modulation))
-                if (1..=6).contains(&element) && modulation.is_finite() =>
-            {
-                out.push(UsafBar {
-                    group,
-                    element,
-                    modulation,
-                })
-            }
-            Some(_) => return Err(at("element must be 1–6 and the modulation finite")),
-            None if out.is_empty() => continue, // header
-            None => return Err(at("expected 'group,element,modulation'")),
+        if !USAF_GROUPS.contains(&group) {
+            return Err(at(format!(
+                "group {group} is not on a USAF 1951 chart (groups {}…{})",
+                USAF_GROUPS.start(),
+                USAF_GROUPS.end()
+            )));
         }
+        if !(1..=6).contains(&element) {
+            return Err(at(format!("element {element} is not 1–6")));
+        }
+        if !(0.0..=1.0).contains(&modulation) {
+            return Err(at(format!(
+                "modulation {modulation} is outside [0, 1], where a bar contrast (max − min)/(max + min) lies"
+            )));
+        }
+        out.push(UsafBar {
+            group,
+            element,
+            modulation,
+            line: i + 1,
+        });
     }
     if out.is_empty() {
         return Err(CalibError::file(path, "no 'group,element,modulation' rows"));
@@ -330,21 +387,80 @@ pub fn read_usaf_ctf(path: &Path) -> Result<Vec<UsafBar>, CalibError> {
 /// to cycles per pixel at `pixel_pitch_um`, then Coltman's series turns the
 /// square-wave response into the sine MTF. Returns the Coltman curve, the
 /// measured square-wave curve (both sorted by frequency) and the `details`
-/// block of `mtf.json`.
+/// block of `mtf.json`. Refused, naming the row's line in `ctf` (the
+/// `--ctf` file): a bar above Nyquist (0.5 cycles/pixel; exactly 0.5 is
+/// kept), two rows of one bar, or a Coltman MTF outside [0, [`MAX_MTF`]]
+/// (contrasts no imaging system gives).
 pub fn usaf_mtf(
     mut bars: Vec<UsafBar>,
     pixel_pitch_um: f64,
     magnification: f64,
+    ctf: &Path,
 ) -> Result<(Vec<MtfCurve>, serde_json::Value), CalibError> {
+    if !(pixel_pitch_um > 0.0 && pixel_pitch_um.is_finite()) {
+        return Err(CalibError::Usage(format!(
+            "--pixel-pitch-um {pixel_pitch_um}: must be a positive pitch"
+        )));
+    }
+    if !(magnification > 0.0 && magnification.is_finite()) {
+        return Err(CalibError::Usage(format!(
+            "--magnification {magnification}: must be positive (image size / chart size)"
+        )));
+    }
     let lp = |b: &UsafBar| usaf_lp_per_mm(b.group, b.element);
     bars.sort_by(|x, y| lp(x).total_cmp(&lp(y)));
+    let at = |b: &UsafBar, message: String| CalibError::Line {
+        path: ctf.to_path_buf(),
+        line: b.line,
+        message,
+    };
     // Chart lp/mm → image cycles per pixel.
     let f: Vec<f64> = bars
         .iter()
         .map(|b| lp(b) / magnification * pixel_pitch_um * 1e-3)
         .collect();
+    for (b, &fp) in bars.iter().zip(&f) {
+        if fp > NYQUIST_CY_PER_PX {
+            return Err(at(
+                b,
+                format!(
+                    "group {} element {} ({:.4} lp/mm) is {fp:.4} cycles/pixel at --pixel-pitch-um {pixel_pitch_um} and --magnification {magnification}, above Nyquist ({NYQUIST_CY_PER_PX}): its bars alias, so their contrast is not MTF; leave the row out",
+                    b.group,
+                    b.element,
+                    lp(b)
+                ),
+            ));
+        }
+    }
+    for w in bars.windows(2) {
+        if (w[0].group, w[0].element) == (w[1].group, w[1].element) {
+            let (first, again) = if w[0].line < w[1].line {
+                (&w[0], &w[1])
+            } else {
+                (&w[1], &w[0])
+            };
+            return Err(at(
+                again,
+                format!(
+                    "group {} element {} again (first at line {})",
+                    again.group, again.element, first.line
+                ),
+            ));
+        }
+    }
     let c: Vec<f64> = bars.iter().map(|b| b.modulation).collect();
     let m = coltman_sine_from_square_samples(&f, &c)?;
+    for (b, &v) in bars.iter().zip(&m) {
+        if !(0.0..=MAX_MTF).contains(&v) {
+            return Err(at(
+                b,
+                format!(
+                    "Coltman's series gives MTF {v:.4} at group {} element {} from these bar contrasts, outside [0, {MAX_MTF}]: no imaging system gives them (its square-wave response falls with frequency and is at least its sine MTF); check the modulations",
+                    b.group, b.element
+                ),
+            ));
+        }
+    }
     let details = serde_json::json!({
         "usaf": bars.iter().zip(&f).map(|(b, fp)| serde_json::json!({
             "group": b.group, "element": b.element, "lp_per_mm": lp(b),
@@ -375,24 +491,23 @@ mod tests {
                 UsafBar {
                     group: 0,
                     element: 1,
-                    modulation: 0.9
+                    modulation: 0.9,
+                    line: 4,
                 },
                 UsafBar {
                     group: 1,
                     element: 2,
-                    modulation: 0.5
+                    modulation: 0.5,
+                    line: 5,
                 }
             ]
         );
         let e = parse_usaf_ctf("0,1,0.9\n0,7,0.5\n", p).unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "c.csv:2: element must be 1–6 and the modulation finite"
-        );
+        assert_eq!(e.to_string(), "c.csv:2: element 7 is not 1–6");
         let e = parse_usaf_ctf("0,1,0.9\nx\n", p).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "c.csv:2: expected 'group,element,modulation'"
+            "c.csv:2: 'x' is not a 'group,element,modulation' row (whole group and element, numeric modulation)"
         );
         let e = parse_usaf_ctf("# only\n", p).unwrap_err();
         assert_eq!(e.to_string(), "c.csv: no 'group,element,modulation' rows");
@@ -408,14 +523,16 @@ mod tests {
                 group: 2,
                 element: 1,
                 modulation: 0.5,
+                line: 1,
             },
             UsafBar {
                 group: 0,
                 element: 1,
                 modulation: 0.9,
+                line: 2,
             },
         ];
-        let (curves, details) = usaf_mtf(bars, 10.0, 0.5).unwrap();
+        let (curves, details) = usaf_mtf(bars, 10.0, 0.5, Path::new("c.csv")).unwrap();
         let f = &curves[1].frequencies_cy_per_px;
         assert!(
             (f[0] - 0.02).abs() < 1e-15 && (f[1] - 0.08).abs() < 1e-15,
@@ -423,6 +540,108 @@ mod tests {
         );
         assert_eq!(curves[1].mtf, vec![0.9, 0.5]);
         assert_eq!(details["usaf"][1]["lp_per_mm"], 4.0);
+    }
+
+    #[test]
+    fn ctf_rows_out_of_physics_are_refused_at_their_line() {
+        let p = Path::new("c.csv");
+        let err = |t: &str| parse_usaf_ctf(t, p).unwrap_err().to_string();
+        // A first row that fails to parse is not a header: never dropped.
+        assert_eq!(
+            err("0,1,0.9x\n1,1,0.5\n"),
+            "c.csv:1: '0,1,0.9x' is not a 'group,element,modulation' row (whole group and element, numeric modulation)"
+        );
+        assert_eq!(
+            err("group,element,modulation\nGroup,Element,Modulation\n0,1,0.5\n"),
+            "c.csv:2: 'Group,Element,Modulation' is not a 'group,element,modulation' row (whole group and element, numeric modulation)"
+        );
+        assert_eq!(
+            err("0,1,0.9\n100,1,0.5\n"),
+            "c.csv:2: group 100 is not on a USAF 1951 chart (groups -2…11)"
+        );
+        assert!(err("-3,1,0.5\n").starts_with("c.csv:1: group -3 is not"));
+        for bad in ["1.18", "-0.39", "1.0000001", "nan", "inf"] {
+            let e = err(&format!("# c\n0,1,{bad}\n"));
+            assert!(e.starts_with("c.csv:2: modulation "), "{bad}: {e}");
+            assert!(e.contains("outside [0, 1]"), "{bad}: {e}");
+        }
+        // The chart's ends and the modulation's bounds are accepted.
+        let ok = parse_usaf_ctf("-2,1,1\n11,6,0\n", p).unwrap();
+        assert_eq!(ok.len(), 2);
+    }
+
+    fn bar(group: i32, element: i32, modulation: f64, line: usize) -> UsafBar {
+        UsafBar {
+            group,
+            element,
+            modulation,
+            line,
+        }
+    }
+
+    #[test]
+    fn usaf_bars_above_nyquist_repeated_or_unphysical_are_refused() {
+        let p = Path::new("c.csv");
+        // Group 0 element 1 is 1 lp/mm: with 500 µm pixels exactly 0.5
+        // cycles/pixel, Nyquist itself, which is kept.
+        let (c, _) = usaf_mtf(vec![bar(0, 1, 0.6, 3)], 500.0, 1.0, p).unwrap();
+        assert_eq!(c[0].frequencies_cy_per_px, vec![0.5]);
+        // Element 2 is above it.
+        let e = usaf_mtf(vec![bar(0, 1, 0.6, 3), bar(0, 2, 0.5, 4)], 500.0, 1.0, p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("c.csv:4: group 0 element 2"), "{e}");
+        assert!(e.contains("--pixel-pitch-um 500"), "{e}");
+        assert!(e.contains("above Nyquist (0.5)"), "{e}");
+        let e = usaf_mtf(vec![bar(0, 1, 0.6, 3), bar(0, 1, 0.5, 7)], 10.0, 1.0, p)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "c.csv:7: group 0 element 1 again (first at line 3)");
+        // A perfect bar contrast at 1 lp/mm: π/4 at f, kept.
+        let ok = usaf_mtf(vec![bar(0, 1, 1.0, 1), bar(1, 4, 0.7, 2)], 10.0, 1.0, p);
+        let (c, _) = ok.unwrap();
+        assert!(
+            c[0].mtf.iter().all(|m| (0.0..=MAX_MTF).contains(m)),
+            "{c:?}"
+        );
+        // A contrast that rises again at 3f, 7f and 11f: Coltman's series
+        // passes 1.05.
+        let f = |k: f64| (k.log2() * 6.0).round() as i32;
+        let rows: Vec<UsafBar> = [1.0, 3.0, 5.0, 7.0, 11.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| {
+                let s = f(k);
+                bar(
+                    s.div_euclid(6),
+                    s.rem_euclid(6) + 1,
+                    if k == 5.0 { 0.0 } else { 1.0 },
+                    i + 1,
+                )
+            })
+            .collect();
+        let e = usaf_mtf(rows, 1.0, 1.0, p).unwrap_err().to_string();
+        assert!(
+            e.starts_with("c.csv:1: Coltman's series gives MTF 1."),
+            "{e}"
+        );
+        assert!(e.contains("outside [0, 1.05]"), "{e}");
+        // Pitch and magnification are flags, named as such.
+        let e = usaf_mtf(vec![bar(0, 1, 0.5, 1)], 0.0, 1.0, p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--pixel-pitch-um 0: must be a positive pitch"
+        );
+    }
+
+    #[test]
+    fn sine_frequencies_stop_at_nyquist() {
+        assert!(check_sine_frequencies(&[0.02, 0.25, 0.5]).is_ok());
+        for bad in [0.5000001, 0.6, 2.0, 0.0, -0.1, f64::NAN] {
+            let e = check_sine_frequencies(&[0.1, bad]).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--frequencies {bad}:")), "{e}");
+            assert!(e.contains("(0, 0.5]"), "{e}");
+        }
     }
 
     #[test]

@@ -294,7 +294,167 @@ pub fn fit_gain(
     })
 }
 
+/// Largest band radiance a LUT may give a count, W m⁻² sr⁻¹ (the scene's
+/// emission limit): a slope or offset beyond it is not a camera's.
+pub const MAX_LUT_RADIANCE_W_M2_SR: f64 = 1e20;
+/// Two gains within this relative difference are one setting: a camera
+/// sets gains in thousandths, so the AGC's floor of 14.5519 (Gen III's MCP
+/// at 500 V) is the setting 14.552 a LUT is measured at.
+pub const GAIN_MATCH_TOLERANCE: f64 = 1e-4;
+/// How far (relative) a LUT's responsivity `1/g` may fall from one gain to
+/// the next higher one before the LUT counts as reversed: a camera's
+/// counts per radiance rise with its gain; fit noise between two close
+/// gains is far below this.
+pub const RESPONSIVITY_FALL_TOLERANCE: f64 = 0.01;
+
+/// What is wrong with a LUT: the JSON key (of `gains[index]`, or of the
+/// LUT itself) and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LutProblem {
+    pub gain_index: Option<usize>,
+    pub key: &'static str,
+    pub message: String,
+}
+
+impl LutProblem {
+    /// The 1-based line of `text` (the LUT's JSON) holding the key: its
+    /// `gain_index + 1`-th occurrence (each `gains` entry has each key
+    /// once), else line 1.
+    pub fn line_in(&self, text: &str) -> usize {
+        let needle = format!("\"{}\"", self.key);
+        let nth = self.gain_index.unwrap_or(0);
+        text.match_indices(&needle)
+            .nth(nth)
+            .map_or(1, |(at, _)| text[..at].matches('\n').count() + 1)
+    }
+}
+
+impl std::fmt::Display for LutProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.gain_index {
+            Some(i) => write!(f, "gains[{i}].{}: {}", self.key, self.message),
+            None => write!(f, "{}: {}", self.key, self.message),
+        }
+    }
+}
+
 impl Lut {
+    /// Checks the LUT against physics before it converts a count: a top
+    /// code that is a 16-bit count, at least one gain, each gain positive,
+    /// its slope `g` positive and its line within
+    /// [`MAX_LUT_RADIANCE_W_M2_SR`] up to the top code, its fit range of
+    /// positive width, no gain twice, and counts per radiance (`1/g`) that
+    /// do not fall as the gain rises (a reversed LUT).
+    pub fn check(&self) -> Result<(), LutProblem> {
+        let bad = |i: Option<usize>, key: &'static str, message: String| {
+            Err(LutProblem {
+                gain_index: i,
+                key,
+                message,
+            })
+        };
+        let top = self.digitizer_max_dn;
+        if !((1.0..=65_535.0).contains(&top) && top.fract() == 0.0) {
+            return bad(
+                None,
+                "digitizer_max_dn",
+                format!("{top} is not a digitizer's top code (a whole count in 1..=65535)"),
+            );
+        }
+        if self.gains.is_empty() {
+            return bad(None, "gains", "no calibrated gain".into());
+        }
+        let max = MAX_LUT_RADIANCE_W_M2_SR;
+        for (i, c) in self.gains.iter().enumerate() {
+            let at = Some(i);
+            if !(c.gain > 0.0 && c.gain.is_finite()) {
+                return bad(at, "gain", format!("{} is not a positive gain", c.gain));
+            }
+            let g = c.g_w_m2_sr_per_dn;
+            if !(g > 0.0) {
+                return bad(
+                    at,
+                    "g_w_m2_sr_per_dn",
+                    format!(
+                        "slope {g} W m⁻² sr⁻¹/DN at gain {} is not positive: radiance must rise with the counts",
+                        c.gain
+                    ),
+                );
+            }
+            if !(g * top <= max) {
+                return bad(
+                    at,
+                    "g_w_m2_sr_per_dn",
+                    format!(
+                        "slope {g:e} W m⁻² sr⁻¹/DN at gain {} gives {:e} W m⁻² sr⁻¹ at the top code {top} DN, above {max:e}",
+                        c.gain,
+                        g * top
+                    ),
+                );
+            }
+            if !(c.b_w_m2_sr.abs() <= max) {
+                return bad(
+                    at,
+                    "b_w_m2_sr",
+                    format!(
+                        "offset {:e} W m⁻² sr⁻¹ at gain {} is not finite within ±{max:e}",
+                        c.b_w_m2_sr, c.gain
+                    ),
+                );
+            }
+            let [lo, hi] = c.fit_range_dn;
+            if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+                return bad(
+                    at,
+                    "fit_range_dn",
+                    format!(
+                        "[{lo}, {hi}] at gain {} is not a range of positive width (dark to top of the fit, rising)",
+                        c.gain
+                    ),
+                );
+            }
+            if let Some(s) = c.saturation_dn
+                && !s.is_finite()
+            {
+                return bad(
+                    at,
+                    "saturation_dn",
+                    format!("{s} at gain {} is not finite", c.gain),
+                );
+            }
+        }
+        let mut order: Vec<usize> = (0..self.gains.len()).collect();
+        order.sort_by(|&a, &b| self.gains[a].gain.total_cmp(&self.gains[b].gain));
+        for w in order.windows(2) {
+            let (a, b) = (&self.gains[w[0]], &self.gains[w[1]]);
+            if (b.gain - a.gain).abs() <= GAIN_MATCH_TOLERANCE * a.gain {
+                // Named at the later entry in the file.
+                let (first, again) = (w[0].min(w[1]), w[0].max(w[1]));
+                return bad(
+                    Some(again),
+                    "gain",
+                    format!(
+                        "gain {} repeats gains[{first}] (gain {}): one setting, two lines",
+                        self.gains[again].gain, self.gains[first].gain
+                    ),
+                );
+            }
+            // Responsivity 1/g must not fall as the gain rises.
+            let (ra, rb) = (1.0 / a.g_w_m2_sr_per_dn, 1.0 / b.g_w_m2_sr_per_dn);
+            if rb < ra * (1.0 - RESPONSIVITY_FALL_TOLERANCE) {
+                return bad(
+                    Some(w[1]),
+                    "g_w_m2_sr_per_dn",
+                    format!(
+                        "at gain {} the counts per radiance (1/g = {rb:.6e} DN per W m⁻² sr⁻¹) fall below gains[{}]'s at the lower gain {} ({ra:.6e}): the LUT is reversed or its entries mixed up",
+                        b.gain, w[0], a.gain
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+
     /// Slope and offset for `gain`: exact at a calibrated gain; between two
     /// calibrated gains the responsivity `1/g` (DN per radiance) and the
     /// dark level `−b/g` are interpolated linearly in gain (they are what a
@@ -302,7 +462,7 @@ impl Lut {
     pub fn coefficients(&self, gain: f64) -> Result<(f64, f64), CalibError> {
         let mut g: Vec<&GainCalibration> = self.gains.iter().collect();
         g.sort_by(|a, b| a.gain.total_cmp(&b.gain));
-        let tol = |a: f64| 1e-6 * a.abs().max(1e-12);
+        let tol = |a: f64| GAIN_MATCH_TOLERANCE * a.abs().max(1e-12);
         if let Some(c) = g.iter().find(|c| (c.gain - gain).abs() <= tol(c.gain)) {
             return Ok((c.g_w_m2_sr_per_dn, c.b_w_m2_sr));
         }
@@ -331,6 +491,8 @@ impl Lut {
     /// calibrated gain (or the digitizer maximum) become NaN: their radiance
     /// is unknown.
     pub fn apply(&self, gain: f64, pixels: &[u16]) -> Result<Vec<f32>, CalibError> {
+        self.check()
+            .map_err(|p| CalibError::Invalid(format!("LUT {p}")))?;
         let (g, b) = self.coefficients(gain)?;
         let nearest = self
             .gains
@@ -355,5 +517,153 @@ impl Lut {
                 }
             })
             .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gain(gain: f64, g: f64) -> GainCalibration {
+        GainCalibration {
+            gain,
+            g_w_m2_sr_per_dn: g,
+            b_w_m2_sr: -1e-5,
+            r_squared: 1.0,
+            fit_range_dn: [500.0, 40_000.0],
+            dark_dn: 500.0,
+            dark_std_dn: 3.0,
+            saturation_dn: Some(60_000.0),
+            n_fit_points: 6,
+            max_abs_residual_percent: 0.1,
+            levels: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+
+    fn lut() -> Lut {
+        Lut {
+            grabber: "simulated scientific-ccd".into(),
+            source: "sphere".into(),
+            band_nm: [400.0, 900.0],
+            digitizer_max_dn: 65_535.0,
+            gains: vec![gain(1.0, 2.5e-8), gain(2.0, 1.25e-8)],
+        }
+    }
+
+    fn problem(l: &Lut) -> String {
+        l.check().unwrap_err().to_string()
+    }
+
+    #[test]
+    fn a_lut_outside_physics_is_refused_naming_the_key() {
+        assert_eq!(lut().check(), Ok(()));
+        let mut l = lut();
+        l.gains[1].g_w_m2_sr_per_dn = -1.25e-8;
+        assert_eq!(
+            problem(&l),
+            "gains[1].g_w_m2_sr_per_dn: slope -0.0000000125 W m⁻² sr⁻¹/DN at gain 2 is not positive: radiance must rise with the counts"
+        );
+        l.gains[1].g_w_m2_sr_per_dn = 0.0;
+        assert!(problem(&l).contains("slope 0 W"), "{}", problem(&l));
+        l.gains[1].g_w_m2_sr_per_dn = 1e308;
+        assert!(
+            problem(&l).starts_with(
+                "gains[1].g_w_m2_sr_per_dn: slope 1e308 W m⁻² sr⁻¹/DN at gain 2 gives inf"
+            ),
+            "{}",
+            problem(&l)
+        );
+        l.gains[1].g_w_m2_sr_per_dn = f64::NAN;
+        assert!(problem(&l).contains("slope NaN"), "{}", problem(&l));
+        // Up to the limit is accepted: 1e20 W m⁻² sr⁻¹ at the top code.
+        l.gains[1].g_w_m2_sr_per_dn = 1e20 / 65_535.0;
+        l.gains[0].g_w_m2_sr_per_dn = 1e20 / 65_535.0;
+        assert_eq!(l.check(), Ok(()));
+        let mut l = lut();
+        l.gains[0].b_w_m2_sr = -1e300;
+        assert!(problem(&l).starts_with("gains[0].b_w_m2_sr: offset"));
+        let mut l = lut();
+        l.gains[0].fit_range_dn = [500.0, 500.0];
+        assert!(
+            problem(&l).starts_with(
+                "gains[0].fit_range_dn: [500, 500] at gain 1 is not a range of positive width"
+            ),
+            "{}",
+            problem(&l)
+        );
+        l.gains[0].fit_range_dn = [40_000.0, 500.0];
+        assert!(problem(&l).starts_with("gains[0].fit_range_dn: [40000, 500]"));
+        for top in [0.0, -1.0, 4095.5, 65_536.0, f64::INFINITY] {
+            let mut l = lut();
+            l.digitizer_max_dn = top;
+            assert!(
+                problem(&l).starts_with(&format!("digitizer_max_dn: {top} is not")),
+                "{}",
+                problem(&l)
+            );
+        }
+        let mut l = lut();
+        l.gains.clear();
+        assert_eq!(problem(&l), "gains: no calibrated gain");
+        let mut l = lut();
+        l.gains[0].gain = 0.0;
+        assert!(problem(&l).starts_with("gains[0].gain: 0 is not a positive gain"));
+        // Apply refuses it too, not only loading.
+        assert!(l.apply(1.0, &[1]).is_err());
+    }
+
+    #[test]
+    fn a_reversed_or_repeated_lut_is_refused() {
+        // Counts per radiance falling as the gain rises: reversed.
+        let mut l = lut();
+        l.gains.swap(0, 1);
+        l.gains[0].gain = 1.0;
+        l.gains[1].gain = 2.0;
+        let p = problem(&l);
+        assert!(
+            p.starts_with("gains[1].g_w_m2_sr_per_dn: at gain 2 the counts per radiance"),
+            "{p}"
+        );
+        assert!(p.contains("reversed"), "{p}");
+        // Within 1 % (fit noise between close gains) is accepted.
+        let mut l = lut();
+        l.gains[1].g_w_m2_sr_per_dn = 2.5e-8 * 1.009;
+        assert_eq!(l.check(), Ok(()));
+        l.gains[1].g_w_m2_sr_per_dn = 2.5e-8 * 1.011;
+        assert!(problem(&l).contains("reversed"));
+        // One setting twice: the AGC's floor and the setting it is.
+        let mut l = lut();
+        l.gains[0].gain = 14.552;
+        l.gains[1].gain = 1000.0 * 0.625f64.powi(9);
+        assert!(
+            problem(&l).starts_with(
+                "gains[1].gain: gain 14.551915228366852 repeats gains[0] (gain 14.552)"
+            ),
+            "{}",
+            problem(&l)
+        );
+    }
+
+    #[test]
+    fn a_problem_names_the_line_of_its_key() {
+        let text = serde_json::to_string_pretty(&lut()).unwrap();
+        let mut l = lut();
+        l.gains[1].g_w_m2_sr_per_dn = -1.0;
+        let p = l.check().unwrap_err();
+        let line = p.line_in(&text);
+        let at = text.lines().nth(line - 1).unwrap();
+        assert!(at.contains("\"g_w_m2_sr_per_dn\": 1.25e-8"), "{line}: {at}");
+        let p = LutProblem {
+            gain_index: None,
+            key: "digitizer_max_dn",
+            message: String::new(),
+        };
+        assert!(
+            text.lines()
+                .nth(p.line_in(&text) - 1)
+                .unwrap()
+                .contains("65535")
+        );
     }
 }

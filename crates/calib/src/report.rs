@@ -24,6 +24,80 @@ pub fn write_text(path: &Path, text: &str) -> Result<(), CalibError> {
     write_bytes(path, text.as_bytes())
 }
 
+/// The file `path` names, resolved (links followed, `..` gone) as far as
+/// it exists: its own canonical path, or its parent's joined with its name.
+fn resolved(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(p) = std::fs::canonicalize(path) {
+        return Some(p);
+    }
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(std::fs::canonicalize(parent).ok()?.join(name))
+}
+
+/// Whether `a` and `b` are one file: the same resolved path, or (both
+/// existing) the same device and inode — a hard link too.
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b))
+            && (x.dev(), x.ino()) == (y.dev(), y.ino())
+        {
+            return true;
+        }
+    }
+    matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// Refuses an output file (`flag` `output`) that is one of the run's
+/// `inputs` (`(flag, path)`), however it is spelled: through a symbolic
+/// link, `..`, or a hard link. Writing there would replace the input the
+/// run reads.
+pub fn refuse_output_over_inputs(
+    flag: &'static str,
+    output: &Path,
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), CalibError> {
+    for &(input_flag, input) in inputs {
+        if same_file(output, input) {
+            return Err(CalibError::OutputIsInput {
+                flag,
+                output: output.to_path_buf(),
+                input_flag,
+                input: input.to_path_buf(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an output directory (`--out`) that holds one of the run's
+/// `inputs`: replacing the set there (`--force`) would delete an input.
+pub fn refuse_out_dir_holding_inputs(
+    out: &Path,
+    inputs: &[(&'static str, &Path)],
+) -> Result<(), CalibError> {
+    let Ok(out_dir) = std::fs::canonicalize(out) else {
+        return Ok(()); // Not there yet: it holds nothing.
+    };
+    for &(flag, input) in inputs {
+        if let Some(p) = resolved(input)
+            && p.starts_with(&out_dir)
+        {
+            return Err(CalibError::Usage(format!(
+                "--out {}: holds {flag} {}, an input of this run; the output set there would replace it — write the output elsewhere",
+                out.display(),
+                input.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Writes bytes atomically: a uniquely named temporary file beside `path`
 /// (so two writers never share one), flushed to disk, then renamed over it,
 /// so an interrupted run never leaves a half-written report, plot or image.
