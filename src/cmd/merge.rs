@@ -22,19 +22,35 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
 /// Compared canonically (links and `..` resolved) from the nearest part of
 /// `--out` that exists.
 fn refuse_out_inside_a_tile(args: &MergeArgs) -> anyhow::Result<()> {
-    let mut probe = args.out.as_path();
-    let existing = loop {
-        if let Ok(c) = std::fs::canonicalize(probe) {
-            break c;
+    // The nearest part of --out that exists, resolved, and the rest as
+    // given (it does not exist yet).
+    let mut probe = args.out.clone();
+    let mut rest = Vec::new();
+    let out = loop {
+        if let Ok(c) = std::fs::canonicalize(&probe) {
+            break rest
+                .iter()
+                .rev()
+                .fold(c, |p: std::path::PathBuf, part| p.join(part));
         }
-        match probe.parent() {
-            Some(p) if !p.as_os_str().is_empty() => probe = p,
-            _ => break std::env::current_dir()?,
+        match (probe.file_name().map(|n| n.to_os_string()), probe.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name);
+                probe = if parent.as_os_str().is_empty() {
+                    std::path::PathBuf::from(".")
+                } else {
+                    parent.to_path_buf()
+                };
+            }
+            _ => break std::env::current_dir()?.join(&args.out),
         }
     };
     for tile in &args.tiles {
+        // --out naming a tile itself is the output set's own refusal
+        // ("holds the input").
         if let Ok(t) = std::fs::canonicalize(tile)
-            && existing.starts_with(&t)
+            && out != t
+            && out.starts_with(&t)
         {
             anyhow::bail!(
                 "--out {}: inside the tile directory {}; write the merged image outside its inputs",
