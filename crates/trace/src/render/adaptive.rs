@@ -85,6 +85,11 @@ pub(super) struct Samples {
 }
 
 impl Tracer {
+    /// The most samples a pixel takes: `max_spp`, or `spp` if more.
+    pub(super) fn spp_cap(&self) -> u32 {
+        self.settings.max_spp.max(self.settings.spp.max(1))
+    }
+
     /// The rows `rows` as a region to render, or why not.
     pub(super) fn region(
         &self,
@@ -223,7 +228,7 @@ impl Tracer {
         let w = region.w as usize;
         let nb = self.wl.band_names.len();
         let floor = band_floor(&s.ests, &s.views, nb);
-        let cap = self.settings.max_spp.max(self.settings.spp.max(1));
+        let cap = self.spp_cap();
         while s.rounds <= MAX_ROUNDS && !halt.now() {
             let (factor, _) = stratification(&s.ests, &floor);
             let stated = stated_std_errors(&s.ests, w, &factor, &floor, true);
@@ -316,10 +321,10 @@ impl Tracer {
     /// round from the estimate so far, so a first round that overshot a
     /// pixel does not leave it with a loose bound: each grows to
     /// `n (σ/τ)²` (at most 4× per round, at least the first round's spp
-    /// up to [`MIN_ADAPTIVE_SPP`], never past its cap), until every pixel is within its bound or
-    /// capped. Pixels that see an
-    /// emitter's face are held to their bound too (unlike under a target
-    /// error, whose metric leaves them out): the camera sees their error.
+    /// up to [`MIN_ADAPTIVE_SPP`], never past its cap), until every pixel
+    /// is within its bound or capped. Pixels that see an emitter's face are
+    /// held to their bound too (unlike under a target error, whose metric
+    /// leaves them out): the camera sees their error.
     fn goal_rounds(
         &self,
         s: &mut Samples,
@@ -331,7 +336,7 @@ impl Tracer {
         let band = goal.band();
         let nb = self.wl.band_names.len();
         let floor = band_floor(&s.ests, &s.views, nb);
-        let cap = self.settings.max_spp.max(self.settings.spp.max(1));
+        let cap = self.spp_cap();
         // A bound loose against the pixel's error needs no more than the
         // first round (`spp`, at least one sample per replicate): a camera
         // whose frame is mostly its own noise asks little of the render.
@@ -354,16 +359,9 @@ impl Tracer {
                     } else {
                         f64::INFINITY
                     };
-                    let goal = want.ceil().min(4.0 * n).max(min as f64);
-                    let goal = goal.min(pixel_cap(e, cap) as f64) as u32;
-                    // Replicated batches add an even count (half to each
-                    // replicate) without passing the cap.
-                    let add = goal.saturating_sub(e.n).div_ceil(2) * 2;
-                    let add = if e.n + add > pixel_cap(e, cap) {
-                        add.saturating_sub(2)
-                    } else {
-                        add
-                    };
+                    let cap = pixel_cap(e, cap);
+                    let goal = want.ceil().min(4.0 * n).max(min as f64).min(cap as f64);
+                    let add = even_add(e.n, goal as u32, cap);
                     (add > 0).then_some((i, add))
                 })
                 .collect();

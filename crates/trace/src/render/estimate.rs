@@ -429,14 +429,21 @@ pub(super) fn allocate(
             if goal <= e.n as u64 {
                 return None;
             }
-            // Replicated batches add an even count (half to each
-            // replicate) without passing the cap.
-            let add = (goal - e.n as u64) as u32;
-            let add = add.div_ceil(2) * 2;
-            let add = if e.n + add > cap { add - 2 } else { add };
+            let add = even_add(e.n, goal as u32, cap);
             (add > 0).then_some((i, add))
         })
         .collect()
+}
+
+/// Samples to add to a pixel of `n` to reach `goal` (≤ `cap`): replicated
+/// batches add an even count (half to each replicate), never past `cap`.
+pub(super) fn even_add(n: u32, goal: u32, cap: u32) -> u32 {
+    let add = goal.saturating_sub(n).div_ceil(2) * 2;
+    if n + add > cap {
+        add.saturating_sub(2)
+    } else {
+        add
+    }
 }
 
 /// The multiplier `λ` of [`allocate`] (`n_i = λ s_i`) that brings the

@@ -73,8 +73,7 @@ impl Tracer {
             }
             spp[[row, col]] = e.n;
         }
-        let spp_cap = self.settings.max_spp.max(self.settings.spp.max(1));
-        let adaptive = self.settings.target_error.map(|t| (t, spp_cap));
+        let adaptive = self.settings.target_error.map(|t| (t, self.spp_cap()));
         let error = error_summary(&s.ests, &floor, &stated, pooled, adaptive, s.rounds, w);
         Film {
             image,
