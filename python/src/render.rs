@@ -307,21 +307,15 @@ fn render<'py>(
         set: setting_pairs(settings)?,
         ..flags
     };
-    let (mut s, mut target_error_source) =
+    let (s, target_error_source) =
         args.with_default_error(args.settings().or_py()?, camera.is_none());
     // `target_error="camera[:K]"`, as `gloam render --target-error camera`:
     // each pixel to the camera's own noise at its preset gain.
     let camera_k = args.camera_target();
-    if camera_k.is_some() {
-        if camera.is_none() {
-            return Err(crate::errors::GloamError::new_err(
-                "target_error=\"camera\" needs a camera: sensor=… or the scene's sensor",
-            ));
-        }
-        target_error_source = Some(gloam_pipeline::TargetErrorSource::Given);
-        if !args.names_spp() {
-            s.spp = 2;
-        }
+    if camera_k.is_some() && camera.is_none() {
+        return Err(crate::errors::GloamError::new_err(
+            "target_error=\"camera\" needs a camera: sensor=… or the scene's sensor",
+        ));
     }
     let sink = ProgressSink::new(py, progress, "render")?;
     let owned = Arc::clone(scene_ref);
@@ -355,18 +349,10 @@ fn render<'py>(
                     auto_exposure: None,
                     frame_format: Default::default(),
                 };
-                let band = prepared.tracer().wavelengths().band_names.len() - 1;
-                let goal = gloam_pipeline::camera_goal::CameraGoal::new(band, k, &capture)?;
+                let goal = gloam_pipeline::camera_goal::CameraGoal::new(&prepared, k, &capture)?;
                 let r = prepared.render_to_goal(&goal, &progress, &stop)?;
-                let summary = match (goal.settled(), &r.detected, &r.detected_std_error) {
-                    (Some(st), Some(d), Some(se)) => {
-                        let mut v = gloam_pipeline::camera_goal::summary(k, st, d, se);
-                        v["mean_spp"] = r.radiance.error.mean_spp.into();
-                        Some(v)
-                    }
-                    _ => None,
-                };
-                Ok((r, summary))
+                let report = goal.report(&r);
+                Ok((r, report))
             }
             _ => Ok((prepared.render(None, &progress, &stop)?, None)),
         }

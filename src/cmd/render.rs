@@ -11,7 +11,7 @@
 
 use std::time::Instant;
 
-use gloam_pipeline::camera_goal::{self, CameraGoal};
+use gloam_pipeline::camera_goal::CameraGoal;
 pub use gloam_pipeline::cli::RenderArgs;
 use gloam_pipeline::frames::scene_utc;
 use gloam_pipeline::render::RenderJob;
@@ -43,17 +43,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     // A tile or a capture keeps the fixed default spp (see with_default_error).
     let whole_image = tile.is_none() && capture.is_none();
-    let (settings, mut target_error_source) =
-        args.settings.with_default_error(settings, whole_image);
-    let mut settings = settings;
-    if camera_k.is_some() {
-        target_error_source = Some(TargetErrorSource::Given);
-        // The first round: one sample per replicate unless --spp says more
-        // (a camera's noise mostly asks for no more; see camera_goal.rs).
-        if !args.settings.names_spp() {
-            settings.spp = 2;
-        }
-    }
+    let (settings, target_error_source) = args.settings.with_default_error(settings, whole_image);
     let job = RenderJob {
         camera,
         observer: super::progress::prep_spinner(),
@@ -65,10 +55,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let full = prepared.image_size();
     let rows = tile.map(|t| t.rows(full.1)).transpose()?;
     let goal = match (camera_k, &capture) {
-        (Some(k), Some(c)) => {
-            let band = prepared.tracer().wavelengths().band_names.len() - 1;
-            Some(CameraGoal::new(band, k, c)?)
-        }
+        (Some(k), Some(c)) => Some(CameraGoal::new(&prepared, k, c)?),
         _ => None,
     };
     let rendered = match &goal {
@@ -85,15 +72,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let write_s = t_write.elapsed().as_secs_f64();
     let mut report = rendered.report_json(&args.scene, &scene, load_s, write_s);
     report["target_error_source"] = serde_json::to_value(target_error_source)?;
-    let camera_target = match (&goal, &rendered.detected, &rendered.detected_std_error) {
-        (Some(g), Some(d), Some(se)) => g.settled().map(|s| {
-            let mut v = camera_goal::summary(g.k(), s, d, se);
-            v["mean_spp"] = rendered.radiance.error.mean_spp.into();
-            v["trace_seconds"] = rendered.radiance.stats.trace_seconds.into();
-            v
-        }),
-        _ => None,
-    };
+    let camera_target = goal.as_ref().and_then(|g| g.report(&rendered));
     if let Some(t) = &camera_target {
         report["camera_target"] = t.clone();
     }

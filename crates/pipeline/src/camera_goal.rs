@@ -127,17 +127,17 @@ impl Settled {
 }
 
 impl CameraGoal {
-    /// The goal for band `band` (the render's detected band) through the
+    /// The goal for `prepared`'s detected band (its last) through the
     /// capture's camera: `sensor` (preset or TOML) with the capture's gain,
     /// AGC and automatic exposure.
     pub fn new(
-        band: usize,
+        prepared: &crate::render::PreparedRender,
         k: f64,
         capture: &crate::frames::FrameCapture<'_>,
     ) -> Result<Self, gloam_sensor::ConfigError> {
         let config = gloam_sensor::load_preset_or_file(capture.sensor)?;
         Ok(Self {
-            band,
+            band: prepared.tracer().wavelengths().band_names.len() - 1,
             k,
             config,
             gain: capture.gain,
@@ -156,6 +156,21 @@ impl CameraGoal {
     /// the render asked for bounds).
     pub fn settled(&self) -> Option<&Settled> {
         self.settled.get().and_then(|s| s.as_ref().ok())
+    }
+
+    /// `report.json`'s `camera_target` for `rendered` (rendered to this
+    /// goal): [`summary`] with the samples and the tracing time spent;
+    /// `None` before the goal settled or without the detected band.
+    pub fn report(&self, rendered: &crate::render::Rendered) -> Option<serde_json::Value> {
+        let (s, d, se) = (
+            self.settled()?,
+            rendered.detected.as_ref()?,
+            rendered.detected_std_error.as_ref()?,
+        );
+        let mut v = summary(self.k, s, d, se);
+        v["mean_spp"] = rendered.radiance.error.mean_spp.into();
+        v["trace_seconds"] = rendered.radiance.stats.trace_seconds.into();
+        Some(v)
     }
 
     /// The gain the capture would run at for `detected`.
@@ -272,13 +287,7 @@ pub fn summary(
         })
         .collect();
     f.sort_by(f64::total_cmp);
-    let q = |p: f64| {
-        if f.is_empty() {
-            0.0
-        } else {
-            f[((p * (f.len() - 1) as f64).round() as usize).min(f.len() - 1)]
-        }
-    };
+    let q = |p: f64| crate::fit::quantile_sorted(&f, p);
     serde_json::json!({
         "k": k,
         "asked_added_variance_fraction": k * k,

@@ -350,7 +350,7 @@ pub fn predict(
 }
 
 /// The nearest-rank quantile `q` (0–1) of sorted values (0 for none).
-fn quantile_sorted(v: &[f64], q: f64) -> f64 {
+pub(crate) fn quantile_sorted(v: &[f64], q: f64) -> f64 {
     match v.len() {
         0 => 0.0,
         n => v[((q * (n - 1) as f64).round() as usize).min(n - 1)],

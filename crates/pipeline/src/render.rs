@@ -188,6 +188,15 @@ impl SettingArgs {
         mut s: RenderSettings,
         whole_image: bool,
     ) -> (RenderSettings, Option<TargetErrorSource>) {
+        // `--target-error camera[:K]`: the first round is one sample per
+        // replicate unless the count is fixed (a camera's noise mostly asks
+        // for no more; see camera_goal.rs).
+        if self.camera_target().is_some() {
+            if !self.names_spp() {
+                s.spp = 2;
+            }
+            return (s, Some(TargetErrorSource::Given));
+        }
         let source = if self.names_sampling() || !whole_image {
             s.target_error.map(|_| TargetErrorSource::Given)
         } else {
