@@ -32,8 +32,8 @@ impl Drop for Reaper {
     }
 }
 
-/// Waits for `child` until `timeout` after `t0`; past it, kills it (and
-/// its process group, when it leads one) and returns `None`.
+/// Waits for `child` until `timeout` after `t0`; past it, kills it and
+/// returns `None` (what it started goes with its group: [`Reaper`]).
 pub fn wait_with_timeout(
     child: &mut std::process::Child,
     t0: Instant,
@@ -47,7 +47,6 @@ pub fn wait_with_timeout(
             return Ok(Some(st));
         }
         if t0.elapsed() >= timeout {
-            crate::output_set::kill_group(child.id());
             let _ = child.kill();
             let _ = child.wait();
             return Ok(None);
