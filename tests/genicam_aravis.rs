@@ -185,9 +185,10 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
-    // Each control session starts from the default user set, so the AGC
-    // run comes last, after a fixed-gain capture and a client that leaves
-    // the gain manual at 40 dB, the frame rate at 5 Hz and 8-bit pixels.
+    // Registers persist across control sessions (SFNC) until DeviceReset
+    // loads the default user set: a client leaves the gain manual at
+    // 40 dB, the frame rate at 5 Hz and 8-bit pixels, the next reads them
+    // back and resets the device, and the AGC run starts from the preset.
     let client = [
         capture(
             "fixed",
@@ -195,11 +196,18 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
             "--frames 30 --bits 12 --exposure-s 0.002 --gain 50",
         ),
         "timeout 20 arv-tool-0.8 control GainAuto=Off Gain=40 AcquisitionFrameRate=5 PixelFormat=Mono8 >&2".to_string(),
+        "timeout 20 arv-tool-0.8 control GainAuto Gain AcquisitionFrameRate PixelFormat DeviceReset".to_string(),
         capture("agc", "genicam:127.0.0.1", "--frames 30 --bits 16 --agc"),
     ]
     .join("\n");
     let run = in_netns(dir.path(), "--size 160x120 --seed 7", &client, 120);
     assert!(run.ok, "{}\n{}", run.stderr, run.device_stderr);
+    let out = &run.stdout;
+    assert_eq!(feature(out, "GainAuto"), "Off", "{out}");
+    assert_eq!(feature(out, "Gain"), "40", "{out}");
+    assert_eq!(feature(out, "AcquisitionFrameRate"), "5", "{out}");
+    assert_eq!(feature(out, "PixelFormat"), "Mono8", "{out}");
+    assert!(out.contains("DeviceReset executed"), "{out}");
     for (tag, extra) in [
         (
             "fixed",
@@ -369,10 +377,13 @@ fn arv_test_passes_without_a_config_and_chunks_carry_each_frames_gain_and_exposu
     }
     let dir = tempfile::tempdir().expect("tempdir");
     // No configuration file: arv-test's defaults, chunk test included
-    // (ChunkList "OffsetX OffsetY"). Then a client streaming 2 s with the
-    // chunks on, at the AGC's default settings, Mono16.
+    // (ChunkList "OffsetX OffsetY"). arv-test leaves its settings (5 Hz,
+    // registers persist across sessions): DeviceReset loads the default
+    // set. Then a client streaming 2 s with the chunks on, at the AGC's
+    // default settings, Mono16.
     let client = [
         r#"cd "$DIR" && arv-test-0.8; echo "arv-test rc=$?""#,
+        "timeout 20 arv-tool-0.8 control DeviceReset >&2",
         "timeout 30 arv-camera-test-0.8 --chunks FrameID,Gain,GainLinear,ExposureTime,AgcActive,GateDuty --features PixelFormat=Mono16 --duration 2",
     ]
     .join("\n");

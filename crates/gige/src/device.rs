@@ -144,7 +144,8 @@ pub struct Device {
     /// Default (the preset's, read-only) and UserSet1.
     user_sets: [UserSet; 2],
     user_set_selector: u32,
-    /// The set a new control session and DeviceReset load.
+    /// The set power-up and DeviceReset load (not a new control session:
+    /// registers persist across sessions).
     user_set_default: u32,
     /// High word of an 8-byte double register written, waiting for its low
     /// word: (address, value).
@@ -280,22 +281,18 @@ impl Device {
         self.chunk_enable = u.chunk_enable;
     }
 
-    /// A new controller: it starts from the UserSetDefault set, not from
-    /// whatever the last client left (nor the gain its AGC reached).
-    fn start_session(&mut self) {
-        self.load_set(self.user_set_default);
-        self.gain_in_effect_milli = None;
-        self.pending_high = None;
-    }
-
-    /// DeviceReset: what a power cycle does, short of forgetting the user
-    /// sets (they are "non-volatile") and the stimulus (the world, not the
-    /// device).
+    /// DeviceReset: what a power cycle does — the UserSetDefault set is
+    /// loaded (SFNC) — short of forgetting the user sets (non-volatile) and
+    /// the stimulus (the world, not the device). A new control session
+    /// does none of this: registers persist until power-up or DeviceReset,
+    /// as on a real camera.
     fn reset(&mut self) {
         if self.controller.is_some() {
             self.release_control();
         }
-        self.start_session();
+        self.load_set(self.user_set_default);
+        self.gain_in_effect_milli = None;
+        self.pending_high = None;
         self.heartbeat_ms = bs::DEFAULT_HEARTBEAT_MS;
         self.gvcp_config = 0;
         self.scps = bs::DEFAULT_PACKET_BYTES;
@@ -605,7 +602,9 @@ impl Device {
             }
             _ if wants => {
                 if self.controller.is_none() {
-                    self.start_session();
+                    // A half-written double belongs to the last client;
+                    // every register it wrote stays (SFNC).
+                    self.pending_high = None;
                 }
                 self.controller = Some(Controller {
                     addr: from,

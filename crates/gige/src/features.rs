@@ -45,7 +45,7 @@ pub mod reg {
     pub const USER_SET_SELECTOR: u32 = 0x0001_0078;
     pub const USER_SET_LOAD: u32 = 0x0001_007C;
     pub const USER_SET_SAVE: u32 = 0x0001_0080;
-    /// `UserSetDefault`: the set a new control session and `DeviceReset` load.
+    /// `UserSetDefault`: the set power-up and `DeviceReset` load.
     pub const USER_SET_DEFAULT: u32 = 0x0001_0084;
     pub const DEVICE_RESET: u32 = 0x0001_0088;
     /// `Gain`: IEEE-754 double (8 bytes, high word first), dB (SFNC:
@@ -598,7 +598,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     n += &int_reg("UserSetSaveReg", reg::USER_SET_SAVE, "WO");
     n += &enumeration(
         "UserSetDefault",
-        "User set a new control session (a new controller) and DeviceReset start from",
+        "User set loaded at power-up and by DeviceReset (registers otherwise persist across control sessions)",
         &sets,
         "UserSetDefaultReg",
         false,

@@ -570,53 +570,74 @@ fn gain_is_in_db_as_sfnc_defines_it_and_the_linear_factor_sits_beside_it() {
     assert!(xml.contains("<pVariable Name=\"AUTO\">GainAutoReg</pVariable>"));
 }
 
+/// SFNC: registers persist until power-up or DeviceReset, which load the
+/// set UserSetDefault names; a new control session changes nothing.
 #[test]
-fn a_new_session_and_device_reset_start_from_the_default_user_set() {
+fn registers_persist_across_sessions_and_device_reset_loads_user_set_default() {
     let mut d = test_device();
     let (mut a, mut b) = (Client::new(A), Client::new(B));
     let rate = |c: &mut Client, d: &mut Device| {
         f32::from_bits(c.read(d, reg::ACQUISITION_FRAME_RATE).unwrap())
     };
     a.take_control(&mut d);
+    // The preset's power-up values (test_device: 25 Hz, 64 pixels wide).
+    assert_eq!(rate(&mut a, &mut d), 25.0);
+    assert_eq!(a.read(&mut d, reg::WIDTH), Ok(64));
     assert_eq!(
         a.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
         SUCCESS
     );
     assert_eq!(a.write(&mut d, reg::WIDTH, 16), SUCCESS);
+    assert_eq!(a.write(&mut d, reg::GAIN_AUTO, 0), SUCCESS);
+    assert_eq!(a.write_double(&mut d, reg::GAIN_DB, 40.0), SUCCESS);
+    // A half-written double (high word only) dies with its session.
+    assert_eq!(a.write(&mut d, reg::GAIN_DB, 0x4050_0000), SUCCESS);
     assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
-    // What A left is not what B gets: the preset's 25 Hz, 64 pixels.
+    // What A left is what B gets.
     assert_eq!(b.take_control(&mut d), SUCCESS);
-    assert_eq!(rate(&mut b, &mut d), 25.0);
-    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(64));
+    assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(16));
+    assert_eq!(b.read(&mut d, reg::GAIN_AUTO), Ok(0));
+    let db = b.read_double(&mut d, reg::GAIN_DB);
+    assert!((db - 40.0).abs() < 1e-3, "{db} dB");
+    // A low word alone keeps the stored high word: 40 dB is still 40 dB.
+    let low = 40f64.to_bits() as u32;
+    assert_eq!(b.write(&mut d, reg::GAIN_DB + 4, low), SUCCESS);
+    let db = b.read_double(&mut d, reg::GAIN_DB);
+    assert!((db - 40.0).abs() < 1e-3, "{db} dB");
     // Default is read-only; UserSet1 keeps what is saved into it.
-    assert_eq!(
-        b.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
-        SUCCESS
-    );
     assert_eq!(b.write(&mut d, reg::USER_SET_SAVE, 1), WRITE_PROTECT);
     assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_SAVE, 1), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 0), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
     assert_eq!(rate(&mut b, &mut d), 25.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(64));
     assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
     assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(16));
     assert_eq!(
         b.write(&mut d, reg::USER_SET_SELECTOR, 2),
         INVALID_PARAMETER
     );
-    // DeviceReset: control released, the Default set back.
+    assert_eq!(b.write(&mut d, reg::USER_SET_DEFAULT, 2), INVALID_PARAMETER);
+    // DeviceReset: control released, the Default set (UserSetDefault) back.
     assert_eq!(b.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
     assert_eq!(d.controller(), None);
     assert!(d.take_events().contains(&Event::ControlReleased));
     assert_eq!(rate(&mut a, &mut d), 25.0);
-    // With UserSetDefault = UserSet1, sessions start from UserSet1.
+    assert_eq!(a.read(&mut d, reg::WIDTH), Ok(64));
+    // With UserSetDefault = UserSet1, DeviceReset loads UserSet1; the
+    // choice itself survives the reset (it is the user sets' setting).
     a.take_control(&mut d);
     assert_eq!(a.write(&mut d, reg::USER_SET_DEFAULT, 1), SUCCESS);
-    assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    assert_eq!(rate(&mut a, &mut d), 25.0, "choosing does not load");
+    assert_eq!(a.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
     b.take_control(&mut d);
+    assert_eq!(b.read(&mut d, reg::USER_SET_DEFAULT), Ok(1));
     assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(16));
 }
 
 /// The chunks of a payload as a client finds them: walking the trailers
@@ -707,7 +728,7 @@ fn chunk_payload_walked_from_its_end_gives_back_every_value_under_the_xmls_ids()
 }
 
 #[test]
-fn chunk_mode_grows_payload_size_and_a_new_session_starts_without_it() {
+fn chunk_mode_grows_payload_size_and_device_reset_turns_it_off() {
     let mut d = test_device();
     let (mut a, mut b) = (Client::new(A), Client::new(B));
     a.take_control(&mut d);
@@ -741,8 +762,12 @@ fn chunk_mode_grows_payload_size_and_a_new_session_starts_without_it() {
     assert_eq!(a.write(&mut d, reg::TL_PARAMS_LOCKED, 1), SUCCESS);
     assert_eq!(a.write(&mut d, reg::CHUNK_MODE_ACTIVE, 0), BUSY);
     assert_eq!(a.write(&mut d, reg::TL_PARAMS_LOCKED, 0), SUCCESS);
-    // The next controller starts from the Default set: no chunks.
+    // The next controller finds chunks on (registers persist); DeviceReset
+    // loads the Default set: no chunks.
     assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    b.take_control(&mut d);
+    assert_eq!(b.read(&mut d, reg::CHUNK_MODE_ACTIVE), Ok(1));
+    assert_eq!(b.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
     b.take_control(&mut d);
     assert_eq!(b.read(&mut d, reg::CHUNK_MODE_ACTIVE), Ok(0));
     assert_eq!(b.read(&mut d, reg::PAYLOAD_SIZE), Ok(image));

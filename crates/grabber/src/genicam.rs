@@ -142,6 +142,8 @@ pub struct GenicamGrabber {
     pending: Option<Frame>,
     /// The camera's chunk data, when it offers any the grabber records.
     chunks: Option<Chunks>,
+    /// `TriggerMode` as found at open, restored on close.
+    trigger_found: Option<String>,
 }
 
 /// Chunk data switched on for this acquisition, and how to read it.
@@ -191,6 +193,15 @@ impl GenicamGrabber {
                 )));
             }
         };
+        // Registers persist across control sessions (SFNC): the next
+        // client finds what this one leaves, so the trigger mode found here
+        // is put back on close.
+        let trigger_found = camera
+            .is_feature_available("TriggerMode")
+            .unwrap_or(false)
+            .then(|| camera.string("TriggerMode").ok())
+            .flatten()
+            .map(|s| s.to_string());
         if triggered {
             camera
                 .set_trigger("Software")
@@ -253,6 +264,7 @@ impl GenicamGrabber {
             timeout_us: 0,
             pending: None,
             chunks: None,
+            trigger_found,
         })
     }
 
@@ -530,6 +542,11 @@ impl Drop for GenicamGrabber {
         if self.chunks.is_some() {
             // Leave the camera as found: image payloads for the next client.
             let _ = self.camera.set_chunk_mode(false);
+        }
+        // And the trigger mode it had: a free-running camera left
+        // triggered would send the next client nothing.
+        if let Some(mode) = &self.trigger_found {
+            let _ = self.camera.set_string("TriggerMode", mode);
         }
     }
 }
