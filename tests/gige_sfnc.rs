@@ -147,3 +147,116 @@ echo "== end""#
     // The factory set is read-only.
     assert!(u.contains("write-protect"), "{out}");
 }
+
+/// Per-second rates `arv-camera-test-0.8` prints (`N frames/s - …`), the
+/// first second (the acquisition starting) left out, sorted.
+fn rates(section: &str) -> Vec<f64> {
+    let mut r: Vec<f64> = section
+        .lines()
+        .filter_map(|l| l.trim().split_once(" frame"))
+        .filter_map(|(n, _)| n.trim().parse().ok())
+        .skip(1)
+        .collect();
+    r.sort_by(f64::total_cmp);
+    r
+}
+
+/// The first frame a `gen2-s20-iccd` at 64×48, seed 1, renders at its
+/// defaults, looking at the uniform rig or at `shown` instead: its CRC.
+fn first_frame_crc(shown: Option<&gloam_grabber::Stimulus>) -> u32 {
+    use gloam_grabber::FrameSource;
+    let mut src =
+        gloam_simcam::SensorSource::new("gen2-s20-iccd", "uniform", 1, (64, 48)).expect("preset");
+    if let Some(s) = shown {
+        src.present(s).expect("present");
+    }
+    src.restart();
+    let s = src.info().defaults;
+    let mut px = vec![0u16; 64 * 48];
+    src.render(&s, &mut px).expect("render");
+    gloam_grabber::pixels_crc32c(&px)
+}
+
+#[test]
+fn sfnc_features_read_back_frame_rate_enable_paces_and_the_rig_stimulus_reads_back() {
+    if !aravis_ready(
+        "gige SFNC features",
+        &["arv-tool-0.8", "arv-camera-test-0.8", "ip"],
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let t = "timeout 20 arv-tool-0.8 -a 127.0.0.1 control";
+    let client = format!(
+        r#"echo "== power-up"
+{t} ExposureAuto GainSelector AcquisitionFrameRateEnable AcquisitionFrameRate GloamStimulus
+echo "== writes"
+{t} ExposureAuto=Continuous ExposureAuto GainSelector=All GainSelector AcquisitionFrameRateEnable=false AcquisitionFrameRate=5 AcquisitionFrameRateEnable AcquisitionFrameRate 2>&1
+echo "== rate disabled"
+timeout 30 arv-camera-test-0.8 --duration 4
+echo "== rate enabled"
+{t} AcquisitionFrameRateEnable=true AcquisitionFrameRateEnable
+timeout 30 arv-camera-test-0.8 --duration 4
+echo "== end""#
+    );
+    let run = in_netns(dir.path(), "--size 64x48 --seed 1", &client, 120);
+    let out = &run.stdout;
+    assert!(run.ok, "{out}\n{}\n{}", run.stderr, run.device_stderr);
+    let s = sections(out);
+
+    let p = &s["power-up"];
+    assert_eq!(entry(p, "ExposureAuto", 0), "Off", "{out}");
+    assert_eq!(entry(p, "GainSelector", 0), "All", "{out}");
+    assert_eq!(entry(p, "AcquisitionFrameRateEnable", 0), "true", "{out}");
+    assert!(
+        (number(p, "AcquisitionFrameRate", 0) - 25.0).abs() < 1e-3,
+        "{out}"
+    );
+
+    // The rig's stimulus, read back through GenICam, is the one in effect:
+    // shown explicitly in process it gives the rig's first frame to the
+    // bit, and 1 % more radiance does not.
+    let json = p
+        .lines()
+        .find_map(|l| l.strip_prefix("GloamStimulus = "))
+        .unwrap_or_else(|| panic!("no GloamStimulus in:\n{out}"));
+    let shown: gloam_grabber::Stimulus =
+        serde_json::from_str(json.trim()).unwrap_or_else(|e| panic!("{json}: {e}"));
+    let gloam_grabber::Stimulus::Uniform {
+        radiance_w_m2_sr,
+        spectrum,
+    } = &shown
+    else {
+        panic!("the uniform rig reads {json}");
+    };
+    assert!(*radiance_w_m2_sr > 0.0, "{json}");
+    let rig = first_frame_crc(None);
+    assert_eq!(first_frame_crc(Some(&shown)), rig, "{json}");
+    let brighter = gloam_grabber::Stimulus::Uniform {
+        radiance_w_m2_sr: radiance_w_m2_sr * 1.01,
+        spectrum: spectrum.clone(),
+    };
+    assert_ne!(first_frame_crc(Some(&brighter)), rig);
+
+    // One entry each: other values are refused, the entry stays.
+    let w = &s["writes"];
+    assert!(w.contains("ExposureAuto"), "{out}");
+    assert_eq!(entry(w, "ExposureAuto", 0), "Off", "{out}");
+    assert_eq!(entry(w, "GainSelector", 0), "All", "{out}");
+    assert_eq!(entry(w, "AcquisitionFrameRateEnable", 0), "false", "{out}");
+    assert!(
+        (number(w, "AcquisitionFrameRate", 0) - 5.0).abs() < 1e-3,
+        "{out}"
+    );
+
+    // Off: the sensor's 25 Hz, whatever AcquisitionFrameRate says; on: 5 Hz.
+    let off = rates(&s["rate disabled"]);
+    let on = rates(&s["rate enabled"]);
+    assert!(off.len() >= 2 && on.len() >= 2, "{out}");
+    let median = |r: &[f64]| r[r.len() / 2];
+    assert!(median(&off) >= 15.0, "disabled: {off:?}\n{out}");
+    assert!(
+        (4.0..=6.0).contains(&median(&on)),
+        "enabled at 5 Hz: {on:?}\n{out}"
+    );
+}

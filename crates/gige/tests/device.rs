@@ -772,3 +772,81 @@ fn chunk_mode_grows_payload_size_and_device_reset_turns_it_off() {
     assert_eq!(b.read(&mut d, reg::CHUNK_MODE_ACTIVE), Ok(0));
     assert_eq!(b.read(&mut d, reg::PAYLOAD_SIZE), Ok(image));
 }
+
+/// ExposureAuto and GainSelector have one entry each; AcquisitionFrameRate
+/// paces the stream only while AcquisitionFrameRateEnable is on (off: the
+/// sensor's own 25 Hz), and the switch is part of a user set.
+#[test]
+fn sfnc_exposure_auto_gain_selector_and_frame_rate_enable() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    a.take_control(&mut d);
+    assert_eq!(a.read(&mut d, reg::EXPOSURE_AUTO), Ok(0));
+    assert_eq!(a.write(&mut d, reg::EXPOSURE_AUTO, 2), INVALID_PARAMETER);
+    assert_eq!(a.write(&mut d, reg::EXPOSURE_AUTO, 0), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::GAIN_SELECTOR), Ok(0));
+    assert_eq!(a.write(&mut d, reg::GAIN_SELECTOR, 1), INVALID_PARAMETER);
+    assert_eq!(a.read(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE), Ok(1));
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
+        SUCCESS
+    );
+    assert_eq!(d.frame_period_us(), 200_000);
+    assert_eq!(a.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE, 0),
+        SUCCESS
+    );
+    assert_eq!(a.write(&mut d, reg::USER_SET_SAVE, 1), SUCCESS);
+    assert_eq!(d.frame_period_us(), 40_000, "the sensor's 25 Hz");
+    assert_eq!(
+        f32::from_bits(a.read(&mut d, reg::ACQUISITION_FRAME_RATE).unwrap()),
+        5.0,
+        "kept, not honoured"
+    );
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE, 2),
+        INVALID_PARAMETER
+    );
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE, 1),
+        SUCCESS
+    );
+    assert_eq!(d.frame_period_us(), 200_000);
+    assert_eq!(a.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE), Ok(0));
+    // The XML names them where SFNC clients look.
+    let xml = String::from_utf8(d.xml().to_vec()).unwrap();
+    for name in ["ExposureAuto", "GainSelector", "AcquisitionFrameRateEnable"] {
+        assert!(
+            xml.contains(&format!("Name=\"{name}\" NameSpace=\"Standard\"")),
+            "{name}"
+        );
+    }
+    assert!(!xml.contains("DeviceTemperature"), "not modelled");
+}
+
+/// `GloamStimulus` reads the stimulus shown from the start (a rig's), and
+/// a JSON too long for the register leaves it as it was.
+#[test]
+fn gloam_stimulus_reads_the_stimulus_in_effect_from_the_start() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    let stim = gloam_grabber::Stimulus::Uniform {
+        radiance_w_m2_sr: 1.5e-5,
+        spectrum: "cie-a".into(),
+    };
+    d.show_stimulus(&stim);
+    let bytes = a.read_mem(&mut d, reg::STIMULUS, 128).unwrap();
+    let end = bytes.iter().position(|&b| b == 0).unwrap();
+    let back: gloam_grabber::Stimulus = serde_json::from_slice(&bytes[..end]).unwrap();
+    assert_eq!(back, stim);
+    assert!(d.take_events().is_empty(), "shown already: no event");
+    let long = gloam_grabber::Stimulus::Uniform {
+        radiance_w_m2_sr: 1.0,
+        spectrum: "x".repeat(600),
+    };
+    d.show_stimulus(&long);
+    let again = a.read_mem(&mut d, reg::STIMULUS, 128).unwrap();
+    assert_eq!(again, bytes);
+}
