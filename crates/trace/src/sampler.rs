@@ -3,8 +3,10 @@
 //! A sampler is a value, as in pbrt-v4: made for one pixel (and replicate)
 //! and the number of samples it has so far, it hands out each dimension pair
 //! a camera sample needs — the position in the pixel, the camera vertex's
-//! light samples, the final gather's directions. With `light_strata = sobol`
-//! (the default) each pair is its own Owen-scrambled Sobol (0,2)-sequence,
+//! light samples, the final gather's directions. The gather's directions,
+//! the light samples with `light_strata = sobol` (the default) and the
+//! positions with `pixel_strata = sobol` are each their own Owen-scrambled
+//! Sobol (0,2)-sequence,
 //! scrambled by its own hash of the pixel, so the pairs are independent of
 //! one another (padded, as pbrt-v4's `PaddedSobolSampler` and `ZSobolSampler`
 //! pad) while each is stratified across every sample of the pixel: sample `j`
@@ -17,9 +19,9 @@
 //! the pixels keep independent hashes (which also keeps a tile's pixels
 //! identical to the same pixels of the whole image).
 //!
-//! With `light_strata = random` the positions are a Latin hypercube per
-//! batch and the light samples independent draws (the earlier sampler, kept
-//! for comparison).
+//! With `pixel_strata = latin` (the default, for now) the positions are a
+//! Latin hypercube per batch; with `light_strata = random` the light
+//! samples are independent draws.
 
 use rand_pcg::Pcg64Mcg;
 
@@ -43,19 +45,19 @@ pub(crate) struct PixelSampler {
 impl PixelSampler {
     /// The streams of pixel `pixel` (row-major index) under `seed`, for
     /// `replicate` (None: the pixel's own), continuing after `first`
-    /// samples; Sobol sequences when `sobol`.
+    /// samples; `(positions, light)` from Sobol sequences where `sobol` says.
     pub(crate) fn new(
         seed: u64,
         pixel: u64,
         replicate: Option<usize>,
         first: u32,
-        sobol: bool,
+        sobol: (bool, bool),
     ) -> Self {
         let salt = replicate.map_or(0, |r| (r as u64 + 1) << 40);
         let gather = mix64(seed ^ mix64(pixel ^ 0x6A7E ^ salt));
         PixelSampler {
-            film: sobol.then(|| mix64(gather ^ 0x0050_1C57_0F11)),
-            light: sobol.then(|| mix64(gather ^ 0x005E_ED11_6475)),
+            film: sobol.0.then(|| mix64(gather ^ 0x0050_1C57_0F11)),
+            light: sobol.1.then(|| mix64(gather ^ 0x005E_ED11_6475)),
             gather,
             first,
         }
@@ -108,7 +110,7 @@ mod tests {
             let mut all = Vec::new();
             let mut first = 0u32;
             for n in [4usize, 8, 4] {
-                let s = PixelSampler::new(7, pixel, Some(1), first, true);
+                let s = PixelSampler::new(7, pixel, Some(1), first, (true, true));
                 let mut pts = Vec::new();
                 s.film_positions(n, &mut rng, &mut pts);
                 all.extend(pts);
@@ -132,16 +134,20 @@ mod tests {
         let mut rng = Pcg64Mcg::seed_from_u64(1);
         let mut first_point = |pixel, rep| {
             let mut p = Vec::new();
-            PixelSampler::new(3, pixel, rep, 0, true).film_positions(1, &mut rng, &mut p);
+            PixelSampler::new(3, pixel, rep, 0, (true, true)).film_positions(1, &mut rng, &mut p);
             p[0]
         };
         assert_ne!(first_point(5, None), first_point(6, None));
         assert_ne!(first_point(5, Some(0)), first_point(5, Some(1)));
-        let s = PixelSampler::new(3, 5, None, 0, true);
+        let s = PixelSampler::new(3, 5, None, 0, (true, true));
         let mut g = Vec::new();
         s.gather(0, 1, &mut g);
         assert_ne!(g[0], first_point(5, None));
         assert_ne!(s.light(0).unwrap().scramble, s.gather);
-        assert!(PixelSampler::new(3, 5, None, 0, false).light(0).is_none());
+        assert!(
+            PixelSampler::new(3, 5, None, 0, (false, false))
+                .light(0)
+                .is_none()
+        );
     }
 }

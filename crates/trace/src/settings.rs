@@ -19,7 +19,8 @@
 //! | `light_tree_branches` | 16 | `light_tree_split = fixed`: subtrees a vertex's selection splits into, one emitter from each (more: less noise, more shadow rays) |
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
 //! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
-//! | `light_strata` | sobol | camera-vertex light samples: `sobol` (one Owen-scrambled Sobol sequence per pixel and source, stratified across the pixel's samples: office, direct light only, 16 spp: per-pixel error 2.61 % → 0.92 % against the path-traced reference; whole light 0.98 % → 0.91 %) or `random` (an independent Latin-hypercube set per sample, the default before issue 30); `sobol` also takes the positions in the pixel from a shuffled Sobol sequence continued across rounds (`sampler.rs`; office, direct light only, to 1 %: 8.5 vs 9.5 spp at the same achieved error), `random` a Latin hypercube per batch |
+//! | `light_strata` | sobol | camera-vertex light samples: `sobol` (one Owen-scrambled Sobol sequence per pixel and source, stratified across the pixel's samples: office, direct light only, 16 spp: per-pixel error 2.61 % → 0.92 % against the path-traced reference; whole light 0.98 % → 0.91 %) or `random` (an independent Latin-hypercube set per sample, the default before issue 30) |
+//! | `pixel_strata` | latin | positions in the pixel: `latin` (a Latin hypercube per batch of samples) or `sobol` (one shuffled Owen-scrambled Sobol sequence per pixel, continued across the adaptive rounds, `sampler.rs`; office, direct light only, to 1 %: 8.5 vs 9.5 spp at the same achieved error against a 1 024-spp reference). Not yet the default: `bench plan`'s interreflection check on `street-switch-on` measures an 8 % change with it against a 1.5 % seed-to-seed noise (2.8 % against 12.7 % with `latin`) — to be explained first |
 //! | `path_guide` | true | `indirect = path`: a share of each diffuse bounce aims at the few facets lit far above the rest (a lamp's own housing), weighted by the mixture's density so the estimate stays unbiased (`guide.rs`; night-full-moon-lamps, one eighth size, 64 spp: noise of the lower sixths' sums 1.2–3.4 % → 0.3–0.5 %) |
 //! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
 //! | `drop` | (none) | comma-separated effects left out of the render, to measure what each is worth (`gloam bench plan`): `area-sources`, `point-sources`, `shaped-point-sources`, `moon`, `night-sky`, `direct-view`, `specular-recursion`, `transmissive-occluders` (they become opaque), `interreflection`; `none` clears |
@@ -298,6 +299,8 @@ pub struct RenderSettings {
     /// sequence per pixel and source, stratified across the pixel's
     /// samples (`sobol`), or independently per sample (`random`).
     pub light_strata: LightStrataMode,
+    /// Positions in the pixel (see `pixel_strata`).
+    pub pixel_strata: PixelStrata,
     /// Effects left out on purpose (measuring what each is worth).
     pub drop: Dropped,
     /// Diffuse interreflection method.
@@ -348,6 +351,7 @@ impl Default for RenderSettings {
             all_effects: false,
             path_guide: true,
             light_strata: LightStrataMode::Sobol,
+            pixel_strata: PixelStrata::Latin,
             drop: Dropped::default(),
             indirect: Indirect::Auto,
             cache_texels: 16384,
@@ -423,6 +427,7 @@ impl RenderSettings {
         "all_effects",
         "path_guide",
         "light_strata",
+        "pixel_strata",
         "drop",
         "indirect",
         "cache_texels",
@@ -546,6 +551,10 @@ impl RenderSettings {
                 ];
                 self.light_strata = parse_word(key, value, &words, "sobol or random")?
             }
+            "pixel_strata" => {
+                let words = [("latin", PixelStrata::Latin), ("sobol", PixelStrata::Sobol)];
+                self.pixel_strata = parse_word(key, value, &words, "latin or sobol")?
+            }
             "drop" => self.drop = Dropped::parse(value)?,
             "indirect" => self.indirect = value.parse()?,
             "cache_texels" => {
@@ -641,6 +650,7 @@ mod tests {
                 "source_roulette_fraction" | "resolution_scale" => "0.5",
                 "all_effects" | "path_guide" => "true",
                 "light_strata" => "random",
+                "pixel_strata" => "sobol",
                 "light_tree_split" => "fixed",
                 "light_split_threshold" => "0.5",
                 "indirect" => "cache",
@@ -685,6 +695,14 @@ fn parse_word<T: Copy>(
             value: value.into(),
             expected,
         })
+}
+
+/// Where a pixel's camera samples sit in it (see `pixel_strata`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PixelStrata {
+    Latin,
+    Sobol,
 }
 
 /// How the camera vertex draws its light samples (see `light_strata`).

@@ -15,7 +15,7 @@ use serde::Serialize;
 use crate::direct_view::ViewTerm;
 use crate::light::Light;
 use crate::sampler::PixelSampler;
-use crate::settings::{LightStrataMode, RenderSettings};
+use crate::settings::{LightStrataMode, PixelStrata, RenderSettings};
 use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
 
 mod adaptive;
@@ -207,7 +207,10 @@ impl Tracer {
             Some(r) => DOMAIN_REPLICATE ^ ((r as u64 + 1) << 8) ^ ((batch as u64) << 32),
         };
         let mut rng = stream(self.settings.seed, domain, idx);
-        let sobol = self.settings.light_strata == LightStrataMode::Sobol;
+        let sobol = (
+            self.settings.pixel_strata == PixelStrata::Sobol,
+            self.settings.light_strata == LightStrataMode::Sobol,
+        );
         let first = replicate.map_or(est.n, |r| est.rep_n[r]);
         let sampler = PixelSampler::new(self.settings.seed, idx, replicate, first, sobol);
         let mut sub = Vec::with_capacity(n);
