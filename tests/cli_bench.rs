@@ -235,8 +235,13 @@ fn scale_rejects_bad_sizes_with_a_message() {
         ("--lamps", "ten", "is not a number"),
         ("--spp", "1", "needs two samples"),
         // 1e20 s overflowed the clock's duration (a panic).
-        ("--timeout-s", "1e20", "(0, 1e6]"),
-        ("--timeout-s", "0", "(0, 1e6]"),
+        ("--timeout-s", "1e20", "[1, 1e6]"),
+        ("--timeout-s", "0", "[1, 1e6]"),
+        // 1e-300 s killed every case at once and exited 0.
+        ("--timeout-s", "1e-300", "[1, 1e6]"),
+        // The same size twice made two identical cases; an empty item vanished.
+        ("--triangles", "1e3,1e3", "given twice"),
+        ("--lamps", "1,,10", "item 2 is empty"),
         // 100 000 threads made every case fail and the bench exit 0.
         ("--threads", "100000", "within 1 … 1024"),
         ("--threads", "0", "within 1 … 1024"),
