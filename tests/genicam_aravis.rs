@@ -63,6 +63,48 @@ fn losses(stderr: &str, tag: &str) -> (u64, u64, u64) {
     (nums[0], damaged, lost)
 }
 
+/// The `n` frames captured into `dir` from Aravis's fake camera at
+/// GainRaw 2 and exposure 10 ms, `size` Mono8: each is Aravis's diagonal
+/// ramp ((x + y + frame id) mod 255) scaled by 1 + GainRaw + log10(exposure
+/// / 10 ms) = 3, clipped at 255, pixel for pixel.
+fn assert_fake_ramp(dir: &Path, n: usize, size: (u64, u64)) {
+    let recs = records(dir);
+    assert_eq!(recs.len(), n, "{}", dir.display());
+    let mut last_seq = None;
+    for r in &recs {
+        assert_eq!(
+            (
+                r["width"].as_u64(),
+                r["height"].as_u64(),
+                r["bits"].as_u64()
+            ),
+            (Some(size.0), Some(size.1), Some(8)),
+            "{r}"
+        );
+        assert_eq!(r["gain"].as_f64(), Some(2.0), "{r}");
+        assert_eq!(r["agc"].as_bool(), Some(false), "{r}");
+        let seq = r["seq"].as_u64().unwrap();
+        if let Some(l) = last_seq {
+            assert!(seq > l, "frame ids go forward: {l} then {seq}");
+        }
+        last_seq = Some(seq);
+        let png = dir.join(r["file"].as_str().unwrap());
+        // Read as gloam reads its frames (sBIT honoured): the exact counts.
+        let (w, _, px) = gloam_calib::io::read_counts(&png).expect("png");
+        // The camera's own 16-bit block id (seq + 1), which the ramp uses.
+        let id = (seq % 65535 + 1) as u32;
+        let mut wrong = 0;
+        for (i, p) in px.iter().enumerate() {
+            let (x, y) = ((i % w) as u32, (i / w) as u32);
+            let want = ((((x + y + id) % 255) as f64 * 3.0).min(255.0)) as u16;
+            if *p != want {
+                wrong += 1;
+            }
+        }
+        assert_eq!(wrong, 0, "frame {seq}: {wrong} pixels off Aravis's ramp");
+    }
+}
+
 /// A `gloam capture` line for a netns script, its stderr tagged.
 fn capture(tag: &str, uri: &str, args: &str) -> String {
     format!(
@@ -123,43 +165,7 @@ fn genicam_grabber_streams_from_the_aravis_fake_camera_and_its_controls_read_bac
     assert_eq!(feature(out, "PixelFormat"), "Mono16", "{out}");
     assert_eq!(feature(out, "GainAuto"), "Continuous", "{out}");
 
-    // Mono8 frames are Aravis's diagonal ramp: ((x + y + frame id) mod 255)
-    // scaled by 1 + GainRaw + log10(exposure / 10 ms) = 3, clipped at 255.
-    let recs = records(&dir.path().join("mono8"));
-    assert_eq!(recs.len(), 4, "{err}");
-    let mut last_seq = None;
-    for r in &recs {
-        assert_eq!(
-            (
-                r["width"].as_u64(),
-                r["height"].as_u64(),
-                r["bits"].as_u64()
-            ),
-            (Some(64), Some(48), Some(8)),
-            "{r}"
-        );
-        assert_eq!(r["gain"].as_f64(), Some(2.0), "{r}");
-        assert_eq!(r["agc"].as_bool(), Some(false), "{r}");
-        let seq = r["seq"].as_u64().unwrap();
-        if let Some(l) = last_seq {
-            assert!(seq > l, "frame ids go forward: {l} then {seq}");
-        }
-        last_seq = Some(seq);
-        let png = dir.path().join("mono8").join(r["file"].as_str().unwrap());
-        // Read as gloam reads its frames (sBIT honoured): the exact counts.
-        let (w, _, px) = gloam_calib::io::read_counts(&png).expect("png");
-        // The camera's own 16-bit block id (seq + 1), which the ramp uses.
-        let id = (seq % 65535 + 1) as u32;
-        let mut wrong = 0;
-        for (i, p) in px.iter().enumerate() {
-            let (x, y) = ((i % w) as u32, (i / w) as u32);
-            let want = ((((x + y + id) % 255) as f64 * 3.0).min(255.0)) as u16;
-            if *p != want {
-                wrong += 1;
-            }
-        }
-        assert_eq!(wrong, 0, "frame {seq}: {wrong} pixels off Aravis's ramp");
-    }
+    assert_fake_ramp(&dir.path().join("mono8"), 4, (64, 48));
     let recs = records(&dir.path().join("mono16"));
     assert_eq!(recs.len(), 3, "{err}");
     for r in &recs {
@@ -185,9 +191,10 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
-    // Each control session starts from the default user set, so the AGC
-    // run comes last, after a fixed-gain capture and a client that leaves
-    // the gain manual at 40 dB, the frame rate at 5 Hz and 8-bit pixels.
+    // Registers persist across control sessions (SFNC) until DeviceReset
+    // loads the default user set: a client leaves the gain manual at
+    // 40 dB, the frame rate at 5 Hz and 8-bit pixels, the next reads them
+    // back and resets the device, and the AGC run starts from the preset.
     let client = [
         capture(
             "fixed",
@@ -195,11 +202,18 @@ fn genicam_capture_from_gloams_gige_device_is_bit_identical_to_sim() {
             "--frames 30 --bits 12 --exposure-s 0.002 --gain 50",
         ),
         "timeout 20 arv-tool-0.8 control GainAuto=Off Gain=40 AcquisitionFrameRate=5 PixelFormat=Mono8 >&2".to_string(),
+        "timeout 20 arv-tool-0.8 control GainAuto Gain AcquisitionFrameRate PixelFormat DeviceReset".to_string(),
         capture("agc", "genicam:127.0.0.1", "--frames 30 --bits 16 --agc"),
     ]
     .join("\n");
     let run = in_netns(dir.path(), "--size 160x120 --seed 7", &client, 120);
     assert!(run.ok, "{}\n{}", run.stderr, run.device_stderr);
+    let out = &run.stdout;
+    assert_eq!(feature(out, "GainAuto"), "Off", "{out}");
+    assert_eq!(feature(out, "Gain"), "40", "{out}");
+    assert_eq!(feature(out, "AcquisitionFrameRate"), "5", "{out}");
+    assert_eq!(feature(out, "PixelFormat"), "Mono8", "{out}");
+    assert!(out.contains("DeviceReset executed"), "{out}");
     for (tag, extra) in [
         (
             "fixed",
@@ -270,13 +284,23 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
             "--frames 60 --bits 12 --exposure-s 0.002",
         ),
         sent.to_string(),
+        // Free-running at 20 Hz (the rate persists into the grabber's
+        // session), resends on: frames the capture loop cannot take in
+        // time may be lost, but at least 99 % must come through.
+        "timeout 20 arv-tool-0.8 -a 127.0.0.1 control AcquisitionFrameRate=20 >&2".to_string(),
+        capture(
+            "free",
+            "genicam:127.0.0.1?trigger=off",
+            "--frames 100 --bits 12 --exposure-s 0.002",
+        ),
+        sent.to_string(),
     ]
     .join("\n");
     let run = in_netns(
         dir.path(),
         "--size 160x120 --seed 11 --gvsp-loss 0.01 --fault-seed 3",
         &client,
-        180,
+        240,
     );
     let (out, err) = (&run.stdout, &run.stderr);
     assert!(run.ok, "{out}\n{err}\n{}", run.device_stderr);
@@ -296,14 +320,14 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
             (n(f), n(d), n(r))
         })
         .collect();
-    assert_eq!(counts.len(), 3, "{out}");
+    assert_eq!(counts.len(), 4, "{out}");
     let sim = sim_crcs(
         dir.path(),
         "sim:gen2-s20-iccd?rig=uniform&seed=11&size=160x120",
         400,
         &["--bits", "12", "--exposure-s", "0.002"],
     );
-    for (k, tag) in ["resend", "raw"].into_iter().enumerate() {
+    for (k, tag) in ["resend", "raw", "free"].into_iter().enumerate() {
         let (good, damaged, lost) = losses(err, tag);
         let frames_sent = counts[k + 1].0 - counts[k].0;
         let dropped = counts[k + 1].1 - counts[k].1;
@@ -319,23 +343,117 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
                 "{tag}: frame {seq} accepted with wrong pixels"
             );
         }
-        // Every frame the device sent is either captured or reported.
-        assert_eq!(
-            good + damaged + lost,
-            frames_sent,
-            "{tag}: {good} good + {damaged} damaged + {lost} lost ≠ {frames_sent} sent"
-        );
+        // Every frame the device sent is either captured or reported
+        // (free-running, frames still in flight when the capture stops
+        // are neither).
+        let seen = good + damaged + lost;
+        if tag == "free" {
+            assert!(
+                seen <= frames_sent && frames_sent <= seen + 10,
+                "{tag}: {good} good + {damaged} damaged + {lost} lost vs {frames_sent} sent"
+            );
+        } else {
+            assert_eq!(
+                seen, frames_sent,
+                "{tag}: {good} good + {damaged} damaged + {lost} lost ≠ {frames_sent} sent"
+            );
+        }
         assert!(dropped > 0, "{tag}: the injector dropped nothing");
         eprintln!(
             "{tag}: {frames_sent} frames sent, {dropped} packets dropped, {resent} resent; {good} good, {damaged} damaged, {lost} lost"
         );
-        if tag == "resend" {
-            assert!(resent > 0, "{out}");
-            assert_eq!((damaged, lost), (0, 0), "1 % loss is repaired by resends");
-        } else {
-            assert!(damaged + lost > 0, "no loss reported with resends off");
+        match tag {
+            "resend" => {
+                assert!(resent > 0, "{out}");
+                assert_eq!((damaged, lost), (0, 0), "1 % loss is repaired by resends");
+            }
+            "free" => {
+                assert!(resent > 0, "{out}");
+                assert!(
+                    good as f64 >= 0.99 * seen as f64,
+                    "{tag}: {good} of {seen} frames recovered (< 99 %)"
+                );
+            }
+            _ => assert!(damaged + lost > 0, "no loss reported with resends off"),
         }
     }
+}
+
+/// At 1 % GVSP loss Aravis's fake camera (`-r 10`, per thousand) loses
+/// frames that no client can repair: its GVCP capability register says it
+/// has no PACKETRESEND (0x0934 reads 0), so Aravis never asks (its own
+/// `arv-camera-test-0.8` makes 0 resend requests and fails most frames),
+/// and its GVCP handler has no PACKETRESEND command anyway. The `genicam:`
+/// grabber says so, reports every damaged frame, and returns only whole
+/// ones: each exactly Aravis's ramp.
+#[test]
+fn the_fake_camera_offers_no_packetresend_and_its_damaged_frames_are_reported() {
+    if !aravis_ready(
+        "genicam: vs arv-fake-gv-camera at 1 % loss",
+        &[
+            "arv-fake-gv-camera-0.8",
+            "arv-tool-0.8",
+            "arv-camera-test-0.8",
+            "ip",
+        ],
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let client = [
+        "echo '== capability'".to_string(),
+        "timeout 10 arv-tool-0.8 -a 127.0.0.1 control 'R[0x934]'".to_string(),
+        "echo '== arv-camera-test'".to_string(),
+        "timeout 30 arv-camera-test-0.8 --duration 3".to_string(),
+        "echo '== capture'".to_string(),
+        // 512×512 Mono8: 190 packets a frame, ~15 % of frames whole.
+        capture(
+            "fake",
+            "genicam:127.0.0.1",
+            "--frames 8 --bits 8 --gain 2 --exposure-s 0.01",
+        ),
+    ]
+    .join("\n");
+    let run = in_netns_with(
+        dir.path(),
+        "arv-fake-gv-camera-0.8 -i 127.0.0.1 -r 10",
+        "arv-tool-0.8 -a 127.0.0.1 control Width >/dev/null 2>&1",
+        &client,
+        150,
+    );
+    let (out, err) = (&run.stdout, &run.stderr);
+    assert!(run.ok, "{out}\n{err}\n{}", run.device_stderr);
+    assert!(out.contains("R[0x00000934] = 0x00000000"), "{out}");
+    let stat = |name: &str| -> u64 {
+        out.lines()
+            .find_map(|l| {
+                l.strip_prefix(name)?
+                    .trim()
+                    .strip_prefix('=')?
+                    .trim()
+                    .parse()
+                    .ok()
+            })
+            .unwrap_or_else(|| panic!("no {name} in:\n{out}"))
+    };
+    assert_eq!(stat("n_resend_requests"), 0, "{out}");
+    assert!(stat("n_missing_packets") > 0, "{out}");
+    assert!(stat("n_failures") > stat("n_completed_buffers"), "{out}");
+    eprintln!(
+        "arv-camera-test vs fake camera at 1 % loss: {} completed, {} failed, {} resend requests",
+        stat("n_completed_buffers"),
+        stat("n_failures"),
+        stat("n_resend_requests")
+    );
+    assert!(
+        err.contains("does not offer PACKETRESEND"),
+        "the grabber should say resends cannot help:\n{err}"
+    );
+    let (good, damaged, lost) = losses(err, "fake");
+    assert_eq!(good, 8, "{err}");
+    assert!(damaged > 0, "1 % loss and nothing damaged:\n{err}");
+    eprintln!("genicam: vs fake camera at 1 % loss: {good} good, {damaged} damaged, {lost} lost");
+    assert_fake_ramp(&dir.path().join("fake"), 8, (512, 512));
 }
 
 /// `ChunkNAME = value` lines as `arv-camera-test-0.8 --chunks` prints
@@ -369,10 +487,13 @@ fn arv_test_passes_without_a_config_and_chunks_carry_each_frames_gain_and_exposu
     }
     let dir = tempfile::tempdir().expect("tempdir");
     // No configuration file: arv-test's defaults, chunk test included
-    // (ChunkList "OffsetX OffsetY"). Then a client streaming 2 s with the
-    // chunks on, at the AGC's default settings, Mono16.
+    // (ChunkList "OffsetX OffsetY"). arv-test leaves its settings (5 Hz,
+    // registers persist across sessions): DeviceReset loads the default
+    // set. Then a client streaming 2 s with the chunks on, at the AGC's
+    // default settings, Mono16.
     let client = [
         r#"cd "$DIR" && arv-test-0.8; echo "arv-test rc=$?""#,
+        "timeout 20 arv-tool-0.8 control DeviceReset >&2",
         "timeout 30 arv-camera-test-0.8 --chunks FrameID,Gain,GainLinear,ExposureTime,AgcActive,GateDuty --features PixelFormat=Mono16 --duration 2",
     ]
     .join("\n");

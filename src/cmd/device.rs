@@ -148,11 +148,13 @@ fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
         reorder: args.gvsp_reorder,
         seed: args.fault_seed,
     };
-    let server = GigeServer::bind(
-        ServerConfig::simulated(bind, faults),
-        Device::new(identity, facts),
-    )
-    .with_context(|| format!("binding GVCP on {bind}"))?;
+    let mut device = Device::new(identity, facts);
+    // `GloamStimulus` reads what the camera shows from the start (a rig's).
+    if let Some(s) = source.stimulus() {
+        device.show_stimulus(s);
+    }
+    let server = GigeServer::bind(ServerConfig::simulated(bind, faults), device)
+        .with_context(|| format!("binding GVCP on {bind}"))?;
     let local = server.local_addr()?;
     announce(&local.to_string())?;
     eprintln!(

@@ -100,6 +100,7 @@ struct UserSet {
     settings: CaptureSettings,
     pixel_format: u32,
     frame_rate_hz: f32,
+    frame_rate_enable: bool,
     mcp_voltage_v: f32,
     acquisition_mode: u32,
     frame_count: u32,
@@ -126,6 +127,8 @@ pub struct Device {
     settings: CaptureSettings,
     pixel_format: u32,
     frame_rate_hz: f32,
+    /// `AcquisitionFrameRateEnable`: off, the sensor's own rate paces.
+    frame_rate_enable: bool,
     gain_in_effect_milli: Option<u32>,
     bright_source_protection: bool,
     mcp_voltage_v: f32,
@@ -144,7 +147,8 @@ pub struct Device {
     /// Default (the preset's, read-only) and UserSet1.
     user_sets: [UserSet; 2],
     user_set_selector: u32,
-    /// The set a new control session and DeviceReset load.
+    /// The set power-up and DeviceReset load (not a new control session:
+    /// registers persist across sessions).
     user_set_default: u32,
     /// High word of an 8-byte double register written, waiting for its low
     /// word: (address, value).
@@ -206,6 +210,9 @@ impl Device {
             settings,
             pixel_format: pf,
             frame_rate_hz: facts.sensor_frame_rate_hz as f32,
+            // On, at the sensor's rate: the same pace either way until a
+            // client sets a rate.
+            frame_rate_enable: true,
             mcp_voltage_v: settings.mcp_voltage_mv as f32 / 1000.0,
             acquisition_mode: value::ACQUISITION_MODE_CONTINUOUS,
             frame_count: 1,
@@ -215,6 +222,7 @@ impl Device {
         };
         Self {
             frame_rate_hz: facts.sensor_frame_rate_hz as f32,
+            frame_rate_enable: true,
             mcp_voltage_v: settings.mcp_voltage_mv as f32 / 1000.0,
             identity,
             facts,
@@ -258,6 +266,7 @@ impl Device {
             settings: self.settings,
             pixel_format: self.pixel_format,
             frame_rate_hz: self.frame_rate_hz,
+            frame_rate_enable: self.frame_rate_enable,
             mcp_voltage_v: self.mcp_voltage_v,
             acquisition_mode: self.acquisition_mode,
             frame_count: self.frame_count,
@@ -272,6 +281,7 @@ impl Device {
         self.settings = u.settings;
         self.pixel_format = u.pixel_format;
         self.frame_rate_hz = u.frame_rate_hz;
+        self.frame_rate_enable = u.frame_rate_enable;
         self.mcp_voltage_v = u.mcp_voltage_v;
         self.acquisition_mode = u.acquisition_mode;
         self.frame_count = u.frame_count;
@@ -280,22 +290,18 @@ impl Device {
         self.chunk_enable = u.chunk_enable;
     }
 
-    /// A new controller: it starts from the UserSetDefault set, not from
-    /// whatever the last client left (nor the gain its AGC reached).
-    fn start_session(&mut self) {
-        self.load_set(self.user_set_default);
-        self.gain_in_effect_milli = None;
-        self.pending_high = None;
-    }
-
-    /// DeviceReset: what a power cycle does, short of forgetting the user
-    /// sets (they are "non-volatile") and the stimulus (the world, not the
-    /// device).
+    /// DeviceReset: what a power cycle does — the UserSetDefault set is
+    /// loaded (SFNC) — short of forgetting the user sets (non-volatile) and
+    /// the stimulus (the world, not the device). A new control session
+    /// does none of this: registers persist until power-up or DeviceReset,
+    /// as on a real camera.
     fn reset(&mut self) {
         if self.controller.is_some() {
             self.release_control();
         }
-        self.start_session();
+        self.load_set(self.user_set_default);
+        self.gain_in_effect_milli = None;
+        self.pending_high = None;
         self.heartbeat_ms = bs::DEFAULT_HEARTBEAT_MS;
         self.gvcp_config = 0;
         self.scps = bs::DEFAULT_PACKET_BYTES;
@@ -325,9 +331,15 @@ impl Device {
     }
 
     /// Frame period the stream is paced to, µs: the AcquisitionFrameRate
-    /// period, never shorter than the exposure.
+    /// period (with AcquisitionFrameRateEnable off, the sensor's own),
+    /// never shorter than the exposure.
     pub fn frame_period_us(&self) -> u64 {
-        let p = 1e6 / f64::from(self.frame_rate_hz).max(0.1);
+        let hz = if self.frame_rate_enable {
+            f64::from(self.frame_rate_hz)
+        } else {
+            self.facts.sensor_frame_rate_hz
+        };
+        let p = 1e6 / hz.max(0.1);
         (p.round() as u64).max(u64::from(self.settings.exposure_us))
     }
 
@@ -605,7 +617,9 @@ impl Device {
             }
             _ if wants => {
                 if self.controller.is_none() {
-                    self.start_session();
+                    // A half-written double belongs to the last client;
+                    // every register it wrote stays (SFNC).
+                    self.pending_high = None;
                 }
                 self.controller = Some(Controller {
                     addr: from,
@@ -642,6 +656,19 @@ impl Device {
             _ => {}
         }
         b
+    }
+
+    /// What `GloamStimulus` reads while the camera shows `s` without a
+    /// client having written it (a rig's stimulus at start). A stimulus
+    /// whose JSON does not fit the register leaves it empty.
+    pub fn show_stimulus(&mut self, s: &Stimulus) {
+        let Ok(json) = serde_json::to_vec(s) else {
+            return;
+        };
+        if json.len() < self.stimulus.len() {
+            self.stimulus.fill(0);
+            self.stimulus[..json.len()].copy_from_slice(&json);
+        }
     }
 
     /// A WRITEMEM into `GloamStimulus` at byte `offset`: the whole string
@@ -792,6 +819,9 @@ impl Device {
             reg::ACQUISITION_FRAME_COUNT => self.frame_count,
             reg::ACQUISITION_FRAME_RATE => self.frame_rate_hz.to_bits(),
             reg::EXPOSURE_TIME => (s.exposure_us as f32).to_bits(),
+            reg::EXPOSURE_AUTO => value::EXPOSURE_AUTO_OFF,
+            reg::ACQUISITION_FRAME_RATE_ENABLE => u32::from(self.frame_rate_enable),
+            reg::GAIN_SELECTOR => value::GAIN_SELECTOR_ALL,
             reg::USER_SET_SELECTOR => self.user_set_selector,
             reg::USER_SET_DEFAULT => self.user_set_default,
             reg::USER_SET_LOAD | reg::USER_SET_SAVE | reg::DEVICE_RESET => 0,
@@ -974,6 +1004,18 @@ impl Device {
             reg::EXPOSURE_TIME => {
                 let us = Self::float_in(v, 1.0, f64::from(f.max_exposure_us))?;
                 self.settings.exposure_us = us.round() as u32;
+            }
+            // One entry each: anything else is not a value they have.
+            reg::EXPOSURE_AUTO | reg::GAIN_SELECTOR => {
+                if v != 0 {
+                    return Err(Status::InvalidParameter);
+                }
+            }
+            reg::ACQUISITION_FRAME_RATE_ENABLE => {
+                if v > 1 {
+                    return Err(Status::InvalidParameter);
+                }
+                self.frame_rate_enable = v == 1;
             }
             _ if reg::DOUBLES.iter().any(|&b| a == b || a == b + 4) => {
                 if self.settings.agc {

@@ -45,7 +45,7 @@ pub mod reg {
     pub const USER_SET_SELECTOR: u32 = 0x0001_0078;
     pub const USER_SET_LOAD: u32 = 0x0001_007C;
     pub const USER_SET_SAVE: u32 = 0x0001_0080;
-    /// `UserSetDefault`: the set a new control session and `DeviceReset` load.
+    /// `UserSetDefault`: the set power-up and `DeviceReset` load.
     pub const USER_SET_DEFAULT: u32 = 0x0001_0084;
     pub const DEVICE_RESET: u32 = 0x0001_0088;
     /// `Gain`: IEEE-754 double (8 bytes, high word first), dB (SFNC:
@@ -60,8 +60,15 @@ pub mod reg {
     pub const CHUNK_SELECTOR: u32 = 0x0001_00A4;
     /// `ChunkEnable` of the selected chunk.
     pub const CHUNK_ENABLE: u32 = 0x0001_00A8;
+    /// `ExposureAuto`: Off only (see the XML's tooltip for why).
+    pub const EXPOSURE_AUTO: u32 = 0x0001_00AC;
+    /// `AcquisitionFrameRateEnable`: 1 paces the stream to
+    /// `AcquisitionFrameRate`, 0 to the sensor's own frame rate.
+    pub const ACQUISITION_FRAME_RATE_ENABLE: u32 = 0x0001_00B0;
+    /// `GainSelector`: All (the camera has one gain).
+    pub const GAIN_SELECTOR: u32 = 0x0001_00B4;
     /// First address past the feature block.
-    pub const END: u32 = 0x0001_00AC;
+    pub const END: u32 = 0x0001_00B8;
 
     /// The 8-byte double registers, by the address of their high word.
     pub const DOUBLES: [u32; 2] = [GAIN_DB, GAIN_LINEAR];
@@ -115,6 +122,8 @@ pub mod value {
     pub const ON: u32 = 1;
     pub const USER_SET_DEFAULT: u32 = 0;
     pub const USER_SET_1: u32 = 1;
+    pub const EXPOSURE_AUTO_OFF: u32 = 0;
+    pub const GAIN_SELECTOR_ALL: u32 = 0;
 }
 
 /// Chunk data: what each frame says about itself when `ChunkModeActive`
@@ -447,14 +456,16 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "AcquisitionStart",
         "AcquisitionStop",
         "AcquisitionFrameCount",
+        "AcquisitionFrameRateEnable",
         "AcquisitionFrameRate",
         "ExposureTime",
+        "ExposureAuto",
         "TriggerSelector",
         "TriggerMode",
         "TriggerSource",
         "TriggerSoftware",
     ];
-    let mut cat_analog = vec!["Gain", "GainLinear", "GainAuto"];
+    let mut cat_analog = vec!["GainSelector", "Gain", "GainLinear", "GainAuto"];
     if f.has_agc {
         cat_analog.push("GainAutoSetpoint");
     }
@@ -598,7 +609,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     n += &int_reg("UserSetSaveReg", reg::USER_SET_SAVE, "WO");
     n += &enumeration(
         "UserSetDefault",
-        "User set a new control session (a new controller) and DeviceReset start from",
+        "User set loaded at power-up and by DeviceReset (registers otherwise persist across control sessions)",
         &sets,
         "UserSetDefaultReg",
         false,
@@ -757,10 +768,16 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         reg::ACQUISITION_FRAME_COUNT,
         "RW",
     );
+    n += "  <Boolean Name=\"AcquisitionFrameRateEnable\" NameSpace=\"Standard\">\n    <ToolTip>On: the stream is paced to AcquisitionFrameRate; off: to the sensor's own frame rate (AcquisitionFrameRate is kept but not honoured)</ToolTip>\n    <pValue>AcquisitionFrameRateEnableReg</pValue>\n    <OnValue>1</OnValue>\n    <OffValue>0</OffValue>\n  </Boolean>\n";
+    n += &int_reg(
+        "AcquisitionFrameRateEnableReg",
+        reg::ACQUISITION_FRAME_RATE_ENABLE,
+        "RW",
+    );
     n += &float(
         "AcquisitionFrameRate",
         "Standard",
-        "Frame rate the stream is paced to, Hz (default: the sensor's frame rate); frames never come faster than the exposure allows",
+        "Frame rate the stream is paced to while AcquisitionFrameRateEnable is on, Hz (default: the sensor's frame rate); frames never come faster than the exposure allows",
         "AcquisitionFrameRateReg",
         0.1,
         f.max_frame_rate_hz,
@@ -777,6 +794,14 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         "us",
     );
     n += &float_reg("ExposureTimeReg", reg::EXPOSURE_TIME, "RW");
+    n += &enumeration(
+        "ExposureAuto",
+        "Off only: the camera has no automatic exposure time. Its automatic controls are the AGC (GainAuto) and the tube's own brightness control, which shortens the photocathode gate within the exposure (ChunkGateDuty), not ExposureTime",
+        &[("Off", value::EXPOSURE_AUTO_OFF)],
+        "ExposureAutoReg",
+        false,
+    );
+    n += &int_reg("ExposureAutoReg", reg::EXPOSURE_AUTO, "RW");
     n += &enumeration(
         "TriggerSelector",
         "Trigger being configured",
@@ -812,6 +837,8 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
     // Gain in dB as SFNC defines it, and the linear factor gloam's CLI
     // uses; both double precision, locked while GainAuto servoes them.
     let (glo, ghi) = f.gain_range;
+    n += "  <Enumeration Name=\"GainSelector\" NameSpace=\"Standard\">\n    <ToolTip>All: the camera has one gain, the tube's (or system) gain; GainAuto's AGC and the tube's brightness control act on it</ToolTip>\n    <EnumEntry Name=\"All\">\n      <Value>0</Value>\n    </EnumEntry>\n    <pValue>GainSelectorReg</pValue>\n    <pSelected>Gain</pSelected>\n    <pSelected>GainLinear</pSelected>\n    <pSelected>GainAuto</pSelected>\n  </Enumeration>\n";
+    n += &int_reg("GainSelectorReg", reg::GAIN_SELECTOR, "RW");
     n += &format!(
         "  <Float Name=\"Gain\" NameSpace=\"Standard\">\n    <ToolTip>Tube (or system) gain, dB: 20·log10 of GainLinear; reads back the gain in effect (under GainAuto, the AGC's); locked while GainAuto is Continuous</ToolTip>\n    <pIsLocked>GainLocked</pIsLocked>\n    <pValue>GainReg</pValue>\n    <Min>{}</Min>\n    <Max>{}</Max>\n    <Unit>dB</Unit>\n  </Float>\n",
         gain_db(glo),
@@ -937,7 +964,7 @@ pub fn genicam_xml(f: &XmlFacts) -> String {
         n += &int_reg(r, a, "RO");
     }
     n += &format!(
-        "  <StringReg Name=\"GloamStimulus\" NameSpace=\"Custom\">\n    <ToolTip>What the simulated camera looks at, for calibration rehearsals: JSON of a gloam stimulus, e.g. {{\"kind\":\"dark\"}} or {{\"kind\":\"uniform\",\"radiance_w_m2_sr\":1e-5,\"spectrum\":\"cie-a\"}}; empty: the rig or scene it started with</ToolTip>\n    <Address>0x{:x}</Address>\n    <Length>{}</Length>\n    <AccessMode>RW</AccessMode>\n    <pPort>Device</pPort>\n  </StringReg>\n",
+        "  <StringReg Name=\"GloamStimulus\" NameSpace=\"Custom\">\n    <ToolTip>What the simulated camera looks at, for calibration rehearsals: JSON of a gloam stimulus, e.g. {{\"kind\":\"dark\"}} or {{\"kind\":\"uniform\",\"radiance_w_m2_sr\":1e-5,\"spectrum\":\"cie-a\"}}; reads the stimulus in effect (a rig's at start); empty: a scene or sequence, which no stimulus describes</ToolTip>\n    <Address>0x{:x}</Address>\n    <Length>{}</Length>\n    <AccessMode>RW</AccessMode>\n    <pPort>Device</pPort>\n  </StringReg>\n",
         reg::STIMULUS,
         reg::STIMULUS_BYTES
     );

@@ -570,53 +570,74 @@ fn gain_is_in_db_as_sfnc_defines_it_and_the_linear_factor_sits_beside_it() {
     assert!(xml.contains("<pVariable Name=\"AUTO\">GainAutoReg</pVariable>"));
 }
 
+/// SFNC: registers persist until power-up or DeviceReset, which load the
+/// set UserSetDefault names; a new control session changes nothing.
 #[test]
-fn a_new_session_and_device_reset_start_from_the_default_user_set() {
+fn registers_persist_across_sessions_and_device_reset_loads_user_set_default() {
     let mut d = test_device();
     let (mut a, mut b) = (Client::new(A), Client::new(B));
     let rate = |c: &mut Client, d: &mut Device| {
         f32::from_bits(c.read(d, reg::ACQUISITION_FRAME_RATE).unwrap())
     };
     a.take_control(&mut d);
+    // The preset's power-up values (test_device: 25 Hz, 64 pixels wide).
+    assert_eq!(rate(&mut a, &mut d), 25.0);
+    assert_eq!(a.read(&mut d, reg::WIDTH), Ok(64));
     assert_eq!(
         a.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
         SUCCESS
     );
     assert_eq!(a.write(&mut d, reg::WIDTH, 16), SUCCESS);
+    assert_eq!(a.write(&mut d, reg::GAIN_AUTO, 0), SUCCESS);
+    assert_eq!(a.write_double(&mut d, reg::GAIN_DB, 40.0), SUCCESS);
+    // A half-written double (high word only) dies with its session.
+    assert_eq!(a.write(&mut d, reg::GAIN_DB, 0x4050_0000), SUCCESS);
     assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
-    // What A left is not what B gets: the preset's 25 Hz, 64 pixels.
+    // What A left is what B gets.
     assert_eq!(b.take_control(&mut d), SUCCESS);
-    assert_eq!(rate(&mut b, &mut d), 25.0);
-    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(64));
+    assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(16));
+    assert_eq!(b.read(&mut d, reg::GAIN_AUTO), Ok(0));
+    let db = b.read_double(&mut d, reg::GAIN_DB);
+    assert!((db - 40.0).abs() < 1e-3, "{db} dB");
+    // A low word alone keeps the stored high word: 40 dB is still 40 dB.
+    let low = 40f64.to_bits() as u32;
+    assert_eq!(b.write(&mut d, reg::GAIN_DB + 4, low), SUCCESS);
+    let db = b.read_double(&mut d, reg::GAIN_DB);
+    assert!((db - 40.0).abs() < 1e-3, "{db} dB");
     // Default is read-only; UserSet1 keeps what is saved into it.
-    assert_eq!(
-        b.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
-        SUCCESS
-    );
     assert_eq!(b.write(&mut d, reg::USER_SET_SAVE, 1), WRITE_PROTECT);
     assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_SAVE, 1), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 0), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
     assert_eq!(rate(&mut b, &mut d), 25.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(64));
     assert_eq!(b.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
     assert_eq!(b.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
     assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(16));
     assert_eq!(
         b.write(&mut d, reg::USER_SET_SELECTOR, 2),
         INVALID_PARAMETER
     );
-    // DeviceReset: control released, the Default set back.
+    assert_eq!(b.write(&mut d, reg::USER_SET_DEFAULT, 2), INVALID_PARAMETER);
+    // DeviceReset: control released, the Default set (UserSetDefault) back.
     assert_eq!(b.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
     assert_eq!(d.controller(), None);
     assert!(d.take_events().contains(&Event::ControlReleased));
     assert_eq!(rate(&mut a, &mut d), 25.0);
-    // With UserSetDefault = UserSet1, sessions start from UserSet1.
+    assert_eq!(a.read(&mut d, reg::WIDTH), Ok(64));
+    // With UserSetDefault = UserSet1, DeviceReset loads UserSet1; the
+    // choice itself survives the reset (it is the user sets' setting).
     a.take_control(&mut d);
     assert_eq!(a.write(&mut d, reg::USER_SET_DEFAULT, 1), SUCCESS);
-    assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    assert_eq!(rate(&mut a, &mut d), 25.0, "choosing does not load");
+    assert_eq!(a.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
     b.take_control(&mut d);
+    assert_eq!(b.read(&mut d, reg::USER_SET_DEFAULT), Ok(1));
     assert_eq!(rate(&mut b, &mut d), 5.0);
+    assert_eq!(b.read(&mut d, reg::WIDTH), Ok(16));
 }
 
 /// The chunks of a payload as a client finds them: walking the trailers
@@ -707,7 +728,7 @@ fn chunk_payload_walked_from_its_end_gives_back_every_value_under_the_xmls_ids()
 }
 
 #[test]
-fn chunk_mode_grows_payload_size_and_a_new_session_starts_without_it() {
+fn chunk_mode_grows_payload_size_and_device_reset_turns_it_off() {
     let mut d = test_device();
     let (mut a, mut b) = (Client::new(A), Client::new(B));
     a.take_control(&mut d);
@@ -741,9 +762,91 @@ fn chunk_mode_grows_payload_size_and_a_new_session_starts_without_it() {
     assert_eq!(a.write(&mut d, reg::TL_PARAMS_LOCKED, 1), SUCCESS);
     assert_eq!(a.write(&mut d, reg::CHUNK_MODE_ACTIVE, 0), BUSY);
     assert_eq!(a.write(&mut d, reg::TL_PARAMS_LOCKED, 0), SUCCESS);
-    // The next controller starts from the Default set: no chunks.
+    // The next controller finds chunks on (registers persist); DeviceReset
+    // loads the Default set: no chunks.
     assert_eq!(a.write(&mut d, bs::CONTROL_CHANNEL_PRIVILEGE, 0), SUCCESS);
+    b.take_control(&mut d);
+    assert_eq!(b.read(&mut d, reg::CHUNK_MODE_ACTIVE), Ok(1));
+    assert_eq!(b.write(&mut d, reg::DEVICE_RESET, 1), SUCCESS);
     b.take_control(&mut d);
     assert_eq!(b.read(&mut d, reg::CHUNK_MODE_ACTIVE), Ok(0));
     assert_eq!(b.read(&mut d, reg::PAYLOAD_SIZE), Ok(image));
+}
+
+/// ExposureAuto and GainSelector have one entry each; AcquisitionFrameRate
+/// paces the stream only while AcquisitionFrameRateEnable is on (off: the
+/// sensor's own 25 Hz), and the switch is part of a user set.
+#[test]
+fn sfnc_exposure_auto_gain_selector_and_frame_rate_enable() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    a.take_control(&mut d);
+    assert_eq!(a.read(&mut d, reg::EXPOSURE_AUTO), Ok(0));
+    assert_eq!(a.write(&mut d, reg::EXPOSURE_AUTO, 2), INVALID_PARAMETER);
+    assert_eq!(a.write(&mut d, reg::EXPOSURE_AUTO, 0), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::GAIN_SELECTOR), Ok(0));
+    assert_eq!(a.write(&mut d, reg::GAIN_SELECTOR, 1), INVALID_PARAMETER);
+    assert_eq!(a.read(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE), Ok(1));
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE, 5f32.to_bits()),
+        SUCCESS
+    );
+    assert_eq!(d.frame_period_us(), 200_000);
+    assert_eq!(a.write(&mut d, reg::USER_SET_SELECTOR, 1), SUCCESS);
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE, 0),
+        SUCCESS
+    );
+    assert_eq!(a.write(&mut d, reg::USER_SET_SAVE, 1), SUCCESS);
+    assert_eq!(d.frame_period_us(), 40_000, "the sensor's 25 Hz");
+    assert_eq!(
+        f32::from_bits(a.read(&mut d, reg::ACQUISITION_FRAME_RATE).unwrap()),
+        5.0,
+        "kept, not honoured"
+    );
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE, 2),
+        INVALID_PARAMETER
+    );
+    assert_eq!(
+        a.write(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE, 1),
+        SUCCESS
+    );
+    assert_eq!(d.frame_period_us(), 200_000);
+    assert_eq!(a.write(&mut d, reg::USER_SET_LOAD, 1), SUCCESS);
+    assert_eq!(a.read(&mut d, reg::ACQUISITION_FRAME_RATE_ENABLE), Ok(0));
+    // The XML names them where SFNC clients look.
+    let xml = String::from_utf8(d.xml().to_vec()).unwrap();
+    for name in ["ExposureAuto", "GainSelector", "AcquisitionFrameRateEnable"] {
+        assert!(
+            xml.contains(&format!("Name=\"{name}\" NameSpace=\"Standard\"")),
+            "{name}"
+        );
+    }
+    assert!(!xml.contains("DeviceTemperature"), "not modelled");
+}
+
+/// `GloamStimulus` reads the stimulus shown from the start (a rig's), and
+/// a JSON too long for the register leaves it as it was.
+#[test]
+fn gloam_stimulus_reads_the_stimulus_in_effect_from_the_start() {
+    let mut d = test_device();
+    let mut a = Client::new(A);
+    let stim = gloam_grabber::Stimulus::Uniform {
+        radiance_w_m2_sr: 1.5e-5,
+        spectrum: "cie-a".into(),
+    };
+    d.show_stimulus(&stim);
+    let bytes = a.read_mem(&mut d, reg::STIMULUS, 128).unwrap();
+    let end = bytes.iter().position(|&b| b == 0).unwrap();
+    let back: gloam_grabber::Stimulus = serde_json::from_slice(&bytes[..end]).unwrap();
+    assert_eq!(back, stim);
+    assert!(d.take_events().is_empty(), "shown already: no event");
+    let long = gloam_grabber::Stimulus::Uniform {
+        radiance_w_m2_sr: 1.0,
+        spectrum: "x".repeat(600),
+    };
+    d.show_stimulus(&long);
+    let again = a.read_mem(&mut d, reg::STIMULUS, 128).unwrap();
+    assert_eq!(again, bytes);
 }

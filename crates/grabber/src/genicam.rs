@@ -27,8 +27,13 @@
 //!
 //! Incomplete buffers (missing packets, timeouts, size mismatches) come
 //! back as [`GrabError::FrameDamaged`], gaps in the camera's frame ids as
-//! [`GrabError::FramesLost`]: never as good frames.
+//! [`GrabError::FramesLost`]: never as good frames. Lost packets are asked
+//! for again only from a camera whose GVCP capability register offers
+//! PACKETRESEND (Aravis checks the same bit); for one that does not
+//! (Aravis's fake camera) the grabber warns once and says so with every
+//! damaged frame.
 
+use std::io::Write as _;
 use std::sync::Mutex;
 
 use aravis::glib::object::Cast;
@@ -48,6 +53,10 @@ static ARAVIS: Mutex<()> = Mutex::new(());
 
 /// Buffers queued for the stream.
 const N_BUFFERS: usize = 8;
+/// GigE Vision bootstrap register "GVCP Capability" and its PACKETRESEND
+/// bit (bit 29 counted from the MSB, as the specification numbers them).
+const GVCP_CAPABILITY: u64 = 0x0934;
+const GVCP_CAPABILITY_PACKET_RESEND: u32 = 1 << 2;
 /// Timeouts in a row after which a triggered grab stops calling them
 /// lost frames and reports the camera as not answering.
 const MAX_TRIGGER_TIMEOUTS: u32 = 3;
@@ -142,6 +151,11 @@ pub struct GenicamGrabber {
     pending: Option<Frame>,
     /// The camera's chunk data, when it offers any the grabber records.
     chunks: Option<Chunks>,
+    /// `TriggerMode` as found at open, restored on close.
+    trigger_found: Option<String>,
+    /// Why lost packets are not asked for again, when they are not: said
+    /// with every damaged frame.
+    no_resend: Option<&'static str>,
 }
 
 /// Chunk data switched on for this acquisition, and how to read it.
@@ -191,6 +205,15 @@ impl GenicamGrabber {
                 )));
             }
         };
+        // Registers persist across control sessions (SFNC): the next
+        // client finds what this one leaves, so the trigger mode found here
+        // is put back on close.
+        let trigger_found = camera
+            .is_feature_available("TriggerMode")
+            .unwrap_or(false)
+            .then(|| camera.string("TriggerMode").ok())
+            .flatten()
+            .map(|s| s.to_string());
         if triggered {
             camera
                 .set_trigger("Software")
@@ -253,7 +276,22 @@ impl GenicamGrabber {
             timeout_us: 0,
             pending: None,
             chunks: None,
+            trigger_found,
+            no_resend: None,
         })
+    }
+
+    /// Whether a GigE Vision camera says it answers PACKETRESEND (its GVCP
+    /// capability register). Aravis reads the same bit and, without it,
+    /// never asks for a lost packet again whatever the stream's resend
+    /// setting (Aravis's fake camera: capability 0, `n_resend_requests`
+    /// stays 0). `None`: not GigE Vision, or the register does not read.
+    fn offers_packet_resend(&self) -> Option<bool> {
+        if !self.camera.is_gv_device() {
+            return None;
+        }
+        let (ok, v) = self.camera.device()?.read_register(GVCP_CAPABILITY).ok()?;
+        ok.then_some(v & GVCP_CAPABILITY_PACKET_RESEND != 0)
     }
 
     /// Stops the acquisition (if running); the next grab starts a new one.
@@ -352,6 +390,20 @@ impl GenicamGrabber {
                 aravis::GvStreamPacketResend::Never
             });
         }
+        self.no_resend = if !self.packet_resend {
+            Some("resend=never")
+        } else if self.offers_packet_resend() == Some(false) {
+            // Said once here, and with each damaged frame: resend=always
+            // cannot help with this camera.
+            let _ = writeln!(
+                std::io::stderr(),
+                "warning: {} does not offer PACKETRESEND (GVCP capability register 0x0934): lost packets cannot be recovered; frames missing any are reported damaged",
+                self.label
+            );
+            Some("the camera does not offer PACKETRESEND")
+        } else {
+            None
+        };
         for _ in 0..N_BUFFERS {
             stream.push_buffer(Buffer::new_allocate(payload as usize));
         }
@@ -433,7 +485,12 @@ impl GenicamGrabber {
             } else {
                 GrabError::FrameDamaged {
                     seq,
-                    reason: format!("incomplete buffer (Aravis status {status:?})"),
+                    reason: match self.no_resend {
+                        Some(why) => format!(
+                            "incomplete buffer (Aravis status {status:?}; no resend: {why})"
+                        ),
+                        None => format!("incomplete buffer (Aravis status {status:?})"),
+                    },
                 }
             }));
         }
@@ -530,6 +587,11 @@ impl Drop for GenicamGrabber {
         if self.chunks.is_some() {
             // Leave the camera as found: image payloads for the next client.
             let _ = self.camera.set_chunk_mode(false);
+        }
+        // And the trigger mode it had: a free-running camera left
+        // triggered would send the next client nothing.
+        if let Some(mode) = &self.trigger_found {
+            let _ = self.camera.set_string("TriggerMode", mode);
         }
     }
 }

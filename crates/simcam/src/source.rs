@@ -207,6 +207,17 @@ impl SensorSource {
     }
 }
 
+impl SensorSource {
+    /// The stimulus the camera looks at (a rig's, or the last presented),
+    /// `None` for a scene: what a device reports it shows.
+    pub fn stimulus(&self) -> Option<&Stimulus> {
+        match &self.view {
+            View::Stimulus { stimulus, .. } => Some(stimulus),
+            View::Scene { .. } => None,
+        }
+    }
+}
+
 impl FrameSource for SensorSource {
     fn info(&self) -> SourceInfo {
         self.info.clone()

@@ -378,6 +378,17 @@ pub fn sobol_owen_2d(index: u32, seed: u64) -> [f64; 2] {
     [to_unit(owen(x, s0)), to_unit(owen(y, s1))]
 }
 
+/// A sample index shuffled by a nested uniform scramble (Burley 2020,
+/// §3.3): a permutation of the indices that maps every aligned block of
+/// 2^m indices onto an aligned block, so the first 2^m shuffled points are
+/// still a net, while two sequences drawn with differently shuffled
+/// indices are no longer paired point by point (without it, a second
+/// sequence's digits repeat the first's and a pixel's estimate converges
+/// to a wrong value of its own).
+pub fn shuffled_index(index: u32, seed: u64) -> u32 {
+    owen(index, (seed ^ (seed >> 29)) as u32)
+}
+
 /// Nested uniform (Owen) scramble of a 32-bit fixed-point coordinate by a
 /// hash: bit-reverse, apply an invertible hash that only carries upward
 /// (each bit depends on the bits above it in the original), reverse back.

@@ -14,10 +14,9 @@ use serde::Serialize;
 
 use crate::direct_view::ViewTerm;
 use crate::light::Light;
+use crate::sampler::PixelSampler;
 use crate::settings::{LightStrataMode, RenderSettings};
-use crate::tracer::{
-    LightStrata, PathState, RayCounts, TraceError, Tracer, latin_hypercube, stream,
-};
+use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
 
 mod adaptive;
 mod estimate;
@@ -208,34 +207,22 @@ impl Tracer {
             Some(r) => DOMAIN_REPLICATE ^ ((r as u64 + 1) << 8) ^ ((batch as u64) << 32),
         };
         let mut rng = stream(self.settings.seed, domain, idx);
+        let sobol = self.settings.light_strata == LightStrataMode::Sobol;
+        let first = replicate.map_or(est.n, |r| est.rep_n[r]);
+        let sampler = PixelSampler::new(self.settings.seed, idx, replicate, first, sobol);
         let mut sub = Vec::with_capacity(n);
-        latin_hypercube(n, &mut rng, &mut sub);
+        sampler.film_positions(n, &mut rng, &mut sub);
         let mut acc = Light::dark(self.wl.len(), est.groups);
-        // Final-gather directions: one Owen-scrambled Sobol sequence per
-        // pixel (per replicate), continued across batches (the samples it
-        // has so far), each sample taking the next block of `gather_rays`
-        // points. (Only when there is a cache to gather from.)
+        // Final-gather directions only when there is a cache to gather from.
         let k = if self.cache.is_some() {
             self.settings.gather_rays as usize
         } else {
             0
         };
-        let salt = replicate.map_or(0, |r| (r as u64 + 1) << 40);
-        let scramble =
-            crate::tracer::mix64(self.settings.seed ^ crate::tracer::mix64(idx ^ 0x6A7E ^ salt));
         let mut pts: Vec<[f64; 2]> = Vec::with_capacity(k);
-        // The camera vertex's light samples: their own scramble per pixel
-        // (and replicate), the sample index continuing across batches.
-        let strata = (self.settings.light_strata == LightStrataMode::Sobol)
-            .then(|| crate::tracer::mix64(scramble ^ 0x005E_ED11_6475));
-        for [sx, sy] in sub {
+        for (j, [sx, sy]) in (0u32..).zip(sub) {
             acc.clear();
-            pts.clear();
-            let so_far = replicate.map_or(est.n, |r| est.rep_n[r]);
-            let first = so_far as u64 * k as u64;
-            pts.extend(
-                (0..k as u64).map(|i| crate::sampling::sobol_owen_2d((first + i) as u32, scramble)),
-            );
+            sampler.gather(j, k, &mut pts);
             let d = cam.pixel_direction(col as f64 + sx, row as f64 + sy);
             c.primary += 1;
             est.sees_emitter |= self.trace(
@@ -245,10 +232,7 @@ impl Tracer {
                 &self.ones,
                 PathState::camera(self.settings.diffuse_bounces, true),
                 (k > 0).then_some(pts.as_slice()),
-                strata.map(|scramble| LightStrata {
-                    scramble,
-                    sample: so_far,
-                }),
+                sampler.light(j),
                 &mut rng,
                 c,
                 &mut acc,

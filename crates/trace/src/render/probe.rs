@@ -2,6 +2,7 @@
 //! point.
 
 use super::*;
+use crate::tracer::latin_hypercube;
 
 impl Tracer {
     /// Band radiances of one pixel, bit-identical to the same pixel of
