@@ -1997,6 +1997,42 @@ const CASES: &[Case] = &[
     case!("scene: an instance scaled past the coordinate limit", ["s.toml" => "{patch:[objects.floor]=>[objects.floor]\ninstances = [{ scale = 1e300 }]}\n"], ["render", "s.toml", "--out", "o"], ["s.toml", "instances[0]", "out of range"]),
     case!("scene: an instance scaled to nothing", ["s.toml" => "{patch:[objects.floor]=>[objects.floor]\ninstances = [{ scale = 1e-300 }]}\n"], ["render", "s.toml", "--out", "o"], ["s.toml", "instances[0]"]),
     case!("scene: a point source placed past the coordinate limit", ["s.toml" => "{base}\n[point_sources.far]\nposition = [0, 0, 5]\nvalue = 1.0\ninstances = [{ translate = [5e12, 0, 0] }]\n"], ["render", "s.toml", "--out", "o"], ["s.toml", "far", "out of range"]),
+    case!("scene: two objects on the same triangle", ["s.toml" => "{base}\n[objects.a]\nmaterial = \"floor\"\nvertices = [[0, 0, 3], [1, 0, 3], [0, 1, 3]]\nfaces = [[0, 1, 2]]\n[objects.b]\nmaterial = \"panel\"\nvertices = [[0, 1, 3], [0, 0, 3], [1, 0, 3]]\nfaces = [[0, 1, 2]]\n"], ["render", "s.toml", "--out", "o"], ["s.toml:", "objects.b facet 0 lies exactly on objects.a facet 0"]),
+    case!("scene: two placements in one place", ["s.toml" => "{patch:[objects.floor]=>[objects.floor]\ninstances = [{ translate = [0, 0, 0] }, { translate = [0, 0, 0] }]}\n"], ["render", "s.toml", "--out", "o"], ["s.toml:", "objects.floor facet 0 of placement 1 lies exactly on objects.floor facet 0 of placement 0"]),
+    case!("scene: an OBJ face twice", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n", "m.obj" => "v 0 0 3\nv 1 0 3\nv 0 1 3\ng a\nf 1 2 3\ng b\nf 3 2 1\n"], ["render", "s.toml", "--out", "o"], ["s.toml:", "objects.m facet 1 lies exactly on objects.m facet 0"]),
+    // --- round 3's own hostile round (issue 46): the newest features
+    case!("render: --target-error camera with --no-noise", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--no-noise", "--target-error", "camera"], ["--target-error camera", "--no-noise"]),
+    case!("sequence: --target-error camera (ignored before)", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--target-error", "camera:0.5"], ["--target-error camera", "not for sequences"]),
+    case!("render: --target-error camera:K below 0.01", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--target-error", "camera:1e-300"], ["camera:1e-300", "[0.01, 1]"]),
+    case!(
+        "bench scale: a size given twice",
+        [],
+        ["bench", "scale", "--out", "o", "--triangles", "1e3,1000"],
+        ["--triangles", "1000 is given twice"]
+    ),
+    case!(
+        "bench scale: an empty size",
+        [],
+        ["bench", "scale", "--out", "o", "--lamps", "1,,10"],
+        ["--lamps", "item 2 is empty"]
+    ),
+    case!(
+        "bench scale: a size past 1e12",
+        [],
+        ["bench", "scale", "--out", "o", "--triangles", "1e13"],
+        ["--triangles", "too large"]
+    ),
+    case!(
+        "bench scale: timeout 1e-300 s",
+        [],
+        ["bench", "scale", "--out", "o", "--timeout-s", "1e-300"],
+        ["--timeout-s", "[1, 1e6]"]
+    ),
+    case!("sequence: a group key of three numbers", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 3\n[groups.panel]\nkeys = [[0, 1, 2]]\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o", "--sensor", "gen3-gaas-iccd"], ["q.toml:5:", "groups.panel.keys[0]", "has 3 numbers"]),
+    case!("sequence: a third group key at one time", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 3\n[groups.panel]\nkeys = [[0, 0], [1, 0], [1, 1], [1, 0]]\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o", "--sensor", "gen3-gaas-iccd"], ["q.toml:5:", "groups.panel.keys[3]", "a third key at 1 s"]),
+    case!("sequence: a frame rate of 1e308 named short", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 1e308\nframes = 3\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o"], ["q.toml:2:", "frame_rate_hz", "not 1e308"]),
+    case!("merge: --out inside an input directory", ["t/x" => ""], ["merge", "t", "--out", "t/merged"], ["--out t/merged", "inside the directory t", "input"]),
+    case!("merge: --out inside an input directory through ..", ["t/x" => "", "u/x" => ""], ["merge", "t", "--out", "u/../t/a/b"], ["--out u/../t/a/b", "inside the directory t"]),
     case!("sweep: jobs 0", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [20]\n"], ["sweep", "w.toml", "--out", "o", "--jobs", "0"], ["--jobs", "1..=1024"]),
     case!(
         "capture: a grabber parameter given twice",

@@ -235,8 +235,13 @@ fn scale_rejects_bad_sizes_with_a_message() {
         ("--lamps", "ten", "is not a number"),
         ("--spp", "1", "needs two samples"),
         // 1e20 s overflowed the clock's duration (a panic).
-        ("--timeout-s", "1e20", "(0, 1e6]"),
-        ("--timeout-s", "0", "(0, 1e6]"),
+        ("--timeout-s", "1e20", "[1, 1e6]"),
+        ("--timeout-s", "0", "[1, 1e6]"),
+        // 1e-300 s killed every case at once and exited 0.
+        ("--timeout-s", "1e-300", "[1, 1e6]"),
+        // The same size twice made two identical cases; an empty item vanished.
+        ("--triangles", "1e3,1e3", "given twice"),
+        ("--lamps", "1,,10", "item 2 is empty"),
         // 100 000 threads made every case fail and the bench exit 0.
         ("--threads", "100000", "within 1 … 1024"),
         ("--threads", "0", "within 1 … 1024"),
@@ -394,6 +399,91 @@ fn night_town_generator_output_parses() {
         plan.status.success(),
         "{}",
         String::from_utf8_lossy(&plan.stderr)
+    );
+}
+
+/// The town generator run from a checkout whose path holds `"` and `\`:
+/// the scene's paths (sensor, grass spectrum) are TOML-quoted, so the
+/// loader reads the same files; `--out` onto a file, `/dev/null`, a
+/// directory nobody may create in, or beside a `scene.toml` the generator
+/// did not write ends in one `error:` line and exit 1, the file untouched.
+#[test]
+fn night_town_generator_quotes_paths_and_refuses_bad_outs() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let odd = dir.path().join("we\"ird\\checkout");
+    for f in [
+        "sims/night-town/generate.py",
+        "sims/night-layout/grass.csv",
+        "sims/sensors/gen2-s20-iccd.toml",
+    ] {
+        let to = odd.join(f);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(root.join(f), &to).unwrap();
+    }
+    let generate = |out: &Path| {
+        Command::new("python3")
+            .arg(odd.join("sims/night-town/generate.py"))
+            .args(["--lamps", "10", "--windows", "5", "--out"])
+            .arg(out)
+            .output()
+            .expect("python3 runs")
+    };
+    let town = dir.path().join("town");
+    let o = generate(&town);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let scene = gloam_scene::load(&town.join("scene.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // The grass reflectance is the CSV's, not a flat value: it varies.
+    let ground = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "ground")
+        .expect("a ground material");
+    let text = std::fs::read_to_string(town.join("scene.toml")).unwrap();
+    assert!(
+        text.contains(r#"we\"ird\\checkout/sims/night-layout/grass.csv""#),
+        "{text}"
+    );
+    let r = |nm: f64| ground.reflectance.eval(nm);
+    // The CSV's rows: 0.11 at 550 nm, 0.05 at 650 nm, 0.40 at 750 nm.
+    for (nm, want) in [(550.0, 0.11), (650.0, 0.05), (750.0, 0.4)] {
+        assert!((r(nm) - want).abs() < 1e-9, "grass at {nm} nm: {}", r(nm));
+    }
+    let sensor = town.join(scene.sensor.as_deref().expect("a sensor"));
+    assert!(sensor.is_file(), "{}", sensor.display());
+
+    let file = dir.path().join("file");
+    std::fs::write(&file, "mine").unwrap();
+    let user = dir.path().join("user");
+    std::fs::create_dir(&user).unwrap();
+    std::fs::write(user.join("scene.toml"), "mine").unwrap();
+    for (out, why) in [
+        (file.as_path(), "not a directory"),
+        (Path::new("/dev/null"), "not a directory"),
+        (Path::new("/proc/self/town"), "cannot write"),
+        (
+            user.as_path(),
+            "scene.toml exists and was not written by generate.py",
+        ),
+    ] {
+        let o = generate(out);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let errors: Vec<&str> = err.lines().filter(|l| l.contains("error")).collect();
+        assert_eq!(o.status.code(), Some(1), "--out {}: {err}", out.display());
+        assert!(!err.contains("Traceback"), "{err}");
+        assert_eq!(errors.len(), 1, "{err}");
+        assert!(errors[0].contains("generate.py: error: --out"), "{err}");
+        assert!(errors[0].contains(why), "{err}");
+    }
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+    assert_eq!(
+        std::fs::read_to_string(user.join("scene.toml")).unwrap(),
+        "mine"
+    );
+    assert_eq!(
+        std::fs::read_dir(&user).unwrap().count(),
+        1,
+        "nothing written beside it"
     );
 }
 

@@ -423,12 +423,16 @@ impl Lut {
         Ok(Self { lut })
     }
 
-    /// A LUT from the dict ``calibrate_radiance`` returns.
+    /// A LUT from the dict ``calibrate_radiance`` returns, checked as
+    /// ``Lut.load`` and ``gloam calibrate apply --lut`` check a file (a
+    /// slope that is not positive, a reversed or repeated gain, a top code
+    /// that is not a 16-bit count… raise ``GloamError`` naming the key).
     #[staticmethod]
     fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
-        Ok(Self {
-            lut: from_py(d, "not a gloam LUT")?,
-        })
+        let lut: gloam_calib::radiance::Lut = from_py(d, "not a gloam LUT")?;
+        lut.check()
+            .map_err(|p| GloamError::new_err(format!("Lut.from_dict: {p}")))?;
+        Ok(Self { lut })
     }
 
     /// The LUT as the ``lut.json`` dict.

@@ -4,12 +4,14 @@ calibration flows against the camera's own (preset) truth."""
 
 import math
 import os
+import re
 import signal
 import subprocess
 import threading
 import time
 
 import numpy as np
+
 import pytest
 
 import gloam
@@ -166,6 +168,32 @@ def test_radiance_lut_fits_the_levels_and_applies_its_line(repo, tmp_path):
     (tmp_path / "lut.json").write_text(json.dumps(lut_dict))
     again = gloam.Lut.load(tmp_path / "lut.json").apply(f.pixels, gain=2)
     assert np.array_equal(again, got, equal_nan=True)
+
+
+def test_lut_from_dict_is_checked_on_construction(repo):
+    # As `calibrate apply --lut` checks a file: refused when made, naming
+    # the key, not when first applied (issue 46).
+    with gloam.open_grabber(CCD, seed=3) as g:
+        good = gloam.calibrate_radiance(g, repo / SPHERE, gains=[1, 2], levels=4, frames=2, auto_range=0.8)
+    assert gloam.Lut.from_dict(good).gains == [1.0, 2.0]
+    import copy
+
+    def broken(edit):
+        d = copy.deepcopy(good)
+        edit(d)
+        return d
+
+    cases = [
+        (lambda d: d["gains"][1].update(g_w_m2_sr_per_dn=-d["gains"][1]["g_w_m2_sr_per_dn"]), "gains[1].g_w_m2_sr_per_dn"),
+        (lambda d: d["gains"][0].update(g_w_m2_sr_per_dn=1e308), "gains[0].g_w_m2_sr_per_dn"),
+        (lambda d: d["gains"][1].update(gain=d["gains"][0]["gain"]), "gains[1].gain"),
+        (lambda d: d["gains"][0].update(gain=0.0), "gains[0].gain"),
+        (lambda d: d.update(digitizer_max_dn=4095.5), "digitizer_max_dn"),
+        (lambda d: d["gains"][1].update(g_w_m2_sr_per_dn=4 * d["gains"][0]["g_w_m2_sr_per_dn"]), "reversed"),
+    ]
+    for edit, key in cases:
+        with pytest.raises(gloam.GloamError, match=r"Lut\.from_dict: .*" + re.escape(key)):
+            gloam.Lut.from_dict(broken(edit))
 
 
 def test_edge_mtf_agrees_with_the_chain_model():

@@ -207,7 +207,7 @@ def window_slots(blds):
     return out
 
 
-def write_obj(path, quads, header):
+def obj_text(quads, header):
     lines = [f"# {h}" for h in header]
     k = 1
     for q in quads:
@@ -216,12 +216,70 @@ def write_obj(path, quads, header):
     for _ in quads:
         lines.append(f"f {k} {k + 1} {k + 2} {k + 3}")
         k += 4
-    with open(path, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"
 
 
 def fmt(v):
     return f"{v:.3f}".rstrip("0").rstrip(".")
+
+
+def toml_str(s):
+    """s as a TOML basic string: quotes, backslashes and control characters
+    escaped, so a checkout path holding `"` or `\\` stays one string."""
+    out = []
+    for ch in s:
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+# Every file this script writes carries this in its first lines; an existing
+# file without it is not the generator's and is never replaced.
+MARK = "generate.py"
+
+
+class OutError(Exception):
+    pass
+
+
+def check_out(out, names):
+    """Refuses an --out that is not a directory gloam's generator may write
+    into: an existing non-directory (a file, /dev/null), or one holding a
+    file of one of these names that the generator did not write."""
+    if os.path.lexists(out) and not os.path.isdir(out):
+        raise OutError(f"--out {out}: exists and is not a directory")
+    for name in names:
+        p = os.path.join(out, name)
+        if not os.path.lexists(p):
+            continue
+        if os.path.islink(p) or not os.path.isfile(p):
+            raise OutError(f"--out {out}: {name} exists and is not a regular file; not replaced")
+        with open(p, "rb") as f:
+            head = f.read(4096)
+        if MARK.encode() not in head:
+            raise OutError(f"--out {out}: {name} exists and was not written by {MARK}; not replaced")
+
+
+def write_files(out, files):
+    """Writes each (name, text) into out, each through a temporary file
+    renamed over its name, so a failed run leaves no half-written file."""
+    os.makedirs(out, exist_ok=True)
+    for name, text in files:
+        p = os.path.join(out, name)
+        tmp = os.path.join(out, f".{name}.partial-{os.getpid()}")
+        try:
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(text)
+            os.replace(tmp, p)
+        finally:
+            if os.path.lexists(tmp):
+                os.unlink(tmp)
 
 
 def main(argv=None):
@@ -239,7 +297,7 @@ def main(argv=None):
     if not 0 <= a.windows <= 100000:
         ap.error(f"--windows {a.windows}: must be within 0 .. 100000")
     out = os.path.abspath(a.out)
-    os.makedirs(out, exist_ok=True)
+    files = []  # (name, text), written together once all are made
     # Relative path from the output directory to the shared grass reflectance.
     grass = os.path.relpath(os.path.join(HERE, "..", "night-layout", "grass.csv"), out)
     sensor = os.path.relpath(os.path.join(HERE, "..", "sensors", "gen2-s20-iccd.toml"), out)
@@ -260,10 +318,10 @@ def main(argv=None):
         walls = [q for b in blds if b[5] == fin for q in box_quads(*b[:5])[:4]]
         if walls:
             name = f"buildings-{fin}.obj"
-            write_obj(os.path.join(out, name), walls, [f"night-town {fin} facades, written by generate.py (seed {a.seed}); quads face outward."])
+            files.append((name, obj_text(walls, [f"night-town {fin} facades, written by generate.py (seed {a.seed}); quads face outward."])))
             objs.append((f"buildings-{fin}", fin, name, len(walls)))
     roofs = [box_quads(*b[:5])[4] for b in blds]
-    write_obj(os.path.join(out, "roofs.obj"), roofs, [f"night-town roofs, written by generate.py (seed {a.seed}); quads face up."])
+    files.append(("roofs.obj", obj_text(roofs, [f"night-town roofs, written by generate.py (seed {a.seed}); quads face up."])))
     objs.append(("roofs", "roof", "roofs.obj", len(roofs)))
 
     # Lit windows.
@@ -282,7 +340,7 @@ def main(argv=None):
         quads = groups[(spec, lvl)]
         mat = f"window-{spec}-{lvl}"
         name = f"{mat}.obj"
-        write_obj(os.path.join(out, name), quads, [f"night-town lit windows ({spec}, level {lvl}), written by generate.py (seed {a.seed}); quads face outward."])
+        files.append((name, obj_text(quads, [f"night-town lit windows ({spec}, level {lvl}), written by generate.py (seed {a.seed}); quads face outward."])))
         objs.append((f"windows-{spec}-{lvl}", mat, name, len(quads)))
         window_mats.append((mat, spec, WINDOW_LEVELS_CD_M2[lvl]))
     emitting = sum(len(q) for q in groups.values())
@@ -306,7 +364,7 @@ def main(argv=None):
             f"position = [{fmt(x)}, {fmt(y)}, {fmt(t['height'] - 0.3)}]",
             "direction = [0.0, 0.0, -1.0]",
             f"shape_exponent = {t['m']}",
-            f'spectrum = "{t["spectrum"]}"',
+            f'spectrum = {toml_str(t["spectrum"])}',
             f"normalize = {{ lo_nm = 380, hi_nm = 780, value = {i_w:.4f} }}",
         ]
 
@@ -342,7 +400,7 @@ def main(argv=None):
         "# Frame: +x east, +y north, +z up, metres.",
         "",
         'units = "m"',
-        f'sensor = "{sensor}"',
+        f"sensor = {toml_str(sensor)}",
         "",
         "# On the roof of the 45 m tower at the south-west corner, looking north-east.",
         "[camera]",
@@ -360,7 +418,7 @@ def main(argv=None):
         'response = "qe-s20"',
         "",
         "[sky]",
-        f'utc = "{UTC}"',
+        f"utc = {toml_str(UTC)}",
         f"latitude_deg = {SITE['latitude_deg']}",
         f"longitude_deg = {SITE['longitude_deg']}",
         f"height_m = {SITE['height_m']}",
@@ -373,25 +431,37 @@ def main(argv=None):
     ]
     body = head
     for (name, refl, note) in MATERIALS:
-        value = f'"{grass}"' if name == "ground" else refl
+        value = toml_str(grass) if name == "ground" else refl
         body += [f"[materials.{name}]   # {note}", f"reflectance = {value}"]
     for (mat, spec, cd) in window_mats:
         w = cd / LER[spec]
         body += [
             f"[materials.{mat}]   # lit window, {spec}, {cd:g} cd/m2",
-            f'emission = {{ spectrum = "{spec}", normalize = {{ lo_nm = 380, hi_nm = 780, value = {w:.5f} }} }}',
+            f'emission = {{ spectrum = {toml_str(spec)}, normalize = {{ lo_nm = 380, hi_nm = 780, value = {w:.5f} }} }}',
         ]
     body += ["", "# ---- ground and streets ----", "[objects.ground]", 'material = "ground"',
              f"quad = {{ center = [{fmt(size / 2)}, {fmt(size / 2)}, 0], size = [{fmt(span)}, {fmt(span)}], normal = [0, 0, 1] }}"]
     for (name, mat, c, sz) in street_quads:
-        body += [f"[objects.{name}]", f'material = "{mat}"',
+        body += [f"[objects.{name}]", f"material = {toml_str(mat)}",
                  f"quad = {{ center = [{fmt(c[0])}, {fmt(c[1])}, {c[2]:g}], size = [{fmt(sz[0])}, {fmt(sz[1])}], normal = [0, 0, 1] }}"]
     body += ["", "# ---- buildings and lit windows (OBJ) ----"]
     for (name, mat, f, n) in objs:
-        body += [f"[objects.{name}]   # {n} quads", f'material = "{mat}"', f'obj = "{f}"']
+        body += [f"[objects.{name}]   # {n} quads", f"material = {toml_str(mat)}", f"obj = {toml_str(f)}"]
     body += ["", "# ---- street lamps (shaped point sources, cos^m about straight down) ----"] + lamp_lines
-    with open(os.path.join(out, "scene.toml"), "w") as f:
-        f.write("\n".join(body) + "\n")
+    files.append(("scene.toml", "\n".join(body) + "\n"))
+    try:
+        check_out(out, [name for name, _ in files])
+        write_files(out, files)
+    except OutError as e:
+        print(f"generate.py: error: {e}", file=sys.stderr)
+        return 1
+    except (OSError, UnicodeError) as e:
+        if isinstance(e, OSError) and e.strerror:
+            why = f"cannot write {e.filename or out}: {e.strerror}"
+        else:
+            why = f"cannot write there: {e}"
+        print(f"generate.py: error: --out {out}: {why}", file=sys.stderr)
+        return 1
     print(f"{out}/scene.toml: {g} x {g} blocks, {len(blds)} buildings, {facets} facets "
           f"({emitting} emitting), {a.lamps} lamps, {len(slots)} window positions")
     return 0

@@ -41,6 +41,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             "--target-error camera needs a camera (--sensor NAME, or the scene's sensor), the whole image (no --tile) and no --layers"
         );
     }
+    // Frames without temporal noise hide no render error: the bound would
+    // be the noisy camera's, so the render's noise would show (it was
+    // accepted and reported as within the camera's).
+    if camera_k.is_some() && capture.as_ref().is_some_and(|c| !c.noise) {
+        anyhow::bail!(
+            "--target-error camera with --no-noise: frames without temporal noise hide no render error; give --target-error E (a relative error) or --spp N"
+        );
+    }
     // A tile or a capture keeps the fixed default spp (see with_default_error).
     let whole_image = tile.is_none() && capture.is_none();
     let (settings, target_error_source) = args.settings.with_default_error(settings, whole_image);

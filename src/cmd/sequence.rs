@@ -33,6 +33,14 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let groups = scene.light_groups.groups.iter().map(|g| g.name.as_str());
     sequence.check_groups(groups)?;
     sequence.check_moves(&scene)?;
+    // A sequence mixes each pose's layers by group; the camera target
+    // bounds one still's pixels (render's --target-error camera). It was
+    // accepted here and did nothing.
+    if args.settings.camera_target().is_some() {
+        anyhow::bail!(
+            "--target-error camera: not for sequences (a sequence mixes light-group layers, each rendered once); give --target-error E (a relative error) or --spp N"
+        );
+    }
     let settings = args.settings.settings()?;
     let (camera, capture) = args.capture(&sequence, &scene, settings.seed)?;
 

@@ -296,15 +296,7 @@ pub fn sine_mtf(
         })?;
         let m_out = (sol[1] * sol[1] + sol[2] * sol[2]).sqrt() / sol[0];
         let m = m_out / opts.modulation;
-        // An MTF is at most 1 (plus noise): beyond [0, 1.05] the grey
-        // scale did not linearise the camera at this target.
-        if !(0.0..=crate::mtf_flow::MAX_MTF).contains(&m) {
-            return Err(CalibError::InsufficientData(format!(
-                "the sine target at {f} cy/px measures MTF {m:.4}, outside [0, {}]: the grey-scale map does not linearise the camera there (clipping, or the light changed between the grey scale and the targets); lower the radiance or the gain",
-                crate::mtf_flow::MAX_MTF
-            )));
-        }
-        out.push(m);
+        out.push(held_to_physics(f, m)?);
         progress(i + 3, total);
     }
     Ok(MtfCurve::new(
@@ -312,6 +304,20 @@ pub fn sine_mtf(
         opts.frequencies_cy_per_px.clone(),
         out,
     ))
+}
+
+/// A sine target's measured MTF `m` at `f` cy/px, held to [0, 1.05]
+/// ([`crate::mtf_flow::MAX_MTF`]): an MTF is at most 1 (plus noise), so
+/// beyond it the grey scale did not linearise the camera at this target.
+/// Both sine flows (digitised and on the scope's line) go through it.
+pub(crate) fn held_to_physics(f: f64, m: f64) -> Result<f64, CalibError> {
+    if (0.0..=crate::mtf_flow::MAX_MTF).contains(&m) {
+        return Ok(m);
+    }
+    Err(CalibError::InsufficientData(format!(
+        "the sine target at {f} cy/px measures MTF {m:.4}, outside [0, {}]: the grey-scale map does not linearise the camera there (clipping, or the light changed between the grey scale and the targets); lower the radiance or the gain",
+        crate::mtf_flow::MAX_MTF
+    )))
 }
 
 /// Settings of the slanted-edge measurement.
@@ -575,6 +581,20 @@ mod tests {
             assert!((back - m(f)).abs() < 1e-6, "f {f}: {back} vs {}", m(f));
             // A square wave's response exceeds the sine's at low frequency.
             assert!(ctf(f) >= m(f) - 1e-12);
+        }
+    }
+
+    #[test]
+    fn sine_mtf_held_to_0_1_05() {
+        assert_eq!(held_to_physics(0.1, 1.05).unwrap(), 1.05);
+        assert_eq!(held_to_physics(0.1, 0.0).unwrap(), 0.0);
+        for m in [1.0501, 1.3, -0.01, f64::NAN, f64::INFINITY] {
+            let e = held_to_physics(0.25, m).unwrap_err().to_string();
+            assert!(
+                e.contains("the sine target at 0.25 cy/px measures MTF"),
+                "{e}"
+            );
+            assert!(e.contains("outside [0, 1.05]"), "{e}");
         }
     }
 

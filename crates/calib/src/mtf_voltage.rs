@@ -224,7 +224,7 @@ pub fn voltage_sine_mtf(
             v_min,
             reflectance_max: r_max,
             reflectance_min: r_min,
-            mtf: m / opts.modulation,
+            mtf: crate::mtf::held_to_physics(f, m / opts.modulation)?,
         });
         progress(GREY_STEPS.len() + i + 1, total);
     }

@@ -383,6 +383,41 @@ fn sine_target_mtf_matches_the_analytic_mtf() {
     }
 }
 
+/// A sine target measured above MTF 1.05 (issue 46): the camera shows
+/// 1.2 × the target's contrast at 0.02 cy/px (MTF there 0.997, so 1.196
+/// measured) — refused naming the frequency and the value, never reported
+/// as MTF. At 1.04 × (1.037 measured) it is still within [0, 1.05].
+#[test]
+fn sine_target_above_mtf_1_05_is_refused() {
+    let opts = SineOptions {
+        frequencies_cy_per_px: vec![0.02],
+        mean_radiance_w_m2_sr: 4.0,
+        modulation: 0.5,
+        angle_deg: 0.0,
+        spectrum: "tungsten-halogen-3200k".into(),
+        frames: 4,
+    };
+    let mut cam = MockCamera::new(8);
+    cam.sine_contrast_gain = 1.2;
+    let e = sine_mtf(&mut cam, &opts, &mut |_, _| {})
+        .unwrap_err()
+        .to_string();
+    let m: f64 = e
+        .split("measures MTF ")
+        .nth(1)
+        .and_then(|t| t.split(',').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no MTF value in: {e}"));
+    assert!((m - 1.2 * cam.mtf(0.02)).abs() < 0.01, "{m}: {e}");
+    assert!(e.contains("the sine target at 0.02 cy/px"), "{e}");
+    assert!(e.contains("outside [0, 1.05]"), "{e}");
+    let mut cam = MockCamera::new(8);
+    cam.sine_contrast_gain = 1.04;
+    let c = sine_mtf(&mut cam, &opts, &mut |_, _| {}).unwrap();
+    let want = 1.04 * cam.mtf(0.02);
+    assert!((c.mtf[0] - want).abs() < 0.01, "{} vs {want}", c.mtf[0]);
+}
+
 #[test]
 fn slanted_edge_mtf_matches_the_analytic_mtf() {
     let mut cam = MockCamera::new(9);

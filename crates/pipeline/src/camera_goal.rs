@@ -38,6 +38,11 @@ use crate::exposure::ExposureTarget;
 /// frame's temporal variance.
 pub const DEFAULT_CAMERA_K: f64 = 0.3;
 
+/// Least `K` of `--target-error camera:K`: render variance under 10⁻⁴ of
+/// the camera's. Below it the bound is no camera's noise (1e-300 squared
+/// to 0, and the summary said "under 0 %").
+pub const MIN_CAMERA_K: f64 = 0.01;
+
 /// A pixel needs no bound once its estimate is this many times the
 /// photoelectrons that clip the frame.
 pub const CLIP_MARGIN: f64 = 2.0;
@@ -57,7 +62,7 @@ pub enum TargetError {
 /// Why `--target-error` was not understood.
 #[derive(Debug, thiserror::Error)]
 #[error(
-    "--target-error {0:?}: expected a relative error (e.g. 0.02), `camera` or `camera:K` with K in (0, 1] (render variance under K² of the camera's frame variance)"
+    "--target-error {0:?}: expected a relative error (e.g. 0.02), `camera` or `camera:K` with K in [0.01, 1] (render variance under K² of the camera's frame variance)"
 )]
 pub struct BadTargetError(pub String);
 
@@ -74,7 +79,7 @@ impl std::str::FromStr for TargetError {
         }
         if let Some(k) = lower.strip_prefix("camera:") {
             let k: f64 = k.trim().parse().map_err(|_| bad())?;
-            return if k.is_finite() && k > 0.0 && k <= 1.0 {
+            return if (MIN_CAMERA_K..=1.0).contains(&k) {
                 Ok(Self::Camera { k })
             } else {
                 Err(bad())
@@ -313,6 +318,7 @@ mod tests {
         assert_eq!(p("0.02").unwrap(), TargetError::Relative(0.02));
         assert_eq!(p("camera").unwrap(), TargetError::Camera { k: 0.3 });
         assert_eq!(p("Camera:0.5").unwrap(), TargetError::Camera { k: 0.5 });
+        assert_eq!(p("camera:0.01").unwrap(), TargetError::Camera { k: 0.01 });
         for bad in [
             "camera:0",
             "camera:-1",
@@ -320,6 +326,8 @@ mod tests {
             "camera:x",
             "cam",
             "camera:nan",
+            "camera:1e-300",
+            "camera:0.00999",
         ] {
             let e = p(bad).unwrap_err().to_string();
             assert!(e.contains(bad) && e.contains("camera:K"), "{e}");

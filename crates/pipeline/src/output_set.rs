@@ -116,6 +116,12 @@ pub enum OutputSetError {
         input.display()
     )]
     HoldsInput { target: PathBuf, input: PathBuf },
+    #[error(
+        "--out {}: inside the directory {} named on the command line, an input of this run; write the output outside its inputs",
+        target.display(),
+        input.display()
+    )]
+    InsideInput { target: PathBuf, input: PathBuf },
     /// `--force` on a directory that is not a previous output set.
     #[error(
         "--out {}: {why}; --force replaces only a previous gloam output set (a directory whose manifest.json lists every file in it) — choose another --out",
@@ -180,6 +186,7 @@ impl OutputSet {
         force: bool,
         polls_interrupt: bool,
     ) -> Result<Self, OutputSetError> {
+        refuse_target_inside_inputs(target, std::env::args_os().skip(1))?;
         if let Ok(meta) = std::fs::symlink_metadata(target) {
             if meta.file_type().is_symlink() {
                 return Err(OutputSetError::Link(target.to_path_buf()));
@@ -436,6 +443,70 @@ fn refuse_inputs_inside(
     Ok(())
 }
 
+/// `path` resolved as far as it exists: the canonical path of its nearest
+/// existing ancestor joined with the rest as given (`None` when not even
+/// the working directory resolves). Bounded by the path's components.
+pub fn resolved_as_far_as_it_exists(path: &Path) -> Option<PathBuf> {
+    let mut probe = path.to_path_buf();
+    let mut rest = Vec::new();
+    for _ in 0..=path.components().count() {
+        if let Ok(c) = std::fs::canonicalize(&probe) {
+            return Some(rest.iter().rev().fold(c, |p: PathBuf, part| p.join(part)));
+        }
+        match (probe.file_name().map(|n| n.to_os_string()), probe.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name);
+                probe = if parent.as_os_str().is_empty() {
+                    PathBuf::from(".")
+                } else {
+                    parent.to_path_buf()
+                };
+            }
+            _ => break,
+        }
+    }
+    Some(std::env::current_dir().ok()?.join(path))
+}
+
+/// Refuses a `target` strictly inside an existing directory named on the
+/// command line — an input the run reads (`gloam merge t1 t2 --out
+/// t1/merged`): the set would be added to its own input, and the next run
+/// over the same inputs would meet it there. The twin of
+/// [`refuse_inputs_inside`] (a target that holds an input); both compare
+/// resolved paths (links and `..` gone).
+fn refuse_target_inside_inputs(
+    target: &Path,
+    args: impl Iterator<Item = std::ffi::OsString>,
+) -> Result<(), OutputSetError> {
+    let Some(t) = resolved_as_far_as_it_exists(target) else {
+        return Ok(());
+    };
+    let mut after_out = false;
+    let mut words = COMMAND_WORDS.get().into_iter().flatten().peekable();
+    for a in args.take(10_000) {
+        if words.peek().is_some_and(|w| **w == a) {
+            words.next();
+            continue;
+        }
+        let is_out_value = std::mem::replace(&mut after_out, a == "--out");
+        if is_out_value || a.to_string_lossy().starts_with("--out=") {
+            continue;
+        }
+        let p = Path::new(&a);
+        if p.as_os_str().is_empty() || !std::fs::metadata(p).is_ok_and(|m| m.is_dir()) {
+            continue;
+        }
+        let Ok(c) = p.canonicalize() else { continue };
+        if t != c && t.starts_with(&c) {
+            return Err(OutputSetError::InsideInput {
+                target: target.to_path_buf(),
+                input: p.to_path_buf(),
+            });
+        }
+    }
+    Ok(())
+}
+
 impl Drop for OutputSet {
     /// A set dropped unpublished (an error before anything worth keeping)
     /// leaves nothing behind.
@@ -542,6 +613,56 @@ mod tests {
         );
         assert!(err.contains("manifest.json"), "{err}");
         assert!(scene_dir.join("s.toml").exists());
+    }
+
+    /// The twin of `holds the input`: a target inside a directory named on
+    /// the command line, however spelled (`..`, a link to it, not yet
+    /// existing below it), is refused; beside it, or the directory itself
+    /// (the other check's case), is not this check's to refuse.
+    #[cfg(unix)]
+    #[test]
+    fn a_target_inside_an_input_directory_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let t1 = dir.path().join("t1");
+        std::fs::create_dir_all(t1.join("sub")).unwrap();
+        std::os::unix::fs::symlink(&t1, dir.path().join("via")).unwrap();
+        let args = |out: &Path| -> Vec<std::ffi::OsString> {
+            vec![
+                "merge".into(),
+                t1.clone().into_os_string(),
+                "--out".into(),
+                out.as_os_str().to_owned(),
+            ]
+        };
+        for inside in [
+            t1.join("merged"),
+            t1.join("sub/x/../deeper/still"),
+            dir.path().join("via/merged"),
+            dir.path().join("t1/sub"),
+        ] {
+            let err = refuse_target_inside_inputs(&inside, args(&inside).into_iter())
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains("inside the directory"),
+                "{}: {err}",
+                inside.display()
+            );
+            assert!(err.contains(&*t1.to_string_lossy()), "{err}");
+        }
+        for outside in [
+            dir.path().join("merged"),
+            t1.clone(),
+            dir.path().join("t10"),
+        ] {
+            refuse_target_inside_inputs(&outside, args(&outside).into_iter())
+                .unwrap_or_else(|e| panic!("{}: {e}", outside.display()));
+        }
+        // A file argument is not a directory the set could sit inside.
+        std::fs::write(dir.path().join("s.toml"), "").unwrap();
+        let out = dir.path().join("s.toml/o");
+        let a = vec!["render".into(), dir.path().join("s.toml").into_os_string()];
+        refuse_target_inside_inputs(&out, a.into_iter()).unwrap();
     }
 
     #[cfg(unix)]

@@ -167,6 +167,8 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         )?);
     }
 
+    refuse_coincident_facets(&cx, &of, &facets, &objects)?;
+
     // Point sources, each placed once or at each of its placements.
     let mut point_sources = Vec::new();
     let mut point_source_groups = Vec::new();
@@ -235,6 +237,82 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         sky,
         sensor,
     })
+}
+
+/// Facet `i`'s object index, placement and prototype facet.
+fn origin_of(objects: &[ObjectInfo], i: usize) -> (usize, usize, usize) {
+    let k = objects.partition_point(|o| o.first_facet <= i).max(1) - 1;
+    let o = &objects[k];
+    let local = i - o.first_facet;
+    let per = o.prototype_facets.max(1);
+    (k, local / per, local % per)
+}
+
+/// Refuses two facets on exactly the same vertices (in any order, either
+/// side out): a ray cannot tell which of them it hits (the image takes
+/// one, light sampling counts both), and every ray that reaches such a
+/// stack tests all of it — 10 000 coincident triangles made the cache and
+/// the render quadratic (82 s in issue 46). One sort of the facets' vertex
+/// sets, O(n log n); the pair reported is the one whose later facet comes
+/// first in the file.
+fn refuse_coincident_facets(
+    cx: &Ctx,
+    of: &FieldPath,
+    facets: &[Facet],
+    objects: &[ObjectInfo],
+) -> R<()> {
+    // Each facet's vertices as bit patterns (-0.0 as 0.0), sorted.
+    type Key = ([[u64; 3]; 4], u8);
+    let key = |f: &Facet| -> Key {
+        let mut k = [[u64::MAX; 3]; 4];
+        for (slot, v) in k.iter_mut().zip(&f.vertices) {
+            *slot = [v.x, v.y, v.z].map(|c| (c + 0.0).to_bits());
+        }
+        let n = f.vertices.len().min(4);
+        k[..n].sort_unstable();
+        (k, n as u8)
+    };
+    let mut order: Vec<(Key, usize)> = Vec::new();
+    order
+        .try_reserve_exact(facets.len())
+        .map_err(|_| cx.err(of, format!("{} facets: out of memory", facets.len())))?;
+    order.extend(facets.iter().enumerate().map(|(i, f)| (key(f), i)));
+    order.sort_unstable();
+    // Within a run of equal keys the indices ascend: the pair (first,
+    // second) of the run whose second index is least.
+    let mut worst: Option<(usize, usize)> = None;
+    for w in order.windows(2) {
+        if w[0].0 == w[1].0 {
+            let (a, b) = (w[0].1, w[1].1);
+            if worst.is_none_or(|(_, wb)| b < wb) {
+                worst = Some((a, b));
+            }
+        }
+    }
+    drop(order);
+    let Some((a, b)) = worst else {
+        return Ok(());
+    };
+    let describe = |i: usize| {
+        let (k, inst, pf) = origin_of(objects, i);
+        let o = &objects[k];
+        if o.instanced {
+            format!("objects.{} facet {pf} of placement {inst}", o.name)
+        } else {
+            format!("objects.{} facet {pf}", o.name)
+        }
+    };
+    let (kb, _, _) = origin_of(objects, b);
+    Err(cx.err(
+        &of.key(&objects[kb].name),
+        format!(
+            "{} lies exactly on {} (the same {} vertices): a ray cannot tell which it hits \
+             and light sampling would count both; remove one, or move it apart",
+            describe(b),
+            describe(a),
+            facets[b].vertices.len()
+        ),
+    ))
 }
 
 /// What a spectrum is, for messages and range checks.

@@ -52,6 +52,7 @@ use serde::Deserialize;
 
 use glam::DVec3;
 
+use crate::build::num;
 use crate::error::{FieldPath, Locator, SceneError};
 use crate::instance::Xform;
 use crate::{Luminaire, Scene};
@@ -192,7 +193,7 @@ struct RawMove {
 #[serde(deny_unknown_fields)]
 struct RawTrack {
     #[serde(default)]
-    keys: Vec<(f64, f64)>,
+    keys: Vec<Vec<f64>>,
     flicker: Option<Flicker>,
 }
 
@@ -221,7 +222,7 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
             &field(&["frame_rate_hz"]),
             format!(
                 "must be a frame rate in (0, {MAX_FRAME_RATE_HZ}] Hz, not {}",
-                raw.frame_rate_hz
+                num(raw.frame_rate_hz)
             ),
         ));
     }
@@ -253,16 +254,36 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
             ));
         }
         let mut last = f64::NEG_INFINITY;
-        for (i, &(time, value)) in t.keys.iter().enumerate() {
+        let mut keys: Vec<(f64, f64)> = Vec::with_capacity(t.keys.len());
+        for (i, k) in t.keys.iter().enumerate() {
             let at = here("keys").index(i);
+            // A third number was dropped unseen ([0, 1, 2] read as [0, 1]).
+            let &[time, value] = k.as_slice() else {
+                return Err(loc.error(
+                    &at,
+                    format!("has {} numbers: a key is [time_s, intensity]", k.len()),
+                ));
+            };
             check_key_time(&loc, &at, time, last)?;
+            // Two keys at one time make a step; a third there is never
+            // seen (the step goes from the first to the last).
+            if i >= 2 && keys[i - 2].0 == time && keys[i - 1].0 == time {
+                return Err(loc.error(
+                    &at,
+                    format!(
+                        "a third key at {} s: two keys at one time make a step, a third is never seen",
+                        num(time)
+                    ),
+                ));
+            }
             if !(value.is_finite() && (0.0..=MAX_INTENSITY).contains(&value)) {
                 return Err(loc.error(
                     &at,
-                    format!("intensity {value} must be in [0, {MAX_INTENSITY:e}]"),
+                    format!("intensity {} must be in [0, {MAX_INTENSITY:e}]", num(value)),
                 ));
             }
             last = time;
+            keys.push((time, value));
         }
         if let Some(f) = t.flicker {
             if !(f.mains_hz.is_finite() && f.mains_hz > 0.0 && f.mains_hz <= MAX_MAINS_HZ) {
@@ -270,14 +291,14 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
                     &here("flicker"),
                     format!(
                         "mains_hz must be in (0, {MAX_MAINS_HZ}], not {}",
-                        f.mains_hz
+                        num(f.mains_hz)
                     ),
                 ));
             }
             if !(f.depth.is_finite() && (0.0..=1.0).contains(&f.depth)) {
                 return Err(loc.error(
                     &here("flicker"),
-                    format!("depth must be in [0, 1], not {}", f.depth),
+                    format!("depth must be in [0, 1], not {}", num(f.depth)),
                 ));
             }
         }
@@ -289,7 +310,7 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
         groups.insert(
             name,
             Track {
-                keys: t.keys,
+                keys,
                 flicker: t.flicker,
             },
         );
@@ -312,13 +333,15 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
 /// A key's time: finite, ≥ 0 and not before the previous key's `last`.
 fn check_key_time(loc: &Locator, at: &FieldPath, time: f64, last: f64) -> Result<(), SceneError> {
     if !(time.is_finite() && time >= 0.0) {
-        return Err(loc.error(at, format!("time {time} s must be finite and ≥ 0")));
+        return Err(loc.error(at, format!("time {} s must be finite and ≥ 0", num(time))));
     }
     if time < last {
         return Err(loc.error(
             at,
             format!(
-                "time {time} s comes before the previous key's {last} s: keys go forward in time"
+                "time {} s comes before the previous key's {} s: keys go forward in time",
+                num(time),
+                num(last)
             ),
         ));
     }
@@ -395,7 +418,10 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
             {
                 return Err(loc.error(
                     &at,
-                    format!("{v} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}"),
+                    format!(
+                        "{} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}",
+                        num(*v)
+                    ),
                 ));
             }
             last = time;
@@ -861,6 +887,34 @@ mod tests {
                 "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\nfps = 2\n",
                 4,
                 "fps",
+            ),
+            // Issue 46, round 3: a key's third number was dropped unseen,
+            // a third key at one time never seen, and 1e308 printed as
+            // 309 digits.
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[groups.a]\nkeys = [[0, 1, 2]]\n",
+                5,
+                "groups.a.keys[0]: has 3 numbers: a key is [time_s, intensity]",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[groups.a]\nkeys = [[0]]\n",
+                5,
+                "groups.a.keys[0]: has 1 numbers",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[groups.a]\nkeys = [[0, 0], [2, 0], [2, 1], [2, 0.5]]\n",
+                5,
+                "groups.a.keys[3]: a third key at 2 s",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 1e308\nframes = 3\n",
+                2,
+                "not 1e308",
+            ),
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[groups.a]\nkeys = [[0, 1e300]]\n",
+                5,
+                "intensity 1e300 must be",
             ),
         ] {
             let e = parse_sequence(text, p).unwrap_err();

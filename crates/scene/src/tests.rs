@@ -1734,3 +1734,83 @@ fn documented_lamp_model_places_housing_and_source_together() {
     let r = &pl.get("shaped-point-sources").unwrap().reason;
     assert!(r.contains("street_lamp ×1000 m = 3"), "{r}");
 }
+
+// --- coincident facets (issue 46: a stack made every ray test all of it) -------
+
+#[test]
+fn coincident_facets_are_refused_naming_both() {
+    // Two objects on the same triangle, the second's vertices in another
+    // order (its other side out): refused at the second, naming the first.
+    let tri = |name: &str, v: &str| {
+        format!("[objects.{name}]\nmaterial = \"grey\"\nvertices = {v}\nfaces = [[0, 1, 2]]\n")
+    };
+    let text = format!(
+        "{BASE}{}{}",
+        tri("a", "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]"),
+        tri("b", "[[0.0, 1.0, 1.0], [1.0, -0.0, 1.0], [0.0, 0.0, 1.0]]")
+    );
+    let m = expect_err(&text, next_line() + 4, "objects.b", "lies exactly on");
+    assert!(
+        m.contains("objects.b facet 0 lies exactly on objects.a facet 0 (the same 3 vertices)"),
+        "{m}"
+    );
+    // One part in 1e15 apart is another facet (accepted, not a stack).
+    let apart = format!(
+        "{BASE}{}{}",
+        tri("a", "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]"),
+        tri(
+            "b",
+            "[[0.0, 0.0, 1.000000000000001], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]"
+        )
+    );
+    assert_eq!(parse(&apart).unwrap().facets.len(), 3);
+    // Two placements of an instanced object at the same place.
+    let text = triangle_object(
+        "instances = [{ translate = [0, 0, 1] }, { translate = [0, 0, 2] }, { translate = [0, 0, 1] }]\n",
+    );
+    let m = expect_err(&text, next_line(), "objects.t", "facet 0 of placement 2");
+    assert!(
+        m.contains("lies exactly on objects.t facet 0 of placement 0"),
+        "{m}"
+    );
+    // A quad repeated inside one object's faces.
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0]]",
+        "[[0, 1, 2, 3], [2, 3, 0, 1]]",
+    );
+    let m = expect_err(
+        &text,
+        next_line(),
+        "objects.thing",
+        "objects.thing facet 1 lies exactly on objects.thing facet 0",
+    );
+    assert!(m.contains("same 4 vertices"), "{m}");
+}
+
+#[test]
+fn a_stack_of_ten_thousand_coincident_triangles_is_refused_at_its_first_repeat() {
+    // 10 000 one-triangle objects on one spot (issue 46: 82 s in the cache)
+    // and one apart: the error names the first repeat, t1 on t0.
+    let mut text = BASE.to_string();
+    for i in 0..10_000 {
+        text.push_str(&format!(
+            "[objects.t{i:05}]\nmaterial = \"grey\"\nvertices = [[0, 0, 3], [0.2, 0, 3], [0, 0.2, 3]]\nfaces = [[0, 1, 2]]\n"
+        ));
+    }
+    let m = expect_err(&text, next_line() + 4, "objects.t00001", "lies exactly on");
+    assert!(
+        m.contains("objects.t00001 facet 0 lies exactly on objects.t00000 facet 0"),
+        "{m}"
+    );
+    // The same count spread out is accepted: 10 001 facets.
+    let mut text = BASE.to_string();
+    for i in 0..10_000 {
+        let (x, y) = ((i % 100) as f64 * 0.3 - 15.0, (i / 100) as f64 * 0.3 - 15.0);
+        text.push_str(&format!(
+            "[objects.t{i:05}]\nmaterial = \"grey\"\nvertices = [[{x}, {y}, 3], [{}, {y}, 3], [{x}, {}, 3]]\nfaces = [[0, 1, 2]]\n",
+            x + 0.2,
+            y + 0.2
+        ));
+    }
+    assert_eq!(parse(&text).unwrap().facets.len(), 10_001);
+}

@@ -38,6 +38,10 @@ pub struct MockCamera {
     pub bits: u8,
     /// Gaussian PSF σ, pixels: MTF(f) = exp(−2π²σ²f²).
     pub mtf_sigma_px: f64,
+    /// Multiplies a sine stimulus's modulation (1: none) — a camera (or a
+    /// light that changed between grey scale and target) that shows more
+    /// contrast than the target has, which no MTF can.
+    pub sine_contrast_gain: f64,
     pub prnu: Vec<f64>,
     pub dsnu: Vec<f64>,
     pub agc: Option<AgcModel>,
@@ -72,6 +76,7 @@ impl MockCamera {
             photons_per_radiance: 600.0,
             bits: 12,
             mtf_sigma_px: 0.7,
+            sine_contrast_gain: 1.0,
             prnu,
             dsnu,
             agc: None,
@@ -110,6 +115,7 @@ impl MockCamera {
                 mean_radiance_w_m2_sr
                     * (1.0
                         + modulation
+                            * self.sine_contrast_gain
                             * self.mtf(*cycles_per_pixel)
                             * (2.0 * std::f64::consts::PI * cycles_per_pixel * x).cos())
             }

@@ -166,21 +166,38 @@ pub fn parse_count(s: &str) -> Result<u64, BenchError> {
         BenchError::Invalid(format!("{t:?} is not a number (write e.g. 1000 or 1e4)"))
     })?;
     ensure_valid!(
-        (1.0..=1e12).contains(&v) && v.fract() == 0.0,
+        v >= 1.0 && v.is_finite() && v.fract() == 0.0,
         "{t:?}: a count must be a whole number ≥ 1"
+    );
+    // Past 1e12 it is no count a case can have (and past 2^64 not a u64):
+    // named as too large, not as a fraction.
+    ensure_valid!(
+        (..=1e12).contains(&v),
+        "{t:?}: too large a count (at most 1e12)"
     );
     Ok(v as u64)
 }
 
 /// A comma-separated list of counts (`1e3,1e4`), each checked against `max`.
 pub fn parse_counts(s: &str, what: &str, max: u64) -> Result<Vec<u64>, BenchError> {
-    let mut v = Vec::new();
-    for part in s.split(',').filter(|p| !p.trim().is_empty()) {
+    let mut v: Vec<u64> = Vec::new();
+    ensure_valid!(!s.trim().is_empty(), "--{what}: no sizes given");
+    for (k, part) in s.split(',').enumerate().take(1000) {
+        // An empty item (`1e3,,1e4`, a trailing comma) was dropped unseen.
+        ensure_valid!(
+            !part.trim().is_empty(),
+            "--{what} {s:?}: item {} is empty",
+            k + 1
+        );
         let n = parse_count(part).map_err(|e| BenchError::Invalid(format!("--{what}: {e}")))?;
         ensure_valid!(n <= max, "--{what}: {n} exceeds the largest size, {max}");
+        // The same size twice ran the same case twice, as two rows.
+        ensure_valid!(
+            !v.contains(&n),
+            "--{what} {s:?}: {n} is given twice (each size is one case)"
+        );
         v.push(n);
     }
-    ensure_valid!(!v.is_empty(), "--{what}: no sizes given");
     ensure_valid!(v.len() <= 32, "--{what}: at most 32 sizes");
     Ok(v)
 }
@@ -839,8 +856,10 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         opts.spp
     );
     ensure_valid!(
-        opts.timeout_s.is_finite() && opts.timeout_s > 0.0 && opts.timeout_s <= MAX_TIMEOUT_S,
-        "--timeout-s {}: must be a number of seconds in (0, {MAX_TIMEOUT_S:e}]",
+        opts.timeout_s.is_finite()
+            && opts.timeout_s >= MIN_TIMEOUT_S
+            && opts.timeout_s <= MAX_TIMEOUT_S,
+        "--timeout-s {}: must be a number of seconds in [{MIN_TIMEOUT_S}, {MAX_TIMEOUT_S:e}]",
         opts.timeout_s
     );
     ensure_valid!(
@@ -904,12 +923,17 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         &json_path,
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
-    // A bench whose every case failed measured nothing: say so by the
-    // exit status too (the report, written above, says why).
-    let failed = report.cases.iter().filter(|r| r.status == "failed").count();
+    // A bench none of whose cases finished measured nothing — every case
+    // failed, timed out or was too large (all timeouts exited 0): say so
+    // by the exit status too (the report, written above, says why).
+    let ok = report.cases.iter().filter(|r| r.status == "ok").count();
+    let count = |st: &str| report.cases.iter().filter(|r| r.status == st).count();
     ensure_valid!(
-        failed == 0 || failed < report.cases.len(),
-        "every case failed ({failed} of {}); first: {} (the report is in {})",
+        ok > 0 || report.cases.is_empty(),
+        "no case finished ({} failed, {} timed out, {} too large, of {}); first: {} (the report is in {})",
+        count("failed"),
+        count("timeout"),
+        count("too_large"),
         report.cases.len(),
         report
             .cases
@@ -920,6 +944,10 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
     );
     Ok(report)
 }
+
+/// Shortest `--timeout-s`: no case starts in less (1e-300 s killed every
+/// case at once, and the report said "killed after 0 s").
+pub const MIN_TIMEOUT_S: f64 = 1.0;
 
 /// Longest `--timeout-s` (about 11.6 days): a wall-time limit, not
 /// "forever" (1e20 s overflowed the clock's duration).
@@ -1087,6 +1115,16 @@ mod tests {
         }
         assert!(parse_counts("1e8", "triangles", MAX_TRIANGLES).is_err());
         assert!(parse_counts("", "lamps", MAX_LAMPS).is_err());
+        // Sizes given twice or an empty item: refused, naming them.
+        let e = parse_counts("1,1e0", "triangles", MAX_TRIANGLES).unwrap_err();
+        assert!(e.to_string().contains("1 is given twice"), "{e}");
+        for bad in ["1e3,,1e4", "1e3,", ",1e3"] {
+            let e = parse_counts(bad, "triangles", MAX_TRIANGLES).unwrap_err();
+            assert!(e.to_string().contains("is empty"), "{bad}: {e}");
+        }
+        // Too large is named as such, not as a fraction.
+        let e = parse_counts("1e13", "triangles", MAX_TRIANGLES).unwrap_err();
+        assert!(e.to_string().contains("too large"), "{e}");
         assert!(Case::parse("lamps:1e6").is_err());
         assert!(Case::parse("spheres:10").is_err());
         assert_eq!(
