@@ -406,6 +406,31 @@ pub fn set_command_words(words: Vec<std::ffi::OsString>) {
     let _ = COMMAND_WORDS.set(words);
 }
 
+/// The existing paths named on the command line, as given and resolved
+/// (links and `..` gone): every argument but the command's own words and
+/// the `--out` value, which names the target, not an input. Bounded by
+/// the first 10 000 arguments.
+fn named_paths(args: impl Iterator<Item = std::ffi::OsString>) -> Vec<(PathBuf, PathBuf)> {
+    let mut after_out = false;
+    let mut words = COMMAND_WORDS.get().into_iter().flatten().peekable();
+    let mut out = Vec::new();
+    for a in args.take(10_000) {
+        if words.peek().is_some_and(|w| **w == a) {
+            words.next();
+            continue;
+        }
+        let is_out_value = std::mem::replace(&mut after_out, a == "--out");
+        if is_out_value || a.to_string_lossy().starts_with("--out=") || a.is_empty() {
+            continue;
+        }
+        let p = PathBuf::from(a);
+        if let Ok(c) = p.canonicalize() {
+            out.push((p, c));
+        }
+    }
+    out
+}
+
 /// Refuses a `target` that holds (or is) any existing path named on the
 /// command line — an input the run reads (`gloam merge t1 t2 --out t1`,
 /// `gloam render sd/s.toml --out sd`).
@@ -416,31 +441,16 @@ fn refuse_inputs_inside(
     let Ok(t) = target.canonicalize() else {
         return Ok(());
     };
-    let mut after_out = false;
-    let mut words = COMMAND_WORDS.get().into_iter().flatten().peekable();
-    for a in args.take(10_000) {
-        if words.peek().is_some_and(|w| **w == a) {
-            words.next();
-            continue;
-        }
-        // The --out value itself names the target, not an input.
-        let is_out_value = std::mem::replace(&mut after_out, a == "--out");
-        if is_out_value || a.to_string_lossy().starts_with("--out=") {
-            continue;
-        }
-        let p = Path::new(&a);
-        if p.as_os_str().is_empty() || std::fs::symlink_metadata(p).is_err() {
-            continue;
-        }
-        let Ok(c) = p.canonicalize() else { continue };
-        if c.starts_with(&t) {
-            return Err(OutputSetError::HoldsInput {
-                target: target.to_path_buf(),
-                input: p.to_path_buf(),
-            });
-        }
+    match named_paths(args)
+        .into_iter()
+        .find(|(_, c)| c.starts_with(&t))
+    {
+        Some((input, _)) => Err(OutputSetError::HoldsInput {
+            target: target.to_path_buf(),
+            input,
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// `path` resolved as far as it exists: the canonical path of its nearest
@@ -481,30 +491,14 @@ fn refuse_target_inside_inputs(
     let Some(t) = resolved_as_far_as_it_exists(target) else {
         return Ok(());
     };
-    let mut after_out = false;
-    let mut words = COMMAND_WORDS.get().into_iter().flatten().peekable();
-    for a in args.take(10_000) {
-        if words.peek().is_some_and(|w| **w == a) {
-            words.next();
-            continue;
-        }
-        let is_out_value = std::mem::replace(&mut after_out, a == "--out");
-        if is_out_value || a.to_string_lossy().starts_with("--out=") {
-            continue;
-        }
-        let p = Path::new(&a);
-        if p.as_os_str().is_empty() || !std::fs::metadata(p).is_ok_and(|m| m.is_dir()) {
-            continue;
-        }
-        let Ok(c) = p.canonicalize() else { continue };
-        if t != c && t.starts_with(&c) {
-            return Err(OutputSetError::InsideInput {
-                target: target.to_path_buf(),
-                input: p.to_path_buf(),
-            });
-        }
+    let inside = |c: &PathBuf| c.is_dir() && t != *c && t.starts_with(c);
+    match named_paths(args).into_iter().find(|(_, c)| inside(c)) {
+        Some((input, _)) => Err(OutputSetError::InsideInput {
+            target: target.to_path_buf(),
+            input,
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 impl Drop for OutputSet {
