@@ -11,8 +11,9 @@ use gloam_spectra::{Spectrum, library};
 use crate::error::{FieldPath, Locator, Seg};
 use crate::geometry::{box_faces, check_facet, quad_vertices};
 use crate::instance::{
-    MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, Placement, Xform, available_memory_bytes,
-    check_budget, count_obj_faces, facet_bytes, read_placements_csv,
+    Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS, Placement,
+    SHARE_ABOVE_FACETS, SharedInstances, Xform, available_memory_bytes, check_budget,
+    count_obj_faces, facet_bytes, read_placements_csv,
 };
 use crate::raw::*;
 use crate::{
@@ -155,16 +156,15 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     // Objects → facets: each object's geometry read once, then placed.
     let mut facets = Vec::new();
     let mut objects = Vec::new();
+    let mut shared = Vec::new();
     let of = root.key("objects");
     for (name, o) in cx.ordered(&of, &raw.objects) {
-        objects.push(object(
-            &cx,
-            &of.key(name),
-            name,
-            o,
-            &materials,
-            &mut facets,
-        )?);
+        let out = Built {
+            facets: &mut facets,
+            shared: &mut shared,
+            index: objects.len(),
+        };
+        objects.push(object(&cx, &of.key(name), name, o, &materials, out)?);
     }
 
     refuse_coincident_facets(&cx, &of, &facets, &objects)?;
@@ -229,6 +229,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         materials,
         facets,
         objects,
+        shared,
         point_sources,
         point_source_groups,
         light_groups,
@@ -255,12 +256,9 @@ fn origin_of(objects: &[ObjectInfo], i: usize) -> (usize, usize, usize) {
 /// the render quadratic (82 s in issue 46). One sort of the facets' vertex
 /// sets, O(n log n); the pair reported is the one whose later facet comes
 /// first in the file.
-fn refuse_coincident_facets(
-    cx: &Ctx,
-    of: &FieldPath,
-    facets: &[Facet],
-    objects: &[ObjectInfo],
-) -> R<()> {
+/// The two facets on exactly the same vertices whose second index is
+/// least (`a < b`), if any: one sort of their vertex bit patterns.
+fn first_coincident_pair(facets: &[Facet]) -> Result<Option<(usize, usize)>, String> {
     // Each facet's vertices as bit patterns (-0.0 as 0.0), sorted.
     type Key = ([[u64; 3]; 4], u8);
     let key = |f: &Facet| -> Key {
@@ -275,7 +273,7 @@ fn refuse_coincident_facets(
     let mut order: Vec<(Key, usize)> = Vec::new();
     order
         .try_reserve_exact(facets.len())
-        .map_err(|_| cx.err(of, format!("{} facets: out of memory", facets.len())))?;
+        .map_err(|_| format!("{} facets", facets.len()))?;
     order.extend(facets.iter().enumerate().map(|(i, f)| (key(f), i)));
     order.sort_unstable();
     // Within a run of equal keys the indices ascend: the pair (first,
@@ -289,8 +287,18 @@ fn refuse_coincident_facets(
             }
         }
     }
-    drop(order);
-    let Some((a, b)) = worst else {
+    Ok(worst)
+}
+
+fn refuse_coincident_facets(
+    cx: &Ctx,
+    of: &FieldPath,
+    facets: &[Facet],
+    objects: &[ObjectInfo],
+) -> R<()> {
+    let Some((a, b)) =
+        first_coincident_pair(facets).map_err(|m| cx.err(of, format!("{m}: out of memory")))?
+    else {
         return Ok(());
     };
     let describe = |i: usize| {
@@ -828,17 +836,30 @@ fn placement_err(cx: &Ctx, pfield: &FieldPath, p: &Placement, msg: String) -> Sc
     }
 }
 
+/// Where an object's geometry goes: the scene's facets, or (shared
+/// placements) the scene's shared prototypes; `index` is the object's.
+struct Built<'a> {
+    facets: &'a mut Vec<Facet>,
+    shared: &'a mut Vec<SharedInstances>,
+    index: usize,
+}
+
 /// Appends an object's facets to the scene's: its geometry, read once (the
-/// prototype), as it is or once per placement; every size is checked
-/// before it is allocated.
+/// prototype), as it is, once per placement, or (shared) once with its
+/// placements' transforms; every size is checked before it is allocated.
 fn object(
     cx: &Ctx,
     field: &FieldPath,
     name: &str,
     o: &RawObject,
     materials: &[Material],
-    scene_facets: &mut Vec<Facet>,
+    out: Built,
 ) -> R<ObjectInfo> {
+    let Built {
+        facets: scene_facets,
+        shared: scene_shared,
+        index,
+    } = out;
     let before = scene_facets.len();
     let material = materials
         .iter()
@@ -891,13 +912,70 @@ fn object(
         o.instances_csv.as_deref(),
     )?;
     let instances = placements.as_ref().map_or(1, Vec::len) as u128;
+    let emits = materials[material].emission.is_some();
+    let instancing = match &o.instancing {
+        None => Instancing::Auto,
+        Some(v) => v
+            .parse::<Instancing>()
+            .map_err(|m| cx.err(&field.key("instancing"), m))?,
+    };
+    if instancing == Instancing::Shared {
+        if placements.is_none() {
+            return Err(cx.err(
+                &field.key("instancing"),
+                "instancing = \"shared\" needs placements: give `instances` or `instances_csv`",
+            ));
+        }
+        if emits {
+            return Err(cx.err(
+                &field.key("instancing"),
+                format!(
+                    "material '{}' emits: each placement of an emitter is a light of its own and is expanded; remove instancing = \"shared\"",
+                    o.material
+                ),
+            ));
+        }
+    }
+    // Whether `prototype` facets are shared across the placements rather
+    // than copied (decided again on the exact count once it is read).
+    let share = |prototype: usize| {
+        placements.is_some()
+            && !emits
+            && match instancing {
+                Instancing::Shared => true,
+                Instancing::Expand => false,
+                Instancing::Auto => prototype as u128 * instances > SHARE_ABOVE_FACETS as u128,
+            }
+    };
+    let shared_before: u64 = scene_shared
+        .iter()
+        .map(|s| s.prototype.len() as u64 * s.placements.len() as u64)
+        .sum();
     let bytes_each = facet_bytes(name);
     // Every size is checked before it is allocated: the facets this object
-    // adds (prototype × placements) against the scene's limit and memory.
+    // adds (prototype × placements, or the prototype alone when shared)
+    // against the scene's limit and memory.
     let budget = |prototype: usize, at: &FieldPath| -> R<()> {
+        if share(prototype) {
+            let placed = shared_before as u128 + prototype as u128 * instances;
+            if placed > MAX_SHARED_FACETS as u128 {
+                return Err(cx.err(
+                    at,
+                    format!(
+                        "{instances} placements × {prototype} facets{}: more than the {MAX_SHARED_FACETS} placed facets shared instances may hold per scene",
+                        if shared_before > 0 {
+                            format!(" plus {shared_before} placed before")
+                        } else {
+                            String::new()
+                        }
+                    ),
+                ));
+            }
+        }
+        let copies = if share(prototype) { 1 } else { instances };
         check_budget(
             before,
-            prototype as u128 * instances,
+            prototype as u128 * copies,
             MAX_FACETS,
             bytes_each,
             cx.available_memory(),
@@ -1196,8 +1274,19 @@ fn object(
         }
     }
     let prototype_facets = facets.len() - if placements.is_some() { 0 } else { before };
+    let shared = share(prototype_facets);
     if let Some(placements) = &placements {
-        expand(cx, &placements_field, placements, &prototype, scene_facets)?;
+        budget(prototype_facets, &placements_field)?;
+        if shared {
+            check_shared(cx, &placements_field, placements, &prototype)?;
+            scene_shared.push(SharedInstances {
+                object: index,
+                placements: placements.iter().map(|p| p.xform.affine()).collect(),
+                prototype,
+            });
+        } else {
+            expand(cx, &placements_field, placements, &prototype, scene_facets)?;
+        }
     }
     // A measured luminaire's C0 axis turns with each placement
     // (`Scene::luminaire_c0`): its transforms are kept, and only its.
@@ -1218,9 +1307,108 @@ fn object(
         prototype_facets,
         instances: placements.as_ref().map_or(1, Vec::len),
         instanced: placements.is_some(),
+        shared,
         first_facet: before,
         luminaire_placements,
     })
+}
+
+/// Checks shared placements as [`expand`] checks copies, without making
+/// them: every placed vertex within the coordinate limit (through the
+/// corners of the prototype's box, which bound them), facets valid under a
+/// per-axis or extreme scale (quads, for a per-axis one: an affine map
+/// keeps a triangle planar and convex), no facet of the prototype on
+/// another, and no two placements the same.
+fn check_shared(
+    cx: &Ctx,
+    pfield: &FieldPath,
+    placements: &[Placement],
+    prototype: &[Facet],
+) -> R<()> {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for v in prototype.iter().flat_map(|f| &f.vertices) {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    let corners: Vec<DVec3> = (0..8)
+        .map(|k| {
+            DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        })
+        .collect();
+    let has_quads = prototype.iter().any(|f| f.vertices.len() > 3);
+    for pl in placements {
+        let x = pl.xform;
+        if let Some(v) = corners
+            .iter()
+            .map(|&c| x.point(c))
+            .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
+        {
+            return Err(placement_err(
+                cx,
+                pfield,
+                pl,
+                format!(
+                    "the placed object reaches ({:e}, {:e}, {:e}), out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
+                    v.x, v.y, v.z
+                ),
+            ));
+        }
+        if x.scale_is_extreme() || (has_quads && !x.is_similarity()) {
+            for (j, f) in prototype.iter().enumerate() {
+                let mut placed = [DVec3::ZERO; 4];
+                let n = f.vertices.len().min(4);
+                for (p, v) in placed.iter_mut().zip(&f.vertices) {
+                    *p = x.point(*v);
+                }
+                if let Err(e) = check_facet(&placed[..n]) {
+                    return Err(placement_err(
+                        cx,
+                        pfield,
+                        pl,
+                        format!("facet {j} of the prototype: {e}"),
+                    ));
+                }
+            }
+        }
+    }
+    if let Some((a, b)) = first_coincident_pair(prototype).map_err(|m| cx.err(pfield, m))? {
+        return Err(cx.err(
+            pfield,
+            format!(
+                "facet {b} of the prototype lies exactly on its facet {a}: a ray cannot tell which it hits; remove one"
+            ),
+        ));
+    }
+    let mut keys: Vec<([u64; 12], usize)> = placements
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            (
+                p.xform
+                    .affine()
+                    .to_cols_array()
+                    .map(|c| (c + 0.0).to_bits()),
+                k,
+            )
+        })
+        .collect();
+    keys.sort_unstable();
+    if let Some(w) = keys.windows(2).find(|w| w[0].0 == w[1].0) {
+        let (a, b) = (w[0].1.min(w[1].1), w[0].1.max(w[1].1));
+        return Err(placement_err(
+            cx,
+            pfield,
+            &placements[b],
+            format!(
+                "the same placement as placement {a}: every facet would lie on its twin; remove one"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Appends one transformed copy of `prototype` per placement (in placement

@@ -14,6 +14,81 @@ pub const MAX_FACETS: usize = 20_000_000;
 pub const MAX_INSTANCES: usize = 1_000_000;
 /// Most point sources a scene may hold after instances are expanded.
 pub const MAX_POINT_SOURCES: usize = 1_000_000;
+/// Most placed facets the shared objects of a scene may hold together:
+/// the tracer names every facet by a `u32`, `u32::MAX` meaning none.
+pub const MAX_SHARED_FACETS: u64 = 4_000_000_000;
+/// `instancing = "auto"` keeps an instanced object's placements as one
+/// shared prototype when they would add more facets than this (and its
+/// material does not emit): below it, copies keep the radiosity cache,
+/// which needs a facet of its own per placement.
+pub const SHARE_ABOVE_FACETS: usize = 1_000_000;
+
+/// How an instanced object's placements are built (`instancing = …`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Instancing {
+    /// Shared above [`SHARE_ABOVE_FACETS`] placed facets, else copied.
+    Auto,
+    /// A copy of the prototype's facets per placement.
+    Expand,
+    /// One prototype, traced under each placement's transform.
+    Shared,
+}
+
+impl std::str::FromStr for Instancing {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "expand" => Ok(Self::Expand),
+            "shared" => Ok(Self::Shared),
+            other => Err(format!(
+                "unknown instancing '{other}': use \"auto\", \"expand\" or \"shared\""
+            )),
+        }
+    }
+}
+
+/// An instanced object kept as one prototype and its placements (pbrt-v4's
+/// object instances): the tracer builds one BVH over the prototype and a
+/// top-level one over the placements, so a placement costs a transform.
+/// Its material does not emit (each placement of an emitter is a light of
+/// its own, and is expanded).
+#[derive(Clone, Debug)]
+pub struct SharedInstances {
+    /// Index into [`crate::Scene::objects`].
+    pub object: usize,
+    /// The object's facets once, its own transform applied.
+    pub prototype: Vec<Facet>,
+    /// Each placement's map from the prototype's frame to the scene's.
+    pub placements: Vec<glam::DAffine3>,
+}
+
+impl SharedInstances {
+    /// The prototype's bounding box, lower and upper corners.
+    pub fn prototype_bounds(&self) -> (DVec3, DVec3) {
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for v in self.prototype.iter().flat_map(|f| &f.vertices) {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+        (lo, hi)
+    }
+
+    /// The corners of the prototype's box under every placement (they
+    /// bound every placed vertex): 8 per placement.
+    pub fn placed_corners(&self) -> impl Iterator<Item = DVec3> + '_ {
+        let (lo, hi) = self.prototype_bounds();
+        self.placements.iter().flat_map(move |a| {
+            (0..8).map(move |k| {
+                a.transform_point3(DVec3::new(
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                ))
+            })
+        })
+    }
+}
 
 /// `p ↦ R_z(θ)·(p ∘ scale) + translate`: scale (per axis), then rotate
 /// counter-clockwise about +z (seen from above), then translate. The same
@@ -81,6 +156,18 @@ impl Xform {
             n.z,
         );
         r * self.scale
+    }
+
+    /// The same map as an affine transform (columns of `R_z(θ)·diag(scale)`).
+    pub(crate) fn affine(&self) -> glam::DAffine3 {
+        glam::DAffine3::from_mat3_translation(
+            glam::DMat3::from_cols(
+                self.rotate(DVec3::X * self.scale.x),
+                self.rotate(DVec3::Y * self.scale.y),
+                self.rotate(DVec3::Z * self.scale.z),
+            ),
+            self.translate,
+        )
     }
 
     /// True when a scale factor is outside 1e-6..=1e6: areas (squares of

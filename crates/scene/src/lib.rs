@@ -20,7 +20,8 @@ pub use error::SceneError;
 pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
 pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP};
 pub use instance::{
-    MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, PLACEMENTS_CSV_HEADER, available_memory_bytes,
+    Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS,
+    PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory_bytes,
 };
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
@@ -82,6 +83,11 @@ pub struct Scene {
     /// The `[objects.NAME]` tables in file order, each with the range of
     /// [`Scene::facets`] it produced.
     pub objects: Vec<ObjectInfo>,
+    /// The instanced objects kept as one prototype and its placements
+    /// (`instancing = "shared"`, or `"auto"` above [`SHARE_ABOVE_FACETS`]
+    /// placed facets): their facets are not in [`Scene::facets`], so a
+    /// placement costs a transform, not a copy.
+    pub shared: Vec<SharedInstances>,
     /// Every point source, placements expanded, in file order.
     pub point_sources: Vec<PointSource>,
     /// The `[point_sources.NAME]` tables in file order, each with the range
@@ -136,14 +142,17 @@ impl Scene {
     /// (`None` when `i` is out of range). O(log objects), no per-facet
     /// storage.
     pub fn facet_origin(&self, i: usize) -> Option<FacetOrigin> {
-        let k = self.objects.partition_point(|o| o.first_facet <= i);
-        let o = self.objects.get(k.checked_sub(1)?)?;
+        // A shared object holds no facets of the list: the one whose range
+        // holds `i` is the last unshared one starting at or before it.
+        let last = self.objects.partition_point(|o| o.first_facet <= i);
+        let k = self.objects[..last].iter().rposition(|o| !o.shared)?;
+        let o = &self.objects[k];
         let local = i - o.first_facet;
         if local >= o.prototype_facets * o.instances || o.prototype_facets == 0 {
             return None;
         }
         Some(FacetOrigin {
-            object: k - 1,
+            object: k,
             instance: local / o.prototype_facets,
             prototype_facet: local % o.prototype_facets,
         })
@@ -191,6 +200,11 @@ impl Scene {
             instances: self.objects.iter().map(|o| o.instances).sum(),
             prototype_facets: self.objects.iter().map(|o| o.prototype_facets).sum(),
             facets: self.facets.len(),
+            shared_facets: self
+                .shared
+                .iter()
+                .map(|s| s.prototype.len() as u64 * s.placements.len() as u64)
+                .sum(),
             point_source_prototypes: self.point_source_groups.len(),
             point_sources: self.point_sources.len(),
         }
@@ -212,6 +226,10 @@ pub struct ObjectInfo {
     /// True when the object has `instances` or `instances_csv` (even with
     /// a single placement).
     pub instanced: bool,
+    /// True when its placements share one prototype ([`Scene::shared`])
+    /// instead of being copied into [`Scene::facets`]: it then owns no
+    /// facets of that list ([`ObjectInfo::facets`] is empty).
+    pub shared: bool,
     /// Index of its first facet in [`Scene::facets`].
     pub first_facet: usize,
     /// Each placement's transform, kept only for an instanced object of a
@@ -223,11 +241,17 @@ pub struct ObjectInfo {
 impl ObjectInfo {
     /// Its facets' indices in [`Scene::facets`].
     pub fn facets(&self) -> std::ops::Range<usize> {
+        if self.shared {
+            return self.first_facet..self.first_facet;
+        }
         self.first_facet..self.first_facet + self.prototype_facets * self.instances
     }
 
     /// The facets of placement `k` (in the order of the list or CSV rows).
     pub fn instance_facets(&self, k: usize) -> std::ops::Range<usize> {
+        if self.shared {
+            return self.first_facet..self.first_facet;
+        }
         let a = self.first_facet + k * self.prototype_facets;
         a..a + self.prototype_facets
     }
@@ -266,6 +290,9 @@ pub struct SceneCounts {
     pub prototype_facets: usize,
     /// Facets after expansion (`Scene::facets.len()`).
     pub facets: usize,
+    /// Placed facets of the shared objects ([`Scene::shared`]): traced
+    /// through their prototype, never stored.
+    pub shared_facets: u64,
     /// `[point_sources.NAME]` tables.
     pub point_source_prototypes: usize,
     /// Point sources after expansion.
@@ -276,12 +303,17 @@ impl std::fmt::Display for SceneCounts {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} objects ({} instanced, {} placements), {} prototype facets → {} facets; {} point source tables → {} point sources",
+            "{} objects ({} instanced, {} placements), {} prototype facets → {} facets{}; {} point source tables → {} point sources",
             self.objects,
             self.instanced_objects,
             self.instances,
             self.prototype_facets,
             self.facets,
+            if self.shared_facets > 0 {
+                format!(" + {} placed by shared instances", self.shared_facets)
+            } else {
+                String::new()
+            },
             self.point_source_prototypes,
             self.point_sources
         )

@@ -188,6 +188,8 @@ pub(crate) struct RawObject {
     pub scale: Option<RawScale>,
     pub instances: Option<Vec<RawPlacement>>,
     pub instances_csv: Option<String>,
+    /// `"auto"`, `"expand"` or `"shared"` (see `instance::Instancing`).
+    pub instancing: Option<String>,
     /// Light group of an emissive object (see `groups.rs`).
     pub group: Option<String>,
 }

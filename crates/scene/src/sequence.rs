@@ -556,6 +556,13 @@ impl Sequence {
                 .flat_map(|f| f.vertices.iter().copied())
                 .chain(
                     scene
+                        .shared
+                        .iter()
+                        .filter(|sh| mv.objects.contains(&scene.objects[sh.object].name))
+                        .flat_map(|sh| sh.placed_corners()),
+                )
+                .chain(
+                    scene
                         .point_source_groups
                         .iter()
                         .filter(|g| mv.point_sources.contains(&g.name))
@@ -638,6 +645,14 @@ impl Sequence {
                     for v in &mut f.vertices {
                         *v = x.point(*v);
                     }
+                }
+            }
+            // Shared placements move as their copies would: the pose after
+            // each placement's own transform.
+            let moved = x.affine();
+            for sh in out.shared.iter_mut() {
+                if mv.objects.contains(&scene.objects[sh.object].name) {
+                    sh.placements.iter_mut().for_each(|a| *a = moved * *a);
                 }
             }
             let tables = scene.point_source_groups.iter();

@@ -1556,7 +1556,7 @@ fn over_limit_instance_counts_are_refused_before_allocating() {
     std::fs::write(dir.path().join("m.obj"), "f 1 2 3\n".repeat(100)).unwrap();
     std::fs::write(dir.path().join("p.csv"), "0,0,0,0,1\n".repeat(200_001)).unwrap();
     let text = format!(
-        "{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"m.obj\"\ninstances_csv = \"p.csv\"\n"
+        "{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"m.obj\"\ninstances_csv = \"p.csv\"\ninstancing = \"expand\"\n"
     );
     let m = expect_err_at(
         &text,
@@ -1813,4 +1813,98 @@ fn a_stack_of_ten_thousand_coincident_triangles_is_refused_at_its_first_repeat()
         ));
     }
     assert_eq!(parse(&text).unwrap().facets.len(), 10_001);
+}
+
+#[test]
+fn shared_placements_map_the_prototype_onto_the_expanded_copies() {
+    let text = |how: &str| {
+        triangle_object(&format!(
+            "translate = [0.5, 0.0, 0.0]\ninstancing = \"{how}\"\ninstances = [{{ translate = [10.0, 20.0, 30.0], rotate_z_deg = 90.0, scale = 2.0 }}, {{ scale = [2.0, 5.0, 7.0], rotate_z_deg = 33.0 }}]\n"
+        ))
+    };
+    let copies = parse(&text("expand")).unwrap();
+    let shared = parse(&text("shared")).unwrap();
+    assert_eq!(shared.facets.len(), 1, "only the floor is a flat facet");
+    let sh = &shared.shared[0];
+    assert_eq!(
+        (sh.object, sh.prototype.len(), sh.placements.len()),
+        (1, 1, 2)
+    );
+    for (k, a) in sh.placements.iter().enumerate() {
+        let want = &copies.facets[copies.objects[1].instance_facets(k)][0].vertices;
+        for (v, w) in sh.prototype[0].vertices.iter().zip(want) {
+            let got = a.transform_point3(*v);
+            assert!(
+                (got - *w).length() < 1e-12 * (1.0 + w.length()),
+                "{got} vs {w}"
+            );
+        }
+    }
+    // The facet list's bookkeeping skips the shared object.
+    let o = &shared.objects[1];
+    assert!(o.shared && o.facets().is_empty() && o.instance_facets(1).is_empty());
+    assert_eq!(shared.facet_origin(0).map(|f| f.object), Some(0));
+    assert_eq!(shared.facet_origin(1), None);
+    assert_eq!(shared.counts().shared_facets, 2);
+}
+
+#[test]
+fn auto_instancing_shares_only_above_the_threshold() {
+    // A box of 6 facets: 200 000 placements (1.2 M facets) are shared,
+    // 100 000 (0.6 M) copied; an emitter is always copied.
+    let dir = tempfile::tempdir().unwrap();
+    for (n, shared) in [(200_000usize, true), (100_000, false)] {
+        let mut csv = String::from("x,y,z,rotate_z_deg,scale\n");
+        for k in 0..n {
+            csv.push_str(&format!("{},{},0,0,1\n", (k % 1000) * 2, (k / 1000) * 2));
+        }
+        std::fs::write(dir.path().join("p.csv"), csv).unwrap();
+        let text = format!(
+            "{BASE}[objects.crate]\nmaterial = \"grey\"\nbox = {{ min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0] }}\ninstances_csv = \"p.csv\"\n"
+        );
+        let s = parse_str(&text, &scene_path(dir.path())).unwrap();
+        assert_eq!(s.objects[1].shared, shared, "{n} placements");
+        assert_eq!(s.facets.len(), 1 + if shared { 0 } else { 6 * n });
+        assert_eq!(
+            s.counts().shared_facets,
+            if shared { 6 * n as u64 } else { 0 }
+        );
+    }
+}
+
+#[test]
+fn shared_instancing_errors_name_the_field() {
+    let l = next_line() + 4;
+    expect_err(
+        &triangle_object("instancing = \"copy\"\ninstances = [{ scale = 1.0 }]\n"),
+        l,
+        "objects.t.instancing",
+        "use \"auto\", \"expand\" or \"shared\"",
+    );
+    expect_err(
+        &triangle_object("instancing = \"shared\"\n"),
+        l,
+        "objects.t.instancing",
+        "needs placements",
+    );
+    let lamp = format!(
+        "{BASE}[materials.lamp]\nreflectance = 0.0\nemission = {{ value = 1.0 }}\n[objects.t]\nmaterial = \"lamp\"\nquad = {{ center = [0.0, 0.0, 3.0], size = [1.0, 1.0], normal = [0.0, 0.0, -1.0] }}\ninstancing = \"shared\"\ninstances = [{{ scale = 1.0 }}]\n"
+    );
+    expect_err(&lamp, l + 2, "objects.t.instancing", "emits");
+    expect_err(
+        &triangle_object(
+            "instancing = \"shared\"\ninstances = [{ translate = [1.0, 0.0, 0.0] }, { translate = [1.0, 0.0, 0.0] }]\n",
+        ),
+        l + 1,
+        "objects.t.instances[1]",
+        "the same placement as placement 0",
+    );
+    expect_err(
+        &triangle_object(
+            "instancing = \"shared\"\ninstances = [{ translate = [9.9e11, 0.0, 0.0], scale = 1e11 }]\n",
+        ),
+        l + 1,
+        "objects.t.instances[0]",
+        "out of range",
+    );
 }

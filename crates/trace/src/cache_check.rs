@@ -108,12 +108,12 @@ impl Tracer {
                         continue;
                     };
                     let f = hit.facet;
-                    let mat = &self.mats[self.facet_mat[f as usize] as usize];
+                    let mat = self.mat_of(f);
                     if !mat.has_diffuse {
                         continue;
                     }
                     let p = cam.position + d * hit.t;
-                    let ng = self.facet_normal[f as usize];
+                    let ng = self.normal_of(f);
                     let front = d.dot(ng) < 0.0;
                     let ns = if front { ng } else { -ng };
                     // As the render reads it.

@@ -304,7 +304,7 @@ impl Tracer {
                 let p = point_in(poly, *a, [u0, rng.random::<f64>()]);
                 let d = cam.pixel_direction(p[0], p[1]);
                 if self.view_ray(cam.position, d, src.facet, &mut sample, c) {
-                    let g = src.shape(-d.dot(self.facet_normal[src.facet as usize]), -d);
+                    let g = src.shape(-d.dot(self.normal_of(src.facet)), -d);
                     sample
                         .iter_mut()
                         .zip(&src.radiance)
@@ -361,9 +361,9 @@ impl Tracer {
             };
             let f = hit.facet;
             if f == target {
-                return d.dot(self.facet_normal[f as usize]) < 0.0;
+                return d.dot(self.normal_of(f)) < 0.0;
             }
-            match &self.mats[self.facet_mat[f as usize] as usize].trans {
+            match &self.mat_of(f).trans {
                 Some(tr) if pass_through => {
                     tau.iter_mut().zip(tr).for_each(|(a, b)| *a *= b);
                     if tau.iter().all(|&x| x == 0.0) {

@@ -15,8 +15,17 @@
 //! that, rays start `eps` along their direction, with `eps` proportional to
 //! the magnitude of the coordinates involved ([`Geometry::epsilon`]), which
 //! handles neighbouring facets meeting at an edge.
+//!
+//! Two levels (pbrt-v4's instances). A shared object's prototype has one
+//! BVH of its own, in its own frame, and a top-level BVH holds a box per
+//! placement: a ray that enters a placement's box is carried into the
+//! prototype's frame by that placement's inverse (an affine map keeps the
+//! ray's parameter t, so distances need no rescaling) and tested there, in
+//! f64 as at the first level. A placed facet has an id past the flat ones
+//! (`first_id + placement × facets + facet`), so nothing is copied per
+//! placement but a transform.
 
-use glam::{DVec3, Vec3A};
+use glam::{DAffine3, DVec3, Vec3A};
 use obvhs::{Boundable, BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::Ray};
 
 /// One triangle in centred f64 coordinates (quads are two of these).
@@ -65,53 +74,160 @@ pub struct Geometry {
     tris: Vec<Tri>,
     bvh: Option<CwBvh>,
     transmissive: Vec<bool>,
+    /// Shared prototypes (the second level), in the scene's order.
+    shared: Vec<Prototype>,
+    /// Every placement, prototype by prototype.
+    placed: Vec<Placed>,
+    /// The top-level BVH over the placements' boxes.
+    top: Option<CwBvh>,
+}
+
+/// A shared object the tracer is given: its facets once, in the
+/// prototype's frame, and each placement's map into the centred frame.
+pub struct SharedInput {
+    pub facets: Vec<Vec<DVec3>>,
+    /// Each facet's unit normal (the scene's, so both levels agree).
+    pub normals: Vec<DVec3>,
+    pub placements: Vec<DAffine3>,
+    pub transmissive: bool,
+    /// Index of its material.
+    pub material: u32,
+}
+
+/// One shared prototype: triangles and BVH in its own frame.
+#[derive(Clone)]
+struct Prototype {
+    tris: Vec<Tri>,
+    bvh: CwBvh,
+    /// Each prototype facet's unit normal, in its frame.
+    normals: Vec<DVec3>,
+    transmissive: bool,
+    material: u32,
+    /// Id of placement 0's facet 0; `facets` ids per placement.
+    first_id: u32,
+    facets: u32,
+    /// Index of its placement 0 in [`Geometry::placed`].
+    first_placed: u32,
+}
+
+/// One placement of a shared prototype.
+#[derive(Clone, Copy)]
+struct Placed {
+    /// From the centred frame into the prototype's.
+    to_local: DAffine3,
+    prototype: u32,
+    /// Id of this placement's facet 0.
+    first_id: u32,
 }
 
 impl Geometry {
     /// Builds the BVH. `facets` are polygons (3 or 4 vertices, already
     /// centred), `transmissive[facet]` says whether shadow rays pass through.
     pub fn new(origin: DVec3, extent: f64, facets: &[Vec<DVec3>], transmissive: Vec<bool>) -> Self {
-        let mut tris = Vec::with_capacity(facets.len() * 2);
-        for (i, v) in facets.iter().enumerate() {
-            for k in 1..v.len().saturating_sub(1) {
-                tris.push(Tri {
-                    v0: v[0],
-                    e1: v[k] - v[0],
-                    e2: v[k + 1] - v[0],
-                    facet: i as u32,
-                });
-            }
-        }
         let extent = extent.max(1e-12);
-        let pad = (extent * 1e-5) as f32;
-        let boxes: Vec<PrimBox> = tris
-            .iter()
-            .map(|t| {
-                let pts = [t.v0, t.v0 + t.e1, t.v0 + t.e2];
-                let mut lo = Vec3A::splat(f32::INFINITY);
-                let mut hi = Vec3A::splat(f32::NEG_INFINITY);
-                for p in pts {
-                    let q = Vec3A::new(p.x as f32, p.y as f32, p.z as f32);
-                    lo = lo.min(q);
-                    hi = hi.max(q);
-                }
-                PrimBox(Aabb::new(lo - Vec3A::splat(pad), hi + Vec3A::splat(pad)))
-            })
-            .collect();
-        let bvh = (!boxes.is_empty()).then(|| {
-            obvhs::cwbvh::builder::build_cwbvh(
-                &boxes,
-                BvhBuildParams::medium_build(),
-                &mut std::time::Duration::default(),
-            )
-        });
+        let tris = triangles(facets);
+        let bvh = bvh_over(&tris, extent);
         Self {
             origin,
             extent,
             tris,
             bvh,
             transmissive,
+            shared: Vec::new(),
+            placed: Vec::new(),
+            top: None,
         }
+    }
+
+    /// Adds the shared prototypes (the second level) and the top-level BVH
+    /// over their placements; their facet ids follow the flat facets'.
+    /// The scene has checked that the ids fit a `u32`
+    /// (`gloam_scene::MAX_SHARED_FACETS`).
+    pub fn with_shared(mut self, inputs: Vec<SharedInput>) -> Self {
+        let mut next_id = self.transmissive.len() as u64;
+        let mut boxes = Vec::new();
+        for mut input in inputs {
+            // The prototype centred in its own frame (its f32 boxes keep
+            // their digits), each placement taking the shift back.
+            let (lo, hi) = input
+                .facets
+                .iter()
+                .flatten()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                });
+            let c = 0.5 * (lo + hi);
+            let (lo, hi) = (lo - c, hi - c);
+            input.facets.iter_mut().flatten().for_each(|v| *v -= c);
+            let back = DAffine3::from_translation(c);
+            let tris = triangles(&input.facets);
+            let own_extent = (0.5 * (hi - lo).length()).max(1e-12);
+            let Some(bvh) = bvh_over(&tris, own_extent) else {
+                continue;
+            };
+            let facets = input.facets.len() as u32;
+            let s = self.shared.len();
+            self.shared.push(Prototype {
+                tris,
+                bvh,
+                normals: input.normals,
+                transmissive: input.transmissive,
+                material: input.material,
+                first_id: next_id as u32,
+                facets,
+                first_placed: self.placed.len() as u32,
+            });
+            for a in &input.placements {
+                let a = *a * back;
+                self.placed.push(Placed {
+                    to_local: a.inverse(),
+                    prototype: s as u32,
+                    first_id: next_id as u32,
+                });
+                next_id += facets as u64;
+                boxes.push(PrimBox(padded_box(
+                    corners(lo, hi).map(|c| a.transform_point3(c)),
+                    self.extent,
+                )));
+            }
+        }
+        self.top = (!boxes.is_empty()).then(|| build(&boxes));
+        self
+    }
+
+    /// Whether the scene has shared prototypes (a second level).
+    pub fn has_shared(&self) -> bool {
+        !self.placed.is_empty()
+    }
+
+    /// The prototype and placement a facet id past the flat facets names,
+    /// with the facet's index in the prototype.
+    fn placed_facet(&self, id: u32) -> Option<(&Prototype, &Placed, usize)> {
+        let s = self.shared.partition_point(|p| p.first_id <= id);
+        let proto = self.shared.get(s.checked_sub(1)?)?;
+        let local = (id - proto.first_id) as usize;
+        let k = local / proto.facets.max(1) as usize;
+        let placed = self.placed.get(proto.first_placed as usize + k)?;
+        (placed.prototype as usize == s - 1).then_some((
+            proto,
+            placed,
+            local % proto.facets as usize,
+        ))
+    }
+
+    /// Unit normal of a shared facet `id` (past the flat facets) where it
+    /// is placed: the prototype's, carried by the inverse transpose.
+    pub fn shared_normal(&self, id: u32) -> DVec3 {
+        self.placed_facet(id)
+            .map_or(DVec3::Z, |(proto, placed, j)| {
+                (placed.to_local.matrix3.transpose() * proto.normals[j]).normalize_or(DVec3::Z)
+            })
+    }
+
+    /// Material index of a shared facet `id` (past the flat facets).
+    pub fn shared_material(&self, id: u32) -> u32 {
+        self.placed_facet(id)
+            .map_or(0, |(proto, _, _)| proto.material)
     }
 
     /// Number of triangles in the BVH.
@@ -190,10 +306,61 @@ impl Geometry {
                 f32::INFINITY
             }
         });
+        self.intersect_shared(o, d, tmin, &mut best_t, &mut best_facet, ignore);
         (best_facet != u32::MAX).then_some(Hit {
             t: best_t,
             facet: best_facet,
         })
+    }
+
+    /// The second level of [`Geometry::intersect`]: the placements whose
+    /// boxes the ray enters before `best_t`, each tested in its
+    /// prototype's frame.
+    fn intersect_shared(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        best_t: &mut f64,
+        best_facet: &mut u32,
+        ignore: u32,
+    ) {
+        let Some(top) = self.top.as_ref() else {
+            return;
+        };
+        let mut hit = obvhs::ray::RayHit::none();
+        top.ray_traverse(Self::f32_ray(o, d, *best_t), &mut hit, |_, id| {
+            let placed = &self.placed[top.primitive_indices[id] as usize];
+            let proto = &self.shared[placed.prototype as usize];
+            let (lo, ld) = (
+                placed.to_local.transform_point3(o),
+                placed.to_local.transform_vector3(d),
+            );
+            let mut local_hit = obvhs::ray::RayHit::none();
+            let before = *best_t;
+            proto
+                .bvh
+                .ray_traverse(Self::f32_ray(lo, ld, *best_t), &mut local_hit, |_, i| {
+                    let tri = &proto.tris[proto.bvh.primitive_indices[i] as usize];
+                    let facet = placed.first_id + tri.facet;
+                    if facet == ignore {
+                        return f32::INFINITY;
+                    }
+                    let t = Self::intersect_tri(tri, lo, ld);
+                    if t > tmin && t < *best_t {
+                        *best_t = t;
+                        *best_facet = facet;
+                        (t * (1.0 + 1e-6)) as f32 + 1e-6
+                    } else {
+                        f32::INFINITY
+                    }
+                });
+            if *best_t < before {
+                (*best_t * (1.0 + 1e-6)) as f32 + 1e-6
+            } else {
+                f32::INFINITY
+            }
+        });
     }
 
     /// Shadow query from `o` along unit `d` over `tmin < t < tmax`, ignoring
@@ -207,10 +374,15 @@ impl Geometry {
         tmax: f64,
         ignore: [u32; 2],
     ) -> Visibility {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return Visibility::Clear(Vec::new());
-        };
         let mut through: Vec<u32> = Vec::new();
+        let Some(bvh) = self.bvh.as_ref() else {
+            return if self.blocked_by_shared(o, d, tmin, tmax, ignore, &mut through) {
+                Visibility::Blocked
+            } else {
+                through.sort_unstable();
+                Visibility::Clear(through)
+            };
+        };
         // `ray_traverse_miss` returns true when nothing was hit.
         let miss = bvh.ray_traverse_miss(Self::f32_ray(o, d, tmax), |_, id| {
             let tri = &self.tris[bvh.primitive_indices[id] as usize];
@@ -230,6 +402,9 @@ impl Geometry {
                 0.0
             }
         });
+        if miss && self.blocked_by_shared(o, d, tmin, tmax, ignore, &mut through) {
+            return Visibility::Blocked;
+        }
         if miss {
             through.sort_unstable();
             Visibility::Clear(through)
@@ -237,6 +412,114 @@ impl Geometry {
             Visibility::Blocked
         }
     }
+}
+
+impl Geometry {
+    /// The second level of [`Geometry::visibility`]: whether an opaque
+    /// shared facet lies on the segment (transmissive ones are added to
+    /// `through`, once each).
+    fn blocked_by_shared(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        ignore: [u32; 2],
+        through: &mut Vec<u32>,
+    ) -> bool {
+        let Some(top) = self.top.as_ref() else {
+            return false;
+        };
+        !top.ray_traverse_miss(Self::f32_ray(o, d, tmax), |_, id| {
+            let placed = &self.placed[top.primitive_indices[id] as usize];
+            let proto = &self.shared[placed.prototype as usize];
+            let (lo, ld) = (
+                placed.to_local.transform_point3(o),
+                placed.to_local.transform_vector3(d),
+            );
+            let clear = proto
+                .bvh
+                .ray_traverse_miss(Self::f32_ray(lo, ld, tmax), |_, i| {
+                    let tri = &proto.tris[proto.bvh.primitive_indices[i] as usize];
+                    let facet = placed.first_id + tri.facet;
+                    if facet == ignore[0] || facet == ignore[1] {
+                        return f32::INFINITY;
+                    }
+                    let t = Self::intersect_tri(tri, lo, ld);
+                    if !(t > tmin && t < tmax) {
+                        return f32::INFINITY;
+                    }
+                    if proto.transmissive {
+                        if !through.contains(&facet) {
+                            through.push(facet);
+                        }
+                        f32::INFINITY
+                    } else {
+                        0.0
+                    }
+                });
+            if clear { f32::INFINITY } else { 0.0 }
+        })
+    }
+}
+
+/// A polygon's triangles (a fan from its first vertex), each naming its
+/// polygon's index.
+fn triangles(facets: &[Vec<DVec3>]) -> Vec<Tri> {
+    let mut tris = Vec::with_capacity(facets.len() * 2);
+    for (i, v) in facets.iter().enumerate() {
+        for k in 1..v.len().saturating_sub(1) {
+            tris.push(Tri {
+                v0: v[0],
+                e1: v[k] - v[0],
+                e2: v[k + 1] - v[0],
+                facet: i as u32,
+            });
+        }
+    }
+    tris
+}
+
+/// An f32 box around `pts`, padded by 1e-5 of `extent` so that f32
+/// rounding never makes it miss a ray that hits what it holds.
+fn padded_box(pts: impl IntoIterator<Item = DVec3>, extent: f64) -> Aabb {
+    let pad = Vec3A::splat((extent * 1e-5) as f32);
+    let mut lo = Vec3A::splat(f32::INFINITY);
+    let mut hi = Vec3A::splat(f32::NEG_INFINITY);
+    for p in pts {
+        let q = Vec3A::new(p.x as f32, p.y as f32, p.z as f32);
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    Aabb::new(lo - pad, hi + pad)
+}
+
+/// A BVH over `tris` (boxes padded for a frame of half-size `extent`).
+fn bvh_over(tris: &[Tri], extent: f64) -> Option<CwBvh> {
+    let boxes: Vec<PrimBox> = tris
+        .iter()
+        .map(|t| PrimBox(padded_box([t.v0, t.v0 + t.e1, t.v0 + t.e2], extent)))
+        .collect();
+    (!boxes.is_empty()).then(|| build(&boxes))
+}
+
+fn build(boxes: &[PrimBox]) -> CwBvh {
+    obvhs::cwbvh::builder::build_cwbvh(
+        boxes,
+        BvhBuildParams::medium_build(),
+        &mut std::time::Duration::default(),
+    )
+}
+
+/// The 8 corners of the box `lo..hi`.
+fn corners(lo: DVec3, hi: DVec3) -> [DVec3; 8] {
+    std::array::from_fn(|k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
 }
 
 #[cfg(test)]

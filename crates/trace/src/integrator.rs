@@ -118,14 +118,14 @@ impl Tracer {
                 return met_emitter;
             };
             let f = hit.facet;
-            let ng = self.facet_normal[f as usize];
+            let ng = self.normal_of(f);
             let front = d.dot(ng) < 0.0;
             let v = Vertex {
                 p: o + d * hit.t,
                 f,
                 ns: if front { ng } else { -ng },
                 front,
-                mat: &self.mats[self.facet_mat[f as usize] as usize],
+                mat: self.mat_of(f),
             };
             met_emitter |= self.emitted(&v, d, &thr, state, acc);
             self.direct_at(&v, &thr, strata.take(), rng, c, acc);
@@ -182,7 +182,7 @@ impl Tracer {
         state: PathState,
         acc: &mut Light,
     ) -> bool {
-        let src = self.facet_source[v.f as usize];
+        let src = self.source_of(v.f);
         let seen_directly = state.spec_depth == 1 && !state.after_diffuse;
         let apart = seen_directly && state.view_apart && self.view.apart(src);
         if src != u32::MAX
@@ -192,7 +192,7 @@ impl Tracer {
             && !(seen_directly && self.settings.drop.direct_view)
         {
             let s = &self.area[src as usize];
-            let ng = self.facet_normal[v.f as usize];
+            let ng = self.normal_of(v.f);
             let g = s.shape(-d.dot(ng), -d);
             acc.add_from(s.group, |a| {
                 a.iter_mut()

@@ -31,6 +31,9 @@ pub struct Preparation {
     pub instances: usize,
     /// Triangles in the BVH (a quad is two).
     pub triangles: usize,
+    /// Placed facets of shared objects: traced through one prototype
+    /// each (a second BVH level), never copied.
+    pub shared_facets: u64,
     /// Emitting facets.
     pub area_emitters: usize,
     pub point_sources: usize,

@@ -59,6 +59,30 @@ const BYTES_PER_PIXEL_BAND: u64 = 32;
 /// image (after `resolution_scale`) against [`MAX_PIXELS`] and the memory
 /// available, and the wavelength grid against
 /// [`crate::spectral::MAX_WAVELENGTHS`].
+/// The scene's shared objects as the geometry takes them: prototype
+/// facets in their own frame, placements into the centred frame.
+fn shared_inputs(
+    scene: &Scene,
+    mats: &[MatSpec],
+    origin: DVec3,
+) -> Vec<crate::geometry::SharedInput> {
+    let to_centred = glam::DAffine3::from_translation(-origin);
+    scene
+        .shared
+        .iter()
+        .map(|sh| {
+            let material = scene.objects[sh.object].material;
+            crate::geometry::SharedInput {
+                facets: sh.prototype.iter().map(|f| f.vertices.clone()).collect(),
+                normals: sh.prototype.iter().map(|f| f.normal()).collect(),
+                placements: sh.placements.iter().map(|a| to_centred * *a).collect(),
+                transmissive: mats[material].trans.is_some(),
+                material: material as u32,
+            }
+        })
+        .collect()
+}
+
 fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError> {
     if let Some(t) = settings.threads.filter(|&t| t > MAX_THREADS) {
         return Err(TraceError::BadInput(format!(
@@ -294,9 +318,11 @@ impl Tracer {
             .map(|&m| mats[m as usize].trans.is_some())
             .collect();
         let step = Preparation::begin("bvh", observer.as_ref());
-        let geom = Geometry::new(origin, extent, &facet_verts, transmissive);
+        let geom = Geometry::new(origin, extent, &facet_verts, transmissive)
+            .with_shared(shared_inputs(scene, &mats, origin));
         prep.end(step, observer.as_ref());
         prep.triangles = geom.triangle_count();
+        prep.shared_facets = counts.shared_facets;
 
         let step = Preparation::begin("light_structure", observer.as_ref());
 
@@ -447,7 +473,7 @@ impl Tracer {
 
     /// Diffuse albedo of facet `f` at every slot.
     pub(crate) fn kd(&self, f: u32) -> &[f64] {
-        &self.mats[self.facet_mat[f as usize] as usize].kd
+        &self.mat_of(f).kd
     }
 
     /// Transmission from `p` along unit `dir` over `dist`: `None` when
@@ -481,7 +507,7 @@ impl Tracer {
             Visibility::Clear(list) => {
                 let mut t = self.ones.clone();
                 for f in list {
-                    if let Some(tr) = &self.mats[self.facet_mat[f as usize] as usize].trans {
+                    if let Some(tr) = &self.mat_of(f).trans {
                         t.iter_mut().zip(tr).for_each(|(a, b)| *a *= b);
                     }
                 }

@@ -54,6 +54,38 @@ pub struct World {
     pub(crate) view: crate::direct_view::Footprints,
 }
 
+impl World {
+    /// Facet `f`'s unit normal: a flat facet's, or a shared one's where it
+    /// is placed (ids past the flat facets, `geometry.rs`).
+    #[inline]
+    pub(crate) fn normal_of(&self, f: u32) -> DVec3 {
+        match self.facet_normal.get(f as usize) {
+            Some(n) => *n,
+            None => self.geom.shared_normal(f),
+        }
+    }
+
+    /// Facet `f`'s material, flat or shared.
+    #[inline]
+    pub(crate) fn mat_of(&self, f: u32) -> &MatSpec {
+        let m = match self.facet_mat.get(f as usize) {
+            Some(&m) => m,
+            None => self.geom.shared_material(f),
+        };
+        &self.mats[m as usize]
+    }
+
+    /// The area source facet `f` is (`u32::MAX` for none: shared facets
+    /// never emit).
+    #[inline]
+    pub(crate) fn source_of(&self, f: u32) -> u32 {
+        self.facet_source
+            .get(f as usize)
+            .copied()
+            .unwrap_or(u32::MAX)
+    }
+}
+
 impl MatSpec {
     /// Material `m`'s factors at the wavelengths of `wl`.
     pub(crate) fn of(m: &gloam_scene::Material, wl: &Wavelengths) -> Self {
@@ -95,6 +127,11 @@ pub(crate) fn centre_of(scene: &Scene) -> (DVec3, f64) {
     for f in &scene.facets {
         f.vertices.iter().for_each(|&v| grow(v));
     }
+    scene
+        .shared
+        .iter()
+        .flat_map(|s| s.placed_corners())
+        .for_each(&mut grow);
     grow(scene.camera.position);
     scene.point_sources.iter().for_each(|p| grow(p.position));
     (0.5 * (lo + hi), 0.5 * (hi - lo).length())

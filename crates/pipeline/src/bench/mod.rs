@@ -57,6 +57,7 @@ pub mod metrics;
 pub mod plan_check;
 pub mod resolution;
 pub mod scale;
+pub mod scale_instances;
 pub mod throughput;
 pub mod truth;
 

@@ -20,6 +20,9 @@
 //!   straight down from 3 m at the middle of the grid, so every pixel sees
 //!   the unoccluded ground and its band radiance has a closed form,
 //!   `ρ/π (Σ I cos^m α cos θ / d² + Σ L F)` ([`lamp_grid_radiance`]).
+//! - **instances** `N`: `N` shared placements of one 49 728-triangle model
+//!   over a ground quad under nine lamps (`scale_instances.rs`): the
+//!   two-level BVH's placement count costs bytes, not triangles.
 //!
 //! **Per case** a fresh child process of the gloam binary (`gloam bench
 //! scale --case KIND:N`, hidden) generates, loads, prepares (`Tracer::new`:
@@ -76,6 +79,10 @@ pub const DEFAULT_LAMPS: [u64; 5] = [1, 10, 100, 1_000, 10_000];
 /// facets the radiosity cache handles today).
 pub const QUICK_TRIANGLES: [u64; 1] = [1_000];
 pub const QUICK_LAMPS: [u64; 3] = [1, 10, 100];
+/// Placements of the instances family (2 012 × 49 728 ≈ 10⁸ triangles);
+/// `--quick` runs none.
+pub const DEFAULT_INSTANCES: [u64; 3] = [10, 1_000, 2_012];
+pub use super::scale_instances::{MAX_PLACEMENTS, TREE_TRIANGLES};
 
 /// Lamp-grid constants (see the module docs).
 const LAMP_HEIGHT: f64 = 6.0;
@@ -96,6 +103,7 @@ const CAMERA_FOV_DEG: f64 = 60.0;
 pub enum Kind {
     Triangles,
     Lamps,
+    Instances,
 }
 
 impl Kind {
@@ -103,6 +111,7 @@ impl Kind {
         match self {
             Kind::Triangles => "triangles",
             Kind::Lamps => "lamps",
+            Kind::Instances => "instances",
         }
     }
 }
@@ -125,9 +134,10 @@ impl Case {
         let kind = match k {
             "triangles" => Kind::Triangles,
             "lamps" => Kind::Lamps,
+            "instances" => Kind::Instances,
             _ => {
                 return Err(BenchError::Invalid(format!(
-                    "--case {s:?}: the kind must be `triangles` or `lamps`"
+                    "--case {s:?}: the kind must be `triangles`, `lamps` or `instances`"
                 )));
             }
         };
@@ -144,6 +154,7 @@ impl Case {
         let max = match self.kind {
             Kind::Triangles => MAX_TRIANGLES,
             Kind::Lamps => MAX_LAMPS,
+            Kind::Instances => MAX_PLACEMENTS,
         };
         ensure_valid!(
             (1..=max).contains(&self.size),
@@ -210,6 +221,10 @@ pub struct Counts {
     pub facets: u64,
     pub point_sources: u64,
     pub emitting_facets: u64,
+    /// Triangles placed through shared instances (not in the BVH's own
+    /// count: one prototype serves them all).
+    #[serde(default)]
+    pub placed_triangles: u64,
 }
 
 /// Sphere layout for a triangle target: (spheres, latitude bands).
@@ -232,6 +247,7 @@ pub fn expected_counts(case: Case) -> Counts {
                 facets: 6 + 4 + sphere,
                 point_sources: 0,
                 emitting_facets: 4,
+                placed_triangles: 0,
             }
         }
         Kind::Lamps => Counts {
@@ -239,6 +255,14 @@ pub fn expected_counts(case: Case) -> Counts {
             facets: case.size + 1,
             point_sources: case.size,
             emitting_facets: case.size,
+            placed_triangles: 0,
+        },
+        Kind::Instances => Counts {
+            triangles: 2,
+            facets: 1,
+            point_sources: 9,
+            emitting_facets: 0,
+            placed_triangles: case.size * TREE_TRIANGLES,
         },
     }
 }
@@ -247,7 +271,12 @@ pub fn expected_counts(case: Case) -> Counts {
 /// measured ~1 kB per triangle through loading and BVH, plus a base.
 pub fn estimated_peak_bytes(case: Case) -> u64 {
     let c = expected_counts(case);
-    200_000_000 + 1_500 * c.triangles + 4_000 * c.point_sources
+    let shared = if c.placed_triangles > 0 {
+        1_500 * TREE_TRIANGLES + 1_000 * case.size
+    } else {
+        0
+    };
+    200_000_000 + 1_500 * c.triangles + 4_000 * c.point_sources + shared
 }
 
 /// Lamp grid: lamp positions (the panels sit `PANEL_OFFSET` east of each).
@@ -326,6 +355,9 @@ pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> Result<PathB
             let spheres = dir.join("spheres.obj");
             write_spheres(&spheres, k, b).map_err(BenchError::io("writing", &spheres))?;
         }
+        Kind::Instances => {
+            super::scale_instances::generate(case.size, dir, width, height, &mut toml)?;
+        }
         Kind::Lamps => {
             let lamps = lamp_positions(case.size);
             let side = (case.size as f64).sqrt().ceil();
@@ -375,41 +407,59 @@ fn write_spheres(path: &Path, k: u64, b: u64) -> std::io::Result<()> {
     let side = (k as f64).sqrt().ceil() as u64;
     let spacing = 16.0 / side as f64;
     let r = 0.35 * spacing;
-    let segs = 2 * b;
-    let per_sphere_vertices = 2 + (b - 1) * segs;
+    let per_sphere_vertices = 2 + (b - 1) * 2 * b;
     for s in 0..k {
         let cx = 2.0 + spacing * ((s % side) as f64 + 0.5);
         let cy = 2.0 + spacing * ((s / side) as f64 + 0.5);
-        let c = DVec3::new(cx, cy, r);
-        // Vertices: south pole, rings 1..b−1, north pole.
-        let mut vert = |p: DVec3| writeln!(w, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z);
-        vert(c - DVec3::Z * r)?;
-        for i in 1..b {
-            let th = std::f64::consts::PI * i as f64 / b as f64;
-            for j in 0..segs {
-                let ph = std::f64::consts::TAU * j as f64 / segs as f64;
-                vert(c + r * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), -th.cos()))?;
-            }
-        }
-        vert(c + DVec3::Z * r)?;
-        let base = 1 + s * per_sphere_vertices; // OBJ indices are 1-based
-        let ring = |i: u64, j: u64| base + 1 + (i - 1) * segs + (j % segs);
-        let (south, north) = (base, base + per_sphere_vertices - 1);
+        write_uv_sphere(
+            &mut w,
+            DVec3::new(cx, cy, r),
+            r,
+            b,
+            1 + s * per_sphere_vertices,
+        )?;
+    }
+    w.flush()
+}
+
+/// One UV sphere (centre `c`, radius `r`, `b` latitude bands and `2b`
+/// segments: `2 + (b − 1)·2b` vertices, `4 b (b − 1)` outward triangles)
+/// as OBJ lines, its first vertex numbered `base` (OBJ counts from 1).
+pub(super) fn write_uv_sphere(
+    w: &mut impl std::io::Write,
+    c: DVec3,
+    r: f64,
+    b: u64,
+    base: u64,
+) -> std::io::Result<()> {
+    let segs = 2 * b;
+    let per_sphere_vertices = 2 + (b - 1) * segs;
+    // Vertices: south pole, rings 1..b−1, north pole.
+    let mut vert = |p: DVec3| writeln!(w, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z);
+    vert(c - DVec3::Z * r)?;
+    for i in 1..b {
+        let th = std::f64::consts::PI * i as f64 / b as f64;
         for j in 0..segs {
-            // Outward, counter-clockwise seen from outside.
-            writeln!(w, "f {} {} {}", south, ring(1, j + 1), ring(1, j))?;
-            writeln!(w, "f {} {} {}", north, ring(b - 1, j), ring(b - 1, j + 1))?;
-        }
-        for i in 1..b - 1 {
-            for j in 0..segs {
-                let (a0, a1) = (ring(i, j), ring(i, j + 1));
-                let (b0, b1) = (ring(i + 1, j), ring(i + 1, j + 1));
-                writeln!(w, "f {a0} {a1} {b1}")?;
-                writeln!(w, "f {a0} {b1} {b0}")?;
-            }
+            let ph = std::f64::consts::TAU * j as f64 / segs as f64;
+            vert(c + r * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), -th.cos()))?;
         }
     }
-    w.flush()?;
+    vert(c + DVec3::Z * r)?;
+    let ring = |i: u64, j: u64| base + 1 + (i - 1) * segs + (j % segs);
+    let (south, north) = (base, base + per_sphere_vertices - 1);
+    for j in 0..segs {
+        // Outward, counter-clockwise seen from outside.
+        writeln!(w, "f {} {} {}", south, ring(1, j + 1), ring(1, j))?;
+        writeln!(w, "f {} {} {}", north, ring(b - 1, j), ring(b - 1, j + 1))?;
+    }
+    for i in 1..b - 1 {
+        for j in 0..segs {
+            let (a0, a1) = (ring(i, j), ring(i, j + 1));
+            let (b0, b1) = (ring(i + 1, j), ring(i + 1, j + 1));
+            writeln!(w, "f {a0} {a1} {b1}")?;
+            writeln!(w, "f {a0} {b1} {b0}")?;
+        }
+    }
     Ok(())
 }
 
@@ -452,6 +502,9 @@ pub struct CaseResult {
     pub facets: u64,
     pub point_sources: u64,
     pub emitting_facets: u64,
+    /// Triangles placed through shared instances.
+    #[serde(default)]
+    pub placed_triangles: u64,
     pub width: u32,
     pub height: u32,
     pub spp: u32,
@@ -509,6 +562,18 @@ pub fn run_case(
         facets: scene.facets.len() as u64,
         point_sources: scene.point_sources.len() as u64,
         emitting_facets: scene.emitting_facets().len() as u64,
+        placed_triangles: scene
+            .shared
+            .iter()
+            .map(|s| {
+                let per: u64 = s
+                    .prototype
+                    .iter()
+                    .map(|f| f.vertices.len() as u64 - 2)
+                    .sum();
+                per * s.placements.len() as u64
+            })
+            .sum(),
     };
     ensure_valid!(
         got == expected,
@@ -571,6 +636,7 @@ pub fn run_case(
         facets: got.facets,
         point_sources: got.point_sources,
         emitting_facets: got.emitting_facets,
+        placed_triangles: got.placed_triangles,
         width: s.width,
         height: s.height,
         spp,
@@ -605,6 +671,8 @@ pub fn time_to_1pct(prepare_s: f64, trace_s: f64, spp: u32, e: f64) -> f64 {
 pub struct ScaleOptions {
     pub triangles: Vec<u64>,
     pub lamps: Vec<u64>,
+    /// Placements of the instances family.
+    pub instances: Vec<u64>,
     pub out: PathBuf,
     pub threads: Option<usize>,
     pub width: u32,
@@ -632,6 +700,11 @@ impl ScaleOptions {
                 QUICK_LAMPS.to_vec()
             } else {
                 DEFAULT_LAMPS.to_vec()
+            },
+            instances: if quick {
+                Vec::new()
+            } else {
+                DEFAULT_INSTANCES.to_vec()
             },
             out,
             threads: None,
@@ -812,7 +885,12 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
     }
     // Mitsuba gets the scene whenever it was generated (scene.toml is
     // written last), also when gloam timed out preparing it.
-    if mitsuba && work.path().join("scene").join("scene.toml").exists() {
+    // The Mitsuba script reads flat OBJ scenes; shared instances it does
+    // not translate.
+    if mitsuba
+        && case.kind != Kind::Instances
+        && work.path().join("scene").join("scene.toml").exists()
+    {
         row.mitsuba = Some(run_mitsuba(work.path(), opts.spp, opts.timeout_s));
     }
     Ok(row)
@@ -879,6 +957,12 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
     for &n in &opts.lamps {
         cases.push(Case {
             kind: Kind::Lamps,
+            size: n,
+        });
+    }
+    for &n in &opts.instances {
+        cases.push(Case {
+            kind: Kind::Instances,
             size: n,
         });
     }
@@ -956,7 +1040,7 @@ pub const MAX_TIMEOUT_S: f64 = 1e6;
 fn plot(path: &Path, rows: &[Row]) -> Result<(), BenchError> {
     use gloam_calib::plot::{Mark, Scale, Series, xy_plot_scaled};
     let mut series = Vec::new();
-    for kind in [Kind::Triangles, Kind::Lamps] {
+    for kind in [Kind::Triangles, Kind::Lamps, Kind::Instances] {
         let ok: Vec<&CaseResult> = rows
             .iter()
             .filter(|r| r.kind == kind)
@@ -982,7 +1066,7 @@ fn plot(path: &Path, rows: &[Row]) -> Result<(), BenchError> {
     xy_plot_scaled(
         path,
         "gloam bench scale",
-        ("triangles or lamps", Scale::Log10),
+        ("triangles, lamps or placements", Scale::Log10),
         ("seconds", Scale::Log10),
         &series,
     )
@@ -1031,7 +1115,8 @@ impl ScaleReport {
                         m,
                         "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9.3} {:>9.3} {:>10} {:>10.3e} {:>8.4} {:>11.3}  ok",
                         r.case,
-                        c.triangles,
+                        // Placed through shared instances, counted too.
+                        c.triangles + c.placed_triangles,
                         c.facets,
                         c.point_sources,
                         c.emitting_facets,
@@ -1174,6 +1259,10 @@ mod tests {
                 kind: Kind::Lamps,
                 size: 10,
             },
+            Case {
+                kind: Kind::Instances,
+                size: 3,
+            },
         ] {
             let dir = tempfile::tempdir().unwrap();
             let r = run_case(case, &dir.path().join("scene"), 48, 36, 2, Some(2), &[])
@@ -1190,6 +1279,7 @@ mod tests {
                 "{}",
                 case.label()
             );
+            assert_eq!(r.placed_triangles, r.expected.placed_triangles);
             assert!(r.prepare_s > 0.0 && r.trace_s > 0.0 && r.rays > 0);
             assert!(r.rel_std_error_rms.is_finite() && r.time_to_1pct_s >= r.prepare_s);
             if let Some(cf) = r.closed_form_mean_radiance {

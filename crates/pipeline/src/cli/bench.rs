@@ -35,6 +35,11 @@ pub struct ScaleArgs {
     /// --quick: 1,10,100).
     #[arg(long)]
     pub lamps: Option<String>,
+    /// Placements of a 49 728-triangle model, shared (two-level BVH),
+    /// comma-separated (default 10,1e3,2012 — 10⁸ placed triangles;
+    /// --quick: none).
+    #[arg(long)]
+    pub instances: Option<String>,
     /// Small sizes, a small image, a 60 s timeout: a smoke run of seconds.
     #[arg(long)]
     pub quick: bool,
@@ -65,7 +70,8 @@ pub struct ScaleArgs {
     #[arg(long)]
     pub json: bool,
     /// Run one case in this process and print its figures as JSON (what
-    /// the bench runs in each child process): `triangles:N` or `lamps:N`.
+    /// the bench runs in each child process): `triangles:N`, `lamps:N` or
+    /// `instances:N`.
     #[arg(long, hide = true)]
     pub case: Option<String>,
     /// Where the child writes its generated scene.
@@ -219,6 +225,9 @@ impl ScaleArgs {
         }
         if let Some(l) = &self.lamps {
             opts.lamps = scale::parse_counts(l, "lamps", scale::MAX_LAMPS)?;
+        }
+        if let Some(n) = &self.instances {
+            opts.instances = scale::parse_counts(n, "instances", scale::MAX_PLACEMENTS)?;
         }
         opts.width = self.width.unwrap_or(opts.width);
         opts.height = self.height.unwrap_or(opts.height);

@@ -24,8 +24,8 @@ impl Tracer {
             let hit = self.geom.intersect(o, d, eps, f64::INFINITY, ignore)?;
             let f = hit.facet;
             let y = o + d * hit.t;
-            let front = d.dot(self.facet_normal[f as usize]) < 0.0;
-            let mat = &self.mats[self.facet_mat[f as usize] as usize];
+            let front = d.dot(self.normal_of(f)) < 0.0;
+            let mat = self.mat_of(f);
             match &mat.trans {
                 Some(tr) if !mat.has_diffuse => {
                     let t = tau.get_or_insert_with(|| vec![1.0; tr.len()]);
@@ -138,7 +138,7 @@ impl Tracer {
             if density <= 0.0 {
                 return None;
             }
-            let n = self.facet_normal[g as usize];
+            let n = self.normal_of(g);
             let cos_y = (if front { n } else { -n }).dot(-d);
             if cos_y <= 0.0 {
                 return None;
@@ -260,12 +260,12 @@ impl Tracer {
         // The texel's direct light varies within it: its smooth part from
         // the cache, the rest where the ray landed.
         cache.add(Field::Smooth, g, gfront, y, s, &mut acc.whole, split);
-        let n = self.facet_normal[g as usize];
+        let n = self.normal_of(g);
         let ny = if gfront { n } else { -n };
         let mut e = acc.dark_like();
         let smooth = Smooth::Omitted;
         self.irradiance_split(y, ny, g, 1, 1, None, smooth, rng, c, &mut e);
-        let kd = &self.mats[self.facet_mat[g as usize] as usize].kd;
+        let kd = &self.mat_of(g).kd;
         acc.add_each(&e, |o, e| {
             for (((o, e), s), kd) in o.iter_mut().zip(e).zip(s.iter()).zip(kd) {
                 *o += s * kd * e * std::f64::consts::FRAC_1_PI;

@@ -279,7 +279,7 @@ impl Tracer {
             .zip(texels)
             .map(|(r, &(f, _, n, _))| {
                 let Some(samples) = &r.2.1 else { return false };
-                let side = usize::from(n.dot(self.facet_normal[f as usize]) < 0.0);
+                let side = usize::from(n.dot(self.normal_of(f)) < 0.0);
                 let spread = samples.points.iter().map(|&(q, x)| {
                     let interpolated: f64 = layout.weights(f, side, q).map_or(0.0, |w| {
                         w.iter().map(|&(k, w)| w * centre[k as usize]).sum()
@@ -348,7 +348,7 @@ impl Tracer {
             if !sharp[k] || level(k) <= GUIDE_CONTRAST * mean {
                 continue;
             }
-            let front = n.dot(self.facet_normal[f as usize]) >= 0.0;
+            let front = n.dot(self.normal_of(f)) >= 0.0;
             let side = usize::from(!front);
             let Some(&loc) = layout.locs.get(f as usize).map(|l| &l[side]) else {
                 continue;

@@ -162,17 +162,23 @@ impl Tracer {
     pub(crate) fn plan(&self) -> RenderPlan {
         let s = &self.settings;
         let tol = s.tolerance;
+        // Shared instances have no facets of their own for the cache's
+        // texels: their interreflection is path-traced, and the pilot
+        // (whose estimate is a coarse cache) does not run.
+        let shared = self.geom.has_shared();
         let requested = match s.indirect {
             _ if s.drop.interreflection => Indirect::Off,
             Indirect::Auto if s.diffuse_bounces > 0 => Indirect::Path,
+            Indirect::Auto | Indirect::Cache if shared => Indirect::Path,
             m => m,
         };
         let mut d = InterreflectionDecision::default();
         let mut skip = crate::settings::Dropped::default();
         let possible = self.mats.iter().any(|m| m.has_diffuse)
             && (!self.area.is_empty() || !self.points.is_empty() || self.sky.is_some());
-        let pilot = (possible && (requested == Indirect::Auto || s.diffuse_bounces == 0))
-            .then(|| self.pilot(requested != Indirect::Off));
+        let pilot =
+            (possible && !shared && (requested == Indirect::Auto || s.diffuse_bounces == 0))
+                .then(|| self.pilot(requested != Indirect::Off));
         if let Some(p) = &pilot {
             let share = p.share_by_band.iter().copied().fold(0.0, f64::max);
             d.estimated_share = Some(share);
@@ -192,8 +198,17 @@ impl Tracer {
         if let Some(parts) = d.parts.as_mut() {
             self.decide_specular_and_transmission(parts, &d.estimated_share_by_band, &mut skip);
         }
-        let share = d.estimated_share.unwrap_or(0.0);
+        // Unpiloted, shared instances' interreflection is taken to matter.
+        let share = d
+            .estimated_share
+            .unwrap_or(if shared && possible { 1.0 } else { 0.0 });
         let method = interreflection_method(requested, share, tol, possible, s, &mut d);
+        if shared && method == Indirect::Path && s.indirect != Indirect::Path {
+            d.reason = format!(
+                "shared instances ({} placed facets) have no facets of their own for the radiosity cache: path tracing",
+                self.preparation.shared_facets
+            );
+        }
         let mut diffuse_bounces = 0;
         if method == Indirect::Path {
             diffuse_bounces = s.diffuse_bounces;

@@ -30,9 +30,7 @@ impl Tracer {
                 // facet that is not an emitter (not the sky, not a panel).
                 match self.gather_hit(cam.position, d, u32::MAX, &mut c) {
                     None => continue,
-                    Some((f, front, _, _))
-                        if front && self.facet_source[f as usize] != u32::MAX =>
-                    {
+                    Some((f, front, _, _)) if front && self.source_of(f) != u32::MAX => {
                         continue;
                     }
                     Some(_) if self.emitter_beside(x, y, &seen_points, &mut c) => continue,
@@ -90,7 +88,7 @@ impl Tracer {
             }
             let d = cam.pixel_direction(px, py);
             matches!(self.gather_hit(cam.position, d, u32::MAX, c),
-                Some((f, _, _, _)) if self.facet_source[f as usize] != u32::MAX)
+                Some((f, _, _, _)) if self.source_of(f) != u32::MAX)
         })
     }
 
@@ -171,11 +169,11 @@ impl Tracer {
             return;
         };
         let tau = tau.unwrap_or_else(|| self.ones.clone());
-        let ng = self.facet_normal[f as usize];
+        let ng = self.normal_of(f);
         let ns = if front { ng } else { -ng };
-        let mat = &self.mats[self.facet_mat[f as usize] as usize];
+        let mat = self.mat_of(f);
         let mut e_d = vec![0.0; nwl];
-        let src = self.facet_source[f as usize];
+        let src = self.source_of(f);
         let emitter = src != u32::MAX && front;
         // Pixels beside an emitter show some of it in their footprint: left
         // out of the share's pixel set, as from the set `--target-error`
@@ -451,11 +449,11 @@ impl Tracer {
             let Some((g, front, y, tau_g)) = self.gather_hit(p, d, f, c) else {
                 continue;
             };
-            let mat = &self.mats[self.facet_mat[g as usize] as usize];
-            if !mat.has_diffuse || (front && self.facet_source[g as usize] != u32::MAX) {
+            let mat = self.mat_of(g);
+            if !mat.has_diffuse || (front && self.source_of(g) != u32::MAX) {
                 continue;
             }
-            let ng = self.facet_normal[g as usize];
+            let ng = self.normal_of(g);
             let ny = if front { ng } else { -ng };
             let parts = self.irradiance_parts(y, ny, g, rng, c);
             // Cosine-weighted: E ≈ π · mean L, L = k_d E_hit / π.
@@ -634,7 +632,7 @@ impl Tracer {
         let corner = |dx: f64, dy: f64, c: &mut RayCounts| {
             let d = cam.pixel_direction(x + dx, y + dy);
             self.gather_hit(cam.position, d, u32::MAX, c)
-                .map(|(f, _, p, _)| (p, self.facet_normal[f as usize]))
+                .map(|(f, _, p, _)| (p, self.normal_of(f)))
         };
         let q = [
             corner(0.0, 0.0, c),

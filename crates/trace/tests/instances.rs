@@ -1,0 +1,134 @@
+//! Shared instances (a two-level BVH) against the same placements copied
+//! into facets: the same scene, traced both ways, must give the same
+//! image — the expanded scene is the independent answer.
+
+use std::path::Path;
+
+use gloam_scene::Scene;
+use gloam_trace::{Indirect, RenderSettings, render};
+
+/// A lamp over a floor, and a small object (a roof-like pair of quads and
+/// a triangle) placed 12 times with turns, uniform and per-axis scales,
+/// `instancing = "{how}"`; `indirect` for the tracer.
+fn scene(how: &str) -> Scene {
+    let mut placements = String::new();
+    for k in 0..12 {
+        let (x, y) = ((k % 4) as f64 * 2.5 - 3.75, (k / 4) as f64 * 2.5 - 2.5);
+        let scale = match k % 3 {
+            0 => "1.0".to_string(),
+            1 => "0.7".to_string(),
+            _ => "[1.3, 0.6, 1.8]".to_string(),
+        };
+        placements.push_str(&format!(
+            "  {{ translate = [{x}, {y}, 0.0], rotate_z_deg = {}, scale = {scale} }},\n",
+            17.0 * k as f64
+        ));
+    }
+    let text = format!(
+        r#"
+units = "m"
+[camera]
+position = [0.5, -9, 7]
+look_at = [0, 0, 0]
+fov_deg = 60
+width = 48
+height = 36
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.floor]
+reflectance = 0.5
+[materials.grey]
+reflectance = 0.7
+[objects.floor]
+material = "floor"
+quad = {{ center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] }}
+[objects.hut]
+material = "grey"
+vertices = [[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.0, 1.0], [-0.5, 0.0, 1.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0], [0.0, 0.0, 1.6]]
+faces = [[0, 1, 2, 3], [3, 2, 4, 5], [2, 6, 3]]
+translate = [0.1, 0.0, 0.0]
+instancing = "{how}"
+instances = [
+{placements}]
+[point_sources.lamp]
+position = [1, -1, 6]
+direction = [0, 0, -1]
+value = 500
+"#
+    );
+    gloam_scene::parse_str(&text, Path::new("instances.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn settings(indirect: Indirect) -> RenderSettings {
+    RenderSettings {
+        spp: 4,
+        seed: 7,
+        indirect,
+        threads: Some(1),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn shared_placements_are_kept_once_and_counted() {
+    let shared = scene("shared");
+    let copies = scene("expand");
+    assert_eq!(shared.shared.len(), 1);
+    assert_eq!(shared.shared[0].placements.len(), 12);
+    assert_eq!(shared.shared[0].prototype.len(), 3);
+    assert!(copies.shared.is_empty());
+    assert_eq!(shared.facets.len(), 1);
+    assert_eq!(copies.facets.len(), 1 + 12 * 3);
+    assert_eq!(shared.counts().shared_facets, 36);
+    assert!(shared.objects[1].shared && shared.objects[1].facets().is_empty());
+}
+
+/// Direct light only: both scenes draw the same random numbers wherever
+/// the same facets are hit, so the images agree to rounding except at the
+/// rare sample that grazes an edge.
+#[test]
+fn shared_and_expanded_direct_light_agree() {
+    let a = render(&scene("shared"), &settings(Indirect::Off)).unwrap();
+    let b = render(&scene("expand"), &settings(Indirect::Off)).unwrap();
+    let (ra, rb) = (&a.radiance, &b.radiance);
+    assert_eq!(ra.shape(), rb.shape());
+    let n = ra.len();
+    let same = ra
+        .iter()
+        .zip(rb.iter())
+        .filter(|(x, y)| (*x - *y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1e-30))
+        .count();
+    assert!(same * 1000 >= n * 995, "{same} of {n} pixels agree");
+    let (sa, sb): (f64, f64) = (ra.sum(), rb.sum());
+    assert!((sa - sb).abs() <= 1e-3 * sb, "{sa} vs {sb}");
+    // The objects are in view and lit: they change the image.
+    let floor_only = {
+        let s = scene("shared");
+        let mut t = s.clone();
+        t.shared.clear();
+        render(&t, &settings(Indirect::Off)).unwrap()
+    };
+    assert!((floor_only.radiance.sum() - sa).abs() > 0.01 * sa);
+}
+
+/// Path-traced interreflection, chosen by default for shared instances
+/// (the cache has no texels on them), matches the expanded scene's path
+/// tracing within the two renders' stated noise.
+#[test]
+fn shared_instances_interreflect_by_path_tracing() {
+    let mut set = settings(Indirect::Auto);
+    set.spp = 64;
+    let a = render(&scene("shared"), &set).unwrap();
+    let reason = &a.stats.interreflection.reason;
+    assert_eq!(a.stats.interreflection.method, "path", "{reason}");
+    assert!(reason.contains("shared instances"), "{reason}");
+    set.indirect = Indirect::Path;
+    set.diffuse_bounces = a.stats.interreflection.diffuse_bounces;
+    set.seed = 11;
+    let b = render(&scene("expand"), &set).unwrap();
+    let (sa, sb): (f64, f64) = (a.radiance.sum(), b.radiance.sum());
+    let var = |o: &gloam_trace::RenderOutput| o.std_error.iter().map(|e| e * e).sum::<f64>();
+    let sigma = (var(&a) + var(&b)).sqrt();
+    assert!((sa - sb).abs() < 4.0 * sigma, "{sa} vs {sb} (σ {sigma})");
+}
