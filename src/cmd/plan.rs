@@ -20,10 +20,16 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         print_json(&v)?;
     } else {
         let n = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
+        let shared = scene.counts().shared_facets;
         outln!(
-            "{}: {}, {}, {}, units {}",
+            "{}: {}{}, {}, {}, units {}",
             args.scene.display(),
             n(scene.facets.len(), "facet"),
+            if shared > 0 {
+                format!(" (+ {shared} placed by shared instances)")
+            } else {
+                String::new()
+            },
             n(scene.point_sources.len(), "point source"),
             n(scene.bands.len(), "band"),
             scene.units.as_str()

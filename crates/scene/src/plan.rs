@@ -175,10 +175,14 @@ fn fmt_num(x: f64) -> String {
     }
 }
 
-/// Which materials are actually on facets.
+/// Which materials are actually on facets (flat or shared).
 fn used_materials(scene: &Scene) -> Vec<bool> {
     let mut used = vec![false; scene.materials.len()];
-    for f in &scene.facets {
+    for f in scene
+        .facets
+        .iter()
+        .chain(scene.shared.iter().flat_map(|s| &s.prototype))
+    {
         used[f.material] = true;
     }
     used

@@ -1908,3 +1908,24 @@ fn shared_instancing_errors_name_the_field() {
         "out of range",
     );
 }
+
+#[test]
+fn the_plan_sees_the_materials_of_shared_instances() {
+    // Glass placed as shared instances only: the plan must still turn on
+    // transmissive occluders and specular recursion (it read the flat
+    // facets alone before).
+    let text = format!(
+        "{BASE}[materials.glass]\nreflectance = 0.1\nspecular_fraction = 1.0\ntransmission = 0.8\n[objects.pane]\nmaterial = \"glass\"\nquad = {{ center = [0.0, 0.0, 1.0], size = [1.0, 1.0], normal = [0.0, 1.0, 0.0] }}\ninstancing = \"shared\"\ninstances = [{{ translate = [1.0, 0.0, 0.0] }}, {{ translate = [-1.0, 0.0, 0.0] }}]\n"
+    );
+    let s = parse(&text).unwrap();
+    assert_eq!(s.shared.len(), 1);
+    let plan = crate::plan::plan(&s);
+    assert!(
+        plan.is_enabled(crate::plan::names::TRANSMISSIVE_OCCLUDERS),
+        "{plan}"
+    );
+    assert!(
+        plan.is_enabled(crate::plan::names::SPECULAR_RECURSION),
+        "{plan}"
+    );
+}

@@ -11,6 +11,11 @@ use gloam_trace::{Indirect, RenderSettings, render};
 /// a triangle) placed 12 times with turns, uniform and per-axis scales,
 /// `instancing = "{how}"`; `indirect` for the tracer.
 fn scene(how: &str) -> Scene {
+    scene_with(how, "")
+}
+
+/// [`scene`] with `grey` given `more` (e.g. a transmission).
+fn scene_with(how: &str, more: &str) -> Scene {
     let mut placements = String::new();
     for k in 0..12 {
         let (x, y) = ((k % 4) as f64 * 2.5 - 3.75, (k / 4) as f64 * 2.5 - 2.5);
@@ -40,6 +45,7 @@ hi_nm = 700
 reflectance = 0.5
 [materials.grey]
 reflectance = 0.7
+{more}
 [objects.floor]
 material = "floor"
 quad = {{ center = [0, 0, 0], size = [20, 20], normal = [0, 0, 1] }}
@@ -110,6 +116,19 @@ fn shared_and_expanded_direct_light_agree() {
         render(&t, &settings(Indirect::Off)).unwrap()
     };
     assert!((floor_only.radiance.sum() - sa).abs() > 0.01 * sa);
+}
+
+/// Shadow rays and camera rays pass through transmissive shared facets as
+/// through their copies.
+#[test]
+fn transmissive_shared_instances_attenuate_as_their_copies() {
+    let more = "transmission = 0.25";
+    let a = render(&scene_with("shared", more), &settings(Indirect::Off)).unwrap();
+    let b = render(&scene_with("expand", more), &settings(Indirect::Off)).unwrap();
+    let opaque = render(&scene("shared"), &settings(Indirect::Off)).unwrap();
+    let (sa, sb, so): (f64, f64, f64) = (a.radiance.sum(), b.radiance.sum(), opaque.radiance.sum());
+    assert!((sa - sb).abs() <= 1e-3 * sb, "{sa} vs {sb}");
+    assert!(sa > so * 1.01, "light passes through: {sa} vs opaque {so}");
 }
 
 /// Path-traced interreflection, chosen by default for shared instances

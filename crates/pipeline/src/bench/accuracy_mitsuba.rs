@@ -66,6 +66,12 @@ pub fn obstacle(scene: &Scene) -> Option<String> {
     if scene.sky.is_some() {
         return Some("a [sky] (moon and night-sky models are gloam's own)".into());
     }
+    if let Some(sh) = scene.shared.first() {
+        return Some(format!(
+            "shared instances (objects.{}: this export writes flat meshes; instancing = \"expand\" would copy them)",
+            scene.objects[sh.object].name
+        ));
+    }
     if scene.bands.len() > 3 {
         return Some(format!(
             "{} bands (RGB carries at most 3)",
