@@ -996,6 +996,34 @@ mod tests {
     }
 
     #[test]
+    fn a_move_carries_shared_placements_as_their_copies() {
+        // The car placed twice, shared or copied: at the pose, each shared
+        // placement maps the prototype onto the moved copy.
+        let text = |how: &str| {
+            format!(
+                "units = \"m\"\n[camera]\nposition = [0, -10, 1]\nlook_at = [0, 0, 0]\nfov_deg = 60\nwidth = 4\nheight = 4\n[bands.v]\nlo_nm = 400\nhi_nm = 700\n[materials.m]\nreflectance = 0.5\n[objects.car]\nmaterial = \"m\"\nquad = {{ center = [1, 0, 0], size = [1, 1], normal = [0, 0, 1] }}\ninstancing = \"{how}\"\ninstances = [{{ translate = [0, 1, 0] }}, {{ rotate_z_deg = 30, scale = 2 }}]\n[point_sources.heads]\nposition = [1, 0, 1]\nvalue = 1\n"
+            )
+        };
+        let s = parse_sequence(MOVE, Path::new("seq.toml")).unwrap();
+        let shared = crate::parse_str(&text("shared"), Path::new("s.toml")).unwrap();
+        let copies = crate::parse_str(&text("expand"), Path::new("s.toml")).unwrap();
+        s.check_moves(&shared).unwrap();
+        let (a, b) = (
+            s.scene_at(&shared, &s.poses_at(2.0)),
+            s.scene_at(&copies, &s.poses_at(2.0)),
+        );
+        let sh = &a.shared[0];
+        for (k, x) in sh.placements.iter().enumerate() {
+            let want = &b.facets[copies.objects[0].instance_facets(k)][0].vertices;
+            for (v, w) in sh.prototype[0].vertices.iter().zip(want) {
+                let got = x.transform_point3(*v);
+                assert!((got - *w).length() < 1e-12, "{got} vs {w}");
+            }
+        }
+        assert_ne!(a.shared[0].placements, shared.shared[0].placements);
+    }
+
+    #[test]
     fn bad_moves_name_their_line_and_key() {
         let p = Path::new("seq.toml");
         for (text, line, what) in [
