@@ -560,3 +560,111 @@ fn accuracy_refuses_a_bad_resolution_list() {
         );
     }
 }
+
+/// `bench accuracy --out` is an output set like every command's: a
+/// directory of someone else's files is refused with and without
+/// `--force` (and left as it was), as is a link, a file, or a set holding
+/// the scene; a set it published is refused again without `--force` and
+/// replaced whole with it, leaving no staging directory behind.
+#[test]
+fn accuracy_out_is_an_output_set_that_replaces_only_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &Path, force: bool| {
+        let mut c = gloam();
+        c.args([
+            "bench",
+            "accuracy",
+            "sims/panel-validation/scene.toml",
+            "--out",
+            out.to_str().unwrap(),
+            "--resolution-scales",
+            "0.125",
+            "--resolution-only",
+            "--no-mitsuba",
+        ]);
+        if force {
+            c.arg("--force");
+        }
+        c.output().expect("runs gloam")
+    };
+    let refused = |o: &std::process::Output, what: &str| {
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(what), "{what}: {err}");
+    };
+    // Someone's directory.
+    let theirs = dir.path().join("theirs");
+    std::fs::create_dir(&theirs).unwrap();
+    std::fs::write(theirs.join("notes.txt"), "mine").unwrap();
+    refused(
+        &run(&theirs, false),
+        "the directory is not empty; give --force",
+    );
+    refused(
+        &run(&theirs, true),
+        "--force replaces only a previous gloam output set",
+    );
+    assert_eq!(
+        std::fs::read_to_string(theirs.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    assert_eq!(std::fs::read_dir(&theirs).unwrap().count(), 1);
+    // A link and a file.
+    let link = dir.path().join("link");
+    std::os::unix::fs::symlink(&theirs, &link).unwrap();
+    refused(&run(&link, true), "is a symbolic link");
+    let file = dir.path().join("file");
+    std::fs::write(&file, "x").unwrap();
+    refused(&run(&file, true), "exists and is not a directory");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+
+    // A set of its own: published whole, with its manifest.
+    let out = dir.path().join("acc");
+    let o = run(&out, false);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let listed: Vec<&str> = (manifest["files"].as_array().unwrap().iter())
+        .map(|f| f["path"].as_str().unwrap())
+        .collect();
+    assert!(listed.contains(&"summary.md"), "{manifest}");
+    let summary = std::fs::read(out.join("summary.md")).unwrap();
+    refused(
+        &run(&out, false),
+        "the directory is not empty; give --force",
+    );
+    assert_eq!(std::fs::read(out.join("summary.md")).unwrap(), summary);
+    let o = run(&out, true);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("manifest.json").is_file());
+    let leftovers: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(leftovers.is_empty(), "staging left behind: {leftovers:?}");
+    // A file the set did not list (added by hand) makes it not gloam's.
+    std::fs::write(out.join("added.txt"), "by hand").unwrap();
+    refused(
+        &run(&out, true),
+        "--force replaces only a previous gloam output set",
+    );
+    assert!(out.join("added.txt").is_file());
+    std::fs::remove_file(out.join("added.txt")).unwrap();
+    // A set holding the scene it reads.
+    let scene = out.join("scene.toml");
+    std::fs::copy("sims/panel-validation/scene.toml", &scene).unwrap();
+    let o = gloam()
+        .args(["bench", "accuracy", scene.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .args([
+            "--resolution-scales",
+            "0.125",
+            "--resolution-only",
+            "--no-mitsuba",
+            "--force",
+        ])
+        .output()
+        .unwrap();
+    refused(&o, "holds the input");
+    assert!(scene.is_file());
+}

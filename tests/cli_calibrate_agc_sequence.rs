@@ -259,3 +259,218 @@ fn a_lut_of_another_camera_is_refused_before_the_render() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("needs a sim:PRESET grabber"), "{err}");
 }
+
+mod common;
+
+/// A FITS frame's counts read from its bytes here (BITPIX 16, big-endian,
+/// + BZERO), independently of gloam's reader.
+fn fits_counts(bytes: &[u8], cards: &[(String, String, String)]) -> Vec<u16> {
+    let get = |k: &str| cards.iter().find(|c| c.0 == k).unwrap().1.clone();
+    assert_eq!(get("BITPIX"), "16");
+    let (w, h): (usize, usize) = (
+        get("NAXIS1").parse().unwrap(),
+        get("NAXIS2").parse().unwrap(),
+    );
+    let zero: i32 = get("BZERO").parse().unwrap();
+    let end = bytes
+        .chunks(80)
+        .position(|c| c.starts_with(b"END "))
+        .unwrap();
+    let data = &bytes[(end * 80 + 80).div_ceil(2880) * 2880..];
+    (data.chunks(2).take(w * h))
+        .map(|c| u16::try_from(i32::from(i16::from_be_bytes([c[0], c[1]])) + zero).unwrap())
+        .collect()
+}
+
+/// `calibrate agc --sequence --frame-format fits|tiff` stores the frames
+/// it captures as `gloam capture` does, and reads them back: the same
+/// counts (each frame's CRC-32C), the same linearised figures as the PNG
+/// run to the last digit, FITS headers holding the record's values, and
+/// `calibrate apply` on a FITS frame or a page of the TIFF stack giving
+/// the PNG frame's radiance.
+#[test]
+fn sequence_frames_as_fits_or_tiff_are_read_back_to_the_same_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let sensor = quiet_gen3(dir.path());
+    // The lamp switching on at 2 s, 100 frames.
+    let seq = sequence(dir.path(), "road_lamp");
+    let o = run(dir.path(), &seq, &sensor, "png", &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let lut = dir.path().join("png/lut.json");
+    let lut_arg = lut.to_str().unwrap();
+    let o = run(dir.path(), &seq, &sensor, "png-lut", &["--lut", lut_arg]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for format in ["fits", "tiff"] {
+        let o = run(
+            dir.path(),
+            &seq,
+            &sensor,
+            format,
+            &["--lut", lut_arg, "--frame-format", format],
+        );
+        assert!(
+            o.status.success(),
+            "{format}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let report = |d: &str| -> Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(d).join("agc_sequence.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let png_report = report("png-lut");
+    let png_frames = png_report["frames"].as_array().unwrap();
+    assert_eq!(png_frames.len(), 100);
+    let png = common::records(&dir.path().join("png-lut"));
+    for format in ["fits", "tiff"] {
+        let out = dir.path().join(format);
+        let recs = common::records(&out);
+        assert_eq!(recs.len(), 100, "{format}");
+        let r = report(format);
+        for (i, (a, b)) in (r["frames"].as_array().unwrap().iter())
+            .zip(png_frames)
+            .enumerate()
+        {
+            assert_eq!(recs[i]["stored"]["format"], format);
+            assert_eq!(
+                recs[i]["pixels_crc32c"], png[i]["pixels_crc32c"],
+                "{format} {i}"
+            );
+            for k in [
+                "gain",
+                "residual_percent",
+                "residual_at_settled_gain_percent",
+            ] {
+                assert_eq!(a[k], b[k], "{format}: frame {i}'s {k}");
+            }
+        }
+        assert!(
+            png_frames.iter().any(|f| f["residual_percent"].is_number()),
+            "no frame compared"
+        );
+    }
+    assert_eq!(
+        recs_files(&dir.path().join("tiff")),
+        vec!["frames.tiff".to_string(); 100]
+    );
+
+    // The FITS frames, read here: counts and header against the record.
+    let fits_dir = dir.path().join("fits");
+    let scene_t0 = common::fits_date_unix_s("2025-10-22T04:00:00");
+    for r in &common::records(&fits_dir) {
+        let bytes = std::fs::read(fits_dir.join(r["file"].as_str().unwrap())).unwrap();
+        let cards = common::fits_cards(&bytes);
+        let get = |k: &str| {
+            let c = cards.iter().find(|c| c.0 == k);
+            c.unwrap_or_else(|| panic!("no {k} in {cards:?}")).1.clone()
+        };
+        let num = |k: &str| get(k).parse::<f64>().unwrap();
+        let counts = fits_counts(&bytes, &cards);
+        let n = r["width"].as_u64().unwrap() * r["height"].as_u64().unwrap();
+        assert_eq!(counts.len() as u64, n);
+        assert!(n >= 16 * 16, "{n} pixels");
+        assert_eq!(
+            u64::from(gloam_grabber::pixels_crc32c(&counts)),
+            r["pixels_crc32c"].as_u64().unwrap()
+        );
+        // serde_json's float parsing may be off in the last digit (the
+        // header holds Rust's exact shortest digits).
+        let close = |k: &str, want: f64| {
+            let got = num(k);
+            assert!(
+                (got - want).abs() <= 1e-14 * want.abs(),
+                "{k} {got} vs {want}"
+            );
+        };
+        close("TUBEGAIN", r["gain"].as_f64().unwrap());
+        assert_eq!(get("AGC"), "T");
+        assert_eq!(num("BITS"), r["bits"].as_f64().unwrap());
+        assert_eq!(get("INSTRUME"), "gen3-quiet.toml");
+        close("EXPTIME", r["sensor"]["exposure_s"].as_f64().unwrap());
+        // GAIN is e⁻/DN (ccdproc's), the record's electrons_per_dn.
+        close("GAIN", r["electrons_per_dn"].as_f64().unwrap());
+        // The scene's [sky] utc plus the frame's start in the sequence.
+        let t = common::fits_date_unix_s(&get("DATE-OBS"));
+        let want = scene_t0 + r["sequence"]["time_s"].as_f64().unwrap();
+        assert!((t - want).abs() < 1.5e-3, "DATE-OBS {t} vs {want}");
+        assert_eq!(get("CAMERA"), sensor.display().to_string());
+        get("SEED").parse::<u64>().unwrap();
+        // The run's start, before this frame's file.
+        let run_start = common::fits_date_unix_s(&get("DATE"));
+        let written = std::fs::metadata(fits_dir.join(r["file"].as_str().unwrap()))
+            .unwrap()
+            .modified()
+            .unwrap()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_secs_f64();
+        assert!(
+            run_start <= written + 1.0,
+            "DATE {run_start} after {written}"
+        );
+    }
+
+    // calibrate apply: a FITS frame and a page of the TIFF stack give the
+    // PNG frame's radiance, pixel for pixel.
+    let apply = |input: &Path, page: Option<&str>, output: &Path| {
+        let mut args = vec!["calibrate", "apply", "--lut", lut_arg];
+        args.extend(page.map(|p| ["--page", p]).iter().flatten());
+        args.extend([input.to_str().unwrap(), output.to_str().unwrap()]);
+        gloam(&args)
+    };
+    let radiance = |p: &Path| gloam_calib::io::read_grey(p).unwrap().data;
+    // Two frames the LUT covers (linearised in the report): the first
+    // and the last.
+    let covered: Vec<usize> = (png_frames.iter().enumerate())
+        .filter(|(_, f)| f["residual_percent"].is_number())
+        .map(|(i, _)| i)
+        .collect();
+    assert!(covered.len() >= 2, "{covered:?}");
+    for i in [covered[0], covered[covered.len() - 1]] {
+        let name = format!("frame-{i:06}");
+        let want = dir.path().join(format!("png-{i}.tiff"));
+        let o = apply(&dir.path().join(format!("png-lut/{name}.png")), None, &want);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let from_fits = dir.path().join(format!("fits-{i}.tiff"));
+        let o = apply(&fits_dir.join(format!("{name}.fits")), None, &from_fits);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let from_tiff = dir.path().join(format!("tiff-{i}.tiff"));
+        let page = i.to_string();
+        let o = apply(
+            &dir.path().join("tiff/frames.tiff"),
+            Some(&page),
+            &from_tiff,
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (w, f, t) = (radiance(&want), radiance(&from_fits), radiance(&from_tiff));
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+        };
+        assert!(same(&w, &f) && same(&w, &t), "frame {i}");
+        assert!(w.iter().any(|v| *v > 0.0));
+    }
+    // The stack without a page is refused, naming its pages.
+    let o = apply(
+        &dir.path().join("tiff/frames.tiff"),
+        None,
+        &dir.path().join("x.tiff"),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("holds 100 pages"),
+        "{err}"
+    );
+    assert!(!dir.path().join("x.tiff").exists());
+}
+
+fn recs_files(dir: &Path) -> Vec<String> {
+    common::records(dir)
+        .iter()
+        .map(|r| r["file"].as_str().unwrap().to_string())
+        .collect()
+}

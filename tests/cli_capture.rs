@@ -410,3 +410,53 @@ fn capture_frame_format_fits_carries_date_instrument_and_gain_in_electrons_per_d
     assert!(err.contains("fits") && !err.contains("panicked"), "{err}");
     assert!(!dir.path().join("bad").exists());
 }
+
+/// `gloam capture` ends with the transport's packet resends and records
+/// them with the frame losses in report.json; a `sim:` camera has no
+/// packets, so it says not applicable and records zeros, and its frames
+/// are all there (the count frames.jsonl holds).
+#[test]
+fn capture_reports_losses_and_packet_resends_as_not_applicable_for_sim() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cap");
+    let o = Command::new(BIN)
+        .args([
+            "capture",
+            "--grabber",
+            "sim:scientific-ccd?size=32x24",
+            "--frames",
+            "5",
+            "--seed",
+            "2",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("packet resends: not applicable (sim:"),
+        "{err}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let kept = common::records(&out).len() as u64;
+    assert_eq!(kept, 5);
+    assert_eq!(r["frames"]["requested"], 5);
+    assert_eq!(r["frames"]["captured"], kept);
+    for k in ["damaged", "lost", "interruptions"] {
+        assert_eq!(r["frames"][k], 0, "{k}: {r}");
+    }
+    let p = &r["packet_resends"];
+    assert_eq!(p["applicable"], false, "{r}");
+    for k in ["resend_requests", "packets_resent", "packets_missing"] {
+        assert_eq!(p[k], 0, "{k}: {r}");
+    }
+    assert_eq!(r["complete"], true);
+    assert_eq!(r["grabber"], "sim:scientific-ccd?size=32x24");
+    // The set lists it.
+    let m = std::fs::read_to_string(out.join("manifest.json")).unwrap();
+    assert!(m.contains("\"report.json\""), "{m}");
+}

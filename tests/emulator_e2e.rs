@@ -270,6 +270,15 @@ fn faulty_pty_link_keeps_only_whole_frames() {
     assert_eq!(rw.len(), 20);
     let max_seq = rw.iter().map(|r| r["seq"].as_u64().unwrap()).max().unwrap();
     assert!(max_seq >= 19);
+    // report.json: every frame the device numbered up to the last kept
+    // one is kept, damaged or lost; the serial protocol resends no packets.
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(wire.join("report.json")).unwrap()).unwrap();
+    let f = &report["frames"];
+    assert_eq!(f["captured"], 20, "{report}");
+    let (damaged, lost) = (f["damaged"].as_u64().unwrap(), f["lost"].as_u64().unwrap());
+    assert_eq!(damaged + lost, max_seq + 1 - 20, "{report}");
+    assert_eq!(report["packet_resends"]["applicable"], false, "{report}");
     let n = (max_seq + 1).to_string();
     capture(
         &[

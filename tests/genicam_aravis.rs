@@ -362,6 +362,56 @@ fn with_injected_gvsp_loss_no_damaged_frame_is_accepted_and_every_loss_is_report
         eprintln!(
             "{tag}: {frames_sent} frames sent, {dropped} packets dropped, {resent} resent; {good} good, {damaged} damaged, {lost} lost"
         );
+        // The capture's report.json and closing line: the summary's frame
+        // losses, and the stream's packet resends as Aravis counted them
+        // (never more resent packets received than the device resent).
+        let report = json(&dir.path().join(tag).join("report.json"));
+        let (f, p) = (&report["frames"], &report["packet_resends"]);
+        assert_eq!(
+            (
+                f["captured"].as_u64(),
+                f["damaged"].as_u64(),
+                f["lost"].as_u64()
+            ),
+            (Some(good), Some(damaged), Some(lost)),
+            "{tag}: {report}"
+        );
+        assert_eq!(p["applicable"], true, "{tag}: {report}");
+        assert_eq!(p["resend"], tag != "raw", "{tag}: {report}");
+        assert_eq!(p["camera_offers_resend"], true, "{tag}: {report}");
+        let n = |k: &str| p[k].as_u64().unwrap_or_else(|| panic!("{k}: {report}"));
+        assert!(
+            n("packets_resent") <= resent,
+            "{tag}: {report} vs {resent} resent"
+        );
+        let line = format!(
+            "[{tag}] packet resends: {} packet(s) resent, {} missing, {} resend request(s)",
+            n("packets_resent"),
+            n("packets_missing"),
+            n("resend_requests")
+        );
+        assert!(err.contains(&line), "{tag}: no `{line}` in:\n{err}");
+        if tag == "raw" {
+            assert_eq!(
+                (n("resend_requests"), n("packets_resent")),
+                (0, 0),
+                "{report}"
+            );
+            // Aravis counts the packets a damaged frame lacked.
+            assert_eq!(n("packets_missing") > 0, damaged > 0, "{report}");
+        } else {
+            assert!(
+                n("packets_resent") > 0 && n("resend_requests") > 0,
+                "{tag}: {report}"
+            );
+        }
+        if tag == "resend" {
+            assert_eq!(
+                n("packets_missing"),
+                0,
+                "nothing damaged, nothing missing: {report}"
+            );
+        }
         match tag {
             "resend" => {
                 assert!(resent > 0, "{out}");
@@ -452,6 +502,30 @@ fn the_fake_camera_offers_no_packetresend_and_its_damaged_frames_are_reported() 
     let (good, damaged, lost) = losses(err, "fake");
     assert_eq!(good, 8, "{err}");
     assert!(damaged > 0, "1 % loss and nothing damaged:\n{err}");
+    // As arv-camera-test: no resend asked for (the grabber asks only a
+    // camera that offers it), packets missing; said in the closing line
+    // and report.json.
+    let report = json(&dir.path().join("fake/report.json"));
+    let p = &report["packet_resends"];
+    assert_eq!(
+        (
+            &p["camera_offers_resend"],
+            &p["resend_requests"],
+            &p["packets_resent"]
+        ),
+        (
+            &serde_json::json!(false),
+            &serde_json::json!(0),
+            &serde_json::json!(0)
+        ),
+        "{report}"
+    );
+    assert!(p["packets_missing"].as_u64().unwrap() > 0, "{report}");
+    assert_eq!(p["resend"], false, "{report}");
+    assert!(
+        err.contains("0 resend request(s) (none asked: the camera does not offer PACKETRESEND)"),
+        "no packet-resend line:\n{err}"
+    );
     eprintln!("genicam: vs fake camera at 1 % loss: {good} good, {damaged} damaged, {lost} lost");
     assert_fake_ramp(&dir.path().join("fake"), 8, (512, 512));
 }

@@ -54,6 +54,7 @@ fn capture(
     dir: &Path,
     sensor: &str,
     seed: u64,
+    frame_format: FrameFormat,
 ) -> anyhow::Result<CapturedSequence> {
     let config = gloam_sensor::load_preset_or_file(sensor)
         .map_err(|e| anyhow::anyhow!(e).context(format!("camera '{sensor}'")))?;
@@ -66,12 +67,14 @@ fn capture(
         noise: config.noise.enabled,
         seed,
         auto_exposure: None,
-        frame_format: FrameFormat::Png,
+        frame_format,
     };
+    // FITS headers name the camera, the seed and this run, as `gloam
+    // sequence`'s do.
     let context = FrameContext {
         camera: Some(sensor.to_string()),
         seed: Some(seed),
-        provenance: None,
+        provenance: Some(Provenance::of_this_run()),
         scene_utc: gloam_pipeline::frames::scene_utc(&l.scene),
         ..FrameContext::default()
     };
@@ -107,6 +110,10 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
             .transpose()?,
         _ => None,
     };
+    let frame_format = match &cmd {
+        CalibrateCommand::Agc(a) => gloam_pipeline::cli::frame_format(a.frame_format.as_deref())?,
+        _ => FrameFormat::Png,
+    };
     let mut set = None;
     let mut bar: Option<indicatif::ProgressBar> = None;
     let registry = gloam_pipeline::grabbers();
@@ -134,7 +141,7 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
             &registry,
             &mut begin,
             &mut ev,
-            &mut |dir, sensor, seed| capture(l, dir, sensor, seed),
+            &mut |dir, sensor, seed| capture(l, dir, sensor, seed, frame_format),
         ),
         _ => run_calibrate::<anyhow::Error>(&cmd, &registry, &mut begin, &mut ev),
     };

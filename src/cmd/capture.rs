@@ -30,7 +30,7 @@ pub struct CaptureArgs {
 pub fn with_out_help(cmd: clap::Command) -> clap::Command {
     cmd.mut_subcommand("capture", |c| {
         c.mut_arg("out", |a| {
-            a.help("Output directory: the frames (--frame-format), frames.jsonl, frames-preview.png, camera.json")
+            a.help("Output directory: the frames (--frame-format), frames.jsonl, frames-preview.png, camera.json, report.json")
         })
     })
 }
@@ -80,17 +80,118 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
         &mut ev,
     );
     bar.finish_and_clear();
+    // Read before the grabber closes: a stream's counts end with it.
+    let resends = Resends::of(&args.grabber, g.packet_resends());
+    drop(g);
     // Nothing captured is lost: a run that stopped early publishes its
     // whole frames, marked incomplete in manifest.json.
     if tally.kept > 0 || result.is_ok() {
         let why = result.as_ref().err().map(|e| format!("{e:#}"));
         // The contact sheet of what was kept (frames-preview.png).
         writer.finish()?;
+        let report = report_json(&args, &tally, &resends, why.as_deref(), &provenance);
+        gloam_pipeline::output::write_atomic(
+            &dir.join(REPORT),
+            &serde_json::to_vec_pretty(&report)?,
+        )?;
         set.publish(&provenance, why.as_deref())?;
     }
     let (kept, warned) = (tally.kept as usize, tally.frames_warned);
     eprintln!("{}", tally.losses.summary(kept, &args.out, warned));
+    eprintln!("{}", resends.line());
     result
+}
+
+/// The capture's report: what was asked, what came, what was lost and how
+/// the transport recovered lost packets.
+pub const REPORT: &str = "report.json";
+
+/// The packet resends of a capture, or why there are none to count.
+enum Resends {
+    Counted(gloam_grabber::PacketResends),
+    NotApplicable(&'static str),
+}
+
+impl Resends {
+    fn of(uri: &str, counted: Option<gloam_grabber::PacketResends>) -> Self {
+        if let Some(c) = counted {
+            return Self::Counted(c);
+        }
+        let scheme = uri.split_once(':').map_or(uri, |(s, _)| s);
+        Self::NotApplicable(match scheme {
+            "sim" => "sim: frames are made in process, no packets travel",
+            "serial" | "usb" => {
+                "the gloam protocol sends each frame once and has no packet resend (a frame that arrives damaged is counted as damaged)"
+            }
+            "genicam" => "not a GigE Vision stream: Aravis counts no packet resends for it",
+            _ => "this grabber's transport has no packet resend",
+        })
+    }
+
+    /// The line `gloam capture` ends with.
+    fn line(&self) -> String {
+        match self {
+            Self::Counted(c) => format!(
+                "packet resends: {} packet(s) resent, {} missing, {} resend request(s) ({})",
+                c.packets_resent,
+                c.packets_missing,
+                c.resend_requests,
+                match (c.camera_offers_resend, c.resend) {
+                    (Some(false), _) => "none asked: the camera does not offer PACKETRESEND",
+                    (_, true) => "resend=always",
+                    (_, false) => "resend=never",
+                }
+            ),
+            Self::NotApplicable(why) => format!("packet resends: not applicable ({why})"),
+        }
+    }
+
+    fn json(&self) -> serde_json::Value {
+        match self {
+            Self::Counted(c) => serde_json::json!({
+                "applicable": true,
+                "resend": c.resend,
+                "camera_offers_resend": c.camera_offers_resend,
+                "resend_requests": c.resend_requests,
+                "packets_resent": c.packets_resent,
+                "packets_missing": c.packets_missing,
+            }),
+            Self::NotApplicable(why) => serde_json::json!({
+                "applicable": false,
+                "why": why,
+                "resend_requests": 0,
+                "packets_resent": 0,
+                "packets_missing": 0,
+            }),
+        }
+    }
+}
+
+fn report_json(
+    args: &gloam_calib::cli::CaptureArgs,
+    tally: &gloam_calib::cli::CaptureTally,
+    resends: &Resends,
+    stopped: Option<&str>,
+    provenance: &Provenance,
+) -> serde_json::Value {
+    let l = &tally.losses;
+    serde_json::json!({
+        "command": "capture",
+        "grabber": args.grabber,
+        "frames": {
+            "requested": args.frames,
+            "captured": tally.kept,
+            "damaged": l.damaged,
+            "lost": l.lost,
+            "interruptions": l.interruptions,
+            "interruptions_with_unknown_loss": l.unknown,
+            "with_exposure_warnings": tally.frames_warned,
+        },
+        "packet_resends": resends.json(),
+        "complete": stopped.is_none(),
+        "stopped_by": stopped,
+        "provenance": provenance,
+    })
 }
 
 fn progress_bar(frames: u64) -> indicatif::ProgressBar {

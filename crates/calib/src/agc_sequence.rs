@@ -34,7 +34,7 @@
 //! transient frames against that over the steady frames.
 
 use std::io::BufRead;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use gloam_grabber::Stimulus;
 use ndarray::Array2;
@@ -331,6 +331,8 @@ struct Record {
     /// Its 1-based line and `pixels_crc32c` (checked against the counts).
     line: usize,
     crc: Option<serde_json::Value>,
+    /// How its counts are stored (`stored`: TIFF page, sample shift).
+    at: crate::io::StoredAt,
 }
 
 fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError> {
@@ -386,6 +388,7 @@ fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError
             weights,
             line: i + 1,
             crc: v.get("pixels_crc32c").cloned(),
+            at: crate::io::StoredAt::of_record(&v),
         });
     }
     Ok(out)
@@ -495,9 +498,21 @@ pub fn linearise_sequence(
         * (lut.gains.iter())
             .map(|c| c.dark_std_dn * c.g_w_m2_sr_per_dn)
             .fold(0.0, f64::max);
+    // A TIFF stack (`--frame-format tiff`) is opened once and read page
+    // by page.
+    let mut stack: Option<(PathBuf, crate::io::TiffPages)> = None;
     for (n, r) in records.iter().enumerate() {
         let path = dir.join(&r.file);
-        let (w, h, px) = crate::io::read_counts(&path)?;
+        let (w, h, px) = match (r.at.page, &mut stack) {
+            (Some(_), Some((p, pages))) if *p == path => pages.counts(&r.at)?,
+            (Some(_), _) => {
+                let mut pages = crate::io::TiffPages::open(&path)?;
+                let counts = pages.counts(&r.at)?;
+                stack = Some((path.clone(), pages));
+                counts
+            }
+            (None, _) => crate::io::read_frame_counts(&path, &r.at)?,
+        };
         if let Some(crc) = &r.crc {
             let rec = serde_json::json!({ "pixels_crc32c": crc });
             crate::io::check_frame_crc(&path, &dir.join("frames.jsonl"), r.line, &rec, &px)?;

@@ -74,7 +74,7 @@ pub fn frame_gain(
         }
         (Some(g), _) => Ok(g),
         (None, Some((_, r))) => Ok(r),
-        (None, None) => crate::io::gain_from_frames_jsonl(frame),
+        (None, None) => crate::io::gain_from_frames_jsonl(frame, None),
     }
 }
 
@@ -227,6 +227,23 @@ pub fn apply_lut_file(
     gain: Option<f64>,
     warn: &mut dyn FnMut(&str),
 ) -> Result<Applied, CalibError> {
+    apply_lut_to_frame(lut_path, input, None, output, gain, warn)
+}
+
+/// [`apply_lut_file`] on any frame file gloam writes (`--frame-format
+/// png|fits|tiff`): PNG, FITS, or page `page` of a TIFF stack
+/// (`frames.tiff`; its `frames.jsonl` line is the one whose
+/// `stored.page` is `page`, and its samples are shifted back by that
+/// line's `stored.sample_shift`). A TIFF of more than one page must be
+/// given its page.
+pub fn apply_lut_to_frame(
+    lut_path: &Path,
+    input: &Path,
+    page: Option<u64>,
+    output: &Path,
+    gain: Option<f64>,
+    warn: &mut dyn FnMut(&str),
+) -> Result<Applied, CalibError> {
     let dir = input.parent().unwrap_or(Path::new("."));
     crate::report::refuse_output_over_inputs(
         "OUTPUT",
@@ -250,8 +267,24 @@ pub fn apply_lut_file(
         )));
     }
     let lut = load_lut(lut_path)?;
-    let record = crate::io::frame_record(input)?;
-    let (w, h, px) = crate::io::read_counts(input)?;
+    let record = crate::io::frame_record(input, page)?;
+    if let (Some(p), None) = (page, &record) {
+        return Err(CalibError::file(
+            frames_jsonl(input),
+            format!(
+                "no line for page {p} of {} (a TIFF stack's page is applied with its recorded gain and scale)",
+                input.display()
+            ),
+        ));
+    }
+    let at = crate::io::StoredAt {
+        page,
+        ..record
+            .as_ref()
+            .map(|(_, v)| crate::io::StoredAt::of_record(v))
+            .unwrap_or_default()
+    };
+    let (w, h, px) = crate::io::read_frame_counts(input, &at)?;
     // The counts first: a frame that is not the one its line records (a
     // renamed or altered file) must not be given that line's gain.
     if let Some((line, v)) = &record

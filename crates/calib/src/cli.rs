@@ -119,8 +119,14 @@ pub struct ApplyArgs {
     /// Gain of the input frame (default: its line in frames.jsonl beside it).
     #[arg(long)]
     pub gain: Option<f64>,
-    /// Digital-count image (PNG or TIFF, 8/16-bit grey).
+    /// Digital-count image: a frame as gloam writes them (PNG, FITS, or a
+    /// page of a TIFF stack, `--page`), or any 8/16-bit grey PNG or TIFF.
     pub input: PathBuf,
+    /// The page (frame) of a multi-page TIFF INPUT, from 0 (`gloam capture
+    /// --frame-format tiff`'s `frames.tiff`: its `frames.jsonl` line's
+    /// `stored.page`); needed when INPUT holds more than one page.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..crate::io::MAX_TIFF_PAGES))]
+    pub page: Option<u64>,
     /// Radiance image to write (32-bit float TIFF, W m⁻² sr⁻¹; saturated pixels NaN).
     pub output: PathBuf,
 }
@@ -156,6 +162,11 @@ pub struct AgcArgs {
     /// render --set` (e.g. resolution_scale=0.5, spp=2, seed=3).
     #[arg(long = "set", value_name = "KEY=VALUE", requires = "sequence")]
     pub set: Vec<String>,
+    /// --sequence: how the captured frames are stored, as `gloam capture`
+    /// stores them: png (default), fits (one file per frame, with a
+    /// header) or tiff (one multi-page frames.tiff).
+    #[arg(long, value_name = "FORMAT", value_parser = crate::io::FRAME_FORMAT_NAMES, requires = "sequence")]
+    pub frame_format: Option<String>,
     #[arg(long)]
     pub out: PathBuf,
     /// Replace a previous gloam output set at `--out` whole (only a set whose
@@ -296,9 +307,14 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     match cmd {
         CalibrateCommand::Radiance(a) => radiance(a, registry, begin, ev),
         CalibrateCommand::Apply(a) => {
-            let r = crate::apply::apply_lut_file(&a.lut, &a.input, &a.output, a.gain, &mut |w| {
-                ev(Event::Note(format!("warning: {w}")))
-            })?;
+            let r = crate::apply::apply_lut_to_frame(
+                &a.lut,
+                &a.input,
+                a.page,
+                &a.output,
+                a.gain,
+                &mut |w| ev(Event::Note(format!("warning: {w}"))),
+            )?;
             let saturated = if r.saturated_pixels > 0 {
                 format!(", {} saturated pixel(s) set to NaN", r.saturated_pixels)
             } else {

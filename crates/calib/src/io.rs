@@ -66,6 +66,19 @@ pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
     let bytes =
         gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
             .map_err(|e| CalibError::file(path, e))?;
+    if is_fits(&bytes) {
+        let f = decode_fits_counts(&bytes).map_err(|e| CalibError::file(path, e))?;
+        return Ok(GreyImage {
+            width: f.width,
+            height: f.height,
+            data: f.counts.into_iter().map(f64::from).collect(),
+        });
+    }
+    grey_of_bytes(path, bytes)
+}
+
+/// A PNG or other non-TIFF grey image from its bytes.
+fn grey_of_bytes(path: &Path, bytes: Vec<u8>) -> Result<GreyImage, CalibError> {
     if bytes.starts_with(PNG_SIGNATURE) {
         let p = decode_png_counts(&bytes).map_err(|e| CalibError::file(path, e))?;
         return Ok(GreyImage {
@@ -168,9 +181,403 @@ pub fn decode_png_counts(bytes: &[u8]) -> Result<PngCounts, PngCountsError> {
     })
 }
 
-/// Reads a digital-count image (integers 0..=65535).
+/// Reads a digital-count image (integers 0..=65535): a PNG (`sBIT`
+/// honoured), a FITS frame ([`decode_fits_counts`]), or a one-page TIFF
+/// (gloam's frame stacks: the scale its description states undone). A
+/// multi-page TIFF needs its page named: [`read_frame_counts`].
 pub fn read_counts(path: &Path) -> Result<(usize, usize, Vec<u16>), CalibError> {
-    let g = read_grey(path)?;
+    read_frame_counts(path, &StoredAt::default())
+}
+
+/// The frame formats gloam writes and reads back (`--frame-format`; the
+/// writers are `gloam_pipeline::frame_files`', whose `FrameFormat::NAMES`
+/// these are).
+pub const FRAME_FORMAT_NAMES: [&str; 3] = ["png", "fits", "tiff"];
+
+/// Where one frame's counts sit in its file, as its `frames.jsonl` line's
+/// `stored` says (`{"format", "sample_shift", "page"}`); unknown fields
+/// stay `None` and are then read from the file itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StoredAt {
+    /// The page of a multi-page TIFF (from 0).
+    pub page: Option<u64>,
+    /// counts = sample >> shift (PNG and TIFF frames).
+    pub sample_shift: Option<u8>,
+}
+
+impl StoredAt {
+    /// The `stored` object of a `frames.jsonl` line (absent: all `None`).
+    pub fn of_record(record: &serde_json::Value) -> Self {
+        let s = record.get("stored");
+        let field = |k: &str| s.and_then(|s| s.get(k)).and_then(serde_json::Value::as_u64);
+        Self {
+            page: field("page"),
+            sample_shift: field("sample_shift").and_then(|v| u8::try_from(v).ok()),
+        }
+    }
+}
+
+fn is_fits(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"SIMPLE  =")
+}
+
+fn is_tiff_bytes(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*")
+}
+
+/// The shift gloam's frame TIFFs state in their `ImageDescription`
+/// (`… count = sample >> N`); `None` for any other description.
+pub fn tiff_stated_shift(description: &str) -> Option<u8> {
+    let n = description.rsplit_once("count = sample >> ")?.1;
+    n.trim().parse::<u8>().ok().filter(|s| *s < 16)
+}
+
+/// The counts of one frame of any format gloam writes (`--frame-format
+/// png|fits|tiff`): PNG with `sBIT`, FITS (BITPIX 8/16, BZERO), or page
+/// `at.page` of a TIFF (needed when it holds more than one), its samples
+/// shifted right by `at.sample_shift` (else by what the page's description
+/// states; else as they are).
+pub fn read_frame_counts(
+    path: &Path,
+    at: &StoredAt,
+) -> Result<(usize, usize, Vec<u16>), CalibError> {
+    let bytes =
+        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+            .map_err(|e| CalibError::file(path, e))?;
+    if is_tiff_bytes(&bytes) || (is_tiff(path) && !is_fits(&bytes)) {
+        let mut pages = TiffPages::new(path, bytes)?;
+        return pages.counts(at);
+    }
+    if at.page.is_some_and(|p| p > 0) {
+        return Err(CalibError::file(
+            path,
+            format!(
+                "page {} asked for, but only a multi-page TIFF has pages",
+                at.page.unwrap_or(0)
+            ),
+        ));
+    }
+    if is_fits(&bytes) {
+        let f = decode_fits_counts(&bytes).map_err(|e| CalibError::file(path, e))?;
+        return Ok((f.width, f.height, f.counts));
+    }
+    counts_of_grey(path, grey_of_bytes(path, bytes)?)
+}
+
+/// An open TIFF whose pages are read in order (a frame stack read frame
+/// by frame decodes each page once; going back reopens it).
+pub struct TiffPages {
+    path: std::path::PathBuf,
+    bytes: std::sync::Arc<Vec<u8>>,
+    decoder: tiff::decoder::Decoder<std::io::Cursor<ArcBytes>>,
+    page: u64,
+}
+
+/// Shared bytes as a cursor's buffer.
+#[derive(Clone)]
+struct ArcBytes(std::sync::Arc<Vec<u8>>);
+
+impl AsRef<[u8]> for ArcBytes {
+    fn as_ref(&self) -> &[u8] {
+        &self.0
+    }
+}
+
+/// Most pages a frame TIFF may hold (a capture's stack is below 4 GiB;
+/// 2^20 pages of even one pixel would pass it).
+pub const MAX_TIFF_PAGES: u64 = 1 << 20;
+
+impl TiffPages {
+    pub fn new(path: &Path, bytes: Vec<u8>) -> Result<Self, CalibError> {
+        let bytes = std::sync::Arc::new(bytes);
+        let decoder = tiff::decoder::Decoder::new(std::io::Cursor::new(ArcBytes(bytes.clone())))
+            .map_err(|e| CalibError::file(path, e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            bytes,
+            decoder,
+            page: 0,
+        })
+    }
+
+    /// Opens the TIFF at `path`.
+    pub fn open(path: &Path) -> Result<Self, CalibError> {
+        let bytes =
+            gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
+                .map_err(|e| CalibError::file(path, e))?;
+        Self::new(path, bytes)
+    }
+
+    fn seek(&mut self, page: u64) -> Result<(), CalibError> {
+        let path = self.path.clone();
+        if page < self.page {
+            *self = Self::new(&path, (*self.bytes).clone())?;
+        }
+        while self.page < page {
+            if !self.decoder.more_images() {
+                return Err(CalibError::file(
+                    &path,
+                    format!("no page {page}: the TIFF holds {} page(s)", self.page + 1),
+                ));
+            }
+            self.decoder
+                .next_image()
+                .map_err(|e| CalibError::file(&path, e))?;
+            self.page += 1;
+        }
+        Ok(())
+    }
+
+    /// How many pages the TIFF holds (counted up to [`MAX_TIFF_PAGES`]).
+    pub fn count(&self) -> Result<u64, CalibError> {
+        let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(ArcBytes(self.bytes.clone())))
+            .map_err(|e| CalibError::file(&self.path, e))?;
+        let mut n = 1;
+        while d.more_images() && n < MAX_TIFF_PAGES {
+            d.next_image()
+                .map_err(|e| CalibError::file(&self.path, e))?;
+            n += 1;
+        }
+        Ok(n)
+    }
+
+    /// The counts of page `at.page` (a TIFF of more pages must name one).
+    pub fn counts(&mut self, at: &StoredAt) -> Result<(usize, usize, Vec<u16>), CalibError> {
+        let path = self.path.clone();
+        let page = match at.page {
+            Some(p) => p,
+            None => {
+                let n = self.count()?;
+                if n > 1 {
+                    return Err(CalibError::file(
+                        &path,
+                        format!(
+                            "holds {n} pages (frames): name the frame's page (`calibrate apply --page N`, or its frames.jsonl line's \"stored\".\"page\")"
+                        ),
+                    ));
+                }
+                0
+            }
+        };
+        self.seek(page)?;
+        let d = &mut self.decoder;
+        let (w, h) = d.dimensions().map_err(|e| CalibError::file(&path, e))?;
+        let ct = d.colortype().map_err(|e| CalibError::file(&path, e))?;
+        if !matches!(ct, tiff::ColorType::Gray(_)) {
+            return Err(CalibError::file(
+                &path,
+                format!("page {page}: expected a grey image, found {ct:?}"),
+            ));
+        }
+        let shift = match at.sample_shift {
+            Some(s) => s,
+            None => d
+                .get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
+                .ok()
+                .as_deref()
+                .and_then(tiff_stated_shift)
+                .unwrap_or(0),
+        };
+        if shift >= 16 {
+            return Err(CalibError::file(
+                &path,
+                format!("page {page}: sample shift {shift} leaves no bits"),
+            ));
+        }
+        use tiff::decoder::DecodingResult as R;
+        let counts: Vec<u16> = match d.read_image().map_err(|e| CalibError::file(&path, e))? {
+            R::U8(v) => v.into_iter().map(|s| u16::from(s) >> shift).collect(),
+            R::U16(v) => v.into_iter().map(|s| s >> shift).collect(),
+            // Counts held as wider integers or floats: whole values only.
+            other => {
+                let data: Vec<f64> = match other {
+                    R::U32(v) => v.into_iter().map(f64::from).collect(),
+                    R::F32(v) => v.into_iter().map(f64::from).collect(),
+                    R::F64(v) => v,
+                    _ => {
+                        return Err(CalibError::file(
+                            &path,
+                            format!("page {page}: unsupported TIFF sample format"),
+                        ));
+                    }
+                };
+                let g = GreyImage {
+                    width: w as usize,
+                    height: h as usize,
+                    data,
+                };
+                counts_of_grey(&path, g)?.2
+            }
+        };
+        if counts.len() != w as usize * h as usize {
+            return Err(CalibError::file(
+                &path,
+                format!("page {page}: more than one sample per pixel"),
+            ));
+        }
+        Ok((w as usize, h as usize, counts))
+    }
+}
+
+/// The counts of a FITS frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitsCounts {
+    pub width: usize,
+    pub height: usize,
+    pub counts: Vec<u16>,
+    /// The header's cards up to END, as (keyword, value text): strings
+    /// without their quotes, other values up to the comment.
+    pub cards: Vec<(String, String)>,
+}
+
+/// Most header blocks read before END (a frame's header takes one or two).
+pub const MAX_FITS_HEADER_BLOCKS: usize = 64;
+
+/// The largest FITS frame accepted, pixels (as [`MAX_PNG_DECODED_BYTES`]
+/// of 16-bit samples).
+pub const MAX_FITS_PIXELS: usize = MAX_PNG_DECODED_BYTES / 2;
+
+/// Decodes a FITS file's primary HDU as digital counts: a 2-D image of
+/// BITPIX 8 (unsigned bytes) or 16 (big-endian, plus BZERO: 32768 for the
+/// unsigned counts gloam writes), BSCALE 1. Every value must land on a
+/// count 0..=65535. Errors name the card or value at fault.
+pub fn decode_fits_counts(bytes: &[u8]) -> Result<FitsCounts, String> {
+    const BLOCK: usize = 2880;
+    let mut cards = Vec::new();
+    let mut end = None;
+    for (i, card) in bytes
+        .chunks_exact(80)
+        .take(MAX_FITS_HEADER_BLOCKS * BLOCK / 80)
+        .enumerate()
+    {
+        let card =
+            std::str::from_utf8(card).map_err(|_| format!("header card {} is not ASCII", i + 1))?;
+        let key = card[..8].trim_end().to_string();
+        if key == "END" {
+            end = Some(i);
+            break;
+        }
+        if &card[8..10] != "= " {
+            continue; // COMMENT, HISTORY, blank
+        }
+        let v = card[10..].trim_start();
+        let value = match v.strip_prefix('\'') {
+            Some(s) => {
+                // '' is a quote inside the string.
+                let mut out = String::new();
+                let mut it = s.chars().peekable();
+                while let Some(c) = it.next() {
+                    if c == '\'' {
+                        if it.peek() == Some(&'\'') {
+                            it.next();
+                            out.push('\'');
+                            continue;
+                        }
+                        break;
+                    }
+                    out.push(c);
+                }
+                out.trim_end().to_string()
+            }
+            None => v.split('/').next().unwrap_or("").trim().to_string(),
+        };
+        cards.push((key, value));
+    }
+    let end = end.ok_or_else(|| {
+        format!(
+            "no END card in the first {MAX_FITS_HEADER_BLOCKS} header blocks: not a FITS header"
+        )
+    })?;
+    let get = |k: &str| {
+        cards
+            .iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.as_str())
+    };
+    let int = |k: &str| -> Result<i64, String> {
+        let v = get(k).ok_or_else(|| format!("no {k} card"))?;
+        v.parse::<i64>()
+            .map_err(|_| format!("{k} = {v} is not an integer"))
+    };
+    if get("SIMPLE") != Some("T") {
+        return Err("SIMPLE is not T: not a standard FITS file".into());
+    }
+    let bitpix = int("BITPIX")?;
+    if int("NAXIS")? != 2 {
+        return Err(format!(
+            "NAXIS = {}: a frame is a 2-D image",
+            get("NAXIS").unwrap_or("?")
+        ));
+    }
+    let (w, h) = (int("NAXIS1")?, int("NAXIS2")?);
+    if w < 1 || h < 1 || w.saturating_mul(h) > MAX_FITS_PIXELS as i64 {
+        return Err(format!(
+            "NAXIS1 × NAXIS2 = {w} × {h}: not a frame of 1 to {MAX_FITS_PIXELS} pixels"
+        ));
+    }
+    let num = |k: &str, default: f64| -> Result<f64, String> {
+        match get(k) {
+            None => Ok(default),
+            Some(v) => v
+                .replace(['D', 'd'], "E")
+                .parse::<f64>()
+                .map_err(|_| format!("{k} = {v} is not a number")),
+        }
+    };
+    let (bzero, bscale) = (num("BZERO", 0.0)?, num("BSCALE", 1.0)?);
+    if bscale != 1.0 || bzero.fract() != 0.0 {
+        return Err(format!(
+            "BSCALE = {bscale}, BZERO = {bzero}: digital counts need BSCALE 1 and a whole BZERO"
+        ));
+    }
+    let bytes_per = match bitpix {
+        8 => 1,
+        16 => 2,
+        other => {
+            return Err(format!(
+                "BITPIX = {other}: digital counts are BITPIX 8 or 16"
+            ));
+        }
+    };
+    let n = (w * h) as usize;
+    let data_at = (end * 80 + 80).div_ceil(BLOCK) * BLOCK;
+    let data = bytes
+        .get(data_at..)
+        .filter(|d| d.len() >= n * bytes_per)
+        .ok_or_else(|| {
+            format!(
+                "the data unit holds {} bytes, {w} × {h} pixels at BITPIX {bitpix} need {}",
+                bytes.len().saturating_sub(data_at),
+                n * bytes_per
+            )
+        })?;
+    let zero = bzero as i64;
+    let mut counts = Vec::with_capacity(n);
+    for i in 0..n {
+        let raw = if bytes_per == 1 {
+            i64::from(data[i])
+        } else {
+            i64::from(i16::from_be_bytes([data[2 * i], data[2 * i + 1]]))
+        };
+        let c = raw + zero;
+        let c = u16::try_from(c).map_err(|_| {
+            format!(
+                "pixel {i} (row {}, column {}) holds {c} after BZERO: not a count 0–65535",
+                i / w as usize,
+                i % w as usize
+            )
+        })?;
+        counts.push(c);
+    }
+    Ok(FitsCounts {
+        width: w as usize,
+        height: h as usize,
+        counts,
+        cards,
+    })
+}
+
+fn counts_of_grey(path: &Path, g: GreyImage) -> Result<(usize, usize, Vec<u16>), CalibError> {
     let mut out = Vec::with_capacity(g.data.len());
     for v in &g.data {
         if !(v.fract() == 0.0 && (0.0..=65535.0).contains(v)) {
@@ -250,10 +657,14 @@ pub fn write_tiff_f32_pages(
     crate::report::write_bytes(path, buf.get_ref())
 }
 
-/// The line of `frames.jsonl` beside `image` that records it, with its
+/// The line of `frames.jsonl` beside `image` that records it (for a
+/// page of a TIFF stack, the line whose `stored.page` is `page`), with its
 /// 1-based line number; None when there is no `frames.jsonl` there or it
 /// has no line for the image.
-pub fn frame_record(image: &Path) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
+pub fn frame_record(
+    image: &Path,
+    page: Option<u64>,
+) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
     let jl = image
         .parent()
         .unwrap_or(Path::new("."))
@@ -264,7 +675,7 @@ pub fn frame_record(image: &Path) -> Result<Option<(usize, serde_json::Value)>, 
     if !jl.exists() {
         return Ok(None);
     }
-    find_record(&jl, name, "")
+    find_record(&jl, name, page, "")
 }
 
 /// Checks a frame's counts against the CRC-32C its `frames.jsonl` line
@@ -312,7 +723,7 @@ pub fn check_frame_crc(
 /// The gain recorded for `image` in the `frames.jsonl` beside it (lines
 /// of JSON objects with at least `"file"` and `"gain"`), matched by file
 /// name.
-pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
+pub fn gain_from_frames_jsonl(image: &Path, page: Option<u64>) -> Result<f64, CalibError> {
     let jl = image
         .parent()
         .unwrap_or(Path::new("."))
@@ -322,7 +733,7 @@ pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
         .and_then(|n| n.to_str())
         .ok_or_else(|| CalibError::file(image, "no file name"))?;
     let note = format!(" (needed for the gain of {name}; pass --gain to override)");
-    match find_record(&jl, name, &note)? {
+    match find_record(&jl, name, page, &note)? {
         Some((i, v)) => v
             .get("gain")
             .and_then(|g| g.as_f64())
@@ -334,12 +745,14 @@ pub fn gain_from_frames_jsonl(image: &Path) -> Result<f64, CalibError> {
     }
 }
 
-/// The first line of the frames file `jl` whose `"file"` is `name`, with
-/// its 1-based number (blank lines skipped); `open_note` is appended to an
-/// error opening the file.
+/// The first line of the frames file `jl` whose `"file"` is `name` (and,
+/// with `page`, whose `stored.page` is it: the frames of a TIFF stack
+/// share one file), with its 1-based number (blank lines skipped);
+/// `open_note` is appended to an error opening the file.
 fn find_record(
     jl: &Path,
     name: &str,
+    page: Option<u64>,
     open_note: &str,
 ) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
     let f = gloam_spectra::input::open_bounded(jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
@@ -351,9 +764,99 @@ fn find_record(
         }
         let v: serde_json::Value = serde_json::from_str(&line)
             .map_err(|e| CalibError::file(jl, format!("line {}: {e}", i + 1)))?;
-        if v.get("file").and_then(|f| f.as_str()) == Some(name) {
+        if v.get("file").and_then(|f| f.as_str()) == Some(name)
+            && page.is_none_or(|p| StoredAt::of_record(&v).page.unwrap_or(0) == p)
+        {
             return Ok(Some((i + 1, v)));
         }
     }
     Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A FITS file by hand: `cards` (keyword, value text), END, then
+    /// `data` padded to the block.
+    fn fits(cards: &[(&str, &str)], data: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for (k, v) in cards {
+            out.extend_from_slice(format!("{k:<8}= {v:>20}{:50}", "").as_bytes());
+        }
+        out.extend_from_slice(format!("{:<80}", "END").as_bytes());
+        out.resize(out.len().div_ceil(2880) * 2880, b' ');
+        out.extend_from_slice(data);
+        out.resize(out.len().div_ceil(2880) * 2880, 0);
+        out
+    }
+
+    const HEAD: [(&str, &str); 5] = [
+        ("SIMPLE", "T"),
+        ("BITPIX", "16"),
+        ("NAXIS", "2"),
+        ("NAXIS1", "2"),
+        ("NAXIS2", "1"),
+    ];
+
+    #[test]
+    fn fits_counts_come_back_through_bzero_and_bitpix_8() {
+        // −32768 + 32768 = 0; 32767 + 32768 = 65535.
+        let data = [0x80, 0x00, 0x7f, 0xff];
+        let f =
+            decode_fits_counts(&fits(&[&HEAD[..], &[("BZERO", "32768")]].concat(), &data)).unwrap();
+        assert_eq!(f.counts, [0, 65535]);
+        // No BZERO: signed values as they are; 258 fits, a negative does not.
+        let f = decode_fits_counts(&fits(&HEAD, &[0x01, 0x02, 0x00, 0x07])).unwrap();
+        assert_eq!(f.counts, [258, 7]);
+        let e = decode_fits_counts(&fits(&HEAD, &[0xff, 0xff, 0, 0])).unwrap_err();
+        assert!(e.contains("pixel 0 (row 0, column 0) holds -1"), "{e}");
+        let mut b8 = HEAD;
+        b8[1] = ("BITPIX", "8");
+        assert_eq!(
+            decode_fits_counts(&fits(&b8, &[200, 3])).unwrap().counts,
+            [200, 3]
+        );
+    }
+
+    #[test]
+    fn fits_that_are_not_frames_are_refused_naming_the_card() {
+        let with = |k: &str, v: &str| {
+            let mut c: Vec<(&str, &str)> = HEAD.to_vec();
+            match c.iter_mut().find(|(key, _)| *key == k) {
+                Some(card) => card.1 = v,
+                None => c.push((k, v)),
+            }
+            decode_fits_counts(&fits(&c, &[0; 8])).unwrap_err()
+        };
+        assert!(with("BITPIX", "-32").contains("BITPIX = -32"));
+        assert!(with("NAXIS", "3").contains("NAXIS = 3"));
+        assert!(with("NAXIS1", "1000000000").contains("1000000000 × 1"));
+        assert!(with("NAXIS1", "x").contains("NAXIS1 = x is not an integer"));
+        assert!(with("BSCALE", "2.0").contains("BSCALE = 2"));
+        assert!(with("SIMPLE", "F").contains("SIMPLE is not T"));
+        // Data shorter than the header says.
+        let short = fits(
+            &[("NAXIS1", "3000")]
+                .iter()
+                .fold(HEAD.to_vec(), |mut c, (k, v)| {
+                    c[3] = (k, v);
+                    c
+                }),
+            &[],
+        );
+        let e = decode_fits_counts(&short).unwrap_err();
+        assert!(e.contains("need 6000"), "{e}");
+        // No END within the bound.
+        let e = decode_fits_counts(&vec![b' '; 2880 * 70]).unwrap_err();
+        assert!(e.contains("no END card"), "{e}");
+    }
+
+    #[test]
+    fn gloams_tiff_descriptions_state_the_shift() {
+        let d = "12-bit counts left-bit-replicated to 16 bits: count = sample >> 4";
+        assert_eq!(tiff_stated_shift(d), Some(4));
+        assert_eq!(tiff_stated_shift("counts as they are (no scaling)"), None);
+        assert_eq!(tiff_stated_shift("count = sample >> 99"), None);
+    }
 }

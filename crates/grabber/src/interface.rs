@@ -150,6 +150,44 @@ pub trait FrameStream {
     fn stop(&mut self) -> Result<(), GrabError> {
         Ok(())
     }
+    /// What the stream's transport did to recover lost packets so far
+    /// (every acquisition of this grabber summed), for a capture's summary
+    /// and report. `None`: the transport has no packet resend (in-process
+    /// cameras; gloam's serial/USB protocol sends each frame once).
+    fn packet_resends(&self) -> Option<PacketResends> {
+        None
+    }
+}
+
+/// Packet resends of a stream that asks for lost packets again (GigE
+/// Vision's PACKETRESEND, as Aravis counts them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct PacketResends {
+    /// Whether the grabber asked for lost packets again (`resend=always`
+    /// and a camera that offers PACKETRESEND).
+    pub resend: bool,
+    /// Whether the camera offers PACKETRESEND (its GVCP capability
+    /// register); `None` when it does not say.
+    pub camera_offers_resend: Option<bool>,
+    /// Resend requests the host sent.
+    pub resend_requests: u64,
+    /// Packets that arrived after being asked for again.
+    pub packets_resent: u64,
+    /// Packets never received (their frames were reported damaged).
+    pub packets_missing: u64,
+}
+
+impl PacketResends {
+    /// The sum of two acquisitions' counts (the settings of `later`).
+    pub fn plus(self, later: PacketResends) -> PacketResends {
+        PacketResends {
+            resend: later.resend,
+            camera_offers_resend: later.camera_offers_resend.or(self.camera_offers_resend),
+            resend_requests: self.resend_requests.saturating_add(later.resend_requests),
+            packets_resent: self.packets_resent.saturating_add(later.packets_resent),
+            packets_missing: self.packets_missing.saturating_add(later.packets_missing),
+        }
+    }
 }
 
 /// A camera with both sides: what calibration flows, captures and the
@@ -189,6 +227,9 @@ impl<G: FrameStream + ?Sized> FrameStream for Box<G> {
     }
     fn stop(&mut self) -> Result<(), GrabError> {
         (**self).stop()
+    }
+    fn packet_resends(&self) -> Option<PacketResends> {
+        (**self).packet_resends()
     }
 }
 

@@ -36,7 +36,8 @@ pub enum FrameFormat {
 }
 
 impl FrameFormat {
-    pub const NAMES: [&'static str; 3] = ["png", "fits", "tiff"];
+    /// The names, shared with the readers (`gloam_calib::io`).
+    pub const NAMES: [&'static str; 3] = gloam_calib::io::FRAME_FORMAT_NAMES;
 
     /// The file frame `index` is stored in (all frames share one TIFF).
     pub fn file_name(self, index: u64) -> String {
@@ -717,6 +718,64 @@ mod tests {
             .collect();
         assert_eq!(back, px);
         assert!(data[12..].iter().all(|&z| z == 0));
+    }
+
+    /// gloam's readers (`calibrate apply`, `agc --sequence`) take back
+    /// what every writer stored: FITS through BZERO, each TIFF page by its
+    /// shift, the exact counts at 8, 12 and 16 bits.
+    #[test]
+    fn the_readers_return_the_counts_of_every_format_written() {
+        use gloam_calib::io::{StoredAt, TiffPages, decode_fits_counts, read_frame_counts};
+        let card = [FitsCard::new("TUBEGAIN", FitsValue::Float(20.0), "")];
+        let edge: Vec<u16> = vec![0, 1, 4095, 32767, 32768, 65535];
+        let f = decode_fits_counts(&fits_frame_bytes(3, 2, &edge, &card)).unwrap();
+        assert_eq!((f.width, f.height, &f.counts), (3, 2, &edge));
+        assert!(f.cards.contains(&("TUBEGAIN".into(), "2.0E1".into())));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(TIFF_STACK);
+        let stacks = [
+            (12u8, counts_of(12, 10)),
+            (8, counts_of(8, 10)),
+            (16, counts_of(16, 10)),
+        ];
+        let mut shifts = Vec::new();
+        {
+            let mut t = TiffStack::create(&path).unwrap();
+            for (bits, px) in &stacks {
+                shifts.push(t.append(4, 3, *bits, px).unwrap().1);
+            }
+        }
+        assert_eq!(shifts, [4, 8, 0]);
+        let mut pages = TiffPages::open(&path).unwrap();
+        // Out of order: the reader goes back to an earlier page.
+        for k in [1usize, 2, 0, 2] {
+            // By the shift frames.jsonl records, and by the one the page's
+            // description states.
+            for shift in [Some(shifts[k]), None] {
+                let at = StoredAt {
+                    page: Some(k as u64),
+                    sample_shift: shift,
+                };
+                assert_eq!(
+                    pages.counts(&at).unwrap(),
+                    (4, 3, stacks[k].1.clone()),
+                    "page {k}"
+                );
+            }
+        }
+        // A stack must be given its page.
+        let e = read_frame_counts(&path, &StoredAt::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("holds 3 pages"), "{e}");
+        let e = pages
+            .counts(&StoredAt {
+                page: Some(3),
+                sample_shift: None,
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no page 3: the TIFF holds 3 page(s)"), "{e}");
     }
 
     #[test]

@@ -20,6 +20,7 @@ use super::truth::{
 };
 use super::{BenchError, resolution};
 use crate::output::write_atomic;
+use crate::output_set::OutputSet;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
@@ -312,6 +313,8 @@ pub struct AccuracyOptions {
     pub resolution_scales: Option<Vec<f64>>,
     /// Run only the resolution axis.
     pub resolution_only: bool,
+    /// Replace a previous set at `out` (only a gloam output set).
+    pub force: bool,
 }
 
 /// The sweep's summary, and the same as the Markdown of `summary.md`.
@@ -320,7 +323,12 @@ pub struct AccuracyReport {
     pub markdown: String,
 }
 
-/// Runs the sweep and writes its files (see the module docs).
+/// Runs the sweep and publishes its files as one output set at
+/// `args.out` ([`OutputSet`]: a non-empty `--out` is refused unless
+/// `--force`, which replaces only a previous gloam set; a run that fails
+/// or is interrupted leaves the previous set as it was). The cached
+/// references of the set it replaces are carried into the new one and
+/// reused where their key still matches (see the module docs).
 pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     let t_start = Instant::now();
     ensure_valid!(
@@ -329,7 +337,46 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     );
     let scene_path = args.scene.clone();
     let scene = gloam_scene::load(&scene_path)?;
-    std::fs::create_dir_all(&args.out).map_err(BenchError::io("creating", &args.out))?;
+    let provenance = crate::Provenance::of_this_run();
+    let set = OutputSet::begin(&args.out, args.force, false)?;
+    carry_cached_references(&args.out, set.dir())?;
+    let report = sweep(args, set.dir(), t_start, &scene_path, &scene)?;
+    set.publish(&provenance, None)?;
+    Ok(report)
+}
+
+/// The cached references (`reference*.npy` and their `.json`) of the
+/// previous set at `out`, copied into the new set's `dir`; nothing else
+/// is read from it. `OutputSet::begin` has checked that a non-empty
+/// `out` is a gloam set.
+fn carry_cached_references(out: &Path, dir: &Path) -> Result<(), BenchError> {
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return Ok(());
+    };
+    // A set holds a handful of references (one per scale and kind).
+    for e in entries.flatten().take(crate::output_set::MAX_SET_ENTRIES) {
+        let name = e.file_name();
+        let Some(n) = name.to_str() else { continue };
+        let cached = n.starts_with("reference") && (n.ends_with(".npy") || n.ends_with(".json"));
+        if cached && e.file_type().is_ok_and(|t| t.is_file()) {
+            std::fs::copy(e.path(), dir.join(n))
+                .map_err(BenchError::io("copying the cached reference", &e.path()))?;
+        }
+    }
+    Ok(())
+}
+
+/// The sweep, its files written into `dir` (the set being written) and
+/// named by where they are published (`args.out`).
+fn sweep(
+    args: &AccuracyOptions,
+    dir: &Path,
+    t_start: Instant,
+    scene_path: &Path,
+    scene: &Scene,
+) -> Result<AccuracyReport, BenchError> {
+    let scene_path = scene_path.to_path_buf();
+    let scene = scene.clone();
     let budget = args.budget_s;
     let elapsed = || t_start.elapsed().as_secs_f64();
     // The resolution axis first: all of the budget with
@@ -341,11 +388,11 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
             } else {
                 0.5 * budget
             };
-            let (out, threads) = (&args.out, args.threads);
+            let (out, threads) = (dir, args.threads);
             let axis =
                 resolution::run(&scene_path, &scene, out, threads, scales, t_start, deadline)?;
             if args.resolution_only {
-                return resolution_only_report(args, &scene_path, axis, elapsed());
+                return resolution_only_report(args, dir, &scene_path, axis, elapsed());
             }
             Some(axis)
         }
@@ -367,7 +414,7 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     } else {
         None
     };
-    let mut truths = Vec::new();
+    let mut truths: Vec<Truth> = Vec::new();
     match &obstacle {
         None => {
             for s in &scenes {
@@ -399,12 +446,17 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
                 (DIRECT_REFERENCE_SPP, ReferenceKind::DirectOnly),
             ];
             for (spp, kind) in kinds {
-                let (out, threads) = (&args.out, args.threads);
+                let (out, threads) = (dir, args.threads);
                 let truth =
                     reference_truth(&scene_path, &scene, &base_tracer, out, threads, spp, kind);
                 truths.push(truth?);
             }
         }
+    }
+    // The notes name a cached reference where the set is published.
+    let (staged, published) = (dir.display().to_string(), args.out.display().to_string());
+    for t in &mut truths {
+        t.note = t.note.replace(&staged, &published);
     }
     let truth_seconds: f64 = truths.iter().map(|t| t.seconds).sum();
     let mask_px = truths[0].mask.iter().filter(|&&m| m).count();
@@ -506,7 +558,7 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     let skipped = planned.saturating_sub(rows.len());
     // 4b. Mitsuba 3 side by side, with its own time (it never shortens
     //     gloam's rows).
-    let mitsuba3 = mitsuba_rows(args, &scene, obstacle.is_some(), &truths, &mut rows);
+    let mitsuba3 = mitsuba_rows(args, dir, &scene, obstacle.is_some(), &truths, &mut rows);
     // 5. The effect plan against every effect forced on.
     let effect_plan = if args.all_effects {
         Some(effect_plan_saving(&scenes[0], args.threads, &truths[0])?)
@@ -534,7 +586,7 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
             r.prepare_s
         );
     }
-    write_atomic(&csv_path, csv.as_bytes())?;
+    write_atomic(&dir.join("accuracy.csv"), csv.as_bytes())?;
 
     let ladder = |est: &str| -> Vec<&Row> {
         rows.iter()
@@ -602,7 +654,7 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
         })
     });
     let png_path = args.out.join("accuracy.png");
-    plot(&png_path, &scene_path, &rows)?;
+    plot(&dir.join("accuracy.png"), &scene_path, &rows)?;
 
     let md_path = args.out.join("summary.md");
     let summary = Summary {
@@ -660,13 +712,14 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     if let Some(a) = &axis {
         markdown.push_str(&resolution::markdown(a));
     }
-    write_atomic(&md_path, markdown.as_bytes())?;
+    write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
     Ok(AccuracyReport { summary, markdown })
 }
 
 /// The report of `--resolution-only`: the resolution axis alone.
 fn resolution_only_report(
     args: &AccuracyOptions,
+    dir: &Path,
     scene_path: &Path,
     axis: resolution::ResolutionAxis,
     elapsed_s: f64,
@@ -706,7 +759,7 @@ fn resolution_only_report(
         args.budget_s
     );
     markdown.push_str(&resolution::markdown(&axis));
-    write_atomic(&md_path, markdown.as_bytes())?;
+    write_atomic(&dir.join("summary.md"), markdown.as_bytes())?;
     Ok(AccuracyReport { summary, markdown })
 }
 
@@ -860,6 +913,7 @@ const MITSUBA: &str = "mitsuba3";
 /// returns its note or why it did not run.
 fn mitsuba_rows(
     args: &AccuracyOptions,
+    dir: &Path,
     scene: &Scene,
     referenced: bool,
     truths: &[Truth],
@@ -881,13 +935,7 @@ fn mitsuba_rows(
     let direct = referenced.then(|| truths.get(1)).flatten();
     let limit_s = (0.5 * args.budget_s).max(60.0);
     eprintln!("bench accuracy: Mitsuba 3 side by side (up to {limit_s:.0} s) …");
-    match mi::side_by_side(
-        scene,
-        &args.out.join("mitsuba3"),
-        &truths[0],
-        direct,
-        limit_s,
-    ) {
+    match mi::side_by_side(scene, &dir.join("mitsuba3"), &truths[0], direct, limit_s) {
         Ok(side) => {
             for r in &side.rungs {
                 let direct_only = r.max_depth == mi::DIRECT_ONLY_DEPTH;
@@ -1310,4 +1358,48 @@ fn plot(path: &Path, scene: &Path, rows: &[Row]) -> Result<(), BenchError> {
         path: path.to_path_buf(),
         why: e.to_string(),
     })
+}
+
+#[cfg(test)]
+mod set_tests {
+    use super::carry_cached_references;
+
+    /// Only the cached references move into the new set, byte for byte:
+    /// not the previous sweep's other files, not directories.
+    #[test]
+    fn the_cached_references_and_nothing_else_are_carried_over() {
+        let d = tempfile::tempdir().unwrap();
+        let (out, staged) = (d.path().join("out"), d.path().join("staged"));
+        std::fs::create_dir_all(out.join("reference-dir.json")).unwrap();
+        std::fs::create_dir(&staged).unwrap();
+        let files = [
+            ("reference.npy", "a"),
+            ("reference.json", "b"),
+            ("reference-direct.json", "c"),
+            ("reference-scale-0.5.npy", "d"),
+            ("accuracy.csv", "e"),
+            ("reference.txt", "f"),
+        ];
+        for (n, t) in files {
+            std::fs::write(out.join(n), t).unwrap();
+        }
+        carry_cached_references(&out, &staged).unwrap();
+        let mut got: Vec<(String, String)> = std::fs::read_dir(&staged)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                let n = e.file_name().into_string().unwrap();
+                (n, std::fs::read_to_string(e.path()).unwrap())
+            })
+            .collect();
+        got.sort();
+        let mut want: Vec<(String, String)> = files[..4]
+            .iter()
+            .map(|(n, t)| (n.to_string(), t.to_string()))
+            .collect();
+        want.sort();
+        assert_eq!(got, want);
+        // No previous set: nothing to carry.
+        carry_cached_references(&d.path().join("none"), &staged).unwrap();
+    }
 }

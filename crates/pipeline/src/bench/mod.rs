@@ -108,6 +108,9 @@ pub enum BenchError {
     ThreadPool(#[from] rayon::ThreadPoolBuildError),
     #[error("encoding a chunk: {0}")]
     Encode(String),
+    /// `--out`'s output set refused or not published.
+    #[error(transparent)]
+    OutputSet(#[from] crate::output_set::OutputSetError),
     /// A check the benchmark makes of its own results failed.
     #[error("{0}")]
     Check(&'static str),

@@ -108,9 +108,14 @@ pub struct AccuracyArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// Output directory: accuracy.csv, accuracy.png, summary.md, the
-    /// cached reference.
+    /// cached references, manifest.json — one output set, published whole.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace a previous gloam output set at `--out` whole (only a set whose
+    /// manifest.json lists every file there; never inputs, links or other
+    /// files). Its cached references are carried over and reused.
+    #[arg(long)]
+    pub force: bool,
     /// Total wall-time budget, seconds (the sweep stops cleanly when spent).
     #[arg(long, default_value_t = 120.0)]
     pub budget_s: f64,
@@ -174,6 +179,7 @@ impl AccuracyArgs {
             mitsuba: !self.no_mitsuba,
             resolution_scales,
             resolution_only: self.resolution_only,
+            force: self.force,
         })
     }
 }
