@@ -499,7 +499,7 @@ impl<'a> PoseCache<'a> {
         let scene = match self.job.sequence.moves.is_empty() {
             true => self.job.scene,
             false => {
-                moved = self.job.sequence.scene_at(self.job.scene, poses);
+                moved = self.job.sequence.scene_at_checked(self.job.scene, poses)?;
                 &moved
             }
         };

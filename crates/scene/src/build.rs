@@ -258,7 +258,7 @@ fn origin_of(objects: &[ObjectInfo], i: usize) -> (usize, usize, usize) {
 /// first in the file.
 /// The two facets on exactly the same vertices whose second index is
 /// least (`a < b`), if any: one sort of their vertex bit patterns.
-fn first_coincident_pair(facets: &[Facet]) -> Result<Option<(usize, usize)>, String> {
+pub(crate) fn first_coincident_pair(facets: &[Facet]) -> Result<Option<(usize, usize)>, String> {
     // Each facet's vertices as bit patterns (-0.0 as 0.0), sorted.
     type Key = ([[u64; 3]; 4], u8);
     let key = |f: &Facet| -> Key {

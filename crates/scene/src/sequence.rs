@@ -623,6 +623,46 @@ impl Sequence {
         self.moves.get(m).map_or(1, |mv| mv.lines.table)
     }
 
+    /// [`Sequence::scene_at`], refusing a pose that lays a moved facet
+    /// exactly on another (the same vertices): a ray cannot tell which it
+    /// hits, and light sampling would count both — the check a scene file
+    /// gets at load, here at each pose rendered.
+    pub fn scene_at_checked(&self, scene: &Scene, poses: &[Pose]) -> Result<Scene, SceneError> {
+        let out = self.scene_at(scene, poses);
+        let pair =
+            crate::build::first_coincident_pair(&out.facets).map_err(|m| SceneError::Invalid {
+                path: self.path.clone(),
+                line: self.moves.first().map_or(1, |m| m.lines.table),
+                column: 1,
+                field: "move".into(),
+                message: format!("{m}: out of memory checking the pose"),
+            })?;
+        let Some((a, b)) = pair else {
+            return Ok(out);
+        };
+        let (fa, fb) = (&out.facets[a], &out.facets[b]);
+        let m = self
+            .moves
+            .iter()
+            .position(|mv| mv.objects.contains(&fb.object) || mv.objects.contains(&fa.object))
+            .unwrap_or(0);
+        let pose = poses.get(m).copied().unwrap_or(Pose::IDENTITY);
+        Err(SceneError::Invalid {
+            path: self.path.clone(),
+            line: self.move_line(m),
+            column: 1,
+            field: format!("move[{m}]"),
+            message: format!(
+                "at its pose (translate {:?}, rotate_z_deg {}) a facet of [objects.{}] lies exactly on one of [objects.{}] (the same {} vertices): a ray cannot tell which it hits and light sampling would count both; change the keys so the bodies do not meet face to face",
+                pose.translate,
+                pose.rotate_z_deg,
+                fb.object,
+                fa.object,
+                fb.vertices.len()
+            ),
+        })
+    }
+
     /// `scene` with each move's tables at its pose in `poses` (one per
     /// move; [`Sequence::check_moves`] first). Facets and point sources
     /// are moved in place, so facet and source indices, light groups and
@@ -1021,6 +1061,32 @@ mod tests {
             }
         }
         assert_ne!(a.shared[0].placements, shared.shared[0].placements);
+    }
+
+    #[test]
+    fn a_pose_that_lays_a_body_on_another_is_refused() {
+        // The car's quad, moved by (10, 2, 0) at t = 3 s, lands exactly on
+        // a second quad put there.
+        let scene = crate::parse_str(
+            "units = \"m\"\n[camera]\nposition = [0, -10, 1]\nlook_at = [0, 0, 0]\nfov_deg = 60\nwidth = 4\nheight = 4\n[bands.v]\nlo_nm = 400\nhi_nm = 700\n[materials.m]\nreflectance = 0.5\n[objects.car]\nmaterial = \"m\"\nquad = { center = [1, 0, 0], size = [1, 1], normal = [0, 0, 1] }\n[objects.parked]\nmaterial = \"m\"\nquad = { center = [11, 2, 0], size = [1, 1], normal = [0, 0, 1] }\n[point_sources.heads]\nposition = [1, 0, 1]\nvalue = 1\n",
+            Path::new("s.toml"),
+        )
+        .unwrap();
+        let s = parse_sequence(
+            &MOVE.replace("[3, 10, 2, 0, 90]", "[3, 10, 2, 0, 0]"),
+            Path::new("seq.toml"),
+        )
+        .unwrap();
+        s.check_moves(&scene).unwrap();
+        // Half way it is clear; at the last key it is on the parked quad.
+        assert!(s.scene_at_checked(&scene, &s.poses_at(2.0)).is_ok());
+        let e = s.scene_at_checked(&scene, &s.poses_at(3.0)).unwrap_err();
+        assert_eq!((e.line(), e.field()), (4, "move[0]"), "{e}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("[objects.car]") && msg.contains("[objects.parked]"),
+            "{msg}"
+        );
     }
 
     #[test]
