@@ -520,6 +520,113 @@ fn per_unit(s: &Settled) -> Result<f64, String> {
     }
 }
 
+/// Widest trial render [`estimate`] makes, pixels: the pilot's grid (64 ×
+/// 48 camera rays) is its size.
+pub const ESTIMATE_WIDTH_PX: f64 = 64.0;
+
+/// Why [`estimate`] could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimateError {
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    #[error("--target-error camera: sensor '{sensor}'")]
+    Sensor {
+        sensor: String,
+        #[source]
+        source: gloam_sensor::ConfigError,
+    },
+}
+
+/// `gloam plan`'s estimate of a camera run before rendering: two trial
+/// renders of `scene` at the pilot's size (at most [`ESTIMATE_WIDTH_PX`]
+/// wide, the field of view kept) through `capture`'s camera with
+/// `settings` — one to the camera's noise (`K`, first round 2 spp unless
+/// `spp_fixed`), one to the 2 % default
+/// ([`crate::render::DEFAULT_TARGET_ERROR`], `spp` as the settings give
+/// it) — and what they predict for the full image: samples per pixel
+/// (per-pixel targets do not depend on the image size, to the extent a
+/// pixel's variance does not), rays and tracing time (scaled by the
+/// pixels). A smaller pixel averages less of the scene, so both
+/// predictions are low by the same cause; their ratio is the estimate.
+pub fn estimate(
+    scene: &gloam_scene::Scene,
+    settings: &gloam_trace::RenderSettings,
+    spp_fixed: bool,
+    capture: &crate::frames::FrameCapture<'_>,
+    k: f64,
+) -> Result<serde_json::Value, EstimateError> {
+    let (w, h) = (
+        f64::from(scene.camera.width),
+        f64::from(scene.camera.height),
+    );
+    let scale = settings.resolution_scale;
+    let full_px = ((w * scale).round().max(1.0)) * ((h * scale).round().max(1.0));
+    let mut trial = settings.clone();
+    trial.resolution_scale = scale * (ESTIMATE_WIDTH_PX / (w * scale)).min(1.0);
+    let run = |s: &gloam_trace::RenderSettings, goal_k: Option<f64>| {
+        let job = crate::render::RenderJob {
+            camera: Some(capture.sensor),
+            ..crate::render::RenderJob::new(scene, s)
+        };
+        let prepared = job.prepare()?;
+        match goal_k {
+            Some(k) => {
+                let goal = CameraGoal::new(&prepared, k, capture).map_err(|source| {
+                    EstimateError::Sensor {
+                        sensor: capture.sensor.to_string(),
+                        source,
+                    }
+                })?;
+                let r = prepared.render_to_goal(&goal, &|_, _| {}, &|| false)?;
+                let t = goal.report(&r);
+                Ok::<_, EstimateError>((r, t))
+            }
+            None => Ok((prepared.render(None, &|_, _| {}, &|| false)?, None)),
+        }
+    };
+    let mut cam = trial.clone();
+    cam.target_error = None;
+    if !spp_fixed {
+        cam.spp = 2;
+    }
+    let (c, target) = run(&cam, Some(k))?;
+    let mut rel = trial.clone();
+    rel.target_error = Some(crate::render::DEFAULT_TARGET_ERROR);
+    let (r, _) = run(&rel, None)?;
+    let side = |o: &crate::render::Rendered| {
+        let st = &o.radiance.stats;
+        let px = f64::from(st.width) * f64::from(st.height);
+        let per = full_px / px.max(1.0);
+        serde_json::json!({
+            "mean_spp": o.radiance.error.mean_spp,
+            "rays": st.rays.total() as f64 * per,
+            "trace_seconds": st.trace_seconds * per,
+        })
+    };
+    let (cs, rs) = (side(&c), side(&r));
+    let ratio = |key: &str| {
+        let (a, b) = (
+            cs[key].as_f64().unwrap_or(0.0),
+            rs[key].as_f64().unwrap_or(0.0),
+        );
+        if a > 0.0 { b / a } else { f64::NAN }
+    };
+    let st = &c.radiance.stats;
+    Ok(serde_json::json!({
+        "k": k,
+        "trial_width": st.width,
+        "trial_height": st.height,
+        "full_pixels": full_px,
+        "camera": cs,
+        "default_2_percent": rs,
+        "rays_saving": ratio("rays"),
+        "time_saving": ratio("trace_seconds"),
+        "gain": target.as_ref().map(|t| t["gain"].clone()),
+        "added_variance_fraction_p99": target.as_ref().map(|t| t["added_variance_fraction_p99"].clone()),
+        "method": "two trial renders at the pilot's size (field of view kept) through the camera, one to its noise and one to the 2 % default; spp as measured, rays and tracing time scaled by the full image's pixels",
+    }))
+}
+
 /// What `report.json`'s `camera_target` states: the chosen K, the gain the
 /// bounds were set at, and the render's variance as a fraction of the
 /// frame's temporal variance per pixel (median, 99th percentile, largest)
