@@ -151,8 +151,8 @@ fn plan_broken_scene_fails_with_file_and_line() {
 
 /// `gloam plan --target-error camera` states before rendering what a
 /// camera run costs against the 2 % default, from two trial renders at the
-/// pilot's size (64 pixels wide): they are the renders `gloam render`
-/// makes at that size (the independent answer), through the scene's own
+/// pilot's size (64 pixels wide, at most 64 spp): they are the renders
+/// `gloam render` makes at that size and cap (the independent answer), through the scene's own
 /// camera — the same samples per pixel, and rays scaled by the full image's
 /// pixels over the trial's.
 #[test]
@@ -184,6 +184,8 @@ fn plan_estimates_the_camera_target_against_the_default() {
             d,
             "--set",
             &scale,
+            "--set",
+            "max_spp=64",
             "--target-error",
             target,
         ]);

@@ -524,6 +524,13 @@ fn per_unit(s: &Settled) -> Result<f64, String> {
 /// 48 camera rays) is its size.
 pub const ESTIMATE_WIDTH_PX: f64 = 64.0;
 
+/// Most samples a pixel of [`estimate`]'s trial renders takes (the
+/// render's `max_spp` if lower): it bounds the estimate's cost (a town
+/// of lamps seen 64 pixels wide otherwise sampled its pixels to 1 024).
+/// Pixels that stop there are counted (`pixels_at_trial_cap`): where
+/// there are many, the estimate is a lower bound.
+pub const ESTIMATE_MAX_SPP: u32 = 64;
+
 /// Why [`estimate`] could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum EstimateError {
@@ -539,7 +546,7 @@ pub enum EstimateError {
 
 /// `gloam plan`'s estimate of a camera run before rendering: two trial
 /// renders of `scene` at the pilot's size (at most [`ESTIMATE_WIDTH_PX`]
-/// wide, the field of view kept) through `capture`'s camera with
+/// wide, the field of view kept; at most [`ESTIMATE_MAX_SPP`]) through `capture`'s camera with
 /// `settings` — one to the camera's noise (`K`, first round 2 spp unless
 /// `spp_fixed`), one to the 2 % default
 /// ([`crate::render::DEFAULT_TARGET_ERROR`], `spp` as the settings give
@@ -563,6 +570,7 @@ pub fn estimate(
     let full_px = ((w * scale).round().max(1.0)) * ((h * scale).round().max(1.0));
     let mut trial = settings.clone();
     trial.resolution_scale = scale * (ESTIMATE_WIDTH_PX / (w * scale)).min(1.0);
+    trial.max_spp = trial.max_spp.min(ESTIMATE_MAX_SPP);
     let run = |s: &gloam_trace::RenderSettings, goal_k: Option<f64>| {
         let job = crate::render::RenderJob {
             camera: Some(capture.sensor),
@@ -601,6 +609,7 @@ pub fn estimate(
             "mean_spp": o.radiance.error.mean_spp,
             "rays": st.rays.total() as f64 * per,
             "trace_seconds": st.trace_seconds * per,
+            "pixels_at_trial_cap": o.radiance.spp.iter().filter(|&&n| n >= ESTIMATE_MAX_SPP).count(),
         })
     };
     let (cs, rs) = (side(&c), side(&r));
@@ -616,6 +625,7 @@ pub fn estimate(
         "k": k,
         "trial_width": st.width,
         "trial_height": st.height,
+        "trial_max_spp": trial.max_spp,
         "full_pixels": full_px,
         "camera": cs,
         "default_2_percent": rs,
