@@ -2002,7 +2002,7 @@ const CASES: &[Case] = &[
     case!("scene: an OBJ face twice", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"m.obj\"\n", "m.obj" => "v 0 0 3\nv 1 0 3\nv 0 1 3\ng a\nf 1 2 3\ng b\nf 3 2 1\n"], ["render", "s.toml", "--out", "o"], ["s.toml:", "objects.m facet 1 lies exactly on objects.m facet 0"]),
     // --- round 3's own hostile round (issue 46): the newest features
     case!("render: --target-error camera with --no-noise", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--no-noise", "--target-error", "camera"], ["--target-error camera", "--no-noise"]),
-    case!("sequence: --target-error camera (ignored before)", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--target-error", "camera:0.5"], ["--target-error camera", "not for sequences"]),
+    case!("sequence: --target-error camera with --no-noise", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--no-noise", "--target-error", "camera:0.5"], ["--target-error camera", "--no-noise"]),
     case!("render: --target-error camera:K below 0.01", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--target-error", "camera:1e-300"], ["camera:1e-300", "[0.01, 1]"]),
     case!(
         "bench scale: a size given twice",

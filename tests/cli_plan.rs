@@ -148,3 +148,74 @@ fn plan_broken_scene_fails_with_file_and_line() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("nope.toml"));
 }
+
+/// `gloam plan --target-error camera` states before rendering what a
+/// camera run costs against the 2 % default, from two trial renders at the
+/// pilot's size (64 pixels wide, at most 64 spp): they are the renders
+/// `gloam render` makes at that size and cap (the independent answer), through the scene's own
+/// camera — the same samples per pixel, and rays scaled by the full image's
+/// pixels over the trial's.
+#[test]
+fn plan_estimates_the_camera_target_against_the_default() {
+    let scene = sim("night-new-moon");
+    let s = scene.to_str().unwrap();
+    let out = gloam(&["plan", s, "--json", "--target-error", "camera"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let e = &v["camera_target_estimate"];
+    assert_eq!(
+        (e["trial_width"].as_u64(), e["trial_height"].as_u64()),
+        (Some(64), Some(48))
+    );
+    assert_eq!(e["full_pixels"].as_f64(), Some(768.0 * 576.0));
+    let scale = format!("resolution_scale={}", 64.0 / 768.0);
+    let tmp = tempfile::tempdir().unwrap();
+    let render = |name: &str, target: &str| -> serde_json::Value {
+        let dir = tmp.path().join(name);
+        let d = dir.to_str().unwrap();
+        let r = gloam(&[
+            "render",
+            s,
+            "--out",
+            d,
+            "--set",
+            &scale,
+            "--set",
+            "max_spp=64",
+            "--target-error",
+            target,
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+    };
+    let (cam, rel) = (render("cam", "camera"), render("rel", "0.02"));
+    let per = 144.0; // (768 × 576) / (64 × 48)
+    assert_eq!(e["camera"]["mean_spp"], cam["camera_target"]["mean_spp"]);
+    assert_eq!(e["default_2_percent"]["mean_spp"], rel["error"]["mean_spp"]);
+    for (side, r) in [("camera", &cam), ("default_2_percent", &rel)] {
+        let rays = r["rays_total"].as_f64().unwrap();
+        assert_eq!(e[side]["rays"].as_f64().unwrap(), rays * per, "{side}");
+    }
+    let saving = e["rays_saving"].as_f64().unwrap();
+    assert!(saving > 1.0, "{saving}");
+    // The table prints the estimate on one line.
+    let out = gloam(&["plan", s, "--target-error", "camera:0.5"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("--target-error camera:0.5 through") && text.contains("at the 2 % default"),
+        "{text}"
+    );
+    // A relative error needs no estimate; a camera-only flag needs the target.
+    let out = gloam(&["plan", s, "--target-error", "0.02"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("camera target only"),
+        "{err}"
+    );
+    let out = gloam(&["plan", s, "--gain", "100"]);
+    assert!(!out.status.success());
+}

@@ -334,3 +334,98 @@ fn sequence_fits_frames_are_dated_by_the_scene_time() {
         assert_eq!(get("INSTRUME").1, "gen3-gaas-iccd");
     }
 }
+
+/// `--target-error camera` on a sequence bounds each pixel by the camera's
+/// noise at the brightest frame it sees. Here that frame is every frame
+/// after the switch (glow and lamp both at 1), whose image is the still
+/// render's: so the sequence's layers are sampled exactly as `gloam render
+/// --target-error camera` samples the still at the same gain (the
+/// independent answer) — the same samples per pixel, and layers that sum
+/// to the still's radiance. With the lamp at twice its intensity in the
+/// brightest frames the bound is tighter and more samples are taken.
+#[test]
+fn a_sequence_renders_to_the_camera_s_noise_at_each_pixel_s_brightest_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = files(dir.path(), SEQUENCE);
+    let out = dir.path().join("seq-out");
+    let run = ok(&[
+        "sequence",
+        &seq,
+        "--sensor",
+        "gen3-gaas-iccd",
+        "--gain",
+        "100",
+        "--target-error",
+        "camera",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("brightest frame"), "{stderr}");
+    let read = |p: &Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(p.join("report.json")).unwrap()).unwrap()
+    };
+    let report = read(&out);
+    let t = &report["camera_target"];
+    assert_eq!(t["k"], 0.3);
+    assert_eq!(t["gain"], 100.0);
+    assert_eq!(t["frames"], 60);
+    assert_eq!(
+        report["sequence"]["renders"]["poses"][0]["camera_target"],
+        *t
+    );
+    // Every pixel within its bound (none capped on this small scene).
+    let p99 = t["added_variance_fraction_p99"].as_f64().unwrap();
+    assert!(p99 <= 0.09 * (1.0 + 1e-9) && p99 > 0.0, "{p99}");
+
+    let still = dir.path().join("still");
+    ok(&[
+        "render",
+        &dir.path().join("scene.toml").display().to_string(),
+        "--sensor",
+        "gen3-gaas-iccd",
+        "--gain",
+        "100",
+        "--target-error",
+        "camera",
+        "--out",
+        &still.display().to_string(),
+    ]);
+    let s = read(&still);
+    let spp = t["mean_spp"].as_f64().unwrap();
+    assert_eq!(spp, s["camera_target"]["mean_spp"].as_f64().unwrap());
+    assert!(
+        spp > 2.0,
+        "the bound must ask for more than the first round: {spp}"
+    );
+    let layers: ndarray::Array4<f64> = ndarray_npy::read_npy(out.join("layers.npy")).unwrap();
+    let radiance: ndarray::Array3<f64> = ndarray_npy::read_npy(still.join("radiance.npy")).unwrap();
+    let sum = layers.sum_axis(ndarray::Axis(0));
+    let peak = radiance.iter().copied().fold(0.0, f64::max);
+    let worst = (&sum - &radiance)
+        .iter()
+        .map(|d| d.abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= 1e-12 * peak, "{worst} of {peak}");
+
+    // The lamp at twice its intensity after the switch: a brighter frame,
+    // a tighter bound where the lamp lights the road.
+    let brighter = SEQUENCE.replace("[1.21, 1]]", "[1.21, 2]]");
+    let seq2 = dir.path().join("seq2.toml");
+    std::fs::write(&seq2, brighter).unwrap();
+    let out2 = dir.path().join("seq2-out");
+    ok(&[
+        "sequence",
+        &seq2.display().to_string(),
+        "--sensor",
+        "gen3-gaas-iccd",
+        "--gain",
+        "100",
+        "--target-error",
+        "camera",
+        "--out",
+        &out2.display().to_string(),
+    ]);
+    let spp2 = read(&out2)["camera_target"]["mean_spp"].as_f64().unwrap();
+    assert!(spp2 > spp, "{spp2} vs {spp}");
+}

@@ -420,3 +420,67 @@ fn a_capture_sweep_scales_with_gain_and_a_dry_run_writes_the_array_job() {
     );
     assert!(!dry.join("tasks/00000").exists());
 }
+
+/// `target_error = "camera"` in a sweep renders as `gloam render
+/// --target-error camera` does at the same gain and seed: the same
+/// radiance and samples per pixel, bit for bit, and the same
+/// `camera_target` figures; two gains are two renders (the bound depends
+/// on the gain: their samples differ).
+#[test]
+fn a_camera_target_sweep_renders_as_the_cli_does() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = root().join("sims/night-new-moon-lamps/scene.toml");
+    let sweep = tmp.path().join("cam.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "[base]\nscene = {:?}\nsensor = \"gen3-gaas-iccd\"\nresolution_scale = 0.07\nseed = 3\nframes = 1\ntarget_error = \"camera\"\n[axes]\ngain = [100, 1000]\n",
+            scene.display().to_string()
+        ),
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    run_ok(gloam().arg("sweep").arg(&sweep).arg("--out").arg(&out));
+    let mut spp = Vec::new();
+    for (i, gain) in ["100", "1000"].iter().enumerate() {
+        let task = out.join(format!("tasks/{i:05}"));
+        let cli = tmp.path().join(format!("cli-{gain}"));
+        run_ok(
+            gloam()
+                .arg("render")
+                .arg(&scene)
+                .arg("--out")
+                .arg(&cli)
+                .args(["--set", "resolution_scale=0.07", "--seed", "3"])
+                .args(["--sensor", "gen3-gaas-iccd", "--gain", gain])
+                .args(["--target-error", "camera"]),
+        );
+        for f in ["radiance.npy", "spp.npy"] {
+            let a = std::fs::read(cli.join(f)).unwrap();
+            let b = std::fs::read(task.join(f)).unwrap();
+            assert!(a == b, "gain {gain}: {f} differs from gloam render's");
+        }
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(cli.join("report.json")).unwrap())
+                .unwrap();
+        let t: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(task.join("camera_target.json")).unwrap(),
+        )
+        .unwrap();
+        let want = &report["camera_target"];
+        for key in [
+            "k",
+            "gain",
+            "mean_spp",
+            "added_variance_fraction_median",
+            "added_variance_fraction_p99",
+        ] {
+            assert_eq!(t[key], want[key], "gain {gain}: {key}");
+        }
+        spp.push(t["mean_spp"].as_f64().unwrap());
+    }
+    // The task list names the gains in order; the results carry the figures.
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert!(csv.contains("camera_target_mean_spp"), "{csv}");
+    assert_ne!(spp[0], spp[1], "the gain changes the bound: {spp:?}");
+}

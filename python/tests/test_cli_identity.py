@@ -115,3 +115,28 @@ def test_grabber_frames_are_bit_identical_to_gloam_capture(gloam_bin, tmp_path):
         assert np.array_equal(f.pixels, read_png_u16(out / rec["file"]))
         assert f.meta["pixels_crc32c"] == rec["pixels_crc32c"]
         assert f.gain == rec["gain"]
+
+
+def test_camera_target_sweep_matches_render_target_error_camera(gloam_bin, repo, tmp_path):
+    # A sweep task with target_error = "camera" (issue 45) renders as
+    # `gloam render --target-error camera` at the same gain and seed:
+    # gloam.sweep goes through the sweep's one executor, so its radiance,
+    # samples and camera_target figures are the CLI's, bit for bit.
+    scene = repo / "sims/night-new-moon-lamps/scene.toml"
+    sweep = tmp_path / "cam.toml"
+    sweep.write_text(
+        f'[base]\nscene = "{scene}"\nsensor = "gen3-gaas-iccd"\nresolution_scale = 0.07\n'
+        'seed = 3\nframes = 1\ngain = 300\ntarget_error = "camera:0.5"\n')
+    s = gloam.sweep(sweep, tmp_path / "sw")
+    assert s.failed == [] and s.ran == 1
+    task = tmp_path / "sw" / "tasks" / "00000"
+    out = tmp_path / "cli"
+    run(gloam_bin, "render", scene, "--out", out, "--seed", "3", "--set", "resolution_scale=0.07",
+        "--sensor", "gen3-gaas-iccd", "--gain", "300", "--target-error", "camera:0.5", cwd=tmp_path)
+    for f in ["radiance.npy", "spp.npy"]:
+        assert (out / f).read_bytes() == (task / f).read_bytes(), f
+    cli = json.loads((out / "report.json").read_text())["camera_target"]
+    py = json.loads((task / "camera_target.json").read_text())
+    for key in ["k", "gain", "added_variance_fraction_median", "added_variance_fraction_p99", "mean_spp"]:
+        assert cli[key] == py[key], key
+    assert py["k"] == 0.5 and py["gain"] == 300

@@ -87,6 +87,7 @@ fn capture(
         settings: &l.settings,
         observer: super::progress::prep_spinner(),
         progress: &|d, t| bar.progress(d, t),
+        camera_k: None,
     };
     let captured = capture_scene_sequence(&job, &capture, dir, context)?;
     bar.finish();

@@ -33,16 +33,17 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let groups = scene.light_groups.groups.iter().map(|g| g.name.as_str());
     sequence.check_groups(groups)?;
     sequence.check_moves(&scene)?;
-    // A sequence mixes each pose's layers by group; the camera target
-    // bounds one still's pixels (render's --target-error camera). It was
-    // accepted here and did nothing.
-    if args.settings.camera_target().is_some() {
+    // `--target-error camera[:K]`: each pose's layers sampled until the
+    // render's error is under K of the camera's noise at the brightest
+    // frame each pixel sees (camera_goal.rs); its first round 2 spp.
+    let camera_k = args.settings.camera_target();
+    let (settings, _) = (args.settings).with_default_error(args.settings.settings()?, false);
+    let (camera, capture) = args.capture(&sequence, &scene, settings.seed)?;
+    if camera_k.is_some() && !capture.noise {
         anyhow::bail!(
-            "--target-error camera: not for sequences (a sequence mixes light-group layers, each rendered once); give --target-error E (a relative error) or --spp N"
+            "--target-error camera with --no-noise: frames without temporal noise hide no render error; give --target-error E (a relative error) or --spp N"
         );
     }
-    let settings = args.settings.settings()?;
-    let (camera, capture) = args.capture(&sequence, &scene, settings.seed)?;
 
     let bar = super::progress::TileBar::new();
     let job = SceneSequence {
@@ -51,6 +52,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         settings: &settings,
         observer: super::progress::prep_spinner(),
         progress: &|d, t| bar.progress(d, t),
+        camera_k,
     };
     let context = FrameContext {
         camera: Some(camera.to_string()),
@@ -133,12 +135,29 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         "sensor_capture": r.sensor_capture,
         "provenance": provenance,
     });
+    let mut report = report;
+    // Frame 0's pose's (each pose's own is under sequence.renders.poses).
+    let target = renders.poses.first().and_then(|p| p.camera_target.clone());
+    if let Some(t) = &target {
+        report["camera_target"] = t.clone();
+    }
     write_atomic(
         &dir.join("report.json"),
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     set.publish(&provenance, None)?;
 
+    if let (Some(k), Some(t)) = (camera_k, &target) {
+        let pct = |key: &str| 100.0 * t[key].as_f64().unwrap_or(f64::NAN);
+        eprintln!(
+            "--target-error camera:{k}: frame 0's pose rendered until, at each pixel's brightest frame, its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
+            100.0 * k * k,
+            t["gain"].as_f64().unwrap_or(f64::NAN),
+            pct("added_variance_fraction_median"),
+            pct("added_variance_fraction_p99"),
+            t["mean_spp"].as_f64().unwrap_or(f64::NAN),
+        );
+    }
     let gains = r.gain_over_time.iter().map(|g| g.1);
     let (lo, hi) = gains.fold((f64::INFINITY, 0.0f64), |(l, h), g| (l.min(g), h.max(g)));
     eprintln!(

@@ -468,6 +468,44 @@ impl PreparedRender {
         self.layers_of(groups, rows, progress, stop)
     }
 
+    /// The layers alone, all rows, sampled to a sequence's camera `goal`
+    /// ([`crate::camera_goal::CameraGoal::for_sequence`]), and the pose's
+    /// `camera_target` ([`crate::camera_goal::CameraGoal::report_layered`]).
+    pub fn render_layers_to_goal(
+        mut self,
+        goal: &crate::camera_goal::CameraGoal,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(Layers, Option<serde_json::Value>), RenderError> {
+        let (map, groups) = self.layers.take().ok_or(LayerError::NoGroups)?;
+        if !self.camera {
+            return Err(RenderError::Trace(TraceError::BadInput(
+                "--target-error camera needs a render with a camera (--sensor NAME or the scene's sensor)".into(),
+            )));
+        }
+        let t0 = std::time::Instant::now();
+        let (mut whole, outputs) = self
+            .tracer
+            .render_layered_to_goal(&map, goal, progress, stop)?;
+        let layers = self.layers_from(groups, outputs, t0.elapsed().as_secs_f64())?;
+        let last = whole.std_error.dim().0.saturating_sub(1);
+        let se = whole
+            .std_error
+            .index_axis(ndarray::Axis(0), last)
+            .to_owned();
+        let detected = take_detected_band(&mut whole)?;
+        let report = layers.detected.as_ref().and_then(|d| {
+            goal.report_layered(
+                &detected,
+                &se,
+                d,
+                whole.error.mean_spp,
+                whole.stats.trace_seconds,
+            )
+        });
+        Ok((layers, report))
+    }
+
     fn layers_of(
         &mut self,
         (map, groups): (LayerMap, Vec<gloam_scene::LightGroup>),

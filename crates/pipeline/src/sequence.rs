@@ -192,6 +192,10 @@ pub struct PoseRender {
     pub last_frame: u32,
     pub frames: u32,
     pub seconds: f64,
+    /// With `--target-error camera`: the pose's `camera_target`
+    /// ([`crate::camera_goal::CameraGoal::report_layered`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_target: Option<serde_json::Value>,
 }
 
 /// Captures `sequence` from the layers (`groups[i]`'s detected radiance,
@@ -250,6 +254,10 @@ pub struct SceneSequence<'a> {
     pub observer: Option<gloam_trace::PrepObserver>,
     /// Told of each render's tiles, `(done, total)`.
     pub progress: &'a (dyn Fn(u64, u64) + Sync),
+    /// `K` of `--target-error camera[:K]`: each pose's layers sampled to
+    /// the camera's noise at the brightest frame each pixel sees
+    /// ([`crate::camera_goal`]).
+    pub camera_k: Option<f64>,
 }
 
 /// What [`capture_scene_sequence`] made besides the frames.
@@ -286,7 +294,7 @@ pub fn capture_scene_sequence(
     let cam = &job.scene.camera;
     let scaled = |n: u32| ((f64::from(n) * job.settings.resolution_scale).round() as usize).max(1);
     let want = (scaled(cam.height), scaled(cam.width));
-    let mut cache = PoseCache::new(job, capture.sensor, groups.len(), want);
+    let mut cache = PoseCache::new(job, capture, groups.len(), want);
     let mut feed = |f: &Frame, weights: &[f64], img: &mut Array2<f64>| {
         let layers = cache.layers(f)?;
         check_layers(layers, weights.len())?;
@@ -339,7 +347,12 @@ impl Frame {
 /// frame to its last.
 struct PoseCache<'a> {
     job: &'a SceneSequence<'a>,
+    capture: &'a FrameCapture<'a>,
     camera: &'a str,
+    /// With `--target-error camera`: per pose, its frames' weightings.
+    mixes: Vec<crate::camera_goal::Mixes>,
+    /// The camera's level as frame 0's pose's goal decided it.
+    settled: Option<crate::camera_goal::Settled>,
     groups: usize,
     size: (usize, usize),
     /// Per frame, its pose's id; per id, its poses and frames.
@@ -364,13 +377,16 @@ struct PoseCache<'a> {
 impl<'a> PoseCache<'a> {
     fn new(
         job: &'a SceneSequence<'a>,
-        camera: &'a str,
+        capture: &'a FrameCapture<'a>,
         groups: usize,
         size: (usize, usize),
     ) -> Self {
         Self {
             job,
-            camera,
+            capture,
+            camera: capture.sensor,
+            mixes: Vec::new(),
+            settled: None,
             groups,
             size,
             ids: Vec::new(),
@@ -394,6 +410,10 @@ impl<'a> PoseCache<'a> {
             std::collections::HashMap::new();
         self.ids = Vec::with_capacity(seq.frames as usize);
         self.planned.clear();
+        self.mixes.clear();
+        let names: Vec<&str> = (self.job.scene.light_groups.groups.iter())
+            .map(|g| g.name.as_str())
+            .collect();
         for i in 0..seq.frames {
             let f = Frame {
                 index: i,
@@ -412,7 +432,15 @@ impl<'a> PoseCache<'a> {
                     last_frame: i,
                     frames: 0,
                     seconds: 0.0,
+                    camera_target: None,
                 });
+                if self.job.camera_k.is_some() {
+                    self.mixes.push(crate::camera_goal::Mixes::default());
+                }
+            }
+            if let Some(m) = self.mixes.get_mut(id) {
+                let t0 = f.start_s;
+                m.add(&seq.weights(names.iter().copied(), t0, t0 + window_s));
             }
             let p = &mut self.planned[id];
             p.last_frame = i;
@@ -464,7 +492,8 @@ impl<'a> PoseCache<'a> {
         if !self.live.contains_key(&id) {
             let poses = self.planned[id].poses.clone();
             let t0 = Instant::now();
-            let (layers, plan) = self.render(&poses)?;
+            let (layers, plan, target) = self.render(id, &poses)?;
+            self.planned[id].camera_target = target;
             let s = t0.elapsed().as_secs_f64();
             self.planned[id].seconds += s;
             self.seconds += s;
@@ -490,11 +519,21 @@ impl<'a> PoseCache<'a> {
         }
     }
 
-    /// The scene with its bodies at `poses`, rendered into layers.
+    /// The scene with its bodies at `poses` (pose `id`), rendered into
+    /// layers, and with `--target-error camera` its `camera_target`.
+    #[allow(clippy::type_complexity)]
     fn render(
-        &self,
+        &mut self,
+        id: usize,
         poses: &[gloam_scene::sequence::Pose],
-    ) -> Result<(crate::render::Layers, gloam_scene::plan::EffectPlan), SequenceError> {
+    ) -> Result<
+        (
+            crate::render::Layers,
+            gloam_scene::plan::EffectPlan,
+            Option<serde_json::Value>,
+        ),
+        SequenceError,
+    > {
         let moved;
         let scene = match self.job.sequence.moves.is_empty() {
             true => self.job.scene,
@@ -511,7 +550,26 @@ impl<'a> PoseCache<'a> {
         };
         let prepared = job.prepare()?;
         let plan = prepared.plan().clone();
-        Ok((prepared.render_layers(self.job.progress, &|| false)?, plan))
+        let Some(k) = self.job.camera_k else {
+            let layers = prepared.render_layers(self.job.progress, &|| false)?;
+            return Ok((layers, plan, None));
+        };
+        let config = sequence_config(self.job.sequence, self.capture)?;
+        let mixes = self.mixes.get(id).cloned().unwrap_or_default();
+        let goal = crate::camera_goal::CameraGoal::for_sequence(
+            &prepared,
+            k,
+            self.capture,
+            config,
+            mixes,
+            self.settled.clone(),
+        );
+        let (layers, target) =
+            prepared.render_layers_to_goal(&goal, self.job.progress, &|| false)?;
+        if self.settled.is_none() {
+            self.settled = goal.settled().cloned();
+        }
+        Ok((layers, plan, target))
     }
 
     fn summary(&self, frames: u32) -> PoseRenders {
@@ -523,6 +581,26 @@ impl<'a> PoseCache<'a> {
             poses: self.planned.clone(),
         }
     }
+}
+
+/// The sensor as a sequence runs it: at the sequence's frame rate, its
+/// exposure time each frame's window (clamped to the frame period), which
+/// frame 0's look needs before the capture; a frame rate the camera's
+/// video standard cannot carry is refused.
+fn sequence_config(
+    sequence: &Sequence,
+    capture: &FrameCapture<'_>,
+) -> Result<gloam_sensor::SensorConfig, SequenceError> {
+    let mut config = gloam_sensor::load_preset_or_file(capture.sensor)
+        .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
+            sensor: capture.sensor.to_string(),
+            source,
+        })
+        .map_err(CaptureError::from)?;
+    check_video_rate(sequence, capture.sensor, &config)?;
+    config.timing.frame_rate_hz = sequence.frame_rate_hz;
+    config.timing.exposure_s = config.timing.exposure_s.min(sequence.frame_period_s());
+    Ok(config)
 }
 
 /// Writes frame `f`'s image for its weights into the array given.
@@ -540,18 +618,7 @@ fn capture_with(
     context: FrameContext,
 ) -> Result<SequenceReport, SequenceError> {
     let names = || groups.iter().map(String::as_str);
-    // The sensor, loaded once: the camera runs at the sequence's frame
-    // rate, its exposure time each frame's window (clamped to the frame
-    // period), which frame 0's look below needs before the capture.
-    let mut config = gloam_sensor::load_preset_or_file(capture.sensor)
-        .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
-            sensor: capture.sensor.to_string(),
-            source,
-        })
-        .map_err(CaptureError::from)?;
-    check_video_rate(sequence, capture.sensor, &config)?;
-    config.timing.frame_rate_hz = sequence.frame_rate_hz;
-    config.timing.exposure_s = config.timing.exposure_s.min(sequence.frame_period_s());
+    let config = sequence_config(sequence, capture)?;
     let window_s = config.timing.exposure_s;
     let frame = |i: u32, count: bool| Frame {
         index: i,
@@ -947,6 +1014,7 @@ value = 1e-4
             settings: &settings,
             observer: None,
             progress: &|_, _| {},
+            camera_k: None,
         };
         capture_scene_sequence(&job, &quiet_capture(frames), dir, no_context())
     }

@@ -62,6 +62,8 @@ pub struct Rendered {
     full: (u32, u32),
     rows: Range<u32>,
     scene: PathBuf,
+    /// With `target_error = "camera[:K]"`: report.json's `camera_target`.
+    camera_target: Option<serde_json::Value>,
 }
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
@@ -81,7 +83,19 @@ fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
     let prepared = job.prepare()?;
     let full = prepared.image_size();
     let rows = task.tile().map(|t| t.rows(full.1)).transpose()?;
-    let r = prepared.render(rows, &|_, _| {}, &|| false)?;
+    // `target_error = "camera[:K]"`: the whole image sampled to the noise
+    // of the task's camera at its gain (as `gloam render --target-error
+    // camera`; the file's checks refused it without a sensor or a tile).
+    let (r, camera_target) = match (task.camera_target(), &sensor) {
+        (Some(k), Some(s)) => {
+            let goal =
+                gloam_pipeline::camera_goal::CameraGoal::new(&prepared, k, &capture_of(s, task))?;
+            let r = prepared.render_to_goal(&goal, &|_, _| {}, &|| false)?;
+            let target = goal.report(&r);
+            (r, target)
+        }
+        _ => (prepared.render(rows, &|_, _| {}, &|| false)?, None),
+    };
     let (out, detected, rows) = (r.radiance, r.detected, r.rows);
     Ok(Rendered {
         out,
@@ -89,7 +103,44 @@ fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
         full,
         rows,
         scene: sweep.resolve(&task.text("scene").unwrap_or_default()),
+        camera_target,
     })
+}
+
+/// A camera-target task's render (`radiance.npy`, `spp.npy`, as `gloam
+/// render` writes them) and its `camera_target.json` (report.json's
+/// `camera_target` without the tracing time: a task's files are
+/// deterministic).
+fn write_camera_target(
+    r: &Rendered,
+    target: &serde_json::Value,
+    out: &Path,
+) -> Result<(), TaskError> {
+    write_npy(&out.join("radiance.npy"), &r.out.radiance)?;
+    write_npy_u32(&out.join("spp.npy"), &r.out.spp)?;
+    let mut t = target.clone();
+    if let Some(o) = t.as_object_mut() {
+        o.remove("trace_seconds");
+    }
+    gloam_pipeline::output::write_atomic(
+        &out.join("camera_target.json"),
+        serde_json::to_string_pretty(&t)?.as_bytes(),
+    )?;
+    Ok(())
+}
+
+/// The capture of `task`'s frames through `sensor`.
+fn capture_of<'a>(sensor: &'a str, task: &Task) -> FrameCapture<'a> {
+    FrameCapture {
+        sensor,
+        frames: task.frames(),
+        gain: task.gain(),
+        agc: task.agc(),
+        noise: task.noise(),
+        seed: task.seed,
+        auto_exposure: None,
+        frame_format: Default::default(),
+    }
 }
 
 impl Executor for Pipeline {
@@ -114,7 +165,22 @@ impl Executor for Pipeline {
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
                     let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("render"))?;
-                    capture_detected(&sensor, task, d, out)
+                    let mut f = capture_detected(&sensor, task, d, out)?;
+                    // The camera target's figures (results.csv columns),
+                    // and the render it chose, as `gloam render` writes it.
+                    if let Some(t) = &r.camera_target {
+                        write_camera_target(r, t, out)?;
+                        for key in [
+                            "added_variance_fraction_median",
+                            "added_variance_fraction_p99",
+                            "mean_spp",
+                        ] {
+                            if let Some(v) = t[key].as_f64() {
+                                f.insert(format!("camera_target_{key}"), v);
+                            }
+                        }
+                    }
+                    Ok(f)
                 }
                 None => write_radiance(task, r, out),
             },
@@ -159,16 +225,7 @@ fn capture_detected(
     detected: &Array2<f64>,
     out: &Path,
 ) -> Result<Figures, TaskError> {
-    let capture = FrameCapture {
-        sensor,
-        frames: task.frames(),
-        gain: task.gain(),
-        agc: task.agc(),
-        noise: task.noise(),
-        seed: task.seed,
-        auto_exposure: None,
-        frame_format: Default::default(),
-    };
+    let capture = capture_of(sensor, task);
     let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
     let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);

@@ -452,6 +452,23 @@ pub enum ValueError {
     EmptyDottedName,
     #[error("{source} (a sweep key is one of {}, a render setting or a dotted scene key)", OWN_KEYS.join(", "))]
     UnknownKey { source: gloam_trace::SettingsError },
+    #[error("{0}")]
+    TargetError(String),
+}
+
+/// `target_error = "camera"` or `"camera:K"` (any case): `Some` with `K` or
+/// why it is not one; `None` for any other value (a relative error).
+pub fn camera_target(
+    text: &str,
+) -> Option<Result<f64, gloam_pipeline::camera_goal::BadTargetError>> {
+    use gloam_pipeline::camera_goal::TargetError;
+    if !text.trim().to_ascii_lowercase().starts_with("camera") {
+        return None;
+    }
+    Some(text.parse::<TargetError>().and_then(|t| match t {
+        TargetError::Camera { k } => Ok(k),
+        TargetError::Relative(_) => Err(gloam_pipeline::camera_goal::BadTargetError(text.into())),
+    }))
 }
 
 /// A `size` that is not `WxH` with each from 1 to 16384.
@@ -480,6 +497,14 @@ pub enum Conflict {
     GainAndAgc,
     #[error("gain and agc need a sensor")]
     GainWithoutSensor,
+    #[error(
+        "target_error = \"camera\" needs a sensor (the render is sampled to the camera's noise)"
+    )]
+    CameraTargetWithoutSensor,
+    #[error(
+        "target_error = \"camera\" with noise = false: frames without temporal noise hide no render error; give a relative target_error or spp"
+    )]
+    CameraTargetWithoutNoise,
 }
 
 /// An axis's values: a list of scalars, or `{ from, count[, step] }`.
@@ -607,6 +632,12 @@ fn check_value(key: &str, v: &toml::Value) -> Result<(), ValueError> {
         },
         "tile" => TileSpec::parse(&text).map(|_| ()).map_err(ValueError::Tile),
         "size" => parse_size(&text).map(|_| ()).map_err(ValueError::Size),
+        // `camera` / `camera:K`: the camera's own noise (as `gloam render
+        // --target-error camera[:K]`); a number is the render setting.
+        "target_error" if camera_target(&text).is_some() => camera_target(&text)
+            .into_iter()
+            .try_for_each(|r| r.map(|_| ()))
+            .map_err(|e| ValueError::TargetError(e.to_string())),
         k if k.contains('.') => {
             if k.split('.').any(str::is_empty) {
                 Err(ValueError::EmptyDottedName)
@@ -709,8 +740,15 @@ impl Task {
         self.values
             .iter()
             .filter(|(k, _)| !OWN_KEYS.contains(&k.as_str()) && !k.contains('.'))
+            .filter(|(k, _)| k.as_str() != "target_error" || self.camera_target().is_none())
             .map(|(k, v)| (k.clone(), scalar_text(v).unwrap_or_default()))
             .collect()
+    }
+
+    /// `K` of `target_error = "camera[:K]"` (checked when the file was
+    /// read), if the task has one.
+    pub fn camera_target(&self) -> Option<f64> {
+        camera_target(&self.text("target_error")?)?.ok()
     }
 
     /// The task's render settings, its seed the sweep's `seed`.
@@ -722,6 +760,11 @@ impl Task {
             s.set(&k, &v)?;
         }
         s.seed = self.user_seed();
+        // As `gloam render --target-error camera`: a first round of one
+        // sample per replicate unless `spp` is given.
+        if self.camera_target().is_some() && !self.values.contains_key("spp") {
+            s.spp = 2;
+        }
         Ok(s)
     }
 
@@ -767,6 +810,14 @@ impl Task {
         if !has("sensor") && (has("gain") || has("agc")) && self.flow() == Flow::Render {
             return Err(Conflict::GainWithoutSensor);
         }
+        if self.camera_target().is_some() {
+            if !has("sensor") {
+                return Err(Conflict::CameraTargetWithoutSensor);
+            }
+            if !self.noise() {
+                return Err(Conflict::CameraTargetWithoutNoise);
+            }
+        }
         Ok(())
     }
 
@@ -777,9 +828,14 @@ impl Task {
             return format!("task:{}", self.id);
         }
         let mut src = String::from("render\n");
+        // Sampled to the camera's noise, the render depends on the gain.
+        let camera_only: &[&str] = match self.camera_target() {
+            Some(_) => &["frames", "noise", "flow"],
+            None => &["gain", "frames", "agc", "noise", "flow"],
+        };
         for (k, v) in &self.values {
             // Camera-only keys do not change the radiance.
-            if ["gain", "frames", "agc", "noise", "flow"].contains(&k.as_str()) {
+            if camera_only.contains(&k.as_str()) {
                 continue;
             }
             src.push_str(&format!("{k}={}\n", scalar_text(v).unwrap_or_default()));
@@ -839,6 +895,59 @@ seed = { from = 7, count = 2 }
             let text =
                 format!("[base]\nscene = \"s.toml\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\n{ok}\n");
             assert!(parse(&text).is_ok(), "{ok}: {:?}", parse(&text).err());
+        }
+    }
+
+    /// `target_error = "camera[:K]"` is the camera target: K checked where
+    /// it stands, a sensor and noise required, and — the render depending
+    /// on the gain — gains no longer share a render; a number stays the
+    /// render setting.
+    #[test]
+    fn a_camera_target_is_checked_and_splits_renders_by_gain() {
+        let base = "[base]\nscene = \"s.toml\"\nsensor = \"gen3-gaas-iccd\"\n";
+        let s = parse(&format!(
+            "{base}target_error = \"camera:0.5\"\n[axes]\ngain = [20, 100, 500]\n"
+        ))
+        .unwrap();
+        assert_eq!(s.chunks.len(), 3);
+        let t = &s.tasks[0];
+        assert_eq!(t.camera_target(), Some(0.5));
+        assert!(t.setting_pairs().iter().all(|(k, _)| k != "target_error"));
+        assert_eq!(t.render_settings().unwrap().spp, 2);
+        assert_eq!(t.render_settings().unwrap().target_error, None);
+        // `spp` given stays; a relative target is the render setting.
+        let s = parse(&format!("{base}target_error = \"camera\"\nspp = 8\n")).unwrap();
+        assert_eq!(s.tasks[0].render_settings().unwrap().spp, 8);
+        let s = parse(&format!(
+            "{base}target_error = 0.05\n[axes]\ngain = [20, 100]\n"
+        ))
+        .unwrap();
+        assert_eq!((s.chunks.len(), s.tasks[0].camera_target()), (1, None));
+        assert_eq!(
+            s.tasks[0].render_settings().unwrap().target_error,
+            Some(0.05)
+        );
+        // Mistakes, located.
+        for (text, want) in [
+            (
+                format!("{base}\ntarget_error = \"camera:2\"\n"),
+                "t.toml:5: base.target_error: --target-error \"camera:2\"",
+            ),
+            (
+                format!("{base}[axes]\ntarget_error = [\"camera\", \"camera:x\"]\n"),
+                "axes.target_error[1]",
+            ),
+            (
+                "[base]\nscene = \"s.toml\"\ntarget_error = \"camera\"\n".to_string(),
+                "needs a sensor",
+            ),
+            (
+                format!("{base}target_error = \"camera\"\nnoise = false\n"),
+                "noise = false",
+            ),
+        ] {
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains(want), "{text}: {e}");
         }
     }
 

@@ -178,6 +178,32 @@ impl Tracer {
         progress: &(dyn Fn(u64, u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<(RenderOutput, Vec<RenderOutput>), LayerError> {
+        self.render_layered_goal(map, rows, progress, stop, None)
+    }
+
+    /// [`Tracer::render_layered`] of the whole image sampled to a
+    /// per-pixel `goal` (as [`Tracer::render_to_goal`]), which is given
+    /// each group's image too ([`crate::PixelGoal::bounds_layered`]): a
+    /// sequence's `--target-error camera`.
+    pub fn render_layered_to_goal(
+        &mut self,
+        map: &LayerMap,
+        goal: &dyn crate::PixelGoal,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(RenderOutput, Vec<RenderOutput>), LayerError> {
+        let rows = 0..self.image_size().1;
+        self.render_layered_goal(map, rows, progress, stop, Some(goal))
+    }
+
+    fn render_layered_goal(
+        &mut self,
+        map: &LayerMap,
+        rows: std::ops::Range<u32>,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        stop: &(dyn Fn() -> bool + Sync),
+        goal: Option<&dyn crate::PixelGoal>,
+    ) -> Result<(RenderOutput, Vec<RenderOutput>), LayerError> {
         map.check()?;
         self.check_layer_memory(map.groups, rows.len())?;
         if self.layers.as_ref() != Some(map) {
@@ -189,7 +215,7 @@ impl Tracer {
                 self.cache = Some(self.build_cache_split(size, map.groups));
             }
         }
-        Ok(self.render_split(rows, progress, stop, map.groups, None)?)
+        Ok(self.render_split(rows, progress, stop, map.groups, goal)?)
     }
 
     /// Refuses layers whose images and cache would not fit: per pixel and

@@ -179,6 +179,42 @@ pub struct PlanArgs {
     /// Render settings the plan is made for, KEY=VALUE (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// With `camera[:K]` and a camera (`--sensor` or the scene's): also
+    /// estimate, from two trial renders at the pilot's size, the samples,
+    /// rays and tracing time of `gloam render --target-error camera[:K]`
+    /// against the 2 % default (report: `camera_target_estimate`).
+    #[arg(long, value_name = "camera[:K]")]
+    pub target_error: Option<crate::camera_goal::TargetError>,
+    /// The camera of the estimate (preset or sensor TOML; default the
+    /// scene's `sensor`).
+    #[arg(long, value_name = "PRESET_OR_FILE", requires = "target_error")]
+    pub sensor: Option<String>,
+    /// The estimate's fixed tube gain (as `gloam render --gain`).
+    #[arg(long, conflicts_with_all = ["agc", "exposure"], requires = "target_error")]
+    pub gain: Option<f64>,
+    /// The estimate with the camera's AGC (as `gloam render --agc`).
+    #[arg(long, requires = "target_error")]
+    pub agc: bool,
+    /// `auto`: the estimate with automatic exposure (as `gloam render
+    /// --exposure auto`).
+    #[arg(long, value_name = "auto", value_parser = ["auto"], conflicts_with = "agc", requires = "target_error")]
+    pub exposure: Option<String>,
+}
+
+/// Why `gloam plan`'s estimate cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanArgError {
+    #[error(
+        "gloam plan --target-error {0}: the plan estimates the camera target only (`camera` or `camera:K`); a relative error needs no estimate"
+    )]
+    NotCamera(f64),
+    #[error(
+        "gloam plan --target-error camera needs a camera: --sensor NAME or a `sensor` entry in {}",
+        scene.display()
+    )]
+    NoCamera { scene: PathBuf },
+    #[error(transparent)]
+    Capture(#[from] crate::frames::CaptureOptionsError),
 }
 
 impl PlanArgs {
@@ -188,6 +224,36 @@ impl PlanArgs {
             tolerance: self.tolerance,
             ..Default::default()
         }
+    }
+
+    /// `K` and the camera's capture for `--target-error camera[:K]`, if
+    /// asked; refused with a relative error or without a camera.
+    pub fn camera_target<'a>(
+        &'a self,
+        scene: &'a Scene,
+    ) -> Result<Option<(f64, FrameCapture<'a>)>, PlanArgError> {
+        let k = match self.target_error {
+            None => return Ok(None),
+            Some(crate::camera_goal::TargetError::Relative(e)) => {
+                return Err(PlanArgError::NotCamera(e));
+            }
+            Some(crate::camera_goal::TargetError::Camera { k }) => k,
+        };
+        let sensor = camera_of(self.sensor.as_deref(), scene).ok_or(PlanArgError::NoCamera {
+            scene: self.scene.clone(),
+        })?;
+        let capture = FrameCapture {
+            sensor,
+            frames: 1,
+            gain: self.gain,
+            agc: self.agc,
+            noise: true,
+            seed: 0,
+            auto_exposure: self.exposure.as_ref().map(|_| ExposureTarget::default()),
+            frame_format: crate::FrameFormat::default(),
+        };
+        capture.check()?;
+        Ok(Some((k, capture)))
     }
 }
 

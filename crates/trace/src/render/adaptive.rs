@@ -70,6 +70,19 @@ pub trait PixelGoal: Sync {
     /// [`PixelGoal::band`] the render may keep, from that band's image
     /// so far (asked after each round); or why no bound can be set.
     fn bounds(&self, first_round: ndarray::ArrayView2<f64>) -> Result<Vec<f64>, String>;
+    /// In a layered render (light groups, `layers.rs`): the bounds on the
+    /// whole image's standard error from the whole image of the band and
+    /// each group's image of it (in the groups' order) — a sequence mixes
+    /// the groups with other weights in each frame. By default the
+    /// whole's [`PixelGoal::bounds`].
+    fn bounds_layered(
+        &self,
+        whole: ndarray::ArrayView2<f64>,
+        groups: &[ndarray::ArrayView2<f64>],
+    ) -> Result<Vec<f64>, String> {
+        let _ = groups;
+        self.bounds(whole)
+    }
 }
 
 /// The pixels' estimates, in row-major order over the region, with the
@@ -303,9 +316,32 @@ impl Tracer {
             .map(|(e, v)| e.mean(band) + v.as_ref().map_or(0.0, |v| v.bands[band]))
             .collect();
         let shape = (region.h as usize, region.w as usize);
-        let view = ndarray::ArrayView2::from_shape(shape, &image)
-            .map_err(|e| TraceError::BadInput(format!("per-pixel error goal: {e}")))?;
-        let bounds = goal.bounds(view).map_err(TraceError::BadInput)?;
+        let shaped = |v: &[f64]| {
+            ndarray::Array2::from_shape_vec(shape, v.to_vec())
+                .map_err(|e| TraceError::BadInput(format!("per-pixel error goal: {e}")))
+        };
+        let whole = shaped(&image)?;
+        let groups = s.ests.first().map_or(0, |e| e.groups);
+        let bounds = if groups == 0 {
+            goal.bounds(whole.view())
+        } else {
+            // Each group's image as `develop_layer` develops it: its part
+            // of the samples and of the emitters seen directly.
+            let layers = (0..groups)
+                .map(|g| {
+                    let img: Vec<f64> = (s.ests.iter().zip(&s.views))
+                        .map(|(e, v)| {
+                            let view = v.as_ref().and_then(|t| t.light.part(g));
+                            e.layer(g, band).0 + view.map_or(0.0, |p| self.wl.integrate(p)[band])
+                        })
+                        .collect();
+                    shaped(&img)
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let views: Vec<_> = layers.iter().map(|l| l.view()).collect();
+            goal.bounds_layered(whole.view(), &views)
+        }
+        .map_err(TraceError::BadInput)?;
         if bounds.len() != image.len() {
             return Err(TraceError::BadInput(format!(
                 "the per-pixel error goal gave {} bounds for {} pixels",
