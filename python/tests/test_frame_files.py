@@ -114,3 +114,30 @@ def test_capture_fits_frames_open_in_astropy_with_gain_in_electrons_per_dn(gloam
             assert h["INSTRUME"] == "sim:scientific-ccd"
             t = Time(h["DATE-OBS"], format="isot", scale="utc")
             assert before.unix - 0.01 <= t.unix <= after.unix + 0.01
+
+
+def test_sequence_fits_frames_open_in_astropy_dated_by_the_scene_time(gloam_bin, repo, tmp_path):
+    """`gloam sequence --frame-format fits`: astropy opens every frame and
+    verifies it; counts match frames.jsonl, GAIN is e-/DN, and DATE-OBS is
+    the scene's [sky] utc plus the frame's start in the sequence."""
+    seq = tmp_path / "seq.toml"
+    scene = (repo / SCENE).resolve().as_posix()
+    seq.write_text(f'scene = "{scene}"\nframe_rate_hz = 25\nframes = 3\n')
+    out = tmp_path / "seq-fits"
+    run(gloam_bin, "sequence", seq, "--out", out, "--spp", "1", "--seed", "5", "--set", "resolution_scale=0.25",
+        "--sensor", "gen3-gaas-iccd", "--gain", "30", "--frame-format", "fits", cwd=tmp_path)
+    records = jsonl(out / "frames.jsonl")
+    assert len(records) == 3
+    for i, rec in enumerate(records):
+        assert rec["file"] == f"frame-{i:06d}.fits"
+        with fits.open(out / rec["file"]) as hdul:
+            hdul.verify("exception")
+            h, data = hdul[0].header, hdul[0].data
+            assert data.dtype == np.uint16 and data.shape == (rec["height"], rec["width"])
+            assert float(data.mean()) == pytest.approx(rec["mean_dn"], rel=1e-12)
+            assert h["TUBEGAIN"] == rec["gain"] == 30.0
+            assert h["GAIN"] == rec["electrons_per_dn"]
+            assert h["INSTRUME"] == "gen3-gaas-iccd"
+            t = rec["sequence"]["time_s"]
+            assert t == pytest.approx(0.04 * i, abs=1e-12)
+            assert Time(h["DATE-OBS"], scale="utc").unix == pytest.approx(1761105600.0 + t, abs=1e-6)
