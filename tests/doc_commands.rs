@@ -484,3 +484,28 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
     }
     out
 }
+
+/// The README's set-up names the same Debian packages `.ci/run` installs.
+#[test]
+fn readme_set_up_lists_the_packages_ci_installs() {
+    let packages = |text: &str, after: &str| -> Vec<String> {
+        let start = text.find(after).unwrap_or_else(|| panic!("no `{after}`")) + after.len();
+        let mut out: Vec<String> = text[start..]
+            .replace("\\\n", " ")
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .split_whitespace()
+            .take_while(|w| !w.starts_with('>'))
+            .filter(|w| !w.starts_with('-'))
+            .map(str::to_string)
+            .collect();
+        out.sort();
+        out
+    };
+    let ci = std::fs::read_to_string(repo().join(".ci/run")).unwrap();
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let want = packages(&ci, "apt-get install -y -qq");
+    assert!(want.len() >= 10, "{want:?}");
+    assert_eq!(packages(&readme, "\napt-get install"), want);
+}
