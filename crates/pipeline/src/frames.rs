@@ -268,9 +268,7 @@ pub fn instrument_of_grabber(uri: &str, describe: &str) -> String {
 /// The time of `scene` (its `[sky] utc`), if it has one: the start of
 /// frame 0 of its simulated captures ([`FrameContext::scene_utc`]).
 pub fn scene_utc(scene: &gloam_scene::Scene) -> Option<gloam_sky::time::UtcInstant> {
-    // The loader has checked the text; one it could not read dates nothing.
-    let sky = scene.sky.as_ref()?;
-    gloam_sky::time::UtcInstant::parse_iso8601(&sky.utc).ok()
+    scene.sky.as_ref().map(|sky| sky.instant)
 }
 
 /// A sensor preset's name as it is, a sensor file's by its file name.

@@ -1890,7 +1890,7 @@ enum UtcError {
 
 /// Accepts `YYYY-MM-DDTHH:MM[:SS[.fff]]` with an optional `Z` or `+00:00`
 /// (or a space for `T`).
-fn iso8601_utc(s: &str) -> Result<(), UtcError> {
+fn iso8601_utc(s: &str) -> Result<gloam_sky::UtcInstant, UtcError> {
     let b = s.as_bytes();
     let digits = |r: std::ops::Range<usize>| {
         b.get(r.clone())
@@ -1929,12 +1929,10 @@ fn iso8601_utc(s: &str) -> Result<(), UtcError> {
     // The calendar (month lengths, leap years, ranges) is the sky crate's
     // parser's, the one the render uses: an impossible date fails here,
     // with the file and line, rather than at render time.
-    gloam_sky::UtcInstant::parse_iso8601(s)
-        .map(|_| ())
-        .map_err(|source| UtcError::Calendar {
-            text: text(),
-            source,
-        })
+    gloam_sky::UtcInstant::parse_iso8601(s).map_err(|source| UtcError::Calendar {
+        text: text(),
+        source,
+    })
 }
 
 fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {
@@ -1952,7 +1950,7 @@ fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {
             ));
         }
     };
-    iso8601_utc(&utc).map_err(|e| cx.err(&uf, e.to_string()))?;
+    let instant = iso8601_utc(&utc).map_err(|e| cx.err(&uf, e.to_string()))?;
     let lat = cx.finite(&field.key("latitude_deg"), s.latitude_deg)?;
     if !(-90.0..=90.0).contains(&lat) {
         return Err(cx.err(
@@ -1977,6 +1975,7 @@ fn sky(cx: &Ctx, field: &FieldPath, s: &RawSky) -> R<SkyConfig> {
     }
     Ok(SkyConfig {
         utc,
+        instant,
         latitude_deg: lat,
         longitude_deg: lon,
         height_m,

@@ -634,8 +634,12 @@ pub struct Band {
 /// sky crate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SkyConfig {
-    /// ISO-8601 date and time, UTC (e.g. `2024-03-14T22:30:00Z`).
+    /// ISO-8601 date and time, UTC (e.g. `2024-03-14T22:30:00Z`), as
+    /// written (reports quote it).
     pub utc: String,
+    /// The same instant, parsed once here (the tracer and the frames'
+    /// dates read this, never the text again).
+    pub instant: gloam_sky::UtcInstant,
     pub latitude_deg: f64,
     /// East positive.
     pub longitude_deg: f64,

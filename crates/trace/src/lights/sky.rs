@@ -68,8 +68,7 @@ pub(crate) fn build_sky(
         |what: &str, e: gloam_sky::SkyError| TraceError::BadInput(format!("[sky] {what}: {e}"));
     let (instant, site, conditions, cfg) = match &scene.sky {
         Some(s) => {
-            let instant =
-                gloam_sky::UtcInstant::parse_iso8601(&s.utc).map_err(|e| bad("utc", e))?;
+            let instant = s.instant;
             let site = gloam_sky::Site::new(s.latitude_deg, s.longitude_deg, s.height_m)
                 .map_err(|e| bad("site", e))?;
             let cloud = if s.overcast {
