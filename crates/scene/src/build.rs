@@ -12,8 +12,8 @@ use crate::error::{FieldPath, Locator, Seg};
 use crate::geometry::{box_faces, check_facet, quad_vertices};
 use crate::instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS, Placement,
-    SHARE_ABOVE_FACETS, SharedInstances, Xform, available_memory_bytes, check_budget,
-    count_obj_faces, facet_bytes, read_placements_csv,
+    SHARE_ABOVE_FACETS, SharedInstances, Xform, available_memory_bytes, bounds, box_corners,
+    check_budget, count_obj_faces, facet_bytes, read_placements_csv,
 };
 use crate::raw::*;
 use crate::{
@@ -1325,20 +1325,7 @@ fn check_shared(
     placements: &[Placement],
     prototype: &[Facet],
 ) -> R<()> {
-    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for v in prototype.iter().flat_map(|f| &f.vertices) {
-        lo = lo.min(*v);
-        hi = hi.max(*v);
-    }
-    let corners: Vec<DVec3> = (0..8)
-        .map(|k| {
-            DVec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            )
-        })
-        .collect();
+    let corners = box_corners(bounds(prototype));
     let has_quads = prototype.iter().any(|f| f.vertices.len() > 3);
     for pl in placements {
         let x = pl.xform;

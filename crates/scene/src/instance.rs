@@ -66,28 +66,39 @@ pub struct SharedInstances {
 impl SharedInstances {
     /// The prototype's bounding box, lower and upper corners.
     pub fn prototype_bounds(&self) -> (DVec3, DVec3) {
-        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        for v in self.prototype.iter().flat_map(|f| &f.vertices) {
-            lo = lo.min(*v);
-            hi = hi.max(*v);
-        }
-        (lo, hi)
+        bounds(&self.prototype)
     }
 
     /// The corners of the prototype's box under every placement (they
     /// bound every placed vertex): 8 per placement.
     pub fn placed_corners(&self) -> impl Iterator<Item = DVec3> + '_ {
-        let (lo, hi) = self.prototype_bounds();
-        self.placements.iter().flat_map(move |a| {
-            (0..8).map(move |k| {
-                a.transform_point3(DVec3::new(
-                    if k & 1 == 0 { lo.x } else { hi.x },
-                    if k & 2 == 0 { lo.y } else { hi.y },
-                    if k & 4 == 0 { lo.z } else { hi.z },
-                ))
-            })
-        })
+        let corners = box_corners(self.prototype_bounds());
+        self.placements
+            .iter()
+            .flat_map(move |a| corners.map(|c| a.transform_point3(c)))
     }
+}
+
+/// The bounding box of `facets`' vertices, lower and upper corners.
+pub(crate) fn bounds(facets: &[Facet]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for v in facets.iter().flat_map(|f| &f.vertices) {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    (lo, hi)
+}
+
+/// The 8 corners of the box `lo..hi` (the tracer boxes its placements
+/// with it too).
+pub fn box_corners((lo, hi): (DVec3, DVec3)) -> [DVec3; 8] {
+    std::array::from_fn(|k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
 }
 
 /// `p ↦ R_z(θ)·(p ∘ scale) + translate`: scale (per axis), then rotate

@@ -22,6 +22,7 @@ pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP};
 pub use instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS,
     PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory_bytes,
+    box_corners,
 };
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,

@@ -186,7 +186,7 @@ impl Geometry {
                 });
                 next_id += facets as u64;
                 boxes.push(PrimBox(padded_box(
-                    corners(lo, hi).map(|c| a.transform_point3(c)),
+                    gloam_scene::box_corners((lo, hi)).map(|c| a.transform_point3(c)),
                     self.extent,
                 )));
             }
@@ -288,79 +288,88 @@ impl Geometry {
     /// Closest hit along the unit direction `d` from `o` (centred
     /// coordinates) with `tmin < t < tmax`, ignoring facet `ignore`.
     pub fn intersect(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64, ignore: u32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let mut best_t = tmax;
-        let mut best_facet = u32::MAX;
-        let mut hit = obvhs::ray::RayHit::none();
-        bvh.ray_traverse(Self::f32_ray(o, d, tmax), &mut hit, |_, id| {
-            let tri = &self.tris[bvh.primitive_indices[id] as usize];
-            if tri.facet == ignore {
-                return f32::INFINITY;
-            }
-            let t = Self::intersect_tri(tri, o, d);
-            if t > tmin && t < best_t {
-                best_t = t;
-                best_facet = tri.facet;
-                (t * (1.0 + 1e-6)) as f32 + 1e-6
-            } else {
-                f32::INFINITY
-            }
-        });
-        self.intersect_shared(o, d, tmin, &mut best_t, &mut best_facet, ignore);
-        (best_facet != u32::MAX).then_some(Hit {
-            t: best_t,
-            facet: best_facet,
-        })
+        let mut best = Hit {
+            t: tmax,
+            facet: u32::MAX,
+        };
+        if let Some(bvh) = self.bvh.as_ref() {
+            let mut hit = obvhs::ray::RayHit::none();
+            bvh.ray_traverse(Self::f32_ray(o, d, tmax), &mut hit, |_, id| {
+                let tri = &self.tris[bvh.primitive_indices[id] as usize];
+                Self::closer(tri, tri.facet, (o, d), tmin, ignore, &mut best)
+            });
+        }
+        self.intersect_shared(o, d, tmin, ignore, &mut best);
+        (best.facet != u32::MAX).then_some(best)
+    }
+
+    /// One triangle's test for [`Geometry::intersect`] (`facet` its id,
+    /// the ray in the triangle's frame): takes the hit into `best` when it
+    /// is nearer, and returns the f32 distance the traversal may stop at.
+    #[inline]
+    fn closer(
+        tri: &Tri,
+        facet: u32,
+        (o, d): (DVec3, DVec3),
+        tmin: f64,
+        ignore: u32,
+        best: &mut Hit,
+    ) -> f32 {
+        if facet == ignore {
+            return f32::INFINITY;
+        }
+        let t = Self::intersect_tri(tri, o, d);
+        if t > tmin && t < best.t {
+            *best = Hit { t, facet };
+            (t * (1.0 + 1e-6)) as f32 + 1e-6
+        } else {
+            f32::INFINITY
+        }
     }
 
     /// The second level of [`Geometry::intersect`]: the placements whose
-    /// boxes the ray enters before `best_t`, each tested in its
+    /// boxes the ray enters before the best hit so far, each tested in its
     /// prototype's frame.
-    fn intersect_shared(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        best_t: &mut f64,
-        best_facet: &mut u32,
-        ignore: u32,
-    ) {
+    fn intersect_shared(&self, o: DVec3, d: DVec3, tmin: f64, ignore: u32, best: &mut Hit) {
         let Some(top) = self.top.as_ref() else {
             return;
         };
         let mut hit = obvhs::ray::RayHit::none();
-        top.ray_traverse(Self::f32_ray(o, d, *best_t), &mut hit, |_, id| {
-            let placed = &self.placed[top.primitive_indices[id] as usize];
-            let proto = &self.shared[placed.prototype as usize];
-            let (lo, ld) = (
-                placed.to_local.transform_point3(o),
-                placed.to_local.transform_vector3(d),
-            );
+        top.ray_traverse(Self::f32_ray(o, d, best.t), &mut hit, |_, id| {
+            let (placed, proto, local) = self.placement_ray(top, id, o, d);
+            let before = best.t;
             let mut local_hit = obvhs::ray::RayHit::none();
-            let before = *best_t;
-            proto
-                .bvh
-                .ray_traverse(Self::f32_ray(lo, ld, *best_t), &mut local_hit, |_, i| {
-                    let tri = &proto.tris[proto.bvh.primitive_indices[i] as usize];
-                    let facet = placed.first_id + tri.facet;
-                    if facet == ignore {
-                        return f32::INFINITY;
-                    }
-                    let t = Self::intersect_tri(tri, lo, ld);
-                    if t > tmin && t < *best_t {
-                        *best_t = t;
-                        *best_facet = facet;
-                        (t * (1.0 + 1e-6)) as f32 + 1e-6
-                    } else {
-                        f32::INFINITY
-                    }
-                });
-            if *best_t < before {
-                (*best_t * (1.0 + 1e-6)) as f32 + 1e-6
+            let ray = Self::f32_ray(local.0, local.1, best.t);
+            proto.bvh.ray_traverse(ray, &mut local_hit, |_, i| {
+                let tri = &proto.tris[proto.bvh.primitive_indices[i] as usize];
+                Self::closer(tri, placed.first_id + tri.facet, local, tmin, ignore, best)
+            });
+            if best.t < before {
+                (best.t * (1.0 + 1e-6)) as f32 + 1e-6
             } else {
                 f32::INFINITY
             }
         });
+    }
+
+    /// The placement the top-level BVH's primitive `id` names, its
+    /// prototype, and the ray `(o, d)` carried into the prototype's frame
+    /// (an affine map: the same t).
+    #[inline]
+    fn placement_ray(
+        &self,
+        top: &CwBvh,
+        id: usize,
+        o: DVec3,
+        d: DVec3,
+    ) -> (&Placed, &Prototype, (DVec3, DVec3)) {
+        let placed = &self.placed[top.primitive_indices[id] as usize];
+        let proto = &self.shared[placed.prototype as usize];
+        let local = (
+            placed.to_local.transform_point3(o),
+            placed.to_local.transform_vector3(d),
+        );
+        (placed, proto, local)
     }
 
     /// Shadow query from `o` along unit `d` over `tmin < t < tmax`, ignoring
@@ -375,55 +384,58 @@ impl Geometry {
         ignore: [u32; 2],
     ) -> Visibility {
         let mut through: Vec<u32> = Vec::new();
-        let Some(bvh) = self.bvh.as_ref() else {
-            return if self.blocked_by_shared(o, d, tmin, tmax, ignore, &mut through) {
-                Visibility::Blocked
-            } else {
-                through.sort_unstable();
-                Visibility::Clear(through)
-            };
-        };
+        let segment = (o, d, tmin, tmax);
         // `ray_traverse_miss` returns true when nothing was hit.
-        let miss = bvh.ray_traverse_miss(Self::f32_ray(o, d, tmax), |_, id| {
-            let tri = &self.tris[bvh.primitive_indices[id] as usize];
-            if tri.facet == ignore[0] || tri.facet == ignore[1] {
-                return f32::INFINITY;
-            }
-            let t = Self::intersect_tri(tri, o, d);
-            if !(t > tmin && t < tmax) {
-                return f32::INFINITY;
-            }
-            if self.transmissive[tri.facet as usize] {
-                if !through.contains(&tri.facet) {
-                    through.push(tri.facet);
-                }
-                f32::INFINITY
-            } else {
-                0.0
-            }
+        let flat_clear = self.bvh.as_ref().is_none_or(|bvh| {
+            bvh.ray_traverse_miss(Self::f32_ray(o, d, tmax), |_, id| {
+                let tri = &self.tris[bvh.primitive_indices[id] as usize];
+                let passes = self.transmissive[tri.facet as usize];
+                Self::blocks(tri, tri.facet, passes, segment, ignore, &mut through)
+            })
         });
-        if miss && self.blocked_by_shared(o, d, tmin, tmax, ignore, &mut through) {
+        if !flat_clear || self.blocked_by_shared(segment, ignore, &mut through) {
             return Visibility::Blocked;
         }
-        if miss {
-            through.sort_unstable();
-            Visibility::Clear(through)
+        through.sort_unstable();
+        Visibility::Clear(through)
+    }
+
+    /// One triangle's test for [`Geometry::visibility`] (`facet` its id,
+    /// `passes` whether it is transmissive, the segment in the triangle's
+    /// frame): 0 (stop: blocked) for an opaque hit on the segment, else
+    /// +∞, a transmissive hit added to `through` once.
+    #[inline]
+    fn blocks(
+        tri: &Tri,
+        facet: u32,
+        passes: bool,
+        (o, d, tmin, tmax): (DVec3, DVec3, f64, f64),
+        ignore: [u32; 2],
+        through: &mut Vec<u32>,
+    ) -> f32 {
+        if facet == ignore[0] || facet == ignore[1] {
+            return f32::INFINITY;
+        }
+        let t = Self::intersect_tri(tri, o, d);
+        if !(t > tmin && t < tmax) {
+            return f32::INFINITY;
+        }
+        if passes {
+            if !through.contains(&facet) {
+                through.push(facet);
+            }
+            f32::INFINITY
         } else {
-            Visibility::Blocked
+            0.0
         }
     }
-}
 
-impl Geometry {
     /// The second level of [`Geometry::visibility`]: whether an opaque
     /// shared facet lies on the segment (transmissive ones are added to
     /// `through`, once each).
     fn blocked_by_shared(
         &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
+        (o, d, tmin, tmax): (DVec3, DVec3, f64, f64),
         ignore: [u32; 2],
         through: &mut Vec<u32>,
     ) -> bool {
@@ -431,32 +443,14 @@ impl Geometry {
             return false;
         };
         !top.ray_traverse_miss(Self::f32_ray(o, d, tmax), |_, id| {
-            let placed = &self.placed[top.primitive_indices[id] as usize];
-            let proto = &self.shared[placed.prototype as usize];
-            let (lo, ld) = (
-                placed.to_local.transform_point3(o),
-                placed.to_local.transform_vector3(d),
-            );
+            let (placed, proto, (lo, ld)) = self.placement_ray(top, id, o, d);
+            let segment = (lo, ld, tmin, tmax);
             let clear = proto
                 .bvh
                 .ray_traverse_miss(Self::f32_ray(lo, ld, tmax), |_, i| {
                     let tri = &proto.tris[proto.bvh.primitive_indices[i] as usize];
                     let facet = placed.first_id + tri.facet;
-                    if facet == ignore[0] || facet == ignore[1] {
-                        return f32::INFINITY;
-                    }
-                    let t = Self::intersect_tri(tri, lo, ld);
-                    if !(t > tmin && t < tmax) {
-                        return f32::INFINITY;
-                    }
-                    if proto.transmissive {
-                        if !through.contains(&facet) {
-                            through.push(facet);
-                        }
-                        f32::INFINITY
-                    } else {
-                        0.0
-                    }
+                    Self::blocks(tri, facet, proto.transmissive, segment, ignore, through)
                 });
             if clear { f32::INFINITY } else { 0.0 }
         })
@@ -509,17 +503,6 @@ fn build(boxes: &[PrimBox]) -> CwBvh {
         BvhBuildParams::medium_build(),
         &mut std::time::Duration::default(),
     )
-}
-
-/// The 8 corners of the box `lo..hi`.
-fn corners(lo: DVec3, hi: DVec3) -> [DVec3; 8] {
-    std::array::from_fn(|k| {
-        DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        )
-    })
 }
 
 #[cfg(test)]
@@ -588,6 +571,52 @@ mod tests {
                 assert_eq!(h.map(|h| h.facet), Some(0));
             }
         }
+    }
+
+    #[test]
+    fn shared_placements_are_hit_without_any_flat_facet() {
+        // One quad, placed at z = 1 and (turned, scaled ×2) at z = 3: no
+        // flat facets at all (the first level has no BVH).
+        let g = Geometry::new(DVec3::ZERO, 10.0, &[], Vec::new()).with_shared(vec![SharedInput {
+            facets: vec![quad(0.0, 1.0)],
+            normals: vec![DVec3::Z],
+            placements: vec![
+                DAffine3::from_translation(DVec3::new(0.0, 0.0, 1.0)),
+                DAffine3::from_scale_rotation_translation(
+                    DVec3::splat(2.0),
+                    glam::DQuat::from_rotation_z(0.3),
+                    DVec3::new(0.0, 0.0, 3.0),
+                ),
+            ],
+            transmissive: false,
+            material: 0,
+        }]);
+        assert!(g.has_shared());
+        let o = DVec3::new(0.5, 0.5, 10.0);
+        let h = g
+            .intersect(o, -DVec3::Z, 0.0, f64::INFINITY, u32::MAX)
+            .unwrap();
+        // Ids follow the (zero) flat facets: placement 1's facet 0.
+        assert_eq!(h.facet, 1);
+        assert!((h.t - 7.0).abs() < 1e-12, "{}", h.t);
+        assert!((g.shared_normal(h.facet) - DVec3::Z).length() < 1e-12);
+        // Ignoring it, the ray goes on to placement 0 at z = 1.
+        let h0 = g.intersect(o, -DVec3::Z, 0.0, f64::INFINITY, 1).unwrap();
+        assert_eq!((h0.facet, (h0.t - 9.0).abs() < 1e-12), (0, true));
+        assert_eq!(
+            g.visibility(o, -DVec3::Z, 0.0, 8.0, [u32::MAX; 2]),
+            Visibility::Blocked
+        );
+        assert_eq!(
+            g.visibility(o, -DVec3::Z, 0.0, 6.0, [u32::MAX; 2]),
+            Visibility::Clear(Vec::new())
+        );
+        // Beside both placements' squares: a miss.
+        let beside = DVec3::new(2.5, 0.0, 10.0);
+        assert!(
+            g.intersect(beside, -DVec3::Z, 0.0, f64::INFINITY, u32::MAX)
+                .is_none()
+        );
     }
 
     #[test]
