@@ -169,7 +169,6 @@ impl Tracer {
         let requested = match s.indirect {
             _ if s.drop.interreflection => Indirect::Off,
             Indirect::Auto if s.diffuse_bounces > 0 => Indirect::Path,
-            Indirect::Auto | Indirect::Cache if shared => Indirect::Path,
             m => m,
         };
         let mut d = InterreflectionDecision::default();
@@ -202,13 +201,9 @@ impl Tracer {
         let share = d
             .estimated_share
             .unwrap_or(if shared && possible { 1.0 } else { 0.0 });
-        let method = interreflection_method(requested, share, tol, possible, s, &mut d);
-        if shared && method == Indirect::Path && s.indirect != Indirect::Path {
-            d.reason = format!(
-                "shared instances ({} placed facets) have no facets of their own for the radiosity cache: path tracing",
-                self.preparation.shared_facets
-            );
-        }
+        let shared_facets = shared.then_some(self.preparation.shared_facets);
+        let method =
+            interreflection_method(requested, share, tol, possible, shared_facets, s, &mut d);
         let mut diffuse_bounces = 0;
         if method == Indirect::Path {
             diffuse_bounces = s.diffuse_bounces;
@@ -390,15 +385,26 @@ impl Tracer {
 }
 
 /// The interreflection method for the `requested` one, given the pilot's
-/// `share` of the signal, with its reason in `d`.
+/// `share` of the signal, with its reason in `d`. With shared instances
+/// (`shared_facets` placed facets) the cache, which needs facets of its
+/// own for its texels, gives way to path tracing.
 fn interreflection_method(
     requested: Indirect,
     share: f64,
     tol: f64,
     possible: bool,
+    shared_facets: Option<u64>,
     s: &RenderSettings,
     d: &mut InterreflectionDecision,
 ) -> Indirect {
+    if let Some(n) = shared_facets
+        && (requested == Indirect::Cache || (requested == Indirect::Auto && share > tol))
+    {
+        d.reason = format!(
+            "shared instances ({n} placed facets) have no facets of their own for the radiosity cache: path tracing"
+        );
+        return Indirect::Path;
+    }
     match requested {
         Indirect::Auto if share > tol => {
             d.reason = format!(
