@@ -949,7 +949,7 @@ fn object(
     };
     let shared_before: u64 = scene_shared
         .iter()
-        .map(|s| s.prototype.len() as u64 * s.placements.len() as u64)
+        .map(SharedInstances::placed_facets)
         .sum();
     let bytes_each = facet_bytes(name);
     // Every size is checked before it is allocated: the facets this object

@@ -64,6 +64,11 @@ pub struct SharedInstances {
 }
 
 impl SharedInstances {
+    /// Facets it places: the prototype's, once per placement.
+    pub fn placed_facets(&self) -> u64 {
+        self.prototype.len() as u64 * self.placements.len() as u64
+    }
+
     /// The prototype's bounding box, lower and upper corners.
     pub fn prototype_bounds(&self) -> (DVec3, DVec3) {
         bounds(&self.prototype)

@@ -201,11 +201,7 @@ impl Scene {
             instances: self.objects.iter().map(|o| o.instances).sum(),
             prototype_facets: self.objects.iter().map(|o| o.prototype_facets).sum(),
             facets: self.facets.len(),
-            shared_facets: self
-                .shared
-                .iter()
-                .map(|s| s.prototype.len() as u64 * s.placements.len() as u64)
-                .sum(),
+            shared_facets: self.shared.iter().map(SharedInstances::placed_facets).sum(),
             point_source_prototypes: self.point_source_groups.len(),
             point_sources: self.point_sources.len(),
         }
