@@ -17,8 +17,8 @@ use crate::instance::{
 };
 use crate::raw::*;
 use crate::{
-    Band, Camera, Emission, Facet, Luminaire, Material, ObjectInfo, PointSource, PointSourceGroup,
-    Scene, SceneError, SkyConfig, Units, base_dir,
+    Band, Camera, DistantSource, Emission, Facet, Luminaire, Material, ObjectInfo, PointSource,
+    PointSourceGroup, Scene, SceneError, SkyConfig, Units, base_dir,
 };
 
 /// Support of a flat spectrum given as a plain number or `value`, nm.
@@ -183,10 +183,20 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         });
     }
 
-    let light_groups =
-        crate::groups::light_groups(&raw, &materials, &objects, &point_source_groups, &|f, m| {
-            cx.err(f, m)
-        })?;
+    let mut distant_sources = Vec::new();
+    let df = root.key("distant_sources");
+    for (name, d) in cx.ordered(&df, &raw.distant_sources) {
+        distant_sources.push(distant_source(&cx, &df.key(name), name, d)?);
+    }
+
+    let light_groups = crate::groups::light_groups(
+        &raw,
+        &materials,
+        &objects,
+        &point_source_groups,
+        &distant_sources,
+        &|f, m| cx.err(f, m),
+    )?;
 
     let camera = camera(&cx, &root.key("camera"), &raw.camera)?;
 
@@ -232,6 +242,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         shared,
         point_sources,
         point_source_groups,
+        distant_sources,
         light_groups,
         camera,
         bands,
@@ -330,6 +341,7 @@ enum Kind {
     Transmission,
     Radiance,
     Intensity,
+    Irradiance,
     Response,
 }
 
@@ -340,6 +352,7 @@ impl Kind {
         match self {
             Kind::Radiance => Some("W m⁻² sr⁻¹"),
             Kind::Intensity => Some("W sr⁻¹"),
+            Kind::Irradiance => Some("W m⁻²"),
             Kind::Reflectance | Kind::Transmission | Kind::Response => None,
         }
     }
@@ -350,6 +363,7 @@ impl Kind {
             Kind::Transmission => "transmission",
             Kind::Radiance => "radiance",
             Kind::Intensity => "intensity",
+            Kind::Irradiance => "irradiance",
             Kind::Response => "response",
         }
     }
@@ -470,7 +484,7 @@ fn spectrum_parts(cx: &Ctx, field: &FieldPath, p: Parts, kind: Kind) -> R<Spectr
             .normalized_to_band(n.lo_nm, n.hi_nm, n.value)
             .map_err(|e| cx.err(&f, e.to_string()))?;
     }
-    if matches!(kind, Kind::Radiance | Kind::Intensity) {
+    if matches!(kind, Kind::Radiance | Kind::Intensity | Kind::Irradiance) {
         // A source so bright that its band integrals (and the radiance they
         // feed) overflow to inf would give a silently wrong image.
         let peak = s
@@ -1546,6 +1560,38 @@ fn tilted(cx: &Ctx, field: &FieldPath, mut p: PointSource) -> R<PointSource> {
         .scaled(k)
         .map_err(|e| cx.err(&field.key("photometry"), format!("tilt factor {k}: {e}")))?;
     Ok(p)
+}
+
+/// A `[distant_sources.NAME]` table: its direction of travel, normalised,
+/// and its irradiance normal to the beam (parts as a point source's).
+fn distant_source(
+    cx: &Ctx,
+    field: &FieldPath,
+    name: &str,
+    d: &RawDistantSource,
+) -> R<DistantSource> {
+    let df = field.key("direction");
+    let direction = cx
+        .vec3(&df, d.direction)?
+        .try_normalize()
+        .ok_or_else(|| cx.err(&df, "direction is a zero vector"))?;
+    let irradiance = spectrum_parts(
+        cx,
+        field,
+        Parts {
+            spectrum: d.spectrum.as_deref(),
+            value: d.value,
+            lines: d.lines.as_deref(),
+            scale: d.scale,
+            normalize: d.normalize.as_ref(),
+        },
+        Kind::Irradiance,
+    )?;
+    Ok(DistantSource {
+        name: name.to_string(),
+        direction,
+        irradiance_w_m2_nm: irradiance,
+    })
 }
 
 fn point_source_prototype(

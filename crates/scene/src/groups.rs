@@ -3,10 +3,11 @@
 //! split by group sums to the whole; the groups only name the split.
 //!
 //! Default granularity: one group per *source table* — each
-//! `[point_sources.NAME]` (all its placements) and each `[objects.NAME]`
+//! `[point_sources.NAME]` (all its placements), each
+//! `[distant_sources.NAME]`, and each `[objects.NAME]`
 //! whose material emits (all its placements and facets) — because that is
 //! what a scene author switches as one thing (a row of lamps written as one
-//! instanced table is one circuit). `group = "NAME"` on a point source,
+//! instanced table is one circuit). `group = "NAME"` on a point or distant source,
 //! an emissive object or an emissive material merges sources into a named
 //! group (an object's own key wins over its material's). A scene with a
 //! `[sky]` also has the groups `moon` (the direct beam) and `sky` (the
@@ -16,7 +17,7 @@ use std::collections::BTreeMap;
 
 use crate::error::FieldPath;
 use crate::raw::RawScene;
-use crate::{Material, ObjectInfo, PointSourceGroup, SceneError};
+use crate::{DistantSource, Material, ObjectInfo, PointSourceGroup, SceneError};
 
 /// The moon's group name (the direct lunar beam).
 pub const MOON_GROUP: &str = "moon";
@@ -34,13 +35,16 @@ pub struct LightGroup {
 /// The scene's light groups and each source's group index.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightGroups {
-    /// In order of first appearance: objects, point sources, moon, sky.
+    /// In order of first appearance: objects, point sources, distant
+    /// sources, moon, sky.
     pub groups: Vec<LightGroup>,
     /// Per [`crate::Scene::objects`] entry: its group, `None` when its
     /// material does not emit.
     pub object: Vec<Option<usize>>,
     /// Per [`crate::Scene::point_source_groups`] entry (table).
     pub point_table: Vec<usize>,
+    /// Per [`crate::Scene::distant_sources`] entry.
+    pub distant: Vec<usize>,
     /// The moon's and the sky dome's groups (with a `[sky]`).
     pub moon: Option<usize>,
     pub sky: Option<usize>,
@@ -82,6 +86,7 @@ pub(crate) fn light_groups(
     materials: &[Material],
     objects: &[ObjectInfo],
     point_tables: &[PointSourceGroup],
+    distant: &[DistantSource],
     err: &dyn Fn(&FieldPath, String) -> SceneError,
 ) -> Result<LightGroups, SceneError> {
     let root = FieldPath::root();
@@ -132,6 +137,15 @@ pub(crate) fn light_groups(
         check_name(&name).map_err(|m| err(&field, m.to_string()))?;
         let i = out.index(&name, format!("point_sources.{}", t.name));
         out.point_table.push(i);
+    }
+    for d in distant {
+        let name = &d.name;
+        let field = root.key("distant_sources").key(name);
+        let own = raw.distant_sources.get(name).and_then(|r| r.group.clone());
+        let group = named(field.key("group"), &own)?.unwrap_or_else(|| name.clone());
+        check_name(&group).map_err(|m| err(&field, m.to_string()))?;
+        let i = out.index(&group, format!("distant_sources.{name}"));
+        out.distant.push(i);
     }
     if raw.sky.is_some() {
         out.moon = Some(out.index(MOON_GROUP, "sky.moon".into()));

@@ -94,6 +94,8 @@ pub struct Scene {
     /// The `[point_sources.NAME]` tables in file order, each with the range
     /// of [`Scene::point_sources`] it produced.
     pub point_source_groups: Vec<PointSourceGroup>,
+    /// The `[distant_sources.NAME]` tables in file order.
+    pub distant_sources: Vec<DistantSource>,
     /// Light groups (`--layers`) and each source table's group.
     pub light_groups: LightGroups,
     pub camera: Camera,
@@ -508,6 +510,19 @@ impl PointSource {
     pub fn is_shaped(&self) -> bool {
         self.shape_exponent > 0.0 || self.luminaire.is_some()
     }
+}
+
+/// A distant (directional) source: parallel light from infinitely far
+/// away, as a collimator or a sun gives it — `E(λ)` on a surface facing
+/// the beam, `E(λ) cos θ` on one turned by θ, wherever it stands.
+#[derive(Clone, Debug)]
+pub struct DistantSource {
+    pub name: String,
+    /// Unit vector: the way the light travels (the source lies along
+    /// `−direction`).
+    pub direction: DVec3,
+    /// Irradiance normal to the beam, W m⁻² nm⁻¹ (lines in W m⁻²).
+    pub irradiance_w_m2_nm: Spectrum,
 }
 
 /// A point source's measured intensity distribution in the scene: the

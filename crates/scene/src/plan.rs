@@ -17,6 +17,7 @@ pub mod names {
     pub const AREA_SOURCES: &str = "area-sources";
     pub const SHAPED_POINT_SOURCES: &str = "shaped-point-sources";
     pub const POINT_SOURCES: &str = "point-sources";
+    pub const DISTANT_SOURCES: &str = "distant-sources";
     pub const TRANSMISSIVE_OCCLUDERS: &str = "transmissive-occluders";
     pub const SPECULAR_RECURSION: &str = "specular-recursion";
     pub const INTERREFLECTION: &str = "interreflection";
@@ -303,6 +304,22 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 count(n_iso, "isotropic point source", "isotropic point sources"),
                 list(&iso)
             ),
+        )
+    });
+
+    let distant: Vec<&str> = scene
+        .distant_sources
+        .iter()
+        .map(|d| d.name.as_str())
+        .collect();
+    effects.push(if distant.is_empty() {
+        Effect::new(names::DISTANT_SOURCES, false, "no distant sources")
+    } else {
+        let what = count(distant.len(), "distant source", "distant sources");
+        Effect::new(
+            names::DISTANT_SOURCES,
+            true,
+            format!("{what} ({})", list(&distant)),
         )
     });
 

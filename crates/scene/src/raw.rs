@@ -35,6 +35,8 @@ pub(crate) struct RawScene {
     pub objects: BTreeMap<String, RawObject>,
     #[serde(default)]
     pub point_sources: BTreeMap<String, RawPointSource>,
+    #[serde(default)]
+    pub distant_sources: BTreeMap<String, RawDistantSource>,
     pub sky: Option<RawSky>,
     pub sensor: Option<String>,
 }
@@ -169,6 +171,21 @@ pub(crate) struct RawPointSource {
     pub photometry: Option<String>,
     /// The luminaire's C0 axis (projected perpendicular to `direction`).
     pub c0_direction: Option<V3>,
+    /// Light group (see `groups.rs`).
+    pub group: Option<String>,
+}
+
+/// A distant (directional) source: parallel light along `direction`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawDistantSource {
+    /// The way the light travels.
+    pub direction: V3,
+    pub spectrum: Option<String>,
+    pub value: Option<f64>,
+    pub lines: Option<RawLines>,
+    pub scale: Option<f64>,
+    pub normalize: Option<RawNormalize>,
     /// Light group (see `groups.rs`).
     pub group: Option<String>,
 }

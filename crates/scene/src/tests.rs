@@ -1081,6 +1081,7 @@ fn plan_outdoor_scene() {
             names::AREA_SOURCES,
             names::SHAPED_POINT_SOURCES,
             names::POINT_SOURCES,
+            names::DISTANT_SOURCES,
             names::TRANSMISSIVE_OCCLUDERS,
             names::SPECULAR_RECURSION,
             names::INTERREFLECTION,
@@ -1166,10 +1167,10 @@ fn plan_is_extensible() {
             Effect::new("mcp-gain", true, "ICCD has an MCP"),
         ],
     );
-    assert_eq!(p.effects.len(), 12);
-    assert_eq!(p.effects[10].name, "sensor");
-    assert_eq!(p.effects[10].reason, "ICCD preset");
-    assert_eq!(p.effects[11].name, "mcp-gain");
+    assert_eq!(p.effects.len(), 13);
+    assert_eq!(p.effects[11].name, "sensor");
+    assert_eq!(p.effects[11].reason, "ICCD preset");
+    assert_eq!(p.effects[12].name, "mcp-gain");
     assert_eq!(p.enabled(), ["sensor", "mcp-gain"]);
     let table = p.to_string();
     assert!(
@@ -1189,7 +1190,13 @@ fn documented_example_parses_and_enables_every_effect() {
     let text = &body[open..open + close];
     let s = parse(text).unwrap_or_else(|e| panic!("{e}"));
     let p = plan(&s);
-    for e in &p.effects {
+    // Every effect but distant sources (parallel light has no place on
+    // a night street; its own section shows one).
+    for e in p
+        .effects
+        .iter()
+        .filter(|e| e.name != names::DISTANT_SOURCES)
+    {
         assert!(e.enabled, "{}: {}", e.name, e.reason);
     }
     assert!(p.get("area-sources").unwrap().reason.contains("sign m = 1"));

@@ -61,6 +61,8 @@ pub struct LayerMap {
     area_by_facet: Vec<(u32, usize)>,
     /// Per point source (placements expanded).
     point: Vec<usize>,
+    /// Per distant source.
+    distant: Vec<usize>,
     moon: Option<usize>,
     sky: Option<usize>,
 }
@@ -109,6 +111,7 @@ impl LayerMap {
             groups: lg.groups.len(),
             area_by_facet,
             point,
+            distant: lg.distant.clone(),
             moon: lg.moon,
             sky: lg.sky,
         }
@@ -255,6 +258,9 @@ impl crate::tracer::World {
         }
         for (i, p) in self.points.iter_mut().enumerate() {
             p.group = map.point.get(i).copied();
+        }
+        for (i, d) in self.distant.iter_mut().enumerate() {
+            d.group = map.distant.get(i).copied();
         }
         if let Some(sky) = self.sky.as_mut() {
             sky.moon_group = map.moon;

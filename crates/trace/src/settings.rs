@@ -36,6 +36,8 @@
 
 use serde::Serialize;
 
+use crate::lights::Term;
+
 /// Most camera samples per pixel (`spp`): 65 536 already takes a
 /// 32 × 24 image past an hour on a laptop.
 pub const MAX_SPP: u32 = 65536;
@@ -161,48 +163,60 @@ impl Default for Dirsig2001Settings {
 
 /// Effects a render leaves out on purpose (`--set drop=a,b`): the plan's
 /// decisions are checked by dropping each kept effect and measuring the
-/// change (`gloam bench plan`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+/// change (`gloam bench plan`). The light terms are kept by [`Term`], so a
+/// new term is droppable by its name without a field here.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Dropped {
-    pub area_sources: bool,
-    pub point_sources: bool,
-    pub shaped_point_sources: bool,
-    pub moon: bool,
-    pub night_sky: bool,
+    /// Per light term, by its number.
+    lights: [bool; Term::COUNT],
     pub direct_view: bool,
     pub specular_recursion: bool,
     pub transmissive_occluders: bool,
     pub interreflection: bool,
 }
 
+/// The effects `drop` knows besides the light terms, in JSON order.
+const OTHER_EFFECTS: [(&str, &str); 4] = [
+    ("direct-view", "direct_view"),
+    ("specular-recursion", "specular_recursion"),
+    ("transmissive-occluders", "transmissive_occluders"),
+    ("interreflection", "interreflection"),
+];
+
 impl Dropped {
-    /// The effect names `drop` accepts (the effect plan's names).
-    pub const NAMES: &'static [&'static str] = &[
-        "area-sources",
-        "point-sources",
-        "shaped-point-sources",
-        "moon",
-        "night-sky",
-        "direct-view",
-        "specular-recursion",
-        "transmissive-occluders",
-        "interreflection",
-    ];
+    /// The effect names `drop` accepts (the effect plan's names): the
+    /// light terms, then the others.
+    pub const NAMES: [&'static str; Term::COUNT + OTHER_EFFECTS.len()] = {
+        let mut names = [""; Term::COUNT + OTHER_EFFECTS.len()];
+        let mut i = 0;
+        while i < names.len() {
+            names[i] = if i < Term::COUNT {
+                Term::ALL[i].name()
+            } else {
+                OTHER_EFFECTS[i - Term::COUNT].0
+            };
+            i += 1;
+        }
+        names
+    };
 
     /// The flag for effect `name`, if `drop` knows it.
     fn flag(&mut self, name: &str) -> Option<&mut bool> {
+        if let Some(t) = Term::by_name(name) {
+            return Some(&mut self.lights[t as usize]);
+        }
         Some(match name {
-            "area-sources" => &mut self.area_sources,
-            "point-sources" => &mut self.point_sources,
-            "shaped-point-sources" => &mut self.shaped_point_sources,
-            "moon" => &mut self.moon,
-            "night-sky" => &mut self.night_sky,
             "direct-view" => &mut self.direct_view,
             "specular-recursion" => &mut self.specular_recursion,
             "transmissive-occluders" => &mut self.transmissive_occluders,
             "interreflection" => &mut self.interreflection,
             _ => return None,
         })
+    }
+
+    /// Whether light term `t` is left out.
+    pub(crate) fn light(&self, t: Term) -> bool {
+        self.lights[t as usize]
     }
 
     /// Parses `a,b,c` (or `none`).
@@ -252,6 +266,27 @@ impl Dropped {
         } else {
             v.join(",")
         }
+    }
+}
+
+/// As before terms were data: one boolean per effect name, in snake case.
+impl Serialize for Dropped {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("Dropped", Self::NAMES.len())?;
+        for t in Term::ALL {
+            st.serialize_field(t.key(), &self.light(t))?;
+        }
+        let others = [
+            self.direct_view,
+            self.specular_recursion,
+            self.transmissive_occluders,
+            self.interreflection,
+        ];
+        for ((_, key), v) in OTHER_EFFECTS.iter().zip(others) {
+            st.serialize_field(key, &v)?;
+        }
+        st.end()
     }
 }
 
@@ -613,12 +648,37 @@ mod tests {
     fn drop_parses_plan_names_and_refuses_others() {
         let mut s = RenderSettings::default();
         s.set("drop", "moon, specular_recursion").unwrap();
-        assert!(s.drop.moon && s.drop.specular_recursion && !s.drop.night_sky);
+        assert!(s.drop.has("moon") && s.drop.specular_recursion && !s.drop.has("night-sky"));
+        assert!(s.drop.light(Term::Moon) && !s.drop.light(Term::NightSky));
         assert_eq!(s.drop.names(), "moon,specular-recursion");
-        let e = s.set("drop", "moon,sun").unwrap_err();
-        assert!(e.to_string().contains("`sun`"), "{e}");
+        let e = s.set("drop", "moon,saturn").unwrap_err();
+        assert!(e.to_string().contains("`saturn`"), "{e}");
         s.set("drop", "none").unwrap();
         assert_eq!(s.drop, Dropped::default());
+    }
+
+    /// Every name `drop` knows round-trips, the refusal lists exactly
+    /// them, and the JSON keeps one boolean per effect in snake case (the
+    /// shape `report.json` had when the terms were fields).
+    #[test]
+    fn drop_names_message_and_json_agree() {
+        let e = Dropped::parse("nothing-like-it").unwrap_err().to_string();
+        let listed = e.split("effect names: ").nth(1).unwrap();
+        let listed: Vec<&str> = listed.trim_end_matches(" (or none))").split(", ").collect();
+        assert_eq!(listed, Dropped::NAMES, "{e}");
+        for name in Dropped::NAMES {
+            let d = Dropped::parse(name).unwrap();
+            assert_eq!(d.names(), name);
+            let json = serde_json::to_value(d).unwrap();
+            let obj = json.as_object().unwrap();
+            assert_eq!(obj.len(), Dropped::NAMES.len());
+            let set: Vec<&String> = obj
+                .iter()
+                .filter(|(_, v)| v.as_bool() == Some(true))
+                .map(|(k, _)| k)
+                .collect();
+            assert_eq!(set, [&name.replace('-', "_")]);
+        }
     }
 
     #[test]

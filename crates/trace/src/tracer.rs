@@ -330,6 +330,7 @@ impl Tracer {
             area_sources(scene, settings, &wl, origin, &facet_verts, &facet_normal);
 
         let points = point_lights(scene, &wl, origin);
+        let distant = crate::lights::distant_lights(scene, &wl);
         let light_tree =
             build_light_tree(&area, &points, &wl, settings, scene.meters_per_unit, extent);
 
@@ -363,6 +364,7 @@ impl Tracer {
             mats,
             area,
             points,
+            distant,
             camera,
             ones,
             sky,
@@ -624,7 +626,7 @@ impl Tracer {
     /// other random number with the full one; the rest go to `out`
     /// (buffer 0), or the smooth ones to [`Smooth::Apart`]'s (buffer 1).
     fn route(&self, term: Term, smooth: &Smooth<'_>) -> Route {
-        let (dropped, skipped) = (term.flag(&self.settings.drop), term.flag(&self.skip));
+        let (dropped, skipped) = (self.settings.drop.light(term), self.skip.light(term));
         let smooth_term = term.is_smooth();
         if skipped
             || (dropped && !term.draws_random())
@@ -653,8 +655,9 @@ impl Tracer {
         ignore: u32,
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
-    ) -> [Vec<f64>; 5] {
-        let mut parts: [Light; 5] = std::array::from_fn(|_| Light::dark(self.wl.len(), 0));
+    ) -> [Vec<f64>; Term::COUNT] {
+        let mut parts: [Light; Term::COUNT] =
+            std::array::from_fn(|_| Light::dark(self.wl.len(), 0));
         let routes = Term::ALL.map(|t| Route::To(t as usize));
         let mut bufs: Vec<&mut Light> = parts.iter_mut().collect();
         self.direct_light(p, n, ignore, 1, usize::MAX, None, routes, rng, c, &mut bufs);

@@ -37,6 +37,8 @@ pub struct World {
     pub(crate) mats: Vec<MatSpec>,
     pub(crate) area: Vec<AreaSource>,
     pub(crate) points: Vec<PointLight>,
+    /// Distant sources (`lights/distant.rs`).
+    pub(crate) distant: Vec<crate::lights::DistantLight>,
     /// Camera in centred coordinates.
     pub(crate) camera: gloam_scene::Camera,
     pub(crate) ones: Vec<f64>,

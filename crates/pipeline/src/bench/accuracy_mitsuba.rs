@@ -63,6 +63,12 @@ pub fn obstacle(scene: &Scene) -> Option<String> {
     if !scene.point_sources.is_empty() {
         return Some("point sources (Mitsuba has no cos^m point emitter)".into());
     }
+    if let Some(d) = scene.distant_sources.first() {
+        return Some(format!(
+            "distant sources (distant_sources.{}: this export writes area emitters only)",
+            d.name
+        ));
+    }
     if scene.sky.is_some() {
         return Some("a [sky] (moon and night-sky models are gloam's own)".into());
     }

@@ -26,6 +26,7 @@
 //! samples' strata.
 
 mod area;
+mod distant;
 mod point;
 mod sampler;
 mod sky;
@@ -35,13 +36,14 @@ use glam::DVec3;
 use rand_pcg::Pcg64Mcg;
 
 pub(crate) use area::{AreaSource, area_footprints, area_sources};
+pub(crate) use distant::{DistantLight, distant_lights};
 pub(crate) use point::{PointLight, point_lights};
 use sampler::LightSampler;
 pub use sky::SkyProbeResult;
 pub(crate) use sky::{SkyState, build_sky};
 
 use crate::light::Light;
-use crate::settings::{Dropped, Estimator, RenderSettings};
+use crate::settings::{Estimator, RenderSettings};
 use crate::spectral::Wavelengths;
 use crate::tracer::{RayCounts, Tracer, mix64};
 
@@ -108,7 +110,7 @@ impl Tracer {
         tree_repeats: u32,
         branches: usize,
         strata: Option<LightStrata>,
-        routes: [Route; 5],
+        routes: [Route; Term::COUNT],
         rng: &mut Pcg64Mcg,
         c: &mut RayCounts,
         bufs: &mut [&mut Light],
@@ -132,19 +134,20 @@ impl Tracer {
         let repeats = tree_repeats.max(1);
         let w = 1.0 / repeats as f64;
         for _ in 0..repeats {
-            // The tree picks area and point sources: their three terms.
-            let mut parts: [Light; 3] = std::array::from_fn(|_| bufs[0].dark_like());
+            // A part per term the tree picked (area and point sources).
+            let mut parts: [Option<Light>; Term::COUNT] = Default::default();
             for (light, pw) in sampler.pick(p, n, branches, rng) {
                 let k = light.term() as usize;
                 if !matches!(routes[k], Route::Skip) {
-                    light.irradiance(self, p, n, ignore, pw, strata, rng, c, &mut parts[k]);
+                    let part = parts[k].get_or_insert_with(|| bufs[0].dark_like());
+                    light.irradiance(self, p, n, ignore, pw, strata, rng, c, part);
                 }
             }
-            // w = 1 for one selection: x · 1 is x exactly. A skipped term's
-            // part is all +0 and is not added: the sums here start at +0
-            // and only grow by `+=`, so they never hold −0, and x + 0 = x.
+            // w = 1 for one selection: x · 1 is x exactly. A term with no
+            // pick adds nothing: the sums here start at +0 and only grow by
+            // `+=`, so they never hold −0, and x + 0 = x.
             for (part, route) in parts.iter().zip(routes) {
-                if let Route::To(i) = route {
+                if let (Some(part), Route::To(i)) = (part, route) {
                     bufs[i].add_each(part, |o, x| {
                         o.iter_mut().zip(x).for_each(|(o, x)| *o += w * x)
                     });
@@ -154,9 +157,12 @@ impl Tracer {
     }
 }
 
-/// The five light terms the effect plan knows and `drop` names; a
-/// term's number is its place in [`Tracer::direct_light`]'s `routes` and
-/// in the pilot's `irradiance_parts`.
+/// The light terms the effect plan knows and `drop` names; a term's
+/// number is its place in [`Tracer::direct_light`]'s `routes`, in the
+/// pilot's `irradiance_parts` and in [`crate::plan::TermShares`]. A new
+/// term is an arm here and in each `match` below (the compiler lists
+/// them); everything keyed by term — routes, `drop`, the pilot's parts,
+/// the plan's shares and their JSON — follows from [`Term::ALL`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Term {
     /// Area sources (`area-sources`).
@@ -169,17 +175,67 @@ pub(crate) enum Term {
     Moon = 3,
     /// The sky dome (`night-sky`).
     NightSky = 4,
+    /// Distant (directional) sources (`distant-sources`).
+    Distant = 5,
 }
 
 impl Term {
+    /// How many terms there are.
+    pub(crate) const COUNT: usize = 6;
+
     /// In order of their numbers.
-    pub(crate) const ALL: [Term; 5] = [
+    pub(crate) const ALL: [Term; Term::COUNT] = [
         Term::Area,
         Term::Point,
         Term::ShapedPoint,
         Term::Moon,
         Term::NightSky,
+        Term::Distant,
     ];
+
+    /// Its effect name: the effect plan's, `drop`'s and the pilot's.
+    pub(crate) const fn name(self) -> &'static str {
+        use gloam_scene::plan::names;
+        match self {
+            Term::Area => names::AREA_SOURCES,
+            Term::Point => names::POINT_SOURCES,
+            Term::ShapedPoint => names::SHAPED_POINT_SOURCES,
+            Term::Moon => names::MOON,
+            Term::NightSky => names::NIGHT_SKY,
+            Term::Distant => names::DISTANT_SOURCES,
+        }
+    }
+
+    /// Its key in JSON (the plan's `parts`, the settings' `drop`): the
+    /// name in snake case.
+    pub(crate) const fn key(self) -> &'static str {
+        match self {
+            Term::Area => "area_sources",
+            Term::Point => "point_sources",
+            Term::ShapedPoint => "shaped_point_sources",
+            Term::Moon => "moon",
+            Term::NightSky => "night_sky",
+            Term::Distant => "distant_sources",
+        }
+    }
+
+    /// The term with effect name `name`.
+    pub(crate) fn by_name(name: &str) -> Option<Term> {
+        Term::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// Whether the prepared scene has a light under this term (the plan
+    /// leaves out only terms a scene has).
+    pub(crate) fn present(self, t: &Tracer) -> bool {
+        match self {
+            Term::Area => !t.area.is_empty(),
+            Term::Point => t.points.iter().any(|l| !l.is_shaped()),
+            Term::ShapedPoint => t.points.iter().any(|l| l.is_shaped()),
+            Term::Moon => t.sky.as_ref().is_some_and(|s| s.moon_dir.is_some()),
+            Term::NightSky => t.sky.as_ref().is_some_and(|s| s.dome),
+            Term::Distant => !t.distant.is_empty(),
+        }
+    }
 
     /// Whether its estimate draws random numbers: then a dropped term is
     /// still computed, into a scratch buffer, so the render shares every
@@ -187,23 +243,18 @@ impl Term {
     /// not noise: `gloam bench plan`); a dropped term that draws none is
     /// not computed at all.
     pub(crate) fn draws_random(self) -> bool {
-        matches!(self, Term::Area | Term::NightSky)
+        match self {
+            Term::Area | Term::NightSky => true,
+            Term::Point | Term::ShapedPoint | Term::Moon | Term::Distant => false,
+        }
     }
 
     /// A smooth term: extended emitters, with no pools or shadow edges
     /// sharper than a cache texel (`tracer::Smooth`).
     pub(crate) fn is_smooth(self) -> bool {
-        matches!(self, Term::Area | Term::NightSky)
-    }
-
-    /// Its flag in a `drop` (or the plan's skip) list.
-    pub(crate) fn flag(self, d: &Dropped) -> bool {
         match self {
-            Term::Area => d.area_sources,
-            Term::Point => d.point_sources,
-            Term::ShapedPoint => d.shaped_point_sources,
-            Term::Moon => d.moon,
-            Term::NightSky => d.night_sky,
+            Term::Area | Term::NightSky => true,
+            Term::Point | Term::ShapedPoint | Term::Moon | Term::Distant => false,
         }
     }
 }
@@ -231,6 +282,8 @@ pub(crate) enum LightSource<'a> {
     Area(AreaSet<'a>),
     /// The Moon's beam: a directional source, one shadow ray.
     Moon(&'a SkyState),
+    /// A distant source: one shadow ray.
+    Distant(&'a DistantLight),
     /// The sky dome: `sky_samples` cosine-weighted shadow rays.
     Dome(&'a SkyState),
 }
@@ -255,6 +308,7 @@ impl LightSource<'_> {
             LightSource::Area(_) => Term::Area,
             LightSource::Moon(_) => Term::Moon,
             LightSource::Dome(_) => Term::NightSky,
+            LightSource::Distant(_) => Term::Distant,
         }
     }
 
@@ -286,6 +340,7 @@ impl LightSource<'_> {
             }
             LightSource::Moon(sky) => t.moon_irradiance(sky, p, n, ignore, c, out),
             LightSource::Dome(sky) => t.dome_irradiance(sky, p, n, ignore, rng, c, out),
+            LightSource::Distant(l) => t.distant_irradiance(l, p, n, ignore, c, out),
         }
     }
 }

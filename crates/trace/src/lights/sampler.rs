@@ -38,7 +38,8 @@ impl<'a> LightSampler<'a> {
     /// The lights every shading point evaluates, each with weight 1, in
     /// the order their random numbers are drawn: the point sources (none
     /// with a tree: it picks them), the Moon and the sky dome (with a
-    /// sky), the area sources (unless the tree picks them).
+    /// sky), the distant sources, the area sources (unless the tree picks
+    /// them).
     pub(crate) fn every(&self) -> impl Iterator<Item = (LightSource<'a>, f64)> + use<'a> {
         let t = self.tracer;
         let points: &'a [super::PointLight] = if self.tree.is_some() { &[] } else { &t.points };
@@ -48,6 +49,7 @@ impl<'a> LightSampler<'a> {
         (points.iter().map(LightSource::Point))
             .chain(sky.map(LightSource::Moon))
             .chain(sky.map(LightSource::Dome))
+            .chain(t.distant.iter().map(LightSource::Distant))
             .chain((!area_in_tree && !area_empty).then_some(LightSource::Area(AreaSet::Every)))
             .map(|l| (l, 1.0))
     }

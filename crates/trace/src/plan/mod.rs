@@ -35,6 +35,7 @@ use gloam_scene::plan::{EffectPlan, names};
 use serde::Serialize;
 
 use crate::indirect::{CacheSize, CacheSummary};
+use crate::lights::Term;
 use crate::settings::{Indirect, RenderSettings};
 use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
 
@@ -95,11 +96,9 @@ struct Pilot {
 /// interreflection pixel set.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct PartShares {
-    pub area_sources: f64,
-    pub point_sources: f64,
-    pub shaped_point_sources: f64,
-    pub moon: f64,
-    pub night_sky: f64,
+    /// Each light term's share (in JSON, one key per term).
+    #[serde(flatten)]
+    pub terms: TermShares,
     /// Emitters seen directly, share of the whole image's signal.
     pub direct_view: f64,
     /// Specular recursion: the change of the signal over the pilot's
@@ -131,14 +130,32 @@ pub struct PartShares {
     pub signal_seen: bool,
 }
 
-/// A value per light term.
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct TermShares {
-    pub area_sources: f64,
-    pub point_sources: f64,
-    pub shaped_point_sources: f64,
-    pub moon: f64,
-    pub night_sky: f64,
+/// A value per light term, by [`Term`]; in JSON one key per term
+/// (`area_sources`, …).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TermShares([f64; Term::COUNT]);
+
+impl TermShares {
+    /// Light term `t`'s value.
+    pub(crate) fn get(&self, t: Term) -> f64 {
+        self.0[t as usize]
+    }
+
+    /// Values by term number.
+    pub(crate) fn from_fn(f: impl FnMut(usize) -> f64) -> Self {
+        Self(std::array::from_fn(f))
+    }
+}
+
+impl Serialize for TermShares {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(Term::COUNT))?;
+        for t in Term::ALL {
+            m.serialize_entry(t.key(), &self.get(t))?;
+        }
+        m.end()
+    }
 }
 
 /// What the pilot decided (see the module docs): the interreflection
@@ -174,7 +191,7 @@ impl Tracer {
         let mut d = InterreflectionDecision::default();
         let mut skip = crate::settings::Dropped::default();
         let possible = self.mats.iter().any(|m| m.has_diffuse)
-            && (!self.area.is_empty() || !self.points.is_empty() || self.sky.is_some());
+            && (Term::ALL.iter().any(|t| t.present(self)) || self.sky.is_some());
         let pilot =
             (possible && !shared && (requested == Indirect::Auto || s.diffuse_bounces == 0))
                 .then(|| self.pilot(requested != Indirect::Off));
@@ -330,42 +347,11 @@ impl Tracer {
         // the tolerance both in the mean and at the 90th percentile of the
         // pixels (a source can be all the light a few pixels get).
         if !self.settings.all_effects && parts.signal_seen {
-            let terms: [(&str, f64, f64, bool); 5] = [
-                (
-                    names::AREA_SOURCES,
-                    parts.area_sources,
-                    parts.pixel_p90.area_sources,
-                    !self.area.is_empty(),
-                ),
-                (
-                    names::POINT_SOURCES,
-                    parts.point_sources,
-                    parts.pixel_p90.point_sources,
-                    self.points.iter().any(|l| !l.is_shaped()),
-                ),
-                (
-                    names::SHAPED_POINT_SOURCES,
-                    parts.shaped_point_sources,
-                    parts.pixel_p90.shaped_point_sources,
-                    self.points.iter().any(|l| l.is_shaped()),
-                ),
-                (
-                    names::MOON,
-                    parts.moon,
-                    parts.pixel_p90.moon,
-                    self.sky.as_ref().is_some_and(|s| s.moon_dir.is_some()),
-                ),
-                (
-                    names::NIGHT_SKY,
-                    parts.night_sky,
-                    parts.pixel_p90.night_sky,
-                    self.sky.as_ref().is_some_and(|s| s.dome),
-                ),
-            ];
-            for (name, mean, p90, present) in terms {
-                if present && mean.max(p90) <= tol {
-                    parts.skipped.push(name.to_string());
-                    skip.set(name);
+            for t in Term::ALL {
+                let (mean, p90) = (parts.terms.get(t), parts.pixel_p90.get(t));
+                if t.present(self) && mean.max(p90) <= tol {
+                    parts.skipped.push(t.name().to_string());
+                    skip.set(t.name());
                 }
             }
         }
@@ -375,11 +361,11 @@ impl Tracer {
                 .map(|a| a.direct_transmittance(550.0, s.moon_elevation_deg))
                 .unwrap_or(1.0);
             let lost = if t > 0.0 && s.moon_direct {
-                parts.moon * (1.0 / t - 1.0)
+                parts.terms.get(Term::Moon) * (1.0 / t - 1.0)
             } else {
                 0.0
             };
-            parts.atmosphere = Some(lost + parts.night_sky);
+            parts.atmosphere = Some(lost + parts.terms.get(Term::NightSky));
         }
     }
 }
@@ -528,16 +514,7 @@ pub fn annotate_shares(plan: &mut EffectPlan, d: &InterreflectionDecision) {
             e.reason.push_str(" (share: an upper bound, Moon's slant-path loss + dome; the sky model has no airless mode)");
             continue;
         }
-        let term = match e.name.as_str() {
-            names::AREA_SOURCES => Some((p.area_sources, p.pixel_p90.area_sources)),
-            names::POINT_SOURCES => Some((p.point_sources, p.pixel_p90.point_sources)),
-            names::SHAPED_POINT_SOURCES => {
-                Some((p.shaped_point_sources, p.pixel_p90.shaped_point_sources))
-            }
-            names::MOON => Some((p.moon, p.pixel_p90.moon)),
-            names::NIGHT_SKY => Some((p.night_sky, p.pixel_p90.night_sky)),
-            _ => None,
-        };
+        let term = Term::by_name(&e.name).map(|t| (p.terms.get(t), p.pixel_p90.get(t)));
         if let Some((mean, p90)) = term {
             if p.skipped.contains(&e.name) {
                 e.enabled = false;

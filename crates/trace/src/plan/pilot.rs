@@ -184,7 +184,7 @@ impl Tracer {
                 .entry((x.floor() as i64, y.floor() as i64))
                 .or_insert_with(|| self.emitter_beside(x, y, &walk.seen_points, &mut walk.c));
         let plain = !emitter && !beside;
-        let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; 5];
+        let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; Term::COUNT];
         if mat.has_diffuse {
             let parts = self.irradiance_parts(p, ns, f, &mut walk.rng, &mut walk.c);
             for (k, part) in parts.iter().enumerate() {
@@ -324,19 +324,9 @@ impl Tracer {
         };
         let p90 = |k: usize| term_p90(&t.per_pixel, k);
         PartShares {
-            area_sources: part(0),
-            point_sources: part(1),
-            shaped_point_sources: part(2),
-            moon: part(3),
-            night_sky: part(4),
+            terms: TermShares::from_fn(part),
             direct_view: self.direct_view_share(t, deposits, total_weight),
-            pixel_p90: TermShares {
-                area_sources: p90(0),
-                point_sources: p90(1),
-                shaped_point_sources: p90(2),
-                moon: p90(3),
-                night_sky: p90(4),
-            },
+            pixel_p90: TermShares::from_fn(p90),
             signal_seen: {
                 let tot = self.wl.integrate(if plain { &t.tot } else { &t.tot_all });
                 tot.iter().any(|&x| x > 0.0)
@@ -414,9 +404,9 @@ impl Tally {
             tot_all: vec![0.0; nwl],
             plain_pixels: 0,
             per_pixel: Vec::new(),
-            part_sums: vec![(vec![0.0; nwl], vec![0.0; nwl]); 5],
+            part_sums: vec![(vec![0.0; nwl], vec![0.0; nwl]); Term::COUNT],
             emitted_all: vec![0.0; nwl],
-            bounce_parts: vec![vec![0.0; nwl]; 5],
+            bounce_parts: vec![vec![0.0; nwl]; Term::COUNT],
             all_w: vec![0.0; nwl],
         }
     }
