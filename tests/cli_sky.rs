@@ -485,3 +485,125 @@ fn the_six_night_scenes_load_and_plan() {
         }
     }
 }
+
+/// Civil twilight over the scenario site (Sun ≈ −4.3°): `gloam sky` adds
+/// the twilight model's sunlight, equal to the library's, and within the
+/// USNO curve's civil-twilight range (tens of lux).
+#[test]
+fn sky_reports_twilight_illuminance() {
+    const DUSK: &str = "2025-10-07T23:00:00Z";
+    let v = ok_json(&[
+        "sky",
+        "--lat",
+        LAT,
+        "--lon",
+        LON,
+        "--height-m",
+        HEIGHT,
+        "--utc",
+        DUSK,
+        "--json",
+    ]);
+    assert_eq!(v["twilight_not_modelled"], Value::Bool(false));
+    let t = UtcInstant::parse_iso8601(DUSK).unwrap();
+    let tw = gloam_sky::TwilightSky::at(t, &site(), 23.0, Default::default()).unwrap();
+    let (direct, sky) = tw.horizontal_illuminance_lux().unwrap();
+    close(
+        num(&v, &["twilight_lux", "sun_direct"]),
+        direct,
+        "sun_direct",
+    );
+    close(num(&v, &["twilight_lux", "sun_sky"]), sky, "sun_sky");
+    let total = num(&v, &["twilight_lux", "total_with_moon_and_night_sky"]);
+    let moon_night = num(&v, &["illuminance_lux", "total"]);
+    assert!((total - (moon_night + direct + sky)).abs() < 1e-9 * total);
+    assert!((10.0..100.0).contains(&sky), "civil twilight: {sky} lux");
+    // overcast: a tenth of the clear-sky sunlight, all diffuse
+    let o = ok_json(&[
+        "sky",
+        "--lat",
+        LAT,
+        "--lon",
+        LON,
+        "--height-m",
+        HEIGHT,
+        "--utc",
+        DUSK,
+        "--overcast",
+        "--json",
+    ]);
+    close(
+        num(&o, &["twilight_lux", "sun_sky"]),
+        0.1 * (direct + sky),
+        "overcast",
+    );
+    // below −18°: no sunlight, key still there
+    let night = ok_json(&["sky", "--lat", LAT, "--lon", LON, "--utc", NEW, "--json"]);
+    assert_eq!(num(&night, &["twilight_lux", "sun_sky"]), 0.0);
+    let out = gloam(&["sky", "--lat", LAT, "--lon", LON, "--utc", DUSK]);
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("sun sky") && s.contains("with the sun"), "{s}");
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("NOT included"));
+}
+
+/// `gloam ephem` lists the three twilights of the local date, each at the
+/// Sun elevation it names.
+#[test]
+fn ephem_reports_twilight_times() {
+    let v = ok_json(&[
+        "ephem",
+        "--lat",
+        LAT,
+        "--lon",
+        LON,
+        "--height-m",
+        HEIGHT,
+        "--utc",
+        FULL,
+        "--json",
+    ]);
+    let tw = &v["twilight"];
+    assert_eq!(tw["local_date"], "2025-10-06");
+    for (k, limit) in [
+        ("civil", -6.0),
+        ("nautical", -12.0),
+        ("astronomical", -18.0),
+    ] {
+        assert_eq!(num(tw, &[k, "sun_elevation_deg"]), limit);
+        for edge in ["dawn", "dusk"] {
+            let when = tw[k][edge]
+                .as_str()
+                .unwrap_or_else(|| panic!("{k} {edge}: {tw}"));
+            let e = ephemeris(
+                UtcInstant::parse_iso8601(when).unwrap(),
+                &site(),
+                Refraction::None,
+            );
+            assert!(
+                (e.sun.elevation_geometric_deg - limit).abs() < 0.01,
+                "{k} {edge}"
+            );
+        }
+    }
+    // dusk order: civil, then nautical, then astronomical
+    let d = |k: &str| tw[k]["dusk"].as_str().unwrap().to_string();
+    assert!(d("civil") < d("nautical") && d("nautical") < d("astronomical"));
+    let out = gloam(&["ephem", "--lat", LAT, "--lon", LON, "--utc", FULL]);
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        s.contains("civil (-6°)") && s.contains("astronomical (-18°)"),
+        "{s}"
+    );
+    // polar summer: no crossings, null rather than an error
+    let p = ok_json(&[
+        "ephem",
+        "--lat",
+        "78",
+        "--lon",
+        "15",
+        "--utc",
+        "2025-06-21T12:00:00Z",
+        "--json",
+    ]);
+    assert_eq!(p["twilight"]["civil"]["dusk"], Value::Null);
+}

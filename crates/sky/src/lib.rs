@@ -13,6 +13,9 @@ pub mod quadrature;
 pub mod report;
 pub mod spectral;
 pub mod time;
+pub mod twilight;
+pub mod twilight_data;
+pub mod twilight_times;
 
 pub use atmosphere::{AirmassModel, Atmosphere, EnergyBudget, SingleScattering};
 pub use ephemeris::{Ephemeris, HorizontalPosition, Refraction, Site, ephemeris};
@@ -25,3 +28,5 @@ pub use moonlight::MoonlightOptions;
 pub use nights::{Night, NightSearch, PhaseTarget, find_collection_nights};
 pub use spectral::Samples;
 pub use time::UtcInstant;
+pub use twilight::{TwilightOptions, TwilightSky};
+pub use twilight_times::{TwilightTimes, twilight_times};

@@ -12,7 +12,8 @@ use serde::Serialize;
 
 use crate::{
     Cloud, Ephemeris, GroundSpectra, IlluminanceLux, Night, NightSearch, PhaseTarget, Refraction,
-    Site, SkyError, UtcInstant, ephemeris, find_collection_nights, ground_illuminance,
+    Site, SkyError, TwilightOptions, TwilightSky, TwilightTimes, UtcInstant, ephemeris,
+    find_collection_nights, ground_illuminance, twilight_times,
 };
 
 /// What the caller calls each input, for error messages.
@@ -234,6 +235,9 @@ pub struct EphemReport {
     pub sun: SunReport,
     /// TT − UT used, seconds.
     pub delta_t_s: f64,
+    /// Civil, nautical and astronomical twilight (Sun at −6°, −12°, −18°)
+    /// on the site's local mean-solar date holding the instant.
+    pub twilight: TwilightTimes,
     #[serde(skip)]
     site_text: String,
 }
@@ -252,6 +256,7 @@ impl EphemReport {
                 azimuth_deg: e.sun.azimuth_deg,
             },
             delta_t_s: e.delta_t_s,
+            twilight: twilight_times(t, site),
             site_text: fmt_site(site),
         }
     }
@@ -283,7 +288,27 @@ impl fmt::Display for EphemReport {
             f,
             "sun   elevation {:7.3}°  azimuth {:7.3}°{night}",
             s.elevation_deg, s.azimuth_deg
-        )
+        )?;
+        let tw = &self.twilight;
+        write!(
+            f,
+            "\ntwilight on {} (local mean solar date), UTC:",
+            tw.local_date
+        )?;
+        for (name, c) in [
+            ("civil (-6°)", &tw.civil),
+            ("nautical (-12°)", &tw.nautical),
+            ("astronomical (-18°)", &tw.astronomical),
+        ] {
+            let at = |x: &Option<String>| x.clone().unwrap_or_else(|| "none".to_string());
+            write!(
+                f,
+                "\n  {name:<20} dawn {:<24}  dusk {}",
+                at(&c.dawn),
+                at(&c.dusk)
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -425,6 +450,47 @@ pub struct ConditionsReport {
     pub height_m: f64,
 }
 
+/// Horizontal illuminance from the Sun (direct and sky-scattered, from
+/// [`TwilightSky`]) and the grand total with the Moon and night sky.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct TwilightLux {
+    /// Direct sunlight (clear sky, Sun's centre above the horizon).
+    pub sun_direct: f64,
+    /// Sunlight scattered by the sky (or passed by an overcast deck).
+    pub sun_sky: f64,
+    /// `illuminance_lux.total` + the two sunlight terms.
+    pub total_with_moon_and_night_sky: f64,
+}
+
+impl TwilightLux {
+    /// Sunlight for the Sun at `t` over `site`; an overcast deck passes
+    /// `overcast_transmittance` of the clear-sky direct + diffuse light as
+    /// diffuse light, as it does for moonlight.
+    fn at(
+        t: UtcInstant,
+        site: &Site,
+        visibility_km: f64,
+        cloud: Cloud,
+        moon_and_night_lux: f64,
+    ) -> Result<Self, SkyError> {
+        let e = ephemeris(t, site, Refraction::None);
+        let (mut direct, mut sky) = (0.0, 0.0);
+        if e.sun.elevation_geometric_deg >= crate::twilight::TWILIGHT_MIN_SUN_ELEVATION_DEG {
+            let tw = TwilightSky::at(t, site, visibility_km, TwilightOptions::default())?;
+            (direct, sky) = tw.horizontal_illuminance_lux()?;
+        }
+        if cloud == Cloud::Overcast {
+            sky = crate::nightsky::OVERCAST_FACTOR * (direct + sky);
+            direct = 0.0;
+        }
+        Ok(Self {
+            sun_direct: direct,
+            sun_sky: sky,
+            total_with_moon_and_night_sky: moon_and_night_lux + direct + sky,
+        })
+    }
+}
+
 /// `gloam sky`: ground illuminance at one instant and site.
 #[derive(Clone, Debug, Serialize)]
 pub struct SkyReport {
@@ -436,8 +502,12 @@ pub struct SkyReport {
     pub moon: MoonReport,
     /// Apparent Sun elevation, degrees.
     pub sun_elevation_deg: f64,
-    /// True when the Sun is above −18°: twilight is not included.
+    /// Kept for compatibility: false, since the twilight model covers every
+    /// Sun elevation ≥ −18° (below it there is no twilight to model).
     pub twilight_not_modelled: bool,
+    /// Sunlight on the ground from the twilight model, lux (zero with the
+    /// Sun below −18°).
+    pub twilight_lux: TwilightLux,
     /// The conditions assumed.
     pub conditions: ConditionsReport,
     /// Where the spectral table was written, if it was.
@@ -465,13 +535,15 @@ impl SkyReport {
         let rule = "visibility must be within 0.05..1000 km";
         in_range(names.visibility_km, visibility_km, 0.05..=1000.0, rule)?;
         let g = ground_illuminance(t, site, visibility_km, cloud, with_spectra)?;
+        let twilight_lux = TwilightLux::at(t, site, visibility_km, cloud, g.illuminance_lux.total)?;
         let e = &g.ephemeris;
         Ok(Self {
             utc: t.to_iso8601(),
             illuminance_lux: g.illuminance_lux,
             moon: e.into(),
             sun_elevation_deg: e.sun.elevation_deg,
-            twilight_not_modelled: g.twilight_not_modelled,
+            twilight_not_modelled: false,
+            twilight_lux,
             conditions: ConditionsReport {
                 visibility_km,
                 cloud,
@@ -546,7 +618,23 @@ impl fmt::Display for SkyReport {
         writeln!(f, "  moon direct  {} lux", fmt_lux(l.moon_direct))?;
         writeln!(f, "  moon sky     {} lux", fmt_lux(l.moon_sky))?;
         writeln!(f, "  night sky    {} lux", fmt_lux(l.night_sky))?;
-        write!(f, "  total        {} lux", fmt_lux(l.total))?;
+        writeln!(f, "  total        {} lux", fmt_lux(l.total))?;
+        let t = &self.twilight_lux;
+        if t.sun_direct + t.sun_sky > 0.0 {
+            writeln!(f, "  sun direct   {} lux", fmt_lux(t.sun_direct))?;
+            writeln!(
+                f,
+                "  sun sky      {} lux (twilight model)",
+                fmt_lux(t.sun_sky)
+            )?;
+            write!(
+                f,
+                "  with the sun {} lux",
+                fmt_lux(t.total_with_moon_and_night_sky)
+            )?;
+        } else {
+            write!(f, "  sun          0 lux (below -18°: no twilight)")?;
+        }
         if let Some(p) = &self.spectra_out {
             write!(f, "\nspectral irradiance written to {p}")?;
         }
