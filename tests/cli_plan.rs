@@ -18,7 +18,7 @@ fn sim(name: &str) -> PathBuf {
         .join("scene.toml")
 }
 
-const ALL: [&str; 12] = [
+const ALL: [&str; 14] = [
     "area-sources",
     "shaped-point-sources",
     "point-sources",
@@ -29,6 +29,8 @@ const ALL: [&str; 12] = [
     "direct-view",
     "moon",
     "night-sky",
+    "sun",
+    "twilight-sky",
     "atmosphere",
     "sensor",
 ];

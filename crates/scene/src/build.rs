@@ -189,12 +189,18 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         distant_sources.push(distant_source(&cx, &df.key(name), name, d)?);
     }
 
+    let sky = match &raw.sky {
+        Some(s) => Some(sky(&cx, &root.key("sky"), s)?),
+        None => None,
+    };
+
     let light_groups = crate::groups::light_groups(
         &raw,
         &materials,
         &objects,
         &point_source_groups,
         &distant_sources,
+        sky.as_ref(),
         &|f, m| cx.err(f, m),
     )?;
 
@@ -211,11 +217,6 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
             "a scene needs at least one band, e.g. [bands.vis] lo_nm = 400, hi_nm = 700",
         ));
     }
-
-    let sky = match &raw.sky {
-        Some(s) => Some(sky(&cx, &root.key("sky"), s)?),
-        None => None,
-    };
 
     let sensor = match &raw.sensor {
         None => None,

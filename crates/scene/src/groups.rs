@@ -17,12 +17,16 @@ use std::collections::BTreeMap;
 
 use crate::error::FieldPath;
 use crate::raw::RawScene;
-use crate::{DistantSource, Material, ObjectInfo, PointSourceGroup, SceneError};
+use crate::{DistantSource, Material, ObjectInfo, PointSourceGroup, SceneError, SkyConfig};
 
 /// The moon's group name (the direct lunar beam).
 pub const MOON_GROUP: &str = "moon";
 /// The sky dome's group name (night-sky glow and scattered light).
 pub const SKY_GROUP: &str = "sky";
+/// The Sun's direct beam's group name.
+pub const SUN_GROUP: &str = "sun";
+/// The twilight sky's group name (sunlight scattered by the sky).
+pub const TWILIGHT_GROUP: &str = "twilight";
 
 /// One light group: its name and the scene tables it gathers
 /// (`point_sources.NAME`, `objects.NAME`, `sky.moon`, `sky.dome`).
@@ -48,6 +52,10 @@ pub struct LightGroups {
     /// The moon's and the sky dome's groups (with a `[sky]`).
     pub moon: Option<usize>,
     pub sky: Option<usize>,
+    /// The Sun's beam and the twilight sky (with a `[sky]` whose Sun is
+    /// up, or at or above −18°).
+    pub sun: Option<usize>,
+    pub twilight: Option<usize>,
 }
 
 impl LightGroups {
@@ -87,6 +95,7 @@ pub(crate) fn light_groups(
     objects: &[ObjectInfo],
     point_tables: &[PointSourceGroup],
     distant: &[DistantSource],
+    sky: Option<&SkyConfig>,
     err: &dyn Fn(&FieldPath, String) -> SceneError,
 ) -> Result<LightGroups, SceneError> {
     let root = FieldPath::root();
@@ -150,6 +159,14 @@ pub(crate) fn light_groups(
     if raw.sky.is_some() {
         out.moon = Some(out.index(MOON_GROUP, "sky.moon".into()));
         out.sky = Some(out.index(SKY_GROUP, "sky.dome".into()));
+    }
+    if let Some(s) = sky {
+        if s.sun_beam() {
+            out.sun = Some(out.index(SUN_GROUP, "sky.sun".into()));
+        }
+        if s.twilight() {
+            out.twilight = Some(out.index(TWILIGHT_GROUP, "sky.twilight".into()));
+        }
     }
     Ok(out)
 }

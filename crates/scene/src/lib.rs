@@ -18,7 +18,7 @@ pub mod sequence;
 pub use build::MAX_COORDINATE;
 pub use error::SceneError;
 pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
-pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP};
+pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP, SUN_GROUP, TWILIGHT_GROUP};
 pub use instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS,
     PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory_bytes,
@@ -662,6 +662,30 @@ pub struct SkyConfig {
     pub moon: bool,
     pub night_sky: bool,
     pub overcast: bool,
+}
+
+impl SkyConfig {
+    /// The Sun's geometric elevation at the site and instant, degrees.
+    pub fn sun_elevation_deg(&self) -> f64 {
+        gloam_sky::Site::new(self.latitude_deg, self.longitude_deg, self.height_m)
+            .map(|site| {
+                gloam_sky::ephemeris(self.instant, &site, gloam_sky::Refraction::None)
+                    .sun
+                    .elevation_geometric_deg
+            })
+            .unwrap_or(f64::NEG_INFINITY)
+    }
+
+    /// Whether the Sun lights the sky: at or above −18° (twilight or day).
+    pub fn twilight(&self) -> bool {
+        self.sun_elevation_deg() >= gloam_sky::twilight::TWILIGHT_MIN_SUN_ELEVATION_DEG
+    }
+
+    /// Whether the Sun's direct beam reaches the ground: above the
+    /// horizon under a clear sky.
+    pub fn sun_beam(&self) -> bool {
+        !self.overcast && self.sun_elevation_deg() > 0.0
+    }
 }
 
 #[cfg(test)]

@@ -24,6 +24,8 @@ pub mod names {
     pub const DIRECT_VIEW: &str = "direct-view";
     pub const MOON: &str = "moon";
     pub const NIGHT_SKY: &str = "night-sky";
+    pub const SUN: &str = "sun";
+    pub const TWILIGHT_SKY: &str = "twilight-sky";
     pub const ATMOSPHERE: &str = "atmosphere";
     pub const SENSOR: &str = "sensor";
 }
@@ -467,6 +469,8 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             let why = "no [sky] block (indoor scene)";
             effects.push(Effect::new(names::MOON, false, why));
             effects.push(Effect::new(names::NIGHT_SKY, false, why));
+            effects.push(Effect::new(names::SUN, false, why));
+            effects.push(Effect::new(names::TWILIGHT_SKY, false, why));
             effects.push(Effect::new(
                 names::ATMOSPHERE,
                 false,
@@ -499,7 +503,47 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             } else {
                 Effect::new(names::NIGHT_SKY, false, "night_sky = false in [sky]")
             });
-            effects.push(if s.moon || s.night_sky {
+            let sun_el = s.sun_elevation_deg();
+            effects.push(if s.sun_beam() {
+                Effect::new(
+                    names::SUN,
+                    true,
+                    format!("the Sun is up ({sun_el:.2}° at {when}): its direct beam"),
+                )
+            } else if s.overcast && sun_el > 0.0 {
+                Effect::new(
+                    names::SUN,
+                    false,
+                    "overcast: the deck passes the Sun's light as the twilight sky's",
+                )
+            } else {
+                Effect::new(
+                    names::SUN,
+                    false,
+                    format!("the Sun is below the horizon ({sun_el:.2}°)"),
+                )
+            });
+            effects.push(if s.twilight() {
+                Effect::new(
+                    names::TWILIGHT_SKY,
+                    true,
+                    format!(
+                        "the Sun at {sun_el:.2}° (≥ −18°) lights the sky: twilight{}",
+                        if sun_el > 10.0 {
+                            " (the model is validated up to +10°; daylight beyond is an extrapolation)"
+                        } else {
+                            ""
+                        }
+                    ),
+                )
+            } else {
+                Effect::new(
+                    names::TWILIGHT_SKY,
+                    false,
+                    format!("the Sun at {sun_el:.2}° (below −18°): astronomical night"),
+                )
+            });
+            effects.push(if s.moon || s.night_sky || s.twilight() {
                 Effect::new(
                     names::ATMOSPHERE,
                     true,

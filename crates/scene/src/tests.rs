@@ -1088,6 +1088,8 @@ fn plan_outdoor_scene() {
             names::DIRECT_VIEW,
             names::MOON,
             names::NIGHT_SKY,
+            names::SUN,
+            names::TWILIGHT_SKY,
             names::ATMOSPHERE,
             names::SENSOR,
         ]
@@ -1167,10 +1169,10 @@ fn plan_is_extensible() {
             Effect::new("mcp-gain", true, "ICCD has an MCP"),
         ],
     );
-    assert_eq!(p.effects.len(), 13);
-    assert_eq!(p.effects[11].name, "sensor");
-    assert_eq!(p.effects[11].reason, "ICCD preset");
-    assert_eq!(p.effects[12].name, "mcp-gain");
+    assert_eq!(p.effects.len(), 15);
+    assert_eq!(p.effects[13].name, "sensor");
+    assert_eq!(p.effects[13].reason, "ICCD preset");
+    assert_eq!(p.effects[14].name, "mcp-gain");
     assert_eq!(p.enabled(), ["sensor", "mcp-gain"]);
     let table = p.to_string();
     assert!(
@@ -1191,11 +1193,13 @@ fn documented_example_parses_and_enables_every_effect() {
     let s = parse(text).unwrap_or_else(|e| panic!("{e}"));
     let p = plan(&s);
     // Every effect but distant sources (parallel light has no place on
-    // a night street; its own section shows one).
+    // a night street; its own section shows one) and the Sun's two (the
+    // example is set at night).
+    let night_only = [names::DISTANT_SOURCES, names::SUN, names::TWILIGHT_SKY];
     for e in p
         .effects
         .iter()
-        .filter(|e| e.name != names::DISTANT_SOURCES)
+        .filter(|e| !night_only.contains(&e.name.as_str()))
     {
         assert!(e.enabled, "{}: {}", e.name, e.reason);
     }

@@ -65,6 +65,8 @@ pub struct LayerMap {
     distant: Vec<usize>,
     moon: Option<usize>,
     sky: Option<usize>,
+    sun: Option<usize>,
+    twilight: Option<usize>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -114,6 +116,8 @@ impl LayerMap {
             distant: lg.distant.clone(),
             moon: lg.moon,
             sky: lg.sky,
+            sun: lg.sun,
+            twilight: lg.twilight,
         }
     }
 
@@ -265,6 +269,10 @@ impl crate::tracer::World {
         if let Some(sky) = self.sky.as_mut() {
             sky.moon_group = map.moon;
             sky.sky_group = map.sky;
+            if let Some(sun) = sky.sun.as_mut() {
+                sun.group = map.sun;
+            }
+            sky.twilight_group = map.twilight;
         }
         self.layers = Some(map.clone());
     }

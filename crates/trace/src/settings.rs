@@ -233,7 +233,7 @@ impl Dropped {
                     return Err(SettingsError::BadValue {
                         key: "drop".into(),
                         value: name.trim().into(),
-                        expected: "effect names: area-sources, point-sources, shaped-point-sources, moon, night-sky, direct-view, specular-recursion, transmissive-occluders, interreflection (or none)",
+                        expected: "effect names: area-sources, point-sources, shaped-point-sources, moon, night-sky, distant-sources, sun, twilight-sky, direct-view, specular-recursion, transmissive-occluders, interreflection (or none)",
                     });
                 }
             }

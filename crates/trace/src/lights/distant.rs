@@ -13,6 +13,7 @@
 use glam::DVec3;
 use gloam_scene::Scene;
 
+use super::Term;
 use crate::light::Light;
 use crate::spectral::Wavelengths;
 use crate::tracer::{RayCounts, Tracer};
@@ -26,6 +27,21 @@ pub(crate) struct DistantLight {
     irradiance: Vec<f64>,
     /// Its light group under `--layers` (`layers.rs`; None otherwise).
     pub(crate) group: Option<usize>,
+    /// The term it counts under: `distant-sources`, or `sun` for the
+    /// Sun's beam from the sky.
+    pub(crate) term: Term,
+}
+
+impl DistantLight {
+    /// Toward unit `to_source`, `irradiance` normal to the beam per slot.
+    pub(crate) fn new(to_source: DVec3, irradiance: Vec<f64>, term: Term) -> Self {
+        Self {
+            to_source,
+            irradiance,
+            group: None,
+            term,
+        }
+    }
 }
 
 /// The scene's distant sources on the render's slots.
@@ -33,10 +49,12 @@ pub(crate) fn distant_lights(scene: &Scene, wl: &Wavelengths) -> Vec<DistantLigh
     scene
         .distant_sources
         .iter()
-        .map(|d| DistantLight {
-            to_source: -d.direction,
-            irradiance: wl.emission(&d.irradiance_w_m2_nm),
-            group: None,
+        .map(|d| {
+            DistantLight::new(
+                -d.direction,
+                wl.emission(&d.irradiance_w_m2_nm),
+                Term::Distant,
+            )
         })
         .collect()
 }

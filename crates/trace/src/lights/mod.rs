@@ -177,11 +177,15 @@ pub(crate) enum Term {
     NightSky = 4,
     /// Distant (directional) sources (`distant-sources`).
     Distant = 5,
+    /// The Sun's direct beam (`sun`).
+    Sun = 6,
+    /// Sunlight scattered by the twilight sky (`twilight-sky`).
+    Twilight = 7,
 }
 
 impl Term {
     /// How many terms there are.
-    pub(crate) const COUNT: usize = 6;
+    pub(crate) const COUNT: usize = 8;
 
     /// In order of their numbers.
     pub(crate) const ALL: [Term; Term::COUNT] = [
@@ -191,6 +195,8 @@ impl Term {
         Term::Moon,
         Term::NightSky,
         Term::Distant,
+        Term::Sun,
+        Term::Twilight,
     ];
 
     /// Its effect name: the effect plan's, `drop`'s and the pilot's.
@@ -203,6 +209,8 @@ impl Term {
             Term::Moon => names::MOON,
             Term::NightSky => names::NIGHT_SKY,
             Term::Distant => names::DISTANT_SOURCES,
+            Term::Sun => names::SUN,
+            Term::Twilight => names::TWILIGHT_SKY,
         }
     }
 
@@ -216,6 +224,8 @@ impl Term {
             Term::Moon => "moon",
             Term::NightSky => "night_sky",
             Term::Distant => "distant_sources",
+            Term::Sun => "sun",
+            Term::Twilight => "twilight_sky",
         }
     }
 
@@ -234,6 +244,8 @@ impl Term {
             Term::Moon => t.sky.as_ref().is_some_and(|s| s.moon_dir.is_some()),
             Term::NightSky => t.sky.as_ref().is_some_and(|s| s.dome),
             Term::Distant => !t.distant.is_empty(),
+            Term::Sun => t.sky.as_ref().is_some_and(|s| s.sun.is_some()),
+            Term::Twilight => t.sky.as_ref().is_some_and(|s| s.twilight.is_some()),
         }
     }
 
@@ -244,8 +256,8 @@ impl Term {
     /// not computed at all.
     pub(crate) fn draws_random(self) -> bool {
         match self {
-            Term::Area | Term::NightSky => true,
-            Term::Point | Term::ShapedPoint | Term::Moon | Term::Distant => false,
+            Term::Area | Term::NightSky | Term::Twilight => true,
+            Term::Point | Term::ShapedPoint | Term::Moon | Term::Distant | Term::Sun => false,
         }
     }
 
@@ -253,8 +265,8 @@ impl Term {
     /// sharper than a cache texel (`tracer::Smooth`).
     pub(crate) fn is_smooth(self) -> bool {
         match self {
-            Term::Area | Term::NightSky => true,
-            Term::Point | Term::ShapedPoint | Term::Moon | Term::Distant => false,
+            Term::Area | Term::NightSky | Term::Twilight => true,
+            Term::Point | Term::ShapedPoint | Term::Moon | Term::Distant | Term::Sun => false,
         }
     }
 }
@@ -282,8 +294,10 @@ pub(crate) enum LightSource<'a> {
     Area(AreaSet<'a>),
     /// The Moon's beam: a directional source, one shadow ray.
     Moon(&'a SkyState),
-    /// A distant source: one shadow ray.
+    /// A distant source, or the Sun's beam: one shadow ray.
     Distant(&'a DistantLight),
+    /// The twilight sky: `sky_samples` cosine-weighted shadow rays.
+    Twilight(&'a SkyState),
     /// The sky dome: `sky_samples` cosine-weighted shadow rays.
     Dome(&'a SkyState),
 }
@@ -308,7 +322,8 @@ impl LightSource<'_> {
             LightSource::Area(_) => Term::Area,
             LightSource::Moon(_) => Term::Moon,
             LightSource::Dome(_) => Term::NightSky,
-            LightSource::Distant(_) => Term::Distant,
+            LightSource::Distant(l) => l.term,
+            LightSource::Twilight(_) => Term::Twilight,
         }
     }
 
@@ -341,6 +356,7 @@ impl LightSource<'_> {
             LightSource::Moon(sky) => t.moon_irradiance(sky, p, n, ignore, c, out),
             LightSource::Dome(sky) => t.dome_irradiance(sky, p, n, ignore, rng, c, out),
             LightSource::Distant(l) => t.distant_irradiance(l, p, n, ignore, c, out),
+            LightSource::Twilight(sky) => t.twilight_irradiance(sky, p, n, ignore, rng, c, out),
         }
     }
 }

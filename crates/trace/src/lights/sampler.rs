@@ -50,6 +50,11 @@ impl<'a> LightSampler<'a> {
             .chain(sky.map(LightSource::Moon))
             .chain(sky.map(LightSource::Dome))
             .chain(t.distant.iter().map(LightSource::Distant))
+            .chain(sky.and_then(|s| s.sun.as_ref()).map(LightSource::Distant))
+            .chain(
+                sky.filter(|s| s.twilight.is_some())
+                    .map(LightSource::Twilight),
+            )
             .chain((!area_in_tree && !area_empty).then_some(LightSource::Area(AreaSet::Every)))
             .map(|l| (l, 1.0))
     }

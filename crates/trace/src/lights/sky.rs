@@ -6,7 +6,7 @@ use glam::DVec3;
 use gloam_scene::Scene;
 use rand_pcg::Pcg64Mcg;
 
-use super::add_emission;
+use super::{DistantLight, Term, add_emission};
 use crate::light::Light;
 use crate::settings::RenderSettings;
 use crate::sky_light::{
@@ -36,6 +36,11 @@ pub(crate) struct SkyState {
     /// `--layers` (`layers.rs`; None otherwise).
     pub(crate) moon_group: Option<usize>,
     pub(crate) sky_group: Option<usize>,
+    /// The Sun's direct beam while it is up (a distant light, term `sun`).
+    pub(crate) sun: Option<DistantLight>,
+    /// The twilight sky's radiance (Sun at or above −18°), and its group.
+    pub(crate) twilight: Option<RadianceTable>,
+    pub(crate) twilight_group: Option<usize>,
 }
 
 /// What [`Tracer::sky_probe`] reports: the two sky terms separately, in one
@@ -61,7 +66,9 @@ pub(crate) fn build_sky(
     let moon = plan.is_enabled(names::MOON);
     let night = plan.is_enabled(names::NIGHT_SKY);
     let atmosphere = plan.is_enabled(names::ATMOSPHERE);
-    if !(moon || night || atmosphere || settings.all_effects) {
+    let sun_beam = plan.is_enabled(names::SUN);
+    let twilight = plan.is_enabled(names::TWILIGHT_SKY);
+    if !(moon || night || atmosphere || sun_beam || twilight || settings.all_effects) {
         return Ok(None);
     }
     let bad =
@@ -123,6 +130,34 @@ pub(crate) fn build_sky(
         moon_direction: geometric.to_array(),
         sky_samples: settings.sky_samples,
         uniform_dome: table.is_uniform(),
+        sun_elevation_deg: eph.sun.elevation_geometric_deg,
+        sun_azimuth_deg: eph.sun.azimuth_deg,
+        sun_direct: false,
+        twilight_sky: false,
+    };
+    let sunlight = if sun_beam || twilight {
+        let twilight_sky = gloam_sky::TwilightSky::at(
+            instant,
+            &site,
+            conditions.visibility_km,
+            gloam_sky::TwilightOptions::default(),
+        )
+        .map_err(|e| bad("twilight", e))?;
+        let overcast = conditions.cloud == gloam_sky::Cloud::Overcast;
+        Some(sunlight(
+            &twilight_sky,
+            &wl.nm[..nc],
+            overcast,
+            (sun_beam, twilight),
+        ))
+    } else {
+        None
+    };
+    let (sun, twilight_table) = sunlight.unwrap_or((None, None));
+    let summary = SkySummary {
+        sun_direct: sun.is_some(),
+        twilight_sky: twilight_table.is_some(),
+        ..summary
     };
     Ok(Some(SkyState {
         nc,
@@ -134,7 +169,52 @@ pub(crate) fn build_sky(
         summary,
         moon_group: None,
         sky_group: None,
+        sun,
+        twilight: twilight_table,
+        twilight_group: None,
     }))
+}
+
+/// The Sun's light on the continuum slots `nm`: its direct beam (when
+/// `beam`, the sky is clear and the model gives the beam any light) and
+/// the twilight sky's radiance table (when `dome`). An overcast deck
+/// passes the clear sky's direct and diffuse light as a uniform dome, as
+/// `gloam sky` and the Moon's overcast do
+/// ([`gloam_sky::nightsky::OVERCAST_FACTOR`]).
+fn sunlight(
+    sky: &gloam_sky::TwilightSky,
+    nm: &[f64],
+    overcast: bool,
+    (beam, dome): (bool, bool),
+) -> (Option<DistantLight>, Option<RadianceTable>) {
+    use gloam_sky::spectral::interpolate;
+    let on_grid =
+        |s: &[(f64, f64)]| -> Vec<f64> { nm.iter().map(|&w| interpolate(s, w)).collect() };
+    if overcast {
+        let direct = sky.direct_horizontal_w_m2_nm();
+        let diffuse = sky.diffuse_horizontal_w_m2_nm();
+        let k = gloam_sky::nightsky::OVERCAST_FACTOR / std::f64::consts::PI;
+        let radiance: Vec<f64> = on_grid(&direct)
+            .iter()
+            .zip(on_grid(&diffuse))
+            .map(|(a, b)| k * (a + b))
+            .collect();
+        return (None, dome.then(|| RadianceTable::uniform(radiance)));
+    }
+    let normal = on_grid(&sky.direct_normal_w_m2_nm());
+    let sun = (beam && normal.iter().any(|&e| e > 0.0)).then(|| {
+        let d = crate::sky_light::enu_to_scene(sky.sun_direction_enu());
+        DistantLight::new(d, normal, Term::Sun)
+    });
+    let table = dome.then(|| {
+        RadianceTable::tabulate(nm.len(), |d, out| {
+            let l = sky.radiance_w_m2_sr_nm(crate::sky_light::scene_to_enu(d));
+            for (o, &w) in out.iter_mut().zip(nm) {
+                *o = interpolate(&l, w);
+            }
+        })
+    });
+    (sun, table)
 }
 
 impl Tracer {
@@ -178,15 +258,52 @@ impl Tracer {
         c: &mut RayCounts,
         out: &mut Light,
     ) {
-        if !sky.dome {
-            return;
+        if sky.dome {
+            let dome = (&sky.table, sky.sky_group, sky.nc);
+            self.dome_from(dome, p, n, ignore, rng, c, out);
         }
+    }
+
+    /// The twilight sky at `p` (normal `n`): as the dome, over the Sun's
+    /// scattered light.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn twilight_irradiance(
+        &self,
+        sky: &SkyState,
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) {
+        if let Some(table) = &sky.twilight {
+            let dome = (table, sky.twilight_group, sky.nc);
+            self.dome_from(dome, p, n, ignore, rng, c, out);
+        }
+    }
+
+    /// A dome of radiance `table` (light group, continuum slots) at `p`:
+    /// `sky_samples` cosine-weighted directions (Latin-hypercube
+    /// stratified), each adding `π L(ω) τ(ω) / N` when its shadow ray
+    /// escapes; directions below the horizon carry no sky and cast no ray.
+    #[allow(clippy::too_many_arguments)]
+    fn dome_from(
+        &self,
+        (table, group, nc): (&RadianceTable, Option<usize>, usize),
+        p: DVec3,
+        n: DVec3,
+        ignore: u32,
+        rng: &mut Pcg64Mcg,
+        c: &mut RayCounts,
+        out: &mut Light,
+    ) {
         let nsamp = self.settings.sky_samples.max(1) as usize;
         let mut u = Vec::with_capacity(nsamp);
         latin_hypercube(nsamp, rng, &mut u);
         let (t, b) = orthonormal_basis(n);
         let w = std::f64::consts::PI / nsamp as f64;
-        let mut l = vec![0.0; sky.nc];
+        let mut l = vec![0.0; nc];
         for uv in u {
             let local = cosine_hemisphere(uv);
             let dir = (t * local.x + b * local.y + n * local.z).normalize_or_zero();
@@ -196,8 +313,8 @@ impl Tracer {
             let Some(tau) = self.shadow(p, dir, f64::INFINITY, [ignore, u32::MAX], c) else {
                 continue;
             };
-            sky.table.radiance_into(dir, &mut l);
-            out.add_from(sky.sky_group, |o| add_emission(o, w, &l, tau.as_deref()));
+            table.radiance_into(dir, &mut l);
+            out.add_from(group, |o| add_emission(o, w, &l, tau.as_deref()));
         }
     }
 
