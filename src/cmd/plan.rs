@@ -37,7 +37,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         let n = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
         let shared = scene.counts().shared_facets;
         outln!(
-            "{}: {}{}, {}, {}, units {}",
+            "{}: {}{}, {}{}, {}, units {}",
             args.scene.display(),
             n(scene.facets.len(), "facet"),
             if shared > 0 {
@@ -46,6 +46,10 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
                 String::new()
             },
             n(scene.point_sources.len(), "point source"),
+            match scene.distant_sources.len() {
+                0 => String::new(),
+                k => format!(", {}", n(k, "distant source")),
+            },
             n(scene.bands.len(), "band"),
             scene.units.as_str()
         );
