@@ -356,7 +356,11 @@ impl LightSource<'_> {
             LightSource::Moon(sky) => t.moon_irradiance(sky, p, n, ignore, c, out),
             LightSource::Dome(sky) => t.dome_irradiance(sky, p, n, ignore, rng, c, out),
             LightSource::Distant(l) => t.distant_irradiance(l, p, n, ignore, c, out),
-            LightSource::Twilight(sky) => t.twilight_irradiance(sky, p, n, ignore, rng, c, out),
+            LightSource::Twilight(sky) => {
+                if let Some(dome) = sky.twilight_dome() {
+                    t.dome_from(dome, p, n, ignore, rng, c, out)
+                }
+            }
         }
     }
 }

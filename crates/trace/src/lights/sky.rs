@@ -43,6 +43,23 @@ pub(crate) struct SkyState {
     pub(crate) twilight_group: Option<usize>,
 }
 
+/// A dome as [`Tracer::dome_from`] samples it: radiance table, light
+/// group, continuum slots.
+pub(crate) type Dome<'a> = (&'a RadianceTable, Option<usize>, usize);
+
+impl SkyState {
+    /// The night-sky dome (scattered moonlight, starlight, airglow).
+    fn night_dome(&self) -> Dome<'_> {
+        (&self.table, self.sky_group, self.nc)
+    }
+
+    /// The twilight sky's dome, when the Sun lights the sky.
+    pub(crate) fn twilight_dome(&self) -> Option<Dome<'_>> {
+        let t = self.twilight.as_ref()?;
+        Some((t, self.twilight_group, self.nc))
+    }
+}
+
 /// What [`Tracer::sky_probe`] reports: the two sky terms separately, in one
 /// band, W m⁻².
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -259,27 +276,7 @@ impl Tracer {
         out: &mut Light,
     ) {
         if sky.dome {
-            let dome = (&sky.table, sky.sky_group, sky.nc);
-            self.dome_from(dome, p, n, ignore, rng, c, out);
-        }
-    }
-
-    /// The twilight sky at `p` (normal `n`): as the dome, over the Sun's
-    /// scattered light.
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn twilight_irradiance(
-        &self,
-        sky: &SkyState,
-        p: DVec3,
-        n: DVec3,
-        ignore: u32,
-        rng: &mut Pcg64Mcg,
-        c: &mut RayCounts,
-        out: &mut Light,
-    ) {
-        if let Some(table) = &sky.twilight {
-            let dome = (table, sky.twilight_group, sky.nc);
-            self.dome_from(dome, p, n, ignore, rng, c, out);
+            self.dome_from(sky.night_dome(), p, n, ignore, rng, c, out);
         }
     }
 
@@ -288,9 +285,9 @@ impl Tracer {
     /// stratified), each adding `π L(ω) τ(ω) / N` when its shadow ray
     /// escapes; directions below the horizon carry no sky and cast no ray.
     #[allow(clippy::too_many_arguments)]
-    fn dome_from(
+    pub(crate) fn dome_from(
         &self,
-        (table, group, nc): (&RadianceTable, Option<usize>, usize),
+        (table, group, nc): Dome<'_>,
         p: DVec3,
         n: DVec3,
         ignore: u32,
