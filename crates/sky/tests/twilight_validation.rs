@@ -76,7 +76,7 @@ fn model_lux(elevation_deg: f64) -> f64 {
 /// Degrees at which the model meets the 30 % criterion (see
 /// docs/night-sky.md for the whole residual table and why the others miss:
 /// with multiple scattering by successive orders in the spherical shell the
-/// model follows Brown's slope through nautical twilight but lies 1.3–2.1×
+/// model follows Brown's slope through nautical twilight but lies 1.4–2.2×
 /// above his "average clear sky" from −2° to −18°).
 const WITHIN_30_PERCENT: std::ops::RangeInclusive<i32> = -1..=0;
 
