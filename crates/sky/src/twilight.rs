@@ -104,7 +104,8 @@ const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
 /// budget of [`crate::atmosphere`] (the added diffuse light is 0.39–0.56 of
 /// the energy single scattering leaves in the air, never more), and
 /// converged in its quadrature (twice the directions, azimuths and samples
-/// change the validation table by < 3 % to −16°).
+/// change the validation table's twilight term by < 2 % to −12°, < 3.2 %
+/// to −15°, 5–7 % at −16° to −18°).
 pub const MULTIPLE_SCATTERING_NOTE: &str = "successive orders of an isotropic diffuse field J(r, mu_s) in the spherical shell: J1 from single scattering (Rayleigh phase via second moments, aerosol via first and second), J2, J3, then a geometric tail with the local transfer probability";
 
 /// Options of the twilight sky.
