@@ -91,8 +91,8 @@ const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
 ///   aerosol's Henyey–Greenstein phase function through its Legendre series
 ///   to second order (`1 + 3g P₁ + 5g² P₂`, clamped at zero), towards the
 ///   observer and towards every node alike;
-/// * J₂ and J₃ follow from the order before by isotropic scattering along
-///   the same quadrature; the orders beyond are a geometric tail
+/// * J₂ follows from J₁ so scattered, J₃ from J₂ by isotropic scattering,
+///   both along the same quadrature; the orders beyond are a geometric tail
 ///   `J₃ f / (1 − f)` with `f` the node's transfer probability — the share
 ///   of light emitted isotropically there that is scattered again before it
 ///   escapes or reaches the black ground (Hillaire 2020's closure, here
