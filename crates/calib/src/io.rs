@@ -959,6 +959,10 @@ mod tests {
         assert!(with("NAXIS1", "x").contains("NAXIS1 = x is not an integer"));
         assert!(with("BSCALE", "2.0").contains("BSCALE = 2"));
         assert!(with("SIMPLE", "F").contains("SIMPLE is not T"));
+        // A keyword given twice (issue 46): never resolved by order.
+        let twice = [&HEAD[..], &[("BZERO", "32768"), ("BZERO", "0")]].concat();
+        let e = decode_fits_counts(&fits(&twice, &[0; 8])).unwrap_err();
+        assert!(e.contains("card 7 repeats BZERO (first at card 6)"), "{e}");
         // Data shorter than the header says.
         let short = fits(
             &[("NAXIS1", "3000")]
