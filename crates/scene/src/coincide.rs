@@ -20,7 +20,7 @@ use crate::instance::{SharedInstances, bounds, box_corners};
 const MAX_KEYS: usize = 10_000_000;
 /// Most box tests (placement boxes against boxes, prototype facets
 /// against an overlap).
-const MAX_TESTS: u64 = 2_000_000_000;
+const MAX_TESTS: u64 = 500_000_000;
 
 /// One side of a coincident pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -178,12 +178,41 @@ pub(crate) fn first_coincident_shared(
     let mut facet_keyed = vec![false; facets.len()];
     // The prototype facets of placement (s, p) whose box meets `other`
     // (mapped into the prototype's frame), keyed.
-    let add = |s: usize,
-               p: usize,
-               other: &(DVec3, DVec3),
-               keys: &mut Vec<(u64, Who)>,
-               tests: &mut u64|
+    // Each prototype's facet boxes in six orders (by min and by max on
+    // each axis): a query takes the shortest run that can meet it (the
+    // facets at the bottom, for a ground under the placement), not every
+    // facet.
+    let orders: Vec<[Vec<u32>; 6]> = proto_boxes
+        .iter()
+        .map(|b| {
+            std::array::from_fn(|k| {
+                let (axis, by_max) = (k % 3, k >= 3);
+                let at = |i: u32| {
+                    let (lo, hi) = b[i as usize];
+                    if by_max { hi[axis] } else { lo[axis] }
+                };
+                let mut v: Vec<u32> = (0..b.len() as u32).collect();
+                v.sort_unstable_by(|&i, &j| at(i).total_cmp(&at(j)));
+                v
+            })
+        })
+        .collect();
+    // Placements whose every prototype facet is keyed already (a pile of
+    // placements on one spot keys each once).
+    let mut all_keyed: Vec<Vec<bool>> = shared
+        .iter()
+        .map(|s| vec![false; s.placements.len()])
+        .collect();
+    let mut add = |s: usize,
+                   p: usize,
+                   other: &(DVec3, DVec3),
+                   keys: &mut Vec<(u64, Who)>,
+                   tests: &mut u64|
      -> Result<(), String> {
+        *tests += 1;
+        if all_keyed[s][p] {
+            return Ok(());
+        }
         let sh = &shared[s];
         let inv: DAffine3 = sh.placements[p].inverse();
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -193,12 +222,32 @@ pub(crate) fn first_coincident_shared(
             hi = hi.max(v);
         }
         let q = padded(lo, hi);
-        *tests += proto_boxes[s].len() as u64;
+        let boxes = &proto_boxes[s];
+        // The shortest candidate run: boxes with min ≤ q.max (a prefix of
+        // the min order) or max ≥ q.min (a suffix of the max order).
+        let run = (0..6)
+            .map(|k| {
+                let (axis, by_max) = (k % 3, k >= 3);
+                let ord = &orders[s][k];
+                if by_max {
+                    let from = ord.partition_point(|&i| boxes[i as usize].1[axis] < q.0[axis]);
+                    &ord[from..]
+                } else {
+                    let to = ord.partition_point(|&i| boxes[i as usize].0[axis] <= q.1[axis]);
+                    &ord[..to]
+                }
+            })
+            .min_by_key(|r| r.len())
+            .unwrap_or(&[]);
+        *tests += run.len() as u64;
         if *tests > MAX_TESTS {
             return Err(too_many("box tests"));
         }
-        for (j, b) in proto_boxes[s].iter().enumerate() {
-            if overlap(b, &q) {
+        let mut n = 0;
+        for &j in run {
+            let j = j as usize;
+            if overlap(&boxes[j], &q) {
+                n += 1;
                 let w = Who::Placed {
                     shared: s,
                     placement: p,
@@ -207,6 +256,7 @@ pub(crate) fn first_coincident_shared(
                 push(keys, (hash(&cx.key(w)), w))?;
             }
         }
+        all_keyed[s][p] = n == boxes.len();
         Ok(())
     };
     // Sweep over x: the boxes still open (max x ≥ the arriving min x).
