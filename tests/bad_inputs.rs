@@ -68,7 +68,8 @@ fn fixture_tiff() -> PathBuf {
 
 /// `{lpatch:FROM=>TO}` in a file: this LUT (gains 1 and 2 of the
 /// scientific CCD, as `calibrate radiance` writes one) with one substring
-/// replaced (`{lpatch:}`: as it is).
+/// replaced (`{lpatch:}`: as it is; `A=>B&&C=>>D`: several patches, `=>>`
+/// replacing every occurrence).
 const LUT: &str = r#"{
   "grabber": "simulated scientific-ccd looking at rig 'sphere' (seed 0, 16×16)",
   "source": "sphere",
@@ -197,11 +198,27 @@ fn finish(mut cmd: Command) -> (Option<i32>, String) {
 fn scene_patch(text: &str) -> String {
     if let Some(rest) = text.strip_prefix("{lpatch:") {
         let spec = rest.trim_end_matches('}');
-        let Some((from, to)) = spec.split_once("=>") else {
+        if !spec.contains("=>") {
             return LUT.to_string();
-        };
-        assert!(LUT.contains(from), "the LUT has no `{from}`");
-        return LUT.replacen(from, to, 1);
+        }
+        // `A=>B&&C=>>D`: several patches; `=>>` replaces every occurrence.
+        let mut lut = LUT.to_string();
+        for patch in spec.split("&&") {
+            let (from, to, all) = match patch.split_once("=>>") {
+                Some((f, t)) => (f, t, true),
+                None => {
+                    let (f, t) = patch.split_once("=>").expect("{lpatch:FROM=>TO}");
+                    (f, t, false)
+                }
+            };
+            assert!(lut.contains(from), "the LUT has no `{from}`");
+            lut = if all {
+                lut.replace(from, to)
+            } else {
+                lut.replacen(from, to, 1)
+            };
+        }
+        return lut;
     }
     if let Some(rest) = text.strip_prefix("{spatch:") {
         let (spec, tail) = rest
@@ -2067,7 +2084,7 @@ const CASES: &[Case] = &[
     case!("calibrate apply: LUT without gains", ["l.json" => "{lpatch:\"gains\": [=>\"gains\": [], \"x\": [}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json"]),
     case!("calibrate agc: --lut slope negative", ["s.toml" => SPHERE, "l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": -2.5e-8}"], ["calibrate", "agc", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "s.toml", "--lut", "l.json", "--out", "o"], ["l.json:9:", "--lut", "not positive"]),
     // counts above the LUT's top code: refused, naming frame, count and LUT
-    case!("calibrate apply: counts above the LUT's top code", ["l.json" => "{lpatch:\"digitizer_max_dn\": 65535.0=>\"digitizer_max_dn\": 255.0}", "d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/f.png", "above the top code 255 DN", "l.json"]),
+    case!("calibrate apply: counts above the LUT's top code", ["l.json" => "{lpatch:\"digitizer_max_dn\": 65535.0=>\"digitizer_max_dn\": 255.0&&\"dark_dn\": 500.0=>>\"dark_dn\": 5.0&&\"saturation_dn\": 62994.0=>>\"saturation_dn\": 250.0}", "d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/f.png", "above the top code 255 DN", "l.json"]),
     // frames checked against their recorded CRC-32C before use
     case!("calibrate apply: a frame renamed to another gain's name", ["d/frame-000000.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{capture:g2/frames.jsonl}", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/frame-000000.png", "o.tiff"], ["d/frame-000000.png", "crc-32c", "d/frames.jsonl:1", "records 0x"]),
     case!("calibrate apply: a frame whose counts were altered", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"pixels_crc32c\":12345}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/f.png", "d/frames.jsonl:1", "records 0x00003039"]),
@@ -2169,6 +2186,47 @@ const CASES: &[Case] = &[
             "o"
         ],
         ["--frequencies 0.75"]
+    ),
+    // --- round 4 (issue 46): a check the expanded path makes, made on the
+    // shared path too — coincident facets where shared placements meet
+    case!("instances: shared placements turned onto their own symmetry", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstancing = \"shared\"\ninstances = [{ rotate_z_deg = 0.0 }, { rotate_z_deg = 90.0 }]\n"], ["plan", "s.toml"], ["s.toml:", "objects.b facet", "of placement 1 lies exactly on objects.b facet"]),
+    case!("instances: shared boxes side by side share a face", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstancing = \"shared\"\ninstances = [{ translate = [3.0, 0.0, 0.0] }, { translate = [4.0, 0.0, 0.0] }]\n"], ["render", "s.toml", "--out", "o"], ["s.toml:", "objects.b", "lies exactly on"]),
+    case!("instances: a shared placement on an expanded object's facet", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstancing = \"shared\"\ninstances = [{ translate = [3.0, 0.0, 0.0] }]\n[objects.c]\nmaterial = \"floor\"\nbox = { min = [2.5, -0.5, 0.0], max = [3.5, 0.5, 1.0] }\n"], ["plan", "s.toml"], ["s.toml:", "objects.b facet", "lies exactly on objects.c facet"]),
+    case!("instances: two shared objects on each other", ["s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstancing = \"shared\"\ninstances = [{ translate = [3.0, 0.0, 0.0] }, { translate = [5.0, 0.0, 0.0] }]\n[objects.c]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstancing = \"shared\"\ninstances = [{ translate = [7.0, 0.0, 0.0] }, { translate = [5.0, 0.0, 0.0] }]\n"], ["plan", "s.toml"], ["s.toml:", "objects.c facet", "of placement 1 lies exactly on objects.b facet"]),
+    case!("sequence: a move carries a shared placement onto an object", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"b\"]\nkeys = [[0.0, 7.0, 0.0, 0.0], [1.0, 7.0, 0.0, 0.0]]\n", "s.toml" => "{base}\n[objects.b]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstancing = \"shared\"\ninstances = [{ translate = [3.0, 0.0, 0.0] }, { translate = [-3.0, 0.0, 0.0] }]\n[objects.c]\nmaterial = \"floor\"\nbox = { min = [9.5, -0.5, 0.0], max = [10.5, 0.5, 1.0] }\n"], ["sequence", "q.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--gain", "30"], ["q.toml:4:", "move[0]", "[objects.b] lies exactly on one of [objects.c]"]),
+    // a record that contradicts its frame, or records it twice, is refused
+    // (never resolved by order)
+    case!("calibrate apply: a frame recorded twice in frames.jsonl", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n{\"file\":\"f.png\",\"gain\":2}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:2", "records f.png again (first at line 1)"]),
+    case!("calibrate apply: a TIFF page recorded twice", ["d/frames.tiff" => "{tiff}", "d/frames.jsonl" => "{\"file\":\"frames.tiff\",\"gain\":1,\"stored\":{\"format\":\"tiff\",\"page\":0}}\n{\"file\":\"frames.tiff\",\"gain\":2,\"stored\":{\"format\":\"tiff\",\"page\":0}}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/frames.tiff", "o.tiff", "--page", "0"], ["d/frames.jsonl:2", "page 0 again"]),
+    case!("calibrate apply: a record whose width contradicts its frame", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"width\":32,\"height\":16}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "\"width\" 32 contradicts the frame, 16 × 16"]),
+    case!("calibrate apply: a record whose format contradicts its frame", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"stored\":{\"format\":\"fits\",\"sample_shift\":0}}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "stored.format", "a png file"]),
+    case!("calibrate apply: a sample shift its bits contradict", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"bits\":16,\"stored\":{\"format\":\"png\",\"sample_shift\":4}}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "stored.sample_shift", "16 − bits = 0"]),
+    case!("calibrate apply: a negative sample shift", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"stored\":{\"format\":\"png\",\"sample_shift\":-1}}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "stored.sample_shift", "-1"]),
+    case!("calibrate apply: a record of 99 bits", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"bits\":99}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "\"bits\" 99"]),
+    // every LUT field that decides a pixel held to physics
+    case!("calibrate apply: LUT saturation below the dark level", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:\"saturation_dn\": 62994.0=>\"saturation_dn\": -5}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].saturation_dn", "between the dark level"]),
+    case!("calibrate apply: LUT saturation past the top code", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:\"saturation_dn\": 62994.0=>\"saturation_dn\": 1e9}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].saturation_dn"]),
+    case!("calibrate apply: LUT dark noise negative", ["f.png" => "x", "l.json" => "{lpatch:\"dark_std_dn\": 3.0=>\"dark_std_dn\": -3.0}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff", "--gain", "1"], ["l.json:", "gains[0].dark_std_dn"]),
+    case!("calibrate apply: LUT dark level past the top code", ["f.png" => "x", "l.json" => "{lpatch:\"dark_dn\": 500.0=>\"dark_dn\": 1e9}"], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff", "--gain", "1"], ["l.json:", "gains[0].dark_dn"]),
+    // nothing the program did not create replaced; messages name the input
+    case!("bench scale: --out holds a user's scale.json", ["o/scale.json" => "mine"], ["bench", "scale", "--quick", "--out", "o", "--triangles", "1000", "--lamps", "1"], ["o/scale.json", "not a report", "bench scale"]),
+    case!("bench scale: --out holds a scale.png without a report", ["o/scale.png" => "mine"], ["bench", "scale", "--quick", "--out", "o", "--triangles", "1000", "--lamps", "1"], ["o/scale.png", "without a report"]),
+    case!("calibrate agc --sequence: too short to measure a LUT", ["s.toml" => "{base}", "q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 3\n", "sp.toml" => SPHERE], ["calibrate", "agc", "--sequence", "q.toml", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "sp.toml", "--out", "o"], ["--sequence q.toml", "lengthen the sequence"]),
+    case!(
+        "capture: an exposure of 1e30 s named short",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--frames",
+            "1",
+            "--exposure-s",
+            "1e30",
+            "--out",
+            "o"
+        ],
+        ["exposure 1e30 s"]
     ),
 ];
 

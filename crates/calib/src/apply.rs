@@ -285,6 +285,9 @@ pub fn apply_lut_to_frame(
             .unwrap_or_default()
     };
     let (w, h, px) = crate::io::read_frame_counts(input, &at)?;
+    if let Some((line, v)) = &record {
+        crate::io::check_record_fits_frame(input, &frames_jsonl(input), *line, v, w, h)?;
+    }
     // The counts first: a frame that is not the one its line records (a
     // renamed or altered file) must not be given that line's gain.
     if let Some((line, v)) = &record

@@ -657,7 +657,16 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
             // The gains the loop went through once it left its power-up
             // gain (the acquisition window is not judged).
             let from_s = opts.transient_time_constants * tau_s;
-            let gains = crate::agc_sequence::gains_in_effect(&dir, from_s)?;
+            // Named by the sequence file, not the staging directory the
+            // frames are in (it is removed when the run fails).
+            let gains = crate::agc_sequence::gains_in_effect(&dir, from_s).map_err(|e| match e {
+                CalibError::InsufficientData(_) => CalibError::InsufficientData(format!(
+                    "--sequence {}: no frame starts {from_s} s or more after the first ({} AGC time constants of {tau_s} s: the loop's acquisition, not judged), so no gain to measure a LUT at; lengthen the sequence or give --lut",
+                    a.sequence.as_deref().unwrap_or(Path::new("?")).display(),
+                    opts.transient_time_constants
+                )),
+                other => other,
+            })?;
             let (lo, hi) = gains
                 .iter()
                 .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));

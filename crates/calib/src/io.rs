@@ -128,6 +128,10 @@ pub enum PngCountsError {
     NotGrey { colour: png::ColorType, depth: u8 },
     #[error("image larger than the decoder's output buffer")]
     TooLarge,
+    #[error(
+        "sBIT {sbit:?} is not one significant-bit count in 1..={depth} for a {depth}-bit grey PNG: the samples' scale is unknown"
+    )]
+    BadSbit { sbit: Vec<u8>, depth: u8 },
 }
 
 /// The largest decoded PNG accepted, bytes (a 16-bit 16 384 × 16 384 frame).
@@ -153,8 +157,16 @@ pub fn decode_png_counts(bytes: &[u8]) -> Result<PngCounts, PngCountsError> {
     }
     let (width, height) = (info.width, info.height);
     let bits = match info.sbit.as_deref() {
+        None => depth,
         Some([b]) if (1..=depth).contains(b) => *b,
-        _ => depth,
+        // Not a grey image's sBIT (one byte in 1..=depth): the scale of
+        // the samples is unknown, so no count can be read from them.
+        Some(other) => {
+            return Err(PngCountsError::BadSbit {
+                sbit: other.to_vec(),
+                depth,
+            });
+        }
     };
     let size = reader
         .output_buffer_size()
@@ -444,6 +456,7 @@ pub const MAX_FITS_PIXELS: usize = MAX_PNG_DECODED_BYTES / 2;
 pub fn decode_fits_counts(bytes: &[u8]) -> Result<FitsCounts, String> {
     const BLOCK: usize = 2880;
     let mut cards = Vec::new();
+    let mut cards_at: Vec<usize> = Vec::new();
     let mut end = None;
     for (i, card) in bytes
         .chunks_exact(80)
@@ -481,7 +494,17 @@ pub fn decode_fits_counts(bytes: &[u8]) -> Result<FitsCounts, String> {
             }
             None => v.split('/').next().unwrap_or("").trim().to_string(),
         };
+        // A keyword given twice is refused, never resolved by order (the
+        // first would win here, the last in another reader).
+        if let Some(first) = cards.iter().position(|(k, _): &(String, String)| *k == key) {
+            return Err(format!(
+                "header card {} repeats {key} (first at card {}): one keyword, two values",
+                i + 1,
+                cards_at[first] + 1
+            ));
+        }
         cards.push((key, value));
+        cards_at.push(i);
     }
     let end = end.ok_or_else(|| {
         format!(
@@ -755,6 +778,7 @@ fn find_record(
     page: Option<u64>,
     open_note: &str,
 ) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
+    let mut found: Option<(usize, serde_json::Value, Option<u64>)> = None;
     let f = gloam_spectra::input::open_bounded(jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
         .map_err(|e| CalibError::file(jl, format!("{e}{open_note}")))?;
     for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
@@ -764,13 +788,113 @@ fn find_record(
         }
         let v: serde_json::Value = serde_json::from_str(&line)
             .map_err(|e| CalibError::file(jl, format!("line {}: {e}", i + 1)))?;
-        if v.get("file").and_then(|f| f.as_str()) == Some(name)
-            && page.is_none_or(|p| StoredAt::of_record(&v).page.unwrap_or(0) == p)
-        {
-            return Ok(Some((i + 1, v)));
+        if v.get("file").and_then(|f| f.as_str()) != Some(name) {
+            continue;
+        }
+        let at_page = StoredAt::of_record(&v).page;
+        match &found {
+            // One frame (one file, one page) is one line: a second line
+            // for it is refused, never resolved by order.
+            Some((first, _, first_page)) if *first_page == at_page => {
+                return Err(CalibError::Line {
+                    path: jl.to_path_buf(),
+                    line: i + 1,
+                    message: format!(
+                        "records {name}{} again (first at line {first}): one frame, two records",
+                        at_page.map_or(String::new(), |p| format!(" page {p}"))
+                    ),
+                });
+            }
+            Some(_) => {}
+            None if page.is_none_or(|p| at_page.unwrap_or(0) == p) => {
+                found = Some((i + 1, v, at_page));
+            }
+            None => {}
         }
     }
-    Ok(None)
+    Ok(found.map(|(line, v, _)| (line, v)))
+}
+
+/// Checks that a frame's `frames.jsonl` line describes the frame read: its
+/// `width`/`height`, `bits` (a depth in 1..=16), and `stored` (`format` the
+/// file's, `sample_shift` 0 or 16 − bits). A line that contradicts its
+/// frame is refused: its gain would be another frame's too.
+pub fn check_record_fits_frame(
+    frame: &Path,
+    frames_jsonl: &Path,
+    line: usize,
+    record: &serde_json::Value,
+    width: usize,
+    height: usize,
+) -> Result<(), CalibError> {
+    let at = |message: String| CalibError::Line {
+        path: frames_jsonl.to_path_buf(),
+        line,
+        message: format!("{message} ({})", frame.display()),
+    };
+    for (key, actual) in [("width", width), ("height", height)] {
+        if let Some(v) = record.get(key)
+            && v.as_u64() != Some(actual as u64)
+        {
+            return Err(at(format!(
+                "\"{key}\" {v} contradicts the frame, {width} × {height} pixels"
+            )));
+        }
+    }
+    let bits = match record.get("bits") {
+        None => None,
+        Some(v) => Some(
+            v.as_u64()
+                .filter(|b| (1..=16).contains(b))
+                .ok_or_else(|| at(format!("\"bits\" {v} is not a digitizer depth (1..=16)")))?,
+        ),
+    };
+    let Some(stored) = record.get("stored") else {
+        return Ok(());
+    };
+    if let Some(v) = stored.get("sample_shift") {
+        let ok = v
+            .as_u64()
+            .filter(|&s| s == 0 || bits.is_none_or(|b| s == 16 - b) && s < 16);
+        if ok.is_none() {
+            return Err(at(format!(
+                "\"stored.sample_shift\" {v} is not 0{}",
+                bits.map_or(" or a shift below 16".to_string(), |b| format!(
+                    " or 16 − bits = {}",
+                    16 - b
+                ))
+            )));
+        }
+    }
+    if let Some(v) = stored.get("page")
+        && v.as_u64().is_none()
+    {
+        return Err(at(format!("\"stored.page\" {v} is not a page number")));
+    }
+    if let Some(v) = stored.get("format") {
+        let bytes = {
+            let mut head = [0u8; 16];
+            let n = std::fs::File::open(frame)
+                .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+                .unwrap_or(0);
+            head[..n].to_vec()
+        };
+        let actual = if bytes.starts_with(PNG_SIGNATURE) {
+            "png"
+        } else if is_fits(&bytes) {
+            "fits"
+        } else if is_tiff_bytes(&bytes) {
+            "tiff"
+        } else {
+            "?"
+        };
+        if v.as_str() != Some(actual) {
+            return Err(at(format!(
+                "\"stored.format\" {v} contradicts the frame, a {actual} file"
+            )));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -835,6 +959,10 @@ mod tests {
         assert!(with("NAXIS1", "x").contains("NAXIS1 = x is not an integer"));
         assert!(with("BSCALE", "2.0").contains("BSCALE = 2"));
         assert!(with("SIMPLE", "F").contains("SIMPLE is not T"));
+        // A keyword given twice (issue 46): never resolved by order.
+        let twice = [&HEAD[..], &[("BZERO", "32768"), ("BZERO", "0")]].concat();
+        let e = decode_fits_counts(&fits(&twice, &[0; 8])).unwrap_err();
+        assert!(e.contains("card 7 repeats BZERO (first at card 6)"), "{e}");
         // Data shorter than the header says.
         let short = fits(
             &[("NAXIS1", "3000")]

@@ -413,13 +413,38 @@ impl Lut {
                     ),
                 );
             }
+            if !(c.dark_dn.is_finite() && (0.0..=top).contains(&c.dark_dn)) {
+                return bad(
+                    at,
+                    "dark_dn",
+                    format!(
+                        "dark level {} DN at gain {} is not a count in 0..={top}",
+                        c.dark_dn, c.gain
+                    ),
+                );
+            }
+            if !(c.dark_std_dn.is_finite() && c.dark_std_dn >= 0.0) {
+                return bad(
+                    at,
+                    "dark_std_dn",
+                    format!(
+                        "dark noise {} DN at gain {} is not a standard deviation (finite, ≥ 0)",
+                        c.dark_std_dn, c.gain
+                    ),
+                );
+            }
+            // Counts at or above it become NaN: one at or below the dark
+            // level would blank every pixel, one past the top code none.
             if let Some(s) = c.saturation_dn
-                && !s.is_finite()
+                && !(s.is_finite() && s > c.dark_dn && s <= top)
             {
                 return bad(
                     at,
                     "saturation_dn",
-                    format!("{s} at gain {} is not finite", c.gain),
+                    format!(
+                        "{s} DN at gain {} is not a saturation level between the dark level {} DN and the top code {top} DN",
+                        c.gain, c.dark_dn
+                    ),
                 );
             }
         }

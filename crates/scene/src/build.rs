@@ -168,6 +168,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     }
 
     refuse_coincident_facets(&cx, &of, &facets, &objects)?;
+    refuse_coincident_shared(&cx, &of, &facets, &shared, &objects)?;
 
     // Point sources, each placed once or at each of its placements.
     let mut point_sources = Vec::new();
@@ -331,6 +332,71 @@ fn refuse_coincident_facets(
             describe(b),
             describe(a),
             facets[b].vertices.len()
+        ),
+    ))
+}
+
+/// Names one side of a coincident pair: `objects.NAME facet F of placement
+/// P` (or without the placement for an object placed once).
+pub(crate) fn describe_who(
+    objects: &[ObjectInfo],
+    shared: &[SharedInstances],
+    w: crate::coincide::Who,
+) -> (usize, String) {
+    match w {
+        crate::coincide::Who::Facet(i) => {
+            let (k, inst, pf) = origin_of(objects, i);
+            let o = &objects[k];
+            if o.instanced {
+                (
+                    k,
+                    format!("objects.{} facet {pf} of placement {inst}", o.name),
+                )
+            } else {
+                (k, format!("objects.{} facet {pf}", o.name))
+            }
+        }
+        crate::coincide::Who::Placed {
+            shared: s,
+            placement,
+            facet,
+        } => {
+            let k = shared[s].object;
+            (
+                k,
+                format!(
+                    "objects.{} facet {facet} of placement {placement}",
+                    objects[k].name
+                ),
+            )
+        }
+    }
+}
+
+/// Refuses a shared placement's facet on exactly the vertices of another
+/// placement's facet or of an expanded facet, as [`refuse_coincident_facets`]
+/// refuses copies ([`crate::coincide`]).
+fn refuse_coincident_shared(
+    cx: &Ctx,
+    of: &FieldPath,
+    facets: &[Facet],
+    shared: &[SharedInstances],
+    objects: &[ObjectInfo],
+) -> R<()> {
+    let Some((a, b)) = crate::coincide::first_coincident_shared(facets, shared).map_err(|m| {
+        let k = shared.first().map_or(0, |s| s.object);
+        cx.err(&of.key(&objects[k].name), m)
+    })?
+    else {
+        return Ok(());
+    };
+    let (_, da) = describe_who(objects, shared, a);
+    let (kb, db) = describe_who(objects, shared, b);
+    Err(cx.err(
+        &of.key(&objects[kb].name),
+        format!(
+            "{db} lies exactly on {da} (the same vertices): a ray cannot tell which it hits \
+             and light sampling would count both; remove one, or move it apart"
         ),
     ))
 }

@@ -6,6 +6,7 @@ use glam::DVec3;
 pub use gloam_spectra::Spectrum;
 
 mod build;
+mod coincide;
 mod error;
 mod geometry;
 mod groups;

@@ -637,14 +637,41 @@ impl Sequence {
                 field: "move".into(),
                 message: format!("{m}: out of memory checking the pose"),
             })?;
-        let Some((a, b)) = pair else {
+        let names = match pair {
+            Some((a, b)) => {
+                let (fa, fb) = (&out.facets[a], &out.facets[b]);
+                Some((fa.object.clone(), fb.object.clone(), fb.vertices.len()))
+            }
+            // Shared placements are checked where their boxes meet.
+            None => crate::coincide::first_coincident_shared(&out.facets, &out.shared)
+                .map_err(|m| SceneError::Invalid {
+                    path: self.path.clone(),
+                    line: self.moves.first().map_or(1, |m| m.lines.table),
+                    column: 1,
+                    field: "move".into(),
+                    message: format!("{m} (at a pose of the moves)"),
+                })?
+                .map(|(a, b)| {
+                    let name = |w| {
+                        let (k, _) = crate::build::describe_who(&out.objects, &out.shared, w);
+                        out.objects[k].name.clone()
+                    };
+                    let n = match b {
+                        crate::coincide::Who::Facet(i) => out.facets[i].vertices.len(),
+                        crate::coincide::Who::Placed { shared, facet, .. } => {
+                            out.shared[shared].prototype[facet].vertices.len()
+                        }
+                    };
+                    (name(a), name(b), n)
+                }),
+        };
+        let Some((fa_object, fb_object, n_vertices)) = names else {
             return Ok(out);
         };
-        let (fa, fb) = (&out.facets[a], &out.facets[b]);
         let m = self
             .moves
             .iter()
-            .position(|mv| mv.objects.contains(&fb.object) || mv.objects.contains(&fa.object))
+            .position(|mv| mv.objects.contains(&fb_object) || mv.objects.contains(&fa_object))
             .unwrap_or(0);
         let pose = poses.get(m).copied().unwrap_or(Pose::IDENTITY);
         Err(SceneError::Invalid {
@@ -654,11 +681,7 @@ impl Sequence {
             field: format!("move[{m}]"),
             message: format!(
                 "at its pose (translate {:?}, rotate_z_deg {}) a facet of [objects.{}] lies exactly on one of [objects.{}] (the same {} vertices): a ray cannot tell which it hits and light sampling would count both; change the keys so the bodies do not meet face to face",
-                pose.translate,
-                pose.rotate_z_deg,
-                fb.object,
-                fa.object,
-                fb.vertices.len()
+                pose.translate, pose.rotate_z_deg, fb_object, fa_object, n_vertices
             ),
         })
     }

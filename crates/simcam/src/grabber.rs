@@ -138,7 +138,12 @@ impl<S: FrameSource> DeviceControl for SimGrabber<S> {
         let us = gloam_grabber::exposure_us(exposure_s)?;
         if us > self.info.max_exposure_us {
             return Err(GrabError::InvalidSetting(format!(
-                "exposure {exposure_s} s above the maximum {} s",
+                "exposure {} s above the maximum {} s",
+                if exposure_s.abs() >= 1e6 {
+                    format!("{exposure_s:e}")
+                } else {
+                    exposure_s.to_string()
+                },
                 f64::from(self.info.max_exposure_us) / 1e6
             )));
         }

@@ -307,6 +307,51 @@ fn panel_vertices(lamp: DVec3) -> [DVec3; 4] {
     ]
 }
 
+/// Refuses, before any case runs, an `--out` whose `scale.json` or
+/// `scale.png` the bench did not write: it replaces only a previous
+/// bench's report (a `scale.json` holding its `method` and `cases`, and the
+/// `scale.png` beside such a report), never a user's file of that name.
+fn refuse_foreign_outputs(out: &Path) -> Result<(), BenchError> {
+    let json = out.join("scale.json");
+    let png = out.join("scale.png");
+    let ours = |p: &Path| -> bool {
+        std::fs::symlink_metadata(p).is_ok_and(|m| m.is_file())
+            && gloam_spectra::input::unrecorded(|| {
+                gloam_spectra::input::read_text(p, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            })
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .is_some_and(|v| v.get("method").is_some() && v.get("cases").is_some())
+    };
+    let json_exists = std::fs::symlink_metadata(&json).is_ok();
+    let png_exists = std::fs::symlink_metadata(&png).is_ok();
+    if (json_exists || png_exists) && !ours(&json) {
+        let what = if json_exists {
+            format!(
+                "{} exists and is not a report `gloam bench scale` wrote",
+                json.display()
+            )
+        } else {
+            format!(
+                "{} exists without a report of `gloam bench scale` (scale.json) beside it",
+                png.display()
+            )
+        };
+        return Err(BenchError::Invalid(format!(
+            "--out {}: {what}; the bench replaces only its own scale.json and scale.png — remove it or choose another --out",
+            out.display()
+        )));
+    }
+    if png_exists && !std::fs::symlink_metadata(&png).is_ok_and(|m| m.is_file()) {
+        return Err(BenchError::Invalid(format!(
+            "--out {}: {} is not a regular file; the bench replaces only its own scale.png",
+            out.display(),
+            png.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Writes the case's scene into `dir` and returns the `scene.toml` path.
 pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> Result<PathBuf, BenchError> {
     case.check()?;
@@ -969,6 +1014,7 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
     for c in &cases {
         c.check()?;
     }
+    refuse_foreign_outputs(&opts.out)?;
     std::fs::create_dir_all(&opts.out).map_err(BenchError::io("creating", &opts.out))?;
     let (mitsuba, mitsuba_note) = mitsuba_check(opts.no_mitsuba);
     let mut rows = Vec::new();
