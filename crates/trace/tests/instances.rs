@@ -151,3 +151,76 @@ fn shared_instances_interreflect_by_path_tracing() {
     let sigma = (var(&a) + var(&b)).sqrt();
     assert!((sa - sb).abs() < 4.0 * sigma, "{sa} vs {sb} (σ {sigma})");
 }
+
+/// 2 000 unit boxes in a row 2 m apart, shared and expanded: equal boxes
+/// evenly spaced made the BVH builder merge one pair per pass (quadratic:
+/// 10⁵ on a line took 151 s, issue 46). Both ways build, and under a
+/// distant source 20° from the zenith the top of box 1 234 gets `E cos θ`,
+/// the ground in the gap after it too (the box's shadow falls short), and
+/// the ground just beside it, in its shadow, nothing.
+#[test]
+fn boxes_in_a_row_build_and_cast_their_shadows() {
+    use glam::DVec3;
+    let csv = std::env::temp_dir().join(format!("gloam-row-{}.csv", std::process::id()));
+    let rows: String = (0..2_000).map(|i| format!("{},0,0,0,1\n", 2 * i)).collect();
+    std::fs::write(&csv, rows).unwrap();
+    let t = 20f64.to_radians();
+    for how in ["shared", "expand"] {
+        let text = format!(
+            r#"
+units = "m"
+[camera]
+position = [2468, -10, 5]
+look_at = [2468, 0, 0]
+fov_deg = 40
+width = 4
+height = 4
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[materials.grey]
+reflectance = 0.5
+[objects.ground]
+material = "grey"
+quad = {{ center = [2000, 0, -0.001], size = [5000, 100], normal = [0, 0, 1] }}
+[objects.row]
+material = "grey"
+box = {{ min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }}
+instancing = "{how}"
+instances_csv = "{}"
+[distant_sources.sun]
+direction = [{}, 0, {}]
+value = 1.0
+normalize = {{ lo_nm = 400, hi_nm = 700, value = 10.0 }}
+"#,
+            csv.display(),
+            t.sin(),
+            -t.cos()
+        );
+        let sc = gloam_scene::parse_str(&text, Path::new("row.toml")).unwrap();
+        let mut s = RenderSettings::default();
+        s.set("indirect", "off").unwrap();
+        let tracer = gloam_trace::Tracer::new(&sc, &s).unwrap();
+        let e = |x: f64, z: f64| {
+            let p = DVec3::new(x, 0.0, z);
+            tracer
+                .probe_point(p, DVec3::Z, Some("vis"), 1)
+                .unwrap()
+                .irradiance_w_m2
+        };
+        let lit = 10.0 * t.cos();
+        // The box's shadow reaches tan 20° = 0.36 m past its far side.
+        for (x, z, want) in [
+            (2468.0, 1.0, lit),
+            (2469.3, -0.001, lit),
+            (2468.6, -0.001, 0.0),
+        ] {
+            let got = e(x, z);
+            assert!(
+                (got - want).abs() <= 1e-9 * lit,
+                "{how}: E({x}, {z}) = {got}, expected {want}"
+            );
+        }
+    }
+    let _ = std::fs::remove_file(&csv);
+}
