@@ -597,7 +597,7 @@ const CASES: &[Case] = &[
     case!("render: --set tolerance=-0.1", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "tolerance=-0.1"], ["tolerance"]),
     case!("render: --set cache_texels=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "cache_texels=0"], ["cache_texels"]),
     case!("render: --set max_spp=0", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "max_spp=0"], ["max_spp"]),
-    case!("render: --set drop=sun", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "drop=sun"], ["drop"]),
+    case!("render: --set drop=saturn", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "drop=saturn"], ["drop", "saturn"]),
     case!("render: --set all_effects=maybe", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "all_effects=maybe"], ["all_effects"]),
     case!("render: --set occlusion=xyz", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "occlusion=xyz"], ["occlusion"]),
     case!("render: --set indirect=photon-map", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "indirect=photon-map"], ["indirect"]),
