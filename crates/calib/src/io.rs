@@ -874,9 +874,12 @@ pub fn check_record_fits_frame(
     if let Some(v) = stored.get("format") {
         let bytes = {
             let mut head = [0u8; 16];
-            let n = std::fs::File::open(frame)
-                .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-                .unwrap_or(0);
+            let n = gloam_spectra::input::open_bounded(
+                frame,
+                gloam_spectra::input::MAX_IMAGE_FILE_BYTES,
+            )
+            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+            .unwrap_or(0);
             head[..n].to_vec()
         };
         let actual = if bytes.starts_with(PNG_SIGNATURE) {
