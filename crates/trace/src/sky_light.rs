@@ -376,13 +376,7 @@ impl RadianceTable {
     pub fn new(light: &SkyLight) -> Self {
         let nw = light.wavelengths_nm.len();
         if !light.any_moon_sky {
-            return Self {
-                nw,
-                n_el: 1,
-                n_az: 1,
-                values: light.night_radiance_w_m2_sr_nm.clone(),
-                uniform: true,
-            };
+            return Self::uniform(light.night_radiance_w_m2_sr_nm.clone());
         }
         Self::tabulate(nw, |d, out| light.sky_radiance_into(d, out))
     }

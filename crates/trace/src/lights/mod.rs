@@ -297,7 +297,7 @@ pub(crate) enum LightSource<'a> {
     /// A distant source, or the Sun's beam: one shadow ray.
     Distant(&'a DistantLight),
     /// The twilight sky: `sky_samples` cosine-weighted shadow rays.
-    Twilight(&'a SkyState),
+    Twilight(sky::Dome<'a>),
     /// The sky dome: `sky_samples` cosine-weighted shadow rays.
     Dome(&'a SkyState),
 }
@@ -356,11 +356,7 @@ impl LightSource<'_> {
             LightSource::Moon(sky) => t.moon_irradiance(sky, p, n, ignore, c, out),
             LightSource::Dome(sky) => t.dome_irradiance(sky, p, n, ignore, rng, c, out),
             LightSource::Distant(l) => t.distant_irradiance(l, p, n, ignore, c, out),
-            LightSource::Twilight(sky) => {
-                if let Some(dome) = sky.twilight_dome() {
-                    t.dome_from(dome, p, n, ignore, rng, c, out)
-                }
-            }
+            LightSource::Twilight(dome) => t.dome_from(*dome, p, n, ignore, rng, c, out),
         }
     }
 }

@@ -52,7 +52,7 @@ impl<'a> LightSampler<'a> {
             .chain(t.distant.iter().map(LightSource::Distant))
             .chain(sky.and_then(|s| s.sun.as_ref()).map(LightSource::Distant))
             .chain(
-                sky.filter(|s| s.twilight.is_some())
+                sky.and_then(super::SkyState::twilight_dome)
                     .map(LightSource::Twilight),
             )
             .chain((!area_in_tree && !area_empty).then_some(LightSource::Area(AreaSet::Every)))
