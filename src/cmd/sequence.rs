@@ -25,8 +25,9 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let set = OutputSet::begin(&args.out, args.force, false)?;
     let dir = set.dir().to_path_buf();
     let t_load = Instant::now();
-    let sequence = gloam_scene::sequence::load_sequence(&args.sequence)?;
-    let scene = gloam_scene::load(&sequence.scene)?;
+    let mut sequence = gloam_scene::sequence::load_sequence(&args.sequence)?;
+    let mut scene = gloam_scene::load(&sequence.scene)?;
+    sequence.bind_sky(&mut scene)?;
     let load_s = t_load.elapsed().as_secs_f64();
     // Refused before any render: a group or moving table the scene lacks
     // (the camera's video rate is checked before the first render too).
@@ -112,6 +113,26 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
                 "keys": m.keys.len(),
             })).collect::<Vec<_>>(),
             "renders": renders,
+            "sky": sequence.sky.as_ref().map(|c| serde_json::json!({
+                "utc_at_start": c.start.map(|t| t.to_iso8601()),
+                "time_scale": c.time_scale,
+                "renders": c.key_times_s.iter().zip(&c.key_sun_deg).zip(&c.key_lux)
+                    .map(|((&t, &sun), &lux)| serde_json::json!({
+                        "time_s": t,
+                        "utc": sequence.sky_instant_at(t).map(|u| u.to_iso8601()),
+                        "sun_elevation_deg": sun,
+                        "horizontal_lux": lux,
+                    })).collect::<Vec<_>>(),
+                "photocells": sequence.groups.iter()
+                    .filter_map(|(g, t)| t.photocell.map(|p| (g, p, t)))
+                    .map(|(g, p, t)| (g.clone(), serde_json::json!({
+                        "on_lux": p.on_lux,
+                        "run_up_s": p.run_up_s,
+                        "keys": t.keys,
+                    })))
+                    .collect::<serde_json::Map<_, _>>(),
+                "method": "the scene rendered at each instant of `renders` (the sky's clock: utc_at_start + time_scale × t), each frame's layers taken pixel by pixel geometrically between the two renders around its mid-exposure (a^(1-f) b^f; linearly where either is 0); photocells switch on the sky model's horizontal illuminance at the site",
+            })),
             "outputs": {
                 "frames.jsonl": "one line per frame; its `sequence` gives time_s, window_s and each light group's mean intensity over the exposure",
                 "gain-over-time.png": "the gain in effect per frame",
@@ -157,6 +178,25 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
             pct("added_variance_fraction_p99"),
             t["mean_spp"].as_f64().unwrap_or(f64::NAN),
         );
+    }
+    if let Some(c) = &sequence.sky {
+        let (n, lux, sun) = (c.key_lux.len(), &c.key_lux, &c.key_sun_deg);
+        if n > 0 {
+            eprintln!(
+                "sky: {} renders from {} ({:.2}°, {:.3e} lx) to {} ({:.2}°, {:.3e} lx), {}× time",
+                n,
+                sequence
+                    .sky_instant_at(0.0)
+                    .map_or_else(String::new, |t| t.to_iso8601()),
+                sun[0],
+                lux[0],
+                (sequence.sky_instant_at(sequence.duration_s()))
+                    .map_or_else(String::new, |t| t.to_iso8601()),
+                sun[n - 1],
+                lux[n - 1],
+                c.time_scale
+            );
+        }
     }
     let gains = r.gain_over_time.iter().map(|g| g.1);
     let (lo, hi) = gains.fold((f64::INFINITY, 0.0f64), |(l, h), g| (l.min(g), h.max(g)));

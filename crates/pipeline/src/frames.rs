@@ -163,7 +163,10 @@ impl FrameRecord {
             black_dn: Some(black),
             electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
             nd_density: Some(camera.config().optics.nd_density),
-            gate_duty: camera.config().photocathode.as_ref().map(|p| p.gate_duty),
+            // The duty in effect: the configured gate times the tube's and
+            // the AGC's cuts (as the simulated grabber records it).
+            gate_duty: (camera.config().photocathode.as_ref())
+                .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
             exposure_us: None,
             saturated_by: Some(m.saturation.saturated_by),
             mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),

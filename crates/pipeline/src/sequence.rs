@@ -136,6 +136,41 @@ pub struct SequenceFrame {
     pub window_s: f64,
     /// Each light group's mean relative intensity over the window.
     pub light_groups: BTreeMap<String, f64>,
+    /// With a `[sky]` clock: the sky at mid-exposure.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky: Option<SkyAtFrame>,
+}
+
+/// The sky a frame saw (a sequence with a `[sky]` clock).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SkyAtFrame {
+    /// The sky's instant at mid-exposure, ISO 8601.
+    pub utc: String,
+    /// The Sun's geometric elevation then, degrees (linear between the
+    /// renders' instants).
+    pub sun_elevation_deg: f64,
+    /// The site's horizontal illuminance the photocells see, lux.
+    pub horizontal_lux: f64,
+    /// The two sky renders this frame's image lies between and how far
+    /// towards the second (each pixel `a^{1−f} b^f`).
+    pub renders: [usize; 2],
+    pub fraction: f64,
+}
+
+impl SkyAtFrame {
+    /// The sky at sequence time `t` s, if the sequence has a clock.
+    pub fn at(sequence: &Sequence, t: f64) -> Option<Self> {
+        let (a, b, f) = sequence.sky_bracket(t)?;
+        let clock = sequence.sky.as_ref()?;
+        let sun = &clock.key_sun_deg;
+        Some(Self {
+            utc: sequence.sky_instant_at(t)?.to_iso8601(),
+            sun_elevation_deg: sun[a] + (sun[b] - sun[a]) * f,
+            horizontal_lux: sequence.sky_lux_at(t)?,
+            renders: [a, b],
+            fraction: f,
+        })
+    }
 }
 
 /// What a captured sequence tells its user and records.
@@ -186,6 +221,13 @@ pub struct PoseRenders {
 pub struct PoseRender {
     /// One pose per `[[move]]`, in file order.
     pub poses: Vec<gloam_scene::sequence::Pose>,
+    /// With a `[sky]` clock: the sky's instant of this render (frames
+    /// between two renders take their pixels geometrically between).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky_utc: Option<String>,
+    /// Its index among the sky's renders.
+    #[serde(skip)]
+    pub sky_key: Option<usize>,
     /// First and last frame seeing it (every frame between with the same
     /// pose counted in `frames`).
     pub first_frame: u32,
@@ -288,6 +330,17 @@ pub fn capture_scene_sequence(
         .collect();
     sequence.check_groups(groups.iter().map(String::as_str))?;
     sequence.check_moves(job.scene)?;
+    if let Some(c) = &sequence.sky
+        && c.key_times_s.is_empty()
+    {
+        return Err(SequenceError::Scene(gloam_scene::SceneError::Invalid {
+            path: sequence.path.clone(),
+            line: 1,
+            column: 1,
+            field: "sky".into(),
+            message: "the [sky] clock was not tied to the scene (Sequence::bind_sky)".into(),
+        }));
+    }
     // The tracer's image size: the camera's times `resolution_scale`
     // (rounded, ≥ 1), as `gloam_trace` sizes it; the layers are checked
     // against it.
@@ -343,8 +396,11 @@ impl Frame {
     }
 }
 
-/// The layered renders of each distinct pose, each kept from its first
-/// frame to its last.
+/// A render's key: its bodies' poses (to the bit) and its sky render.
+type StateKeys = std::collections::HashMap<(Vec<[u64; 4]>, Option<usize>), usize>;
+
+/// The layered renders of each distinct pose (and sky instant), each kept
+/// from its first frame to its last.
 struct PoseCache<'a> {
     job: &'a SceneSequence<'a>,
     capture: &'a FrameCapture<'a>,
@@ -355,9 +411,13 @@ struct PoseCache<'a> {
     settled: Option<crate::camera_goal::Settled>,
     groups: usize,
     size: (usize, usize),
-    /// Per frame, its pose's id; per id, its poses and frames.
-    ids: Vec<usize>,
+    /// Per frame, its render's id (its poses and, with a `[sky]` clock,
+    /// the sky render before it) and the sky render after it with how far
+    /// towards it the frame lies; per id, its poses, sky and frames.
+    ids: Vec<(usize, Option<(usize, f64)>)>,
     planned: Vec<PoseRender>,
+    /// A frame's layers between two sky renders.
+    between: Vec<Array2<f64>>,
     window_s: Option<f64>,
     live: std::collections::HashMap<usize, Vec<Array2<f64>>>,
     rendered: Vec<bool>,
@@ -391,6 +451,7 @@ impl<'a> PoseCache<'a> {
             size,
             ids: Vec::new(),
             planned: Vec::new(),
+            between: Vec::new(),
             window_s: None,
             live: std::collections::HashMap::new(),
             rendered: Vec::new(),
@@ -406,8 +467,7 @@ impl<'a> PoseCache<'a> {
     /// layers held at once than half the memory available.
     fn plan(&mut self, window_s: f64) -> Result<(), SequenceError> {
         let seq = self.job.sequence;
-        let mut by_bits: std::collections::HashMap<Vec<[u64; 4]>, usize> =
-            std::collections::HashMap::new();
+        let mut by_key = StateKeys::new();
         self.ids = Vec::with_capacity(seq.frames as usize);
         self.planned.clear();
         self.mixes.clear();
@@ -422,30 +482,20 @@ impl<'a> PoseCache<'a> {
                 count: true,
             };
             let poses = seq.poses_at(f.mid_s());
-            let key: Vec<[u64; 4]> = poses.iter().map(|p| p.bits()).collect();
-            let next = self.planned.len();
-            let id = *by_bits.entry(key).or_insert(next);
-            if id == next {
-                self.planned.push(PoseRender {
-                    poses,
-                    first_frame: i,
-                    last_frame: i,
-                    frames: 0,
-                    seconds: 0.0,
-                    camera_target: None,
-                });
-                if self.job.camera_k.is_some() {
-                    self.mixes.push(crate::camera_goal::Mixes::default());
+            let t0 = f.start_s;
+            let weights = seq.weights(names.iter().copied(), t0, t0 + window_s);
+            let ids = match seq.sky_bracket(f.mid_s()) {
+                None => (self.state(&mut by_key, &poses, None, i, &weights), None),
+                Some((a, b, fraction)) => {
+                    let first = self.state(&mut by_key, &poses, Some(a), i, &weights);
+                    let second = (b != a && fraction > 0.0).then(|| {
+                        let id = self.state(&mut by_key, &poses, Some(b), i, &weights);
+                        (id, fraction)
+                    });
+                    (first, second)
                 }
-            }
-            if let Some(m) = self.mixes.get_mut(id) {
-                let t0 = f.start_s;
-                m.add(&seq.weights(names.iter().copied(), t0, t0 + window_s));
-            }
-            let p = &mut self.planned[id];
-            p.last_frame = i;
-            p.frames += 1;
-            self.ids.push(id);
+            };
+            self.ids.push(ids);
         }
         // Poses held at once: each from its first frame to its last.
         let mut delta = vec![0i64; seq.frames as usize + 1];
@@ -483,12 +533,78 @@ impl<'a> PoseCache<'a> {
         Ok(())
     }
 
-    /// Frame `f`'s layers: its pose's, rendered now if not yet.
+    /// The id of the render of `poses` under sky render `sky`, planned
+    /// now if new, with frame `frame` (of `weights`) counted in it.
+    fn state(
+        &mut self,
+        by_key: &mut StateKeys,
+        poses: &[gloam_scene::sequence::Pose],
+        sky: Option<usize>,
+        frame: u32,
+        weights: &[f64],
+    ) -> usize {
+        let seq = self.job.sequence;
+        let key = (poses.iter().map(|p| p.bits()).collect(), sky);
+        let next = self.planned.len();
+        let id = *by_key.entry(key).or_insert(next);
+        if id == next {
+            let sky_utc = sky
+                .and_then(|k| seq.sky_key_times_s().get(k).copied())
+                .and_then(|t| seq.sky_instant_at(t))
+                .map(|t| t.to_iso8601());
+            self.planned.push(PoseRender {
+                poses: poses.to_vec(),
+                sky_utc,
+                sky_key: sky,
+                first_frame: frame,
+                last_frame: frame,
+                frames: 0,
+                seconds: 0.0,
+                camera_target: None,
+            });
+            if self.job.camera_k.is_some() {
+                self.mixes.push(crate::camera_goal::Mixes::default());
+            }
+        }
+        if let Some(m) = self.mixes.get_mut(id) {
+            m.add(weights);
+        }
+        let p = &mut self.planned[id];
+        p.last_frame = frame;
+        p.frames += 1;
+        id
+    }
+
+    /// Frame `f`'s layers: its render's, rendered now if not yet; between
+    /// two sky renders, each pixel geometrically between theirs.
     fn layers(&mut self, f: &Frame) -> Result<&[Array2<f64>], SequenceError> {
         if self.window_s != Some(f.window_s) {
             self.plan(f.window_s)?;
         }
-        let id = self.ids[f.index as usize];
+        let (id, second) = self.ids[f.index as usize];
+        self.ensure(id, f)?;
+        let Some((other, fraction)) = second else {
+            return Ok(self.live.get(&id).map_or(&[][..], Vec::as_slice));
+        };
+        self.ensure(other, f)?;
+        let (Some(a), Some(b)) = (self.live.get(&id), self.live.get(&other)) else {
+            return Ok(&[]);
+        };
+        self.between.resize_with(a.len(), || Array2::zeros((0, 0)));
+        for ((out, la), lb) in self.between.iter_mut().zip(a).zip(b) {
+            if out.dim() != la.dim() {
+                *out = Array2::zeros(la.dim());
+            }
+            ndarray::Zip::from(out)
+                .and(la)
+                .and(lb)
+                .for_each(|o, &x, &y| *o = gloam_scene::sequence::geometric(x, y, fraction));
+        }
+        Ok(&self.between)
+    }
+
+    /// Renders state `id` if it is not live yet (for frame `f`).
+    fn ensure(&mut self, id: usize, f: &Frame) -> Result<(), SequenceError> {
         if !self.live.contains_key(&id) {
             let poses = self.planned[id].poses.clone();
             let t0 = Instant::now();
@@ -508,14 +624,16 @@ impl<'a> PoseCache<'a> {
             }
             self.live.insert(id, detected);
         }
-        Ok(self.live.get(&id).map_or(&[][..], Vec::as_slice))
+        Ok(())
     }
 
-    /// Drops frame `f`'s pose after its last frame.
+    /// Drops frame `f`'s renders after their last frame.
     fn done(&mut self, f: &Frame) {
-        let id = self.ids[f.index as usize];
-        if f.count && self.planned[id].last_frame == f.index {
-            self.live.remove(&id);
+        let (id, second) = self.ids[f.index as usize];
+        for id in std::iter::once(id).chain(second.map(|s| s.0)) {
+            if f.count && self.planned[id].last_frame == f.index {
+                self.live.remove(&id);
+            }
         }
     }
 
@@ -534,12 +652,19 @@ impl<'a> PoseCache<'a> {
         ),
         SequenceError,
     > {
-        let moved;
+        let (moved, skied);
         let scene = match self.job.sequence.moves.is_empty() {
             true => self.job.scene,
             false => {
                 moved = self.job.sequence.scene_at_checked(self.job.scene, poses)?;
                 &moved
+            }
+        };
+        let scene = match self.planned[id].sky_key {
+            None => scene,
+            Some(k) => {
+                skied = self.job.sequence.scene_at_sky(scene, k);
+                &skied
             }
         };
         let job = crate::render::RenderJob {
@@ -650,6 +775,7 @@ fn capture_with(
             time_s: f.start_s,
             window_s: f.window_s,
             light_groups: groups.iter().cloned().zip(weights).collect(),
+            sky: SkyAtFrame::at(sequence, f.mid_s()),
         });
         *mix_s.borrow_mut() += t.elapsed().as_secs_f64();
         img
@@ -728,6 +854,7 @@ fn capture_with(
         )],
     )
     .map_err(SequenceError::Plot)?;
+    plot_sky(sequence, &places.borrow(), out)?;
     Ok(SequenceReport {
         frames: sequence.frames,
         frame_rate_hz: sequence.frame_rate_hz,
@@ -740,6 +867,38 @@ fn capture_with(
         renders: None,
     })
 }
+
+/// With a `[sky]` clock, `sky-over-time.png`: the site's horizontal
+/// illuminance per frame (what the photocells see), on a log scale.
+fn plot_sky(
+    sequence: &Sequence,
+    places: &[SequenceFrame],
+    out: &Path,
+) -> Result<(), SequenceError> {
+    let lux: Vec<(f64, f64)> = (places.iter())
+        .filter_map(|p| p.sky.as_ref().map(|s| (p.time_s, s.horizontal_lux)))
+        .filter(|p| p.1 > 0.0)
+        .collect();
+    if lux.is_empty() {
+        return Ok(());
+    }
+    let scale = sequence.sky.as_ref().map_or(1.0, |c| c.time_scale);
+    gloam_calib::plot::xy_plot_scaled(
+        &out.join(SKY_PLOT),
+        &format!("horizontal illuminance at the site (the sky's clock at {scale}x)"),
+        ("time, s", gloam_calib::plot::Scale::Linear),
+        ("illuminance, lx", gloam_calib::plot::Scale::Log10),
+        &[gloam_calib::plot::Series::new(
+            "sky",
+            lux,
+            gloam_calib::plot::Mark::Line,
+        )],
+    )
+    .map_err(SequenceError::Plot)
+}
+
+/// The sky's plot, with a `[sky]` clock.
+pub const SKY_PLOT: &str = "sky-over-time.png";
 
 /// The animated preview's file: an APNG (a PNG whose first frame is what
 /// viewers without animation show), every browser plays it.

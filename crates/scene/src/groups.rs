@@ -73,6 +73,19 @@ impl LightGroups {
         self.groups[i].sources.push(source);
         i
     }
+
+    /// Gives the sky's Sun its groups (`sun` for its beam, `twilight` for
+    /// its sky) where they are missing: a sequence whose clock carries the
+    /// Sun across the horizon or −18° renders every instant into the same
+    /// groups, empty where the Sun does not light them.
+    pub fn with_sunlight(&mut self, beam: bool, twilight: bool) {
+        if beam && self.sun.is_none() {
+            self.sun = Some(self.index(SUN_GROUP, "sky.sun".into()));
+        }
+        if twilight && self.twilight.is_none() {
+            self.twilight = Some(self.index(TWILIGHT_GROUP, "sky.twilight".into()));
+        }
+    }
 }
 
 /// A light group name that cannot be a file name or a JSON key.

@@ -57,6 +57,12 @@ use crate::error::{FieldPath, Locator, SceneError};
 use crate::instance::Xform;
 use crate::{Luminaire, Scene};
 
+mod sky;
+pub use sky::{
+    DEGREES_PER_RENDER, MAX_ON_LUX, MAX_RUN_UP_S, MAX_SKY_RENDERS, MAX_TIME_SCALE, Photocell,
+    SkyClock, geometric,
+};
+
 /// Most frames a sequence may have (an hour at 277 Hz).
 pub const MAX_SEQUENCE_FRAMES: u32 = 1_000_000;
 /// Highest frame rate, Hz.
@@ -89,6 +95,9 @@ pub struct Sequence {
     group_lines: BTreeMap<String, usize>,
     /// The `[[move]]` bodies, in file order.
     pub moves: Vec<Move>,
+    /// The `[sky]` clock: the sky's time moving with the sequence's
+    /// ([`Sequence::bind_sky`] ties it to the scene).
+    pub sky: Option<SkyClock>,
 }
 
 /// One `[[move]]`: scene tables that travel as one rigid body.
@@ -155,6 +164,9 @@ pub struct Track {
     /// (time s, intensity), times non-decreasing; at least one key.
     pub keys: Vec<(f64, f64)>,
     pub flicker: Option<Flicker>,
+    /// Keys set by a photocell from the sky's light ([`Sequence::bind_sky`];
+    /// off until then).
+    pub photocell: Option<Photocell>,
 }
 
 /// Mains flicker of a discharge lamp: `I(t) = 1 − depth·cos(4π f t)`.
@@ -176,6 +188,7 @@ struct RawSequence {
     groups: BTreeMap<String, RawTrack>,
     #[serde(default, rename = "move")]
     moves: Vec<RawMove>,
+    sky: Option<sky::RawSkyClock>,
 }
 
 #[derive(Deserialize)]
@@ -195,6 +208,7 @@ struct RawTrack {
     #[serde(default)]
     keys: Vec<Vec<f64>>,
     flicker: Option<Flicker>,
+    photocell: Option<Photocell>,
 }
 
 /// Reads and checks a sequence file (bounded read, errors as
@@ -242,9 +256,18 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
     let scene = base.join(&raw.scene);
     let mut groups = BTreeMap::new();
     let mut group_lines = BTreeMap::new();
+    let clock = sky::parse_clock(&loc, raw.sky)?;
     for (name, t) in raw.groups {
         let here = |k: &str| field(&["groups", &name, k]);
-        if t.keys.is_empty() {
+        if let Some(p) = &t.photocell {
+            sky::check_photocell(&loc, &here("photocell"), p, clock.is_some())?;
+            if !t.keys.is_empty() {
+                return Err(loc.error(
+                    &here("keys"),
+                    "a group is keyed or switched by its photocell, not both",
+                ));
+            }
+        } else if t.keys.is_empty() {
             return Err(loc.error(&here("keys"), "needs at least one [time_s, intensity] key"));
         }
         if t.keys.len() > MAX_KEYS {
@@ -307,11 +330,16 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
             e.line()
         };
         group_lines.insert(name.clone(), line);
+        if t.photocell.is_some() {
+            // Off until the clock is bound to the scene's sky.
+            keys.push((0.0, 0.0));
+        }
         groups.insert(
             name,
             Track {
                 keys,
                 flicker: t.flicker,
+                photocell: t.photocell,
             },
         );
     }
@@ -324,6 +352,7 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
         groups,
         group_lines,
         moves,
+        sky: clock,
     })
 }
 
@@ -598,6 +627,17 @@ impl Sequence {
     /// live device, a caller with its own layers): a body's pose changes
     /// every layer, so ignoring its `[[move]]` would be silently wrong.
     pub fn check_static(&self, user: &str) -> Result<(), SceneError> {
+        if let Some(c) = &self.sky {
+            return Err(SceneError::Invalid {
+                path: self.path.clone(),
+                line: c.line,
+                column: 1,
+                field: "sky".into(),
+                message: format!(
+                    "{user} mixes layers rendered once and cannot move the sky's clock (the sky changes every layer): use `gloam sequence`, which renders the sky at its instants, or drop the [sky] table"
+                ),
+            });
+        }
         match self.moves.first() {
             None => Ok(()),
             Some(m) => Err(SceneError::Invalid {
@@ -879,6 +919,7 @@ mod tests {
         Track {
             keys: keys.to_vec(),
             flicker,
+            photocell: None,
         }
     }
 

@@ -74,6 +74,8 @@ pub struct Camera {
     mode: Mode,
     agc: Option<AgcLoop>,
     gain: f64,
+    /// The AGC's gate duty factor for the next frame (autogating; 1 else).
+    duty: f64,
     agc_state: AgcState,
     seq: u64,
     /// The stages in order, with what each carries between frames.
@@ -92,6 +94,9 @@ impl Camera {
     pub fn new(config: SensorConfig) -> Result<Self, ConfigError> {
         let chain = Chain::new(&config)?;
         let agc = config.agc.clone().map(|agc| AgcLoop {
+            min_duty: agc
+                .gate_min_s
+                .map(|g| (g / chain.config.timing.exposure_s).min(1.0)),
             agc,
             hardware_min_gain: chain.gain_min,
             hardware_max_gain: chain.gain_max,
@@ -114,6 +119,7 @@ impl Camera {
             mode,
             agc,
             gain,
+            duty: 1.0,
             seq: 0,
             stages: Stages::of(&chain),
             buf: Vec::new(),
@@ -144,6 +150,11 @@ impl Camera {
         self.gain
     }
 
+    /// The AGC's gate duty factor for the next frame (1 unless autogating).
+    pub fn agc_duty(&self) -> f64 {
+        self.duty
+    }
+
     pub fn agc_state(&self) -> AgcState {
         self.agc_state
     }
@@ -169,6 +180,7 @@ impl Camera {
                     });
                 }
                 self.gain = g.clamp(self.chain.gain_min, self.chain.gain_max);
+                self.duty = 1.0;
                 self.mode = Mode::Override;
                 self.agc_state = AgcState::Override;
             }
@@ -179,6 +191,7 @@ impl Camera {
                 } else {
                     self.mode = Mode::Fixed;
                     self.gain = self.chain.reference_gain;
+                    self.duty = 1.0;
                     self.agc_state = AgcState::Off;
                 }
             }
@@ -222,6 +235,7 @@ impl Camera {
         self.stages.reset();
         if self.mode != Mode::Override {
             self.gain = self.chain.reference_gain;
+            self.duty = 1.0;
         }
     }
 
@@ -359,7 +373,9 @@ impl Camera {
     ) -> Result<DigitizedFrame, CaptureError> {
         let chain = &self.chain;
         // The tube's ABC: MCP voltage first, then the gate.
-        let (abc, abc_out_of_range) = self.stages.abc_setting(chain.gain_min / self.gain);
+        let (mut abc, abc_out_of_range) = self.stages.abc_setting(chain.gain_min / self.gain);
+        // The AGC's gate and the tube's own cut multiply.
+        abc.duty_factor *= self.duty;
         let g = self.gain * abc.gain_factor;
         let mut f = InFlight {
             pe,
@@ -422,7 +438,8 @@ impl Camera {
             && let Some(agc) = &self.agc
         {
             let black = chain.black_dn(g);
-            (self.gain, self.agc_state) = agc.step(self.gain, mean_dn - black, sat_frac);
+            let s = agc.step(self.gain, self.duty, mean_dn - black, sat_frac);
+            (self.gain, self.duty, self.agc_state) = (s.gain, s.duty, s.state);
         }
         Ok(DigitizedFrame {
             pixels: f.pixels,

@@ -281,6 +281,12 @@ pub struct Agc {
     /// Gain multiplier per frame while protecting (0–1).
     #[serde(default = "default_protect_factor")]
     pub protect_factor: f64,
+    /// Autogating: below its least gain the loop shortens the
+    /// photocathode's gate, down to this on-time per exposure, s (Gen III
+    /// auto-gated tubes: ~100 ns), so the camera follows light from
+    /// starlight to daylight. Omitted: the loop has the gain alone.
+    #[serde(default)]
+    pub gate_min_s: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -645,6 +651,24 @@ impl SensorConfig {
             positive("agc.protect_factor", a.protect_factor)?;
             if a.protect_factor >= 1.0 {
                 return Err(ConfigError::invalid("agc.protect_factor", "must be < 1"));
+            }
+            if let Some(g) = a.gate_min_s {
+                positive("agc.gate_min_s", g)?;
+                if self.photocathode.is_none() {
+                    return Err(ConfigError::invalid(
+                        "agc.gate_min_s",
+                        "needs a photocathode to gate (an intensified camera)",
+                    ));
+                }
+                if g > self.timing.exposure_s {
+                    return Err(ConfigError::invalid(
+                        "agc.gate_min_s",
+                        format!(
+                            "{g:e} s is longer than the exposure, {:e} s",
+                            self.timing.exposure_s
+                        ),
+                    ));
+                }
             }
         }
 

@@ -466,7 +466,7 @@ impl TwilightLux {
     /// Sunlight for the Sun at `t` over `site`; an overcast deck passes
     /// `overcast_transmittance` of the clear-sky direct + diffuse light as
     /// diffuse light, as it does for moonlight.
-    fn at(
+    pub fn at(
         t: UtcInstant,
         site: &Site,
         visibility_km: f64,

@@ -32,16 +32,32 @@ pub struct AgcLoop {
     pub hardware_min_gain: f64,
     pub hardware_max_gain: f64,
     pub frame_period_s: f64,
+    /// With autogating, the shortest gate over the exposure (the least
+    /// duty factor); `None`: gain only.
+    pub min_duty: Option<f64>,
+}
+
+/// What the loop sets for the next frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AgcSetting {
+    pub gain: f64,
+    /// The gate's duty factor, ≤ 1 (1 without autogating).
+    pub duty: f64,
+    pub state: AgcState,
 }
 
 impl AgcLoop {
     /// One step after a frame whose mean signal above black was
-    /// `signal_dn` at gain `gain`:
-    /// `ln g ← ln g + (1 − e^{−Δt/τ}) (ln set-point − ln signal)`, clamped to
-    /// the limits; bright-source protection multiplies g by `protect_factor`
-    /// instead when the mean or the saturated fraction passes its threshold.
-    /// In the linear range the log-gain error decays as `e^{−t/τ}`.
-    pub fn step(&self, gain: f64, signal_dn: f64, sat_frac: f64) -> (f64, AgcState) {
+    /// `signal_dn` at gain `gain` and gate duty `duty`: on the log of the
+    /// throughput `T = g·d`,
+    /// `ln T ← ln T + (1 − e^{−Δt/τ}) (ln set-point − ln signal)`; the
+    /// gain takes `T` within its limits and, with autogating, the gate
+    /// what remains below the least gain (the gate opens fully before the
+    /// gain rises: more photoelectrons, less noise). Bright-source
+    /// protection multiplies `T` by `protect_factor` instead when the mean
+    /// or the saturated fraction passes its threshold. In the linear range
+    /// the log error decays as `e^{−t/τ}`.
+    pub fn step(&self, gain: f64, duty: f64, signal_dn: f64, sat_frac: f64) -> AgcSetting {
         let a = &self.agc;
         let lo = a
             .min_gain
@@ -53,25 +69,32 @@ impl AgcLoop {
             .min(self.hardware_max_gain);
         let protect = a.protect_mean_dn.is_some_and(|t| signal_dn > t)
             || (sat_frac > a.protect_saturated_fraction && a.protect_saturated_fraction > 0.0);
+        let through = gain * duty;
         let mut state = AgcState::Tracking;
         let want = if protect {
             state = AgcState::Protecting;
-            gain * a.protect_factor
+            through * a.protect_factor
         } else {
             let dt = self.frame_period_s;
             let alpha = 1.0 - (-dt / a.time_constant_s).exp();
             let measured = signal_dn.max(1e-3);
-            (gain.ln() + alpha * (a.set_point_dn.ln() - measured.ln())).exp()
+            (through.ln() + alpha * (a.set_point_dn.ln() - measured.ln())).exp()
         };
         let g = want.clamp(lo, hi);
+        let least_duty = self.min_duty.unwrap_or(1.0).min(1.0);
+        let d = (want / g).clamp(least_duty, 1.0);
         if !protect {
             if want > hi {
                 state = AgcState::AtMaxGain;
-            } else if want < lo {
+            } else if want < lo * least_duty {
                 state = AgcState::AtMinGain;
             }
         }
-        (g, state)
+        AgcSetting {
+            gain: g,
+            duty: d,
+            state,
+        }
     }
 }
 
@@ -90,10 +113,12 @@ mod tests {
                 protect_mean_dn: None,
                 protect_saturated_fraction: 0.02,
                 protect_factor: 0.5,
+                gate_min_s: None,
             },
             hardware_min_gain: 1.0,
             hardware_max_gain: 1e6,
             frame_period_s: 0.04,
+            min_duty: None,
         }
     }
 
@@ -106,7 +131,7 @@ mod tests {
         let mut g: f64 = 10.0;
         let e0 = (g / target).ln();
         for _ in 0..25 {
-            g = l.step(g, g * k, 0.0).0;
+            g = l.step(g, 1.0, g * k, 0.0).gain;
         }
         let want = e0 * (-25.0 * 0.04 / 0.5f64).exp();
         assert!(((g / target).ln() - want).abs() < 1e-12, "{g}");
@@ -115,8 +140,45 @@ mod tests {
     #[test]
     fn protection_halves_and_limits_report() {
         let l = lp(0.5);
-        assert_eq!(l.step(100.0, 50.0, 0.5), (50.0, AgcState::Protecting));
-        assert_eq!(l.step(1e6, 1e-9, 0.0).1, AgcState::AtMaxGain);
-        assert_eq!(l.step(1.0, 1e9, 0.0), (1.0, AgcState::AtMinGain));
+        let s = l.step(100.0, 1.0, 50.0, 0.5);
+        assert_eq!((s.gain, s.duty, s.state), (50.0, 1.0, AgcState::Protecting));
+        assert_eq!(l.step(1e6, 1.0, 1e-9, 0.0).state, AgcState::AtMaxGain);
+        let s = l.step(1.0, 1.0, 1e9, 0.0);
+        assert_eq!((s.gain, s.duty, s.state), (1.0, 1.0, AgcState::AtMinGain));
+    }
+
+    #[test]
+    fn autogating_carries_the_loop_below_the_least_gain_and_opens_first() {
+        // A linear camera whose signal is g·d·L·0.1 DN, under light 10⁵×
+        // what the least gain can hold at the set point: with a gate down
+        // to 10⁻⁶ of the exposure the loop settles at the least gain and
+        // duty 10⁻⁵ (throughput = set point / (L·k)), the log error
+        // decaying as e^{−t/τ} as with gain alone.
+        let mut l = lp(0.5);
+        l.min_duty = Some(1e-6);
+        let (k, light) = (0.1, 1e5 * 100.0 / 0.1);
+        let (mut g, mut d) = (1.0f64, 1.0f64);
+        let target = 100.0 / (light * k);
+        let e0 = (g * d / target).ln();
+        for _ in 0..500 {
+            let s = l.step(g, d, g * d * light * k, 0.0);
+            (g, d) = (s.gain, s.duty);
+            assert_eq!(s.gain, 1.0, "the gain stays at its least while gated");
+        }
+        let want = e0 * (-500.0 * 0.04 / 0.5f64).exp();
+        assert!(((g * d / target).ln() - want).abs() < 1e-9, "{g} {d}");
+        assert!((d / 1e-5 - 1.0).abs() < 1e-9);
+        // Darkness returns: the gate opens fully before the gain rises.
+        let mut seen_gain_rise_with_gate_closed = false;
+        for _ in 0..2000 {
+            let s = l.step(g, d, g * d * 1.0 * k, 0.0);
+            seen_gain_rise_with_gate_closed |= s.gain > 1.0 && s.duty < 1.0;
+            (g, d) = (s.gain, s.duty);
+        }
+        assert!(!seen_gain_rise_with_gate_closed);
+        assert!((d - 1.0).abs() < 1e-15 && g > 100.0, "{g} {d}");
+        // At the shortest gate the loop says so.
+        let s = l.step(1.0, 1e-6, 1e9, 0.0);
+        assert_eq!((s.duty, s.state), (1e-6, AgcState::AtMinGain));
     }
 }

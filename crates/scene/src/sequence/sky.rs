@@ -1,0 +1,451 @@
+//! The sky's clock: dusk and dawn, time-compressed, in a sequence.
+//!
+//! ```toml
+//! [sky]
+//! utc_at_start = "2025-10-21T22:15:00Z"   # default: the scene's [sky] utc
+//! time_scale = 360.0                      # sky seconds per sequence second
+//! renders = 20                            # default: one per degree of Sun
+//!
+//! [groups.street_lamps]
+//! # On when the site's horizontal illuminance falls below on_lux, reaching
+//! # full output run_up_s (sky seconds) later: a lamp's photocell.
+//! photocell = { on_lux = 20.0, run_up_s = 180.0 }
+//! ```
+//!
+//! The sky changes every group's light (the Sun, its sky, the Moon move),
+//! so it cannot be a weight on layers rendered once. The scene is rendered
+//! at `renders` instants spread evenly over the sequence ([`Sequence::sky_key_times_s`]),
+//! and a frame between two of them takes each layer's pixels
+//! geometrically between theirs (`a^{1−f} b^f`: exact for light that
+//! falls exponentially, as twilight does — ×2.5 per degree of Sun — where
+//! linear mixing is 11 % too bright halfway between renders a degree
+//! apart; linearly where either is zero).
+//!
+//! The photocell sees the sky model's horizontal illuminance at the site
+//! (`gloam sky`'s: the Sun's direct and sky light, and the Moon and night
+//! sky where the scene has them), not the rendered image: a lamp's
+//! photocell looks up at the sky. Its switching instants are found to a
+//! hundredth of a frame and become the group's keys.
+
+use gloam_sky::UtcInstant;
+use serde::Deserialize;
+
+use super::{Sequence, Track};
+use crate::build::num;
+use crate::error::{FieldPath, Locator, SceneError};
+use crate::{Scene, SkyConfig};
+
+/// Fastest sky clock: a day in under a second of sequence.
+pub const MAX_TIME_SCALE: f64 = 1e5;
+/// Most renders of the sky a sequence may ask for.
+pub const MAX_SKY_RENDERS: u32 = 1000;
+/// The default spacing of the sky's renders, degrees of Sun elevation.
+pub const DEGREES_PER_RENDER: f64 = 1.0;
+/// Brightest photocell threshold, lux (full daylight is ~10⁵ lx).
+pub const MAX_ON_LUX: f64 = 1e5;
+/// Longest lamp run-up, sky seconds (an hour).
+pub const MAX_RUN_UP_S: f64 = 3600.0;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSkyClock {
+    utc_at_start: Option<String>,
+    time_scale: f64,
+    renders: Option<u32>,
+}
+
+/// A lamp's photocell: on below `on_lux` of horizontal illuminance,
+/// reaching full output `run_up_s` of sky time after switching on (a
+/// high-pressure sodium lamp takes minutes); off again at once above it.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Photocell {
+    pub on_lux: f64,
+    #[serde(default)]
+    pub run_up_s: f64,
+}
+
+/// The sequence's `[sky]` clock.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyClock {
+    /// The sky's instant at the sequence's t = 0 (the scene's `[sky] utc`
+    /// when the file gives none, set by [`Sequence::bind_sky`]).
+    pub start: Option<UtcInstant>,
+    /// Sky seconds per sequence second.
+    pub time_scale: f64,
+    /// Renders asked for (`None`: one per degree of Sun elevation).
+    pub renders: Option<u32>,
+    /// Sequence times of the sky's renders, s (set by `bind_sky`).
+    pub key_times_s: Vec<f64>,
+    /// The photocell's illuminance at each render's instant, lux.
+    pub key_lux: Vec<f64>,
+    /// The Sun's elevation at each render's instant, degrees.
+    pub key_sun_deg: Vec<f64>,
+    pub(super) line: usize,
+}
+
+pub(super) fn parse_clock(
+    loc: &Locator,
+    raw: Option<RawSkyClock>,
+) -> Result<Option<SkyClock>, SceneError> {
+    let Some(r) = raw else {
+        return Ok(None);
+    };
+    let at = |k: &str| FieldPath::root().key("sky").key(k);
+    let start = match r.utc_at_start {
+        None => None,
+        Some(text) => Some(UtcInstant::parse_iso8601(&text).map_err(|e| {
+            loc.error(
+                &at("utc_at_start"),
+                format!("'{text}' is not an ISO 8601 UTC instant: {e}"),
+            )
+        })?),
+    };
+    if !(r.time_scale.is_finite() && r.time_scale > 0.0 && r.time_scale <= MAX_TIME_SCALE) {
+        return Err(loc.error(
+            &at("time_scale"),
+            format!(
+                "must be sky seconds per sequence second in (0, {MAX_TIME_SCALE:e}], not {}",
+                num(r.time_scale)
+            ),
+        ));
+    }
+    if let Some(n) = r.renders
+        && !(2..=MAX_SKY_RENDERS).contains(&n)
+    {
+        return Err(loc.error(
+            &at("renders"),
+            format!("must be 2 … {MAX_SKY_RENDERS} renders of the sky, not {n}"),
+        ));
+    }
+    Ok(Some(SkyClock {
+        start,
+        time_scale: r.time_scale,
+        renders: r.renders,
+        key_times_s: Vec::new(),
+        key_lux: Vec::new(),
+        key_sun_deg: Vec::new(),
+        line: loc.error(&FieldPath::root().key("sky"), "").line(),
+    }))
+}
+
+/// Checks a photocell's numbers (`at` names its field).
+pub(super) fn check_photocell(
+    loc: &Locator,
+    at: &FieldPath,
+    p: &Photocell,
+    clock: bool,
+) -> Result<(), SceneError> {
+    if !clock {
+        return Err(loc.error(
+            at,
+            "a photocell needs the sequence's [sky] clock (utc_at_start, time_scale): without it the sky does not change",
+        ));
+    }
+    if !(p.on_lux.is_finite() && p.on_lux > 0.0 && p.on_lux <= MAX_ON_LUX) {
+        return Err(loc.error(
+            at,
+            format!(
+                "on_lux must be in (0, {MAX_ON_LUX:e}] lx, not {}",
+                num(p.on_lux)
+            ),
+        ));
+    }
+    if !(p.run_up_s.is_finite() && (0.0..=MAX_RUN_UP_S).contains(&p.run_up_s)) {
+        return Err(loc.error(
+            at,
+            format!(
+                "run_up_s must be in [0, {MAX_RUN_UP_S}] s, not {}",
+                num(p.run_up_s)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The photocell's illuminance: the sky model's horizontal illuminance at
+/// `t` over the scene's site, with the Moon and night sky as the scene
+/// has them, lux.
+fn horizontal_lux(sky: &SkyConfig, t: UtcInstant) -> Result<f64, gloam_sky::SkyError> {
+    let site = gloam_sky::Site::new(sky.latitude_deg, sky.longitude_deg, sky.height_m)?;
+    let cloud = match sky.overcast {
+        true => gloam_sky::Cloud::Overcast,
+        false => gloam_sky::Cloud::Clear,
+    };
+    let g = gloam_sky::ground_illuminance(t, &site, sky.visibility_km, cloud, false)?;
+    let e = g.illuminance_lux;
+    let moon = if sky.moon {
+        e.moon_direct + e.moon_sky
+    } else {
+        0.0
+    };
+    let night = if sky.night_sky { e.night_sky } else { 0.0 };
+    let sun = gloam_sky::report::TwilightLux::at(t, &site, sky.visibility_km, cloud, 0.0)?;
+    Ok(moon + night + sun.total_with_moon_and_night_sky)
+}
+
+/// The Sun's geometric elevation at `t`, degrees.
+fn sun_deg(sky: &SkyConfig, t: UtcInstant) -> f64 {
+    SkyConfig {
+        instant: t,
+        ..sky.clone()
+    }
+    .sun_elevation_deg()
+}
+
+impl Sequence {
+    /// The sequence's length, s: the last frame's end.
+    pub fn duration_s(&self) -> f64 {
+        f64::from(self.frames) / self.frame_rate_hz
+    }
+
+    /// Ties the `[sky]` clock to `scene`: its start (the scene's instant
+    /// unless the file gives one), the renders' times, the photocells'
+    /// keys, and the Sun's groups in `scene` wherever the clock lights
+    /// them (every render fills the same groups). Does nothing without a
+    /// clock; refuses one over a scene without `[sky]`.
+    pub fn bind_sky(&mut self, scene: &mut Scene) -> Result<(), SceneError> {
+        let duration = self.duration_s();
+        let step = self.frame_period_s() * 0.01;
+        let (path, scene_path) = (self.path.clone(), self.scene.clone());
+        let Some(clock) = self.sky.as_mut() else {
+            return Ok(());
+        };
+        let err = |line: usize, field: &str, message: String| SceneError::Invalid {
+            path: path.clone(),
+            line,
+            column: 1,
+            field: field.into(),
+            message,
+        };
+        let Some(sky) = scene.sky.clone() else {
+            return Err(err(
+                clock.line,
+                "sky",
+                format!(
+                    "the scene {} has no [sky] for the clock to move",
+                    scene_path.display()
+                ),
+            ));
+        };
+        let start = *clock.start.get_or_insert(sky.instant);
+        let at = |t: f64| start.plus_seconds(t * clock.time_scale);
+        let end = at(duration);
+        let year = end.to_calendar().0;
+        if !(gloam_sky::time::MIN_YEAR..=gloam_sky::time::MAX_YEAR).contains(&year) {
+            return Err(err(
+                clock.line,
+                "sky.time_scale",
+                format!("the clock ends in the year {year}, outside the sky model's years"),
+            ));
+        }
+        // The Sun's path, sampled finely, sets the default number of renders.
+        let samples = 256;
+        let path_deg: Vec<f64> = (0..=samples)
+            .map(|i| sun_deg(&sky, at(duration * f64::from(i) / f64::from(samples))))
+            .collect();
+        let travel: f64 = path_deg.windows(2).map(|w| (w[1] - w[0]).abs()).sum();
+        let n = clock.renders.unwrap_or_else(|| {
+            ((travel / DEGREES_PER_RENDER).ceil() as u32 + 1).clamp(2, MAX_SKY_RENDERS)
+        });
+        clock.key_times_s = (0..n)
+            .map(|k| duration * f64::from(k) / f64::from(n - 1))
+            .collect();
+        clock.key_sun_deg = clock
+            .key_times_s
+            .iter()
+            .map(|&t| sun_deg(&sky, at(t)))
+            .collect();
+        let lux = |t: f64| {
+            horizontal_lux(&sky, at(t)).map_err(|e| {
+                err(
+                    clock.line,
+                    "sky",
+                    format!("the sky at {}: {e}", at(t).to_iso8601()),
+                )
+            })
+        };
+        clock.key_lux = (clock.key_times_s.iter())
+            .map(|&t| lux(t))
+            .collect::<Result<_, _>>()?;
+        // Every render fills the same groups: the Sun's where any instant
+        // of the clock has it.
+        let beam = path_deg.iter().any(|&d| d > 0.0) && !sky.overcast;
+        let twilight = path_deg
+            .iter()
+            .any(|&d| d >= gloam_sky::twilight::TWILIGHT_MIN_SUN_ELEVATION_DEG);
+        scene.light_groups.with_sunlight(beam, twilight);
+        let (keys, key_lux, ts) = (
+            clock.key_times_s.clone(),
+            clock.key_lux.clone(),
+            clock.time_scale,
+        );
+        for track in self.groups.values_mut() {
+            let Some(p) = track.photocell else { continue };
+            track.keys = photocell_keys(&p, &keys, &key_lux, &lux, step, ts)?;
+        }
+        Ok(())
+    }
+
+    /// The sky's instant at sequence time `t` s (with a bound clock).
+    pub fn sky_instant_at(&self, t: f64) -> Option<UtcInstant> {
+        let c = self.sky.as_ref()?;
+        Some(c.start?.plus_seconds(t * c.time_scale))
+    }
+
+    /// The sequence times of the sky's renders (empty without a clock).
+    pub fn sky_key_times_s(&self) -> &[f64] {
+        self.sky.as_ref().map_or(&[], |c| &c.key_times_s)
+    }
+
+    /// The two sky renders around `t` and how far `t` lies from the first
+    /// to the second (0…1; the same render twice outside them).
+    pub fn sky_bracket(&self, t: f64) -> Option<(usize, usize, f64)> {
+        let k = self.sky_key_times_s();
+        if k.is_empty() {
+            return None;
+        }
+        let i = k.partition_point(|&x| x <= t);
+        if i == 0 {
+            return Some((0, 0, 0.0));
+        }
+        if i == k.len() {
+            return Some((i - 1, i - 1, 0.0));
+        }
+        let (a, b) = (k[i - 1], k[i]);
+        let f = if b > a { (t - a) / (b - a) } else { 0.0 };
+        Some((i - 1, i, f.clamp(0.0, 1.0)))
+    }
+
+    /// The photocell's illuminance at `t`, lux: geometric between the
+    /// renders' instants (as the images are).
+    pub fn sky_lux_at(&self, t: f64) -> Option<f64> {
+        let (a, b, f) = self.sky_bracket(t)?;
+        let l = &self.sky.as_ref()?.key_lux;
+        Some(geometric(l[a], l[b], f))
+    }
+
+    /// `scene` under the sky of render `key` (its `[sky]` instant moved;
+    /// everything else, light groups included, the scene's).
+    pub fn scene_at_sky(&self, scene: &Scene, key: usize) -> Scene {
+        let mut out = scene.clone();
+        let t = self.sky_key_times_s().get(key).copied();
+        if let (Some(sky), Some(t)) = (out.sky.as_mut(), t)
+            && let Some(instant) = self.sky_instant_at(t)
+        {
+            sky.instant = instant;
+            sky.utc = instant.to_iso8601();
+        }
+        out
+    }
+}
+
+/// `a^{1−f} b^f` where both are positive, else linear.
+pub fn geometric(a: f64, b: f64, f: f64) -> f64 {
+    if f <= 0.0 {
+        a
+    } else if f >= 1.0 {
+        b
+    } else if a > 0.0 && b > 0.0 {
+        (a.ln() * (1.0 - f) + b.ln() * f).exp()
+    } else {
+        a + (b - a) * f
+    }
+}
+
+/// A photocell's keys: its state at each render's instant, each change
+/// located by bisection to `step` s, switching on as a ramp of `run_up_s`
+/// sky seconds (`time_scale` per sequence second) and off as a step.
+fn photocell_keys(
+    p: &Photocell,
+    times: &[f64],
+    lux: &[f64],
+    lux_at: &dyn Fn(f64) -> Result<f64, SceneError>,
+    step: f64,
+    time_scale: f64,
+) -> Result<Vec<(f64, f64)>, SceneError> {
+    let on = |l: f64| l < p.on_lux;
+    let ramp = p.run_up_s / time_scale;
+    let mut keys = vec![(0.0, if on(lux[0]) { 1.0 } else { 0.0 })];
+    for k in 1..times.len() {
+        if on(lux[k]) == on(lux[k - 1]) {
+            continue;
+        }
+        // Bisection: `lo` keeps the earlier state, `hi` the later.
+        let (mut lo, mut hi) = (times[k - 1], times[k]);
+        for _ in 0..60 {
+            if hi - lo <= step {
+                break;
+            }
+            let mid = 0.5 * (lo + hi);
+            if on(lux_at(mid)?) == on(lux[k - 1]) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let t = hi;
+        let last = *keys.last().unwrap_or(&(0.0, 0.0));
+        // The value reached at t (a ramp cut short by switching off).
+        let now = Track {
+            keys: keys.clone(),
+            flicker: None,
+            photocell: None,
+        }
+        .keyed_at(t);
+        let t = t.max(last.0);
+        if on(lux[k]) {
+            keys.push((t, now));
+            keys.push((t + ramp, 1.0));
+        } else {
+            // Keys stay in time order: a ramp still rising ends here.
+            keys.retain(|&(kt, _)| kt <= t);
+            keys.push((t, now));
+            keys.push((t, 0.0));
+        }
+    }
+    Ok(keys)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geometric_is_exact_for_an_exponential_and_linear_through_zero() {
+        // Light falling ×2.5 per step: halfway is √2.5 of the first.
+        let (a, b) = (1.0, 1.0 / 2.5);
+        assert!((geometric(a, b, 0.5) - (1.0 / 2.5f64).sqrt()).abs() < 1e-15);
+        assert_eq!(geometric(0.0, 4.0, 0.25), 1.0);
+        assert_eq!(geometric(3.0, 5.0, 0.0), 3.0);
+        assert_eq!(geometric(3.0, 5.0, 1.0), 5.0);
+    }
+
+    #[test]
+    fn a_photocell_switches_where_the_light_crosses_its_threshold() {
+        // Light falling as 100·e^{−t} lx: below 20 lx at t = ln 5.
+        let f = |t: f64| 100.0 * (-t).exp();
+        let times: Vec<f64> = (0..=10).map(f64::from).collect();
+        let lux: Vec<f64> = times.iter().map(|&t| f(t)).collect();
+        let p = Photocell {
+            on_lux: 20.0,
+            run_up_s: 120.0,
+        };
+        let keys = photocell_keys(&p, &times, &lux, &|t| Ok(f(t)), 1e-6, 60.0).unwrap();
+        let t_on = 5f64.ln();
+        assert_eq!(keys.len(), 3);
+        assert_eq!(keys[0], (0.0, 0.0));
+        assert!((keys[1].0 - t_on).abs() < 2e-6, "{keys:?}");
+        assert_eq!(keys[1].1, 0.0);
+        // 120 sky seconds at 60× is 2 s of sequence.
+        assert!((keys[2].0 - (t_on + 2.0)).abs() < 2e-6);
+        assert_eq!(keys[2].1, 1.0);
+        // Dawn: rising light switches it off at once.
+        let g = |t: f64| f(10.0 - t);
+        let lux: Vec<f64> = times.iter().map(|&t| g(t)).collect();
+        let keys = photocell_keys(&p, &times, &lux, &|t| Ok(g(t)), 1e-6, 60.0).unwrap();
+        assert_eq!(keys[0], (0.0, 1.0));
+        assert!((keys[1].0 - (10.0 - t_on)).abs() < 2e-6, "{keys:?}");
+        assert_eq!((keys[1].1, keys[2].1), (1.0, 0.0));
+    }
+}
