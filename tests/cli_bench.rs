@@ -188,7 +188,7 @@ fn scale_quick_counts_and_lamp_grid_match_closed_forms() {
         assert_eq!(c["status"], "ok", "{c}");
         let r = &c["result"];
         let n = c["size"].as_u64().unwrap();
-        // The closed form of the generators (crates/pipeline/src/bench/scale.rs).
+        // The closed form of the generators (crates/bench/src/scale.rs).
         let (triangles, facets, lamps, emitting) = if c["kind"] == "lamps" {
             (2 * (n + 1), n + 1, n, n)
         } else {

@@ -206,12 +206,12 @@ fn render_without_sampling_flags_samples_to_the_default_error() {
     // one receiving facet.
     let loaded = gloam_scene::load(Path::new(&scene)).unwrap();
     let tracer = gloam_trace::Tracer::new(&loaded, &Default::default()).unwrap();
-    let truth = gloam_pipeline::bench::truth::closed_form_truth(&loaded, &tracer);
+    let truth = gloam_bench::truth::closed_form_truth(&loaded, &tracer);
     let n = truth.mask.iter().filter(|&&m| m).count();
     assert!(n > 1000, "{n} floor pixels");
     let rms = |dir: &Path| {
         let img: ndarray::Array3<f64> = ndarray_npy::read_npy(dir.join("radiance.npy")).unwrap();
-        gloam_pipeline::bench::metrics::errors(&img, &truth).pixel
+        gloam_bench::metrics::errors(&img, &truth).pixel
     };
     let (e_default, e_fixed) = (rms(&d), rms(&f));
     eprintln!("per-pixel RMS vs closed form: default {e_default:.4}, --spp 4 {e_fixed:.4}");

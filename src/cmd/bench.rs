@@ -1,10 +1,10 @@
 //! `gloam bench accuracy|throughput|plan|scale`: dispatch and printing.
-//! The arguments are [`gloam_pipeline::cli::bench`], the measuring
-//! [`gloam_pipeline::bench`], whose docs say what each figure means.
+//! The arguments are [`gloam_bench::cli`], the measuring [`gloam_bench`],
+//! whose docs say what each figure means.
 
 use anyhow::Context;
-use gloam_pipeline::bench::{accuracy, plan_check, scale, throughput};
-pub use gloam_pipeline::cli::bench::BenchCommand;
+pub use gloam_bench::cli::BenchCommand;
+use gloam_bench::{accuracy, plan_check, scale, throughput};
 
 use super::output::print_json;
 

@@ -9,7 +9,6 @@ macro_rules! eprintln {
     }};
 }
 
-pub mod bench;
 pub mod camera_goal;
 #[cfg(feature = "cli")]
 pub mod cli;

@@ -22,7 +22,7 @@ use crate::provenance::{InputFile, Provenance, hash_file};
 
 /// Staging directories of this process, removed on Ctrl-C.
 static STAGING: Mutex<Vec<(PathBuf, bool)>> = Mutex::new(Vec::new());
-/// Process groups of this process's children (`bench::child::Reaper`),
+/// Process groups of this process's children (`gloam_bench::child::Reaper`),
 /// killed on Ctrl-C or SIGTERM so none outlives the parent.
 static CHILD_GROUPS: Mutex<Vec<u32>> = Mutex::new(Vec::new());
 
@@ -158,7 +158,7 @@ fn io_err(doing: impl FnOnce() -> String) -> impl FnOnce(std::io::Error) -> Outp
 
 /// An error and its sources as `error: cause: cause`, as the command line
 /// prints them.
-pub(crate) fn chain(e: &dyn std::error::Error) -> String {
+pub fn chain(e: &dyn std::error::Error) -> String {
     let mut s = e.to_string();
     let mut next = e.source();
     while let Some(c) = next {

@@ -13,7 +13,6 @@ use crate::exposure::ExposureTarget;
 use crate::render::{SettingArgs, camera_of};
 use crate::{CaptureOptionsError, FrameCapture};
 
-pub mod bench;
 pub mod sequence;
 
 pub use sequence::{SequenceArgError, SequenceArgs};

@@ -12,7 +12,7 @@
 //!
 //! "Share" is the share of the *mean* over that pixel set — the pixels
 //! `--target-error` governs, and the set `gloam bench plan` measures over
-//! (`gloam_pipeline::bench::truth::no_emitter_mask`; a pixel that shows
+//! (`gloam_bench::truth::no_emitter_mask`; a pixel that shows
 //! a point source shows an emitter). Pixels beside an emitter are left
 //! out because their footprint holds some of it: at a quarter of the
 //! night scenes' resolution they held the street lamps'

@@ -59,7 +59,7 @@ impl Tracer {
     /// Whether the image pixel around `(x, y)` or one of its eight
     /// neighbours shows an emitter (either side) at any of its four corners
     /// or 2 × 2 interior points (the test points of
-    /// `gloam_pipeline::bench::truth::no_emitter_mask`: an emitter's edge
+    /// `gloam_bench::truth::no_emitter_mask`: an emitter's edge
     /// can poke into a pixel between them, and then shows in a neighbour).
     /// 52 primary rays per pilot pixel.
     /// `seen_points`: the pixels that show a point source

@@ -13,7 +13,7 @@ use ndarray::{Array2, Array3, Axis};
 use rayon::prelude::*;
 
 use super::BenchError;
-use crate::output::write_atomic;
+use gloam_pipeline::output::write_atomic;
 
 /// What each run is compared against.
 pub struct Truth {
@@ -486,7 +486,7 @@ pub fn reference_truth(
         }
     }
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    crate::output::write_npy_nd(&npy, &stack)?;
+    gloam_pipeline::output::write_npy_nd(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,
@@ -541,7 +541,7 @@ pub(crate) fn read_cached_reference(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::metrics::errors;
+    use crate::metrics::errors;
 
     /// Issue 30's calibration against an exact answer: the panel scene's
     /// floor has a closed-form irradiance per pixel, so the per-pixel RMS

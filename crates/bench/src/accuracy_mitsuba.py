@@ -1,6 +1,6 @@
 # gloam bench accuracy: the same scene in Mitsuba 3, for a side-by-side
 # ladder of per-pixel error against time. Run by
-# crates/pipeline/src/bench/accuracy_mitsuba.rs as
+# crates/bench/src/accuracy_mitsuba.rs as
 # `python3 THIS DIR`; DIR holds `scene.json` (written by that module: the
 # loaded scene's facets as one OBJ per material, each band's reflectance
 # and emitted radiance, the camera, the spp ladder) and receives one raw

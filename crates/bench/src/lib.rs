@@ -1,3 +1,5 @@
+#![doc = include_str!("../README.md")]
+//!
 //! `gloam bench accuracy SCENE --out DIR …` and `gloam bench throughput`:
 //! what accuracy costs in time, and every performance figure the README
 //! quotes.
@@ -39,13 +41,22 @@
 //! The command line (`src/cmd/bench.rs`) parses arguments and prints; the
 //! measuring happens here.
 
+/// `eprintln!` that never panics (std's does when stderr is full or
+/// closed): the message is lost, the run is not.
+macro_rules! eprintln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 /// `ensure_valid!(cond, "fmt", …)`: returns [`BenchError::Invalid`] with
 /// the message when `cond` does not hold (the benchmarks' argument and
 /// self-consistency checks).
 macro_rules! ensure_valid {
     ($cond:expr, $($fmt:tt)+) => {
         if !$cond {
-            return Err($crate::bench::BenchError::Invalid(format!($($fmt)+)));
+            return Err($crate::BenchError::Invalid(format!($($fmt)+)));
         }
     };
 }
@@ -53,6 +64,8 @@ macro_rules! ensure_valid {
 pub mod accuracy;
 pub mod accuracy_mitsuba;
 pub mod child;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod metrics;
 pub mod plan_check;
 pub mod resolution;
@@ -110,7 +123,7 @@ pub enum BenchError {
     Encode(String),
     /// `--out`'s output set refused or not published.
     #[error(transparent)]
-    OutputSet(#[from] crate::output_set::OutputSetError),
+    OutputSet(#[from] gloam_pipeline::output_set::OutputSetError),
     /// A check the benchmark makes of its own results failed.
     #[error("{0}")]
     Check(&'static str),
@@ -135,7 +148,7 @@ pub enum BenchError {
     #[error("encoding or decoding a report as JSON")]
     Json(#[from] serde_json::Error),
     #[error(transparent)]
-    Output(#[from] crate::output::OutputError),
+    Output(#[from] gloam_pipeline::output::OutputError),
 }
 
 impl BenchError {

@@ -370,7 +370,7 @@ pub fn generate(case: Case, dir: &Path, width: u32, height: u32) -> Result<PathB
     let mut toml = String::new();
     let _ = writeln!(
         toml,
-        "# gloam bench scale: {} (generated; see crates/pipeline/src/bench/scale.rs)\nunits = \"m\"\n",
+        "# gloam bench scale: {} (generated; see crates/bench/src/scale.rs)\nunits = \"m\"\n",
         case.label()
     );
     match case.kind {
@@ -830,7 +830,7 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
                 .map_err(BenchError::io("reading", &out))?,
         )?)
     };
-    go().unwrap_or_else(|e| serde_json::json!({ "error": crate::output_set::chain(&e) }))
+    go().unwrap_or_else(|e| serde_json::json!({ "error": gloam_pipeline::output_set::chain(&e) }))
 }
 
 /// Runs one case in a child process with a timeout (and then in Mitsuba 3
@@ -1049,7 +1049,7 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         plot(&png_path, &report.cases)?;
         report.png = Some(png_path.display().to_string());
     }
-    crate::output::write_atomic(
+    gloam_pipeline::output::write_atomic(
         &json_path,
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;

@@ -19,8 +19,8 @@ use super::truth::{
     reference_settings, reference_truth,
 };
 use super::{BenchError, resolution};
-use crate::output::write_atomic;
-use crate::output_set::OutputSet;
+use gloam_pipeline::output::write_atomic;
+use gloam_pipeline::output_set::OutputSet;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
@@ -337,7 +337,7 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     );
     let scene_path = args.scene.clone();
     let scene = gloam_scene::load(&scene_path)?;
-    let provenance = crate::Provenance::of_this_run();
+    let provenance = gloam_pipeline::Provenance::of_this_run();
     let set = OutputSet::begin(&args.out, args.force, false)?;
     carry_cached_references(&args.out, set.dir())?;
     let report = sweep(args, set.dir(), t_start, &scene_path, &scene)?;
@@ -354,7 +354,10 @@ fn carry_cached_references(out: &Path, dir: &Path) -> Result<(), BenchError> {
         return Ok(());
     };
     // A set holds a handful of references (one per scale and kind).
-    for e in entries.flatten().take(crate::output_set::MAX_SET_ENTRIES) {
+    for e in entries
+        .flatten()
+        .take(gloam_pipeline::output_set::MAX_SET_ENTRIES)
+    {
         let name = e.file_name();
         let Some(n) = name.to_str() else { continue };
         let cached = n.starts_with("reference") && (n.ends_with(".npy") || n.ends_with(".json"));
@@ -961,7 +964,7 @@ fn mitsuba_rows(
             }
             serde_json::json!({ "ran": true, "note": side.note })
         }
-        Err(e) => skip(crate::output_set::chain(&e)),
+        Err(e) => skip(gloam_pipeline::output_set::chain(&e)),
     }
 }
 

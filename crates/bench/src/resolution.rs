@@ -35,8 +35,8 @@ use super::truth::{
     REFERENCE_PIXELS, closed_form_image, closed_form_obstacle, fnv1a, no_emitter_and_surface_masks,
     read_cached_reference, reference_settings,
 };
-use crate::DEFAULT_TARGET_ERROR;
-use crate::output::write_atomic;
+use gloam_pipeline::DEFAULT_TARGET_ERROR;
+use gloam_pipeline::output::write_atomic;
 
 /// The flag, as errors name it.
 const FLAG: &str = "--resolution-scales";
@@ -551,7 +551,7 @@ fn reference_scale_truth(
     };
     let mean_spp = (spp as f64 * mean_mult).round() as u32;
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    crate::output::write_npy_nd(&npy, &stack)?;
+    gloam_pipeline::output::write_npy_nd(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,

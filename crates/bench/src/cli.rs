@@ -1,11 +1,11 @@
 //! `gloam bench`'s arguments and the options they give (the measuring is
-//! [`crate::bench`]).
+//! [`crate`]).
 
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 
-use crate::bench::{BenchError, accuracy, find_path, resolution, scale};
+use crate::{BenchError, accuracy, find_path, resolution, scale};
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
@@ -194,9 +194,9 @@ impl ThroughputArgs {
 
 impl PlanBenchArgs {
     /// The scenes given, or every `sims/*/scene.toml`.
-    pub fn scenes(&self) -> Result<Vec<PathBuf>, crate::bench::BenchError> {
+    pub fn scenes(&self) -> Result<Vec<PathBuf>, crate::BenchError> {
         if self.scenes.is_empty() {
-            crate::bench::default_scenes()
+            crate::default_scenes()
         } else {
             Ok(self.scenes.iter().map(|p| find_path(p)).collect())
         }

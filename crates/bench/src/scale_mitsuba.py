@@ -1,6 +1,6 @@
 # gloam bench scale: the same generated scene in Mitsuba 3, for a side-by-side
 # of load (preparation) time, render time and peak memory. Run by
-# crates/pipeline/src/bench/scale.rs as `python3 THIS SCENE_DIR SPP`; prints
+# crates/bench/src/scale.rs as `python3 THIS SCENE_DIR SPP`; prints
 # one JSON object. Reads the scene.toml the bench generated (boxes, quads,
 # OBJ files, point sources) with tomllib (Python >= 3.11).
 #
