@@ -438,7 +438,11 @@ impl Camera {
             && let Some(agc) = &self.agc
         {
             let black = chain.black_dn(g);
-            let s = agc.step(self.gain, self.duty, mean_dn - black, sat_frac);
+            let metered = match agc.agc.metering {
+                crate::config::Metering::Mean => mean_dn,
+                crate::config::Metering::Median => crate::stages::agc::median_dn(&f.pixels),
+            };
+            let s = agc.step(self.gain, self.duty, metered - black, sat_frac);
             (self.gain, self.duty, self.agc_state) = (s.gain, s.duty, s.state);
         }
         Ok(DigitizedFrame {

@@ -287,6 +287,20 @@ pub struct Agc {
     /// starlight to daylight. Omitted: the loop has the gain alone.
     #[serde(default)]
     pub gate_min_s: Option<f64>,
+    /// What the loop servos to the set point: the frame's `mean` signal
+    /// (the default) or its `median`, which a bright sky or lamp filling
+    /// part of the frame does not pull down the rest of the scene.
+    #[serde(default)]
+    pub metering: Metering,
+}
+
+/// The frame statistic an AGC servos.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Metering {
+    #[default]
+    Mean,
+    Median,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

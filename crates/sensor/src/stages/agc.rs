@@ -98,6 +98,17 @@ impl AgcLoop {
     }
 }
 
+/// The median of a frame's counts, DN (the lower middle value of an even
+/// count): O(n) by selection on a copy.
+pub fn median_dn(pixels: &ndarray::Array2<u16>) -> f64 {
+    let mut v: Vec<u16> = pixels.iter().copied().collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mid = (v.len() - 1) / 2;
+    f64::from(*v.select_nth_unstable(mid).1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,6 +125,7 @@ mod tests {
                 protect_saturated_fraction: 0.02,
                 protect_factor: 0.5,
                 gate_min_s: None,
+                metering: crate::config::Metering::Mean,
             },
             hardware_min_gain: 1.0,
             hardware_max_gain: 1e6,
@@ -180,5 +192,14 @@ mod tests {
         // At the shortest gate the loop says so.
         let s = l.step(1.0, 1e-6, 1e9, 0.0);
         assert_eq!((s.duty, s.state), (1e-6, AgcState::AtMinGain));
+    }
+
+    #[test]
+    fn the_median_is_the_middle_count() {
+        let a = ndarray::Array2::from_shape_vec((2, 3), vec![9u16, 1, 7, 3, 5, 100]).unwrap();
+        // Sorted 1 3 5 7 9 100: the lower middle is 5.
+        assert_eq!(median_dn(&a), 5.0);
+        let b = ndarray::Array2::from_shape_vec((1, 3), vec![4u16, 4000, 2]).unwrap();
+        assert_eq!(median_dn(&b), 4.0);
     }
 }
