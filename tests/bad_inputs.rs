@@ -2228,6 +2228,265 @@ const CASES: &[Case] = &[
         ],
         ["exposure 1e30 s"]
     ),
+    // --- round 5 (issues 46, 48): sim: URIs parsed by gloam-simcam on the
+    // grabber's generic split, each malformed part named with its URI
+    case!(
+        "capture: sim URI parameter without a name",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?=3",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3-gaas-iccd?=3", "parameter '=3' has no name"]
+    ),
+    case!(
+        "capture: sim URI parameter without a value",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?seed",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3-gaas-iccd?seed", "parameter 'seed' needs a value"]
+    ),
+    case!(
+        "capture: sim URI with a trailing &",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16&",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:gen3-gaas-iccd?size=16x16&",
+            "empty parameter in 'size=16x16&'"
+        ]
+    ),
+    case!(
+        "capture: sim URI with && between parameters",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16&&seed=1",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["empty parameter in 'size=16x16&&seed=1'"]
+    ),
+    case!(
+        "capture: sim URI with an empty query",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3-gaas-iccd?", "nothing after '?'"]
+    ),
+    case!(
+        "capture: sim URI unknown key names the keys it takes",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?gain=3",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:gen3-gaas-iccd?gain=3",
+            "unknown parameter 'gain'",
+            "rig, scene, seed, size"
+        ]
+    ),
+    case!(
+        "capture: sim URI key in another case",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?SIZE=16x16",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["unknown parameter 'SIZE'"]
+    ),
+    case!(
+        "capture: sim URI percent-encoded key",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?s%69ze=16x16",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:gen3-gaas-iccd?s%69ze=16x16",
+            "parameter name 's%69ze'",
+            "not percent-decoded"
+        ]
+    ),
+    case!("capture: sim URI percent-encoded scene path", ["my scene.toml" => "{base}"], ["capture", "--grabber", "sim:gen3-gaas-iccd?scene=my%20scene.toml", "--frames", "1", "--out", "o"], ["scene 'my%20scene.toml' holds '%20'", "not percent-decoded"]),
+    case!(
+        "capture: sim URI percent-encoded preset",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3%2Dgaas-iccd",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3%2Dgaas-iccd", "'%2D'", "not percent-decoded"]
+    ),
+    case!(
+        "capture: sim URI preset with path separators and no such file",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:../no/such-sensor.toml?size=16x16",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:../no/such-sensor.toml?size=16x16",
+            "unknown sensor '../no/such-sensor.toml'",
+            "not a built-in preset"
+        ]
+    ),
+    case!("capture: sim URI preset a directory", ["cams/x" => ""], ["capture", "--grabber", "sim:cams/?size=16x16", "--frames", "1", "--out", "o"], ["sim:cams/?size=16x16", "unknown sensor 'cams/'"]),
+    case!(
+        "capture: sim URI sensor named by its body and a parameter",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?preset=scientific-ccd",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "the sensor is named twice",
+            "'sim:gen3-gaas-iccd'",
+            "'preset=scientific-ccd'"
+        ]
+    ),
+    case!(
+        "capture: sim URI sensor named by two parameters",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:?sensor=gen3-gaas-iccd&preset=scientific-ccd",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "the sensor is named twice",
+            "'sensor=gen3-gaas-iccd'",
+            "'preset=scientific-ccd'"
+        ]
+    ),
+    case!(
+        "capture: sim URI rig named by its body and a parameter",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:sine?rig=edge",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["the rig is named twice", "'sim:sine'", "'rig=edge'"]
+    ),
+    case!(
+        "capture: sim URI empty sensor parameter",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:?sensor=",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:?sensor=", "sensor needs a preset name or sensor file"]
+    ),
+    case!(
+        "capture: unknown scheme names the schemes this build opens",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "tcp:host",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "grabber URI 'tcp:host'",
+            "unknown scheme 'tcp'",
+            "sim:…",
+            "serial:…"
+        ]
+    ),
+    case!(
+        "capture: serial URI with a trailing &",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "serial:/dev/nonexistent-gloam?baud=9600&",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "serial:/dev/nonexistent-gloam?baud=9600&",
+            "empty parameter"
+        ]
+    ),
 ];
 
 #[test]
