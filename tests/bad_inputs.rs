@@ -2487,6 +2487,13 @@ const CASES: &[Case] = &[
             "empty parameter"
         ]
     ),
+    // rotations bounded: past ±1e6° an angle keeps no bit of its turn
+    case!("scene: instance rotate_z_deg 1e300", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances = [{ rotate_z_deg = 1e300 }]\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.instances[0].rotate_z_deg", "1e300 degrees is past the limit of ±1e6"]),
+    case!("scene: object rotate_z_deg past the bound", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\nrotate_z_deg = -2e6\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.rotate_z_deg", "-2000000 degrees is past the limit of ±1e6"]),
+    case!("scene: object rotate_z_deg infinite", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\nrotate_z_deg = -inf\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.rotate_z_deg", "not a finite number"]),
+    case!("scene: placements CSV rotate_z_deg 1e300", ["p.csv" => "x,y,z,rotate_z_deg,scale\n1,2,0,0,1\n4,5,0,1e300,1\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances_csv = \"p.csv\"\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.instances_csv", "p.csv:3:", "rotate_z_deg = 1e300", "≤ 1e6 degrees"]),
+    case!("scene: point source instance rotate_z_deg 1e300", ["s.toml" => "{base}\n[point_sources.lamp]\nposition = [1.0, 0.0, 6.0]\nvalue = 0.5\ninstances = [{ rotate_z_deg = 1e300 }]\n"], ["plan", "s.toml"], ["s.toml:", "point_sources.lamp.instances[0].rotate_z_deg", "past the limit of ±1e6"]),
+    case!("sequence: a move key turning 1e300 degrees", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 1e300]]\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "move[0]", "rotate_z_deg 1e300 is not a finite angle within ±1e6 degrees"]),
 ];
 
 #[test]
