@@ -2494,6 +2494,9 @@ const CASES: &[Case] = &[
     case!("scene: placements CSV rotate_z_deg 1e300", ["p.csv" => "x,y,z,rotate_z_deg,scale\n1,2,0,0,1\n4,5,0,1e300,1\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances_csv = \"p.csv\"\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.instances_csv", "p.csv:3:", "rotate_z_deg = 1e300", "≤ 1e6 degrees"]),
     case!("scene: point source instance rotate_z_deg 1e300", ["s.toml" => "{base}\n[point_sources.lamp]\nposition = [1.0, 0.0, 6.0]\nvalue = 0.5\ninstances = [{ rotate_z_deg = 1e300 }]\n"], ["plan", "s.toml"], ["s.toml:", "point_sources.lamp.instances[0].rotate_z_deg", "past the limit of ±1e6"]),
     case!("sequence: a move key turning 1e300 degrees", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 1e300]]\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "move[0]", "rotate_z_deg 1e300 is not a finite angle within ±1e6 degrees"]),
+    // a sliver facet says what it is: its area and the threshold
+    case!("scene: inline sliver triangle", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0, 0, 1], [1, 0, 1], [2, 1e-10, 1]]\nfaces = [[0, 1, 2]]\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.faces[0]", "sliver: area 5.000e-11 units²", "threshold 4.000e-9 units²"]),
+    case!("OBJ: sliver face", ["l.obj" => "v 0 0 0\nv 1 0 0\nv 2 1e-10 0\nf 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"l.obj\"\n"], ["plan", "s.toml"], ["l.obj", "sliver: area 5.000e-11 units²", "threshold 4.000e-9"]),
 ];
 
 #[test]

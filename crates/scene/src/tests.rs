@@ -236,6 +236,28 @@ fn zero_area_triangle() {
 }
 
 #[test]
+fn sliver_triangle_reports_its_area_and_the_threshold() {
+    // Area 5e-11, longest edge 2: not above 1e-9 × 2² = 4e-9. Not "zero".
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 1e-10, 1.0]]",
+        "[[0, 1, 2]]",
+    );
+    let m = expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "sliver: area 5.000e-11 units² is not above the threshold 4.000e-9 units²",
+    );
+    assert!(!m.contains("zero area"), "{m}");
+    // Just above the threshold it is a facet (beside the base's floor).
+    let ok = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 1e-8, 1.0]]",
+        "[[0, 1, 2]]",
+    );
+    assert_eq!(parse(&ok).unwrap().facets.len(), 2);
+}
+
+#[test]
 fn coincident_vertices() {
     let text = inline_object(
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
