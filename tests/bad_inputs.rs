@@ -2228,6 +2228,275 @@ const CASES: &[Case] = &[
         ],
         ["exposure 1e30 s"]
     ),
+    // --- round 5 (issues 46, 48): sim: URIs parsed by gloam-simcam on the
+    // grabber's generic split, each malformed part named with its URI
+    case!(
+        "capture: sim URI parameter without a name",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?=3",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3-gaas-iccd?=3", "parameter '=3' has no name"]
+    ),
+    case!(
+        "capture: sim URI parameter without a value",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?seed",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3-gaas-iccd?seed", "parameter 'seed' needs a value"]
+    ),
+    case!(
+        "capture: sim URI with a trailing &",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16&",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:gen3-gaas-iccd?size=16x16&",
+            "empty parameter in 'size=16x16&'"
+        ]
+    ),
+    case!(
+        "capture: sim URI with && between parameters",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=16x16&&seed=1",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["empty parameter in 'size=16x16&&seed=1'"]
+    ),
+    case!(
+        "capture: sim URI with an empty query",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3-gaas-iccd?", "nothing after '?'"]
+    ),
+    case!(
+        "capture: sim URI unknown key names the keys it takes",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?gain=3",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:gen3-gaas-iccd?gain=3",
+            "unknown parameter 'gain'",
+            "rig, scene, seed, size"
+        ]
+    ),
+    case!(
+        "capture: sim URI key in another case",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?SIZE=16x16",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["unknown parameter 'SIZE'"]
+    ),
+    case!(
+        "capture: sim URI percent-encoded key",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?s%69ze=16x16",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:gen3-gaas-iccd?s%69ze=16x16",
+            "parameter name 's%69ze'",
+            "not percent-decoded"
+        ]
+    ),
+    case!("capture: sim URI percent-encoded scene path", ["my scene.toml" => "{base}"], ["capture", "--grabber", "sim:gen3-gaas-iccd?scene=my%20scene.toml", "--frames", "1", "--out", "o"], ["scene 'my%20scene.toml' holds '%20'", "not percent-decoded"]),
+    case!(
+        "capture: sim URI percent-encoded preset",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3%2Dgaas-iccd",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:gen3%2Dgaas-iccd", "'%2D'", "not percent-decoded"]
+    ),
+    case!(
+        "capture: sim URI preset with path separators and no such file",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:../no/such-sensor.toml?size=16x16",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "sim:../no/such-sensor.toml?size=16x16",
+            "unknown sensor '../no/such-sensor.toml'",
+            "not a built-in preset"
+        ]
+    ),
+    case!("capture: sim URI preset a directory", ["cams/x" => ""], ["capture", "--grabber", "sim:cams/?size=16x16", "--frames", "1", "--out", "o"], ["sim:cams/?size=16x16", "unknown sensor 'cams/'"]),
+    case!(
+        "capture: sim URI sensor named by its body and a parameter",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?preset=scientific-ccd",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "the sensor is named twice",
+            "'sim:gen3-gaas-iccd'",
+            "'preset=scientific-ccd'"
+        ]
+    ),
+    case!(
+        "capture: sim URI sensor named by two parameters",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:?sensor=gen3-gaas-iccd&preset=scientific-ccd",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "the sensor is named twice",
+            "'sensor=gen3-gaas-iccd'",
+            "'preset=scientific-ccd'"
+        ]
+    ),
+    case!(
+        "capture: sim URI rig named by its body and a parameter",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:sine?rig=edge",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["the rig is named twice", "'sim:sine'", "'rig=edge'"]
+    ),
+    case!(
+        "capture: sim URI empty sensor parameter",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:?sensor=",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        ["sim:?sensor=", "sensor needs a preset name or sensor file"]
+    ),
+    case!(
+        "capture: unknown scheme names the schemes this build opens",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "tcp:host",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "grabber URI 'tcp:host'",
+            "unknown scheme 'tcp'",
+            "sim:…",
+            "serial:…"
+        ]
+    ),
+    case!(
+        "capture: serial URI with a trailing &",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "serial:/dev/nonexistent-gloam?baud=9600&",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "serial:/dev/nonexistent-gloam?baud=9600&",
+            "empty parameter"
+        ]
+    ),
+    // rotations bounded: past ±1e6° an angle keeps no bit of its turn
+    case!("scene: instance rotate_z_deg 1e300", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances = [{ rotate_z_deg = 1e300 }]\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.instances[0].rotate_z_deg", "1e300 degrees is past the limit of ±1e6"]),
+    case!("scene: object rotate_z_deg past the bound", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\nrotate_z_deg = -2e6\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.rotate_z_deg", "-2000000 degrees is past the limit of ±1e6"]),
+    case!("scene: object rotate_z_deg infinite", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\nrotate_z_deg = -inf\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.rotate_z_deg", "not a finite number"]),
+    case!("scene: placements CSV rotate_z_deg 1e300", ["p.csv" => "x,y,z,rotate_z_deg,scale\n1,2,0,0,1\n4,5,0,1e300,1\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances_csv = \"p.csv\"\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.instances_csv", "p.csv:3:", "rotate_z_deg = 1e300", "≤ 1e6 degrees"]),
+    case!("scene: point source instance rotate_z_deg 1e300", ["s.toml" => "{base}\n[point_sources.lamp]\nposition = [1.0, 0.0, 6.0]\nvalue = 0.5\ninstances = [{ rotate_z_deg = 1e300 }]\n"], ["plan", "s.toml"], ["s.toml:", "point_sources.lamp.instances[0].rotate_z_deg", "past the limit of ±1e6"]),
+    case!("sequence: a move key turning 1e300 degrees", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 1e300]]\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "move[0]", "rotate_z_deg 1e300 is not a finite angle within ±1e6 degrees"]),
+    // a sliver facet says what it is: its area and the threshold
+    case!("scene: inline sliver triangle", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nvertices = [[0, 0, 1], [1, 0, 1], [2, 1e-10, 1]]\nfaces = [[0, 1, 2]]\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.faces[0]", "sliver: area 5.000e-11 units²", "threshold 4.000e-9 units²"]),
+    case!("OBJ: sliver face", ["l.obj" => "v 0 0 0\nv 1 0 0\nv 2 1e-10 0\nf 1 2 3\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nobj = \"l.obj\"\n"], ["plan", "s.toml"], ["l.obj", "sliver: area 5.000e-11 units²", "threshold 4.000e-9"]),
 ];
 
 #[test]

@@ -79,7 +79,7 @@ fn device_source(args: &DeviceArgs) -> anyhow::Result<(SensorSource, String, boo
             (source, format!("scene '{path}'"), true)
         }
         None => {
-            let rig = (args.rig.as_deref()).unwrap_or(gloam_grabber::uri::DEFAULT_RIG);
+            let rig = (args.rig.as_deref()).unwrap_or(gloam_simcam::DEFAULT_RIG);
             let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
             let source =
                 SensorSource::new(&args.sensor, rig, args.seed, size).with_context(sensor)?;

@@ -5,8 +5,6 @@
 //! the two photon counts. The CLI prints the mismatch as a warning and
 //! Python returns it in the result's `warnings`, from this one check.
 
-use gloam_grabber::GrabberUri;
-
 use crate::source::Rig;
 
 /// Relative photon-count difference below which the two rigs agree.
@@ -73,9 +71,7 @@ fn photons_per_radiance(r: &Rig) -> f64 {
 /// not a simulated camera whose preset loads.
 pub fn rig_mismatch(uri: &str, rig: Option<&Rig>, exposure_s: Option<f64>) -> Option<RigMismatch> {
     let rig = rig?;
-    let GrabberUri::Sim { preset, .. } = GrabberUri::parse(uri).ok()? else {
-        return None;
-    };
+    let gloam_simcam::SimUri { preset, .. } = gloam_simcam::SimUri::parse(uri).ok()?;
     let mut cfg = gloam_sensor::load_preset_or_file(&preset).ok()?;
     if let Some(e) = exposure_s {
         cfg.timing.exposure_s = e;

@@ -9,7 +9,7 @@ use gloam_grabber::{GrabberUri, Stimulus};
 use gloam_sensor::scope::{LineReadout, ScopeLine, read_line, scope_lines, to_csv};
 use gloam_sensor::stages::video_timing::VideoFormat;
 use gloam_sensor::{Camera, SensorConfig};
-use gloam_simcam::{render_stimulus, rig_stimulus};
+use gloam_simcam::{SimUri, render_stimulus, rig_stimulus};
 use serde::Serialize;
 
 use crate::error::CalibError;
@@ -62,20 +62,24 @@ pub type SimCamera = (String, String, u64, Option<(u32, u32)>);
 /// `--grabber`: the scope needs the analogue stage, which only the
 /// simulated cameras have.
 pub fn sim_uri(uri: &str) -> Result<SimCamera, CalibError> {
-    match GrabberUri::parse(uri)? {
-        GrabberUri::Sim {
+    if !gloam_simcam::uri::is_sim(uri) {
+        // Still a syntax error first when the URI is not even a transport's.
+        GrabberUri::parse(uri)?;
+        return Err(CalibError::Invalid(format!(
+            "'{uri}' has no analogue video tap: the scope needs a sim: grabber (the wire protocol carries digitised frames only)"
+        )));
+    }
+    match SimUri::parse(uri)? {
+        SimUri {
             preset,
             rig,
             seed,
             size,
             scene: None,
         } => Ok((preset, rig, seed, size)),
-        GrabberUri::Sim { scene: Some(_), .. } => Err(CalibError::Invalid(
+        SimUri { scene: Some(_), .. } => Err(CalibError::Invalid(
             "the scope looks at rigs; a scene= grabber is not supported yet".into(),
         )),
-        _ => Err(CalibError::Invalid(format!(
-            "'{uri}' has no analogue video tap: the scope needs a sim: grabber (the wire protocol carries digitised frames only)"
-        ))),
     }
 }
 

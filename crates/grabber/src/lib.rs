@@ -21,7 +21,7 @@ pub use firmware_protocol;
 pub use interface::*;
 pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
-pub use uri::GrabberUri;
+pub use uri::{GrabberUri, UriParts, UriSyntaxError};
 
 /// CRC-32C of pixels as little-endian `u16` bytes:
 /// [`FrameMeta::pixels_crc32c`]. The protocol's own engine, so the host and
@@ -116,12 +116,28 @@ impl Registry {
             None if scheme == Some("sim") => Err(GrabError::Unsupported(format!(
                 "'{uri}': simulated cameras are opened through gloam-simcam's registry"
             ))),
-            // Unknown or malformed: the parser names the forms it knows.
-            None => {
+            // A transport this registry lacks: its syntax still checked.
+            None if scheme.is_some_and(|s| uri::TRANSPORT_SCHEMES.contains(&s)) => {
                 GrabberUri::parse(uri)?;
                 Err(GrabError::Unsupported(format!(
                     "'{uri}': no grabber registered for this scheme"
                 )))
+            }
+            // Unknown or malformed: name the schemes this registry opens.
+            None => {
+                let known: Vec<String> = self.schemes().map(|s| format!("{s}:…")).collect();
+                let forms = if known.is_empty() {
+                    "a scheme registered here, and none is".to_string()
+                } else {
+                    format!("one of {}", known.join(", "))
+                };
+                let parts =
+                    uri::UriParts::parse(uri).map_err(|e| uri::uri_error(uri, e, &forms))?;
+                Err(uri::uri_error(
+                    uri,
+                    format!("unknown scheme '{}'", parts.scheme),
+                    &forms,
+                ))
             }
         }
     }
@@ -136,9 +152,6 @@ pub fn open(uri: &str) -> Result<Box<dyn FrameGrabber>, GrabError> {
 /// The constructor of the transports' schemes.
 fn open_transport(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> {
     match GrabberUri::parse(uri)? {
-        GrabberUri::Sim { .. } => Err(GrabError::Unsupported(format!(
-            "'{uri}': not a transport URI"
-        ))),
         GrabberUri::Serial { path, baud } => {
             let t = serial::SerialTransport::open(&path, baud)?;
             Ok(Box::new(ProtocolGrabber::connect(t, opts.client.clone())?))
@@ -239,5 +252,39 @@ pub fn list_grabbers() -> GrabberList {
         sim: Vec::new(),
         genicam,
         genicam_error,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scheme nobody registered is named with the ones that are; the
+    /// generic syntax is checked first.
+    #[test]
+    fn unknown_schemes_name_the_registered_ones() {
+        let mut r = Registry::transports();
+        let err = |r: &Registry, uri: &str| r.open(uri, &OpenOptions::default()).err().unwrap();
+        let e = err(&r, "tcp:host").to_string();
+        assert_eq!(
+            e,
+            "invalid setting: grabber URI 'tcp:host': unknown scheme 'tcp' (expected one of genicam:…, serial:…, usb:…)"
+        );
+        r.register("cam", std::sync::Arc::new(|_, _| unreachable!()));
+        let e = err(&r, "tcp:host?a=1&").to_string();
+        assert_eq!(
+            e,
+            "invalid setting: grabber URI 'tcp:host?a=1&': empty parameter in 'a=1&' (a stray '&' at its start or end, or '&&') (expected one of cam:…, genicam:…, serial:…, usb:…)"
+        );
+        let e = err(&Registry::empty(), "nothing").to_string();
+        assert!(e.contains("'nothing': no scheme"), "{e}");
+        // A transport's URI in a registry without it: checked, then refused.
+        let e = err(&Registry::empty(), "serial:/dev/x?baud=0");
+        assert!(e.to_string().contains("baud '0'"), "{e}");
+        let e = err(&Registry::empty(), "serial:/dev/x");
+        assert!(matches!(e, GrabError::Unsupported(_)), "{e}");
+        // sim: lives in gloam-simcam.
+        let e = err(&r, "sim:gen3-gaas-iccd").to_string();
+        assert!(e.contains("gloam-simcam"), "{e}");
     }
 }

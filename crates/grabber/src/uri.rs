@@ -1,37 +1,133 @@
-//! Grabber URIs.
+//! Grabber URIs: the generic syntax every scheme shares, and the
+//! transports' schemes.
 //!
 //! ```text
-//! sim:PRESET_OR_RIG[?rig=RIG&seed=S&size=WxH]   in-process sensor chain + rig
-//! sim:PRESET?scene=PATH[&seed=S&size=WxH]        … looking at a traced scene
+//! SCHEME:BODY[?KEY=VALUE&KEY=VALUE…]             every scheme (UriParts)
 //! serial:PATH[?baud=N]                           protocol over a serial port
 //! usb:VID:PID[:SERIAL][?backend=nusb|rusb]     protocol over USB bulk (hex ids)
 //! genicam:DEVICE_ID|ADDR[?trigger=auto|software|off&resend=always|never&timeout_ms=N&size=WxH]
 //!                                                a GenICam camera through Aravis (feature `genicam`)
 //! ```
+//!
+//! The crates that own other cameras parse their schemes' bodies and keys
+//! on [`UriParts`] (`gloam-simcam` the `sim:` vocabulary), so this crate
+//! knows no sensor, preset or rig.
 
 use crate::interface::GrabError;
 use crate::usb::UsbSelector;
 
-/// Built-in rigs a `sim:` URI can name: what the simulated camera looks at
-/// by default. The vocabulary of the URI lives here with the other schemes'
-/// so one parser names every form; `gloam-simcam` renders them.
-pub const RIGS: &[(&str, &str)] = &[
-    (
-        "uniform",
-        "integrating-sphere port filling the view (default), CIE A, ~25 % of full scale at the reference gain",
-    ),
-    (
-        "sine",
-        "sinusoidal bar target, 0.05 cycles/pixel, modulation 0.8, tilted 5°",
-    ),
-    ("edge", "ISO 12233 slanted edge, 5°, 10:1 contrast"),
-    ("dark", "capped lens"),
-];
+/// What is wrong with a URI's generic syntax ([`UriParts::parse`]); the
+/// scheme's owner adds the URI and its forms ([`uri_error`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum UriSyntaxError {
+    /// No `SCHEME:`.
+    NoScheme,
+    /// A `?` with nothing after it.
+    EmptyQuery,
+    /// An empty parameter: `&&`, or `&` at the start or end of the query.
+    EmptyParameter { query: String },
+    /// `KEY` without `=VALUE`.
+    NoValue { param: String },
+    /// `=VALUE` without a key.
+    EmptyKey { param: String },
+    /// A key of other characters than ASCII letters, digits and `_`
+    /// (percent-encoded, spaced, …): never one a scheme knows.
+    BadKey { key: String },
+    /// The same key twice: one would silently win.
+    Twice { key: String },
+}
 
-/// Sensor preset used when a `sim:` URI names only a rig.
-pub const DEFAULT_SIM_PRESET: &str = "gen2-s20-iccd";
-/// Rig used when a `sim:` URI names only a preset.
-pub const DEFAULT_RIG: &str = "uniform";
+impl std::fmt::Display for UriSyntaxError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoScheme => write!(f, "no scheme"),
+            Self::EmptyQuery => write!(
+                f,
+                "nothing after '?' (give KEY=VALUE parameters or drop the '?')"
+            ),
+            Self::EmptyParameter { query } => write!(
+                f,
+                "empty parameter in '{query}' (a stray '&' at its start or end, or '&&')"
+            ),
+            Self::NoValue { param } => write!(f, "parameter '{param}' needs a value"),
+            Self::EmptyKey { param } => write!(f, "parameter '{param}' has no name before '='"),
+            Self::BadKey { key } => write!(
+                f,
+                "parameter name '{key}' is not ASCII letters, digits and '_' (URIs here are not percent-decoded)"
+            ),
+            Self::Twice { key } => write!(f, "parameter '{key}' is given twice"),
+        }
+    }
+}
+
+/// A URI split generically: `SCHEME:BODY[?KEY=VALUE&…]`, the body opaque
+/// (only the first `?` ends it), each key once. Nothing is decoded: what is
+/// written is what the scheme's owner gets.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UriParts<'a> {
+    pub scheme: &'a str,
+    pub body: &'a str,
+    /// The query's parameters in order, each key once.
+    pub params: Vec<(&'a str, &'a str)>,
+}
+
+impl<'a> UriParts<'a> {
+    /// Splits `uri`, refusing a missing scheme, empty parameters, a key
+    /// without a value, an empty or odd key and a key given twice.
+    pub fn parse(uri: &'a str) -> Result<Self, UriSyntaxError> {
+        let (scheme, rest) = uri.split_once(':').ok_or(UriSyntaxError::NoScheme)?;
+        let (body, query) = match rest.split_once('?') {
+            Some((b, q)) => (b, Some(q)),
+            None => (rest, None),
+        };
+        let mut params: Vec<(&str, &str)> = Vec::new();
+        if let Some(q) = query {
+            if q.is_empty() {
+                return Err(UriSyntaxError::EmptyQuery);
+            }
+            for p in q.split('&') {
+                if p.is_empty() {
+                    return Err(UriSyntaxError::EmptyParameter {
+                        query: q.to_string(),
+                    });
+                }
+                let (k, v) = p.split_once('=').ok_or_else(|| UriSyntaxError::NoValue {
+                    param: p.to_string(),
+                })?;
+                if k.is_empty() {
+                    return Err(UriSyntaxError::EmptyKey {
+                        param: p.to_string(),
+                    });
+                }
+                if !k.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_') {
+                    return Err(UriSyntaxError::BadKey { key: k.to_string() });
+                }
+                if params.iter().any(|(k0, _)| *k0 == k) {
+                    return Err(UriSyntaxError::Twice { key: k.to_string() });
+                }
+                params.push((k, v));
+            }
+        }
+        Ok(Self {
+            scheme,
+            body,
+            params,
+        })
+    }
+}
+
+/// The one form of a URI error: `grabber URI 'URI': WHY (expected FORMS)`,
+/// `forms` the scheme owner's summary of what it accepts.
+pub fn uri_error(uri: &str, why: impl std::fmt::Display, forms: &str) -> GrabError {
+    GrabError::InvalidSetting(format!("grabber URI '{uri}': {why} (expected {forms})"))
+}
+
+/// The transports' forms, for their errors.
+pub const TRANSPORT_FORMS: &str =
+    "serial:PATH[?baud=N], usb:VID:PID[:SERIAL] or genicam:DEVICE_ID|ADDR";
+
+/// The schemes [`GrabberUri`] parses.
+pub const TRANSPORT_SCHEMES: &[&str] = &["serial", "usb", "genicam"];
 
 /// How frames are started.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,20 +157,9 @@ pub struct GenicamOptions {
     pub size: Option<(u32, u32)>,
 }
 
-/// A parsed grabber URI.
+/// A parsed transport URI.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum GrabberUri {
-    Sim {
-        preset: String,
-        rig: String,
-        seed: u64,
-        /// `size=`; without it a rig is `gloam_simcam::DEFAULT_RIG_SIZE` and a scene
-        /// its camera's resolution.
-        size: Option<(u32, u32)>,
-        /// `scene=PATH`: look at this scene (rendered once by the tracer)
-        /// instead of a rig.
-        scene: Option<String>,
-    },
     Serial {
         path: String,
         baud: u32,
@@ -87,9 +172,7 @@ pub enum GrabberUri {
 }
 
 fn bad(uri: &str, why: impl std::fmt::Display) -> GrabError {
-    GrabError::InvalidSetting(format!(
-        "grabber URI '{uri}': {why} (expected sim:PRESET_OR_RIG[?rig=R&seed=S&size=WxH], sim:PRESET?scene=PATH, serial:PATH[?baud=N], usb:VID:PID[:SERIAL] or genicam:DEVICE_ID|ADDR)"
-    ))
+    uri_error(uri, why, TRANSPORT_FORMS)
 }
 
 /// `WxH`.
@@ -102,80 +185,12 @@ pub fn parse_size(s: &str) -> Option<(u32, u32)> {
 impl GrabberUri {
     /// Parse a URI.
     pub fn parse(uri: &str) -> Result<Self, GrabError> {
-        let (scheme, rest) = uri.split_once(':').ok_or_else(|| bad(uri, "no scheme"))?;
-        let (body, query) = match rest.split_once('?') {
-            Some((b, q)) => (b, Some(q)),
-            None => (rest, None),
-        };
-        let params: Vec<(&str, &str)> = match query {
-            Some(q) => q
-                .split('&')
-                .filter(|p| !p.is_empty())
-                .map(|p| {
-                    p.split_once('=')
-                        .ok_or_else(|| bad(uri, format!("parameter '{p}' needs a value")))
-                })
-                .collect::<Result<_, _>>()?,
-            None => Vec::new(),
-        };
-        // Each parameter once: with two, one would silently win.
-        for (i, (k, _)) in params.iter().enumerate() {
-            if params[..i].iter().any(|(k0, _)| k0 == k) {
-                return Err(bad(uri, format!("parameter '{k}' is given twice")));
-            }
-        }
+        let UriParts {
+            scheme,
+            body,
+            params,
+        } = UriParts::parse(uri).map_err(|e| bad(uri, e))?;
         match scheme {
-            "sim" => {
-                let is_rig = RIGS.iter().any(|r| r.0 == body);
-                let (mut preset, mut rig) = if body.is_empty() {
-                    (DEFAULT_SIM_PRESET.to_string(), DEFAULT_RIG.to_string())
-                } else if is_rig {
-                    (DEFAULT_SIM_PRESET.to_string(), body.to_string())
-                } else {
-                    (body.to_string(), DEFAULT_RIG.to_string())
-                };
-                let (mut seed, mut size, mut scene) = (0u64, None, None);
-                let mut rig_named = is_rig;
-                for (k, v) in params {
-                    match k {
-                        "rig" => {
-                            rig = v.to_string();
-                            rig_named = true;
-                        }
-                        "scene" => {
-                            if v.is_empty() {
-                                return Err(bad(uri, "scene needs a path"));
-                            }
-                            scene = Some(v.to_string());
-                        }
-                        "sensor" | "preset" => preset = v.to_string(),
-                        "seed" => {
-                            seed = v
-                                .parse()
-                                .map_err(|_| bad(uri, format!("seed '{v}' is not an integer")))?
-                        }
-                        "size" => {
-                            size = Some(parse_size(v).ok_or_else(|| {
-                                bad(uri, format!("size '{v}' is not WxH (1..4096)"))
-                            })?)
-                        }
-                        _ => return Err(bad(uri, format!("unknown parameter '{k}'"))),
-                    }
-                }
-                if !RIGS.iter().any(|r| r.0 == rig) {
-                    return Err(bad(uri, format!("unknown rig '{rig}'")));
-                }
-                if scene.is_some() && rig_named {
-                    return Err(bad(uri, "give a rig or a scene, not both"));
-                }
-                Ok(GrabberUri::Sim {
-                    preset,
-                    rig,
-                    seed,
-                    size,
-                    scene,
-                })
-            }
             "serial" => {
                 if body.is_empty() {
                     return Err(bad(uri, "missing port path"));
@@ -295,44 +310,6 @@ mod tests {
     #[test]
     fn parses_all_schemes() {
         assert_eq!(
-            GrabberUri::parse("sim:gen3-gaas-iccd?seed=7&rig=edge&size=64x48").unwrap(),
-            GrabberUri::Sim {
-                preset: "gen3-gaas-iccd".into(),
-                rig: "edge".into(),
-                seed: 7,
-                size: Some((64, 48)),
-                scene: None,
-            }
-        );
-        assert_eq!(
-            GrabberUri::parse("sim:sine").unwrap(),
-            GrabberUri::Sim {
-                preset: DEFAULT_SIM_PRESET.into(),
-                rig: "sine".into(),
-                seed: 0,
-                size: None,
-                scene: None,
-            }
-        );
-        assert_eq!(
-            GrabberUri::parse("sim:gen3-gaas-iccd?scene=sims/a b/scene.toml&seed=2").unwrap(),
-            GrabberUri::Sim {
-                preset: "gen3-gaas-iccd".into(),
-                rig: DEFAULT_RIG.into(),
-                seed: 2,
-                size: None,
-                scene: Some("sims/a b/scene.toml".into()),
-            }
-        );
-        for bad_uri in [
-            "sim:gen3-gaas-iccd?scene=",
-            "sim:edge?scene=x.toml",
-            "sim:gen3-gaas-iccd?rig=sine&scene=x.toml",
-        ] {
-            let e = GrabberUri::parse(bad_uri).unwrap_err().to_string();
-            assert!(e.contains(bad_uri), "{e}");
-        }
-        assert_eq!(
             GrabberUri::parse("serial:/dev/ttyUSB0?baud=115200").unwrap(),
             GrabberUri::Serial {
                 path: "/dev/ttyUSB0".into(),
@@ -351,6 +328,71 @@ mod tests {
             GrabberUri::parse("usb:1d50").unwrap_err(),
             GrabError::InvalidSetting(_)
         ));
+    }
+
+    #[test]
+    fn splits_any_scheme_generically() {
+        // The body is opaque up to the first '?': spaces, colons, slashes.
+        assert_eq!(
+            UriParts::parse("sim:a b/c:d.toml?scene=sims/a b/scene.toml&seed=2").unwrap(),
+            UriParts {
+                scheme: "sim",
+                body: "a b/c:d.toml",
+                params: vec![("scene", "sims/a b/scene.toml"), ("seed", "2")],
+            }
+        );
+        // A value may hold '=' and is never decoded.
+        assert_eq!(
+            UriParts::parse("x:?k=a=b%20c").unwrap().params,
+            vec![("k", "a=b%20c")]
+        );
+        assert_eq!(
+            UriParts::parse("x:").unwrap(),
+            UriParts {
+                scheme: "x",
+                body: "",
+                params: vec![],
+            }
+        );
+        for (uri, why) in [
+            ("nothing", UriSyntaxError::NoScheme),
+            ("x:a?", UriSyntaxError::EmptyQuery),
+            (
+                "x:a?k=1&",
+                UriSyntaxError::EmptyParameter {
+                    query: "k=1&".into(),
+                },
+            ),
+            (
+                "x:a?&k=1",
+                UriSyntaxError::EmptyParameter {
+                    query: "&k=1".into(),
+                },
+            ),
+            (
+                "x:a?k=1&&j=2",
+                UriSyntaxError::EmptyParameter {
+                    query: "k=1&&j=2".into(),
+                },
+            ),
+            ("x:a?k", UriSyntaxError::NoValue { param: "k".into() }),
+            ("x:a?=1", UriSyntaxError::EmptyKey { param: "=1".into() }),
+            (
+                "x:a?s%65ed=1",
+                UriSyntaxError::BadKey {
+                    key: "s%65ed".into(),
+                },
+            ),
+            (
+                "x:a?se ed=1",
+                UriSyntaxError::BadKey {
+                    key: "se ed".into(),
+                },
+            ),
+            ("x:a?k=1&k=1", UriSyntaxError::Twice { key: "k".into() }),
+        ] {
+            assert_eq!(UriParts::parse(uri), Err(why.clone()), "{uri}");
+        }
     }
 
     #[test]
@@ -394,21 +436,32 @@ mod tests {
 
     #[test]
     fn rejects_garbage_with_clear_errors() {
-        let e = GrabberUri::parse("sim:scientific-ccd?size=16x16&size=32x32").unwrap_err();
-        assert!(e.to_string().contains("'size' is given twice"), "{e}");
-        for bad in [
-            "",
-            "sim",
-            "tcp:host",
-            "serial:",
-            "serial:/dev/x?baud=fast",
-            "sim:x?seed=-1",
-            "sim:x?rig=moon",
-            "usb:zz:00",
-            "sim:x?size=0x3",
+        let e = GrabberUri::parse("serial:/dev/x?baud=9600&baud=115200").unwrap_err();
+        assert!(e.to_string().contains("'baud' is given twice"), "{e}");
+        for (bad, part) in [
+            ("", "no scheme"),
+            ("sim", "no scheme"),
+            ("tcp:host", "unknown scheme 'tcp'"),
+            ("sim:gen3-gaas-iccd", "unknown scheme 'sim'"),
+            ("serial:", "missing port path"),
+            ("serial:/dev/x?baud=fast", "baud 'fast'"),
+            (
+                "serial:/dev/x?baud=9600&",
+                "empty parameter in 'baud=9600&'",
+            ),
+            ("serial:/dev/x?", "nothing after '?'"),
+            ("serial:/dev/x?=9600", "parameter '=9600' has no name"),
+            ("serial:/dev/x?baud", "parameter 'baud' needs a value"),
+            ("serial:/dev/x?b%61ud=9600", "parameter name 'b%61ud'"),
+            ("usb:zz:00", "vendor id 'zz'"),
+            ("usb:1d50:6018?speed=high", "unknown parameter 'speed'"),
         ] {
             let e = GrabberUri::parse(bad).unwrap_err().to_string();
-            assert!(e.contains("grabber URI"), "{bad}: {e}");
+            assert!(
+                e.starts_with(&format!("invalid setting: grabber URI '{bad}': {part}"))
+                    && e.contains("(expected serial:PATH"),
+                "{bad}: {e}"
+            );
         }
     }
 }

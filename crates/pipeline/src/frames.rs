@@ -257,9 +257,7 @@ pub struct FrameContext {
 /// (`serial:gloam protocol 1.0 device #7`).
 pub fn instrument_of_grabber(uri: &str, describe: &str) -> String {
     let scheme = uri.split_once(':').map_or(uri, |(s, _)| s);
-    if let Ok(gloam_grabber::uri::GrabberUri::Sim { preset, .. }) =
-        gloam_grabber::uri::GrabberUri::parse(uri)
-    {
+    if let Ok(gloam_simcam::SimUri { preset, .. }) = gloam_simcam::SimUri::parse(uri) {
         return format!("sim:{}", sensor_name(&preset));
     }
     let model = describe.strip_prefix("GenICam ").unwrap_or(describe);

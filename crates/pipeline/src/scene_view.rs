@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use crate::fit::FitVerdict;
 use crate::render::{RenderError, RenderJob};
-use gloam_grabber::{GrabError, GrabberUri, Registry};
+use gloam_grabber::{GrabError, Registry};
 use gloam_simcam::{SceneImage, SceneView};
 use gloam_trace::RenderSettings;
 use ndarray::Array2;
@@ -135,8 +135,8 @@ pub fn grabbers_noting(note: Arc<dyn Fn(&str) + Send + Sync>) -> Registry {
     r.register(
         "sim",
         Arc::new(move |uri, opts| {
-            let view = match GrabberUri::parse(uri)? {
-                GrabberUri::Sim {
+            let view = match gloam_simcam::SimUri::parse(uri)? {
+                gloam_simcam::SimUri {
                     preset,
                     size,
                     scene: Some(path),

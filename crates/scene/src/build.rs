@@ -831,7 +831,21 @@ fn xform(
         None => DVec3::ZERO,
     };
     let rot = match rotate_z_deg {
-        Some(r) => cx.finite(&field.key("rotate_z_deg"), r)?,
+        Some(r) => {
+            let f = field.key("rotate_z_deg");
+            let r = cx.finite(&f, r)?;
+            if !crate::instance::rotation_ok(r) {
+                return Err(cx.err(
+                    &f,
+                    format!(
+                        "{} degrees is past the limit of ±{:e} (a turn is 360; reduce the angle)",
+                        num(r),
+                        crate::instance::MAX_ROTATION_DEG
+                    ),
+                ));
+            }
+            r
+        }
         None => 0.0,
     };
     let scale = match scale {

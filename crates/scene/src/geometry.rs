@@ -60,8 +60,10 @@ pub enum FacetError {
     AllCoincide,
     #[error("zero-length edge: vertices {first} and {second} coincide")]
     ZeroEdge { first: usize, second: usize },
-    #[error("zero area ({area:.3e} units²): the vertices are collinear")]
-    Collinear { area: f64 },
+    /// Zero area, or a sliver: an area not above `threshold`
+    /// ([`AREA_TOLERANCE`] × the longest edge squared).
+    #[error("{}", collinear_message(*.area, *.threshold))]
+    Collinear { area: f64, threshold: f64 },
     #[error(
         "vertices {}, {}, {} are collinear (the quad is really a triangle; write it as one)",
         .corner, (.corner + 1) % 4, (.corner + 2) % 4
@@ -78,6 +80,19 @@ pub enum FacetError {
          (reflex or self-intersecting); split it into two triangles"
     )]
     NonConvex { vertex: usize },
+}
+
+/// [`FacetError::Collinear`]'s message: zero area as such, a sliver with
+/// the area found and the threshold it is not above.
+fn collinear_message(area: f64, threshold: f64) -> String {
+    if area == 0.0 {
+        "zero area: the vertices are collinear".to_string()
+    } else {
+        format!(
+            "sliver: area {area:.3e} units² is not above the threshold {threshold:.3e} units² \
+             ({AREA_TOLERANCE:e} × the longest edge squared); the vertices are nearly collinear"
+        )
+    }
 }
 
 /// Checks that `v` is a usable facet: 3 or 4 finite vertices, non-zero area,
@@ -114,8 +129,9 @@ pub fn check_facet(v: &[DVec3]) -> Result<(), FacetError> {
     }
     let nv = newell(v);
     let area = 0.5 * nv.length();
-    if area <= AREA_TOLERANCE * longest * longest {
-        return Err(FacetError::Collinear { area });
+    let threshold = AREA_TOLERANCE * longest * longest;
+    if area <= threshold {
+        return Err(FacetError::Collinear { area, threshold });
     }
     if n == 3 {
         return Ok(());

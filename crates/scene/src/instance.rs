@@ -119,8 +119,8 @@ pub(crate) struct Xform {
 }
 
 impl Xform {
-    /// `scale` positive and finite, `rotate_z_deg` finite (checked by the
-    /// callers). Multiples of 90° rotate exactly, so a grid of instances
+    /// `scale` positive and finite, `rotate_z_deg` finite and within
+    /// ±[`MAX_ROTATION_DEG`] (checked by the callers). Multiples of 90° rotate exactly, so a grid of instances
     /// stays on its grid.
     pub(crate) fn new(scale: DVec3, rotate_z_deg: f64, translate: DVec3) -> Self {
         let r = rotate_z_deg.rem_euclid(360.0);
@@ -214,6 +214,19 @@ pub(crate) struct Placement {
 /// The header a placements CSV may start with.
 pub const PLACEMENTS_CSV_HEADER: &str = "x,y,z,rotate_z_deg,scale";
 
+/// The largest |rotation| about z, in degrees, a scene may give
+/// (`rotate_z_deg` of an object, a placement or a moving body's key):
+/// 2 777 turns, far more than any pose needs, while the angle still keeps
+/// 1e-10 degree of precision once reduced to one turn. At 1e300 no bit of
+/// the turn is left and the pose would be arbitrary.
+pub const MAX_ROTATION_DEG: f64 = 1e6;
+
+/// Whether `deg` is a rotation a scene may give: finite, within
+/// ±[`MAX_ROTATION_DEG`].
+pub(crate) fn rotation_ok(deg: f64) -> bool {
+    deg.is_finite() && deg.abs() <= MAX_ROTATION_DEG
+}
+
 /// Why a placements CSV was refused; names the file and, for a row, its
 /// 1-based line.
 #[derive(Debug, thiserror::Error)]
@@ -252,7 +265,10 @@ pub(crate) enum RowError {
         value: f64,
         max_coordinate: f64,
     },
-    #[error("rotate_z_deg = {value} is not a finite number")]
+    #[error(
+        "rotate_z_deg = {} must be a finite number with |rotate_z_deg| ≤ {MAX_ROTATION_DEG:e} degrees",
+        crate::build::num(*.value)
+    )]
     Rotation { value: f64 },
     #[error("scale = {value} must be finite and > 0")]
     Scale { value: f64 },
@@ -320,7 +336,7 @@ pub(crate) fn parse_placements_csv(
                 ));
             }
         }
-        if !rot.is_finite() {
+        if !rotation_ok(rot) {
             return Err(err(line_no, RowError::Rotation { value: rot }));
         }
         if !(s.is_finite() && s > 0.0) {

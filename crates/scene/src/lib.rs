@@ -21,7 +21,7 @@ pub use error::SceneError;
 pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
 pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP, SUN_GROUP, TWILIGHT_GROUP};
 pub use instance::{
-    Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS,
+    Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_ROTATION_DEG, MAX_SHARED_FACETS,
     PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory_bytes,
     box_corners,
 };

@@ -441,7 +441,7 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
             }
             let time = k[0];
             check_key_time(loc, &at, time, last)?;
-            if let Some(v) = k[1..]
+            if let Some(v) = k[1..4]
                 .iter()
                 .find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE))
             {
@@ -450,6 +450,18 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
                     format!(
                         "{} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}",
                         num(*v)
+                    ),
+                ));
+            }
+            if let Some(&r) = k.get(4)
+                && !crate::instance::rotation_ok(r)
+            {
+                return Err(loc.error(
+                    &at,
+                    format!(
+                        "rotate_z_deg {} is not a finite angle within ±{:e} degrees (a turn is 360; reduce the angle)",
+                        num(r),
+                        crate::instance::MAX_ROTATION_DEG
                     ),
                 ));
             }
@@ -1176,6 +1188,17 @@ mod tests {
                 MOVE.replace("objects = [\"car\"]\npoint_sources = [\"heads\"]\n", ""),
                 4,
                 "moves nothing",
+            ),
+            // A turn past ±1e6° would keep no bit of its angle (issue 46).
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[3, 10, 2, 0, 1e300]"),
+                7,
+                "rotate_z_deg 1e300 is not a finite angle within ±1e6 degrees",
+            ),
+            (
+                MOVE.replace("[3, 10, 2, 0, 90]", "[3, 10, 2, 0, -1000000.5]"),
+                7,
+                "rotate_z_deg -1000000.5 is not a finite angle within ±1e6",
             ),
             (
                 MOVE.replace("[\"heads\"]", "[\"heads\", \"heads\"]"),

@@ -236,6 +236,28 @@ fn zero_area_triangle() {
 }
 
 #[test]
+fn sliver_triangle_reports_its_area_and_the_threshold() {
+    // Area 5e-11, longest edge 2: not above 1e-9 × 2² = 4e-9. Not "zero".
+    let text = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 1e-10, 1.0]]",
+        "[[0, 1, 2]]",
+    );
+    let m = expect_err(
+        &text,
+        next_line() + 3,
+        "objects.thing.faces[0]",
+        "sliver: area 5.000e-11 units² is not above the threshold 4.000e-9 units²",
+    );
+    assert!(!m.contains("zero area"), "{m}");
+    // Just above the threshold it is a facet (beside the base's floor).
+    let ok = inline_object(
+        "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 1e-8, 1.0]]",
+        "[[0, 1, 2]]",
+    );
+    assert_eq!(parse(&ok).unwrap().facets.len(), 2);
+}
+
+#[test]
 fn coincident_vertices() {
     let text = inline_object(
         "[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]",
@@ -1433,6 +1455,23 @@ fn placement_errors_name_file_line_and_field() {
         "objects.t.instances[0].rotate_z_deg",
         "not a finite number",
     );
+    // Finite but past ±1e6°: the angle would keep no bit of its turn.
+    expect_err(
+        &triangle_object("instances = [{ rotate_z_deg = 1e300 }]\n"),
+        l,
+        "objects.t.instances[0].rotate_z_deg",
+        "1e300 degrees is past the limit of ±1e6",
+    );
+    expect_err(
+        &triangle_object("rotate_z_deg = -1000001.0\n"),
+        l,
+        "objects.t.rotate_z_deg",
+        "-1000001 degrees is past the limit of ±1e6",
+    );
+    // The limit itself is a rotation (2 777 turns and 280°): the base's
+    // floor and the triangle.
+    let s = parse(&triangle_object("rotate_z_deg = 1e6\n")).unwrap();
+    assert_eq!(s.facets.len(), 2);
 
     // CSV: the scene line of `instances_csv`, and the file and its line.
     let dir = tempfile::tempdir().unwrap();
@@ -1464,6 +1503,10 @@ fn placement_errors_name_file_line_and_field() {
     );
     csv_err("x,y,z,rotate_z_deg,scale\n", "no placements");
     csv_err("1,2,3,1e400,1\n", "p.csv:1: rotate_z_deg = inf");
+    csv_err(
+        "1,2,3,0,1\n1,2,3,-1e300,1\n",
+        "p.csv:2: rotate_z_deg = -1e300 must be a finite number with |rotate_z_deg| ≤ 1e6 degrees",
+    );
     // Spaces or tabs separate columns too; a header is optional.
     std::fs::write(dir.path().join("p.csv"), "1 2 3 0 1\n4\t5\t6\t90\t2\n").unwrap();
     let s = parse_str(&triangle_object("instances_csv = \"p.csv\"\n"), &path).unwrap();

@@ -7,19 +7,18 @@ mod grabber;
 mod scene;
 mod source;
 mod stimulus;
+pub mod uri;
 
 use std::sync::Arc;
 
-use gloam_grabber::uri::{DEFAULT_SIM_PRESET, RIGS};
-use gloam_grabber::{
-    FrameGrabber, GrabError, GrabberList, GrabberUri, OpenOptions, Registry, SimInfo,
-};
+use gloam_grabber::{FrameGrabber, GrabError, GrabberList, OpenOptions, Registry, SimInfo};
 
 pub use exposure::{FrameExposure, FrameExposureExt};
 pub use grabber::{SimGrabber, gain_range_error};
 pub use scene::{LayerWeights, SceneImage, SceneView, mix_layers};
 pub use source::SensorSource;
 pub use stimulus::{DEFAULT_RIG_SIZE, DEFAULT_SPECTRUM, render_stimulus, rig_stimulus};
+pub use uri::{DEFAULT_RIG, DEFAULT_SIM_PRESET, RIGS, SimUri};
 
 /// Opens a `sim:` URI: the rig it names, or `scene` when the caller
 /// rendered the URI's scene (a scene URI without one is refused, naming
@@ -29,16 +28,13 @@ pub fn open_sim(
     opts: &OpenOptions,
     scene: Option<SceneView>,
 ) -> Result<Box<dyn FrameGrabber>, GrabError> {
-    let GrabberUri::Sim {
+    let SimUri {
         preset,
         rig,
         seed,
         size,
         scene: scene_path,
-    } = GrabberUri::parse(uri)?
-    else {
-        return Err(GrabError::Unsupported(format!("'{uri}': not a sim: URI")));
-    };
+    } = SimUri::parse(uri)?;
     let seed = opts.seed.unwrap_or(seed);
     match (scene_path, scene) {
         (Some(_), Some(view)) => Ok(Box::new(SimGrabber::from_scene(&preset, view, seed)?)),

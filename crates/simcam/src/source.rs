@@ -156,7 +156,7 @@ impl SensorSource {
             base.timing.frame_rate_hz = *frame_rate_hz;
             base.timing.exposure_s = base.timing.exposure_s.min(1.0 / frame_rate_hz);
         }
-        let mut src = Self::from_config(preset, base, gloam_grabber::uri::DEFAULT_RIG, seed, size)?;
+        let mut src = Self::from_config(preset, base, crate::uri::DEFAULT_RIG, seed, size)?;
         let (w, h) = size;
         src.view = View::Scene {
             view: scene,

@@ -3,7 +3,7 @@
 
 use ndarray::Array2;
 
-use gloam_grabber::uri::RIGS;
+use crate::uri::RIGS;
 use gloam_grabber::{GrabError, Stimulus};
 use gloam_spectra::Spectrum;
 

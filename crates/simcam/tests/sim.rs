@@ -3,9 +3,11 @@
 mod common;
 
 use gloam_grabber::{
-    DeviceControl, FrameGrabber, FrameStream, Framing, GrabError, GrabberUri, OpenOptions, Stimulus,
+    DeviceControl, FrameGrabber, FrameStream, Framing, GrabError, OpenOptions, Stimulus,
 };
-use gloam_simcam::{SceneImage, SceneView, SensorSource, SimGrabber, open, open_sim, registry};
+use gloam_simcam::{
+    SceneImage, SceneView, SensorSource, SimGrabber, SimUri, open, open_sim, registry,
+};
 
 /// CRC-32C (Castagnoli, reflected polynomial 0x82F63B78), one bit at a time.
 fn crc32c_bitwise(bytes: &[u8]) -> u32 {
@@ -234,9 +236,9 @@ fn bad_scenes_are_clear_errors() {
     failing.register(
         "sim",
         std::sync::Arc::new(|uri, opts| {
-            let GrabberUri::Sim {
+            let SimUri {
                 scene: Some(path), ..
-            } = GrabberUri::parse(uri)?
+            } = SimUri::parse(uri)?
             else {
                 return open_sim(uri, opts, None);
             };
@@ -260,9 +262,7 @@ fn bad_scenes_are_clear_errors() {
     rendering.register(
         "sim",
         std::sync::Arc::new(|uri, opts| {
-            let GrabberUri::Sim { size, .. } = GrabberUri::parse(uri)? else {
-                unreachable!()
-            };
+            let SimUri { size, .. } = SimUri::parse(uri)?;
             let (w, h) = size.unwrap_or((4, 4));
             open_sim(uri, opts, Some(two_band_scene(w as usize, h as usize)))
         }),
