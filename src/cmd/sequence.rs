@@ -89,6 +89,14 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
 
     let r = &captured.report;
     let renders = r.renders.clone().unwrap_or_default();
+    // With a sky clock: how the AGC held the median over the sky's light.
+    let agc_over_sky = match sequence.sky.is_some() && !r.medians_above_black_dn.is_empty() {
+        true => gloam_sensor::load_preset_or_file(&camera)
+            .ok()
+            .and_then(|c| c.agc)
+            .and_then(|agc| gloam_pipeline::sequence::agc_over_sky(r, &agc)),
+        false => None,
+    };
     let frames = f64::from(r.frames.max(1));
     let first_out = layers.outputs.first();
     let report = serde_json::json!({
@@ -131,6 +139,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
                         "keys": t.keys,
                     })))
                     .collect::<serde_json::Map<_, _>>(),
+                "agc": agc_over_sky,
                 "method": "the scene rendered at each instant of `renders` (the sky's clock: utc_at_start + time_scale × t), each frame's layers taken pixel by pixel geometrically between the two renders around its mid-exposure (a^(1-f) b^f; linearly where either is 0); photocells switch on the sky model's horizontal illuminance at the site",
             })),
             "outputs": {
@@ -197,6 +206,23 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
                 c.time_scale
             );
         }
+    }
+    if let Some(a) = &agc_over_sky {
+        eprintln!(
+            "AGC ({:?} metering, set point {} DN): the median within ×/÷{} of it in {} of {} frames from frame {} ({:.2} s) on, {:.3}–{:.3} of the set point, over {:.3e} → {:.3e} lx ({:.2} decades)",
+            a.metering,
+            a.set_point_dn,
+            gloam_pipeline::sequence::AGC_SET_RANGE_FACTOR,
+            a.frames_in_range,
+            a.frames_after,
+            a.held_from_frame.map_or(-1, |i| i as i64),
+            a.held_from_s.unwrap_or(f64::NAN),
+            a.median_over_set_point[0],
+            a.median_over_set_point[1],
+            a.lux_range[0],
+            a.lux_range[1],
+            a.decades
+        );
     }
     let gains = r.gain_over_time.iter().map(|g| g.1);
     let (lo, hi) = gains.fold((f64::INFINITY, 0.0f64), |(l, h), g| (l.min(g), h.max(g)));

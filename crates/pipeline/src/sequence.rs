@@ -139,6 +139,10 @@ pub struct SequenceFrame {
     /// With a `[sky]` clock: the sky at mid-exposure.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sky: Option<SkyAtFrame>,
+    /// With a `[sky]` clock: the frame's median count above black, DN
+    /// (what a median-metering AGC holds; the record's `mean_dn` beside).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub median_above_black_dn: Option<f64>,
 }
 
 /// The sky a frame saw (a sequence with a `[sky]` clock).
@@ -189,6 +193,9 @@ pub struct SequenceReport {
     pub notes: Vec<String>,
     /// (time s, gain in effect) per frame: what `gain-over-time.png` draws.
     pub gain_over_time: Vec<(f64, f64)>,
+    /// With a `[sky]` clock, per frame: (time s, median count above black
+    /// DN, the site's horizontal illuminance lx).
+    pub medians_above_black_dn: Vec<(f64, f64, f64)>,
     /// With a scene ([`capture_scene_sequence`]): what was rendered, pose
     /// by pose.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -776,6 +783,7 @@ fn capture_with(
             window_s: f.window_s,
             light_groups: groups.iter().cloned().zip(weights).collect(),
             sky: SkyAtFrame::at(sequence, f.mid_s()),
+            median_above_black_dn: None,
         });
         *mix_s.borrow_mut() += t.elapsed().as_secs_f64();
         img
@@ -783,6 +791,7 @@ fn capture_with(
     let mut writer = None;
     let mut animation = Animation::new(sequence.frames, sequence.frame_rate_hz);
     let mut gain_over_time = Vec::new();
+    let (mut medians, mut throughput_over_time) = (Vec::new(), Vec::new());
     let t_capture = Instant::now();
     let captured = capture.capture_configured(config, &first, Some(&mut image), &mut |mut f| {
         if failed.borrow().is_some() {
@@ -795,7 +804,16 @@ fn capture_with(
         let i = f.record.index as usize;
         if let Some(p) = places.borrow().get(i) {
             gain_over_time.push((p.time_s, f.record.gain));
-            f.record.sequence = Some(p.clone());
+            let mut p = p.clone();
+            if let Some(sky) = &p.sky {
+                let median = gloam_sensor::median_dn(&f.pixels) - f.black_dn;
+                p.median_above_black_dn = Some(median);
+                medians.push((p.time_s, median, sky.horizontal_lux));
+            }
+            if let Some(d) = f.record.gate_duty {
+                throughput_over_time.push((p.time_s, f.record.gain * d));
+            }
+            f.record.sequence = Some(p);
         }
         let r = &f.record;
         let black = r.black_dn.unwrap_or(0.0);
@@ -847,11 +865,7 @@ fn capture_with(
         ),
         ("time, s", gloam_calib::plot::Scale::Linear),
         ("gain in effect", gloam_calib::plot::Scale::Log10),
-        &[gloam_calib::plot::Series::new(
-            "gain",
-            gain_over_time.clone(),
-            gloam_calib::plot::Mark::Line,
-        )],
+        &gain_series(&gain_over_time, throughput_over_time),
     )
     .map_err(SequenceError::Plot)?;
     plot_sky(sequence, &places.borrow(), out)?;
@@ -864,8 +878,94 @@ fn capture_with(
         sensor_capture: captured.report,
         notes: captured.notes,
         gain_over_time,
+        medians_above_black_dn: medians,
         renders: None,
     })
+}
+
+/// The AGC's set range: its set point within a factor of this (±1 stop).
+pub const AGC_SET_RANGE_FACTOR: f64 = 2.0;
+
+/// How the AGC held a frame statistic over a sky clock's light.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AgcOverSky {
+    pub set_point_dn: f64,
+    /// What the loop servos: `mean` or `median`.
+    pub metering: gloam_sensor::config::Metering,
+    /// The set range, DN above black: set point ÷ and × [`AGC_SET_RANGE_FACTOR`].
+    pub set_range_dn: [f64; 2],
+    /// The first frame whose median is in the set range (the loop's
+    /// acquisition from its power-up gain ends there), and its time.
+    pub held_from_frame: Option<usize>,
+    pub held_from_s: Option<f64>,
+    /// Frames from then on, and how many of them have their median in
+    /// the set range.
+    pub frames_after: usize,
+    pub frames_in_range: usize,
+    /// Lowest and highest median over the set point from then on.
+    pub median_over_set_point: [f64; 2],
+    /// The site's horizontal illuminance from then on: brightest and
+    /// darkest, lux, and the decades between.
+    pub lux_range: [f64; 2],
+    pub decades: f64,
+}
+
+/// [`AgcOverSky`] from a captured sequence's medians (a `[sky]` clock's
+/// frames) and the camera's AGC.
+pub fn agc_over_sky(
+    report: &SequenceReport,
+    agc: &gloam_sensor::config::Agc,
+) -> Option<AgcOverSky> {
+    let m = &report.medians_above_black_dn;
+    let sp = agc.set_point_dn;
+    let range = [sp / AGC_SET_RANGE_FACTOR, sp * AGC_SET_RANGE_FACTOR];
+    let inside = |v: f64| (range[0]..=range[1]).contains(&v);
+    let from = m.iter().position(|x| inside(x.1));
+    let after = from.map_or(&[][..], |i| &m[i..]);
+    let fold = |f: &dyn Fn(&(f64, f64, f64)) -> f64| {
+        after
+            .iter()
+            .map(f)
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |a, v| {
+                [a[0].min(v), a[1].max(v)]
+            })
+    };
+    let ratio = fold(&|x| x.1 / sp);
+    let lux = fold(&|x| x.2);
+    (!m.is_empty()).then(|| AgcOverSky {
+        set_point_dn: sp,
+        metering: agc.metering,
+        set_range_dn: range,
+        held_from_frame: from,
+        held_from_s: from.map(|i| m[i].0),
+        frames_after: after.len(),
+        frames_in_range: after.iter().filter(|x| inside(x.1)).count(),
+        median_over_set_point: ratio,
+        lux_range: [lux[1], lux[0]],
+        decades: if lux[0] > 0.0 {
+            (lux[1] / lux[0]).log10()
+        } else {
+            f64::NAN
+        },
+    })
+}
+
+/// The gain in effect and, when a gate cut the light (autogating, the
+/// tube's ABC), the gain times the gate's duty: the camera's throughput.
+fn gain_series(gain: &[(f64, f64)], throughput: Vec<(f64, f64)>) -> Vec<gloam_calib::plot::Series> {
+    let mut out = vec![gloam_calib::plot::Series::new(
+        "gain",
+        gain.to_vec(),
+        gloam_calib::plot::Mark::Line,
+    )];
+    if throughput.iter().zip(gain).any(|(t, g)| t.1 < g.1) {
+        out.push(gloam_calib::plot::Series::new(
+            "gain x gate duty",
+            throughput,
+            gloam_calib::plot::Mark::Line,
+        ));
+    }
+    out
 }
 
 /// With a `[sky]` clock, `sky-over-time.png`: the site's horizontal

@@ -20,6 +20,7 @@ pub use camera::{AgcState, Camera, DigitizedFrame, FrameMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::{SensorEffect, sensor_effects};
 pub use error::{CaptureError, ConfigError, LineError, ScopeError};
+pub use stages::agc::median_dn;
 pub use stages::{Chain, image_irradiance_per_radiance};
 
 /// A built-in preset or a TOML file (see [`SensorConfig::load_preset_or_file`]).

@@ -152,15 +152,19 @@ impl Tracer {
         met_emitter
     }
 
-    /// Step 1: a ray that escaped: the sky dome's radiance in its direction
-    /// (not after a diffuse bounce, whose vertex sampled the dome).
+    /// Step 1: a ray that escaped: the sky dome's radiance in its direction,
+    /// and the twilight sky's when the Sun lights it (not after a diffuse
+    /// bounce, whose vertex sampled the domes).
     fn escaped(&self, d: DVec3, thr: &[f64], state: PathState, acc: &mut Light) {
-        if let Some(sky) = &self.sky
-            && !state.after_diffuse
-        {
-            let mut l = vec![0.0; sky.nc];
-            sky.table.radiance_into(d, &mut l);
-            acc.add_from(sky.sky_group, |a| {
+        let Some(sky) = self.sky.as_ref().filter(|_| !state.after_diffuse) else {
+            return;
+        };
+        let mut l = vec![0.0; sky.nc];
+        let domes = std::iter::once((&sky.table, sky.sky_group))
+            .chain(sky.twilight.as_ref().map(|t| (t, sky.twilight_group)));
+        for (table, group) in domes {
+            table.radiance_into(d, &mut l);
+            acc.add_from(group, |a| {
                 a[..sky.nc]
                     .iter_mut()
                     .zip(thr)

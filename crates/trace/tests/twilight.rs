@@ -141,3 +141,50 @@ fn after_dark_nothing_changes() {
     assert!(!plan.is_enabled("sun") && !plan.is_enabled("twilight-sky"));
     assert!(sc.light_groups.sun.is_none() && sc.light_groups.twilight.is_none());
 }
+
+#[test]
+fn a_camera_looking_up_at_dusk_sees_the_models_sky() {
+    // A camera at the floor looking at the zenith through a narrow field:
+    // every pixel is the twilight model's zenith radiance (the tracer's
+    // table at its 1.5° × 2.5° cells and render grid against the model's
+    // own spectrum on its 5 nm grid: 2 %).
+    let utc = utc_at_sun(-6.0);
+    let text = format!(
+        r#"
+units = "m"
+[camera]
+position = [0, 0, 1]
+look_at = [0, 0, 100]
+up = [0, 1, 0]
+fov_deg = 2
+width = 3
+height = 3
+[bands.vis]
+lo_nm = 400
+hi_nm = 700
+[sky]
+utc = "{utc}"
+latitude_deg = {LAT}
+longitude_deg = {LON}
+moon = false
+night_sky = false
+[materials.ground]
+reflectance = 0.2
+[objects.ground]
+material = "ground"
+quad = {{ center = [0, 0, 0], size = [400, 400], normal = [0, 0, 1] }}
+"#
+    );
+    let sc = gloam_scene::parse_str(&text, Path::new("t.toml")).unwrap();
+    let out = Tracer::new(&sc, &RenderSettings::default())
+        .unwrap()
+        .render(&|_, _| {})
+        .unwrap();
+    let want = band(&model(&utc).radiance_w_m2_sr_nm([0.0, 0.0, 1.0]));
+    for &l in out.radiance.iter() {
+        assert!(
+            want > 0.0 && (l - want).abs() <= 0.02 * want,
+            "{l} vs {want} W m⁻² sr⁻¹"
+        );
+    }
+}

@@ -100,8 +100,8 @@ impl AgcLoop {
 
 /// The median of a frame's counts, DN (the lower middle value of an even
 /// count): O(n) by selection on a copy.
-pub fn median_dn(pixels: &ndarray::Array2<u16>) -> f64 {
-    let mut v: Vec<u16> = pixels.iter().copied().collect();
+pub fn median_dn<'a>(pixels: impl IntoIterator<Item = &'a u16>) -> f64 {
+    let mut v: Vec<u16> = pixels.into_iter().copied().collect();
     if v.is_empty() {
         return 0.0;
     }
