@@ -91,7 +91,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let renders = r.renders.clone().unwrap_or_default();
     // With a sky clock: how the AGC held the median over the sky's light.
     let agc_over_sky = match sequence.sky.is_some() && !r.medians_above_black_dn.is_empty() {
-        true => gloam_sensor::load_preset_or_file(&camera)
+        true => gloam_sensor::load_preset_or_file(camera)
             .ok()
             .and_then(|c| c.agc)
             .and_then(|agc| gloam_pipeline::sequence::agc_over_sky(r, &agc)),
