@@ -24,15 +24,17 @@ struct LoadedSequence {
 }
 
 fn load_sequence(path: &Path, set: &[String]) -> anyhow::Result<LoadedSequence> {
-    let sequence = gloam_scene::sequence::load_sequence(path)?;
-    let scene = gloam_scene::load(&sequence.scene)?;
+    let mut sequence = gloam_scene::sequence::load_sequence(path)?;
+    let mut scene = gloam_scene::load(&sequence.scene)?;
+    sequence.bind_sky(&mut scene)?;
     let groups: Vec<String> = (scene.light_groups.groups.iter())
         .map(|g| g.name.clone())
         .collect();
     sequence.check_groups(groups.iter().map(String::as_str))?;
-    // The true radiance is one set of layers mixed: refused here, before
-    // any render or output, when bodies move.
-    sequence.check_static("gloam calibrate agc --sequence")?;
+    // The true radiance is layers mixed (between two sky renders with a
+    // `[sky]` clock): refused here, before any render or output, when
+    // bodies move.
+    sequence.check_still_bodies("gloam calibrate agc --sequence")?;
     let settings = SettingArgs {
         set: set.to_vec(),
         ..SettingArgs::default()
@@ -88,6 +90,7 @@ fn capture(
         observer: super::progress::prep_spinner(),
         progress: &|d, t| bar.progress(d, t),
         camera_k: None,
+        keep_sky_renders: true,
     };
     let captured = capture_scene_sequence(&job, &capture, dir, context)?;
     bar.finish();
@@ -101,6 +104,7 @@ fn capture(
         layers: detected,
         // The window the sequence capture gives the camera.
         exposure_s: config.timing.exposure_s.min(l.sequence.frame_period_s()),
+        sky_layers: captured.sky_renders,
     })
 }
 

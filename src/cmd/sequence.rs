@@ -54,6 +54,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
         observer: super::progress::prep_spinner(),
         progress: &|d, t| bar.progress(d, t),
         camera_k,
+        keep_sky_renders: false,
     };
     let context = FrameContext {
         camera: Some(camera.to_string()),

@@ -70,6 +70,10 @@ pub struct AgcSequenceOptions {
     pub spread_radius_px: usize,
     /// See [`AgcSequenceOptions::spread_radius_px`].
     pub spread_tolerance: f64,
+    /// The camera's configured photocathode gate duty (1 without one): a
+    /// frame whose recorded duty is below it was gated (autogating, the
+    /// tube's ABC) and its linearised radiance is divided by the ratio.
+    pub gate_duty: f64,
 }
 
 impl AgcSequenceOptions {
@@ -87,6 +91,7 @@ impl AgcSequenceOptions {
             spread_tolerance: 0.01,
             agc_time_constant_s: agc.time_constant_s,
             spread_radius_px: spread_radius_px(sensor)?,
+            gate_duty: sensor.photocathode.as_ref().map_or(1.0, |p| p.gate_duty),
         }))
     }
 }
@@ -248,6 +253,10 @@ pub struct AgcSequenceReport {
 pub struct SequenceLayers<'a> {
     pub groups: &'a [String],
     pub layers: &'a [Array2<f64>],
+    /// With a `[sky]` clock, each sky render's layers: a frame's truth is
+    /// its recorded `sequence.sky.renders` taken geometrically at its
+    /// `fraction` between them ([`gloam_simcam::layers_between`]).
+    pub sky: &'a [Vec<Array2<f64>>],
 }
 
 /// The rig's detected radiance per unit of the band radiance its LUT is
@@ -328,6 +337,11 @@ struct Record {
     clip_dn: f64,
     time_s: f64,
     weights: Vec<f64>,
+    /// Its recorded gate duty in effect (`gate_duty`), if any.
+    gate_duty: Option<f64>,
+    /// With a `[sky]` clock: the two sky renders around it and how far
+    /// towards the second (`sequence.sky.renders`, `fraction`).
+    sky: Option<([usize; 2], f64)>,
     /// Its 1-based line and `pixels_crc32c` (checked against the counts).
     line: usize,
     crc: Option<serde_json::Value>,
@@ -386,6 +400,29 @@ fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError
                 .and_then(serde_json::Value::as_f64)
                 .ok_or_else(|| at("no numeric \"sequence.time_s\"".into()))?,
             weights,
+            gate_duty: v.get("gate_duty").and_then(serde_json::Value::as_f64),
+            sky: match seq.get("sky") {
+                None => None,
+                Some(sky) => {
+                    let r = |k: usize| {
+                        sky.get("renders")
+                            .and_then(|r| r.get(k))
+                            .and_then(serde_json::Value::as_u64)
+                            .map(|x| x as usize)
+                    };
+                    let f = sky.get("fraction").and_then(serde_json::Value::as_f64);
+                    match (r(0), r(1), f) {
+                        (Some(a), Some(b), Some(f)) if (0.0..=1.0).contains(&f) => {
+                            Some(([a, b], f))
+                        }
+                        _ => {
+                            return Err(at(
+                                "\"sequence.sky\" needs \"renders\" [a, b] and a \"fraction\" in [0, 1]".into(),
+                            ));
+                        }
+                    }
+                }
+            },
             line: i + 1,
             crc: v.get("pixels_crc32c").cloned(),
             at: crate::io::StoredAt::of_record(&v),
@@ -484,6 +521,7 @@ pub fn linearise_sequence(
     }
     check_lut_fits_camera(lut, camera, records[0].bits)?;
     let mut mixed = Array2::<f64>::zeros(shape);
+    let mut between: Vec<Array2<f64>> = Vec::new();
     let mut frames = Vec::with_capacity(records.len());
     let total = records.len();
     let mut prev_mean: Option<f64> = None;
@@ -491,6 +529,9 @@ pub fn linearise_sequence(
     let window_s = opts.transient_time_constants * opts.agc_time_constant_s;
     let settled_gain = records[records.len() - 1].gain;
     let settled = lut.coefficients(settled_gain).ok();
+    let last = &records[records.len() - 1];
+    let settled_duty =
+        (last.gate_duty.unwrap_or(opts.gate_duty) / opts.gate_duty).clamp(f64::MIN_POSITIVE, 1.0);
     // One noise floor for the whole sequence, the noisiest calibrated
     // gain's (dark σ in radiance), so the pixels compared do not change
     // with the gain from frame to frame.
@@ -526,7 +567,37 @@ pub fn linearise_sequence(
                 ),
             ));
         }
-        gloam_simcam::mix_layers(truth.layers, &r.weights, &mut mixed);
+        // A moving sky: this frame's layers lie between two renders.
+        let layers = match r.sky {
+            None => truth.layers,
+            Some(([a, b], f)) => {
+                let (Some(la), Some(lb)) = (truth.sky.get(a), truth.sky.get(b)) else {
+                    return Err(CalibError::Line {
+                        path: dir.join("frames.jsonl"),
+                        line: r.line,
+                        message: format!(
+                            "sky renders {a} and {b}, but the sequence's renders are 0…{}",
+                            truth.sky.len().saturating_sub(1)
+                        ),
+                    });
+                };
+                if la.len() != truth.groups.len() || lb.len() != truth.groups.len() {
+                    return Err(CalibError::Invalid(format!(
+                        "sky renders {a} and {b} carry {} and {} layers for {} light groups",
+                        la.len(),
+                        lb.len(),
+                        truth.groups.len()
+                    )));
+                }
+                gloam_simcam::layers_between(la, lb, f, &mut between);
+                &between[..]
+            }
+        };
+        gloam_simcam::mix_layers(layers, &r.weights, &mut mixed);
+        // A gated frame saw `duty` of the light the LUT's (ungated) line
+        // answers for.
+        let duty =
+            (r.gate_duty.unwrap_or(opts.gate_duty) / opts.gate_duty).clamp(f64::MIN_POSITIVE, 1.0);
         let truth_px: Vec<f64> = mixed.iter().map(|d| d / detected_per_radiance).collect();
         let frame_mean = truth_px.iter().sum::<f64>() / truth_px.len().max(1) as f64;
         if let Some(p) = prev_mean
@@ -581,7 +652,7 @@ pub fn linearise_sequence(
         // by counts would drop a pixel's upward noise at the top and bias
         // the frame low.
         let beyond: Vec<f64> = (truth_px.iter())
-            .map(|&t| if (t - b) / g >= top_dn { t } else { 0.0 })
+            .map(|&t| if (t * duty - b) / g >= top_dn { t } else { 0.0 })
             .collect();
         frame.beyond_lut_range_pixels = beyond.iter().filter(|&&x| x > 0.0).count();
         let spread = box_mean(&beyond, shape.0, shape.1, opts.spread_radius_px);
@@ -595,10 +666,10 @@ pub fn linearise_sequence(
                 // Counted in `beyond_lut_range_pixels`.
             } else if spread > opts.spread_tolerance * t {
                 frame.near_beyond_pixels += 1;
-            } else if !(t > floor) || !(t > 0.0) {
+            } else if !(t * duty > floor) || !(t > 0.0) {
                 frame.below_floor_pixels += 1;
             } else {
-                let l = g * f64::from(c) + b;
+                let l = (g * f64::from(c) + b) / duty;
                 if f64::from(c) >= r.clip_dn {
                     frame.clipped_pixels += 1;
                 }
@@ -607,7 +678,7 @@ pub fn linearise_sequence(
                 st += t;
                 sl += l;
                 if let Some((gs, bs)) = settled {
-                    sl_settled += gs * f64::from(c) + bs;
+                    sl_settled += (gs * f64::from(c) + bs) / settled_duty;
                 }
                 ss += (q - 1.0) * (q - 1.0);
             }
@@ -814,6 +885,7 @@ mod tests {
         let truth = SequenceLayers {
             groups: &groups,
             layers: &layers,
+            sky: &[],
         };
         let opts = AgcSequenceOptions {
             noise_floor_sigma: 3.0,
@@ -823,6 +895,7 @@ mod tests {
             top_fraction: 0.5,
             spread_radius_px: 0,
             spread_tolerance: 0.01,
+            gate_duty: 1.0,
         };
         let run = || {
             linearise_sequence(

@@ -581,6 +581,10 @@ pub struct CapturedSequence {
     pub layers: Vec<ndarray::Array2<f64>>,
     /// The camera's exposure window per frame, s.
     pub exposure_s: f64,
+    /// With a `[sky]` clock: each sky render's layers, by render index
+    /// (each frame's truth lies between two of them; `layers` is frame
+    /// 0's).
+    pub sky_layers: Vec<Vec<ndarray::Array2<f64>>>,
 }
 
 /// Gains a LUT measured for a sequence steps by at most (its responsivity
@@ -700,6 +704,7 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
     let truth = SequenceLayers {
         groups: &captured.groups,
         layers: &captured.layers,
+        sky: &captured.sky_layers,
     };
     let r = linearise_sequence(
         &dir,

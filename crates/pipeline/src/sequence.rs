@@ -307,6 +307,9 @@ pub struct SceneSequence<'a> {
     /// the camera's noise at the brightest frame each pixel sees
     /// ([`crate::camera_goal`]).
     pub camera_k: Option<f64>,
+    /// With a `[sky]` clock, keep every sky render's detected layers (for
+    /// a calibration that needs each frame's true radiance afterwards).
+    pub keep_sky_renders: bool,
 }
 
 /// What [`capture_scene_sequence`] made besides the frames.
@@ -320,6 +323,9 @@ pub struct SceneCaptured {
     /// The effect plan frame 0's render ran (each pose's render plans
     /// itself, as a still of that pose would).
     pub plan: gloam_scene::plan::EffectPlan,
+    /// With `keep_sky_renders`: each sky render's detected layers, by its
+    /// index among the clock's renders (empty where none was made).
+    pub sky_renders: Vec<Vec<Array2<f64>>>,
 }
 
 /// Renders `job`'s scene into layers once per distinct pose of its moving
@@ -379,11 +385,18 @@ pub fn capture_scene_sequence(
         layers: 0,
         groups: groups.len(),
     })?;
+    let mut sky_renders = vec![Vec::new(); sequence.sky_key_times_s().len()];
+    for (k, layers) in std::mem::take(&mut cache.kept) {
+        if let Some(slot) = sky_renders.get_mut(k) {
+            *slot = layers;
+        }
+    }
     Ok(SceneCaptured {
         report,
         first,
         first_poses,
         plan,
+        sky_renders,
     })
 }
 
@@ -425,6 +438,8 @@ struct PoseCache<'a> {
     planned: Vec<PoseRender>,
     /// A frame's layers between two sky renders.
     between: Vec<Array2<f64>>,
+    /// With `keep_sky_renders`: (sky render, its detected layers).
+    kept: Vec<(usize, Vec<Array2<f64>>)>,
     window_s: Option<f64>,
     live: std::collections::HashMap<usize, Vec<Array2<f64>>>,
     rendered: Vec<bool>,
@@ -459,6 +474,7 @@ impl<'a> PoseCache<'a> {
             ids: Vec::new(),
             planned: Vec::new(),
             between: Vec::new(),
+            kept: Vec::new(),
             window_s: None,
             live: std::collections::HashMap::new(),
             rendered: Vec::new(),
@@ -597,16 +613,7 @@ impl<'a> PoseCache<'a> {
         let (Some(a), Some(b)) = (self.live.get(&id), self.live.get(&other)) else {
             return Ok(&[]);
         };
-        self.between.resize_with(a.len(), || Array2::zeros((0, 0)));
-        for ((out, la), lb) in self.between.iter_mut().zip(a).zip(b) {
-            if out.dim() != la.dim() {
-                *out = Array2::zeros(la.dim());
-            }
-            ndarray::Zip::from(out)
-                .and(la)
-                .and(lb)
-                .for_each(|o, &x, &y| *o = gloam_scene::sequence::geometric(x, y, fraction));
-        }
+        gloam_simcam::layers_between(a, b, fraction, &mut self.between);
         Ok(&self.between)
     }
 
@@ -628,6 +635,9 @@ impl<'a> PoseCache<'a> {
             let detected = layers.detected.clone().unwrap_or_default();
             if f.index == 0 && self.first.is_none() {
                 self.first = Some((layers, poses, plan));
+            }
+            if let (true, Some(k)) = (self.job.keep_sky_renders, self.planned[id].sky_key) {
+                self.kept.push((k, detected.clone()));
             }
             self.live.insert(id, detected);
         }
@@ -1274,6 +1284,7 @@ value = 1e-4
             observer: None,
             progress: &|_, _| {},
             camera_k: None,
+            keep_sky_renders: false,
         };
         capture_scene_sequence(&job, &quiet_capture(frames), dir, no_context())
     }

@@ -60,7 +60,7 @@ use crate::{Luminaire, Scene};
 mod sky;
 pub use sky::{
     DEGREES_PER_RENDER, MAX_ON_LUX, MAX_RUN_UP_S, MAX_SKY_RENDERS, MAX_TIME_SCALE, Photocell,
-    SkyClock, geometric,
+    SkyClock,
 };
 
 /// Most frames a sequence may have (an hour at 277 Hz).
@@ -639,6 +639,12 @@ impl Sequence {
     /// live device, a caller with its own layers): a body's pose changes
     /// every layer, so ignoring its `[[move]]` would be silently wrong.
     pub fn check_static(&self, user: &str) -> Result<(), SceneError> {
+        self.check_still_sky(user)?;
+        self.check_still_bodies(user)
+    }
+
+    /// Refuses a `[sky]` clock for `user`, which mixes layers rendered once.
+    pub fn check_still_sky(&self, user: &str) -> Result<(), SceneError> {
         if let Some(c) = &self.sky {
             return Err(SceneError::Invalid {
                 path: self.path.clone(),
@@ -650,6 +656,11 @@ impl Sequence {
                 ),
             });
         }
+        Ok(())
+    }
+
+    /// Refuses `[[move]]` bodies for `user`, which mixes layers of one pose.
+    pub fn check_still_bodies(&self, user: &str) -> Result<(), SceneError> {
         match self.moves.first() {
             None => Ok(()),
             Some(m) => Err(SceneError::Invalid {

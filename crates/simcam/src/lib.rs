@@ -15,7 +15,7 @@ use gloam_grabber::{FrameGrabber, GrabError, GrabberList, OpenOptions, Registry,
 
 pub use exposure::{FrameExposure, FrameExposureExt};
 pub use grabber::{SimGrabber, gain_range_error};
-pub use scene::{LayerWeights, SceneImage, SceneView, mix_layers};
+pub use scene::{LayerWeights, SceneImage, SceneView, layers_between, mix_layers};
 pub use source::SensorSource;
 pub use stimulus::{DEFAULT_RIG_SIZE, DEFAULT_SPECTRUM, render_stimulus, rig_stimulus};
 pub use uri::{DEFAULT_RIG, DEFAULT_SIM_PRESET, RIGS, SimUri};

@@ -61,6 +61,22 @@ impl std::fmt::Debug for LayerWeights {
 ///
 /// Row blocks in parallel when every array is contiguous (a live device
 /// mixes at frame rate); each pixel's sum is the same either way.
+/// Each layer `f` (0…1) of the way from render `a` to render `b` of a
+/// moving sky, pixel by pixel ([`gloam_spectra::geometric_between`]), into
+/// `out` (resized to match `a`).
+pub fn layers_between(a: &[Array2<f64>], b: &[Array2<f64>], f: f64, out: &mut Vec<Array2<f64>>) {
+    out.resize_with(a.len(), || Array2::zeros((0, 0)));
+    for ((o, la), lb) in out.iter_mut().zip(a).zip(b) {
+        if o.dim() != la.dim() {
+            *o = Array2::zeros(la.dim());
+        }
+        ndarray::Zip::from(o)
+            .and(la)
+            .and(lb)
+            .for_each(|o, &x, &y| *o = gloam_spectra::geometric_between(x, y, f));
+    }
+}
+
 pub fn mix_layers(layers: &[Array2<f64>], weights: &[f64], out: &mut Array2<f64>) {
     use rayon::prelude::*;
     let used: Vec<(&Array2<f64>, f64)> = layers

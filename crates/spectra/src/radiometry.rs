@@ -156,3 +156,35 @@ mod tests {
         );
     }
 }
+
+/// Light between two instants `f` (0…1) of the way from `a` to `b`:
+/// `a^{1−f} b^f` where both are positive (exact for light that falls
+/// exponentially, as twilight does: ×2.5 per degree of Sun), linearly
+/// where either is zero.
+pub fn geometric_between(a: f64, b: f64, f: f64) -> f64 {
+    if f <= 0.0 {
+        a
+    } else if f >= 1.0 {
+        b
+    } else if a > 0.0 && b > 0.0 {
+        (a.ln() * (1.0 - f) + b.ln() * f).exp()
+    } else {
+        a + (b - a) * f
+    }
+}
+
+#[cfg(test)]
+mod between_tests {
+    use super::geometric_between;
+
+    #[test]
+    fn geometric_is_exact_for_an_exponential_and_linear_through_zero() {
+        // Light falling ×2.5 per step: halfway is 1/√2.5 of the first.
+        let (a, b) = (1.0, 1.0 / 2.5);
+        let half = geometric_between(a, b, 0.5);
+        assert!((half - (1.0 / 2.5f64).sqrt()).abs() < 1e-15);
+        assert_eq!(geometric_between(0.0, 4.0, 0.25), 1.0);
+        assert_eq!(geometric_between(3.0, 5.0, 0.0), 3.0);
+        assert_eq!(geometric_between(3.0, 5.0, 1.0), 5.0);
+    }
+}

@@ -322,7 +322,7 @@ impl Sequence {
     pub fn sky_lux_at(&self, t: f64) -> Option<f64> {
         let (a, b, f) = self.sky_bracket(t)?;
         let l = &self.sky.as_ref()?.key_lux;
-        Some(geometric(l[a], l[b], f))
+        Some(gloam_spectra::geometric_between(l[a], l[b], f))
     }
 
     /// `scene` under the sky of render `key` (its `[sky]` instant moved;
@@ -337,19 +337,6 @@ impl Sequence {
             sky.utc = instant.to_iso8601();
         }
         out
-    }
-}
-
-/// `a^{1−f} b^f` where both are positive, else linear.
-pub fn geometric(a: f64, b: f64, f: f64) -> f64 {
-    if f <= 0.0 {
-        a
-    } else if f >= 1.0 {
-        b
-    } else if a > 0.0 && b > 0.0 {
-        (a.ln() * (1.0 - f) + b.ln() * f).exp()
-    } else {
-        a + (b - a) * f
     }
 }
 
@@ -410,16 +397,6 @@ fn photocell_keys(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn geometric_is_exact_for_an_exponential_and_linear_through_zero() {
-        // Light falling ×2.5 per step: halfway is √2.5 of the first.
-        let (a, b) = (1.0, 1.0 / 2.5);
-        assert!((geometric(a, b, 0.5) - (1.0 / 2.5f64).sqrt()).abs() < 1e-15);
-        assert_eq!(geometric(0.0, 4.0, 0.25), 1.0);
-        assert_eq!(geometric(3.0, 5.0, 0.0), 3.0);
-        assert_eq!(geometric(3.0, 5.0, 1.0), 5.0);
-    }
 
     #[test]
     fn a_photocell_switches_where_the_light_crosses_its_threshold() {
