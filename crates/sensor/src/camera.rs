@@ -442,7 +442,13 @@ impl Camera {
                 crate::config::Metering::Mean => mean_dn,
                 crate::config::Metering::Median => crate::stages::agc::median_dn(&f.pixels),
             };
-            let s = agc.step(self.gain, self.duty, metered - black, sat_frac);
+            let s = agc.step_metered(
+                self.gain,
+                self.duty,
+                metered - black,
+                mean_dn - black,
+                sat_frac,
+            );
             (self.gain, self.duty, self.agc_state) = (s.gain, s.duty, s.state);
         }
         Ok(DigitizedFrame {

@@ -294,6 +294,10 @@ pub struct Agc {
     pub metering: Metering,
 }
 
+/// The shortest gate `agc.gate_min_s` may ask for, s (the fastest gated
+/// image intensifiers open for ~100 ps).
+pub const MIN_GATE_S: f64 = 1e-10;
+
 /// The frame statistic an AGC servos.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -479,9 +483,15 @@ impl SensorConfig {
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ConfigError> {
         let cfg: SensorConfig = toml::from_str(text).map_err(|e| {
             let line = e.span().map_or(1, |r| line_of_offset(text, r.start));
+            // The field too, as semantic errors name it: `unknown variant
+            // `mode`` alone did not say that it was `agc.metering`.
+            let field = e
+                .span()
+                .and_then(|r| field_at_offset(text, r.start))
+                .map_or(String::new(), |f| format!("field `{f}`: "));
             ConfigError::Parse {
                 origin: format!("{origin}:{line}"),
-                message: e.message().trim().to_string(),
+                message: format!("{field}{}", e.message().trim()),
             }
         })?;
         cfg.validate().map_err(|e| match &e {
@@ -668,6 +678,15 @@ impl SensorConfig {
             }
             if let Some(g) = a.gate_min_s {
                 positive("agc.gate_min_s", g)?;
+                if g < MIN_GATE_S {
+                    // 1e-300 s was taken: a gate no photocathode opens in.
+                    return Err(ConfigError::invalid(
+                        "agc.gate_min_s",
+                        format!(
+                            "{g:e} s is shorter than any intensifier gates ({MIN_GATE_S:e} s: the fastest gated tubes)"
+                        ),
+                    ));
+                }
                 if self.photocathode.is_none() {
                     return Err(ConfigError::invalid(
                         "agc.gate_min_s",
@@ -1006,6 +1025,54 @@ fn line_of_offset(text: &str, offset: usize) -> usize {
         .filter(|&&b| b == b'\n')
         .count()
         + 1
+}
+
+/// The dotted path (`agc.metering`, `ccd.qe.value[3]`) of the deepest key
+/// or value of `text` holding byte `offset`; `None` outside every entry.
+fn field_at_offset(text: &str, offset: usize) -> Option<String> {
+    use toml::de::{DeTable, DeValue};
+    type Spanned<'a> = toml::Spanned<DeValue<'a>>;
+    let holds = |r: &std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
+    fn table_holds(t: &DeTable, holds: &dyn Fn(&std::ops::Range<usize>) -> bool) -> bool {
+        t.iter().any(|(k, v)| {
+            holds(&k.span())
+                || holds(&v.span())
+                || matches!(v.get_ref(), DeValue::Table(t2) if table_holds(t2, holds))
+        })
+    }
+    fn in_value(v: &Spanned, holds: &dyn Fn(&std::ops::Range<usize>) -> bool, path: &mut String) {
+        match v.get_ref() {
+            DeValue::Table(t) => in_table(t, holds, path),
+            DeValue::Array(a) => {
+                if let Some((i, e)) = a.iter().enumerate().find(|(_, e)| holds(&e.span())) {
+                    path.push_str(&format!("[{i}]"));
+                    in_value(e, holds, path);
+                }
+            }
+            _ => {}
+        }
+    }
+    fn in_table(t: &DeTable, holds: &dyn Fn(&std::ops::Range<usize>) -> bool, path: &mut String) {
+        let hit = t
+            .iter()
+            .find(|(k, v)| holds(&k.span()) || holds(&v.span()))
+            .or_else(|| {
+                t.iter().find(
+                    |(_, v)| matches!(v.get_ref(), DeValue::Table(t2) if table_holds(t2, holds)),
+                )
+            });
+        if let Some((k, v)) = hit {
+            if !path.is_empty() {
+                path.push('.');
+            }
+            path.push_str(k.get_ref());
+            in_value(v, holds, path);
+        }
+    }
+    let root = DeTable::parse(text).ok()?;
+    let mut path = String::new();
+    in_table(root.get_ref(), &holds, &mut path);
+    (!path.is_empty()).then_some(path)
 }
 
 /// 1-based line of the deepest key of the dotted `field` present in `text`

@@ -241,10 +241,11 @@ fn summarise(period: &[Sample], site: &Site, step_s: f64, search: &NightSearch) 
         .map(|s| s.moon_el)
         .fold(f64::NEG_INFINITY, f64::max);
     // local mean solar date of the evening: shift by longitude, back 12 h
-    let local = first
+    // By the calendar alone: on 1000-01-01 west of Greenwich the evening
+    // is 0999-12-31's (a saturated shift named the wrong date).
+    let (y, m, d, ..) = first
         .t
-        .plus_seconds(site.longitude_east_deg / 15.0 * 3600.0 - 12.0 * 3600.0);
-    let (y, m, d, ..) = local.to_calendar();
+        .calendar_shifted(site.longitude_east_deg / 15.0 * 3600.0 - 12.0 * 3600.0);
     Some(Night {
         evening_date: format!("{y:04}-{m:02}-{d:02}"),
         dark_start: first.t,

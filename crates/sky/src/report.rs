@@ -308,6 +308,14 @@ impl fmt::Display for EphemReport {
                 at(&c.dusk)
             )?;
         }
+        if tw.past_model_years {
+            write!(
+                f,
+                "\n  (part of this local day lies outside the sky model's years {}–{}: crossings there are not found)",
+                crate::time::MIN_YEAR,
+                crate::time::MAX_YEAR
+            )?;
+        }
         Ok(())
     }
 }
@@ -343,6 +351,7 @@ impl NightsReport {
         let mut to_t = parse_instant(names.to, to)?;
         if to.trim().len() == 10 {
             // a date alone: include the whole UTC day
+            // (past 3000-12-31 the day's end is the model's last instant)
             to_t = to_t.plus_seconds(86_400.0);
         }
         if to_t.seconds_since(&from_t) <= 0.0 {

@@ -231,10 +231,43 @@ impl UtcInstant {
     }
 
     /// This instant shifted by `seconds` (may be negative). Saturates at the
-    /// supported range rather than failing.
+    /// supported range rather than failing (it used to return `self`
+    /// unmoved: a sky clock running past 3000 stood still at its start);
+    /// [`UtcInstant::checked_plus_seconds`] refuses instead.
     pub fn plus_seconds(&self, seconds: f64) -> Self {
+        let (min, max) = Self::julian_date_range();
         let jd = self.jd_ut + seconds / 86_400.0;
-        Self::from_julian_date(jd).unwrap_or(*self)
+        if jd.is_nan() {
+            return *self;
+        }
+        Self {
+            jd_ut: jd.clamp(min, max),
+        }
+    }
+
+    /// This instant shifted by `seconds`, or an error if that leaves the
+    /// years [`MIN_YEAR`]..=[`MAX_YEAR`] (or `seconds` is not finite).
+    pub fn checked_plus_seconds(&self, seconds: f64) -> Result<Self> {
+        crate::error::check_range("seconds", seconds, f64::MIN, f64::MAX)?;
+        Self::from_julian_date(self.jd_ut + seconds / 86_400.0)
+    }
+
+    /// Calendar fields of this instant shifted by `seconds`, which may
+    /// leave the supported years (a local date at a site east of
+    /// Greenwich late on 3000-12-31 is already 3001-01-01 there).
+    pub fn calendar_shifted(&self, seconds: f64) -> (i32, u32, u32, u32, u32, f64) {
+        Self {
+            jd_ut: self.jd_ut + seconds / 86_400.0,
+        }
+        .to_calendar()
+    }
+
+    /// The first and last Julian dates of the supported years.
+    fn julian_date_range() -> (f64, f64) {
+        (
+            JD_UNIX_EPOCH + days_from_civil(MIN_YEAR as i64, 1, 1) as f64,
+            JD_UNIX_EPOCH + days_from_civil(MAX_YEAR as i64 + 1, 1, 1) as f64,
+        )
     }
 
     /// Seconds from `earlier` to `self`.
@@ -362,6 +395,19 @@ pub fn delta_t_s(year: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shifts_past_the_years_saturate_or_are_refused() {
+        let t = UtcInstant::parse_iso8601("3000-12-31T20:00:00Z").unwrap();
+        // Once `self` unmoved: a sky clock stood still at its start.
+        let far = t.plus_seconds(1e7);
+        assert!(far.seconds_since(&t) > 0.0);
+        assert_eq!(far.to_calendar().0, 3001);
+        assert!(t.checked_plus_seconds(1e7).is_err());
+        assert!(t.checked_plus_seconds(f64::NAN).is_err());
+        assert!((t.checked_plus_seconds(60.0).unwrap().seconds_since(&t) - 60.0).abs() < 1e-3);
+        assert_eq!(t.calendar_shifted(11.0 * 3600.0).0, 3001);
+    }
 
     #[test]
     fn j2000_epoch() {

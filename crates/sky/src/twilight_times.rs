@@ -49,6 +49,10 @@ pub struct TwilightTimes {
     pub nautical: TwilightCrossings,
     /// Sun at −18°.
     pub astronomical: TwilightCrossings,
+    /// Part of the day lies outside the sky model's years, where no
+    /// crossing is looked for (a missing one is then not polar day or night).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub past_model_years: bool,
 }
 
 fn sun_el(t: UtcInstant, site: &Site) -> f64 {
@@ -85,17 +89,21 @@ pub fn twilight_times(t: UtcInstant, site: &Site) -> TwilightTimes {
     } else {
         shift_s
     };
-    let local = t.plus_seconds(shift_s);
-    let (y, m, d, hh, mm, ss) = local.to_calendar();
+    // The local day by the calendar alone: near the ends of the model's
+    // years it may reach past them (a saturated shift took the wrong day).
+    let (y, m, d, hh, mm, ss) = t.calendar_shifted(shift_s);
     let since_midnight = f64::from(hh) * 3600.0 + f64::from(mm) * 60.0 + ss;
-    let start = t.plus_seconds(-since_midnight);
     let n = (86_400.0 / SCAN_STEP_S) as usize;
+    // Only the instants within the model's years are scanned.
     let samples: Vec<(UtcInstant, f64)> = (0..=n)
-        .map(|i| {
-            let ti = start.plus_seconds(i as f64 * SCAN_STEP_S);
-            (ti, sun_el(ti, site))
+        .filter_map(|i| {
+            let ti = t
+                .checked_plus_seconds(i as f64 * SCAN_STEP_S - since_midnight)
+                .ok()?;
+            Some((ti, sun_el(ti, site)))
         })
         .collect();
+    let past_model_years = samples.len() <= n;
     let crossings = |threshold: f64| {
         let (mut dawn, mut dusk) = (None, None);
         for w in samples.windows(2) {
@@ -118,6 +126,7 @@ pub fn twilight_times(t: UtcInstant, site: &Site) -> TwilightTimes {
         civil: crossings(c),
         nautical: crossings(n),
         astronomical: crossings(a),
+        past_model_years,
     }
 }
 
@@ -146,5 +155,29 @@ mod tests {
         let june = UtcInstant::parse_iso8601("2025-06-21T12:00:00Z").unwrap();
         let p = twilight_times(june, &polar);
         assert!(p.civil.dawn.is_none() && p.civil.dusk.is_none());
+        assert!(!tw.past_model_years && !p.past_model_years);
+    }
+
+    #[test]
+    fn a_local_day_past_the_models_years_is_that_day_and_says_so() {
+        // 20:00 UTC on 3000-12-31 is 07:20 on 3001-01-01 at 170° E: the
+        // shift once saturated, naming 3000-12-31 with its dawn after dusk.
+        let site = Site::new(43.0, 170.0, 0.0).unwrap();
+        let t = UtcInstant::parse_iso8601("3000-12-31T20:00:00Z").unwrap();
+        let tw = twilight_times(t, &site);
+        assert_eq!(tw.local_date, "3001-01-01");
+        assert!(
+            tw.civil
+                .dawn
+                .as_deref()
+                .unwrap()
+                .starts_with("3000-12-31T19:")
+        );
+        assert!(tw.civil.dusk.is_none() && tw.past_model_years);
+        let west = Site::new(43.0, -170.0, 0.0).unwrap();
+        let t = UtcInstant::parse_iso8601("1000-01-01T03:00:00Z").unwrap();
+        let tw = twilight_times(t, &west);
+        assert_eq!(tw.local_date, "0999-12-31");
+        assert!(tw.civil.dawn.is_none() && tw.past_model_years);
     }
 }

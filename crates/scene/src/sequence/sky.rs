@@ -41,8 +41,16 @@ pub const MAX_TIME_SCALE: f64 = 1e5;
 pub const MAX_SKY_RENDERS: u32 = 1000;
 /// The default spacing of the sky's renders, degrees of Sun elevation.
 pub const DEGREES_PER_RENDER: f64 = 1.0;
+/// Longest step between samples of the Sun's path, sky seconds (the Sun
+/// moves at most 2.5° in it).
+const PATH_STEP_S: f64 = 600.0;
+/// Longest sky time a clock may run, s (a leap year).
+pub const MAX_SKY_SPAN_S: f64 = 366.0 * 86_400.0;
 /// Brightest photocell threshold, lux (full daylight is ~10⁵ lx).
 pub const MAX_ON_LUX: f64 = 1e5;
+/// Most times a photocell may switch over a clock (each is found by
+/// bisection on the sky model).
+pub const MAX_PHOTOCELL_SWITCHES: usize = 20;
 /// Longest lamp run-up, sky seconds (an hour).
 pub const MAX_RUN_UP_S: f64 = 3600.0;
 
@@ -229,24 +237,89 @@ impl Sequence {
             ));
         };
         let start = *clock.start.get_or_insert(sky.instant);
-        let at = |t: f64| start.plus_seconds(t * clock.time_scale);
-        let end = at(duration);
-        let year = end.to_calendar().0;
-        if !(gloam_sky::time::MIN_YEAR..=gloam_sky::time::MAX_YEAR).contains(&year) {
+        let span_s = duration * clock.time_scale;
+        // Checked, not saturated: a clock that ran past the sky model's
+        // last year stood still at its start, every later frame that sky.
+        let in_years = |e: &UtcInstant| {
+            (gloam_sky::time::MIN_YEAR..=gloam_sky::time::MAX_YEAR).contains(&e.to_calendar().0)
+        };
+        let past = match start.checked_plus_seconds(span_s) {
+            Ok(end) if in_years(&end) => None,
+            _ => Some(format!(
+                "past the sky model's years {}–{}",
+                gloam_sky::time::MIN_YEAR,
+                gloam_sky::time::MAX_YEAR
+            )),
+        };
+        let long = (span_s > MAX_SKY_SPAN_S).then(|| {
+            format!(
+                "more than a year ({} s): a clock for dusk and dawn, not the seasons",
+                num(MAX_SKY_SPAN_S)
+            )
+        });
+        if let Some(why) = past.or(long) {
             return Err(err(
                 clock.line,
                 "sky.time_scale",
-                format!("the clock ends in the year {year}, outside the sky model's years"),
+                format!(
+                    "the clock runs {} sky seconds ({} frames at {} Hz × {}) from {}, {why}",
+                    num(span_s),
+                    self.frames,
+                    num(self.frame_rate_hz),
+                    num(clock.time_scale),
+                    start.to_iso8601(),
+                ),
             ));
         }
-        // The Sun's path, sampled finely, sets the default number of renders.
-        let samples = 256;
-        let path_deg: Vec<f64> = (0..=samples)
-            .map(|i| sun_deg(&sky, at(duration * f64::from(i) / f64::from(samples))))
-            .collect();
-        let travel: f64 = path_deg.windows(2).map(|w| (w[1] - w[0]).abs()).sum();
+        let at = |t: f64| start.plus_seconds(t * clock.time_scale);
+        // The Sun's path, sampled at least every PATH_STEP_S of sky time
+        // (256 samples spread over weeks all fell near one hour of the day
+        // and saw the Sun stand still), sets the default number of renders;
+        // a path longer than the renders can follow is refused, not
+        // rendered at fewer renders than a degree each.
+        let samples = (span_s / PATH_STEP_S).ceil().max(256.0);
+        let most = f64::from(MAX_SKY_RENDERS - 1) * DEGREES_PER_RENDER;
+        let mut path_deg: Vec<f64> = Vec::new();
+        let mut travel = 0.0;
+        let mut i = 0.0;
+        while i <= samples {
+            let d = sun_deg(&sky, at(duration * i / samples));
+            if let Some(&last) = path_deg.last() {
+                travel += (d - last).abs();
+            }
+            path_deg.push(d);
+            if clock.renders.is_none() && travel > most {
+                return Err(err(
+                    clock.line,
+                    "sky.time_scale",
+                    format!(
+                        "the Sun travels more than {most}° over the clock's {} sky seconds, past the {MAX_SKY_RENDERS} renders at {DEGREES_PER_RENDER}° each: slow the clock, shorten the sequence, or give `renders`",
+                        num(span_s)
+                    ),
+                ));
+            }
+            i += 1.0;
+        }
+        // Each render's instant costs a twilight sky (about a second) for
+        // its illuminance: renders between frames no frame uses were that
+        // cost for nothing (`renders = 1000` over 2 frames: ~17 minutes
+        // before the first frame). The default follows the frames too.
+        let most_renders = self.frames.saturating_add(1).min(MAX_SKY_RENDERS);
+        if let Some(r) = clock.renders
+            && r > most_renders.max(2)
+        {
+            return Err(err(
+                clock.line,
+                "sky.renders",
+                format!(
+                    "{r} renders of the sky for {} frames: at most one per frame and one more ({}); a render between two frames is never used",
+                    self.frames,
+                    most_renders.max(2)
+                ),
+            ));
+        }
         let n = clock.renders.unwrap_or_else(|| {
-            ((travel / DEGREES_PER_RENDER).ceil() as u32 + 1).clamp(2, MAX_SKY_RENDERS)
+            ((travel / DEGREES_PER_RENDER).ceil() as u32 + 1).clamp(2, most_renders.max(2))
         });
         clock.key_times_s = (0..n)
             .map(|k| duration * f64::from(k) / f64::from(n - 1))
@@ -280,8 +353,22 @@ impl Sequence {
             clock.key_lux.clone(),
             clock.time_scale,
         );
-        for track in self.groups.values_mut() {
+        for (name, track) in self.groups.iter_mut() {
             let Some(p) = track.photocell else { continue };
+            let on = |l: f64| l < p.on_lux;
+            let switches = key_lux.windows(2).filter(|w| on(w[0]) != on(w[1])).count();
+            if switches > MAX_PHOTOCELL_SWITCHES {
+                // Each switch is found by bisection on the sky model (about
+                // a second an evaluation): a clock over weeks switching at
+                // every dusk and dawn ran for hours before the first frame.
+                return Err(err(
+                    self.group_lines.get(name).copied().unwrap_or(clock.line),
+                    &format!("groups.{name}.photocell"),
+                    format!(
+                        "switches {switches} times over the clock's renders; at most {MAX_PHOTOCELL_SWITCHES}: a clock for a dusk or a dawn, not for weeks"
+                    ),
+                ));
+            }
             track.keys = photocell_keys(&p, &keys, &key_lux, &lux, step, ts)?;
         }
         Ok(())

@@ -58,6 +58,24 @@ impl AgcLoop {
     /// or the saturated fraction passes its threshold. In the linear range
     /// the log error decays as `e^{−t/τ}`.
     pub fn step(&self, gain: f64, duty: f64, signal_dn: f64, sat_frac: f64) -> AgcSetting {
+        self.step_metered(gain, duty, signal_dn, signal_dn, sat_frac)
+    }
+
+    /// [`AgcLoop::step`] servoing `metered_dn` (the frame's mean or
+    /// median above black, as `agc.metering` says) while bright-source
+    /// protection still compares the frame's mean, `mean_dn`, with
+    /// `protect_mean_dn`: under median metering a lamp filling a third of
+    /// the frame moved the median not at all, and the threshold named a
+    /// mean never tripped.
+    pub fn step_metered(
+        &self,
+        gain: f64,
+        duty: f64,
+        metered_dn: f64,
+        mean_dn: f64,
+        sat_frac: f64,
+    ) -> AgcSetting {
+        let signal_dn = metered_dn;
         let a = &self.agc;
         let lo = a
             .min_gain
@@ -67,7 +85,7 @@ impl AgcLoop {
             .max_gain
             .unwrap_or(self.hardware_max_gain)
             .min(self.hardware_max_gain);
-        let protect = a.protect_mean_dn.is_some_and(|t| signal_dn > t)
+        let protect = a.protect_mean_dn.is_some_and(|t| mean_dn > t)
             || (sat_frac > a.protect_saturated_fraction && a.protect_saturated_fraction > 0.0);
         let through = gain * duty;
         let mut state = AgcState::Tracking;
@@ -147,6 +165,21 @@ mod tests {
         }
         let want = e0 * (-25.0 * 0.04 / 0.5f64).exp();
         assert!(((g / target).ln() - want).abs() < 1e-12, "{g}");
+    }
+
+    #[test]
+    fn median_metering_still_protects_on_the_mean() {
+        // A lamp over a third of the frame: the median (the road, 20 DN)
+        // is low, the mean (300 DN) past protect_mean_dn. The loop servos
+        // the median but protection named a mean and once never tripped.
+        let mut l = lp(0.5);
+        l.agc.protect_mean_dn = Some(200.0);
+        l.agc.metering = crate::config::Metering::Median;
+        let s = l.step_metered(100.0, 1.0, 20.0, 300.0, 0.0);
+        assert_eq!((s.gain, s.state), (50.0, AgcState::Protecting));
+        let s = l.step_metered(100.0, 1.0, 20.0, 150.0, 0.0);
+        assert_eq!(s.state, AgcState::Tracking);
+        assert!(s.gain > 100.0, "servoing the median up: {}", s.gain);
     }
 
     #[test]
