@@ -247,6 +247,10 @@ fn sky_clocks_and_photocells_refuse_what_they_cannot_do() {
             "run_up_s",
         ),
     ];
+    let cases = cases.into_iter().chain([(
+        "[sky]\ntime_scale = 10.0\n[groups.twilight]\nphotocell = { on_lux = 16.0 }\n",
+        "a photocell switches a lamp's group",
+    )]);
     for (extra, want) in cases {
         let seq = dir.path().join("seq.toml");
         std::fs::write(

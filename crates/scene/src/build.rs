@@ -1652,9 +1652,7 @@ fn distant_source(
     d: &RawDistantSource,
 ) -> R<DistantSource> {
     let df = field.key("direction");
-    let direction = cx
-        .vec3(&df, d.direction)?
-        .try_normalize()
+    let direction = unit(cx.vec3(&df, d.direction)?)
         .ok_or_else(|| cx.err(&df, "direction is a zero vector"))?;
     let irradiance = spectrum_parts(
         cx,
@@ -1675,6 +1673,16 @@ fn distant_source(
     })
 }
 
+/// `v` as a unit vector, scaled by its largest component first so that
+/// components too small to square (1e-320) still give their direction;
+/// `None` for the zero vector.
+fn unit(v: DVec3) -> Option<DVec3> {
+    let m = v.abs().max_element();
+    (m > 0.0 && m.is_finite())
+        .then(|| (v / m).try_normalize())
+        .flatten()
+}
+
 fn point_source_prototype(
     cx: &Ctx,
     field: &FieldPath,
@@ -1684,10 +1692,9 @@ fn point_source_prototype(
     let position = cx.vec3(&field.key("position"), p.position)?;
     let df = field.key("direction");
     let direction = match p.direction {
-        Some(d) => cx
-            .vec3(&df, d)?
-            .try_normalize()
-            .ok_or_else(|| cx.err(&df, "direction is a zero vector"))?,
+        Some(d) => {
+            unit(cx.vec3(&df, d)?).ok_or_else(|| cx.err(&df, "direction is a zero vector"))?
+        }
         None => DVec3::NEG_Z,
     };
     if p.photometry.is_some() {

@@ -355,6 +355,22 @@ impl Sequence {
         );
         for (name, track) in self.groups.iter_mut() {
             let Some(p) = track.photocell else { continue };
+            let sky_groups = [
+                crate::groups::SUN_GROUP,
+                crate::groups::TWILIGHT_GROUP,
+                crate::groups::MOON_GROUP,
+                crate::groups::SKY_GROUP,
+            ];
+            if sky_groups.contains(&name.as_str()) {
+                // The sky switched by its own light: the clock moves it.
+                return Err(err(
+                    self.group_lines.get(name).copied().unwrap_or(clock.line),
+                    &format!("groups.{name}.photocell"),
+                    format!(
+                        "'{name}' is the sky's own light, which the clock moves; a photocell switches a lamp's group"
+                    ),
+                ));
+            }
             let on = |l: f64| l < p.on_lux;
             let switches = key_lux.windows(2).filter(|w| on(w[0]) != on(w[1])).count();
             if switches > MAX_PHOTOCELL_SWITCHES {
