@@ -23,6 +23,7 @@ pub mod provenance;
 pub mod render;
 pub mod scene_view;
 pub mod sequence;
+pub mod tile;
 
 pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detected_band};
 pub use frame_files::FrameFormat;
