@@ -425,7 +425,7 @@ fn to_value(v: &impl Serialize) -> Result<serde_json::Value, RenderError> {
 
 /// A render's `report.json`: settings, effect plan, timings, rays,
 /// per-band means, where the error target came from and the provenance.
-/// Its keys are a user contract (docs/output-format.md).
+/// Its keys are a user contract (scripts read them): add, never rename.
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderReport {
     /// The scene file, as given.
