@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use numpy::prelude::*;
@@ -10,12 +10,14 @@ use numpy::{IntoPyArray, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use gloam_pipeline::{RenderJob, SettingArgs};
+use gloam_pipeline::camera_goal::TargetError;
+use gloam_pipeline::request::CameraOptions;
+use gloam_pipeline::{Events, RenderRequest, SceneInput, SettingArgs};
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 
 use crate::convert::{setting_pairs, to_py_as};
-use crate::errors::OrPy;
-use crate::interrupt::{ProgressSink, detached_owned, detached_with_stop};
+use crate::errors::{GloamError, OrPy};
+use crate::interrupt::{ProgressSink, Reporter, detached_owned, detached_with_stop};
 use crate::sensor::Sensor;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -233,6 +235,42 @@ fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> 
     Ok(Some(s.extract::<String>()?))
 }
 
+/// `target_error`: a number (relative error per pixel) or "camera" / "camera:K".
+fn target_error(t: Option<&Bound<'_, PyAny>>) -> PyResult<Option<TargetError>> {
+    let Some(t) = t else { return Ok(None) };
+    if let Ok(e) = t.extract::<f64>() {
+        return Ok(Some(TargetError::Relative(e)));
+    }
+    let text = t.extract::<String>().map_err(|_| {
+        GloamError::new_err("target_error: a number (e.g. 0.02) or \"camera\" / \"camera:K\"")
+    })?;
+    text.parse().map(Some).or_py()
+}
+
+/// A render's progress for the polling thread (``progress=``), and Ctrl-C.
+struct Polled<'a> {
+    stop: &'a AtomicBool,
+    rep: Arc<Reporter>,
+}
+
+impl Events for Polled<'_> {
+    fn preparation(&self) -> Option<gloam_trace::PrepObserver> {
+        let rep = Arc::clone(&self.rep);
+        let observer: gloam_trace::PrepObserver = Arc::new(move |ev| {
+            if let gloam_trace::PrepEvent::Begin(step) = ev {
+                rep.set(&format!("prepare: {step}"), 0, 0);
+            }
+        });
+        Some(observer)
+    }
+    fn tiles(&self, done: u64, total: u64) {
+        self.rep.set("tiles", done, total);
+    }
+    fn stop(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+}
+
 /// Renders ``scene``: the same computation, with the same seed, as
 /// ``gloam render`` (``radiance`` is bit-identical to its radiance.npy).
 ///
@@ -253,7 +291,9 @@ fn sensor_source(sensor: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> 
 /// an exception it raises stops the render. The GIL is released while it
 /// renders; Ctrl-C raises KeyboardInterrupt within a tile, and during the
 /// scene's preparation at once (the abandoned preparation finishes its
-/// step in the background and is dropped).
+/// step in the background and is dropped). The arguments make a
+/// ``gloam render`` request (gloam-pipeline's ``RenderRequest``): the same
+/// checks, the same messages.
 #[pyfunction]
 #[pyo3(signature = (scene, spp = None, seed = None, estimator = None, settings = None, threads = None, target_error = None, tolerance = None, sensor = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
@@ -270,103 +310,35 @@ fn render<'py>(
     sensor: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<RenderResult> {
-    use gloam_pipeline::camera_goal::TargetError;
-    // A number (relative error per pixel) or "camera" / "camera:K".
-    let target_error = match target_error {
-        None => None,
-        Some(t) => Some(match t.extract::<f64>() {
-            Ok(e) => TargetError::Relative(e),
-            Err(_) => t
-                .extract::<String>()
-                .map_err(|_| {
-                    crate::errors::GloamError::new_err(
-                        "target_error: a number (e.g. 0.02) or \"camera\" / \"camera:K\"",
-                    )
-                })?
-                .parse::<TargetError>()
-                .map_err(|e| crate::errors::GloamError::new_err(e.to_string()))?,
-        }),
-    };
-    let flags = SettingArgs {
-        spp,
-        seed,
-        estimator: estimator.map(str::to_string),
-        threads,
-        target_error,
-        tolerance,
-        ..Default::default()
-    };
-    let given = sensor_source(sensor)?;
     let sc = scene.get();
-    let (scene_ref, path) = (&sc.scene, sc.path.as_path());
-    // As `gloam render`: the scene's own `sensor` entry when none is given.
-    let camera = gloam_pipeline::render::camera_of(given.as_deref(), scene_ref).map(String::from);
-    // As `gloam render`, whose render with a camera captures frames and
-    // keeps the fixed default spp: the default error target only without one.
-    let args = SettingArgs {
-        set: setting_pairs(settings)?,
-        ..flags
+    let request = RenderRequest {
+        settings: SettingArgs {
+            spp,
+            seed,
+            estimator: estimator.map(str::to_string),
+            set: setting_pairs(settings)?,
+            threads,
+            target_error: self::target_error(target_error)?,
+            tolerance,
+        },
+        camera: CameraOptions {
+            sensor: sensor_source(sensor)?,
+            ..Default::default()
+        },
+        ..RenderRequest::new(SceneInput::Loaded {
+            scene: Arc::clone(&sc.scene),
+            path: sc.path.clone(),
+            load_s: sc.load_s,
+        })
     };
-    let (s, target_error_source) =
-        args.with_default_error(args.settings().or_py()?, camera.is_none());
-    // `target_error="camera[:K]"`, as `gloam render --target-error camera`:
-    // each pixel to the camera's own noise at its preset gain.
-    let camera_k = args.camera_target();
-    if camera_k.is_some() && camera.is_none() {
-        return Err(crate::errors::GloamError::new_err(
-            "target_error=\"camera\" needs a camera: sensor=… or the scene's sensor",
-        ));
-    }
+    let valid = request.validate().or_py()?;
     let sink = ProgressSink::new(py, progress, "render")?;
-    let owned = Arc::clone(scene_ref);
-    let rendered = detached_owned(py, &sink, move |stop, rep| {
-        let prep_rep = Arc::clone(&rep);
-        let observer: gloam_trace::PrepObserver = Arc::new(move |ev| {
-            if let gloam_trace::PrepEvent::Begin(step) = ev {
-                prep_rep.set(&format!("prepare: {step}"), 0, 0);
-            }
-        });
-        let job = RenderJob {
-            camera: camera.as_deref(),
-            observer: Some(observer),
-            ..RenderJob::new(&owned, &s)
-        };
-        let prepared = job.prepare()?;
-        if stop.load(Ordering::Relaxed) {
-            anyhow::bail!("interrupted");
-        }
-        let progress = |done, total| rep.set("tiles", done, total);
-        let stop = || stop.load(Ordering::Relaxed);
-        match (camera_k, camera.as_deref()) {
-            (Some(k), Some(sensor)) => {
-                let capture = gloam_pipeline::frames::FrameCapture {
-                    sensor,
-                    frames: 1,
-                    gain: None,
-                    agc: false,
-                    noise: true,
-                    seed: s.seed,
-                    auto_exposure: None,
-                    frame_format: Default::default(),
-                };
-                let goal = gloam_pipeline::camera_goal::CameraGoal::new(&prepared, k, &capture)?;
-                let r = prepared.render_to_goal(&goal, &progress, &stop)?;
-                let report = goal.report(&r);
-                Ok((r, report))
-            }
-            _ => Ok((prepared.render(None, &progress, &stop)?, None)),
-        }
+    let done = detached_owned(py, &sink, move |stop, rep| {
+        Ok(valid.run(&Polled { stop, rep })?)
     })?;
-    let (rendered, camera_target) = rendered;
-    let mut report = rendered.report_json(path, scene_ref, sc.load_s, 0.0);
-    report["target_error_source"] = serde_json::to_value(target_error_source).or_py()?;
-    if let Some(t) = camera_target {
-        report["camera_target"] = t;
-    }
-    let (mut out, detected) = (rendered.radiance, rendered.detected);
-    report["provenance"] =
-        serde_json::to_value(gloam_pipeline::Provenance::of_this_run()).or_py()?;
-    let bands = band_list(py, scene_ref, &out.band_names)?.unbind();
+    let report = done.report.to_value().or_py()?;
+    let (mut out, detected) = (done.rendered.radiance, done.rendered.detected);
+    let bands = band_list(py, &sc.scene, &out.band_names)?.unbind();
     let radiance = std::mem::take(&mut out.radiance).into_pyarray(py).unbind();
     let std_error = std::mem::take(&mut out.std_error).into_pyarray(py).unbind();
     let spp = std::mem::take(&mut out.spp).into_pyarray(py).unbind();

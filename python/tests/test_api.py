@@ -56,6 +56,23 @@ def test_errors_carry_the_cli_message(gloam_bin, tmp_path):
         gloam.render(gloam.Scene.from_toml(BAD.replace("1.7", "0.5")), settings={"spp": "many"})
 
 
+@pytest.mark.parametrize("keywords, flags", [
+    (dict(sensor="no-such-sensor"), ["--sensor", "no-such-sensor"]),
+    (dict(settings={"spp": "many"}), ["--set", "spp=many"]),
+    (dict(spp=3, settings={"spp": 2}), ["--spp", "3", "--set", "spp=2"]),
+    (dict(target_error="camera", sensor="none"), ["--target-error", "camera", "--sensor", "none"]),
+])
+def test_render_refuses_a_bad_input_as_the_cli_does(gloam_bin, repo, tmp_path, keywords, flags):
+    # One request type (RenderRequest) and one validate() behind both.
+    scene = str(repo / "sims/panel-validation/scene.toml")
+    with pytest.raises(gloam.GloamError) as e:
+        gloam.render(gloam.Scene.load(scene), **keywords)
+    cli = subprocess.run([gloam_bin, "render", scene, "--out", str(tmp_path / "out"), *flags],
+                         capture_output=True, text=True)
+    assert cli.returncode != 0
+    assert f"error: {e.value}\n" in cli.stderr, (str(e.value), cli.stderr)
+
+
 def test_ctrl_c_stops_a_long_render_with_keyboard_interrupt(repo):
     scene = gloam.Scene.load(repo / "sims/panel-validation/scene.toml")
     # Untouched, this render would take minutes (2000 spp at 320 × 240);

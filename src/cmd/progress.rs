@@ -101,26 +101,3 @@ impl TileBar {
         }
     }
 }
-
-/// Renders `prepared` (all rows, or `rows`) with a [`TileBar`]: `render`
-/// runs its traces through this.
-pub fn render_with_bar(
-    prepared: gloam_pipeline::PreparedRender,
-    rows: Option<std::ops::Range<u32>>,
-) -> Result<gloam_pipeline::Rendered, gloam_pipeline::RenderError> {
-    let bar = TileBar::new();
-    let rendered = prepared.render(rows, &|d, t| bar.progress(d, t), &|| false);
-    bar.finish();
-    rendered
-}
-
-/// [`render_with_bar`] to a per-pixel goal (`--target-error camera`).
-pub fn render_goal_with_bar(
-    prepared: gloam_pipeline::PreparedRender,
-    goal: &dyn gloam_trace::PixelGoal,
-) -> Result<gloam_pipeline::Rendered, gloam_pipeline::RenderError> {
-    let bar = TileBar::new();
-    let rendered = prepared.render_to_goal(goal, &|d, t| bar.progress(d, t), &|| false);
-    bar.finish();
-    rendered
-}

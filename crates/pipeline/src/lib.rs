@@ -21,8 +21,10 @@ pub mod output;
 pub mod output_set;
 pub mod provenance;
 pub mod render;
+pub mod request;
 pub mod scene_view;
 pub mod sequence;
+pub mod tile;
 
 pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detected_band};
 pub use frame_files::FrameFormat;
@@ -36,6 +38,7 @@ pub use render::{
     DEFAULT_TARGET_ERROR, Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs,
     TargetErrorSource,
 };
+pub use request::{Events, RenderDone, RenderReport, RenderRequest, SceneInput, ValidRender};
 pub use scene_view::{
     SceneViewError, grabbers, grabbers_noting, render_scene_view, scene_view_fit_note,
 };

@@ -41,12 +41,44 @@ pub enum RenderError {
     Layers(#[from] LayerError),
     #[error("rows {start}..{end} are not rows of the {height}-row image")]
     Rows { start: u32, end: u32, height: u32 },
+    // What a render request (`crate::request`) refuses or fails at.
+    #[error(transparent)]
+    Scene(#[from] gloam_scene::SceneError),
+    #[error(transparent)]
+    Tile(#[from] crate::tile::TileError),
+    #[error("{a} and {b} exclude each other: give one")]
+    Conflict { a: &'static str, b: &'static str },
+    #[error("--frame-format `{value}`: expected png, fits or tiff")]
+    FrameFormat {
+        value: String,
+        #[source]
+        source: crate::frame_files::UnknownFrameFormat,
+    },
+    /// A camera flag given to a render without a camera would be ignored.
+    #[error("{flag} needs a camera: give --sensor or a `sensor` entry in the scene{}",
+        if *.tile { " (a --tile render captures no frames)" } else { "" })]
+    NeedsCamera { flag: &'static str, tile: bool },
+    #[error(transparent)]
+    CaptureOptions(#[from] crate::CaptureOptionsError),
+    /// `--target-error camera` where the render cannot meet it.
+    #[error("{0}")]
+    CameraTarget(&'static str),
+    #[error(transparent)]
+    CameraGoal(#[from] gloam_sensor::ConfigError),
+    #[error(transparent)]
+    OutputSet(#[from] crate::output_set::OutputSetError),
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    #[error("encoding report.json")]
+    Encode(#[source] serde_json::Error),
+    #[error(transparent)]
+    Capture(#[from] crate::CaptureError),
 }
 
 /// The render settings a front end was given: `KEY=VALUE` pairs (`--set`,
 /// or the Python `settings` dict) and the flags that name one setting each.
 /// With the `cli` feature these are `gloam render`'s flags, in this order.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct SettingArgs {
     /// Camera samples per pixel, fixed. Without it (or --target-error) a
@@ -632,7 +664,7 @@ pub struct Rendered {
 impl Rendered {
     /// Writes the radiance outputs into `dir`, each atomically:
     /// `radiance.tiff`/`.npy`, `stderr.tiff`/`.npy`, `spp.npy` and
-    /// `preview.png` (see [`report_json`]'s `outputs`).
+    /// `preview.png` (see [`crate::RenderReport`]'s `outputs`).
     pub fn write_images(&self, dir: &Path) -> Result<(), crate::output::OutputError> {
         use crate::output::{write_npy, write_npy_u32, write_preview, write_tiff};
         let r = &self.radiance;
@@ -649,86 +681,6 @@ impl Rendered {
         }
         Ok(())
     }
-
-    /// The render's `report.json` (see [`report_json`]).
-    pub fn report_json(
-        &self,
-        scene_path: &Path,
-        scene: &Scene,
-        load_s: f64,
-        write_s: f64,
-    ) -> serde_json::Value {
-        report_json(
-            scene_path,
-            scene,
-            &self.plan,
-            &self.radiance,
-            load_s,
-            write_s,
-        )
-    }
-}
-
-/// The `report.json` of a render (without `provenance`, which the caller
-/// adds): settings, effect plan, timings, rays, per-band means.
-pub fn report_json(
-    scene_path: &Path,
-    scene: &gloam_scene::Scene,
-    plan: &gloam_scene::plan::EffectPlan,
-    out: &RenderOutput,
-    load_s: f64,
-    write_s: f64,
-) -> serde_json::Value {
-    let band_means: serde_json::Map<String, serde_json::Value> = out
-        .band_names
-        .iter()
-        .enumerate()
-        .map(|(b, name)| {
-            let img = out.radiance.index_axis(ndarray::Axis(0), b);
-            let mean = img.mean().unwrap_or(0.0);
-            let max = img.iter().copied().fold(0.0, f64::max);
-            (
-                name.clone(),
-                serde_json::json!({"mean_radiance_w_m2_sr": mean, "max_radiance_w_m2_sr": max}),
-            )
-        })
-        .collect();
-    serde_json::json!({
-        "scene": scene_path.display().to_string(),
-        "units": scene.units.as_str(),
-        "meters_per_unit": scene.meters_per_unit,
-        "image": {"width": out.stats.width, "height": out.stats.height, "bands": out.band_names},
-        "outputs": {
-            "radiance.tiff": "float32, one page per band, W m^-2 sr^-1",
-            "radiance.npy": "float64, band x row x column, W m^-2 sr^-1",
-            "preview.png": "first band, scaled to its 99.5th percentile, gamma 2.2",
-            "stderr.npy": "float64, band x row x column, W m^-2 sr^-1: estimated standard error of each pixel",
-            "stderr.tiff": "float32, one page per band: the same standard error",
-            "spp.npy": "uint32, row x column: camera samples per pixel",
-        },
-        "error": out.error,
-        "settings": out.settings,
-        "effect_plan": plan,
-        "timings_s": {
-            "load": load_s,
-            "prepare": out.stats.prepare_seconds,
-            "trace": out.stats.trace_seconds,
-            "write": write_s,
-        },
-        "rays": out.stats.rays,
-        "rays_total": out.stats.rays.total(),
-        "rays_per_second": out.stats.rays_per_second,
-        "threads": out.stats.threads,
-        "wavelengths": out.stats.wavelengths,
-        "emission_lines": out.stats.emission_lines,
-        "triangles": out.stats.triangles,
-        "area_sources": out.stats.area_sources,
-        "point_sources": out.stats.point_sources,
-        "sky": out.stats.sky,
-        "interreflection": out.stats.interreflection,
-        "preparation": out.stats.preparation,
-        "bands": band_means,
-    })
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use gloam_trace::DVec3;
 
 use crate::exposure::ExposureTarget;
 use crate::render::{SettingArgs, camera_of};
+use crate::request::{CameraOptions, OutputDir, RenderRequest, SceneInput};
 use crate::{CaptureOptionsError, FrameCapture};
 
 pub mod sequence;
@@ -66,6 +67,24 @@ pub struct RenderArgs {
     pub layers: bool,
 }
 
+impl RenderArgs {
+    /// The render these flags ask for; [`RenderRequest::validate`] checks
+    /// it (the checks are the Python `render`'s too).
+    pub fn request(&self) -> RenderRequest {
+        RenderRequest {
+            scene: SceneInput::File(self.scene.clone()),
+            settings: self.settings.clone(),
+            camera: self.camera.options(),
+            tile: self.tile.clone(),
+            layers: self.layers,
+            out: Some(OutputDir {
+                path: self.out.clone(),
+                force: self.force,
+            }),
+        }
+    }
+}
+
 /// The camera a render is captured through, and how.
 #[derive(Args)]
 pub struct CameraArgs {
@@ -101,6 +120,19 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
+    /// The flags as a request's camera options.
+    pub fn options(&self) -> CameraOptions {
+        CameraOptions {
+            sensor: self.sensor.clone(),
+            frame_format: self.frame_format.clone(),
+            frames: self.frames,
+            gain: self.gain,
+            agc: self.agc,
+            no_noise: self.no_noise,
+            auto_exposure: self.exposure.is_some(),
+        }
+    }
+
     /// The camera the render is for ([`camera_of`]) and, unless the render
     /// is a tile, its capture — checked now, not after the whole trace. A
     /// tile is traced with the camera's band all the same (the effect plan
