@@ -252,26 +252,8 @@ fn sky_clocks_and_photocells_refuse_what_they_cannot_do() {
         "a photocell switches a lamp's group",
     )]);
     for (extra, want) in cases {
-        let seq = dir.path().join("seq.toml");
-        std::fs::write(
-            &seq,
-            format!("scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 2\n{extra}"),
-        )
-        .unwrap();
-        let out = Command::new(BIN)
-            .args([
-                "sequence",
-                &seq.display().to_string(),
-                "--out",
-                &dir.path().join("o").display().to_string(),
-            ])
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            !out.status.success() && err.contains(want),
-            "{extra}: {err}"
-        );
+        let err = refused(dir.path(), extra);
+        assert!(err.contains(want), "{extra}: {err}");
         assert!(
             err.contains("seq.toml:"),
             "{extra}: names the file and line: {err}"
@@ -284,26 +266,26 @@ fn sky_clocks_and_photocells_refuse_what_they_cannot_do() {
             + "[materials.road]\nreflectance = 0.2\n[objects.road]\nmaterial = \"road\"\nquad = { center = [0, 0, 0], size = [60, 40], normal = [0, 0, 1] }\n",
     )
     .unwrap();
-    let seq = dir.path().join("seq.toml");
-    std::fs::write(
-        &seq,
-        "scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 2\n[sky]\ntime_scale = 10.0\n",
-    )
-    .unwrap();
-    let out = Command::new(BIN)
-        .args([
-            "sequence",
-            &seq.display().to_string(),
-            "--out",
-            &dir.path().join("o").display().to_string(),
-        ])
+    let err = refused(dir.path(), "[sky]\ntime_scale = 10.0\n");
+    assert!(err.contains("has no [sky]"), "{err}");
+}
+
+/// Runs `gloam sequence` on a two-frame sequence of `dir`'s scene with
+/// `extra` tables; it must fail: its stderr.
+fn refused(dir: &Path, extra: &str) -> String {
+    let seq = dir.join("seq.toml");
+    let text = format!("scene = \"scene.toml\"\nframe_rate_hz = 25\nframes = 2\n{extra}");
+    std::fs::write(&seq, text).unwrap();
+    let (seq, out) = (
+        seq.display().to_string(),
+        dir.join("o").display().to_string(),
+    );
+    let run = Command::new(BIN)
+        .args(["sequence", &seq, "--out", &out])
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("has no [sky]"),
-        "{err}"
-    );
+    assert!(!run.status.success(), "{extra}: accepted");
+    String::from_utf8_lossy(&run.stderr).into_owned()
 }
 
 /// A grey field seen from above under a falling twilight sky, through the

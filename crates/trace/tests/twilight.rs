@@ -33,16 +33,20 @@ fn utc_at_sun(target_deg: f64) -> String {
 }
 
 fn open_floor(utc: &str) -> Scene {
+    floor_seen_from(
+        utc,
+        "position = [0, -20, 5]\nlook_at = [0, 0, 0]\nup = [0, 0, 1]\nfov_deg = 40\nwidth = 8\nheight = 6",
+    )
+}
+
+/// The open floor under the sky at `utc`, seen by the `[camera]` lines
+/// given.
+fn floor_seen_from(utc: &str, camera: &str) -> Scene {
     let text = format!(
         r#"
 units = "m"
 [camera]
-position = [0, -20, 5]
-look_at = [0, 0, 0]
-up = [0, 0, 1]
-fov_deg = 40
-width = 8
-height = 6
+{camera}
 [bands.vis]
 lo_nm = 400
 hi_nm = 700
@@ -149,33 +153,8 @@ fn a_camera_looking_up_at_dusk_sees_the_models_sky() {
     // table at its 1.5° × 2.5° cells and render grid against the model's
     // own spectrum on its 5 nm grid: 2 %).
     let utc = utc_at_sun(-6.0);
-    let text = format!(
-        r#"
-units = "m"
-[camera]
-position = [0, 0, 1]
-look_at = [0, 0, 100]
-up = [0, 1, 0]
-fov_deg = 2
-width = 3
-height = 3
-[bands.vis]
-lo_nm = 400
-hi_nm = 700
-[sky]
-utc = "{utc}"
-latitude_deg = {LAT}
-longitude_deg = {LON}
-moon = false
-night_sky = false
-[materials.ground]
-reflectance = 0.2
-[objects.ground]
-material = "ground"
-quad = {{ center = [0, 0, 0], size = [400, 400], normal = [0, 0, 1] }}
-"#
-    );
-    let sc = gloam_scene::parse_str(&text, Path::new("t.toml")).unwrap();
+    let camera = "position = [0, 0, 1]\nlook_at = [0, 0, 100]\nup = [0, 1, 0]\nfov_deg = 2\nwidth = 3\nheight = 3";
+    let sc = floor_seen_from(&utc, camera);
     let out = Tracer::new(&sc, &RenderSettings::default())
         .unwrap()
         .render(&|_, _| {})
