@@ -912,17 +912,23 @@ impl DiffuseField {
     /// One order's field at a point on the field's wavelengths
     /// (log-bilinear: the field is exponential in height and elevation).
     fn coarse_at(&self, table: &[Vec<f64>], radius_km: f64, mu_sun: f64) -> Vec<f64> {
-        let mut out = vec![0.0; self.coarse.len()];
-        if let Some(w) = self.weights(radius_km, mu_sun) {
-            for (c, o) in out.iter_mut().enumerate() {
+        match self.weights(radius_km, mu_sun) {
+            Some(w) => self.coarse_with(table, &w),
+            None => vec![0.0; self.coarse.len()],
+        }
+    }
+
+    /// [`Self::coarse_at`] at a point's bilinear weights `w`.
+    fn coarse_with(&self, table: &[Vec<f64>], w: &[(usize, f64); 4]) -> Vec<f64> {
+        (0..self.coarse.len())
+            .map(|c| {
                 let l: f64 = w
                     .iter()
                     .map(|&(n, f)| f * table[n][c].max(1e-300).ln())
                     .sum();
-                *o = l.exp();
-            }
-        }
-        out
+                l.exp()
+            })
+            .collect()
     }
 
     /// The first order J₁ at a point scattered along `view` (unit; the
@@ -941,10 +947,26 @@ impl DiffuseField {
         view: [f64; 3],
     ) -> (Vec<f64>, Vec<f64>) {
         let nc = self.coarse.len();
-        let (mut out_r, mut out_a) = (vec![0.0; nc], vec![0.0; nc]);
         let Some(w) = self.weights(radius_km, mu_sun) else {
-            return (out_r, out_a);
+            return (vec![0.0; nc], vec![0.0; nc]);
         };
+        let j1 = self.coarse_with(&self.orders[0], &w);
+        self.first_order_with(&w, &j1, pos, radius_km, sun, view)
+    }
+
+    /// [`Self::first_order_coarse`] at a point's bilinear weights `w` and
+    /// first order `j1` (the source computes both once).
+    fn first_order_with(
+        &self,
+        w: &[(usize, f64); 4],
+        j1: &[f64],
+        pos: [f64; 3],
+        radius_km: f64,
+        sun: [f64; 3],
+        view: [f64; 3],
+    ) -> (Vec<f64>, Vec<f64>) {
+        let nc = self.coarse.len();
+        let (mut out_r, mut out_a) = (vec![0.0; nc], vec![0.0; nc]);
         // the view direction in the point's frame (z up, Sun in x–z)
         let up = [pos[0] / radius_km, pos[1] / radius_km, pos[2] / radius_km];
         let sx = add(sun, up, -dot(sun, up));
@@ -958,10 +980,9 @@ impl DiffuseField {
         let vy2 = (1.0 - vx * vx - vz * vz).max(0.0);
         let (a, b) = rayleigh_phase_coefficients();
         let g = self.aerosol_asymmetry;
-        let j1 = self.coarse_at(&self.orders[0], radius_km, mu_sun);
         for c in 0..nc {
             let mut m = [0.0; 6];
-            for &(n, f) in &w {
+            for &(n, f) in w {
                 for (mk, v) in m.iter_mut().zip(self.moments[n][c]) {
                     *mk += f * v;
                 }
@@ -998,8 +1019,8 @@ impl DiffuseField {
         let Some(w) = self.weights(radius_km, mu_sun) else {
             return (rayleigh, aerosol);
         };
-        let j1 = self.coarse_at(&self.orders[0], radius_km, mu_sun);
-        let (first_r, first_a) = self.first_order_coarse(pos, radius_km, mu_sun, sun, view);
+        let j1 = self.coarse_with(&self.orders[0], &w);
+        let (first_r, first_a) = self.first_order_with(&w, &j1, pos, radius_km, sun, view);
         let mut cr = vec![0.0; nc];
         let mut ca = vec![0.0; nc];
         for c in 0..nc {
