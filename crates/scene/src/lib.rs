@@ -668,9 +668,15 @@ pub struct SkyConfig {
 impl SkyConfig {
     /// The Sun's geometric elevation at the site and instant, degrees.
     pub fn sun_elevation_deg(&self) -> f64 {
+        self.sun_elevation_deg_at(self.instant)
+    }
+
+    /// The Sun's geometric elevation at the site at instant `t`, degrees
+    /// (a sequence's sky clock moves the instant).
+    pub fn sun_elevation_deg_at(&self, t: gloam_sky::UtcInstant) -> f64 {
         gloam_sky::Site::new(self.latitude_deg, self.longitude_deg, self.height_m)
             .map(|site| {
-                gloam_sky::ephemeris(self.instant, &site, gloam_sky::Refraction::None)
+                gloam_sky::ephemeris(t, &site, gloam_sky::Refraction::None)
                     .sun
                     .elevation_geometric_deg
             })

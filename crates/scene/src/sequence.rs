@@ -831,21 +831,7 @@ impl Track {
     /// The keys' piecewise-linear intensity at `t` (held outside them; at a
     /// step, the later key).
     pub fn keyed_at(&self, t: f64) -> f64 {
-        let k = &self.keys;
-        // The last key at or before t.
-        let i = k.partition_point(|&(time, _)| time <= t);
-        if i == 0 {
-            return k[0].1;
-        }
-        if i == k.len() {
-            return k[k.len() - 1].1;
-        }
-        let ((ta, va), (tb, vb)) = (k[i - 1], k[i]);
-        let span = tb - ta;
-        if span <= 0.0 {
-            return vb;
-        }
-        va + (vb - va) * (t - ta) / span
+        keyed_at(&self.keys, t)
     }
 
     /// Intensity at `t`: the keys times the flicker.
@@ -904,6 +890,25 @@ impl Track {
         let s = (vb - va) / span;
         (va + s * (t - ta), s)
     }
+}
+
+/// Piecewise-linear `(time, value)` keys at `t` (held outside them; at a
+/// step, the later key).
+fn keyed_at(k: &[(f64, f64)], t: f64) -> f64 {
+    // The last key at or before t.
+    let i = k.partition_point(|&(time, _)| time <= t);
+    if i == 0 {
+        return k[0].1;
+    }
+    if i == k.len() {
+        return k[k.len() - 1].1;
+    }
+    let ((ta, va), (tb, vb)) = (k[i - 1], k[i]);
+    let span = tb - ta;
+    if span <= 0.0 {
+        return vb;
+    }
+    va + (vb - va) * (t - ta) / span
 }
 
 impl Flicker {

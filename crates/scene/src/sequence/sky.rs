@@ -30,7 +30,7 @@
 use gloam_sky::UtcInstant;
 use serde::Deserialize;
 
-use super::{Sequence, Track};
+use super::Sequence;
 use crate::build::num;
 use crate::error::{FieldPath, Locator, SceneError};
 use crate::{Scene, SkyConfig};
@@ -192,15 +192,6 @@ fn horizontal_lux(sky: &SkyConfig, t: UtcInstant) -> Result<f64, gloam_sky::SkyE
     Ok(moon + night + sun.total_with_moon_and_night_sky)
 }
 
-/// The Sun's geometric elevation at `t`, degrees.
-fn sun_deg(sky: &SkyConfig, t: UtcInstant) -> f64 {
-    SkyConfig {
-        instant: t,
-        ..sky.clone()
-    }
-    .sun_elevation_deg()
-}
-
 impl Sequence {
     /// The sequence's length, s: the last frame's end.
     pub fn duration_s(&self) -> f64 {
@@ -283,7 +274,7 @@ impl Sequence {
         let mut travel = 0.0;
         let mut i = 0.0;
         while i <= samples {
-            let d = sun_deg(&sky, at(duration * i / samples));
+            let d = sky.sun_elevation_deg_at(at(duration * i / samples));
             if let Some(&last) = path_deg.last() {
                 travel += (d - last).abs();
             }
@@ -327,7 +318,7 @@ impl Sequence {
         clock.key_sun_deg = clock
             .key_times_s
             .iter()
-            .map(|&t| sun_deg(&sky, at(t)))
+            .map(|&t| sky.sun_elevation_deg_at(at(t)))
             .collect();
         let lux = |t: f64| {
             horizontal_lux(&sky, at(t)).map_err(|e| {
@@ -477,12 +468,7 @@ fn photocell_keys(
         let t = hi;
         let last = *keys.last().unwrap_or(&(0.0, 0.0));
         // The value reached at t (a ramp cut short by switching off).
-        let now = Track {
-            keys: keys.clone(),
-            flicker: None,
-            photocell: None,
-        }
-        .keyed_at(t);
+        let now = super::keyed_at(&keys, t);
         let t = t.max(last.0);
         if on(lux[k]) {
             keys.push((t, now));
