@@ -529,9 +529,12 @@ pub fn linearise_sequence(
     let window_s = opts.transient_time_constants * opts.agc_time_constant_s;
     let settled_gain = records[records.len() - 1].gain;
     let settled = lut.coefficients(settled_gain).ok();
-    let last = &records[records.len() - 1];
-    let settled_duty =
-        (last.gate_duty.unwrap_or(opts.gate_duty) / opts.gate_duty).clamp(f64::MIN_POSITIVE, 1.0);
+    // A gated frame saw this fraction of the light the LUT's (ungated)
+    // line answers for.
+    let relative_duty = |r: &Record| {
+        (r.gate_duty.unwrap_or(opts.gate_duty) / opts.gate_duty).clamp(f64::MIN_POSITIVE, 1.0)
+    };
+    let settled_duty = relative_duty(&records[records.len() - 1]);
     // One noise floor for the whole sequence, the noisiest calibrated
     // gain's (dark σ in radiance), so the pixels compared do not change
     // with the gain from frame to frame.
@@ -594,10 +597,7 @@ pub fn linearise_sequence(
             }
         };
         gloam_simcam::mix_layers(layers, &r.weights, &mut mixed);
-        // A gated frame saw `duty` of the light the LUT's (ungated) line
-        // answers for.
-        let duty =
-            (r.gate_duty.unwrap_or(opts.gate_duty) / opts.gate_duty).clamp(f64::MIN_POSITIVE, 1.0);
+        let duty = relative_duty(r);
         let truth_px: Vec<f64> = mixed.iter().map(|d| d / detected_per_radiance).collect();
         let frame_mean = truth_px.iter().sum::<f64>() / truth_px.len().max(1) as f64;
         if let Some(p) = prev_mean
