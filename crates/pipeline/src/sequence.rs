@@ -816,7 +816,11 @@ fn capture_with(
             gain_over_time.push((p.time_s, f.record.gain));
             let mut p = p.clone();
             if let Some(sky) = &p.sky {
-                let median = gloam_sensor::median_dn(&f.pixels) - f.black_dn;
+                // The camera's own median when its AGC metered one.
+                let median = (f.record.sensor.as_ref())
+                    .and_then(|m| m.median_dn)
+                    .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
+                    - f.black_dn;
                 p.median_above_black_dn = Some(median);
                 medians.push((p.time_s, median, sky.horizontal_lux));
             }

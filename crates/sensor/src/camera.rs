@@ -47,6 +47,9 @@ pub struct FrameMeta {
     /// control ([`crate::stages::bright`]).
     #[serde(default)]
     pub saturation: SaturationAccount,
+    /// The frame's median DN, when a median-metering AGC measured it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub median_dn: Option<f64>,
 }
 
 /// One digitised frame: `height × width` digital counts, with the
@@ -412,6 +415,10 @@ impl Camera {
             stage.finish(&f);
         }
         let (mean_dn, sat_frac) = (f.mean_dn, f.account.saturated_fraction);
+        let agc = self.agc.as_ref().filter(|_| self.mode == Mode::Agc);
+        let median_dn = agc
+            .filter(|a| a.agc.metering == crate::config::Metering::Median)
+            .map(|_| crate::stages::agc::median_dn(&f.pixels));
         let meta = FrameMeta {
             seq: self.seq,
             time_s: self.seq as f64 / chain.config.timing.frame_rate_hz,
@@ -431,17 +438,13 @@ impl Camera {
             saturated_fraction: sat_frac,
             noise: self.noise,
             saturation: f.account,
+            median_dn,
         };
         (self.buf, self.tmp, self.wide, self.scope_lines) = (f.pe, f.tmp, f.wide, f.scope_lines);
         self.seq += 1;
-        if self.mode == Mode::Agc
-            && let Some(agc) = &self.agc
-        {
+        if let Some(agc) = agc {
             let black = chain.black_dn(g);
-            let metered = match agc.agc.metering {
-                crate::config::Metering::Mean => mean_dn,
-                crate::config::Metering::Median => crate::stages::agc::median_dn(&f.pixels),
-            };
+            let metered = median_dn.unwrap_or(mean_dn);
             let s = agc.step_metered(
                 self.gain,
                 self.duty,
