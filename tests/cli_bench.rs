@@ -126,7 +126,11 @@ fn plan_saving_on_the_panel_agrees_within_noise() {
 /// `street-car`'s headlamps, seen directly, sat in the "no emitter" pixel
 /// set and swamped its mean (pilot 95 %, measured 0.2 %); the pool 205 m
 /// down `street-switch-on`'s road is a sliver of one pixel row the pilot's
-/// 2 × 2 points missed (3.7 % against 82–88 %).
+/// 2 × 2 points missed (3.7 % against 82–88 %). And the interreflection
+/// decision on both: the lamp's pole on `street-switch-on`, lit only by
+/// the pool at its foot, is 0.08 pixel wide at quarter size; the pilot's
+/// sub-samples fell beside it and put interreflection at 0.01 % of the
+/// signal (off), where the renders measure 3–8 %.
 #[test]
 fn plan_lamp_shares_on_the_street_sims_match_the_measured_ones() {
     let v = run_json(gloam().args([
@@ -140,6 +144,11 @@ fn plan_lamp_shares_on_the_street_sims_match_the_measured_ones() {
     ]));
     assert_eq!(v["share_spp"], 16, "{v}");
     for s in v["scenes"].as_array().expect("scenes") {
+        let ir = &s["interreflection"];
+        assert_eq!(ir["consistent"], true, "{}: {ir}", s["scene"]);
+        if s["scene"].as_str().unwrap().contains("street-switch-on") {
+            assert_eq!(ir["decision"], "cache", "{ir}");
+        }
         let lamps = s["effects"]
             .as_array()
             .unwrap()

@@ -233,11 +233,14 @@ fn emulator_looking_at_a_scene_is_bit_identical_to_sim() {
     );
     assert!((recs[0]["width"].as_u64(), recs[0]["height"].as_u64()) == (Some(96), Some(72)));
     println!("frame 4: {lo}..{hi} DN at gain {}", gains[4]);
-    // At the tube's least gain most of the frame still saturates; the
-    // darkest ground (the moonless sky's and the lamp heads' reflected
-    // light, which the radiosity cache now reads where each gather ray
-    // lands: 1 527 DN, 861 before) lies well below.
-    assert!(hi > 2.0 * lo.max(1.0), "no structure: {lo}..{hi}");
+    // At the tube's least gain most of the frame still saturates (95 % of
+    // it at 3 854 DN); the darkest ground (the moonless sky's and the lamp
+    // heads' reflected light) lies well below: 1 935 DN. It read 1 527 DN
+    // while pixel positions were a Latin hypercube per batch, which hardly
+    // changed with the seed (the errors of two seeds' few-sample pixels
+    // correlated 0.67), so the darkest pixels kept the same low draw: on
+    // this scene at 96 × 72 their mean was 3.5× below a 256-spp render's.
+    assert!(hi > 1.5 * lo.max(1.0), "no structure: {lo}..{hi}");
 }
 
 /// With faults injected on the PTY link, capture completes, reports the

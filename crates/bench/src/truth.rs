@@ -560,6 +560,26 @@ mod tests {
     /// runs; quarter-area camera to stay quick.
     #[test]
     fn target_error_is_calibrated_on_the_panel_closed_form() {
+        // Latin positions: stated 0.7–1.0× the target, achieved 0.6–1.2×.
+        panel_calibration("latin", (0.7, 0.6));
+    }
+
+    /// The same with the default positions, one scrambled Sobol sequence
+    /// per pixel: on this smooth floor a round's growth by whole replicate
+    /// pairs (~6 → ~9 spp) takes a net's error from above 0.002 to 0.6× it
+    /// (stated 0.00121, achieved 0.00083: the stated error errs high, 1.5×),
+    /// where 0.004 and 0.001 stop at 0.92× and 0.97× stated (0.92×, 0.90×
+    /// achieved). Overshooting costs samples, not accuracy; the bounds are
+    /// what it reaches.
+    #[test]
+    fn target_error_is_calibrated_on_the_panel_with_sobol_positions() {
+        panel_calibration("sobol", (0.55, 0.35));
+    }
+
+    /// Renders the panel at three targets with `pixel_strata` and checks
+    /// the stated RMS within `[lo.0 · target, target]` and the achieved
+    /// one within `[lo.1, 1.2] × target`.
+    fn panel_calibration(strata: &str, lo: (f64, f64)) {
         let path =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sims/panel-validation/scene.toml");
         let mut scene = gloam_scene::load(&path).expect("panel scene loads");
@@ -575,6 +595,7 @@ mod tests {
         for target in [0.004, 0.002, 0.001] {
             let mut s = RenderSettings::default();
             s.set("target_error", &target.to_string()).expect("valid");
+            s.set("pixel_strata", strata).expect("valid");
             let out = Tracer::new(&scene, &s)
                 .expect("tracer")
                 .render(&|_, _| {})
@@ -584,14 +605,14 @@ mod tests {
                 .rel_std_error_rms_target_pixels
                 .expect("an adaptive render states its error");
             assert!(
-                (0.7 * target..=target).contains(&stated),
-                "target {target}: stated RMS {stated:.5}"
+                (lo.0 * target..=target).contains(&stated),
+                "{strata}, target {target}: stated RMS {stated:.5}"
             );
             let achieved = errors(&out.radiance, &truth).pixel_as_targeted;
             let ratio = achieved / target;
             assert!(
-                (0.6..=1.2).contains(&ratio),
-                "target {target}: achieved {achieved:.5}, achieved/asked {ratio:.3}"
+                (lo.1..=1.2).contains(&ratio),
+                "{strata}, target {target}: achieved {achieved:.5}, achieved/asked {ratio:.3}"
             );
         }
     }

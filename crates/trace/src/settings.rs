@@ -20,7 +20,7 @@
 //! | `sky_samples` | 16 | cosine-weighted sky-dome shadow rays per hit point (scenes with a `[sky]` block) |
 //! | `resolution_scale` | 1 | multiplies the camera's width and height (rounded, ≥ 1 pixel); the field of view is kept |
 //! | `light_strata` | sobol | camera-vertex light samples: `sobol` (one Owen-scrambled Sobol sequence per pixel and source, stratified across the pixel's samples: office, direct light only, 16 spp: per-pixel error 2.61 % → 0.92 % against the path-traced reference; whole light 0.98 % → 0.91 %) or `random` (an independent Latin-hypercube set per sample, the default before issue 30) |
-//! | `pixel_strata` | latin | positions in the pixel: `latin` (a Latin hypercube per batch of samples) or `sobol` (one shuffled Owen-scrambled Sobol sequence per pixel, continued across the adaptive rounds, `sampler.rs`; office, direct light only, to 1 %: 8.5 vs 9.5 spp at the same achieved error against a 1 024-spp reference). Not yet the default: `bench plan`'s interreflection check on `street-switch-on` measures an 8 % change with it against a 1.5 % seed-to-seed noise (2.8 % against 12.7 % with `latin`) — to be explained first |
+//! | `pixel_strata` | sobol | positions in the pixel: `sobol` (one shuffled Owen-scrambled Sobol sequence per pixel, continued across the adaptive rounds, `sampler.rs`; office, direct light only, to 1 %: 8.5 vs 9.5 spp at the same achieved error against a 1 024-spp reference) or `latin` (a Latin hypercube per batch of samples, the default until 7 December 2026) |
 //! | `path_guide` | true | `indirect = path`: a share of each diffuse bounce aims at the few facets lit far above the rest (a lamp's own housing), weighted by the mixture's density so the estimate stays unbiased (`guide.rs`; night-full-moon-lamps, one eighth size, 64 spp: noise of the lower sixths' sums 1.2–3.4 % → 0.3–0.5 %) |
 //! | `all_effects` | false | run every estimator path even where the effect plan says it is not needed (for timing the plan's savings; the image agrees within noise) |
 //! | `drop` | (none) | comma-separated effects left out of the render, to measure what each is worth (`gloam bench plan`): `area-sources`, `point-sources`, `shaped-point-sources`, `moon`, `night-sky`, `direct-view`, `specular-recursion`, `transmissive-occluders` (they become opaque), `interreflection`; `none` clears |
@@ -386,7 +386,7 @@ impl Default for RenderSettings {
             all_effects: false,
             path_guide: true,
             light_strata: LightStrataMode::Sobol,
-            pixel_strata: PixelStrata::Latin,
+            pixel_strata: PixelStrata::Sobol,
             drop: Dropped::default(),
             indirect: Indirect::Auto,
             cache_texels: 16384,
@@ -432,6 +432,12 @@ fn parse<T: std::str::FromStr>(
             expected,
         })
 }
+
+/// How [`RenderSettings::set`]'s errors name the values a key takes.
+const POS_INT: &str = "an integer ≥ 1";
+const NONNEG_INT: &str = "an integer ≥ 0";
+const POS: &str = "a finite number > 0";
+const NONNEG: &str = "a finite number ≥ 0";
 
 impl RenderSettings {
     /// Every key accepted by [`RenderSettings::set`].
@@ -486,10 +492,6 @@ impl RenderSettings {
     ///
     /// Counts are bounded before anything is allocated: `spp` ≤ [`MAX_SPP`].
     pub fn set(&mut self, key: &str, value: &str) -> Result<(), SettingsError> {
-        const POS_INT: &str = "an integer ≥ 1";
-        const NONNEG_INT: &str = "an integer ≥ 0";
-        const POS: &str = "a finite number > 0";
-        const NONNEG: &str = "a finite number ≥ 0";
         let pos = |x: &f64| x.is_finite() && *x > 0.0;
         let nonneg = |x: &f64| x.is_finite() && *x >= 0.0;
         let d = &mut self.dirsig2001;
@@ -543,6 +545,15 @@ impl RenderSettings {
             "solid_angle_threshold" => d.SOLID_ANGLE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
             "solid_angle_density" => d.SOLID_ANGLE_DENSITY = parse(key, value, POS, pos)?,
             "irradiance_threshold" => d.IRRADIANCE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
+            _ => return self.set_lights_and_cache(key, value),
+        }
+        Ok(())
+    }
+
+    /// [`Self::set`]'s second half: the light sampler's, the sky's, the
+    /// strata's, the cache's and the adaptive stop's keys.
+    fn set_lights_and_cache(&mut self, key: &str, value: &str) -> Result<(), SettingsError> {
+        match key.to_ascii_lowercase().as_str() {
             "light_tree_min_lights" => {
                 self.light_tree_min_lights = parse(key, value, NONNEG_INT, |_: &u32| true)?
             }
@@ -710,7 +721,7 @@ mod tests {
                 "source_roulette_fraction" | "resolution_scale" => "0.5",
                 "all_effects" | "path_guide" => "true",
                 "light_strata" => "random",
-                "pixel_strata" => "sobol",
+                "pixel_strata" => "latin",
                 "light_tree_split" => "fixed",
                 "light_split_threshold" => "0.5",
                 "indirect" => "cache",

@@ -650,8 +650,12 @@ impl Tracer {
                 .ceil()
                 .clamp(WINDOW_SUB as f64, WINDOW_SUB_MAX as f64) as usize
         };
-        let across = steps(&q[0], &q[1]).max(steps(&q[2], &q[3]));
-        let down = steps(&q[0], &q[2]).max(steps(&q[1], &q[3]));
+        let across = steps(&q[0], &q[1])
+            .max(steps(&q[2], &q[3]))
+            .max(self.thin_run_sub(x, y, true, c));
+        let down = steps(&q[0], &q[2])
+            .max(steps(&q[1], &q[3]))
+            .max(self.thin_run_sub(x, y, false, c));
         // Within what is left: shrink the longer side first.
         let (mut nx, mut ny) = (across, down);
         while nx * ny > left && (nx > WINDOW_SUB || ny > WINDOW_SUB) {
@@ -662,6 +666,41 @@ impl Tracer {
             }
         }
         (nx, ny)
+    }
+
+    /// Sub-samples along one side of window pixel `(x, y)` that give its
+    /// thinnest facet two of them: WINDOW_SUB_MAX rays along the pixel's
+    /// middle row (`across`) or column find the shortest run of one
+    /// facet. A thing thinner than the footprint's scale — the lamp's pole
+    /// on `street-switch-on` at quarter size, 0.08 pixel wide and lit only
+    /// by the pool at its foot — fell between the sub-samples, and the
+    /// pilot put interreflection at 0.01 % of the signal where renders
+    /// measure a few per cent.
+    fn thin_run_sub(&self, x: f64, y: f64, across: bool, c: &mut RayCounts) -> usize {
+        let cam = &self.camera;
+        let n = WINDOW_SUB_MAX;
+        let mut shortest = n;
+        let (mut run, mut last) = (0usize, None);
+        for k in 0..=n {
+            let id = (k < n).then(|| {
+                let t = (k as f64 + 0.5) / n as f64;
+                let (dx, dy) = if across { (t, 0.5) } else { (0.5, t) };
+                let d = cam.pixel_direction(x + dx, y + dy);
+                self.gather_hit(cam.position, d, u32::MAX, c).map(|h| h.0)
+            });
+            if k > 0 && id != last {
+                // Only runs of a facet count: the sky has no thickness.
+                if let Some(Some(_)) = last {
+                    shortest = shortest.min(run);
+                }
+                run = 0;
+            }
+            run += 1;
+            last = id;
+        }
+        (2 * n)
+            .div_ceil(shortest.max(1))
+            .clamp(WINDOW_SUB, WINDOW_SUB_MAX)
     }
 }
 

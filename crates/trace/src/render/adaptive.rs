@@ -251,7 +251,8 @@ impl Tracer {
                 .enumerate()
                 .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
                 .collect();
-            let work = allocate(&s.ests, &rel, target, cap);
+            let decay = variance_decay(self.settings.pixel_strata);
+            let work = allocate(&s.ests, &rel, target, cap, decay);
             if work.is_empty() {
                 break;
             }

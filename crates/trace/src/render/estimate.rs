@@ -350,11 +350,15 @@ pub(super) fn stated_rel_error(e: &PixelEstimate, se: &[f64], floor: &[f64]) -> 
 /// [`MIN_ADAPTIVE_SPP`]: their error is the emitter edge's (the accuracy
 /// metric leaves them out too), and chasing it would cost more than the
 /// rest of the image.
+///
+/// `decay`: how a pixel's variance falls with its samples, `n^-decay`
+/// ([`variance_decay`]), for the prediction that sets the multiplier.
 pub(super) fn allocate(
     ests: &[PixelEstimate],
     rel: &[f64],
     target: f64,
     cap: u32,
+    decay: f64,
 ) -> Vec<(usize, u32)> {
     // Pixels at their cap keep their error (the report counts them); the
     // target holds for the rest.
@@ -400,6 +404,7 @@ pub(super) fn allocate(
             |e| cap_of(e),
             min,
             free_dev,
+            decay,
         )
     } else {
         0.0
@@ -464,6 +469,7 @@ pub(super) fn aggregate_lambda(
     cap_of: impl Fn(&PixelEstimate) -> u32,
     min: u32,
     free_dev: f64,
+    decay: f64,
 ) -> f64 {
     // The free pixels' (n, s, cap), gathered once: the bisection passes
     // over them a dozen times, in the same order as the pixels.
@@ -478,7 +484,7 @@ pub(super) fn aggregate_lambda(
             .iter()
             .map(|&(n, d, cap)| {
                 let grown = (lambda * d).min(4.0 * n).min(cap).max(min as f64).max(n);
-                d * d / grown
+                d * d / n * (n / grown).powf(decay)
             })
             .sum::<f64>()
             / npix
@@ -503,6 +509,22 @@ pub(super) fn aggregate_lambda(
         }
     }
     hi
+}
+
+/// How a pixel estimate's variance falls with its sample count `n`, as
+/// `n^-decay`: 1 for positions drawn independently of each other (a Latin
+/// hypercube per batch: within a batch they are stratified, across
+/// batches not); 1.5 for one Owen-scrambled (0,2)-sequence continued
+/// across the rounds, the rate of a scrambled net on an integrand with
+/// discontinuities along curves — a pixel crossed by an edge or a
+/// penumbra (Owen 1997). Predicted with 1, a Sobol render of the panel's
+/// smooth floor stopped at 0.69× the target asked (0.004); with 1.5 at
+/// 0.92×, office direct light at 1 % unchanged (8.57 spp).
+pub(super) fn variance_decay(strata: crate::settings::PixelStrata) -> f64 {
+    match strata {
+        crate::settings::PixelStrata::Latin => 1.0,
+        crate::settings::PixelStrata::Sobol => 1.5,
+    }
 }
 
 /// A pixel whose samples have all been zero stops at this many (or

@@ -127,7 +127,7 @@ fn allocation_leaves_dark_and_emitter_pixels_out_of_the_multiplier() {
     let mut rel = vec![rel_lit; 8];
     rel.push(5.0 * target);
     rel.push(10.0);
-    let work = allocate(&ests, &rel, target, 1024);
+    let work = allocate(&ests, &rel, target, 1024, 1.0);
     assert_eq!(work, vec![(8, 48)]); // 16 → 64 = DARK_MAX_SPP
     // Lit pixels at twice the target: each wants λ s_i with
     // λ = Σ s / (N E²), i.e. 4× its samples (capped at 4× per round).
@@ -137,7 +137,7 @@ fn allocation_leaves_dark_and_emitter_pixels_out_of_the_multiplier() {
         .map(|r| 2.0 * r)
         .chain([0.0, 10.0])
         .collect();
-    let work = allocate(&ests, &rel2, target, 1024);
+    let work = allocate(&ests, &rel2, target, 1024, 1.0);
     let want = (4.0f64 * 16.0 * 1.05).ceil().min(64.0) as u32 - 16;
     assert_eq!(work.len(), 8);
     assert!(
