@@ -605,9 +605,9 @@ pub enum CaptureError {
 fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
     let path = out.join("report.json");
     // The report is this run's output, not an input.
-    let Ok(text) = gloam_spectra::input::unrecorded(|| {
-        gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-    }) else {
+    let Ok(text) =
+        gloam_io::unrecorded(|| gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES))
+    else {
         return Ok(());
     };
     let mut report: serde_json::Value =

@@ -362,10 +362,9 @@ fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
     };
     let entries = set_entries(target).map_err(|e| not_ours(chain(&e)))?;
     let manifest = target.join("manifest.json");
-    let text = gloam_spectra::input::unrecorded(|| {
-        gloam_spectra::input::read_text(&manifest, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-    })
-    .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
+    let text =
+        gloam_io::unrecorded(|| gloam_io::read_text(&manifest, gloam_io::MAX_TEXT_FILE_BYTES))
+            .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
     let listed: std::collections::HashSet<String> =
         serde_json::from_str::<serde_json::Value>(&text)
             .ok()

@@ -1,7 +1,7 @@
 //! Where an output came from: the gloam version and commit, the command
 //! line, the UTC time, and every input file with its SHA-256 — those named
 //! on the command line and every file the run read through
-//! `gloam_spectra::input` (scene, OBJ, spectra, instance CSVs, sensor
+//! `gloam_io` (scene, OBJ, spectra, instance CSVs, sensor
 //! files, LUTs, regions, sweep files, calibration sources, tiles) —
 //! recorded in every report, calibration file and manifest.
 
@@ -32,7 +32,7 @@ pub struct Provenance {
     /// value of a `--flag=VALUE` or `KEY=VALUE` word), then every other
     /// file the run read (see [`Provenance::add_inputs_read`]), hashed.
     pub inputs: Vec<InputFile>,
-    /// Files read past `gloam_spectra::input::MAX_RECORDED_READS`, not
+    /// Files read past `gloam_io::MAX_RECORDED_READS`, not
     /// listed.
     #[serde(skip_serializing_if = "is_zero")]
     pub inputs_not_listed: usize,
@@ -112,7 +112,7 @@ impl Provenance {
         }
     }
 
-    /// Adds every file read so far through `gloam_spectra::input` (since
+    /// Adds every file read so far through `gloam_io` (since
     /// `record_reads`) that is not listed yet — the same file reached by
     /// another path counts once. A file read whole is listed with the hash
     /// of the bytes the run read; a streamed one is hashed now.
@@ -120,7 +120,7 @@ impl Provenance {
         let canon = |p: &str| std::fs::canonicalize(p).unwrap_or_else(|_| p.into());
         let mut seen: std::collections::HashSet<std::path::PathBuf> =
             self.inputs.iter().map(|i| canon(&i.path)).collect();
-        for r in gloam_spectra::input::reads() {
+        for r in gloam_io::reads() {
             let c = std::fs::canonicalize(&r.path).unwrap_or_else(|_| r.path.clone());
             if !seen.insert(c) {
                 continue;
@@ -135,7 +135,7 @@ impl Provenance {
             };
             self.inputs.extend(f);
         }
-        self.inputs_not_listed = gloam_spectra::input::reads_not_recorded();
+        self.inputs_not_listed = gloam_io::reads_not_recorded();
     }
 }
 
@@ -146,10 +146,7 @@ pub fn hash_file(path: &Path) -> Option<InputFile> {
     let mut sha256 = String::new();
     // Regular files only: /dev/zero has length 0 and never ends.
     if meta.is_file() && meta.len() <= MAX_HASHED_BYTES {
-        let mut f = gloam_spectra::input::unrecorded(|| {
-            gloam_spectra::input::open_bounded(path, MAX_HASHED_BYTES)
-        })
-        .ok()?;
+        let mut f = gloam_io::unrecorded(|| gloam_io::open_bounded(path, MAX_HASHED_BYTES)).ok()?;
         let mut h = Sha256::new();
         let mut buf = vec![0u8; 1 << 16];
         loop {
@@ -170,7 +167,7 @@ pub fn hash_file(path: &Path) -> Option<InputFile> {
 
 /// SHA-256 of bytes, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    gloam_spectra::input::sha256_hex(bytes)
+    gloam_io::sha256_hex(bytes)
 }
 
 fn hex(b: &[u8]) -> String {
