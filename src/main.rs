@@ -222,7 +222,7 @@ fn gloam_main() -> ExitCode {
             break;
         }
     }
-    gloam_pipeline::output_set::set_command_words(words);
+    gloam_io::output_set::set_command_words(words);
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(c) => c,
         Err(e) => e.exit(),

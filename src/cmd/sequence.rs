@@ -11,11 +11,12 @@
 
 use std::time::Instant;
 
+use gloam_io::OutputSet;
 pub use gloam_pipeline::cli::SequenceArgs;
 use gloam_pipeline::sequence::{
     ANIMATION_MAX_FRAMES, ANIMATION_MAX_WIDTH_PX, SceneSequence, capture_scene_sequence,
 };
-use gloam_pipeline::{FrameContext, OutputSet, Provenance};
+use gloam_pipeline::{FrameContext, Provenance};
 
 use super::output::write_atomic;
 

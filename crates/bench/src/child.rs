@@ -20,15 +20,15 @@ pub struct Reaper {
 impl Reaper {
     pub fn new(child: &std::process::Child) -> Self {
         let pgid = child.id();
-        gloam_pipeline::output_set::kill_child_group_on_interrupt(pgid);
+        gloam_io::output_set::kill_child_group_on_interrupt(pgid);
         Self { pgid }
     }
 }
 
 impl Drop for Reaper {
     fn drop(&mut self) {
-        gloam_pipeline::output_set::forget_child_group(self.pgid);
-        gloam_pipeline::output_set::kill_group(self.pgid);
+        gloam_io::output_set::forget_child_group(self.pgid);
+        gloam_io::output_set::kill_group(self.pgid);
     }
 }
 

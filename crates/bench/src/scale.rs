@@ -828,7 +828,7 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
                 .map_err(BenchError::io("reading", &out))?,
         )?)
     };
-    go().unwrap_or_else(|e| serde_json::json!({ "error": gloam_pipeline::output_set::chain(&e) }))
+    go().unwrap_or_else(|e| serde_json::json!({ "error": gloam_io::output_set::chain(&e) }))
 }
 
 /// Runs one case in a child process with a timeout (and then in Mitsuba 3

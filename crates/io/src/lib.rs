@@ -1,12 +1,25 @@
 #![doc = include_str!("../README.md")]
 
-mod input;
+/// `eprintln!` that never panics (std's does when stderr is full or
+/// closed): the message is lost, the run is not.
+macro_rules! eprintln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
 
+mod hash;
+mod input;
+pub mod output_set;
+
+pub use hash::{InputFile, MAX_HASHED_BYTES, hash_file};
 pub use input::{
     FileRead, MAX_IMAGE_FILE_BYTES, MAX_MESH_FILE_BYTES, MAX_RECORDED_READS, MAX_TEXT_FILE_BYTES,
     collect_reads, open_bounded, read_bounded, read_text, reads, reads_not_recorded, record_reads,
     sha256_hex, unrecorded,
 };
+pub use output_set::{ManifestProvenance, OutputSet, OutputSetError};
 
 /// The README's Rust example, compiled and run as a doctest.
 #[cfg(doctest)]

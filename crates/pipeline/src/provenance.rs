@@ -7,16 +7,8 @@
 
 use std::path::Path;
 
+use gloam_io::{InputFile, hash_file};
 use serde::Serialize;
-use sha2::{Digest, Sha256};
-
-/// An input file and its content hash.
-#[derive(Clone, Debug, Serialize)]
-pub struct InputFile {
-    pub path: String,
-    pub bytes: u64,
-    pub sha256: String,
-}
 
 /// The provenance block of an output.
 #[derive(Clone, Debug, Serialize)]
@@ -49,10 +41,6 @@ pub const VERSION_WITH_COMMIT: &str = concat!(
     env!("GLOAM_GIT_COMMIT"),
     ")"
 );
-
-/// Files larger than this are listed without a hash (a multi-GB frame
-/// stack should not stall a run's start).
-pub const MAX_HASHED_BYTES: u64 = 1 << 30;
 
 impl Provenance {
     /// The provenance of this process's run.
@@ -139,44 +127,15 @@ impl Provenance {
     }
 }
 
-/// `path`'s size and SHA-256 (hex), or None when it cannot be read.
-pub fn hash_file(path: &Path) -> Option<InputFile> {
-    use std::io::Read;
-    let meta = std::fs::metadata(path).ok()?;
-    let mut sha256 = String::new();
-    // Regular files only: /dev/zero has length 0 and never ends.
-    if meta.is_file() && meta.len() <= MAX_HASHED_BYTES {
-        let mut f = gloam_io::unrecorded(|| gloam_io::open_bounded(path, MAX_HASHED_BYTES)).ok()?;
-        let mut h = Sha256::new();
-        let mut buf = vec![0u8; 1 << 16];
-        loop {
-            let n = f.read(&mut buf).ok()?;
-            if n == 0 {
-                break;
-            }
-            h.update(&buf[..n]);
-        }
-        sha256 = hex(&h.finalize());
+impl gloam_io::ManifestProvenance for Provenance {
+    fn add_inputs_read(&mut self) {
+        Provenance::add_inputs_read(self);
     }
-    Some(InputFile {
-        path: path.display().to_string(),
-        bytes: meta.len(),
-        sha256,
-    })
 }
 
 /// SHA-256 of bytes, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     gloam_io::sha256_hex(bytes)
-}
-
-fn hex(b: &[u8]) -> String {
-    use std::fmt::Write as _;
-    b.iter()
-        .fold(String::with_capacity(2 * b.len()), |mut s, x| {
-            let _ = write!(s, "{x:02x}");
-            s
-        })
 }
 
 /// The current time, ISO-8601 UTC to the millisecond.

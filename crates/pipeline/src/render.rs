@@ -66,7 +66,7 @@ pub enum RenderError {
     #[error(transparent)]
     CameraGoal(#[from] gloam_sensor::ConfigError),
     #[error(transparent)]
-    OutputSet(#[from] crate::output_set::OutputSetError),
+    OutputSet(#[from] gloam_io::OutputSetError),
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
     #[error("encoding report.json")]
