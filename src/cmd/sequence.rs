@@ -73,8 +73,8 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let t_write = Instant::now();
     let layers = &captured.first;
     let (radiance, std_error) = layers.stacked();
-    gloam_pipeline::output::write_npy_nd(&dir.join("layers.npy"), &radiance)?;
-    gloam_pipeline::output::write_npy_nd(&dir.join("layers_stderr.npy"), &std_error)?;
+    gloam_pipeline::output::write_npy(&dir.join("layers.npy"), &radiance)?;
+    gloam_pipeline::output::write_npy(&dir.join("layers_stderr.npy"), &std_error)?;
     provenance.add_inputs_read();
     let mut index = layers.json(settings.seed);
     index["pose"] = serde_json::json!({

@@ -550,7 +550,7 @@ fn reference_scale_truth(
     };
     let mean_spp = (spp as f64 * mean_mult).round() as u32;
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    gloam_pipeline::output::write_npy_nd(&npy, &stack)?;
+    gloam_pipeline::output::write_npy(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,

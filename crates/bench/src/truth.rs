@@ -485,7 +485,7 @@ pub fn reference_truth(
         }
     }
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    gloam_pipeline::output::write_npy_nd(&npy, &stack)?;
+    gloam_pipeline::output::write_npy(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,

@@ -140,6 +140,15 @@ pub enum CalibError {
     OutputSet(#[from] gloam_io::OutputSetError),
 }
 
+impl From<gloam_io::FileError> for CalibError {
+    fn from(e: gloam_io::FileError) -> Self {
+        CalibError::File {
+            path: e.path,
+            message: e.message,
+        }
+    }
+}
+
 impl CalibError {
     pub(crate) fn file(path: impl Into<PathBuf>, message: impl std::fmt::Display) -> Self {
         CalibError::File {

@@ -627,22 +627,13 @@ pub fn write_tiff_f32_described(
     data: &[f32],
     description: &str,
 ) -> Result<(), CalibError> {
-    let mut buf = std::io::Cursor::new(Vec::new());
-    {
-        let mut enc =
-            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
-        let mut image = enc
-            .new_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32)
-            .map_err(|e| CalibError::file(path, e))?;
-        image
-            .encoder()
-            .write_tag(tiff::tags::Tag::ImageDescription, description)
-            .map_err(|e| CalibError::file(path, e))?;
-        image
-            .write_data(data)
-            .map_err(|e| CalibError::file(path, e))?;
-    }
-    crate::report::write_bytes(path, buf.get_ref())
+    Ok(gloam_io::tiff::write_f32_pages(
+        path,
+        w,
+        h,
+        &[data],
+        Some(description),
+    )?)
 }
 
 /// The ImageDescription of the TIFF at `path`; `None` when it is not a
@@ -662,16 +653,7 @@ pub fn write_tiff_f32_pages(
     h: usize,
     pages: &[&[f32]],
 ) -> Result<(), CalibError> {
-    let mut buf = std::io::Cursor::new(Vec::new());
-    {
-        let mut enc =
-            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
-        for page in pages {
-            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, page)
-                .map_err(|e| CalibError::file(path, e))?;
-        }
-    }
-    crate::report::write_bytes(path, buf.get_ref())
+    Ok(gloam_io::tiff::write_f32_pages(path, w, h, pages, None)?)
 }
 
 /// The line of `frames.jsonl` beside `image` that records it (for a

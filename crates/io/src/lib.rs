@@ -9,10 +9,16 @@ macro_rules! eprintln {
     }};
 }
 
+mod atomic;
+pub mod fits;
 mod hash;
 mod input;
+pub mod npy;
 pub mod output_set;
+pub mod png;
+pub mod tiff;
 
+pub use atomic::{EncodeError, FileError, write_atomic};
 pub use hash::{InputFile, MAX_HASHED_BYTES, hash_file};
 pub use input::{
     FileRead, MAX_IMAGE_FILE_BYTES, MAX_MESH_FILE_BYTES, MAX_RECORDED_READS, MAX_TEXT_FILE_BYTES,

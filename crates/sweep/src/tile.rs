@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use gloam_pipeline::Provenance;
 use gloam_pipeline::output::OutputError;
-use gloam_pipeline::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
+use gloam_pipeline::output::{write_atomic, write_npy, write_preview, write_tiff};
 use ndarray::{Array2, Array3, Axis};
 
 pub use gloam_pipeline::tile::{
@@ -119,7 +119,7 @@ impl Merged {
         write_npy(&dir.join("radiance.npy"), &self.radiance)?;
         write_tiff(&dir.join("stderr.tiff"), &self.std_error)?;
         write_npy(&dir.join("stderr.npy"), &self.std_error)?;
-        write_npy_u32(&dir.join("spp.npy"), &self.spp)?;
+        write_npy(&dir.join("spp.npy"), &self.spp)?;
         write_preview(&dir.join("preview.png"), &self.radiance)?;
         let mut tiles = Vec::new();
         for d in &self.tiles {
