@@ -227,7 +227,7 @@ fn gloam_main() -> ExitCode {
         return ExitCode::FAILURE;
     }
     // Every file the run reads goes into its provenance.
-    gloam_spectra::input::record_reads();
+    gloam_io::record_reads();
     let matches =
         negative_numbers_are_values(cmd::capture::with_out_help(Cli::command())).get_matches();
     // The subcommand path (`calibrate agc`): its words are not inputs.
@@ -240,7 +240,7 @@ fn gloam_main() -> ExitCode {
             break;
         }
     }
-    gloam_pipeline::output_set::set_command_words(words);
+    gloam_io::output_set::set_command_words(words);
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(c) => c,
         Err(e) => e.exit(),

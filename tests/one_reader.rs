@@ -1,5 +1,5 @@
 //! Every file gloam reads goes through the one bounded reader
-//! (`gloam_spectra::input`: regular files only, a size limit per kind, a
+//! (`gloam_io`: regular files only, a size limit per kind, a
 //! clear error for devices, FIFOs and directories). This test enumerates
 //! the readers: it scans the program's sources (tests excluded) for direct
 //! `std::fs` reads and `File::open`, so a new reader cannot bypass the
@@ -45,7 +45,7 @@ fn every_reader_is_the_bounded_one() {
         rust_files(&c.path().join("src"), &mut files);
     }
     assert!(files.len() > 50, "found only {} source files", files.len());
-    let allowed = root.join("crates/spectra/src/input.rs");
+    let allowed = root.join("crates/io/src/input.rs");
     let mut found = Vec::new();
     for f in files.iter().filter(|f| **f != allowed) {
         let text = std::fs::read_to_string(f).unwrap();
@@ -68,7 +68,7 @@ fn every_reader_is_the_bounded_one() {
     }
     assert!(
         found.is_empty(),
-        "reads that bypass gloam_spectra::input (use read_bounded/read_text/open_bounded):\n{}",
+        "reads that bypass gloam_io (use read_bounded/read_text/open_bounded):\n{}",
         found.join("\n")
     );
 }

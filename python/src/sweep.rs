@@ -65,9 +65,9 @@ fn sweep<'py>(
         }
         gloam_sweep::collect::collect(&sd)?;
         let results_path = sd.dir.join("results.json");
-        let results: serde_json::Value = serde_json::from_str(&gloam_spectra::input::read_text(
+        let results: serde_json::Value = serde_json::from_str(&gloam_io::read_text(
             &results_path,
-            gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+            gloam_io::MAX_TEXT_FILE_BYTES,
         )?)?;
         Ok(serde_json::json!({
             "dir": sd.dir.display().to_string(),

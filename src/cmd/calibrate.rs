@@ -1,17 +1,19 @@
 //! `gloam calibrate …`: radiance LUTs, applying them, AGC linearisation
 //! (on a rig's staircase, or on a sequence), EMVA 1288 photon transfer and
-//! MTF. The arguments and flows are `gloam_calib::cli`'s; here the output
-//! set, progress bar and printing, and for `calibrate agc --sequence` the
-//! sequence's render and capture (`gloam_pipeline::sequence`, which calib
-//! sits below). See docs/calibration.md.
+//! MTF. The arguments and flows are `gloam_calib::cli`'s (they open the
+//! output set); here its provenance and publishing, the progress bar and
+//! printing, and for `calibrate agc --sequence` the sequence's render and
+//! capture (`gloam_pipeline::sequence`, which calib sits below). See
+//! docs/calibration.md.
 
 use std::io::IsTerminal;
 use std::path::Path;
 
 pub use gloam_calib::cli::CalibrateCommand;
 use gloam_calib::cli::{CapturedSequence, Event, agc_sequence, run_calibrate};
+use gloam_io::OutputSet;
 use gloam_pipeline::sequence::{SceneSequence, capture_scene_sequence};
-use gloam_pipeline::{FrameCapture, FrameContext, FrameFormat, OutputSet, Provenance, SettingArgs};
+use gloam_pipeline::{FrameCapture, FrameContext, FrameFormat, Provenance, SettingArgs};
 use gloam_scene::sequence::Sequence;
 use gloam_trace::RenderSettings;
 
@@ -119,15 +121,8 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
         CalibrateCommand::Agc(a) => gloam_pipeline::cli::frame_format(a.frame_format.as_deref())?,
         _ => FrameFormat::Png,
     };
-    let mut set = None;
     let mut bar: Option<indicatif::ProgressBar> = None;
     let registry = gloam_pipeline::grabbers();
-    let mut begin = |out: &Path, force| -> anyhow::Result<_> {
-        let s = OutputSet::begin(out, force, false)?;
-        let dir = s.dir().to_path_buf();
-        set = Some(s);
-        Ok(dir)
-    };
     let mut ev = |e: Event<'_>| match e {
         Event::Note(line) => match &bar {
             Some(b) => b.suspend(|| eprintln!("{line}")),
@@ -141,20 +136,18 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
         }
     };
     let r = match (&cmd, &loaded) {
-        (CalibrateCommand::Agc(a), Some(l)) => agc_sequence::<anyhow::Error>(
-            a,
-            &registry,
-            &mut begin,
-            &mut ev,
-            &mut |dir, sensor, seed| capture(l, dir, sensor, seed, frame_format),
-        ),
-        _ => run_calibrate::<anyhow::Error>(&cmd, &registry, &mut begin, &mut ev),
+        (CalibrateCommand::Agc(a), Some(l)) => (|| {
+            let run = agc_sequence(a)?;
+            let captured = capture(l, run.dir(), run.sensor(), run.seed(), frame_format)?;
+            run.finish::<anyhow::Error>(captured, &registry, &mut ev)
+        })(),
+        _ => run_calibrate::<anyhow::Error>(&cmd, &registry, &mut ev),
     };
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     let outcome = r?;
-    if let (Some(set), Some(main_json)) = (set, outcome.main_json) {
+    if let (Some(set), Some(main_json)) = (outcome.set, outcome.main_json) {
         publish(set, main_json)?;
     }
     for line in &outcome.lines {

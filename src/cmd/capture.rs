@@ -7,8 +7,9 @@ use std::io::IsTerminal;
 
 use clap::Args;
 use gloam_calib::cli::Event;
+use gloam_io::OutputSet;
 use gloam_pipeline::frames::{FrameContext, instrument_of_grabber};
-use gloam_pipeline::{FrameFormat, FrameRecord, FrameWriter, OutputSet, Provenance};
+use gloam_pipeline::{FrameFormat, FrameRecord, FrameWriter, Provenance};
 
 /// `gloam capture`: the grabber and grab settings, and how the frames are
 /// stored.
@@ -72,7 +73,7 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     let mut writer = FrameWriter::with_format(&dir, format, context)?;
     let (tally, result) = args.grab::<anyhow::Error, _>(
         g.as_mut(),
-        &gloam_pipeline::output_set::interrupted,
+        &gloam_io::output_set::interrupted,
         |index, f: &gloam_grabber::Frame, warnings| {
             let rec = FrameRecord::of_grab(index, format.file_name(index), f, warnings);
             Ok(writer.write(&rec, &f.pixels)?)

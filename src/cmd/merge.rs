@@ -2,7 +2,8 @@
 //! outputs into the whole image, bit-identical to the untiled render
 //! (the stacking, its checks and the files written are `gloam_sweep::tile`).
 
-use gloam_pipeline::{OutputSet, Provenance};
+use gloam_io::OutputSet;
+use gloam_pipeline::Provenance;
 pub use gloam_sweep::cli::MergeArgs;
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {

@@ -4,7 +4,7 @@
 
 pub use gloam_calib::cli::ScopeArgs;
 use gloam_calib::scope_run::{run_scope, write_scope};
-use gloam_pipeline::OutputSet;
+use gloam_io::OutputSet;
 
 pub fn run(a: ScopeArgs) -> anyhow::Result<()> {
     let opts = a.options()?;

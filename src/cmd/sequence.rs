@@ -11,11 +11,12 @@
 
 use std::time::Instant;
 
+use gloam_io::OutputSet;
 pub use gloam_pipeline::cli::SequenceArgs;
 use gloam_pipeline::sequence::{
     ANIMATION_MAX_FRAMES, ANIMATION_MAX_WIDTH_PX, SceneSequence, capture_scene_sequence,
 };
-use gloam_pipeline::{FrameContext, OutputSet, Provenance};
+use gloam_pipeline::{FrameContext, Provenance};
 
 use super::output::write_atomic;
 
@@ -72,8 +73,8 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let t_write = Instant::now();
     let layers = &captured.first;
     let (radiance, std_error) = layers.stacked();
-    gloam_pipeline::output::write_npy_nd(&dir.join("layers.npy"), &radiance)?;
-    gloam_pipeline::output::write_npy_nd(&dir.join("layers_stderr.npy"), &std_error)?;
+    gloam_pipeline::output::write_npy(&dir.join("layers.npy"), &radiance)?;
+    gloam_pipeline::output::write_npy(&dir.join("layers_stderr.npy"), &std_error)?;
     provenance.add_inputs_read();
     let mut index = layers.json(settings.seed);
     index["pose"] = serde_json::json!({

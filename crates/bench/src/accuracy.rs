@@ -19,8 +19,8 @@ use super::truth::{
     reference_settings, reference_truth,
 };
 use super::{BenchError, resolution};
+use gloam_io::output_set::OutputSet;
 use gloam_pipeline::output::write_atomic;
-use gloam_pipeline::output_set::OutputSet;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
@@ -356,7 +356,7 @@ fn carry_cached_references(out: &Path, dir: &Path) -> Result<(), BenchError> {
     // A set holds a handful of references (one per scale and kind).
     for e in entries
         .flatten()
-        .take(gloam_pipeline::output_set::MAX_SET_ENTRIES)
+        .take(gloam_io::output_set::MAX_SET_ENTRIES)
     {
         let name = e.file_name();
         let Some(n) = name.to_str() else { continue };
@@ -964,7 +964,7 @@ fn mitsuba_rows(
             }
             serde_json::json!({ "ran": true, "note": side.note })
         }
-        Err(e) => skip(gloam_pipeline::output_set::chain(&e)),
+        Err(e) => skip(gloam_io::output_set::chain(&e)),
     }
 }
 

@@ -242,9 +242,8 @@ pub fn side_by_side(
         Duration::from_secs_f64(4.0 * time_limit_s + 60.0),
     )?;
     let json_path = dir.join("mitsuba.json");
-    let text =
-        gloam_spectra::input::read_text(&json_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(BenchError::io("reading", &json_path))?;
+    let text = gloam_io::read_text(&json_path, gloam_io::MAX_TEXT_FILE_BYTES)
+        .map_err(BenchError::io("reading", &json_path))?;
     let report: serde_json::Value = serde_json::from_str(&text)?;
     let mut rungs = Vec::new();
     let runs = report["runs"].as_array().cloned().unwrap_or_default();
@@ -268,7 +267,7 @@ pub fn side_by_side(
             (true, None) => continue,
         };
         let path = dir.join(file);
-        let bytes = gloam_spectra::input::read_bounded(&path, (w * h * 3 * 4) as u64)
+        let bytes = gloam_io::read_bounded(&path, (w * h * 3 * 4) as u64)
             .map_err(BenchError::io("reading", &path))?;
         ensure_valid!(
             bytes.len() == w * h * 3 * 4,

@@ -20,15 +20,15 @@ pub struct Reaper {
 impl Reaper {
     pub fn new(child: &std::process::Child) -> Self {
         let pgid = child.id();
-        gloam_pipeline::output_set::kill_child_group_on_interrupt(pgid);
+        gloam_io::output_set::kill_child_group_on_interrupt(pgid);
         Self { pgid }
     }
 }
 
 impl Drop for Reaper {
     fn drop(&mut self) {
-        gloam_pipeline::output_set::forget_child_group(self.pgid);
-        gloam_pipeline::output_set::kill_group(self.pgid);
+        gloam_io::output_set::forget_child_group(self.pgid);
+        gloam_io::output_set::kill_group(self.pgid);
     }
 }
 
@@ -58,8 +58,7 @@ pub fn wait_with_timeout(
 /// The last `lines` lines of the text file at `path`, joined by " / "
 /// (empty when it cannot be read): what a failed child said last.
 pub fn stderr_tail(path: &Path, lines: usize) -> String {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .unwrap_or_default();
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).unwrap_or_default();
     let tail: Vec<&str> = text.lines().rev().take(lines).collect();
     tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
 }

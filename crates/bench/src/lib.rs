@@ -123,7 +123,7 @@ pub enum BenchError {
     Encode(String),
     /// `--out`'s output set refused or not published.
     #[error(transparent)]
-    OutputSet(#[from] gloam_pipeline::output_set::OutputSetError),
+    OutputSet(#[from] gloam_io::output_set::OutputSetError),
     /// A check the benchmark makes of its own results failed.
     #[error("{0}")]
     Check(&'static str),

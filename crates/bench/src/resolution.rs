@@ -408,9 +408,8 @@ fn reference_scale_truth(
     left: impl Fn() -> f64,
 ) -> Result<Result<ScaleTruth, String>, BenchError> {
     let t0 = Instant::now();
-    let text =
-        gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(BenchError::io("reading", scene_path))?;
+    let text = gloam_io::read_bounded(scene_path, gloam_io::MAX_TEXT_FILE_BYTES)
+        .map_err(BenchError::io("reading", scene_path))?;
     let (mask_all, surface) = no_emitter_and_surface_masks(scaled, geometry, 4);
     let (subset, weight) = reference_pixels(&mask_all, &surface);
     let (nb, h, w) = (
@@ -551,7 +550,7 @@ fn reference_scale_truth(
     };
     let mean_spp = (spp as f64 * mean_mult).round() as u32;
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    gloam_pipeline::output::write_npy_nd(&npy, &stack)?;
+    gloam_pipeline::output::write_npy(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,

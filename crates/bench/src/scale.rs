@@ -316,12 +316,10 @@ fn refuse_foreign_outputs(out: &Path) -> Result<(), BenchError> {
     let png = out.join("scale.png");
     let ours = |p: &Path| -> bool {
         std::fs::symlink_metadata(p).is_ok_and(|m| m.is_file())
-            && gloam_spectra::input::unrecorded(|| {
-                gloam_spectra::input::read_text(p, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            })
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-            .is_some_and(|v| v.get("method").is_some() && v.get("cases").is_some())
+            && gloam_io::unrecorded(|| gloam_io::read_text(p, gloam_io::MAX_TEXT_FILE_BYTES))
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .is_some_and(|v| v.get("method").is_some() && v.get("cases").is_some())
     };
     let json_exists = std::fs::symlink_metadata(&json).is_ok();
     let png_exists = std::fs::symlink_metadata(&png).is_ok();
@@ -826,11 +824,11 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
             Duration::from_secs_f64(timeout_s),
         )?;
         Ok(serde_json::from_str(
-            &gloam_spectra::input::read_text(&out, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+            &gloam_io::read_text(&out, gloam_io::MAX_TEXT_FILE_BYTES)
                 .map_err(BenchError::io("reading", &out))?,
         )?)
     };
-    go().unwrap_or_else(|e| serde_json::json!({ "error": gloam_pipeline::output_set::chain(&e) }))
+    go().unwrap_or_else(|e| serde_json::json!({ "error": gloam_io::output_set::chain(&e) }))
 }
 
 /// Runs one case in a child process with a timeout (and then in Mitsuba 3
@@ -914,11 +912,8 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
             row.message = Some(format!("{st}: {}", stderr_tail(&stderr_path, 5)));
         }
         Some(_) => {
-            let text = gloam_spectra::input::read_text(
-                &stdout_path,
-                gloam_spectra::input::MAX_TEXT_FILE_BYTES,
-            )
-            .map_err(BenchError::io("reading", &stdout_path))?;
+            let text = gloam_io::read_text(&stdout_path, gloam_io::MAX_TEXT_FILE_BYTES)
+                .map_err(BenchError::io("reading", &stdout_path))?;
             match serde_json::from_str::<CaseResult>(&text) {
                 Ok(r) => row.result = Some(r),
                 Err(e) => {

@@ -400,9 +400,8 @@ pub fn reference_truth(
     kind: ReferenceKind,
 ) -> Result<Truth, BenchError> {
     let t0 = Instant::now();
-    let text =
-        gloam_spectra::input::read_bounded(scene_path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(BenchError::io("reading", scene_path))?;
+    let text = gloam_io::read_bounded(scene_path, gloam_io::MAX_TEXT_FILE_BYTES)
+        .map_err(BenchError::io("reading", scene_path))?;
     let settings_for = |threads, spp| match kind {
         ReferenceKind::WholeLight => reference_settings(threads, spp),
         ReferenceKind::DirectOnly => direct_reference_settings(threads, spp),
@@ -486,7 +485,7 @@ pub fn reference_truth(
         }
     }
     std::fs::create_dir_all(dir).map_err(BenchError::io("creating", dir))?;
-    gloam_pipeline::output::write_npy_nd(&npy, &stack)?;
+    gloam_pipeline::output::write_npy(&npy, &stack)?;
     let seconds = t0.elapsed().as_secs_f64();
     write_atomic(
         &meta,
@@ -524,9 +523,7 @@ pub(crate) fn read_cached_reference(
     key: &str,
     dims: (usize, usize, usize, usize),
 ) -> Option<(serde_json::Value, ndarray::Array4<f64>)> {
-    use gloam_spectra::input::{
-        MAX_IMAGE_FILE_BYTES, MAX_TEXT_FILE_BYTES, open_bounded, read_text,
-    };
+    use gloam_io::{MAX_IMAGE_FILE_BYTES, MAX_TEXT_FILE_BYTES, open_bounded, read_text};
     use ndarray_npy::ReadNpyExt;
     let m = read_text(meta, MAX_TEXT_FILE_BYTES).ok()?;
     let f = open_bounded(npy, MAX_IMAGE_FILE_BYTES).ok()?;

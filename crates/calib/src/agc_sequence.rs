@@ -351,11 +351,12 @@ struct Record {
 
 fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError> {
     let jl = dir.join("frames.jsonl");
-    let f = gloam_spectra::input::open_bounded(&jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| CalibError::Read {
+    let f = gloam_io::open_bounded(&jl, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        CalibError::Read {
             path: jl.clone(),
             source,
-        })?;
+        }
+    })?;
     let mut out = Vec::new();
     for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
         let line = line.map_err(|e| CalibError::file(&jl, e))?;

@@ -16,11 +16,12 @@ pub const CAMERA_FILE: &str = "camera.json";
 /// ([`Lut::check`]): a LUT whose numbers leave physics is refused at the
 /// line holding the bad value, before it converts a count.
 pub fn load_lut(path: &Path) -> Result<Lut, CalibError> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| CalibError::Read {
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        CalibError::Read {
             path: path.to_path_buf(),
             source,
-        })?;
+        }
+    })?;
     let lut: Lut = serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
         path: path.to_path_buf(),
         what: "LUT",
@@ -95,10 +96,11 @@ pub fn check_lut_fits_frame(
     let mut unchecked = Vec::new();
     if cam_file.is_file() {
         let text =
-            gloam_spectra::input::read_text(&cam_file, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .map_err(|source| CalibError::Read {
-                path: cam_file.clone(),
-                source,
+            gloam_io::read_text(&cam_file, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+                CalibError::Read {
+                    path: cam_file.clone(),
+                    source,
+                }
             })?;
         let v: serde_json::Value =
             serde_json::from_str(&text).map_err(|source| CalibError::NotJson {

@@ -6,6 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
+use gloam_io::OutputSet;
+
 use clap::{Args, Subcommand, ValueEnum};
 use gloam_grabber::{Frame, FrameGrabber, GrabError, OpenOptions, Registry};
 use gloam_simcam::FrameExposureExt;
@@ -270,23 +272,23 @@ pub struct MtfArgs {
     pub force: bool,
 }
 
-/// What a calibration leaves its front end: the output set's main JSON
-/// (which gets the run's provenance before the set is published; `None`:
-/// no set) and the lines to print once it is published.
+/// What a calibration leaves its front end: the output set, written but
+/// not yet published, and its main JSON (which gets the run's provenance
+/// before the set is published; `None`: no set), and the lines to print
+/// once it is published.
 pub struct Outcome {
+    pub set: Option<OutputSet>,
     pub main_json: Option<&'static str>,
     pub lines: Vec<String>,
 }
 
-/// Runs one `gloam calibrate` flow with grabbers from `registry`.
-/// `begin(out, force)` opens the output set and returns the directory to
-/// write into; it is called after the inputs are checked and before the
-/// grabber opens. Progress stays silent for manual sources (the operator
+/// Runs one `gloam calibrate` flow with grabbers from `registry`. The
+/// output set opens after the inputs are checked and before the grabber
+/// opens; the front end publishes it ([`Outcome::set`]). Progress stays silent for manual sources (the operator
 /// is prompted on the terminal).
 pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     cmd: &CalibrateCommand,
     registry: &Registry,
-    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     // An --out set holding one of the run's inputs would replace it
@@ -305,7 +307,7 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
         report::refuse_out_dir_holding_inputs(out, &inputs)?;
     }
     match cmd {
-        CalibrateCommand::Radiance(a) => radiance(a, registry, begin, ev),
+        CalibrateCommand::Radiance(a) => radiance(a, registry, ev),
         CalibrateCommand::Apply(a) => {
             let r = crate::apply::apply_lut_to_frame(
                 &a.lut,
@@ -328,6 +330,7 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
                 r.gain
             );
             Ok(Outcome {
+                set: None,
                 main_json: None,
                 lines: vec![line],
             })
@@ -336,9 +339,9 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
             "--sequence renders a scene: run it from the gloam command line".into(),
         )
         .into()),
-        CalibrateCommand::Agc(a) => agc(a, registry, begin, ev),
-        CalibrateCommand::Ptc(a) => ptc(a, registry, begin, ev),
-        CalibrateCommand::Mtf(a) => mtf(a, registry, begin, ev),
+        CalibrateCommand::Agc(a) => agc(a, registry, ev),
+        CalibrateCommand::Ptc(a) => ptc(a, registry, ev),
+        CalibrateCommand::Mtf(a) => mtf(a, registry, ev),
     }
 }
 
@@ -426,9 +429,10 @@ fn progress<'a>(
 }
 
 /// A flow's outcome: its summary `lines`, then where `main_json` went.
-fn written(out: &Path, main_json: &'static str, mut lines: Vec<String>) -> Outcome {
-    lines.push(format!("wrote {}", out.join(main_json).display()));
+fn written(set: OutputSet, main_json: &'static str, mut lines: Vec<String>) -> Outcome {
+    lines.push(format!("wrote {}", set.target().join(main_json).display()));
     Outcome {
+        set: Some(set),
         main_json: Some(main_json),
         lines,
     }
@@ -439,7 +443,7 @@ fn written(out: &Path, main_json: &'static str, mut lines: Vec<String>) -> Outco
 /// (so a refused `--out` touches no camera), then the grabber, then the
 /// source against it.
 struct Bench {
-    dir: PathBuf,
+    set: OutputSet,
     g: Box<dyn FrameGrabber>,
     src: Box<dyn CalibrationSource>,
     /// A manual source prompts on the terminal: no progress bar then.
@@ -455,14 +459,13 @@ impl Bench {
         source: &SourceArgs,
         gain: Option<f64>,
         registry: &Registry,
-        begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Self, E> {
-        let dir = begin(out, force)?;
+        let set = OutputSet::begin(out, force, false).map_err(CalibError::from)?;
         let mut g = grabber.open::<E>(registry, ev)?;
         let src = source.open(g.as_mut(), gain, ev)?;
         Ok(Self {
-            dir,
+            set,
             g,
             src,
             silent: source.is_manual(),
@@ -473,7 +476,6 @@ impl Bench {
 fn radiance<E: From<CalibError> + From<GrabError>>(
     a: &RadianceArgs,
     registry: &Registry,
-    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     if a.gains.is_empty() {
@@ -485,7 +487,7 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
     }
     let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let out = (a.out.as_path(), a.force);
-    let mut b = Bench::open(out, &a.grabber, &a.source, Some(top), registry, begin, ev)?;
+    let mut b = Bench::open::<E>(out, &a.grabber, &a.source, Some(top), registry, ev)?;
     let opts = RadianceOptions {
         gains: a.gains.clone(),
         frames: a.frames,
@@ -498,7 +500,7 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
         &opts,
         &mut progress(ev, "levels", b.silent),
     )?;
-    report::write_radiance_report(&b.dir, &lut)?;
+    report::write_radiance_report(b.set.dir(), &lut)?;
     let mut lines = Vec::new();
     for c in &lut.gains {
         lines.push(format!(
@@ -517,26 +519,17 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
                 .map(|w| format!("warning: gain {}: {w}", c.gain)),
         );
     }
-    Ok(written(&a.out, "lut.json", lines))
+    Ok(written(b.set, "lut.json", lines))
 }
 
 fn agc<E: From<CalibError> + From<GrabError>>(
     a: &AgcArgs,
     registry: &Registry,
-    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let lut = a.lut.as_deref().map(crate::apply::load_lut).transpose()?;
     let out = (a.out.as_path(), a.force);
-    let mut b = Bench::open(
-        out,
-        &a.grabber,
-        &a.source,
-        a.fixed_gain,
-        registry,
-        begin,
-        ev,
-    )?;
+    let mut b = Bench::open::<E>(out, &a.grabber, &a.source, a.fixed_gain, registry, ev)?;
     let opts = AgcOptions {
         fixed_gain: a.fixed_gain,
         frames_per_step: a.frames,
@@ -555,7 +548,7 @@ fn agc<E: From<CalibError> + From<GrabError>>(
         (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
         (e, _) => e,
     })?;
-    report::write_agc_report(&b.dir, &r)?;
+    report::write_agc_report(b.set.dir(), &r)?;
     let summary = format!(
         "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
         r.all_settled,
@@ -568,7 +561,7 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     );
     let mut lines = vec![summary];
     lines.extend(linearised_line(&r));
-    Ok(written(&a.out, "agc.json", lines))
+    Ok(written(b.set, "agc.json", lines))
 }
 
 /// What the front end's renderer returns for `calibrate agc --sequence`:
@@ -595,23 +588,27 @@ pub const SEQUENCE_LUT_GAIN_RATIO: f64 = 1.25;
 pub const SEQUENCE_LUT_LEVELS: usize = 10;
 pub const SEQUENCE_LUT_AUTO_RANGE: f64 = 0.8;
 
+/// `gloam calibrate agc --sequence`, checked and with its output set open.
+/// The front end renders the sequence's layers and captures it through
+/// the camera [`sensor`](Self::sensor) with its AGC and noise seed
+/// [`seed`](Self::seed) into [`dir`](Self::dir) (its renderer is
+/// `gloam_pipeline::sequence`, which calib sits below), then
+/// [`finish`](Self::finish) does the rest.
+pub struct SequenceRun<'a> {
+    a: &'a AgcArgs,
+    set: OutputSet,
+    preset: String,
+    seed: u64,
+    config: gloam_sensor::SensorConfig,
+    lut: Option<crate::radiance::Lut>,
+    opts: crate::agc_sequence::AgcSequenceOptions,
+}
+
 /// `gloam calibrate agc --sequence`: checks the camera (a `sim:` grabber)
-/// and the LUT, opens the output set, lets `capture(dir, sensor, seed)`
-/// render the sequence's layers and capture it through the camera with its
-/// AGC (the front end's renderer: `gloam_pipeline::sequence`), measures a
-/// LUT over the gains the AGC settled through if none was given, and
-/// compares each frame linearised through the LUT with the true radiance.
-pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
-    a: &AgcArgs,
-    registry: &Registry,
-    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
-    ev: &mut dyn FnMut(Event<'_>),
-    capture: &mut dyn FnMut(&Path, &str, u64) -> Result<CapturedSequence, E>,
-) -> Result<Outcome, E> {
-    use crate::agc_sequence::{
-        AgcSequenceOptions, SequenceLayers, detected_per_band_radiance, linearise_sequence,
-        lut_gains_spanning, write_agc_sequence_report,
-    };
+/// and the LUT and opens the output set, before anything is rendered
+/// ([`SequenceRun`]).
+pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
+    use crate::agc_sequence::AgcSequenceOptions;
     report::refuse_out_dir_holding_inputs(&a.out, &agc_inputs(a))?;
     let (preset, _, uri_seed, _) = crate::scope_run::sim_uri(&a.grabber.grabber).map_err(|_| {
         CalibError::Usage(format!(
@@ -622,10 +619,9 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
     if a.grabber.exposure_s.is_some() {
         return Err(CalibError::Usage(
             "--sequence sets the exposure (the camera's, within the sequence's frame period); drop --exposure-s".into(),
-        )
-        .into());
+        ));
     }
-    let config = gloam_sensor::load_preset_or_file(&preset).map_err(CalibError::from)?;
+    let config = gloam_sensor::load_preset_or_file(&preset)?;
     let camera = format!("simulated {preset}");
     let lut = match &a.lut {
         Some(path) => {
@@ -641,29 +637,78 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
             "--sequence: camera '{preset}' has no AGC ([agc] in its sensor file)"
         ))
     })?;
-    let tau_s = opts.agc_time_constant_s;
-    let dir = begin(&a.out, a.force)?;
+    let set = OutputSet::begin(&a.out, a.force, false)?;
     let seed = a.grabber.seed.unwrap_or(uri_seed);
-    let captured = capture(&dir, &preset, seed)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
-    g.set_exposure_s(captured.exposure_s)?;
-    let mut lines = Vec::new();
-    // The source gives the LUT's units (its lamp's spectrum) even when the
-    // LUT is given, and measures the LUT when it is not.
-    let source = SourceArgs {
-        levels: a.source.levels.or(Some(SEQUENCE_LUT_LEVELS)),
-        auto_range: a.source.auto_range.or(Some(SEQUENCE_LUT_AUTO_RANGE)),
-        ..a.source.clone()
-    };
-    let (lut, mut src) = match lut {
-        Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
-        None => {
-            // The gains the loop went through once it left its power-up
-            // gain (the acquisition window is not judged).
-            let from_s = opts.transient_time_constants * tau_s;
-            // Named by the sequence file, not the staging directory the
-            // frames are in (it is removed when the run fails).
-            let gains = crate::agc_sequence::gains_in_effect(&dir, from_s).map_err(|e| match e {
+    Ok(SequenceRun {
+        a,
+        set,
+        preset,
+        seed,
+        config,
+        lut,
+        opts,
+    })
+}
+
+impl SequenceRun<'_> {
+    /// Where the sequence's frames and `frames.jsonl` go.
+    pub fn dir(&self) -> &Path {
+        self.set.dir()
+    }
+
+    /// The camera (preset or sensor file) the sequence is captured through.
+    pub fn sensor(&self) -> &str {
+        &self.preset
+    }
+
+    /// The camera's noise seed.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// With the sequence `captured` into [`dir`](Self::dir): measures a
+    /// LUT over the gains the AGC settled through if none was given, and
+    /// compares each frame linearised through the LUT with the true
+    /// radiance.
+    pub fn finish<E: From<CalibError> + From<GrabError>>(
+        self,
+        captured: CapturedSequence,
+        registry: &Registry,
+        ev: &mut dyn FnMut(Event<'_>),
+    ) -> Result<Outcome, E> {
+        use crate::agc_sequence::{
+            SequenceLayers, detected_per_band_radiance, linearise_sequence, lut_gains_spanning,
+            write_agc_sequence_report,
+        };
+        let SequenceRun {
+            a,
+            set,
+            config,
+            lut,
+            opts,
+            ..
+        } = self;
+        let tau_s = opts.agc_time_constant_s;
+        let dir = set.dir();
+        let mut g = a.grabber.open::<E>(registry, ev)?;
+        g.set_exposure_s(captured.exposure_s)?;
+        let mut lines = Vec::new();
+        // The source gives the LUT's units (its lamp's spectrum) even when the
+        // LUT is given, and measures the LUT when it is not.
+        let source = SourceArgs {
+            levels: a.source.levels.or(Some(SEQUENCE_LUT_LEVELS)),
+            auto_range: a.source.auto_range.or(Some(SEQUENCE_LUT_AUTO_RANGE)),
+            ..a.source.clone()
+        };
+        let (lut, mut src) = match lut {
+            Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
+            None => {
+                // The gains the loop went through once it left its power-up
+                // gain (the acquisition window is not judged).
+                let from_s = opts.transient_time_constants * tau_s;
+                // Named by the sequence file, not the staging directory the
+                // frames are in (it is removed when the run fails).
+                let gains = crate::agc_sequence::gains_in_effect(dir, from_s).map_err(|e| match e {
                 CalibError::InsufficientData(_) => CalibError::InsufficientData(format!(
                     "--sequence {}: no frame starts {from_s} s or more after the first ({} AGC time constants of {tau_s} s: the loop's acquisition, not judged), so no gain to measure a LUT at; lengthen the sequence or give --lut",
                     a.sequence.as_deref().unwrap_or(Path::new("?")).display(),
@@ -671,65 +716,65 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
                 )),
                 other => other,
             })?;
-            let (lo, hi) = gains
-                .iter()
-                .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
-            let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
-            let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let mut src = source.open(g.as_mut(), Some(top), ev)?;
-            let ropts = RadianceOptions {
-                gains: gains.clone(),
-                exposure_s: Some(captured.exposure_s),
-                ..Default::default()
-            };
-            let silent = source.is_manual();
-            let lut = calibrate_radiance(
-                g.as_mut(),
-                src.as_mut(),
-                &ropts,
-                &mut progress(ev, "LUT levels", silent),
-            )?;
-            report::write_radiance_report(&dir, &lut)?;
-            lines.push(format!(
+                let (lo, hi) = gains
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
+                let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
+                let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                let mut src = source.open(g.as_mut(), Some(top), ev)?;
+                let ropts = RadianceOptions {
+                    gains: gains.clone(),
+                    exposure_s: Some(captured.exposure_s),
+                    ..Default::default()
+                };
+                let silent = source.is_manual();
+                let lut = calibrate_radiance(
+                    g.as_mut(),
+                    src.as_mut(),
+                    &ropts,
+                    &mut progress(ev, "LUT levels", silent),
+                )?;
+                report::write_radiance_report(dir, &lut)?;
+                lines.push(format!(
                 "LUT measured on {} at {} gains {}–{} (the gains the AGC visited from {from_s} s on) → lut.json",
                 a.source.source.display(),
                 lut.gains.len(),
                 gains[0],
                 gains[gains.len() - 1]
             ));
-            (lut, src)
-        }
-    };
-    let k = detected_per_band_radiance(src.as_mut(), &config)?;
-    let truth = SequenceLayers {
-        groups: &captured.groups,
-        layers: &captured.layers,
-        sky: &captured.sky_layers,
-    };
-    let r = linearise_sequence(
-        &dir,
-        &lut,
-        &g.describe(),
-        &truth,
-        k,
-        &opts,
-        &mut progress(ev, "frames", false),
-    )
-    .map_err(|e| match (e, &a.lut) {
-        (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
-        (e, _) => e,
-    })?;
-    write_agc_sequence_report(&dir, &r)?;
-    let fmt = |s: &crate::agc_sequence::PhaseSummary| match (
-        s.rms_residual_percent,
-        s.max_abs_residual_percent,
-    ) {
-        (Some(rms), Some(max)) => {
-            format!("RMS {rms:.2} %, max {max:.2} % over {} frames", s.frames)
-        }
-        _ => "no frames".into(),
-    };
-    lines.push(format!(
+                (lut, src)
+            }
+        };
+        let k = detected_per_band_radiance(src.as_mut(), &config)?;
+        let truth = SequenceLayers {
+            groups: &captured.groups,
+            layers: &captured.layers,
+            sky: &captured.sky_layers,
+        };
+        let r = linearise_sequence(
+            dir,
+            &lut,
+            &g.describe(),
+            &truth,
+            k,
+            &opts,
+            &mut progress(ev, "frames", false),
+        )
+        .map_err(|e| match (e, &a.lut) {
+            (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
+            (e, _) => e,
+        })?;
+        write_agc_sequence_report(dir, &r)?;
+        let fmt = |s: &crate::agc_sequence::PhaseSummary| match (
+            s.rms_residual_percent,
+            s.max_abs_residual_percent,
+        ) {
+            (Some(rms), Some(max)) => {
+                format!("RMS {rms:.2} %, max {max:.2} % over {} frames", s.frames)
+            }
+            _ => "no frames".into(),
+        };
+        lines.push(format!(
         "linearised vs true radiance, residual per frame: steady {}; transient ({:.2} s after {} switch(es)) {}; acquiring {}{}",
         fmt(&r.steady),
         r.transient_window_s,
@@ -741,7 +786,8 @@ pub fn agc_sequence<E: From<CalibError> + From<GrabError>>(
             n => format!("; {n} frames outside the LUT's gains not linearised"),
         }
     ));
-    Ok(written(&a.out, "agc_sequence.json", lines))
+        Ok(written(set, "agc_sequence.json", lines))
+    }
 }
 
 /// What the LUT made of the AGC frames, against the source's true band
@@ -770,13 +816,12 @@ fn linearised_line(r: &crate::agc::AgcReport) -> Option<String> {
 fn ptc<E: From<CalibError> + From<GrabError>>(
     a: &PtcArgs,
     registry: &Registry,
-    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let mut sa = a.source.clone();
     sa.levels = sa.levels.or(Some(crate::ptc::DEFAULT_LEVELS));
     let out = (a.out.as_path(), a.force);
-    let mut b = Bench::open(out, &a.grabber, &sa, Some(a.gain), registry, begin, ev)?;
+    let mut b = Bench::open::<E>(out, &a.grabber, &sa, Some(a.gain), registry, ev)?;
     // Only photon transfer reports in photons (QE), so only it checks that
     // the source's rig is the camera's.
     if let Some(w) = rig_mismatch(&a.grabber.grabber, b.src.rig(), a.grabber.exposure_s) {
@@ -786,7 +831,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
         gain: a.gain,
         exposure_s: a.grabber.exposure_s,
         spatial_frames: a.spatial_frames,
-        dataset_dir: Some(b.dir.join("emva1288")),
+        dataset_dir: Some(b.set.dir().join("emva1288")),
     };
     let r = photon_transfer(
         b.g.as_mut(),
@@ -794,7 +839,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
         &opts,
         &mut progress(ev, "levels", b.silent),
     )?;
-    report::write_ptc_report(&b.dir, &r)?;
+    report::write_ptc_report(b.set.dir(), &r)?;
     let mut lines: Vec<String> = r.warnings.iter().map(|w| format!("warning: {w}")).collect();
     lines.push(format!(
         "K = {:.5} DN/e⁻, dark noise {:.3} e⁻, saturation {:.0} e⁻, QE {}",
@@ -815,13 +860,12 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
                 .map_or(String::new(), |q| format!(", QE = R/g = {q:.4}"))
         ));
     }
-    Ok(written(&a.out, "ptc.json", lines))
+    Ok(written(b.set, "ptc.json", lines))
 }
 
 fn mtf<E: From<CalibError> + From<GrabError>>(
     a: &MtfArgs,
     registry: &Registry,
-    begin: &mut dyn FnMut(&Path, bool) -> Result<PathBuf, E>,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
@@ -829,7 +873,8 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
         // Before the output set opens: nothing is measured above Nyquist.
         mtf_flow::check_sine_frequencies(&a.frequencies)?;
     }
-    let dir = begin(&a.out, a.force)?;
+    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let dir = set.dir();
     let (curves, details) = match a.target {
         Target::Usaf => {
             let ctf_path = a
@@ -874,7 +919,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
                     scope_rows: a.scope_rows.clone(),
                     magnification: a.magnification,
                 };
-                return mtf_voltage(a, &dir, g.as_mut(), &req, &v, ev);
+                return mtf_voltage(set, g.as_mut(), &req, &v, ev);
             }
             let label = match req.target {
                 GrabberTarget::Sine => "targets",
@@ -888,7 +933,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             (vec![m.curve], details)
         }
     };
-    report::write_mtf_report(&dir, &curves, details)?;
+    report::write_mtf_report(dir, &curves, details)?;
     let c = &curves[0];
     let line = format!(
         "{}: MTF50 {} cy/px, MTF10 {} cy/px",
@@ -896,14 +941,13 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
         c.mtf50.map_or("—".into(), |v| format!("{v:.4}")),
         c.mtf10.map_or("—".into(), |v| format!("{v:.4}"))
     );
-    Ok(written(&a.out, "mtf.json", vec![line]))
+    Ok(written(set, "mtf.json", vec![line]))
 }
 
 /// `--space voltage`: the scope flow on the sim: camera, the digital-count
 /// sine flow through the grabber, and the analytic curves, in one report.
 fn mtf_voltage<E: From<CalibError>>(
-    a: &MtfArgs,
-    dir: &Path,
+    set: OutputSet,
     g: &mut dyn FrameGrabber,
     req: &MtfRequest,
     v: &VoltageRequest,
@@ -912,7 +956,7 @@ fn mtf_voltage<E: From<CalibError>>(
     let r = voltage_mtf(g, req, v, &mut |phase, done, total| {
         ev(Event::Progress(phase, done, total))
     })?;
-    report::write_mtf_report(dir, &r.curves, r.details)?;
+    report::write_mtf_report(set.dir(), &r.curves, r.details)?;
     let (c, p) = (&r.curves, &r.voltage.points);
     let mut lines = Vec::new();
     for (i, f) in r.frequencies_cy_per_px.iter().enumerate() {
@@ -926,7 +970,7 @@ fn mtf_voltage<E: From<CalibError>>(
             c[3].mtf[i]
         ));
     }
-    Ok(written(&a.out, "mtf.json", lines))
+    Ok(written(set, "mtf.json", lines))
 }
 
 #[derive(Args)]
@@ -1225,6 +1269,7 @@ mod tests {
 
     #[test]
     fn radiance_refuses_a_bad_gain_before_opening_anything() {
+        let dir = tempfile::tempdir().unwrap();
         let a = RadianceArgs {
             grabber: GrabberArgs {
                 grabber: "sim:scientific-ccd".into(),
@@ -1238,17 +1283,12 @@ mod tests {
             },
             gains: vec![1.0, -2.0],
             frames: 1,
-            out: "o".into(),
+            out: dir.path().join("o"),
             force: false,
         };
-        let mut begun = false;
         let r = run_calibrate::<CalibError>(
             &CalibrateCommand::Radiance(a),
             &gloam_simcam::registry(),
-            &mut |_, _| {
-                begun = true;
-                Ok(PathBuf::new())
-            },
             &mut |_| {},
         );
         let e = r.err().expect("a negative gain is refused");
@@ -1256,7 +1296,8 @@ mod tests {
             e.to_string(),
             "--gains: -2 is not a gain (each must be a finite number > 0)"
         );
-        assert!(!begun);
+        // No output set was begun: no staging directory, no --out.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
 
     fn capture(frames: u64) -> CaptureArgs {

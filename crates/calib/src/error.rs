@@ -135,6 +135,18 @@ pub enum CalibError {
     /// A simulated camera refusing a setting (e.g. a gain outside its range).
     #[error(transparent)]
     SensorCapture(#[from] gloam_sensor::CaptureError),
+    /// An `--out` output set refused or not opened, naming the path.
+    #[error(transparent)]
+    OutputSet(#[from] gloam_io::OutputSetError),
+}
+
+impl From<gloam_io::FileError> for CalibError {
+    fn from(e: gloam_io::FileError) -> Self {
+        CalibError::File {
+            path: e.path,
+            message: e.message,
+        }
+    }
 }
 
 impl CalibError {

@@ -29,9 +29,8 @@ fn is_tiff(path: &Path) -> bool {
 /// Reads a grey image of any supported depth (u8, u16, f32 TIFF, …).
 pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
     if is_tiff(path) {
-        let bytes =
-            gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-                .map_err(|e| CalibError::file(path, e))?;
+        let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+            .map_err(|e| CalibError::file(path, e))?;
         let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes))
             .map_err(|e| CalibError::file(path, e))?;
         let (w, h) = d.dimensions().map_err(|e| CalibError::file(path, e))?;
@@ -63,9 +62,8 @@ pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
             data,
         });
     }
-    let bytes =
-        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-            .map_err(|e| CalibError::file(path, e))?;
+    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+        .map_err(|e| CalibError::file(path, e))?;
     if is_fits(&bytes) {
         let f = decode_fits_counts(&bytes).map_err(|e| CalibError::file(path, e))?;
         return Ok(GreyImage {
@@ -253,9 +251,8 @@ pub fn read_frame_counts(
     path: &Path,
     at: &StoredAt,
 ) -> Result<(usize, usize, Vec<u16>), CalibError> {
-    let bytes =
-        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-            .map_err(|e| CalibError::file(path, e))?;
+    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+        .map_err(|e| CalibError::file(path, e))?;
     if is_tiff_bytes(&bytes) || (is_tiff(path) && !is_fits(&bytes)) {
         let mut pages = TiffPages::new(path, bytes)?;
         return pages.counts(at);
@@ -314,9 +311,8 @@ impl TiffPages {
 
     /// Opens the TIFF at `path`.
     pub fn open(path: &Path) -> Result<Self, CalibError> {
-        let bytes =
-            gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-                .map_err(|e| CalibError::file(path, e))?;
+        let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+            .map_err(|e| CalibError::file(path, e))?;
         Self::new(path, bytes)
     }
 
@@ -631,30 +627,19 @@ pub fn write_tiff_f32_described(
     data: &[f32],
     description: &str,
 ) -> Result<(), CalibError> {
-    let mut buf = std::io::Cursor::new(Vec::new());
-    {
-        let mut enc =
-            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
-        let mut image = enc
-            .new_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32)
-            .map_err(|e| CalibError::file(path, e))?;
-        image
-            .encoder()
-            .write_tag(tiff::tags::Tag::ImageDescription, description)
-            .map_err(|e| CalibError::file(path, e))?;
-        image
-            .write_data(data)
-            .map_err(|e| CalibError::file(path, e))?;
-    }
-    crate::report::write_bytes(path, buf.get_ref())
+    Ok(gloam_io::tiff::write_f32_pages(
+        path,
+        w,
+        h,
+        &[data],
+        Some(description),
+    )?)
 }
 
 /// The ImageDescription of the TIFF at `path`; `None` when it is not a
 /// readable TIFF or has none.
 pub fn tiff_description(path: &Path) -> Option<String> {
-    let bytes =
-        gloam_spectra::input::read_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-            .ok()?;
+    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES).ok()?;
     let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).ok()?;
     d.get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
         .ok()
@@ -668,16 +653,7 @@ pub fn write_tiff_f32_pages(
     h: usize,
     pages: &[&[f32]],
 ) -> Result<(), CalibError> {
-    let mut buf = std::io::Cursor::new(Vec::new());
-    {
-        let mut enc =
-            tiff::encoder::TiffEncoder::new(&mut buf).map_err(|e| CalibError::file(path, e))?;
-        for page in pages {
-            enc.write_image::<tiff::encoder::colortype::Gray32Float>(w as u32, h as u32, page)
-                .map_err(|e| CalibError::file(path, e))?;
-        }
-    }
-    crate::report::write_bytes(path, buf.get_ref())
+    Ok(gloam_io::tiff::write_f32_pages(path, w, h, pages, None)?)
 }
 
 /// The line of `frames.jsonl` beside `image` that records it (for a
@@ -779,7 +755,7 @@ fn find_record(
     open_note: &str,
 ) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
     let mut found: Option<(usize, serde_json::Value, Option<u64>)> = None;
-    let f = gloam_spectra::input::open_bounded(jl, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+    let f = gloam_io::open_bounded(jl, gloam_io::MAX_TEXT_FILE_BYTES)
         .map_err(|e| CalibError::file(jl, format!("{e}{open_note}")))?;
     for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
         let line = line.map_err(|e| CalibError::file(jl, e))?;
@@ -874,12 +850,9 @@ pub fn check_record_fits_frame(
     if let Some(v) = stored.get("format") {
         let bytes = {
             let mut head = [0u8; 16];
-            let n = gloam_spectra::input::open_bounded(
-                frame,
-                gloam_spectra::input::MAX_IMAGE_FILE_BYTES,
-            )
-            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-            .unwrap_or(0);
+            let n = gloam_io::open_bounded(frame, gloam_io::MAX_IMAGE_FILE_BYTES)
+                .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+                .unwrap_or(0);
             head[..n].to_vec()
         };
         let actual = if bytes.starts_with(PNG_SIGNATURE) {

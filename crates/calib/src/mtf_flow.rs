@@ -374,11 +374,12 @@ pub fn parse_usaf_ctf(text: &str, path: &Path) -> Result<Vec<UsafBar>, CalibErro
 
 /// Reads and parses a CTF file (see [`parse_usaf_ctf`]).
 pub fn read_usaf_ctf(path: &Path) -> Result<Vec<UsafBar>, CalibError> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| CalibError::Read {
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        CalibError::Read {
             path: PathBuf::from(path),
             source,
-        })?;
+        }
+    })?;
     parse_usaf_ctf(&text, path)
 }
 

@@ -196,12 +196,10 @@ pub fn xy_plot_scaled(
             .map_err(|x| e(&x))?;
         root.present().map_err(|x| e(&x))?;
     }
-    let img = image::RgbImage::from_raw(w, h, buf)
-        .ok_or_else(|| CalibError::Io("plot buffer has the wrong size".into()))?;
-    let mut png = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut png, image::ImageFormat::Png)
+    let png = gloam_io::png::rgb8_png(w, h, buf)
+        .ok_or_else(|| CalibError::Io("plot buffer has the wrong size".into()))?
         .map_err(|e| CalibError::file(path, e))?;
-    crate::report::write_bytes(path, png.get_ref())
+    crate::report::write_bytes(path, &png)
 }
 
 /// Scientific notation for axes spanning tiny or huge values (on a log

@@ -98,60 +98,10 @@ pub fn refuse_out_dir_holding_inputs(
     Ok(())
 }
 
-/// Writes bytes atomically: a uniquely named temporary file beside `path`
-/// (so two writers never share one), flushed to disk, then renamed over it,
-/// so an interrupted run never leaves a half-written report, plot or image.
+/// Writes bytes atomically ([`gloam_io::write_atomic`]: a uniquely named
+/// temporary file beside `path`, flushed to disk, then renamed over it).
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), CalibError> {
-    use std::io::Write;
-    // Only a regular file (or nothing) is replaced: renaming over a device,
-    // FIFO or link would destroy something gloam did not create (as root,
-    // `/dev/full` once became a 651-byte file).
-    if let Ok(meta) = std::fs::symlink_metadata(path) {
-        let what = if meta.file_type().is_symlink() {
-            Some("a symbolic link")
-        } else if meta.is_dir() {
-            Some("a directory")
-        } else if !meta.is_file() {
-            Some("not a regular file (a device, FIFO or socket)")
-        } else {
-            None
-        };
-        if let Some(what) = what {
-            return Err(CalibError::file(
-                path,
-                std::io::Error::new(
-                    std::io::ErrorKind::InvalidInput,
-                    format!(
-                        "is {what}; gloam writes regular files only and replaces nothing else — name a file path"
-                    ),
-                ),
-            ));
-        }
-    }
-    let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        Some(d) => {
-            std::fs::create_dir_all(d).map_err(|e| CalibError::file(d, e))?;
-            d
-        }
-        None => Path::new("."),
-    };
-    // Mode 0666 less the umask, as `File::create` gives (tempfile's own
-    // default is 0600).
-    let mut builder = tempfile::Builder::new();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut f = builder
-        .tempfile_in(dir)
-        .map_err(|e| CalibError::file(dir, e))?;
-    f.write_all(bytes)
-        .and_then(|_| f.as_file().sync_all())
-        .map_err(|e| CalibError::file(f.path(), e))?;
-    f.persist(path)
-        .map(|_| ())
-        .map_err(|e| CalibError::file(path, e.error))
+    Ok(gloam_io::write_atomic(path, bytes)?)
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {

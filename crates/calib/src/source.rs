@@ -568,7 +568,7 @@ pub struct SourceFile {
 impl SourceFile {
     /// Reads and checks a source file.
     pub fn load(path: &Path) -> Result<Self, CalibError> {
-        let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+        let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES)
             .map_err(|e| CalibError::file(path, e))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::parse(&text, &base, &path.display().to_string())

@@ -23,7 +23,7 @@ pub struct Region {
 /// `{"name", "x", "y", "width", "height"}` objects (`.json`), or TOML with
 /// `[[region]]` tables of the same keys (any other extension).
 pub fn load_regions(path: &std::path::Path) -> Result<Vec<Region>, CalibError> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES)
         .map_err(|e| CalibError::file(path, e))?;
     let is_json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let regions: Vec<Region> = if is_json {

@@ -9,7 +9,7 @@
 //!   ([`gloam_calib::io::decode_png_counts`]).
 //! - **FITS** (`frame-NNNNNN.fits`): one primary HDU per frame, BITPIX 16
 //!   with BZERO 32768 (unsigned counts, as they are), and a header with
-//!   the frame's settings ([`fits_frame_bytes`]).
+//!   the frame's settings ([`gloam_io::fits::fits_frame_bytes`]).
 //! - **TIFF** (`frames.tiff`): one 16-bit page per frame, the counts
 //!   scaled to 16 bits by left-bit replication as in the PNGs (viewers
 //!   ignore `MaxSampleValue`, so 12-bit counts as they are showed near
@@ -18,8 +18,6 @@
 //!
 //! Beside them every capture writes `frames-preview.png`, an 8-bit
 //! contact sheet of up to 16 frames picked evenly ([`ContactSheet`]).
-
-use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
@@ -81,295 +79,6 @@ pub struct FrameStorage {
     /// The page of `frames.tiff` (from 0).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub page: Option<u64>,
-}
-
-/// `v` (a `bits`-bit count) scaled to 16 bits by left-bit replication:
-/// the count's bits repeated down to the last bit, so 0 stays 0, the top
-/// code becomes 65 535, and `result >> (16 − bits)` is `v` again.
-pub fn replicate_to_16(v: u16, bits: u8) -> u16 {
-    let bits = u32::from(bits.clamp(1, 16));
-    let v = u32::from(v) & ((1 << bits) - 1);
-    let mut out = 0u32;
-    let mut filled = 0u32;
-    // At most 16 rounds (bits ≥ 1).
-    while filled < 16 {
-        let shift = 16i32 - (filled + bits) as i32;
-        out |= if shift >= 0 {
-            v << shift
-        } else {
-            v >> (-shift)
-        };
-        filled += bits;
-    }
-    out as u16
-}
-
-/// A 16-bit grey PNG of a frame's counts, and the shift that recovers
-/// them. With `bits` < 16 and every count below 2^bits, the samples are
-/// left-bit-replicated to 16 bits with `sBIT` = bits (shift 16 − bits);
-/// otherwise (16-bit cameras, or a device that sent counts beyond its
-/// declared depth) the counts are stored as they are, without `sBIT`
-/// (shift 0), so nothing is ever lost.
-pub fn png_frame_bytes(
-    width: u32,
-    height: u32,
-    bits: u8,
-    pixels: &[u16],
-) -> Result<(Vec<u8>, u8), OutputError> {
-    let (samples, shift) = scaled_to_16(bits, pixels);
-    let fits_bits = shift != 0;
-    let be: Vec<u8> = samples.iter().flat_map(|s| s.to_be_bytes()).collect();
-    let mut bytes = Vec::with_capacity(be.len() / 2 + 1024);
-    let enc_err = |e: png::EncodingError| OutputError::Encode {
-        path: PathBuf::from("frame PNG"),
-        source: Box::new(e),
-    };
-    {
-        let mut enc = png::Encoder::new(&mut bytes, width, height);
-        enc.set_color(png::ColorType::Grayscale);
-        enc.set_depth(png::BitDepth::Sixteen);
-        let note = if fits_bits {
-            format!(
-                "{bits}-bit counts left-bit-replicated to 16 bits (sBIT {bits}): count = sample >> {shift}"
-            )
-        } else {
-            "counts as they are (no scaling)".to_string()
-        };
-        enc.add_text_chunk("Comment".into(), note)
-            .map_err(enc_err)?;
-        enc.add_text_chunk(
-            "Software".into(),
-            format!("gloam {}", env!("CARGO_PKG_VERSION")),
-        )
-        .map_err(enc_err)?;
-        let mut w = enc.write_header().map_err(enc_err)?;
-        if fits_bits {
-            // sBIT must precede IDAT: declared right after the header.
-            w.write_chunk(png::chunk::sBIT, &[bits]).map_err(enc_err)?;
-        }
-        w.write_image_data(&be).map_err(enc_err)?;
-        w.finish().map_err(enc_err)?;
-    }
-    Ok((bytes, shift))
-}
-
-/// The 16-bit samples PNG and TIFF frames store for `bits`-bit counts,
-/// and the shift that recovers the counts: left-bit-replicated
-/// ([`replicate_to_16`], shift 16 − bits) when `bits` < 16 and every count
-/// is below 2^bits; otherwise the counts as they are (shift 0), so a
-/// device that sent counts beyond its declared depth loses nothing.
-pub fn scaled_to_16(bits: u8, pixels: &[u16]) -> (std::borrow::Cow<'_, [u16]>, u8) {
-    if (1..16).contains(&bits) && pixels.iter().all(|&p| p >> bits == 0) {
-        let s = pixels.iter().map(|&p| replicate_to_16(p, bits)).collect();
-        (std::borrow::Cow::Owned(s), 16 - bits)
-    } else {
-        (std::borrow::Cow::Borrowed(pixels), 0)
-    }
-}
-
-/// One FITS header value.
-#[derive(Clone, Debug, PartialEq)]
-pub enum FitsValue {
-    Bool(bool),
-    Int(i128),
-    Float(f64),
-    Str(String),
-}
-
-/// One 80-character header card: keyword (≤ 8 characters of A–Z, 0–9,
-/// `-`, `_`), value and comment.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FitsCard {
-    pub key: &'static str,
-    pub value: FitsValue,
-    pub comment: &'static str,
-}
-
-impl FitsCard {
-    pub fn new(key: &'static str, value: FitsValue, comment: &'static str) -> Self {
-        Self {
-            key,
-            value,
-            comment,
-        }
-    }
-
-    /// The card in the fixed format of the FITS standard (4.0, §4.2):
-    /// `= ` in columns 9–10, numbers and logicals right-justified to
-    /// column 30, strings quoted from column 11; printable ASCII only.
-    fn text(&self) -> String {
-        let value = match &self.value {
-            FitsValue::Bool(b) => format!("{:>20}", if *b { "T" } else { "F" }),
-            FitsValue::Int(i) => format!("{i:>20}"),
-            FitsValue::Float(x) => format!("{:>20}", fits_float(*x)),
-            FitsValue::Str(s) => {
-                // 68 characters fit between the quotes of one card; a
-                // quote is written twice, never split.
-                let mut clean = String::new();
-                for c in s.chars() {
-                    let c = if (' '..='~').contains(&c) { c } else { '?' };
-                    let add = if c == '\'' {
-                        "''".to_string()
-                    } else {
-                        c.to_string()
-                    };
-                    if clean.len() + add.len() > 68 {
-                        break;
-                    }
-                    clean.push_str(&add);
-                }
-                format!("'{clean:<8}'")
-            }
-        };
-        let mut card = format!("{:<8}= {value}", self.key);
-        // A comment that does not fit whole is left out, not cut.
-        if !self.comment.is_empty() && card.len() + 3 + self.comment.len() <= 80 {
-            card.push_str(" / ");
-            card.push_str(self.comment);
-        }
-        let mut card: String = card.chars().take(80).collect();
-        while card.len() < 80 {
-            card.push(' ');
-        }
-        card
-    }
-}
-
-/// A float as FITS writes it: Rust's shortest round-trip digits with an
-/// upper-case exponent and a decimal point (`2.0E1`); NaN and infinities,
-/// which FITS has no literal for, are written as strings by the caller.
-fn fits_float(x: f64) -> String {
-    let s = format!("{x:E}");
-    match s.split_once('E') {
-        Some((m, e)) if !m.contains('.') => format!("{m}.0E{e}"),
-        _ => s,
-    }
-}
-
-/// The FITS block: headers and data are padded to multiples of it.
-pub const FITS_BLOCK: usize = 2880;
-
-/// A FITS file of one frame: a primary HDU of `width × height` unsigned
-/// 16-bit counts (BITPIX 16, BZERO 32768: stored value = count − 32768,
-/// big-endian), row 0 of `pixels` first, with `cards` after the mandatory
-/// keywords. Non-finite floats are written as strings.
-pub fn fits_frame_bytes(width: u32, height: u32, pixels: &[u16], cards: &[FitsCard]) -> Vec<u8> {
-    let mandatory = [
-        FitsCard::new("SIMPLE", FitsValue::Bool(true), "conforms to FITS"),
-        FitsCard::new("BITPIX", FitsValue::Int(16), "16-bit integers"),
-        FitsCard::new("NAXIS", FitsValue::Int(2), "an image"),
-        FitsCard::new("NAXIS1", FitsValue::Int(width.into()), "columns"),
-        FitsCard::new("NAXIS2", FitsValue::Int(height.into()), "rows"),
-        FitsCard::new("BZERO", FitsValue::Int(32768), "unsigned 16-bit counts"),
-        FitsCard::new("BSCALE", FitsValue::Int(1), ""),
-    ];
-    let mut out = Vec::with_capacity(FITS_BLOCK * 2 + pixels.len() * 2);
-    for c in mandatory.iter().chain(cards) {
-        let c = match &c.value {
-            FitsValue::Float(x) if !x.is_finite() => {
-                FitsCard::new(c.key, FitsValue::Str(x.to_string()), c.comment)
-            }
-            _ => c.clone(),
-        };
-        out.extend_from_slice(c.text().as_bytes());
-    }
-    out.extend_from_slice(format!("{:<80}", "END").as_bytes());
-    pad_to_block(&mut out, b' ');
-    for &p in pixels {
-        // count − 32768 as a two's-complement i16 is the count with its
-        // top bit flipped.
-        out.extend_from_slice(&(p ^ 0x8000).to_be_bytes());
-    }
-    pad_to_block(&mut out, 0);
-    out
-}
-
-fn pad_to_block(v: &mut Vec<u8>, fill: u8) {
-    let n = v.len().div_ceil(FITS_BLOCK) * FITS_BLOCK;
-    v.resize(n, fill);
-}
-
-/// Classic TIFF addresses 4 GiB; a stack that would pass it is refused
-/// (use PNG or FITS frames for longer captures).
-pub const MAX_TIFF_STACK_BYTES: u64 = (4 << 30) - (64 << 20);
-
-/// `frames.tiff`, one 16-bit page per frame, appended as frames come: the
-/// file is a complete TIFF after every page (the encoder links each new
-/// page into the chain as it finishes it). Counts are stored as
-/// [`scaled_to_16`] scales them, so viewers show a frame at its true
-/// brightness; each page's `ImageDescription` states the scale.
-pub struct TiffStack {
-    path: PathBuf,
-    encoder: tiff::encoder::TiffEncoder<std::fs::File>,
-    bytes: u64,
-    pages: u64,
-}
-
-impl TiffStack {
-    pub fn create(path: &Path) -> Result<Self, OutputError> {
-        let file = std::fs::File::create(path).map_err(|e| encode_err(path, e))?;
-        let encoder = tiff::encoder::TiffEncoder::new(file).map_err(|e| encode_err(path, e))?;
-        Ok(Self {
-            path: path.to_path_buf(),
-            encoder,
-            bytes: 8,
-            pages: 0,
-        })
-    }
-
-    /// Appends one page; returns its index and the shift that recovers
-    /// the counts from its samples (count = sample >> shift).
-    pub fn append(
-        &mut self,
-        width: u32,
-        height: u32,
-        bits: u8,
-        pixels: &[u16],
-    ) -> Result<(u64, u8), OutputError> {
-        let page_bytes = pixels.len() as u64 * 2 + 1024;
-        if self.bytes + page_bytes > MAX_TIFF_STACK_BYTES {
-            return Err(encode_err(
-                &self.path,
-                format!(
-                    "page {} would take the TIFF past 4 GiB; use --frame-format png or fits",
-                    self.pages
-                ),
-            ));
-        }
-        let path = &self.path;
-        let mut img = self
-            .encoder
-            .new_image::<tiff::encoder::colortype::Gray16>(width, height)
-            .map_err(|e| encode_err(path, e))?;
-        let (samples, shift) = scaled_to_16(bits, pixels);
-        let note = if shift != 0 {
-            format!("{bits}-bit counts left-bit-replicated to 16 bits: count = sample >> {shift}")
-        } else {
-            "counts as they are (no scaling)".to_string()
-        };
-        let enc = img.encoder();
-        // The samples span 0..=65 535 either way.
-        enc.write_tag(tiff::tags::Tag::MaxSampleValue, u16::MAX)
-            .and_then(|()| enc.write_tag(tiff::tags::Tag::ImageDescription, note.as_str()))
-            .and_then(|()| {
-                enc.write_tag(
-                    tiff::tags::Tag::Software,
-                    concat!("gloam ", env!("CARGO_PKG_VERSION")),
-                )
-            })
-            .map_err(|e| encode_err(path, e))?;
-        img.write_data(&samples).map_err(|e| encode_err(path, e))?;
-        self.bytes += page_bytes;
-        self.pages += 1;
-        Ok((self.pages - 1, shift))
-    }
-}
-
-fn encode_err(path: &Path, e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> OutputError {
-    OutputError::Encode {
-        path: path.to_path_buf(),
-        source: e.into(),
-    }
 }
 
 /// The longest side of one frame in the contact sheet, pixels (larger
@@ -480,13 +189,9 @@ impl ContactSheet {
                 sheet[at..at + t.width as usize].copy_from_slice(src);
             }
         }
-        let img = image::GrayImage::from_raw(w, h, sheet).ok_or(OutputError::PreviewSize)?;
-        let mut bytes = Vec::new();
-        img.write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .map_err(OutputError::Png)?;
+        let bytes = gloam_io::png::grey8_png(w, h, sheet)
+            .ok_or(OutputError::PreviewSize)?
+            .map_err(OutputError::Png)?;
         Ok(Some(bytes))
     }
 }
@@ -542,29 +247,9 @@ fn tile(index: u64, width: u32, height: u32, pixels: &[u16], black_dn: f64, clip
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn replication_repeats_the_bits_and_shifts_back_exactly() {
-        // Closed forms: 8 bits → v·257; 12 bits → v·16 + v>>8; 16 → v.
-        for v in 0..=255u16 {
-            assert_eq!(replicate_to_16(v, 8), v * 257);
-        }
-        for v in 0..4096u16 {
-            let r = replicate_to_16(v, 12);
-            assert_eq!(r, (v << 4) | (v >> 8));
-            assert_eq!(r >> 4, v);
-        }
-        assert_eq!(replicate_to_16(0x2AB, 10), (0x2AB << 6) | (0x2AB >> 4));
-        assert_eq!(replicate_to_16(1, 1), 0xFFFF);
-        assert_eq!(replicate_to_16(5, 3), 0b1011_0110_1101_1011);
-        assert_eq!(replicate_to_16(54_321, 16), 54_321);
-        // The top code is white, zero black.
-        for bits in 1..=16u8 {
-            let top = ((1u32 << bits) - 1) as u16;
-            assert_eq!(replicate_to_16(top, bits), u16::MAX);
-            assert_eq!(replicate_to_16(0, bits), 0);
-        }
-    }
+    use gloam_io::fits::*;
+    use gloam_io::png::*;
+    use gloam_io::tiff::*;
 
     fn counts_of(bits: u8, n: usize) -> Vec<u16> {
         // Every code's neighbourhood: 0, the top code and a spread between.
@@ -650,74 +335,6 @@ mod tests {
         assert_eq!(shift, 0);
         let back = gloam_calib::io::decode_png_counts(&bytes).unwrap();
         assert_eq!((back.bits, back.counts), (16, px.to_vec()));
-    }
-
-    #[test]
-    fn fits_cards_follow_the_fixed_format() {
-        let c = FitsCard::new("GAIN", FitsValue::Float(20.0), "tube gain");
-        let t = c.text();
-        assert_eq!(t.len(), 80);
-        assert_eq!(&t[..10], "GAIN    = ");
-        assert_eq!(&t[10..30], format!("{:>20}", "2.0E1"));
-        assert_eq!(&t[30..44], " / tube gain  ");
-        let s = FitsCard::new("CAMERA", FitsValue::Str("it's".into()), "").text();
-        assert_eq!(s.trim_end(), "CAMERA  = 'it''s   '");
-        let long = FitsCard::new("INPUT1", FitsValue::Str("'".repeat(50)), "x").text();
-        assert_eq!(long.len(), 80);
-        assert_eq!(long.trim_end(), format!("INPUT1  = '{}'", "''".repeat(34)));
-        assert_eq!(fits_float(1.25e-5), "1.25E-5");
-        assert_eq!(fits_float(0.0), "0.0E0");
-        assert_eq!(
-            FitsCard::new("AGC", FitsValue::Bool(false), "").text()[10..30],
-            format!("{:>20}", "F")
-        );
-    }
-
-    /// An independent reading of the header: 80-column cards up to END.
-    fn header(bytes: &[u8]) -> Vec<(String, String)> {
-        let mut out = Vec::new();
-        for card in bytes.chunks(80) {
-            let card = std::str::from_utf8(card).unwrap();
-            if card.starts_with("END ") {
-                break;
-            }
-            let (k, rest) = card.split_at(8);
-            let v = rest.strip_prefix("= ").unwrap_or(rest);
-            let v = if v.trim_start().starts_with('\'') {
-                v.trim().split('\'').nth(1).unwrap().trim_end().to_string()
-            } else {
-                v.split(" /").next().unwrap().trim().to_string()
-            };
-            out.push((k.trim().to_string(), v));
-        }
-        out
-    }
-
-    #[test]
-    fn a_fits_frame_is_blocked_and_its_counts_come_back_through_bzero() {
-        let px: Vec<u16> = vec![0, 1, 4095, 32768, 65535, 7];
-        let cards = [FitsCard::new("EXPTIME", FitsValue::Float(0.04), "s")];
-        let b = fits_frame_bytes(3, 2, &px, &cards);
-        assert_eq!(b.len() % FITS_BLOCK, 0);
-        assert_eq!(b.len(), 2 * FITS_BLOCK);
-        let h = header(&b);
-        let get = |k: &str| h.iter().find(|(key, _)| key == k).unwrap().1.clone();
-        assert_eq!(h[0], ("SIMPLE".into(), "T".into()));
-        assert_eq!(
-            (get("BITPIX"), get("NAXIS"), get("NAXIS1"), get("NAXIS2")),
-            ("16".into(), "2".into(), "3".into(), "2".into())
-        );
-        assert_eq!(get("BZERO"), "32768");
-        assert_eq!(get("EXPTIME").parse::<f64>().unwrap(), 0.04);
-        // The data: big-endian i16 from the second block, + BZERO.
-        let data = &b[FITS_BLOCK..];
-        let back: Vec<u16> = data
-            .chunks(2)
-            .take(6)
-            .map(|c| (i32::from(i16::from_be_bytes([c[0], c[1]])) + 32768) as u16)
-            .collect();
-        assert_eq!(back, px);
-        assert!(data[12..].iter().all(|&z| z == 0));
     }
 
     /// gloam's readers (`calibrate apply`, `agc --sequence`) take back

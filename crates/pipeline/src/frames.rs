@@ -11,11 +11,11 @@ use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
-use crate::frame_files::{
-    ContactSheet, FitsCard, FitsValue, FrameFormat, FrameStorage, PREVIEW, TIFF_STACK, TiffStack,
-    fits_frame_bytes, png_frame_bytes,
-};
+use crate::frame_files::{ContactSheet, FrameFormat, FrameStorage, PREVIEW, TIFF_STACK};
 use crate::output::{OutputError, write_atomic};
+use gloam_io::fits::{FitsCard, FitsValue, fits_frame_bytes};
+use gloam_io::png::png_frame_bytes;
+use gloam_io::tiff::TiffStack;
 
 /// One line of `frames.jsonl`.
 #[derive(Clone, Debug, Serialize)]
@@ -197,6 +197,12 @@ pub enum FrameLogError {
     Encode(#[source] serde_json::Error),
     #[error(transparent)]
     Frame(#[from] OutputError),
+}
+
+impl From<gloam_io::EncodeError> for FrameLogError {
+    fn from(e: gloam_io::EncodeError) -> Self {
+        FrameLogError::Frame(e.into())
+    }
 }
 
 /// Appends records to `frames.jsonl` as frames are written, so an
@@ -605,9 +611,9 @@ pub enum CaptureError {
 fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
     let path = out.join("report.json");
     // The report is this run's output, not an input.
-    let Ok(text) = gloam_spectra::input::unrecorded(|| {
-        gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-    }) else {
+    let Ok(text) =
+        gloam_io::unrecorded(|| gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES))
+    else {
         return Ok(());
     };
     let mut report: serde_json::Value =

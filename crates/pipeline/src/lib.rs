@@ -1,14 +1,5 @@
 #![doc = include_str!("../README.md")]
 
-/// `eprintln!` that never panics (std's does when stderr is full or
-/// closed): the message is lost, the run is not.
-macro_rules! eprintln {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($t)*);
-    }};
-}
-
 pub mod camera_goal;
 #[cfg(feature = "cli")]
 pub mod cli;
@@ -18,7 +9,6 @@ pub mod fit;
 pub mod frame_files;
 pub mod frames;
 pub mod output;
-pub mod output_set;
 pub mod provenance;
 pub mod render;
 pub mod request;
@@ -32,7 +22,6 @@ pub use frames::{
     CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameContext,
     FrameLog, FrameRecord, FrameWriter, check_options,
 };
-pub use output_set::OutputSet;
 pub use provenance::Provenance;
 pub use render::{
     DEFAULT_TARGET_ERROR, Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs,

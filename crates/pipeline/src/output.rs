@@ -10,9 +10,8 @@ pub enum OutputError {
     #[error("writing {}", path.display())]
     Write {
         path: PathBuf,
-        /// Boxed: the calibration error is large, this one travels far.
         #[source]
-        source: Box<gloam_calib::CalibError>,
+        source: gloam_io::FileError,
     },
     #[error("encoding {}", path.display())]
     Encode {
@@ -25,7 +24,7 @@ pub enum OutputError {
     #[error("preview buffer size")]
     PreviewSize,
     #[error(transparent)]
-    Tiff(Box<gloam_calib::CalibError>),
+    Tiff(gloam_io::FileError),
     #[error("reading {}", path.display())]
     Read {
         path: PathBuf,
@@ -40,13 +39,22 @@ pub enum OutputError {
     },
 }
 
+impl From<gloam_io::EncodeError> for OutputError {
+    fn from(e: gloam_io::EncodeError) -> Self {
+        OutputError::Encode {
+            path: e.path,
+            source: e.source,
+        }
+    }
+}
+
 /// Writes `bytes` to `path` atomically — the project's one atomic writer,
-/// [`gloam_calib::report::write_bytes`]: a uniquely named temporary file in
-/// the same directory, fsynced, then renamed over the target.
+/// [`gloam_io::write_atomic`]: a uniquely named temporary file in the same
+/// directory, fsynced, then renamed over the target.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    gloam_calib::report::write_bytes(path, bytes).map_err(|source| OutputError::Write {
+    gloam_io::write_atomic(path, bytes).map_err(|source| OutputError::Write {
         path: path.to_path_buf(),
-        source: Box::new(source),
+        source,
     })
 }
 
@@ -66,15 +74,15 @@ pub fn write_atomic_with(
 
 /// A 16-bit greyscale PNG of a frame's row-major `bits`-bit counts,
 /// scaled to the full depth with `sBIT` declared so viewers show it
-/// (see [`crate::frame_files::png_frame_bytes`]); gloam's readers return
-/// the exact counts.
+/// (see [`gloam_io::png::png_frame_bytes`]); gloam's readers return the
+/// exact counts.
 pub fn png16_bytes(
     width: u32,
     height: u32,
     bits: u8,
     pixels: &[u16],
 ) -> Result<Vec<u8>, OutputError> {
-    Ok(crate::frame_files::png_frame_bytes(width, height, bits, pixels)?.0)
+    Ok(gloam_io::png::png_frame_bytes(width, height, bits, pixels)?.0)
 }
 
 /// Float32 TIFF, one page per band.
@@ -85,45 +93,18 @@ pub fn write_tiff(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError
         .map(|band| band.iter().map(|&v| v as f32).collect())
         .collect();
     let pages: Vec<&[f32]> = pages.iter().map(Vec::as_slice).collect();
-    gloam_calib::io::write_tiff_f32_pages(path, w, h, &pages)
-        .map_err(|e| OutputError::Tiff(Box::new(e)))
+    gloam_io::tiff::write_f32_pages(path, w, h, &pages, None).map_err(OutputError::Tiff)
 }
 
-/// NPY, float64, band × row × column.
-/// Any-dimensional float64 array as `.npy` (the `--layers` stacks).
-pub fn write_npy_nd<D: ndarray::Dimension>(
-    path: &Path,
-    a: &ndarray::Array<f64, D>,
-) -> Result<(), OutputError> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        a.write_npy(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
-}
-
-pub fn write_npy(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputError> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        radiance.write_npy(&mut w)?;
-        // Flush here: a BufWriter dropped with unwritten data loses the error.
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
-}
-
-/// NPY, uint32, row × column.
-pub fn write_npy_u32(path: &Path, a: &ndarray::Array2<u32>) -> Result<(), OutputError> {
-    use ndarray_npy::WriteNpyExt;
-    write_atomic_with(path, |f| {
-        let mut w = std::io::BufWriter::new(f);
-        a.write_npy(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        Ok(())
-    })
+/// Any array as `.npy` ([`gloam_io::npy::write_npy`]): radiance (float64,
+/// band × row × column), samples per pixel (uint32, row × column), the
+/// `--layers` stacks.
+pub fn write_npy<A, D>(path: &Path, a: &ndarray::Array<A, D>) -> Result<(), OutputError>
+where
+    A: ndarray_npy::WritableElement,
+    D: ndarray::Dimension,
+{
+    write_atomic_with(path, |f| Ok(gloam_io::npy::write_npy(f, a)?))
 }
 
 /// The preview's tone map: an asinh stretch around the scene's median
@@ -176,10 +157,10 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputEr
     let img = radiance.index_axis(ndarray::Axis(0), 0);
     let tone = ToneMap::of(img.iter().copied());
     let pixels: Vec<u8> = img.iter().map(|&v| tone.grey(v)).collect();
-    let gray =
-        image::GrayImage::from_raw(w as u32, h as u32, pixels).ok_or(OutputError::PreviewSize)?;
+    let png =
+        gloam_io::png::grey8_png(w as u32, h as u32, pixels).ok_or(OutputError::PreviewSize)?;
     write_atomic_with(path, |f| {
-        gray.write_to(&mut std::io::Cursor::new(f), image::ImageFormat::Png)?;
+        f.extend(png?);
         Ok(())
     })
 }
@@ -188,13 +169,11 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputEr
 /// calibration file written by a library that does not know the run).
 pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> Result<(), OutputError> {
     // The file is this run's output, not an input.
-    let text = gloam_spectra::input::unrecorded(|| {
-        gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-    })
-    .map_err(|source| OutputError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = gloam_io::unrecorded(|| gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES))
+        .map_err(|source| OutputError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let json_err = |source| OutputError::Json {
         path: path.to_path_buf(),
         source,

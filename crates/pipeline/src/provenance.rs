@@ -1,22 +1,14 @@
 //! Where an output came from: the gloam version and commit, the command
 //! line, the UTC time, and every input file with its SHA-256 — those named
 //! on the command line and every file the run read through
-//! `gloam_spectra::input` (scene, OBJ, spectra, instance CSVs, sensor
+//! `gloam_io` (scene, OBJ, spectra, instance CSVs, sensor
 //! files, LUTs, regions, sweep files, calibration sources, tiles) —
 //! recorded in every report, calibration file and manifest.
 
 use std::path::Path;
 
+use gloam_io::{InputFile, hash_file};
 use serde::Serialize;
-use sha2::{Digest, Sha256};
-
-/// An input file and its content hash.
-#[derive(Clone, Debug, Serialize)]
-pub struct InputFile {
-    pub path: String,
-    pub bytes: u64,
-    pub sha256: String,
-}
 
 /// The provenance block of an output.
 #[derive(Clone, Debug, Serialize)]
@@ -32,7 +24,7 @@ pub struct Provenance {
     /// value of a `--flag=VALUE` or `KEY=VALUE` word), then every other
     /// file the run read (see [`Provenance::add_inputs_read`]), hashed.
     pub inputs: Vec<InputFile>,
-    /// Files read past `gloam_spectra::input::MAX_RECORDED_READS`, not
+    /// Files read past `gloam_io::MAX_RECORDED_READS`, not
     /// listed.
     #[serde(skip_serializing_if = "is_zero")]
     pub inputs_not_listed: usize,
@@ -49,10 +41,6 @@ pub const VERSION_WITH_COMMIT: &str = concat!(
     env!("GLOAM_GIT_COMMIT"),
     ")"
 );
-
-/// Files larger than this are listed without a hash (a multi-GB frame
-/// stack should not stall a run's start).
-pub const MAX_HASHED_BYTES: u64 = 1 << 30;
 
 impl Provenance {
     /// The provenance of this process's run.
@@ -112,7 +100,7 @@ impl Provenance {
         }
     }
 
-    /// Adds every file read so far through `gloam_spectra::input` (since
+    /// Adds every file read so far through `gloam_io` (since
     /// `record_reads`) that is not listed yet — the same file reached by
     /// another path counts once. A file read whole is listed with the hash
     /// of the bytes the run read; a streamed one is hashed now.
@@ -120,7 +108,7 @@ impl Provenance {
         let canon = |p: &str| std::fs::canonicalize(p).unwrap_or_else(|_| p.into());
         let mut seen: std::collections::HashSet<std::path::PathBuf> =
             self.inputs.iter().map(|i| canon(&i.path)).collect();
-        for r in gloam_spectra::input::reads() {
+        for r in gloam_io::reads() {
             let c = std::fs::canonicalize(&r.path).unwrap_or_else(|_| r.path.clone());
             if !seen.insert(c) {
                 continue;
@@ -135,51 +123,19 @@ impl Provenance {
             };
             self.inputs.extend(f);
         }
-        self.inputs_not_listed = gloam_spectra::input::reads_not_recorded();
+        self.inputs_not_listed = gloam_io::reads_not_recorded();
     }
 }
 
-/// `path`'s size and SHA-256 (hex), or None when it cannot be read.
-pub fn hash_file(path: &Path) -> Option<InputFile> {
-    use std::io::Read;
-    let meta = std::fs::metadata(path).ok()?;
-    let mut sha256 = String::new();
-    // Regular files only: /dev/zero has length 0 and never ends.
-    if meta.is_file() && meta.len() <= MAX_HASHED_BYTES {
-        let mut f = gloam_spectra::input::unrecorded(|| {
-            gloam_spectra::input::open_bounded(path, MAX_HASHED_BYTES)
-        })
-        .ok()?;
-        let mut h = Sha256::new();
-        let mut buf = vec![0u8; 1 << 16];
-        loop {
-            let n = f.read(&mut buf).ok()?;
-            if n == 0 {
-                break;
-            }
-            h.update(&buf[..n]);
-        }
-        sha256 = hex(&h.finalize());
+impl gloam_io::ManifestProvenance for Provenance {
+    fn add_inputs_read(&mut self) {
+        Provenance::add_inputs_read(self);
     }
-    Some(InputFile {
-        path: path.display().to_string(),
-        bytes: meta.len(),
-        sha256,
-    })
 }
 
 /// SHA-256 of bytes, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    gloam_spectra::input::sha256_hex(bytes)
-}
-
-fn hex(b: &[u8]) -> String {
-    use std::fmt::Write as _;
-    b.iter()
-        .fold(String::with_capacity(2 * b.len()), |mut s, x| {
-            let _ = write!(s, "{x:02x}");
-            s
-        })
+    gloam_io::sha256_hex(bytes)
 }
 
 /// The current time, ISO-8601 UTC to the millisecond.

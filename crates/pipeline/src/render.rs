@@ -66,7 +66,7 @@ pub enum RenderError {
     #[error(transparent)]
     CameraGoal(#[from] gloam_sensor::ConfigError),
     #[error(transparent)]
-    OutputSet(#[from] crate::output_set::OutputSetError),
+    OutputSet(#[from] gloam_io::OutputSetError),
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
     #[error("encoding report.json")]
@@ -666,18 +666,18 @@ impl Rendered {
     /// `radiance.tiff`/`.npy`, `stderr.tiff`/`.npy`, `spp.npy` and
     /// `preview.png` (see [`crate::RenderReport`]'s `outputs`).
     pub fn write_images(&self, dir: &Path) -> Result<(), crate::output::OutputError> {
-        use crate::output::{write_npy, write_npy_u32, write_preview, write_tiff};
+        use crate::output::{write_npy, write_preview, write_tiff};
         let r = &self.radiance;
         write_tiff(&dir.join("radiance.tiff"), &r.radiance)?;
         write_npy(&dir.join("radiance.npy"), &r.radiance)?;
         write_tiff(&dir.join("stderr.tiff"), &r.std_error)?;
         write_npy(&dir.join("stderr.npy"), &r.std_error)?;
-        write_npy_u32(&dir.join("spp.npy"), &r.spp)?;
+        write_npy(&dir.join("spp.npy"), &r.spp)?;
         write_preview(&dir.join("preview.png"), &r.radiance)?;
         if let Some(layers) = &self.layers {
             let (radiance, std_error) = layers.stacked();
-            crate::output::write_npy_nd(&dir.join("layers.npy"), &radiance)?;
-            crate::output::write_npy_nd(&dir.join("layers_stderr.npy"), &std_error)?;
+            crate::output::write_npy(&dir.join("layers.npy"), &radiance)?;
+            crate::output::write_npy(&dir.join("layers_stderr.npy"), &std_error)?;
         }
         Ok(())
     }

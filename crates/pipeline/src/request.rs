@@ -24,7 +24,8 @@ use crate::frames::{FrameCapture, scene_utc};
 use crate::output::write_atomic;
 use crate::render::{RenderError, RenderJob, Rendered, SettingArgs, TargetErrorSource, camera_of};
 use crate::tile::{TileSpec, write_tile_info};
-use crate::{FrameFormat, OutputSet, Provenance};
+use crate::{FrameFormat, Provenance};
+use gloam_io::OutputSet;
 
 /// The scene of a request: a file to read, or one a front end holds
 /// already (Python's `Scene`).

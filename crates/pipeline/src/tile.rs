@@ -109,7 +109,7 @@ pub fn write_tile_info(
         height,
         band_names: out.band_names.clone(),
         scene: scene.display().to_string(),
-        scene_sha256: crate::provenance::hash_file(scene).map(|f| f.sha256),
+        scene_sha256: gloam_io::hash_file(scene).map(|f| f.sha256),
         settings: {
             // The thread count does not change the image.
             let mut s = serde_json::to_value(&out.settings).map_err(encode)?;

@@ -1240,9 +1240,8 @@ fn object(
             ignore_lines: false,
             ..Default::default()
         };
-        let bytes =
-            gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_MESH_FILE_BYTES)
-                .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
+        let bytes = gloam_io::read_bounded(&p, gloam_io::MAX_MESH_FILE_BYTES)
+            .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
         // The face lines bound the facets: refuse an oversized mesh (or
         // placement count) before the OBJ parser allocates for it.
         budget(count_obj_faces(&bytes), &limit_at("obj"))?;

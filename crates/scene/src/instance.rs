@@ -282,11 +282,12 @@ pub(crate) fn read_placements_csv(
     path: &Path,
     max_coordinate: f64,
 ) -> Result<Vec<Placement>, PlacementsError> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| PlacementsError::Read {
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        PlacementsError::Read {
             path: path.to_path_buf(),
             source,
-        })?;
+        }
+    })?;
     parse_placements_csv(&text, path, max_coordinate, MAX_INSTANCES)
 }
 
@@ -400,7 +401,7 @@ pub fn available_memory_bytes() -> Option<u64> {
         kb.checked_mul(1024)
     });
     let read_u64 = |p: &str| -> Option<u64> {
-        gloam_spectra::input::read_text(std::path::Path::new(p), 1 << 16)
+        gloam_io::read_text(std::path::Path::new(p), 1 << 16)
             .ok()?
             .trim()
             .parse()

@@ -29,11 +29,12 @@ pub use instance::{
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
 /// OBJ files, sensor files) are resolved against the scene file's directory.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| SceneError::Io {
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        SceneError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
+        }
+    })?;
     parse_str(&text, path)
 }
 

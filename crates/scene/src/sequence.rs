@@ -214,11 +214,12 @@ struct RawTrack {
 /// Reads and checks a sequence file (bounded read, errors as
 /// `file:line: field: message`).
 pub fn load_sequence(path: &Path) -> Result<Sequence, SceneError> {
-    let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| SceneError::Io {
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        SceneError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
+        }
+    })?;
     parse_sequence(&text, path)
 }
 

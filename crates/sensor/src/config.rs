@@ -520,9 +520,9 @@ impl SensorConfig {
         if let Some(r) = Self::preset(name_or_path) {
             return r;
         }
-        match gloam_spectra::input::read_text(
+        match gloam_io::read_text(
             std::path::Path::new(name_or_path),
-            gloam_spectra::input::MAX_TEXT_FILE_BYTES,
+            gloam_io::MAX_TEXT_FILE_BYTES,
         ) {
             Ok(text) => Self::from_toml_str(&text, name_or_path),
             Err(e) => Err(ConfigError::Unknown {

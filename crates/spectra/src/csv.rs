@@ -28,13 +28,12 @@ use crate::spectrum::{EmissionLine, Spectrum};
 
 /// Reads a spectrum from a CSV file (see the module docs for the format).
 pub fn read_csv(path: &Path) -> Result<Spectrum, CsvError> {
-    let text =
-        crate::input::read_text(path, crate::input::MAX_TEXT_FILE_BYTES).map_err(|source| {
-            CsvError::Io {
-                path: path.to_path_buf(),
-                source,
-            }
-        })?;
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        CsvError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    })?;
     parse_csv(&text, path)
 }
 

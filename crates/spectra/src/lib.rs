@@ -5,7 +5,6 @@ pub mod band;
 pub mod cli;
 mod csv;
 mod error;
-pub mod input;
 pub mod library;
 mod radiometry;
 mod spectrum;

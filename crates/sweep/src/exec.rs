@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use gloam_grabber::GrabError;
 use gloam_pipeline::frames::FrameWriter;
-use gloam_pipeline::output::{write_npy, write_npy_u32, write_preview, write_tiff};
+use gloam_pipeline::output::{write_npy, write_preview, write_tiff};
 use gloam_pipeline::{FrameCapture, FrameRecord};
 use gloam_simcam::FrameExposureExt;
 use gloam_trace::RenderOutput;
@@ -117,7 +117,7 @@ fn write_camera_target(
     out: &Path,
 ) -> Result<(), TaskError> {
     write_npy(&out.join("radiance.npy"), &r.out.radiance)?;
-    write_npy_u32(&out.join("spp.npy"), &r.out.spp)?;
+    write_npy(&out.join("spp.npy"), &r.out.spp)?;
     let mut t = target.clone();
     if let Some(o) = t.as_object_mut() {
         o.remove("trace_seconds");
@@ -196,7 +196,7 @@ fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> Result<Figures, Task
     write_npy(&out.join("radiance.npy"), &o.radiance)?;
     write_tiff(&out.join("radiance.tiff"), &o.radiance)?;
     write_npy(&out.join("stderr.npy"), &o.std_error)?;
-    write_npy_u32(&out.join("spp.npy"), &o.spp)?;
+    write_npy(&out.join("spp.npy"), &o.spp)?;
     write_preview(&out.join("preview.png"), &o.radiance)?;
     if let Some(t) = task.tile() {
         let label = task

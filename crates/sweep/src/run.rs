@@ -268,9 +268,8 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 pub(crate) fn sha256_file(path: &Path) -> Result<String, SweepError> {
-    let mut f =
-        gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-            .map_err(io("reading", path))?;
+    let mut f = gloam_io::open_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+        .map_err(io("reading", path))?;
     let mut h = Sha256::new();
     std::io::copy(&mut f, &mut h).map_err(io("reading", path))?;
     Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
@@ -292,9 +291,8 @@ impl SweepDir {
         command_line: &[String],
         provenance: serde_json::Value,
     ) -> Result<Self, SweepError> {
-        let text =
-            gloam_spectra::input::read_text(sweep_file, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .map_err(io("reading", sweep_file))?;
+        let text = gloam_io::read_text(sweep_file, gloam_io::MAX_TEXT_FILE_BYTES)
+            .map_err(io("reading", sweep_file))?;
         let base_dir = sweep_file
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -347,20 +345,21 @@ impl SweepDir {
     /// Opens a planned sweep directory.
     pub fn open(dir: &Path) -> Result<Self, SweepError> {
         let pp = dir.join("plan.json");
-        let text = gloam_spectra::input::read_text(&pp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(|source| SweepError::NotASweep {
+        let text = gloam_io::read_text(&pp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+            SweepError::NotASweep {
                 plan: pp.clone(),
                 dir: dir.to_path_buf(),
                 source,
-            })?;
+            }
+        })?;
         let plan: PlanFile = serde_json::from_str(&text).map_err(json(&pp))?;
         if plan.format != PLAN_FORMAT {
             let (path, found) = (pp, plan.format);
             return Err(SweepError::Format { path, found });
         }
         let sp = dir.join("sweep.toml");
-        let text = gloam_spectra::input::read_text(&sp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(io("reading", &sp))?;
+        let text =
+            gloam_io::read_text(&sp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(io("reading", &sp))?;
         if sha256_hex(text.as_bytes()) != plan.sweep_sha256 {
             return Err(SweepError::Changed(sp));
         }
@@ -382,8 +381,8 @@ impl SweepDir {
 
     pub fn plan(&self) -> Result<PlanFile, SweepError> {
         let pp = self.dir.join("plan.json");
-        let text = gloam_spectra::input::read_text(&pp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(io("reading", &pp))?;
+        let text =
+            gloam_io::read_text(&pp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(io("reading", &pp))?;
         serde_json::from_str(&text).map_err(json(&pp))
     }
 
@@ -394,10 +393,9 @@ impl SweepDir {
     /// The task's record, if it has one that belongs to this task.
     pub fn record(&self, index: usize) -> Option<TaskRecord> {
         let p = self.task_dir(index).join(RECORD_FILE);
-        let r: TaskRecord = serde_json::from_str(
-            &gloam_spectra::input::read_text(&p, gloam_spectra::input::MAX_TEXT_FILE_BYTES).ok()?,
-        )
-        .ok()?;
+        let r: TaskRecord =
+            serde_json::from_str(&gloam_io::read_text(&p, gloam_io::MAX_TEXT_FILE_BYTES).ok()?)
+                .ok()?;
         (r.id == self.sweep.tasks.get(index)?.id).then_some(r)
     }
 
@@ -437,7 +435,7 @@ impl SweepDir {
         {
             return h.clone();
         }
-        let h = gloam_spectra::input::unrecorded(|| sha256_file(Path::new(path))).ok();
+        let h = gloam_io::unrecorded(|| sha256_file(Path::new(path))).ok();
         if let Ok(mut c) = self.input_hashes.lock() {
             c.insert(path.to_string(), h.clone());
         }
@@ -464,8 +462,7 @@ impl SweepDir {
         let rerun_because = self.why_rerun(index);
         let task = &self.sweep.tasks[index];
         let t0 = Instant::now();
-        let (shared, read) =
-            gloam_spectra::input::collect_reads(|| exec.prepare(&self.sweep, task));
+        let (shared, read) = gloam_io::collect_reads(|| exec.prepare(&self.sweep, task));
         let o = match shared {
             Ok(s) => self.run_prepared(exec, index, Ok(&s), &read, t0),
             Err(e) => self.run_prepared::<E>(exec, index, Err(&chain(&*e)), &read, t0),
@@ -511,7 +508,7 @@ impl SweepDir {
             return Ok(outcomes);
         };
         let t0 = Instant::now();
-        let (shared, read) = gloam_spectra::input::collect_reads(|| {
+        let (shared, read) = gloam_io::collect_reads(|| {
             exec.prepare(&self.sweep, &self.sweep.tasks[first])
                 .map_err(|e| chain(&*e))
         });
@@ -578,7 +575,7 @@ impl SweepDir {
         exec: &E,
         index: usize,
         shared: Result<&E::Shared, &str>,
-        prepare_read: &[gloam_spectra::input::FileRead],
+        prepare_read: &[gloam_io::FileRead],
         t0: Instant,
     ) -> Result<Outcome, SweepError> {
         let task = &self.sweep.tasks[index];
@@ -588,7 +585,7 @@ impl SweepDir {
             .prefix(&format!(".tmp-{index:05}-"))
             .tempdir_in(&tasks_dir)
             .map_err(io("creating a temporary directory in", &tasks_dir))?;
-        let (result, run_read) = gloam_spectra::input::collect_reads(|| match shared {
+        let (result, run_read) = gloam_io::collect_reads(|| match shared {
             Ok(s) => exec
                 .run(&self.sweep, task, s, tmp.path())
                 .map_err(|e| chain(&*e)),
@@ -603,7 +600,7 @@ impl SweepDir {
             }
             let h = match &r.sha256 {
                 Some(h) => Some(h.clone()),
-                None => gloam_spectra::input::unrecorded(|| sha256_file(&r.path)).ok(),
+                None => gloam_io::unrecorded(|| sha256_file(&r.path)).ok(),
             };
             if let Some(h) = h {
                 inputs.insert(p, h);

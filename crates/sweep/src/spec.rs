@@ -131,11 +131,12 @@ fn sha_hex(bytes: &[u8]) -> String {
 impl Sweep {
     /// Reads and plans a sweep file; relative paths resolve against its directory.
     pub fn load(path: &Path) -> Result<Sweep, SpecError> {
-        let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-            .map_err(|source| SpecError::Io {
+        let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+            SpecError::Io {
                 path: path.to_path_buf(),
                 source,
-            })?;
+            }
+        })?;
         let base_dir = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -294,12 +295,12 @@ impl Sweep {
         if overrides.is_empty() {
             return Ok(gloam_scene::load(&path)?);
         }
-        let text =
-            gloam_spectra::input::read_text(&path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-                .map_err(|e| TaskSceneError::Read {
-                    path: path.clone(),
-                    source: e.into(),
-                })?;
+        let text = gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|e| {
+            TaskSceneError::Read {
+                path: path.clone(),
+                source: e.into(),
+            }
+        })?;
         let mut doc: toml::Table = toml::from_str(&text).map_err(|e| TaskSceneError::Read {
             path: path.clone(),
             source: e.into(),

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use gloam_pipeline::Provenance;
 use gloam_pipeline::output::OutputError;
-use gloam_pipeline::output::{write_atomic, write_npy, write_npy_u32, write_preview, write_tiff};
+use gloam_pipeline::output::{write_atomic, write_npy, write_preview, write_tiff};
 use ndarray::{Array2, Array3, Axis};
 
 pub use gloam_pipeline::tile::{
@@ -119,17 +119,18 @@ impl Merged {
         write_npy(&dir.join("radiance.npy"), &self.radiance)?;
         write_tiff(&dir.join("stderr.tiff"), &self.std_error)?;
         write_npy(&dir.join("stderr.npy"), &self.std_error)?;
-        write_npy_u32(&dir.join("spp.npy"), &self.spp)?;
+        write_npy(&dir.join("spp.npy"), &self.spp)?;
         write_preview(&dir.join("preview.png"), &self.radiance)?;
         let mut tiles = Vec::new();
         for d in &self.tiles {
             let p = d.join("radiance.npy");
             let bytes =
-                gloam_spectra::input::read_bounded(&p, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-                    .map_err(|e| MergeError::Read {
+                gloam_io::read_bounded(&p, gloam_io::MAX_IMAGE_FILE_BYTES).map_err(|e| {
+                    MergeError::Read {
                         path: p.clone(),
                         source: e.into(),
-                    })?;
+                    }
+                })?;
             tiles.push(serde_json::json!({
                 "dir": d.display().to_string(),
                 "radiance_npy_sha256": crate::run::sha256_hex(&bytes),
@@ -158,12 +159,13 @@ impl Merged {
 
 fn read_info(dir: &Path) -> Result<TileInfo, MergeError> {
     let p = dir.join(TILE_FILE);
-    let text = gloam_spectra::input::read_text(&p, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| MergeError::NoTileInfo {
+    let text = gloam_io::read_text(&p, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        MergeError::NoTileInfo {
             path: p.clone(),
             dir: dir.to_path_buf(),
             source,
-        })?;
+        }
+    })?;
     let info: TileInfo = serde_json::from_str(&text).map_err(|e| MergeError::Read {
         path: p.clone(),
         source: e.into(),
@@ -206,8 +208,8 @@ where
     ensure_valid(len <= need as u64 + 65_536, path, || {
         format!("{len} bytes, more than a {shape:?} array needs")
     })?;
-    let f = gloam_spectra::input::open_bounded(path, gloam_spectra::input::MAX_IMAGE_FILE_BYTES)
-        .map_err(|e| read(e.into()))?;
+    let f =
+        gloam_io::open_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES).map_err(|e| read(e.into()))?;
     let a = A::read_npy(std::io::BufReader::new(f)).map_err(|e| read(e.into()))?;
     ensure_valid(a.dims() == shape, path, || {
         format!("shape {:?}, expected {:?}", a.dims(), shape)
@@ -243,11 +245,12 @@ pub fn verify_tile_manifest(dir: &Path) -> Result<BTreeMap<String, String>, Merg
     let tp = dir.join(crate::run::RECORD_FILE);
     let task = !mp.exists() && tp.is_file();
     let rp = if task { &tp } else { &mp };
-    let text = gloam_spectra::input::read_text(rp, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-        .map_err(|source| MergeError::NoManifest {
+    let text = gloam_io::read_text(rp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        MergeError::NoManifest {
             path: rp.clone(),
             source,
-        })?;
+        }
+    })?;
     let not_a = |what| {
         move |source| MergeError::NotA {
             path: rp.clone(),

@@ -6,7 +6,7 @@
 //! Both formats are photometric (candela, or cd/klm × lamp flux): the scene
 //! supplies the spectral shape and scales it so its luminous intensity
 //! (683 lm/W · ∫V(λ)S(λ)dλ) equals the file's candela value in each
-//! direction. Files are read through `gloam_spectra::input` (bounded,
+//! direction. Files are read through `gloam_io` (bounded,
 //! regular files only); every count is checked against the numbers the file
 //! actually holds before anything is allocated, and every refusal names
 //! file, line and field.
@@ -126,13 +126,12 @@ impl Photometry {
     /// any case).
     pub fn read(path: &Path) -> Result<Self, PhotometryError> {
         let name = path.display().to_string();
-        let text =
-            gloam_spectra::input::read_text(path, MAX_PHOTOMETRY_FILE_BYTES).map_err(|source| {
-                PhotometryError::Io {
-                    path: name.clone(),
-                    source,
-                }
-            })?;
+        let text = gloam_io::read_text(path, MAX_PHOTOMETRY_FILE_BYTES).map_err(|source| {
+            PhotometryError::Io {
+                path: name.clone(),
+                source,
+            }
+        })?;
         let ext = path
             .extension()
             .and_then(|e| e.to_str())

@@ -11,6 +11,10 @@
 //! (a render), and lets a capture stop and publish what it captured.
 //!
 //! A non-empty `--out` is refused unless `--force` replaces it.
+//!
+//! The run's provenance (version, command line, inputs) is the caller's:
+//! any [`ManifestProvenance`], completed with every input the run read
+//! just before the manifest is written.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -18,7 +22,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::Serialize;
 
-use crate::provenance::{InputFile, Provenance, hash_file};
+use crate::hash::{InputFile, hash_file};
+
+/// The provenance a set's `manifest.json` carries under `"provenance"`,
+/// made by the crate that knows the program (its version, commit and
+/// clock).
+pub trait ManifestProvenance: Serialize + Clone {
+    /// Adds every input the run read since the record was taken (a
+    /// scene's OBJ files are read after the run's provenance was first
+    /// taken).
+    fn add_inputs_read(&mut self);
+}
 
 /// Staging directories of this process, removed on Ctrl-C.
 static STAGING: Mutex<Vec<(PathBuf, bool)>> = Mutex::new(Vec::new());
@@ -85,13 +99,13 @@ fn install_handler() {
 
 /// The manifest a published set carries.
 #[derive(Serialize)]
-struct Manifest<'a> {
+struct Manifest<'a, P: Serialize> {
     /// False when the run stopped early (an error or Ctrl-C): the files
     /// listed are whole, but fewer than asked for.
     complete: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     stopped_because: Option<&'a str>,
-    provenance: &'a Provenance,
+    provenance: &'a P,
     files: Vec<InputFile>,
 }
 
@@ -247,9 +261,9 @@ impl OutputSet {
     /// Writes `manifest.json` and moves the set into place at once.
     /// `stopped_because`: why a run that stopped early did (the set is
     /// then published with `"complete": false`).
-    pub fn publish(
+    pub fn publish<P: ManifestProvenance>(
         mut self,
-        provenance: &Provenance,
+        provenance: &P,
         stopped_because: Option<&str>,
     ) -> Result<(), OutputSetError> {
         let mut files: Vec<InputFile> = Vec::new();
@@ -362,10 +376,8 @@ fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
     };
     let entries = set_entries(target).map_err(|e| not_ours(chain(&e)))?;
     let manifest = target.join("manifest.json");
-    let text = gloam_spectra::input::unrecorded(|| {
-        gloam_spectra::input::read_text(&manifest, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
-    })
-    .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
+    let text = crate::unrecorded(|| crate::read_text(&manifest, crate::MAX_TEXT_FILE_BYTES))
+        .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
     let listed: std::collections::HashSet<String> =
         serde_json::from_str::<serde_json::Value>(&text)
             .ok()
@@ -518,8 +530,20 @@ impl Drop for OutputSet {
 mod tests {
     use super::*;
 
-    fn prov() -> Provenance {
-        Provenance::of_command_line(vec!["gloam".into()])
+    /// A run's provenance as the manifest states it.
+    #[derive(Clone, Serialize)]
+    struct Prov {
+        command_line: Vec<String>,
+    }
+
+    impl ManifestProvenance for Prov {
+        fn add_inputs_read(&mut self) {}
+    }
+
+    fn prov() -> Prov {
+        Prov {
+            command_line: vec!["gloam".into()],
+        }
     }
 
     #[test]
@@ -535,10 +559,7 @@ mod tests {
             serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
         assert_eq!(m["complete"], true);
         assert_eq!(m["files"][0]["path"], "a.txt");
-        assert_eq!(
-            m["files"][0]["sha256"],
-            crate::provenance::sha256_hex(b"first")
-        );
+        assert_eq!(m["files"][0]["sha256"], crate::sha256_hex(b"first"));
 
         // A non-empty --out is refused without --force.
         let err = OutputSet::begin(&out, false, false).err().unwrap();

@@ -1,0 +1,33 @@
+#![doc = include_str!("../README.md")]
+
+/// `eprintln!` that never panics (std's does when stderr is full or
+/// closed): the message is lost, the run is not.
+macro_rules! eprintln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
+mod atomic;
+pub mod fits;
+mod hash;
+mod input;
+pub mod npy;
+pub mod output_set;
+pub mod png;
+pub mod tiff;
+
+pub use atomic::{EncodeError, FileError, write_atomic};
+pub use hash::{InputFile, MAX_HASHED_BYTES, hash_file};
+pub use input::{
+    FileRead, MAX_IMAGE_FILE_BYTES, MAX_MESH_FILE_BYTES, MAX_RECORDED_READS, MAX_TEXT_FILE_BYTES,
+    collect_reads, open_bounded, read_bounded, read_text, reads, reads_not_recorded, record_reads,
+    sha256_hex, unrecorded,
+};
+pub use output_set::{ManifestProvenance, OutputSet, OutputSetError};
+
+/// The README's Rust example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
