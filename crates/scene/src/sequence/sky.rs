@@ -37,6 +37,9 @@ use crate::{Scene, SkyConfig};
 
 /// Fastest sky clock: a day in under a second of sequence.
 pub const MAX_TIME_SCALE: f64 = 1e5;
+/// Degrees of Sun travel between two renders past which the clock warns:
+/// twice the default's spacing.
+pub const WARN_DEGREES_PER_RENDER: f64 = 2.0 * DEGREES_PER_RENDER;
 /// Most renders of the sky a sequence may ask for.
 pub const MAX_SKY_RENDERS: u32 = 1000;
 /// The default spacing of the sky's renders, degrees of Sun elevation.
@@ -89,6 +92,9 @@ pub struct SkyClock {
     pub key_lux: Vec<f64>,
     /// The Sun's elevation at each render's instant, degrees.
     pub key_sun_deg: Vec<f64>,
+    /// What the user should know about the clock as bound (renders far
+    /// apart in the Sun's travel), for stderr and `report.json`.
+    pub warnings: Vec<String>,
     pub(super) line: usize,
 }
 
@@ -133,6 +139,7 @@ pub(super) fn parse_clock(
         key_times_s: Vec::new(),
         key_lux: Vec::new(),
         key_sun_deg: Vec::new(),
+        warnings: Vec::new(),
         line: loc.error(&FieldPath::root().key("sky"), "").line(),
     }))
 }
@@ -309,9 +316,40 @@ impl Sequence {
                 ),
             ));
         }
-        let n = clock.renders.unwrap_or_else(|| {
-            ((travel / DEGREES_PER_RENDER).ceil() as u32 + 1).clamp(2, most_renders.max(2))
-        });
+        let by_travel = (travel / DEGREES_PER_RENDER).ceil() as u32 + 1;
+        let default_n = by_travel.clamp(2, most_renders.max(2));
+        let n = clock.renders.unwrap_or(default_n);
+        // Renders far apart in the Sun's travel are rendered as asked, but
+        // said: a frame between two renders takes the light geometrically
+        // between them, exact only for light falling at one exponential
+        // rate, and twilight's rate changes with the Sun's elevation.
+        clock.warnings.clear();
+        let per_render = travel / f64::from(n - 1);
+        if per_render > WARN_DEGREES_PER_RENDER {
+            let frames = self.frames;
+            let default = match default_n == by_travel {
+                true => format!("{default_n} (one per {DEGREES_PER_RENDER}° of Sun)"),
+                false => format!(
+                    "{default_n}, as many as {frames} frames allow (one per {DEGREES_PER_RENDER}° of Sun would be {by_travel})"
+                ),
+            };
+            let why = match clock.renders {
+                Some(r) if r < default_n => {
+                    format!("`renders = {r}`; the default would use {default}")
+                }
+                Some(r) => format!(
+                    "`renders = {r}`, as many as {frames} frames allow (one per frame and one more)"
+                ),
+                None => format!("{n} renders, the default: {default}"),
+            };
+            clock.warnings.push(format!(
+                "warning: {}:{}: sky: {why} over {:.1}° of the Sun's travel, {:.1}° between renders: each frame between two renders takes the light geometrically between them, exact only where it falls at one exponential rate — twilight's rate changes with the Sun's elevation, so frames far from a render may be off",
+                path.display(),
+                clock.line,
+                travel,
+                per_render
+            ));
+        }
         clock.key_times_s = (0..n)
             .map(|k| duration * f64::from(k) / f64::from(n - 1))
             .collect();
