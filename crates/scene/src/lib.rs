@@ -32,6 +32,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = gloam_spectra::input::read_text(path, gloam_spectra::input::MAX_TEXT_FILE_BYTES)
         .map_err(|source| SceneError::Io {
             path: path.to_path_buf(),
+            what: "scene",
             source,
         })?;
     parse_str(&text, path)
