@@ -2600,6 +2600,9 @@ const CASES: &[Case] = &[
     case!("sweep: one scene twice, through ./", ["s.toml" => "{base}", "w.toml" => "[base]\nspp = 1\n[axes]\nscene = [\"s.toml\", \"./s.toml\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.scene", "identical tasks"]),
     case!("sweep: one estimator twice, in two cases", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\n[axes]\nestimator = [\"analytic\", \"Analytic\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.estimator", "identical tasks"]),
     case!("sweep: one spp twice, as a number and as text", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\n[axes]\nspp = [2, \"2\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.spp", "identical tasks"]),
+    // Every frame saturated under a sunlit sky: the reason, not the plot's "nothing to plot".
+    case!("calibrate agc --sequence: no frame has a pixel to compare", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 100\n[sky]\ntime_scale = 2000\nrenders = 2\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n", "sp.toml" => SPHERE], ["calibrate", "agc", "--sequence", "q.toml", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "sp.toml", "--out", "o"], ["none of the sequence's 100 frames had a pixel to compare", "above the LUT's range"]),
+    case!("render: an --out name longer than a file name may be", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "dddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddd"], ["--out ddd", "its name is 256 bytes", "255 bytes"]),
 ];
 
 #[test]
