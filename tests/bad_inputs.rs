@@ -2535,6 +2535,74 @@ const CASES: &[Case] = &[
     case!("scene: distant source negative irradiance", ["s.toml" => "{base}\n[distant_sources.c]\ndirection = [0, 0, -1]\nvalue = -1.0\n"], ["plan", "s.toml"], ["s.toml:", "distant_sources.c.value", "negative irradiance"]),
     case!("scene: distant source past the emission limit", ["s.toml" => "{base}\n[distant_sources.c]\ndirection = [0, 0, -1]\nvalue = 1e21\n"], ["plan", "s.toml"], ["s.toml:", "distant_sources.c", "at most 1e20"]),
     case!("scene: distant source placed", ["s.toml" => "{base}\n[distant_sources.c]\ndirection = [0, 0, -1]\nvalue = 1.0\ninstances = [{ translate = [1, 0, 0] }]\n"], ["plan", "s.toml"], ["s.toml:", "distant_sources.c.instances", "unknown field"]),
+    // --- round 7 (issue 46): the sky clock, settings, numbers in messages
+    case!("sequence: a FIFO as the sequence file is named as the sequence file", ["q.toml" => "{fifo}"], ["sequence", "q.toml", "--out", "o"], ["q.toml", "cannot read the sequence file", "not a regular file"]),
+    case!("sequence: a directory as the sequence file", ["q.toml/x" => ""], ["sequence", "q.toml", "--out", "o"], ["q.toml", "cannot read the sequence file"]),
+    case!("render: one setting twice in --set", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "spp=1", "--set", "spp=2"], ["`--set spp=2` and `--set spp=1` both set spp"]),
+    case!("render: one setting twice in --set, spelt differently", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "Estimator=analytic", "--set", " estimator = solid-angle"], ["both set estimator"]),
+    case!("render: --target-error 1e-300 prints as written", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--target-error", "1e-300"], ["`target_error`: `1e-300` is not valid"]),
+    case!("render: --gain 1e300 prints short", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--sensor", "gen3-gaas-iccd", "--gain", "1e300"], ["gain 1e300 is outside the range"]),
+    case!(
+        "capture: --gain 1e-300 prints short",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:scientific-ccd?size=8x8",
+            "--frames",
+            "1",
+            "--gain",
+            "1e-300",
+            "--out",
+            "o"
+        ],
+        ["gain 1e-300 is outside the range"]
+    ),
+    case!(
+        "sky: --height-m 1e300 prints short",
+        [],
+        [
+            "sky",
+            "--lat",
+            "43",
+            "--lon",
+            "-77",
+            "--utc",
+            "2025-10-21T22:00:00Z",
+            "--height-m",
+            "1e300"
+        ],
+        ["--height-m 1e300 is out of range"]
+    ),
+    case!(
+        "ephem: --lat -1e300 prints short",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "-1e300",
+            "--lon",
+            "-77",
+            "--utc",
+            "2025-10-21T22:00:00Z"
+        ],
+        ["--lat -1e300 is out of range"]
+    ),
+    case!("sensor: a fraction of 1e300 prints short", ["c.toml" => "{spatch:prnu = 0.01=>prnu = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:", "ccd.prnu", "1e300 is above 1"]),
+    case!(
+        "bench plan: --resolution-scale 1e300 prints short",
+        [],
+        ["bench", "plan", "--resolution-scale", "1e300"],
+        ["1e300 is not in (0, 4]"]
+    ),
+    case!("sweep: a range stepping past the spp limit prints short", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\n[axes]\nspp = { from = 1, count = 3, step = 1e300 }\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.spp[1]", "`1e300` is not valid"]),
+    case!("sweep: one tile twice, spelt with a space", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\n[axes]\ntile = [\"1/2\", \"2/2\", \" 1/2\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.tile", "values 0 and 2", "identical tasks"]),
+    case!("sweep: one scene twice, through ./", ["s.toml" => "{base}", "w.toml" => "[base]\nspp = 1\n[axes]\nscene = [\"s.toml\", \"./s.toml\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.scene", "identical tasks"]),
+    case!("sweep: one estimator twice, in two cases", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\n[axes]\nestimator = [\"analytic\", \"Analytic\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.estimator", "identical tasks"]),
+    case!("sweep: one spp twice, as a number and as text", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\n[axes]\nspp = [2, \"2\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:4:", "axes.spp", "identical tasks"]),
+    // Every frame saturated under a sunlit sky: the reason, not the plot's "nothing to plot".
+    case!("calibrate agc --sequence: no frame has a pixel to compare", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 100\n[sky]\ntime_scale = 2000\nrenders = 2\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n", "sp.toml" => SPHERE], ["calibrate", "agc", "--sequence", "q.toml", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "sp.toml", "--out", "o"], ["none of the sequence's 100 frames had a pixel to compare", "above the LUT's range"]),
+    case!("render: an --out name longer than a file name may be", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "dddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddd"], ["--out ddd", "its name is 256 bytes", "255 bytes"]),
 ];
 
 #[test]

@@ -140,6 +140,8 @@ fn a_sky_clock_renders_its_instants_and_switches_the_photocell_where_the_sky_say
     for (r, w) in renders.iter().zip(want) {
         assert_eq!(r["utc"], w);
     }
+    // Three renders over 3.4° of Sun: nothing to warn of.
+    assert_eq!(sky["warnings"], serde_json::json!([]), "{sky}");
     // Each render's illuminance is gloam sky's at that instant.
     for r in renders {
         let (got, want) = (
@@ -268,6 +270,36 @@ fn sky_clocks_and_photocells_refuse_what_they_cannot_do() {
     .unwrap();
     let err = refused(dir.path(), "[sky]\ntime_scale = 10.0\n");
     assert!(err.contains("has no [sky]"), "{err}");
+}
+
+/// Renders far apart in the Sun's travel are rendered as asked, with a
+/// warning that says how many the default would use (issue 46: 2 renders
+/// over 10° of Sun were taken silently).
+#[test]
+fn sky_renders_far_apart_in_the_suns_travel_are_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene.toml"), SCENE).unwrap();
+    // Two frames at 1e5×: 8000 s of sky, the Sun from −2.6° to about −19°.
+    // The scene has no camera, so the run stops after binding the clock;
+    // the warning is printed before that.
+    let err = refused(dir.path(), "[sky]\ntime_scale = 1e5\nrenders = 2\n");
+    assert!(
+        err.contains("warning: ")
+            && err.contains("seq.toml:4: sky: `renders = 2`; the default would use 3, as many as 2 frames allow (one per 1° of Sun would be ")
+            && err.contains("between renders")
+            && err.contains("may be off"),
+        "{err}"
+    );
+    // The same clock at the default renders: as many as the frames allow,
+    // still said.
+    let err = refused(dir.path(), "[sky]\ntime_scale = 1e5\n");
+    assert!(
+        err.contains("3 renders, the default: 3, as many as 2 frames allow"),
+        "{err}"
+    );
+    // Renders a degree apart: no warning.
+    let err = refused(dir.path(), "[sky]\ntime_scale = 100\n");
+    assert!(!err.contains("warning: "), "{err}");
 }
 
 /// Runs `gloam sequence` on a two-frame sequence of `dir`'s scene with

@@ -29,6 +29,9 @@ fn load_sequence(path: &Path, set: &[String]) -> anyhow::Result<LoadedSequence> 
     let mut sequence = gloam_scene::sequence::load_sequence(path)?;
     let mut scene = gloam_scene::load(&sequence.scene)?;
     sequence.bind_sky(&mut scene)?;
+    for w in sequence.sky.iter().flat_map(|c| &c.warnings) {
+        eprintln!("{w}");
+    }
     let groups: Vec<String> = (scene.light_groups.groups.iter())
         .map(|g| g.name.clone())
         .collect();

@@ -29,6 +29,9 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let mut sequence = gloam_scene::sequence::load_sequence(&args.sequence)?;
     let mut scene = gloam_scene::load(&sequence.scene)?;
     sequence.bind_sky(&mut scene)?;
+    for w in sequence.sky.iter().flat_map(|c| &c.warnings) {
+        eprintln!("{w}");
+    }
     let load_s = t_load.elapsed().as_secs_f64();
     // Refused before any render: a group or moving table the scene lacks
     // (the camera's video rate is checked before the first render too).
@@ -142,6 +145,7 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
                     })))
                     .collect::<serde_json::Map<_, _>>(),
                 "agc": agc_over_sky,
+                "warnings": c.warnings,
                 "method": "the scene rendered at each instant of `renders` (the sky's clock: utc_at_start + time_scale × t), each frame's layers taken pixel by pixel geometrically between the two renders around its mid-exposure (a^(1-f) b^f; linearly where either is 0); photocells switch on the sky model's horizontal illuminance at the site",
             })),
             "outputs": {
@@ -209,7 +213,25 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
             );
         }
     }
-    if let Some(a) = &agc_over_sky {
+    // A loop that never reached its set range has no frame "from" which it
+    // held, nor a range of medians or light: said so, not `frame -1 (NaN
+    // s)`, `inf–-inf` and `NaN decades`.
+    if let Some(a) = agc_over_sky
+        .as_ref()
+        .filter(|a| a.held_from_frame.is_none())
+    {
+        eprintln!(
+            "AGC ({:?} metering, set point {} DN): the median never came within ×/÷{} of it in {} frames",
+            a.metering,
+            a.set_point_dn,
+            gloam_pipeline::sequence::AGC_SET_RANGE_FACTOR,
+            r.frames,
+        );
+    }
+    if let Some(a) = agc_over_sky
+        .as_ref()
+        .filter(|a| a.held_from_frame.is_some())
+    {
         eprintln!(
             "AGC ({:?} metering, set point {} DN): the median within ×/÷{} of it in {} of {} frames from frame {} ({:.2} s) on, {:.3}–{:.3} of the set point, over {:.3e} → {:.3e} lx ({:.2} decades)",
             a.metering,

@@ -256,7 +256,7 @@ impl ScaleArgs {
 fn resolution_scale_in_range(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(x) if x.is_finite() && x > 0.0 && x <= 4.0 => Ok(x),
-        Ok(x) => Err(format!("{x} is not in (0, 4]")),
+        Ok(x) => Err(format!("{} is not in (0, 4]", gloam_spectra::num(x))),
         Err(e) => Err(format!("{e} (give a number in (0, 4])")),
     }
 }

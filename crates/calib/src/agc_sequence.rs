@@ -718,6 +718,20 @@ pub fn linearise_sequence(
             gains: format!("gains spanning {lo}–{hi}"),
         });
     }
+    // No frame with a pixel to compare: said with the pixels' reasons, not
+    // as the plot's "nothing to plot" after the run (every frame of a
+    // sunlit sequence saturated the camera).
+    if frames.iter().all(|f| f.valid_pixels == 0) {
+        let sum = |g: &dyn Fn(&AgcSequenceFrame) -> usize| frames.iter().map(g).sum::<usize>();
+        return Err(CalibError::InsufficientData(format!(
+            "none of the sequence's {} frames had a pixel to compare with its true radiance (over all frames: {} pixels above the LUT's range, {} within their spread, {} at the frame's clip, {} below the noise floor); light or darken the sequence's scene for the camera",
+            frames.len(),
+            sum(&|f| f.beyond_lut_range_pixels),
+            sum(&|f| f.near_beyond_pixels),
+            sum(&|f| f.clipped_pixels),
+            sum(&|f| f.below_floor_pixels),
+        )));
+    }
     let steady = summary(&frames, Phase::Steady);
     let transient = summary(&frames, Phase::Transient);
     Ok(AgcSequenceReport {

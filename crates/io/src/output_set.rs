@@ -142,6 +142,12 @@ pub enum OutputSetError {
         target.display()
     )]
     NotOurs { target: PathBuf, why: String },
+    /// A last component longer than a directory entry may be.
+    #[error(
+        "--out {}: its name is {bytes} bytes, longer than a file name may be ({NAME_MAX} bytes)",
+        target.display()
+    )]
+    NameTooLong { target: PathBuf, bytes: usize },
     #[error("{}: more than {MAX_SET_ENTRIES} entries; not a gloam output set", .0.display())]
     TooManyEntries(PathBuf),
     #[error("{}: nested deeper than {MAX_SET_DEPTH} levels; not a gloam output set", .0.display())]
@@ -226,11 +232,19 @@ impl OutputSet {
         };
         std::fs::create_dir_all(&parent)
             .map_err(io_err(|| format!("creating {}", parent.display())))?;
+        if let Some(n) = target.file_name()
+            && n.len() > NAME_MAX
+        {
+            return Err(OutputSetError::NameTooLong {
+                target: target.to_path_buf(),
+                bytes: n.len(),
+            });
+        }
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "out".into());
-        let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
+        let staging = parent.join(staging_name(&name, std::process::id()));
         if staging.exists() {
             std::fs::remove_dir_all(&staging)
                 .map_err(io_err(|| format!("removing a stale {}", staging.display())))?;
@@ -526,9 +540,52 @@ impl Drop for OutputSet {
     }
 }
 
+/// Longest file name (one path component), bytes: Linux's `NAME_MAX`.
+pub const NAME_MAX: usize = 255;
+
+/// The staging directory's name for a set named `name`: `.NAME.partial-PID`,
+/// the name cut (at a character) and marked with a hash of the whole when
+/// that would be longer than a file name may be — a valid `--out` of 245
+/// bytes was refused with "File name too long", naming the staging
+/// directory.
+fn staging_name(name: &str, pid: u32) -> String {
+    let full = format!(".{name}.partial-{pid}");
+    if full.len() <= NAME_MAX {
+        return full;
+    }
+    // FNV-1a over the whole name: two long names sharing a prefix differ.
+    let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    let tail = format!("~{hash:016x}.partial-{pid}");
+    let mut cut = NAME_MAX - 1 - tail.len();
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!(".{}{tail}", &name[..cut])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A valid `--out` of 250 bytes publishes (its staging name was 265
+    /// bytes: "File name too long"); two long names sharing a prefix get
+    /// two staging directories.
+    #[test]
+    fn a_long_out_name_stages_within_a_file_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = "é".repeat(125);
+        let b = format!("{}x", "é".repeat(124));
+        let (sa, sb) = (staging_name(&a, 4_194_304), staging_name(&b, 4_194_304));
+        assert!(sa.len() <= NAME_MAX && sb.len() <= NAME_MAX && sa != sb);
+        assert_eq!(staging_name("o", 7), ".o.partial-7");
+        let out = dir.path().join(&a);
+        let set = OutputSet::begin(&out, false, false).unwrap();
+        std::fs::write(set.dir().join("x.txt"), b"x").unwrap();
+        set.publish(&prov(), None).unwrap();
+        assert!(out.join("x.txt").is_file());
+    }
 
     /// A run's provenance as the manifest states it.
     #[derive(Clone, Serialize)]

@@ -126,6 +126,20 @@ impl SettingArgs {
             ("seed", "--seed", self.seed.is_some()),
             ("estimator", "--estimator", self.estimator.is_some()),
         ])?;
+        // One key twice in `--set` (`spp=1` and `spp=2`): the last won
+        // unseen. Refused, as a setting given by `--set` and its flag is.
+        for (i, pair) in self.set.iter().enumerate() {
+            let Some((key, _)) = pair.split_once('=') else {
+                continue;
+            };
+            if let Some(first) = pair_setting(&self.set[..i], key.trim()) {
+                return Err(RenderError::GivenTwice {
+                    pair: pair.clone(),
+                    flag: format!("--set {first}"),
+                    key: key.trim().to_string(),
+                });
+            }
+        }
         let mut s = RenderSettings::default();
         for pair in &self.set {
             s.set_pair(pair)?;
@@ -154,10 +168,11 @@ impl SettingArgs {
             ("tolerance", "--tolerance", self.tolerance.is_some()),
         ])?;
         if let Some(crate::camera_goal::TargetError::Relative(e)) = self.target_error {
-            s.set("target_error", &e.to_string())?;
+            // `{:?}`: `1e-300` stays short in the error (`{}` wrote 300 digits).
+            s.set("target_error", &format!("{e:?}"))?;
         }
         if let Some(t) = self.tolerance {
-            s.set("tolerance", &t.to_string())?;
+            s.set("tolerance", &format!("{t:?}"))?;
         }
         Ok(s)
     }

@@ -33,10 +33,13 @@ pub enum SceneError {
         field: String,
         message: String,
     },
-    /// The scene file itself could not be read.
-    #[error("{}: cannot read the scene file", path.display())]
+    /// The file itself could not be read.
+    #[error("{}: cannot read the {what} file", path.display())]
     Io {
         path: PathBuf,
+        /// What the file is (`scene`, `sequence`): a sequence file that
+        /// cannot be read was called a scene file.
+        what: &'static str,
         #[source]
         source: std::io::Error,
     },

@@ -270,7 +270,7 @@ pub(crate) enum RowError {
         crate::build::num(*.value)
     )]
     Rotation { value: f64 },
-    #[error("scale = {value} must be finite and > 0")]
+    #[error("scale = {} must be finite and > 0", crate::build::num(*.value))]
     Scale { value: f64 },
     #[error("more than {max} placements (the limit per object or point source)")]
     TooMany { max: usize },

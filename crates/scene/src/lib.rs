@@ -32,6 +32,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
         SceneError::Io {
             path: path.to_path_buf(),
+            what: "scene",
             source,
         }
     })?;

@@ -217,6 +217,7 @@ pub fn load_sequence(path: &Path) -> Result<Sequence, SceneError> {
     let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
         SceneError::Io {
             path: path.to_path_buf(),
+            what: "sequence",
             source,
         }
     })?;

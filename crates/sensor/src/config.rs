@@ -1118,7 +1118,10 @@ fn finite(field: &str, v: f64) -> Result<(), ConfigError> {
 fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
     finite(field, v)?;
     if v < 0.0 {
-        return Err(ConfigError::invalid(field, format!("{v} is negative")));
+        return Err(ConfigError::invalid(
+            field,
+            format!("{} is negative", gloam_spectra::num(v)),
+        ));
     }
     Ok(())
 }
@@ -1126,7 +1129,10 @@ fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
 fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
     finite(field, v)?;
     if v <= 0.0 {
-        return Err(ConfigError::invalid(field, format!("{v} must be > 0")));
+        return Err(ConfigError::invalid(
+            field,
+            format!("{} must be > 0", gloam_spectra::num(v)),
+        ));
     }
     Ok(())
 }
@@ -1134,7 +1140,10 @@ fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
 fn fraction(field: &str, v: f64) -> Result<(), ConfigError> {
     non_negative(field, v)?;
     if v > 1.0 {
-        return Err(ConfigError::invalid(field, format!("{v} is above 1")));
+        return Err(ConfigError::invalid(
+            field,
+            format!("{} is above 1", gloam_spectra::num(v)),
+        ));
     }
     Ok(())
 }
@@ -1144,7 +1153,7 @@ fn in_range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
     if v < lo || v > hi {
         return Err(ConfigError::invalid(
             field,
-            format!("{v} is outside its limits {lo}–{hi}"),
+            format!("{} is outside its limits {lo}–{hi}", gloam_spectra::num(v)),
         ));
     }
     Ok(())

@@ -57,7 +57,8 @@ pub enum CaptureError {
         value: f64,
     },
     #[error(
-        "gain {gain} is outside the range of '{camera}': {min:.3}–{max:.3}; the camera is not run at a clamped gain"
+        "gain {} is outside the range of '{camera}': {min:.3}–{max:.3}; the camera is not run at a clamped gain",
+        gloam_spectra::num(*gain)
     )]
     GainOutOfRange {
         gain: f64,

@@ -14,7 +14,8 @@ use crate::source::SensorSource;
 pub fn gain_range_error(info: &SourceInfo, gain: f64, milli: u32) -> Option<GrabError> {
     (milli < info.min_gain_milli || milli > info.max_gain_milli).then(|| {
         GrabError::InvalidSetting(format!(
-            "gain {gain} is outside the range of '{}': {}–{} ({}); the camera is not run at a clamped gain",
+            "gain {} is outside the range of '{}': {}–{} ({}); the camera is not run at a clamped gain",
+            gloam_spectra::num(gain),
             info.name,
             f64::from(info.min_gain_milli) / 1000.0,
             f64::from(info.max_gain_milli) / 1000.0,

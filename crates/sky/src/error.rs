@@ -23,7 +23,7 @@ pub enum SkyError {
         value: f64,
     },
     /// A numeric input was outside its valid range.
-    #[error("{name} = {value} is outside the valid range [{min}, {max}]")]
+    #[error("{name} = {} is outside the valid range [{min}, {max}]", gloam_spectra::num(*value))]
     OutOfRange {
         /// Name of the parameter (with its unit).
         name: &'static str,

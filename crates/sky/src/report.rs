@@ -62,7 +62,7 @@ impl InputNames {
 #[derive(Debug, thiserror::Error)]
 pub enum QueryError {
     /// A number outside the range this query accepts.
-    #[error("{name} {value} is out of range: {rule}")]
+    #[error("{name} {} is out of range: {rule}", gloam_spectra::num(*value))]
     OutOfRange {
         /// The input's name (`--lat`).
         name: &'static str,

@@ -16,6 +16,18 @@ pub use library::{LibraryEntry, lookup};
 pub use radiometry::*;
 pub use spectrum::{EmissionLine, Spectrum};
 
+/// A number for a message: as Rust writes it for ordinary magnitudes, in
+/// exponent form past them (`1e300`, `1e-300`), where `{}` writes 301
+/// digits (issue 46: `--gain 1e300`, `--lat 1e300`, `--target-error
+/// 1e-300` each printed a line of zeros).
+pub fn num(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// The README's Rust example, compiled and run as a doctest.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]

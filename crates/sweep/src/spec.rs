@@ -179,8 +179,8 @@ impl Sweep {
             let name = k.get_ref().clone();
             let field = format!("axes.{name}");
             let span = Some(k.span());
-            let values =
-                axis_values(v.get_ref()).map_err(|m| err(span.clone(), &field, m.to_string()))?;
+            let values = axis_values(&name, v.get_ref())
+                .map_err(|m| err(span.clone(), &field, m.to_string()))?;
             for (i, val) in values.iter().enumerate() {
                 check_value(&name, val)
                     .map_err(|m| err(span.clone(), &format!("{field}[{i}]"), m.to_string()))?;
@@ -509,7 +509,7 @@ pub enum Conflict {
 }
 
 /// An axis's values: a list of scalars, or `{ from, count[, step] }`.
-fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
+fn axis_values(key: &str, v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
     match v {
         toml::Value::Array(a) => {
             if a.is_empty() {
@@ -536,7 +536,7 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
                             format!("n:{}", *f as i64)
                         }
                         toml::Value::Float(f) => format!("f:{f:e}"),
-                        other => format!("t:{}", scalar_text(other).unwrap_or_default()),
+                        other => text_key(key, &scalar_text(other).unwrap_or_default()),
                     };
                     (key, i)
                 })
@@ -597,6 +597,39 @@ fn axis_values(v: &toml::Value) -> Result<Vec<toml::Value>, ValueError> {
             }
         }
         _ => Err(ValueError::NotAnAxis),
+    }
+}
+
+/// A text value of `key` as the task reads it, for finding one value
+/// given twice: `" 1/2"` and `"1/2"` were two tasks rendering one tile,
+/// `"./a.toml"` and `"a.toml"` one scene. Tiles and sizes as parsed,
+/// paths without `.` components, words of a setting trimmed and in lower
+/// case (settings take either) and numbers as numbers; a dotted scene
+/// key's string is the scene's own and kept as written.
+fn text_key(key: &str, text: &str) -> String {
+    let t = text.trim();
+    match key {
+        "scene" | "sensor" => {
+            let p: PathBuf = Path::new(text)
+                .components()
+                .filter(|c| !matches!(c, std::path::Component::CurDir))
+                .collect();
+            format!("t:{}", p.display())
+        }
+        "tile" => match TileSpec::parse(text) {
+            Ok(tile) => format!("t:{}/{}", tile.k, tile.n),
+            Err(_) => format!("t:{text}"),
+        },
+        "size" => match parse_size(text) {
+            Ok((w, h)) => format!("t:{w}x{h}"),
+            Err(_) => format!("t:{text}"),
+        },
+        k if k.contains('.') => format!("t:{text}"),
+        _ => match t.parse::<f64>() {
+            Ok(f) if f.fract() == 0.0 && f.abs() < 9.0e15 => format!("n:{}", f as i64),
+            Ok(f) if f.is_finite() => format!("f:{f:e}"),
+            _ => format!("t:{}", t.to_ascii_lowercase()),
+        },
     }
 }
 

@@ -405,7 +405,7 @@ impl Default for RenderSettings {
 pub enum SettingsError {
     #[error("unknown setting `{0}` (known: {known})", known = RenderSettings::KEYS.join(", "))]
     UnknownKey(String),
-    #[error("setting `{key}`: `{value}` is not valid ({expected})")]
+    #[error("setting `{key}`: `{}` is not valid ({expected})", short_number(value))]
     BadValue {
         key: String,
         value: String,
@@ -413,6 +413,15 @@ pub enum SettingsError {
     },
     #[error("expected KEY=VALUE, got `{0}`")]
     NotKeyValue(String),
+}
+
+/// A value as written, unless it is a number written long (a sweep's
+/// range made `1e300` into 301 digits): then in exponent form.
+fn short_number(value: &str) -> String {
+    match value.trim().parse::<f64>() {
+        Ok(x) if value.len() > 24 => gloam_spectra::num(x),
+        _ => value.to_string(),
+    }
 }
 
 fn parse<T: std::str::FromStr>(
