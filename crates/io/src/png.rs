@@ -97,15 +97,9 @@ pub fn grey8_png(
     height: u32,
     pixels: Vec<u8>,
 ) -> Option<Result<Vec<u8>, image::ImageError>> {
-    let img = image::GrayImage::from_raw(width, height, pixels)?;
-    let mut bytes = Vec::new();
-    Some(
-        img.write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .map(|()| bytes),
-    )
+    Some(encode_png(image::GrayImage::from_raw(
+        width, height, pixels,
+    )?))
 }
 
 /// An 8-bit RGB PNG of `width × height` row-major RGB `pixels`; `None`
@@ -115,15 +109,20 @@ pub fn rgb8_png(
     height: u32,
     pixels: Vec<u8>,
 ) -> Option<Result<Vec<u8>, image::ImageError>> {
-    let img = image::RgbImage::from_raw(width, height, pixels)?;
+    Some(encode_png(image::RgbImage::from_raw(
+        width, height, pixels,
+    )?))
+}
+
+/// The PNG file bytes of an image.
+fn encode_png(img: impl Into<image::DynamicImage>) -> Result<Vec<u8>, image::ImageError> {
     let mut bytes = Vec::new();
-    Some(
-        img.write_to(
+    img.into()
+        .write_to(
             &mut std::io::Cursor::new(&mut bytes),
             image::ImageFormat::Png,
         )
-        .map(|()| bytes),
-    )
+        .map(|()| bytes)
 }
 
 #[cfg(test)]
