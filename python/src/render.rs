@@ -387,6 +387,12 @@ fn probe<'py>(
         estimator: estimator.map(str::to_string),
         ..Default::default()
     };
+    if !(1..=gloam_pipeline::MAX_PROBE_SAMPLES).contains(&samples) {
+        return Err(crate::errors::GloamError::new_err(format!(
+            "samples = {samples}: from 1 to {} independent estimates (each a full estimate at the point)",
+            gloam_pipeline::MAX_PROBE_SAMPLES
+        )));
+    }
     let s = self::settings(settings, flags)?;
     let (p, n) = (vec3("point", point)?, vec3("normal", normal)?);
     let sc = &scene.get().scene;

@@ -36,6 +36,15 @@ quad = { center = [0, 0, 0], size = [2, 2], normal = [0, 0, 1] }
 """
 
 
+def test_probe_samples_are_bounded_as_the_cli_bounds_them():
+    # Python took samples=10**9 (the CLI's --samples stops at 10**6) and
+    # probed for hours; 0 is refused too.
+    scene = gloam.Scene.from_toml(BAD.replace("reflectance = 1.7", "reflectance = 0.5"))
+    for n in (0, 1_000_001, 10**9):
+        with pytest.raises(gloam.GloamError, match=r"samples = \d+: from 1 to 1000000"):
+            gloam.probe(scene, (0, 0, 1), (0, 0, 1), samples=n)
+
+
 def test_errors_carry_the_cli_message(gloam_bin, tmp_path):
     p = tmp_path / "bad.toml"
     p.write_text(BAD)

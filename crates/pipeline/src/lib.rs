@@ -22,6 +22,10 @@ pub use frames::{
     CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameContext,
     FrameLog, FrameRecord, FrameWriter, check_options,
 };
+/// Most independent estimates a probe averages (each is a full estimate
+/// at the point): `gloam probe --samples` and Python's `probe(samples=)`
+/// alike (Python took 10⁹ and ran for hours).
+pub const MAX_PROBE_SAMPLES: u32 = 1_000_000;
 pub use provenance::Provenance;
 pub use render::{
     DEFAULT_TARGET_ERROR, Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs,

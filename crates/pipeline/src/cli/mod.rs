@@ -312,7 +312,7 @@ pub struct ProbeArgs {
     /// comes from their spread).
     #[arg(long, default_value_t = 16)]
     /// At most 1 000 000 (each is a full estimate at the point).
-    #[arg(value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::MAX_PROBE_SAMPLES)))]
     pub samples: u32,
     /// Camera samples per pixel for --pixel (default 4, as a fixed-count
     /// `render --spp`).
