@@ -32,6 +32,37 @@ impl Drop for Reaper {
     }
 }
 
+/// Has the kernel kill the child `cmd` will start when the thread that
+/// starts it ends (Linux's parent-death signal), and the child end at
+/// once if that happened before it could ask. [`Reaper`] kills a case's
+/// group only once it knows it: a SIGTERM between the fork and
+/// `Reaper::new` — before the bench's handler was even installed — ended
+/// the bench and left the case running (caught on a loaded machine, the
+/// forked child still showing the bench's command line). Call from the
+/// thread that lives as long as the child should.
+pub fn die_with_parent(cmd: &mut Command) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        let parent = std::process::id();
+        // SAFETY: the closure runs in the forked child before exec and
+        // calls only prctl, getppid and _exit, which are async-signal-safe.
+        unsafe {
+            cmd.pre_exec(move || {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                if u32::try_from(libc::getppid()).ok() != Some(parent) {
+                    libc::_exit(1);
+                }
+                Ok(())
+            });
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = cmd;
+}
+
 /// Waits for `child` until `timeout` after `t0`; past it, kills it and
 /// returns `None` (what it started goes with its group: [`Reaper`]).
 pub fn wait_with_timeout(

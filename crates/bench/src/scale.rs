@@ -894,6 +894,7 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
     // (`child::Reaper`).
     #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    super::child::die_with_parent(&mut cmd);
     let mut child = cmd.spawn().map_err(BenchError::io("starting", &opts.exe))?;
     let _reaper = super::child::Reaper::new(&child);
     let status = wait_with_timeout(
