@@ -216,37 +216,28 @@ pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     // A loop that never reached its set range has no frame "from" which it
     // held, nor a range of medians or light: said so, not `frame -1 (NaN
     // s)`, `inf–-inf` and `NaN decades`.
-    if let Some(a) = agc_over_sky
-        .as_ref()
-        .filter(|a| a.held_from_frame.is_none())
-    {
-        eprintln!(
-            "AGC ({:?} metering, set point {} DN): the median never came within ×/÷{} of it in {} frames",
-            a.metering,
-            a.set_point_dn,
-            gloam_pipeline::sequence::AGC_SET_RANGE_FACTOR,
-            r.frames,
+    if let Some(a) = agc_over_sky.as_ref() {
+        let head = format!(
+            "AGC ({:?} metering, set point {} DN): the median",
+            a.metering, a.set_point_dn
         );
-    }
-    if let Some(a) = agc_over_sky
-        .as_ref()
-        .filter(|a| a.held_from_frame.is_some())
-    {
-        eprintln!(
-            "AGC ({:?} metering, set point {} DN): the median within ×/÷{} of it in {} of {} frames from frame {} ({:.2} s) on, {:.3}–{:.3} of the set point, over {:.3e} → {:.3e} lx ({:.2} decades)",
-            a.metering,
-            a.set_point_dn,
-            gloam_pipeline::sequence::AGC_SET_RANGE_FACTOR,
-            a.frames_in_range,
-            a.frames_after,
-            a.held_from_frame.map_or(-1, |i| i as i64),
-            a.held_from_s.unwrap_or(f64::NAN),
-            a.median_over_set_point[0],
-            a.median_over_set_point[1],
-            a.lux_range[0],
-            a.lux_range[1],
-            a.decades
-        );
+        let range = gloam_pipeline::sequence::AGC_SET_RANGE_FACTOR;
+        match (a.held_from_frame, a.held_from_s) {
+            (Some(frame), Some(s)) => eprintln!(
+                "{head} within ×/÷{range} of it in {} of {} frames from frame {frame} ({s:.2} s) on, {:.3}–{:.3} of the set point, over {:.3e} → {:.3e} lx ({:.2} decades)",
+                a.frames_in_range,
+                a.frames_after,
+                a.median_over_set_point[0],
+                a.median_over_set_point[1],
+                a.lux_range[0],
+                a.lux_range[1],
+                a.decades
+            ),
+            _ => eprintln!(
+                "{head} never came within ×/÷{range} of it in {} frames",
+                r.frames
+            ),
+        }
     }
     let gains = r.gain_over_time.iter().map(|g| g.1);
     let (lo, hi) = gains.fold((f64::INFINITY, 0.0f64), |(l, h), g| (l.min(g), h.max(g)));
