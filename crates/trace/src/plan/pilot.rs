@@ -650,12 +650,17 @@ impl Tracer {
                 .ceil()
                 .clamp(WINDOW_SUB as f64, WINDOW_SUB_MAX as f64) as usize
         };
-        let across = steps(&q[0], &q[1])
-            .max(steps(&q[2], &q[3]))
-            .max(self.thin_run_sub(x, y, true, c));
-        let down = steps(&q[0], &q[2])
-            .max(steps(&q[1], &q[3]))
-            .max(self.thin_run_sub(x, y, false, c));
+        // The thin-facet scan (WINDOW_SUB_MAX rays) only where the
+        // footprint has not already asked for the most.
+        let finer = |n: usize, across: bool, c: &mut RayCounts| {
+            if n < WINDOW_SUB_MAX {
+                n.max(self.thin_run_sub(x, y, across, c))
+            } else {
+                n
+            }
+        };
+        let across = finer(steps(&q[0], &q[1]).max(steps(&q[2], &q[3])), true, c);
+        let down = finer(steps(&q[0], &q[2]).max(steps(&q[1], &q[3])), false, c);
         // Within what is left: shrink the longer side first.
         let (mut nx, mut ny) = (across, down);
         while nx * ny > left && (nx > WINDOW_SUB || ny > WINDOW_SUB) {

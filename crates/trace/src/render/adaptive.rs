@@ -242,6 +242,7 @@ impl Tracer {
         let nb = self.wl.band_names.len();
         let floor = band_floor(&s.ests, &s.views, nb);
         let cap = self.spp_cap();
+        let decay = variance_decay(self.settings.pixel_strata);
         while s.rounds <= MAX_ROUNDS && !halt.now() {
             let (factor, _) = stratification(&s.ests, &floor);
             let stated = stated_std_errors(&s.ests, w, &factor, &floor, true);
@@ -251,7 +252,6 @@ impl Tracer {
                 .enumerate()
                 .map(|(i, e)| stated_rel_error(e, &stated[i * nb..(i + 1) * nb], &floor))
                 .collect();
-            let decay = variance_decay(self.settings.pixel_strata);
             let work = allocate(&s.ests, &rel, target, cap, decay);
             if work.is_empty() {
                 break;
