@@ -101,3 +101,27 @@ impl TileBar {
         }
     }
 }
+
+/// A request's events on a terminal: a spinner for the preparation, a bar
+/// over the tiles, notes on stderr.
+#[derive(Default)]
+pub struct Terminal {
+    bar: std::sync::OnceLock<TileBar>,
+}
+
+impl gloam_pipeline::Events for Terminal {
+    fn preparation(&self) -> Option<PrepObserver> {
+        prep_spinner()
+    }
+    fn tiles(&self, done: u64, total: u64) {
+        self.bar.get_or_init(TileBar::new).progress(done, total);
+    }
+    fn traced(&self) {
+        if let Some(b) = self.bar.get() {
+            b.finish();
+        }
+    }
+    fn note(&self, line: &str) {
+        eprintln!("{line}");
+    }
+}

@@ -11,7 +11,7 @@ pub fn run(a: ScopeArgs) -> anyhow::Result<()> {
     let set = OutputSet::begin(&a.out, a.force, false)?;
     let r = run_scope(&opts)?;
     write_scope(set.dir(), &r)?;
-    super::calibrate::publish(set, "scope.json")?;
+    gloam_pipeline::cli::calibrate::publish(set, "scope.json")?;
     for (row, l) in &r.readouts {
         outln!(
             "row {row}: sync {:.3} V, blanking {:.3} V, active {:.3}–{:.3} V, sync {:.3} µs, line {:.3} µs",

@@ -14,9 +14,10 @@ use crate::render::{SettingArgs, camera_of};
 use crate::request::{CameraOptions, OutputDir, RenderRequest, SceneInput};
 use crate::{CaptureOptionsError, FrameCapture};
 
+pub mod calibrate;
 pub mod sequence;
 
-pub use sequence::{SequenceArgError, SequenceArgs};
+pub use sequence::SequenceArgs;
 
 /// An argument that does not say what its flag asks for.
 #[derive(Debug, thiserror::Error)]
