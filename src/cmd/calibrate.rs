@@ -5,8 +5,6 @@
 //! publishes the set. Here the progress bar and printing. See
 //! docs/calibration.md.
 
-use std::io::IsTerminal;
-
 pub use gloam_calib::cli::CalibrateCommand;
 use gloam_calib::cli::Event;
 use gloam_pipeline::cli::calibrate::run_calibrate_command;
@@ -21,7 +19,8 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
             None => eprintln!("{line}"),
         },
         Event::Progress(phase, done, total) => {
-            let b = bar.get_or_insert_with(progress_bar);
+            let template = "{bar:40} {pos}/{len} {msg} eta {eta}";
+            let b = bar.get_or_insert_with(|| super::progress::bar_or_hidden(template, 1));
             b.set_message(phase.to_string());
             b.set_length(total as u64);
             b.set_position(done as u64);
@@ -35,16 +34,4 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
         eprintln!("{line}");
     }
     Ok(())
-}
-
-fn progress_bar() -> indicatif::ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let b = indicatif::ProgressBar::new(1);
-    b.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} eta {eta}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    b
 }

@@ -22,6 +22,12 @@ pub fn bar(template: &str, chars: &str, len: u64) -> Option<indicatif::ProgressB
     })
 }
 
+/// A bar of `len` steps drawn with `template` on a terminal, hidden
+/// elsewhere.
+pub fn bar_or_hidden(template: &str, len: u64) -> indicatif::ProgressBar {
+    bar(template, "█░", len).unwrap_or_else(indicatif::ProgressBar::hidden)
+}
+
 /// The observer to hand to `Tracer::prepare_observed` (None off a terminal).
 pub fn prep_spinner() -> Option<PrepObserver> {
     if !std::io::stderr().is_terminal() {

@@ -194,3 +194,36 @@ pub fn publish(set: OutputSet, main_json: &str) -> Result<(), CalibrateError> {
     crate::output::add_provenance(&set.dir().join(main_json), &provenance)?;
     Ok(set.publish(&provenance, None)?)
 }
+
+/// `gloam scope`: the scope's options checked, its output set, the run,
+/// `scope.csv`/`.png`/`.json` published; the readout lines (stdout) and
+/// where the plot went (stderr) to print.
+pub fn run_scope_command(
+    a: &gloam_calib::cli::ScopeArgs,
+) -> Result<(Vec<String>, String), CalibrateError> {
+    use gloam_calib::scope_run::{run_scope, write_scope};
+    let opts = a.options()?;
+    let set = OutputSet::begin(&a.out, a.force, false)?;
+    let r = run_scope(&opts)?;
+    write_scope(set.dir(), &r)?;
+    publish(set, "scope.json")?;
+    let readouts = (r.readouts.iter()).map(|(row, l)| {
+        format!(
+            "row {row}: sync {:.3} V, blanking {:.3} V, active {:.3}–{:.3} V, sync {:.3} µs, line {:.3} µs",
+            l.sync_tip_v,
+            l.blanking_v,
+            l.active_min_v,
+            l.active_max_v,
+            l.sync_width_s * 1e6,
+            l.line_period_s * 1e6
+        )
+    });
+    let wrote = format!(
+        "{} ({}, {:.2} MHz pixel clock): wrote {}",
+        r.sensor,
+        r.format,
+        r.pixel_clock_hz / 1e6,
+        a.out.join("scope.png").display()
+    );
+    Ok((readouts.collect(), wrote))
+}
