@@ -566,7 +566,7 @@ impl SequenceRun<'_> {
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Outcome, E> {
         use crate::agc_sequence::{
-            SequenceLayers, detected_per_band_radiance, linearise_sequence, lut_gains_spanning,
+            SequenceLayers, detected_per_band_radiance, linearise_sequence,
             write_agc_sequence_report,
         };
         let SequenceRun {
@@ -577,7 +577,6 @@ impl SequenceRun<'_> {
             opts,
             ..
         } = self;
-        let tau_s = opts.agc_time_constant_s;
         let dir = set.dir();
         let mut g = a.grabber.open::<E>(registry, ev)?;
         g.set_exposure_s(captured.exposure_s)?;
@@ -592,45 +591,10 @@ impl SequenceRun<'_> {
         let (lut, mut src) = match lut {
             Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
             None => {
-                // The gains the loop went through once it left its power-up
-                // gain (the acquisition window is not judged).
-                let from_s = opts.transient_time_constants * tau_s;
-                // Named by the sequence file, not the staging directory the
-                // frames are in (it is removed when the run fails).
-                let gains = crate::agc_sequence::gains_in_effect(dir, from_s).map_err(|e| match e {
-                CalibError::InsufficientData(_) => CalibError::InsufficientData(format!(
-                    "--sequence {}: no frame starts {from_s} s or more after the first ({} AGC time constants of {tau_s} s: the loop's acquisition, not judged), so no gain to measure a LUT at; lengthen the sequence or give --lut",
-                    a.sequence.as_deref().unwrap_or(Path::new("?")).display(),
-                    opts.transient_time_constants
-                )),
-                other => other,
-            })?;
-                let (lo, hi) = gains
-                    .iter()
-                    .fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
-                let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
-                let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                let mut src = source.open(g.as_mut(), Some(top), ev)?;
-                let ropts = RadianceOptions {
-                    gains: gains.clone(),
-                    exposure_s: Some(captured.exposure_s),
-                    ..Default::default()
-                };
-                let silent = source.is_manual();
-                let lut = calibrate_radiance(
-                    g.as_mut(),
-                    src.as_mut(),
-                    &ropts,
-                    &mut progress(ev, "LUT levels", silent),
-                )?;
-                report::write_radiance_report(dir, &lut)?;
-                lines.push(format!(
-                "LUT measured on {} at {} gains {}–{} (the gains the AGC visited from {from_s} s on) → lut.json",
-                a.source.source.display(),
-                lut.gains.len(),
-                gains[0],
-                gains[gains.len() - 1]
-            ));
+                let exposure_s = captured.exposure_s;
+                let (lut, src, line) =
+                    measure_sequence_lut(a, &opts, dir, exposure_s, g.as_mut(), &source, ev)?;
+                lines.push(line);
                 (lut, src)
             }
         };
@@ -654,16 +618,78 @@ impl SequenceRun<'_> {
             (e, _) => e,
         })?;
         write_agc_sequence_report(dir, &r)?;
-        let fmt = |s: &crate::agc_sequence::PhaseSummary| match (
-            s.rms_residual_percent,
-            s.max_abs_residual_percent,
-        ) {
-            (Some(rms), Some(max)) => {
-                format!("RMS {rms:.2} %, max {max:.2} % over {} frames", s.frames)
-            }
-            _ => "no frames".into(),
-        };
-        lines.push(format!(
+        lines.push(sequence_line(&r));
+        Ok(written(set, "agc_sequence.json", lines))
+    }
+}
+
+/// With no `--lut`: measures one on `source` over the gains the AGC went
+/// through once it left its power-up gain (the acquisition window is not
+/// judged), into `dir`'s `lut.json`; with the line that says so.
+fn measure_sequence_lut(
+    a: &AgcArgs,
+    opts: &crate::agc_sequence::AgcSequenceOptions,
+    dir: &Path,
+    exposure_s: f64,
+    g: &mut dyn FrameGrabber,
+    source: &SourceRequest,
+    ev: &mut dyn FnMut(Event<'_>),
+) -> Result<
+    (
+        crate::radiance::Lut,
+        Box<dyn crate::source::CalibrationSource>,
+        String,
+    ),
+    CalibError,
+> {
+    use crate::agc_sequence::lut_gains_spanning;
+    let tau_s = opts.agc_time_constant_s;
+    let from_s = opts.transient_time_constants * tau_s;
+    // Named by the sequence file, not the staging directory the frames are
+    // in (it is removed when the run fails).
+    let gains = crate::agc_sequence::gains_in_effect(dir, from_s).map_err(|e| match e {
+        CalibError::InsufficientData(_) => CalibError::InsufficientData(format!(
+            "--sequence {}: no frame starts {from_s} s or more after the first ({} AGC time constants of {tau_s} s: the loop's acquisition, not judged), so no gain to measure a LUT at; lengthen the sequence or give --lut",
+            a.sequence.as_deref().unwrap_or(Path::new("?")).display(),
+            opts.transient_time_constants
+        )),
+        other => other,
+    })?;
+    let (lo, hi) = (gains.iter()).fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
+    let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
+    let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut src = source.open(g, Some(top), ev)?;
+    let ropts = RadianceOptions {
+        gains: gains.clone(),
+        exposure_s: Some(exposure_s),
+        ..Default::default()
+    };
+    let silent = source.is_manual();
+    let mut p = progress(ev, "LUT levels", silent);
+    let lut = calibrate_radiance(g, src.as_mut(), &ropts, &mut p)?;
+    report::write_radiance_report(dir, &lut)?;
+    let line = format!(
+        "LUT measured on {} at {} gains {}–{} (the gains the AGC visited from {from_s} s on) → lut.json",
+        a.source.source.display(),
+        lut.gains.len(),
+        gains[0],
+        gains[gains.len() - 1]
+    );
+    Ok((lut, src, line))
+}
+
+/// The sequence's residuals in one line: steady, transient, acquiring.
+fn sequence_line(r: &crate::agc_sequence::AgcSequenceReport) -> String {
+    let fmt = |s: &crate::agc_sequence::PhaseSummary| match (
+        s.rms_residual_percent,
+        s.max_abs_residual_percent,
+    ) {
+        (Some(rms), Some(max)) => {
+            format!("RMS {rms:.2} %, max {max:.2} % over {} frames", s.frames)
+        }
+        _ => "no frames".into(),
+    };
+    format!(
         "linearised vs true radiance, residual per frame: steady {}; transient ({:.2} s after {} switch(es)) {}; acquiring {}{}",
         fmt(&r.steady),
         r.transient_window_s,
@@ -674,9 +700,7 @@ impl SequenceRun<'_> {
             0 => String::new(),
             n => format!("; {n} frames outside the LUT's gains not linearised"),
         }
-    ));
-        Ok(written(set, "agc_sequence.json", lines))
-    }
+    )
 }
 
 /// What the LUT made of the AGC frames, against the source's true band
