@@ -179,25 +179,6 @@ fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
         .mut_subcommands(negative_numbers_are_values)
 }
 
-/// Refuses a `RAYON_NUM_THREADS` past the tracer's own thread limit:
-/// rayon would try to start that many workers (100 000 hang the start).
-fn check_thread_env() -> Result<(), String> {
-    let Some(v) = std::env::var_os("RAYON_NUM_THREADS") else {
-        return Ok(());
-    };
-    let max = gloam_trace::tracer::MAX_THREADS;
-    match v.to_str().map(str::trim).map(str::parse::<u64>) {
-        Some(Ok(n)) if n as u128 > max as u128 => Err(format!(
-            "RAYON_NUM_THREADS={n}: at most {max} worker threads (unset it, or use --threads where a command has it)"
-        )),
-        Some(Ok(_)) => Ok(()),
-        _ => Err(format!(
-            "RAYON_NUM_THREADS={}: not a whole number of threads",
-            v.to_string_lossy()
-        )),
-    }
-}
-
 /// The stack the command runs on: its own thread's, so a small main-thread
 /// stack (`ulimit -s 64` aborted every command, even `--help`) does not
 /// decide it. Reserved, not committed: pages are touched as used.
@@ -222,7 +203,7 @@ fn main() -> ExitCode {
 
 fn gloam_main() -> ExitCode {
     use clap::{CommandFactory, FromArgMatches};
-    if let Err(e) = check_thread_env() {
+    if let Err(e) = gloam_pipeline::cli::check_thread_env() {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }

@@ -7,15 +7,13 @@ use numpy::prelude::*;
 use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use gloam_calib::agc::{AgcOptions, agc_linearisation};
 use gloam_calib::mtf_flow::{
     DEFAULT_FRAMES, DEFAULT_MODULATION, DEFAULT_SPECTRUM, GrabberTarget, MtfRequest,
-    VoltageRequest, measure_mtf, voltage_mtf,
 };
-use gloam_calib::ptc::{PtcOptions, photon_transfer as ptc_flow};
-use gloam_calib::radiance::RadianceOptions;
-use gloam_calib::rig_check::rig_mismatch;
-use gloam_calib::source::open_for_grabber;
+use gloam_calib::request::{
+    AgcRequest, Event, MtfCalibration, MtfDone, PtcRequest, RadianceRequest, ScopeRequest,
+    SourceRequest, VoltageOptions,
+};
 use gloam_calib::validate::{Region, compare_images};
 use gloam_grabber::FrameGrabber;
 
@@ -34,7 +32,18 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-fn no_progress(_: usize, _: usize) {}
+/// A flow's events, unheard: Python's calls print nothing (their
+/// warnings are in the result).
+fn quiet(_: Event<'_>) {}
+
+/// Sets the exposure asked for (as `--exposure-s` does on the CLI's
+/// grabber) before a flow.
+fn set_exposure(g: &mut dyn FrameGrabber, exposure_s: Option<f64>) -> anyhow::Result<()> {
+    if let Some(e) = exposure_s {
+        g.set_exposure_s(e)?;
+    }
+    Ok(())
+}
 
 /// Radiance LUT across ``gains`` (``gloam calibrate radiance``): drives
 /// the grabber through the source file's levels (``levels`` generated when
@@ -56,27 +65,21 @@ fn calibrate_radiance<'py>(
     auto_range: Option<f64>,
     exposure_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if gains.is_empty() {
-        return Err(GloamError::new_err("gains: at least one gain is needed"));
-    }
-    let top = gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let opts = RadianceOptions {
+    // `gloam calibrate radiance`'s request: the same checks and steps.
+    let req = RadianceRequest {
+        source: SourceRequest {
+            source,
+            levels,
+            auto_range,
+        },
         gains,
         frames,
         exposure_s,
-        ..Default::default()
     };
+    req.validate().or_py()?;
     let lut = grabber.borrow_mut().run(py, |g| {
-        if let Some(e) = exposure_s {
-            g.set_exposure_s(e)?;
-        }
-        let mut src = open_for_grabber(&source, levels, auto_range, g, Some(top))?.source;
-        Ok(gloam_calib::radiance::calibrate_radiance(
-            g,
-            src.as_mut(),
-            &opts,
-            &mut no_progress,
-        )?)
+        set_exposure(g, exposure_s)?;
+        Ok(req.run(g, &mut quiet)?)
     })?;
     to_py_as(py, &lut, "RadianceCalibration")
 }
@@ -109,23 +112,27 @@ fn photon_transfer<'py>(
     exposure_s: Option<f64>,
     dataset_dir: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let opts = PtcOptions {
+    // `gloam calibrate ptc`'s request: the same checks and steps.
+    let req = PtcRequest {
+        source: SourceRequest {
+            source,
+            levels: Some(levels),
+            auto_range,
+        },
+        grabber: grabber.borrow().uri().to_string(),
         gain,
-        exposure_s,
         spatial_frames,
+        exposure_s,
         dataset_dir,
     };
-    let uri = grabber.borrow().uri().to_string();
+    req.validate().or_py()?;
     let r = grabber.borrow_mut().run(py, |g| {
-        if let Some(e) = exposure_s {
-            g.set_exposure_s(e)?;
-        }
-        let mut src = open_for_grabber(&source, Some(levels), auto_range, g, Some(gain))?.source;
-        let mismatch = rig_mismatch(&uri, src.rig(), exposure_s);
-        let mut r = ptc_flow(g, src.as_mut(), &opts, &mut no_progress)?;
+        set_exposure(g, exposure_s)?;
+        let done = req.run(g, &mut quiet)?;
+        let mut r = done.report;
         // The CLI prints this before the run; here it leads the warnings.
-        if let Some(m) = mismatch {
-            r.warnings.insert(0, m.to_string());
+        if let Some(m) = done.rig_mismatch {
+            r.warnings.insert(0, m);
         }
         Ok(r)
     })?;
@@ -167,62 +174,63 @@ fn mtf<'py>(
     scope_rows: Option<Vec<usize>>,
     magnification: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if space != "digital" && space != "voltage" {
-        return Err(GloamError::new_err(format!(
-            "space: '{space}' is neither 'digital' nor 'voltage'"
-        )));
-    }
-    if space == "voltage" && target != "sine" {
-        return Err(GloamError::new_err(
-            "space='voltage' reads sine patterns: use target='sine'",
-        ));
-    }
-    if target != "edge" && target != "sine" {
-        return Err(GloamError::new_err(format!(
-            "target: '{target}' is neither 'edge' nor 'sine'"
-        )));
-    }
-    let req = MtfRequest {
-        target: if target == "sine" {
-            GrabberTarget::Sine
-        } else {
-            GrabberTarget::Edge
-        },
-        gain,
-        radiance_w_m2_sr: radiance,
-        modulation,
-        angle_deg,
-        frequencies_cy_per_px: frequencies.unwrap_or_default(),
-        frames,
-        spectrum: spectrum.to_string(),
-    };
-    if space == "voltage" {
-        let v = VoltageRequest {
-            uri: grabber.borrow().uri().to_string(),
-            seed: grabber.borrow().seed(),
+    let voltage = match space {
+        "digital" => None,
+        "voltage" => Some(VoltageOptions {
             scope_rows: scope_rows.unwrap_or_default(),
             magnification,
-        };
-        let r = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
-            Ok(voltage_mtf(g, &req, &v, &mut |_, _, _| {})?)
-        })?;
-        // mtf.json's document (`gloam_calib::report::write_mtf_report`).
-        let first = &r.curves[0];
-        let doc = serde_json::json!({
-            "method": first.method,
-            "frequencies_cy_per_px": first.frequencies_cy_per_px,
-            "mtf": first.mtf,
-            "mtf50": first.mtf50,
-            "mtf10": first.mtf10,
-            "curves": r.curves,
-            "details": r.details,
-        });
-        return to_py_as(py, &doc, "Mtf");
-    }
-    let curve = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
-        Ok(measure_mtf(g, &req, &mut no_progress)?.curve)
+        }),
+        _ => {
+            return Err(GloamError::new_err(format!(
+                "space: '{space}' is neither 'digital' nor 'voltage'"
+            )));
+        }
+    };
+    let target = match target {
+        "sine" => GrabberTarget::Sine,
+        "edge" => GrabberTarget::Edge,
+        _ => {
+            return Err(GloamError::new_err(format!(
+                "target: '{target}' is neither 'edge' nor 'sine'"
+            )));
+        }
+    };
+    // `gloam calibrate mtf`'s request: the same checks and steps.
+    let req = MtfCalibration {
+        mtf: MtfRequest {
+            target,
+            gain,
+            radiance_w_m2_sr: radiance,
+            modulation,
+            angle_deg,
+            frequencies_cy_per_px: frequencies.unwrap_or_default(),
+            frames,
+            spectrum: spectrum.to_string(),
+        },
+        voltage,
+    };
+    req.validate().or_py()?;
+    let opened = (grabber.borrow().uri().to_string(), grabber.borrow().seed());
+    let done = grabber.borrow_mut().run(py, |g: &mut dyn FrameGrabber| {
+        Ok(req.run(g, (&opened.0, opened.1), &mut quiet)?)
     })?;
-    to_py_as(py, &curve, "Mtf")
+    match done {
+        MtfDone::Digital { curve, .. } => to_py_as(py, &curve, "Mtf"),
+        MtfDone::Voltage(r) => {
+            // mtf.json's document (`gloam_calib::report::write_mtf_report`).
+            let first = &r.curves[0];
+            let doc = serde_json::json!({
+                "method": first.method,
+                "frequencies_cy_per_px": first.frequencies_cy_per_px,
+                "mtf": first.mtf,
+                "mtf50": first.mtf50,
+                "mtf10": first.mtf10,
+                "curves": r.curves,
+                "details": r.details,
+            });
+            to_py_as(py, &doc, "Mtf")
+        }
+    }
 }
 
 /// A simulated camera's analogue video on the oscilloscope, as ``gloam
@@ -258,19 +266,6 @@ fn scope<'py>(
     frames: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     use gloam_sensor::stages::video_timing::VideoFormat;
-    // As `gloam scope`: the sensor (rig sine, seed 0) or the sim: URI.
-    let (sensor, uri_rig, uri_seed, uri_size) = match (sensor, grabber) {
-        (Some(_), Some(_)) => {
-            return Err(GloamError::new_err("give sensor= or grabber=, not both"));
-        }
-        (Some(s), None) => (s, "sine".to_string(), 0, None),
-        (None, Some(u)) => gloam_calib::scope_run::sim_uri(u).or_py()?,
-        (None, None) => {
-            return Err(GloamError::new_err(
-                "give sensor=PRESET_OR_FILE or grabber='sim:…'",
-            ));
-        }
-    };
     let format = match format {
         None => None,
         Some("rs-170" | "rs170") => Some(VideoFormat::Rs170),
@@ -281,19 +276,23 @@ fn scope<'py>(
             )));
         }
     };
-    let o = gloam_calib::scope_run::ScopeOptions {
+    // `gloam scope`'s request: the sensor (rig sine, seed 0) or the sim: URI.
+    let o = ScopeRequest {
         sensor,
-        seed: seed.unwrap_or(uri_seed),
-        size: size.or(uri_size),
-        rows: rows.unwrap_or_default(),
-        rig: rig.unwrap_or(uri_rig),
-        level_fraction: level,
+        grabber: grabber.map(str::to_string),
+        rig,
         frequency_cy_per_px: frequency,
+        level_fraction: level,
+        rows: rows.unwrap_or_default(),
+        size,
+        seed,
         gain,
         format,
         bandwidth_hz,
         frames,
-    };
+    }
+    .validate()
+    .or_py()?;
     let r = py
         .detach(|| gloam_calib::scope_run::run_scope(&o))
         .or_py()?;
@@ -337,23 +336,22 @@ fn agc_linearity<'py>(
     lut: Option<&Bound<'py, Lut>>,
     allow_unsettled: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let opts = AgcOptions {
+    // `gloam calibrate agc`'s request: the same checks and steps.
+    let req = AgcRequest {
+        source: SourceRequest {
+            source,
+            levels,
+            auto_range,
+        },
         fixed_gain,
-        frames_per_step: frames,
+        frames,
+        lut: lut.map(|l| (l.get().lut.clone(), None)),
         allow_unsettled,
-        ..Default::default()
     };
-    let lut = lut.map(|l| l.get().lut.clone());
-    let r = grabber.borrow_mut().run(py, |g| {
-        let mut src = open_for_grabber(&source, levels, auto_range, g, fixed_gain)?.source;
-        Ok(agc_linearisation(
-            g,
-            src.as_mut(),
-            &opts,
-            lut.as_ref(),
-            &mut no_progress,
-        )?)
-    })?;
+    req.validate().or_py()?;
+    let r = grabber
+        .borrow_mut()
+        .run(py, |g| Ok(req.run(g, &mut quiet)?))?;
     to_py_as(py, &r, "AgcLinearity")
 }
 

@@ -128,7 +128,7 @@ def test_voltage_mtf_and_scope_equal_the_cli(gloam_bin, tmp_path):
         assert ours.v_max == pytest.approx(theirs["v_max"], rel=1e-12)
         assert ours.v_min == pytest.approx(theirs["v_min"], rel=1e-12)
     assert m.method.startswith("voltage")
-    with pytest.raises(gloam.GloamError, match="target='sine'"):
+    with pytest.raises(gloam.GloamError, match="--space voltage reads sine patterns: use --target sine"):
         with gloam.open_grabber(uri) as g:
             gloam.mtf(g, space="voltage")
     run(gloam_bin, "scope", "--grabber", uri, "--rows", "10,48", "--out", tmp_path / "scope", cwd=tmp_path)

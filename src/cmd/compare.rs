@@ -19,7 +19,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     }
     let c = compare_images(&t.data, &s.data, t.width, t.height, &regions)?;
     if args.json {
-        return super::output::print_json(&c);
+        return super::print_json(&c);
     }
     outln!("{:<24} {:>14} {:>14}", "region", "truth", "synthetic");
     for r in &c.regions {

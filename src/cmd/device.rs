@@ -1,12 +1,10 @@
 //! `gloam device --pty`: the device emulator on a pseudo-terminal;
 //! `gloam device --gige ADDR[:PORT]`: the simulated camera as a GigE Vision
-//! device (crate `gloam-gige`). The arguments are `gloam_simcam::cli`'s.
-//! With `--sequence` either serves a night that changes: the sequence's
-//! light-group layers mixed per frame (`SceneImage::Layers`).
+//! device (crate `gloam-gige`). The arguments are `gloam_simcam::cli`'s;
+//! what is served (a rig, `--scene`, `--sequence`'s layers mixed per
+//! frame) is `gloam_pipeline::cli::device`'s.
 
 use std::io::Write;
-use std::path::Path;
-use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, bail};
@@ -15,84 +13,18 @@ use gloam_gige::{Device, GigeServer, ServerConfig, StreamFaults};
 use gloam_grabber::FrameSource;
 use gloam_grabber::emulator::{EmulatorStats, run_emulator};
 use gloam_grabber::serial::PtyDevice;
+use gloam_pipeline::cli::device::{DeviceSource, device_source};
 pub use gloam_simcam::cli::DeviceArgs;
-use gloam_simcam::{DEFAULT_RIG_SIZE, LayerWeights, SceneImage, SceneView, SensorSource};
-
-/// `--sequence`: its scene's light-group layers, rendered once for the
-/// camera, and the sequence's weights for any exposure window (looped over
-/// its frames with `--loop`, else its last intensities held).
-fn sequence_view(args: &DeviceArgs, path: &str) -> anyhow::Result<SceneView> {
-    let seq = gloam_scene::sequence::load_sequence(Path::new(path))
-        .with_context(|| format!("sequence '{path}'"))?;
-    seq.check_static("gloam device --sequence")?;
-    let scene = seq.scene.to_string_lossy().into_owned();
-    eprintln!("gloam device: rendering the light groups of {scene} …");
-    let (groups, layers) =
-        gloam_pipeline::scene_view::render_scene_layers(&scene, &args.sensor, args.size)
-            .with_context(|| format!("rendering the layers of scene '{scene}'"))?;
-    seq.check_groups(groups.iter().map(String::as_str))?;
-    let duration_s = f64::from(seq.frames) / seq.frame_rate_hz;
-    let looped = args.loop_sequence;
-    let frame_rate_hz = seq.frame_rate_hz;
-    let weights = move |t0: f64, t1: f64| {
-        let (start, width) = (
-            if looped {
-                t0.rem_euclid(duration_s)
-            } else {
-                t0
-            },
-            t1 - t0,
-        );
-        seq.weights(groups.iter().map(String::as_str), start, start + width)
-    };
-    Ok(SceneView {
-        label: path.to_string(),
-        image: SceneImage::Layers {
-            e_s_m2_sr: layers,
-            frame_rate_hz,
-            weights: LayerWeights(Arc::new(weights)),
-        },
-    })
-}
-
-/// The source both `--pty` and `--gige` serve, from `--scene`,
-/// `--sequence` or `--rig`, a label for messages, and whether it is a
-/// (fixed-size) rendered scene.
-fn device_source(args: &DeviceArgs) -> anyhow::Result<(SensorSource, String, bool)> {
-    let sensor = || format!("sensor '{}'", args.sensor);
-    if let Some(path) = &args.sequence {
-        let view = sequence_view(args, path)?;
-        let source =
-            SensorSource::with_scene(&args.sensor, view, args.seed).with_context(sensor)?;
-        return Ok((source, format!("sequence '{path}'"), true));
-    }
-    Ok(match &args.scene {
-        Some(path) => {
-            eprintln!("gloam device: rendering {path} …");
-            let scene = gloam_pipeline::render_scene_view(path, &args.sensor, args.size)
-                .with_context(|| format!("rendering scene '{path}'"))?;
-            if let Some(note) = gloam_pipeline::scene_view_fit_note(&scene, &args.sensor) {
-                eprintln!("warning: {note}");
-            }
-            let source =
-                SensorSource::with_scene(&args.sensor, scene, args.seed).with_context(sensor)?;
-            (source, format!("scene '{path}'"), true)
-        }
-        None => {
-            let rig = (args.rig.as_deref()).unwrap_or(gloam_simcam::DEFAULT_RIG);
-            let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
-            let source =
-                SensorSource::new(&args.sensor, rig, args.seed, size).with_context(sensor)?;
-            (source, format!("rig '{rig}'"), false)
-        }
-    })
-}
 
 /// Prints the address a client connects to as stdout's first line.
 fn announce(what: &str) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
     writeln!(out, "{what}")?;
     Ok(out.flush()?)
+}
+
+fn source(args: &DeviceArgs) -> anyhow::Result<DeviceSource> {
+    Ok(device_source(args, &|line| eprintln!("{line}"))?)
 }
 
 pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
@@ -105,7 +37,9 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
     if args.baud == 0 {
         bail!("--baud must be positive");
     }
-    let (mut source, view, _) = device_source(&args)?;
+    let DeviceSource {
+        mut source, view, ..
+    } = source(&args)?;
     let info = source.info();
     let pty = PtyDevice::open().context("opening a pseudo-terminal")?;
     let path = pty.slave_path().to_string();
@@ -125,7 +59,11 @@ fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
         .with_context(|| format!("--gige '{addr}': expected an IPv4 ADDR or ADDR:PORT"))?;
     let cfg = gloam_sensor::SensorConfig::load_preset_or_file(&args.sensor)
         .with_context(|| format!("sensor '{}'", args.sensor))?;
-    let (source, view, from_scene) = device_source(args)?;
+    let DeviceSource {
+        source,
+        view,
+        from_scene,
+    } = source(args)?;
     let info = source.info();
     if info.max_width > 65_535 || info.max_height > 65_535 {
         bail!("frame too large for GigE Vision");

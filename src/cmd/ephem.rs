@@ -5,7 +5,7 @@
 
 pub use gloam_sky::cli::EphemArgs;
 
-use super::output::print_json;
+use super::print_json;
 
 pub fn run(args: EphemArgs) -> anyhow::Result<()> {
     let report = args.report()?;

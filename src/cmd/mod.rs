@@ -9,7 +9,6 @@ pub mod device;
 pub mod ephem;
 pub mod grabbers;
 pub mod merge;
-pub mod output;
 pub mod plan;
 pub mod probe;
 pub mod progress;
@@ -20,3 +19,9 @@ pub mod sequence;
 pub mod sky;
 pub mod spectra;
 pub mod sweep;
+
+/// Prints a value as pretty JSON on stdout.
+pub fn print_json(value: &impl serde::Serialize) -> anyhow::Result<()> {
+    outln!("{}", serde_json::to_string_pretty(value)?);
+    Ok(())
+}

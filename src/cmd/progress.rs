@@ -22,6 +22,12 @@ pub fn bar(template: &str, chars: &str, len: u64) -> Option<indicatif::ProgressB
     })
 }
 
+/// A bar of `len` steps drawn with `template` on a terminal, hidden
+/// elsewhere.
+pub fn bar_or_hidden(template: &str, len: u64) -> indicatif::ProgressBar {
+    bar(template, "█░", len).unwrap_or_else(indicatif::ProgressBar::hidden)
+}
+
 /// The observer to hand to `Tracer::prepare_observed` (None off a terminal).
 pub fn prep_spinner() -> Option<PrepObserver> {
     if !std::io::stderr().is_terminal() {
@@ -99,5 +105,29 @@ impl TileBar {
         if let Some(b) = &self.0 {
             b.finish_and_clear();
         }
+    }
+}
+
+/// A request's events on a terminal: a spinner for the preparation, a bar
+/// over the tiles, notes on stderr.
+#[derive(Default)]
+pub struct Terminal {
+    bar: std::sync::OnceLock<TileBar>,
+}
+
+impl gloam_pipeline::Events for Terminal {
+    fn preparation(&self) -> Option<PrepObserver> {
+        prep_spinner()
+    }
+    fn tiles(&self, done: u64, total: u64) {
+        self.bar.get_or_init(TileBar::new).progress(done, total);
+    }
+    fn traced(&self) {
+        if let Some(b) = self.bar.get() {
+            b.finish();
+        }
+    }
+    fn note(&self, line: &str) {
+        eprintln!("{line}");
     }
 }

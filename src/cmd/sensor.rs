@@ -4,7 +4,7 @@ pub use gloam_sensor::cli::SensorCommand;
 use gloam_sensor::cli::preset_rows;
 use gloam_sensor::{CaptureError, Chain, SensorConfig};
 
-use super::output::print_json;
+use super::print_json;
 
 pub fn run(cmd: SensorCommand) -> anyhow::Result<()> {
     match cmd {

@@ -6,7 +6,8 @@
 
 pub use gloam_sky::cli::SkyArgs;
 
-use super::output::{print_json, write_atomic};
+use super::print_json;
+use gloam_pipeline::output::write_atomic;
 
 pub fn run(args: SkyArgs) -> anyhow::Result<()> {
     let mut report = args.report()?;

@@ -3,7 +3,7 @@
 pub use gloam_spectra::cli::SpectraCommand;
 use gloam_spectra::{BandIntegral, library};
 
-use super::output::print_json;
+use super::print_json;
 
 pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
     match cmd {

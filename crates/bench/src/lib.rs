@@ -66,6 +66,8 @@ pub mod accuracy_mitsuba;
 pub mod child;
 #[cfg(feature = "cli")]
 pub mod cli;
+#[cfg(feature = "cli")]
+pub mod command;
 pub mod metrics;
 pub mod plan_check;
 pub mod resolution;

@@ -9,35 +9,20 @@ use std::path::{Path, PathBuf};
 use gloam_io::OutputSet;
 
 use clap::{Args, Subcommand, ValueEnum};
-use gloam_grabber::{Frame, FrameGrabber, GrabError, OpenOptions, Registry};
-use gloam_simcam::FrameExposureExt;
+use gloam_grabber::{FrameGrabber, GrabError, Registry};
 
 use crate::CalibError;
-use crate::agc::{AgcOptions, agc_linearisation};
-use crate::capture::FrameLosses;
-use crate::mtf_flow::{
-    self, GrabberTarget, MtfRequest, VoltageRequest, measure_mtf, read_usaf_ctf, usaf_mtf,
-    voltage_mtf,
-};
-use crate::ptc::{PtcOptions, photon_transfer};
+use crate::mtf_flow::{self, GrabberTarget, MtfRequest, read_usaf_ctf, usaf_mtf};
 use crate::radiance::{RadianceOptions, calibrate_radiance};
 use crate::report;
-use crate::rig_check::rig_mismatch;
-use crate::scope_run::{ScopeOptions, sim_uri};
-use crate::source::{CalibrationSource, SourceFile, open_for_grabber};
+use crate::request::{
+    AgcRequest, MtfCalibration, MtfDone, PtcRequest, RadianceRequest, ScopeRequest, SourceRequest,
+    VoltageOptions, open_uri, progress,
+};
+pub use crate::request::{CaptureTally, GrabRequest};
+use crate::scope_run::ScopeOptions;
 
-/// What a flow tells its front end while it runs.
-pub enum Event<'a> {
-    /// A line for the operator (stderr), printed at once.
-    Note(String),
-    /// Progress of a phase: its label, done and total.
-    Progress(&'a str, usize, usize),
-}
-
-/// Most radiance levels a sweep takes (`--levels`).
-pub const MAX_LEVELS: usize = 10_000;
-/// Most frames taken at one setting (`--frames`, `--spatial-frames`).
-pub const MAX_FRAMES_PER_SETTING: usize = 100_000;
+pub use crate::request::{Event, MAX_FRAMES_PER_SETTING, MAX_LEVELS};
 
 /// A count flag's parser: a whole number in 1..=`max`, refused before
 /// anything is sized by it.
@@ -353,25 +338,6 @@ fn agc_inputs(a: &AgcArgs) -> Vec<(&'static str, &Path)> {
     v
 }
 
-/// Opens grabber `uri` (noise seed `seed` for `sim:`), naming the URI if
-/// it will not open.
-fn open_uri(
-    registry: &Registry,
-    uri: &str,
-    seed: Option<u64>,
-) -> Result<Box<dyn FrameGrabber>, CalibError> {
-    let opts = OpenOptions {
-        seed,
-        ..OpenOptions::default()
-    };
-    registry
-        .open(uri, &opts)
-        .map_err(|source| CalibError::Open {
-            uri: uri.to_string(),
-            source: Box::new(source),
-        })
-}
-
 impl GrabberArgs {
     /// Opens the grabber and sets the exposure asked for.
     pub fn open<E: From<CalibError> + From<GrabError>>(
@@ -389,41 +355,12 @@ impl GrabberArgs {
 }
 
 impl SourceArgs {
-    /// Opens the source; auto-ranges a sphere at `gain` (`None`: the
-    /// camera's current gain) when asked ([`open_for_grabber`]).
-    fn open(
-        &self,
-        g: &mut dyn FrameGrabber,
-        gain: Option<f64>,
-        ev: &mut dyn FnMut(Event<'_>),
-    ) -> Result<Box<dyn CalibrationSource>, CalibError> {
-        let opened = open_for_grabber(&self.source, self.levels, self.auto_range, g, gain)?;
-        if let (Some(top), Some(frac)) = (opened.auto_ranged_max_w_m2_sr, self.auto_range) {
-            ev(Event::Note(format!(
-                "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at {})",
-                top,
-                100.0 * frac,
-                gain.map_or("the camera's power-up gain".into(), |g| format!("gain {g}"))
-            )));
-        }
-        Ok(opened.source)
-    }
-
-    /// A manual source prompts on the terminal, where a bar would garble it.
-    fn is_manual(&self) -> bool {
-        SourceFile::load(&self.source).is_ok_and(|f| f.is_manual())
-    }
-}
-
-/// `ev`'s progress under `label`, or nothing when `silent`.
-fn progress<'a>(
-    ev: &'a mut dyn FnMut(Event<'_>),
-    label: &'a str,
-    silent: bool,
-) -> impl FnMut(usize, usize) + 'a {
-    move |done, total| {
-        if !silent {
-            ev(Event::Progress(label, done, total))
+    /// The flags as a flow's source.
+    pub fn request(&self) -> SourceRequest {
+        SourceRequest {
+            source: self.source.clone(),
+            levels: self.levels,
+            auto_range: self.auto_range,
         }
     }
 }
@@ -438,69 +375,24 @@ fn written(set: OutputSet, main_json: &'static str, mut lines: Vec<String>) -> O
     }
 }
 
-/// What the grabber-and-source flows (radiance, AGC, photon transfer)
-/// start from, opened in the one order they share: the output set first
-/// (so a refused `--out` touches no camera), then the grabber, then the
-/// source against it.
-struct Bench {
-    set: OutputSet,
-    g: Box<dyn FrameGrabber>,
-    src: Box<dyn CalibrationSource>,
-    /// A manual source prompts on the terminal: no progress bar then.
-    silent: bool,
-}
-
-impl Bench {
-    /// Opens the output set (`out`, `force`), the grabber and `source`,
-    /// auto-ranged at `gain` (`None`: the camera's current gain).
-    fn open<E: From<CalibError> + From<GrabError>>(
-        (out, force): (&Path, bool),
-        grabber: &GrabberArgs,
-        source: &SourceArgs,
-        gain: Option<f64>,
-        registry: &Registry,
-        ev: &mut dyn FnMut(Event<'_>),
-    ) -> Result<Self, E> {
-        let set = OutputSet::begin(out, force, false).map_err(CalibError::from)?;
-        let mut g = grabber.open::<E>(registry, ev)?;
-        let src = source.open(g.as_mut(), gain, ev)?;
-        Ok(Self {
-            set,
-            g,
-            src,
-            silent: source.is_manual(),
-        })
-    }
-}
-
 fn radiance<E: From<CalibError> + From<GrabError>>(
     a: &RadianceArgs,
     registry: &Registry,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
-    if a.gains.is_empty() {
-        return Err(CalibError::Usage("--gains needs at least one gain".into()).into());
-    }
-    if let Some(g) = a.gains.iter().find(|g| !(g.is_finite() && **g > 0.0)) {
-        let m = format!("--gains: {g} is not a gain (each must be a finite number > 0)");
-        return Err(CalibError::Usage(m).into());
-    }
-    let top = a.gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let out = (a.out.as_path(), a.force);
-    let mut b = Bench::open::<E>(out, &a.grabber, &a.source, Some(top), registry, ev)?;
-    let opts = RadianceOptions {
+    let req = RadianceRequest {
+        source: a.source.request(),
         gains: a.gains.clone(),
         frames: a.frames,
         exposure_s: a.grabber.exposure_s,
-        ..Default::default()
     };
-    let lut = calibrate_radiance(
-        b.g.as_mut(),
-        b.src.as_mut(),
-        &opts,
-        &mut progress(ev, "levels", b.silent),
-    )?;
-    report::write_radiance_report(b.set.dir(), &lut)?;
+    req.validate()?;
+    // The output set first (a refused `--out` touches no camera), then
+    // the grabber, then the source against it.
+    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    let lut = req.run(g.as_mut(), ev)?;
+    report::write_radiance_report(set.dir(), &lut)?;
     let mut lines = Vec::new();
     for c in &lut.gains {
         lines.push(format!(
@@ -519,7 +411,7 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
                 .map(|w| format!("warning: gain {}: {w}", c.gain)),
         );
     }
-    Ok(written(b.set, "lut.json", lines))
+    Ok(written(set, "lut.json", lines))
 }
 
 fn agc<E: From<CalibError> + From<GrabError>>(
@@ -528,27 +420,18 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let lut = a.lut.as_deref().map(crate::apply::load_lut).transpose()?;
-    let out = (a.out.as_path(), a.force);
-    let mut b = Bench::open::<E>(out, &a.grabber, &a.source, a.fixed_gain, registry, ev)?;
-    let opts = AgcOptions {
+    let req = AgcRequest {
+        source: a.source.request(),
         fixed_gain: a.fixed_gain,
-        frames_per_step: a.frames,
+        frames: a.frames,
+        lut: lut.map(|l| (l, a.lut.clone())),
         allow_unsettled: a.allow_unsettled,
-        ..Default::default()
     };
-    let r = agc_linearisation(
-        b.g.as_mut(),
-        b.src.as_mut(),
-        &opts,
-        lut.as_ref(),
-        &mut progress(ev, "steps", b.silent),
-    )
-    .map_err(|e| match (e, &a.lut) {
-        // Name the file the user passed.
-        (e @ CalibError::LutNotForCamera { .. }, Some(path)) => CalibError::file(path, e),
-        (e, _) => e,
-    })?;
-    report::write_agc_report(b.set.dir(), &r)?;
+    req.validate()?;
+    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    let r = req.run(g.as_mut(), ev)?;
+    report::write_agc_report(set.dir(), &r)?;
     let summary = format!(
         "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
         r.all_settled,
@@ -561,7 +444,7 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     );
     let mut lines = vec![summary];
     lines.extend(linearised_line(&r));
-    Ok(written(b.set, "agc.json", lines))
+    Ok(written(set, "agc.json", lines))
 }
 
 /// What the front end's renderer returns for `calibrate agc --sequence`:
@@ -666,6 +549,12 @@ impl SequenceRun<'_> {
         self.seed
     }
 
+    /// The camera's configuration, resolved once from
+    /// [`sensor`](Self::sensor) when the run was checked.
+    pub fn config(&self) -> &gloam_sensor::SensorConfig {
+        &self.config
+    }
+
     /// With the sequence `captured` into [`dir`](Self::dir): measures a
     /// LUT over the gains the AGC settled through if none was given, and
     /// compares each frame linearised through the LUT with the true
@@ -695,10 +584,10 @@ impl SequenceRun<'_> {
         let mut lines = Vec::new();
         // The source gives the LUT's units (its lamp's spectrum) even when the
         // LUT is given, and measures the LUT when it is not.
-        let source = SourceArgs {
+        let source = SourceRequest {
             levels: a.source.levels.or(Some(SEQUENCE_LUT_LEVELS)),
             auto_range: a.source.auto_range.or(Some(SEQUENCE_LUT_AUTO_RANGE)),
-            ..a.source.clone()
+            ..a.source.request()
         };
         let (lut, mut src) = match lut {
             Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
@@ -818,28 +707,20 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
     registry: &Registry,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
-    let mut sa = a.source.clone();
-    sa.levels = sa.levels.or(Some(crate::ptc::DEFAULT_LEVELS));
-    let out = (a.out.as_path(), a.force);
-    let mut b = Bench::open::<E>(out, &a.grabber, &sa, Some(a.gain), registry, ev)?;
-    // Only photon transfer reports in photons (QE), so only it checks that
-    // the source's rig is the camera's.
-    if let Some(w) = rig_mismatch(&a.grabber.grabber, b.src.rig(), a.grabber.exposure_s) {
-        ev(Event::Note(format!("warning: {w}")));
-    }
-    let opts = PtcOptions {
+    let mut req = PtcRequest {
+        source: a.source.request(),
+        grabber: a.grabber.grabber.clone(),
         gain: a.gain,
-        exposure_s: a.grabber.exposure_s,
         spatial_frames: a.spatial_frames,
-        dataset_dir: Some(b.set.dir().join("emva1288")),
+        exposure_s: a.grabber.exposure_s,
+        dataset_dir: None,
     };
-    let r = photon_transfer(
-        b.g.as_mut(),
-        b.src.as_mut(),
-        &opts,
-        &mut progress(ev, "levels", b.silent),
-    )?;
-    report::write_ptc_report(b.set.dir(), &r)?;
+    req.validate()?;
+    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let mut g = a.grabber.open::<E>(registry, ev)?;
+    req.dataset_dir = Some(set.dir().join("emva1288"));
+    let r = req.run(g.as_mut(), ev)?.report;
+    report::write_ptc_report(set.dir(), &r)?;
     let mut lines: Vec<String> = r.warnings.iter().map(|w| format!("warning: {w}")).collect();
     lines.push(format!(
         "K = {:.5} DN/e⁻, dark noise {:.3} e⁻, saturation {:.0} e⁻, QE {}",
@@ -860,7 +741,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
                 .map_or(String::new(), |q| format!(", QE = R/g = {q:.4}"))
         ));
     }
-    Ok(written(b.set, "ptc.json", lines))
+    Ok(written(set, "ptc.json", lines))
 }
 
 fn mtf<E: From<CalibError> + From<GrabError>>(
@@ -869,93 +750,86 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
-    if matches!(a.target, Target::Sine) {
-        // Before the output set opens: nothing is measured above Nyquist.
-        mtf_flow::check_sine_frequencies(&a.frequencies)?;
+    let target = match a.target {
+        Target::Usaf => None,
+        Target::Sine => Some(GrabberTarget::Sine),
+        Target::Edge => Some(GrabberTarget::Edge),
+    };
+    let req = target.map(|target| MtfCalibration {
+        mtf: MtfRequest {
+            target,
+            gain: a.gain,
+            radiance_w_m2_sr: a.radiance,
+            modulation: a.modulation,
+            angle_deg: a.angle_deg,
+            frequencies_cy_per_px: a.frequencies.clone(),
+            frames: a.frames,
+            spectrum: a.spectrum.clone(),
+        },
+        voltage: (a.space == Space::Voltage).then(|| VoltageOptions {
+            scope_rows: a.scope_rows.clone(),
+            magnification: a.magnification,
+        }),
+    });
+    // Before the output set opens: nothing is measured above Nyquist.
+    if let Some(r) = &req {
+        r.validate()?;
     }
     let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
     let dir = set.dir();
-    let (curves, details) = match a.target {
-        Target::Usaf => {
-            let ctf_path = a
-                .ctf
-                .as_ref()
-                .ok_or_else(|| usage("--target usaf needs --ctf FILE"))?;
-            let pitch = a
-                .pixel_pitch_um
-                .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
-            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification, ctf_path)?
-        }
-        Target::Sine | Target::Edge => {
-            let uri =
-                (a.grabber.clone()).ok_or_else(|| usage("--target sine/edge needs --grabber"))?;
-            let ga = GrabberArgs {
-                grabber: uri.clone(),
-                seed: a.seed,
-                exposure_s: None,
-            };
-            let mut g = ga.open::<E>(registry, ev)?;
-            let req = MtfRequest {
-                target: match a.target {
-                    Target::Sine => GrabberTarget::Sine,
-                    _ => GrabberTarget::Edge,
-                },
-                gain: a.gain,
-                radiance_w_m2_sr: a.radiance,
-                modulation: a.modulation,
-                angle_deg: a.angle_deg,
-                frequencies_cy_per_px: a.frequencies.clone(),
-                frames: a.frames,
-                spectrum: a.spectrum.clone(),
-            };
-            if a.space == Space::Voltage {
-                if req.target != GrabberTarget::Sine {
-                    let m = "--space voltage reads sine patterns: use --target sine";
-                    return Err(usage(m).into());
-                }
-                let v = VoltageRequest {
-                    uri,
-                    seed: a.seed,
-                    scope_rows: a.scope_rows.clone(),
-                    magnification: a.magnification,
-                };
-                return mtf_voltage(set, g.as_mut(), &req, &v, ev);
-            }
-            let label = match req.target {
-                GrabberTarget::Sine => "targets",
-                GrabberTarget::Edge => "edge",
-            };
-            let m = measure_mtf(g.as_mut(), &req, &mut progress(ev, label, false))?;
+    let Some(req) = req else {
+        let ctf_path = a
+            .ctf
+            .as_ref()
+            .ok_or_else(|| usage("--target usaf needs --ctf FILE"))?;
+        let pitch = a
+            .pixel_pitch_um
+            .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
+        let (curves, details) =
+            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification, ctf_path)?;
+        report::write_mtf_report(dir, &curves, details)?;
+        return Ok(written(set, "mtf.json", vec![mtf_line(&curves[0])]));
+    };
+    let uri = (a.grabber.clone()).ok_or_else(|| usage("--target sine/edge needs --grabber"))?;
+    let ga = GrabberArgs {
+        grabber: uri.clone(),
+        seed: a.seed,
+        exposure_s: None,
+    };
+    let mut g = ga.open::<E>(registry, ev)?;
+    match req.run(g.as_mut(), (&uri, a.seed), ev)? {
+        MtfDone::Voltage(r) => mtf_voltage(set, r),
+        MtfDone::Digital {
+            curve,
+            mean_radiance_w_m2_sr,
+        } => {
             let details = serde_json::json!({
-                "mean_radiance_w_m2_sr": m.mean_radiance_w_m2_sr,
+                "mean_radiance_w_m2_sr": mean_radiance_w_m2_sr,
                 "grabber": g.describe(),
             });
-            (vec![m.curve], details)
+            let line = mtf_line(&curve);
+            report::write_mtf_report(dir, &[curve], details)?;
+            Ok(written(set, "mtf.json", vec![line]))
         }
-    };
-    report::write_mtf_report(dir, &curves, details)?;
-    let c = &curves[0];
-    let line = format!(
+    }
+}
+
+/// `METHOD: MTF50 … cy/px, MTF10 … cy/px`.
+fn mtf_line(c: &crate::mtf::MtfCurve) -> String {
+    format!(
         "{}: MTF50 {} cy/px, MTF10 {} cy/px",
         c.method,
         c.mtf50.map_or("—".into(), |v| format!("{v:.4}")),
         c.mtf10.map_or("—".into(), |v| format!("{v:.4}"))
-    );
-    Ok(written(set, "mtf.json", vec![line]))
+    )
 }
 
 /// `--space voltage`: the scope flow on the sim: camera, the digital-count
 /// sine flow through the grabber, and the analytic curves, in one report.
 fn mtf_voltage<E: From<CalibError>>(
     set: OutputSet,
-    g: &mut dyn FrameGrabber,
-    req: &MtfRequest,
-    v: &VoltageRequest,
-    ev: &mut dyn FnMut(Event<'_>),
+    r: crate::mtf_flow::VoltageReport,
 ) -> Result<Outcome, E> {
-    let r = voltage_mtf(g, req, v, &mut |phase, done, total| {
-        ev(Event::Progress(phase, done, total))
-    })?;
     report::write_mtf_report(set.dir(), &r.curves, r.details)?;
     let (c, p) = (&r.curves, &r.voltage.points);
     let mut lines = Vec::new();
@@ -1014,112 +888,22 @@ pub struct CaptureArgs {
     pub force: bool,
 }
 
-/// How a capture went: frames kept, frames with exposure warnings, losses.
-#[derive(Default)]
-pub struct CaptureTally {
-    pub kept: u64,
-    pub frames_warned: u64,
-    pub losses: FrameLosses,
-}
-
 impl CaptureArgs {
-    /// Checks the options that clap cannot.
-    pub fn check(&self) -> Result<(), CalibError> {
-        if self.frames == 0 {
-            return Err(CalibError::Usage("--frames must be at least 1".into()));
+    /// The grab these flags ask for.
+    pub fn request(&self) -> GrabRequest {
+        GrabRequest {
+            grabber: self.grabber.clone(),
+            frames: self.frames,
+            gain: self.gain,
+            agc: self.agc,
+            bits: self
+                .bits
+                .as_deref()
+                .map(|b| b.parse().expect("clap checked 8, 12 or 16")),
+            exposure_s: self.exposure_s,
+            seed: self.seed,
+            max_consecutive_failures: self.max_consecutive_failures,
         }
-        Ok(())
-    }
-
-    /// Opens the grabber, records which camera it is in `dir`'s
-    /// `camera.json` (`calibrate apply` checks a LUT against it) and
-    /// applies the settings asked for.
-    pub fn open<E: From<CalibError> + From<GrabError>>(
-        &self,
-        registry: &Registry,
-        dir: &Path,
-        ev: &mut dyn FnMut(Event<'_>),
-    ) -> Result<Box<dyn FrameGrabber>, E> {
-        let mut g = open_uri(registry, &self.grabber, self.seed)?;
-        ev(Event::Note(format!("capturing from {}", g.describe())));
-        let camera = serde_json::json!({ "camera": g.describe(), "grabber": self.grabber });
-        report::write_json(&dir.join(crate::apply::CAMERA_FILE), &camera)?;
-        if let Some(b) = &self.bits {
-            g.set_bits(b.parse().expect("clap checked 8, 12 or 16"))?;
-        }
-        if let Some(e) = self.exposure_s {
-            g.set_exposure_s(e)?;
-        }
-        if let Some(gain) = self.gain {
-            let applied = g.set_gain(gain)?;
-            if (applied - gain).abs() > 1e-9 * gain.abs().max(1.0) {
-                ev(Event::Note(format!(
-                    "note: gain {gain} applied as {applied}"
-                )));
-            }
-        }
-        if self.agc {
-            g.set_agc(true)?;
-        }
-        Ok(g)
-    }
-
-    /// Grabs `--frames` good frames, handing each to `keep` with its index
-    /// and exposure warnings; rides out up to `--max-consecutive-failures`
-    /// lost or damaged frames in a row, and stops when `interrupted()`.
-    /// Each kind of exposure warning is noted once (every frame keeps its
-    /// own through `keep`). The tally is returned even when the run failed.
-    pub fn grab<E: From<CalibError>, K: FnMut(u64, &Frame, Vec<String>) -> Result<(), E>>(
-        &self,
-        g: &mut dyn FrameGrabber,
-        interrupted: &dyn Fn() -> bool,
-        mut keep: K,
-        ev: &mut dyn FnMut(Event<'_>),
-    ) -> (CaptureTally, Result<(), E>) {
-        let mut t = CaptureTally::default();
-        let mut consecutive = 0u64;
-        let mut warned = std::collections::BTreeSet::new();
-        let mut status = String::new();
-        let result = (|| {
-            while t.kept < self.frames {
-                if interrupted() {
-                    return Err(CalibError::Usage("interrupted (Ctrl-C)".into()).into());
-                }
-                match g.grab() {
-                    Ok(f) => {
-                        consecutive = 0;
-                        let exposure = f.exposure();
-                        for (w, k) in exposure.warnings.iter().zip(&exposure.warning_kinds) {
-                            if warned.insert(*k) {
-                                ev(Event::Note(format!("warning: frame {}: {w}", t.kept)));
-                            }
-                        }
-                        t.frames_warned += u64::from(!exposure.warnings.is_empty());
-                        keep(t.kept, &f, exposure.warnings)?;
-                        t.kept += 1;
-                    }
-                    Err(e) if t.losses.count(&e) => {
-                        consecutive += 1;
-                        ev(Event::Note(format!("warning: {e}")));
-                        let l = &t.losses;
-                        status = format!("{} damaged, {} lost", l.damaged, l.lost);
-                        if consecutive >= self.max_consecutive_failures {
-                            let m =
-                                format!("{consecutive} lost or damaged frames in a row; giving up");
-                            return Err(CalibError::Usage(m).into());
-                        }
-                    }
-                    Err(e) => return Err(CalibError::Grabbing(Box::new(e)).into()),
-                }
-                ev(Event::Progress(
-                    &status,
-                    t.kept as usize,
-                    self.frames as usize,
-                ));
-            }
-            Ok(())
-        })();
-        (t, result)
     }
 }
 
@@ -1179,29 +963,22 @@ impl ScopeArgs {
     /// (rig sine, seed 0) or the `--grabber` URI, each overridable.
     pub fn options(&self) -> Result<ScopeOptions, CalibError> {
         use gloam_sensor::stages::video_timing::VideoFormat;
-        let (sensor, rig, seed, size) = match (&self.sensor, &self.grabber) {
-            (Some(s), _) => (s.clone(), "sine".to_string(), 0, None),
-            (None, Some(u)) => sim_uri(u)?,
-            (None, None) => {
-                let m = "give --sensor PRESET_OR_FILE or --grabber sim:…";
-                return Err(CalibError::Usage(m.into()));
-            }
-        };
         let size =
             match &self.size {
                 Some(s) => Some(gloam_grabber::uri::parse_size(s).ok_or_else(|| {
                     CalibError::Usage(format!("--size '{s}' is not WxH (1..4096)"))
                 })?),
-                None => size,
+                None => None,
             };
-        Ok(ScopeOptions {
-            sensor,
-            seed: self.seed.unwrap_or(seed),
-            size,
-            rows: self.rows.clone(),
-            rig: self.rig.clone().unwrap_or(rig),
-            level_fraction: self.level,
+        ScopeRequest {
+            sensor: self.sensor.clone(),
+            grabber: self.grabber.clone(),
+            rig: self.rig.clone(),
             frequency_cy_per_px: self.frequency,
+            level_fraction: self.level,
+            rows: self.rows.clone(),
+            size,
+            seed: self.seed,
             gain: self.gain,
             format: self.format.map(|f| match f {
                 Format::Rs170 => VideoFormat::Rs170,
@@ -1209,7 +986,8 @@ impl ScopeArgs {
             }),
             bandwidth_hz: self.bandwidth_hz,
             frames: self.frames,
-        })
+        }
+        .validate()
     }
 }
 
@@ -1232,6 +1010,8 @@ mod tests {
     use clap::Parser;
 
     use super::*;
+    use crate::capture::FrameLosses;
+    use gloam_grabber::Frame;
 
     #[derive(Parser)]
     struct Scope {
@@ -1320,7 +1100,7 @@ mod tests {
         let mut g =
             gloam_simcam::SimGrabber::from_preset("scientific-ccd", "uniform", 0, (16, 8)).unwrap();
         let mut kept = Vec::new();
-        let (t, r) = capture(3).grab::<CalibError, _>(
+        let (t, r) = capture(3).request().grab::<CalibError, _>(
             &mut g,
             &|| false,
             |i, f: &Frame, _| {
@@ -1332,7 +1112,7 @@ mod tests {
         r.unwrap();
         assert_eq!(kept, [(0, 128), (1, 128), (2, 128)]);
         assert_eq!((t.kept, t.losses), (3, FrameLosses::default()));
-        let (t, r) = capture(3).grab::<CalibError, _>(
+        let (t, r) = capture(3).request().grab::<CalibError, _>(
             &mut g,
             &|| true,
             |_, _: &Frame, _| Ok(()),
@@ -1340,6 +1120,6 @@ mod tests {
         );
         assert_eq!(r.unwrap_err().to_string(), "interrupted (Ctrl-C)");
         assert_eq!(t.kept, 0);
-        assert!(capture(0).check().is_err());
+        assert!(capture(0).request().check().is_err());
     }
 }

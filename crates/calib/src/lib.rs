@@ -18,6 +18,7 @@ pub mod plot;
 pub mod ptc;
 pub mod radiance;
 pub mod report;
+pub mod request;
 pub mod rig_check;
 pub mod scope_plot;
 pub mod scope_run;

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod camera_goal;
+pub mod capture_request;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod detected;
@@ -14,6 +15,7 @@ pub mod render;
 pub mod request;
 pub mod scene_view;
 pub mod sequence;
+pub mod sequence_request;
 pub mod tile;
 
 pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detected_band};
@@ -35,3 +37,4 @@ pub use request::{Events, RenderDone, RenderReport, RenderRequest, SceneInput, V
 pub use scene_view::{
     SceneViewError, grabbers, grabbers_noting, render_scene_view, scene_view_fit_note,
 };
+pub use sequence_request::{SequenceRequest, ValidSequence};

@@ -22,7 +22,10 @@ use crate::camera_goal::CameraGoal;
 use crate::exposure::ExposureTarget;
 use crate::frames::{FrameCapture, scene_utc};
 use crate::output::write_atomic;
-use crate::render::{RenderError, RenderJob, Rendered, SettingArgs, TargetErrorSource, camera_of};
+use crate::render::{
+    DEFAULT_TARGET_ERROR, RenderError, RenderJob, Rendered, SettingArgs, TargetErrorSource,
+    camera_of,
+};
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
 use gloam_io::OutputSet;
@@ -171,24 +174,11 @@ impl RenderRequest {
         let tile = self.tile.as_deref().map(TileSpec::parse).transpose()?;
         let settings = self.settings.settings()?;
         let camera = camera_of(c.sensor.as_deref(), &scene).map(str::to_string);
-        let frame_format = match c.frame_format.as_deref() {
-            None => FrameFormat::default(),
-            Some(v) => v.parse().map_err(|source| RenderError::FrameFormat {
-                value: v.to_string(),
-                source,
-            })?,
-        };
+        let frame_format = c.frame_format()?;
         // A tile is traced with the camera's band all the same (the effect
         // plan weighs every band, so a tile makes the whole render's
         // decisions) but captures nothing.
-        let capture = camera.as_ref().filter(|_| tile.is_none()).map(|_| Capture {
-            frames: c.frames.unwrap_or(1),
-            gain: c.gain,
-            agc: c.agc,
-            noise: !c.no_noise,
-            auto_exposure: c.auto_exposure.then(ExposureTarget::default),
-            frame_format,
-        });
+        let capture = (camera.as_ref().filter(|_| tile.is_none())).map(|_| c.capture(frame_format));
         let valid = ValidRender {
             scene,
             scene_path,
@@ -204,20 +194,7 @@ impl RenderRequest {
         };
         match valid.frame_capture() {
             Some(fc) => fc.check()?,
-            None => {
-                let given = [
-                    ("--frames", c.frames.is_some()),
-                    ("--gain", c.gain.is_some()),
-                    ("--agc", c.agc),
-                    ("--no-noise", c.no_noise),
-                    ("--exposure", c.auto_exposure),
-                    ("--frame-format", c.frame_format.is_some()),
-                ];
-                if let Some((flag, _)) = given.into_iter().find(|(_, g)| *g) {
-                    let tile = valid.tile.is_some();
-                    return Err(RenderError::NeedsCamera { flag, tile });
-                }
-            }
+            None => c.refuse_flags_without_camera(valid.tile.is_some())?,
         }
         // `--target-error camera[:K]`: each pixel to the camera's own noise.
         if valid.camera_k.is_some() && (valid.capture.is_none() || valid.layers) {
@@ -246,13 +223,71 @@ impl RenderRequest {
 
 /// How a render with a camera captures its frames.
 #[derive(Clone, Debug)]
-struct Capture {
-    frames: u32,
-    gain: Option<f64>,
-    agc: bool,
-    noise: bool,
-    auto_exposure: Option<ExposureTarget>,
-    frame_format: FrameFormat,
+pub(crate) struct Capture {
+    pub(crate) frames: u32,
+    pub(crate) gain: Option<f64>,
+    pub(crate) agc: bool,
+    pub(crate) noise: bool,
+    pub(crate) auto_exposure: Option<ExposureTarget>,
+    pub(crate) frame_format: FrameFormat,
+}
+
+impl Capture {
+    /// The capture through `sensor` with noise seed `seed`.
+    pub(crate) fn through<'a>(&self, sensor: &'a str, seed: u64) -> FrameCapture<'a> {
+        FrameCapture {
+            sensor,
+            frames: self.frames,
+            gain: self.gain,
+            agc: self.agc,
+            noise: self.noise,
+            seed,
+            auto_exposure: self.auto_exposure,
+            frame_format: self.frame_format,
+        }
+    }
+}
+
+impl CameraOptions {
+    /// The `--frame-format` asked for (PNG when not given).
+    pub(crate) fn frame_format(&self) -> Result<FrameFormat, RenderError> {
+        match self.frame_format.as_deref() {
+            None => Ok(FrameFormat::default()),
+            Some(v) => v.parse().map_err(|source| RenderError::FrameFormat {
+                value: v.to_string(),
+                source,
+            }),
+        }
+    }
+
+    /// How the frames are captured (the camera aside).
+    pub(crate) fn capture(&self, frame_format: FrameFormat) -> Capture {
+        Capture {
+            frames: self.frames.unwrap_or(1),
+            gain: self.gain,
+            agc: self.agc,
+            noise: !self.no_noise,
+            auto_exposure: self.auto_exposure.then(ExposureTarget::default),
+            frame_format,
+        }
+    }
+
+    /// Refuses a camera flag given where there is no camera (`tile`: a
+    /// `--tile` render, which captures nothing).
+    pub(crate) fn refuse_flags_without_camera(&self, tile: bool) -> Result<(), RenderError> {
+        let given = [
+            ("--frames", self.frames.is_some()),
+            ("--gain", self.gain.is_some()),
+            ("--agc", self.agc),
+            ("--no-noise", self.no_noise),
+            ("--exposure", self.auto_exposure),
+            ("--frame-format", self.frame_format.is_some()),
+        ];
+        match given.into_iter().find(|(_, g)| *g) {
+            Some((flag, _)) => Err(RenderError::NeedsCamera { flag, tile }),
+            None => Ok(()),
+        }
+    }
 }
 
 /// A checked request: the scene loaded, the settings resolved, ready to
@@ -314,16 +349,7 @@ impl ValidRender {
     /// The capture of a render with a camera (not a tile).
     pub fn frame_capture(&self) -> Option<FrameCapture<'_>> {
         let (sensor, c) = (self.camera.as_deref()?, self.capture.as_ref()?);
-        Some(FrameCapture {
-            sensor,
-            frames: c.frames,
-            gain: c.gain,
-            agc: c.agc,
-            noise: c.noise,
-            seed: self.settings.seed,
-            auto_exposure: c.auto_exposure,
-            frame_format: c.frame_format,
-        })
+        Some(c.through(sensor, self.settings.seed))
     }
 
     /// Renders, and with an output set writes the images, `tile.json`,
@@ -417,6 +443,65 @@ impl ValidRender {
             report,
             prepare_s,
         })
+    }
+}
+
+impl RenderDone {
+    /// What the front end prints when the render is done: the default
+    /// error target, the camera target, the cache's bias (each when it
+    /// applies), then the figures, `total_s` the wall time the user waited
+    /// and `out` where the files went.
+    pub fn lines(&self, out: &Path, total_s: f64) -> Vec<String> {
+        let (rendered, report) = (&self.rendered, &self.report);
+        let e = &rendered.radiance.error;
+        let mut lines = Vec::new();
+        if report.target_error_source == Some(TargetErrorSource::Default) {
+            lines.push(format!(
+                "no --spp or --target-error: sampled to the default per-pixel error {:.0} % (--target-error {DEFAULT_TARGET_ERROR}): estimated RMS {:.2} %, mean {:.1} spp; --spp N renders a fixed count",
+                100.0 * DEFAULT_TARGET_ERROR,
+                100.0 * e.rel_std_error_rms_target_pixels.unwrap_or(e.rel_std_error_rms),
+                e.mean_spp,
+            ));
+        }
+        if let Some(t) = &report.camera_target {
+            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
+            lines.push(format!(
+                "--target-error camera:{}: each pixel rendered until its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
+                f("k"),
+                100.0 * f("asked_added_variance_fraction"),
+                f("gain"),
+                100.0 * f("added_variance_fraction_median"),
+                100.0 * f("added_variance_fraction_p99"),
+                f("mean_spp"),
+            ));
+        }
+        if let Some(b) = &e.bias
+            && let Some(band) = b.bands.first()
+        {
+            lines.push(format!(
+                "radiosity cache bias ({}): {:+.2} % ± {:.2} % of the signal, measured against path tracing at {} pixels (report.json: error.bias); the per-pixel errors above and in stderr.npy are noise only",
+                band.band,
+                100.0 * band.relative_bias,
+                100.0 * band.relative_bias_std_error,
+                b.pixels
+            ));
+        }
+        let s = &rendered.radiance.stats;
+        let prep_s = self.prepare_s;
+        lines.push(format!(
+            "rendered {}×{}×{} bands in {:.2} s ({} rays, {:.3e} rays/s); {:.2} s in all, {:.2} s ({:.0} %) of it preparation (scene, BVH, pilot, cache) → {}",
+            s.width,
+            s.height,
+            s.bands,
+            s.trace_seconds,
+            s.rays.total(),
+            s.rays_per_second,
+            total_s,
+            prep_s,
+            100.0 * prep_s / total_s.max(1e-9),
+            out.display()
+        ));
+        lines
     }
 }
 

@@ -1,6 +1,5 @@
 #![doc = include_str!("../README.md")]
 
-#[cfg(feature = "cli")]
 /// `eprintln!` that never panics (std's does when stderr is full or
 /// closed): the message is lost, the run is not.
 macro_rules! eprintln {
@@ -10,8 +9,11 @@ macro_rules! eprintln {
     }};
 }
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod collect;
+#[cfg(feature = "cli")]
+pub mod command;
 pub mod exec;
 pub mod figures;
 pub mod run;

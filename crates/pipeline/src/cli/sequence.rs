@@ -1,12 +1,14 @@
 //! `gloam sequence`: the arguments of a night that changes, captured
-//! through a camera (see [`crate::sequence`]).
+//! through a camera (see [`crate::sequence_request`]).
 
 use std::path::PathBuf;
 
 use clap::Args;
 
-use super::{ArgError, CameraArgs};
+use super::CameraArgs;
 use crate::render::SettingArgs;
+use crate::request::OutputDir;
+use crate::sequence_request::SequenceRequest;
 
 /// `gloam sequence`.
 #[derive(Args)]
@@ -27,47 +29,18 @@ pub struct SequenceArgs {
     pub force: bool,
 }
 
-/// A sequence needs a camera; its frames come from the sequence file.
-#[derive(Debug, thiserror::Error)]
-pub enum SequenceArgError {
-    #[error(
-        "gloam sequence captures frames through a camera: give --sensor or a `sensor` entry in {}",
-        scene.display()
-    )]
-    NoCamera { scene: PathBuf },
-    #[error("--frames: the sequence file {} sets the number of frames ({frames})", path.display())]
-    Frames { path: PathBuf, frames: u32 },
-    #[error(transparent)]
-    Arg(#[from] ArgError),
-}
-
 impl SequenceArgs {
-    /// The capture of `sequence` (its frame count) through the camera the
-    /// flags or the scene name, checked before any render.
-    pub fn capture<'a>(
-        &'a self,
-        sequence: &gloam_scene::sequence::Sequence,
-        scene: &'a gloam_scene::Scene,
-        seed: u64,
-    ) -> Result<(&'a str, crate::FrameCapture<'a>), SequenceArgError> {
-        if self.camera.frames.is_some() {
-            return Err(SequenceArgError::Frames {
-                path: sequence.path.clone(),
-                frames: sequence.frames,
-            });
-        }
-        let (camera, capture) = self.camera.capture(scene, seed, false)?;
-        match (camera, capture) {
-            (Some(c), Some(capture)) => Ok((
-                c,
-                crate::FrameCapture {
-                    frames: sequence.frames,
-                    ..capture
-                },
-            )),
-            _ => Err(SequenceArgError::NoCamera {
-                scene: sequence.scene.clone(),
-            }),
+    /// The sequence these flags ask for; [`SequenceRequest::validate`]
+    /// checks it.
+    pub fn request(&self) -> SequenceRequest {
+        SequenceRequest {
+            sequence: self.sequence.clone(),
+            settings: self.settings.clone(),
+            camera: self.camera.options(),
+            out: OutputDir {
+                path: self.out.clone(),
+                force: self.force,
+            },
         }
     }
 }

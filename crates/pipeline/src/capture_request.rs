@@ -1,0 +1,297 @@
+//! `gloam capture` as a request, as [`crate::request`] is `gloam render`:
+//! the grab itself is gloam-calib's [`GrabRequest`] (open, settings, the
+//! loop that rides out lost frames); here the frames' files (`--frame-format`,
+//! `frames.jsonl`, the contact sheet), `report.json` ([`CaptureReport`]) and
+//! the output set, published whole — or, when the run stops early, with
+//! what was kept.
+
+use std::sync::Arc;
+
+use gloam_calib::CalibError;
+use gloam_calib::request::{CaptureTally, Events, GrabRequest};
+use gloam_grabber::{GrabError, PacketResends};
+use gloam_io::OutputSet;
+use serde::Serialize;
+
+use crate::frames::{FrameContext, FrameLogError, instrument_of_grabber};
+use crate::render::RenderError;
+use crate::request::OutputDir;
+use crate::{FrameFormat, FrameRecord, FrameWriter, Provenance};
+
+/// The capture's report: what was asked, what came, what was lost and how
+/// the transport recovered lost packets.
+pub const REPORT: &str = "report.json";
+
+/// `gloam capture` as asked for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CaptureRequest {
+    pub grab: GrabRequest,
+    /// `png` (default), `fits` or `tiff`.
+    pub frame_format: Option<String>,
+    pub out: OutputDir,
+}
+
+/// Why a capture was refused, failed or stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureRequestError {
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+    #[error(transparent)]
+    Grab(#[from] GrabError),
+    #[error(transparent)]
+    Render(#[from] Box<RenderError>),
+    #[error(transparent)]
+    OutputSet(#[from] gloam_io::OutputSetError),
+    #[error(transparent)]
+    Frames(#[from] FrameLogError),
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    #[error("encoding report.json")]
+    Encode(#[from] serde_json::Error),
+}
+
+/// A checked capture request.
+pub struct ValidCapture {
+    grab: GrabRequest,
+    format: FrameFormat,
+    out: OutputDir,
+}
+
+impl CaptureRequest {
+    /// Checks the grab's options and the frame format.
+    pub fn validate(&self) -> Result<ValidCapture, CaptureRequestError> {
+        let format = crate::request::CameraOptions {
+            frame_format: self.frame_format.clone(),
+            ..Default::default()
+        }
+        .frame_format()
+        .map_err(Box::new)?;
+        self.grab.check()?;
+        Ok(ValidCapture {
+            grab: self.grab.clone(),
+            format,
+            out: self.out.clone(),
+        })
+    }
+}
+
+/// What a capture did: the lines its front end prints, and the error that
+/// stopped it early, if one did (what was kept is published all the same).
+pub struct CaptureDone {
+    pub lines: Vec<String>,
+    pub stopped: Option<CaptureRequestError>,
+}
+
+impl ValidCapture {
+    /// Opens the output set and the grabber, grabs the frames into their
+    /// files and `frames.jsonl`, writes `report.json` and publishes the
+    /// set. `fit_note` hears a `sim:…?scene=` camera that cannot fit its
+    /// scene at any gain, before its first frame.
+    pub fn run(
+        self,
+        ev: &mut Events<'_>,
+        fit_note: Arc<dyn Fn(&str) + Send + Sync>,
+    ) -> Result<CaptureDone, CaptureRequestError> {
+        let (grab, format) = (&self.grab, self.format);
+        let provenance = Provenance::of_this_run();
+        // The frames appear at once with manifest.json; Ctrl-C stops the
+        // loop and publishes what was captured.
+        let set = OutputSet::begin(&self.out.path, self.out.force, true)?;
+        let dir = set.dir().to_path_buf();
+        let grabbers = crate::grabbers_noting(fit_note);
+        let mut g = grab.open::<CaptureRequestError>(&grabbers, &dir, ev)?;
+        // FITS headers name the camera, its URI, the seed and this run.
+        let context = FrameContext {
+            camera: Some(grab.grabber.clone()),
+            instrument: Some(instrument_of_grabber(&grab.grabber, &g.describe())),
+            seed: grab.seed,
+            provenance: Some(provenance.clone()),
+            scene_utc: None,
+        };
+        // Appended as frames are written: an interrupted capture lists
+        // every frame it kept.
+        let mut writer = FrameWriter::with_format(&dir, format, context)?;
+        let (tally, result) = grab.grab::<CaptureRequestError, _>(
+            g.as_mut(),
+            &gloam_io::output_set::interrupted,
+            |index, f: &gloam_grabber::Frame, warnings| {
+                let rec = FrameRecord::of_grab(index, format.file_name(index), f, warnings);
+                Ok(writer.write(&rec, &f.pixels)?)
+            },
+            ev,
+        );
+        // Read before the grabber closes: a stream's counts end with it.
+        let resends = Resends::of(&grab.grabber, g.packet_resends());
+        drop(g);
+        // Nothing captured is lost: a run that stopped early publishes its
+        // whole frames, marked incomplete in manifest.json.
+        if tally.kept > 0 || result.is_ok() {
+            let why = result.as_ref().err().map(chain);
+            // The contact sheet of what was kept (frames-preview.png).
+            writer.finish()?;
+            let report = CaptureReport::of(grab, &tally, &resends, why.as_deref(), &provenance);
+            // Every object's keys in order, as report.json has always had them.
+            let value = serde_json::to_value(&report)?;
+            crate::output::write_atomic(&dir.join(REPORT), &serde_json::to_vec_pretty(&value)?)?;
+            set.publish(&provenance, why.as_deref())?;
+        }
+        let (kept, warned) = (tally.kept as usize, tally.frames_warned);
+        let lines = vec![
+            (tally.losses).summary(kept, &self.out.path, warned),
+            resends.line(),
+        ];
+        Ok(CaptureDone {
+            lines,
+            stopped: result.err(),
+        })
+    }
+}
+
+/// An error and its causes, `outer: cause: cause` (as the CLI prints it).
+fn chain(e: &CaptureRequestError) -> String {
+    let mut s = e.to_string();
+    let mut cause = std::error::Error::source(e);
+    // Bounded: a chain of causes is short; stop at 32 all the same.
+    for _ in 0..32 {
+        let Some(c) = cause else { break };
+        s.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    s
+}
+
+/// The packet resends of a capture, or why there are none to count.
+enum Resends {
+    Counted(PacketResends),
+    NotApplicable(&'static str),
+}
+
+impl Resends {
+    fn of(uri: &str, counted: Option<PacketResends>) -> Self {
+        if let Some(c) = counted {
+            return Self::Counted(c);
+        }
+        let scheme = uri.split_once(':').map_or(uri, |(s, _)| s);
+        Self::NotApplicable(match scheme {
+            "sim" => "sim: frames are made in process, no packets travel",
+            "serial" | "usb" => {
+                "the gloam protocol sends each frame once and has no packet resend (a frame that arrives damaged is counted as damaged)"
+            }
+            "genicam" => "not a GigE Vision stream: Aravis counts no packet resends for it",
+            _ => "this grabber's transport has no packet resend",
+        })
+    }
+
+    /// The line `gloam capture` ends with.
+    fn line(&self) -> String {
+        match self {
+            Self::Counted(c) => format!(
+                "packet resends: {} packet(s) resent, {} missing, {} resend request(s) ({})",
+                c.packets_resent,
+                c.packets_missing,
+                c.resend_requests,
+                match (c.camera_offers_resend, c.resend) {
+                    (Some(false), _) => "none asked: the camera does not offer PACKETRESEND",
+                    (_, true) => "resend=always",
+                    (_, false) => "resend=never",
+                }
+            ),
+            Self::NotApplicable(why) => format!("packet resends: not applicable ({why})"),
+        }
+    }
+
+    fn report(&self) -> ResendsReport {
+        match self {
+            Self::Counted(c) => ResendsReport {
+                applicable: true,
+                resend: Some(c.resend),
+                camera_offers_resend: Some(c.camera_offers_resend),
+                why: None,
+                resend_requests: c.resend_requests,
+                packets_resent: c.packets_resent,
+                packets_missing: c.packets_missing,
+            },
+            Self::NotApplicable(why) => ResendsReport {
+                applicable: false,
+                resend: None,
+                camera_offers_resend: None,
+                why: Some(why),
+                resend_requests: 0,
+                packets_resent: 0,
+                packets_missing: 0,
+            },
+        }
+    }
+}
+
+/// A capture's `report.json`. Its keys are a user contract: add, never
+/// rename.
+#[derive(Serialize)]
+pub struct CaptureReport<'a> {
+    /// `"capture"`.
+    pub command: &'static str,
+    pub grabber: &'a str,
+    pub frames: FramesReport,
+    pub packet_resends: ResendsReport,
+    pub complete: bool,
+    /// The error that stopped the run early, if one did.
+    pub stopped_by: Option<&'a str>,
+    pub provenance: &'a Provenance,
+}
+
+/// What was asked, kept and lost.
+#[derive(Serialize)]
+pub struct FramesReport {
+    pub requested: u64,
+    pub captured: u64,
+    pub damaged: u64,
+    pub lost: u64,
+    pub interruptions: u64,
+    pub interruptions_with_unknown_loss: u64,
+    pub with_exposure_warnings: u64,
+}
+
+/// How the transport recovered lost packets; `why` not, when it has no
+/// resend (`resend` and `camera_offers_resend` then absent).
+#[derive(Serialize)]
+pub struct ResendsReport {
+    pub applicable: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resend: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_offers_resend: Option<Option<bool>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub why: Option<&'static str>,
+    pub resend_requests: u64,
+    pub packets_resent: u64,
+    pub packets_missing: u64,
+}
+
+impl<'a> CaptureReport<'a> {
+    fn of(
+        grab: &'a GrabRequest,
+        tally: &CaptureTally,
+        resends: &Resends,
+        stopped: Option<&'a str>,
+        provenance: &'a Provenance,
+    ) -> Self {
+        let l = &tally.losses;
+        Self {
+            command: "capture",
+            grabber: &grab.grabber,
+            frames: FramesReport {
+                requested: grab.frames,
+                captured: tally.kept,
+                damaged: l.damaged,
+                lost: l.lost,
+                interruptions: l.interruptions,
+                interruptions_with_unknown_loss: l.unknown,
+                with_exposure_warnings: tally.frames_warned,
+            },
+            packet_resends: resends.report(),
+            complete: stopped.is_none(),
+            stopped_by: stopped,
+            provenance,
+        }
+    }
+}
