@@ -33,7 +33,6 @@
 //! rest). The figure of merit is the RMS of `residual_percent` over the
 //! transient frames against that over the steady frames.
 
-use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 use gloam_grabber::Stimulus;
@@ -342,94 +341,93 @@ struct Record {
     /// With a `[sky]` clock: the two sky renders around it and how far
     /// towards the second (`sequence.sky.renders`, `fraction`).
     sky: Option<([usize; 2], f64)>,
-    /// Its 1-based line and `pixels_crc32c` (checked against the counts).
-    line: usize,
-    crc: Option<serde_json::Value>,
+    /// Its line (number, and `pixels_crc32c` checked against the counts).
+    record: crate::io::FrameLine,
     /// How its counts are stored (`stored`: TIFF page, sample shift).
     at: crate::io::StoredAt,
 }
 
 fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError> {
-    let jl = dir.join("frames.jsonl");
-    let f = gloam_io::open_bounded(&jl, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        CalibError::Read {
-            path: jl.clone(),
-            source,
-        }
+    use gloam_io::frames::FramesReadError as E;
+    let jl = dir.join(gloam_io::frames::FRAMES_JSONL);
+    let lines = gloam_io::frames::lines(&jl).map_err(|e| match e {
+        E::Open { path, source } => CalibError::Read { path, source },
+        e => crate::io::frames_read_error(e, ""),
     })?;
     let mut out = Vec::new();
-    for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
-        let line = line.map_err(|e| CalibError::file(&jl, e))?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let at = |m: String| CalibError::Line {
-            path: jl.clone(),
-            line: i + 1,
-            message: m,
-        };
-        let v: serde_json::Value = serde_json::from_str(&line).map_err(|e| at(e.to_string()))?;
-        let num = |k: &str| {
-            v.get(k)
-                .and_then(serde_json::Value::as_f64)
-                .ok_or_else(|| at(format!("no numeric \"{k}\"")))
-        };
-        let seq = v
-            .get("sequence")
-            .ok_or_else(|| at("no \"sequence\": not a frame of a sequence".into()))?;
-        let lg = seq.get("light_groups");
-        let weights = groups
-            .iter()
-            .map(|g| {
-                lg.and_then(|l| l.get(g))
-                    .and_then(serde_json::Value::as_f64)
-                    .ok_or_else(|| at(format!("no weight for light group '{g}'")))
-            })
-            .collect::<Result<Vec<f64>, _>>()?;
-        out.push(Record {
-            index: num("index")? as u64,
-            file: v
-                .get("file")
-                .and_then(|f| f.as_str())
-                .ok_or_else(|| at("no \"file\"".into()))?
-                .to_string(),
-            gain: num("gain")?,
-            bits: num("bits")?.clamp(1.0, 16.0) as u8,
-            clip_dn: num("saturated_at_dn")?,
-            time_s: seq
-                .get("time_s")
-                .and_then(serde_json::Value::as_f64)
-                .ok_or_else(|| at("no numeric \"sequence.time_s\"".into()))?,
-            weights,
-            gate_duty: v.get("gate_duty").and_then(serde_json::Value::as_f64),
-            sky: match seq.get("sky") {
-                None => None,
-                Some(sky) => {
-                    let r = |k: usize| {
-                        sky.get("renders")
-                            .and_then(|r| r.get(k))
-                            .and_then(serde_json::Value::as_u64)
-                            .map(|x| x as usize)
-                    };
-                    let f = sky.get("fraction").and_then(serde_json::Value::as_f64);
-                    match (r(0), r(1), f) {
-                        (Some(a), Some(b), Some(f)) if (0.0..=1.0).contains(&f) => {
-                            Some(([a, b], f))
-                        }
-                        _ => {
-                            return Err(at(
-                                "\"sequence.sky\" needs \"renders\" [a, b] and a \"fraction\" in [0, 1]".into(),
-                            ));
-                        }
-                    }
-                }
+    for l in lines {
+        let l = l.map_err(|e| match e {
+            E::Json { path, line, source } => CalibError::Line {
+                path,
+                line,
+                message: source.to_string(),
             },
-            line: i + 1,
-            crc: v.get("pixels_crc32c").cloned(),
-            at: crate::io::StoredAt::of_record(&v),
-        });
+            e => crate::io::frames_read_error(e, ""),
+        })?;
+        out.push(record_of(&jl, l, groups)?);
     }
     Ok(out)
+}
+
+/// One line as this flow needs it, or what it lacks.
+fn record_of(jl: &Path, l: crate::io::FrameLine, groups: &[String]) -> Result<Record, CalibError> {
+    let at = |m: String| CalibError::Line {
+        path: jl.to_path_buf(),
+        line: l.line,
+        message: m,
+    };
+    let num = |k: &str| l.number(k).ok_or_else(|| at(format!("no numeric \"{k}\"")));
+    let seq = l
+        .get("sequence")
+        .ok_or_else(|| at("no \"sequence\": not a frame of a sequence".into()))?;
+    let lg = seq.get("light_groups");
+    let weights = groups
+        .iter()
+        .map(|g| {
+            lg.and_then(|l| l.get(g))
+                .and_then(serde_json::Value::as_f64)
+                .ok_or_else(|| at(format!("no weight for light group '{g}'")))
+        })
+        .collect::<Result<Vec<f64>, _>>()?;
+    Ok(Record {
+        index: num("index")? as u64,
+        file: l
+            .file()
+            .ok_or_else(|| at("no \"file\"".into()))?
+            .to_string(),
+        gain: num("gain")?,
+        bits: num("bits")?.clamp(1.0, 16.0) as u8,
+        clip_dn: num("saturated_at_dn")?,
+        time_s: seq
+            .get("time_s")
+            .and_then(serde_json::Value::as_f64)
+            .ok_or_else(|| at("no numeric \"sequence.time_s\"".into()))?,
+        weights,
+        gate_duty: l.number("gate_duty"),
+        sky: match seq.get("sky") {
+            None => None,
+            Some(sky) => {
+                let r = |k: usize| {
+                    sky.get("renders")
+                        .and_then(|r| r.get(k))
+                        .and_then(serde_json::Value::as_u64)
+                        .map(|x| x as usize)
+                };
+                let f = sky.get("fraction").and_then(serde_json::Value::as_f64);
+                match (r(0), r(1), f) {
+                    (Some(a), Some(b), Some(f)) if (0.0..=1.0).contains(&f) => Some(([a, b], f)),
+                    _ => {
+                        return Err(at(
+                            "\"sequence.sky\" needs \"renders\" [a, b] and a \"fraction\" in [0, 1]"
+                                .into(),
+                        ));
+                    }
+                }
+            }
+        },
+        at: l.stored(),
+        record: l,
+    })
 }
 
 /// The gains in effect of a captured sequence's frames (`dir`'s
@@ -558,10 +556,7 @@ pub fn linearise_sequence(
             }
             (None, _) => crate::io::read_frame_counts(&path, &r.at)?,
         };
-        if let Some(crc) = &r.crc {
-            let rec = serde_json::json!({ "pixels_crc32c": crc });
-            crate::io::check_frame_crc(&path, &dir.join("frames.jsonl"), r.line, &rec, &px)?;
-        }
+        crate::io::check_frame_crc(&path, &dir.join("frames.jsonl"), &r.record, &px)?;
         if (h, w) != shape {
             return Err(CalibError::file(
                 &path,
@@ -578,7 +573,7 @@ pub fn linearise_sequence(
                 let (Some(la), Some(lb)) = (truth.sky.get(a), truth.sky.get(b)) else {
                     return Err(CalibError::Line {
                         path: dir.join("frames.jsonl"),
-                        line: r.line,
+                        line: r.record.line,
                         message: format!(
                             "sky renders {a} and {b}, but the sequence's renders are 0…{}",
                             truth.sky.len().saturating_sub(1)

@@ -47,10 +47,7 @@ pub fn camera_identity(described: &str) -> &str {
 }
 
 fn frames_jsonl(frame: &Path) -> PathBuf {
-    frame
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join("frames.jsonl")
+    gloam_io::frames::beside(frame)
 }
 
 /// The gain to apply to `frame`: `given` when it agrees with the gain
@@ -60,9 +57,9 @@ fn frames_jsonl(frame: &Path) -> PathBuf {
 pub fn frame_gain(
     frame: &Path,
     given: Option<f64>,
-    record: Option<&(usize, serde_json::Value)>,
+    record: Option<&crate::io::FrameLine>,
 ) -> Result<f64, CalibError> {
-    let recorded = record.and_then(|(line, v)| Some((*line, v.get("gain")?.as_f64()?)));
+    let recorded = record.and_then(|l| Some((l.line, l.number("gain")?)));
     match (given, recorded) {
         (Some(g), Some((line, r))) if (g - r).abs() > 1e-6 * r.abs().max(1e-12) => {
             Err(CalibError::GainMismatch {
@@ -87,7 +84,7 @@ pub fn check_lut_fits_frame(
     lut: &Lut,
     lut_path: &Path,
     frame: &Path,
-    record: Option<&(usize, serde_json::Value)>,
+    record: Option<&crate::io::FrameLine>,
     px: &[u16],
 ) -> Result<Option<String>, CalibError> {
     let dir = frame.parent().unwrap_or(Path::new("."));
@@ -125,7 +122,7 @@ pub fn check_lut_fits_frame(
         unchecked.push("camera");
     }
     let lut_max = lut.digitizer_max_dn;
-    match record.and_then(|(line, v)| Some((*line, v.get("bits")?.as_u64()?))) {
+    match record.and_then(|l| Some((l.line, l.get("bits")?.as_u64()?))) {
         Some((line, bits)) if lut_max > 0.0 => {
             let frame_max = 2f64.powi(bits.min(32) as i32) - 1.0;
             if frame_max != lut_max {
@@ -283,21 +280,22 @@ pub fn apply_lut_to_frame(
         page,
         ..record
             .as_ref()
-            .map(|(_, v)| crate::io::StoredAt::of_record(v))
+            .map(crate::io::FrameLine::stored)
             .unwrap_or_default()
     };
     let (w, h, px) = crate::io::read_frame_counts(input, &at)?;
-    if let Some((line, v)) = &record {
-        crate::io::check_record_fits_frame(input, &frames_jsonl(input), *line, v, w, h)?;
+    if let Some(l) = &record {
+        crate::io::check_record_fits_frame(input, &frames_jsonl(input), l, w, h)?;
     }
     // The counts first: a frame that is not the one its line records (a
     // renamed or altered file) must not be given that line's gain.
-    if let Some((line, v)) = &record
-        && !crate::io::check_frame_crc(input, &frames_jsonl(input), *line, v, &px)?
+    if let Some(l) = &record
+        && !crate::io::check_frame_crc(input, &frames_jsonl(input), l, &px)?
     {
         warn(&format!(
-            "{}:{line} records no pixels_crc32c for {}, so the frame cannot be checked against its capture",
+            "{}:{} records no pixels_crc32c for {}, so the frame cannot be checked against its capture",
             frames_jsonl(input).display(),
+            l.line,
             input.display()
         ));
     }
@@ -479,7 +477,10 @@ mod tests {
 
     #[test]
     fn a_given_gain_must_agree_with_the_record() {
-        let rec = (3, serde_json::json!({"file": "f.png", "gain": 20.0}));
+        let rec = crate::io::FrameLine {
+            line: 3,
+            value: serde_json::json!({"file": "f.png", "gain": 20.0}),
+        };
         let f = Path::new("d/f.png");
         assert_eq!(frame_gain(f, None, Some(&rec)).unwrap(), 20.0);
         assert_eq!(frame_gain(f, Some(20.0), Some(&rec)).unwrap(), 20.0);

@@ -3,7 +3,6 @@
 //! former), 32-bit float TIFF output, and the per-frame gain recorded in
 //! `frames.jsonl` by `gloam capture`.
 
-use std::io::BufRead;
 use std::path::Path;
 
 use crate::error::CalibError;
@@ -204,28 +203,9 @@ pub fn read_counts(path: &Path) -> Result<(usize, usize, Vec<u16>), CalibError> 
 /// these are).
 pub const FRAME_FORMAT_NAMES: [&str; 3] = ["png", "fits", "tiff"];
 
-/// Where one frame's counts sit in its file, as its `frames.jsonl` line's
-/// `stored` says (`{"format", "sample_shift", "page"}`); unknown fields
-/// stay `None` and are then read from the file itself.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct StoredAt {
-    /// The page of a multi-page TIFF (from 0).
-    pub page: Option<u64>,
-    /// counts = sample >> shift (PNG and TIFF frames).
-    pub sample_shift: Option<u8>,
-}
-
-impl StoredAt {
-    /// The `stored` object of a `frames.jsonl` line (absent: all `None`).
-    pub fn of_record(record: &serde_json::Value) -> Self {
-        let s = record.get("stored");
-        let field = |k: &str| s.and_then(|s| s.get(k)).and_then(serde_json::Value::as_u64);
-        Self {
-            page: field("page"),
-            sample_shift: field("sample_shift").and_then(|v| u8::try_from(v).ok()),
-        }
-    }
-}
+/// Where one frame's counts sit in its file (its `frames.jsonl` line's
+/// `stored`), as the one reader of the log gives it.
+pub use gloam_io::frames::{FrameLine, StoredAt};
 
 fn is_fits(bytes: &[u8]) -> bool {
     bytes.starts_with(b"SIMPLE  =")
@@ -657,24 +637,42 @@ pub fn write_tiff_f32_pages(
 }
 
 /// The line of `frames.jsonl` beside `image` that records it (for a
-/// page of a TIFF stack, the line whose `stored.page` is `page`), with its
-/// 1-based line number; None when there is no `frames.jsonl` there or it
-/// has no line for the image.
-pub fn frame_record(
-    image: &Path,
-    page: Option<u64>,
-) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
-    let jl = image
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join("frames.jsonl");
+/// page of a TIFF stack, the line whose `stored.page` is `page`); None
+/// when there is no `frames.jsonl` there or it has no line for the image.
+pub fn frame_record(image: &Path, page: Option<u64>) -> Result<Option<FrameLine>, CalibError> {
+    let jl = gloam_io::frames::beside(image);
     let Some(name) = image.file_name().and_then(|n| n.to_str()) else {
         return Ok(None);
     };
     if !jl.exists() {
         return Ok(None);
     }
-    find_record(&jl, name, page, "")
+    gloam_io::frames::find(&jl, name, page).map_err(|e| frames_read_error(e, ""))
+}
+
+/// A `frames.jsonl` that does not read, as calibration words it;
+/// `open_note` is appended to an error opening the file.
+pub fn frames_read_error(e: gloam_io::frames::FramesReadError, open_note: &str) -> CalibError {
+    use gloam_io::frames::FramesReadError as E;
+    match e {
+        E::Open { path, source } => CalibError::file(&path, format!("{source}{open_note}")),
+        E::Read { path, source } => CalibError::file(&path, source),
+        E::Json { path, line, source } => CalibError::file(&path, format!("line {line}: {source}")),
+        E::Twice {
+            path,
+            line,
+            name,
+            page,
+            first,
+        } => CalibError::Line {
+            path,
+            line,
+            message: format!(
+                "records {name}{} again (first at line {first}): one frame, two records",
+                page.map_or(String::new(), |p| format!(" page {p}"))
+            ),
+        },
+    }
 }
 
 /// Checks a frame's counts against the CRC-32C its `frames.jsonl` line
@@ -686,26 +684,18 @@ pub fn frame_record(
 pub fn check_frame_crc(
     frame: &Path,
     frames_jsonl: &Path,
-    line: usize,
-    record: &serde_json::Value,
+    record: &FrameLine,
     counts: &[u16],
 ) -> Result<bool, CalibError> {
-    let Some(v) = record.get("pixels_crc32c") else {
-        return Ok(false);
-    };
-    let at = |message: String| CalibError::Line {
+    let line = record.line;
+    let recorded = record.pixels_crc32c().map_err(|e| CalibError::Line {
         path: frames_jsonl.to_path_buf(),
         line,
-        message,
+        message: e.to_string(),
+    })?;
+    let Some(recorded) = recorded else {
+        return Ok(false);
     };
-    let recorded = v
-        .as_u64()
-        .and_then(|c| u32::try_from(c).ok())
-        .ok_or_else(|| {
-            at(format!(
-                "\"pixels_crc32c\" {v} is not a CRC-32C (a whole number below 2^32)"
-            ))
-        })?;
     let actual = gloam_grabber::pixels_crc32c(counts);
     if actual != recorded {
         return Err(CalibError::FrameCrc {
@@ -723,72 +713,21 @@ pub fn check_frame_crc(
 /// of JSON objects with at least `"file"` and `"gain"`), matched by file
 /// name.
 pub fn gain_from_frames_jsonl(image: &Path, page: Option<u64>) -> Result<f64, CalibError> {
-    let jl = image
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join("frames.jsonl");
+    let jl = gloam_io::frames::beside(image);
     let name = image
         .file_name()
         .and_then(|n| n.to_str())
         .ok_or_else(|| CalibError::file(image, "no file name"))?;
     let note = format!(" (needed for the gain of {name}; pass --gain to override)");
-    match find_record(&jl, name, page, &note)? {
-        Some((i, v)) => v
-            .get("gain")
-            .and_then(|g| g.as_f64())
-            .ok_or_else(|| CalibError::file(&jl, format!("line {i}: no numeric \"gain\""))),
+    match gloam_io::frames::find(&jl, name, page).map_err(|e| frames_read_error(e, &note))? {
+        Some(l) => l
+            .number("gain")
+            .ok_or_else(|| CalibError::file(&jl, format!("line {}: no numeric \"gain\"", l.line))),
         None => Err(CalibError::file(
             &jl,
             format!("no line for \"{name}\" (pass --gain to override)"),
         )),
     }
-}
-
-/// The first line of the frames file `jl` whose `"file"` is `name` (and,
-/// with `page`, whose `stored.page` is it: the frames of a TIFF stack
-/// share one file), with its 1-based number (blank lines skipped);
-/// `open_note` is appended to an error opening the file.
-fn find_record(
-    jl: &Path,
-    name: &str,
-    page: Option<u64>,
-    open_note: &str,
-) -> Result<Option<(usize, serde_json::Value)>, CalibError> {
-    let mut found: Option<(usize, serde_json::Value, Option<u64>)> = None;
-    let f = gloam_io::open_bounded(jl, gloam_io::MAX_TEXT_FILE_BYTES)
-        .map_err(|e| CalibError::file(jl, format!("{e}{open_note}")))?;
-    for (i, line) in std::io::BufReader::new(f).lines().enumerate() {
-        let line = line.map_err(|e| CalibError::file(jl, e))?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let v: serde_json::Value = serde_json::from_str(&line)
-            .map_err(|e| CalibError::file(jl, format!("line {}: {e}", i + 1)))?;
-        if v.get("file").and_then(|f| f.as_str()) != Some(name) {
-            continue;
-        }
-        let at_page = StoredAt::of_record(&v).page;
-        match &found {
-            // One frame (one file, one page) is one line: a second line
-            // for it is refused, never resolved by order.
-            Some((first, _, first_page)) if *first_page == at_page => {
-                return Err(CalibError::Line {
-                    path: jl.to_path_buf(),
-                    line: i + 1,
-                    message: format!(
-                        "records {name}{} again (first at line {first}): one frame, two records",
-                        at_page.map_or(String::new(), |p| format!(" page {p}"))
-                    ),
-                });
-            }
-            Some(_) => {}
-            None if page.is_none_or(|p| at_page.unwrap_or(0) == p) => {
-                found = Some((i + 1, v, at_page));
-            }
-            None => {}
-        }
-    }
-    Ok(found.map(|(line, v, _)| (line, v)))
 }
 
 /// Checks that a frame's `frames.jsonl` line describes the frame read: its
@@ -798,14 +737,13 @@ fn find_record(
 pub fn check_record_fits_frame(
     frame: &Path,
     frames_jsonl: &Path,
-    line: usize,
-    record: &serde_json::Value,
+    record: &FrameLine,
     width: usize,
     height: usize,
 ) -> Result<(), CalibError> {
     let at = |message: String| CalibError::Line {
         path: frames_jsonl.to_path_buf(),
-        line,
+        line: record.line,
         message: format!("{message} ({})", frame.display()),
     };
     for (key, actual) in [("width", width), ("height", height)] {
@@ -817,14 +755,7 @@ pub fn check_record_fits_frame(
             )));
         }
     }
-    let bits = match record.get("bits") {
-        None => None,
-        Some(v) => Some(
-            v.as_u64()
-                .filter(|b| (1..=16).contains(b))
-                .ok_or_else(|| at(format!("\"bits\" {v} is not a digitizer depth (1..=16)")))?,
-        ),
-    };
+    let bits = (record.bits().map_err(|e| at(e.to_string()))?).map(u64::from);
     let Some(stored) = record.get("stored") else {
         return Ok(());
     };

@@ -158,6 +158,23 @@ pub struct Device {
     chunk_enable: u32,
 }
 
+/// Who sent a write command, and when: what the privilege and access
+/// checks of each write need.
+#[derive(Clone, Copy)]
+struct Caller {
+    from: SocketAddrV4,
+    is_controller: bool,
+    now_us: u64,
+}
+
+/// An acknowledge body of a write command: the index (how much was
+/// written) in its low 16 bits.
+fn index_body(n: u16) -> Vec<u8> {
+    let mut b = vec![0u8; 4];
+    b[2..].copy_from_slice(&n.to_be_bytes());
+    b
+}
+
 /// Byte offset of `addr` in the `GloamStimulus` string register.
 fn stimulus_offset(addr: u32) -> Option<usize> {
     (reg::STIMULUS..reg::STIMULUS + reg::STIMULUS_BYTES)
@@ -457,154 +474,170 @@ impl Device {
         }
         let is_controller = self.controller.is_some_and(|c| c.addr == from);
         let locked_out = self.controller.is_some_and(|c| c.exclusive) && !is_controller;
-        match h.command {
+        let caller = Caller {
+            from,
+            is_controller,
+            now_us,
+        };
+        let (status, body) = match h.command {
             command::DISCOVERY => {
                 // Always unicast back to the asker.
                 let body = self.discovery_data();
-                Some(gvcp::encode_ack(Status::Success, answer, h.req_id, &body))
+                return Some(gvcp::encode_ack(Status::Success, answer, h.req_id, &body));
             }
-            command::READREG => {
-                if payload.is_empty() {
-                    return ack(Status::InvalidParameter, &[]);
-                }
-                if locked_out {
-                    return ack(Status::AccessDenied, &[]);
-                }
-                let mut body = Vec::with_capacity(payload.len());
-                for a in payload.chunks_exact(4) {
-                    match self.read_register(be32(a)) {
-                        Ok(v) => body.extend_from_slice(&v.to_be_bytes()),
-                        Err(s) => return ack(s, &body),
-                    }
-                }
-                ack(Status::Success, &body)
-            }
-            command::WRITEREG => {
-                if payload.is_empty() || payload.len() % 8 != 0 {
-                    return ack(Status::InvalidParameter, &[0, 0, 0, 0]);
-                }
-                let mut done: u16 = 0;
-                for pair in payload.chunks_exact(8) {
-                    let (a, v) = (be32(&pair[..4]), be32(&pair[4..]));
-                    let r = if a == bs::CONTROL_CHANNEL_PRIVILEGE {
-                        self.write_ccp(from, v, now_us)
-                    } else if !is_controller {
-                        Err(Status::AccessDenied)
-                    } else {
-                        self.write_register(a, v)
-                    };
-                    if let Err(s) = r {
-                        let mut b = [0u8; 4];
-                        b[2..].copy_from_slice(&done.to_be_bytes());
-                        return ack(s, &b);
-                    }
-                    done += 1;
-                }
-                let mut b = [0u8; 4];
-                b[2..].copy_from_slice(&done.to_be_bytes());
-                ack(Status::Success, &b)
-            }
-            command::READMEM => {
-                if payload.len() != 8 {
-                    return ack(Status::InvalidParameter, &[]);
-                }
-                if locked_out {
-                    return ack(Status::AccessDenied, &[]);
-                }
-                let addr = be32(&payload[..4]);
-                let count = u32::from(gvcp::be16(&payload[6..8]));
-                if count == 0 || count as usize > gvcp::MAX_MEMORY_BYTES || count % 4 != 0 {
-                    return ack(Status::InvalidParameter, &payload[..4]);
-                }
-                if addr % 4 != 0 {
-                    return ack(Status::BadAlignment, &payload[..4]);
-                }
-                match self.read_memory(addr, count) {
-                    Ok(data) => {
-                        let mut body = payload[..4].to_vec();
-                        body.extend_from_slice(&data);
-                        ack(Status::Success, &body)
-                    }
-                    Err(s) => ack(s, &payload[..4]),
-                }
-            }
-            command::WRITEMEM => {
-                if payload.len() < 8 {
-                    return ack(Status::InvalidParameter, &[0, 0, 0, 0]);
-                }
-                let addr = be32(&payload[..4]);
-                let data = &payload[4..];
-                if addr % 4 != 0 {
-                    return ack(Status::BadAlignment, &[0, 0, 0, 0]);
-                }
-                if !is_controller {
-                    return ack(Status::AccessDenied, &[0, 0, 0, 0]);
-                }
-                if let Some(o) = stimulus_offset(addr) {
-                    // The ack's index: bytes written.
-                    let (status, n) = match self.write_stimulus(o, data) {
-                        Ok(()) => (Status::Success, data.len() as u16),
-                        Err(s) => (s, 0),
-                    };
-                    let mut b = [0u8; 4];
-                    b[2..].copy_from_slice(&n.to_be_bytes());
-                    return ack(status, &b);
-                }
-                let mut written: u16 = 0;
-                for (i, w) in data.chunks_exact(4).enumerate() {
-                    let a = addr.wrapping_add(4 * i as u32);
-                    let r = if bs::string_field(a).is_some_and(|(b, _)| b == bs::USER_DEFINED_NAME)
-                    {
-                        let o = (a - bs::USER_DEFINED_NAME) as usize;
-                        self.user_name[o..o + 4].copy_from_slice(w);
-                        self.user_name[15] = 0;
-                        Ok(())
-                    } else if a == bs::CONTROL_CHANNEL_PRIVILEGE {
-                        self.write_ccp(from, be32(w), now_us)
-                    } else {
-                        self.write_register(a, be32(w))
-                    };
-                    if let Err(s) = r {
-                        let mut b = [0u8; 4];
-                        b[2..].copy_from_slice(&written.to_be_bytes());
-                        return ack(s, &b);
-                    }
-                    written += 4;
-                }
-                let mut b = [0u8; 4];
-                b[2..].copy_from_slice(&written.to_be_bytes());
-                ack(Status::Success, &b)
-            }
-            command::PACKETRESEND => {
-                let ext = h.flags & gvcp::FLAG_EXTENDED_IDS != 0;
-                if payload.len() != if ext { 20 } else { 12 } {
-                    return ack(Status::InvalidParameter, &[]);
-                }
-                let w0 = be32(&payload[..4]);
-                if (w0 >> 16) != 0 {
-                    return ack(Status::InvalidParameter, &[]);
-                }
-                let block_id = if ext {
-                    u64::from(be32(&payload[12..16])) << 32 | u64::from(be32(&payload[16..20]))
-                } else {
-                    u64::from(w0 & 0xFFFF)
-                };
-                let first = be32(&payload[4..8]) & 0x00FF_FFFF;
-                let last = be32(&payload[8..12]) & 0x00FF_FFFF;
-                if first > last && last != 0x00FF_FFFF {
-                    return ack(Status::InvalidParameter, &[]);
-                }
-                self.events.push(Event::Resend {
-                    block_id,
-                    first_packet: first,
-                    last_packet: last,
-                });
-                // No acknowledge is defined for PACKETRESEND; send one only
-                // if asked.
-                ack(Status::Success, &[])
-            }
-            _ => ack(Status::NotImplemented, &[]),
+            command::READREG => self.readreg(payload, locked_out),
+            command::WRITEREG => self.writereg(caller, payload),
+            command::READMEM => self.readmem(payload, locked_out),
+            command::WRITEMEM => self.writemem(caller, payload),
+            command::PACKETRESEND => self.packetresend(h.flags, payload),
+            _ => (Status::NotImplemented, Vec::new()),
+        };
+        ack(status, &body)
+    }
+
+    /// READREG: each 4-byte address in turn; the first failure ends the
+    /// acknowledge with the values read so far.
+    fn readreg(&self, payload: &[u8], locked_out: bool) -> (Status, Vec<u8>) {
+        if payload.is_empty() {
+            return (Status::InvalidParameter, Vec::new());
         }
+        if locked_out {
+            return (Status::AccessDenied, Vec::new());
+        }
+        let mut body = Vec::with_capacity(payload.len());
+        for a in payload.chunks_exact(4) {
+            match self.read_register(be32(a)) {
+                Ok(v) => body.extend_from_slice(&v.to_be_bytes()),
+                Err(s) => return (s, body),
+            }
+        }
+        (Status::Success, body)
+    }
+
+    /// WRITEREG: address/value pairs in turn; the acknowledge's index
+    /// counts the writes that took.
+    fn writereg(&mut self, caller: Caller, payload: &[u8]) -> (Status, Vec<u8>) {
+        if payload.is_empty() || payload.len() % 8 != 0 {
+            return (Status::InvalidParameter, index_body(0));
+        }
+        let mut done: u16 = 0;
+        for pair in payload.chunks_exact(8) {
+            let (a, v) = (be32(&pair[..4]), be32(&pair[4..]));
+            let r = if a == bs::CONTROL_CHANNEL_PRIVILEGE {
+                self.write_ccp(caller.from, v, caller.now_us)
+            } else if !caller.is_controller {
+                Err(Status::AccessDenied)
+            } else {
+                self.write_register(a, v)
+            };
+            if let Err(s) = r {
+                return (s, index_body(done));
+            }
+            done += 1;
+        }
+        (Status::Success, index_body(done))
+    }
+
+    /// READMEM: one aligned block of device memory (the XML, the strings).
+    fn readmem(&self, payload: &[u8], locked_out: bool) -> (Status, Vec<u8>) {
+        if payload.len() != 8 {
+            return (Status::InvalidParameter, Vec::new());
+        }
+        if locked_out {
+            return (Status::AccessDenied, Vec::new());
+        }
+        let addr = be32(&payload[..4]);
+        let count = u32::from(gvcp::be16(&payload[6..8]));
+        if count == 0 || count as usize > gvcp::MAX_MEMORY_BYTES || count % 4 != 0 {
+            return (Status::InvalidParameter, payload[..4].to_vec());
+        }
+        if addr % 4 != 0 {
+            return (Status::BadAlignment, payload[..4].to_vec());
+        }
+        match self.read_memory(addr, count) {
+            Ok(data) => {
+                let mut body = payload[..4].to_vec();
+                body.extend_from_slice(&data);
+                (Status::Success, body)
+            }
+            Err(s) => (s, payload[..4].to_vec()),
+        }
+    }
+
+    /// WRITEMEM: the stimulus string as a whole, or word by word into
+    /// registers; the acknowledge's index counts the bytes written.
+    fn writemem(&mut self, caller: Caller, payload: &[u8]) -> (Status, Vec<u8>) {
+        if payload.len() < 8 {
+            return (Status::InvalidParameter, index_body(0));
+        }
+        let addr = be32(&payload[..4]);
+        let data = &payload[4..];
+        if addr % 4 != 0 {
+            return (Status::BadAlignment, index_body(0));
+        }
+        if !caller.is_controller {
+            return (Status::AccessDenied, index_body(0));
+        }
+        if let Some(o) = stimulus_offset(addr) {
+            return match self.write_stimulus(o, data) {
+                Ok(()) => (Status::Success, index_body(data.len() as u16)),
+                Err(s) => (s, index_body(0)),
+            };
+        }
+        let mut written: u16 = 0;
+        for (i, w) in data.chunks_exact(4).enumerate() {
+            let a = addr.wrapping_add(4 * i as u32);
+            if let Err(s) = self.write_memory_word(&caller, a, w) {
+                return (s, index_body(written));
+            }
+            written += 4;
+        }
+        (Status::Success, index_body(written))
+    }
+
+    /// One word of a WRITEMEM: the user-defined name, the control channel
+    /// privilege, or a register.
+    fn write_memory_word(&mut self, caller: &Caller, a: u32, w: &[u8]) -> Result<(), Status> {
+        if bs::string_field(a).is_some_and(|(b, _)| b == bs::USER_DEFINED_NAME) {
+            let o = (a - bs::USER_DEFINED_NAME) as usize;
+            self.user_name[o..o + 4].copy_from_slice(w);
+            self.user_name[15] = 0;
+            Ok(())
+        } else if a == bs::CONTROL_CHANNEL_PRIVILEGE {
+            self.write_ccp(caller.from, be32(w), caller.now_us)
+        } else {
+            self.write_register(a, be32(w))
+        }
+    }
+
+    /// PACKETRESEND: queues the resend of a packet range of one block.
+    fn packetresend(&mut self, flags: u8, payload: &[u8]) -> (Status, Vec<u8>) {
+        let ext = flags & gvcp::FLAG_EXTENDED_IDS != 0;
+        if payload.len() != if ext { 20 } else { 12 } {
+            return (Status::InvalidParameter, Vec::new());
+        }
+        let w0 = be32(&payload[..4]);
+        if (w0 >> 16) != 0 {
+            return (Status::InvalidParameter, Vec::new());
+        }
+        let block_id = if ext {
+            u64::from(be32(&payload[12..16])) << 32 | u64::from(be32(&payload[16..20]))
+        } else {
+            u64::from(w0 & 0xFFFF)
+        };
+        let first = be32(&payload[4..8]) & 0x00FF_FFFF;
+        let last = be32(&payload[8..12]) & 0x00FF_FFFF;
+        if first > last && last != 0x00FF_FFFF {
+            return (Status::InvalidParameter, Vec::new());
+        }
+        self.events.push(Event::Resend {
+            block_id,
+            first_packet: first,
+            last_packet: last,
+        });
+        // No acknowledge is defined for PACKETRESEND; send one only
+        // if asked.
+        (Status::Success, Vec::new())
     }
 
     fn write_ccp(&mut self, from: SocketAddrV4, v: u32, now_us: u64) -> Result<(), Status> {
@@ -907,7 +940,76 @@ impl Device {
             return Err(Status::BadAlignment);
         }
         let frozen = self.acquiring || self.tl_locked != 0;
-        let f = self.facts.clone();
+        // What sets PayloadSize cannot change while a host streams.
+        if frozen
+            && matches!(
+                a,
+                reg::WIDTH
+                    | reg::HEIGHT
+                    | reg::PIXEL_FORMAT
+                    | reg::CHUNK_MODE_ACTIVE
+                    | reg::CHUNK_ENABLE
+            )
+        {
+            return Err(Status::Busy);
+        }
+        match a {
+            bs::HEARTBEAT_TIMEOUT
+            | bs::GVCP_CONFIGURATION
+            | bs::TIMESTAMP_CONTROL
+            | bs::STREAM_CHANNEL_PORT
+            | bs::STREAM_CHANNEL_PACKET_SIZE
+            | bs::STREAM_CHANNEL_PACKET_DELAY
+            | bs::STREAM_CHANNEL_DESTINATION
+            | bs::STREAM_CHANNEL_CONFIGURATION => self.write_bootstrap(a, v),
+            reg::WIDTH
+            | reg::HEIGHT
+            | reg::OFFSET_X
+            | reg::OFFSET_Y
+            | reg::PIXEL_FORMAT
+            | reg::CHUNK_MODE_ACTIVE
+            | reg::CHUNK_ENABLE
+            | reg::CHUNK_SELECTOR
+            | reg::TL_PARAMS_LOCKED => self.write_format(a, v),
+            reg::ACQUISITION_MODE
+            | reg::ACQUISITION_START
+            | reg::ACQUISITION_STOP
+            | reg::ACQUISITION_FRAME_COUNT
+            | reg::ACQUISITION_FRAME_RATE
+            | reg::ACQUISITION_FRAME_RATE_ENABLE
+            | reg::EXPOSURE_TIME
+            | reg::EXPOSURE_AUTO => self.write_acquisition(a, v),
+            reg::TRIGGER_SELECTOR
+            | reg::TRIGGER_SOURCE
+            | reg::TRIGGER_MODE
+            | reg::TRIGGER_SOFTWARE => self.write_trigger(a, v),
+            _ if reg::DOUBLES.iter().any(|&b| a == b || a == b + 4) => self.write_double_word(a, v),
+            reg::GAIN_SELECTOR
+            | reg::GAIN_AUTO
+            | reg::GAIN_AUTO_SETPOINT
+            | reg::INTENSIFIER_MCP_VOLTAGE => self.write_gain_control(a, v),
+            reg::USER_SET_SELECTOR
+            | reg::USER_SET_DEFAULT
+            | reg::USER_SET_LOAD
+            | reg::USER_SET_SAVE
+            | reg::DEVICE_RESET => self.write_user_set(a, v, frozen),
+            _ => Err(self.not_writable(a)),
+        }
+    }
+
+    /// Why a write to `a` is refused when no writable register is there:
+    /// known but read-only, or nothing there at all.
+    fn not_writable(&self, a: u32) -> Status {
+        if self.read_register(a).is_ok() {
+            Status::WriteProtect
+        } else {
+            Status::InvalidAddress
+        }
+    }
+
+    /// The bootstrap block's writable registers: heartbeat, GVCP and
+    /// timestamp control, and stream channel 0.
+    fn write_bootstrap(&mut self, a: u32, v: u32) -> Result<(), Status> {
         match a {
             bs::HEARTBEAT_TIMEOUT => self.heartbeat_ms = v.max(bs::MIN_HEARTBEAT_MS),
             bs::GVCP_CONFIGURATION => self.gvcp_config = v & 1,
@@ -936,16 +1038,16 @@ impl Device {
                     return Err(Status::InvalidParameter);
                 }
             }
-            // What sets PayloadSize cannot change while a host streams.
-            reg::WIDTH
-            | reg::HEIGHT
-            | reg::PIXEL_FORMAT
-            | reg::CHUNK_MODE_ACTIVE
-            | reg::CHUNK_ENABLE
-                if frozen =>
-            {
-                return Err(Status::Busy);
-            }
+            _ => return Err(self.not_writable(a)),
+        }
+        Ok(())
+    }
+
+    /// What shapes the payload: image size, offsets, pixel format, chunks,
+    /// and the transport-layer lock that freezes them.
+    fn write_format(&mut self, a: u32, v: u32) -> Result<(), Status> {
+        let f = &self.facts;
+        match a {
             reg::WIDTH => {
                 let lo = if f.resizable { 1 } else { f.max_width };
                 if !(lo..=f.max_width).contains(&v) {
@@ -970,6 +1072,42 @@ impl Device {
                 self.pixel_format = v;
                 self.settings.bits = bits;
             }
+            reg::CHUNK_MODE_ACTIVE | reg::CHUNK_ENABLE => {
+                if v > 1 {
+                    return Err(Status::InvalidParameter);
+                }
+                if a == reg::CHUNK_MODE_ACTIVE {
+                    self.chunk_mode = v == 1;
+                } else {
+                    let bit = 1 << self.chunk_selector;
+                    self.chunk_enable = if v == 1 {
+                        self.chunk_enable | bit
+                    } else {
+                        self.chunk_enable & !bit
+                    };
+                }
+            }
+            reg::CHUNK_SELECTOR => {
+                if v as usize >= chunk::DEFS.len() {
+                    return Err(Status::InvalidParameter);
+                }
+                self.chunk_selector = v;
+            }
+            reg::TL_PARAMS_LOCKED => {
+                if v > 1 {
+                    return Err(Status::InvalidParameter);
+                }
+                self.tl_locked = v;
+            }
+            _ => return Err(self.not_writable(a)),
+        }
+        Ok(())
+    }
+
+    /// Acquisition mode, start and stop, frame count, pacing and exposure.
+    fn write_acquisition(&mut self, a: u32, v: u32) -> Result<(), Status> {
+        let f = &self.facts;
+        match a {
             reg::ACQUISITION_MODE => {
                 if v > value::ACQUISITION_MODE_MULTI_FRAME {
                     return Err(Status::InvalidParameter);
@@ -1005,8 +1143,8 @@ impl Device {
                 let us = Self::float_in(v, 1.0, f64::from(f.max_exposure_us))?;
                 self.settings.exposure_us = us.round() as u32;
             }
-            // One entry each: anything else is not a value they have.
-            reg::EXPOSURE_AUTO | reg::GAIN_SELECTOR => {
+            // One entry: anything else is not a value it has.
+            reg::EXPOSURE_AUTO => {
                 if v != 0 {
                     return Err(Status::InvalidParameter);
                 }
@@ -1017,25 +1155,69 @@ impl Device {
                 }
                 self.frame_rate_enable = v == 1;
             }
-            _ if reg::DOUBLES.iter().any(|&b| a == b || a == b + 4) => {
-                if self.settings.agc {
-                    // Locked by GainAuto (the XML's pIsLocked): the
-                    // register is not writable now.
-                    self.pending_high = None;
-                    return Err(Status::WriteProtect);
+            _ => return Err(self.not_writable(a)),
+        }
+        Ok(())
+    }
+
+    /// Trigger configuration and the software trigger.
+    fn write_trigger(&mut self, a: u32, v: u32) -> Result<(), Status> {
+        match a {
+            reg::TRIGGER_SELECTOR | reg::TRIGGER_SOURCE => {
+                if v != 0 {
+                    return Err(Status::InvalidParameter);
                 }
-                if reg::DOUBLES.contains(&a) {
-                    // High word: wait for the low one.
-                    self.pending_high = Some((a, v));
-                    return Ok(());
+            }
+            reg::TRIGGER_MODE => {
+                if v > 1 {
+                    return Err(Status::InvalidParameter);
                 }
-                let base = a - 4;
-                let high = match self.pending_high.take() {
-                    Some((b, h)) if b == base => h,
-                    _ => (self.double_value(base).to_bits() >> 32) as u32,
-                };
-                let x = f64::from_bits((u64::from(high) << 32) | u64::from(v));
-                self.write_gain(base, x)?;
+                self.trigger_mode = v;
+            }
+            reg::TRIGGER_SOFTWARE => {
+                if v != 0 && self.acquiring && self.triggered() {
+                    self.events.push(Event::SoftwareTrigger);
+                }
+            }
+            _ => return Err(self.not_writable(a)),
+        }
+        Ok(())
+    }
+
+    /// One word of a double-precision gain register: the high word waits
+    /// for the low one, which completes the value.
+    fn write_double_word(&mut self, a: u32, v: u32) -> Result<(), Status> {
+        if self.settings.agc {
+            // Locked by GainAuto (the XML's pIsLocked): the
+            // register is not writable now.
+            self.pending_high = None;
+            return Err(Status::WriteProtect);
+        }
+        if reg::DOUBLES.contains(&a) {
+            // High word: wait for the low one.
+            self.pending_high = Some((a, v));
+            return Ok(());
+        }
+        let base = a - 4;
+        let high = match self.pending_high.take() {
+            Some((b, h)) if b == base => h,
+            _ => (self.double_value(base).to_bits() >> 32) as u32,
+        };
+        let x = f64::from_bits((u64::from(high) << 32) | u64::from(v));
+        self.write_gain(base, x)
+    }
+
+    /// Gain selector, GainAuto (the AGC), its setpoint and the MCP voltage;
+    /// the AGC's registers exist only on a tube with one, the MCP's only
+    /// on a tube with an MCP.
+    fn write_gain_control(&mut self, a: u32, v: u32) -> Result<(), Status> {
+        let f = &self.facts;
+        match a {
+            // One entry: anything else is not a value it has.
+            reg::GAIN_SELECTOR => {
+                if v != 0 {
+                    return Err(Status::InvalidParameter);
+                }
             }
             reg::GAIN_AUTO => match v {
                 value::GAIN_AUTO_OFF => {
@@ -1060,22 +1242,14 @@ impl Device {
                 self.mcp_voltage_v = volts as f32;
                 self.settings.mcp_voltage_mv = (volts * 1000.0).round() as u32;
             }
-            reg::TRIGGER_SELECTOR | reg::TRIGGER_SOURCE => {
-                if v != 0 {
-                    return Err(Status::InvalidParameter);
-                }
-            }
-            reg::TRIGGER_MODE => {
-                if v > 1 {
-                    return Err(Status::InvalidParameter);
-                }
-                self.trigger_mode = v;
-            }
-            reg::TRIGGER_SOFTWARE => {
-                if v != 0 && self.acquiring && self.triggered() {
-                    self.events.push(Event::SoftwareTrigger);
-                }
-            }
+            _ => return Err(self.not_writable(a)),
+        }
+        Ok(())
+    }
+
+    /// User sets (select, load, save, the power-up default) and DeviceReset.
+    fn write_user_set(&mut self, a: u32, v: u32, frozen: bool) -> Result<(), Status> {
+        match a {
             reg::USER_SET_SELECTOR | reg::USER_SET_DEFAULT => {
                 if v > value::USER_SET_1 {
                     return Err(Status::InvalidParameter);
@@ -1105,41 +1279,7 @@ impl Device {
                     self.reset();
                 }
             }
-            reg::CHUNK_MODE_ACTIVE | reg::CHUNK_ENABLE => {
-                if v > 1 {
-                    return Err(Status::InvalidParameter);
-                }
-                if a == reg::CHUNK_MODE_ACTIVE {
-                    self.chunk_mode = v == 1;
-                } else {
-                    let bit = 1 << self.chunk_selector;
-                    self.chunk_enable = if v == 1 {
-                        self.chunk_enable | bit
-                    } else {
-                        self.chunk_enable & !bit
-                    };
-                }
-            }
-            reg::CHUNK_SELECTOR => {
-                if v as usize >= chunk::DEFS.len() {
-                    return Err(Status::InvalidParameter);
-                }
-                self.chunk_selector = v;
-            }
-            reg::TL_PARAMS_LOCKED => {
-                if v > 1 {
-                    return Err(Status::InvalidParameter);
-                }
-                self.tl_locked = v;
-            }
-            _ => {
-                // Known but read-only, or nothing there at all.
-                return Err(if self.read_register(a).is_ok() {
-                    Status::WriteProtect
-                } else {
-                    Status::InvalidAddress
-                });
-            }
+            _ => return Err(self.not_writable(a)),
         }
         Ok(())
     }

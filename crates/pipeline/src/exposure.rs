@@ -262,6 +262,51 @@ fn measure(
     })
 }
 
+impl ExposureTarget {
+    /// The percentile within 0–100 and the fraction of range within (0, 1).
+    fn check(&self) -> Result<(), ExposureError> {
+        if !(self.percentile.is_finite() && (0.0..=100.0).contains(&self.percentile)) {
+            return Err(ExposureError::Percentile(self.percentile));
+        }
+        if !(self.fraction_of_range > 0.0 && self.fraction_of_range < 1.0) {
+            return Err(ExposureError::FractionOfRange(self.fraction_of_range));
+        }
+        Ok(())
+    }
+}
+
+/// The chosen setting measured again with the camera's noise (its own
+/// seed): at high gain the noise alone can push pixels past saturation,
+/// as the frames will, so step down the ladder (not below `t_lo`) until at
+/// most half the warning fraction saturates. Returns the setting, its
+/// measurement (with the noisy saturated fraction) and whether it was
+/// lowered.
+fn lower_for_noise(
+    config: &SensorConfig,
+    detected: &Array2<f64>,
+    target: &ExposureTarget,
+    (ladder, t_lo): (&Ladder, f64),
+    (mut setting, mut m): (Setting, Measured),
+) -> Result<(Setting, Measured, bool), ExposureError> {
+    let base_exposure = config.timing.exposure_s;
+    let mut lowered = false;
+    let mut t = ladder.t_of(&setting);
+    for _ in 0..64 {
+        let noisy = measure(config, setting, detected, target, true)?;
+        if noisy.saturated_fraction <= 0.5 * gloam_sensor::levels::SATURATED_WARN_FRACTION
+            || t <= t_lo
+        {
+            m.saturated_fraction = noisy.saturated_fraction;
+            break;
+        }
+        t = (t - 0.1).max(t_lo);
+        setting = ladder.at(t, base_exposure);
+        m = measure(config, setting, detected, target, false)?;
+        lowered = true;
+    }
+    Ok((setting, m, lowered))
+}
+
 /// Chooses the exposure for `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, the render's
 /// detected band) through the camera `config` (see the module docs).
 pub fn choose(
@@ -269,12 +314,7 @@ pub fn choose(
     detected: &Array2<f64>,
     target: &ExposureTarget,
 ) -> Result<ExposureChoice, ExposureError> {
-    if !(target.percentile.is_finite() && (0.0..=100.0).contains(&target.percentile)) {
-        return Err(ExposureError::Percentile(target.percentile));
-    }
-    if !(target.fraction_of_range > 0.0 && target.fraction_of_range < 1.0) {
-        return Err(ExposureError::FractionOfRange(target.fraction_of_range));
-    }
+    target.check()?;
     let camera = Camera::new(config.clone())?;
     let ladder = Ladder::of(config, &camera);
     let base_exposure = config.timing.exposure_s;
@@ -331,25 +371,8 @@ pub fn choose(
         }
         (best.0, best.1, 0.0, "target reached".to_string())
     };
-    // Then with the camera's noise (its own seed): at high gain the
-    // noise alone can push pixels past saturation, as the frames will, so
-    // step down until at most half the warning fraction saturates.
-    let (mut setting, mut m) = (setting, m);
-    let mut lowered = false;
-    let mut t = ladder.t_of(&setting);
-    for _ in 0..64 {
-        let noisy = measure(config, setting, detected, target, true)?;
-        if noisy.saturated_fraction <= 0.5 * gloam_sensor::levels::SATURATED_WARN_FRACTION
-            || t <= t_lo
-        {
-            m.saturated_fraction = noisy.saturated_fraction;
-            break;
-        }
-        t = (t - 0.1).max(t_lo);
-        setting = ladder.at(t, base_exposure);
-        m = measure(config, setting, detected, target, false)?;
-        lowered = true;
-    }
+    let (setting, m, lowered) =
+        lower_for_noise(config, detected, target, (&ladder, t_lo), (setting, m))?;
     let note = if lowered {
         format!("{note}; then lowered until the frame with noise saturates < 0.5 % of its pixels")
     } else {

@@ -219,54 +219,10 @@ impl Photoelectrons {
     }
 }
 
-/// Predicts how the camera `config` (as it will capture: ND, gate and
-/// exposure applied) sees `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, the render's
-/// detected band) at `gain` (`None`: the configured gain) and over its
-/// gain range.
-pub fn predict(
-    config: &SensorConfig,
-    detected: &Array2<f64>,
-    gain: Option<f64>,
-) -> Result<Fit, gloam_sensor::ConfigError> {
-    let camera = gloam_sensor::Camera::new(config.clone())?;
-    let chain = camera.chain();
-    let g = gain.unwrap_or_else(|| camera.gain());
-    let pe = Photoelectrons::of(chain, detected);
-    let (g_min, g_max) = (chain.gain_min, chain.gain_max);
-    let at_gain = pe.level(chain, g, 1.0);
-    let at_gain_min = pe.level(chain, g_min, 1.0);
-    let at_gain_max = pe.level(chain, g_max, 1.0);
-    let warn = gloam_sensor::levels::SATURATED_WARN_FRACTION;
-    let verdict = if at_gain_min.saturated_fraction > warn {
-        FitVerdict::SaturatesAtEveryGain
-    } else if at_gain_max.median_above_black_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
-        FitVerdict::InTheNoiseAtEveryGain
-    } else if at_gain.saturated_fraction > warn {
-        FitVerdict::SaturatesAtThisGain
-    } else if at_gain.median_above_black_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
-        FitVerdict::InTheNoiseAtThisGain
-    } else {
-        FitVerdict::Fits
-    };
-    // The light that fits: p99 at 80 % of the range at the least
-    // sensitive gain, or (in the noise) the median at its goal at the most.
-    let p99 = pe.quantile(0.99);
-    let p50 = pe.quantile(0.5);
-    let (black_min, sat_min) = (chain.black_dn(g_min), chain.saturation_dn(g_min));
-    let p99_goal = black_min + FIT_P99_FRACTION_OF_RANGE * (sat_min - black_min);
-    let (s_fit, g_fit) = if verdict == FitVerdict::InTheNoiseAtEveryGain {
-        let goal = chain.black_dn(g_max) + MEDIAN_GOAL_OF_FULL_SCALE * chain.max_code;
-        let s = pe.solve(|s| chain.expected_mean_dn_from_pe(s * p50, g_max) - goal);
-        (s, g_max)
-    } else {
-        let s = pe.solve(|s| chain.expected_mean_dn_from_pe(s * p99, g_min) - p99_goal);
-        (s, g_min)
-    };
-    let fitted = pe.level(chain, g_fit, s_fit);
-    let median_goal = black_min + MEDIAN_GOAL_OF_FULL_SCALE * chain.max_code;
-    let s_median = pe.solve(|s| chain.expected_mean_dn_from_pe(s * p50, g_min) - median_goal);
-    let median_goal_saturated_fraction = pe.level(chain, g_min, s_median).saturated_fraction;
-
+/// The ND density, gate duty (intensified cameras) or exposure time
+/// (others) that scale the light by `s_fit`, each only where the camera
+/// can set it.
+fn controls_to_fit(config: &SensorConfig, s_fit: f64) -> (Option<f64>, Option<f64>, Option<f64>) {
     let nd = config.optics.nd_density - s_fit.log10();
     let nd_density_to_fit = (s_fit < 1.0 && nd <= ND_MAX).then_some(nd);
     let exposure_s = config.timing.exposure_s;
@@ -286,6 +242,67 @@ pub fn predict(
             (None, (EXPOSURE_MIN_S..=t_max).contains(&t).then_some(t))
         }
     };
+    (nd_density_to_fit, gate_duty_to_fit, exposure_s_to_fit)
+}
+
+impl FitVerdict {
+    /// Saturation at the least gain or the median in the noise at the
+    /// most decide for every gain; else the capture's gain decides.
+    fn of(at_gain: &PredictedLevel, at_min: &PredictedLevel, at_max: &PredictedLevel) -> Self {
+        let warn = gloam_sensor::levels::SATURATED_WARN_FRACTION;
+        if at_min.saturated_fraction > warn {
+            FitVerdict::SaturatesAtEveryGain
+        } else if at_max.median_above_black_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
+            FitVerdict::InTheNoiseAtEveryGain
+        } else if at_gain.saturated_fraction > warn {
+            FitVerdict::SaturatesAtThisGain
+        } else if at_gain.median_above_black_of_full_scale < IN_THE_NOISE_OF_FULL_SCALE {
+            FitVerdict::InTheNoiseAtThisGain
+        } else {
+            FitVerdict::Fits
+        }
+    }
+}
+
+/// Predicts how the camera `config` (as it will capture: ND, gate and
+/// exposure applied) sees `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, the render's
+/// detected band) at `gain` (`None`: the configured gain) and over its
+/// gain range.
+pub fn predict(
+    config: &SensorConfig,
+    detected: &Array2<f64>,
+    gain: Option<f64>,
+) -> Result<Fit, gloam_sensor::ConfigError> {
+    let camera = gloam_sensor::Camera::new(config.clone())?;
+    let chain = camera.chain();
+    let g = gain.unwrap_or_else(|| camera.gain());
+    let pe = Photoelectrons::of(chain, detected);
+    let (g_min, g_max) = (chain.gain_min, chain.gain_max);
+    let at_gain = pe.level(chain, g, 1.0);
+    let at_gain_min = pe.level(chain, g_min, 1.0);
+    let at_gain_max = pe.level(chain, g_max, 1.0);
+    let warn = gloam_sensor::levels::SATURATED_WARN_FRACTION;
+    let verdict = FitVerdict::of(&at_gain, &at_gain_min, &at_gain_max);
+    // The light that fits: p99 at 80 % of the range at the least
+    // sensitive gain, or (in the noise) the median at its goal at the most.
+    let p99 = pe.quantile(0.99);
+    let p50 = pe.quantile(0.5);
+    let (black_min, sat_min) = (chain.black_dn(g_min), chain.saturation_dn(g_min));
+    let p99_goal = black_min + FIT_P99_FRACTION_OF_RANGE * (sat_min - black_min);
+    let (s_fit, g_fit) = if verdict == FitVerdict::InTheNoiseAtEveryGain {
+        let goal = chain.black_dn(g_max) + MEDIAN_GOAL_OF_FULL_SCALE * chain.max_code;
+        let s = pe.solve(|s| chain.expected_mean_dn_from_pe(s * p50, g_max) - goal);
+        (s, g_max)
+    } else {
+        let s = pe.solve(|s| chain.expected_mean_dn_from_pe(s * p99, g_min) - p99_goal);
+        (s, g_min)
+    };
+    let fitted = pe.level(chain, g_fit, s_fit);
+    let median_goal = black_min + MEDIAN_GOAL_OF_FULL_SCALE * chain.max_code;
+    let s_median = pe.solve(|s| chain.expected_mean_dn_from_pe(s * p50, g_min) - median_goal);
+    let median_goal_saturated_fraction = pe.level(chain, g_min, s_median).saturated_fraction;
+
+    let (nd_density_to_fit, gate_duty_to_fit, exposure_s_to_fit) = controls_to_fit(config, s_fit);
     let fix = fix_text(
         nd_density_to_fit,
         gate_duty_to_fit,

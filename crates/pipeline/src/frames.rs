@@ -2,7 +2,6 @@
 //! schema for `capture`, `render --sensor` and the calibration flows), and
 //! the capture of a render through a simulated camera.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use gloam_grabber::{Frame, FrameStatus};
@@ -14,6 +13,7 @@ use serde::Serialize;
 use crate::frame_files::{ContactSheet, FrameFormat, FrameStorage, PREVIEW, TIFF_STACK};
 use crate::output::{OutputError, write_atomic};
 use gloam_io::fits::{FitsCard, FitsValue, fits_frame_bytes};
+use gloam_io::frames::FrameLog;
 use gloam_io::png::png_frame_bytes;
 use gloam_io::tiff::TiffStack;
 
@@ -181,20 +181,8 @@ impl FrameRecord {
 /// Why `frames.jsonl` or a frame was not written, naming the file.
 #[derive(Debug, thiserror::Error)]
 pub enum FrameLogError {
-    #[error("creating {}", path.display())]
-    Create {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("writing {}", path.display())]
-    Append {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("writing frames.jsonl")]
-    Encode(#[source] serde_json::Error),
+    #[error(transparent)]
+    Log(#[from] gloam_io::frames::FrameLogError),
     #[error(transparent)]
     Frame(#[from] OutputError),
 }
@@ -202,39 +190,6 @@ pub enum FrameLogError {
 impl From<gloam_io::EncodeError> for FrameLogError {
     fn from(e: gloam_io::EncodeError) -> Self {
         FrameLogError::Frame(e.into())
-    }
-}
-
-/// Appends records to `frames.jsonl` as frames are written, so an
-/// interrupted run keeps every frame it wrote listed.
-pub struct FrameLog {
-    path: PathBuf,
-    file: std::io::BufWriter<std::fs::File>,
-}
-
-impl FrameLog {
-    /// Creates (truncates) `dir/frames.jsonl`.
-    pub fn create(dir: &Path) -> Result<Self, FrameLogError> {
-        let path = dir.join("frames.jsonl");
-        let file = std::fs::File::create(&path).map_err(|source| FrameLogError::Create {
-            path: path.clone(),
-            source,
-        })?;
-        Ok(Self {
-            path,
-            file: std::io::BufWriter::new(file),
-        })
-    }
-
-    /// Appends one record and flushes it to the file.
-    pub fn append(&mut self, rec: &FrameRecord) -> Result<(), FrameLogError> {
-        serde_json::to_writer(&mut self.file, rec).map_err(FrameLogError::Encode)?;
-        (self.file.write_all(b"\n"))
-            .and_then(|()| self.file.flush())
-            .map_err(|source| FrameLogError::Append {
-                path: self.path.clone(),
-                source,
-            })
     }
 }
 
@@ -387,7 +342,7 @@ impl FrameWriter {
         rec.stored = Some(stored);
         let black = rec.black_dn.unwrap_or(0.0);
         (self.sheet).add(rec.index, w, h, pixels, black, rec.saturated_at_dn);
-        self.log.append(&rec)
+        Ok(self.log.append(&rec)?)
     }
 
     /// Writes `frames-preview.png` (the contact sheet) and closes the TIFF.

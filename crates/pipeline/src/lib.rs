@@ -22,7 +22,7 @@ pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detect
 pub use frame_files::FrameFormat;
 pub use frames::{
     CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameContext,
-    FrameLog, FrameRecord, FrameWriter, check_options,
+    FrameRecord, FrameWriter, check_options,
 };
 /// Most independent estimates a probe averages (each is a full estimate
 /// at the point): `gloam probe --samples` and Python's `probe(samples=)`

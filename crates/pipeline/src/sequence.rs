@@ -265,7 +265,7 @@ pub fn capture_sequence(
     sequence.check_static("a sequence captured from layers given")?;
     check_layers(layers, groups.len())?;
     let want = layers.first().map_or((0, 0), Array2::dim);
-    let mut feed = |_: &Frame, weights: &[f64], img: &mut Array2<f64>| {
+    let mut feed = |_: &SequenceStep, weights: &[f64], img: &mut Array2<f64>| {
         mix(layers, weights, img);
         Ok(())
     };
@@ -361,7 +361,7 @@ pub fn capture_scene_sequence(
     let scaled = |n: u32| ((f64::from(n) * job.settings.resolution_scale).round() as usize).max(1);
     let want = (scaled(cam.height), scaled(cam.width));
     let mut cache = PoseCache::new(job, capture, groups.len(), want);
-    let mut feed = |f: &Frame, weights: &[f64], img: &mut Array2<f64>| {
+    let mut feed = |f: &SequenceStep, weights: &[f64], img: &mut Array2<f64>| {
         let layers = cache.layers(f)?;
         check_layers(layers, weights.len())?;
         if let Some(l) = layers.first().filter(|l| l.dim() != want) {
@@ -400,8 +400,9 @@ pub fn capture_scene_sequence(
     })
 }
 
-/// One frame's place: its index, exposure start and window, s.
-pub struct Frame {
+/// One step of a sequence: which frame, its exposure start and window, s
+/// (not a frame: the frames are the camera's).
+pub struct SequenceStep {
     pub index: u32,
     pub start_s: f64,
     pub window_s: f64,
@@ -409,7 +410,7 @@ pub struct Frame {
     count: bool,
 }
 
-impl Frame {
+impl SequenceStep {
     /// Mid-exposure: the instant a frame's moving bodies are drawn at.
     pub fn mid_s(&self) -> f64 {
         self.start_s + 0.5 * self.window_s
@@ -498,7 +499,7 @@ impl<'a> PoseCache<'a> {
             .map(|g| g.name.as_str())
             .collect();
         for i in 0..seq.frames {
-            let f = Frame {
+            let f = SequenceStep {
                 index: i,
                 start_s: seq.frame_start_s(i),
                 window_s,
@@ -600,7 +601,7 @@ impl<'a> PoseCache<'a> {
 
     /// Frame `f`'s layers: its render's, rendered now if not yet; between
     /// two sky renders, each pixel geometrically between theirs.
-    fn layers(&mut self, f: &Frame) -> Result<&[Array2<f64>], SequenceError> {
+    fn layers(&mut self, f: &SequenceStep) -> Result<&[Array2<f64>], SequenceError> {
         if self.window_s != Some(f.window_s) {
             self.plan(f.window_s)?;
         }
@@ -618,7 +619,7 @@ impl<'a> PoseCache<'a> {
     }
 
     /// Renders state `id` if it is not live yet (for frame `f`).
-    fn ensure(&mut self, id: usize, f: &Frame) -> Result<(), SequenceError> {
+    fn ensure(&mut self, id: usize, f: &SequenceStep) -> Result<(), SequenceError> {
         if !self.live.contains_key(&id) {
             let poses = self.planned[id].poses.clone();
             let t0 = Instant::now();
@@ -645,7 +646,7 @@ impl<'a> PoseCache<'a> {
     }
 
     /// Drops frame `f`'s renders after their last frame.
-    fn done(&mut self, f: &Frame) {
+    fn done(&mut self, f: &SequenceStep) {
         let (id, second) = self.ids[f.index as usize];
         for id in std::iter::once(id).chain(second.map(|s| s.0)) {
             if f.count && self.planned[id].last_frame == f.index {
@@ -746,7 +747,8 @@ fn sequence_config(
 }
 
 /// Writes frame `f`'s image for its weights into the array given.
-type Feed<'a> = dyn FnMut(&Frame, &[f64], &mut Array2<f64>) -> Result<(), SequenceError> + 'a;
+type Feed<'a> =
+    dyn FnMut(&SequenceStep, &[f64], &mut Array2<f64>) -> Result<(), SequenceError> + 'a;
 
 /// The one capture loop of a sequence: frame `i`'s image is `feed`'s mix
 /// for its place and weights.
@@ -762,7 +764,7 @@ fn capture_with(
     let names = || groups.iter().map(String::as_str);
     let config = sequence_config(sequence, capture)?;
     let window_s = config.timing.exposure_s;
-    let frame = |i: u32, count: bool| Frame {
+    let frame = |i: u32, count: bool| SequenceStep {
         index: i,
         start_s: sequence.frame_start_s(i),
         window_s,

@@ -135,16 +135,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     let raw: RawScene = toml::from_str(text).map_err(|e| cx.loc.error_at(e.span(), e.message()))?;
     let root = FieldPath::root();
 
-    let units = match raw.units.as_str() {
-        "m" => Units::Meters,
-        "ft" => Units::Feet,
-        other => {
-            return Err(cx.err(
-                &root.key("units"),
-                format!("unknown units '{other}': use \"m\" or \"ft\""),
-            ));
-        }
-    };
+    let units = units(&cx, &root, &raw.units)?;
 
     // Materials.
     let mut materials = Vec::new();
@@ -170,19 +161,7 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
     refuse_coincident_facets(&cx, &of, &facets, &objects)?;
     refuse_coincident_shared(&cx, &of, &facets, &shared, &objects)?;
 
-    // Point sources, each placed once or at each of its placements.
-    let mut point_sources = Vec::new();
-    let mut point_source_groups = Vec::new();
-    let pf = root.key("point_sources");
-    for (name, p) in cx.ordered(&pf, &raw.point_sources) {
-        let first = point_sources.len();
-        point_source(&cx, &pf.key(name), name, p, &mut point_sources)?;
-        point_source_groups.push(PointSourceGroup {
-            name: name.to_string(),
-            instances: point_sources.len() - first,
-            first,
-        });
-    }
+    let (point_sources, point_source_groups) = point_sources(&cx, &root, &raw)?;
 
     let mut distant_sources = Vec::new();
     let df = root.key("distant_sources");
@@ -207,31 +186,10 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
 
     let camera = camera(&cx, &root.key("camera"), &raw.camera)?;
 
-    let mut bands = Vec::new();
-    let bf = root.key("bands");
-    for (name, b) in cx.ordered(&bf, &raw.bands) {
-        bands.push(band(&cx, &bf.key(name), name, b)?);
-    }
-    if bands.is_empty() {
-        return Err(cx.err(
-            &bf,
-            "a scene needs at least one band, e.g. [bands.vis] lo_nm = 400, hi_nm = 700",
-        ));
-    }
-
+    let bands = bands(&cx, &root, &raw)?;
     let sensor = match &raw.sensor {
         None => None,
-        Some(s) if s.trim().is_empty() => {
-            return Err(cx.err(&root.key("sensor"), "empty sensor reference"));
-        }
-        Some(s) => {
-            let p = cx.resolve(s);
-            if p.is_file() {
-                Some(p.to_string_lossy().into_owned())
-            } else {
-                Some(s.clone())
-            }
-        }
+        Some(s) => Some(sensor_reference(&cx, &root, s)?),
     };
 
     Ok(Scene {
@@ -250,6 +208,70 @@ pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
         bands,
         sky,
         sensor,
+    })
+}
+
+/// The scene's length unit.
+fn units(cx: &Ctx, root: &FieldPath, units: &str) -> R<Units> {
+    match units {
+        "m" => Ok(Units::Meters),
+        "ft" => Ok(Units::Feet),
+        other => Err(cx.err(
+            &root.key("units"),
+            format!("unknown units '{other}': use \"m\" or \"ft\""),
+        )),
+    }
+}
+
+/// Point sources, each placed once or at each of its placements, and the
+/// group (name, first, count) each became.
+fn point_sources(
+    cx: &Ctx,
+    root: &FieldPath,
+    raw: &RawScene,
+) -> R<(Vec<PointSource>, Vec<PointSourceGroup>)> {
+    let mut point_sources = Vec::new();
+    let mut point_source_groups = Vec::new();
+    let pf = root.key("point_sources");
+    for (name, p) in cx.ordered(&pf, &raw.point_sources) {
+        let first = point_sources.len();
+        point_source(cx, &pf.key(name), name, p, &mut point_sources)?;
+        point_source_groups.push(PointSourceGroup {
+            name: name.to_string(),
+            instances: point_sources.len() - first,
+            first,
+        });
+    }
+    Ok((point_sources, point_source_groups))
+}
+
+/// The scene's bands: at least one.
+fn bands(cx: &Ctx, root: &FieldPath, raw: &RawScene) -> R<Vec<Band>> {
+    let mut bands = Vec::new();
+    let bf = root.key("bands");
+    for (name, b) in cx.ordered(&bf, &raw.bands) {
+        bands.push(band(cx, &bf.key(name), name, b)?);
+    }
+    if bands.is_empty() {
+        return Err(cx.err(
+            &bf,
+            "a scene needs at least one band, e.g. [bands.vis] lo_nm = 400, hi_nm = 700",
+        ));
+    }
+    Ok(bands)
+}
+
+/// The sensor the scene names: a file next to the scene (by its resolved
+/// path) or a preset name, kept as given.
+fn sensor_reference(cx: &Ctx, root: &FieldPath, s: &str) -> R<String> {
+    if s.trim().is_empty() {
+        return Err(cx.err(&root.key("sensor"), "empty sensor reference"));
+    }
+    let p = cx.resolve(s);
+    Ok(if p.is_file() {
+        p.to_string_lossy().into_owned()
+    } else {
+        s.to_string()
     })
 }
 
@@ -682,78 +704,11 @@ fn check_fraction(cx: &Ctx, field: &FieldPath, s: &Spectrum, kind: Kind) -> R<()
 }
 
 fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Material> {
+    let ef = field.key("emission");
     let emission = match &m.emission {
         None => None,
-        Some(e) if e.photometry.is_some() => {
-            let f = field.key("emission");
-            let (table, intensity, path) = measured(
-                cx,
-                &f,
-                Measured {
-                    photometry: e.photometry.as_deref(),
-                    shape_exponent: e.shape_exponent.is_some(),
-                    value: e.value.is_some(),
-                    normalize: e.normalize.is_some(),
-                    spectrum: e.spectrum.as_deref(),
-                    lines: e.lines.as_deref(),
-                    scale: e.scale,
-                },
-            )?;
-            let cf = f.key("c0_direction");
-            let c0_direction = match e.c0_direction {
-                Some(v) => cx
-                    .vec3(&cf, v)?
-                    .try_normalize()
-                    .ok_or_else(|| cx.err(&cf, "c0_direction is a zero vector"))?,
-                None => DVec3::X,
-            };
-            Some(Emission {
-                // W sr⁻¹ nm⁻¹ over 1 m²: the tracer divides by the area.
-                radiance_w_m2_sr_nm: intensity,
-                shape_exponent: 0.0,
-                luminaire: Some(crate::AreaLuminaire {
-                    table: std::sync::Arc::new(table),
-                    c0_direction,
-                    file: path,
-                }),
-            })
-        }
-        Some(e) => {
-            let f = field.key("emission");
-            if e.c0_direction.is_some() {
-                return Err(cx.err(
-                    &f.key("c0_direction"),
-                    "`c0_direction` orients a measured luminaire: it needs `photometry = \"file.ies\"`",
-                ));
-            }
-            let radiance = spectrum_parts(
-                cx,
-                &f,
-                Parts {
-                    spectrum: e.spectrum.as_deref(),
-                    value: e.value,
-                    lines: e.lines.as_deref(),
-                    scale: e.scale,
-                    normalize: e.normalize.as_ref(),
-                },
-                Kind::Radiance,
-            )?;
-            let m_exp = e.shape_exponent.unwrap_or(0.0);
-            if !(m_exp.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m_exp)) {
-                return Err(cx.err(
-                    &f.key("shape_exponent"),
-                    format!(
-                        "shape exponent {} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]",
-                        num(m_exp)
-                    ),
-                ));
-            }
-            Some(Emission {
-                radiance_w_m2_sr_nm: radiance,
-                shape_exponent: m_exp,
-                luminaire: None,
-            })
-        }
+        Some(e) if e.photometry.is_some() => Some(measured_emission(cx, &ef, e)?),
+        Some(e) => Some(plain_emission(cx, &ef, e)?),
     };
     let rf = field.key("reflectance");
     let reflectance = match &m.reflectance {
@@ -778,34 +733,7 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
     }
     let tf = field.key("transmission");
     let transmission = match &m.transmission {
-        Some(t) => {
-            let t = spectrum(cx, &tf, t, Kind::Transmission)?;
-            check_fraction(cx, &tf, &t, Kind::Transmission)?;
-            // ρ + τ ≤ 1: both are piecewise linear, so checking at the nodes
-            // of both grids is exact.
-            let mut grid: Vec<f64> = reflectance
-                .wavelengths_nm()
-                .iter()
-                .chain(t.wavelengths_nm())
-                .copied()
-                .collect();
-            grid.sort_by(f64::total_cmp);
-            for w in grid {
-                let sum = reflectance.eval(w) + t.eval(w);
-                if sum > 1.0 + 1e-9 {
-                    return Err(cx.err(
-                        &tf,
-                        format!(
-                            "reflectance {} + transmission {} = {sum} at {w} nm exceeds 1 \
-                             (a surface cannot return more light than it receives)",
-                            reflectance.eval(w),
-                            t.eval(w)
-                        ),
-                    ));
-                }
-            }
-            Some(t)
-        }
+        Some(t) => Some(transmission(cx, &tf, t, &reflectance)?),
         None => None,
     };
     Ok(Material {
@@ -815,6 +743,110 @@ fn material(cx: &Ctx, field: &FieldPath, name: &str, m: &RawMaterial) -> R<Mater
         transmission,
         emission,
     })
+}
+
+/// A measured luminaire's emission: its photometry file's table and the
+/// direction its C0 half-plane faces.
+fn measured_emission(cx: &Ctx, f: &FieldPath, e: &RawEmission) -> R<Emission> {
+    let (table, intensity, path) = measured(
+        cx,
+        f,
+        Measured {
+            photometry: e.photometry.as_deref(),
+            shape_exponent: e.shape_exponent.is_some(),
+            value: e.value.is_some(),
+            normalize: e.normalize.is_some(),
+            spectrum: e.spectrum.as_deref(),
+            lines: e.lines.as_deref(),
+            scale: e.scale,
+        },
+    )?;
+    let cf = f.key("c0_direction");
+    let c0_direction = match e.c0_direction {
+        Some(v) => cx
+            .vec3(&cf, v)?
+            .try_normalize()
+            .ok_or_else(|| cx.err(&cf, "c0_direction is a zero vector"))?,
+        None => DVec3::X,
+    };
+    Ok(Emission {
+        // W sr⁻¹ nm⁻¹ over 1 m²: the tracer divides by the area.
+        radiance_w_m2_sr_nm: intensity,
+        shape_exponent: 0.0,
+        luminaire: Some(crate::AreaLuminaire {
+            table: std::sync::Arc::new(table),
+            c0_direction,
+            file: path,
+        }),
+    })
+}
+
+/// An emission given as a radiance spectrum and a shape exponent.
+fn plain_emission(cx: &Ctx, f: &FieldPath, e: &RawEmission) -> R<Emission> {
+    if e.c0_direction.is_some() {
+        return Err(cx.err(
+            &f.key("c0_direction"),
+            "`c0_direction` orients a measured luminaire: it needs `photometry = \"file.ies\"`",
+        ));
+    }
+    let radiance = spectrum_parts(
+        cx,
+        f,
+        Parts {
+            spectrum: e.spectrum.as_deref(),
+            value: e.value,
+            lines: e.lines.as_deref(),
+            scale: e.scale,
+            normalize: e.normalize.as_ref(),
+        },
+        Kind::Radiance,
+    )?;
+    let m_exp = e.shape_exponent.unwrap_or(0.0);
+    if !(m_exp.is_finite() && (0.0..=MAX_SHAPE_EXPONENT).contains(&m_exp)) {
+        return Err(cx.err(
+            &f.key("shape_exponent"),
+            format!(
+                "shape exponent {} must be a finite number in [0, {MAX_SHAPE_EXPONENT}]",
+                num(m_exp)
+            ),
+        ));
+    }
+    Ok(Emission {
+        radiance_w_m2_sr_nm: radiance,
+        shape_exponent: m_exp,
+        luminaire: None,
+    })
+}
+
+/// A transmission spectrum, a fraction that with the reflectance returns
+/// no more light than the surface receives.
+fn transmission(cx: &Ctx, tf: &FieldPath, t: &RawSpectrum, reflectance: &Spectrum) -> R<Spectrum> {
+    let t = spectrum(cx, tf, t, Kind::Transmission)?;
+    check_fraction(cx, tf, &t, Kind::Transmission)?;
+    // ρ + τ ≤ 1: both are piecewise linear, so checking at the nodes
+    // of both grids is exact.
+    let mut grid: Vec<f64> = reflectance
+        .wavelengths_nm()
+        .iter()
+        .chain(t.wavelengths_nm())
+        .copied()
+        .collect();
+    grid.sort_by(f64::total_cmp);
+    for w in grid {
+        let sum = reflectance.eval(w) + t.eval(w);
+        if sum > 1.0 + 1e-9 {
+            return Err(cx.err(
+                tf,
+                format!(
+                    "reflectance {} + transmission {} = {sum} at {w} nm exceeds 1 \
+                     (a surface cannot return more light than it receives)",
+                    reflectance.eval(w),
+                    t.eval(w)
+                ),
+            ));
+        }
+    }
+    Ok(t)
 }
 
 /// The object's own `scale`, `rotate_z_deg` and `translate`, or one
@@ -956,7 +988,89 @@ fn object(
         index,
     } = out;
     let before = scene_facets.len();
-    let material = materials
+    let material = object_material(cx, field, o, materials)?;
+    let own = xform(cx, field, o.translate, o.rotate_z_deg, o.scale.as_ref())?;
+    one_kind_of_geometry(cx, field, o)?;
+
+    let (placements, placements_field) = placements(
+        cx,
+        field,
+        o.instances.as_deref(),
+        o.instances_csv.as_deref(),
+    )?;
+    let emits = materials[material].emission.is_some();
+    let budget = FacetBudget {
+        before,
+        shared_before: scene_shared
+            .iter()
+            .map(SharedInstances::placed_facets)
+            .sum(),
+        instances: placements.as_ref().map_or(1, Vec::len) as u128,
+        placed: placements.is_some(),
+        emits,
+        instancing: instancing(cx, field, o, placements.is_some(), emits)?,
+        bytes_each: facet_bytes(name),
+    };
+
+    // An object placed once is built straight into the scene's list; an
+    // instanced one into its prototype, then copied per placement.
+    let mut prototype: Vec<Facet> = Vec::new();
+    let facets = if placements.is_some() {
+        &mut prototype
+    } else {
+        &mut *scene_facets
+    };
+    let reader = GeometryReader {
+        cx,
+        field,
+        own: &own,
+        budget: &budget,
+        placements_field: placements.is_some().then_some(&placements_field),
+    };
+    let mut sink = FacetSink {
+        facets,
+        material,
+        name,
+    };
+    if o.vertices.is_some() || o.faces.is_some() {
+        inline_geometry(&reader, o, &mut sink)?;
+    } else if let Some(b) = &o.box_ {
+        box_geometry(&reader, b, &mut sink)?;
+    } else if let Some(q) = &o.quad {
+        quad_geometry(&reader, q, &mut sink)?;
+    } else if let Some(file) = &o.obj {
+        obj_geometry(&reader, file, &mut sink)?;
+    }
+    let prototype_facets = sink.facets.len() - if placements.is_some() { 0 } else { before };
+    let shared = budget.share(prototype_facets);
+    if let Some(placements) = &placements {
+        budget.check(cx, prototype_facets, &placements_field)?;
+        if shared {
+            check_shared(cx, &placements_field, placements, &prototype)?;
+            scene_shared.push(SharedInstances {
+                object: index,
+                placements: placements.iter().map(|p| p.xform.affine()).collect(),
+                prototype,
+            });
+        } else {
+            expand(cx, &placements_field, placements, &prototype, scene_facets)?;
+        }
+    }
+    Ok(ObjectInfo {
+        name: name.to_string(),
+        material,
+        prototype_facets,
+        instances: placements.as_ref().map_or(1, Vec::len),
+        instanced: placements.is_some(),
+        shared,
+        first_facet: before,
+        luminaire_placements: luminaire_placements(&materials[material], placements.as_deref()),
+    })
+}
+
+/// The object's material, by name among the scene's.
+fn object_material(cx: &Ctx, field: &FieldPath, o: &RawObject, materials: &[Material]) -> R<usize> {
+    materials
         .iter()
         .position(|m| m.name == o.material)
         .ok_or_else(|| {
@@ -973,11 +1087,11 @@ fn object(
                     }
                 ),
             )
-        })?;
+        })
+}
 
-    let own = xform(cx, field, o.translate, o.rotate_z_deg, o.scale.as_ref())?;
-    let xf = |p: DVec3| own.point(p);
-
+/// An object has exactly one kind of geometry.
+fn one_kind_of_geometry(cx: &Ctx, field: &FieldPath, o: &RawObject) -> R<()> {
     let kinds = [
         o.vertices.is_some() || o.faces.is_some(),
         o.box_.is_some(),
@@ -985,29 +1099,27 @@ fn object(
         o.obj.is_some(),
     ];
     match kinds.iter().filter(|&&k| k).count() {
-        1 => {}
-        0 => {
-            return Err(cx.err(
-                field,
-                "no geometry: give `vertices` + `faces`, `box`, `quad` or `obj`",
-            ));
-        }
-        _ => {
-            return Err(cx.err(
-                field,
-                "more than one kind of geometry: give only one of `vertices` + `faces`, `box`, `quad`, `obj` per object",
-            ));
-        }
+        1 => Ok(()),
+        0 => Err(cx.err(
+            field,
+            "no geometry: give `vertices` + `faces`, `box`, `quad` or `obj`",
+        )),
+        _ => Err(cx.err(
+            field,
+            "more than one kind of geometry: give only one of `vertices` + `faces`, `box`, `quad`, `obj` per object",
+        )),
     }
+}
 
-    let (placements, placements_field) = placements(
-        cx,
-        field,
-        o.instances.as_deref(),
-        o.instances_csv.as_deref(),
-    )?;
-    let instances = placements.as_ref().map_or(1, Vec::len) as u128;
-    let emits = materials[material].emission.is_some();
+/// The object's `instancing`; "shared" needs placements and a material
+/// that does not emit (each placement of an emitter is a light).
+fn instancing(
+    cx: &Ctx,
+    field: &FieldPath,
+    o: &RawObject,
+    placed: bool,
+    emits: bool,
+) -> R<Instancing> {
     let instancing = match &o.instancing {
         None => Instancing::Auto,
         Some(v) => v
@@ -1015,7 +1127,7 @@ fn object(
             .map_err(|m| cx.err(&field.key("instancing"), m))?,
     };
     if instancing == Instancing::Shared {
-        if placements.is_none() {
+        if !placed {
             return Err(cx.err(
                 &field.key("instancing"),
                 "instancing = \"shared\" needs placements: give `instances` or `instances_csv`",
@@ -1031,48 +1143,93 @@ fn object(
             ));
         }
     }
-    // Whether `prototype` facets are shared across the placements rather
-    // than copied (decided again on the exact count once it is read).
-    let share = |prototype: usize| {
-        placements.is_some()
-            && !emits
-            && match instancing {
+    Ok(instancing)
+}
+
+/// The placed facets of shared instances, this object's added to those
+/// placed before, within the per-scene limit.
+fn check_shared_budget(
+    cx: &Ctx,
+    at: &FieldPath,
+    shared_before: u64,
+    prototype: usize,
+    instances: u128,
+) -> R<()> {
+    let placed = shared_before as u128 + prototype as u128 * instances;
+    if placed > MAX_SHARED_FACETS as u128 {
+        return Err(cx.err(
+            at,
+            format!(
+                "{instances} placements × {prototype} facets{}: more than the {MAX_SHARED_FACETS} placed facets shared instances may hold per scene",
+                if shared_before > 0 {
+                    format!(" plus {shared_before} placed before")
+                } else {
+                    String::new()
+                }
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A measured luminaire's C0 axis turns with each placement
+/// (`Scene::luminaire_c0`): its transforms are kept, and only its.
+fn luminaire_placements(material: &Material, placements: Option<&[Placement]>) -> Vec<Xform> {
+    match placements {
+        Some(pl)
+            if material
+                .emission
+                .as_ref()
+                .is_some_and(|e| e.luminaire.is_some()) =>
+        {
+            pl.iter().map(|p| p.xform).collect()
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// What an object's facets are checked against before they are
+/// allocated: the scene's facet limit and memory, and for shared
+/// placements the per-scene limit on placed facets.
+struct FacetBudget {
+    /// Facets in the scene before this object.
+    before: usize,
+    /// Facets placed by shared instances before this object.
+    shared_before: u64,
+    /// Placements (1 when the object is placed once).
+    instances: u128,
+    placed: bool,
+    emits: bool,
+    instancing: Instancing,
+    bytes_each: usize,
+}
+
+impl FacetBudget {
+    /// Whether `prototype` facets are shared across the placements rather
+    /// than copied (decided again on the exact count once it is read).
+    fn share(&self, prototype: usize) -> bool {
+        self.placed
+            && !self.emits
+            && match self.instancing {
                 Instancing::Shared => true,
                 Instancing::Expand => false,
-                Instancing::Auto => prototype as u128 * instances > SHARE_ABOVE_FACETS as u128,
+                Instancing::Auto => prototype as u128 * self.instances > SHARE_ABOVE_FACETS as u128,
             }
-    };
-    let shared_before: u64 = scene_shared
-        .iter()
-        .map(SharedInstances::placed_facets)
-        .sum();
-    let bytes_each = facet_bytes(name);
-    // Every size is checked before it is allocated: the facets this object
-    // adds (prototype × placements, or the prototype alone when shared)
-    // against the scene's limit and memory.
-    let budget = |prototype: usize, at: &FieldPath| -> R<()> {
-        if share(prototype) {
-            let placed = shared_before as u128 + prototype as u128 * instances;
-            if placed > MAX_SHARED_FACETS as u128 {
-                return Err(cx.err(
-                    at,
-                    format!(
-                        "{instances} placements × {prototype} facets{}: more than the {MAX_SHARED_FACETS} placed facets shared instances may hold per scene",
-                        if shared_before > 0 {
-                            format!(" plus {shared_before} placed before")
-                        } else {
-                            String::new()
-                        }
-                    ),
-                ));
-            }
+    }
+
+    /// The facets this object adds (prototype × placements, or the
+    /// prototype alone when shared) against the scene's limit and memory.
+    fn check(&self, cx: &Ctx, prototype: usize, at: &FieldPath) -> R<()> {
+        let instances = self.instances;
+        if self.share(prototype) {
+            check_shared_budget(cx, at, self.shared_before, prototype, instances)?;
         }
-        let copies = if share(prototype) { 1 } else { instances };
+        let copies = if self.share(prototype) { 1 } else { instances };
         check_budget(
-            before,
+            self.before,
             prototype as u128 * copies,
             MAX_FACETS,
-            bytes_each,
+            self.bytes_each,
             cx.available_memory(),
             "facets",
         )
@@ -1084,26 +1241,45 @@ fn object(
             };
             cx.err(at, format!("{per}{m}"))
         })
-    };
-    let limit_at = |geometry: &str| {
-        if placements.is_some() {
-            placements_field.clone()
-        } else {
-            field.key(geometry)
-        }
-    };
+    }
+}
 
-    // An object placed once is built straight into the scene's list; an
-    // instanced one into its prototype, then copied per placement.
-    let mut prototype: Vec<Facet> = Vec::new();
-    let facets = if placements.is_some() {
-        &mut prototype
-    } else {
-        &mut *scene_facets
-    };
-    let mut push = |verts: Vec<DVec3>, at: &FieldPath| -> R<()> {
-        // Every vertex, not only the centre or corner given: a quad's size
-        // or a transform can carry a corner past the limit.
+/// What each kind of geometry needs while it is read: the object's own
+/// transform and the size check made before anything is allocated.
+struct GeometryReader<'a> {
+    cx: &'a Ctx<'a>,
+    field: &'a FieldPath,
+    own: &'a Xform,
+    budget: &'a FacetBudget,
+    /// The placements' field, when the object has placements.
+    placements_field: Option<&'a FieldPath>,
+}
+
+impl GeometryReader<'_> {
+    /// Checks `prototype` facets of `geometry` against the budget; a limit
+    /// is reported at the placements when there are, else at the geometry.
+    fn budget(&self, prototype: usize, geometry: &str) -> R<()> {
+        let at = match self.placements_field {
+            Some(p) => p.clone(),
+            None => self.field.key(geometry),
+        };
+        self.budget.check(self.cx, prototype, &at)
+    }
+}
+
+/// Where an object's facets go (the scene's list or its prototype), and
+/// what each carries.
+struct FacetSink<'a> {
+    facets: &'a mut Vec<Facet>,
+    material: usize,
+    name: &'a str,
+}
+
+impl FacetSink<'_> {
+    /// Adds one facet after checking every vertex, not only the centre or
+    /// corner given: a quad's size or a transform can carry a corner past
+    /// the limit.
+    fn push(&mut self, cx: &Ctx, verts: Vec<DVec3>, at: &FieldPath) -> R<()> {
         if let Some(v) = verts
             .iter()
             .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
@@ -1117,294 +1293,286 @@ fn object(
             ));
         }
         check_facet(&verts).map_err(|e| cx.err(at, e.to_string()))?;
-        facets.push(Facet {
-            vertices: verts,
-            material,
-            object: name.to_string(),
-        });
+        self.facet(verts);
         Ok(())
-    };
+    }
 
-    if o.vertices.is_some() || o.faces.is_some() {
-        let vf = field.key("vertices");
-        let ff = field.key("faces");
-        let (Some(vs), Some(fs)) = (&o.vertices, &o.faces) else {
-            return Err(cx.err(
-                if o.vertices.is_none() { &ff } else { &vf },
-                "inline geometry needs both `vertices` and `faces`",
-            ));
-        };
-        budget(fs.len(), &limit_at("faces"))?;
-        let mut pts = Vec::with_capacity(vs.len());
-        for (i, v) in vs.iter().enumerate() {
-            pts.push(xf(cx.vec3(&vf.index(i), *v)?));
-        }
-        if fs.is_empty() {
-            return Err(cx.err(&ff, "no faces"));
-        }
-        for (i, face) in fs.iter().enumerate() {
-            let at = ff.index(i);
-            if !(face.len() == 3 || face.len() == 4) {
-                return Err(cx.err(
-                    &at,
-                    format!(
-                        "a face has 3 or 4 vertex indices, this one has {}",
-                        face.len()
-                    ),
-                ));
-            }
-            let mut verts = Vec::with_capacity(face.len());
-            for &k in face {
-                let p = pts.get(k).ok_or_else(|| {
-                    cx.err(
-                        &at,
-                        format!(
-                            "vertex index {k} is out of range (there are {} vertices, indexed from 0)",
-                            pts.len()
-                        ),
-                    )
-                })?;
-                verts.push(*p);
-            }
-            push(verts, &at)?;
-        }
-    } else if let Some(b) = &o.box_ {
-        let bf = field.key("box");
-        budget(6, &limit_at("box"))?;
-        let min = cx.vec3(&bf.key("min"), b.min)?;
-        let max = cx.vec3(&bf.key("max"), b.max)?;
-        if !(max.cmpgt(min).all()) {
-            return Err(cx.err(
-                &bf.key("max"),
-                format!("box max {max} must exceed min {min} on every axis (zero-volume box)"),
-            ));
-        }
-        const NAMES: [&str; 8] = ["-x", "+x", "-y", "+y", "-z", "+z", "bottom", "top"];
-        for (i, s) in b.omit.iter().enumerate() {
-            if !NAMES.contains(&s.as_str()) {
-                return Err(cx.err(
-                    &bf.key("omit").index(i),
-                    format!("unknown box face '{s}' (use -x, +x, -y, +y, -z/bottom, +z/top)"),
-                ));
-            }
-        }
-        let omitted = |n: &str| {
-            b.omit
-                .iter()
-                .any(|s| s == n || (s == "bottom" && n == "-z") || (s == "top" && n == "+z"))
-        };
-        if NAMES[..6].iter().all(|n| omitted(n)) {
-            return Err(cx.err(
-                &bf.key("omit"),
-                "every face of the box is omitted: nothing would be left",
-            ));
-        }
-        for (face, q) in box_faces(min, max, b.inward) {
-            if !omitted(face) {
-                push(q.iter().map(|&p| xf(p)).collect(), &bf)?;
-            }
-        }
-    } else if let Some(q) = &o.quad {
-        let qf = field.key("quad");
-        budget(1, &limit_at("quad"))?;
-        let c = cx.vec3(&qf.key("center"), q.center)?;
-        let n = cx.vec3(&qf.key("normal"), q.normal)?;
-        let wa = match q.width_axis {
-            Some(a) => Some(cx.vec3(&qf.key("width_axis"), a)?),
-            None => None,
-        };
-        let [w, h] = q.size;
-        for (i, s) in q.size.iter().enumerate() {
-            cx.finite(&qf.key("size").index(i), *s)?;
-            if *s <= 0.0 {
-                return Err(cx.err(
-                    &qf.key("size").index(i),
-                    format!("size {s} must be > 0 (zero area)"),
-                ));
-            }
-        }
-        let verts = quad_vertices(c, w, h, n, wa).map_err(|e| cx.err(&qf, e.to_string()))?;
-        push(verts.iter().map(|&p| xf(p)).collect(), &qf)?;
-    } else if let Some(file) = &o.obj {
-        let at = field.key("obj");
-        let p = cx.resolve(file);
-        // `..Default::default()` keeps this compiling if tobj's optional
-        // `merging`/`reordering` features (more fields) get enabled.
-        // Points and lines are kept so that they can be reported: a face
-        // with fewer than three vertices is an error, not dropped.
-        #[allow(clippy::needless_update)]
-        let opts = tobj::LoadOptions {
-            triangulate: false,
-            single_index: false,
-            ignore_points: false,
-            ignore_lines: false,
-            ..Default::default()
-        };
-        let bytes = gloam_io::read_bounded(&p, gloam_io::MAX_MESH_FILE_BYTES)
-            .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
-        // The face lines bound the facets: refuse an oversized mesh (or
-        // placement count) before the OBJ parser allocates for it.
-        budget(count_obj_faces(&bytes), &limit_at("obj"))?;
-        // Line (`l`) and point (`p`) elements are not surfaces: the OBJ
-        // parser would turn a 3-vertex polyline into a facet. Refused with
-        // their line, never rendered.
-        if let Some((k, kind)) = bytes.split(|&b| b == b'\n').enumerate().find_map(|(k, l)| {
-            let l = l.trim_ascii_start();
-            match l.first() {
-                Some(b'l') | Some(b'p') if l.get(1).is_some_and(|b| b.is_ascii_whitespace()) => {
-                    Some((
-                        k + 1,
-                        if l[0] == b'l' {
-                            "line element (`l`)"
-                        } else {
-                            "point element (`p`)"
-                        },
-                    ))
-                }
-                _ => None,
-            }
-        }) {
+    fn facet(&mut self, vertices: Vec<DVec3>) {
+        self.facets.push(Facet {
+            vertices,
+            material: self.material,
+            object: self.name.to_string(),
+        });
+    }
+}
+
+/// Inline geometry: `vertices` and `faces` (3 or 4 indices each).
+fn inline_geometry(rd: &GeometryReader, o: &RawObject, sink: &mut FacetSink) -> R<()> {
+    let cx = rd.cx;
+    let vf = rd.field.key("vertices");
+    let ff = rd.field.key("faces");
+    let (Some(vs), Some(fs)) = (&o.vertices, &o.faces) else {
+        return Err(cx.err(
+            if o.vertices.is_none() { &ff } else { &vf },
+            "inline geometry needs both `vertices` and `faces`",
+        ));
+    };
+    rd.budget(fs.len(), "faces")?;
+    let mut pts = Vec::with_capacity(vs.len());
+    for (i, v) in vs.iter().enumerate() {
+        pts.push(rd.own.point(cx.vec3(&vf.index(i), *v)?));
+    }
+    if fs.is_empty() {
+        return Err(cx.err(&ff, "no faces"));
+    }
+    for (i, face) in fs.iter().enumerate() {
+        let at = ff.index(i);
+        if !(face.len() == 3 || face.len() == 4) {
             return Err(cx.err(
                 &at,
                 format!(
-                    "OBJ file {}:{k}: a {kind} is not a surface; remove it (only faces, `f`, become facets)",
-                    p.display()
+                    "a face has 3 or 4 vertex indices, this one has {}",
+                    face.len()
                 ),
             ));
         }
-        // The file is parsed once per object, however many placements.
-        let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
-            // Materials come from the scene file, not from .mtl files.
-            Ok(Default::default())
-        })
-        .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
-        for model in &models {
-            let arities = &model.mesh.face_arities;
-            if let Some((k, n)) = arities.iter().enumerate().find(|(_, n)| **n < 3) {
-                return Err(cx.err(
+        let mut verts = Vec::with_capacity(face.len());
+        for &k in face {
+            let p = pts.get(k).ok_or_else(|| {
+                cx.err(
                     &at,
                     format!(
-                        "OBJ file {}: object '{}' face {} has {n} vertex(es) (a point or line element); faces need at least 3",
-                        p.display(),
-                        model.name,
-                        k + 1
+                        "vertex index {k} is out of range (there are {} vertices, indexed from 0)",
+                        pts.len()
                     ),
-                ));
-            }
+                )
+            })?;
+            verts.push(*p);
         }
-        let faces: usize = models
+        sink.push(cx, verts, &at)?;
+    }
+    Ok(())
+}
+
+/// A box: its six faces (outward, or inward for a room), less those
+/// `omit` names.
+fn box_geometry(rd: &GeometryReader, b: &RawBox, sink: &mut FacetSink) -> R<()> {
+    let cx = rd.cx;
+    let bf = rd.field.key("box");
+    rd.budget(6, "box")?;
+    let min = cx.vec3(&bf.key("min"), b.min)?;
+    let max = cx.vec3(&bf.key("max"), b.max)?;
+    if !(max.cmpgt(min).all()) {
+        return Err(cx.err(
+            &bf.key("max"),
+            format!("box max {max} must exceed min {min} on every axis (zero-volume box)"),
+        ));
+    }
+    const NAMES: [&str; 8] = ["-x", "+x", "-y", "+y", "-z", "+z", "bottom", "top"];
+    for (i, s) in b.omit.iter().enumerate() {
+        if !NAMES.contains(&s.as_str()) {
+            return Err(cx.err(
+                &bf.key("omit").index(i),
+                format!("unknown box face '{s}' (use -x, +x, -y, +y, -z/bottom, +z/top)"),
+            ));
+        }
+    }
+    let omitted = |n: &str| {
+        b.omit
             .iter()
-            .map(|m| {
-                if m.mesh.face_arities.is_empty() {
-                    m.mesh.indices.len() / 3
-                } else {
-                    m.mesh.face_arities.len()
-                }
-            })
-            .sum();
-        if faces == 0 {
-            return Err(cx.err(&at, format!("OBJ file {} has no faces", p.display())));
-        }
-        budget(faces, &limit_at("obj"))?;
-        facets.reserve(faces);
-        for model in &models {
-            let mesh = &model.mesh;
-            let pos = |k: u32| -> Option<DVec3> {
-                let k = k as usize * 3;
-                let s = mesh.positions.get(k..k + 3)?;
-                Some(DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64))
-            };
-            let n_faces = if mesh.face_arities.is_empty() {
-                mesh.indices.len() / 3
-            } else {
-                mesh.face_arities.len()
-            };
-            let mut start = 0usize;
-            for fi in 0..n_faces {
-                let n = mesh.face_arities.get(fi).map_or(3, |&a| a as usize);
-                let idx = mesh.indices.get(start..start + n).unwrap_or(&[]);
-                start += n;
-                // Formatted only for an error: building it for every face
-                // cost more than the face itself.
-                let what = || format!("{} (model '{}', face {fi})", p.display(), model.name);
-                if !(n == 3 || n == 4) {
-                    return Err(cx.err(
-                        &at,
-                        format!(
-                            "{}: a face has 3 or 4 vertices, this one has {n}; split it",
-                            what()
-                        ),
-                    ));
-                }
-                let mut verts = Vec::with_capacity(n);
-                for &k in idx {
-                    let v = pos(k).ok_or_else(|| {
-                        cx.err(&at, format!("{}: vertex index {k} is out of range", what()))
-                    })?;
-                    verts.push(xf(v));
-                }
-                if let Some(v) = verts
-                    .iter()
-                    .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
-                {
-                    return Err(cx.err(
-                        &at,
-                        format!(
-                            "{}: a vertex at ({:e}, {:e}, {:e}) is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
-                            what(),
-                            v.x,
-                            v.y,
-                            v.z
-                        ),
-                    ));
-                }
-                check_facet(&verts).map_err(|m| cx.err(&at, format!("{}: {m}", what())))?;
-                facets.push(Facet {
-                    vertices: verts,
-                    material,
-                    object: name.to_string(),
-                });
-            }
-        }
-    }
-    let prototype_facets = facets.len() - if placements.is_some() { 0 } else { before };
-    let shared = share(prototype_facets);
-    if let Some(placements) = &placements {
-        budget(prototype_facets, &placements_field)?;
-        if shared {
-            check_shared(cx, &placements_field, placements, &prototype)?;
-            scene_shared.push(SharedInstances {
-                object: index,
-                placements: placements.iter().map(|p| p.xform.affine()).collect(),
-                prototype,
-            });
-        } else {
-            expand(cx, &placements_field, placements, &prototype, scene_facets)?;
-        }
-    }
-    // A measured luminaire's C0 axis turns with each placement
-    // (`Scene::luminaire_c0`): its transforms are kept, and only its.
-    let luminaire_placements = match &placements {
-        Some(pl)
-            if materials[material]
-                .emission
-                .as_ref()
-                .is_some_and(|e| e.luminaire.is_some()) =>
-        {
-            pl.iter().map(|p| p.xform).collect()
-        }
-        _ => Vec::new(),
+            .any(|s| s == n || (s == "bottom" && n == "-z") || (s == "top" && n == "+z"))
     };
-    Ok(ObjectInfo {
-        name: name.to_string(),
-        material,
-        prototype_facets,
-        instances: placements.as_ref().map_or(1, Vec::len),
-        instanced: placements.is_some(),
-        shared,
-        first_facet: before,
-        luminaire_placements,
+    if NAMES[..6].iter().all(|n| omitted(n)) {
+        return Err(cx.err(
+            &bf.key("omit"),
+            "every face of the box is omitted: nothing would be left",
+        ));
+    }
+    for (face, q) in box_faces(min, max, b.inward) {
+        if !omitted(face) {
+            sink.push(cx, q.iter().map(|&p| rd.own.point(p)).collect(), &bf)?;
+        }
+    }
+    Ok(())
+}
+
+/// A quad: centre, normal, size and optional width axis.
+fn quad_geometry(rd: &GeometryReader, q: &RawQuad, sink: &mut FacetSink) -> R<()> {
+    let cx = rd.cx;
+    let qf = rd.field.key("quad");
+    rd.budget(1, "quad")?;
+    let c = cx.vec3(&qf.key("center"), q.center)?;
+    let n = cx.vec3(&qf.key("normal"), q.normal)?;
+    let wa = match q.width_axis {
+        Some(a) => Some(cx.vec3(&qf.key("width_axis"), a)?),
+        None => None,
+    };
+    let [w, h] = q.size;
+    for (i, s) in q.size.iter().enumerate() {
+        cx.finite(&qf.key("size").index(i), *s)?;
+        if *s <= 0.0 {
+            return Err(cx.err(
+                &qf.key("size").index(i),
+                format!("size {s} must be > 0 (zero area)"),
+            ));
+        }
+    }
+    let verts = quad_vertices(c, w, h, n, wa).map_err(|e| cx.err(&qf, e.to_string()))?;
+    sink.push(cx, verts.iter().map(|&p| rd.own.point(p)).collect(), &qf)
+}
+
+/// An OBJ mesh, read (bounded) and parsed once per object however many
+/// placements; its faces are counted and budgeted before the parser
+/// allocates for them.
+fn obj_geometry(rd: &GeometryReader, file: &str, sink: &mut FacetSink) -> R<()> {
+    let cx = rd.cx;
+    let at = rd.field.key("obj");
+    let p = cx.resolve(file);
+    // `..Default::default()` keeps this compiling if tobj's optional
+    // `merging`/`reordering` features (more fields) get enabled.
+    // Points and lines are kept so that they can be reported: a face
+    // with fewer than three vertices is an error, not dropped.
+    #[allow(clippy::needless_update)]
+    let opts = tobj::LoadOptions {
+        triangulate: false,
+        single_index: false,
+        ignore_points: false,
+        ignore_lines: false,
+        ..Default::default()
+    };
+    let bytes = gloam_io::read_bounded(&p, gloam_io::MAX_MESH_FILE_BYTES)
+        .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
+    // The face lines bound the facets: refuse an oversized mesh (or
+    // placement count) before the OBJ parser allocates for it.
+    rd.budget(count_obj_faces(&bytes), "obj")?;
+    if let Some((k, kind)) = obj_non_surface(&bytes) {
+        return Err(cx.err(
+            &at,
+            format!(
+                "OBJ file {}:{k}: a {kind} is not a surface; remove it (only faces, `f`, become facets)",
+                p.display()
+            ),
+        ));
+    }
+    let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
+        // Materials come from the scene file, not from .mtl files.
+        Ok(Default::default())
     })
+    .map_err(|e| cx.err(&at, format!("cannot load OBJ file {}: {e}", p.display())))?;
+    for model in &models {
+        let arities = &model.mesh.face_arities;
+        if let Some((k, n)) = arities.iter().enumerate().find(|(_, n)| **n < 3) {
+            return Err(cx.err(
+                &at,
+                format!(
+                    "OBJ file {}: object '{}' face {} has {n} vertex(es) (a point or line element); faces need at least 3",
+                    p.display(),
+                    model.name,
+                    k + 1
+                ),
+            ));
+        }
+    }
+    let faces: usize = models.iter().map(|m| mesh_faces(&m.mesh)).sum();
+    if faces == 0 {
+        return Err(cx.err(&at, format!("OBJ file {} has no faces", p.display())));
+    }
+    rd.budget(faces, "obj")?;
+    sink.facets.reserve(faces);
+    for model in &models {
+        obj_model_facets(rd, &at, &p, model, sink)?;
+    }
+    Ok(())
+}
+
+/// Line (`l`) and point (`p`) elements are not surfaces: the OBJ parser
+/// would turn a 3-vertex polyline into a facet. The first one's line
+/// (from 1) and kind, to refuse it, never render it.
+fn obj_non_surface(bytes: &[u8]) -> Option<(usize, &'static str)> {
+    bytes.split(|&b| b == b'\n').enumerate().find_map(|(k, l)| {
+        let l = l.trim_ascii_start();
+        match l.first() {
+            Some(b'l') | Some(b'p') if l.get(1).is_some_and(|b| b.is_ascii_whitespace()) => Some((
+                k + 1,
+                if l[0] == b'l' {
+                    "line element (`l`)"
+                } else {
+                    "point element (`p`)"
+                },
+            )),
+            _ => None,
+        }
+    })
+}
+
+/// Faces of a parsed OBJ mesh (all triangles when it lists no arities).
+fn mesh_faces(mesh: &tobj::Mesh) -> usize {
+    if mesh.face_arities.is_empty() {
+        mesh.indices.len() / 3
+    } else {
+        mesh.face_arities.len()
+    }
+}
+
+/// One OBJ model's faces as facets, each checked as an inline face is and
+/// named by file, model and face in an error.
+fn obj_model_facets(
+    rd: &GeometryReader,
+    at: &FieldPath,
+    p: &Path,
+    model: &tobj::Model,
+    sink: &mut FacetSink,
+) -> R<()> {
+    let cx = rd.cx;
+    let mesh = &model.mesh;
+    let pos = |k: u32| -> Option<DVec3> {
+        let k = k as usize * 3;
+        let s = mesh.positions.get(k..k + 3)?;
+        Some(DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64))
+    };
+    let mut start = 0usize;
+    for fi in 0..mesh_faces(mesh) {
+        let n = mesh.face_arities.get(fi).map_or(3, |&a| a as usize);
+        let idx = mesh.indices.get(start..start + n).unwrap_or(&[]);
+        start += n;
+        // Formatted only for an error: building it for every face
+        // cost more than the face itself.
+        let what = || format!("{} (model '{}', face {fi})", p.display(), model.name);
+        if !(n == 3 || n == 4) {
+            return Err(cx.err(
+                at,
+                format!(
+                    "{}: a face has 3 or 4 vertices, this one has {n}; split it",
+                    what()
+                ),
+            ));
+        }
+        let mut verts = Vec::with_capacity(n);
+        for &k in idx {
+            let v = pos(k).ok_or_else(|| {
+                cx.err(at, format!("{}: vertex index {k} is out of range", what()))
+            })?;
+            verts.push(rd.own.point(v));
+        }
+        if let Some(v) = verts
+            .iter()
+            .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
+        {
+            return Err(cx.err(
+                at,
+                format!(
+                    "{}: a vertex at ({:e}, {:e}, {:e}) is out of range (|x| ≤ {MAX_COORDINATE:e} scene units)",
+                    what(),
+                    v.x,
+                    v.y,
+                    v.z
+                ),
+            ));
+        }
+        check_facet(&verts).map_err(|m| cx.err(at, format!("{}: {m}", what())))?;
+        sink.facet(verts);
+    }
+    Ok(())
 }
 
 /// Checks shared placements as [`expand`] checks copies, without making

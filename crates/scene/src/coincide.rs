@@ -101,25 +101,26 @@ pub(crate) fn first_coincident_shared(
     if shared.iter().all(|s| s.placements.is_empty()) {
         return Ok(None);
     }
-    let cx = Ctx { facets, shared };
-    // Each shared object's prototype facet boxes, in its own frame.
-    let proto_boxes: Vec<Vec<(DVec3, DVec3)>> = shared
-        .iter()
-        .map(|s| {
-            s.prototype
-                .iter()
-                .map(|f| bounds(std::slice::from_ref(f)))
-                .collect()
-        })
-        .collect();
-    // Units: every shared placement (its placed box) and every expanded
-    // facet (its box).
-    #[derive(Clone, Copy)]
-    enum Unit {
-        Placement(usize, usize),
-        Facet(usize),
-    }
-    let mut units: Vec<((DVec3, DVec3), Unit)> = Vec::new();
+    let units = units(facets, shared);
+    let mut keyer = Keyer::new(facets, shared);
+    sweep(&units, &mut keyer)?;
+    Ok(keyer.first_pair())
+}
+
+/// An axis-aligned box, (min, max).
+type Aabb = (DVec3, DVec3);
+
+/// What the sweep over x meets: a shared placement or an expanded facet.
+#[derive(Clone, Copy)]
+enum Unit {
+    Placement(usize, usize),
+    Facet(usize),
+}
+
+/// Units: every shared placement (its placed box) and every expanded
+/// facet (its box) that meets some placement's box, sorted by min x.
+fn units(facets: &[Facet], shared: &[SharedInstances]) -> Vec<(Aabb, Unit)> {
+    let mut units: Vec<(Aabb, Unit)> = Vec::new();
     for (s, sh) in shared.iter().enumerate() {
         let corners = box_corners(sh.prototype_bounds());
         for (p, a) in sh.placements.iter().enumerate() {
@@ -146,43 +147,14 @@ pub(crate) fn first_coincident_shared(
         }
     }
     units.sort_unstable_by(|a, b| a.0.0.x.total_cmp(&b.0.0.x));
+    units
+}
 
-    let mut tests: u64 = 0;
-    let mut keys: Vec<(u64, Who)> = Vec::new();
-    let too_many = |what: &str| {
-        format!(
-            "{what}: shared placements overlap too much to rule out coincident facets (at most {MAX_KEYS} placed facets inside overlaps, {MAX_TESTS} box tests); move the placements apart or use instancing = \"expand\""
-        )
-    };
-    let rank = |w: &Who| match *w {
-        Who::Facet(i) => (0, i, 0, 0),
-        Who::Placed {
-            shared,
-            placement,
-            facet,
-        } => (1, shared, placement, facet),
-    };
-    // A facet keyed for two overlaps is one key: duplicates are dropped
-    // whenever the budget is reached.
-    let push = |keys: &mut Vec<(u64, Who)>, k: (u64, Who)| -> Result<(), String> {
-        keys.push(k);
-        if keys.len() > MAX_KEYS {
-            keys.sort_unstable_by_key(|(h, w)| (*h, rank(w)));
-            keys.dedup();
-            if keys.len() > MAX_KEYS / 2 {
-                return Err(too_many("placed facets"));
-            }
-        }
-        Ok(())
-    };
-    let mut facet_keyed = vec![false; facets.len()];
-    // The prototype facets of placement (s, p) whose box meets `other`
-    // (mapped into the prototype's frame), keyed.
-    // Each prototype's facet boxes in six orders (by min and by max on
-    // each axis): a query takes the shortest run that can meet it (the
-    // facets at the bottom, for a ground under the placement), not every
-    // facet.
-    let orders: Vec<[Vec<u32>; 6]> = proto_boxes
+/// Each prototype's facet boxes in six orders (by min and by max on each
+/// axis): a query takes the shortest run that can meet it (the facets at
+/// the bottom, for a ground under the placement), not every facet.
+fn facet_orders(proto_boxes: &[Vec<Aabb>]) -> Vec<[Vec<u32>; 6]> {
+    proto_boxes
         .iter()
         .map(|b| {
             std::array::from_fn(|k| {
@@ -196,25 +168,104 @@ pub(crate) fn first_coincident_shared(
                 v
             })
         })
-        .collect();
-    // Placements whose every prototype facet is keyed already (a pile of
-    // placements on one spot keys each once).
-    let mut all_keyed: Vec<Vec<bool>> = shared
-        .iter()
-        .map(|s| vec![false; s.placements.len()])
-        .collect();
-    let mut add = |s: usize,
-                   p: usize,
-                   other: &(DVec3, DVec3),
-                   keys: &mut Vec<(u64, Who)>,
-                   tests: &mut u64|
-     -> Result<(), String> {
-        *tests += 1;
-        if all_keyed[s][p] {
+        .collect()
+}
+
+fn too_many(what: &str) -> String {
+    format!(
+        "{what}: shared placements overlap too much to rule out coincident facets (at most {MAX_KEYS} placed facets inside overlaps, {MAX_TESTS} box tests); move the placements apart or use instancing = \"expand\""
+    )
+}
+
+/// Keys of equal hash in a fixed order: expanded facets first.
+fn rank(w: &Who) -> (u8, usize, usize, usize) {
+    match *w {
+        Who::Facet(i) => (0, i, 0, 0),
+        Who::Placed {
+            shared,
+            placement,
+            facet,
+        } => (1, shared, placement, facet),
+    }
+}
+
+/// The keyed facets inside overlaps, and the budgets (keys, box tests)
+/// that bound the work.
+struct Keyer<'a> {
+    cx: Ctx<'a>,
+    /// Each shared object's prototype facet boxes, in its own frame.
+    proto_boxes: Vec<Vec<Aabb>>,
+    orders: Vec<[Vec<u32>; 6]>,
+    /// Placements whose every prototype facet is keyed already (a pile of
+    /// placements on one spot keys each once).
+    all_keyed: Vec<Vec<bool>>,
+    facet_keyed: Vec<bool>,
+    keys: Vec<(u64, Who)>,
+    tests: u64,
+}
+
+impl<'a> Keyer<'a> {
+    fn new(facets: &'a [Facet], shared: &'a [SharedInstances]) -> Self {
+        let proto_boxes: Vec<Vec<Aabb>> = shared
+            .iter()
+            .map(|s| {
+                s.prototype
+                    .iter()
+                    .map(|f| bounds(std::slice::from_ref(f)))
+                    .collect()
+            })
+            .collect();
+        Keyer {
+            cx: Ctx { facets, shared },
+            orders: facet_orders(&proto_boxes),
+            proto_boxes,
+            all_keyed: shared
+                .iter()
+                .map(|s| vec![false; s.placements.len()])
+                .collect(),
+            facet_keyed: vec![false; facets.len()],
+            keys: Vec::new(),
+            tests: 0,
+        }
+    }
+
+    /// Keys one facet. A facet keyed for two overlaps is one key:
+    /// duplicates are dropped whenever the budget is reached.
+    fn push(&mut self, w: Who) -> Result<(), String> {
+        self.keys.push((hash(&self.cx.key(w)), w));
+        if self.keys.len() > MAX_KEYS {
+            self.keys.sort_unstable_by_key(|(h, w)| (*h, rank(w)));
+            self.keys.dedup();
+            if self.keys.len() > MAX_KEYS / 2 {
+                return Err(too_many("placed facets"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Keys expanded facet `i`, once.
+    fn add_facet(&mut self, i: usize) -> Result<(), String> {
+        if !std::mem::replace(&mut self.facet_keyed[i], true) {
+            self.push(Who::Facet(i))?;
+        }
+        Ok(())
+    }
+
+    fn check_tests(&self) -> Result<(), String> {
+        if self.tests > MAX_TESTS {
+            return Err(too_many("box tests"));
+        }
+        Ok(())
+    }
+
+    /// Keys the prototype facets of placement (s, p) whose box meets
+    /// `other` (mapped into the prototype's frame).
+    fn add(&mut self, s: usize, p: usize, other: &Aabb) -> Result<(), String> {
+        self.tests += 1;
+        if self.all_keyed[s][p] {
             return Ok(());
         }
-        let sh = &shared[s];
-        let inv: DAffine3 = sh.placements[p].inverse();
+        let inv: DAffine3 = self.cx.shared[s].placements[p].inverse();
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for c in box_corners(*other) {
             let v = inv.transform_point3(c);
@@ -222,44 +273,66 @@ pub(crate) fn first_coincident_shared(
             hi = hi.max(v);
         }
         let q = padded(lo, hi);
-        let boxes = &proto_boxes[s];
-        // The shortest candidate run: boxes with min ≤ q.max (a prefix of
-        // the min order) or max ≥ q.min (a suffix of the max order).
-        let run = (0..6)
-            .map(|k| {
-                let (axis, by_max) = (k % 3, k >= 3);
-                let ord = &orders[s][k];
-                if by_max {
-                    let from = ord.partition_point(|&i| boxes[i as usize].1[axis] < q.0[axis]);
-                    &ord[from..]
-                } else {
-                    let to = ord.partition_point(|&i| boxes[i as usize].0[axis] <= q.1[axis]);
-                    &ord[..to]
-                }
-            })
-            .min_by_key(|r| r.len())
-            .unwrap_or(&[]);
-        *tests += run.len() as u64;
-        if *tests > MAX_TESTS {
-            return Err(too_many("box tests"));
-        }
+        let (k, run) = self.candidate_run(s, &q);
+        self.tests += run.len() as u64;
+        self.check_tests()?;
         let mut n = 0;
-        for &j in run {
-            let j = j as usize;
-            if overlap(&boxes[j], &q) {
+        for r in run {
+            let j = self.orders[s][k][r] as usize;
+            if overlap(&self.proto_boxes[s][j], &q) {
                 n += 1;
-                let w = Who::Placed {
+                self.push(Who::Placed {
                     shared: s,
                     placement: p,
                     facet: j,
-                };
-                push(keys, (hash(&cx.key(w)), w))?;
+                })?;
             }
         }
-        all_keyed[s][p] = n == boxes.len();
+        self.all_keyed[s][p] = n == self.proto_boxes[s].len();
         Ok(())
-    };
-    // Sweep over x: the boxes still open (max x ≥ the arriving min x).
+    }
+
+    /// The shortest candidate run of prototype `s`'s facets for box `q`:
+    /// boxes with min ≤ q.max (a prefix of the min order) or max ≥ q.min
+    /// (a suffix of the max order). The order's index and the run in it.
+    fn candidate_run(&self, s: usize, q: &Aabb) -> (usize, std::ops::Range<usize>) {
+        let boxes = &self.proto_boxes[s];
+        (0..6)
+            .map(|k| {
+                let (axis, by_max) = (k % 3, k >= 3);
+                let ord = &self.orders[s][k];
+                if by_max {
+                    let from = ord.partition_point(|&i| boxes[i as usize].1[axis] < q.0[axis]);
+                    (k, from..ord.len())
+                } else {
+                    let to = ord.partition_point(|&i| boxes[i as usize].0[axis] <= q.1[axis]);
+                    (k, 0..to)
+                }
+            })
+            .min_by_key(|(_, r)| r.len())
+            .unwrap_or((0, 0..0))
+    }
+
+    /// The first two keyed facets on exactly the same vertices.
+    fn first_pair(mut self) -> Option<(Who, Who)> {
+        self.keys.sort_unstable_by_key(|(h, w)| (*h, rank(w)));
+        self.keys.dedup();
+        for run in self.keys.chunk_by(|a, b| a.0 == b.0) {
+            for (i, a) in run.iter().enumerate() {
+                let ka = self.cx.key(a.1);
+                if let Some(b) = run[i + 1..].iter().find(|b| self.cx.key(b.1) == ka) {
+                    return Some((a.1, b.1));
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Sweep over x: each arriving unit meets the boxes still open (max x ≥
+/// its min x); where a placement's box meets another's or a facet's, the
+/// facets inside the overlap are keyed.
+fn sweep(units: &[(Aabb, Unit)], keyer: &mut Keyer) -> Result<(), String> {
     let mut open_placements: BTreeSet<(i64, usize)> = BTreeSet::new();
     // Open facets: pruned when a placement arrives, and whenever the list
     // has doubled since (amortised O(1) a facet).
@@ -275,42 +348,32 @@ pub(crate) fn first_coincident_shared(
                 let open = open_placements.iter().map(|&(_, v)| v);
                 for v in open.chain(open_facets.iter().map(|&(_, v)| v)) {
                     let (ob, other) = &units[v];
-                    tests += 1;
+                    keyer.tests += 1;
                     if !overlap(bx, ob) {
                         continue;
                     }
-                    add(s, p, ob, &mut keys, &mut tests)?;
+                    keyer.add(s, p, ob)?;
                     match *other {
-                        Unit::Placement(s2, p2) => add(s2, p2, bx, &mut keys, &mut tests)?,
-                        Unit::Facet(i) => {
-                            if !std::mem::replace(&mut facet_keyed[i], true) {
-                                push(&mut keys, (hash(&cx.key(Who::Facet(i))), Who::Facet(i)))?;
-                            }
-                        }
+                        Unit::Placement(s2, p2) => keyer.add(s2, p2, bx)?,
+                        Unit::Facet(i) => keyer.add_facet(i)?,
                     }
                 }
-                if tests > MAX_TESTS {
-                    return Err(too_many("box tests"));
-                }
+                keyer.check_tests()?;
                 open_placements.insert((ordered(bx.1.x), u));
             }
-            Unit::Facet(_) => {
+            Unit::Facet(i) => {
                 for &(_, v) in open_placements.iter() {
                     let (ob, other) = &units[v];
-                    tests += 1;
+                    keyer.tests += 1;
                     if !overlap(bx, ob) {
                         continue;
                     }
-                    if let (Unit::Placement(s, p), Unit::Facet(i)) = (*other, *unit) {
-                        add(s, p, bx, &mut keys, &mut tests)?;
-                        if !std::mem::replace(&mut facet_keyed[i], true) {
-                            push(&mut keys, (hash(&cx.key(Who::Facet(i))), Who::Facet(i)))?;
-                        }
+                    if let Unit::Placement(s, p) = *other {
+                        keyer.add(s, p, bx)?;
+                        keyer.add_facet(i)?;
                     }
                 }
-                if tests > MAX_TESTS {
-                    return Err(too_many("box tests"));
-                }
+                keyer.check_tests()?;
                 open_facets.push((bx.1.x, u));
                 if open_facets.len() > 2 * pruned_len + 1024 {
                     open_facets.retain(|&(hi, _)| hi >= bx.0.x);
@@ -319,17 +382,7 @@ pub(crate) fn first_coincident_shared(
             }
         }
     }
-    keys.sort_unstable_by_key(|(h, w)| (*h, rank(w)));
-    keys.dedup();
-    for run in keys.chunk_by(|a, b| a.0 == b.0) {
-        for (i, a) in run.iter().enumerate() {
-            let ka = cx.key(a.1);
-            if let Some(b) = run[i + 1..].iter().find(|b| cx.key(b.1) == ka) {
-                return Ok(Some((a.1, b.1)));
-            }
-        }
-    }
-    Ok(None)
+    Ok(())
 }
 
 fn hash(k: &([[u64; 3]; 4], usize)) -> u64 {

@@ -10,7 +10,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::Scene;
+use crate::{Scene, SkyConfig};
 
 /// Stable effect names.
 pub mod names {
@@ -191,21 +191,37 @@ fn used_materials(scene: &Scene) -> Vec<bool> {
     used
 }
 
-/// The effect plan of a scene (scene effects only; see [`plan_with`]).
+/// The effect plan of a scene (scene effects only; see [`plan_with`]):
+/// one effect per kind of light or light path, in a fixed order.
 pub fn plan(scene: &Scene) -> EffectPlan {
-    let mut effects = Vec::new();
     let used = used_materials(scene);
-
-    // Area sources: facets whose material emits.
     let emitting = scene.emitting_facets();
+    let mut effects = vec![
+        area_sources(scene, &used, &emitting),
+        shaped_point_sources(scene),
+        isotropic_point_sources(scene),
+        distant_sources(scene),
+        transmissive_occluders(scene, &used),
+        specular_recursion(scene, &used),
+        interreflection(scene, &used, &emitting),
+        direct_view(scene, &emitting),
+    ];
+    effects.extend(sky_effects(scene.sky.as_ref()));
+    effects.push(sensor(scene));
+    EffectPlan { effects }
+}
+
+/// Area sources: facets whose material emits, and how their emission is
+/// shaped (Lambertian, an exponent, or a measured file).
+fn area_sources(scene: &Scene, used: &[bool], emitting: &[usize]) -> Effect {
     let mut emitting_objects: Vec<&str> = Vec::new();
-    for &i in &emitting {
+    for &i in emitting {
         let o = scene.facets[i].object.as_str();
         if !emitting_objects.contains(&o) {
             emitting_objects.push(o);
         }
     }
-    effects.push(if emitting.is_empty() {
+    if emitting.is_empty() {
         Effect::new(names::AREA_SOURCES, false, "no emitting facets")
     } else {
         let shaped: Vec<String> = scene
@@ -250,9 +266,11 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&emitting_objects)
             ),
         )
-    });
+    }
+}
 
-    // Point sources, shaped and isotropic.
+/// Point sources with a shape exponent m > 0.
+fn shaped_point_sources(scene: &Scene) -> Effect {
     let n_shaped = scene.point_sources.iter().filter(|p| p.is_shaped()).count();
     let shaped = grouped(
         scene
@@ -266,7 +284,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 )
             }),
     );
-    effects.push(if shaped.is_empty() {
+    if shaped.is_empty() {
         Effect::new(
             names::SHAPED_POINT_SOURCES,
             false,
@@ -282,7 +300,12 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&shaped)
             ),
         )
-    });
+    }
+}
+
+/// Isotropic point sources (m = 0).
+fn isotropic_point_sources(scene: &Scene) -> Effect {
+    let n_shaped = scene.point_sources.iter().filter(|p| p.is_shaped()).count();
     let n_iso = scene.point_sources.len() - n_shaped;
     let iso = grouped(
         scene
@@ -291,7 +314,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             .filter(|p| !p.is_shaped())
             .map(|p| (p.name.as_str(), String::new())),
     );
-    effects.push(if iso.is_empty() {
+    if iso.is_empty() {
         Effect::new(
             names::POINT_SOURCES,
             false,
@@ -307,14 +330,17 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&iso)
             ),
         )
-    });
+    }
+}
 
+/// Distant sources (parallel light from a direction).
+fn distant_sources(scene: &Scene) -> Effect {
     let distant: Vec<&str> = scene
         .distant_sources
         .iter()
         .map(|d| d.name.as_str())
         .collect();
-    effects.push(if distant.is_empty() {
+    if distant.is_empty() {
         Effect::new(names::DISTANT_SOURCES, false, "no distant sources")
     } else {
         let what = count(distant.len(), "distant source", "distant sources");
@@ -323,9 +349,11 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             true,
             format!("{what} ({})", list(&distant)),
         )
-    });
+    }
+}
 
-    // Transmissive occluders and specular recursion: only materials on facets.
+/// Transmissive occluders: materials on facets that let light through.
+fn transmissive_occluders(scene: &Scene, used: &[bool]) -> Effect {
     let transmissive: Vec<&str> = scene
         .materials
         .iter()
@@ -333,7 +361,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
         .filter(|(i, m)| used[*i] && m.is_transmissive())
         .map(|(_, m)| m.name.as_str())
         .collect();
-    effects.push(if transmissive.is_empty() {
+    if transmissive.is_empty() {
         Effect::new(
             names::TRANSMISSIVE_OCCLUDERS,
             false,
@@ -349,7 +377,11 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&transmissive)
             ),
         )
-    });
+    }
+}
+
+/// Specular recursion: materials on facets with a specular fraction.
+fn specular_recursion(scene: &Scene, used: &[bool]) -> Effect {
     let specular: Vec<String> = scene
         .materials
         .iter()
@@ -357,7 +389,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
         .filter(|(i, m)| used[*i] && m.is_specular())
         .map(|(_, m)| format!("{} {}", m.name, fmt_num(m.specular_fraction)))
         .collect();
-    effects.push(if specular.is_empty() {
+    if specular.is_empty() {
         Effect::new(
             names::SPECULAR_RECURSION,
             false,
@@ -373,11 +405,13 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&specular)
             ),
         )
-    });
+    }
+}
 
-    // Interreflection: light reflected diffusely more than once. The scene
-    // crate can only say whether it is possible; the tracer's pilot
-    // estimates its share and decides (gloam_trace::plan).
+/// Interreflection: light reflected diffusely more than once. The scene
+/// crate can only say whether it is possible; the tracer's pilot
+/// estimates its share and decides (gloam_trace::plan).
+fn interreflection(scene: &Scene, used: &[bool], emitting: &[usize]) -> Effect {
     let reflecting: Vec<&str> = scene
         .materials
         .iter()
@@ -390,7 +424,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
     let lit = !emitting.is_empty()
         || !scene.point_sources.is_empty()
         || scene.sky.as_ref().is_some_and(|s| s.moon || s.night_sky);
-    effects.push(if reflecting.is_empty() || !lit {
+    if reflecting.is_empty() || !lit {
         Effect::new(
             names::INTERREFLECTION,
             false,
@@ -411,14 +445,16 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&reflecting)
             ),
         )
-    });
+    }
+}
 
-    // Direct view: an emitter or point source in the camera frustum, seen
-    // from the side it emits to (occlusion is not checked).
+/// Direct view: an emitter or point source in the camera frustum, seen
+/// from the side it emits to (occlusion is not checked).
+fn direct_view(scene: &Scene, emitting: &[usize]) -> Effect {
     let cam = &scene.camera;
     let mut seen: Vec<String> = Vec::new();
     let mut seen_facets = 0usize;
-    for &i in &emitting {
+    for &i in emitting {
         let f = &scene.facets[i];
         let front = (cam.position - f.centroid()).dot(f.normal()) > 0.0;
         if front && cam.frustum_overlaps(&f.vertices) {
@@ -438,7 +474,7 @@ pub fn plan(scene: &Scene) -> EffectPlan {
         }
     }
     seen.extend(grouped(seen_lamps.into_iter()));
-    effects.push(if seen.is_empty() {
+    if seen.is_empty() {
         Effect::new(
             names::DIRECT_VIEW,
             false,
@@ -461,109 +497,12 @@ pub fn plan(scene: &Scene) -> EffectPlan {
                 list(&seen)
             ),
         )
-    });
-
-    // Sky terms.
-    match &scene.sky {
-        None => {
-            let why = "no [sky] block (indoor scene)";
-            effects.push(Effect::new(names::MOON, false, why));
-            effects.push(Effect::new(names::NIGHT_SKY, false, why));
-            effects.push(Effect::new(names::SUN, false, why));
-            effects.push(Effect::new(names::TWILIGHT_SKY, false, why));
-            effects.push(Effect::new(
-                names::ATMOSPHERE,
-                false,
-                format!("{why}: no atmospheric path"),
-            ));
-        }
-        Some(s) => {
-            let when = format!(
-                "{} at {:.3}°, {:.3}°",
-                s.utc, s.latitude_deg, s.longitude_deg
-            );
-            effects.push(if s.moon {
-                Effect::new(
-                    names::MOON,
-                    true,
-                    format!(
-                        "moon = true in [sky] ({when}){}; its elevation and phase decide the level",
-                        if s.overcast { ", overcast" } else { "" }
-                    ),
-                )
-            } else {
-                Effect::new(names::MOON, false, "moon = false in [sky]")
-            });
-            effects.push(if s.night_sky {
-                Effect::new(
-                    names::NIGHT_SKY,
-                    true,
-                    format!("night_sky = true in [sky] ({when})"),
-                )
-            } else {
-                Effect::new(names::NIGHT_SKY, false, "night_sky = false in [sky]")
-            });
-            let sun_el = s.sun_elevation_deg();
-            effects.push(if s.sun_beam() {
-                Effect::new(
-                    names::SUN,
-                    true,
-                    format!("the Sun is up ({sun_el:.2}° at {when}): its direct beam"),
-                )
-            } else if s.overcast && sun_el > 0.0 {
-                Effect::new(
-                    names::SUN,
-                    false,
-                    "overcast: the deck passes the Sun's light as the twilight sky's",
-                )
-            } else {
-                Effect::new(
-                    names::SUN,
-                    false,
-                    format!("the Sun is below the horizon ({sun_el:.2}°)"),
-                )
-            });
-            effects.push(if s.twilight() {
-                Effect::new(
-                    names::TWILIGHT_SKY,
-                    true,
-                    format!(
-                        "the Sun at {sun_el:.2}° (≥ −18°) lights the sky: twilight{}",
-                        if sun_el > 10.0 {
-                            " (the model is validated up to +10°; daylight beyond is an extrapolation)"
-                        } else {
-                            ""
-                        }
-                    ),
-                )
-            } else {
-                Effect::new(
-                    names::TWILIGHT_SKY,
-                    false,
-                    format!("the Sun at {sun_el:.2}° (below −18°): astronomical night"),
-                )
-            });
-            effects.push(if s.moon || s.night_sky || s.twilight() {
-                Effect::new(
-                    names::ATMOSPHERE,
-                    true,
-                    format!(
-                        "sky light crosses the atmosphere (visibility {} km{})",
-                        fmt_num(s.visibility_km),
-                        if s.overcast { ", overcast" } else { "" }
-                    ),
-                )
-            } else {
-                Effect::new(
-                    names::ATMOSPHERE,
-                    false,
-                    "[sky] has neither moon nor night sky enabled",
-                )
-            });
-        }
     }
+}
 
-    effects.push(match &scene.sensor {
+/// The sensor the scene names, if any.
+fn sensor(scene: &Scene) -> Effect {
+    match &scene.sensor {
         None => Effect::new(
             names::SENSOR,
             false,
@@ -574,9 +513,136 @@ pub fn plan(scene: &Scene) -> EffectPlan {
             true,
             format!("sensor '{s}' (its stages are planned by the sensor crate)"),
         ),
-    });
+    }
+}
 
-    EffectPlan { effects }
+/// The sky terms: each off without a [sky] block, else as [sky] and the
+/// Sun's elevation at its instant decide.
+fn sky_effects(sky: Option<&SkyConfig>) -> [Effect; 5] {
+    let Some(s) = sky else {
+        let why = "no [sky] block (indoor scene)";
+        return [
+            Effect::new(names::MOON, false, why),
+            Effect::new(names::NIGHT_SKY, false, why),
+            Effect::new(names::SUN, false, why),
+            Effect::new(names::TWILIGHT_SKY, false, why),
+            Effect::new(
+                names::ATMOSPHERE,
+                false,
+                format!("{why}: no atmospheric path"),
+            ),
+        ];
+    };
+    let when = format!(
+        "{} at {:.3}°, {:.3}°",
+        s.utc, s.latitude_deg, s.longitude_deg
+    );
+    [
+        moon(s, &when),
+        night_sky(s, &when),
+        sun(s, &when),
+        twilight_sky(s),
+        atmosphere(s),
+    ]
+}
+
+/// The Moon, when [sky] enables it.
+fn moon(s: &SkyConfig, when: &str) -> Effect {
+    if s.moon {
+        Effect::new(
+            names::MOON,
+            true,
+            format!(
+                "moon = true in [sky] ({when}){}; its elevation and phase decide the level",
+                if s.overcast { ", overcast" } else { "" }
+            ),
+        )
+    } else {
+        Effect::new(names::MOON, false, "moon = false in [sky]")
+    }
+}
+
+/// The night sky (stars, airglow), when [sky] enables it.
+fn night_sky(s: &SkyConfig, when: &str) -> Effect {
+    if s.night_sky {
+        Effect::new(
+            names::NIGHT_SKY,
+            true,
+            format!("night_sky = true in [sky] ({when})"),
+        )
+    } else {
+        Effect::new(names::NIGHT_SKY, false, "night_sky = false in [sky]")
+    }
+}
+
+/// The Sun's direct beam, when it is up and not behind an overcast.
+fn sun(s: &SkyConfig, when: &str) -> Effect {
+    let sun_el = s.sun_elevation_deg();
+    if s.sun_beam() {
+        Effect::new(
+            names::SUN,
+            true,
+            format!("the Sun is up ({sun_el:.2}° at {when}): its direct beam"),
+        )
+    } else if s.overcast && sun_el > 0.0 {
+        Effect::new(
+            names::SUN,
+            false,
+            "overcast: the deck passes the Sun's light as the twilight sky's",
+        )
+    } else {
+        Effect::new(
+            names::SUN,
+            false,
+            format!("the Sun is below the horizon ({sun_el:.2}°)"),
+        )
+    }
+}
+
+/// The twilight sky, while the Sun is at or above −18°.
+fn twilight_sky(s: &SkyConfig) -> Effect {
+    let sun_el = s.sun_elevation_deg();
+    if s.twilight() {
+        Effect::new(
+            names::TWILIGHT_SKY,
+            true,
+            format!(
+                "the Sun at {sun_el:.2}° (≥ −18°) lights the sky: twilight{}",
+                if sun_el > 10.0 {
+                    " (the model is validated up to +10°; daylight beyond is an extrapolation)"
+                } else {
+                    ""
+                }
+            ),
+        )
+    } else {
+        Effect::new(
+            names::TWILIGHT_SKY,
+            false,
+            format!("the Sun at {sun_el:.2}° (below −18°): astronomical night"),
+        )
+    }
+}
+
+/// The atmosphere sky light crosses, when any sky term is on.
+fn atmosphere(s: &SkyConfig) -> Effect {
+    if s.moon || s.night_sky || s.twilight() {
+        Effect::new(
+            names::ATMOSPHERE,
+            true,
+            format!(
+                "sky light crosses the atmosphere (visibility {} km{})",
+                fmt_num(s.visibility_km),
+                if s.overcast { ", overcast" } else { "" }
+            ),
+        )
+    } else {
+        Effect::new(
+            names::ATMOSPHERE,
+            false,
+            "[sky] has neither moon nor night sky enabled",
+        )
+    }
 }
 
 /// The scene's plan followed by `extra` effects (e.g. the sensor chain's

@@ -260,90 +260,10 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
     let mut group_lines = BTreeMap::new();
     let clock = sky::parse_clock(&loc, raw.sky)?;
     for (name, t) in raw.groups {
-        let here = |k: &str| field(&["groups", &name, k]);
-        if let Some(p) = &t.photocell {
-            sky::check_photocell(&loc, &here("photocell"), p, clock.is_some())?;
-            if !t.keys.is_empty() {
-                return Err(loc.error(
-                    &here("keys"),
-                    "a group is keyed or switched by its photocell, not both",
-                ));
-            }
-        } else if t.keys.is_empty() {
-            return Err(loc.error(&here("keys"), "needs at least one [time_s, intensity] key"));
-        }
-        if t.keys.len() > MAX_KEYS {
-            return Err(loc.error(
-                &here("keys"),
-                format!("has {} keys; at most {MAX_KEYS}", t.keys.len()),
-            ));
-        }
-        let mut last = f64::NEG_INFINITY;
-        let mut keys: Vec<(f64, f64)> = Vec::with_capacity(t.keys.len());
-        for (i, k) in t.keys.iter().enumerate() {
-            let at = here("keys").index(i);
-            // A third number was dropped unseen ([0, 1, 2] read as [0, 1]).
-            let &[time, value] = k.as_slice() else {
-                return Err(loc.error(
-                    &at,
-                    format!("has {} numbers: a key is [time_s, intensity]", k.len()),
-                ));
-            };
-            check_key_time(&loc, &at, time, last)?;
-            // Two keys at one time make a step; a third there is never
-            // seen (the step goes from the first to the last).
-            if i >= 2 && keys[i - 2].0 == time && keys[i - 1].0 == time {
-                return Err(loc.error(
-                    &at,
-                    format!(
-                        "a third key at {} s: two keys at one time make a step, a third is never seen",
-                        num(time)
-                    ),
-                ));
-            }
-            if !(value.is_finite() && (0.0..=MAX_INTENSITY).contains(&value)) {
-                return Err(loc.error(
-                    &at,
-                    format!("intensity {} must be in [0, {MAX_INTENSITY:e}]", num(value)),
-                ));
-            }
-            last = time;
-            keys.push((time, value));
-        }
-        if let Some(f) = t.flicker {
-            if !(f.mains_hz.is_finite() && f.mains_hz > 0.0 && f.mains_hz <= MAX_MAINS_HZ) {
-                return Err(loc.error(
-                    &here("flicker"),
-                    format!(
-                        "mains_hz must be in (0, {MAX_MAINS_HZ}], not {}",
-                        num(f.mains_hz)
-                    ),
-                ));
-            }
-            if !(f.depth.is_finite() && (0.0..=1.0).contains(&f.depth)) {
-                return Err(loc.error(
-                    &here("flicker"),
-                    format!("depth must be in [0, 1], not {}", num(f.depth)),
-                ));
-            }
-        }
-        let line = {
-            let e = loc.error(&field(&["groups", &name]), "");
-            e.line()
-        };
+        let line = loc.error(&field(&["groups", &name]), "").line();
         group_lines.insert(name.clone(), line);
-        if t.photocell.is_some() {
-            // Off until the clock is bound to the scene's sky.
-            keys.push((0.0, 0.0));
-        }
-        groups.insert(
-            name,
-            Track {
-                keys,
-                flicker: t.flicker,
-                photocell: t.photocell,
-            },
-        );
+        let track = track(&loc, &field(&["groups", &name]), t, clock.is_some())?;
+        groups.insert(name, track);
     }
     let moves = parse_moves(&loc, raw.moves)?;
     Ok(Sequence {
@@ -358,9 +278,98 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
     })
 }
 
-/// Checks the `[[move]]` tables: something to move, at most [`MAX_MOVES`],
-/// keys `[time_s, x, y, z]` or `[time_s, x, y, z, rotate_z_deg]` (all of
-/// one length), finite, bounded, forward in time; no table in two moves.
+/// One light group's track: keys (or a photocell, never both), each
+/// `[time_s, intensity]`, forward in time, and its mains flicker.
+fn track(loc: &Locator, group: &FieldPath, t: RawTrack, clock: bool) -> Result<Track, SceneError> {
+    let here = |k: &str| group.key(k);
+    if let Some(p) = &t.photocell {
+        sky::check_photocell(loc, &here("photocell"), p, clock)?;
+        if !t.keys.is_empty() {
+            return Err(loc.error(
+                &here("keys"),
+                "a group is keyed or switched by its photocell, not both",
+            ));
+        }
+    } else if t.keys.is_empty() {
+        return Err(loc.error(&here("keys"), "needs at least one [time_s, intensity] key"));
+    }
+    if t.keys.len() > MAX_KEYS {
+        return Err(loc.error(
+            &here("keys"),
+            format!("has {} keys; at most {MAX_KEYS}", t.keys.len()),
+        ));
+    }
+    let mut keys = intensity_keys(loc, &here("keys"), &t.keys)?;
+    if let Some(f) = t.flicker {
+        if !(f.mains_hz.is_finite() && f.mains_hz > 0.0 && f.mains_hz <= MAX_MAINS_HZ) {
+            return Err(loc.error(
+                &here("flicker"),
+                format!(
+                    "mains_hz must be in (0, {MAX_MAINS_HZ}], not {}",
+                    num(f.mains_hz)
+                ),
+            ));
+        }
+        if !(f.depth.is_finite() && (0.0..=1.0).contains(&f.depth)) {
+            return Err(loc.error(
+                &here("flicker"),
+                format!("depth must be in [0, 1], not {}", num(f.depth)),
+            ));
+        }
+    }
+    if t.photocell.is_some() {
+        // Off until the clock is bound to the scene's sky.
+        keys.push((0.0, 0.0));
+    }
+    Ok(Track {
+        keys,
+        flicker: t.flicker,
+        photocell: t.photocell,
+    })
+}
+
+/// A group's `[time_s, intensity]` keys: two numbers each, forward in
+/// time, at most two at one time (a step), intensities in range.
+fn intensity_keys(
+    loc: &Locator,
+    field: &FieldPath,
+    raw: &[Vec<f64>],
+) -> Result<Vec<(f64, f64)>, SceneError> {
+    let mut last = f64::NEG_INFINITY;
+    let mut keys: Vec<(f64, f64)> = Vec::with_capacity(raw.len());
+    for (i, k) in raw.iter().enumerate() {
+        let at = field.index(i);
+        // A third number was dropped unseen ([0, 1, 2] read as [0, 1]).
+        let &[time, value] = k.as_slice() else {
+            return Err(loc.error(
+                &at,
+                format!("has {} numbers: a key is [time_s, intensity]", k.len()),
+            ));
+        };
+        check_key_time(loc, &at, time, last)?;
+        // Two keys at one time make a step; a third there is never
+        // seen (the step goes from the first to the last).
+        if i >= 2 && keys[i - 2].0 == time && keys[i - 1].0 == time {
+            return Err(loc.error(
+                &at,
+                format!(
+                    "a third key at {} s: two keys at one time make a step, a third is never seen",
+                    num(time)
+                ),
+            ));
+        }
+        if !(value.is_finite() && (0.0..=MAX_INTENSITY).contains(&value)) {
+            return Err(loc.error(
+                &at,
+                format!("intensity {} must be in [0, {MAX_INTENSITY:e}]", num(value)),
+            ));
+        }
+        last = time;
+        keys.push((time, value));
+    }
+    Ok(keys)
+}
+
 /// A key's time: finite, ≥ 0 and not before the previous key's `last`.
 fn check_key_time(loc: &Locator, at: &FieldPath, time: f64, last: f64) -> Result<(), SceneError> {
     if !(time.is_finite() && time >= 0.0) {
@@ -379,6 +388,9 @@ fn check_key_time(loc: &Locator, at: &FieldPath, time: f64, last: f64) -> Result
     Ok(())
 }
 
+/// Checks the `[[move]]` tables: something to move, at most [`MAX_MOVES`],
+/// keys `[time_s, x, y, z]` or `[time_s, x, y, z, rotate_z_deg]` (all of
+/// one length), finite, bounded, forward in time; no table in two moves.
 fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError> {
     let root = FieldPath::root().key("move");
     if raw.len() > MAX_MOVES {
@@ -396,24 +408,7 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
                 "moves nothing: name `objects = [\"…\"]` and/or `point_sources = [\"…\"]` of the scene",
             ));
         }
-        for (kind, names) in [("objects", &r.objects), ("point_sources", &r.point_sources)] {
-            for (i, name) in names.iter().enumerate() {
-                let taken = moves.iter().any(|o| {
-                    let theirs = if kind == "objects" {
-                        &o.objects
-                    } else {
-                        &o.point_sources
-                    };
-                    theirs.contains(name)
-                }) || names[..i].contains(name);
-                if taken {
-                    return Err(loc.error(
-                        &here.key(kind).index(i),
-                        format!("{kind}.{name} is named twice: a table moves with one body"),
-                    ));
-                }
-            }
-        }
+        check_moved_names(loc, &here, &r, &moves)?;
         let kf = here.key("keys");
         if r.keys.is_empty() {
             return Err(loc.error(
@@ -427,55 +422,7 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
                 format!("has {} keys; at most {MAX_KEYS}", r.keys.len()),
             ));
         }
-        let width = r.keys[0].len();
-        let mut keys = Vec::with_capacity(r.keys.len());
-        let mut last = f64::NEG_INFINITY;
-        for (i, k) in r.keys.iter().enumerate() {
-            let at = kf.index(i);
-            if !(k.len() == 4 || k.len() == 5) || k.len() != width {
-                return Err(loc.error(
-                    &at,
-                    format!(
-                        "has {} numbers: every key is [time_s, x, y, z] or every key [time_s, x, y, z, rotate_z_deg]",
-                        k.len()
-                    ),
-                ));
-            }
-            let time = k[0];
-            check_key_time(loc, &at, time, last)?;
-            if let Some(v) = k[1..4]
-                .iter()
-                .find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE))
-            {
-                return Err(loc.error(
-                    &at,
-                    format!(
-                        "{} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}",
-                        num(*v)
-                    ),
-                ));
-            }
-            if let Some(&r) = k.get(4)
-                && !crate::instance::rotation_ok(r)
-            {
-                return Err(loc.error(
-                    &at,
-                    format!(
-                        "rotate_z_deg {} is not a finite angle within ±{:e} degrees (a turn is 360; reduce the angle)",
-                        num(r),
-                        crate::instance::MAX_ROTATION_DEG
-                    ),
-                ));
-            }
-            last = time;
-            keys.push(PoseKey {
-                time_s: time,
-                pose: Pose {
-                    translate: [k[1], k[2], k[3]],
-                    rotate_z_deg: k.get(4).copied().unwrap_or(0.0),
-                },
-            });
-        }
+        let keys = pose_keys(loc, &kf, &r.keys)?;
         let line = |f: &FieldPath| loc.error(f, "").line();
         let lines = MoveLines {
             table: line(&here),
@@ -490,6 +437,89 @@ fn parse_moves(loc: &Locator, raw: Vec<RawMove>) -> Result<Vec<Move>, SceneError
         });
     }
     Ok(moves)
+}
+
+/// No table is moved by two bodies, nor named twice in one.
+fn check_moved_names(
+    loc: &Locator,
+    here: &FieldPath,
+    r: &RawMove,
+    moves: &[Move],
+) -> Result<(), SceneError> {
+    for (kind, names) in [("objects", &r.objects), ("point_sources", &r.point_sources)] {
+        for (i, name) in names.iter().enumerate() {
+            let taken = moves.iter().any(|o| {
+                let theirs = if kind == "objects" {
+                    &o.objects
+                } else {
+                    &o.point_sources
+                };
+                theirs.contains(name)
+            }) || names[..i].contains(name);
+            if taken {
+                return Err(loc.error(
+                    &here.key(kind).index(i),
+                    format!("{kind}.{name} is named twice: a table moves with one body"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A move's pose keys: all of one length, finite, within the pose
+/// limits, forward in time.
+fn pose_keys(loc: &Locator, kf: &FieldPath, raw: &[Vec<f64>]) -> Result<Vec<PoseKey>, SceneError> {
+    let width = raw[0].len();
+    let mut keys = Vec::with_capacity(raw.len());
+    let mut last = f64::NEG_INFINITY;
+    for (i, k) in raw.iter().enumerate() {
+        let at = kf.index(i);
+        if !(k.len() == 4 || k.len() == 5) || k.len() != width {
+            return Err(loc.error(
+                &at,
+                format!(
+                    "has {} numbers: every key is [time_s, x, y, z] or every key [time_s, x, y, z, rotate_z_deg]",
+                    k.len()
+                ),
+            ));
+        }
+        let time = k[0];
+        check_key_time(loc, &at, time, last)?;
+        if let Some(v) = k[1..4]
+            .iter()
+            .find(|v| !(v.is_finite() && v.abs() <= MAX_POSE_COORDINATE))
+        {
+            return Err(loc.error(
+                &at,
+                format!(
+                    "{} is not a finite pose coordinate within ±{MAX_POSE_COORDINATE:e}",
+                    num(*v)
+                ),
+            ));
+        }
+        if let Some(&r) = k.get(4)
+            && !crate::instance::rotation_ok(r)
+        {
+            return Err(loc.error(
+                &at,
+                format!(
+                    "rotate_z_deg {} is not a finite angle within ±{:e} degrees (a turn is 360; reduce the angle)",
+                    num(r),
+                    crate::instance::MAX_ROTATION_DEG
+                ),
+            ));
+        }
+        last = time;
+        keys.push(PoseKey {
+            time_s: time,
+            pose: Pose {
+                translate: [k[1], k[2], k[3]],
+                rotate_z_deg: k.get(4).copied().unwrap_or(0.0),
+            },
+        });
+    }
+    Ok(keys)
 }
 
 impl Sequence {

@@ -62,6 +62,110 @@ pub(crate) struct Local<'a> {
     prob: Vec<f64>,
 }
 
+/// Per facet: the radiance its unoccluded direct light would give it (the
+/// most over its centroid and its vertices pulled a tenth of the way in —
+/// a facet lit at one corner counts), and its area. Emitters, facets
+/// without a diffuse part and degenerate ones read 0.
+fn unoccluded_radiance(t: &Tracer) -> (Vec<f64>, Vec<f64>) {
+    // Each light as (position, scalar intensity toward a direction).
+    let point_power: Vec<f64> = t.points.iter().map(|l| l.intensity.iter().sum()).collect();
+    let area_lights: Vec<(DVec3, DVec3, f64, f64)> = t
+        .area
+        .iter()
+        .map(|s| {
+            let f = s.facet as usize;
+            let c = centroid(&t.facet_verts[f]);
+            let a = polygon_area(&t.facet_verts[f]);
+            (c, t.facet_normal[f], s.radiance.iter().sum::<f64>() * a, a)
+        })
+        .collect();
+    let nf = t.facet_verts.len();
+    let mut radiance = vec![0.0; nf];
+    let mut area = vec![0.0; nf];
+    for f in 0..nf {
+        let v = &t.facet_verts[f];
+        area[f] = polygon_area(v);
+        let mat = &t.mats[t.facet_mat[f] as usize];
+        if t.facet_source[f] != u32::MAX || !mat.has_diffuse || area[f] <= 0.0 {
+            continue;
+        }
+        let kd = mat.kd.iter().sum::<f64>() / mat.kd.len().max(1) as f64;
+        let n = t.facet_normal[f];
+        let c = centroid(v);
+        // The centroid and each vertex pulled a tenth of the way in:
+        // a facet lit at one corner counts.
+        let pts = std::iter::once(c).chain(v.iter().map(|&q| q + 0.1 * (c - q)));
+        let mut e_max: f64 = 0.0;
+        for y in pts {
+            let mut e = 0.0;
+            // Distances floored at a hundredth of the facet's size (a
+            // lamp on the facet) and, for area sources, where a
+            // Lambertian disc's irradiance saturates (d² = a/π).
+            for (l, &i) in t.points.iter().zip(&point_power) {
+                let d = l.pos - y;
+                let d2 = d.length_squared().max(1e-4 * area[f]);
+                let w = d / d2.sqrt();
+                e += i * l.shape_toward(-w) * w.dot(n).abs() / d2;
+            }
+            for &(p, ns, i, a) in &area_lights {
+                let d = p - y;
+                let d2 = d.length_squared().max(a * std::f64::consts::FRAC_1_PI);
+                let w = d / d2.sqrt();
+                e += i * (-w).dot(ns).max(0.0) * w.dot(n).abs() / d2;
+            }
+            e_max = e_max.max(e);
+        }
+        radiance[f] = kd * e_max * std::f64::consts::FRAC_1_PI;
+    }
+    (radiance, area)
+}
+
+/// The radiance the lit scene has: the area-weighted median over the
+/// facets within three decades of the brightest (a median over all would
+/// be the dark far ground's; one weighted by power, the hot facets' own
+/// when they take much of a lamp's flux).
+fn typical_radiance(radiance: &[f64], area: &[f64], brightest: f64) -> f64 {
+    let nf = radiance.len();
+    let mut lit: Vec<(f64, f64)> = (0..nf)
+        .filter(|&f| radiance[f] >= 1e-3 * brightest)
+        .map(|f| (radiance[f], area[f]))
+        .collect();
+    lit.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let half = 0.5 * lit.iter().map(|x| x.1).sum::<f64>();
+    let mut acc = 0.0;
+    lit.iter()
+        .find(|x| {
+            acc += x.1;
+            acc >= half
+        })
+        .map_or(brightest, |x| x.0)
+}
+
+impl HotFacet {
+    /// Facet `f` as triangles with their area CDF, to draw points on.
+    fn of(t: &Tracer, f: usize, power: f64) -> HotFacet {
+        let v = &t.facet_verts[f];
+        let tris: Vec<[DVec3; 3]> = (1..v.len() - 1).map(|k| [v[0], v[k], v[k + 1]]).collect();
+        let mut cdf = Vec::with_capacity(tris.len());
+        let mut sum = 0.0;
+        for tri in &tris {
+            sum += 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
+            cdf.push(sum);
+        }
+        cdf.iter_mut()
+            .for_each(|x| *x /= sum.max(f64::MIN_POSITIVE));
+        HotFacet {
+            facet: f as u32,
+            tris,
+            cdf,
+            area: sum,
+            centroid: centroid(v),
+            normal: t.facet_normal[f],
+            power,
+        }
+    }
+}
+
 impl HotFacets {
     /// Finds the facets whose unoccluded direct light (from the point
     /// sources, and the area sources taken as Lambertian points) makes
@@ -73,77 +177,12 @@ impl HotFacets {
         if nf == 0 || nl == 0 || (nf as u64).saturating_mul(nl as u64 * 5) > MAX_WORK {
             return None;
         }
-        // Each light as (position, scalar intensity toward a direction).
-        let point_power: Vec<f64> = t.points.iter().map(|l| l.intensity.iter().sum()).collect();
-        let area_lights: Vec<(DVec3, DVec3, f64, f64)> = t
-            .area
-            .iter()
-            .map(|s| {
-                let f = s.facet as usize;
-                let c = centroid(&t.facet_verts[f]);
-                let a = polygon_area(&t.facet_verts[f]);
-                (c, t.facet_normal[f], s.radiance.iter().sum::<f64>() * a, a)
-            })
-            .collect();
-        let mut radiance = vec![0.0; nf];
-        let mut area = vec![0.0; nf];
-        for f in 0..nf {
-            let v = &t.facet_verts[f];
-            area[f] = polygon_area(v);
-            let mat = &t.mats[t.facet_mat[f] as usize];
-            if t.facet_source[f] != u32::MAX || !mat.has_diffuse || area[f] <= 0.0 {
-                continue;
-            }
-            let kd = mat.kd.iter().sum::<f64>() / mat.kd.len().max(1) as f64;
-            let n = t.facet_normal[f];
-            let c = centroid(v);
-            // The centroid and each vertex pulled a tenth of the way in:
-            // a facet lit at one corner counts.
-            let pts = std::iter::once(c).chain(v.iter().map(|&q| q + 0.1 * (c - q)));
-            let mut e_max: f64 = 0.0;
-            for y in pts {
-                let mut e = 0.0;
-                // Distances floored at a hundredth of the facet's size (a
-                // lamp on the facet) and, for area sources, where a
-                // Lambertian disc's irradiance saturates (d² = a/π).
-                for (l, &i) in t.points.iter().zip(&point_power) {
-                    let d = l.pos - y;
-                    let d2 = d.length_squared().max(1e-4 * area[f]);
-                    let w = d / d2.sqrt();
-                    e += i * l.shape_toward(-w) * w.dot(n).abs() / d2;
-                }
-                for &(p, ns, i, a) in &area_lights {
-                    let d = p - y;
-                    let d2 = d.length_squared().max(a * std::f64::consts::FRAC_1_PI);
-                    let w = d / d2.sqrt();
-                    e += i * (-w).dot(ns).max(0.0) * w.dot(n).abs() / d2;
-                }
-                e_max = e_max.max(e);
-            }
-            radiance[f] = kd * e_max * std::f64::consts::FRAC_1_PI;
-        }
-        // The radiance the lit scene has: the area-weighted median over
-        // the facets within three decades of the brightest (a median over
-        // all would be the dark far ground's; one weighted by power, the
-        // hot facets' own when they take much of a lamp's flux).
+        let (radiance, area) = unoccluded_radiance(t);
         let brightest = radiance.iter().copied().fold(0.0, f64::max);
         if !(brightest > 0.0 && brightest.is_finite()) {
             return None;
         }
-        let mut lit: Vec<(f64, f64)> = (0..nf)
-            .filter(|&f| radiance[f] >= 1e-3 * brightest)
-            .map(|f| (radiance[f], area[f]))
-            .collect();
-        lit.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let half = 0.5 * lit.iter().map(|x| x.1).sum::<f64>();
-        let mut acc = 0.0;
-        let typical = lit
-            .iter()
-            .find(|x| {
-                acc += x.1;
-                acc >= half
-            })
-            .map_or(brightest, |x| x.0);
+        let typical = typical_radiance(&radiance, &area, brightest);
         let mut hot: Vec<usize> = (0..nf)
             .filter(|&f| radiance[f] > HOT_OVER_TYPICAL * typical && t.facet_verts[f].len() >= 3)
             .collect();
@@ -157,28 +196,7 @@ impl HotFacets {
         hot.truncate(MAX_HOT);
         let facets = hot
             .into_iter()
-            .map(|f| {
-                let v = &t.facet_verts[f];
-                let tris: Vec<[DVec3; 3]> =
-                    (1..v.len() - 1).map(|k| [v[0], v[k], v[k + 1]]).collect();
-                let mut cdf = Vec::with_capacity(tris.len());
-                let mut sum = 0.0;
-                for tri in &tris {
-                    sum += 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
-                    cdf.push(sum);
-                }
-                cdf.iter_mut()
-                    .for_each(|x| *x /= sum.max(f64::MIN_POSITIVE));
-                HotFacet {
-                    facet: f as u32,
-                    tris,
-                    cdf,
-                    area: sum,
-                    centroid: centroid(v),
-                    normal: t.facet_normal[f],
-                    power: radiance[f] * area[f],
-                }
-            })
+            .map(|f| HotFacet::of(t, f, radiance[f] * area[f]))
             .filter(|h| h.area > 0.0)
             .collect::<Vec<_>>();
         (!facets.is_empty()).then_some(HotFacets { facets })

@@ -287,6 +287,7 @@ impl Tracer {
             facets: scene.facets.len(),
             prototype_facets: counts.prototype_facets,
             instances: counts.instances,
+            shared_facets: counts.shared_facets,
             point_sources: scene.point_sources.len(),
             ..Default::default()
         };
@@ -296,82 +297,7 @@ impl Tracer {
         }
         check_size(scene, settings)?;
         let wl = Wavelengths::for_scene(scene, settings.spectral_step_nm);
-
-        // Scene-centred origin: centre of the box around facets, camera, lamps.
-        let (origin, extent) = centre_of(scene);
-
-        let mats: Vec<MatSpec> = scene
-            .materials
-            .iter()
-            .map(|m| MatSpec::of(m, &wl))
-            .collect();
-
-        let facet_verts: Vec<Vec<DVec3>> = scene
-            .facets
-            .iter()
-            .map(|f| f.vertices.iter().map(|&v| v - origin).collect())
-            .collect();
-        let facet_mat: Vec<u32> = scene.facets.iter().map(|f| f.material as u32).collect();
-        let facet_normal: Vec<DVec3> = scene.facets.iter().map(|f| f.normal()).collect();
-        let transmissive: Vec<bool> = facet_mat
-            .iter()
-            .map(|&m| mats[m as usize].trans.is_some())
-            .collect();
-        let step = Preparation::begin("bvh", observer.as_ref());
-        let geom = Geometry::new(origin, extent, &facet_verts, transmissive)
-            .with_shared(shared_inputs(scene, &mats, origin));
-        prep.end(step, observer.as_ref());
-        prep.triangles = geom.triangle_count();
-        prep.shared_facets = counts.shared_facets;
-
-        let step = Preparation::begin("light_structure", observer.as_ref());
-
-        let (area, facet_source) =
-            area_sources(scene, settings, &wl, origin, &facet_verts, &facet_normal);
-
-        let points = point_lights(scene, &wl, origin);
-        let distant = crate::lights::distant_lights(scene, &wl);
-        let light_tree =
-            build_light_tree(&area, &points, &wl, settings, scene.meters_per_unit, extent);
-
-        let mut camera = scene.camera.clone();
-        camera.position -= origin;
-        camera.look_at -= origin;
-        if settings.resolution_scale != 1.0 {
-            let scale = |n: u32| ((n as f64 * settings.resolution_scale).round() as u32).max(1);
-            camera.width = scale(camera.width);
-            camera.height = scale(camera.height);
-        }
-        prep.area_emitters = area.len();
-        prep.end(step, observer.as_ref());
-        let ones = vec![1.0; wl.len()];
-        let step = Preparation::begin("sky", observer.as_ref());
-        let sky = build_sky(scene, settings, &wl)?;
-        prep.end(step, observer.as_ref());
-        let view = if settings.drop.direct_view {
-            Default::default()
-        } else {
-            area_footprints(&camera, &area)
-        };
-        let mut world = World {
-            wl,
-            geom,
-            mpu: scene.meters_per_unit,
-            facet_mat,
-            facet_normal,
-            facet_verts,
-            facet_source,
-            mats,
-            area,
-            points,
-            distant,
-            camera,
-            ones,
-            sky,
-            light_tree,
-            layers: None,
-            view,
-        };
+        let mut world = build_world(scene, settings, wl, &mut prep, observer.as_ref())?;
         if let Some(map) = layers {
             world.assign_groups(map);
         }
@@ -663,4 +589,96 @@ impl Tracer {
         self.direct_light(p, n, ignore, 1, usize::MAX, None, routes, rng, c, &mut bufs);
         parts.map(Light::into_whole)
     }
+}
+
+/// The scene in the tracer's frame (scene-centred origin): materials on
+/// the wavelength grid, the geometry and its BVH, the lights and their
+/// tree, the camera and the sky — each step timed in `prep`.
+fn build_world(
+    scene: &Scene,
+    settings: &RenderSettings,
+    wl: Wavelengths,
+    prep: &mut Preparation,
+    observer: Option<&PrepObserver>,
+) -> Result<World, TraceError> {
+    // Scene-centred origin: centre of the box around facets, camera, lamps.
+    let (origin, extent) = centre_of(scene);
+
+    let mats: Vec<MatSpec> = scene
+        .materials
+        .iter()
+        .map(|m| MatSpec::of(m, &wl))
+        .collect();
+
+    let facet_verts: Vec<Vec<DVec3>> = scene
+        .facets
+        .iter()
+        .map(|f| f.vertices.iter().map(|&v| v - origin).collect())
+        .collect();
+    let facet_mat: Vec<u32> = scene.facets.iter().map(|f| f.material as u32).collect();
+    let facet_normal: Vec<DVec3> = scene.facets.iter().map(|f| f.normal()).collect();
+    let transmissive: Vec<bool> = facet_mat
+        .iter()
+        .map(|&m| mats[m as usize].trans.is_some())
+        .collect();
+    let step = Preparation::begin("bvh", observer);
+    let geom = Geometry::new(origin, extent, &facet_verts, transmissive)
+        .with_shared(shared_inputs(scene, &mats, origin));
+    prep.end(step, observer);
+    prep.triangles = geom.triangle_count();
+
+    let step = Preparation::begin("light_structure", observer);
+
+    let (area, facet_source) =
+        area_sources(scene, settings, &wl, origin, &facet_verts, &facet_normal);
+
+    let points = point_lights(scene, &wl, origin);
+    let distant = crate::lights::distant_lights(scene, &wl);
+    let light_tree = build_light_tree(&area, &points, &wl, settings, scene.meters_per_unit, extent);
+
+    let camera = scaled_camera(scene, settings, origin);
+    prep.area_emitters = area.len();
+    prep.end(step, observer);
+    let ones = vec![1.0; wl.len()];
+    let step = Preparation::begin("sky", observer);
+    let sky = build_sky(scene, settings, &wl)?;
+    prep.end(step, observer);
+    let view = if settings.drop.direct_view {
+        Default::default()
+    } else {
+        area_footprints(&camera, &area)
+    };
+    Ok(World {
+        wl,
+        geom,
+        mpu: scene.meters_per_unit,
+        facet_mat,
+        facet_normal,
+        facet_verts,
+        facet_source,
+        mats,
+        area,
+        points,
+        distant,
+        camera,
+        ones,
+        sky,
+        light_tree,
+        layers: None,
+        view,
+    })
+}
+
+/// The scene's camera moved into the tracer's frame and scaled to the
+/// render's resolution.
+fn scaled_camera(scene: &Scene, settings: &RenderSettings, origin: DVec3) -> gloam_scene::Camera {
+    let mut camera = scene.camera.clone();
+    camera.position -= origin;
+    camera.look_at -= origin;
+    if settings.resolution_scale != 1.0 {
+        let scale = |n: u32| ((n as f64 * settings.resolution_scale).round() as u32).max(1);
+        camera.width = scale(camera.width);
+        camera.height = scale(camera.height);
+    }
+    camera
 }

@@ -8,13 +8,72 @@ use super::{
 };
 
 pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryError> {
-    let err = |line: usize, field: &str, msg: String| PhotometryError::Parse {
+    let err = |line: usize, field: &str, msg: String| parse_err(path, line, field, msg);
+    let (pos, tl, tilt) = tilt_line(text, path)?;
+    let mut tok = Tokens::new(text, pos, tl + 1, path);
+    let tilt = tilt_data(&mut tok, path, tl, &tilt)?;
+    let Header {
+        lamps,
+        lumens,
+        multiplier,
+        nv,
+        nh,
+        pt_line,
+        ballast,
+        ballast_lamp,
+    } = header(&mut tok, path)?;
+    let values = nv.checked_mul(nh).filter(|&n| n <= MAX_VALUES);
+    let Some(values) = values else {
+        return Err(err(
+            pt_line,
+            "number of horizontal angles",
+            format!("{nv} × {nh} candela values is more than the limit of {MAX_VALUES}"),
+        ));
+    };
+    if nv + nh + values > tok.remaining_at_most() {
+        return Err(err(
+            tok.line(),
+            "candela values",
+            format!(
+                "the header promises {nv} vertical + {nh} horizontal angles and {values} values, more numbers than the rest of the file holds (truncated?)"
+            ),
+        ));
+    }
+    let (vertical, vl) = read_list(&mut tok, nv, "vertical angles")?;
+    check_angles(&vertical, 0.0, 180.0).map_err(|(i, m)| err(vl[i], "vertical angles", m))?;
+    let (horizontal, hl) = read_list(&mut tok, nh, "horizontal angles")?;
+    check_angles(&horizontal, 0.0, 360.0).map_err(|(i, m)| err(hl[i], "horizontal angles", m))?;
+    let symmetry =
+        symmetry_of(&horizontal).map_err(|m| err(hl[0], "horizontal angles", m.to_string()))?;
+    let (mut candela, cl) = read_list(&mut tok, values, "candela values")?;
+    let k = multiplier * ballast * ballast_lamp;
+    candela.iter_mut().for_each(|c| *c *= k);
+    let max_candela = check_candela(&candela).map_err(|(i, m)| err(cl[i], "candela values", m))?;
+    Ok(Photometry {
+        format: Format::Ies,
+        vertical_deg: vertical,
+        horizontal_deg: horizontal,
+        symmetry,
+        candela,
+        max_candela,
+        header_lumens: (lumens > 0.0).then_some(lamps * lumens),
+        tilt,
+    })
+}
+
+/// A parse error at `line` of the file, naming the field.
+fn parse_err(path: &str, line: usize, field: &str, msg: String) -> PhotometryError {
+    PhotometryError::Parse {
         path: path.to_string(),
         line,
         field: field.to_string(),
         msg,
-    };
-    // Keyword lines up to `TILT=`; the numbers follow that line.
+    }
+}
+
+/// Keyword lines up to `TILT=`; the numbers follow that line. The byte
+/// offset after it, its line and its value.
+fn tilt_line(text: &str, path: &str) -> Result<(usize, usize, String), PhotometryError> {
     let mut pos = 0usize;
     let mut line = 0usize;
     let mut tilt_line = None;
@@ -28,18 +87,29 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
         }
     }
     let Some((tl, tilt)) = tilt_line else {
-        return Err(err(
+        return Err(parse_err(
+            path,
             line,
             "TILT",
             "no `TILT=` line: not an IES LM-63 file (or truncated before its data)".into(),
         ));
     };
-    let mut tok = Tokens::new(text, pos, tl + 1, path);
-    let tilt = match tilt.as_str() {
+    Ok((pos, tl, tilt))
+}
+
+/// The tilt table, when `TILT=INCLUDE` puts it in this file.
+fn tilt_data(
+    tok: &mut Tokens,
+    path: &str,
+    tl: usize,
+    tilt: &str,
+) -> Result<Option<TiltTable>, PhotometryError> {
+    Ok(match tilt {
         "NONE" => None,
-        "INCLUDE" => Some(tilt_table(&mut tok)?),
+        "INCLUDE" => Some(tilt_table(tok)?),
         other => {
-            return Err(err(
+            return Err(parse_err(
+                path,
                 tl,
                 "TILT",
                 format!(
@@ -47,7 +117,26 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
                 ),
             ));
         }
-    };
+    })
+}
+
+/// The header numbers the distribution depends on, and the line of the
+/// photometric type (where a size limit is reported).
+struct Header {
+    lamps: f64,
+    lumens: f64,
+    multiplier: f64,
+    nv: usize,
+    nh: usize,
+    pt_line: usize,
+    ballast: f64,
+    ballast_lamp: f64,
+}
+
+/// Reads and checks the header line after the tilt data: type C only,
+/// lamps and lumens (or −1, absolute), and positive factors.
+fn header(tok: &mut Tokens, path: &str) -> Result<Header, PhotometryError> {
+    let err = |line: usize, field: &str, msg: String| parse_err(path, line, field, msg);
     let lamps = tok.number("number of lamps")?;
     let lumens_line = tok.line();
     let lumens = tok.number("lumens per lamp")?;
@@ -101,42 +190,15 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
             return Err(err(l, f, format!("{v} must be > 0")));
         }
     }
-    let values = nv.checked_mul(nh).filter(|&n| n <= MAX_VALUES);
-    let Some(values) = values else {
-        return Err(err(
-            pt_line,
-            "number of horizontal angles",
-            format!("{nv} × {nh} candela values is more than the limit of {MAX_VALUES}"),
-        ));
-    };
-    if nv + nh + values > tok.remaining_at_most() {
-        return Err(err(
-            tok.line(),
-            "candela values",
-            format!(
-                "the header promises {nv} vertical + {nh} horizontal angles and {values} values, more numbers than the rest of the file holds (truncated?)"
-            ),
-        ));
-    }
-    let (vertical, vl) = read_list(&mut tok, nv, "vertical angles")?;
-    check_angles(&vertical, 0.0, 180.0).map_err(|(i, m)| err(vl[i], "vertical angles", m))?;
-    let (horizontal, hl) = read_list(&mut tok, nh, "horizontal angles")?;
-    check_angles(&horizontal, 0.0, 360.0).map_err(|(i, m)| err(hl[i], "horizontal angles", m))?;
-    let symmetry =
-        symmetry_of(&horizontal).map_err(|m| err(hl[0], "horizontal angles", m.to_string()))?;
-    let (mut candela, cl) = read_list(&mut tok, values, "candela values")?;
-    let k = multiplier * ballast * ballast_lamp;
-    candela.iter_mut().for_each(|c| *c *= k);
-    let max_candela = check_candela(&candela).map_err(|(i, m)| err(cl[i], "candela values", m))?;
-    Ok(Photometry {
-        format: Format::Ies,
-        vertical_deg: vertical,
-        horizontal_deg: horizontal,
-        symmetry,
-        candela,
-        max_candela,
-        header_lumens: (lumens > 0.0).then_some(lamps * lumens),
-        tilt,
+    Ok(Header {
+        lamps,
+        lumens,
+        multiplier,
+        nv,
+        nh,
+        pt_line,
+        ballast,
+        ballast_lamp,
     })
 }
 

@@ -211,31 +211,80 @@ impl Sequence {
     /// them (every render fills the same groups). Does nothing without a
     /// clock; refuses one over a scene without `[sky]`.
     pub fn bind_sky(&mut self, scene: &mut Scene) -> Result<(), SceneError> {
-        let duration = self.duration_s();
-        let step = self.frame_period_s() * 0.01;
-        let (path, scene_path) = (self.path.clone(), self.scene.clone());
-        let Some(clock) = self.sky.as_mut() else {
+        let Some(mut clock) = self.sky.take() else {
             return Ok(());
         };
-        let err = |line: usize, field: &str, message: String| SceneError::Invalid {
-            path: path.clone(),
+        let bound = self.bind_clock(&mut clock, scene);
+        self.sky = Some(clock);
+        bound
+    }
+
+    fn sky_err(&self, line: usize, field: &str, message: String) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.clone(),
             line,
             column: 1,
             field: field.into(),
             message,
-        };
+        }
+    }
+
+    /// [`Sequence::bind_sky`] with the clock out of `self` while it binds.
+    fn bind_clock(&mut self, clock: &mut SkyClock, scene: &mut Scene) -> Result<(), SceneError> {
+        let duration = self.duration_s();
         let Some(sky) = scene.sky.clone() else {
-            return Err(err(
+            return Err(self.sky_err(
                 clock.line,
                 "sky",
                 format!(
                     "the scene {} has no [sky] for the clock to move",
-                    scene_path.display()
+                    self.scene.display()
                 ),
             ));
         };
         let start = *clock.start.get_or_insert(sky.instant);
-        let span_s = duration * clock.time_scale;
+        self.check_span(clock, start)?;
+        let (time_scale, line) = (clock.time_scale, clock.line);
+        let at = move |t: f64| start.plus_seconds(t * time_scale);
+        let (path_deg, travel) = self.sun_path(clock, &sky, &at)?;
+        let n = self.render_count(clock, travel)?;
+        clock.key_times_s = (0..n)
+            .map(|k| duration * f64::from(k) / f64::from(n - 1))
+            .collect();
+        clock.key_sun_deg = clock
+            .key_times_s
+            .iter()
+            .map(|&t| sky.sun_elevation_deg_at(at(t)))
+            .collect();
+        let lux = |t: f64| {
+            horizontal_lux(&sky, at(t)).map_err(|e| {
+                self.sky_err(
+                    line,
+                    "sky",
+                    format!("the sky at {}: {e}", at(t).to_iso8601()),
+                )
+            })
+        };
+        clock.key_lux = key_lux(&clock.key_times_s, &lux)?;
+        // Every render fills the same groups: the Sun's where any instant
+        // of the clock has it.
+        let beam = path_deg.iter().any(|&d| d > 0.0) && !sky.overcast;
+        let twilight = path_deg
+            .iter()
+            .any(|&d| d >= gloam_sky::twilight::TWILIGHT_MIN_SUN_ELEVATION_DEG);
+        scene.light_groups.with_sunlight(beam, twilight);
+        let keys = self.photocell_tracks(clock, &lux)?;
+        for (name, k) in keys {
+            if let Some(track) = self.groups.get_mut(&name) {
+                track.keys = k;
+            }
+        }
+        Ok(())
+    }
+
+    /// The clock's sky time stays within the sky model's years and a year.
+    fn check_span(&self, clock: &SkyClock, start: UtcInstant) -> Result<(), SceneError> {
+        let span_s = self.duration_s() * clock.time_scale;
         // Checked, not saturated: a clock that ran past the sky model's
         // last year stood still at its start, every later frame that sky.
         let in_years = |e: &UtcInstant| {
@@ -255,8 +304,8 @@ impl Sequence {
                 num(MAX_SKY_SPAN_S)
             )
         });
-        if let Some(why) = past.or(long) {
-            return Err(err(
+        match past.or(long) {
+            Some(why) => Err(self.sky_err(
                 clock.line,
                 "sky.time_scale",
                 format!(
@@ -267,14 +316,24 @@ impl Sequence {
                     num(clock.time_scale),
                     start.to_iso8601(),
                 ),
-            ));
+            )),
+            None => Ok(()),
         }
-        let at = |t: f64| start.plus_seconds(t * clock.time_scale);
-        // The Sun's path, sampled at least every PATH_STEP_S of sky time
-        // (256 samples spread over weeks all fell near one hour of the day
-        // and saw the Sun stand still), sets the default number of renders;
-        // a path longer than the renders can follow is refused, not
-        // rendered at fewer renders than a degree each.
+    }
+
+    /// The Sun's path, sampled at least every PATH_STEP_S of sky time
+    /// (256 samples spread over weeks all fell near one hour of the day
+    /// and saw the Sun stand still), and its travel in degrees, which sets
+    /// the default number of renders; a path longer than the renders can
+    /// follow is refused, not rendered at fewer renders than a degree each.
+    fn sun_path(
+        &self,
+        clock: &SkyClock,
+        sky: &SkyConfig,
+        at: &dyn Fn(f64) -> UtcInstant,
+    ) -> Result<(Vec<f64>, f64), SceneError> {
+        let duration = self.duration_s();
+        let span_s = duration * clock.time_scale;
         let samples = (span_s / PATH_STEP_S).ceil().max(256.0);
         let most = f64::from(MAX_SKY_RENDERS - 1) * DEGREES_PER_RENDER;
         let mut path_deg: Vec<f64> = Vec::new();
@@ -287,7 +346,7 @@ impl Sequence {
             }
             path_deg.push(d);
             if clock.renders.is_none() && travel > most {
-                return Err(err(
+                return Err(self.sky_err(
                     clock.line,
                     "sky.time_scale",
                     format!(
@@ -298,6 +357,13 @@ impl Sequence {
             }
             i += 1.0;
         }
+        Ok((path_deg, travel))
+    }
+
+    /// How many renders of the sky: as the file asks (at most one per
+    /// frame and one more), else one per degree of the Sun's travel; a
+    /// spacing too wide to follow twilight is warned of in the clock.
+    fn render_count(&self, clock: &mut SkyClock, travel: f64) -> Result<u32, SceneError> {
         // Each render's instant costs a twilight sky (about a second) for
         // its illuminance: renders between frames no frame uses were that
         // cost for nothing (`renders = 1000` over 2 frames: ~17 minutes
@@ -306,7 +372,7 @@ impl Sequence {
         if let Some(r) = clock.renders
             && r > most_renders.max(2)
         {
-            return Err(err(
+            return Err(self.sky_err(
                 clock.line,
                 "sky.renders",
                 format!(
@@ -319,84 +385,67 @@ impl Sequence {
         let by_travel = (travel / DEGREES_PER_RENDER).ceil() as u32 + 1;
         let default_n = by_travel.clamp(2, most_renders.max(2));
         let n = clock.renders.unwrap_or(default_n);
-        // Renders far apart in the Sun's travel are rendered as asked, but
-        // said: a frame between two renders takes the light geometrically
-        // between them, exact only for light falling at one exponential
-        // rate, and twilight's rate changes with the Sun's elevation.
         clock.warnings.clear();
         let per_render = travel / f64::from(n - 1);
         if per_render > WARN_DEGREES_PER_RENDER {
-            let frames = self.frames;
-            let default = match default_n == by_travel {
-                true => format!("{default_n} (one per {DEGREES_PER_RENDER}° of Sun)"),
-                false => format!(
-                    "{default_n}, as many as {frames} frames allow (one per {DEGREES_PER_RENDER}° of Sun would be {by_travel})"
-                ),
-            };
-            let why = match clock.renders {
-                Some(r) if r < default_n => {
-                    format!("`renders = {r}`; the default would use {default}")
-                }
-                Some(r) => format!(
-                    "`renders = {r}`, as many as {frames} frames allow (one per frame and one more)"
-                ),
-                None => format!("{n} renders, the default: {default}"),
-            };
-            clock.warnings.push(format!(
-                "warning: {}:{}: sky: {why} over {:.1}° of the Sun's travel, {:.1}° between renders: each frame between two renders takes the light geometrically between them, exact only where it falls at one exponential rate — twilight's rate changes with the Sun's elevation, so frames far from a render may be off",
-                path.display(),
-                clock.line,
-                travel,
-                per_render
-            ));
+            let warning = self.spacing_warning(clock, travel, n, (default_n, by_travel));
+            clock.warnings.push(warning);
         }
-        clock.key_times_s = (0..n)
-            .map(|k| duration * f64::from(k) / f64::from(n - 1))
-            .collect();
-        clock.key_sun_deg = clock
-            .key_times_s
-            .iter()
-            .map(|&t| sky.sun_elevation_deg_at(at(t)))
-            .collect();
-        let lux = |t: f64| {
-            horizontal_lux(&sky, at(t)).map_err(|e| {
-                err(
-                    clock.line,
-                    "sky",
-                    format!("the sky at {}: {e}", at(t).to_iso8601()),
-                )
-            })
+        Ok(n)
+    }
+
+    /// Renders far apart in the Sun's travel are rendered as asked, but
+    /// said: a frame between two renders takes the light geometrically
+    /// between them, exact only for light falling at one exponential
+    /// rate, and twilight's rate changes with the Sun's elevation.
+    /// `defaults`: the default count, and one per degree of travel.
+    fn spacing_warning(
+        &self,
+        clock: &SkyClock,
+        travel: f64,
+        n: u32,
+        (default_n, by_travel): (u32, u32),
+    ) -> String {
+        let per_render = travel / f64::from(n - 1);
+        let frames = self.frames;
+        let default = match default_n == by_travel {
+            true => format!("{default_n} (one per {DEGREES_PER_RENDER}° of Sun)"),
+            false => format!(
+                "{default_n}, as many as {frames} frames allow (one per {DEGREES_PER_RENDER}° of Sun would be {by_travel})"
+            ),
         };
-        // Each reading is a whole twilight sky (its diffuse field, built
-        // once a process, then a dome of lines of sight): the first alone,
-        // which builds the field, the rest side by side.
-        clock.key_lux = match clock.key_times_s.split_first() {
-            None => Vec::new(),
-            Some((&first, rest)) => {
-                use rayon::prelude::*;
-                let mut v = vec![lux(first)?];
-                v.extend(
-                    rest.par_iter()
-                        .map(|&t| lux(t))
-                        .collect::<Result<Vec<_>, _>>()?,
-                );
-                v
+        let why = match clock.renders {
+            Some(r) if r < default_n => {
+                format!("`renders = {r}`; the default would use {default}")
             }
+            Some(r) => format!(
+                "`renders = {r}`, as many as {frames} frames allow (one per frame and one more)"
+            ),
+            None => format!("{n} renders, the default: {default}"),
         };
-        // Every render fills the same groups: the Sun's where any instant
-        // of the clock has it.
-        let beam = path_deg.iter().any(|&d| d > 0.0) && !sky.overcast;
-        let twilight = path_deg
-            .iter()
-            .any(|&d| d >= gloam_sky::twilight::TWILIGHT_MIN_SUN_ELEVATION_DEG);
-        scene.light_groups.with_sunlight(beam, twilight);
-        let (keys, key_lux, ts) = (
-            clock.key_times_s.clone(),
-            clock.key_lux.clone(),
-            clock.time_scale,
-        );
-        for (name, track) in self.groups.iter_mut() {
+        format!(
+            "warning: {}:{}: sky: {why} over {:.1}° of the Sun's travel, {:.1}° between renders: each frame between two renders takes the light geometrically between them, exact only where it falls at one exponential rate — twilight's rate changes with the Sun's elevation, so frames far from a render may be off",
+            self.path.display(),
+            clock.line,
+            travel,
+            per_render
+        )
+    }
+
+    /// Each photocell group's keys from the renders' illuminances; the
+    /// sky's own groups cannot have one, and a photocell may switch only
+    /// so often.
+    fn photocell_tracks(
+        &self,
+        clock: &SkyClock,
+        lux: &(dyn Fn(f64) -> Result<f64, SceneError> + Sync),
+    ) -> Result<Vec<(String, Keys)>, SceneError> {
+        let step = self.frame_period_s() * 0.01;
+        let key_lux = &clock.key_lux;
+        let mut out = Vec::new();
+        for (name, track) in self.groups.iter() {
             let Some(p) = track.photocell else { continue };
+            let line = self.group_lines.get(name).copied().unwrap_or(clock.line);
             let sky_groups = [
                 crate::groups::SUN_GROUP,
                 crate::groups::TWILIGHT_GROUP,
@@ -405,8 +454,8 @@ impl Sequence {
             ];
             if sky_groups.contains(&name.as_str()) {
                 // The sky switched by its own light: the clock moves it.
-                return Err(err(
-                    self.group_lines.get(name).copied().unwrap_or(clock.line),
+                return Err(self.sky_err(
+                    line,
                     &format!("groups.{name}.photocell"),
                     format!(
                         "'{name}' is the sky's own light, which the clock moves; a photocell switches a lamp's group"
@@ -419,17 +468,19 @@ impl Sequence {
                 // Each switch is found by bisection on the sky model (about
                 // a second an evaluation): a clock over weeks switching at
                 // every dusk and dawn ran for hours before the first frame.
-                return Err(err(
-                    self.group_lines.get(name).copied().unwrap_or(clock.line),
+                return Err(self.sky_err(
+                    line,
                     &format!("groups.{name}.photocell"),
                     format!(
                         "switches {switches} times over the clock's renders; at most {MAX_PHOTOCELL_SWITCHES}: a clock for a dusk or a dawn, not for weeks"
                     ),
                 ));
             }
-            track.keys = photocell_keys(&p, &keys, &key_lux, &lux, step, ts)?;
+            let keys =
+                photocell_keys(&p, &clock.key_times_s, key_lux, lux, step, clock.time_scale)?;
+            out.push((name.clone(), keys));
         }
-        Ok(())
+        Ok(out)
     }
 
     /// The sky's instant at sequence time `t` s (with a bound clock).
@@ -483,6 +534,32 @@ impl Sequence {
         }
         out
     }
+}
+
+/// A group's weight keys: (sequence time s, weight).
+type Keys = Vec<(f64, f64)>;
+
+/// The site's illuminance at each render: each reading is a whole
+/// twilight sky (its diffuse field, built once a process, then a dome of
+/// lines of sight), so the first alone, which builds the field, the rest
+/// side by side.
+fn key_lux(
+    times: &[f64],
+    lux: &(dyn Fn(f64) -> Result<f64, SceneError> + Sync),
+) -> Result<Vec<f64>, SceneError> {
+    Ok(match times.split_first() {
+        None => Vec::new(),
+        Some((&first, rest)) => {
+            use rayon::prelude::*;
+            let mut v = vec![lux(first)?];
+            v.extend(
+                rest.par_iter()
+                    .map(|&t| lux(t))
+                    .collect::<Result<Vec<_>, _>>()?,
+            );
+            v
+        }
+    })
 }
 
 /// A photocell's keys: its state at each render's instant, each change

@@ -104,7 +104,6 @@ impl Tracer {
         c: &mut RayCounts,
         acc: &mut Light,
     ) {
-        use rand::Rng;
         let mut u = Vec::with_capacity(k);
         match points {
             Some(pts) if pts.len() == k => u.extend_from_slice(pts),
@@ -159,50 +158,18 @@ impl Tracer {
         }
         if let Some(guide) = guide {
             for _ in 0..kg {
-                // The cell by inversion of the running sums (a cell of
-                // weight 0 adds nothing to them and is never picked).
-                let x = rng.random::<f64>() * aim_sum;
-                let i = cumulative.partition_point(|&run| run <= x);
-                let cell = &guide.cells[i.min(guide.cells.len() - 1)];
-                let y = cell.corner + cell.du * rng.random::<f64>() + cell.dv * rng.random::<f64>();
-                let f = cell.facet as usize;
-                if cell.facet == facet
-                    || !inside_polygon(y, &self.facet_verts[f], self.facet_normal[f])
-                {
-                    continue;
-                }
-                let Some(d) = (y - p).try_normalize() else {
+                let Some(h) = self.guided_ray(guide, &cumulative, aim_sum, p, ns, facet, rng, c)
+                else {
                     continue;
                 };
-                let cos_p = d.dot(ns);
-                if cos_p <= 0.0 {
-                    continue;
-                }
-                // Seen from p, the first surface along d must be that side
-                // of that facet (transmissive ones between pass τ).
-                let Some((g, gfront, _, tau)) = self.gather_hit(p, d, facet, c) else {
-                    continue;
-                };
-                if g != cell.facet || gfront != cell.front {
-                    continue;
-                }
-                let Some(ratio) = weight(g, gfront, y, d, cos_p) else {
+                let Some(ratio) = weight(h.facet, h.front, h.y, h.d, h.cos_p) else {
                     continue;
                 };
                 let sums = sums.as_deref_mut();
-                let hit = (g, gfront, y);
+                let hit = (h.facet, h.front, h.y);
+                let ratio = Some(ratio);
                 self.gather_read(
-                    cache,
-                    hit,
-                    tau,
-                    w,
-                    Some(ratio),
-                    scale,
-                    &mut s,
-                    sums,
-                    rng,
-                    c,
-                    acc,
+                    cache, hit, h.tau, w, ratio, scale, &mut s, sums, rng, c, acc,
                 );
             }
         }
@@ -210,6 +177,51 @@ impl Tracer {
             let ws: Vec<f64> = scale.iter().map(|k| w * k).collect();
             cache.add_sums(&sums, &ws, acc);
         }
+    }
+
+    /// One guided gather ray: a point drawn on a bright cell (the cell by
+    /// inversion of the running sums `cumulative` of the aim weights; a
+    /// cell of weight 0 adds nothing to them and is never picked), kept
+    /// only where the first surface seen from `p` along it is that side of
+    /// that facet (transmissive ones between pass τ).
+    #[allow(clippy::too_many_arguments)]
+    fn guided_ray(
+        &self,
+        guide: &Guide,
+        cumulative: &[f64],
+        aim_sum: f64,
+        p: DVec3,
+        ns: DVec3,
+        facet: u32,
+        rng: &mut rand_pcg::Pcg64Mcg,
+        c: &mut RayCounts,
+    ) -> Option<GuidedHit> {
+        use rand::Rng;
+        let x = rng.random::<f64>() * aim_sum;
+        let i = cumulative.partition_point(|&run| run <= x);
+        let cell = &guide.cells[i.min(guide.cells.len() - 1)];
+        let y = cell.corner + cell.du * rng.random::<f64>() + cell.dv * rng.random::<f64>();
+        let f = cell.facet as usize;
+        if cell.facet == facet || !inside_polygon(y, &self.facet_verts[f], self.facet_normal[f]) {
+            return None;
+        }
+        let d = (y - p).try_normalize()?;
+        let cos_p = d.dot(ns);
+        if cos_p <= 0.0 {
+            return None;
+        }
+        let (g, gfront, _, tau) = self.gather_hit(p, d, facet, c)?;
+        if g != cell.facet || gfront != cell.front {
+            return None;
+        }
+        Some(GuidedHit {
+            facet: g,
+            front: gfront,
+            y,
+            d,
+            cos_p,
+            tau,
+        })
     }
 
     /// Adds one gather ray's reading to `acc`: `w · ratio · scale · τ ·`
@@ -272,4 +284,15 @@ impl Tracer {
             }
         });
     }
+}
+
+/// Where a guided gather ray landed: facet and side, the point, the
+/// direction from the shading point, cos θ there and the τ passed on the way.
+struct GuidedHit {
+    facet: u32,
+    front: bool,
+    y: DVec3,
+    d: DVec3,
+    cos_p: f64,
+    tau: Option<Vec<f64>>,
 }

@@ -348,27 +348,7 @@ impl Tracer {
         h0: f64,
         budget: u64,
     ) -> (Layout, Vec<Texel>, f64) {
-        let h_max = 4.0 * self.geom.extent;
-        let mut h = if h0 < h_max { h0 } else { h_max };
-        let mut keys: KeyMap<()> = KeyMap::default();
-        let mut chosen = None;
-        for _ in 0..MAX_GROW {
-            let count = self.clustered_count(cached, h, 16 * budget, &mut keys);
-            if count <= budget {
-                chosen = Some(h);
-                break;
-            }
-            if h >= h_max {
-                break;
-            }
-            let grow = (count as f64 / budget as f64).sqrt().max(1.1);
-            h = (h * grow).min(h_max);
-        }
-        drop(keys);
-        let (h, coarse) = match chosen {
-            Some(h) => (h, false),
-            None => (h_max, true),
-        };
+        let (h, coarse) = self.cluster_size(cached, h0, budget);
         let nf = cached.len();
         let mut grids = Vec::new();
         let mut locs = vec![[NO_TEXEL; 2]; nf];
@@ -415,29 +395,7 @@ impl Tracer {
             }
         }
         drop(ids);
-        // Each cluster's sample point: the centroid of the member facet
-        // (with area) nearest the cluster's mean centroid — a real point
-        // on a real surface, never inside an object.
-        let mut rep: Vec<(u32, u8, bool, f64)> =
-            vec![(u32::MAX, 0, true, f64::INFINITY); sums.len()];
-        for f in (0..nf).filter(|&f| cached[f]) {
-            for (side, &l) in locs[f].iter().enumerate() {
-                if l == NO_TEXEL || l & CLUSTER == 0 {
-                    continue;
-                }
-                let id = (l & !CLUSTER) as usize - base;
-                let (a, m) = sums[id];
-                let mean = if a > 0.0 { m / a } else { DVec3::ZERO };
-                let degenerate = polygon_area(&self.facet_verts[f]).partial_cmp(&0.0)
-                    != Some(std::cmp::Ordering::Greater);
-                let d = (centroid(&self.facet_verts[f]) - mean).length_squared();
-                let d = if d.is_nan() { f64::INFINITY } else { d };
-                let r = &mut rep[id];
-                if r.0 == u32::MAX || (degenerate, d) < (r.2, r.3) {
-                    *r = (f as u32, side as u8, degenerate, d);
-                }
-            }
-        }
+        let rep = self.cluster_representatives(cached, &locs, base, &sums);
         texels.reserve(sums.len());
         for (&(f, side, _, _), &(a, _)) in rep.iter().zip(&sums) {
             let f = f as usize;
@@ -458,6 +416,68 @@ impl Tracer {
             texels,
             h,
         )
+    }
+
+    /// The cluster size h that fits `budget` texels, grown from `h0`, and
+    /// whether even 4 × the half-diagonal did not fit (`coarse`: clusters
+    /// by normal bin alone).
+    fn cluster_size(&self, cached: &[bool], h0: f64, budget: u64) -> (f64, bool) {
+        let h_max = 4.0 * self.geom.extent;
+        let mut h = if h0 < h_max { h0 } else { h_max };
+        let mut keys: KeyMap<()> = KeyMap::default();
+        let mut chosen = None;
+        for _ in 0..MAX_GROW {
+            let count = self.clustered_count(cached, h, 16 * budget, &mut keys);
+            if count <= budget {
+                chosen = Some(h);
+                break;
+            }
+            if h >= h_max {
+                break;
+            }
+            let grow = (count as f64 / budget as f64).sqrt().max(1.1);
+            h = (h * grow).min(h_max);
+        }
+        drop(keys);
+        match chosen {
+            Some(h) => (h, false),
+            None => (h_max, true),
+        }
+    }
+
+    /// Each cluster's sample point: the centroid of the member facet (with
+    /// area) nearest the cluster's mean centroid — a real point on a real
+    /// surface, never inside an object. Per cluster: facet, side, whether
+    /// degenerate, squared distance.
+    fn cluster_representatives(
+        &self,
+        cached: &[bool],
+        locs: &[[u32; 2]],
+        base: usize,
+        sums: &[(f64, DVec3)],
+    ) -> Vec<(u32, u8, bool, f64)> {
+        let nf = cached.len();
+        let mut rep: Vec<(u32, u8, bool, f64)> =
+            vec![(u32::MAX, 0, true, f64::INFINITY); sums.len()];
+        for f in (0..nf).filter(|&f| cached[f]) {
+            for (side, &l) in locs[f].iter().enumerate() {
+                if l == NO_TEXEL || l & CLUSTER == 0 {
+                    continue;
+                }
+                let id = (l & !CLUSTER) as usize - base;
+                let (a, m) = sums[id];
+                let mean = if a > 0.0 { m / a } else { DVec3::ZERO };
+                let degenerate = polygon_area(&self.facet_verts[f]).partial_cmp(&0.0)
+                    != Some(std::cmp::Ordering::Greater);
+                let d = (centroid(&self.facet_verts[f]) - mean).length_squared();
+                let d = if d.is_nan() { f64::INFINITY } else { d };
+                let r = &mut rep[id];
+                if r.0 == u32::MAX || (degenerate, d) < (r.2, r.3) {
+                    *r = (f as u32, side as u8, degenerate, d);
+                }
+            }
+        }
+        rep
     }
 
     /// The size of a render's cache (not the pilot's), from the settings.

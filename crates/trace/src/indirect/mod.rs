@@ -277,6 +277,23 @@ pub(crate) struct CacheSize {
 }
 
 impl Cache {
+    /// No texels (or no wavelengths): nothing cached, nothing to read.
+    fn empty(layout: Layout, nwl: usize) -> Cache {
+        Cache {
+            layout,
+            nwl,
+            radiance: Vec::new(),
+            e_ind: Vec::new(),
+            sharp: Vec::new(),
+            smooth: Vec::new(),
+            guide: None,
+            lit: Vec::new(),
+            stride: nwl,
+            e_stride: nwl,
+            summary: CacheSummary::default(),
+        }
+    }
+
     /// Adds `scale ·` the whole scene's cached value `field` (bilinear) at
     /// `p` on `facet`'s side seen from the front or not, to `out`. With
     /// `split = Some((sums, τ))` (a reading split by group) it also adds

@@ -27,68 +27,14 @@ impl Tracer {
         let n_tex = texels.len();
         let cluster_texels = layout.clusters;
         if n_tex == 0 || nwl == 0 {
-            return Cache {
-                layout,
-                nwl,
-                radiance: Vec::new(),
-                e_ind: Vec::new(),
-                sharp: Vec::new(),
-                smooth: Vec::new(),
-                guide: None,
-                lit: Vec::new(),
-                stride: nwl,
-                e_stride: nwl,
-                summary: CacheSummary::default(),
-            };
+            return Cache::empty(layout, nwl);
         }
         let rays = size.rays.max(1);
-        // Only a final gather reads a texel at the point a ray hit.
-        let test_sharp = !size.direct_cell_mean && self.settings.gather_rays > 0;
-        // Direct irradiance and the operator's rows, per texel (parallel,
-        // each texel its own random stream: deterministic).
-        let rows: Vec<TexelRow> = texels
-            .par_iter()
-            .enumerate()
-            .map(|(k, &texel)| {
-                let mut rng = stream(self.settings.seed, DOMAIN_CACHE, k as u64);
-                let mut c = RayCounts::default();
-                // A cluster texel (the last `layout.clusters`) stands for
-                // many small facets through one of them: its points stay
-                // within that facet.
-                let cell = if k + cluster_texels >= n_tex {
-                    polygon_area(&self.facet_verts[texel.0 as usize])
-                } else {
-                    texel.3
-                };
-                let direct = TexelDirect {
-                    size,
-                    groups,
-                    test_sharp,
-                };
-                let (e, smooth, samples) = self.texel_direct(texel, cell, direct, &mut rng, &mut c);
-                let (entries, taus) = self.operator_row(&layout, texel, rays, &mut rng, &mut c);
-                (e, smooth, samples, entries, taus)
-            })
-            .collect();
+        let rows = self.texel_rows(&layout, &texels, size, groups);
         let operator_entries = rows.iter().map(|r| r.3.len()).sum();
         let sharp = self.sharp_flags(&rows, &texels, &layout);
         let sharp_texels = sharp.iter().filter(|&&s| s).count();
-        // The bounce series still starts from every texel's centre (a mean
-        // over a cell that a wall crosses would carry light through it);
-        // a gather ray recomputes the sharp light where it lands.
-        let mut direct = Vec::with_capacity(n_tex);
-        let mut sharp_direct = Vec::new();
-        let mut ops: Vec<OperatorRow> = Vec::with_capacity(n_tex);
-        for (mut e, smooth, _, m, t) in rows {
-            if sharp_texels > 0 {
-                sharp_direct.push(e.clone());
-            }
-            e.add_each(&smooth, |a, b| {
-                a.iter_mut().zip(b).for_each(|(a, b)| *a += b)
-            });
-            direct.push(e);
-            ops.push((m, t));
-        }
+        let (direct, sharp_direct, ops) = split_rows(rows, sharp_texels > 0);
         // The whole scene's light and each lit group's, side by side: one
         // pass over the operator per bounce for all, the series cut and
         // extrapolated by the whole's increments alone.
@@ -159,6 +105,45 @@ impl Tracer {
                 seconds: t0.elapsed().as_secs_f64(),
             },
         }
+    }
+
+    /// Each texel's direct irradiance and operator row (parallel, each
+    /// texel its own random stream: deterministic).
+    fn texel_rows(
+        &self,
+        layout: &Layout,
+        texels: &[Texel],
+        size: CacheSize,
+        groups: usize,
+    ) -> Vec<TexelRow> {
+        let n_tex = texels.len();
+        let rays = size.rays.max(1);
+        // Only a final gather reads a texel at the point a ray hit.
+        let test_sharp = !size.direct_cell_mean && self.settings.gather_rays > 0;
+        texels
+            .par_iter()
+            .enumerate()
+            .map(|(k, &texel)| {
+                let mut rng = stream(self.settings.seed, DOMAIN_CACHE, k as u64);
+                let mut c = RayCounts::default();
+                // A cluster texel (the last `layout.clusters`) stands for
+                // many small facets through one of them: its points stay
+                // within that facet.
+                let cell = if k + layout.clusters >= n_tex {
+                    polygon_area(&self.facet_verts[texel.0 as usize])
+                } else {
+                    texel.3
+                };
+                let direct = TexelDirect {
+                    size,
+                    groups,
+                    test_sharp,
+                };
+                let (e, smooth, samples) = self.texel_direct(texel, cell, direct, &mut rng, &mut c);
+                let (entries, taus) = self.operator_row(layout, texel, rays, &mut rng, &mut c);
+                (e, smooth, samples, entries, taus)
+            })
+            .collect()
     }
 
     /// A texel's direct irradiance: sharp and smooth parts (the smooth
@@ -441,24 +426,7 @@ impl Tracer {
         let mut delta_l = vec![0.0; n_tex * nwl];
         while iterations < size.max_iterations && direct_norm > 0.0 {
             // Next bounce: G applied to the last increment.
-            next_e
-                .par_chunks_mut(nwl)
-                .zip(ops)
-                .for_each(|(e, (entries, taus))| {
-                    e.iter_mut().for_each(|x| *x = 0.0);
-                    for en in entries {
-                        let t = en.texel as usize;
-                        let src = &increment[t * nwl..(t + 1) * nwl];
-                        if en.tau == u32::MAX {
-                            e.iter_mut().zip(src).for_each(|(o, l)| *o += en.w * l);
-                        } else {
-                            e.iter_mut()
-                                .zip(src)
-                                .zip(&taus[en.tau as usize])
-                                .for_each(|((o, l), t)| *o += en.w * l * t);
-                        }
-                    }
-                });
+            apply_operator(ops, &increment, &mut next_e, nwl);
             iterations += 1;
             for k in 0..n_tex {
                 for (s, &k_s) in kd(k).enumerate() {
@@ -499,13 +467,11 @@ impl Tracer {
             }
         }
         // The geometric tail of the series beyond the last bounce solved.
-        if ratio > 0.0 && ratio < 1.0 {
-            let tail = ratio / (1.0 - ratio);
-            for i in 0..n_tex * nwl {
-                e_ind[i] += tail * last_increment[i];
-                radiance[i] += tail * increment[i];
-            }
-        }
+        add_tail(
+            ratio,
+            (&mut e_ind, &last_increment),
+            (&mut radiance, &increment),
+        );
         Series {
             radiance,
             e_ind,
@@ -515,6 +481,62 @@ impl Tracer {
             bounce_norms,
         }
     }
+}
+
+/// Adds the geometric tail ρ/(1 − ρ) × the last increment to each sum
+/// (nothing unless 0 < ρ < 1).
+fn add_tail(ratio: f64, e_ind: (&mut [f64], &[f64]), radiance: (&mut [f64], &[f64])) {
+    if ratio > 0.0 && ratio < 1.0 {
+        let tail = ratio / (1.0 - ratio);
+        for (sum, last) in [e_ind, radiance] {
+            sum.iter_mut().zip(last).for_each(|(s, l)| *s += tail * l);
+        }
+    }
+}
+
+/// `next_e` = the gather operator `ops` applied to `increment` (`nwl`
+/// slots per texel; parallel over texels).
+fn apply_operator(ops: &[OperatorRow], increment: &[f64], next_e: &mut [f64], nwl: usize) {
+    next_e
+        .par_chunks_mut(nwl)
+        .zip(ops)
+        .for_each(|(e, (entries, taus))| {
+            e.iter_mut().for_each(|x| *x = 0.0);
+            for en in entries {
+                let t = en.texel as usize;
+                let src = &increment[t * nwl..(t + 1) * nwl];
+                if en.tau == u32::MAX {
+                    e.iter_mut().zip(src).for_each(|(o, l)| *o += en.w * l);
+                } else {
+                    e.iter_mut()
+                        .zip(src)
+                        .zip(&taus[en.tau as usize])
+                        .for_each(|((o, l), t)| *o += en.w * l * t);
+                }
+            }
+        });
+}
+
+/// The texels' whole direct light (sharp + smooth), their sharp light
+/// alone where any texel is sharp, and the operator's rows. The bounce
+/// series starts from every texel's centre (a mean over a cell that a
+/// wall crosses would carry light through it); a gather ray recomputes
+/// the sharp light where it lands.
+fn split_rows(rows: Vec<TexelRow>, any_sharp: bool) -> (Vec<Light>, Vec<Light>, Vec<OperatorRow>) {
+    let mut direct = Vec::with_capacity(rows.len());
+    let mut sharp_direct = Vec::new();
+    let mut ops: Vec<OperatorRow> = Vec::with_capacity(rows.len());
+    for (mut e, smooth, _, m, t) in rows {
+        if any_sharp {
+            sharp_direct.push(e.clone());
+        }
+        e.add_each(&smooth, |a, b| {
+            a.iter_mut().zip(b).for_each(|(a, b)| *a += b)
+        });
+        direct.push(e);
+        ops.push((m, t));
+    }
+    (direct, sharp_direct, ops)
 }
 
 /// A texel's direct light (sharp; smooth; its cell's sharp samples) and

@@ -88,34 +88,9 @@ pub(crate) fn build_sky(
     if !(moon || night || atmosphere || sun_beam || twilight || settings.all_effects) {
         return Ok(None);
     }
-    let bad =
-        |what: &str, e: gloam_sky::SkyError| TraceError::BadInput(format!("[sky] {what}: {e}"));
-    let (instant, site, conditions, cfg) = match &scene.sky {
-        Some(s) => {
-            let instant = s.instant;
-            let site = gloam_sky::Site::new(s.latitude_deg, s.longitude_deg, s.height_m)
-                .map_err(|e| bad("site", e))?;
-            let cloud = if s.overcast {
-                gloam_sky::Cloud::Overcast
-            } else {
-                gloam_sky::Cloud::Clear
-            };
-            let c = gloam_sky::SkyConditions::new(s.visibility_km, cloud)
-                .map_err(|e| bad("visibility_km", e))?;
-            (instant, site, c, Some(s))
-        }
-        None => {
-            // all_effects on an indoor scene: a dark sky, paths exercised.
-            let instant = gloam_sky::UtcInstant::parse_iso8601("2000-01-01T00:00:00Z")
-                .map_err(|e| bad("utc", e))?;
-            let site = gloam_sky::Site::new(0.0, 0.0, 0.0).map_err(|e| bad("site", e))?;
-            let c = gloam_sky::SkyConditions::new(23.0, gloam_sky::Cloud::Clear)
-                .map_err(|e| bad("visibility_km", e))?;
-            (instant, site, c, None)
-        }
-    };
+    let (instant, site, conditions, cfg) = sky_inputs(scene)?;
     let model =
-        gloam_sky::SkyModel::new(instant, &site, &conditions).map_err(|e| bad("model", e))?;
+        gloam_sky::SkyModel::new(instant, &site, &conditions).map_err(|e| bad_sky("model", e))?;
     let terms = SkyTerms {
         moon,
         night_sky: night,
@@ -152,25 +127,17 @@ pub(crate) fn build_sky(
         sun_direct: false,
         twilight_sky: false,
     };
-    let sunlight = if sun_beam || twilight {
-        let twilight_sky = gloam_sky::TwilightSky::at(
+    let (sun, twilight_table) = if sun_beam || twilight {
+        sun_and_twilight(
             instant,
             &site,
-            conditions.visibility_km,
-            gloam_sky::TwilightOptions::default(),
-        )
-        .map_err(|e| bad("twilight", e))?;
-        let overcast = conditions.cloud == gloam_sky::Cloud::Overcast;
-        Some(sunlight(
-            &twilight_sky,
+            &conditions,
             &wl.nm[..nc],
-            overcast,
             (sun_beam, twilight),
-        ))
+        )?
     } else {
-        None
+        (None, None)
     };
-    let (sun, twilight_table) = sunlight.unwrap_or((None, None));
     let summary = SkySummary {
         sun_direct: sun.is_some(),
         twilight_sky: twilight_table.is_some(),
@@ -190,6 +157,71 @@ pub(crate) fn build_sky(
         twilight: twilight_table,
         twilight_group: None,
     }))
+}
+
+/// A `[sky]` block's error, named.
+fn bad_sky(what: &str, e: gloam_sky::SkyError) -> TraceError {
+    TraceError::BadInput(format!("[sky] {what}: {e}"))
+}
+
+/// The instant, site and conditions of the scene's `[sky]` block (and the
+/// block), or for `all_effects` on an indoor scene a dark sky whose paths
+/// are exercised.
+fn sky_inputs(
+    scene: &Scene,
+) -> Result<
+    (
+        gloam_sky::UtcInstant,
+        gloam_sky::Site,
+        gloam_sky::SkyConditions,
+        Option<&gloam_scene::SkyConfig>,
+    ),
+    TraceError,
+> {
+    Ok(match &scene.sky {
+        Some(s) => {
+            let instant = s.instant;
+            let site = gloam_sky::Site::new(s.latitude_deg, s.longitude_deg, s.height_m)
+                .map_err(|e| bad_sky("site", e))?;
+            let cloud = if s.overcast {
+                gloam_sky::Cloud::Overcast
+            } else {
+                gloam_sky::Cloud::Clear
+            };
+            let c = gloam_sky::SkyConditions::new(s.visibility_km, cloud)
+                .map_err(|e| bad_sky("visibility_km", e))?;
+            (instant, site, c, Some(s))
+        }
+        None => {
+            // all_effects on an indoor scene: a dark sky, paths exercised.
+            let instant = gloam_sky::UtcInstant::parse_iso8601("2000-01-01T00:00:00Z")
+                .map_err(|e| bad_sky("utc", e))?;
+            let site = gloam_sky::Site::new(0.0, 0.0, 0.0).map_err(|e| bad_sky("site", e))?;
+            let c = gloam_sky::SkyConditions::new(23.0, gloam_sky::Cloud::Clear)
+                .map_err(|e| bad_sky("visibility_km", e))?;
+            (instant, site, c, None)
+        }
+    })
+}
+
+/// The Sun's beam and the twilight sky's table (`which` = (beam, dome)),
+/// from the twilight model at the scene's instant.
+fn sun_and_twilight(
+    instant: gloam_sky::UtcInstant,
+    site: &gloam_sky::Site,
+    conditions: &gloam_sky::SkyConditions,
+    nm: &[f64],
+    which: (bool, bool),
+) -> Result<(Option<DistantLight>, Option<RadianceTable>), TraceError> {
+    let twilight_sky = gloam_sky::TwilightSky::at(
+        instant,
+        site,
+        conditions.visibility_km,
+        gloam_sky::TwilightOptions::default(),
+    )
+    .map_err(|e| bad_sky("twilight", e))?;
+    let overcast = conditions.cloud == gloam_sky::Cloud::Overcast;
+    Ok(sunlight(&twilight_sky, nm, overcast, which))
 }
 
 /// The Sun's light on the continuum slots `nm`: its direct beam (when

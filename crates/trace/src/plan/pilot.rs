@@ -187,17 +187,8 @@ impl Tracer {
         let mut pix_parts: Vec<Vec<f64>> = vec![vec![0.0; nwl]; Term::COUNT];
         if mat.has_diffuse {
             let parts = self.irradiance_parts(p, ns, f, &mut walk.rng, &mut walk.c);
-            for (k, part) in parts.iter().enumerate() {
-                for s in 0..nwl {
-                    let l = mat.kd[s] * inv_pi * tau[s] * part[s];
-                    e_d[s] += part[s];
-                    pix_parts[k][s] = l;
-                    t.part_sums[k].1[s] += w * l;
-                    if plain {
-                        t.part_sums[k].0[s] += w * l;
-                    }
-                }
-            }
+            let reflect: Vec<f64> = (0..nwl).map(|s| mat.kd[s] * inv_pi * tau[s]).collect();
+            t.add_parts(&parts, &reflect, (w, plain), &mut e_d, &mut pix_parts);
         }
         if cache.is_some() && mat.has_diffuse && on_grid && plain {
             self.bounce_split(
@@ -241,21 +232,7 @@ impl Tracer {
                 t.emitted_all[s] += w * le;
             }
         }
-        // Interreflection's share over the plain pixels is weighted like
-        // the light terms' (windows at their pixels' weight):
-        // `street-switch-on`'s pool and the pole it lights hold 3 % of the
-        // mean in interreflection, which the grid never sees.
-        for s in 0..nwl {
-            if on_grid {
-                t.ind_all[s] += pix_ind[s];
-                t.tot_all[s] += pix_tot[s];
-            }
-            t.all_w[s] += w * pix_tot[s];
-            if plain {
-                t.ind[s] += w * pix_ind[s];
-                t.tot[s] += w * pix_tot[s];
-            }
-        }
+        t.add_sample((w, on_grid, plain), &pix_ind, &pix_tot);
         // The per-pixel percentiles stay the grid's (a uniform sample of
         // the pixels).
         if on_grid && plain {
@@ -396,6 +373,49 @@ struct Tally {
 }
 
 impl Tally {
+    /// Adds a sample's direct light by term (`parts`, irradiance; the
+    /// radiance is `reflect` × it) to the terms' sums, and to its own
+    /// direct irradiance `e_d` and radiance by term `pix_parts`.
+    fn add_parts(
+        &mut self,
+        parts: &[Vec<f64>],
+        reflect: &[f64],
+        (w, plain): (f64, bool),
+        e_d: &mut [f64],
+        pix_parts: &mut [Vec<f64>],
+    ) {
+        for (k, part) in parts.iter().enumerate() {
+            for (s, &r) in reflect.iter().enumerate() {
+                let l = r * part[s];
+                e_d[s] += part[s];
+                pix_parts[k][s] = l;
+                self.part_sums[k].1[s] += w * l;
+                if plain {
+                    self.part_sums[k].0[s] += w * l;
+                }
+            }
+        }
+    }
+
+    /// Adds a sample's indirect and total radiance. Interreflection's share
+    /// over the plain pixels is weighted like the light terms' (windows at
+    /// their pixels' weight): `street-switch-on`'s pool and the pole it
+    /// lights hold 3 % of the mean in interreflection, which the grid
+    /// never sees.
+    fn add_sample(&mut self, (w, on_grid, plain): (f64, bool, bool), ind: &[f64], tot: &[f64]) {
+        for s in 0..tot.len() {
+            if on_grid {
+                self.ind_all[s] += ind[s];
+                self.tot_all[s] += tot[s];
+            }
+            self.all_w[s] += w * tot[s];
+            if plain {
+                self.ind[s] += w * ind[s];
+                self.tot[s] += w * tot[s];
+            }
+        }
+    }
+
     fn new(nwl: usize) -> Self {
         Self {
             ind: vec![0.0; nwl],
@@ -473,7 +493,6 @@ impl Tracer {
     /// are left out, the rest stand for the pixels outside every window.
     pub(super) fn pilot_samples(&self, cols: u32, rows: u32) -> Vec<(f64, f64, f64, bool)> {
         let mut c = RayCounts::default();
-        let mut hit = |p: DVec3, d: DVec3| self.gather_hit(p, d, u32::MAX, &mut c).map(|h| h.2);
         let cam = &self.camera;
         let (w, h) = (cam.width as usize, cam.height as usize);
         let mut window = vec![false; w * h];
@@ -495,32 +514,7 @@ impl Tracer {
             if dist <= 0.0 {
                 continue;
             }
-            // The pool a source lights brightest lies about as far from
-            // it as the surface in its brightest direction (of the 26 of a
-            // 3 × 3 × 3 lattice): a road lamp's pool 205 m away is a
-            // couple of pixels under its image, not at it.
-            let mut best = (0.0, 0.0);
-            for k in 0..27 {
-                let v = DVec3::new(
-                    (k % 3) as f64 - 1.0,
-                    ((k / 3) % 3) as f64 - 1.0,
-                    (k / 9) as f64 - 1.0,
-                );
-                if k == 13 {
-                    continue;
-                }
-                let w = v.normalize();
-                let shape = l.shape_toward(w);
-                if shape > best.0
-                    && let Some(p) = hit(l.pos, w)
-                {
-                    best = (shape, (p - l.pos).length());
-                }
-            }
-            let reach = f64::max(best.1, WINDOW_RADIUS_M);
-            let r = ((reach / dist).atan() / pixel_rad)
-                .ceil()
-                .clamp(1.0, WINDOW_MAX_PX as f64) as i64;
+            let r = self.window_radius_px(l, dist, pixel_rad, &mut c);
             let (c0, r0) = (px.floor() as i64, py.floor() as i64);
             for yy in (r0 - r).max(0)..=(r0 + r).min(h as i64 - 1) {
                 for xx in (c0 - r).max(0)..=(c0 + r).min(w as i64 - 1) {
@@ -580,6 +574,43 @@ impl Tracer {
             .collect();
         out.extend(win);
         out
+    }
+
+    /// The half-width in pixels of a point source's pilot window, seen
+    /// `dist` ahead of the camera with `pixel_rad` a pixel: the pool a
+    /// source lights brightest lies about as far from it as the surface in
+    /// its brightest direction (of the 26 of a 3 × 3 × 3 lattice) — a road
+    /// lamp's pool 205 m away is a couple of pixels under its image, not
+    /// at it — and at least [`WINDOW_RADIUS_M`].
+    fn window_radius_px(
+        &self,
+        l: &crate::lights::PointLight,
+        dist: f64,
+        pixel_rad: f64,
+        c: &mut RayCounts,
+    ) -> i64 {
+        let mut best = (0.0, 0.0);
+        for k in 0..27 {
+            let v = DVec3::new(
+                (k % 3) as f64 - 1.0,
+                ((k / 3) % 3) as f64 - 1.0,
+                (k / 9) as f64 - 1.0,
+            );
+            if k == 13 {
+                continue;
+            }
+            let w = v.normalize();
+            let shape = l.shape_toward(w);
+            if shape > best.0
+                && let Some((_, _, p, _)) = self.gather_hit(l.pos, w, u32::MAX, c)
+            {
+                best = (shape, (p - l.pos).length());
+            }
+        }
+        let reach = f64::max(best.1, WINDOW_RADIUS_M);
+        ((reach / dist).atan() / pixel_rad)
+            .ceil()
+            .clamp(1.0, WINDOW_MAX_PX as f64) as i64
     }
 }
 

@@ -1,0 +1,415 @@
+//! `frames.jsonl`, the log beside a run's frames: one JSON object per
+//! line, one line per frame written. The one writer ([`FrameLog`]) and
+//! the one reader ([`lines`], [`find`]) of the file, so its name, its
+//! line numbering and its lookup by file and page are defined once.
+//!
+//! The reader hands on each line as JSON ([`FrameLine`]): a log may be
+//! written by an older gloam or by hand with only some fields (`file` and
+//! `gain` are enough for `calibrate apply`), so each reader asks for the
+//! fields it needs and says what is missing in its own words; the typed
+//! accessors here check what every reader checks the same way.
+
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use serde_json::Value;
+
+/// The log's file name, beside the frames it lists.
+pub const FRAMES_JSONL: &str = "frames.jsonl";
+
+/// The `frames.jsonl` beside a frame file (in its directory).
+pub fn beside(frame: &Path) -> PathBuf {
+    frame.parent().unwrap_or(Path::new(".")).join(FRAMES_JSONL)
+}
+
+/// Why `frames.jsonl` was not written, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameLogError {
+    #[error("creating {}", path.display())]
+    Create {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("writing {}", path.display())]
+    Append {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("writing frames.jsonl")]
+    Encode(#[source] serde_json::Error),
+}
+
+/// Appends records to `frames.jsonl` as frames are written, each flushed
+/// at once, so an interrupted run keeps every frame it wrote listed.
+pub struct FrameLog {
+    path: PathBuf,
+    file: std::io::BufWriter<std::fs::File>,
+}
+
+impl FrameLog {
+    /// Creates (truncates) `dir/frames.jsonl`.
+    pub fn create(dir: &Path) -> Result<Self, FrameLogError> {
+        let path = dir.join(FRAMES_JSONL);
+        let file = std::fs::File::create(&path).map_err(|source| FrameLogError::Create {
+            path: path.clone(),
+            source,
+        })?;
+        Ok(Self {
+            path,
+            file: std::io::BufWriter::new(file),
+        })
+    }
+
+    /// Appends one record as one line and flushes it to the file.
+    pub fn append<R: Serialize + ?Sized>(&mut self, rec: &R) -> Result<(), FrameLogError> {
+        serde_json::to_writer(&mut self.file, rec).map_err(FrameLogError::Encode)?;
+        (self.file.write_all(b"\n"))
+            .and_then(|()| self.file.flush())
+            .map_err(|source| FrameLogError::Append {
+                path: self.path.clone(),
+                source,
+            })
+    }
+}
+
+/// Why `frames.jsonl` could not be read; each reader words it its own way.
+#[derive(Debug, thiserror::Error)]
+pub enum FramesReadError {
+    /// The file does not open (missing, not a regular file, too large).
+    #[error("{}: {source}", path.display())]
+    Open {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A line could not be read (not UTF-8, an I/O error).
+    #[error("{}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A line is not JSON.
+    #[error("{}:{line}: {source}", path.display())]
+    Json {
+        path: PathBuf,
+        line: usize,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A second line for one frame (one file, one page): refused, never
+    /// resolved by order.
+    #[error(
+        "{}:{line}: records {name}{} again (first at line {first}): one frame, two records",
+        path.display(),
+        page.map_or(String::new(), |p| format!(" page {p}"))
+    )]
+    Twice {
+        path: PathBuf,
+        line: usize,
+        name: String,
+        page: Option<u64>,
+        first: usize,
+    },
+}
+
+/// A field of a line that is there but not what the log's schema says.
+#[derive(Debug, thiserror::Error)]
+#[error("\"{key}\" {value} is not {expected}")]
+pub struct FieldError {
+    pub key: &'static str,
+    pub value: Value,
+    pub expected: &'static str,
+}
+
+/// Where one frame's counts sit in its file, as its line's `stored` says
+/// (`{"format", "sample_shift", "page"}`); unknown fields stay `None` and
+/// are then read from the file itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StoredAt {
+    /// The page of a multi-page TIFF (from 0).
+    pub page: Option<u64>,
+    /// counts = sample >> shift (PNG and TIFF frames).
+    pub sample_shift: Option<u8>,
+}
+
+/// One line of `frames.jsonl`: its 1-based number (blank lines counted)
+/// and its JSON.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameLine {
+    pub line: usize,
+    pub value: Value,
+}
+
+impl FrameLine {
+    /// The field `key`, if there.
+    pub fn get(&self, key: &str) -> Option<&Value> {
+        self.value.get(key)
+    }
+
+    /// The frame's file name (`file`), if a string.
+    pub fn file(&self) -> Option<&str> {
+        self.get("file").and_then(Value::as_str)
+    }
+
+    /// The numeric field `key`, if a number.
+    pub fn number(&self, key: &str) -> Option<f64> {
+        self.get(key).and_then(Value::as_f64)
+    }
+
+    /// Its `stored` object (absent or not numbers: `None`s).
+    pub fn stored(&self) -> StoredAt {
+        let s = self.get("stored");
+        let field = |k: &str| s.and_then(|s| s.get(k)).and_then(Value::as_u64);
+        StoredAt {
+            page: field("page"),
+            sample_shift: field("sample_shift").and_then(|v| u8::try_from(v).ok()),
+        }
+    }
+
+    /// Its `pixels_crc32c` (of the counts as little-endian `u16`), `None`
+    /// when it records none.
+    pub fn pixels_crc32c(&self) -> Result<Option<u32>, FieldError> {
+        let Some(v) = self.get("pixels_crc32c") else {
+            return Ok(None);
+        };
+        (v.as_u64().and_then(|c| u32::try_from(c).ok()))
+            .map(Some)
+            .ok_or_else(|| FieldError {
+                key: "pixels_crc32c",
+                value: v.clone(),
+                expected: "a CRC-32C (a whole number below 2^32)",
+            })
+    }
+
+    /// Its digitizer depth `bits`, `None` when it records none.
+    pub fn bits(&self) -> Result<Option<u8>, FieldError> {
+        let Some(v) = self.get("bits") else {
+            return Ok(None);
+        };
+        (v.as_u64().filter(|b| (1..=16).contains(b)))
+            .map(|b| Some(b as u8))
+            .ok_or_else(|| FieldError {
+                key: "bits",
+                value: v.clone(),
+                expected: "a digitizer depth (1..=16)",
+            })
+    }
+}
+
+/// The lines of the `frames.jsonl` at `path` in order, blank lines
+/// skipped, read within [`crate::MAX_TEXT_FILE_BYTES`]; the first line
+/// that does not read or parse ends them with its error.
+pub fn lines(path: &Path) -> Result<Lines, FramesReadError> {
+    let f = crate::open_bounded(path, crate::MAX_TEXT_FILE_BYTES).map_err(|source| {
+        FramesReadError::Open {
+            path: path.to_path_buf(),
+            source,
+        }
+    })?;
+    Ok(Lines {
+        path: path.to_path_buf(),
+        lines: std::io::BufReader::new(f).lines().enumerate(),
+        failed: false,
+    })
+}
+
+/// The lines of one `frames.jsonl` ([`lines`]).
+pub struct Lines {
+    path: PathBuf,
+    lines: std::iter::Enumerate<std::io::Lines<std::io::BufReader<std::io::Take<std::fs::File>>>>,
+    failed: bool,
+}
+
+impl Lines {
+    /// The file read.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Iterator for Lines {
+    type Item = Result<FrameLine, FramesReadError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        // Bounded: the file was opened within its size limit.
+        for (i, line) in self.lines.by_ref() {
+            let parsed = line
+                .map_err(|source| FramesReadError::Read {
+                    path: self.path.clone(),
+                    source,
+                })
+                .and_then(|line| {
+                    if line.trim().is_empty() {
+                        return Ok(None);
+                    }
+                    serde_json::from_str(&line)
+                        .map(|value| Some(FrameLine { line: i + 1, value }))
+                        .map_err(|source| FramesReadError::Json {
+                            path: self.path.clone(),
+                            line: i + 1,
+                            source,
+                        })
+                });
+            match parsed {
+                Ok(None) => continue,
+                Ok(Some(l)) => return Some(Ok(l)),
+                Err(e) => {
+                    self.failed = true;
+                    return Some(Err(e));
+                }
+            }
+        }
+        None
+    }
+}
+
+/// The line of the `frames.jsonl` at `path` that records the frame file
+/// `name` (and, with `page`, whose `stored.page` is it: the frames of a
+/// TIFF stack share one file; a line without a page is page 0). Every
+/// line is read: a second line for the same frame is refused
+/// ([`FramesReadError::Twice`]).
+pub fn find(
+    path: &Path,
+    name: &str,
+    page: Option<u64>,
+) -> Result<Option<FrameLine>, FramesReadError> {
+    let mut found: Option<(FrameLine, Option<u64>)> = None;
+    for l in lines(path)? {
+        let l = l?;
+        if l.file() != Some(name) {
+            continue;
+        }
+        let at_page = l.stored().page;
+        match &found {
+            Some((first, first_page)) if *first_page == at_page => {
+                return Err(FramesReadError::Twice {
+                    path: path.to_path_buf(),
+                    line: l.line,
+                    name: name.to_string(),
+                    page: at_page,
+                    first: first.line,
+                });
+            }
+            Some(_) => {}
+            None if page.is_none_or(|p| at_page.unwrap_or(0) == p) => found = Some((l, at_page)),
+            None => {}
+        }
+    }
+    Ok(found.map(|(l, _)| l))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Serialize)]
+    struct Rec<'a> {
+        file: &'a str,
+        gain: f64,
+    }
+
+    /// What the log writes, the reader reads back, line by line.
+    #[test]
+    fn a_written_log_reads_back() {
+        let d = tempfile::tempdir().unwrap();
+        let mut log = FrameLog::create(d.path()).unwrap();
+        log.append(&Rec {
+            file: "a.png",
+            gain: 2.5,
+        })
+        .unwrap();
+        log.append(&Rec {
+            file: "b.png",
+            gain: 7.0,
+        })
+        .unwrap();
+        drop(log);
+        let path = d.path().join(FRAMES_JSONL);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(
+            text,
+            "{\"file\":\"a.png\",\"gain\":2.5}\n{\"file\":\"b.png\",\"gain\":7.0}\n"
+        );
+        let got: Vec<FrameLine> = lines(&path).unwrap().map(Result::unwrap).collect();
+        assert_eq!(got.len(), 2);
+        assert_eq!(
+            (got[1].line, got[1].file(), got[1].number("gain")),
+            (2, Some("b.png"), Some(7.0))
+        );
+    }
+
+    /// Blank lines count in the numbering; a bad line names its number.
+    #[test]
+    fn lines_are_numbered_as_in_the_file() {
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join(FRAMES_JSONL);
+        std::fs::write(&path, "\n{\"file\":\"a\"}\n\nnot json\n{}\n").unwrap();
+        let mut it = lines(&path).unwrap();
+        assert_eq!(it.next().unwrap().unwrap().line, 2);
+        match it.next().unwrap() {
+            Err(FramesReadError::Json { line: 4, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        assert!(it.next().is_none(), "a failed read ends the lines");
+    }
+
+    /// One frame, one line: a TIFF stack's pages are told apart, a
+    /// second line for the frame looked for is refused naming both lines.
+    #[test]
+    fn find_picks_the_page_and_refuses_a_second_line() {
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join(FRAMES_JSONL);
+        let page = |p: u64, g: u32| {
+            format!("{{\"file\":\"s.tiff\",\"gain\":{g},\"stored\":{{\"page\":{p}}}}}\n")
+        };
+        std::fs::write(&path, page(0, 1) + &page(1, 2)).unwrap();
+        let l = find(&path, "s.tiff", Some(1)).unwrap().unwrap();
+        assert_eq!((l.line, l.number("gain")), (2, Some(2.0)));
+        assert!(find(&path, "t.tiff", None).unwrap().is_none());
+        std::fs::write(&path, page(0, 1) + &page(1, 2) + &page(1, 3)).unwrap();
+        assert_eq!(find(&path, "s.tiff", Some(0)).unwrap().unwrap().line, 1);
+        let e = find(&path, "s.tiff", Some(1)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}:3: records s.tiff page 1 again (first at line 2): one frame, two records",
+                path.display()
+            )
+        );
+    }
+
+    /// The checked fields refuse what is not their type, quoting it.
+    #[test]
+    fn fields_are_checked() {
+        let l = |v: Value| FrameLine { line: 1, value: v };
+        let v = serde_json::json!({"pixels_crc32c": -1, "bits": 17});
+        assert_eq!(
+            l(v.clone()).pixels_crc32c().unwrap_err().to_string(),
+            "\"pixels_crc32c\" -1 is not a CRC-32C (a whole number below 2^32)"
+        );
+        assert_eq!(
+            l(v).bits().unwrap_err().to_string(),
+            "\"bits\" 17 is not a digitizer depth (1..=16)"
+        );
+        let ok = l(
+            serde_json::json!({"pixels_crc32c": 7, "bits": 12, "stored": {"page": 3, "sample_shift": 4}}),
+        );
+        assert_eq!(ok.pixels_crc32c().unwrap(), Some(7));
+        assert_eq!(ok.bits().unwrap(), Some(12));
+        assert_eq!(
+            ok.stored(),
+            StoredAt {
+                page: Some(3),
+                sample_shift: Some(4)
+            }
+        );
+        assert_eq!(l(serde_json::json!({})).pixels_crc32c().unwrap(), None);
+    }
+}
