@@ -16,8 +16,8 @@ use crate::mtf_flow::{self, GrabberTarget, MtfRequest, read_usaf_ctf, usaf_mtf};
 use crate::radiance::{RadianceOptions, calibrate_radiance};
 use crate::report;
 use crate::request::{
-    AgcRequest, MtfCalibration, MtfDone, PtcRequest, RadianceRequest, ScopeRequest, SourceRequest,
-    VoltageOptions, open_uri, progress,
+    AgcRequest, ApplyRequest, MtfCalibration, MtfDone, PtcRequest, RadianceRequest, ScopeRequest,
+    SourceRequest, VoltageOptions, open_uri, progress,
 };
 pub use crate::request::{CaptureTally, GrabRequest};
 use crate::scope_run::ScopeOptions;
@@ -294,26 +294,14 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     match cmd {
         CalibrateCommand::Radiance(a) => radiance(a, registry, ev),
         CalibrateCommand::Apply(a) => {
-            let r = crate::apply::apply_lut_to_frame(
-                &a.lut,
-                &a.input,
-                a.page,
-                &a.output,
-                a.gain,
-                &mut |w| ev(Event::Note(format!("warning: {w}"))),
-            )?;
-            let saturated = if r.saturated_pixels > 0 {
-                format!(", {} saturated pixel(s) set to NaN", r.saturated_pixels)
-            } else {
-                String::new()
+            let req = ApplyRequest {
+                lut: a.lut.clone(),
+                input: a.input.clone(),
+                page: a.page,
+                output: a.output.clone(),
+                gain: a.gain,
             };
-            let line = format!(
-                "wrote {} ({}×{}, gain {}{saturated})",
-                a.output.display(),
-                r.width,
-                r.height,
-                r.gain
-            );
+            let line = req.run(ev)?;
             Ok(Outcome {
                 set: None,
                 main_json: None,

@@ -365,6 +365,48 @@ impl MtfCalibration {
     }
 }
 
+/// `gloam calibrate apply`: a LUT applied to one frame file, written as a
+/// radiance TIFF beside (never into) an output set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ApplyRequest {
+    /// The LUT (`lut.json`).
+    pub lut: PathBuf,
+    /// A frame as gloam writes them, or any 8/16-bit grey PNG or TIFF.
+    pub input: PathBuf,
+    /// The page of a multi-page TIFF input.
+    pub page: Option<u64>,
+    /// The radiance image to write (32-bit float TIFF).
+    pub output: PathBuf,
+    /// The frame's gain (default: its line in `frames.jsonl` beside it).
+    pub gain: Option<f64>,
+}
+
+impl ApplyRequest {
+    /// Applies the LUT (its checks against the frame's camera and gain
+    /// are [`crate::apply`]'s) and says what was written.
+    pub fn run(&self, ev: &mut Events<'_>) -> Result<String, CalibError> {
+        let r = crate::apply::apply_lut_to_frame(
+            &self.lut,
+            &self.input,
+            self.page,
+            &self.output,
+            self.gain,
+            &mut |w| ev(Event::Note(format!("warning: {w}"))),
+        )?;
+        let saturated = match r.saturated_pixels {
+            0 => String::new(),
+            n => format!(", {n} saturated pixel(s) set to NaN"),
+        };
+        Ok(format!(
+            "wrote {} ({}×{}, gain {}{saturated})",
+            self.output.display(),
+            r.width,
+            r.height,
+            r.gain
+        ))
+    }
+}
+
 /// `gloam scope` / `scope`: a simulated camera's video on the scope.
 #[derive(Clone, Debug, Default)]
 pub struct ScopeRequest {
