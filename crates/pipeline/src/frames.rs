@@ -4,9 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use gloam_grabber::{Frame, FrameStatus};
+use gloam_grabber::FrameStatus;
 use gloam_sensor::Camera;
-use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
@@ -17,164 +16,54 @@ use gloam_io::frames::FrameLog;
 use gloam_io::png::png_frame_bytes;
 use gloam_io::tiff::TiffStack;
 
-/// One line of `frames.jsonl`.
-#[derive(Clone, Debug, Serialize)]
-pub struct FrameRecord {
-    pub index: u64,
-    pub file: String,
-    pub seq: u64,
-    /// Device clock, µs since the stream started.
-    pub timestamp: u64,
-    pub gain: f64,
-    pub agc: bool,
-    pub bits: u8,
-    pub width: u32,
-    pub height: u32,
-    pub pixels_crc32c: u32,
-    pub status: FrameStatus,
-    pub mean_dn: f64,
-    /// Fraction of pixels at or above `saturated_at_dn`.
-    pub saturated_fraction: f64,
-    /// The camera's saturated level when it reports one (simulated
-    /// cameras), else the top code 2^bits − 1.
-    pub saturated_at_dn: f64,
-    /// The camera's black level (no light) at this frame's gain, DN, when
-    /// it reports one (simulated cameras).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub black_dn: Option<f64>,
-    /// The camera's mean conversion at this frame's gain, photoelectrons
-    /// per DN (1/K of photon transfer: FITS `GAIN`), when it knows it
-    /// (simulated cameras; not real cameras over a link).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub electrons_per_dn: Option<f64>,
-    /// The ND filter's optical density and the photocathode's gate duty
-    /// cycle as configured (before the tube's ABC), for simulated cameras.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub nd_density: Option<f64>,
-    /// For a grabbed frame, the gate duty in effect (configured duty ×
-    /// the tube's autogating), when the camera reports it.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub gate_duty: Option<f64>,
-    /// Exposure of a grabbed frame, µs, when the camera reports it (an
-    /// in-process render has it in `sensor.exposure_s`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub exposure_us: Option<f64>,
-    /// The stage whose clip the saturated pixels hit (`ccd-full-well`,
-    /// `video-clip` or `digitizer-rail`), when the camera reports it.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub saturated_by: Option<gloam_sensor::stages::bright::SaturatingStage>,
-    /// Fraction of pixels the MCP compressed by more than 10 % (soft, not
-    /// saturated: no information lost), when the camera reports it.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mcp_compressed_fraction: Option<f64>,
-    /// Exposure warnings for this frame (also printed on stderr).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-    /// The simulated camera's own figures, when the frame came from one
-    /// in process.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sensor: Option<gloam_sensor::FrameMeta>,
-    /// How the counts sit in `file` (format, shift, TIFF page); set by
-    /// the [`FrameWriter`] that wrote it.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stored: Option<FrameStorage>,
-    /// The frame's time and light-group weights, in a sequence
-    /// (`gloam sequence`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sequence: Option<crate::sequence::SequenceFrame>,
-}
+pub use gloam_io::frames::FrameRecord;
 
-impl FrameRecord {
-    /// The record of a grabbed frame, with its exposure figures.
-    pub fn of_grab(index: u64, file: String, f: &Frame, warnings: Vec<String>) -> Self {
-        let exposure = f.exposure();
-        Self {
-            index,
-            file,
-            seq: f.meta.seq,
-            timestamp: f.meta.timestamp_us,
-            gain: f.meta.gain,
-            agc: f.meta.agc,
-            bits: f.meta.bits,
-            width: f.meta.width,
-            height: f.meta.height,
-            pixels_crc32c: f.meta.pixels_crc32c,
-            status: f.meta.status,
-            mean_dn: exposure.mean_dn,
-            saturated_fraction: exposure.saturated_fraction,
-            saturated_at_dn: f
-                .meta
-                .levels
-                .map_or(f64::from((1u32 << f.meta.bits.min(16)) - 1), |l| {
-                    l.saturated_at_dn
-                }),
-            black_dn: f.meta.levels.map(|l| l.black_dn),
-            electrons_per_dn: f.meta.levels.and_then(|l| l.electrons_per_dn),
-            nd_density: None,
-            gate_duty: f.meta.gate_duty,
-            exposure_us: f.meta.exposure_us,
-            saturated_by: None,
-            mcp_compressed_fraction: None,
-            warnings,
-            sensor: None,
-            stored: None,
-            sequence: None,
-        }
-    }
-}
-
-impl FrameRecord {
-    /// The record of frame `index` of an in-process simulated `camera`
-    /// (just captured, so its chain state is the frame's), with its
-    /// exposure warnings; `pixels` are the frame's counts in row order.
-    pub fn of_sensor_frame(
-        index: u64,
-        file: String,
-        frame: &gloam_sensor::DigitizedFrame,
-        pixels: &[u16],
-        camera: &Camera,
-    ) -> Self {
-        let (h, w) = frame.pixels.dim();
-        let m = &frame.meta;
-        let g = m.gain_in_effect;
-        let chain = camera.chain();
-        let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-        let warnings = gloam_sensor::levels::exposure_warnings(
-            m.mean_dn,
-            m.saturated_fraction,
-            Some(black),
-            sat,
-        );
-        FrameRecord {
-            index,
-            file,
-            seq: m.seq,
-            timestamp: (m.time_s * 1e6).round() as u64,
-            gain: g,
-            agc: m.agc_enabled,
-            bits: m.bits,
-            width: w as u32,
-            height: h as u32,
-            pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
-            status: FrameStatus::Ok,
-            mean_dn: m.mean_dn,
-            saturated_fraction: m.saturated_fraction,
-            saturated_at_dn: chain.saturated_threshold_dn(g),
-            black_dn: Some(black),
-            electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
-            nd_density: Some(camera.config().optics.nd_density),
-            // The duty in effect: the configured gate times the tube's and
-            // the AGC's cuts (as the simulated grabber records it).
-            gate_duty: (camera.config().photocathode.as_ref())
-                .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
-            exposure_us: None,
-            saturated_by: Some(m.saturation.saturated_by),
-            mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
-            warnings,
-            sensor: Some(m.clone()),
-            stored: None,
-            sequence: None,
-        }
+/// The record of frame `index` of an in-process simulated `camera`
+/// (just captured, so its chain state is the frame's), with its
+/// exposure warnings; `pixels` are the frame's counts in row order.
+pub fn record_of_sensor_frame(
+    index: u64,
+    file: String,
+    frame: &gloam_sensor::DigitizedFrame,
+    pixels: &[u16],
+    camera: &Camera,
+) -> FrameRecord {
+    let (h, w) = frame.pixels.dim();
+    let m = &frame.meta;
+    let g = m.gain_in_effect;
+    let chain = camera.chain();
+    let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
+    let warnings =
+        gloam_sensor::levels::exposure_warnings(m.mean_dn, m.saturated_fraction, Some(black), sat);
+    FrameRecord {
+        index,
+        file,
+        seq: m.seq,
+        timestamp: (m.time_s * 1e6).round() as u64,
+        gain: g,
+        agc: m.agc_enabled,
+        bits: m.bits,
+        width: w as u32,
+        height: h as u32,
+        pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
+        status: FrameStatus::Ok,
+        mean_dn: m.mean_dn,
+        saturated_fraction: m.saturated_fraction,
+        saturated_at_dn: chain.saturated_threshold_dn(g),
+        black_dn: Some(black),
+        electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
+        nd_density: Some(camera.config().optics.nd_density),
+        // The duty in effect: the configured gate times the tube's and
+        // the AGC's cuts (as the simulated grabber records it).
+        gate_duty: (camera.config().photocathode.as_ref())
+            .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
+        exposure_us: None,
+        saturated_by: Some(m.saturation.saturated_by),
+        mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
+        warnings,
+        sensor: Some(m.clone()),
+        stored: None,
+        sequence: None,
     }
 }
 
@@ -743,8 +632,7 @@ impl FrameCapture<'_> {
             let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
             let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
             let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
-            let rec =
-                FrameRecord::of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
+            let rec = record_of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
             // The record's warnings are these kinds' messages, in order.
             for (w, k) in rec.warnings.iter().zip(&kinds) {
                 if warned.insert(*k) {
@@ -925,6 +813,7 @@ impl SaturationSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gloam_grabber::Frame;
 
     #[test]
     fn instruments_name_the_camera_model() {
