@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod camera_goal;
+pub mod capture;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod detected;
