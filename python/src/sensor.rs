@@ -183,7 +183,7 @@ impl Sensor {
                 st.index_axis_mut(ndarray::Axis(0), i as usize)
                     .assign(&frame.pixels);
                 let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
-                records.push(gloam_pipeline::FrameRecord::of_sensor_frame(
+                records.push(gloam_pipeline::frames::record_of_sensor_frame(
                     u64::from(i),
                     format!("frame-{i:06}.png"),
                     &frame,

@@ -198,10 +198,10 @@ pub fn read_counts(path: &Path) -> Result<(usize, usize, Vec<u16>), CalibError> 
     read_frame_counts(path, &StoredAt::default())
 }
 
-/// The frame formats gloam writes and reads back (`--frame-format`; the
-/// writers are `gloam_pipeline::frame_files`', whose `FrameFormat::NAMES`
-/// these are).
-pub const FRAME_FORMAT_NAMES: [&str; 3] = ["png", "fits", "tiff"];
+/// The frame formats gloam writes and reads back (`--frame-format`,
+/// `gloam_io::frames::FrameFormat::NAMES`; the writers are
+/// `gloam_pipeline::frame_files`').
+pub const FRAME_FORMAT_NAMES: [&str; 3] = gloam_io::frames::FrameFormat::NAMES;
 
 /// Where one frame's counts sit in its file (its `frames.jsonl` line's
 /// `stored`), as the one reader of the log gives it.

@@ -4,78 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::transport::LinkError;
 
-/// Whether a frame arrived whole. Only `Ok` frames are ever returned as good
-/// by [`FrameStream::grab`]; damaged frames are reported as errors.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FrameStatus {
-    Ok,
-    /// The device flagged the frame (e.g. sensor overrun) but its bytes are whole.
-    DeviceWarning,
-}
-
-/// Metadata that travels with every frame: the settings actually in effect
-/// when it was captured (not the ones last requested).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct FrameMeta {
-    /// Sequence number assigned by the camera (gaps mean lost frames).
-    pub seq: u64,
-    /// Capture time, microseconds since the stream started.
-    pub timestamp_us: u64,
-    /// Tube (or system) gain in effect, as the camera reports it.
-    pub gain: f64,
-    /// True when AGC was servoing the gain for this frame.
-    pub agc: bool,
-    /// Digitizer bit depth (8, 12 or 16); pixel values lie in `0..2^bits`.
-    pub bits: u8,
-    pub width: u32,
-    pub height: u32,
-    /// CRC-32C (Castagnoli) of the pixels as little-endian u16 bytes.
-    pub pixels_crc32c: u32,
-    pub status: FrameStatus,
-    /// The camera's black and saturation levels for this frame, when it
-    /// knows them (simulated cameras); `None` over the wire.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub levels: Option<DnLevels>,
-    /// Exposure this frame was taken with, µs, when the camera says
-    /// (simulated cameras; GenICam cameras with `ChunkExposureTime`). Left
-    /// out when `None`, so records of cameras that do not know it are as
-    /// before; the serial protocol does not carry it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub exposure_us: Option<f64>,
-    /// Fraction of the exposure the photocathode was gated on for this
-    /// frame (configured duty × the tube's autogating), when the camera
-    /// has a gated photocathode and says (simulated cameras; gloam's GigE
-    /// device's `ChunkGateDuty`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gate_duty: Option<f64>,
-}
-
-/// A camera's output levels at the settings of one frame, DN.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DnLevels {
-    /// Output with no light.
-    pub black_dn: f64,
-    /// Where the output saturates (full well, video clip or top code).
-    pub saturation_dn: f64,
-    /// Pixels at or above this count as saturated.
-    pub saturated_at_dn: f64,
-    /// The camera's mean conversion at this frame's gain, photoelectrons
-    /// per DN (1/K of photon transfer; FITS `GAIN` as astropy and ccdproc
-    /// read it), when it knows it (simulated cameras). Left out when
-    /// `None`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub electrons_per_dn: Option<f64>,
-}
-
-/// One digitised frame, as a grabber hands it out: row-major `height ×
-/// width` digital counts with the settings in effect. The one frame type a
-/// grabbed frame is, whichever camera or link it came from.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Frame {
-    pub meta: FrameMeta,
-    pub pixels: Vec<u16>,
-}
+pub use gloam_io::frame::{DnLevels, Frame, FrameMeta, FrameStatus};
 
 /// What a calibration source presents to the camera.
 ///

@@ -1,7 +1,9 @@
 //! `frames.jsonl`, the log beside a run's frames: one JSON object per
-//! line, one line per frame written. The one writer ([`FrameLog`]) and
-//! the one reader ([`lines`], [`find`]) of the file, so its name, its
-//! line numbering and its lookup by file and page are defined once.
+//! line, one line per frame written. Its one record ([`FrameRecord`],
+//! with where the counts are stored, [`FrameStorage`], and a sequence's
+//! [`SequenceFrame`]), its one writer ([`FrameLog`]) and its one reader
+//! ([`lines`], [`find`]), so its name, its fields, its line numbering and
+//! its lookup by file and page are defined once.
 //!
 //! The reader hands on each line as JSON ([`FrameLine`]): a log may be
 //! written by an older gloam or by hand with only some fields (`file` and
@@ -15,12 +17,207 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use serde_json::Value;
 
+use crate::frame::{Frame, FrameStatus, SaturatingStage, SensorMeta, mean_dn, saturated_fraction};
+
 /// The log's file name, beside the frames it lists.
 pub const FRAMES_JSONL: &str = "frames.jsonl";
 
 /// The `frames.jsonl` beside a frame file (in its directory).
 pub fn beside(frame: &Path) -> PathBuf {
     frame.parent().unwrap_or(Path::new(".")).join(FRAMES_JSONL)
+}
+
+/// One line of `frames.jsonl`: the one record every command writes
+/// (`capture`, `render --sensor`, `sequence`, the calibration flows, a
+/// sweep's tasks).
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRecord {
+    pub index: u64,
+    pub file: String,
+    pub seq: u64,
+    /// Device clock, µs since the stream started.
+    pub timestamp: u64,
+    pub gain: f64,
+    pub agc: bool,
+    pub bits: u8,
+    pub width: u32,
+    pub height: u32,
+    pub pixels_crc32c: u32,
+    pub status: FrameStatus,
+    pub mean_dn: f64,
+    /// Fraction of pixels at or above `saturated_at_dn`.
+    pub saturated_fraction: f64,
+    /// The camera's saturated level when it reports one (simulated
+    /// cameras), else the top code 2^bits − 1.
+    pub saturated_at_dn: f64,
+    /// The camera's black level (no light) at this frame's gain, DN, when
+    /// it reports one (simulated cameras).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub black_dn: Option<f64>,
+    /// The camera's mean conversion at this frame's gain, photoelectrons
+    /// per DN (1/K of photon transfer: FITS `GAIN`), when it knows it
+    /// (simulated cameras; not real cameras over a link).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub electrons_per_dn: Option<f64>,
+    /// The ND filter's optical density and the photocathode's gate duty
+    /// cycle as configured (before the tube's ABC), for simulated cameras.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nd_density: Option<f64>,
+    /// For a grabbed frame, the gate duty in effect (configured duty ×
+    /// the tube's autogating), when the camera reports it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gate_duty: Option<f64>,
+    /// Exposure of a grabbed frame, µs, when the camera reports it (an
+    /// in-process render has it in `sensor.exposure_s`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exposure_us: Option<f64>,
+    /// The stage whose clip the saturated pixels hit (`ccd-full-well`,
+    /// `video-clip` or `digitizer-rail`), when the camera reports it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saturated_by: Option<SaturatingStage>,
+    /// Fraction of pixels the MCP compressed by more than 10 % (soft, not
+    /// saturated: no information lost), when the camera reports it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mcp_compressed_fraction: Option<f64>,
+    /// Exposure warnings for this frame (also printed on stderr).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+    /// The simulated camera's own figures, when the frame came from one
+    /// in process.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<SensorMeta>,
+    /// How the counts sit in `file` (format, shift, TIFF page); set by
+    /// the writer of the frame file (`gloam_pipeline`'s `FrameWriter`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stored: Option<FrameStorage>,
+    /// The frame's time and light-group weights, in a sequence
+    /// (`gloam sequence`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sequence: Option<SequenceFrame>,
+}
+
+impl FrameRecord {
+    /// The record of a grabbed frame, with its exposure figures.
+    pub fn of_grab(index: u64, file: String, f: &Frame, warnings: Vec<String>) -> Self {
+        let top = f64::from((1u32 << f.meta.bits.min(16)) - 1);
+        let saturated_at_dn = f.meta.levels.map_or(top, |l| l.saturated_at_dn);
+        Self {
+            index,
+            file,
+            seq: f.meta.seq,
+            timestamp: f.meta.timestamp_us,
+            gain: f.meta.gain,
+            agc: f.meta.agc,
+            bits: f.meta.bits,
+            width: f.meta.width,
+            height: f.meta.height,
+            pixels_crc32c: f.meta.pixels_crc32c,
+            status: f.meta.status,
+            mean_dn: mean_dn(&f.pixels),
+            saturated_fraction: saturated_fraction(&f.pixels, saturated_at_dn),
+            saturated_at_dn,
+            black_dn: f.meta.levels.map(|l| l.black_dn),
+            electrons_per_dn: f.meta.levels.and_then(|l| l.electrons_per_dn),
+            nd_density: None,
+            gate_duty: f.meta.gate_duty,
+            exposure_us: f.meta.exposure_us,
+            saturated_by: None,
+            mcp_compressed_fraction: None,
+            warnings,
+            sensor: None,
+            stored: None,
+            sequence: None,
+        }
+    }
+}
+
+/// How frames are stored (`--frame-format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameFormat {
+    #[default]
+    Png,
+    Fits,
+    Tiff,
+}
+
+impl FrameFormat {
+    /// The names (`--frame-format`), shared with the readers.
+    pub const NAMES: [&'static str; 3] = ["png", "fits", "tiff"];
+
+    /// The file frame `index` is stored in (all frames share one TIFF).
+    pub fn file_name(self, index: u64) -> String {
+        match self {
+            Self::Png => format!("frame-{index:06}.png"),
+            Self::Fits => format!("frame-{index:06}.fits"),
+            Self::Tiff => TIFF_STACK.to_string(),
+        }
+    }
+}
+
+/// The multi-page TIFF of a capture.
+pub const TIFF_STACK: &str = "frames.tiff";
+
+/// A frame format name that is none of [`FrameFormat::NAMES`].
+#[derive(Debug, thiserror::Error)]
+#[error("frame format '{0}' is none of png, fits, tiff")]
+pub struct UnknownFrameFormat(pub String);
+
+impl std::str::FromStr for FrameFormat {
+    type Err = UnknownFrameFormat;
+    fn from_str(s: &str) -> Result<Self, UnknownFrameFormat> {
+        match s {
+            "png" => Ok(Self::Png),
+            "fits" => Ok(Self::Fits),
+            "tiff" => Ok(Self::Tiff),
+            other => Err(UnknownFrameFormat(other.to_string())),
+        }
+    }
+}
+/// How one frame's counts sit in its file (`frames.jsonl`'s `stored`):
+/// counts = stored sample >> `sample_shift` (FITS after BZERO).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FrameStorage {
+    pub format: FrameFormat,
+    pub sample_shift: u8,
+    /// The page of `frames.tiff` (from 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub page: Option<u64>,
+}
+
+/// One frame's place in a sequence (`gloam sequence`; its line's
+/// `sequence`).
+#[derive(Clone, Debug, Serialize)]
+pub struct SequenceFrame {
+    /// Start of the frame's exposure window, s from the sequence's start.
+    pub time_s: f64,
+    /// The window's length, s (the camera's exposure time).
+    pub window_s: f64,
+    /// Each light group's mean relative intensity over the window.
+    pub light_groups: std::collections::BTreeMap<String, f64>,
+    /// With a `[sky]` clock: the sky at mid-exposure.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky: Option<SkyAtFrame>,
+    /// With a `[sky]` clock: the frame's median count above black, DN
+    /// (what a median-metering AGC holds; the record's `mean_dn` beside).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub median_above_black_dn: Option<f64>,
+}
+
+/// The sky a frame saw (a sequence with a `[sky]` clock).
+#[derive(Clone, Debug, Serialize)]
+pub struct SkyAtFrame {
+    /// The sky's instant at mid-exposure, ISO 8601.
+    pub utc: String,
+    /// The Sun's geometric elevation then, degrees (linear between the
+    /// renders' instants).
+    pub sun_elevation_deg: f64,
+    /// The site's horizontal illuminance the photocells see, lux.
+    pub horizontal_lux: f64,
+    /// The two sky renders this frame's image lies between and how far
+    /// towards the second (each pixel `a^{1−f} b^f`).
+    pub renders: [usize; 2],
+    pub fraction: f64,
 }
 
 /// Why `frames.jsonl` was not written, naming the file.

@@ -11,6 +11,7 @@ macro_rules! eprintln {
 
 mod atomic;
 pub mod fits;
+pub mod frame;
 pub mod frames;
 mod hash;
 mod input;

@@ -19,67 +19,14 @@
 //! Beside them every capture writes `frames-preview.png`, an 8-bit
 //! contact sheet of up to 16 frames picked evenly ([`ContactSheet`]).
 
-use serde::Serialize;
-
 use crate::output::OutputError;
 
-/// How frames are stored (`--frame-format`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FrameFormat {
-    #[default]
-    Png,
-    Fits,
-    Tiff,
-}
-
-impl FrameFormat {
-    /// The names, shared with the readers (`gloam_calib::io`).
-    pub const NAMES: [&'static str; 3] = gloam_calib::io::FRAME_FORMAT_NAMES;
-
-    /// The file frame `index` is stored in (all frames share one TIFF).
-    pub fn file_name(self, index: u64) -> String {
-        match self {
-            Self::Png => format!("frame-{index:06}.png"),
-            Self::Fits => format!("frame-{index:06}.fits"),
-            Self::Tiff => TIFF_STACK.to_string(),
-        }
-    }
-}
-
-/// The multi-page TIFF of a capture.
-pub const TIFF_STACK: &str = "frames.tiff";
+pub use gloam_io::frames::{FrameFormat, TIFF_STACK, UnknownFrameFormat};
 
 /// The contact sheet of a capture.
 pub const PREVIEW: &str = "frames-preview.png";
 
-/// A frame format name that is none of [`FrameFormat::NAMES`].
-#[derive(Debug, thiserror::Error)]
-#[error("frame format '{0}' is none of png, fits, tiff")]
-pub struct UnknownFrameFormat(pub String);
-
-impl std::str::FromStr for FrameFormat {
-    type Err = UnknownFrameFormat;
-    fn from_str(s: &str) -> Result<Self, UnknownFrameFormat> {
-        match s {
-            "png" => Ok(Self::Png),
-            "fits" => Ok(Self::Fits),
-            "tiff" => Ok(Self::Tiff),
-            other => Err(UnknownFrameFormat(other.to_string())),
-        }
-    }
-}
-
-/// How one frame's counts sit in its file (`frames.jsonl`'s `stored`):
-/// counts = stored sample >> `sample_shift` (FITS after BZERO).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FrameStorage {
-    pub format: FrameFormat,
-    pub sample_shift: u8,
-    /// The page of `frames.tiff` (from 0).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub page: Option<u64>,
-}
+pub use gloam_io::frames::FrameStorage;
 
 /// The longest side of one frame in the contact sheet, pixels (larger
 /// frames are box-averaged down by a whole factor).

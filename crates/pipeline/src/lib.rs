@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod camera_goal;
+pub mod capture;
 pub mod capture_request;
 #[cfg(feature = "cli")]
 pub mod cli;

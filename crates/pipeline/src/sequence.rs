@@ -17,7 +17,6 @@
 //! first frame to its last and then dropped.
 
 use std::cell::RefCell;
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -127,54 +126,20 @@ pub fn mix(layers: &[Array2<f64>], weights: &[f64], out: &mut Array2<f64>) {
     gloam_simcam::mix_layers(layers, weights, out);
 }
 
-/// One frame's place in the sequence (added to its `frames.jsonl` line).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct SequenceFrame {
-    /// Start of the frame's exposure window, s from the sequence's start.
-    pub time_s: f64,
-    /// The window's length, s (the camera's exposure time).
-    pub window_s: f64,
-    /// Each light group's mean relative intensity over the window.
-    pub light_groups: BTreeMap<String, f64>,
-    /// With a `[sky]` clock: the sky at mid-exposure.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sky: Option<SkyAtFrame>,
-    /// With a `[sky]` clock: the frame's median count above black, DN
-    /// (what a median-metering AGC holds; the record's `mean_dn` beside).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub median_above_black_dn: Option<f64>,
-}
+pub use gloam_io::frames::{SequenceFrame, SkyAtFrame};
 
-/// The sky a frame saw (a sequence with a `[sky]` clock).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct SkyAtFrame {
-    /// The sky's instant at mid-exposure, ISO 8601.
-    pub utc: String,
-    /// The Sun's geometric elevation then, degrees (linear between the
-    /// renders' instants).
-    pub sun_elevation_deg: f64,
-    /// The site's horizontal illuminance the photocells see, lux.
-    pub horizontal_lux: f64,
-    /// The two sky renders this frame's image lies between and how far
-    /// towards the second (each pixel `a^{1−f} b^f`).
-    pub renders: [usize; 2],
-    pub fraction: f64,
-}
-
-impl SkyAtFrame {
-    /// The sky at sequence time `t` s, if the sequence has a clock.
-    pub fn at(sequence: &Sequence, t: f64) -> Option<Self> {
-        let (a, b, f) = sequence.sky_bracket(t)?;
-        let clock = sequence.sky.as_ref()?;
-        let sun = &clock.key_sun_deg;
-        Some(Self {
-            utc: sequence.sky_instant_at(t)?.to_iso8601(),
-            sun_elevation_deg: sun[a] + (sun[b] - sun[a]) * f,
-            horizontal_lux: sequence.sky_lux_at(t)?,
-            renders: [a, b],
-            fraction: f,
-        })
-    }
+/// The sky at sequence time `t` s, if the sequence has a clock.
+pub fn sky_at_frame(sequence: &Sequence, t: f64) -> Option<SkyAtFrame> {
+    let (a, b, f) = sequence.sky_bracket(t)?;
+    let clock = sequence.sky.as_ref()?;
+    let sun = &clock.key_sun_deg;
+    Some(SkyAtFrame {
+        utc: sequence.sky_instant_at(t)?.to_iso8601(),
+        sun_elevation_deg: sun[a] + (sun[b] - sun[a]) * f,
+        horizontal_lux: sequence.sky_lux_at(t)?,
+        renders: [a, b],
+        fraction: f,
+    })
 }
 
 /// What a captured sequence tells its user and records.
@@ -794,7 +759,7 @@ fn capture_with(
             time_s: f.start_s,
             window_s: f.window_s,
             light_groups: groups.iter().cloned().zip(weights).collect(),
-            sky: SkyAtFrame::at(sequence, f.mid_s()),
+            sky: sky_at_frame(sequence, f.mid_s()),
             median_above_black_dn: None,
         });
         *mix_s.borrow_mut() += t.elapsed().as_secs_f64();

@@ -3,7 +3,6 @@
 
 use ndarray::{Array2, ArrayView2, ArrayView3, Axis};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use gloam_spectra::Spectrum;
 
@@ -16,41 +15,7 @@ use crate::stages::bright::SaturationAccount;
 use crate::stages::list::{InFlight, Stages};
 use crate::stages::{Chain, FrameNoise, Tube};
 
-/// Metadata of one frame: the settings actually in effect when it was taken.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct FrameMeta {
-    /// Frame number since the camera was created or reset.
-    pub seq: u64,
-    /// Start of the frame, s since the stream started (seq / frame rate).
-    pub time_s: f64,
-    pub exposure_s: f64,
-    /// Tube gain (MCP gain, EB gain or analogue gain) for this frame.
-    pub gain_in_effect: f64,
-    /// MCP plate voltage for this frame (ICCD).
-    pub mcp_voltage_v: Option<f64>,
-    /// Control voltage (MCP or EBCCD accelerating voltage).
-    pub control_voltage_v: Option<f64>,
-    /// True when AGC (not a fixed or override gain) set this frame's gain.
-    pub agc_enabled: bool,
-    pub agc_state: AgcState,
-    pub bits: u8,
-    pub width: usize,
-    pub height: usize,
-    /// Mean DN of the frame.
-    pub mean_dn: f64,
-    /// Fraction of pixels at saturation (within 3 σ of read noise, at least
-    /// 1 DN, of [`crate::Chain::saturation_dn`]).
-    pub saturated_fraction: f64,
-    /// Temporal noise on.
-    pub noise: bool,
-    /// Which stage saturated, MCP compression and the tube's brightness
-    /// control ([`crate::stages::bright`]).
-    #[serde(default)]
-    pub saturation: SaturationAccount,
-    /// The frame's median DN, when a median-metering AGC measured it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub median_dn: Option<f64>,
-}
+pub use gloam_io::frame::SensorMeta;
 
 /// One digitised frame: `height × width` digital counts, with the
 /// settings in effect — what the camera model's digitizer hands on (a
@@ -58,7 +23,7 @@ pub struct FrameMeta {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DigitizedFrame {
     pub pixels: Array2<u16>,
-    pub meta: FrameMeta,
+    pub meta: SensorMeta,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -419,7 +384,7 @@ impl Camera {
         let median_dn = agc
             .filter(|a| a.agc.metering == crate::config::Metering::Median)
             .map(|_| crate::stages::agc::median_dn(&f.pixels));
-        let meta = FrameMeta {
+        let meta = SensorMeta {
             seq: self.seq,
             time_s: self.seq as f64 / chain.config.timing.frame_rate_hz,
             exposure_s: chain.config.timing.exposure_s,

@@ -2,7 +2,7 @@
 //! and the warnings a lab would want before trusting a frame (clipped
 //! highlights, a mean near full scale, a mean in the bottom few DN).
 //!
-//! One definition for every capture path: the camera's [`crate::FrameMeta`],
+//! One definition for every capture path: the camera's [`crate::SensorMeta`],
 //! `gloam capture` over any grabber and `gloam render --sensor`.
 
 /// Warn when more than this fraction of a frame's pixels are saturated (1 %).
@@ -22,25 +22,7 @@ pub fn saturated_threshold_dn(saturation_dn: f64, read_noise_dn: f64) -> f64 {
     saturation_dn - (3.0 * read_noise_dn).max(1.0)
 }
 
-/// Fraction of `pixels` at or above `threshold_dn` (0 for no pixels).
-pub fn saturated_fraction(pixels: &[u16], threshold_dn: f64) -> f64 {
-    if pixels.is_empty() {
-        return 0.0;
-    }
-    let n = pixels
-        .iter()
-        .filter(|&&p| f64::from(p) >= threshold_dn)
-        .count();
-    n as f64 / pixels.len() as f64
-}
-
-/// Mean DN of `pixels` (0 for no pixels).
-pub fn mean_dn(pixels: &[u16]) -> f64 {
-    if pixels.is_empty() {
-        return 0.0;
-    }
-    pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / pixels.len() as f64
-}
+pub use gloam_io::frame::{mean_dn, saturated_fraction};
 
 /// What an exposure warning is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]

@@ -51,21 +51,7 @@ pub fn luminous_efficacy_lm_w(spectrum: &Spectrum) -> f64 {
     KM_PHOTOPIC_LM_W * spectrum.integrate_weighted(library::photopic_v()) / total
 }
 
-/// What the loop sets for a frame.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct AbcSetting {
-    /// Multiplier on the MCP gain (lower plate voltage), ≤ 1.
-    pub gain_factor: f64,
-    /// Multiplier on the photocathode's duty cycle (autogating), ≤ 1.
-    pub duty_factor: f64,
-}
-
-impl AbcSetting {
-    pub const OPEN: Self = Self {
-        gain_factor: 1.0,
-        duty_factor: 1.0,
-    };
-}
+pub use gloam_io::frame::AbcSetting;
 
 impl Abc {
     /// From the screen: `light_ev_per_e` of light per electron at

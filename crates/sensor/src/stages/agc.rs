@@ -2,27 +2,9 @@
 //! servoing the frame's mean signal to a set-point, with bright-source
 //! protection.
 
-use serde::{Deserialize, Serialize};
-
 use crate::config::Agc;
 
-/// What the gain loop is doing for a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum AgcState {
-    /// No AGC: the configured fixed gain.
-    Off,
-    /// A manual override fixes the gain.
-    Override,
-    /// Servoing toward the set-point.
-    Tracking,
-    /// Wants more gain than its upper limit allows.
-    AtMaxGain,
-    /// Wants less gain than its lower limit allows.
-    AtMinGain,
-    /// Bright-source protection is cutting the gain.
-    Protecting,
-}
+pub use gloam_io::frame::AgcState;
 
 /// The loop of `agc` within the hardware gain limits, at one frame per
 /// `frame_period_s`.

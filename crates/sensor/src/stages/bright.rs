@@ -28,60 +28,13 @@
 //! saturation is modelled (P43 is linear far beyond the MCP's current
 //! limit).
 
-use serde::{Deserialize, Serialize};
-
-use super::abc::{Abc, AbcSetting, luminous_efficacy_lm_w};
+use super::abc::{Abc, luminous_efficacy_lm_w};
 use super::halo::Halo;
 use super::mcp_depletion::Depletion;
 use super::phosphor::Screen;
 use super::{Chain, Tube};
 
-/// The stage whose limit sets a frame's saturation level.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SaturatingStage {
-    CcdFullWell,
-    VideoClip,
-    DigitizerRail,
-}
-
-/// Where a frame saturated and how the tube's bright-source stages acted.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SaturationAccount {
-    /// Fraction of pixels saturated (information lost).
-    pub saturated_fraction: f64,
-    /// The stage that clipped them.
-    pub saturated_by: SaturatingStage,
-    /// A bright source was in view (the halo and pore depletion ran).
-    pub bright_source_in_view: bool,
-    /// Input max over mean (photoelectrons after the optics).
-    pub input_max_over_mean: f64,
-    /// Fraction of pixels the MCP's pore depletion compressed by > 10 %.
-    pub mcp_compressed_fraction: f64,
-    /// Share of the output the halo moved (0 when it did not run).
-    pub halo_fraction: f64,
-    /// The ABC's cut in effect for this frame.
-    pub abc: AbcSetting,
-    /// The ABC wanted more cut than the MCP and the gate allow: the
-    /// cathode-current limit is reached and the frame is brighter than the
-    /// tube can regulate.
-    pub abc_out_of_range: bool,
-}
-
-impl Default for SaturationAccount {
-    fn default() -> Self {
-        Self {
-            saturated_fraction: 0.0,
-            saturated_by: SaturatingStage::DigitizerRail,
-            bright_source_in_view: false,
-            input_max_over_mean: 0.0,
-            mcp_compressed_fraction: 0.0,
-            halo_fraction: 0.0,
-            abc: AbcSetting::OPEN,
-            abc_out_of_range: false,
-        }
-    }
-}
+pub use gloam_io::frame::{SaturatingStage, SaturationAccount};
 
 /// The bright-source stages of an ICCD.
 #[derive(Clone, Debug)]

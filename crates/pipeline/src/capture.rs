@@ -1,0 +1,507 @@
+//! The capture of a render through a simulated camera: the options
+//! checked before the render, the camera run frame by frame with its
+//! automatic exposure and fit, each frame's `frames.jsonl` record, and the
+//! saturation summary `report.json` gets. [`crate::frames`] writes the
+//! frames.
+
+use std::path::{Path, PathBuf};
+
+use gloam_grabber::FrameStatus;
+use gloam_sensor::Camera;
+use ndarray::Array2;
+use serde::Serialize;
+
+use crate::frame_files::FrameFormat;
+use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
+use crate::output::{OutputError, write_atomic};
+
+/// The record of frame `index` of an in-process simulated `camera`
+/// (just captured, so its chain state is the frame's), with its
+/// exposure warnings; `pixels` are the frame's counts in row order.
+pub fn record_of_sensor_frame(
+    index: u64,
+    file: String,
+    frame: &gloam_sensor::DigitizedFrame,
+    pixels: &[u16],
+    camera: &Camera,
+) -> FrameRecord {
+    let (h, w) = frame.pixels.dim();
+    let m = &frame.meta;
+    let g = m.gain_in_effect;
+    let chain = camera.chain();
+    let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
+    let warnings =
+        gloam_sensor::levels::exposure_warnings(m.mean_dn, m.saturated_fraction, Some(black), sat);
+    FrameRecord {
+        index,
+        file,
+        seq: m.seq,
+        timestamp: (m.time_s * 1e6).round() as u64,
+        gain: g,
+        agc: m.agc_enabled,
+        bits: m.bits,
+        width: w as u32,
+        height: h as u32,
+        pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
+        status: FrameStatus::Ok,
+        mean_dn: m.mean_dn,
+        saturated_fraction: m.saturated_fraction,
+        saturated_at_dn: chain.saturated_threshold_dn(g),
+        black_dn: Some(black),
+        electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
+        nd_density: Some(camera.config().optics.nd_density),
+        // The duty in effect: the configured gate times the tube's and
+        // the AGC's cuts (as the simulated grabber records it).
+        gate_duty: (camera.config().photocathode.as_ref())
+            .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
+        exposure_us: None,
+        saturated_by: Some(m.saturation.saturated_by),
+        mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
+        warnings,
+        sensor: Some(m.clone()),
+        stored: None,
+        sequence: None,
+    }
+}
+
+/// Why a capture's options are refused.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureOptionsError {
+    #[error("--frames must be at least 1")]
+    NoFrames,
+    #[error("loading sensor '{sensor}'")]
+    Sensor {
+        sensor: String,
+        #[source]
+        source: gloam_sensor::ConfigError,
+    },
+    #[error("--gain")]
+    Gain(#[source] gloam_sensor::CaptureError),
+}
+
+/// Checks the sensor options of a capture (the sensor loads, `--gain` is
+/// in its range, at least one frame) before anything expensive runs.
+pub fn check_options(
+    sensor: &str,
+    gain: Option<f64>,
+    frames: u32,
+) -> Result<(), CaptureOptionsError> {
+    if frames < 1 {
+        return Err(CaptureOptionsError::NoFrames);
+    }
+    let mut camera =
+        Camera::from_preset_or_file(sensor).map_err(|source| CaptureOptionsError::Sensor {
+            sensor: sensor.to_string(),
+            source,
+        })?;
+    if let Some(g) = gain {
+        camera
+            .set_override_gain(Some(g))
+            .map_err(CaptureOptionsError::Gain)?;
+    }
+    Ok(())
+}
+
+/// Why a capture stopped, naming the step.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureError {
+    #[error(transparent)]
+    Options(#[from] CaptureOptionsError),
+    #[error(transparent)]
+    Exposure(#[from] crate::exposure::ExposureError),
+    #[error(transparent)]
+    Camera(#[from] gloam_sensor::ConfigError),
+    #[error(transparent)]
+    Gain(gloam_sensor::CaptureError),
+    #[error("capturing frame {index}")]
+    Frame {
+        index: u32,
+        #[source]
+        source: gloam_sensor::CaptureError,
+    },
+    #[error(transparent)]
+    Write(#[from] FrameLogError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    #[error("reading {}", path.display())]
+    Report {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("encoding the capture's report")]
+    Encode(#[source] serde_json::Error),
+}
+
+/// Adds `sensor_capture` (per-frame mean, saturated fraction, warnings) to
+/// the render's `report.json` in `out`, when there is one.
+fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
+    let path = out.join("report.json");
+    // The report is this run's output, not an input.
+    let Ok(text) =
+        gloam_io::unrecorded(|| gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES))
+    else {
+        return Ok(());
+    };
+    let mut report: serde_json::Value =
+        serde_json::from_str(&text).map_err(|source| CaptureError::Report {
+            path: path.clone(),
+            source,
+        })?;
+    if let Some(obj) = report.as_object_mut() {
+        obj.insert("sensor_capture".into(), capture);
+        let text = serde_json::to_string_pretty(&report).map_err(CaptureError::Encode)?;
+        write_atomic(&path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// What to capture and how.
+pub struct FrameCapture<'a> {
+    pub sensor: &'a str,
+    pub frames: u32,
+    pub gain: Option<f64>,
+    pub agc: bool,
+    pub noise: bool,
+    pub seed: u64,
+    /// `--exposure auto`: choose gain, gate or exposure time and ND for
+    /// this scene first ([`crate::exposure`]); the gain is then fixed.
+    pub auto_exposure: Option<crate::exposure::ExposureTarget>,
+    /// How [`FrameCapture::run`] stores the frames (`--frame-format`).
+    pub frame_format: FrameFormat,
+}
+
+/// One frame of a capture, as the camera made it.
+pub struct CapturedFrame {
+    /// Its line of `frames.jsonl` (file name, size, levels, warnings).
+    pub record: FrameRecord,
+    /// Its counts in row order.
+    pub pixels: Vec<u16>,
+    /// The camera's black level at the frame's gain, DN.
+    pub black_dn: f64,
+}
+
+/// What a capture found besides its frames: what to tell its user and
+/// what to record.
+#[derive(Clone, Debug)]
+pub struct Captured {
+    /// Lines for the user: the automatic exposure's choice and each kind
+    /// of exposure warning once (the front end prints them).
+    pub notes: Vec<String>,
+    /// `report.json`'s `sensor_capture`: the exposure chosen, per-frame
+    /// levels and the saturation summary.
+    pub report: serde_json::Value,
+}
+
+impl FrameCapture<'_> {
+    /// [`check_options`] of this capture: refuses a sensor that does not
+    /// load, a gain outside its range or no frames, before the render.
+    pub fn check(&self) -> Result<(), CaptureOptionsError> {
+        check_options(self.sensor, self.gain, self.frames)
+    }
+
+    /// Captures `frames` frames of the detected-electron radiance
+    /// `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]), handing
+    /// each to `on_frame` as it is made (so a long capture holds one frame
+    /// at a time); writes and prints nothing. [`FrameCapture::run`] writes
+    /// them; the sweep also keeps their pixels for its noise figures.
+    ///
+    /// [`take_detected_band`]: crate::take_detected_band
+    pub fn capture(
+        &self,
+        detected: &Array2<f64>,
+        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+    ) -> Result<Captured, CaptureError> {
+        self.capture_changing(detected, None, &mut |_| Ok(()), on_frame)
+    }
+
+    /// [`FrameCapture::capture`] of a scene that changes: frame `i` sees
+    /// `image(i)` (a sequence's mix of light-group layers), the camera's
+    /// AGC and lag running across frames; `configure` adjusts the camera
+    /// first (a sequence sets its frame rate). The fit and any automatic
+    /// exposure judge `first`, the first frame's image.
+    pub fn capture_changing(
+        &self,
+        first: &Array2<f64>,
+        image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
+        configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+    ) -> Result<Captured, CaptureError> {
+        let mut config = gloam_sensor::load_preset_or_file(self.sensor).map_err(|source| {
+            CaptureOptionsError::Sensor {
+                sensor: self.sensor.to_string(),
+                source,
+            }
+        })?;
+        configure(&mut config)?;
+        self.capture_configured(config, first, image, on_frame)
+    }
+
+    /// [`FrameCapture::capture_changing`] with the sensor already loaded
+    /// (from `self.sensor`) and configured: a caller that needs the
+    /// configuration before the first image (a sequence's exposure
+    /// window) loads it once.
+    pub fn capture_configured(
+        &self,
+        mut config: gloam_sensor::SensorConfig,
+        first: &Array2<f64>,
+        mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
+        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+    ) -> Result<Captured, CaptureError> {
+        let detected = first;
+        if self.frames < 1 {
+            return Err(CaptureOptionsError::NoFrames.into());
+        }
+        config.noise.seed = self.seed;
+        let mut notes = Vec::new();
+        let exposure = match &self.auto_exposure {
+            Some(target) => {
+                let c = crate::exposure::choose(&config, detected, target)?;
+                crate::exposure::apply(&mut config, &c);
+                notes.push(format!(
+                    "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
+                    c.gain,
+                    c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
+                    c.exposure_s,
+                    c.nd_density,
+                    c.target.percentile,
+                    c.percentile_dn,
+                    c.median_dn,
+                    c.note
+                ));
+                if c.stops_out_of_range != 0.0 {
+                    notes.push(format!("warning: {}", c.note));
+                }
+                Some(c)
+            }
+            None => None,
+        };
+        // Before the first frame: can this camera see this scene at any
+        // gain it reaches? (`--exposure auto` has already chosen its fit.)
+        let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
+        let fit = crate::fit::predict(&config, detected, start_gain)?;
+        let fixable_by_agc = matches!(
+            fit.verdict,
+            crate::fit::FitVerdict::SaturatesAtThisGain
+                | crate::fit::FitVerdict::InTheNoiseAtThisGain
+        ) && self.agc;
+        if self.auto_exposure.is_none() && !fit.note.is_empty() && !fixable_by_agc {
+            notes.push(format!("warning: {}", fit.note));
+        }
+        let mut camera = Camera::new(config)?;
+        camera.set_noise(self.noise);
+        if let Some(g) = start_gain {
+            camera
+                .set_override_gain(Some(g))
+                .map_err(CaptureError::Gain)?;
+        }
+        if self.agc {
+            camera.set_agc(true);
+        }
+        tracing::debug!(sensor = self.sensor, frames = self.frames, "capturing");
+        let mut warned = std::collections::BTreeSet::new();
+        let mut per_frame = Vec::new();
+        let mut summary = SaturationSummary::default();
+        for i in 0..self.frames {
+            let changed = image.as_mut().map(|f| f(i));
+            let frame = camera
+                .capture_detected(changed.as_ref().unwrap_or(detected).view())
+                .map_err(|source| CaptureError::Frame { index: i, source })?;
+            let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
+            let file = self.frame_format.file_name(u64::from(i));
+            let m = &frame.meta;
+            let g = m.gain_in_effect;
+            let chain = camera.chain();
+            let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
+            let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
+            let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
+            let rec = record_of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
+            // The record's warnings are these kinds' messages, in order.
+            for (w, k) in rec.warnings.iter().zip(&kinds) {
+                if warned.insert(*k) {
+                    let by = match k {
+                        gloam_sensor::levels::WarningKind::Saturated => format!(
+                            " (clipped at the {})",
+                            stage_name(m.saturation.saturated_by)
+                        ),
+                        _ => String::new(),
+                    };
+                    notes.push(format!("warning: frame {i}: {w}{by}"));
+                }
+            }
+            let median = median_dn(&pixels);
+            per_frame.push(serde_json::json!({
+                "file": file,
+                "gain": g,
+                "mean_dn": m.mean_dn,
+                "median_dn": median,
+                "median_above_black_of_full_scale": (median - black) / chain.max_code,
+                "saturated_fraction": m.saturated_fraction,
+                "saturated_by": m.saturation.saturated_by,
+                "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
+                "bright_source_in_view": m.saturation.bright_source_in_view,
+                "warnings": kinds,
+            }));
+            summary.add(&m.saturation);
+            tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
+            on_frame(CapturedFrame {
+                record: rec,
+                pixels,
+                black_dn: black,
+            })?;
+        }
+        if summary.frames > 1 && summary.frames_over_warning > 0 {
+            notes.push(format!(
+                "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
+                summary.frames_over_warning,
+                summary.frames,
+                100.0 * gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                100.0 * summary.max_saturated_fraction,
+                100.0 * summary.mean_saturated_fraction
+            ));
+        }
+        let report = serde_json::json!({
+            "sensor": self.sensor,
+            "fit": fit,
+            "exposure": exposure,
+            "frames": per_frame,
+            "saturation": summary,
+            "thresholds": {
+                "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
+                "near_black_dn": gloam_sensor::levels::NEAR_BLACK_DN,
+            },
+        });
+        Ok(Captured { notes, report })
+    }
+
+    /// [`FrameCapture::capture`] into `out`: the frames in
+    /// `frame_format` and `frames.jsonl` as frames are made, then
+    /// `frames-preview.png`, and `sensor_capture` added to
+    /// `out/report.json` when there is one; FITS headers carry
+    /// `provenance` and date frames from `scene_utc` (the scene's
+    /// `[sky] utc`) when given. Returns what its user should be told, as
+    /// lines; the front end prints them.
+    pub fn run(
+        &self,
+        detected: &Array2<f64>,
+        out: &Path,
+        provenance: Option<&crate::Provenance>,
+        scene_utc: Option<gloam_sky::time::UtcInstant>,
+    ) -> Result<Vec<String>, CaptureError> {
+        let mut writer = None;
+        let context = FrameContext {
+            camera: Some(self.sensor.to_string()),
+            seed: Some(self.seed),
+            provenance: provenance.cloned(),
+            scene_utc,
+            ..FrameContext::default()
+        };
+        let captured = self.capture(detected, &mut |f| {
+            let w = match &mut writer {
+                Some(w) => w,
+                None => writer.insert(FrameWriter::with_format(
+                    out,
+                    self.frame_format,
+                    context.clone(),
+                )?),
+            };
+            Ok(w.write(&f.record, &f.pixels)?)
+        })?;
+        if let Some(w) = writer {
+            w.finish()?;
+        }
+        record_in_report(out, captured.report)?;
+        Ok(captured.notes)
+    }
+}
+
+/// The median count of a frame (0 for no pixels), by a histogram of the
+/// 16-bit codes: one pass, no sort.
+fn median_dn(pixels: &[u16]) -> f64 {
+    if pixels.is_empty() {
+        return 0.0;
+    }
+    let mut hist = vec![0u32; 1 << 16];
+    for &p in pixels {
+        hist[usize::from(p)] += 1;
+    }
+    let half = (pixels.len() as u64 - 1) / 2;
+    let mut seen = 0u64;
+    for (code, &n) in hist.iter().enumerate() {
+        seen += u64::from(n);
+        if seen > half {
+            return code as f64;
+        }
+    }
+    0.0
+}
+
+/// A stage's name in messages.
+fn stage_name(s: gloam_sensor::stages::bright::SaturatingStage) -> &'static str {
+    use gloam_sensor::stages::bright::SaturatingStage as S;
+    match s {
+        S::CcdFullWell => "CCD full well",
+        S::VideoClip => "analogue video clip",
+        S::DigitizerRail => "digitizer rail",
+    }
+}
+
+/// `report.json`'s summary of a capture's saturation: "saturated" is
+/// information lost (a clip at full well, video clip or digitizer rail);
+/// the MCP's soft compression is counted apart.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SaturationSummary {
+    pub frames: u64,
+    /// Worst and mean saturated fraction over the frames.
+    pub max_saturated_fraction: f64,
+    pub mean_saturated_fraction: f64,
+    /// Frames above the 1 % warning fraction.
+    pub frames_over_warning: u64,
+    /// The stages that clipped, with the frames each set the level in.
+    pub saturated_by: std::collections::BTreeMap<String, u64>,
+    /// Worst fraction of pixels the MCP compressed by more than 10 %.
+    pub max_mcp_compressed_fraction: f64,
+    /// Frames with a bright source in view (halo and pore depletion on).
+    pub bright_source_frames: u64,
+    /// Frames where the tube's ABC cut the gain or the gate.
+    pub abc_active_frames: u64,
+}
+
+impl SaturationSummary {
+    pub fn add(&mut self, s: &gloam_sensor::stages::bright::SaturationAccount) {
+        let n = self.frames as f64;
+        self.mean_saturated_fraction =
+            (self.mean_saturated_fraction * n + s.saturated_fraction) / (n + 1.0);
+        self.frames += 1;
+        self.max_saturated_fraction = self.max_saturated_fraction.max(s.saturated_fraction);
+        if s.saturated_fraction > gloam_sensor::levels::SATURATED_WARN_FRACTION {
+            self.frames_over_warning += 1;
+        }
+        if s.saturated_fraction > 0.0 {
+            let key = serde_json::to_value(s.saturated_by)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default();
+            *self.saturated_by.entry(key).or_default() += 1;
+        }
+        self.max_mcp_compressed_fraction = self
+            .max_mcp_compressed_fraction
+            .max(s.mcp_compressed_fraction);
+        self.bright_source_frames += u64::from(s.bright_source_in_view);
+        self.abc_active_frames += u64::from(s.abc.gain_factor < 1.0 || s.abc.duty_factor < 1.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The median is the lower middle count, found without sorting.
+    #[test]
+    fn median_is_the_middle_count() {
+        assert_eq!(median_dn(&[5, 1, 3, 4, 2]), 3.0);
+        assert_eq!(median_dn(&[4095, 0, 7, 9]), 7.0);
+        assert_eq!(median_dn(&[]), 0.0);
+    }
+}
