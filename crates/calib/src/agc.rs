@@ -125,41 +125,31 @@ pub fn agc_linearisation(
     let stairs = staircase(n);
     let total = 2 * stairs.len();
     let mut done = 0;
-    let mut lut_checked = false;
-    let mut run = |grabber: &mut dyn FrameGrabber,
-                   source: &mut dyn CalibrationSource,
-                   done: &mut usize|
-     -> Result<Vec<AgcSample>, CalibError> {
-        let mut out = Vec::new();
-        for (s, &lvl) in stairs.iter().enumerate() {
-            let lv = source.set_level(lvl)?;
-            grabber.present(&lv.stimulus)?;
-            for _ in 0..opts.frames_per_step {
-                let f = grab_good(grabber)?;
-                if let Some(lut) = lut.filter(|_| !lut_checked) {
-                    check_lut_fits_camera(lut, &grabber.describe(), f.meta.bits)?;
-                    lut_checked = true;
-                }
-                out.push(AgcSample {
-                    step: s,
-                    timestamp_us: f.meta.timestamp_us,
-                    band_radiance_w_m2_sr: lv.band_radiance_w_m2_sr,
-                    mean_dn: frame_mean(&f),
-                    gain: f.meta.gain,
-                });
-            }
-            *done += 1;
-            progress(*done, total);
-        }
-        Ok(out)
+    // The LUT is checked against the camera at the first frame.
+    let mut unchecked = lut;
+    let mut step_done = || {
+        done += 1;
+        progress(done, total);
     };
     if let Some(g) = opts.fixed_gain {
         grabber.set_gain(g)?;
     }
     crate::capture::agc_off(grabber)?;
-    let fixed = run(grabber, source, &mut done)?;
+    let fixed = run_staircase(
+        grabber,
+        source,
+        (&stairs, opts),
+        &mut unchecked,
+        &mut step_done,
+    )?;
     grabber.set_agc(true)?;
-    let agc = run(grabber, source, &mut done)?;
+    let agc = run_staircase(
+        grabber,
+        source,
+        (&stairs, opts),
+        &mut unchecked,
+        &mut step_done,
+    )?;
     crate::capture::agc_off(grabber)?;
 
     let per = opts.frames_per_step;
@@ -175,26 +165,10 @@ pub fn agc_linearisation(
     }
     let all_settled = steps.iter().all(|s| s.settled);
     if !all_settled && !opts.allow_unsettled {
-        let bad: Vec<usize> = steps
-            .iter()
-            .filter(|s| !s.settled)
-            .map(|s| s.step)
-            .collect();
-        return Err(CalibError::NotSettled(format!(
-            "the AGC gain was still moving by more than {:.1} % at the end of step(s) {bad:?} ({per} frames each): lengthen the steps (--frames) or check the AGC loop",
-            100.0 * opts.settle_tolerance
-        )));
+        return Err(not_settled(&steps, opts));
     }
     let (hg, hd, dspan) = hysteresis(&steps, n);
-    // Linearity of the overridden run.
-    let x: Vec<f64> = steps.iter().map(|s| s.band_radiance_w_m2_sr).collect();
-    let y: Vec<f64> = steps.iter().map(|s| s.fixed_mean_dn).collect();
-    let fit = weighted_linear_fit(&x, &y, &vec![1.0; x.len()])?;
-    let lin = if dspan > 0.0 {
-        fit.residuals.iter().map(|r| r.abs()).fold(0.0, f64::max) / dspan * 100.0
-    } else {
-        0.0
-    };
+    let lin = overridden_linearity(&steps, dspan)?;
     // Linearisation through the LUT.
     let gains = agc.iter().map(|x| x.gain);
     let agc_gain_range = [
@@ -211,14 +185,8 @@ pub fn agc_linearisation(
         None => Linearised::default(),
     };
     Ok(AgcReport {
-        max_settling_time_us: steps
-            .iter()
-            .filter_map(|s| s.settling_time_us)
-            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v)))),
-        max_overshoot_percent: steps
-            .iter()
-            .filter_map(|s| s.overshoot_percent)
-            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v)))),
+        max_settling_time_us: largest(steps.iter().filter_map(|s| s.settling_time_us)),
+        max_overshoot_percent: largest(steps.iter().filter_map(|s| s.overshoot_percent)),
         steps,
         all_settled,
         hysteresis_gain_percent: hg,
@@ -233,6 +201,71 @@ pub fn agc_linearisation(
         agc_series: agc,
         fixed_series: fixed,
     })
+}
+
+/// Why a staircase whose AGC did not settle at every step is refused.
+fn not_settled(steps: &[AgcStep], opts: &AgcOptions) -> CalibError {
+    let bad: Vec<usize> = steps
+        .iter()
+        .filter(|s| !s.settled)
+        .map(|s| s.step)
+        .collect();
+    CalibError::NotSettled(format!(
+        "the AGC gain was still moving by more than {:.1} % at the end of step(s) {bad:?} ({} frames each): lengthen the steps (--frames) or check the AGC loop",
+        100.0 * opts.settle_tolerance,
+        opts.frames_per_step
+    ))
+}
+
+/// The overridden run's linearity error: its largest residual from a
+/// straight line through output against radiance, as a percentage of its
+/// output span `dspan` (0 with no span).
+fn overridden_linearity(steps: &[AgcStep], dspan: f64) -> Result<f64, CalibError> {
+    let x: Vec<f64> = steps.iter().map(|s| s.band_radiance_w_m2_sr).collect();
+    let y: Vec<f64> = steps.iter().map(|s| s.fixed_mean_dn).collect();
+    let fit = weighted_linear_fit(&x, &y, &vec![1.0; x.len()])?;
+    Ok(if dspan > 0.0 {
+        fit.residuals.iter().map(|r| r.abs()).fold(0.0, f64::max) / dspan * 100.0
+    } else {
+        0.0
+    })
+}
+
+/// The largest of `v`, if any.
+fn largest(v: impl Iterator<Item = f64>) -> Option<f64> {
+    v.fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
+}
+
+/// Captures the staircase once: `frames_per_step` frames at each level
+/// in turn, checking `unchecked` (then cleared) against the camera at
+/// the first frame.
+fn run_staircase(
+    grabber: &mut dyn FrameGrabber,
+    source: &mut dyn CalibrationSource,
+    (stairs, opts): (&[usize], &AgcOptions),
+    unchecked: &mut Option<&Lut>,
+    step_done: &mut dyn FnMut(),
+) -> Result<Vec<AgcSample>, CalibError> {
+    let mut out = Vec::new();
+    for (s, &lvl) in stairs.iter().enumerate() {
+        let lv = source.set_level(lvl)?;
+        grabber.present(&lv.stimulus)?;
+        for _ in 0..opts.frames_per_step {
+            let f = grab_good(grabber)?;
+            if let Some(lut) = unchecked.take() {
+                check_lut_fits_camera(lut, &grabber.describe(), f.meta.bits)?;
+            }
+            out.push(AgcSample {
+                step: s,
+                timestamp_us: f.meta.timestamp_us,
+                band_radiance_w_m2_sr: lv.band_radiance_w_m2_sr,
+                mean_dn: frame_mean(&f),
+                gain: f.meta.gain,
+            });
+        }
+        step_done();
+    }
+    Ok(out)
 }
 
 /// One step of the staircase under the AGC: its settled gain and output,
