@@ -595,29 +595,8 @@ pub fn run_case(
     let scene = gloam_scene::load(&path)?;
     let load_s = t1.elapsed().as_secs_f64();
     let expected = expected_counts(case);
-    let triangles: u64 = scene
-        .facets
-        .iter()
-        .map(|f| f.vertices.len() as u64 - 2)
-        .sum();
-    let got = Counts {
-        triangles,
-        facets: scene.facets.len() as u64,
-        point_sources: scene.point_sources.len() as u64,
-        emitting_facets: scene.emitting_facets().len() as u64,
-        placed_triangles: scene
-            .shared
-            .iter()
-            .map(|s| {
-                let per: u64 = s
-                    .prototype
-                    .iter()
-                    .map(|f| f.vertices.len() as u64 - 2)
-                    .sum();
-                per * s.placements.len() as u64
-            })
-            .sum(),
-    };
+    let got = scene_counts(&scene);
+    let triangles = got.triangles;
     ensure_valid!(
         got == expected,
         "size check: {} generated {got:?}, the closed form says {expected:?}",
@@ -658,19 +637,8 @@ pub fn run_case(
         .index_axis(ndarray::Axis(0), 0)
         .mean()
         .unwrap_or(0.0);
-    let closed_form_mean_radiance = (case.kind == Kind::Lamps).then(|| {
-        let cam = &scene.camera;
-        let mut sum = 0.0;
-        for row in 0..s.height {
-            for col in 0..s.width {
-                // The render's own pixel grid (resolution_scale 1).
-                let d = cam.pixel_direction(col as f64 + 0.5, row as f64 + 0.5);
-                let t = -cam.position.z / d.z;
-                sum += lamp_grid_radiance(case.size, cam.position + t * d);
-            }
-        }
-        sum / (s.width as f64 * s.height as f64)
-    });
+    let closed_form_mean_radiance = (case.kind == Kind::Lamps)
+        .then(|| lamp_grid_mean_radiance(case.size, &scene.camera, (s.width, s.height)));
     Ok(CaseResult {
         kind: case.kind,
         size: case.size,
@@ -697,6 +665,54 @@ pub fn run_case(
         mean_radiance,
         closed_form_mean_radiance,
     })
+}
+
+/// What the loaded scene holds, to compare with the generator's closed
+/// form: triangles (flat and placed through shared instances), facets,
+/// point sources and emitting facets.
+fn scene_counts(scene: &gloam_scene::Scene) -> Counts {
+    let triangles: u64 = scene
+        .facets
+        .iter()
+        .map(|f| f.vertices.len() as u64 - 2)
+        .sum();
+    Counts {
+        triangles,
+        facets: scene.facets.len() as u64,
+        point_sources: scene.point_sources.len() as u64,
+        emitting_facets: scene.emitting_facets().len() as u64,
+        placed_triangles: scene
+            .shared
+            .iter()
+            .map(|s| {
+                let per: u64 = s
+                    .prototype
+                    .iter()
+                    .map(|f| f.vertices.len() as u64 - 2)
+                    .sum();
+                per * s.placements.len() as u64
+            })
+            .sum(),
+    }
+}
+
+/// The lamp grid's closed-form radiance averaged over the render's own
+/// pixel grid (resolution_scale 1) of `width` × `height` pixels.
+fn lamp_grid_mean_radiance(
+    size: u64,
+    cam: &gloam_scene::Camera,
+    (width, height): (u32, u32),
+) -> f64 {
+    let mut sum = 0.0;
+    for row in 0..height {
+        for col in 0..width {
+            // The render's own pixel grid (resolution_scale 1).
+            let d = cam.pixel_direction(col as f64 + 0.5, row as f64 + 0.5);
+            let t = -cam.position.z / d.z;
+            sum += lamp_grid_radiance(size, cam.position + t * d);
+        }
+    }
+    sum / (width as f64 * height as f64)
 }
 
 /// Time to a 1 % per-pixel error from a render at a fixed `spp` whose
@@ -863,38 +879,7 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
     ))?;
     let stdout_path = work.path().join("stdout.json");
     let stderr_path = work.path().join("stderr.txt");
-    let mut cmd = Command::new(&opts.exe);
-    cmd.args(["bench", "scale", "--case", &case.label(), "--case-dir"])
-        .arg(work.path().join("scene"))
-        .args([
-            "--width",
-            &opts.width.to_string(),
-            "--height",
-            &opts.height.to_string(),
-            "--spp",
-            &opts.spp.to_string(),
-        ])
-        .stdin(Stdio::null())
-        .stdout(
-            std::fs::File::create(&stdout_path)
-                .map_err(BenchError::io("creating", &stdout_path))?,
-        )
-        .stderr(
-            std::fs::File::create(&stderr_path)
-                .map_err(BenchError::io("creating", &stderr_path))?,
-        );
-    if let Some(n) = opts.threads {
-        cmd.args(["--threads", &n.to_string()]);
-    }
-    for pair in &opts.set {
-        cmd.args(["--set", pair]);
-    }
-    // Its own process group, so a timeout kills the case and anything it
-    // started; and killed with the parent on Ctrl-C or SIGTERM
-    // (`child::Reaper`).
-    #[cfg(unix)]
-    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
-    super::child::die_with_parent(&mut cmd);
+    let mut cmd = case_command(opts, case, work.path(), (&stdout_path, &stderr_path))?;
     let mut child = cmd.spawn().map_err(BenchError::io("starting", &opts.exe))?;
     let _reaper = super::child::Reaper::new(&child);
     let status = wait_with_timeout(
@@ -937,6 +922,46 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
     Ok(row)
 }
 
+/// The command that runs one case in a child `gloam bench scale --case`,
+/// its output to `stdout`/`stderr` files: in its own process group, so a
+/// timeout kills the case and anything it started, and killed with the
+/// parent on Ctrl-C or SIGTERM (`child::Reaper`).
+fn case_command(
+    opts: &ScaleOptions,
+    case: Case,
+    work: &Path,
+    (stdout_path, stderr_path): (&Path, &Path),
+) -> Result<Command, BenchError> {
+    let mut cmd = Command::new(&opts.exe);
+    cmd.args(["bench", "scale", "--case", &case.label(), "--case-dir"])
+        .arg(work.join("scene"))
+        .args([
+            "--width",
+            &opts.width.to_string(),
+            "--height",
+            &opts.height.to_string(),
+            "--spp",
+            &opts.spp.to_string(),
+        ])
+        .stdin(Stdio::null())
+        .stdout(
+            std::fs::File::create(stdout_path).map_err(BenchError::io("creating", stdout_path))?,
+        )
+        .stderr(
+            std::fs::File::create(stderr_path).map_err(BenchError::io("creating", stderr_path))?,
+        );
+    if let Some(n) = opts.threads {
+        cmd.args(["--threads", &n.to_string()]);
+    }
+    for pair in &opts.set {
+        cmd.args(["--set", pair]);
+    }
+    #[cfg(unix)]
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    super::child::die_with_parent(&mut cmd);
+    Ok(cmd)
+}
+
 /// Whether `import mitsuba` works (and so the side-by-side runs), and a
 /// note saying so.
 fn mitsuba_check(skip: bool) -> (bool, String) {
@@ -963,50 +988,8 @@ fn mitsuba_check(skip: bool) -> (bool, String) {
 /// Runs every case (triangles first, then lamps), writes `scale.json` and
 /// `scale.png` into `opts.out`, and returns the report.
 pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
-    ensure_valid!(
-        (1..=4096).contains(&opts.width) && (1..=4096).contains(&opts.height),
-        "--width/--height {}×{}: each must be within 1 … 4096",
-        opts.width,
-        opts.height
-    );
-    ensure_valid!(
-        (2..=4096).contains(&opts.spp),
-        "--spp {}: must be within 2 … 4096 (a pixel's standard error needs two samples)",
-        opts.spp
-    );
-    ensure_valid!(
-        opts.timeout_s.is_finite()
-            && opts.timeout_s >= MIN_TIMEOUT_S
-            && opts.timeout_s <= MAX_TIMEOUT_S,
-        "--timeout-s {}: must be a number of seconds in [{MIN_TIMEOUT_S}, {MAX_TIMEOUT_S:e}]",
-        opts.timeout_s
-    );
-    ensure_valid!(
-        opts.threads
-            .is_none_or(|n| (1..=gloam_trace::tracer::MAX_THREADS).contains(&n)),
-        "--threads {}: must be within 1 … {}",
-        opts.threads.unwrap_or(0),
-        gloam_trace::tracer::MAX_THREADS
-    );
-    let mut cases = Vec::new();
-    for &n in &opts.triangles {
-        cases.push(Case {
-            kind: Kind::Triangles,
-            size: n,
-        });
-    }
-    for &n in &opts.lamps {
-        cases.push(Case {
-            kind: Kind::Lamps,
-            size: n,
-        });
-    }
-    for &n in &opts.instances {
-        cases.push(Case {
-            kind: Kind::Instances,
-            size: n,
-        });
-    }
+    check_options(opts)?;
+    let cases = cases(opts);
     for c in &cases {
         c.check()?;
     }
@@ -1069,6 +1052,61 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
         json_path.display()
     );
     Ok(report)
+}
+
+/// Size, samples, timeout and threads within the bench's limits.
+fn check_options(opts: &ScaleOptions) -> Result<(), BenchError> {
+    ensure_valid!(
+        (1..=4096).contains(&opts.width) && (1..=4096).contains(&opts.height),
+        "--width/--height {}×{}: each must be within 1 … 4096",
+        opts.width,
+        opts.height
+    );
+    ensure_valid!(
+        (2..=4096).contains(&opts.spp),
+        "--spp {}: must be within 2 … 4096 (a pixel's standard error needs two samples)",
+        opts.spp
+    );
+    ensure_valid!(
+        opts.timeout_s.is_finite()
+            && opts.timeout_s >= MIN_TIMEOUT_S
+            && opts.timeout_s <= MAX_TIMEOUT_S,
+        "--timeout-s {}: must be a number of seconds in [{MIN_TIMEOUT_S}, {MAX_TIMEOUT_S:e}]",
+        opts.timeout_s
+    );
+    ensure_valid!(
+        opts.threads
+            .is_none_or(|n| (1..=gloam_trace::tracer::MAX_THREADS).contains(&n)),
+        "--threads {}: must be within 1 … {}",
+        opts.threads.unwrap_or(0),
+        gloam_trace::tracer::MAX_THREADS
+    );
+    Ok(())
+}
+
+/// The cases asked for: triangles, then lamps, then instances, each in the
+/// order given.
+fn cases(opts: &ScaleOptions) -> Vec<Case> {
+    let mut cases = Vec::new();
+    for &n in &opts.triangles {
+        cases.push(Case {
+            kind: Kind::Triangles,
+            size: n,
+        });
+    }
+    for &n in &opts.lamps {
+        cases.push(Case {
+            kind: Kind::Lamps,
+            size: n,
+        });
+    }
+    for &n in &opts.instances {
+        cases.push(Case {
+            kind: Kind::Instances,
+            size: n,
+        });
+    }
+    cases
 }
 
 /// Shortest `--timeout-s`: no case starts in less (1e-300 s killed every
@@ -1151,47 +1189,7 @@ impl ScaleReport {
             "to_1pct_s"
         );
         for r in &self.cases {
-            match &r.result {
-                Some(c) => {
-                    let _ = writeln!(
-                        m,
-                        "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9.3} {:>9.3} {:>10} {:>10.3e} {:>8.4} {:>11.3}  ok",
-                        r.case,
-                        // Placed through shared instances, counted too.
-                        c.triangles + c.placed_triangles,
-                        c.facets,
-                        c.point_sources,
-                        c.emitting_facets,
-                        c.prepare_s,
-                        c.trace_s,
-                        c.peak_rss_bytes
-                            .map(|b| format!("{:.1}", b as f64 / 1e6))
-                            .unwrap_or_else(|| "-".into()),
-                        c.rays_per_s,
-                        c.rel_std_error_rms,
-                        c.time_to_1pct_s
-                    );
-                }
-                None => {
-                    let _ = writeln!(
-                        m,
-                        "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}  {}: {}",
-                        r.case,
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        "-",
-                        r.status,
-                        r.message.as_deref().unwrap_or("")
-                    );
-                }
-            }
+            case_line(&mut m, r);
         }
         for r in &self.cases {
             let Some(v) = &r.mitsuba else { continue };
@@ -1223,6 +1221,51 @@ impl ScaleReport {
                 .unwrap_or_else(|| " (no scale.png: no case finished)".into())
         );
         m
+    }
+}
+
+/// One case's row of the table: its figures, or its status and why.
+fn case_line(m: &mut String, r: &Row) {
+    match &r.result {
+        Some(c) => {
+            let _ = writeln!(
+                m,
+                "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9.3} {:>9.3} {:>10} {:>10.3e} {:>8.4} {:>11.3}  ok",
+                r.case,
+                // Placed through shared instances, counted too.
+                c.triangles + c.placed_triangles,
+                c.facets,
+                c.point_sources,
+                c.emitting_facets,
+                c.prepare_s,
+                c.trace_s,
+                c.peak_rss_bytes
+                    .map(|b| format!("{:.1}", b as f64 / 1e6))
+                    .unwrap_or_else(|| "-".into()),
+                c.rays_per_s,
+                c.rel_std_error_rms,
+                c.time_to_1pct_s
+            );
+        }
+        None => {
+            let _ = writeln!(
+                m,
+                "{:<18} {:>9} {:>9} {:>6} {:>6} {:>9} {:>9} {:>10} {:>10} {:>8} {:>11}  {}: {}",
+                r.case,
+                "-",
+                "-",
+                "-",
+                "-",
+                "-",
+                "-",
+                "-",
+                "-",
+                "-",
+                "-",
+                r.status,
+                r.message.as_deref().unwrap_or("")
+            );
+        }
     }
 }
 

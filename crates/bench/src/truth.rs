@@ -222,65 +222,8 @@ pub fn closed_form_truth(scene: &Scene, tracer: &Tracer) -> Truth {
 pub fn closed_form_image(scene: &Scene, tracer: &Tracer, with_emitters: bool) -> Array3<f64> {
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let nb = scene.bands.len();
-    // Sources: vertices, normal, m, and per receiver material and band the
-    // exact ∫ R_b ρ L dλ / π.
-    struct Src {
-        verts: Vec<DVec3>,
-        normal: DVec3,
-        m: u32,
-        coef: BTreeMap<usize, Vec<f64>>,
-    }
-    let receivers: Vec<usize> = scene
-        .facets
-        .iter()
-        .map(|f| f.material)
-        .filter(|&m| scene.materials[m].emission.is_none())
-        .collect();
-    let srcs: Vec<Src> = scene
-        .facets
-        .iter()
-        .filter_map(|f| {
-            let e = scene.materials[f.material].emission.as_ref()?;
-            let coef = receivers
-                .iter()
-                .map(|&rm| {
-                    let rho = &scene.materials[rm].reflectance;
-                    let prod = e.radiance_w_m2_sr_nm.product(rho);
-                    let v = scene
-                        .bands
-                        .iter()
-                        .map(|b| {
-                            // The last product integrated exactly (quadratic
-                            // pieces); `prod` is exact when ρ is flat, as on
-                            // the closed-form scenes.
-                            prod.integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
-                                * std::f64::consts::FRAC_1_PI
-                        })
-                        .collect();
-                    (rm, v)
-                })
-                .collect();
-            Some(Src {
-                verts: f.vertices.clone(),
-                normal: f.normal(),
-                m: e.shape_exponent as u32,
-                coef,
-            })
-        })
-        .collect();
-    // Per emitting material and band, `∫ R_b L dλ` (direct view).
-    let emitted: BTreeMap<usize, Vec<f64>> = (scene.materials.iter().enumerate())
-        .filter_map(|(i, m)| {
-            let e = m.emission.as_ref()?;
-            let v = (scene.bands.iter())
-                .map(|b| {
-                    e.radiance_w_m2_sr_nm
-                        .integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
-                })
-                .collect();
-            Some((i, v))
-        })
-        .collect();
+    let srcs = sources(scene);
+    let emitted = emitted_band_radiance(scene);
     // A pixel's mean over a k × k grid of sub-pixel hits, and whether they
     // land on more than one facet (or some miss).
     let pixel = |col: usize, row: usize, k: usize| -> (Vec<f64>, bool) {
@@ -328,6 +271,73 @@ pub fn closed_form_image(scene: &Scene, tracer: &Tracer, with_emitters: bool) ->
         })
         .collect();
     Array3::from_shape_fn((nb, h, w), |(b, r, c)| vals[r * w + c][b])
+}
+
+/// An emitting facet as a source: vertices, normal, m, and per receiver
+/// material and band the exact ∫ R_b ρ L dλ / π.
+struct Src {
+    verts: Vec<DVec3>,
+    normal: DVec3,
+    m: u32,
+    coef: BTreeMap<usize, Vec<f64>>,
+}
+
+/// The scene's emitting facets as sources for every receiving material.
+fn sources(scene: &Scene) -> Vec<Src> {
+    let receivers: Vec<usize> = scene
+        .facets
+        .iter()
+        .map(|f| f.material)
+        .filter(|&m| scene.materials[m].emission.is_none())
+        .collect();
+    scene
+        .facets
+        .iter()
+        .filter_map(|f| {
+            let e = scene.materials[f.material].emission.as_ref()?;
+            let coef = receivers
+                .iter()
+                .map(|&rm| {
+                    let rho = &scene.materials[rm].reflectance;
+                    let prod = e.radiance_w_m2_sr_nm.product(rho);
+                    let v = scene
+                        .bands
+                        .iter()
+                        .map(|b| {
+                            // The last product integrated exactly (quadratic
+                            // pieces); `prod` is exact when ρ is flat, as on
+                            // the closed-form scenes.
+                            prod.integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
+                                * std::f64::consts::FRAC_1_PI
+                        })
+                        .collect();
+                    (rm, v)
+                })
+                .collect();
+            Some(Src {
+                verts: f.vertices.clone(),
+                normal: f.normal(),
+                m: e.shape_exponent as u32,
+                coef,
+            })
+        })
+        .collect()
+}
+
+/// Per emitting material and band, `∫ R_b L dλ` (direct view).
+fn emitted_band_radiance(scene: &Scene) -> BTreeMap<usize, Vec<f64>> {
+    (scene.materials.iter().enumerate())
+        .filter_map(|(i, m)| {
+            let e = m.emission.as_ref()?;
+            let v = (scene.bands.iter())
+                .map(|b| {
+                    e.radiance_w_m2_sr_nm
+                        .integrate_weighted_band(&b.response, b.lo_nm, b.hi_nm)
+                })
+                .collect();
+            Some((i, v))
+        })
+        .collect()
 }
 
 /// 64-bit FNV-1a.

@@ -384,6 +384,19 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
             "edge image {w}×{h} is too small (need ≥ 8×8)"
         )));
     }
+    let (a, b) = edge_line(img, w, h)?;
+    // Quarter-pixel bins over ±16 px (or the half width) across the edge.
+    let dx = 0.25;
+    let half = (w as f64 / 2.0).min(16.0);
+    let esf = oversampled_esf(img, w, h, (a, b), dx, half)?;
+    let (lsf, cen) = windowed_lsf(&esf)?;
+    let (freqs, mtf) = lsf_mtf(&lsf, cen, dx);
+    Ok(MtfCurve::new("slanted-edge", freqs, mtf))
+}
+
+/// The edge's line, column = a + b·row, from each row's derivative
+/// centroid; refused when no near-vertical edge stands out of the noise.
+fn edge_line(img: &[f64], w: usize, h: usize) -> Result<(f64, f64), CalibError> {
     let mut rows = Vec::new();
     let mut cents = Vec::new();
     let mut contrast = 0.0f64;
@@ -451,10 +464,21 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
         }
         fit = crate::stats::weighted_linear_fit(&rr, &cc, &vec![1.0; rr.len()])?;
     }
-    let (a, b) = (fit.intercept, fit.slope);
+    Ok((fit.intercept, fit.slope))
+}
+
+/// The edge-spread function: every pixel binned by its distance across the
+/// edge (`dx`-wide bins over ±`half` px), empty bins interpolated between
+/// filled neighbours.
+fn oversampled_esf(
+    img: &[f64],
+    w: usize,
+    h: usize,
+    (a, b): (f64, f64),
+    dx: f64,
+    half: f64,
+) -> Result<Vec<f64>, CalibError> {
     let cos = 1.0 / (1.0 + b * b).sqrt();
-    let dx = 0.25;
-    let half = (w as f64 / 2.0).min(16.0);
     let nb = (2.0 * half / dx) as usize;
     let mut sum = vec![0.0; nb];
     let mut cnt = vec![0usize; nb];
@@ -496,6 +520,13 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
             };
         }
     }
+    Ok(esf)
+}
+
+/// The line-spread function (central differences of the ESF) under a
+/// Hamming window centred on its centroid; the centroid, in bins.
+fn windowed_lsf(esf: &[f64]) -> Result<(Vec<f64>, f64), CalibError> {
+    let nb = esf.len();
     // LSF by central difference.
     let mut lsf = vec![0.0; nb];
     for i in 1..nb - 1 {
@@ -523,6 +554,13 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
             0.0
         };
     }
+    Ok((lsf, cen))
+}
+
+/// The MTF up to 1 cy/px: the LSF's DFT about its centroid, normalised
+/// to DC and divided by the bin's own sinc.
+fn lsf_mtf(lsf: &[f64], cen: f64, dx: f64) -> (Vec<f64>, Vec<f64>) {
+    let nb = lsf.len();
     // DFT up to 1 cy/px.
     let n = nb as f64;
     let mut freqs = Vec::new();
@@ -546,7 +584,7 @@ pub fn slanted_edge_mtf(img: &[f64], w: usize, h: usize) -> Result<MtfCurve, Cal
         mtf.push((re * re + im * im).sqrt() / dc.abs() / corr.max(0.1));
         k += 1;
     }
-    Ok(MtfCurve::new("slanted-edge", freqs, mtf))
+    (freqs, mtf)
 }
 
 #[cfg(test)]

@@ -114,27 +114,9 @@ pub fn voltage_sine_mtf(
     opts: &VoltageOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<VoltageMtf, CalibError> {
-    if !(opts.modulation > 0.0 && opts.modulation <= 0.9) {
-        return Err(CalibError::Invalid(
-            "modulation must lie in (0, 0.9]".into(),
-        ));
-    }
-    if !(opts.magnification.is_finite() && opts.magnification > 0.0) {
-        return Err(CalibError::Invalid(format!(
-            "magnification {} must be a positive number",
-            opts.magnification
-        )));
-    }
+    check_options(opts)?;
     let (w, h) = opts.size;
     let rows = h as usize;
-    if let Some(r) = opts.rows.iter().find(|&&r| r >= rows) {
-        return Err(CalibError::Invalid(format!(
-            "scope row {r} is outside the {rows}-row frame"
-        )));
-    }
-    if opts.rows.is_empty() {
-        return Err(CalibError::Invalid("no rows to scope".into()));
-    }
     let timing = cam.chain().line_timing().ok_or_else(|| {
         CalibError::Invalid(format!(
             "sensor '{}' has a direct digital readout: no video line to put a scope on",
@@ -145,41 +127,8 @@ pub fn voltage_sine_mtf(
     let frames = opts.frames.max(1);
     cam.set_scope_rows(opts.rows.clone());
     let total = GREY_STEPS.len() + opts.frequencies_cy_per_px.len();
-    let capture = |cam: &mut Camera, s: &Stimulus| -> Result<(), CalibError> {
-        let (img, shape) = render_stimulus(s, w, h)?;
-        cam.capture_mono(img.view(), &shape)
-            .map_err(|e| CalibError::Invalid(format!("capture: {e}")))?;
-        Ok(())
-    };
 
-    // 1. Grey scale: volts against relative reflectance.
-    let top = GREY_STEPS[GREY_STEPS.len() - 1];
-    let mut grey: Vec<(f64, f64)> = Vec::new();
-    for (i, &k) in GREY_STEPS.iter().enumerate() {
-        let s = if k == 0.0 {
-            Stimulus::Dark
-        } else {
-            Stimulus::Uniform {
-                radiance_w_m2_sr: k * opts.mean_radiance_w_m2_sr,
-                spectrum: opts.spectrum.clone(),
-            }
-        };
-        let mut v = 0.0;
-        for _ in 0..frames {
-            capture(cam, &s)?;
-            v += mean_line_volts(cam, rows)?;
-        }
-        let v = v / frames as f64;
-        if let Some(&(_, prev)) = grey.last()
-            && !(v > prev)
-        {
-            return Err(CalibError::InsufficientData(format!(
-                "the line voltage does not rise between grey patches ({prev:.4} → {v:.4} V): raise the radiance or the gain"
-            )));
-        }
-        grey.push((k / top, v));
-        progress(i + 1, total);
-    }
+    let grey = grey_scale(cam, opts, &mut |i| progress(i, total))?;
 
     // 2. Sine patterns: V_max, V_min of the fundamental on the line.
     let pitch_mm = cam.chain().pitch_cathode_mm;
@@ -200,7 +149,7 @@ pub fn voltage_sine_mtf(
         let nu = f / tp;
         let (mut mean, mut amp, mut n) = (0.0, 0.0, 0usize);
         for _ in 0..frames {
-            capture(cam, &s)?;
+            capture(cam, &s, w, h)?;
             for l in scope_lines(cam, rows).map_err(|e| CalibError::Invalid(e.to_string()))? {
                 let (m, a) = fundamental(&l, nu).ok_or_else(|| {
                     CalibError::SingularFit(format!("sine at {f} cy/px on row {}", l.row))
@@ -240,6 +189,81 @@ pub fn voltage_sine_mtf(
         grey_scale: grey,
         pixel_clock_hz: 1.0 / tp,
     })
+}
+
+/// The options a run needs: a modulation the sine can carry, a positive
+/// magnification, and scope rows inside the frame.
+fn check_options(opts: &VoltageOptions) -> Result<(), CalibError> {
+    if !(opts.modulation > 0.0 && opts.modulation <= 0.9) {
+        return Err(CalibError::Invalid(
+            "modulation must lie in (0, 0.9]".into(),
+        ));
+    }
+    if !(opts.magnification.is_finite() && opts.magnification > 0.0) {
+        return Err(CalibError::Invalid(format!(
+            "magnification {} must be a positive number",
+            opts.magnification
+        )));
+    }
+    let rows = opts.size.1 as usize;
+    if let Some(r) = opts.rows.iter().find(|&&r| r >= rows) {
+        return Err(CalibError::Invalid(format!(
+            "scope row {r} is outside the {rows}-row frame"
+        )));
+    }
+    if opts.rows.is_empty() {
+        return Err(CalibError::Invalid("no rows to scope".into()));
+    }
+    Ok(())
+}
+
+/// Renders `s` at `w` × `h` and captures one frame of it.
+fn capture(cam: &mut Camera, s: &Stimulus, w: u32, h: u32) -> Result<(), CalibError> {
+    let (img, shape) = render_stimulus(s, w, h)?;
+    cam.capture_mono(img.view(), &shape)
+        .map_err(|e| CalibError::Invalid(format!("capture: {e}")))?;
+    Ok(())
+}
+
+/// The grey scale: the line's mean voltage at each grey patch against its
+/// relative reflectance, which must rise patch by patch (the sine's
+/// voltages are read back through it).
+fn grey_scale(
+    cam: &mut Camera,
+    opts: &VoltageOptions,
+    progress: &mut dyn FnMut(usize),
+) -> Result<Vec<(f64, f64)>, CalibError> {
+    let (w, h) = opts.size;
+    let rows = h as usize;
+    let frames = opts.frames.max(1);
+    let top = GREY_STEPS[GREY_STEPS.len() - 1];
+    let mut grey: Vec<(f64, f64)> = Vec::new();
+    for (i, &k) in GREY_STEPS.iter().enumerate() {
+        let s = if k == 0.0 {
+            Stimulus::Dark
+        } else {
+            Stimulus::Uniform {
+                radiance_w_m2_sr: k * opts.mean_radiance_w_m2_sr,
+                spectrum: opts.spectrum.clone(),
+            }
+        };
+        let mut v = 0.0;
+        for _ in 0..frames {
+            capture(cam, &s, w, h)?;
+            v += mean_line_volts(cam, rows)?;
+        }
+        let v = v / frames as f64;
+        if let Some(&(_, prev)) = grey.last()
+            && !(v > prev)
+        {
+            return Err(CalibError::InsufficientData(format!(
+                "the line voltage does not rise between grey patches ({prev:.4} → {v:.4} V): raise the radiance or the gain"
+            )));
+        }
+        grey.push((k / top, v));
+        progress(i + 1);
+    }
+    Ok(grey)
 }
 
 /// The chain's analytic horizontal MTF at `freqs` for frames `columns`

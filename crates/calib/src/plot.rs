@@ -133,18 +133,7 @@ pub fn xy_plot_scaled(
             "nothing to plot in '{title}'"
         )));
     }
-    let pad = |lo: f64, hi: f64| {
-        let d = (hi - lo).abs().max(1e-12 * hi.abs().max(1.0));
-        (lo - 0.05 * d, hi + 0.05 * d)
-    };
-    let (x0, x1) = pad(
-        all.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
-        all.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
-    );
-    let (y0, y1) = pad(
-        all.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
-        all.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max),
-    );
+    let ((x0, x1), (y0, y1)) = padded_ranges(&all);
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         let e = |e: &dyn std::fmt::Display| CalibError::Io(format!("plot '{title}': {e}"));
@@ -200,6 +189,24 @@ pub fn xy_plot_scaled(
         .ok_or_else(|| CalibError::Io("plot buffer has the wrong size".into()))?
         .map_err(|e| CalibError::file(path, e))?;
     crate::report::write_bytes(path, &png)
+}
+
+/// The x and y ranges of `all`, each padded by 5 % a side (and never
+/// empty) so no point sits on the frame.
+fn padded_ranges(all: &[(f64, f64)]) -> ((f64, f64), (f64, f64)) {
+    let pad = |lo: f64, hi: f64| {
+        let d = (hi - lo).abs().max(1e-12 * hi.abs().max(1.0));
+        (lo - 0.05 * d, hi + 0.05 * d)
+    };
+    let (x0, x1) = pad(
+        all.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
+        all.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
+    );
+    let (y0, y1) = pad(
+        all.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
+        all.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max),
+    );
+    ((x0, x1), (y0, y1))
 }
 
 /// Scientific notation for axes spanning tiny or huge values (on a log

@@ -181,40 +181,11 @@ pub fn fit_gain(
     let mut warnings = Vec::new();
     // Sort by radiance so "from the top" is meaningful.
     pts.sort_by(|a, b| a.band_radiance_w_m2_sr.total_cmp(&b.band_radiance_w_m2_sr));
-    let mut saturation_dn = None;
-    let mut last_ok = None;
-    let mut prev_dn = dark_dn;
-    let noise_floor = 3.0 * dark_std_dn / ((frames * pixels).max(1) as f64).sqrt();
-    let mut prev_l = 0.0;
-    let mut flat_after = false;
-    let mut prev_var = dark_std_dn * dark_std_dn;
-    for (i, p) in pts.iter().enumerate() {
-        let clipped = p.clipped_fraction > opts.clip_tolerance;
-        let not_rising =
-            p.band_radiance_w_m2_sr > 0.0 && i > 0 && p.mean_dn <= prev_dn + noise_floor;
-        // The knee: the step's slope falls below `knee_slope_ratio` of the
-        // average slope from dark to the previous good level, or the
-        // temporal variance collapses (full well reached below the
-        // digitizer maximum).
-        let knee = last_ok.is_some() && {
-            let avg = (prev_dn - dark_dn) / prev_l;
-            let step = (p.mean_dn - prev_dn) / (p.band_radiance_w_m2_sr - prev_l);
-            let var = p.temporal_std_dn * p.temporal_std_dn;
-            (p.band_radiance_w_m2_sr > prev_l && avg > 0.0 && step < opts.knee_slope_ratio * avg)
-                || (prev_var > 0.0 && var < 0.5 * prev_var)
-        };
-        if clipped || knee || (not_rising && last_ok.is_some()) {
-            saturation_dn = Some(p.mean_dn);
-            flat_after = not_rising;
-            break;
-        }
-        if p.band_radiance_w_m2_sr > 0.0 {
-            last_ok = Some(i);
-            prev_dn = p.mean_dn;
-            prev_l = p.band_radiance_w_m2_sr;
-            prev_var = p.temporal_std_dn * p.temporal_std_dn;
-        }
-    }
+    let Knee {
+        saturation_dn,
+        last_ok,
+        flat_after,
+    } = knee(&pts, dark_dn, dark_std_dn, opts, frames * pixels);
     let n_ok = last_ok.map_or(0, |i| i + 1);
     // Levels with zero radiance add nothing beyond the dark point.
     let lit: Vec<usize> = (0..n_ok)
@@ -294,6 +265,66 @@ pub fn fit_gain(
     })
 }
 
+/// Where the linear range of a sweep (sorted by radiance) ends.
+struct Knee {
+    /// The mean output of the first level past the linear range.
+    saturation_dn: Option<f64>,
+    /// The last illuminated level in the linear range.
+    last_ok: Option<usize>,
+    /// The output stopped rising (rather than clipping or bending).
+    flat_after: bool,
+}
+
+/// Walks the levels up from dark until one clips, stops rising above the
+/// noise of `samples` averaged values, or bends at the knee.
+fn knee(
+    pts: &[LevelPoint],
+    dark_dn: f64,
+    dark_std_dn: f64,
+    opts: &RadianceOptions,
+    samples: usize,
+) -> Knee {
+    let mut saturation_dn = None;
+    let mut last_ok = None;
+    let mut prev_dn = dark_dn;
+    let noise_floor = 3.0 * dark_std_dn / (samples.max(1) as f64).sqrt();
+    let mut prev_l = 0.0;
+    let mut flat_after = false;
+    let mut prev_var = dark_std_dn * dark_std_dn;
+    for (i, p) in pts.iter().enumerate() {
+        let clipped = p.clipped_fraction > opts.clip_tolerance;
+        let not_rising =
+            p.band_radiance_w_m2_sr > 0.0 && i > 0 && p.mean_dn <= prev_dn + noise_floor;
+        // The knee: the step's slope falls below `knee_slope_ratio` of the
+        // average slope from dark to the previous good level, or the
+        // temporal variance collapses (full well reached below the
+        // digitizer maximum).
+        let knee = last_ok.is_some() && {
+            let avg = (prev_dn - dark_dn) / prev_l;
+            let step = (p.mean_dn - prev_dn) / (p.band_radiance_w_m2_sr - prev_l);
+            let var = p.temporal_std_dn * p.temporal_std_dn;
+            (p.band_radiance_w_m2_sr > prev_l && avg > 0.0 && step < opts.knee_slope_ratio * avg)
+                || (prev_var > 0.0 && var < 0.5 * prev_var)
+        };
+        if clipped || knee || (not_rising && last_ok.is_some()) {
+            saturation_dn = Some(p.mean_dn);
+            flat_after = not_rising;
+            break;
+        }
+        if p.band_radiance_w_m2_sr > 0.0 {
+            last_ok = Some(i);
+            prev_dn = p.mean_dn;
+            prev_l = p.band_radiance_w_m2_sr;
+            prev_var = p.temporal_std_dn * p.temporal_std_dn;
+        }
+    }
+    Knee {
+        saturation_dn,
+        last_ok,
+        flat_after,
+    }
+}
+
 /// Largest band radiance a LUT may give a count, W m⁻² sr⁻¹ (the scene's
 /// emission limit): a slope or offset beyond it is not a camera's.
 pub const MAX_LUT_RADIANCE_W_M2_SR: f64 = 1e20;
@@ -338,6 +369,101 @@ impl std::fmt::Display for LutProblem {
     }
 }
 
+/// One gain's entry: a positive gain; slope, offset and fit range within
+/// the LUT's limits; dark level, noise and saturation as counts.
+fn check_entry(c: &GainCalibration, i: usize, top: f64) -> Result<(), LutProblem> {
+    let bad = |i: Option<usize>, key: &'static str, message: String| {
+        Err(LutProblem {
+            gain_index: i,
+            key,
+            message,
+        })
+    };
+    let max = MAX_LUT_RADIANCE_W_M2_SR;
+    let at = Some(i);
+    if !(c.gain > 0.0 && c.gain.is_finite()) {
+        return bad(at, "gain", format!("{} is not a positive gain", c.gain));
+    }
+    let g = c.g_w_m2_sr_per_dn;
+    if !(g > 0.0) {
+        return bad(
+            at,
+            "g_w_m2_sr_per_dn",
+            format!(
+                "slope {g} W m⁻² sr⁻¹/DN at gain {} is not positive: radiance must rise with the counts",
+                c.gain
+            ),
+        );
+    }
+    if !(g * top <= max) {
+        return bad(
+            at,
+            "g_w_m2_sr_per_dn",
+            format!(
+                "slope {g:e} W m⁻² sr⁻¹/DN at gain {} gives {:e} W m⁻² sr⁻¹ at the top code {top} DN, above {max:e}",
+                c.gain,
+                g * top
+            ),
+        );
+    }
+    if !(c.b_w_m2_sr.abs() <= max) {
+        return bad(
+            at,
+            "b_w_m2_sr",
+            format!(
+                "offset {:e} W m⁻² sr⁻¹ at gain {} is not finite within ±{max:e}",
+                c.b_w_m2_sr, c.gain
+            ),
+        );
+    }
+    let [lo, hi] = c.fit_range_dn;
+    if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+        return bad(
+            at,
+            "fit_range_dn",
+            format!(
+                "[{lo}, {hi}] at gain {} is not a range of positive width (dark to top of the fit, rising)",
+                c.gain
+            ),
+        );
+    }
+    if !(c.dark_dn.is_finite() && (0.0..=top).contains(&c.dark_dn)) {
+        return bad(
+            at,
+            "dark_dn",
+            format!(
+                "dark level {} DN at gain {} is not a count in 0..={top}",
+                c.dark_dn, c.gain
+            ),
+        );
+    }
+    if !(c.dark_std_dn.is_finite() && c.dark_std_dn >= 0.0) {
+        return bad(
+            at,
+            "dark_std_dn",
+            format!(
+                "dark noise {} DN at gain {} is not a standard deviation (finite, ≥ 0)",
+                c.dark_std_dn, c.gain
+            ),
+        );
+    }
+    // Counts at or above it become NaN: one at or below the dark
+    // level would blank every pixel, one past the top code none.
+    if let Some(s) = c.saturation_dn
+        && !(s.is_finite() && s > c.dark_dn && s <= top)
+    {
+        return bad(
+            at,
+            "saturation_dn",
+            format!(
+                "{s} DN at gain {} is not a saturation level between the dark level {} DN and the top code {top} DN",
+                c.gain, c.dark_dn
+            ),
+        );
+    }
+    Ok(())
+}
+
 impl Lut {
     /// Checks the LUT against physics before it converts a count: a top
     /// code that is a 16-bit count, at least one gain, each gain positive,
@@ -364,90 +490,21 @@ impl Lut {
         if self.gains.is_empty() {
             return bad(None, "gains", "no calibrated gain".into());
         }
-        let max = MAX_LUT_RADIANCE_W_M2_SR;
         for (i, c) in self.gains.iter().enumerate() {
-            let at = Some(i);
-            if !(c.gain > 0.0 && c.gain.is_finite()) {
-                return bad(at, "gain", format!("{} is not a positive gain", c.gain));
-            }
-            let g = c.g_w_m2_sr_per_dn;
-            if !(g > 0.0) {
-                return bad(
-                    at,
-                    "g_w_m2_sr_per_dn",
-                    format!(
-                        "slope {g} W m⁻² sr⁻¹/DN at gain {} is not positive: radiance must rise with the counts",
-                        c.gain
-                    ),
-                );
-            }
-            if !(g * top <= max) {
-                return bad(
-                    at,
-                    "g_w_m2_sr_per_dn",
-                    format!(
-                        "slope {g:e} W m⁻² sr⁻¹/DN at gain {} gives {:e} W m⁻² sr⁻¹ at the top code {top} DN, above {max:e}",
-                        c.gain,
-                        g * top
-                    ),
-                );
-            }
-            if !(c.b_w_m2_sr.abs() <= max) {
-                return bad(
-                    at,
-                    "b_w_m2_sr",
-                    format!(
-                        "offset {:e} W m⁻² sr⁻¹ at gain {} is not finite within ±{max:e}",
-                        c.b_w_m2_sr, c.gain
-                    ),
-                );
-            }
-            let [lo, hi] = c.fit_range_dn;
-            if !(lo.is_finite() && hi.is_finite() && hi > lo) {
-                return bad(
-                    at,
-                    "fit_range_dn",
-                    format!(
-                        "[{lo}, {hi}] at gain {} is not a range of positive width (dark to top of the fit, rising)",
-                        c.gain
-                    ),
-                );
-            }
-            if !(c.dark_dn.is_finite() && (0.0..=top).contains(&c.dark_dn)) {
-                return bad(
-                    at,
-                    "dark_dn",
-                    format!(
-                        "dark level {} DN at gain {} is not a count in 0..={top}",
-                        c.dark_dn, c.gain
-                    ),
-                );
-            }
-            if !(c.dark_std_dn.is_finite() && c.dark_std_dn >= 0.0) {
-                return bad(
-                    at,
-                    "dark_std_dn",
-                    format!(
-                        "dark noise {} DN at gain {} is not a standard deviation (finite, ≥ 0)",
-                        c.dark_std_dn, c.gain
-                    ),
-                );
-            }
-            // Counts at or above it become NaN: one at or below the dark
-            // level would blank every pixel, one past the top code none.
-            if let Some(s) = c.saturation_dn
-                && !(s.is_finite() && s > c.dark_dn && s <= top)
-            {
-                return bad(
-                    at,
-                    "saturation_dn",
-                    format!(
-                        "{s} DN at gain {} is not a saturation level between the dark level {} DN and the top code {top} DN",
-                        c.gain, c.dark_dn
-                    ),
-                );
-            }
+            check_entry(c, i, top)?;
         }
+        self.check_order()
+    }
+
+    /// No gain twice, and the responsivity never falls as the gain rises.
+    fn check_order(&self) -> Result<(), LutProblem> {
+        let bad = |i: Option<usize>, key: &'static str, message: String| {
+            Err(LutProblem {
+                gain_index: i,
+                key,
+                message,
+            })
+        };
         let mut order: Vec<usize> = (0..self.gains.len()).collect();
         order.sort_by(|&a, &b| self.gains[a].gain.total_cmp(&self.gains[b].gain));
         for w in order.windows(2) {

@@ -199,6 +199,13 @@ pub fn write_radiance_report(dir: &Path, lut: &Lut) -> Result<(), CalibError> {
 /// `ptc.json`, `ptc.md`, `photon_transfer.png`, `ptc_linearity.png`.
 pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     write_json(&dir.join("ptc.json"), r)?;
+    write_text(&dir.join("ptc.md"), &ptc_markdown(r))?;
+    write_ptc_plots(dir, r)
+}
+
+/// `ptc.md`: the EMVA 1288 figures, the excess-noise relation and the
+/// warnings.
+fn ptc_markdown(r: &PtcResult) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
@@ -263,7 +270,12 @@ pub fn write_ptc_report(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
         md,
         "\nThe EMVA 1288 dataset (descriptor + images) is in `emva1288/`.\n\n![PTC](photon_transfer.png)\n![linearity](ptc_linearity.png)"
     );
-    write_text(&dir.join("ptc.md"), &md)?;
+    md
+}
+
+/// `photon_transfer.png` (variance against signal, with the K fit) and,
+/// with a rig, `ptc_linearity.png`.
+fn write_ptc_plots(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     let pts: Vec<(f64, f64)> = r
         .points
         .iter()
@@ -361,6 +373,13 @@ pub fn write_mtf_report(
 /// `agc.json`, `agc.md`, `agc_step.png`, `agc_hysteresis.png`.
 pub fn write_agc_report(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
     write_json(&dir.join("agc.json"), r)?;
+    write_text(&dir.join("agc.md"), &agc_markdown(r))?;
+    write_agc_step_plot(dir, r)?;
+    write_agc_hysteresis_plot(dir, r)
+}
+
+/// `agc.md`: settling, overshoot, hysteresis and linearity figures.
+fn agc_markdown(r: &AgcReport) -> String {
     let mut md = String::from("# AGC linearisation\n\n| quantity | value |\n|---|---|\n");
     let _ = writeln!(md, "| all steps settled | {} |", r.all_settled);
     let _ = writeln!(
@@ -402,7 +421,12 @@ pub fn write_agc_report(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
         md,
         "\n![step](agc_step.png)\n![hysteresis](agc_hysteresis.png)"
     );
-    write_text(&dir.join("agc.md"), &md)?;
+    md
+}
+
+/// `agc_step.png`: radiance, AGC gain and output over the staircase, each
+/// normalised to its maximum.
+fn write_agc_step_plot(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
     let idx =
         |v: &[crate::agc::AgcSample], f: fn(&crate::agc::AgcSample) -> f64| -> Vec<(f64, f64)> {
             v.iter()
@@ -452,7 +476,11 @@ pub fn write_agc_report(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
                 Mark::Line,
             ),
         ],
-    )?;
+    )
+}
+
+/// `agc_hysteresis.png`: the settled gain going up the staircase and down.
+fn write_agc_hysteresis_plot(dir: &Path, r: &AgcReport) -> Result<(), CalibError> {
     let n = r.steps.len().div_ceil(2);
     let up: Vec<(f64, f64)> = r.steps[..n]
         .iter()

@@ -29,18 +29,9 @@ fn nice(raw: f64) -> f64 {
         .unwrap_or(10.0 * b)
 }
 
-/// Draws `lines` (volts against µs from 0H) to a PNG (900 × 600).
-pub fn scope_plot(
-    path: &Path,
-    title: &str,
-    lines: &[ScopeLine],
-    show_samples: bool,
-) -> Result<(), CalibError> {
-    if lines.is_empty() {
-        return Err(CalibError::InsufficientData("no scan line to plot".into()));
-    }
-    ensure_font();
-    let (w, h) = (900u32, 600u32);
+/// The time axis, µs: ten round divisions from a round start that cover
+/// every line's samples; (µs per division, start, end).
+fn time_axis(lines: &[ScopeLine]) -> (f64, f64, f64) {
     let t0 = lines
         .iter()
         .filter_map(|l| l.time_s.first())
@@ -54,6 +45,22 @@ pub fn scope_plot(
     let us_div = nice((t1 - t0) / 10.0);
     let x0 = (t0 / us_div).floor() * us_div;
     let x1 = x0 + 10.0 * us_div;
+    (us_div, x0, x1)
+}
+
+/// Draws `lines` (volts against µs from 0H) to a PNG (900 × 600).
+pub fn scope_plot(
+    path: &Path,
+    title: &str,
+    lines: &[ScopeLine],
+    show_samples: bool,
+) -> Result<(), CalibError> {
+    if lines.is_empty() {
+        return Err(CalibError::InsufficientData("no scan line to plot".into()));
+    }
+    ensure_font();
+    let (w, h) = (900u32, 600u32);
+    let (us_div, x0, x1) = time_axis(lines);
     // 0.2 V/div from −0.2 V: the 1 V composite fills six of eight divisions.
     let (v_div, y0) = (0.2, -0.2);
     let y1 = y0 + 8.0 * v_div;

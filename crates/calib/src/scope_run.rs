@@ -83,8 +83,9 @@ pub fn sim_uri(uri: &str) -> Result<SimCamera, CalibError> {
     }
 }
 
-/// Captures and scopes the lines.
-pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
+/// The sensor as the scope sees it: its video line in the asked format
+/// and bandwidth, and its AGC off (a fixed gain holds the level).
+fn video_sensor(o: &ScopeOptions) -> Result<(SensorConfig, VideoFormat), CalibError> {
     let mut cfg = SensorConfig::load_preset_or_file(&o.sensor)
         .map_err(|e| CalibError::Invalid(e.to_string()))?;
     cfg.noise.seed = o.seed;
@@ -109,6 +110,12 @@ pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
     if let Some(a) = cfg.agc.as_mut() {
         a.enabled = false;
     }
+    Ok((cfg, format))
+}
+
+/// Captures and scopes the lines.
+pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
+    let (cfg, format) = video_sensor(o)?;
     let mut cam = Camera::new(cfg).map_err(|e| CalibError::Invalid(e.to_string()))?;
     if let Some(g) = o.gain {
         cam.set_override_gain(Some(g))

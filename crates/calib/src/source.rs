@@ -729,6 +729,19 @@ impl SourceFile {
             port_fraction: f,
             diameter_m: d,
         };
+        let dimming = self.sphere_dimming(levels)?;
+        Ok(SphereSource {
+            sphere,
+            dimming,
+            camera: self.camera()?,
+            rig: self.rig()?,
+        })
+    }
+
+    /// The sphere's [dimming] table: aperture fractions or ND filters
+    /// (densities and measured curves), as listed or, with none listed,
+    /// `levels` evenly spaced steps; a listed count must match `levels`.
+    fn sphere_dimming(&self, levels: Option<usize>) -> Result<Dimming, CalibError> {
         let dim = self
             .parsed
             .dimming
@@ -749,7 +762,7 @@ impl SourceFile {
             }
             Ok((1..=n).map(|i| i as f64 / n as f64).collect())
         };
-        let dimming = match dim.method.as_str() {
+        Ok(match dim.method.as_str() {
             "aperture" => {
                 let fr = match &dim.fractions {
                     Some(v) => {
@@ -798,12 +811,6 @@ impl SourceFile {
                     "dimming.method '{m}' is not \"nd\" or \"aperture\""
                 )));
             }
-        };
-        Ok(SphereSource {
-            sphere,
-            dimming,
-            camera: self.camera()?,
-            rig: self.rig()?,
         })
     }
 

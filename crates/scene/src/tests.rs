@@ -692,36 +692,36 @@ fn line_errors_name_file_line_and_field() {
         )
     };
     let f = "point_sources.lamp.lines";
-    expect_err(
-        &src("[[nan, 1.0]]"),
-        n + 3,
-        &format!("{f}[0][0]"),
-        "wavelength NaN nm must be a finite number in (0, 1e6]",
-    );
-    expect_err(
-        &src("[[546.0, 1.0], [-5.0, 1.0]]"),
-        n + 3,
-        &format!("{f}[1][0]"),
-        "wavelength -5 nm",
-    );
-    expect_err(
-        &src("[[0, 1.0]]"),
-        n + 3,
-        &format!("{f}[0][0]"),
-        "wavelength 0 nm",
-    );
-    expect_err(
-        &src("[[546.0, inf]]"),
-        n + 3,
-        &format!("{f}[0][1]"),
-        "value inf W sr⁻¹ at 546 nm must be a finite number ≥ 0",
-    );
-    expect_err(
-        &src("[[546.0, -0.1]]"),
-        n + 3,
-        &format!("{f}[0][1]"),
-        "value -0.1 W sr⁻¹",
-    );
+    // Bad values, then wrong shapes at the element (one number, three
+    // numbers, none, no list, a string): the field under `lines` and a
+    // part of the message, all on the `lines` line.
+    let cases = [
+        (
+            "[[nan, 1.0]]",
+            "[0][0]",
+            "wavelength NaN nm must be a finite number in (0, 1e6]",
+        ),
+        ("[[546.0, 1.0], [-5.0, 1.0]]", "[1][0]", "wavelength -5 nm"),
+        ("[[0, 1.0]]", "[0][0]", "wavelength 0 nm"),
+        (
+            "[[546.0, inf]]",
+            "[0][1]",
+            "value inf W sr⁻¹ at 546 nm must be a finite number ≥ 0",
+        ),
+        ("[[546.0, -0.1]]", "[0][1]", "value -0.1 W sr⁻¹"),
+        (
+            "[[546.0]]",
+            "[0]",
+            "an emission line is [wavelength_nm, value], found 1 number",
+        ),
+        ("[[589.0, 1.0], [546.0, 1, 2]]", "[1]", "found 3 numbers"),
+        ("[[]]", "[0]", "found 0 numbers"),
+        ("[546.0, 0.1]", "[0]", "invalid type"),
+        ("[[\"green\", 0.1]]", "[0][0]", "invalid type: string"),
+    ];
+    for (lines, at, part) in cases {
+        expect_err(&src(lines), n + 3, &format!("{f}{at}"), part);
+    }
     let msg = expect_err(
         &src("[\n  [546.0, 0.1],\n  [589.0, 0.1],\n  [546.0, 0.2],\n]"),
         n + 6,
@@ -729,32 +729,6 @@ fn line_errors_name_file_line_and_field() {
         "a second emission line at 546 nm",
     );
     assert!(msg.contains(&format!("the first is {f}[0]")), "{msg}");
-    // Wrong shape, at the element: one number, three numbers, no list, a string.
-    expect_err(
-        &src("[[546.0]]"),
-        n + 3,
-        &format!("{f}[0]"),
-        "an emission line is [wavelength_nm, value], found 1 number",
-    );
-    expect_err(
-        &src("[[589.0, 1.0], [546.0, 1, 2]]"),
-        n + 3,
-        &format!("{f}[1]"),
-        "found 3 numbers",
-    );
-    expect_err(&src("[[]]"), n + 3, &format!("{f}[0]"), "found 0 numbers");
-    expect_err(
-        &src("[546.0, 0.1]"),
-        n + 3,
-        &format!("{f}[0]"),
-        "invalid type",
-    );
-    expect_err(
-        &src("[[\"green\", 0.1]]"),
-        n + 3,
-        &format!("{f}[0][0]"),
-        "invalid type: string",
-    );
     // Duplicate of a line the named spectrum already has.
     let text = format!(
         "{BASE}[point_sources.lamp]\nposition = [0.0, 0.0, 3.0]\nspectrum = \"mercury-clear\"\nlines = [[546.074, 0.1]]\n"
@@ -1421,53 +1395,55 @@ fn instance_area_scales_as_scale_squared() {
     }
 }
 
+/// Bad inline placements: the object's extra line, the field under
+/// `objects.t` and a part of the message. Finite but past ±1e6°, an angle
+/// would keep no bit of its turn.
+const BAD_PLACEMENTS: [(&str, &str, &str); 7] = [
+    (
+        "instances = [{ scale = 1.0 }, { scale = -2.0 }]\n",
+        "instances[1].scale",
+        "must be finite and > 0",
+    ),
+    (
+        "instances = [{ rotate = 90.0 }]\n",
+        "instances[0].rotate",
+        "unknown field `rotate`",
+    ),
+    ("instances = []\n", "instances", "no placements"),
+    (
+        "instances = [{ translate = [1.0, 2.0] }]\n",
+        "instances[0].translate",
+        "3 numbers",
+    ),
+    (
+        "instances = [{ rotate_z_deg = nan }]\n",
+        "instances[0].rotate_z_deg",
+        "not a finite number",
+    ),
+    (
+        "instances = [{ rotate_z_deg = 1e300 }]\n",
+        "instances[0].rotate_z_deg",
+        "1e300 degrees is past the limit of ±1e6",
+    ),
+    (
+        "rotate_z_deg = -1000001.0\n",
+        "rotate_z_deg",
+        "-1000001 degrees is past the limit of ±1e6",
+    ),
+];
+
 #[test]
 fn placement_errors_name_file_line_and_field() {
     // Inline: the entry and its key.
     let l = next_line() + 4;
-    expect_err(
-        &triangle_object("instances = [{ scale = 1.0 }, { scale = -2.0 }]\n"),
-        l,
-        "objects.t.instances[1].scale",
-        "must be finite and > 0",
-    );
-    expect_err(
-        &triangle_object("instances = [{ rotate = 90.0 }]\n"),
-        l,
-        "objects.t.instances[0].rotate",
-        "unknown field `rotate`",
-    );
-    expect_err(
-        &triangle_object("instances = []\n"),
-        l,
-        "objects.t.instances",
-        "no placements",
-    );
-    expect_err(
-        &triangle_object("instances = [{ translate = [1.0, 2.0] }]\n"),
-        l,
-        "objects.t.instances[0].translate",
-        "3 numbers",
-    );
-    expect_err(
-        &triangle_object("instances = [{ rotate_z_deg = nan }]\n"),
-        l,
-        "objects.t.instances[0].rotate_z_deg",
-        "not a finite number",
-    );
-    // Finite but past ±1e6°: the angle would keep no bit of its turn.
-    expect_err(
-        &triangle_object("instances = [{ rotate_z_deg = 1e300 }]\n"),
-        l,
-        "objects.t.instances[0].rotate_z_deg",
-        "1e300 degrees is past the limit of ±1e6",
-    );
-    expect_err(
-        &triangle_object("rotate_z_deg = -1000001.0\n"),
-        l,
-        "objects.t.rotate_z_deg",
-        "-1000001 degrees is past the limit of ±1e6",
-    );
+    for (object, field, part) in BAD_PLACEMENTS {
+        expect_err(
+            &triangle_object(object),
+            l,
+            &format!("objects.t.{field}"),
+            part,
+        );
+    }
     // The limit itself is a rotation (2 777 turns and 280°): the base's
     // floor and the triangle.
     let s = parse(&triangle_object("rotate_z_deg = 1e6\n")).unwrap();

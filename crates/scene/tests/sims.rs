@@ -138,29 +138,7 @@ fn office_room_scene() {
         .unwrap();
     let c = top.centroid();
     assert!((c.x - west.x).abs() < 1e-9 && (c.y - west.y).abs() < 1e-9 && c.z < west.z);
-    // The person (OBJ): 6 boxes of 6 quads, all facing outward, feet on the floor.
-    let person: Vec<_> = s.facets.iter().filter(|f| f.object == "person").collect();
-    assert_eq!(person.len(), 36);
-    assert!(person.iter().all(|f| f.vertices.len() == 4));
-    let zmin = person
-        .iter()
-        .flat_map(|f| &f.vertices)
-        .map(|v| v.z)
-        .fold(f64::MAX, f64::min);
-    let zmax = person
-        .iter()
-        .flat_map(|f| &f.vertices)
-        .map(|v| v.z)
-        .fold(f64::MIN, f64::max);
-    assert!(zmin.abs() < 1e-6 && (zmax - 5.75).abs() < 1e-5);
-    // Every box of the person has its faces pointing away from its centre:
-    // summed vector area of a closed box is zero and each face points out.
-    for chunk in person.chunks(6) {
-        let bc: DVec3 = chunk.iter().map(|f| f.centroid()).sum::<DVec3>() / 6.0;
-        for f in chunk {
-            assert!((f.centroid() - bc).dot(f.normal()) > 0.0);
-        }
-    }
+    check_person(&s);
 
     let p = plan(&s);
     // Interreflection is possible (the scene's materials reflect); the
@@ -183,6 +161,33 @@ fn office_room_scene() {
         p.get("moon").unwrap().reason,
         "no [sky] block (indoor scene)"
     );
+}
+
+/// The office's person (OBJ): 6 boxes of 6 quads, all facing outward,
+/// feet on the floor.
+fn check_person(s: &gloam_scene::Scene) {
+    let person: Vec<_> = s.facets.iter().filter(|f| f.object == "person").collect();
+    assert_eq!(person.len(), 36);
+    assert!(person.iter().all(|f| f.vertices.len() == 4));
+    let zmin = person
+        .iter()
+        .flat_map(|f| &f.vertices)
+        .map(|v| v.z)
+        .fold(f64::MAX, f64::min);
+    let zmax = person
+        .iter()
+        .flat_map(|f| &f.vertices)
+        .map(|v| v.z)
+        .fold(f64::MIN, f64::max);
+    assert!(zmin.abs() < 1e-6 && (zmax - 5.75).abs() < 1e-5);
+    // Every box of the person has its faces pointing away from its centre:
+    // summed vector area of a closed box is zero and each face points out.
+    for chunk in person.chunks(6) {
+        let bc: DVec3 = chunk.iter().map(|f| f.centroid()).sum::<DVec3>() / 6.0;
+        for f in chunk {
+            assert!((f.centroid() - bc).dot(f.normal()) > 0.0);
+        }
+    }
 }
 
 #[test]

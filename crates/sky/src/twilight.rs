@@ -766,51 +766,8 @@ impl DiffuseField {
         // order's Rayleigh source in any direction exactly)
         let mut j1 = Vec::with_capacity(nodes.len());
         let mut moments = Vec::with_capacity(nodes.len());
-        for &(h, e) in &nodes {
-            let r = EARTH_RADIUS_KM + h;
-            let p = [0.0, 0.0, r];
-            let e = e.to_radians();
-            let sun = [e.cos(), 0.0, e.sin()];
-            let mut j = vec![0.0; field.coarse.len()];
-            let mut m = vec![[0.0; 6]; field.coarse.len()];
-            for (d, w) in Self::directions(r) {
-                let samples = sky.march_from(p, d, sun, FIELD_SAMPLES, d[2] >= 0.0, Some(&rule));
-                let dd = [
-                    d[0] * d[0],
-                    d[1] * d[1],
-                    d[2] * d[2],
-                    d[0] * d[2],
-                    d[0],
-                    d[2],
-                ];
-                let cos_theta = dot(d, sun).clamp(-1.0, 1.0);
-                // sunlight (travelling along −sun) turned towards P (along
-                // −d): the scattering angle's cosine is d · sun
-                let p_r = rayleigh_phase(cos_theta);
-                let p_a = henyey_greenstein_phase(cos_theta, sky.atmosphere.aerosol_asymmetry);
-                for (c, &i) in field.coarse.iter().enumerate() {
-                    let mut l = 0.0;
-                    for q in &samples {
-                        let Some(to_sun) = &q.to_sun else { continue };
-                        let b = s.tau_rayleigh[i] * q.dens.rayleigh * p_r
-                            + s.tau_aerosol_scattering[i] * q.dens.aerosol * p_a;
-                        let tau = sky.optical_depth(i, &q.to_start) + sky.optical_depth(i, to_sun);
-                        l += q.dt * b * (-tau).exp();
-                    }
-                    let jw = w * s.solar_w_m2_nm[i] * l / (FOUR_PI * FOUR_PI);
-                    j[c] += jw;
-                    for (mk, dk) in m[c].iter_mut().zip(dd) {
-                        *mk += jw * dk;
-                    }
-                }
-            }
-            for (mc, &jc) in m.iter_mut().zip(&j) {
-                if jc > 0.0 {
-                    mc.iter_mut().for_each(|mk| *mk /= jc);
-                } else {
-                    *mc = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0, 0.0];
-                }
-            }
+        for &node in &nodes {
+            let (j, m) = Self::single_scattering(sky, &field.coarse, &rule, node);
             j1.push(j);
             moments.push(m);
         }
@@ -865,23 +822,66 @@ impl DiffuseField {
             }
             field.orders.push(next);
         }
-        // total: the explicit orders plus a geometric tail, each further
-        // order the last one times the local transfer probability f
-        // (J_N f/(1 − f), the closure of Hillaire 2020 applied past order N)
-        field.log_total = (0..nodes.len())
-            .map(|k| {
-                (0..field.coarse.len())
-                    .map(|c| {
-                        let t: f64 = field.orders.iter().map(|o| o[k][c]).sum();
-                        let last = field.orders.last().map_or(0.0, |o| o[k][c]);
-                        let f = transfer[k][c].clamp(0.0, FIELD_MAX_TRANSFER);
-                        (t + last * f / (1.0 - f)).max(1e-300).ln()
-                    })
-                    .collect()
-            })
-            .collect();
+        field.log_total = log_total(&field.orders, &transfer);
         field.transfer = transfer;
         field
+    }
+
+    /// J₁ at one node (height km, solar elevation °): the angle average of
+    /// the single-scattered radiance per coarse wavelength, with its second
+    /// moments (normalised by J; isotropic where J is 0).
+    fn single_scattering(
+        sky: &TwilightSky,
+        coarse: &[usize],
+        rule: &[(f64, f64)],
+        (h, e): (f64, f64),
+    ) -> (Vec<f64>, Vec<[f64; 6]>) {
+        let s = &sky.spectral;
+        let r = EARTH_RADIUS_KM + h;
+        let p = [0.0, 0.0, r];
+        let e = e.to_radians();
+        let sun = [e.cos(), 0.0, e.sin()];
+        let mut j = vec![0.0; coarse.len()];
+        let mut m = vec![[0.0; 6]; coarse.len()];
+        for (d, w) in Self::directions(r) {
+            let samples = sky.march_from(p, d, sun, FIELD_SAMPLES, d[2] >= 0.0, Some(rule));
+            let dd = [
+                d[0] * d[0],
+                d[1] * d[1],
+                d[2] * d[2],
+                d[0] * d[2],
+                d[0],
+                d[2],
+            ];
+            let cos_theta = dot(d, sun).clamp(-1.0, 1.0);
+            // sunlight (travelling along −sun) turned towards P (along
+            // −d): the scattering angle's cosine is d · sun
+            let p_r = rayleigh_phase(cos_theta);
+            let p_a = henyey_greenstein_phase(cos_theta, sky.atmosphere.aerosol_asymmetry);
+            for (c, &i) in coarse.iter().enumerate() {
+                let mut l = 0.0;
+                for q in &samples {
+                    let Some(to_sun) = &q.to_sun else { continue };
+                    let b = s.tau_rayleigh[i] * q.dens.rayleigh * p_r
+                        + s.tau_aerosol_scattering[i] * q.dens.aerosol * p_a;
+                    let tau = sky.optical_depth(i, &q.to_start) + sky.optical_depth(i, to_sun);
+                    l += q.dt * b * (-tau).exp();
+                }
+                let jw = w * s.solar_w_m2_nm[i] * l / (FOUR_PI * FOUR_PI);
+                j[c] += jw;
+                for (mk, dk) in m[c].iter_mut().zip(dd) {
+                    *mk += jw * dk;
+                }
+            }
+        }
+        for (mc, &jc) in m.iter_mut().zip(&j) {
+            if jc > 0.0 {
+                mc.iter_mut().for_each(|mk| *mk /= jc);
+            } else {
+                *mc = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0, 0.0];
+            }
+        }
+        (j, m)
     }
 
     /// Bilinear weights `[(node, weight)]` for a point, or None below the
@@ -1039,6 +1039,25 @@ impl DiffuseField {
         }
         (rayleigh, aerosol)
     }
+}
+
+/// ln of the total diffuse source per node and coarse wavelength: the
+/// explicit orders plus a geometric tail, each further order the last one
+/// times the local transfer probability f (J_N f/(1 − f), the closure of
+/// Hillaire 2020 applied past order N).
+fn log_total(orders: &[Vec<Vec<f64>>], transfer: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    (0..transfer.len())
+        .map(|k| {
+            (0..transfer[k].len())
+                .map(|c| {
+                    let t: f64 = orders.iter().map(|o| o[k][c]).sum();
+                    let last = orders.last().map_or(0.0, |o| o[k][c]);
+                    let f = transfer[k][c].clamp(0.0, FIELD_MAX_TRANSFER);
+                    (t + last * f / (1.0 - f)).max(1e-300).ln()
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// `(A, B)` with the Rayleigh phase function `A + B cos²θ`

@@ -125,46 +125,8 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
             ));
         }
         let (w, v) = (parsed[0].unwrap_or(f64::NAN), parsed[1].unwrap_or(f64::NAN));
-        if !w.is_finite() || w <= 0.0 || w > MAX_WAVELENGTH_NM {
-            return Err(err(
-                line_no,
-                if w.abs() < 1e7 || !w.is_finite() {
-                    format!(
-                        "wavelength {w} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
-                    )
-                } else {
-                    format!(
-                        "wavelength {w:e} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
-                    )
-                },
-            ));
-        }
-        if !v.is_finite() {
-            return Err(err(line_no, format!("value {v} at {w} nm is not finite")));
-        }
-        if v < 0.0 {
-            return Err(err(line_no, format!("value {v} at {w} nm is negative")));
-        }
-        if let Some(&prev) = wavelengths.last() {
-            if w == prev {
-                return Err(err(
-                    line_no,
-                    format!(
-                        "duplicate wavelength {w} nm (also on line {})",
-                        rows[rows.len() - 1]
-                    ),
-                ));
-            }
-            if w < prev {
-                return Err(err(
-                    line_no,
-                    format!(
-                        "wavelength {w} nm is below the previous {prev} nm on line {}: wavelengths must increase",
-                        rows[rows.len() - 1]
-                    ),
-                ));
-            }
-        }
+        let prev = wavelengths.last().map(|&p| (p, rows[rows.len() - 1]));
+        check_point(w, v, prev).map_err(|m| err(line_no, m))?;
         wavelengths.push(w);
         values.push(v);
         rows.push(line_no);
@@ -190,6 +152,44 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
     Spectrum::new(wavelengths, values)
         .and_then(|s| s.with_lines(lines))
         .map_err(|e| err(0, e.to_string()))
+}
+
+/// One continuum row's wavelength and value: a wavelength in range,
+/// above the previous row's (`prev`: its wavelength and line), and a
+/// finite value ≥ 0.
+fn check_point(w: f64, v: f64, prev: Option<(f64, usize)>) -> Result<(), String> {
+    if !w.is_finite() || w <= 0.0 || w > MAX_WAVELENGTH_NM {
+        return Err(if w.abs() < 1e7 || !w.is_finite() {
+            format!(
+                "wavelength {w} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
+            )
+        } else {
+            format!(
+                "wavelength {w:e} nm is not a finite positive number up to {MAX_WAVELENGTH_NM:e} nm (1 mm)"
+            )
+        });
+    }
+    if !v.is_finite() {
+        return Err(format!("value {v} at {w} nm is not finite"));
+    }
+    if v < 0.0 {
+        return Err(format!("value {v} at {w} nm is negative"));
+    }
+    if let Some((prev, prev_row)) = prev {
+        if w == prev {
+            return Err(format!(
+                "duplicate wavelength {w} nm (also on line {})",
+                prev_row
+            ));
+        }
+        if w < prev {
+            return Err(format!(
+                "wavelength {w} nm is below the previous {prev} nm on line {}: wavelengths must increase",
+                prev_row
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A header field is clearly a name, never a mistyped number: no digit at

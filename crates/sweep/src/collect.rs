@@ -212,16 +212,14 @@ pub fn collect(sd: &SweepDir) -> Result<Collected, CollectError> {
     })
 }
 
-/// Mean DN and SNR against gain, per scene, one line per camera (the mean
-/// over the tasks' other axes at each gain).
-fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> Result<Vec<PathBuf>, CollectError> {
-    let has_gain_axis = sd.sweep.axes.iter().any(|a| a.name == "gain");
-    if !has_gain_axis {
-        return Ok(Vec::new());
-    }
-    // scene → camera → gain bits → (sum dn, n dn, sum snr, n snr)
-    type Acc = BTreeMap<String, BTreeMap<String, BTreeMap<u64, [f64; 4]>>>;
-    let mut acc: Acc = BTreeMap::new();
+/// Done tasks' figures summed per scene → camera → gain bits: (sum mean
+/// DN, count, sum SNR, count).
+type GainFigures = BTreeMap<String, BTreeMap<String, BTreeMap<u64, [f64; 4]>>>;
+
+/// The mean DN and SNR of the done tasks, summed by scene, camera and
+/// gain (a task without a gain axis value is left out).
+fn gain_figures(sd: &SweepDir, records: &[Option<TaskRecord>]) -> GainFigures {
+    let mut acc: GainFigures = BTreeMap::new();
     for (t, r) in sd.sweep.tasks.iter().zip(records) {
         let (Some(r), Some(g)) = (r, t.gain()) else {
             continue;
@@ -249,6 +247,17 @@ fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> Result<Vec<PathBuf>, 
             e[3] += 1.0;
         }
     }
+    acc
+}
+
+/// Mean DN and SNR against gain, per scene, one line per camera (the mean
+/// over the tasks' other axes at each gain).
+fn plots(sd: &SweepDir, records: &[Option<TaskRecord>]) -> Result<Vec<PathBuf>, CollectError> {
+    let has_gain_axis = sd.sweep.axes.iter().any(|a| a.name == "gain");
+    if !has_gain_axis {
+        return Ok(Vec::new());
+    }
+    let acc = gain_figures(sd, records);
     if acc
         .values()
         .all(|c| c.values().all(|g| g.values().all(|e| e[1] == 0.0)))

@@ -591,21 +591,7 @@ impl SweepDir {
                 .map_err(|e| chain(&*e)),
             Err(e) => Err(e.to_string()),
         });
-        // What the task read: its chunk's shared work and its own run.
-        let mut inputs = BTreeMap::new();
-        for r in prepare_read.iter().chain(&run_read) {
-            let p = r.path.display().to_string();
-            if inputs.contains_key(&p) {
-                continue;
-            }
-            let h = match &r.sha256 {
-                Some(h) => Some(h.clone()),
-                None => gloam_io::unrecorded(|| sha256_file(&r.path)).ok(),
-            };
-            if let Some(h) = h {
-                inputs.insert(p, h);
-            }
-        }
+        let inputs = input_hashes(prepare_read.iter().chain(&run_read));
         let mut record = TaskRecord {
             index,
             id: task.id.clone(),
@@ -626,21 +612,7 @@ impl SweepDir {
                     .iter()
                     .map(|(k, v)| (k.clone(), v.is_finite().then_some(*v)))
                     .collect();
-                let mut files: Vec<PathBuf> = std::fs::read_dir(tmp.path())
-                    .and_then(|rd| rd.map(|e| e.map(|e| e.path())).collect())
-                    .map_err(io("listing", tmp.path()))?;
-                files.sort();
-                for f in files {
-                    if !f.is_file() {
-                        return Err(SweepError::NotAFile(f));
-                    }
-                    let name = f
-                        .file_name()
-                        .unwrap_or_default()
-                        .to_string_lossy()
-                        .into_owned();
-                    record.outputs.insert(name, sha256_file(&f)?);
-                }
+                record.outputs = output_hashes(tmp.path())?;
             }
             Err(e) => {
                 record.status = Status::Failed;
@@ -702,6 +674,50 @@ impl SweepDir {
         }
         s
     }
+}
+
+/// What a task read (its chunk's shared work and its own run), each file
+/// once, by path, with its hash (recorded at the read, else hashed now).
+fn input_hashes<'a>(
+    reads: impl Iterator<Item = &'a gloam_io::FileRead>,
+) -> BTreeMap<String, String> {
+    let mut inputs = BTreeMap::new();
+    for r in reads {
+        let p = r.path.display().to_string();
+        if inputs.contains_key(&p) {
+            continue;
+        }
+        let h = match &r.sha256 {
+            Some(h) => Some(h.clone()),
+            None => gloam_io::unrecorded(|| sha256_file(&r.path)).ok(),
+        };
+        if let Some(h) = h {
+            inputs.insert(p, h);
+        }
+    }
+    inputs
+}
+
+/// A finished task's outputs, by file name, with their hashes; anything
+/// but a plain file there is an error.
+fn output_hashes(dir: &Path) -> Result<BTreeMap<String, String>, SweepError> {
+    let mut outputs = BTreeMap::new();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .and_then(|rd| rd.map(|e| e.map(|e| e.path())).collect())
+        .map_err(io("listing", dir))?;
+    files.sort();
+    for f in files {
+        if !f.is_file() {
+            return Err(SweepError::NotAFile(f));
+        }
+        let name = f
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        outputs.insert(name, sha256_file(&f)?);
+    }
+    Ok(outputs)
 }
 
 /// What the records say.

@@ -199,52 +199,20 @@ impl Sweep {
             });
         }
         // The product's size, checked before anything is built.
-        let mut count: usize = 1;
-        for a in &axes {
-            count = count
-                .checked_mul(a.values.len())
-                .filter(|&n| n <= MAX_TASKS)
-                .ok_or_else(|| {
-                    err(
-                        None,
-                        "axes",
-                        format!(
-                            "the axes' product exceeds {MAX_TASKS} tasks; split the sweep into several files"
-                        ),
-                    )
-                })?;
-        }
+        let count = task_count(&axes).ok_or_else(|| {
+            err(
+                None,
+                "axes",
+                format!(
+                    "the axes' product exceeds {MAX_TASKS} tasks; split the sweep into several files"
+                ),
+            )
+        })?;
         let mut tasks = Vec::with_capacity(count);
         let mut keys: BTreeMap<String, usize> = BTreeMap::new();
         let mut chunks: Vec<Vec<usize>> = Vec::new();
         for index in 0..count {
-            // Mixed radix, last axis fastest.
-            let mut rem = index;
-            let mut picks = vec![0usize; axes.len()];
-            for (j, a) in axes.iter().enumerate().rev() {
-                picks[j] = rem % a.values.len();
-                rem /= a.values.len();
-            }
-            let mut values = base.clone();
-            let mut axis_text = Vec::with_capacity(axes.len());
-            for (a, &p) in axes.iter().zip(&picks) {
-                let v = a.values[p].clone();
-                axis_text.push((a.name.clone(), scalar_text(&v).unwrap_or_default()));
-                values.insert(a.name.clone(), v);
-            }
-            let mut sorted = axis_text.clone();
-            sorted.sort();
-            let id_src: String = sorted.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
-            let id = sha_hex(id_src.as_bytes())[..16].to_string();
-            let mut task = Task {
-                index,
-                id,
-                axes: axis_text,
-                seed: 0,
-                render_key: String::new(),
-                chunk: 0,
-                values,
-            };
+            let mut task = new_task(index, &axes, &base);
             let line = axes.first().map_or(1, |a| a.line);
             task.check().map_err(|m| {
                 err(
@@ -334,6 +302,50 @@ impl Sweep {
         } else {
             s
         })
+    }
+}
+
+/// How many tasks the axes' product makes; `None` past [`MAX_TASKS`].
+fn task_count(axes: &[Axis]) -> Option<usize> {
+    let mut count: usize = 1;
+    for a in axes {
+        count = count
+            .checked_mul(a.values.len())
+            .filter(|&n| n <= MAX_TASKS)?;
+    }
+    Some(count)
+}
+
+/// Task `index` of the product (mixed radix, last axis fastest): the base
+/// values with its axes' picks, and its id from the picks; seed, render
+/// key and chunk are set once it is checked.
+fn new_task(index: usize, axes: &[Axis], base: &BTreeMap<String, toml::Value>) -> Task {
+    // Mixed radix, last axis fastest.
+    let mut rem = index;
+    let mut picks = vec![0usize; axes.len()];
+    for (j, a) in axes.iter().enumerate().rev() {
+        picks[j] = rem % a.values.len();
+        rem /= a.values.len();
+    }
+    let mut values = base.clone();
+    let mut axis_text = Vec::with_capacity(axes.len());
+    for (a, &p) in axes.iter().zip(&picks) {
+        let v = a.values[p].clone();
+        axis_text.push((a.name.clone(), scalar_text(&v).unwrap_or_default()));
+        values.insert(a.name.clone(), v);
+    }
+    let mut sorted = axis_text.clone();
+    sorted.sort();
+    let id_src: String = sorted.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
+    let id = sha_hex(id_src.as_bytes())[..16].to_string();
+    Task {
+        index,
+        id,
+        axes: axis_text,
+        seed: 0,
+        render_key: String::new(),
+        chunk: 0,
+        values,
     }
 }
 

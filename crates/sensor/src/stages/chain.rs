@@ -140,6 +140,110 @@ pub struct Chain {
     pub stages: Vec<MtfStage>,
 }
 
+/// The tube's gain law, with the gains at its minimum, maximum and set
+/// voltages (the digitizer's analogue gain range on a bare CCD).
+fn gain_law(tube: crate::config::Tube, cfg: &SensorConfig) -> (GainControl, f64, f64, f64) {
+    let law = |gc: GainControl, lo_v: f64, hi_v: f64, set_v: f64| {
+        (gc, gc.gain_at(lo_v), gc.gain_at(hi_v), gc.gain_at(set_v))
+    };
+    match tube {
+        crate::config::Tube::Iccd { mcp: m, .. } => law(
+            GainControl::Mcp {
+                g0: m.gain_ref,
+                v0: m.voltage_ref_v,
+                k: m.exponent,
+            },
+            m.min_voltage_v,
+            m.max_voltage_v,
+            m.voltage_v,
+        ),
+        crate::config::Tube::Ebccd { ebccd: e, .. } => law(
+            GainControl::Ebccd {
+                dead_ev: e.dead_layer_ev,
+                pair_ev: e.pair_energy_ev,
+            },
+            e.min_voltage_v,
+            e.max_voltage_v,
+            e.voltage_v,
+        ),
+        crate::config::Tube::Ccd { .. } => {
+            let d = &cfg.digitizer;
+            (
+                GainControl::Analog,
+                d.min_analog_gain,
+                d.max_analog_gain,
+                d.analog_gain,
+            )
+        }
+    }
+}
+
+/// The chain's tube stages from the configured tube, their MTF stages
+/// appended to `stages` (after the optics') in light's order.
+fn chain_tube(
+    tube: crate::config::Tube,
+    cfg: &SensorConfig,
+    (pitch_cathode_mm, pitch_ccd_mm): (f64, f64),
+    stages: &mut Vec<MtfStage>,
+) -> Result<Tube, ConfigError> {
+    Ok(match tube {
+        crate::config::Tube::Iccd {
+            photocathode: p,
+            mcp: m,
+            phosphor: ph,
+            coupling: c,
+            ccd_qe,
+        } => {
+            stages.extend(photocathode::proximity_gap(
+                "cathode-MCP gap",
+                p.gap_mm,
+                p.emission_energy_ev,
+                p.gap_voltage_v,
+                pitch_cathode_mm,
+                false,
+            ));
+            stages.extend(Mcp::pore_mtf(m, pitch_cathode_mm));
+            let mcp = Mcp::new(m, pitch_cathode_mm, cfg.timing.exposure_s);
+            stages.extend(photocathode::proximity_gap(
+                "MCP-screen gap",
+                ph.gap_mm,
+                ph.exit_energy_ev,
+                ph.screen_voltage_v,
+                pitch_cathode_mm,
+                true,
+            ));
+            stages.extend(Screen::spread_mtf(ph, pitch_cathode_mm));
+            let screen = Screen::new(ph);
+            let coupling_fraction = coupling::collected_fraction(c);
+            stages.extend(coupling::mtf_stage(c, &screen.spectrum, pitch_ccd_mm));
+            let qe = resolve_spectrum("ccd.qe", ccd_qe)?;
+            let ccd_qe_at_phosphor = ccd::qe_at_spectrum(&screen.spectrum, &qe);
+            stages.extend(ccd::diffusion_mtf(&cfg.ccd, pitch_ccd_mm, true));
+            Tube::Iccd(Intensifier {
+                mcp,
+                phosphor_photons_per_e: screen.photons_per_e,
+                coupling_fraction,
+                ccd_qe_at_phosphor,
+                ccd_e_per_mcp_e: screen.photons_per_e * coupling_fraction * ccd_qe_at_phosphor,
+                lag_fraction: screen.lag_fraction,
+            })
+        }
+        crate::config::Tube::Ebccd {
+            photocathode,
+            ebccd,
+        } => {
+            // The cathode-CCD gap term depends on the voltage; it is added
+            // per gain by `stages_at`.
+            stages.extend(ccd::diffusion_mtf(&cfg.ccd, pitch_ccd_mm, true));
+            Tube::Ebccd(EbParams::new(photocathode, ebccd))
+        }
+        crate::config::Tube::Ccd { .. } => {
+            stages.extend(ccd::diffusion_mtf(&cfg.ccd, pitch_ccd_mm, false));
+            Tube::Ccd
+        }
+    })
+}
+
 impl Chain {
     pub fn new(config: &SensorConfig) -> Result<Self, ConfigError> {
         let layout = config.layout()?;
@@ -175,40 +279,7 @@ impl Chain {
             crate::config::Tube::Ccd { ccd_qe } => resolve_spectrum("ccd.qe", ccd_qe)?,
         };
 
-        // A gain law with the gains at its minimum, maximum and set voltages.
-        let law = |gc: GainControl, lo_v: f64, hi_v: f64, set_v: f64| {
-            (gc, gc.gain_at(lo_v), gc.gain_at(hi_v), gc.gain_at(set_v))
-        };
-        let (gain_control, gain_min, gain_max, reference_gain) = match tube {
-            crate::config::Tube::Iccd { mcp: m, .. } => law(
-                GainControl::Mcp {
-                    g0: m.gain_ref,
-                    v0: m.voltage_ref_v,
-                    k: m.exponent,
-                },
-                m.min_voltage_v,
-                m.max_voltage_v,
-                m.voltage_v,
-            ),
-            crate::config::Tube::Ebccd { ebccd: e, .. } => law(
-                GainControl::Ebccd {
-                    dead_ev: e.dead_layer_ev,
-                    pair_ev: e.pair_energy_ev,
-                },
-                e.min_voltage_v,
-                e.max_voltage_v,
-                e.voltage_v,
-            ),
-            crate::config::Tube::Ccd { .. } => {
-                let d = &cfg.digitizer;
-                (
-                    GainControl::Analog,
-                    d.min_analog_gain,
-                    d.max_analog_gain,
-                    d.analog_gain,
-                )
-            }
-        };
+        let (gain_control, gain_min, gain_max, reference_gain) = gain_law(tube, cfg);
 
         let mut luminous_sensitivity_a_lm = None;
         let mut ebi_pe_ref = 0.0;
@@ -223,62 +294,7 @@ impl Chain {
 
         // Optics, at the cathode plane.
         let mut stages = optics::mtf_stages(o, pitch_cathode_mm);
-        let tube = match tube {
-            crate::config::Tube::Iccd {
-                photocathode: p,
-                mcp: m,
-                phosphor: ph,
-                coupling: c,
-                ccd_qe,
-            } => {
-                stages.extend(photocathode::proximity_gap(
-                    "cathode-MCP gap",
-                    p.gap_mm,
-                    p.emission_energy_ev,
-                    p.gap_voltage_v,
-                    pitch_cathode_mm,
-                    false,
-                ));
-                stages.extend(Mcp::pore_mtf(m, pitch_cathode_mm));
-                let mcp = Mcp::new(m, pitch_cathode_mm, cfg.timing.exposure_s);
-                stages.extend(photocathode::proximity_gap(
-                    "MCP-screen gap",
-                    ph.gap_mm,
-                    ph.exit_energy_ev,
-                    ph.screen_voltage_v,
-                    pitch_cathode_mm,
-                    true,
-                ));
-                stages.extend(Screen::spread_mtf(ph, pitch_cathode_mm));
-                let screen = Screen::new(ph);
-                let coupling_fraction = coupling::collected_fraction(c);
-                stages.extend(coupling::mtf_stage(c, &screen.spectrum, pitch_ccd_mm));
-                let qe = resolve_spectrum("ccd.qe", ccd_qe)?;
-                let ccd_qe_at_phosphor = ccd::qe_at_spectrum(&screen.spectrum, &qe);
-                stages.extend(ccd::diffusion_mtf(&cfg.ccd, pitch_ccd_mm, true));
-                Tube::Iccd(Intensifier {
-                    mcp,
-                    phosphor_photons_per_e: screen.photons_per_e,
-                    coupling_fraction,
-                    ccd_qe_at_phosphor,
-                    ccd_e_per_mcp_e: screen.photons_per_e * coupling_fraction * ccd_qe_at_phosphor,
-                    lag_fraction: screen.lag_fraction,
-                })
-            }
-            crate::config::Tube::Ebccd {
-                photocathode,
-                ebccd,
-            } => {
-                // The cathode-CCD gap term depends on the voltage; it is added
-                // per gain by `stages_at`.
-                stages.extend(ccd::diffusion_mtf(&cfg.ccd, pitch_ccd_mm, true));
-                Tube::Ebccd(EbParams::new(photocathode, ebccd))
-            }
-            crate::config::Tube::Ccd { .. } => {
-                stages.extend(ccd::diffusion_mtf(&cfg.ccd, pitch_ccd_mm, false));
-                Tube::Ccd
-            }
-        };
+        let tube = chain_tube(tube, cfg, (pitch_cathode_mm, pitch_ccd_mm), &mut stages)?;
 
         let d = &cfg.digitizer;
         let max_code = ((1u32 << d.bits) - 1) as f64;

@@ -96,14 +96,7 @@ pub(crate) fn read(chain: &Chain, pat: &Patterns, f: &mut InFlight) {
         noise,
         cols,
     );
-    let digitizer = Digitizer {
-        black_dn: chain.black_dn(g),
-        dn_per_e: chain.dn_per_ccd_electron(g),
-        clip_dn: chain.clip_dn(g),
-        max_code: chain.max_code,
-        // "Saturated": within 3 σ of read noise (at least 1 DN) of saturation.
-        saturated_dn: chain.saturated_threshold_dn(g),
-    };
+    let digitizer = digitizer(chain, g);
     // The analogue line (video amplifier and sampling), when band-limited.
     let line = chain.line_sampler(cols);
     let scope_rows = f.scope_rows;
@@ -130,46 +123,39 @@ pub(crate) fn read(chain: &Chain, pat: &Patterns, f: &mut InFlight) {
         .as_slice_mut()
         .unwrap_or_else(|| unreachable!("a new array is in standard layout"));
 
-    // Can any pixel reach full well? (Upper bound: the blur and patterns
-    // cannot raise the maximum by more than a few per cent.)
     let pe = &mut f.pe;
-    let max_q = pe
-        .par_chunks(1 << 14)
-        .map(|c| c.iter().copied().fold(0f32, f32::max))
-        .reduce(|| 0f32, f32::max) as f64;
-    let bound = max_q * conversion * 1.1 * pat.flat_field_max + chain.dark_e_per_frame;
-    let bound = bound + 8.0 * bound.sqrt() + 10.0;
-    let stats: Vec<(f64, usize)> = if !chain.config.ccd.blooming || bound < full_well {
-        // Fast path: no charge moves between pixels, so shot, dark and read
-        // noise are drawn in one pass.
-        out_rows
-            .par_chunks_mut(cols)
-            .zip(pe.par_chunks(cols))
-            .enumerate()
-            .map_init(Vec::new, |m, (r, (out, row))| {
-                ccd.mean_row(r, row, m);
-                ccd.noise_row(r, m);
-                digitize_row(r, m, out)
-            })
-            .collect()
-    } else {
-        pe.par_chunks_mut(cols)
-            .enumerate()
-            .for_each_init(Vec::new, |m, (r, row)| {
-                ccd.mean_row(r, row, m);
-                ccd.collect_row(r, row, m);
-            });
-        ccd::bloom(pe, rows, cols, full_well as f32);
-        out_rows
-            .par_chunks_mut(cols)
-            .zip(pe.par_chunks(cols))
-            .enumerate()
-            .map_init(Vec::new, |v: &mut Vec<f64>, (r, (out, row))| {
-                ccd.read_row(r, row, v);
-                digitize_row(r, v, out)
-            })
-            .collect()
-    };
+    let stats: Vec<(f64, usize)> =
+        if !chain.config.ccd.blooming || charge_bound(chain, pat, pe, conversion) < full_well {
+            // Fast path: no charge moves between pixels, so shot, dark and read
+            // noise are drawn in one pass.
+            out_rows
+                .par_chunks_mut(cols)
+                .zip(pe.par_chunks(cols))
+                .enumerate()
+                .map_init(Vec::new, |m, (r, (out, row))| {
+                    ccd.mean_row(r, row, m);
+                    ccd.noise_row(r, m);
+                    digitize_row(r, m, out)
+                })
+                .collect()
+        } else {
+            pe.par_chunks_mut(cols)
+                .enumerate()
+                .for_each_init(Vec::new, |m, (r, row)| {
+                    ccd.mean_row(r, row, m);
+                    ccd.collect_row(r, row, m);
+                });
+            ccd::bloom(pe, rows, cols, full_well as f32);
+            out_rows
+                .par_chunks_mut(cols)
+                .zip(pe.par_chunks(cols))
+                .enumerate()
+                .map_init(Vec::new, |v: &mut Vec<f64>, (r, (out, row))| {
+                    ccd.read_row(r, row, v);
+                    digitize_row(r, v, out)
+                })
+                .collect()
+        };
     let mut scoped = scoped.into_inner().unwrap_or_else(|p| p.into_inner());
     scoped.sort_by_key(|l| l.0);
     let n = (rows * cols) as f64;
@@ -178,4 +164,28 @@ pub(crate) fn read(chain: &Chain, pat: &Patterns, f: &mut InFlight) {
     f.account.saturated_by = chain.saturating_stage(g);
     f.scope_lines = scoped;
     f.pixels = pixels;
+}
+
+/// The digitizer at gain `g`: black level, scale, clip and top code.
+fn digitizer(chain: &Chain, g: f64) -> Digitizer {
+    Digitizer {
+        black_dn: chain.black_dn(g),
+        dn_per_e: chain.dn_per_ccd_electron(g),
+        clip_dn: chain.clip_dn(g),
+        max_code: chain.max_code,
+        // "Saturated": within 3 σ of read noise (at least 1 DN) of saturation.
+        saturated_dn: chain.saturated_threshold_dn(g),
+    }
+}
+
+/// An upper bound on any pixel's charge, e⁻: below full well, no charge
+/// moves between pixels (the blur and patterns cannot raise the maximum
+/// by more than a few per cent).
+fn charge_bound(chain: &Chain, pat: &Patterns, pe: &[f32], conversion: f64) -> f64 {
+    let max_q = pe
+        .par_chunks(1 << 14)
+        .map(|c| c.iter().copied().fold(0f32, f32::max))
+        .reduce(|| 0f32, f32::max) as f64;
+    let bound = max_q * conversion * 1.1 * pat.flat_field_max + chain.dark_e_per_frame;
+    bound + 8.0 * bound.sqrt() + 10.0
 }
