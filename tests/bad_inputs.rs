@@ -2608,6 +2608,9 @@ const CASES: &[Case] = &[
     case!("render: MAX_SAMPLE_POINTS of 2^32 - 1 (points allocated per source)", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--estimator", "dirsig2001", "--set", "MAX_SAMPLE_POINTS=4294967295"], ["MAX_SAMPLE_POINTS", "[1, 65536]"]),
     case!("render: sky_samples of 65537", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--set", "sky_samples=65537"], ["sky_samples", "[1, 65536]"]),
     case!("render: cache_texels × cache_rays, each in range, hours together", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--set", "indirect=cache", "--set", "cache_texels=4194304", "--set", "cache_rays=65536"], ["cache_texels", "cache_rays", "gather rays", "limit"]),
+    // Refused before the clock's readings (seconds of sky each), not after.
+    case!("sequence: a photocell on a group the scene lacks, with a clock", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 10\n[sky]\ntime_scale = 160\n[groups.nosuch]\nphotocell = { on_lux = 16 }\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "groups.nosuch", "has no light group 'nosuch'"]),
+    case!("sequence: a move past the coordinate limit, with a clock", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 10\n[sky]\ntime_scale = 160\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0, 1e12, 0, 0]]\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:", "move[0].keys[0]", "limit of 1e12"]),
     case!("plan: a 0.001 nm step over the pilot's cache (memory before allocation)", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=0.001"], ["300001 wavelength samples", "spectral_step_nm = 0.001", "GiB"]),
 ];
 
