@@ -226,8 +226,7 @@ fn gloam_main() -> ExitCode {
         Ok(c) => c,
         Err(e) => e.exit(),
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(&cli.log));
+    let filter = log_filter(&cli.log);
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
@@ -250,6 +249,29 @@ fn gloam_main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The log filter: `RUST_LOG` when set (and not empty), else `--log`. A
+/// `RUST_LOG` that is not a filter — or not text — was dropped silently
+/// for `--log`'s; it is named on stderr now (`--log` itself warns through
+/// the filter's own parser).
+fn log_filter(log: &str) -> tracing_subscriber::EnvFilter {
+    use std::io::Write as _;
+    use tracing_subscriber::EnvFilter;
+    let Some(var) = std::env::var_os("RUST_LOG").filter(|v| !v.is_empty()) else {
+        return EnvFilter::new(log);
+    };
+    let parsed = match var.to_str() {
+        Some(text) => EnvFilter::try_new(text).map_err(|e| e.to_string()),
+        None => Err("it is not UTF-8".to_string()),
+    };
+    parsed.unwrap_or_else(|why| {
+        let _ = writeln!(
+            std::io::stderr(),
+            "warning: RUST_LOG={var:?} is not a log filter ({why}): ignored, logging at --log {log}"
+        );
+        EnvFilter::new(log)
+    })
 }
 
 #[cfg(test)]

@@ -2603,6 +2603,15 @@ const CASES: &[Case] = &[
     // Every frame saturated under a sunlit sky: the reason, not the plot's "nothing to plot".
     case!("calibrate agc --sequence: no frame has a pixel to compare", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 100\n[sky]\ntime_scale = 2000\nrenders = 2\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n", "sp.toml" => SPHERE], ["calibrate", "agc", "--sequence", "q.toml", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--source", "sp.toml", "--out", "o"], ["none of the sequence's 100 frames had a pixel to compare", "above the LUT's range"]),
     case!("render: an --out name longer than a file name may be", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "dddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddddd"], ["--out ddd", "its name is 256 bytes", "255 bytes"]),
+    // --- round 8 (issue 46)
+    case!("render: area_samples of 2^32 - 1 (each hit's shadow rays)", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--set", "area_samples=4294967295"], ["area_samples", "[1, 65536]"]),
+    case!("render: MAX_SAMPLE_POINTS of 2^32 - 1 (points allocated per source)", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--estimator", "dirsig2001", "--set", "MAX_SAMPLE_POINTS=4294967295"], ["MAX_SAMPLE_POINTS", "[1, 65536]"]),
+    case!("render: sky_samples of 65537", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--set", "sky_samples=65537"], ["sky_samples", "[1, 65536]"]),
+    case!("render: cache_texels × cache_rays, each in range, hours together", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "1", "--set", "indirect=cache", "--set", "cache_texels=4194304", "--set", "cache_rays=65536"], ["cache_texels", "cache_rays", "gather rays", "limit"]),
+    // Refused before the clock's readings (seconds of sky each), not after.
+    case!("sequence: a photocell on a group the scene lacks, with a clock", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 10\n[sky]\ntime_scale = 160\n[groups.nosuch]\nphotocell = { on_lux = 16 }\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "groups.nosuch", "has no light group 'nosuch'"]),
+    case!("sequence: a move past the coordinate limit, with a clock", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 10\n[sky]\ntime_scale = 160\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0, 1e12, 0, 0]]\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:", "move[0].keys[0]", "limit of 1e12"]),
+    case!("plan: a 0.001 nm step over the pilot's cache (memory before allocation)", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=0.001"], ["300001 wavelength samples", "spectral_step_nm = 0.001", "GiB"]),
 ];
 
 #[test]
@@ -2693,4 +2702,22 @@ fn odd_paths_and_environments_get_clear_errors() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A `RUST_LOG` that is not a log filter (or not UTF-8) is named, not
+/// dropped silently for `--log`'s level (round 7's leftover).
+#[test]
+fn a_garbage_rust_log_is_named() {
+    use std::os::unix::ffi::OsStrExt;
+    let odd = std::ffi::OsStr::from_bytes(b"\xff");
+    for v in [std::ffi::OsStr::new("garbage=,=["), odd] {
+        let mut c = Command::new(BIN);
+        c.args(["spectra", "list"]).env("RUST_LOG", v);
+        let (code, err) = finish(c);
+        assert_eq!(code, Some(0), "RUST_LOG={v:?}: {err}");
+        assert!(
+            err.contains("RUST_LOG=") && err.contains("not a log filter"),
+            "RUST_LOG={v:?}: {err}"
+        );
+    }
 }

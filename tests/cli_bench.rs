@@ -365,6 +365,84 @@ fn scale_case_does_not_outlive_a_terminated_bench() {
     }
 }
 
+/// The children of a process (`/proc/*/stat`'s ppid field).
+#[cfg(unix)]
+fn children_of(ppid: u32) -> Vec<u32> {
+    std::fs::read_dir("/proc")
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|pid| {
+            std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|st| {
+                st.rsplit_once(')')
+                    .and_then(|(_, rest)| rest.split_whitespace().nth(1)?.parse::<u32>().ok())
+                    == Some(ppid)
+            })
+        })
+        .collect()
+}
+
+/// A `bench scale` killed outright (SIGKILL: no handler runs) takes its
+/// Mitsuba 3 child with it, as it does a case (the parent-death signal;
+/// the `python3` was left running). A stand-in `mitsuba` module on
+/// PYTHONPATH imports at once for the bench's check and sleeps in the
+/// comparison script.
+#[cfg(unix)]
+#[test]
+fn mitsuba_child_does_not_outlive_a_terminated_bench() {
+    if Command::new("python3").arg("-c").arg("1").status().is_err() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("mitsuba.py"),
+        "import sys, time\nif sys.argv[0].endswith('_mitsuba.py'):\n    time.sleep(600)\n",
+    )
+    .unwrap();
+    let mut bench = gloam()
+        .args([
+            "bench",
+            "scale",
+            "--triangles",
+            "1000",
+            "--lamps",
+            "1",
+            "--instances",
+            "1",
+        ])
+        .args(["--width", "16", "--height", "12", "--spp", "2", "--out"])
+        .arg(dir.path().join("out"))
+        .env("PYTHONPATH", dir.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let parent = bench.id();
+    let is_python = |pid: &u32| {
+        std::fs::read(format!("/proc/{pid}/cmdline"))
+            .is_ok_and(|c| String::from_utf8_lossy(&c).contains("scale_mitsuba.py"))
+    };
+    let t0 = std::time::Instant::now();
+    let python = loop {
+        if let Some(c) = children_of(parent).into_iter().find(is_python) {
+            break c;
+        }
+        assert!(t0.elapsed().as_secs() < 120, "no Mitsuba child started");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    // SAFETY: kill(2) on the bench's own pid.
+    assert_eq!(unsafe { libc::kill(parent as i32, libc::SIGKILL) }, 0);
+    assert!(!bench.wait().unwrap().success());
+    let t1 = std::time::Instant::now();
+    while std::fs::read_to_string(format!("/proc/{python}/stat")).is_ok_and(|s| !s.contains(") Z "))
+    {
+        assert!(
+            t1.elapsed().as_secs() < 3,
+            "python3 {python} still runs after the bench ended"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
 /// `sims/night-town/generate.py --lamps 10` writes a scene the loader
 /// accepts, with the lamps, lit windows and facets the generator reports.
 #[test]

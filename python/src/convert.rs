@@ -41,6 +41,28 @@ pub fn from_py<T: serde::de::DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &st
         .map_err(|e| crate::errors::GloamError::new_err(format!("{what}: {e}")))
 }
 
+/// A count or seed from Python (`spp`, `samples`, `threads`, `seed`): an
+/// int, never a bool — `True` is an int to Python, and `spp=True` was
+/// taken as 1 sample.
+pub struct Count<T>(pub T);
+
+impl<'a, 'py, T: pyo3::conversion::FromPyObjectOwned<'py>> FromPyObject<'a, 'py> for Count<T> {
+    type Error = PyErr;
+    fn extract(obj: pyo3::Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        if obj.is_instance_of::<PyBool>() {
+            let v = if obj.extract::<bool>()? {
+                "True"
+            } else {
+                "False"
+            };
+            return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                "{v} is a bool, not a count"
+            )));
+        }
+        obj.extract::<T>().map(Count).map_err(Into::into)
+    }
+}
+
 /// `{"recursion": 2, "indirect": "off"}` → `["recursion=2", "indirect=off"]`.
 pub fn setting_pairs(settings: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
     let mut out = Vec::new();

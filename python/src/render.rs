@@ -15,7 +15,7 @@ use gloam_pipeline::request::CameraOptions;
 use gloam_pipeline::{Events, RenderRequest, SceneInput, SettingArgs};
 use gloam_trace::{DVec3, RenderSettings, Tracer};
 
-use crate::convert::{setting_pairs, to_py_as};
+use crate::convert::{Count, setting_pairs, to_py_as};
 use crate::errors::{GloamError, OrPy};
 use crate::interrupt::{ProgressSink, Reporter, detached_owned, detached_with_stop};
 use crate::sensor::Sensor;
@@ -300,11 +300,11 @@ impl Events for Polled<'_> {
 fn render<'py>(
     py: Python<'py>,
     scene: &Bound<'py, Scene>,
-    spp: Option<u32>,
-    seed: Option<u64>,
+    spp: Option<Count<u32>>,
+    seed: Option<Count<u64>>,
     estimator: Option<&str>,
     settings: Option<&Bound<'py, PyDict>>,
-    threads: Option<usize>,
+    threads: Option<Count<usize>>,
     target_error: Option<&Bound<'py, PyAny>>,
     tolerance: Option<f64>,
     sensor: Option<&Bound<'py, PyAny>>,
@@ -313,11 +313,11 @@ fn render<'py>(
     let sc = scene.get();
     let request = RenderRequest {
         settings: SettingArgs {
-            spp,
-            seed,
+            spp: spp.map(|c| c.0),
+            seed: seed.map(|c| c.0),
             estimator: estimator.map(str::to_string),
             set: setting_pairs(settings)?,
-            threads,
+            threads: threads.map(|c| c.0),
             target_error: self::target_error(target_error)?,
             tolerance,
         },
@@ -369,7 +369,7 @@ fn vec3(what: &str, v: Vec<f64>) -> PyResult<DVec3> {
 /// ``radiance_w_m2_sr`` — what ``gloam probe --point … --json`` prints.
 /// ``seed``, ``estimator`` and ``settings`` are ``render``'s.
 #[pyfunction]
-#[pyo3(signature = (scene, point, normal, band = None, samples = 16, seed = None, estimator = None, settings = None))]
+#[pyo3(signature = (scene, point, normal, band = None, samples = Count(16), seed = None, estimator = None, settings = None))]
 #[allow(clippy::too_many_arguments)]
 fn probe<'py>(
     py: Python<'py>,
@@ -377,13 +377,14 @@ fn probe<'py>(
     point: Vec<f64>,
     normal: Vec<f64>,
     band: Option<&str>,
-    samples: u32,
-    seed: Option<u64>,
+    samples: Count<u32>,
+    seed: Option<Count<u64>>,
     estimator: Option<&str>,
     settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let samples = samples.0;
     let flags = SettingArgs {
-        seed,
+        seed: seed.map(|c| c.0),
         estimator: estimator.map(str::to_string),
         ..Default::default()
     };

@@ -45,6 +45,18 @@ def test_probe_samples_are_bounded_as_the_cli_bounds_them():
             gloam.probe(scene, (0, 0, 1), (0, 0, 1), samples=n)
 
 
+def test_a_bool_is_not_a_count():
+    # spp=True rendered at 1 sample (a bool is an int to Python); every
+    # count and seed of render and probe refuses one, naming the argument.
+    scene = gloam.Scene.from_toml(BAD.replace("reflectance = 1.7", "reflectance = 0.5"))
+    for kw in ("spp", "seed", "threads"):
+        with pytest.raises(TypeError, match=kw + r".*True is a bool, not a count"):
+            gloam.render(scene, **{kw: True})
+    for kw in ("samples", "seed"):
+        with pytest.raises(TypeError, match=kw + r".*False is a bool, not a count"):
+            gloam.probe(scene, (0, 0, 1), (0, 0, 1), **{kw: False})
+
+
 def test_errors_carry_the_cli_message(gloam_bin, tmp_path):
     p = tmp_path / "bad.toml"
     p.write_text(BAD)

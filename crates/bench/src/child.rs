@@ -116,14 +116,21 @@ pub fn run_mitsuba_script(
     timeout: Duration,
 ) -> Result<(), BenchError> {
     let t0 = Instant::now();
-    let mut child = Command::new("python3")
-        .arg(script)
+    let mut cmd = Command::new("python3");
+    cmd.arg(script)
         .args(args)
         .stdin(Stdio::null())
         .stdout(std::fs::File::create(stdout).map_err(BenchError::io("creating", stdout))?)
-        .stderr(std::fs::File::create(stderr).map_err(BenchError::io("creating", stderr))?)
+        .stderr(std::fs::File::create(stderr).map_err(BenchError::io("creating", stderr))?);
+    // As a scale case: its own group, killed with the bench on a signal
+    // or a timeout, and with its parent between the fork and the reaper.
+    #[cfg(unix)]
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    die_with_parent(&mut cmd);
+    let mut child = cmd
         .spawn()
         .map_err(BenchError::io("starting python3 for", script))?;
+    let _reaper = Reaper::new(&child);
     let failed = |why: String| BenchError::Child {
         what: "Mitsuba 3".into(),
         why,

@@ -447,6 +447,14 @@ const POS_INT: &str = "an integer ≥ 1";
 const NONNEG_INT: &str = "an integer ≥ 0";
 const POS: &str = "a finite number > 0";
 const NONNEG: &str = "a finite number ≥ 0";
+/// Samples or rays taken per hit or per source (`area_samples`,
+/// `sky_samples`, `MAX_SAMPLE_POINTS`, `MAX_SOURCE_SAMPLES`): each was
+/// any u32, and 2³² − 1 of them hung a 32 × 24 render or aborted on an
+/// allocation of that many points.
+const PER_HIT: &str = "an integer in [1, 65536]";
+fn per_hit(x: &u32) -> bool {
+    (1..=65536).contains(x)
+}
 
 impl RenderSettings {
     /// Every key accepted by [`RenderSettings::set`].
@@ -525,7 +533,7 @@ impl RenderSettings {
                     |&x: &f64| x.is_finite() && x >= crate::spectral::MIN_STEP_NM,
                 )?
             }
-            "area_samples" => self.area_samples = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "area_samples" => self.area_samples = parse(key, value, PER_HIT, per_hit)?,
             "occlusion" => {
                 self.occlusion = parse_word(
                     key,
@@ -545,12 +553,8 @@ impl RenderSettings {
                     })?
             }
             "sample_area_density" => d.SAMPLE_AREA_DENSITY = parse(key, value, POS, pos)?,
-            "max_sample_points" => {
-                d.MAX_SAMPLE_POINTS = parse(key, value, POS_INT, |&x: &u32| x >= 1)?
-            }
-            "max_source_samples" => {
-                d.MAX_SOURCE_SAMPLES = parse(key, value, POS_INT, |&x: &u32| x >= 1)?
-            }
+            "max_sample_points" => d.MAX_SAMPLE_POINTS = parse(key, value, PER_HIT, per_hit)?,
+            "max_source_samples" => d.MAX_SOURCE_SAMPLES = parse(key, value, PER_HIT, per_hit)?,
             "solid_angle_threshold" => d.SOLID_ANGLE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
             "solid_angle_density" => d.SOLID_ANGLE_DENSITY = parse(key, value, POS, pos)?,
             "irradiance_threshold" => d.IRRADIANCE_THRESHOLD = parse(key, value, NONNEG, nonneg)?,
@@ -590,7 +594,7 @@ impl RenderSettings {
                         (1..=1024).contains(&x)
                     })?
             }
-            "sky_samples" => self.sky_samples = parse(key, value, POS_INT, |&x: &u32| x >= 1)?,
+            "sky_samples" => self.sky_samples = parse(key, value, PER_HIT, per_hit)?,
             "resolution_scale" => {
                 self.resolution_scale =
                     parse(key, value, "a finite number in (0, 16]", |x: &f64| {

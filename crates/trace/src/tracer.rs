@@ -54,6 +54,17 @@ pub const MAX_SIDE: u32 = 16384;
 /// Bytes a render holds per pixel and band (radiance, standard error and
 /// two accumulators, f64).
 const BYTES_PER_PIXEL_BAND: u64 = 32;
+/// A radiosity cache's bytes per texel and wavelength slot (its direct,
+/// smooth, radiance and indirect arrays and the solve's work arrays:
+/// 64 measured, a 524 288-texel cache of 61 slots peaking at 2.0 GB).
+const CACHE_BYTES_PER_TEXEL_SLOT: f64 = 64.0;
+/// An emitter's bytes per wavelength slot (its spectrum and the light
+/// tree's copy: 20 000 point sources at 3 001 slots took 0.53 GB).
+const EMITTER_BYTES_PER_SLOT: f64 = 16.0;
+/// Most gather rays a cache traces for its operator (`cache_texels` ×
+/// `cache_rays`): 2³⁰, the most texels at the default rays (about a
+/// quarter of an hour on two cores), 256 times the default's.
+pub const MAX_CACHE_RAYS: f64 = (1u64 << 30) as f64;
 
 /// Refuses a render too large to hold, before anything is allocated: the
 /// image (after `resolution_scale`) against [`MAX_PIXELS`] and the memory
@@ -98,6 +109,7 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
             crate::spectral::MAX_WAVELENGTHS
         )));
     }
+    check_spectral_memory(scene, settings, n_wl)?;
     let scaled = |n: u32| (n as f64 * settings.resolution_scale).round();
     let (w, h) = (scaled(scene.camera.width), scaled(scene.camera.height));
     if !(w >= 1.0 && h >= 1.0) {
@@ -130,6 +142,63 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
                 scene.bands.len(),
                 bytes as f64 / (1u64 << 30) as f64,
                 avail as f64 / (1u64 << 30) as f64
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a radiosity cache whose gather (`cache_texels` × `cache_rays`
+/// rays) could not finish, and spectra that could not fit: the cache's
+/// texels and every emitter hold one value per wavelength slot. Each
+/// count had its own bound, their product none (4 194 304 texels ×
+/// 65 536 rays ran for hours; a 0.001 nm step made the pilot's 1 024
+/// texels ask for 19 GB and abort, and 20 000 lamps at 0.1 nm took
+/// 0.5 GB). Counted for the most texels the settings let a pilot or a
+/// render build.
+fn check_spectral_memory(
+    scene: &Scene,
+    settings: &RenderSettings,
+    n_wl: f64,
+) -> Result<(), TraceError> {
+    use crate::settings::Indirect;
+    let requested = match settings.indirect {
+        _ if settings.drop.interreflection => Indirect::Off,
+        Indirect::Auto if settings.diffuse_bounces > 0 => Indirect::Path,
+        m => m,
+    };
+    let pilot = requested != Indirect::Off
+        && (requested == Indirect::Auto || settings.diffuse_bounces == 0);
+    let render = matches!(requested, Indirect::Auto | Indirect::Cache);
+    let (mut texels, mut rays) = (0.0f64, 0.0f64);
+    if pilot {
+        texels = f64::from(crate::plan::PILOT_TEXELS);
+        rays = texels * f64::from(crate::plan::PILOT_RAYS);
+    }
+    if render {
+        texels = texels.max(f64::from(settings.cache_texels));
+        rays = rays.max(f64::from(settings.cache_texels) * f64::from(settings.cache_rays));
+    }
+    if rays > MAX_CACHE_RAYS {
+        return Err(TraceError::BadInput(format!(
+            "cache_texels = {} × cache_rays = {} is {rays:.3e} gather rays for the radiosity cache (limit {MAX_CACHE_RAYS:.3e}): lower one, or set indirect = path or off",
+            settings.cache_texels, settings.cache_rays
+        )));
+    }
+    let emissive = |m: usize| scene.materials.get(m).is_some_and(|m| m.emission.is_some());
+    let emitters =
+        scene.point_sources.len() + scene.facets.iter().filter(|f| emissive(f.material)).count();
+    let bytes =
+        n_wl * (texels * CACHE_BYTES_PER_TEXEL_SLOT + emitters as f64 * EMITTER_BYTES_PER_SLOT);
+    if let Some(avail) = gloam_scene::available_memory_bytes() {
+        if bytes > avail as f64 * 0.8 {
+            let gib = |b: f64| b / (1u64 << 30) as f64;
+            return Err(TraceError::BadInput(format!(
+                "{n_wl} wavelength samples (spectral_step_nm = {}) for {emitters} emitter{} and a radiosity cache of up to {texels} texels need up to {:.1} GiB, more than 80 % of the {:.1} GiB available: coarsen the step, narrow the bands, or lower cache_texels (or set indirect = path or off)",
+                gloam_spectra::num(settings.spectral_step_nm),
+                if emitters == 1 { "" } else { "s" },
+                gib(bytes),
+                gib(avail as f64)
             )));
         }
     }

@@ -205,12 +205,56 @@ impl Sequence {
         f64::from(self.frames) / self.frame_rate_hz
     }
 
+    /// Refuses a photocell on the sky's own groups: the sky switched by
+    /// its own light, which the clock moves.
+    fn refuse_sky_photocells(&self) -> Result<(), SceneError> {
+        let sky_groups = [
+            crate::groups::SUN_GROUP,
+            crate::groups::TWILIGHT_GROUP,
+            crate::groups::MOON_GROUP,
+            crate::groups::SKY_GROUP,
+        ];
+        let clock_line = self.sky.as_ref().map_or(1, |c| c.line);
+        for (name, track) in &self.groups {
+            if track.photocell.is_some() && sky_groups.contains(&name.as_str()) {
+                return Err(SceneError::Invalid {
+                    path: self.path.clone(),
+                    line: self.group_lines.get(name).copied().unwrap_or(clock_line),
+                    column: 1,
+                    field: format!("groups.{name}.photocell"),
+                    message: format!(
+                        "'{name}' is the sky's own light, which the clock moves; a photocell switches a lamp's group"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Ties the `[sky]` clock to `scene`: its start (the scene's instant
     /// unless the file gives one), the renders' times, the photocells'
     /// keys, and the Sun's groups in `scene` wherever the clock lights
     /// them (every render fills the same groups). Does nothing without a
     /// clock; refuses one over a scene without `[sky]`.
     pub fn bind_sky(&mut self, scene: &mut Scene) -> Result<(), SceneError> {
+        if self.sky.is_some() {
+            // Before the clock's readings (seconds of sky): a group — a
+            // photocell's too — the scene lacks, or a photocell on the
+            // sky's own light, was refused only after them (the Sun's two
+            // groups the clock may add below).
+            let groups: Vec<&str> = scene
+                .light_groups
+                .groups
+                .iter()
+                .map(|g| g.name.as_str())
+                .collect();
+            let sunlight = [crate::groups::SUN_GROUP, crate::groups::TWILIGHT_GROUP];
+            let added = sunlight.into_iter().filter(|g| !groups.contains(g));
+            self.check_groups(groups.iter().copied().chain(added))?;
+            self.refuse_sky_photocells()?;
+            // A move the scene cannot make, too (12 s of readings first).
+            self.check_moves(scene)?;
+        }
         let Some(mut clock) = self.sky.take() else {
             return Ok(());
         };
@@ -446,22 +490,6 @@ impl Sequence {
         for (name, track) in self.groups.iter() {
             let Some(p) = track.photocell else { continue };
             let line = self.group_lines.get(name).copied().unwrap_or(clock.line);
-            let sky_groups = [
-                crate::groups::SUN_GROUP,
-                crate::groups::TWILIGHT_GROUP,
-                crate::groups::MOON_GROUP,
-                crate::groups::SKY_GROUP,
-            ];
-            if sky_groups.contains(&name.as_str()) {
-                // The sky switched by its own light: the clock moves it.
-                return Err(self.sky_err(
-                    line,
-                    &format!("groups.{name}.photocell"),
-                    format!(
-                        "'{name}' is the sky's own light, which the clock moves; a photocell switches a lamp's group"
-                    ),
-                ));
-            }
             let on = |l: f64| l < p.on_lux;
             let switches = key_lux.windows(2).filter(|w| on(w[0]) != on(w[1])).count();
             if switches > MAX_PHOTOCELL_SWITCHES {
