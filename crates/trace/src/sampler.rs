@@ -19,8 +19,8 @@
 //! the pixels keep independent hashes (which also keeps a tile's pixels
 //! identical to the same pixels of the whole image).
 //!
-//! With `pixel_strata = latin` (the default, for now) the positions are a
-//! Latin hypercube per batch; with `light_strata = random` the light
+//! With `pixel_strata = latin` (the default until 7 December 2026) the
+//! positions are a Latin hypercube per batch; with `light_strata = random` the light
 //! samples are independent draws.
 
 use rand_pcg::Pcg64Mcg;

@@ -2,7 +2,7 @@
 //!
 //! | key | default | meaning |
 //! |---|---|---|
-//! | `spp` | 4 | camera samples per pixel (Latin-hypercube stratified within the pixel); a whole-image `gloam render` given neither `spp` nor `target_error` samples to `target_error` 0.02 instead (`gloam_pipeline::render::SettingArgs::with_default_error`) |
+//! | `spp` | 4 | camera samples per pixel (placed in the pixel as `pixel_strata` says: a Sobol net by default); a whole-image `gloam render` given neither `spp` nor `target_error` samples to `target_error` 0.02 instead (`gloam_pipeline::render::SettingArgs::with_default_error`) |
 //! | `seed` | 0 | seed of every random stream (per pixel: `(seed, pixel index)`) |
 //! | `estimator` | `analytic` | area-source estimator: `analytic`, `solid-angle`, `dirsig2001` |
 //! | `recursion` | 3 | 1 = direct lighting only, 2 = one specular bounce, … |
