@@ -457,6 +457,17 @@ fn per_hit(x: &u32) -> bool {
 }
 
 impl RenderSettings {
+    /// The interreflection method asked for once the settings that
+    /// override `indirect` are applied: dropped interreflection is off,
+    /// and `auto` with diffuse bounces asked for is path tracing.
+    pub(crate) fn requested_indirect(&self) -> Indirect {
+        match self.indirect {
+            _ if self.drop.interreflection => Indirect::Off,
+            Indirect::Auto if self.diffuse_bounces > 0 => Indirect::Path,
+            m => m,
+        }
+    }
+
     /// Every key accepted by [`RenderSettings::set`].
     pub const KEYS: &'static [&'static str] = &[
         "spp",

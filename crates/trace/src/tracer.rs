@@ -162,11 +162,7 @@ fn check_spectral_memory(
     n_wl: f64,
 ) -> Result<(), TraceError> {
     use crate::settings::Indirect;
-    let requested = match settings.indirect {
-        _ if settings.drop.interreflection => Indirect::Off,
-        Indirect::Auto if settings.diffuse_bounces > 0 => Indirect::Path,
-        m => m,
-    };
+    let requested = settings.requested_indirect();
     let pilot = requested != Indirect::Off
         && (requested == Indirect::Auto || settings.diffuse_bounces == 0);
     let render = matches!(requested, Indirect::Auto | Indirect::Cache);

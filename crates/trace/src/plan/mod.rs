@@ -183,11 +183,7 @@ impl Tracer {
         // texels: their interreflection is path-traced, and the pilot
         // (whose estimate is a coarse cache) does not run.
         let shared = self.geom.has_shared();
-        let requested = match s.indirect {
-            _ if s.drop.interreflection => Indirect::Off,
-            Indirect::Auto if s.diffuse_bounces > 0 => Indirect::Path,
-            m => m,
-        };
+        let requested = s.requested_indirect();
         let mut d = InterreflectionDecision::default();
         let mut skip = crate::settings::Dropped::default();
         let possible = self.mats.iter().any(|m| m.has_diffuse)
