@@ -325,24 +325,9 @@ fn scale_case_does_not_outlive_a_terminated_bench() {
         .unwrap();
     let parent = bench.id();
     // The case: a process whose parent is the bench.
-    let child_of = |ppid: u32| -> Vec<u32> {
-        std::fs::read_dir("/proc")
-            .unwrap()
-            .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
-            .filter(|pid| {
-                std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|st| {
-                    // Fields after the command's closing parenthesis:
-                    // state, ppid, …
-                    st.rsplit_once(')')
-                        .and_then(|(_, rest)| rest.split_whitespace().nth(1)?.parse::<u32>().ok())
-                        == Some(ppid)
-                })
-            })
-            .collect()
-    };
     let t0 = std::time::Instant::now();
     let case = loop {
-        if let Some(&c) = child_of(parent).first() {
+        if let Some(&c) = children_of(parent).first() {
             break c;
         }
         assert!(t0.elapsed().as_secs() < 60, "no case started");
