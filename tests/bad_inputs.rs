@@ -2732,6 +2732,40 @@ fn odd_paths_and_environments_get_clear_errors() {
             .current_dir(dir.path());
         check(&format!("RAYON_NUM_THREADS={v}"), c, &["RAYON_NUM_THREADS"]);
     }
+    // Worker threads that cannot start (each a 2 MiB stack, 1024 of them
+    // under a 1 GiB address space): an error before any work, not
+    // rayon's panic in the first parallel loop (round 9).
+    std::fs::write(dir.path().join("s.toml"), BASE).unwrap();
+    let mut c = Command::new("sh");
+    c.args([
+        "-c",
+        "ulimit -v 1048576 && exec \"$0\" render s.toml --out o --spp 1",
+        BIN,
+    ])
+    .env("RAYON_NUM_THREADS", "1024")
+    .current_dir(dir.path());
+    check(
+        "RAYON_NUM_THREADS=1024 under ulimit -v",
+        c,
+        &["starting 1024 worker threads"],
+    );
+    // `--help` and `--version` whose stdout is full: clap dropped the
+    // write error and exited 0 with nothing written (round 9).
+    for arg in ["--help", "--version"] {
+        if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
+            let out = Command::new(BIN)
+                .arg(arg)
+                .stdin(Stdio::null())
+                .stdout(full)
+                .stderr(Stdio::piped())
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            if out.status.code() != Some(1) || !err.contains("writing to stdout") {
+                failures.push(format!("{arg} > /dev/full: {}: {err}", out.status));
+            }
+        }
+    }
     // A full stderr loses the message, not the run: exit 1, no panic.
     if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
         let status = Command::new(BIN)
