@@ -2658,6 +2658,21 @@ const CASES: &[Case] = &[
     // Gains printed with `{}`: 309 digits (round 7's formatter, not used here).
     case!("calibrate apply: a recorded gain of 1e308", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1e308}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["gain 1e308 lies outside the calibrated gains"]),
     case!("calibrate apply: --gain 1e300 against the recorded gain", ["d/frame-000000.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{capture:g1/frames.jsonl}", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/frame-000000.png", "o.tiff", "--gain", "1e300"], ["--gain 1e300:", "records gain 1 for", "not taken at gain 1e300"]),
+    case!(
+        "scope: a 576-row frame on CCIR's 575 picture lines",
+        [],
+        [
+            "scope",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=768x576",
+            "--out",
+            "o"
+        ],
+        [
+            "576 rows does not fit the 575 picture lines",
+            "at most 575 rows"
+        ]
+    ),
     // Written into the script as it was, for Slurm to refuse at submission.
     case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
 ];
@@ -2849,6 +2864,12 @@ fn valid_extremes_are_taken() {
                 "--set",
                 "cache_rays=1",
             ],
+        ),
+        // Its default frame was 768×576, one row more than the 575
+        // picture lines of CCIR: refused on every CCIR camera.
+        (
+            "scope: a CCIR camera at its default size",
+            &["scope", "--sensor", "gen3-gaas-iccd", "--out", "scope"],
         ),
     ];
     let mut failures = Vec::new();

@@ -946,7 +946,8 @@ pub struct ScopeArgs {
     /// Frame rows to show, comma-separated (default: the middle row).
     #[arg(long, value_delimiter = ',')]
     pub rows: Vec<usize>,
-    /// Frame size WxH (default: 640x480 RS-170, 768x576 CCIR).
+    /// Frame size WxH (default: 640x480 RS-170, 768x574 CCIR, whose 575
+    /// picture lines hold at most 575 rows).
     #[arg(long)]
     pub size: Option<String>,
     #[arg(long)]

@@ -21,7 +21,7 @@ pub struct ScopeOptions {
     pub sensor: String,
     pub seed: u64,
     /// Frame size; default the format's square-pixel size (640×480 RS-170,
-    /// 768×576 CCIR).
+    /// 768×574 CCIR: its 575 picture lines hold at most 575 rows).
     pub size: Option<(u32, u32)>,
     /// Frame rows to show (default: the middle row).
     pub rows: Vec<usize>,
@@ -127,7 +127,10 @@ pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
     let g = cam.gain();
     let (w, h) = o.size.unwrap_or(match format {
         VideoFormat::Rs170 => (640, 480),
-        VideoFormat::Ccir => (768, 576),
+        // 576 rows (BT.601's frame) do not fit the 575 picture lines the
+        // line timing models: the default was refused, "a frame of 576
+        // rows does not fit", on every CCIR camera.
+        VideoFormat::Ccir => (768, 574),
     });
     // The CLI's `--size` parser held this, Python's `size=` did not:
     // (100000, 100000) aborted the interpreter allocating 80 GB, and (0, 0)

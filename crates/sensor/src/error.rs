@@ -71,7 +71,9 @@ pub enum CaptureError {
 /// A frame row that has no place on a broadcast video line.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum LineError {
-    #[error("a frame of {rows} rows does not fit the {picture_lines} picture lines of {format}")]
+    #[error(
+        "a frame of {rows} rows does not fit the {picture_lines} picture lines of {format}: give a frame of at most {picture_lines} rows"
+    )]
     FrameTooTall {
         rows: usize,
         picture_lines: u32,
