@@ -2673,6 +2673,39 @@ const CASES: &[Case] = &[
             "at most 575 rows"
         ]
     ),
+    // A whole capture per frame: 10⁹ ran for hours; 0 was taken as 1.
+    case!(
+        "scope: --frames 1e9",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "64x64",
+            "--frames",
+            "1000000000",
+            "--out",
+            "o"
+        ],
+        ["--frames: 1000000000 is not in 1..=10000"]
+    ),
+    case!(
+        "scope: --frames 0",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "64x64",
+            "--frames",
+            "0",
+            "--out",
+            "o"
+        ],
+        ["--frames: 0 is not in 1..=10000"]
+    ),
     // Written into the script as it was, for Slurm to refuse at submission.
     case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
 ];

@@ -430,6 +430,10 @@ pub struct ScopeRequest {
     pub frames: usize,
 }
 
+/// The most frames `scope` captures before the one it shows (the AGC and
+/// phosphor lag settle within a few hundred).
+pub const MAX_SCOPE_FRAMES: usize = 10_000;
+
 impl ScopeRequest {
     /// The scope's options: the sensor, rig, seed and size from `sensor`
     /// (rig sine, seed 0) or the `grabber` URI, each overridable.
@@ -440,6 +444,14 @@ impl ScopeRequest {
             (None, Some(u)) => sim_uri(u)?,
             (None, None) => return Err(usage("give --sensor PRESET_OR_FILE or --grabber sim:…")),
         };
+        // Each frame before the shown one is a whole capture: 10⁹ ran for
+        // hours, and 0 was taken as 1.
+        if !(1..=MAX_SCOPE_FRAMES).contains(&self.frames) {
+            return Err(usage(format!(
+                "--frames: {} is not in 1..={MAX_SCOPE_FRAMES} (frames captured before the one shown)",
+                self.frames
+            )));
+        }
         Ok(ScopeOptions {
             sensor,
             seed: self.seed.unwrap_or(seed),
