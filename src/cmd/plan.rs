@@ -31,7 +31,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         let mut v = serde_json::to_value(&plan)?;
         v["preparation"] = serde_json::to_value(&prep)?;
         if let Some(e) = &estimate {
-            v["camera_target_estimate"] = e.clone();
+            v["camera_target_estimate"] = serde_json::to_value(e)?;
         }
         return print_json(&v);
     }

@@ -799,7 +799,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
         let (curves, details) =
             usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification, ctf_path)?;
-        report::write_mtf_report(dir, &curves, details)?;
+        report::write_mtf_report(dir, &curves, &details)?;
         return Ok(written(set, "mtf.json", vec![mtf_line(&curves[0])]));
     };
     let uri = (a.grabber.clone()).ok_or_else(|| usage("--target sine/edge needs --grabber"))?;
@@ -815,12 +815,12 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             curve,
             mean_radiance_w_m2_sr,
         } => {
-            let details = serde_json::json!({
-                "mean_radiance_w_m2_sr": mean_radiance_w_m2_sr,
-                "grabber": g.describe(),
-            });
+            let details = crate::mtf_flow::MtfDetails::Digital {
+                mean_radiance_w_m2_sr,
+                grabber: g.describe(),
+            };
             let line = mtf_line(&curve);
-            report::write_mtf_report(dir, &[curve], details)?;
+            report::write_mtf_report(dir, &[curve], &details)?;
             Ok(written(set, "mtf.json", vec![line]))
         }
     }
@@ -842,7 +842,7 @@ fn mtf_voltage<E: From<CalibError>>(
     set: OutputSet,
     r: crate::mtf_flow::VoltageReport,
 ) -> Result<Outcome, E> {
-    report::write_mtf_report(set.dir(), &r.curves, r.details)?;
+    report::write_mtf_report(set.dir(), &r.curves, &r.details)?;
     let (c, p) = (&r.curves, &r.voltage.points);
     let mut lines = Vec::new();
     for (i, f) in r.frequencies_cy_per_px.iter().enumerate() {

@@ -421,8 +421,8 @@ impl ValidRender {
             let dir = set.dir();
             write_atomic(&dir.join("report.json"), report.to_pretty()?.as_bytes())?;
             if let Some(layers) = &rendered.layers {
-                let mut index = layers.json(self.settings.seed);
-                index["provenance"] = to_value(&provenance)?;
+                let mut index = layers.index(self.settings.seed);
+                index.provenance = Some(provenance.clone());
                 let index = serde_json::to_string_pretty(&index).map_err(RenderError::Encode)?;
                 write_atomic(&dir.join("layers.json"), index.as_bytes())?;
             }
@@ -464,15 +464,14 @@ impl RenderDone {
             ));
         }
         if let Some(t) = &report.camera_target {
-            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
             lines.push(format!(
                 "--target-error camera:{}: each pixel rendered until its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
-                f("k"),
-                100.0 * f("asked_added_variance_fraction"),
-                f("gain"),
-                100.0 * f("added_variance_fraction_median"),
-                100.0 * f("added_variance_fraction_p99"),
-                f("mean_spp"),
+                t.k,
+                100.0 * t.asked_added_variance_fraction,
+                t.gain,
+                100.0 * t.added_variance_fraction_median,
+                100.0 * t.added_variance_fraction_p99,
+                t.mean_spp.unwrap_or(f64::NAN),
             ));
         }
         if let Some(b) = &e.bias
@@ -544,7 +543,7 @@ pub struct RenderReport {
     /// `--target-error camera[:K]`: what the camera's noise allowed and
     /// what the render added ([`CameraGoal::report`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<serde_json::Value>,
+    pub camera_target: Option<crate::camera_goal::CameraTarget>,
     pub provenance: Provenance,
 }
 

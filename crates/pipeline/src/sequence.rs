@@ -209,7 +209,7 @@ pub struct PoseRender {
     /// With `--target-error camera`: the pose's `camera_target`
     /// ([`crate::camera_goal::CameraGoal::report_layered`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<serde_json::Value>,
+    pub camera_target: Option<crate::camera_goal::CameraTarget>,
 }
 
 /// Captures `sequence` from the layers (`groups[i]`'s detected radiance,
@@ -631,7 +631,7 @@ impl<'a> PoseCache<'a> {
         (
             crate::render::Layers,
             gloam_scene::plan::EffectPlan,
-            Option<serde_json::Value>,
+            Option<crate::camera_goal::CameraTarget>,
         ),
         SequenceError,
     > {

@@ -189,13 +189,13 @@ impl ValidSequence {
         write_npy(&dir.join("layers.npy"), &radiance)?;
         write_npy(&dir.join("layers_stderr.npy"), &std_error)?;
         provenance.add_inputs_read();
-        let mut index = layers.json(self.settings.seed);
-        index["pose"] = serde_json::json!({
-            "frame": 0,
-            "moves": captured.first_poses,
-            "note": "the layers of frame 0's pose; with [[move]] each distinct pose was rendered so (report.json sequence.renders)",
+        let mut index = layers.index(self.settings.seed);
+        index.pose = Some(crate::render::LayersPose {
+            frame: 0,
+            moves: captured.first_poses.clone(),
+            note: "the layers of frame 0's pose; with [[move]] each distinct pose was rendered so (report.json sequence.renders)",
         });
-        index["provenance"] = serde_json::to_value(&provenance)?;
+        index.provenance = Some(provenance.clone());
         let index = serde_json::to_string_pretty(&index)?;
         write_atomic(&dir.join("layers.json"), index.as_bytes())?;
         let write_s = t_write.elapsed().as_secs_f64();
@@ -354,15 +354,14 @@ impl ValidSequence {
 }
 
 /// `--target-error camera:K`: what frame 0's pose was rendered to.
-fn camera_target_line(k: f64, t: &serde_json::Value) -> String {
-    let f = |key: &str| t[key].as_f64().unwrap_or(f64::NAN);
+fn camera_target_line(k: f64, t: &crate::camera_goal::CameraTarget) -> String {
     format!(
         "--target-error camera:{k}: frame 0's pose rendered until, at each pixel's brightest frame, its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
         100.0 * k * k,
-        f("gain"),
-        100.0 * f("added_variance_fraction_median"),
-        100.0 * f("added_variance_fraction_p99"),
-        f("mean_spp"),
+        t.gain,
+        100.0 * t.added_variance_fraction_median,
+        100.0 * t.added_variance_fraction_p99,
+        t.mean_spp.unwrap_or(f64::NAN),
     )
 }
 
@@ -422,7 +421,7 @@ pub struct SequenceRunReport<'a> {
     pub provenance: &'a Provenance,
     /// `--target-error camera[:K]`: frame 0's pose's camera target.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<&'a serde_json::Value>,
+    pub camera_target: Option<&'a crate::camera_goal::CameraTarget>,
 }
 
 #[derive(Serialize)]

@@ -63,7 +63,7 @@ pub struct Rendered {
     rows: Range<u32>,
     scene: PathBuf,
     /// With `target_error = "camera[:K]"`: report.json's `camera_target`.
-    camera_target: Option<serde_json::Value>,
+    camera_target: Option<gloam_pipeline::camera_goal::CameraTarget>,
 }
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
@@ -113,15 +113,13 @@ fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
 /// deterministic).
 fn write_camera_target(
     r: &Rendered,
-    target: &serde_json::Value,
+    target: &gloam_pipeline::camera_goal::CameraTarget,
     out: &Path,
 ) -> Result<(), TaskError> {
     write_npy(&out.join("radiance.npy"), &r.out.radiance)?;
     write_npy(&out.join("spp.npy"), &r.out.spp)?;
     let mut t = target.clone();
-    if let Some(o) = t.as_object_mut() {
-        o.remove("trace_seconds");
-    }
+    t.trace_seconds = None;
     gloam_pipeline::output::write_atomic(
         &out.join("camera_target.json"),
         serde_json::to_string_pretty(&t)?.as_bytes(),
@@ -170,12 +168,19 @@ impl Executor for Pipeline {
                     // and the render it chose, as `gloam render` writes it.
                     if let Some(t) = &r.camera_target {
                         write_camera_target(r, t, out)?;
-                        for key in [
-                            "added_variance_fraction_median",
-                            "added_variance_fraction_p99",
-                            "mean_spp",
+                        for (key, v) in [
+                            (
+                                "added_variance_fraction_median",
+                                Some(t.added_variance_fraction_median),
+                            ),
+                            (
+                                "added_variance_fraction_p99",
+                                Some(t.added_variance_fraction_p99),
+                            ),
+                            ("mean_spp", t.mean_spp),
                         ] {
-                            if let Some(v) = t[key].as_f64() {
+                            // JSON has no NaN: a non-finite figure was never a column.
+                            if let Some(v) = v.filter(|v| v.is_finite()) {
                                 f.insert(format!("camera_target_{key}"), v);
                             }
                         }
