@@ -468,9 +468,10 @@ pub const SEQUENCE_LUT_AUTO_RANGE: f64 = 0.8;
 pub struct SequenceRun<'a> {
     a: &'a AgcArgs,
     set: OutputSet,
-    preset: String,
     seed: u64,
-    config: gloam_sensor::SensorConfig,
+    /// The `sim:` grabber's preset, read once for the checks and the
+    /// capture.
+    sensor: gloam_sensor::ResolvedSensor,
     lut: Option<crate::radiance::Lut>,
     opts: crate::agc_sequence::AgcSequenceOptions,
 }
@@ -492,7 +493,8 @@ pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
             "--sequence sets the exposure (the camera's, within the sequence's frame period); drop --exposure-s".into(),
         ));
     }
-    let config = gloam_sensor::load_preset_or_file(&preset)?;
+    let sensor = gloam_sensor::ResolvedSensor::load(&preset)?;
+    let config = sensor.config();
     let camera = format!("simulated {preset}");
     let lut = match &a.lut {
         Some(path) => {
@@ -503,7 +505,7 @@ pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
         }
         None => None,
     };
-    let opts = AgcSequenceOptions::for_sensor(&config)?.ok_or_else(|| {
+    let opts = AgcSequenceOptions::for_sensor(config)?.ok_or_else(|| {
         CalibError::Usage(format!(
             "--sequence: camera '{preset}' has no AGC ([agc] in its sensor file)"
         ))
@@ -513,9 +515,8 @@ pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
     Ok(SequenceRun {
         a,
         set,
-        preset,
         seed,
-        config,
+        sensor,
         lut,
         opts,
     })
@@ -527,20 +528,15 @@ impl SequenceRun<'_> {
         self.set.dir()
     }
 
-    /// The camera (preset or sensor file) the sequence is captured through.
-    pub fn sensor(&self) -> &str {
-        &self.preset
+    /// The camera (preset or sensor file) the sequence is captured
+    /// through, read once when the run was checked.
+    pub fn sensor(&self) -> &gloam_sensor::ResolvedSensor {
+        &self.sensor
     }
 
     /// The camera's noise seed.
     pub fn seed(&self) -> u64 {
         self.seed
-    }
-
-    /// The camera's configuration, resolved once from
-    /// [`sensor`](Self::sensor) when the run was checked.
-    pub fn config(&self) -> &gloam_sensor::SensorConfig {
-        &self.config
     }
 
     /// With the sequence `captured` into [`dir`](Self::dir): measures a
@@ -560,7 +556,7 @@ impl SequenceRun<'_> {
         let SequenceRun {
             a,
             set,
-            config,
+            sensor,
             lut,
             opts,
             ..
@@ -586,7 +582,7 @@ impl SequenceRun<'_> {
                 (lut, src)
             }
         };
-        let k = detected_per_band_radiance(src.as_mut(), &config)?;
+        let k = detected_per_band_radiance(src.as_mut(), sensor.config())?;
         let truth = SequenceLayers {
             groups: &captured.groups,
             layers: &captured.layers,

@@ -266,7 +266,7 @@ impl CameraGoal {
         k: f64,
         capture: &crate::frames::FrameCapture<'_>,
     ) -> Result<Self, gloam_sensor::ConfigError> {
-        let config = gloam_sensor::load_preset_or_file(capture.sensor)?;
+        let config = capture.sensor.config().clone();
         Ok(Self {
             band: prepared.tracer().wavelengths().band_names.len() - 1,
             k,
@@ -581,7 +581,7 @@ pub fn estimate(
             Some(k) => {
                 let goal = CameraGoal::new(&prepared, k, capture).map_err(|source| {
                     EstimateError::Sensor {
-                        sensor: capture.sensor.to_string(),
+                        sensor: capture.sensor.name().to_string(),
                         source,
                     }
                 })?;

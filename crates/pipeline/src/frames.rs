@@ -16,7 +16,7 @@ pub use gloam_io::frames::FrameRecord;
 
 pub use crate::capture::{
     CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, SaturationSummary,
-    check_options, record_of_sensor_frame,
+    check_options, record_of_sensor_frame, resolve_sensor,
 };
 
 /// Why `frames.jsonl` or a frame was not written, naming the file.

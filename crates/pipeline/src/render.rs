@@ -322,9 +322,9 @@ pub struct RenderJob<'a> {
     /// The scene as loaded (without the camera's band).
     pub scene: &'a Scene,
     pub settings: &'a RenderSettings,
-    /// The camera (preset name or sensor TOML) whose detected band the
-    /// render carries; see [`camera_of`].
-    pub camera: Option<&'a str>,
+    /// The camera whose detected band the render carries; see
+    /// [`camera_of`].
+    pub camera: Option<&'a crate::ResolvedSensor>,
     /// Told as preparation steps begin and end (a progress display).
     pub observer: Option<PrepObserver>,
     /// Also render one layer per light group (`--layers`, `layers.rs` in
@@ -364,8 +364,9 @@ impl<'a> RenderJob<'a> {
             None => Tracer::prepare_observed(traced, self.settings, true, observer)?,
         };
         let mut plan = tracer.effect_plan(self.scene);
-        if self.camera != self.scene.sensor.as_deref() {
-            plan.extend([camera_effect(self.camera, self.scene.sensor.as_deref())]);
+        let camera = self.camera.map(|c| c.name());
+        if camera != self.scene.sensor.as_deref() {
+            plan.extend([camera_effect(camera, self.scene.sensor.as_deref())]);
         }
         Ok(PreparedRender {
             tracer,

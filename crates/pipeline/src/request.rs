@@ -29,6 +29,7 @@ use crate::render::{
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
 use gloam_io::OutputSet;
+use gloam_sensor::ResolvedSensor;
 
 /// The scene of a request: a file to read, or one a front end holds
 /// already (Python's `Scene`).
@@ -173,8 +174,11 @@ impl RenderRequest {
         };
         let tile = self.tile.as_deref().map(TileSpec::parse).transpose()?;
         let settings = self.settings.settings()?;
-        let camera = camera_of(c.sensor.as_deref(), &scene).map(str::to_string);
         let frame_format = c.frame_format()?;
+        // Read once: the detected band, the camera goal and the capture
+        // share it.
+        let camera =
+            (camera_of(c.sensor.as_deref(), &scene).map(crate::resolve_sensor)).transpose()?;
         // A tile is traced with the camera's band all the same (the effect
         // plan weighs every band, so a tile makes the whole render's
         // decisions) but captures nothing.
@@ -234,7 +238,7 @@ pub(crate) struct Capture {
 
 impl Capture {
     /// The capture through `sensor` with noise seed `seed`.
-    pub(crate) fn through<'a>(&self, sensor: &'a str, seed: u64) -> FrameCapture<'a> {
+    pub(crate) fn through<'a>(&self, sensor: &'a ResolvedSensor, seed: u64) -> FrameCapture<'a> {
         FrameCapture {
             sensor,
             frames: self.frames,
@@ -300,8 +304,8 @@ pub struct ValidRender {
     /// The settings, the default error target applied.
     pub settings: RenderSettings,
     pub target_error_source: Option<TargetErrorSource>,
-    /// The camera the render is for ([`camera_of`]).
-    pub camera: Option<String>,
+    /// The camera the render is for ([`camera_of`]), read once.
+    pub camera: Option<ResolvedSensor>,
     capture: Option<Capture>,
     /// `K` of `--target-error camera[:K]`.
     pub camera_k: Option<f64>,
@@ -348,7 +352,7 @@ pub struct RenderDone {
 impl ValidRender {
     /// The capture of a render with a camera (not a tile).
     pub fn frame_capture(&self) -> Option<FrameCapture<'_>> {
-        let (sensor, c) = (self.camera.as_deref()?, self.capture.as_ref()?);
+        let (sensor, c) = (self.camera.as_ref()?, self.capture.as_ref()?);
         Some(c.through(sensor, self.settings.seed))
     }
 
@@ -364,7 +368,7 @@ impl ValidRender {
             .map(|o| OutputSet::begin(&o.path, o.force, false))
             .transpose()?;
         let job = RenderJob {
-            camera: self.camera.as_deref(),
+            camera: self.camera.as_ref(),
             observer: events.preparation(),
             layers: self.layers,
             ..RenderJob::new(&self.scene, &self.settings)
@@ -433,7 +437,7 @@ impl ValidRender {
                 }
                 // No path: `dir` is the hidden staging directory until the
                 // set is published.
-                let (n, sensor) = (capture.frames, capture.sensor);
+                let (n, sensor) = (capture.frames, capture.sensor.name());
                 events.note(&format!("captured {n} frame(s) through '{sensor}'"));
             }
             set.publish(&provenance, None)?;

@@ -75,7 +75,7 @@ pub struct ValidSequence {
     settings: RenderSettings,
     /// `K` of `--target-error camera[:K]`.
     camera_k: Option<f64>,
-    camera: String,
+    camera: crate::ResolvedSensor,
     capture: Capture,
     load_s: f64,
     out: OutputDir,
@@ -114,7 +114,7 @@ impl SequenceRequest {
             return Err(SequenceRequestError::Frames { path, frames });
         }
         let frame_format = c.frame_format()?;
-        let Some(camera) = camera_of(c.sensor.as_deref(), &scene).map(str::to_string) else {
+        let Some(camera) = camera_of(c.sensor.as_deref(), &scene) else {
             c.refuse_flags_without_camera(false)?;
             let scene = sequence.scene.clone();
             return Err(SequenceRequestError::NoCamera { scene });
@@ -123,6 +123,8 @@ impl SequenceRequest {
             frames: sequence.frames,
             ..c.capture(frame_format)
         };
+        // Read once: the frames, the goal and the AGC summary share it.
+        let camera = crate::resolve_sensor(camera).map_err(RenderError::from)?;
         (capture.through(&camera, settings.seed).check()).map_err(RenderError::from)?;
         if camera_k.is_some() && !capture.noise {
             return Err(RenderError::CameraTarget(
@@ -169,7 +171,7 @@ impl ValidSequence {
             keep_sky_renders: false,
         };
         let context = FrameContext {
-            camera: Some(self.camera.clone()),
+            camera: Some(self.camera.name().to_string()),
             seed: Some(self.settings.seed),
             provenance: Some(provenance.clone()),
             scene_utc: crate::frames::scene_utc(&self.scene),
@@ -204,10 +206,7 @@ impl ValidSequence {
         // With a sky clock: how the AGC held the median over the sky's light.
         let agc_over_sky = match self.sequence.sky.is_some() && !r.medians_above_black_dn.is_empty()
         {
-            true => gloam_sensor::load_preset_or_file(&self.camera)
-                .ok()
-                .and_then(|c| c.agc)
-                .and_then(|agc| agc_over_sky(r, &agc)),
+            true => (self.camera.config().agc.clone()).and_then(|agc| agc_over_sky(r, &agc)),
             false => None,
         };
         let renders = r.renders.clone().unwrap_or_default();
@@ -262,7 +261,7 @@ impl ValidSequence {
                 frames: r.frames,
                 frame_rate_hz: r.frame_rate_hz,
                 groups: &r.groups,
-                camera: &self.camera,
+                camera: self.camera.name(),
                 moves: (seq.moves.iter())
                     .map(|m| MoveSummary {
                         objects: &m.objects,
@@ -332,7 +331,7 @@ impl ValidSequence {
             "sequence: {} frames at {} Hz through '{}', {} light groups; {} layered render{} ({} pose{} of {} moving bod{}, {} frames reused a render) {:.2} s, {:.2} s a render; mixing {:.2} ms/frame, camera {:.1} ms/frame; gain in effect {:.4}–{:.4}; {:.2} s in all → {}",
             r.frames,
             r.frame_rate_hz,
-            self.camera,
+            self.camera.name(),
             r.groups.len(),
             renders.renders,
             plural(renders.renders, "", "s"),

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use gloam_grabber::GrabError;
 use gloam_pipeline::frames::FrameWriter;
 use gloam_pipeline::output::{write_npy, write_preview, write_tiff};
-use gloam_pipeline::{FrameCapture, FrameRecord};
+use gloam_pipeline::{FrameCapture, FrameRecord, ResolvedSensor};
 use gloam_simcam::FrameExposureExt;
 use gloam_trace::RenderOutput;
 use ndarray::Array2;
@@ -64,6 +64,8 @@ pub struct Rendered {
     scene: PathBuf,
     /// With `target_error = "camera[:K]"`: report.json's `camera_target`.
     camera_target: Option<gloam_pipeline::camera_goal::CameraTarget>,
+    /// The task's camera, read once for the render and its capture.
+    sensor: Option<ResolvedSensor>,
 }
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
@@ -71,13 +73,15 @@ pub struct Rendered {
 fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
     let scene = sweep.load_scene(task)?;
     let settings = task.render_settings()?;
-    let sensor = sweep.sensor(task);
+    let sensor = (sweep.sensor(task).as_deref())
+        .map(gloam_pipeline::resolve_sensor)
+        .transpose()?;
     // The gain is checked per task (it differs within a chunk).
     if let Some(s) = &sensor {
         gloam_pipeline::check_options(s, None, task.frames())?;
     }
     let job = gloam_pipeline::RenderJob {
-        camera: sensor.as_deref(),
+        camera: sensor.as_ref(),
         ..gloam_pipeline::RenderJob::new(&scene, &settings)
     };
     let prepared = job.prepare()?;
@@ -104,6 +108,7 @@ fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
         rows,
         scene: sweep.resolve(&task.text("scene").unwrap_or_default()),
         camera_target,
+        sensor,
     })
 }
 
@@ -128,7 +133,7 @@ fn write_camera_target(
 }
 
 /// The capture of `task`'s frames through `sensor`.
-fn capture_of<'a>(sensor: &'a str, task: &Task) -> FrameCapture<'a> {
+fn capture_of<'a>(sensor: &'a ResolvedSensor, task: &Task) -> FrameCapture<'a> {
     FrameCapture {
         sensor,
         frames: task.frames(),
@@ -162,8 +167,8 @@ impl Executor for Pipeline {
             Shared::Nothing => capture_stimulus(sweep, task, out),
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
-                    let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("render"))?;
-                    let mut f = capture_detected(&sensor, task, d, out)?;
+                    let sensor = r.sensor.as_ref().ok_or(ExecError::NoSensor("render"))?;
+                    let mut f = capture_detected(sensor, task, d, out)?;
                     // The camera target's figures (results.csv columns),
                     // and the render it chose, as `gloam render` writes it.
                     if let Some(t) = &r.camera_target {
@@ -225,7 +230,7 @@ fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> Result<Figures, Task
 /// task): the one capture loop, [`FrameCapture::capture`], keeping the
 /// pixels for the task's noise figures.
 fn capture_detected(
-    sensor: &str,
+    sensor: &ResolvedSensor,
     task: &Task,
     detected: &Array2<f64>,
     out: &Path,

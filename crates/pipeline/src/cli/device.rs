@@ -37,6 +37,8 @@ pub enum DeviceSourceError {
         #[source]
         source: SceneViewError,
     },
+    #[error(transparent)]
+    SensorFile(#[from] crate::CaptureOptionsError),
     #[error("sensor '{sensor}'")]
     Sensor {
         sensor: String,
@@ -58,6 +60,7 @@ pub struct DeviceSource {
 /// its frames with `--loop`, else its last intensities held).
 fn sequence_view(
     args: &DeviceArgs,
+    sensor: &crate::ResolvedSensor,
     path: &str,
     note: &dyn Fn(&str),
 ) -> Result<SceneView, DeviceSourceError> {
@@ -72,7 +75,7 @@ fn sequence_view(
     note(&format!(
         "gloam device: rendering the light groups of {scene} …"
     ));
-    let (groups, layers) = crate::scene_view::render_scene_layers(&scene, &args.sensor, args.size)
+    let (groups, layers) = crate::scene_view::render_scene_layers(&scene, sensor, args.size)
         .map_err(|source| DeviceSourceError::Layers {
             scene: scene.clone(),
             source,
@@ -110,7 +113,7 @@ pub fn device_source(
         source,
     };
     if let Some(path) = &args.sequence {
-        let view = sequence_view(args, path, note)?;
+        let view = sequence_view(args, &crate::resolve_sensor(&args.sensor)?, path, note)?;
         let source = SensorSource::with_scene(&args.sensor, view, args.seed).map_err(sensor)?;
         let view = format!("sequence '{path}'");
         return Ok(DeviceSource {
@@ -121,13 +124,14 @@ pub fn device_source(
     }
     if let Some(path) = &args.scene {
         note(&format!("gloam device: rendering {path} …"));
-        let scene = crate::render_scene_view(path, &args.sensor, args.size).map_err(|source| {
+        let resolved = crate::resolve_sensor(&args.sensor)?;
+        let scene = crate::render_scene_view(path, &resolved, args.size).map_err(|source| {
             DeviceSourceError::View {
                 scene: path.clone(),
                 source,
             }
         })?;
-        if let Some(fit) = crate::scene_view_fit_note(&scene, &args.sensor) {
+        if let Some(fit) = crate::scene_view_fit_note(&scene, &resolved) {
             note(&format!("warning: {fit}"));
         }
         let source = SensorSource::with_scene(&args.sensor, scene, args.seed).map_err(sensor)?;
