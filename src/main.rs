@@ -207,10 +207,24 @@ fn gloam_main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
+    // Built here, where a failure is an error: built lazily, a pool whose
+    // threads could not start (RAYON_NUM_THREADS=1024 under `ulimit -v`)
+    // panicked in the first parallel loop.
+    if let Err(e) = rayon::ThreadPoolBuilder::new().build_global() {
+        eprintln!(
+            "error: starting {} worker threads (RAYON_NUM_THREADS, else one per core): {e}; each needs its own stack, which an address-space or process limit (ulimit -v, -u) can refuse",
+            std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "the".into())
+        );
+        return ExitCode::FAILURE;
+    }
     // Every file the run reads goes into its provenance.
     gloam_io::record_reads();
-    let matches =
-        negative_numbers_are_values(cmd::capture::with_out_help(Cli::command())).get_matches();
+    let matches = match negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()))
+        .try_get_matches()
+    {
+        Ok(m) => m,
+        Err(e) => return clap_exit(e),
+    };
     // The subcommand path (`calibrate agc`): its words are not inputs.
     let mut words = Vec::new();
     let mut m = &matches;
@@ -246,6 +260,25 @@ fn gloam_main() -> ExitCode {
         Err(e) => {
             // Plain `error: cause: cause…` on stderr, never a backtrace.
             eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Ends on a clap error, or prints `--help`/`--version`, whose write
+/// errors clap drops: `gloam --help > /dev/full` exited 0 with nothing
+/// written. A closed stdout ends quietly, as every command's output does.
+fn clap_exit(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    use std::io::Write as _;
+    if !matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+        e.exit()
+    }
+    match e.print().and_then(|()| std::io::stdout().flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(w) if w.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(w) => {
+            eprintln!("error: writing to stdout: {w}");
             ExitCode::FAILURE
         }
     }

@@ -283,7 +283,9 @@ pub struct ProbeArgs {
     pub samples: u32,
     /// Camera samples per pixel for --pixel (default 4, as a fixed-count
     /// `render --spp`).
-    #[arg(long)]
+    // A point's estimate takes no camera samples: `--spp` there was
+    // accepted and ignored.
+    #[arg(long, conflicts_with_all = ["point", "normal"])]
     pub spp: Option<u32>,
     /// Seed (default 0).
     #[arg(long)]
