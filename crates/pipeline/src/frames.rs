@@ -379,10 +379,12 @@ mod tests {
                 levels,
                 exposure_us: None,
                 gate_duty: None,
+                nd_density: None,
+                sensor: None,
             },
             pixels: vec![100, 200],
         };
-        FrameRecord::of_grab(4, String::new(), &f, Vec::new())
+        FrameRecord::of_frame(4, String::new(), &f, Vec::new())
     }
 
     fn card<'a>(cards: &'a [FitsCard], key: &str) -> Option<&'a FitsCard> {

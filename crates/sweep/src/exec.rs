@@ -326,7 +326,7 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> Result<Figures, T
             .grab()
             .map_err(|source| ExecError::Grab { frame: i, source })?;
         let file = format!("frame-{i:06}.png");
-        let rec = FrameRecord::of_grab(u64::from(i), file, &f, f.exposure().warnings);
+        let rec = FrameRecord::of_frame(u64::from(i), file, &f, f.exposure().warnings);
         writer.write(&rec, &f.pixels)?;
         black = f.meta.levels.map(|l| l.black_dn);
         gain = f.meta.gain;
