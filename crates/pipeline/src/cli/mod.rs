@@ -18,6 +18,7 @@ pub mod calibrate;
 pub mod capture;
 pub mod device;
 pub mod print;
+pub mod process;
 pub mod sequence;
 
 pub use sequence::SequenceArgs;
@@ -361,24 +362,5 @@ fn malformed(
         value,
         expected,
         source,
-    }
-}
-
-/// Refuses a `RAYON_NUM_THREADS` past the tracer's own thread limit:
-/// rayon would try to start that many workers (100 000 hang the start).
-pub fn check_thread_env() -> Result<(), String> {
-    let Some(v) = std::env::var_os("RAYON_NUM_THREADS") else {
-        return Ok(());
-    };
-    let max = gloam_trace::tracer::MAX_THREADS;
-    match v.to_str().map(str::trim).map(str::parse::<u64>) {
-        Some(Ok(n)) if n as u128 > max as u128 => Err(format!(
-            "RAYON_NUM_THREADS={n}: at most {max} worker threads (unset it, or use --threads where a command has it)"
-        )),
-        Some(Ok(_)) => Ok(()),
-        _ => Err(format!(
-            "RAYON_NUM_THREADS={}: not a whole number of threads",
-            v.to_string_lossy()
-        )),
     }
 }
