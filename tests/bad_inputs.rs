@@ -2655,6 +2655,9 @@ const CASES: &[Case] = &[
     // Steps lost in rounding made identical tasks; an overflowing one an infinite value.
     case!("sweep: a float range whose step is lost in rounding", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\ntolerance = { from = 0.01, count = 3, step = 1e-18 }\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:5:", "axes.tolerance", "lost in rounding", "identical tasks"]),
     case!("sweep: a float range stepping past the largest float", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\n\"camera.fov_deg\" = { from = 1e308, count = 3, step = 1e308 }\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:5:", "camera.fov_deg", "value 1 of the range", "not a finite number"]),
+    // Gains printed with `{}`: 309 digits (round 7's formatter, not used here).
+    case!("calibrate apply: a recorded gain of 1e308", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1e308}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["gain 1e308 lies outside the calibrated gains"]),
+    case!("calibrate apply: --gain 1e300 against the recorded gain", ["d/frame-000000.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{capture:g1/frames.jsonl}", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/frame-000000.png", "o.tiff", "--gain", "1e300"], ["--gain 1e300:", "records gain 1 for", "not taken at gain 1e300"]),
     // Written into the script as it was, for Slurm to refuse at submission.
     case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
 ];
@@ -2724,6 +2727,24 @@ fn odd_paths_and_environments_get_clear_errors() {
     let mut c = Command::new(BIN);
     c.args(["plan"]).arg(odd).current_dir(dir.path());
     check("plan: non-UTF-8 scene path", c, &["sc"]);
+    // A frame whose name is not UTF-8 has a name, but no frames.jsonl line
+    // can hold it: that is the reason, not "no file name" (round 9).
+    let mut c = Command::new(BIN);
+    c.args(["calibrate", "apply", "--lut", "l.json"])
+        .arg(std::ffi::OsStr::from_bytes(b"f\xff.png"))
+        .arg("o.tiff")
+        .current_dir(dir.path());
+    std::fs::write(dir.path().join("l.json"), LUT).unwrap();
+    std::fs::copy(
+        fixture_capture().join("g1/frame-000000.png"),
+        dir.path().join(std::ffi::OsStr::from_bytes(b"f\xff.png")),
+    )
+    .unwrap();
+    check(
+        "calibrate apply: a frame name that is not UTF-8",
+        c,
+        &["file name is not UTF-8", "pass --gain"],
+    );
     // Thread counts from the environment, bounded before a pool starts.
     for v in ["100000", "18446744073709551616", "many"] {
         let mut c = Command::new(BIN);

@@ -362,3 +362,49 @@ fn a_subcommand_word_is_not_an_input_even_where_its_directory_exists() {
     let after = std::fs::read(dir.path().join("render/radiance.npy")).unwrap();
     assert_eq!(before, after);
 }
+
+/// A capture stopped by SIGTERM publishes its frames with the reason, and
+/// the reason does not say "Ctrl-C" alone: one handler takes SIGINT,
+/// SIGTERM and SIGHUP without knowing which came (round 9).
+#[test]
+fn a_terminated_capture_says_it_was_a_signal_not_only_ctrl_c() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cap");
+    let mut child = Command::new(BIN)
+        .args([
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=64x64",
+            "--frames",
+            "1000000",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until frames are being written, then send SIGTERM.
+    let t0 = Instant::now();
+    loop {
+        let writing = std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().contains(".partial-"))
+            .any(|e| e.path().join("frame-000001.png").exists());
+        if writing {
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "no frames appeared");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    child.wait().unwrap();
+    let m = json(&out.join("manifest.json"));
+    assert_eq!(m["complete"], Value::Bool(false), "{m}");
+    let why = m["stopped_because"].as_str().unwrap_or_default();
+    assert!(why.contains("SIGTERM"), "stopped_because: {why}");
+}

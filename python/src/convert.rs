@@ -32,10 +32,22 @@ pub fn dict_item<'py>(d: Bound<'py, PyDict>, key: &str) -> PyResult<Bound<'py, P
 
 /// A Python object (dicts, lists, numbers, strings) as a serde value.
 pub fn from_py<T: serde::de::DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
+    // `allow_nan=False`: JSON has no NaN, and `json.dumps` wrote the token
+    // anyway, which serde then called "expected value at line 1 column 33".
+    let kwargs = pyo3::types::PyDict::new(obj.py());
+    kwargs.set_item("allow_nan", false)?;
     let text: String = obj
         .py()
         .import("json")?
-        .call_method1("dumps", (obj,))?
+        .call_method("dumps", (obj,), Some(&kwargs))
+        .map_err(
+            |e| match e.is_instance_of::<pyo3::exceptions::PyValueError>(obj.py()) {
+                true => crate::errors::GloamError::new_err(format!(
+                    "{what}: {e} (NaN and infinities are not values here)"
+                )),
+                false => e,
+            },
+        )?
         .extract()?;
     serde_json::from_str(&text)
         .map_err(|e| crate::errors::GloamError::new_err(format!("{what}: {e}")))

@@ -282,3 +282,16 @@ def test_oversized_captures_raise_instead_of_aborting():
         s.capture(np.full((4, 4), 1e-6), frames=10**7)
     cap = s.capture(np.full((4, 4), 1e-6), frames=2, gain=30, seed=1)
     assert cap is not None
+    # The scope's frame size (round 9): the CLI's --size held it to 1..4096,
+    # Python's size= did not, and (100000, 100000) aborted allocating 80 GB.
+    for size in [(100000, 100000), (0, 0)]:
+        with pytest.raises(gloam.GloamError, match="1 to 4096 pixels"):
+            gloam.scope(sensor="gen3-gaas-iccd", size=size)
+
+
+def test_a_nan_in_a_dict_argument_is_named():
+    # JSON has no NaN: json.dumps wrote the token anyway and serde said
+    # "expected value at line 1 column 33" (round 9).
+    g = gloam.open_grabber("sim:gen3-gaas-iccd?size=4x4")
+    with pytest.raises(gloam.GloamError, match="(?s)stimulus.*NaN"):
+        g.present({"kind": "uniform", "radiance": float("nan")})

@@ -1126,7 +1126,10 @@ mod tests {
             |_, _: &Frame, _| Ok(()),
             &mut |_| {},
         );
-        assert_eq!(r.unwrap_err().to_string(), "interrupted (Ctrl-C)");
+        assert_eq!(
+            r.unwrap_err().to_string(),
+            "interrupted (Ctrl-C, SIGTERM or SIGHUP)"
+        );
         assert_eq!(t.kept, 0);
         assert!(capture(0).request().check().is_err());
     }

@@ -50,7 +50,7 @@ pub enum CalibError {
         source: serde_json::Error,
     },
     /// An explicit gain that contradicts the one recorded for the frame.
-    #[error("--gain {gain}: {}:{line} records gain {recorded} for {}; the frame was not taken at gain {gain} (omit --gain to use the recorded gain)", frames_jsonl.display(), frame.display())]
+    #[error("--gain {g}: {}:{line} records gain {} for {}; the frame was not taken at gain {g} (omit --gain to use the recorded gain)", frames_jsonl.display(), gloam_spectra::num(*recorded), frame.display(), g = gloam_spectra::num(*gain))]
     GainMismatch {
         gain: f64,
         recorded: f64,

@@ -439,8 +439,14 @@ pub fn decode_fits_counts(bytes: &[u8]) -> Result<FitsCounts, String> {
         .take(MAX_FITS_HEADER_BLOCKS * BLOCK / 80)
         .enumerate()
     {
-        let card =
-            std::str::from_utf8(card).map_err(|_| format!("header card {} is not ASCII", i + 1))?;
+        // Reached without an END card, this is the data unit: say so
+        // (it was "header card 37 is not ASCII").
+        let card = std::str::from_utf8(card).map_err(|_| {
+            format!(
+                "header card {} is not ASCII: the header has no END card before it",
+                i + 1
+            )
+        })?;
         let key = card[..8].trim_end().to_string();
         if key == "END" {
             end = Some(i);
@@ -714,10 +720,18 @@ pub fn check_frame_crc(
 /// name.
 pub fn gain_from_frames_jsonl(image: &Path, page: Option<u64>) -> Result<f64, CalibError> {
     let jl = gloam_io::frames::beside(image);
+    // A name that is not UTF-8 has a name, but no JSON line can hold it:
+    // it was called "no file name".
     let name = image
         .file_name()
-        .and_then(|n| n.to_str())
-        .ok_or_else(|| CalibError::file(image, "no file name"))?;
+        .ok_or_else(|| CalibError::file(image, "no file name"))?
+        .to_str()
+        .ok_or_else(|| {
+            CalibError::file(
+                image,
+                "its file name is not UTF-8, so no frames.jsonl line can name it; pass --gain",
+            )
+        })?;
     let note = format!(" (needed for the gain of {name}; pass --gain to override)");
     match gloam_io::frames::find(&jl, name, page).map_err(|e| frames_read_error(e, &note))? {
         Some(l) => l
@@ -885,6 +899,16 @@ mod tests {
         // No END within the bound.
         let e = decode_fits_counts(&vec![b' '; 2880 * 70]).unwrap_err();
         assert!(e.contains("no END card"), "{e}");
+        // No END before binary data (round 9): the header's missing END is
+        // named, not only "card 37 is not ASCII".
+        let mut no_end = fits(&HEAD, &[0xff; 8]);
+        let end = no_end.windows(3).position(|w| w == b"END").unwrap();
+        no_end[end..end + 3].copy_from_slice(b"   ");
+        let e = decode_fits_counts(&no_end).unwrap_err();
+        assert!(
+            e.contains("header card 37") && e.contains("no END card"),
+            "{e}"
+        );
     }
 
     #[test]

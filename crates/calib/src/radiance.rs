@@ -562,7 +562,8 @@ impl Lut {
                 Ok((1.0 / r, -d / r))
             }
             _ => Err(CalibError::Invalid(format!(
-                "gain {gain} lies outside the calibrated gains {:?}; calibrate it or pass a calibrated gain",
+                "gain {} lies outside the calibrated gains {:?}; calibrate it or pass a calibrated gain",
+                gloam_spectra::num(gain),
                 g.iter().map(|c| c.gain).collect::<Vec<_>>()
             ))),
         }

@@ -30,6 +30,10 @@ use crate::rig_check::rig_mismatch;
 use crate::scope_run::{ScopeOptions, sim_uri};
 use crate::source::{CalibrationSource, SourceFile, open_for_grabber};
 
+/// Why a capture stopped at a signal (Ctrl-C, SIGTERM or SIGHUP): its
+/// error and its manifest's `stopped_because`.
+pub const INTERRUPTED: &str = "interrupted (Ctrl-C, SIGTERM or SIGHUP)";
+
 /// What a flow tells its front end while it runs.
 pub enum Event<'a> {
     /// A line for the operator (stderr), printed at once.
@@ -574,7 +578,9 @@ impl GrabRequest {
         let result = (|| {
             while t.kept < self.frames {
                 if interrupted() {
-                    return Err(CalibError::Usage("interrupted (Ctrl-C)".into()).into());
+                    // One handler takes all three (the `ctrlc` crate does not say which):
+                    // a SIGTERM was recorded as "Ctrl-C".
+                    return Err(CalibError::Usage(INTERRUPTED.into()).into());
                 }
                 match g.grab() {
                     Ok(f) => {

@@ -113,6 +113,9 @@ fn video_sensor(o: &ScopeOptions) -> Result<(SensorConfig, VideoFormat), CalibEr
     Ok((cfg, format))
 }
 
+/// The largest frame side the scope takes, as `--size` and `sim:` URIs.
+pub const MAX_SCOPE_SIDE: u32 = 4096;
+
 /// Captures and scopes the lines.
 pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
     let (cfg, format) = video_sensor(o)?;
@@ -126,6 +129,15 @@ pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
         VideoFormat::Rs170 => (640, 480),
         VideoFormat::Ccir => (768, 576),
     });
+    // The CLI's `--size` parser held this, Python's `size=` did not:
+    // (100000, 100000) aborted the interpreter allocating 80 GB, and (0, 0)
+    // was "row 0 is outside the 0-row frame".
+    let side = 1..=MAX_SCOPE_SIDE;
+    if !(side.contains(&w) && side.contains(&h)) {
+        return Err(CalibError::Invalid(format!(
+            "size {w}x{h}: each side of the frame must be 1 to {MAX_SCOPE_SIDE} pixels"
+        )));
+    }
     let rows = if o.rows.is_empty() {
         vec![h as usize / 2]
     } else {
