@@ -6,63 +6,14 @@
 
 use std::path::{Path, PathBuf};
 
-use gloam_grabber::FrameStatus;
-use gloam_sensor::Camera;
+use gloam_sensor::{Camera, Frame};
+use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
 use crate::frame_files::FrameFormat;
 use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
 use crate::output::{OutputError, write_atomic};
-
-/// The record of frame `index` of an in-process simulated `camera`
-/// (just captured, so its chain state is the frame's), with its
-/// exposure warnings; `pixels` are the frame's counts in row order.
-pub fn record_of_sensor_frame(
-    index: u64,
-    file: String,
-    frame: &gloam_sensor::DigitizedFrame,
-    pixels: &[u16],
-    camera: &Camera,
-) -> FrameRecord {
-    let (h, w) = frame.pixels.dim();
-    let m = &frame.meta;
-    let g = m.gain_in_effect;
-    let chain = camera.chain();
-    let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-    let warnings =
-        gloam_sensor::levels::exposure_warnings(m.mean_dn, m.saturated_fraction, Some(black), sat);
-    FrameRecord {
-        index,
-        file,
-        seq: m.seq,
-        timestamp: (m.time_s * 1e6).round() as u64,
-        gain: g,
-        agc: m.agc_enabled,
-        bits: m.bits,
-        width: w as u32,
-        height: h as u32,
-        pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
-        status: FrameStatus::Ok,
-        mean_dn: m.mean_dn,
-        saturated_fraction: m.saturated_fraction,
-        saturated_at_dn: chain.saturated_threshold_dn(g),
-        black_dn: Some(black),
-        electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
-        nd_density: Some(camera.config().optics.nd_density),
-        // The duty in effect: the configured gate times the tube's and
-        // the AGC's cuts (as the simulated grabber records it).
-        gate_duty: (camera.config().photocathode.as_ref())
-            .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
-        exposure_us: None,
-        saturated_by: Some(m.saturation.saturated_by),
-        mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
-        warnings,
-        sensor: Some(m.clone()),
-        stored: None,
-        sequence: None,
-    }
-}
 
 /// Why a capture's options are refused.
 #[derive(Debug, thiserror::Error)]
@@ -113,6 +64,10 @@ pub enum CaptureError {
     Camera(#[from] gloam_sensor::ConfigError),
     #[error(transparent)]
     Gain(gloam_sensor::CaptureError),
+    /// The camera's frame came without its own figures (`meta.sensor`),
+    /// which every in-process frame carries.
+    #[error("frame {index}: the camera gave no figures of its own")]
+    NoFigures { index: u32 },
     #[error("capturing frame {index}")]
     Frame {
         index: u32,
@@ -171,16 +126,6 @@ pub struct FrameCapture<'a> {
     pub frame_format: FrameFormat,
 }
 
-/// One frame of a capture, as the camera made it.
-pub struct CapturedFrame {
-    /// Its line of `frames.jsonl` (file name, size, levels, warnings).
-    pub record: FrameRecord,
-    /// Its counts in row order.
-    pub pixels: Vec<u16>,
-    /// The camera's black level at the frame's gain, DN.
-    pub black_dn: f64,
-}
-
 /// What a capture found besides its frames: what to tell its user and
 /// what to record.
 #[derive(Clone, Debug)]
@@ -210,7 +155,7 @@ impl FrameCapture<'_> {
     pub fn capture(
         &self,
         detected: &Array2<f64>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         self.capture_changing(detected, None, &mut |_| Ok(()), on_frame)
     }
@@ -225,7 +170,7 @@ impl FrameCapture<'_> {
         first: &Array2<f64>,
         image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
         configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         let mut config = gloam_sensor::load_preset_or_file(self.sensor).map_err(|source| {
             CaptureOptionsError::Sensor {
@@ -246,7 +191,7 @@ impl FrameCapture<'_> {
         mut config: gloam_sensor::SensorConfig,
         first: &Array2<f64>,
         mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         let detected = first;
         if self.frames < 1 {
@@ -307,17 +252,14 @@ impl FrameCapture<'_> {
             let frame = camera
                 .capture_detected(changed.as_ref().unwrap_or(detected).view())
                 .map_err(|source| CaptureError::Frame { index: i, source })?;
-            let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
+            let Some(m) = frame.meta.sensor.clone() else {
+                return Err(CaptureError::NoFigures { index: i });
+            };
             let file = self.frame_format.file_name(u64::from(i));
-            let m = &frame.meta;
-            let g = m.gain_in_effect;
-            let chain = camera.chain();
-            let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-            let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
-            let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
-            let rec = record_of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
+            let exposure = frame.exposure();
+            let rec = FrameRecord::of_frame(u64::from(i), file.clone(), &frame, exposure.warnings);
             // The record's warnings are these kinds' messages, in order.
-            for (w, k) in rec.warnings.iter().zip(&kinds) {
+            for (w, k) in rec.warnings.iter().zip(&exposure.warning_kinds) {
                 if warned.insert(*k) {
                     let by = match k {
                         gloam_sensor::levels::WarningKind::Saturated => format!(
@@ -329,26 +271,23 @@ impl FrameCapture<'_> {
                     notes.push(format!("warning: frame {i}: {w}{by}"));
                 }
             }
-            let median = median_dn(&pixels);
+            let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
+            let median = median_dn(&frame.pixels);
             per_frame.push(serde_json::json!({
                 "file": file,
                 "gain": g,
                 "mean_dn": m.mean_dn,
                 "median_dn": median,
-                "median_above_black_of_full_scale": (median - black) / chain.max_code,
+                "median_above_black_of_full_scale": (median - black) / camera.chain().max_code,
                 "saturated_fraction": m.saturated_fraction,
                 "saturated_by": m.saturation.saturated_by,
                 "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
                 "bright_source_in_view": m.saturation.bright_source_in_view,
-                "warnings": kinds,
+                "warnings": exposure.warning_kinds,
             }));
             summary.add(&m.saturation);
             tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
-            on_frame(CapturedFrame {
-                record: rec,
-                pixels,
-                black_dn: black,
-            })?;
+            on_frame(frame, rec)?;
         }
         if summary.frames > 1 && summary.frames_over_warning > 0 {
             notes.push(format!(
@@ -397,7 +336,7 @@ impl FrameCapture<'_> {
             scene_utc,
             ..FrameContext::default()
         };
-        let captured = self.capture(detected, &mut |f| {
+        let captured = self.capture(detected, &mut |f, rec| {
             let w = match &mut writer {
                 Some(w) => w,
                 None => writer.insert(FrameWriter::with_format(
@@ -406,7 +345,7 @@ impl FrameCapture<'_> {
                     context.clone(),
                 )?),
             };
-            Ok(w.write(&f.record, &f.pixels)?)
+            Ok(w.write(&rec, &f.pixels)?)
         })?;
         if let Some(w) = writer {
             w.finish()?;

@@ -15,8 +15,7 @@ use gloam_io::tiff::TiffStack;
 pub use gloam_io::frames::FrameRecord;
 
 pub use crate::capture::{
-    CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, SaturationSummary,
-    check_options, record_of_sensor_frame,
+    CaptureError, CaptureOptionsError, Captured, FrameCapture, SaturationSummary, check_options,
 };
 
 /// Why `frames.jsonl` or a frame was not written, naming the file.
