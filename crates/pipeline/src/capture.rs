@@ -199,28 +199,7 @@ impl FrameCapture<'_> {
         }
         config.noise.seed = self.seed;
         let mut notes = Vec::new();
-        let exposure = match &self.auto_exposure {
-            Some(target) => {
-                let c = crate::exposure::choose(&config, detected, target)?;
-                crate::exposure::apply(&mut config, &c);
-                notes.push(format!(
-                    "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
-                    c.gain,
-                    c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
-                    c.exposure_s,
-                    c.nd_density,
-                    c.target.percentile,
-                    c.percentile_dn,
-                    c.median_dn,
-                    c.note
-                ));
-                if c.stops_out_of_range != 0.0 {
-                    notes.push(format!("warning: {}", c.note));
-                }
-                Some(c)
-            }
-            None => None,
-        };
+        let exposure = self.auto_expose(&mut config, detected, &mut notes)?;
         // Before the first frame: can this camera see this scene at any
         // gain it reaches? (`--exposure auto` has already chosen its fit.)
         let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
@@ -244,51 +223,22 @@ impl FrameCapture<'_> {
             camera.set_agc(true);
         }
         tracing::debug!(sensor = self.sensor, frames = self.frames, "capturing");
-        let mut warned = std::collections::BTreeSet::new();
-        let mut per_frame = Vec::new();
-        let mut summary = SaturationSummary::default();
+        let mut tally = FrameTally::default();
         for i in 0..self.frames {
             let changed = image.as_mut().map(|f| f(i));
             let frame = camera
                 .capture_detected(changed.as_ref().unwrap_or(detected).view())
                 .map_err(|source| CaptureError::Frame { index: i, source })?;
-            let Some(m) = frame.meta.sensor.clone() else {
-                return Err(CaptureError::NoFigures { index: i });
-            };
             let file = self.frame_format.file_name(u64::from(i));
-            let exposure = frame.exposure();
-            let rec = FrameRecord::of_frame(u64::from(i), file.clone(), &frame, exposure.warnings);
-            // The record's warnings are these kinds' messages, in order.
-            for (w, k) in rec.warnings.iter().zip(&exposure.warning_kinds) {
-                if warned.insert(*k) {
-                    let by = match k {
-                        gloam_sensor::levels::WarningKind::Saturated => format!(
-                            " (clipped at the {})",
-                            stage_name(m.saturation.saturated_by)
-                        ),
-                        _ => String::new(),
-                    };
-                    notes.push(format!("warning: frame {i}: {w}{by}"));
-                }
-            }
-            let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
-            let median = median_dn(&frame.pixels);
-            per_frame.push(serde_json::json!({
-                "file": file,
-                "gain": g,
-                "mean_dn": m.mean_dn,
-                "median_dn": median,
-                "median_above_black_of_full_scale": (median - black) / camera.chain().max_code,
-                "saturated_fraction": m.saturated_fraction,
-                "saturated_by": m.saturation.saturated_by,
-                "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
-                "bright_source_in_view": m.saturation.bright_source_in_view,
-                "warnings": exposure.warning_kinds,
-            }));
-            summary.add(&m.saturation);
-            tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
+            let judged = frame.exposure();
+            let rec = FrameRecord::of_frame(u64::from(i), file, &frame, judged.warnings);
+            let max_code = camera.chain().max_code;
+            tally.add(i, &frame, &rec, judged.warning_kinds, max_code, &mut notes)?;
             on_frame(frame, rec)?;
         }
+        let FrameTally {
+            per_frame, summary, ..
+        } = tally;
         if summary.frames > 1 && summary.frames_over_warning > 0 {
             notes.push(format!(
                 "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
@@ -312,6 +262,38 @@ impl FrameCapture<'_> {
             },
         });
         Ok(Captured { notes, report })
+    }
+
+    /// `--exposure auto`'s choice of gain, gate, exposure time and ND for
+    /// `detected`, applied to `config`, with its note (and a warning
+    /// when the scene is out of the camera's range) in `notes`; `None`
+    /// without it.
+    fn auto_expose(
+        &self,
+        config: &mut gloam_sensor::SensorConfig,
+        detected: &Array2<f64>,
+        notes: &mut Vec<String>,
+    ) -> Result<Option<crate::exposure::ExposureChoice>, CaptureError> {
+        let Some(target) = &self.auto_exposure else {
+            return Ok(None);
+        };
+        let c = crate::exposure::choose(config, detected, target)?;
+        crate::exposure::apply(config, &c);
+        notes.push(format!(
+            "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
+            c.gain,
+            c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
+            c.exposure_s,
+            c.nd_density,
+            c.target.percentile,
+            c.percentile_dn,
+            c.median_dn,
+            c.note
+        ));
+        if c.stops_out_of_range != 0.0 {
+            notes.push(format!("warning: {}", c.note));
+        }
+        Ok(Some(c))
     }
 
     /// [`FrameCapture::capture`] into `out`: the frames in
@@ -352,6 +334,64 @@ impl FrameCapture<'_> {
         }
         record_in_report(out, captured.report)?;
         Ok(captured.notes)
+    }
+}
+
+/// What a capture keeps of its frames for `report.json` and its user:
+/// each frame's levels, the saturation summary, and which kinds of
+/// exposure warning it has told.
+#[derive(Default)]
+struct FrameTally {
+    per_frame: Vec<serde_json::Value>,
+    summary: SaturationSummary,
+    warned: std::collections::BTreeSet<gloam_sensor::levels::WarningKind>,
+}
+
+impl FrameTally {
+    /// Adds frame `i`, recorded as `rec` with warnings of `kinds` (in the
+    /// record's order), from a camera whose top code is `max_code`; the
+    /// first warning of each kind goes to `notes`.
+    fn add(
+        &mut self,
+        i: u32,
+        frame: &Frame,
+        rec: &FrameRecord,
+        kinds: Vec<gloam_sensor::levels::WarningKind>,
+        max_code: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<(), CaptureError> {
+        let Some(m) = frame.sensor() else {
+            return Err(CaptureError::NoFigures { index: i });
+        };
+        for (w, k) in rec.warnings.iter().zip(&kinds) {
+            if self.warned.insert(*k) {
+                let by = match k {
+                    gloam_sensor::levels::WarningKind::Saturated => format!(
+                        " (clipped at the {})",
+                        stage_name(m.saturation.saturated_by)
+                    ),
+                    _ => String::new(),
+                };
+                notes.push(format!("warning: frame {i}: {w}{by}"));
+            }
+        }
+        let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
+        let median = median_dn(&frame.pixels);
+        self.per_frame.push(serde_json::json!({
+            "file": rec.file,
+            "gain": g,
+            "mean_dn": m.mean_dn,
+            "median_dn": median,
+            "median_above_black_of_full_scale": (median - black) / max_code,
+            "saturated_fraction": m.saturated_fraction,
+            "saturated_by": m.saturation.saturated_by,
+            "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
+            "bright_source_in_view": m.saturation.bright_source_in_view,
+            "warnings": kinds,
+        }));
+        self.summary.add(&m.saturation);
+        tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
+        Ok(())
     }
 }
 
