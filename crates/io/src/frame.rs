@@ -100,6 +100,12 @@ pub struct FrameShapeError {
 }
 
 impl Frame {
+    /// The sensor model's own figures of this frame, when it made it in
+    /// process ([`FrameMeta::sensor`]).
+    pub fn sensor(&self) -> Option<&SensorMeta> {
+        self.meta.sensor.as_ref()
+    }
+
     /// The counts as a `height × width` array (rows first), without a
     /// copy: for code that indexes pixels by row and column.
     pub fn view(&self) -> Result<ndarray::ArrayView2<'_, u16>, FrameShapeError> {

@@ -6,8 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
-use gloam_grabber::FrameStatus;
-use gloam_sensor::Camera;
+use gloam_sensor::{Camera, Frame};
+use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
@@ -15,55 +15,6 @@ use crate::frame_files::FrameFormat;
 use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
 use crate::output::{OutputError, write_atomic};
 use gloam_sensor::ResolvedSensor;
-
-/// The record of frame `index` of an in-process simulated `camera`
-/// (just captured, so its chain state is the frame's), with its
-/// exposure warnings; `pixels` are the frame's counts in row order.
-pub fn record_of_sensor_frame(
-    index: u64,
-    file: String,
-    frame: &gloam_sensor::DigitizedFrame,
-    pixels: &[u16],
-    camera: &Camera,
-) -> FrameRecord {
-    let (h, w) = frame.pixels.dim();
-    let m = &frame.meta;
-    let g = m.gain_in_effect;
-    let chain = camera.chain();
-    let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-    let warnings =
-        gloam_sensor::levels::exposure_warnings(m.mean_dn, m.saturated_fraction, Some(black), sat);
-    FrameRecord {
-        index,
-        file,
-        seq: m.seq,
-        timestamp: (m.time_s * 1e6).round() as u64,
-        gain: g,
-        agc: m.agc_enabled,
-        bits: m.bits,
-        width: w as u32,
-        height: h as u32,
-        pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
-        status: FrameStatus::Ok,
-        mean_dn: m.mean_dn,
-        saturated_fraction: m.saturated_fraction,
-        saturated_at_dn: chain.saturated_threshold_dn(g),
-        black_dn: Some(black),
-        electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
-        nd_density: Some(camera.config().optics.nd_density),
-        // The duty in effect: the configured gate times the tube's and
-        // the AGC's cuts (as the simulated grabber records it).
-        gate_duty: (camera.config().photocathode.as_ref())
-            .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
-        exposure_us: None,
-        saturated_by: Some(m.saturation.saturated_by),
-        mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
-        warnings,
-        sensor: Some(m.clone()),
-        stored: None,
-        sequence: None,
-    }
-}
 
 /// Why a capture's options are refused.
 #[derive(Debug, thiserror::Error)]
@@ -125,6 +76,10 @@ pub enum CaptureError {
     Camera(#[from] gloam_sensor::ConfigError),
     #[error(transparent)]
     Gain(gloam_sensor::CaptureError),
+    /// The camera's frame came without its own figures (`meta.sensor`),
+    /// which every in-process frame carries.
+    #[error("frame {index}: the camera gave no figures of its own")]
+    NoFigures { index: u32 },
     #[error("capturing frame {index}")]
     Frame {
         index: u32,
@@ -184,16 +139,6 @@ pub struct FrameCapture<'a> {
     pub frame_format: FrameFormat,
 }
 
-/// One frame of a capture, as the camera made it.
-pub struct CapturedFrame {
-    /// Its line of `frames.jsonl` (file name, size, levels, warnings).
-    pub record: FrameRecord,
-    /// Its counts in row order.
-    pub pixels: Vec<u16>,
-    /// The camera's black level at the frame's gain, DN.
-    pub black_dn: f64,
-}
-
 /// What a capture found besides its frames: what to tell its user and
 /// what to record.
 #[derive(Clone, Debug)]
@@ -223,7 +168,7 @@ impl FrameCapture<'_> {
     pub fn capture(
         &self,
         detected: &Array2<f64>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         self.capture_changing(detected, None, &mut |_| Ok(()), on_frame)
     }
@@ -238,7 +183,7 @@ impl FrameCapture<'_> {
         first: &Array2<f64>,
         image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
         configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         let mut config = self.sensor.config().clone();
         configure(&mut config)?;
@@ -253,7 +198,7 @@ impl FrameCapture<'_> {
         mut config: gloam_sensor::SensorConfig,
         first: &Array2<f64>,
         mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         let detected = first;
         if self.frames < 1 {
@@ -261,28 +206,7 @@ impl FrameCapture<'_> {
         }
         config.noise.seed = self.seed;
         let mut notes = Vec::new();
-        let exposure = match &self.auto_exposure {
-            Some(target) => {
-                let c = crate::exposure::choose(&config, detected, target)?;
-                crate::exposure::apply(&mut config, &c);
-                notes.push(format!(
-                    "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
-                    c.gain,
-                    c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
-                    c.exposure_s,
-                    c.nd_density,
-                    c.target.percentile,
-                    c.percentile_dn,
-                    c.median_dn,
-                    c.note
-                ));
-                if c.stops_out_of_range != 0.0 {
-                    notes.push(format!("warning: {}", c.note));
-                }
-                Some(c)
-            }
-            None => None,
-        };
+        let exposure = self.auto_expose(&mut config, detected, &mut notes)?;
         // Before the first frame: can this camera see this scene at any
         // gain it reaches? (`--exposure auto` has already chosen its fit.)
         let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
@@ -310,57 +234,22 @@ impl FrameCapture<'_> {
             frames = self.frames,
             "capturing"
         );
-        let mut warned = std::collections::BTreeSet::new();
-        let mut per_frame = Vec::new();
-        let mut summary = SaturationSummary::default();
+        let mut tally = FrameTally::default();
         for i in 0..self.frames {
             let changed = image.as_mut().map(|f| f(i));
             let frame = camera
                 .capture_detected(changed.as_ref().unwrap_or(detected).view())
                 .map_err(|source| CaptureError::Frame { index: i, source })?;
-            let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
             let file = self.frame_format.file_name(u64::from(i));
-            let m = &frame.meta;
-            let g = m.gain_in_effect;
-            let chain = camera.chain();
-            let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-            let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
-            let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
-            let rec = record_of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
-            // The record's warnings are these kinds' messages, in order.
-            for (w, k) in rec.warnings.iter().zip(&kinds) {
-                if warned.insert(*k) {
-                    let by = match k {
-                        gloam_sensor::levels::WarningKind::Saturated => format!(
-                            " (clipped at the {})",
-                            stage_name(m.saturation.saturated_by)
-                        ),
-                        _ => String::new(),
-                    };
-                    notes.push(format!("warning: frame {i}: {w}{by}"));
-                }
-            }
-            let median = median_dn(&pixels);
-            per_frame.push(serde_json::json!({
-                "file": file,
-                "gain": g,
-                "mean_dn": m.mean_dn,
-                "median_dn": median,
-                "median_above_black_of_full_scale": (median - black) / chain.max_code,
-                "saturated_fraction": m.saturated_fraction,
-                "saturated_by": m.saturation.saturated_by,
-                "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
-                "bright_source_in_view": m.saturation.bright_source_in_view,
-                "warnings": kinds,
-            }));
-            summary.add(&m.saturation);
-            tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
-            on_frame(CapturedFrame {
-                record: rec,
-                pixels,
-                black_dn: black,
-            })?;
+            let judged = frame.exposure();
+            let rec = FrameRecord::of_frame(u64::from(i), file, &frame, judged.warnings);
+            let max_code = camera.chain().max_code;
+            tally.add(i, &frame, &rec, judged.warning_kinds, max_code, &mut notes)?;
+            on_frame(frame, rec)?;
         }
+        let FrameTally {
+            per_frame, summary, ..
+        } = tally;
         if summary.frames > 1 && summary.frames_over_warning > 0 {
             notes.push(format!(
                 "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
@@ -386,6 +275,38 @@ impl FrameCapture<'_> {
         Ok(Captured { notes, report })
     }
 
+    /// `--exposure auto`'s choice of gain, gate, exposure time and ND for
+    /// `detected`, applied to `config`, with its note (and a warning
+    /// when the scene is out of the camera's range) in `notes`; `None`
+    /// without it.
+    fn auto_expose(
+        &self,
+        config: &mut gloam_sensor::SensorConfig,
+        detected: &Array2<f64>,
+        notes: &mut Vec<String>,
+    ) -> Result<Option<crate::exposure::ExposureChoice>, CaptureError> {
+        let Some(target) = &self.auto_exposure else {
+            return Ok(None);
+        };
+        let c = crate::exposure::choose(config, detected, target)?;
+        crate::exposure::apply(config, &c);
+        notes.push(format!(
+            "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
+            c.gain,
+            c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
+            c.exposure_s,
+            c.nd_density,
+            c.target.percentile,
+            c.percentile_dn,
+            c.median_dn,
+            c.note
+        ));
+        if c.stops_out_of_range != 0.0 {
+            notes.push(format!("warning: {}", c.note));
+        }
+        Ok(Some(c))
+    }
+
     /// [`FrameCapture::capture`] into `out`: the frames in
     /// `frame_format` and `frames.jsonl` as frames are made, then
     /// `frames-preview.png`, and `sensor_capture` added to
@@ -408,7 +329,7 @@ impl FrameCapture<'_> {
             scene_utc,
             ..FrameContext::default()
         };
-        let captured = self.capture(detected, &mut |f| {
+        let captured = self.capture(detected, &mut |f, rec| {
             let w = match &mut writer {
                 Some(w) => w,
                 None => writer.insert(FrameWriter::with_format(
@@ -417,13 +338,71 @@ impl FrameCapture<'_> {
                     context.clone(),
                 )?),
             };
-            Ok(w.write(&f.record, &f.pixels)?)
+            Ok(w.write(&rec, &f.pixels)?)
         })?;
         if let Some(w) = writer {
             w.finish()?;
         }
         record_in_report(out, captured.report)?;
         Ok(captured.notes)
+    }
+}
+
+/// What a capture keeps of its frames for `report.json` and its user:
+/// each frame's levels, the saturation summary, and which kinds of
+/// exposure warning it has told.
+#[derive(Default)]
+struct FrameTally {
+    per_frame: Vec<serde_json::Value>,
+    summary: SaturationSummary,
+    warned: std::collections::BTreeSet<gloam_sensor::levels::WarningKind>,
+}
+
+impl FrameTally {
+    /// Adds frame `i`, recorded as `rec` with warnings of `kinds` (in the
+    /// record's order), from a camera whose top code is `max_code`; the
+    /// first warning of each kind goes to `notes`.
+    fn add(
+        &mut self,
+        i: u32,
+        frame: &Frame,
+        rec: &FrameRecord,
+        kinds: Vec<gloam_sensor::levels::WarningKind>,
+        max_code: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<(), CaptureError> {
+        let Some(m) = frame.sensor() else {
+            return Err(CaptureError::NoFigures { index: i });
+        };
+        for (w, k) in rec.warnings.iter().zip(&kinds) {
+            if self.warned.insert(*k) {
+                let by = match k {
+                    gloam_sensor::levels::WarningKind::Saturated => format!(
+                        " (clipped at the {})",
+                        stage_name(m.saturation.saturated_by)
+                    ),
+                    _ => String::new(),
+                };
+                notes.push(format!("warning: frame {i}: {w}{by}"));
+            }
+        }
+        let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
+        let median = median_dn(&frame.pixels);
+        self.per_frame.push(serde_json::json!({
+            "file": rec.file,
+            "gain": g,
+            "mean_dn": m.mean_dn,
+            "median_dn": median,
+            "median_above_black_of_full_scale": (median - black) / max_code,
+            "saturated_fraction": m.saturated_fraction,
+            "saturated_by": m.saturation.saturated_by,
+            "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
+            "bright_source_in_view": m.saturation.bright_source_in_view,
+            "warnings": kinds,
+        }));
+        self.summary.add(&m.saturation);
+        tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
+        Ok(())
     }
 }
 

@@ -405,9 +405,12 @@ mod tests {
         let mut cam = Camera::new(config.clone()).unwrap();
         cam.set_override_gain(Some(gain)).unwrap();
         let f = cam.capture_detected(detected.view()).unwrap();
-        let mut v: Vec<u16> = f.pixels.iter().copied().collect();
+        let mut v: Vec<u16> = f.pixels.to_vec();
         v.sort_unstable();
-        (f64::from(v[v.len() / 2]), f.meta.saturated_fraction)
+        (
+            f64::from(v[v.len() / 2]),
+            f.sensor().unwrap().saturated_fraction,
+        )
     }
 
     /// A smooth scene over `decades`: log-uniform radiance from `scale`,

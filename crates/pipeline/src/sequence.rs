@@ -765,52 +765,53 @@ fn capture_with(
     let mut gain_over_time = Vec::new();
     let (mut medians, mut throughput_over_time) = (Vec::new(), Vec::new());
     let t_capture = Instant::now();
-    let captured = capture.capture_configured(config, &first, Some(&mut image), &mut |mut f| {
-        if failed.borrow().is_some() {
-            // A pose's render failed: stop here; the error returned
-            // below is that failure, not this placeholder.
-            return Err(CaptureError::Encode(serde::de::Error::custom(
-                "stopped: a render failed",
-            )));
-        }
-        let i = f.record.index as usize;
-        if let Some(p) = places.borrow().get(i) {
-            gain_over_time.push((p.time_s, f.record.gain));
-            let mut p = p.clone();
-            if let Some(sky) = &p.sky {
-                // The camera's own median when its AGC metered one.
-                let median = (f.record.sensor.as_ref())
-                    .and_then(|m| m.median_dn)
-                    .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
-                    - f.black_dn;
-                p.median_above_black_dn = Some(median);
-                medians.push((p.time_s, median, sky.horizontal_lux));
+    let captured =
+        capture.capture_configured(config, &first, Some(&mut image), &mut |f, mut rec| {
+            if failed.borrow().is_some() {
+                // A pose's render failed: stop here; the error returned
+                // below is that failure, not this placeholder.
+                return Err(CaptureError::Encode(serde::de::Error::custom(
+                    "stopped: a render failed",
+                )));
             }
-            if let Some(d) = f.record.gate_duty {
-                throughput_over_time.push((p.time_s, f.record.gain * d));
+            let i = rec.index as usize;
+            if let Some(p) = places.borrow().get(i) {
+                gain_over_time.push((p.time_s, rec.gain));
+                let mut p = p.clone();
+                if let Some(sky) = &p.sky {
+                    // The camera's own median when its AGC metered one.
+                    let median = (rec.sensor.as_ref())
+                        .and_then(|m| m.median_dn)
+                        .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
+                        - rec.black_dn.unwrap_or(0.0);
+                    p.median_above_black_dn = Some(median);
+                    medians.push((p.time_s, median, sky.horizontal_lux));
+                }
+                if let Some(d) = rec.gate_duty {
+                    throughput_over_time.push((p.time_s, rec.gain * d));
+                }
+                rec.sequence = Some(p);
             }
-            f.record.sequence = Some(p);
-        }
-        let r = &f.record;
-        let black = r.black_dn.unwrap_or(0.0);
-        animation.add(
-            r.index,
-            r.width,
-            r.height,
-            &f.pixels,
-            black,
-            r.saturated_at_dn,
-        );
-        let w = match &mut writer {
-            Some(w) => w,
-            None => writer.insert(FrameWriter::with_format(
-                out,
-                capture.frame_format,
-                context.clone(),
-            )?),
-        };
-        Ok(w.write(&f.record, &f.pixels)?)
-    });
+            let r = &rec;
+            let black = r.black_dn.unwrap_or(0.0);
+            animation.add(
+                r.index,
+                r.width,
+                r.height,
+                &f.pixels,
+                black,
+                r.saturated_at_dn,
+            );
+            let w = match &mut writer {
+                Some(w) => w,
+                None => writer.insert(FrameWriter::with_format(
+                    out,
+                    capture.frame_format,
+                    context.clone(),
+                )?),
+            };
+            Ok(w.write(&rec, &f.pixels)?)
+        });
     if let Some(e) = failed.borrow_mut().take() {
         return Err(e);
     }

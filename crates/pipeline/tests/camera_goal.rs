@@ -82,7 +82,7 @@ fn frame_stats(detected: &Array2<f64>) -> (Vec<f64>, Vec<f64>) {
     let n = detected.len();
     let (mut sum, mut sq) = (vec![0.0; n], vec![0.0; n]);
     capture()
-        .capture(detected, &mut |f| {
+        .capture(detected, &mut |f, _| {
             for (i, &p) in f.pixels.iter().enumerate() {
                 sum[i] += p as f64;
                 sq[i] += (p as f64).powi(2);

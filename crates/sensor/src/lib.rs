@@ -17,7 +17,7 @@ pub mod stages;
 
 pub use analytic::Description;
 pub use bench::{Throughput, throughput, throughput_at};
-pub use camera::{AgcState, Camera, DigitizedFrame, SensorMeta};
+pub use camera::{AgcState, Camera, Frame, SensorMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::{SensorEffect, sensor_effects};
 pub use error::{CaptureError, ConfigError, LineError, ScopeError};

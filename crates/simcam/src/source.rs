@@ -5,7 +5,7 @@
 use ndarray::Array2;
 
 use gloam_grabber::source::{CaptureSettings, FrameSource, Rendered, SourceInfo};
-use gloam_grabber::{DnLevels, GrabError, Stimulus};
+use gloam_grabber::{GrabError, Stimulus};
 use gloam_sensor::{Camera, SensorConfig};
 use gloam_spectra::Spectrum;
 
@@ -326,29 +326,17 @@ impl FrameSource for SensorSource {
                 out.len()
             )));
         }
-        for (o, p) in out.iter_mut().zip(frame.pixels.iter()) {
-            *o = *p;
-        }
-        let g = frame.meta.gain_in_effect;
-        let gain_milli = (g * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
-        let chain = self.camera.chain();
+        out.copy_from_slice(&frame.pixels);
+        let m = frame.meta;
+        let gain_milli = (m.gain * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
+        let protecting = m.sensor.as_ref().map(|s| s.agc_state);
         Ok(Rendered {
             gain_milli,
-            levels: Some(DnLevels {
-                black_dn: chain.black_dn(g),
-                saturation_dn: chain.saturation_dn(g),
-                saturated_at_dn: chain.saturated_threshold_dn(g),
-                electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
-            }),
-            bright_source_protection: frame.meta.agc_state == gloam_sensor::AgcState::Protecting,
-            gate_duty: self
-                .camera
-                .config()
-                .photocathode
-                .as_ref()
-                .map(|p| p.gate_duty * frame.meta.saturation.abc.duty_factor),
-            nd_density: Some(self.camera.config().optics.nd_density),
-            sensor: Some(frame.meta),
+            levels: m.levels,
+            bright_source_protection: protecting == Some(gloam_sensor::AgcState::Protecting),
+            gate_duty: m.gate_duty,
+            nd_density: m.nd_density,
+            sensor: m.sensor,
         })
     }
 }

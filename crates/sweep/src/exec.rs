@@ -239,10 +239,10 @@ fn capture_detected(
     let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
     let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
-    let captured = capture.capture(detected, &mut |f| {
-        writer.write(&f.record, &f.pixels)?;
-        (black, gain) = (f.black_dn, f.record.gain);
-        sat += f.record.saturated_fraction;
+    let captured = capture.capture(detected, &mut |f, rec| {
+        writer.write(&rec, &f.pixels)?;
+        (black, gain) = (rec.black_dn.unwrap_or(f64::NAN), rec.gain);
+        sat += rec.saturated_fraction;
         frames.push(f.pixels);
         Ok(())
     })?;
