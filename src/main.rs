@@ -207,8 +207,6 @@ fn gloam_main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
-    // Every file the run reads goes into its provenance.
-    gloam_io::record_reads();
     let matches =
         negative_numbers_are_values(cmd::capture::with_out_help(Cli::command())).get_matches();
     // The subcommand path (`calibrate agc`): its words are not inputs.

@@ -266,7 +266,8 @@ impl CameraGoal {
         k: f64,
         capture: &crate::frames::FrameCapture<'_>,
     ) -> Result<Self, gloam_sensor::ConfigError> {
-        let config = gloam_sensor::load_preset_or_file(capture.sensor)?;
+        // Noted in the run's log by the capture's check.
+        let config = gloam_sensor::load_preset_or_file(capture.sensor, &gloam_io::ReadLog::off())?;
         Ok(Self {
             band: prepared.tracer().wavelengths().band_names.len() - 1,
             k,
@@ -703,7 +704,8 @@ mod tests {
         let goal = CameraGoal {
             band: 0,
             k: 0.3,
-            config: gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap(),
+            config: gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off())
+                .unwrap(),
             gain: Some(100.0),
             agc: false,
             auto_exposure: None,

@@ -80,20 +80,23 @@ pub enum CaptureOptionsError {
 }
 
 /// Checks the sensor options of a capture (the sensor loads, `--gain` is
-/// in its range, at least one frame) before anything expensive runs.
+/// in its range, at least one frame) before anything expensive runs;
+/// `reads` notes a sensor file.
 pub fn check_options(
     sensor: &str,
     gain: Option<f64>,
     frames: u32,
+    reads: &gloam_io::ReadLog,
 ) -> Result<(), CaptureOptionsError> {
     if frames < 1 {
         return Err(CaptureOptionsError::NoFrames);
     }
-    let mut camera =
-        Camera::from_preset_or_file(sensor).map_err(|source| CaptureOptionsError::Sensor {
+    let mut camera = Camera::from_preset_or_file(sensor, reads).map_err(|source| {
+        CaptureOptionsError::Sensor {
             sensor: sensor.to_string(),
             source,
-        })?;
+        }
+    })?;
     if let Some(g) = gain {
         camera
             .set_override_gain(Some(g))
@@ -138,9 +141,11 @@ pub enum CaptureError {
 fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
     let path = out.join("report.json");
     // The report is this run's output, not an input.
-    let Ok(text) =
-        gloam_io::unrecorded(|| gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES))
-    else {
+    let Ok(text) = gloam_io::read_text(
+        &path,
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &gloam_io::ReadLog::off(),
+    ) else {
         return Ok(());
     };
     let mut report: serde_json::Value =
@@ -195,9 +200,10 @@ pub struct Captured {
 
 impl FrameCapture<'_> {
     /// [`check_options`] of this capture: refuses a sensor that does not
-    /// load, a gain outside its range or no frames, before the render.
-    pub fn check(&self) -> Result<(), CaptureOptionsError> {
-        check_options(self.sensor, self.gain, self.frames)
+    /// load, a gain outside its range or no frames, before the render
+    /// (a sensor file noted in `reads`).
+    pub fn check(&self, reads: &gloam_io::ReadLog) -> Result<(), CaptureOptionsError> {
+        check_options(self.sensor, self.gain, self.frames, reads)
     }
 
     /// Captures `frames` frames of the detected-electron radiance
@@ -227,12 +233,15 @@ impl FrameCapture<'_> {
         configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
         on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
-        let mut config = gloam_sensor::load_preset_or_file(self.sensor).map_err(|source| {
-            CaptureOptionsError::Sensor {
-                sensor: self.sensor.to_string(),
-                source,
-            }
-        })?;
+        // Noted in the run's log by `check`, before the render.
+        let reads = gloam_io::ReadLog::off();
+        let mut config =
+            gloam_sensor::load_preset_or_file(self.sensor, &reads).map_err(|source| {
+                CaptureOptionsError::Sensor {
+                    sensor: self.sensor.to_string(),
+                    source,
+                }
+            })?;
         configure(&mut config)?;
         self.capture_configured(config, first, image, on_frame)
     }

@@ -44,10 +44,14 @@ pub fn with_detected_band(scene: &Scene, sensor: &str) -> Result<Scene, Detected
     if scene.band(DETECTED_BAND).is_some() {
         return Err(DetectedError::BandTaken);
     }
-    let camera = Camera::from_preset_or_file(sensor).map_err(|source| DetectedError::Sensor {
-        sensor: sensor.to_string(),
-        source,
-    })?;
+    // Noted in the run's log by the capture's check.
+    let camera =
+        Camera::from_preset_or_file(sensor, &gloam_io::ReadLog::off()).map_err(|source| {
+            DetectedError::Sensor {
+                sensor: sensor.to_string(),
+                source,
+            }
+        })?;
     let lo_nm = scene
         .bands
         .iter()

@@ -28,7 +28,7 @@ use crate::render::{
 };
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
-use gloam_io::OutputSet;
+use gloam_io::{OutputSet, ReadLog};
 
 /// The scene of a request: a file to read, or one a front end holds
 /// already (Python's `Scene`).
@@ -140,7 +140,9 @@ impl RenderRequest {
     /// checked before the render: the tile, the settings, the camera (its
     /// sensor loads, its gain is in range), flags that need a camera or
     /// exclude each other, and `--target-error camera`'s conditions.
-    pub fn validate(&self) -> Result<ValidRender, RenderError> {
+    /// `reads` is the run's log: the scene, the files it names and the
+    /// sensor file are noted there, and the run's provenance lists them.
+    pub fn validate(&self, reads: &ReadLog) -> Result<ValidRender, RenderError> {
         let c = &self.camera;
         // Pairs that exclude each other (clap refuses them on the command
         // line first; a request from elsewhere is checked here).
@@ -162,7 +164,7 @@ impl RenderRequest {
         let (scene, scene_path, load_s) = match &self.scene {
             SceneInput::File(path) => {
                 let t = Instant::now();
-                let scene = Arc::new(gloam_scene::load(path)?);
+                let scene = Arc::new(gloam_scene::load(path, reads)?);
                 (scene, path.clone(), t.elapsed().as_secs_f64())
             }
             SceneInput::Loaded {
@@ -191,9 +193,10 @@ impl RenderRequest {
             layers: self.layers,
             out: self.out.clone(),
             settings,
+            reads: reads.clone(),
         };
         match valid.frame_capture() {
-            Some(fc) => fc.check()?,
+            Some(fc) => fc.check(reads)?,
             None => c.refuse_flags_without_camera(valid.tile.is_some())?,
         }
         // `--target-error camera[:K]`: each pixel to the camera's own noise.
@@ -308,6 +311,8 @@ pub struct ValidRender {
     pub tile: Option<TileSpec>,
     pub layers: bool,
     pub out: Option<OutputDir>,
+    /// The run's log of what it read (its provenance's inputs).
+    reads: ReadLog,
 }
 
 /// What a render tells its front end as it runs. Every method has a
@@ -357,7 +362,7 @@ impl ValidRender {
     /// publishes the set.
     pub fn run(self, events: &dyn Events) -> Result<RenderDone, RenderError> {
         let t_start = Instant::now();
-        let mut provenance = Provenance::of_this_run();
+        let mut provenance = Provenance::of_this_run(&self.reads);
         // Refused up front when the directory is in use; the files appear
         // at once when the set is published.
         let set = (self.out.as_ref())

@@ -29,13 +29,15 @@ pub enum SceneViewError {
 }
 
 /// Renders `path` for the camera `sensor` at `size` (width, height;
-/// default the scene camera's, keeping its horizontal field of view).
+/// default the scene camera's, keeping its horizontal field of view);
+/// `reads` notes the scene and its files.
 pub fn render_scene_view(
     path: &str,
     sensor: &str,
     size: Option<(u32, u32)>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<SceneView, SceneViewError> {
-    let mut scene = gloam_scene::load(Path::new(path))?;
+    let mut scene = gloam_scene::load(Path::new(path), reads)?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;
@@ -66,8 +68,9 @@ pub fn render_scene_layers(
     path: &str,
     sensor: &str,
     size: Option<(u32, u32)>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<(Vec<String>, Vec<Array2<f64>>), SceneViewError> {
-    let mut scene = gloam_scene::load(Path::new(path))?;
+    let mut scene = gloam_scene::load(Path::new(path), reads)?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;
@@ -105,7 +108,8 @@ pub fn scene_view_fit_note(view: &SceneView, sensor: &str) -> Option<String> {
     let SceneImage::Detected { e_s_m2_sr } = &view.image else {
         return None;
     };
-    let config = gloam_sensor::load_preset_or_file(sensor).ok()?;
+    // The grabber's open notes the sensor file; this is the same one again.
+    let config = gloam_sensor::load_preset_or_file(sensor, &gloam_io::ReadLog::off()).ok()?;
     let fit = crate::fit::predict(&config, e_s_m2_sr, None).ok()?;
     matches!(
         fit.verdict,
@@ -143,9 +147,11 @@ pub fn grabbers_noting(note: Arc<dyn Fn(&str) + Send + Sync>) -> Registry {
                     ..
                 } => {
                     let view =
-                        render_scene_view(&path, &preset, size).map_err(|e| GrabError::Scene {
-                            path,
-                            source: e.into(),
+                        render_scene_view(&path, &preset, size, &opts.reads).map_err(|e| {
+                            GrabError::Scene {
+                                path,
+                                source: e.into(),
+                            }
                         })?;
                     if let Some(n) = scene_view_fit_note(&view, &preset) {
                         note(&n);

@@ -699,7 +699,8 @@ fn sequence_config(
     sequence: &Sequence,
     capture: &FrameCapture<'_>,
 ) -> Result<gloam_sensor::SensorConfig, SequenceError> {
-    let mut config = gloam_sensor::load_preset_or_file(capture.sensor)
+    // Noted in the run's log by the capture's check.
+    let mut config = gloam_sensor::load_preset_or_file(capture.sensor, &gloam_io::ReadLog::off())
         .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
             sensor: capture.sensor.to_string(),
             source,
@@ -1214,7 +1215,10 @@ value = 1e-4
         let scene_path = dir.join("scene.toml");
         std::fs::write(&scene_path, car_scene("", "")).unwrap();
         let sequence = gloam_scene::sequence::parse_sequence(seq, &dir.join("seq.toml")).unwrap();
-        (gloam_scene::load(&scene_path).unwrap(), sequence)
+        (
+            gloam_scene::load(&scene_path, &gloam_io::ReadLog::off()).unwrap(),
+            sequence,
+        )
     }
 
     fn quiet_capture(frames: u32) -> FrameCapture<'static> {
@@ -1388,7 +1392,8 @@ value = 1e-4
             )
             .unwrap()
         };
-        let gen3 = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let gen3 =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         check_video_rate(&seq(25.0), "gen3", &gen3).unwrap();
         let e = check_video_rate(&seq(30.0), "gen3", &gen3).unwrap_err();
         assert!(
@@ -1402,7 +1407,8 @@ value = 1e-4
         check_video_rate(&seq(30.0), "rs170", &rs170).unwrap();
         check_video_rate(&seq(25.0), "rs170", &rs170).unwrap_err();
         // A camera without analogue video takes any rate.
-        let mut ccd = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        let mut ccd =
+            gloam_sensor::load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
         ccd.video = None;
         check_video_rate(&seq(30.0), "ccd", &ccd).unwrap();
     }

@@ -79,6 +79,8 @@ pub struct ValidSequence {
     capture: Capture,
     load_s: f64,
     out: OutputDir,
+    /// The run's log of what it read (its provenance's inputs).
+    reads: gloam_io::ReadLog,
 }
 
 impl SequenceRequest {
@@ -87,11 +89,16 @@ impl SequenceRequest {
     /// settings, the camera (the flags' or the scene's) and its options,
     /// and `--target-error camera`'s conditions. The sky clock's warnings
     /// are told to `events` as soon as it is bound (a refused run still
-    /// shows them).
-    pub fn validate(&self, events: &dyn Events) -> Result<ValidSequence, SequenceRequestError> {
+    /// shows them). `reads` is the run's log: the files read are noted
+    /// there, and the run's provenance lists them.
+    pub fn validate(
+        &self,
+        reads: &gloam_io::ReadLog,
+        events: &dyn Events,
+    ) -> Result<ValidSequence, SequenceRequestError> {
         let t_load = Instant::now();
-        let mut sequence = gloam_scene::sequence::load_sequence(&self.sequence)?;
-        let mut scene = gloam_scene::load(&sequence.scene)?;
+        let mut sequence = gloam_scene::sequence::load_sequence(&self.sequence, reads)?;
+        let mut scene = gloam_scene::load(&sequence.scene, reads)?;
         sequence.bind_sky(&mut scene)?;
         for w in sequence.sky.iter().flat_map(|c| &c.warnings) {
             events.note(w);
@@ -123,7 +130,7 @@ impl SequenceRequest {
             frames: sequence.frames,
             ..c.capture(frame_format)
         };
-        (capture.through(&camera, settings.seed).check()).map_err(RenderError::from)?;
+        (capture.through(&camera, settings.seed).check(reads)).map_err(RenderError::from)?;
         if camera_k.is_some() && !capture.noise {
             return Err(RenderError::CameraTarget(
                 "--target-error camera with --no-noise: frames without temporal noise hide no render error; give --target-error E (a relative error) or --spp N",
@@ -140,6 +147,7 @@ impl SequenceRequest {
             capture,
             load_s,
             out: self.out.clone(),
+            reads: reads.clone(),
         })
     }
 }
@@ -155,7 +163,7 @@ impl ValidSequence {
     /// publishes the set.
     pub fn run(self, events: &dyn Events) -> Result<SequenceDone, SequenceRequestError> {
         let t_start = Instant::now();
-        let mut provenance = Provenance::of_this_run();
+        let mut provenance = Provenance::of_this_run(&self.reads);
         let set = OutputSet::begin(&self.out.path, self.out.force, false)?;
         let dir = set.dir().to_path_buf();
         let progress = |d, t| events.tiles(d, t);
@@ -204,7 +212,7 @@ impl ValidSequence {
         // With a sky clock: how the AGC held the median over the sky's light.
         let agc_over_sky = match self.sequence.sky.is_some() && !r.medians_above_black_dn.is_empty()
         {
-            true => gloam_sensor::load_preset_or_file(&self.camera)
+            true => gloam_sensor::load_preset_or_file(&self.camera, &self.reads)
                 .ok()
                 .and_then(|c| c.agc)
                 .and_then(|agc| agc_over_sky(r, &agc)),

@@ -68,13 +68,17 @@ pub struct Rendered {
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
 /// when it has a sensor) through the pipeline's one render entry point.
-fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
-    let scene = sweep.load_scene(task)?;
+fn render_point(
+    sweep: &Sweep,
+    task: &Task,
+    reads: &gloam_io::ReadLog,
+) -> Result<Rendered, TaskError> {
+    let scene = sweep.load_scene(task, reads)?;
     let settings = task.render_settings()?;
     let sensor = sweep.sensor(task);
     // The gain is checked per task (it differs within a chunk).
     if let Some(s) = &sensor {
-        gloam_pipeline::check_options(s, None, task.frames())?;
+        gloam_pipeline::check_options(s, None, task.frames(), reads)?;
     }
     let job = gloam_pipeline::RenderJob {
         camera: sensor.as_deref(),
@@ -146,11 +150,16 @@ fn capture_of<'a>(sensor: &'a str, task: &Task) -> FrameCapture<'a> {
 impl Executor for Pipeline {
     type Shared = Shared;
 
-    fn prepare(&self, sweep: &Sweep, task: &Task) -> Result<Shared, TaskError> {
+    fn prepare(
+        &self,
+        sweep: &Sweep,
+        task: &Task,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Shared, TaskError> {
         if task.flow() == Flow::Capture {
             return Ok(Shared::Nothing);
         }
-        Ok(Shared::Render(Box::new(render_point(sweep, task)?)))
+        Ok(Shared::Render(Box::new(render_point(sweep, task, reads)?)))
     }
 
     fn run(
@@ -159,9 +168,10 @@ impl Executor for Pipeline {
         task: &Task,
         shared: &Shared,
         out: &Path,
+        reads: &gloam_io::ReadLog,
     ) -> Result<Figures, TaskError> {
         match shared {
-            Shared::Nothing => capture_stimulus(sweep, task, out),
+            Shared::Nothing => capture_stimulus(sweep, task, out, reads),
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
                     let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("render"))?;
@@ -285,7 +295,12 @@ fn capture_detected(
 }
 
 /// Frames of the sensor's default uniform stimulus (`sim:PRESET`).
-fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> Result<Figures, TaskError> {
+fn capture_stimulus(
+    sweep: &Sweep,
+    task: &Task,
+    out: &Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<Figures, TaskError> {
     let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("capture"))?;
     let uri = match task.size() {
         Some((w, h)) => format!("sim:{sensor}?size={w}x{h}"),
@@ -293,6 +308,7 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> Result<Figures, T
     };
     let opts = gloam_grabber::OpenOptions {
         seed: Some(task.seed),
+        reads: reads.clone(),
         ..Default::default()
     };
     let mut g = gloam_simcam::registry()

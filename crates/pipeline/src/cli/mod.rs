@@ -141,12 +141,13 @@ impl CameraArgs {
     /// is a tile, its capture — checked now, not after the whole trace. A
     /// tile is traced with the camera's band all the same (the effect plan
     /// weighs every band, so a tile makes the whole render's decisions) but
-    /// captures nothing.
+    /// captures nothing. `reads` notes a sensor file.
     pub fn capture<'a>(
         &'a self,
         scene: &'a Scene,
         seed: u64,
         tile: bool,
+        reads: &gloam_io::ReadLog,
     ) -> Result<(Option<&'a str>, Option<FrameCapture<'a>>), ArgError> {
         let camera = camera_of(self.sensor.as_deref(), scene);
         let frame_format = frame_format(self.frame_format.as_deref())?;
@@ -161,7 +162,7 @@ impl CameraArgs {
             frame_format,
         });
         match &capture {
-            Some(c) => c.check()?,
+            Some(c) => c.check(reads)?,
             None => {
                 let given = [
                     ("--frames", self.frames.is_some()),
@@ -262,10 +263,12 @@ impl PlanArgs {
     }
 
     /// `K` and the camera's capture for `--target-error camera[:K]`, if
-    /// asked; refused with a relative error or without a camera.
+    /// asked; refused with a relative error or without a camera. `reads`
+    /// notes a sensor file.
     pub fn camera_target<'a>(
         &'a self,
         scene: &'a Scene,
+        reads: &gloam_io::ReadLog,
     ) -> Result<Option<(f64, FrameCapture<'a>)>, PlanArgError> {
         let k = match self.target_error {
             None => return Ok(None),
@@ -287,7 +290,7 @@ impl PlanArgs {
             auto_exposure: self.exposure.as_ref().map(|_| ExposureTarget::default()),
             frame_format: crate::FrameFormat::default(),
         };
-        capture.check()?;
+        capture.check(reads)?;
         Ok(Some((k, capture)))
     }
 }
