@@ -200,8 +200,6 @@ fn gloam_main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
-    // Every file the run reads goes into its provenance.
-    gloam_io::record_reads();
     let matches = match negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()))
         .try_get_matches()
     {

@@ -62,7 +62,8 @@ impl Sensor {
     #[staticmethod]
     fn from_toml(path: std::path::PathBuf) -> PyResult<Self> {
         let source = path.display().to_string();
-        let config = SensorConfig::load_preset_or_file(&source).or_py()?;
+        let config =
+            SensorConfig::load_preset_or_file(&source, &gloam_io::ReadLog::new()).or_py()?;
         Ok(Self { config, source })
     }
 

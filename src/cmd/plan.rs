@@ -8,10 +8,10 @@ use super::print_json;
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     // The scene error already reads `file:line: field: message`.
-    let scene = gloam_scene::load(&args.scene)?;
+    let scene = gloam_scene::load(&args.scene, &gloam_io::ReadLog::off())?;
     let settings = args.settings().settings()?;
     // Checked before the plan's preparation: a bad camera is refused now.
-    let camera_target = args.camera_target(&scene)?;
+    let camera_target = args.camera_target(&scene, &gloam_io::ReadLog::off())?;
     let (plan, prep) = gloam_trace::plan::effect_plan_observed(
         &scene,
         &settings,

@@ -25,14 +25,16 @@ pub struct CameraRecord {
 
 /// Reads a `lut.json` written by the radiance flow and checks it
 /// ([`Lut::check`]): a LUT whose numbers leave physics is refused at the
-/// line holding the bad value, before it converts a count.
-pub fn load_lut(path: &Path) -> Result<Lut, CalibError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        CalibError::Read {
-            path: path.to_path_buf(),
-            source,
-        }
-    })?;
+/// line holding the bad value, before it converts a count. `reads` notes
+/// the file.
+pub fn load_lut(path: &Path, reads: &gloam_io::ReadLog) -> Result<Lut, CalibError> {
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            CalibError::Read {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     let lut: Lut = serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
         path: path.to_path_buf(),
         what: "LUT",
@@ -64,11 +66,12 @@ fn frames_jsonl(frame: &Path) -> PathBuf {
 /// The gain to apply to `frame`: `given` when it agrees with the gain
 /// recorded in `record` (its `frames.jsonl` line, see
 /// [`crate::io::frame_record`]), else the recorded one; refuses a `given`
-/// gain the record contradicts.
+/// gain the record contradicts. `reads` notes a `frames.jsonl` read.
 pub fn frame_gain(
     frame: &Path,
     given: Option<f64>,
     record: Option<&crate::io::FrameLine>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<f64, CalibError> {
     let recorded = record.and_then(|l| Some((l.line, l.number("gain")?)));
     match (given, recorded) {
@@ -83,7 +86,7 @@ pub fn frame_gain(
         }
         (Some(g), _) => Ok(g),
         (None, Some((_, r))) => Ok(r),
-        (None, None) => crate::io::gain_from_frames_jsonl(frame, None),
+        (None, None) => crate::io::gain_from_frames_jsonl(frame, None, reads),
     }
 }
 
@@ -97,19 +100,19 @@ pub fn check_lut_fits_frame(
     frame: &Path,
     record: Option<&crate::io::FrameLine>,
     px: &[u16],
+    reads: &gloam_io::ReadLog,
 ) -> Result<Option<String>, CalibError> {
     let dir = frame.parent().unwrap_or(Path::new("."));
     let cam_file = dir.join(CAMERA_FILE);
     let lut_camera = camera_identity(&lut.grabber);
     let mut unchecked = Vec::new();
     if cam_file.is_file() {
-        let text =
-            gloam_io::read_text(&cam_file, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-                CalibError::Read {
-                    path: cam_file.clone(),
-                    source,
-                }
-            })?;
+        let text = gloam_io::read_text(&cam_file, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(
+            |source| CalibError::Read {
+                path: cam_file.clone(),
+                source,
+            },
+        )?;
         let cam: CameraRecord =
             serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
                 path: cam_file.clone(),
@@ -273,8 +276,10 @@ pub fn apply_lut_to_frame(
             output.display()
         )));
     }
-    let lut = load_lut(lut_path)?;
-    let record = crate::io::frame_record(input, page)?;
+    // One image out and no manifest: nothing lists what apply read.
+    let reads = gloam_io::ReadLog::off();
+    let lut = load_lut(lut_path, &reads)?;
+    let record = crate::io::frame_record(input, page, &reads)?;
     if let (Some(p), None) = (page, &record) {
         return Err(CalibError::file(
             frames_jsonl(input),
@@ -291,7 +296,7 @@ pub fn apply_lut_to_frame(
             .map(crate::io::FrameLine::stored)
             .unwrap_or_default()
     };
-    let (w, h, px) = crate::io::read_frame_counts(input, &at)?;
+    let (w, h, px) = crate::io::read_frame_counts(input, &at, &reads)?;
     if let Some(l) = &record {
         crate::io::check_record_fits_frame(input, &frames_jsonl(input), l, w, h)?;
     }
@@ -307,8 +312,8 @@ pub fn apply_lut_to_frame(
             input.display()
         ));
     }
-    let gain = frame_gain(input, gain, record.as_ref())?;
-    if let Some(w) = check_lut_fits_frame(&lut, lut_path, input, record.as_ref(), &px)? {
+    let gain = frame_gain(input, gain, record.as_ref(), &reads)?;
+    if let Some(w) = check_lut_fits_frame(&lut, lut_path, input, record.as_ref(), &px, &reads)? {
         warn(&w);
     }
     let out = lut.apply(gain, &px)?;
@@ -490,9 +495,15 @@ mod tests {
             value: serde_json::json!({"file": "f.png", "gain": 20.0}),
         };
         let f = Path::new("d/f.png");
-        assert_eq!(frame_gain(f, None, Some(&rec)).unwrap(), 20.0);
-        assert_eq!(frame_gain(f, Some(20.0), Some(&rec)).unwrap(), 20.0);
-        let e = frame_gain(f, Some(10.0), Some(&rec)).unwrap_err();
+        assert_eq!(
+            frame_gain(f, None, Some(&rec), &gloam_io::ReadLog::off()).unwrap(),
+            20.0
+        );
+        assert_eq!(
+            frame_gain(f, Some(20.0), Some(&rec), &gloam_io::ReadLog::off()).unwrap(),
+            20.0
+        );
+        let e = frame_gain(f, Some(10.0), Some(&rec), &gloam_io::ReadLog::off()).unwrap_err();
         assert_eq!(
             e.to_string(),
             "--gain 10: d/frames.jsonl:3 records gain 20 for d/f.png; the frame was not taken at gain 10 (omit --gain to use the recorded gain)"

@@ -248,7 +248,9 @@ pub fn voltage_mtf(
     prepare(g, req)?;
     let (preset, _, seed, size) = crate::scope_run::sim_uri(&v.uri)?;
     let size = size.unwrap_or(gloam_simcam::DEFAULT_RIG_SIZE);
-    let mut cfg = gloam_sensor::SensorConfig::load_preset_or_file(&preset)?;
+    // The grabber's open noted a sensor file; this is the same one again.
+    let mut cfg =
+        gloam_sensor::SensorConfig::load_preset_or_file(&preset, &gloam_io::ReadLog::off())?;
     cfg.noise.seed = v.seed.unwrap_or(seed);
     let mut cam = gloam_sensor::Camera::new(cfg)?;
     let gain = req.gain.unwrap_or(cam.chain().reference_gain);
@@ -416,14 +418,16 @@ pub fn parse_usaf_ctf(text: &str, path: &Path) -> Result<Vec<UsafBar>, CalibErro
     Ok(out)
 }
 
-/// Reads and parses a CTF file (see [`parse_usaf_ctf`]).
-pub fn read_usaf_ctf(path: &Path) -> Result<Vec<UsafBar>, CalibError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        CalibError::Read {
-            path: PathBuf::from(path),
-            source,
-        }
-    })?;
+/// Reads and parses a CTF file (see [`parse_usaf_ctf`]), noting it in
+/// `reads`.
+pub fn read_usaf_ctf(path: &Path, reads: &gloam_io::ReadLog) -> Result<Vec<UsafBar>, CalibError> {
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            CalibError::Read {
+                path: PathBuf::from(path),
+                source,
+            }
+        })?;
     parse_usaf_ctf(&text, path)
 }
 

@@ -35,6 +35,9 @@ pub struct OpenOptions {
     pub seed: Option<u64>,
     /// Protocol client tuning for `serial:` and `usb:`.
     pub client: ClientOptions,
+    /// Where a grabber that reads files (a `sim:` camera's sensor TOML)
+    /// notes them: the log of the run that opens it.
+    pub reads: gloam_io::ReadLog,
 }
 
 /// Builds a grabber from a whole URI (its scheme already matched).

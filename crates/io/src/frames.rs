@@ -408,9 +408,10 @@ impl FrameLine {
 
 /// The lines of the `frames.jsonl` at `path` in order, blank lines
 /// skipped, read within [`crate::MAX_TEXT_FILE_BYTES`]; the first line
-/// that does not read or parse ends them with its error.
-pub fn lines(path: &Path) -> Result<Lines, FramesReadError> {
-    let f = crate::open_bounded(path, crate::MAX_TEXT_FILE_BYTES).map_err(|source| {
+/// that does not read or parse ends them with its error; `reads` notes the
+/// file.
+pub fn lines(path: &Path, reads: &crate::ReadLog) -> Result<Lines, FramesReadError> {
+    let f = crate::open_bounded(path, crate::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
         FramesReadError::Open {
             path: path.to_path_buf(),
             source,
@@ -485,9 +486,10 @@ pub fn find(
     path: &Path,
     name: &str,
     page: Option<u64>,
+    reads: &crate::ReadLog,
 ) -> Result<Option<FrameLine>, FramesReadError> {
     let mut found: Option<(FrameLine, Option<u64>)> = None;
-    for l in lines(path)? {
+    for l in lines(path, reads)? {
         let l = l?;
         if l.file() != Some(name) {
             continue;
@@ -543,7 +545,10 @@ mod tests {
             text,
             "{\"file\":\"a.png\",\"gain\":2.5}\n{\"file\":\"b.png\",\"gain\":7.0}\n"
         );
-        let got: Vec<FrameLine> = lines(&path).unwrap().map(Result::unwrap).collect();
+        let got: Vec<FrameLine> = lines(&path, &crate::ReadLog::off())
+            .unwrap()
+            .map(Result::unwrap)
+            .collect();
         assert_eq!(got.len(), 2);
         assert_eq!(
             (got[1].line, got[1].file(), got[1].number("gain")),
@@ -557,7 +562,7 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let path = d.path().join(FRAMES_JSONL);
         std::fs::write(&path, "\n{\"file\":\"a\"}\n\nnot json\n{}\n").unwrap();
-        let mut it = lines(&path).unwrap();
+        let mut it = lines(&path, &crate::ReadLog::off()).unwrap();
         assert_eq!(it.next().unwrap().unwrap().line, 2);
         match it.next().unwrap() {
             Err(FramesReadError::Json { line: 4, .. }) => {}
@@ -576,12 +581,24 @@ mod tests {
             format!("{{\"file\":\"s.tiff\",\"gain\":{g},\"stored\":{{\"page\":{p}}}}}\n")
         };
         std::fs::write(&path, page(0, 1) + &page(1, 2)).unwrap();
-        let l = find(&path, "s.tiff", Some(1)).unwrap().unwrap();
+        let l = find(&path, "s.tiff", Some(1), &crate::ReadLog::off())
+            .unwrap()
+            .unwrap();
         assert_eq!((l.line, l.number("gain")), (2, Some(2.0)));
-        assert!(find(&path, "t.tiff", None).unwrap().is_none());
+        assert!(
+            find(&path, "t.tiff", None, &crate::ReadLog::off())
+                .unwrap()
+                .is_none()
+        );
         std::fs::write(&path, page(0, 1) + &page(1, 2) + &page(1, 3)).unwrap();
-        assert_eq!(find(&path, "s.tiff", Some(0)).unwrap().unwrap().line, 1);
-        let e = find(&path, "s.tiff", Some(1)).unwrap_err();
+        assert_eq!(
+            find(&path, "s.tiff", Some(0), &crate::ReadLog::off())
+                .unwrap()
+                .unwrap()
+                .line,
+            1
+        );
+        let e = find(&path, "s.tiff", Some(1), &crate::ReadLog::off()).unwrap_err();
         assert_eq!(
             e.to_string(),
             format!(

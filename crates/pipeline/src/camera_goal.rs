@@ -761,7 +761,8 @@ mod tests {
         let goal = CameraGoal {
             band: 0,
             k: 0.3,
-            config: gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap(),
+            config: gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off())
+                .unwrap(),
             gain: Some(100.0),
             agc: false,
             auto_exposure: None,

@@ -32,9 +32,12 @@ pub enum CaptureOptionsError {
 }
 
 /// Reads the sensor `name` (a preset or sensor TOML) once for a run
-/// ([`ResolvedSensor`]), an error naming it.
-pub fn resolve_sensor(name: &str) -> Result<ResolvedSensor, CaptureOptionsError> {
-    ResolvedSensor::load(name).map_err(|source| CaptureOptionsError::Sensor {
+/// ([`ResolvedSensor`]), an error naming it; `reads` notes a sensor file.
+pub fn resolve_sensor(
+    name: &str,
+    reads: &gloam_io::ReadLog,
+) -> Result<ResolvedSensor, CaptureOptionsError> {
+    ResolvedSensor::load(name, reads).map_err(|source| CaptureOptionsError::Sensor {
         sensor: name.to_string(),
         source,
     })
@@ -105,9 +108,11 @@ pub enum CaptureError {
 fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
     let path = out.join("report.json");
     // The report is this run's output, not an input.
-    let Ok(text) =
-        gloam_io::unrecorded(|| gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES))
-    else {
+    let Ok(text) = gloam_io::read_text(
+        &path,
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &gloam_io::ReadLog::off(),
+    ) else {
         return Ok(());
     };
     let mut report: serde_json::Value =
@@ -152,8 +157,8 @@ pub struct Captured {
 }
 
 impl FrameCapture<'_> {
-    /// [`check_options`] of this capture: refuses a sensor that does not
-    /// load, a gain outside its range or no frames, before the render.
+    /// [`check_options`] of this capture: refuses a gain outside the
+    /// sensor's range or no frames, before the render.
     pub fn check(&self) -> Result<(), CaptureOptionsError> {
         check_options(self.sensor, self.gain, self.frames)
     }

@@ -28,7 +28,7 @@ use crate::render::{
 };
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
-use gloam_io::OutputSet;
+use gloam_io::{OutputSet, ReadLog};
 use gloam_sensor::ResolvedSensor;
 
 /// The scene of a request: a file to read, or one a front end holds
@@ -141,7 +141,9 @@ impl RenderRequest {
     /// checked before the render: the tile, the settings, the camera (its
     /// sensor loads, its gain is in range), flags that need a camera or
     /// exclude each other, and `--target-error camera`'s conditions.
-    pub fn validate(&self) -> Result<ValidRender, RenderError> {
+    /// `reads` is the run's log: the scene, the files it names and the
+    /// sensor file are noted there, and the run's provenance lists them.
+    pub fn validate(&self, reads: &ReadLog) -> Result<ValidRender, RenderError> {
         let c = &self.camera;
         // Pairs that exclude each other (clap refuses them on the command
         // line first; a request from elsewhere is checked here).
@@ -163,7 +165,7 @@ impl RenderRequest {
         let (scene, scene_path, load_s) = match &self.scene {
             SceneInput::File(path) => {
                 let t = Instant::now();
-                let scene = Arc::new(gloam_scene::load(path)?);
+                let scene = Arc::new(gloam_scene::load(path, reads)?);
                 (scene, path.clone(), t.elapsed().as_secs_f64())
             }
             SceneInput::Loaded {
@@ -177,8 +179,9 @@ impl RenderRequest {
         let frame_format = c.frame_format()?;
         // Read once: the detected band, the camera goal and the capture
         // share it.
-        let camera =
-            (camera_of(c.sensor.as_deref(), &scene).map(crate::resolve_sensor)).transpose()?;
+        let camera = (camera_of(c.sensor.as_deref(), &scene))
+            .map(|name| crate::resolve_sensor(name, reads))
+            .transpose()?;
         // A tile is traced with the camera's band all the same (the effect
         // plan weighs every band, so a tile makes the whole render's
         // decisions) but captures nothing.
@@ -195,6 +198,7 @@ impl RenderRequest {
             layers: self.layers,
             out: self.out.clone(),
             settings,
+            reads: reads.clone(),
         };
         match valid.frame_capture() {
             Some(fc) => fc.check()?,
@@ -312,6 +316,8 @@ pub struct ValidRender {
     pub tile: Option<TileSpec>,
     pub layers: bool,
     pub out: Option<OutputDir>,
+    /// The run's log of what it read (its provenance's inputs).
+    reads: ReadLog,
 }
 
 /// What a render tells its front end as it runs. Every method has a
@@ -361,7 +367,7 @@ impl ValidRender {
     /// publishes the set.
     pub fn run(self, events: &dyn Events) -> Result<RenderDone, RenderError> {
         let t_start = Instant::now();
-        let mut provenance = Provenance::of_this_run();
+        let mut provenance = Provenance::of_this_run(&self.reads);
         // Refused up front when the directory is in use; the files appear
         // at once when the set is published.
         let set = (self.out.as_ref())

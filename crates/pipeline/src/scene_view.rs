@@ -29,13 +29,15 @@ pub enum SceneViewError {
 }
 
 /// Renders `path` for the camera `sensor` at `size` (width, height;
-/// default the scene camera's, keeping its horizontal field of view).
+/// default the scene camera's, keeping its horizontal field of view);
+/// `reads` notes the scene and its files.
 pub fn render_scene_view(
     path: &str,
     sensor: &crate::ResolvedSensor,
     size: Option<(u32, u32)>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<SceneView, SceneViewError> {
-    let mut scene = gloam_scene::load(Path::new(path))?;
+    let mut scene = gloam_scene::load(Path::new(path), reads)?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;
@@ -66,8 +68,9 @@ pub fn render_scene_layers(
     path: &str,
     sensor: &crate::ResolvedSensor,
     size: Option<(u32, u32)>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<(Vec<String>, Vec<Array2<f64>>), SceneViewError> {
-    let mut scene = gloam_scene::load(Path::new(path))?;
+    let mut scene = gloam_scene::load(Path::new(path), reads)?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;
@@ -141,10 +144,10 @@ pub fn grabbers_noting(note: Arc<dyn Fn(&str) + Send + Sync>) -> Registry {
                     scene: Some(path),
                     ..
                 } => {
-                    let view = crate::resolve_sensor(&preset)
+                    let view = crate::resolve_sensor(&preset, &opts.reads)
                         .map_err(|e| SceneViewError::from(RenderError::from(e)))
                         .and_then(|sensor| {
-                            let view = render_scene_view(&path, &sensor, size)?;
+                            let view = render_scene_view(&path, &sensor, size, &opts.reads)?;
                             Ok((scene_view_fit_note(&view, &sensor), view))
                         });
                     let (fit, view) = view.map_err(|e| GrabError::Scene {

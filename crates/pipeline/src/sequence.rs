@@ -1068,7 +1068,9 @@ mod tests {
     /// The Gen III preset, read once for the tests' captures and renders.
     fn gen3() -> &'static gloam_sensor::ResolvedSensor {
         static G: std::sync::OnceLock<gloam_sensor::ResolvedSensor> = std::sync::OnceLock::new();
-        G.get_or_init(|| gloam_sensor::ResolvedSensor::load("gen3-gaas-iccd").unwrap())
+        G.get_or_init(|| {
+            gloam_sensor::ResolvedSensor::load("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap()
+        })
     }
 
     #[test]
@@ -1216,7 +1218,10 @@ value = 1e-4
         let scene_path = dir.join("scene.toml");
         std::fs::write(&scene_path, car_scene("", "")).unwrap();
         let sequence = gloam_scene::sequence::parse_sequence(seq, &dir.join("seq.toml")).unwrap();
-        (gloam_scene::load(&scene_path).unwrap(), sequence)
+        (
+            gloam_scene::load(&scene_path, &gloam_io::ReadLog::off()).unwrap(),
+            sequence,
+        )
     }
 
     fn quiet_capture(frames: u32) -> FrameCapture<'static> {
@@ -1390,7 +1395,8 @@ value = 1e-4
             )
             .unwrap()
         };
-        let gen3 = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let gen3 =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         check_video_rate(&seq(25.0), "gen3", &gen3).unwrap();
         let e = check_video_rate(&seq(30.0), "gen3", &gen3).unwrap_err();
         assert!(
@@ -1404,7 +1410,8 @@ value = 1e-4
         check_video_rate(&seq(30.0), "rs170", &rs170).unwrap();
         check_video_rate(&seq(25.0), "rs170", &rs170).unwrap_err();
         // A camera without analogue video takes any rate.
-        let mut ccd = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        let mut ccd =
+            gloam_sensor::load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
         ccd.video = None;
         check_video_rate(&seq(30.0), "ccd", &ccd).unwrap();
     }

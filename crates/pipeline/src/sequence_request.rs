@@ -79,6 +79,8 @@ pub struct ValidSequence {
     capture: Capture,
     load_s: f64,
     out: OutputDir,
+    /// The run's log of what it read (its provenance's inputs).
+    reads: gloam_io::ReadLog,
 }
 
 impl SequenceRequest {
@@ -87,11 +89,16 @@ impl SequenceRequest {
     /// settings, the camera (the flags' or the scene's) and its options,
     /// and `--target-error camera`'s conditions. The sky clock's warnings
     /// are told to `events` as soon as it is bound (a refused run still
-    /// shows them).
-    pub fn validate(&self, events: &dyn Events) -> Result<ValidSequence, SequenceRequestError> {
+    /// shows them). `reads` is the run's log: the files read are noted
+    /// there, and the run's provenance lists them.
+    pub fn validate(
+        &self,
+        reads: &gloam_io::ReadLog,
+        events: &dyn Events,
+    ) -> Result<ValidSequence, SequenceRequestError> {
         let t_load = Instant::now();
-        let mut sequence = gloam_scene::sequence::load_sequence(&self.sequence)?;
-        let mut scene = gloam_scene::load(&sequence.scene)?;
+        let mut sequence = gloam_scene::sequence::load_sequence(&self.sequence, reads)?;
+        let mut scene = gloam_scene::load(&sequence.scene, reads)?;
         sequence.bind_sky(&mut scene)?;
         for w in sequence.sky.iter().flat_map(|c| &c.warnings) {
             events.note(w);
@@ -124,7 +131,7 @@ impl SequenceRequest {
             ..c.capture(frame_format)
         };
         // Read once: the frames, the goal and the AGC summary share it.
-        let camera = crate::resolve_sensor(camera).map_err(RenderError::from)?;
+        let camera = crate::resolve_sensor(camera, reads).map_err(RenderError::from)?;
         (capture.through(&camera, settings.seed).check()).map_err(RenderError::from)?;
         if camera_k.is_some() && !capture.noise {
             return Err(RenderError::CameraTarget(
@@ -142,6 +149,7 @@ impl SequenceRequest {
             capture,
             load_s,
             out: self.out.clone(),
+            reads: reads.clone(),
         })
     }
 }
@@ -157,7 +165,7 @@ impl ValidSequence {
     /// publishes the set.
     pub fn run(self, events: &dyn Events) -> Result<SequenceDone, SequenceRequestError> {
         let t_start = Instant::now();
-        let mut provenance = Provenance::of_this_run();
+        let mut provenance = Provenance::of_this_run(&self.reads);
         let set = OutputSet::begin(&self.out.path, self.out.force, false)?;
         let dir = set.dir().to_path_buf();
         let progress = |d, t| events.tiles(d, t);

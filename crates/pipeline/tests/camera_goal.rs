@@ -60,7 +60,9 @@ quad = { center = [2.6, 0.6, 4.0], size = [1.5, 1.5], normal = [0.0, 0.0, -1.0] 
 /// The Gen III preset, read once for every capture and render here.
 fn sensor() -> &'static gloam_pipeline::ResolvedSensor {
     static S: std::sync::OnceLock<gloam_pipeline::ResolvedSensor> = std::sync::OnceLock::new();
-    S.get_or_init(|| gloam_pipeline::resolve_sensor("gen3-gaas-iccd").unwrap())
+    S.get_or_init(|| {
+        gloam_pipeline::resolve_sensor("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap()
+    })
 }
 const FRAMES: u32 = 64;
 

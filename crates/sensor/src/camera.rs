@@ -93,9 +93,12 @@ impl Camera {
         })
     }
 
-    /// A built-in preset or a TOML file.
-    pub fn from_preset_or_file(name_or_path: &str) -> Result<Self, ConfigError> {
-        Self::new(SensorConfig::load_preset_or_file(name_or_path)?)
+    /// A built-in preset or a TOML file (noted in `reads`).
+    pub fn from_preset_or_file(
+        name_or_path: &str,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self, ConfigError> {
+        Self::new(SensorConfig::load_preset_or_file(name_or_path, reads)?)
     }
 
     /// The derived chain with the analytic transfer.

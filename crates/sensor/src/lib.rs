@@ -26,8 +26,11 @@ pub use stages::agc::median_dn;
 pub use stages::{Chain, image_irradiance_per_radiance};
 
 /// A built-in preset or a TOML file (see [`SensorConfig::load_preset_or_file`]).
-pub fn load_preset_or_file(name_or_path: &str) -> Result<SensorConfig, ConfigError> {
-    SensorConfig::load_preset_or_file(name_or_path)
+pub fn load_preset_or_file(
+    name_or_path: &str,
+    reads: &gloam_io::ReadLog,
+) -> Result<SensorConfig, ConfigError> {
+    SensorConfig::load_preset_or_file(name_or_path, reads)
 }
 
 /// Names and descriptions of the built-in presets.

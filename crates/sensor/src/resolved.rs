@@ -19,10 +19,11 @@ pub struct ResolvedSensor {
 }
 
 impl ResolvedSensor {
-    /// Reads the preset or file `name` and checks that a camera can be
-    /// built from it (the chain's ranges), so later steps cannot fail on it.
-    pub fn load(name: &str) -> Result<Self, ConfigError> {
-        let config = SensorConfig::load_preset_or_file(name)?;
+    /// Reads the preset or file `name` (noted in `reads`, the run's log)
+    /// and checks that a camera can be built from it (the chain's ranges),
+    /// so later steps cannot fail on it.
+    pub fn load(name: &str, reads: &gloam_io::ReadLog) -> Result<Self, ConfigError> {
+        let config = SensorConfig::load_preset_or_file(name, reads)?;
         Camera::new(config.clone())?;
         Ok(Self {
             name: name.to_string(),
@@ -52,17 +53,18 @@ mod tests {
 
     #[test]
     fn a_preset_resolves_to_the_same_configuration_as_its_name() {
-        let r = ResolvedSensor::load("gen3-gaas-iccd").unwrap();
+        let off = gloam_io::ReadLog::off();
+        let r = ResolvedSensor::load("gen3-gaas-iccd", &off).unwrap();
         assert_eq!(r.name(), "gen3-gaas-iccd");
         assert_eq!(
             r.config(),
-            &SensorConfig::load_preset_or_file("gen3-gaas-iccd").unwrap()
+            &SensorConfig::load_preset_or_file("gen3-gaas-iccd", &off).unwrap()
         );
     }
 
     #[test]
     fn an_unknown_name_is_refused_when_resolved() {
-        let e = ResolvedSensor::load("no-such-sensor").unwrap_err();
+        let e = ResolvedSensor::load("no-such-sensor", &gloam_io::ReadLog::off()).unwrap_err();
         assert!(e.to_string().contains("no-such-sensor"), "{e}");
     }
 }

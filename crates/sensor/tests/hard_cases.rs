@@ -280,7 +280,8 @@ fn bad_configs_name_the_field() {
     ));
     assert!(e.contains("ebccd"), "{e}");
     // Unknown preset or file.
-    let e = SensorConfig::load_preset_or_file("no-such-sensor").unwrap_err();
+    let e =
+        SensorConfig::load_preset_or_file("no-such-sensor", &gloam_io::ReadLog::off()).unwrap_err();
     assert!(matches!(e, ConfigError::Unknown { .. }));
     assert!(e.to_string().contains("no-such-sensor"));
 }

@@ -8,7 +8,7 @@ use ndarray::Array2;
 /// (no blur, no blooming, no vignetting, no DSNU), so a pixel clips exactly when its
 /// own charge passes full well.
 fn sharp_ccd(noise: bool) -> Camera {
-    let mut cfg = load_preset_or_file("scientific-ccd").unwrap();
+    let mut cfg = load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
     cfg.optics.diffraction = false;
     cfg.optics.vignetting = false;
     cfg.ccd.diffusion_um = 0.0;

@@ -70,11 +70,15 @@ pub struct Rendered {
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
 /// when it has a sensor) through the pipeline's one render entry point.
-fn render_point(sweep: &Sweep, task: &Task) -> Result<Rendered, TaskError> {
-    let scene = sweep.load_scene(task)?;
+fn render_point(
+    sweep: &Sweep,
+    task: &Task,
+    reads: &gloam_io::ReadLog,
+) -> Result<Rendered, TaskError> {
+    let scene = sweep.load_scene(task, reads)?;
     let settings = task.render_settings()?;
     let sensor = (sweep.sensor(task).as_deref())
-        .map(gloam_pipeline::resolve_sensor)
+        .map(|name| gloam_pipeline::resolve_sensor(name, reads))
         .transpose()?;
     // The gain is checked per task (it differs within a chunk).
     if let Some(s) = &sensor {
@@ -149,11 +153,16 @@ fn capture_of<'a>(sensor: &'a ResolvedSensor, task: &Task) -> FrameCapture<'a> {
 impl Executor for Pipeline {
     type Shared = Shared;
 
-    fn prepare(&self, sweep: &Sweep, task: &Task) -> Result<Shared, TaskError> {
+    fn prepare(
+        &self,
+        sweep: &Sweep,
+        task: &Task,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Shared, TaskError> {
         if task.flow() == Flow::Capture {
             return Ok(Shared::Nothing);
         }
-        Ok(Shared::Render(Box::new(render_point(sweep, task)?)))
+        Ok(Shared::Render(Box::new(render_point(sweep, task, reads)?)))
     }
 
     fn run(
@@ -162,9 +171,10 @@ impl Executor for Pipeline {
         task: &Task,
         shared: &Shared,
         out: &Path,
+        reads: &gloam_io::ReadLog,
     ) -> Result<Figures, TaskError> {
         match shared {
-            Shared::Nothing => capture_stimulus(sweep, task, out),
+            Shared::Nothing => capture_stimulus(sweep, task, out, reads),
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
                     let sensor = r.sensor.as_ref().ok_or(ExecError::NoSensor("render"))?;
@@ -295,7 +305,12 @@ fn capture_detected(
 }
 
 /// Frames of the sensor's default uniform stimulus (`sim:PRESET`).
-fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> Result<Figures, TaskError> {
+fn capture_stimulus(
+    sweep: &Sweep,
+    task: &Task,
+    out: &Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<Figures, TaskError> {
     let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("capture"))?;
     let uri = match task.size() {
         Some((w, h)) => format!("sim:{sensor}?size={w}x{h}"),
@@ -303,6 +318,7 @@ fn capture_stimulus(sweep: &Sweep, task: &Task, out: &Path) -> Result<Figures, T
     };
     let opts = gloam_grabber::OpenOptions {
         seed: Some(task.seed),
+        reads: reads.clone(),
         ..Default::default()
     };
     let mut g = gloam_simcam::registry()

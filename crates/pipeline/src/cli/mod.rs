@@ -225,6 +225,7 @@ impl PlanArgs {
     pub fn camera_target(
         &self,
         scene: &Scene,
+        reads: &gloam_io::ReadLog,
     ) -> Result<Option<(f64, crate::ResolvedSensor)>, PlanArgError> {
         let k = match self.target_error {
             None => return Ok(None),
@@ -236,7 +237,7 @@ impl PlanArgs {
         let sensor = camera_of(self.sensor.as_deref(), scene).ok_or(PlanArgError::NoCamera {
             scene: self.scene.clone(),
         })?;
-        let sensor = crate::resolve_sensor(sensor)?;
+        let sensor = crate::resolve_sensor(sensor, reads)?;
         self.capture(&sensor).check()?;
         Ok(Some((k, sensor)))
     }
