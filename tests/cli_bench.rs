@@ -445,7 +445,8 @@ fn night_town_generator_output_parses() {
         String::from_utf8_lossy(&out.stderr)
     );
     let path = dir.path().join("scene.toml");
-    let scene = gloam_scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let scene =
+        gloam_scene::load(&path, &gloam_io::ReadLog::off()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.point_sources.len(), 10);
     assert!(scene.point_sources.iter().all(|p| p.is_shaped()));
     assert_eq!(scene.emitting_facets().len(), 20);
@@ -504,7 +505,8 @@ fn night_town_generator_quotes_paths_and_refuses_bad_outs() {
     let town = dir.path().join("town");
     let o = generate(&town);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let scene = gloam_scene::load(&town.join("scene.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let scene = gloam_scene::load(&town.join("scene.toml"), &gloam_io::ReadLog::off())
+        .unwrap_or_else(|e| panic!("{e}"));
     // The grass reflectance is the CSV's, not a flat value: it varies.
     let ground = scene
         .materials

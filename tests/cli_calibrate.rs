@@ -33,7 +33,9 @@ const CAM: &str = "sim:scientific-ccd?size=48x48&seed=3";
 
 /// The chain's true response, noise off: mean DN at two radiances.
 fn true_line(gain: f64, l1: f64, l2: f64) -> (f64, f64) {
-    let mut cam = gloam_sensor::Camera::from_preset_or_file("scientific-ccd").unwrap();
+    let mut cam =
+        gloam_sensor::Camera::from_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off())
+            .unwrap();
     cam.set_noise(false);
     cam.set_override_gain(Some(gain)).unwrap();
     // Stimulus radiance is band radiance over 400–1000 nm: the shape the
@@ -132,7 +134,7 @@ fn radiance_lut_then_apply_recovers_radiance() {
             .arg(cap.join("frame-000000.png"))
             .arg(&tif),
     );
-    let img = gloam_calib::io::read_grey(&tif).unwrap();
+    let img = gloam_calib::io::read_grey(&tif, &gloam_io::ReadLog::off()).unwrap();
     assert_eq!((img.width, img.height), (48, 48));
     assert!(img.data.iter().all(|v| v.is_finite()));
     // A --gain the frame's record contradicts is refused, naming the record.
@@ -213,7 +215,9 @@ fn ptc_writes_emva_figures_and_dataset() {
     }
     // Against the chain: system gain K within 2 %, temporal dark noise (read
     // noise, plus the cooled CCD's negligible dark-current shot noise) within 5 %.
-    let cam = gloam_sensor::Camera::from_preset_or_file("scientific-ccd").unwrap();
+    let cam =
+        gloam_sensor::Camera::from_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off())
+            .unwrap();
     let chain = cam.chain();
     let k_true = chain.mean_dn_per_photoelectron(1.0);
     let rn_true = chain.read_noise_dn(1.0) / k_true;
@@ -374,7 +378,8 @@ fn compare_reports_spearman_with_ties_and_rms() {
 fn mtf_matches_the_simulated_chain() {
     let dir = tempfile::tempdir().unwrap();
     for preset in ["scientific-ccd", "gen2-s20-iccd", "gen3-gaas-iccd"] {
-        let cam = gloam_sensor::Camera::from_preset_or_file(preset).unwrap();
+        let cam =
+            gloam_sensor::Camera::from_preset_or_file(preset, &gloam_io::ReadLog::off()).unwrap();
         let chain = cam.chain();
         // At its reference gain one Gen III photoelectron fills ~70 % of the
         // digitizer, so single events clip and the frames stop being linear

@@ -420,7 +420,11 @@ fn sequence_frames_as_fits_or_tiff_are_read_back_to_the_same_figures() {
         args.extend([input.to_str().unwrap(), output.to_str().unwrap()]);
         gloam(&args)
     };
-    let radiance = |p: &Path| gloam_calib::io::read_grey(p).unwrap().data;
+    let radiance = |p: &Path| {
+        gloam_calib::io::read_grey(p, &gloam_io::ReadLog::off())
+            .unwrap()
+            .data
+    };
     // Two frames the LUT covers (linearised in the report): the first
     // and the last.
     let covered: Vec<usize> = (png_frames.iter().enumerate())

@@ -47,7 +47,7 @@ fn capture_from_sim_writes_pngs_and_jsonl() {
         assert_eq!(r["status"], "ok");
         let png = out.join(format!("frame-{i:06}.png"));
         // Read as gloam reads its frames (sBIT honoured): the exact counts.
-        let (w, h, pixels) = gloam_calib::io::read_counts(&png).unwrap();
+        let (w, h, pixels) = gloam_calib::io::read_counts(&png, &gloam_io::ReadLog::off()).unwrap();
         assert_eq!((w, h), (40, 30));
         assert!(pixels.iter().all(|&p| p < 4096));
         assert_eq!(

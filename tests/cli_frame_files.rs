@@ -108,7 +108,8 @@ fn png_fits_and_tiff_frames_hold_the_same_counts_and_fits_has_the_header() {
             rp[i]["stored"],
             serde_json::json!({"format": "png", "sample_shift": 4})
         );
-        let (w, h, counts) = gloam_calib::io::read_counts(&name).unwrap();
+        let (w, h, counts) =
+            gloam_calib::io::read_counts(&name, &gloam_io::ReadLog::off()).unwrap();
         assert_eq!((w, h), (192, 144));
         assert_eq!(u64::from(gloam_grabber::pixels_crc32c(&counts)), crc);
         let raw = image::open(&name).unwrap().into_luma16().into_raw();

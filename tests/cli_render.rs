@@ -204,7 +204,7 @@ fn render_without_sampling_flags_samples_to_the_default_error() {
     // The closed form per pixel (Lambert/Arvo, 8 × 8 sub-pixel hits,
     // independent of the tracer's estimators) over the pixels that see
     // one receiving facet.
-    let loaded = gloam_scene::load(Path::new(&scene)).unwrap();
+    let loaded = gloam_scene::load(Path::new(&scene), &gloam_io::ReadLog::off()).unwrap();
     let tracer = gloam_trace::Tracer::new(&loaded, &Default::default()).unwrap();
     let truth = gloam_bench::truth::closed_form_truth(&loaded, &tracer);
     let n = truth.mask.iter().filter(|&&m| m).count();

@@ -414,7 +414,8 @@ fn the_six_night_scenes_load_and_plan() {
     use gloam_scene::plan::{self, names};
     for (name, moon, lamps) in SCENES {
         let path = sims_dir().join(name).join("scene.toml");
-        let scene = gloam_scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let scene = gloam_scene::load(&path, &gloam_io::ReadLog::off())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
         let p = plan::plan(&scene);
         assert_eq!(p.is_enabled(names::MOON), moon, "{name}: moon\n{p}");
         assert!(p.is_enabled(names::NIGHT_SKY), "{name}: night sky\n{p}");

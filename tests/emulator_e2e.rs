@@ -226,7 +226,9 @@ fn emulator_looking_at_a_scene_is_bit_identical_to_sim() {
     // Once AGC has cut the gain, the frame shows the scene: lamps far
     // brighter than the dark street. (At the preset's reference gain the
     // NIR-rich night sky, which a GaAs cathode sees well, fills the range.)
-    let (_, _, px) = gloam_calib::io::read_counts(&sim.join("frame-000004.png")).unwrap();
+    let (_, _, px) =
+        gloam_calib::io::read_counts(&sim.join("frame-000004.png"), &gloam_io::ReadLog::off())
+            .unwrap();
     let (lo, hi) = (
         *px.iter().min().unwrap() as f64,
         *px.iter().max().unwrap() as f64,

@@ -90,7 +90,8 @@ fn assert_fake_ramp(dir: &Path, n: usize, size: (u64, u64)) {
         last_seq = Some(seq);
         let png = dir.join(r["file"].as_str().unwrap());
         // Read as gloam reads its frames (sBIT honoured): the exact counts.
-        let (w, _, px) = gloam_calib::io::read_counts(&png).expect("png");
+        let (w, _, px) =
+            gloam_calib::io::read_counts(&png, &gloam_io::ReadLog::off()).expect("png");
         // The camera's own 16-bit block id (seq + 1), which the ramp uses.
         let id = (seq % 65535 + 1) as u32;
         let mut wrong = 0;

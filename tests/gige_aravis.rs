@@ -377,7 +377,14 @@ done"#,
     let want: Vec<&str> = [bright, dark]
         .iter()
         .map(|json| {
-            let mut src = SensorSource::new("gen2-s20-iccd", "uniform", 2, (64, 48)).unwrap();
+            let mut src = SensorSource::new(
+                "gen2-s20-iccd",
+                "uniform",
+                2,
+                (64, 48),
+                &gloam_io::ReadLog::off(),
+            )
+            .unwrap();
             let mut s = src.info().defaults;
             (s.bits, s.agc, s.width, s.height) = (12, true, 64, 48);
             let stim: Stimulus = serde_json::from_str(json).unwrap();

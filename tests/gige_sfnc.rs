@@ -50,8 +50,14 @@ fn sections(out: &str) -> std::collections::BTreeMap<String, String> {
 /// from the device): (GainAuto on, gain in dB, frame rate Hz).
 fn preset_defaults() -> (bool, f64, f64) {
     use gloam_grabber::FrameSource;
-    let src =
-        gloam_simcam::SensorSource::new("gen2-s20-iccd", "uniform", 1, (64, 48)).expect("preset");
+    let src = gloam_simcam::SensorSource::new(
+        "gen2-s20-iccd",
+        "uniform",
+        1,
+        (64, 48),
+        &gloam_io::ReadLog::off(),
+    )
+    .expect("preset");
     let d = src.info().defaults;
     let toml = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -165,8 +171,14 @@ fn rates(section: &str) -> Vec<f64> {
 /// defaults, looking at the uniform rig or at `shown` instead: its CRC.
 fn first_frame_crc(shown: Option<&gloam_grabber::Stimulus>) -> u32 {
     use gloam_grabber::FrameSource;
-    let mut src =
-        gloam_simcam::SensorSource::new("gen2-s20-iccd", "uniform", 1, (64, 48)).expect("preset");
+    let mut src = gloam_simcam::SensorSource::new(
+        "gen2-s20-iccd",
+        "uniform",
+        1,
+        (64, 48),
+        &gloam_io::ReadLog::off(),
+    )
+    .expect("preset");
     if let Some(s) = shown {
         src.present(s).expect("present");
     }

@@ -34,7 +34,8 @@ fn render(name: &'static str) -> Night {
         .join("sims")
         .join(name)
         .join("scene.toml");
-    let scene = gloam_scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let scene = gloam_scene::load(&path, &gloam_io::ReadLog::off())
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
     // A lamp inside a closed housing would light nothing: every lamp must
     // sit outside every lamp-head box (they hang below open-bottomed heads).
     let lamps: Vec<DVec3> = scene.point_sources.iter().map(|p| p.position).collect();

@@ -36,7 +36,7 @@ fn quadrature(l: f64, sx: f64, sy: f64, r: f64) -> f64 {
 #[test]
 fn panel_validation_scene_matches_the_closed_form() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("sims/panel-validation/scene.toml");
-    let scene = gloam_scene::load(&path).unwrap();
+    let scene = gloam_scene::load(&path, &gloam_io::ReadLog::off()).unwrap();
     let e_truth = rectangle_center_irradiance(L_PANEL, 4.0, 2.0, 9.0);
     let q = quadrature(L_PANEL, 4.0, 2.0, 9.0);
     assert!(

@@ -32,7 +32,9 @@ fn cli_request(out: &Path, args: &[&str]) -> RenderRequest {
 /// The request `gloam.render(Scene.load(SCENE), …)` builds
 /// (python/src/render.rs): the scene loaded, no output set.
 fn python_request(settings: SettingArgs, sensor: Option<&str>) -> RenderRequest {
-    let scene = Arc::new(gloam_scene::load(Path::new(SCENE)).expect("scene loads"));
+    let scene = Arc::new(
+        gloam_scene::load(Path::new(SCENE), &gloam_io::ReadLog::off()).expect("scene loads"),
+    );
     RenderRequest {
         settings,
         camera: CameraOptions {
@@ -119,7 +121,7 @@ fn a_bad_input_is_refused_with_the_same_message_from_both_front_ends() {
             ..cli
         };
         assert_eq!(same, py, "{flags:?}");
-        let Err(e) = py.validate() else {
+        let Err(e) = py.validate(&gloam_io::ReadLog::new()) else {
             panic!("{flags:?} was accepted")
         };
         // As both front ends print it: anyhow's `{:#}` (the CLI's

@@ -79,7 +79,7 @@ fn calibrate_radiance<'py>(
     req.validate().or_py()?;
     let lut = grabber.borrow_mut().run(py, |g| {
         set_exposure(g, exposure_s)?;
-        Ok(req.run(g, &mut quiet)?)
+        Ok(req.run(g, &gloam_io::ReadLog::new(), &mut quiet)?)
     })?;
     to_py_as(py, &lut, "RadianceCalibration")
 }
@@ -128,7 +128,7 @@ fn photon_transfer<'py>(
     req.validate().or_py()?;
     let r = grabber.borrow_mut().run(py, |g| {
         set_exposure(g, exposure_s)?;
-        let done = req.run(g, &mut quiet)?;
+        let done = req.run(g, &gloam_io::ReadLog::new(), &mut quiet)?;
         let mut r = done.report;
         // The CLI prints this before the run; here it leads the warnings.
         if let Some(m) = done.rig_mismatch {
@@ -217,17 +217,8 @@ fn mtf<'py>(
     match done {
         MtfDone::Digital { curve, .. } => to_py_as(py, &curve, "Mtf"),
         MtfDone::Voltage(r) => {
-            // mtf.json's document (`gloam_calib::report::write_mtf_report`).
-            let first = &r.curves[0];
-            let doc = serde_json::json!({
-                "method": first.method,
-                "frequencies_cy_per_px": first.frequencies_cy_per_px,
-                "mtf": first.mtf,
-                "mtf50": first.mtf50,
-                "mtf10": first.mtf10,
-                "curves": r.curves,
-                "details": r.details,
-            });
+            // mtf.json's document, as `gloam calibrate mtf` writes it.
+            let doc = gloam_calib::report::MtfDocument::new(&r.curves, &r.details).or_py()?;
             to_py_as(py, &doc, "Mtf")
         }
     }
@@ -294,7 +285,7 @@ fn scope<'py>(
     .validate()
     .or_py()?;
     let r = py
-        .detach(|| gloam_calib::scope_run::run_scope(&o))
+        .detach(|| gloam_calib::scope_run::run_scope(&o, &gloam_io::ReadLog::new()))
         .or_py()?;
     let out = to_py_as(py, &r, "Scope")?;
     let lines = pyo3::types::PyList::empty(py);
@@ -349,9 +340,9 @@ fn agc_linearity<'py>(
         allow_unsettled,
     };
     req.validate().or_py()?;
-    let r = grabber
-        .borrow_mut()
-        .run(py, |g| Ok(req.run(g, &mut quiet)?))?;
+    let r = grabber.borrow_mut().run(py, |g| {
+        Ok(req.run(g, &gloam_io::ReadLog::new(), &mut quiet)?)
+    })?;
     to_py_as(py, &r, "AgcLinearity")
 }
 
@@ -417,7 +408,7 @@ impl Lut {
     /// Reads a ``lut.json`` written by ``gloam calibrate radiance``.
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
-        let lut = gloam_calib::apply::load_lut(&path).or_py()?;
+        let lut = gloam_calib::apply::load_lut(&path, &gloam_io::ReadLog::new()).or_py()?;
         Ok(Self { lut })
     }
 

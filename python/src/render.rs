@@ -1,5 +1,6 @@
 //! Scenes, the effect plan, renders and probes.
 
+use gloam_io::ReadLog;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -40,6 +41,9 @@ pub struct Scene {
     pub path: PathBuf,
     /// Seconds the load took (report.json `timings_s.load`).
     pub load_s: f64,
+    /// What the load read (the file, its OBJ, spectra, placements): every
+    /// render of the scene lists them in its provenance, as the CLI does.
+    pub reads: ReadLog,
 }
 
 /// Render settings as the CLI builds them: `settings` pairs, then the flags.
@@ -54,12 +58,14 @@ impl Scene {
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
         let t = Instant::now();
-        let scene = Arc::new(gloam_scene::load(&path).or_py()?);
+        let reads = ReadLog::new();
+        let scene = Arc::new(gloam_scene::load(&path, &reads).or_py()?);
         let load_s = t.elapsed().as_secs_f64();
         Ok(Self {
             scene,
             path,
             load_s,
+            reads,
         })
     }
 
@@ -71,12 +77,14 @@ impl Scene {
     fn from_toml(text: &str, base_dir: Option<PathBuf>, name: &str) -> PyResult<Self> {
         let path = base_dir.unwrap_or_else(|| PathBuf::from(".")).join(name);
         let t = Instant::now();
-        let scene = Arc::new(gloam_scene::parse_str(text, &path).or_py()?);
+        let reads = ReadLog::new();
+        let scene = Arc::new(gloam_scene::parse_str_noting(text, &path, &reads).or_py()?);
         let load_s = t.elapsed().as_secs_f64();
         Ok(Self {
             scene,
             path,
             load_s,
+            reads,
         })
     }
 
@@ -331,7 +339,10 @@ fn render<'py>(
             load_s: sc.load_s,
         })
     };
-    let valid = request.validate().or_py()?;
+    // This render's own log, starting with what loading its scene read.
+    let reads = ReadLog::new();
+    reads.extend(&sc.reads.reads());
+    let valid = request.validate(&reads).or_py()?;
     let sink = ProgressSink::new(py, progress, "render")?;
     let done = detached_owned(py, &sink, move |stop, rep| {
         Ok(valid.run(&Polled { stop, rep })?)

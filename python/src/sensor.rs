@@ -7,7 +7,9 @@ use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::IntoPyDict;
 
+use gloam_io::frames::FrameRecord;
 use gloam_sensor::{Camera, SensorConfig};
+use gloam_simcam::FrameExposureExt;
 
 use crate::convert::to_py_as;
 use crate::errors::{GloamError, OrPy};
@@ -60,7 +62,8 @@ impl Sensor {
     #[staticmethod]
     fn from_toml(path: std::path::PathBuf) -> PyResult<Self> {
         let source = path.display().to_string();
-        let config = SensorConfig::load_preset_or_file(&source).or_py()?;
+        let config =
+            SensorConfig::load_preset_or_file(&source, &gloam_io::ReadLog::new()).or_py()?;
         Ok(Self { config, source })
     }
 
@@ -178,18 +181,15 @@ impl Sensor {
                     Input::Photoelectrons(p) => camera.capture_photoelectrons(p.view()),
                 }
                 .map_err(|e| anyhow::anyhow!("capturing frame {i}: {e}"))?;
-                let (h, w) = frame.pixels.dim();
-                let st = stack.get_or_insert_with(|| Array3::zeros((frames as usize, h, w)));
+                let view = frame.view()?;
+                let st = stack.get_or_insert_with(|| {
+                    Array3::zeros((frames as usize, view.nrows(), view.ncols()))
+                });
                 st.index_axis_mut(ndarray::Axis(0), i as usize)
-                    .assign(&frame.pixels);
-                let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
-                records.push(gloam_pipeline::frames::record_of_sensor_frame(
-                    u64::from(i),
-                    format!("frame-{i:06}.png"),
-                    &frame,
-                    &pixels,
-                    &camera,
-                ));
+                    .assign(&view);
+                let warnings = frame.exposure().warnings;
+                let file = format!("frame-{i:06}.png");
+                records.push(FrameRecord::of_frame(u64::from(i), file, &frame, warnings));
                 if !sink.tell(u64::from(i) + 1, u64::from(frames), "frames") {
                     anyhow::bail!("stopped by the progress callback");
                 }

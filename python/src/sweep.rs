@@ -45,7 +45,9 @@ fn sweep<'py>(
         out.display().to_string(),
     ];
     let r = detached_with_stop(py, &sink, |stop, rep| {
-        let provenance = serde_json::to_value(gloam_pipeline::Provenance::of_this_run())?;
+        let provenance = serde_json::to_value(gloam_pipeline::Provenance::of_this_run(
+            &gloam_io::ReadLog::off(),
+        ))?;
         let sd = SweepDir::create(&path, &out, &argv, provenance)?;
         let total = sd.sweep.tasks.len() as u64;
         let done = AtomicU64::new(0);
@@ -68,6 +70,7 @@ fn sweep<'py>(
         let results: serde_json::Value = serde_json::from_str(&gloam_io::read_text(
             &results_path,
             gloam_io::MAX_TEXT_FILE_BYTES,
+            &gloam_io::ReadLog::off(),
         )?)?;
         Ok(serde_json::json!({
             "dir": sd.dir.display().to_string(),

@@ -9,7 +9,7 @@ use gloam_calib::cli::Event;
 pub use gloam_pipeline::cli::capture::{CaptureArgs, with_out_help};
 
 pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
-    let valid = args.request().validate()?;
+    let valid = args.request().validate(&gloam_io::ReadLog::new())?;
     let template = "{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}";
     let bar = super::progress::bar_or_hidden(template, args.grab.frames);
     let mut ev = |e: Event<'_>| match e {

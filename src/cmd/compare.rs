@@ -10,9 +10,10 @@ use gloam_calib::validate::{compare_images, load_regions};
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     // The small input first: a bad regions file is named before any image
     // is decoded.
-    let regions = load_regions(&args.regions)?;
-    let t = read_grey(&args.truth).context("reading the truth image")?;
-    let s = read_grey(&args.synthetic).context("reading the synthetic image")?;
+    let off = gloam_io::ReadLog::off(); // compare writes no manifest
+    let regions = load_regions(&args.regions, &off)?;
+    let t = read_grey(&args.truth, &off).context("reading the truth image")?;
+    let s = read_grey(&args.synthetic, &off).context("reading the synthetic image")?;
     if (t.width, t.height) != (s.width, s.height) {
         let (tw, th, sw, sh) = (t.width, t.height, s.width, s.height);
         bail!("the images differ in size: {tw}×{th} vs {sw}×{sh}");

@@ -57,8 +57,9 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
 fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
     let bind = gloam_gige::parse_bind_addr(addr)
         .with_context(|| format!("--gige '{addr}': expected an IPv4 ADDR or ADDR:PORT"))?;
-    let cfg = gloam_sensor::SensorConfig::load_preset_or_file(&args.sensor)
-        .with_context(|| format!("sensor '{}'", args.sensor))?;
+    let cfg =
+        gloam_sensor::SensorConfig::load_preset_or_file(&args.sensor, &gloam_io::ReadLog::off())
+            .with_context(|| format!("sensor '{}'", args.sensor))?;
     let DeviceSource {
         source,
         view,

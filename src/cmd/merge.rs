@@ -11,8 +11,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     // OutputSet::begin, as for every command that writes a set, before a
     // tile is read.
     let set = OutputSet::begin(&args.out, args.force, false)?;
-    let mut provenance = Provenance::of_this_run();
-    let m = gloam_sweep::tile::merge(&args.tiles)?;
+    let mut provenance = Provenance::of_this_run(&gloam_io::ReadLog::new());
+    let m = gloam_sweep::tile::merge(&args.tiles, provenance.reads())?;
     m.write(set.dir(), &mut provenance)?;
     set.publish(&provenance, None)?;
     let (n, w, h) = (m.tiles.len(), m.info.width, m.info.height);

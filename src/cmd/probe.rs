@@ -8,7 +8,7 @@ use gloam_trace::Tracer;
 use super::print_json;
 
 pub fn run(args: ProbeArgs) -> anyhow::Result<()> {
-    let scene = gloam_scene::load(&args.scene)?;
+    let scene = gloam_scene::load(&args.scene, &gloam_io::ReadLog::off())?;
     let tracer = Tracer::new(&scene, &args.settings().settings()?)?;
     if let Some((col, row)) = args.pixel()? {
         let b = tracer.band_index(args.band.as_deref())?;

@@ -18,7 +18,7 @@ use super::progress::Terminal;
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // The wall time the user waits, preparation and writing included.
     let t_start = Instant::now();
-    let done = args.request().validate()?.run(&Terminal::default())?;
+    let done = (args.request().validate(&gloam_io::ReadLog::new())?).run(&Terminal::default())?;
     for line in done.lines(&args.out, t_start.elapsed().as_secs_f64()) {
         eprintln!("{line}");
     }

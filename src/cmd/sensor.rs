@@ -16,7 +16,7 @@ pub fn run(cmd: SensorCommand) -> anyhow::Result<()> {
             }
         }
         SensorCommand::Describe(a) => {
-            let cfg = SensorConfig::load_preset_or_file(&a.sensor)?;
+            let cfg = SensorConfig::load_preset_or_file(&a.sensor, &gloam_io::ReadLog::off())?;
             let d = match Chain::new(&cfg)?.describe_checked(a.gain) {
                 Err(CaptureError::GainOutOfRange { gain, min, max, .. }) => {
                     let name = &cfg.name;

@@ -11,7 +11,10 @@ use super::progress::Terminal;
 
 pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
     let terminal = Terminal::default();
-    let done = args.request().validate(&terminal)?.run(&terminal)?;
+    let done = (args
+        .request()
+        .validate(&gloam_io::ReadLog::new(), &terminal)?)
+    .run(&terminal)?;
     for line in &done.lines {
         eprintln!("{line}");
     }

@@ -16,7 +16,12 @@ pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
             }
         }
         SpectraCommand::Integrate(a) => {
-            let report = BandIntegral::of(&a.spectrum, a.band, a.weight.as_deref())?;
+            let report = BandIntegral::of(
+                &a.spectrum,
+                a.band,
+                a.weight.as_deref(),
+                &gloam_io::ReadLog::off(),
+            )?;
             if a.json {
                 return print_json(&report);
             }

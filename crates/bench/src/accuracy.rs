@@ -336,8 +336,10 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
         "--budget-s must be a positive number of seconds"
     );
     let scene_path = args.scene.clone();
-    let scene = gloam_scene::load(&scene_path)?;
-    let provenance = gloam_pipeline::Provenance::of_this_run();
+    // The run's reads: the scene and its files, listed in the manifest.
+    let reads = gloam_io::ReadLog::new();
+    let scene = gloam_scene::load(&scene_path, &reads)?;
+    let provenance = gloam_pipeline::Provenance::of_this_run(&reads);
     let set = OutputSet::begin(&args.out, args.force, false)?;
     carry_cached_references(&args.out, set.dir())?;
     let report = sweep(args, set.dir(), t_start, &scene_path, &scene)?;
@@ -790,7 +792,8 @@ fn sensor_noise_rows(
     let mut frames = Vec::new();
     let mut times = Vec::new();
     for noise in [false, true] {
-        let mut cam = gloam_sensor::Camera::from_preset_or_file("gen3-gaas-iccd")?;
+        let mut cam =
+            gloam_sensor::Camera::from_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off())?;
         cam.set_override_gain(Some(30.0))?;
         cam.set_noise(noise);
         let t0 = Instant::now();

@@ -242,8 +242,12 @@ pub fn side_by_side(
         Duration::from_secs_f64(4.0 * time_limit_s + 60.0),
     )?;
     let json_path = dir.join("mitsuba.json");
-    let text = gloam_io::read_text(&json_path, gloam_io::MAX_TEXT_FILE_BYTES)
-        .map_err(BenchError::io("reading", &json_path))?;
+    let text = gloam_io::read_text(
+        &json_path,
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &crate::unlisted(),
+    )
+    .map_err(BenchError::io("reading", &json_path))?;
     let report: serde_json::Value = serde_json::from_str(&text)?;
     let mut rungs = Vec::new();
     let runs = report["runs"].as_array().cloned().unwrap_or_default();
@@ -267,7 +271,7 @@ pub fn side_by_side(
             (true, None) => continue,
         };
         let path = dir.join(file);
-        let bytes = gloam_io::read_bounded(&path, (w * h * 3 * 4) as u64)
+        let bytes = gloam_io::read_bounded(&path, (w * h * 3 * 4) as u64, &crate::unlisted())
             .map_err(BenchError::io("reading", &path))?;
         ensure_valid!(
             bytes.len() == w * h * 3 * 4,
@@ -319,7 +323,7 @@ mod tests {
     #[test]
     fn the_office_goes_over_with_its_stated_radiance_reflectance_and_area() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sims/office-room/scene.toml");
-        let scene = gloam_scene::load(&path).unwrap();
+        let scene = gloam_scene::load(&path, &crate::unlisted()).unwrap();
         assert_eq!(obstacle(&scene), None);
         let dir = tempfile::tempdir().unwrap();
         assert!(

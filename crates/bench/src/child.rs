@@ -89,7 +89,8 @@ pub fn wait_with_timeout(
 /// The last `lines` lines of the text file at `path`, joined by " / "
 /// (empty when it cannot be read): what a failed child said last.
 pub fn stderr_tail(path: &Path, lines: usize) -> String {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).unwrap_or_default();
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, &crate::unlisted())
+        .unwrap_or_default();
     let tail: Vec<&str> = text.lines().rev().take(lines).collect();
     tail.into_iter().rev().collect::<Vec<_>>().join(" / ")
 }

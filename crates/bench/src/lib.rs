@@ -179,3 +179,9 @@ pub fn default_scenes() -> Result<Vec<PathBuf>, BenchError> {
     v.sort();
     Ok(v)
 }
+
+/// A benchmark's report lists no reads (only `bench accuracy`'s manifest
+/// does, from its own log): what the others read goes unlogged.
+pub(crate) fn unlisted() -> gloam_io::ReadLog {
+    gloam_io::ReadLog::off()
+}

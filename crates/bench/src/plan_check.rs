@@ -48,7 +48,7 @@ pub fn run(
     let mut out = Vec::new();
     let (mut t_plan, mut t_all) = (0.0, 0.0);
     for path in scenes {
-        let mut scene = gloam_scene::load(path)?;
+        let mut scene = gloam_scene::load(path, &crate::unlisted())?;
         if resolution_scale != 1.0 {
             // On the scene, not the settings: the masks below are the
             // scene camera's size.

@@ -316,7 +316,7 @@ fn refuse_foreign_outputs(out: &Path) -> Result<(), BenchError> {
     let png = out.join("scale.png");
     let ours = |p: &Path| -> bool {
         std::fs::symlink_metadata(p).is_ok_and(|m| m.is_file())
-            && gloam_io::unrecorded(|| gloam_io::read_text(p, gloam_io::MAX_TEXT_FILE_BYTES))
+            && gloam_io::read_text(p, gloam_io::MAX_TEXT_FILE_BYTES, &crate::unlisted())
                 .ok()
                 .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
                 .is_some_and(|v| v.get("method").is_some() && v.get("cases").is_some())
@@ -592,7 +592,7 @@ pub fn run_case(
     let path = generate(case, dir, width, height)?;
     let generate_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let scene = gloam_scene::load(&path)?;
+    let scene = gloam_scene::load(&path, &crate::unlisted())?;
     let load_s = t1.elapsed().as_secs_f64();
     let expected = expected_counts(case);
     let got = scene_counts(&scene);
@@ -840,7 +840,7 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
             Duration::from_secs_f64(timeout_s),
         )?;
         Ok(serde_json::from_str(
-            &gloam_io::read_text(&out, gloam_io::MAX_TEXT_FILE_BYTES)
+            &gloam_io::read_text(&out, gloam_io::MAX_TEXT_FILE_BYTES, &crate::unlisted())
                 .map_err(BenchError::io("reading", &out))?,
         )?)
     };
@@ -898,8 +898,12 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
             row.message = Some(format!("{st}: {}", stderr_tail(&stderr_path, 5)));
         }
         Some(_) => {
-            let text = gloam_io::read_text(&stdout_path, gloam_io::MAX_TEXT_FILE_BYTES)
-                .map_err(BenchError::io("reading", &stdout_path))?;
+            let text = gloam_io::read_text(
+                &stdout_path,
+                gloam_io::MAX_TEXT_FILE_BYTES,
+                &crate::unlisted(),
+            )
+            .map_err(BenchError::io("reading", &stdout_path))?;
             match serde_json::from_str::<CaseResult>(&text) {
                 Ok(r) => row.result = Some(r),
                 Err(e) => {

@@ -50,7 +50,7 @@ pub fn run(
     quick: bool,
     threads: Option<usize>,
 ) -> Result<Throughput, BenchError> {
-    let scene = gloam_scene::load(scene_path)?;
+    let scene = gloam_scene::load(scene_path, &crate::unlisted())?;
     let settings = RenderSettings {
         spp: if quick { 1 } else { 4 },
         threads,

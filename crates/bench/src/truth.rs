@@ -410,8 +410,12 @@ pub fn reference_truth(
     kind: ReferenceKind,
 ) -> Result<Truth, BenchError> {
     let t0 = Instant::now();
-    let text = gloam_io::read_bounded(scene_path, gloam_io::MAX_TEXT_FILE_BYTES)
-        .map_err(BenchError::io("reading", scene_path))?;
+    let text = gloam_io::read_bounded(
+        scene_path,
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &crate::unlisted(),
+    )
+    .map_err(BenchError::io("reading", scene_path))?;
     let settings_for = |threads, spp| match kind {
         ReferenceKind::WholeLight => reference_settings(threads, spp),
         ReferenceKind::DirectOnly => direct_reference_settings(threads, spp),
@@ -535,8 +539,8 @@ pub(crate) fn read_cached_reference(
 ) -> Option<(serde_json::Value, ndarray::Array4<f64>)> {
     use gloam_io::{MAX_IMAGE_FILE_BYTES, MAX_TEXT_FILE_BYTES, open_bounded, read_text};
     use ndarray_npy::ReadNpyExt;
-    let m = read_text(meta, MAX_TEXT_FILE_BYTES).ok()?;
-    let f = open_bounded(npy, MAX_IMAGE_FILE_BYTES).ok()?;
+    let m = read_text(meta, MAX_TEXT_FILE_BYTES, &crate::unlisted()).ok()?;
+    let f = open_bounded(npy, MAX_IMAGE_FILE_BYTES, &crate::unlisted()).ok()?;
     let m: serde_json::Value = serde_json::from_str(&m).unwrap_or_default();
     if m["key"] != key {
         return None;
@@ -589,7 +593,7 @@ mod tests {
     fn panel_calibration(strata: &str, lo: (f64, f64)) {
         let path =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sims/panel-validation/scene.toml");
-        let mut scene = gloam_scene::load(&path).expect("panel scene loads");
+        let mut scene = gloam_scene::load(&path, &crate::unlisted()).expect("panel scene loads");
         scene.camera.width = 160;
         scene.camera.height = 120;
         let base = Tracer::new(&scene, &RenderSettings::default()).expect("tracer");

@@ -350,7 +350,8 @@ struct Record {
 fn read_records(dir: &Path, groups: &[String]) -> Result<Vec<Record>, CalibError> {
     use gloam_io::frames::FramesReadError as E;
     let jl = dir.join(gloam_io::frames::FRAMES_JSONL);
-    let lines = gloam_io::frames::lines(&jl).map_err(|e| match e {
+    // The run's own frames (its staging directory), not inputs: unlogged.
+    let lines = gloam_io::frames::lines(&jl, &gloam_io::ReadLog::off()).map_err(|e| match e {
         E::Open { path, source } => CalibError::Read { path, source },
         e => crate::io::frames_read_error(e, ""),
     })?;
@@ -544,17 +545,19 @@ pub fn linearise_sequence(
     // A TIFF stack (`--frame-format tiff`) is opened once and read page
     // by page.
     let mut stack: Option<(PathBuf, crate::io::TiffPages)> = None;
+    // The frames this run captured, not its inputs: unlogged.
+    let own_frames = gloam_io::ReadLog::off();
     for (n, r) in records.iter().enumerate() {
         let path = dir.join(&r.file);
         let (w, h, px) = match (r.at.page, &mut stack) {
             (Some(_), Some((p, pages))) if *p == path => pages.counts(&r.at)?,
             (Some(_), _) => {
-                let mut pages = crate::io::TiffPages::open(&path)?;
+                let mut pages = crate::io::TiffPages::open(&path, &own_frames)?;
                 let counts = pages.counts(&r.at)?;
                 stack = Some((path.clone(), pages));
                 counts
             }
-            (None, _) => crate::io::read_frame_counts(&path, &r.at)?,
+            (None, _) => crate::io::read_frame_counts(&path, &r.at, &own_frames)?,
         };
         crate::io::check_frame_crc(&path, &dir.join("frames.jsonl"), &r.record, &px)?;
         if (h, w) != shape {

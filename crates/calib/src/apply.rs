@@ -9,19 +9,32 @@ use crate::error::CalibError;
 use crate::radiance::Lut;
 
 /// The file beside a capture's frames naming the camera that took them
-/// (`{"camera": describe(), "grabber": uri}`).
+/// ([`CameraRecord`]).
 pub const CAMERA_FILE: &str = "camera.json";
+
+/// [`CAMERA_FILE`]'s document: the grabber's description of the camera
+/// and the URI it was opened with.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CameraRecord {
+    /// `FrameGrabber::describe()`: what [`camera_identity`] compares.
+    pub camera: String,
+    /// The grabber URI (not needed to check a LUT).
+    #[serde(default)]
+    pub grabber: String,
+}
 
 /// Reads a `lut.json` written by the radiance flow and checks it
 /// ([`Lut::check`]): a LUT whose numbers leave physics is refused at the
-/// line holding the bad value, before it converts a count.
-pub fn load_lut(path: &Path) -> Result<Lut, CalibError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        CalibError::Read {
-            path: path.to_path_buf(),
-            source,
-        }
-    })?;
+/// line holding the bad value, before it converts a count. `reads` notes
+/// the file.
+pub fn load_lut(path: &Path, reads: &gloam_io::ReadLog) -> Result<Lut, CalibError> {
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            CalibError::Read {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     let lut: Lut = serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
         path: path.to_path_buf(),
         what: "LUT",
@@ -53,11 +66,12 @@ fn frames_jsonl(frame: &Path) -> PathBuf {
 /// The gain to apply to `frame`: `given` when it agrees with the gain
 /// recorded in `record` (its `frames.jsonl` line, see
 /// [`crate::io::frame_record`]), else the recorded one; refuses a `given`
-/// gain the record contradicts.
+/// gain the record contradicts. `reads` notes a `frames.jsonl` read.
 pub fn frame_gain(
     frame: &Path,
     given: Option<f64>,
     record: Option<&crate::io::FrameLine>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<f64, CalibError> {
     let recorded = record.and_then(|l| Some((l.line, l.number("gain")?)));
     match (given, recorded) {
@@ -72,7 +86,7 @@ pub fn frame_gain(
         }
         (Some(g), _) => Ok(g),
         (None, Some((_, r))) => Ok(r),
-        (None, None) => crate::io::gain_from_frames_jsonl(frame, None),
+        (None, None) => crate::io::gain_from_frames_jsonl(frame, None, reads),
     }
 }
 
@@ -86,29 +100,26 @@ pub fn check_lut_fits_frame(
     frame: &Path,
     record: Option<&crate::io::FrameLine>,
     px: &[u16],
+    reads: &gloam_io::ReadLog,
 ) -> Result<Option<String>, CalibError> {
     let dir = frame.parent().unwrap_or(Path::new("."));
     let cam_file = dir.join(CAMERA_FILE);
     let lut_camera = camera_identity(&lut.grabber);
     let mut unchecked = Vec::new();
     if cam_file.is_file() {
-        let text =
-            gloam_io::read_text(&cam_file, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-                CalibError::Read {
-                    path: cam_file.clone(),
-                    source,
-                }
-            })?;
-        let v: serde_json::Value =
+        let text = gloam_io::read_text(&cam_file, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(
+            |source| CalibError::Read {
+                path: cam_file.clone(),
+                source,
+            },
+        )?;
+        let cam: CameraRecord =
             serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
                 path: cam_file.clone(),
                 what: "camera record",
                 source,
             })?;
-        let camera = v
-            .get("camera")
-            .and_then(|c| c.as_str())
-            .ok_or_else(|| CalibError::file(&cam_file, "no \"camera\""))?;
+        let camera = &cam.camera;
         if camera_identity(camera) != lut_camera {
             return Err(CalibError::LutCamera {
                 lut: lut_path.to_path_buf(),
@@ -265,8 +276,10 @@ pub fn apply_lut_to_frame(
             output.display()
         )));
     }
-    let lut = load_lut(lut_path)?;
-    let record = crate::io::frame_record(input, page)?;
+    // One image out and no manifest: nothing lists what apply read.
+    let reads = gloam_io::ReadLog::off();
+    let lut = load_lut(lut_path, &reads)?;
+    let record = crate::io::frame_record(input, page, &reads)?;
     if let (Some(p), None) = (page, &record) {
         return Err(CalibError::file(
             frames_jsonl(input),
@@ -283,7 +296,7 @@ pub fn apply_lut_to_frame(
             .map(crate::io::FrameLine::stored)
             .unwrap_or_default()
     };
-    let (w, h, px) = crate::io::read_frame_counts(input, &at)?;
+    let (w, h, px) = crate::io::read_frame_counts(input, &at, &reads)?;
     if let Some(l) = &record {
         crate::io::check_record_fits_frame(input, &frames_jsonl(input), l, w, h)?;
     }
@@ -299,8 +312,8 @@ pub fn apply_lut_to_frame(
             input.display()
         ));
     }
-    let gain = frame_gain(input, gain, record.as_ref())?;
-    if let Some(w) = check_lut_fits_frame(&lut, lut_path, input, record.as_ref(), &px)? {
+    let gain = frame_gain(input, gain, record.as_ref(), &reads)?;
+    if let Some(w) = check_lut_fits_frame(&lut, lut_path, input, record.as_ref(), &px, &reads)? {
         warn(&w);
     }
     let out = lut.apply(gain, &px)?;
@@ -482,9 +495,15 @@ mod tests {
             value: serde_json::json!({"file": "f.png", "gain": 20.0}),
         };
         let f = Path::new("d/f.png");
-        assert_eq!(frame_gain(f, None, Some(&rec)).unwrap(), 20.0);
-        assert_eq!(frame_gain(f, Some(20.0), Some(&rec)).unwrap(), 20.0);
-        let e = frame_gain(f, Some(10.0), Some(&rec)).unwrap_err();
+        assert_eq!(
+            frame_gain(f, None, Some(&rec), &gloam_io::ReadLog::off()).unwrap(),
+            20.0
+        );
+        assert_eq!(
+            frame_gain(f, Some(20.0), Some(&rec), &gloam_io::ReadLog::off()).unwrap(),
+            20.0
+        );
+        let e = frame_gain(f, Some(10.0), Some(&rec), &gloam_io::ReadLog::off()).unwrap_err();
         assert_eq!(
             e.to_string(),
             "--gain 10: d/frames.jsonl:3 records gain 20 for d/f.png; the frame was not taken at gain 10 (omit --gain to use the recorded gain)"

@@ -274,6 +274,7 @@ pub struct Outcome {
 pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     cmd: &CalibrateCommand,
     registry: &Registry,
+    reads: &gloam_io::ReadLog,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     // An --out set holding one of the run's inputs would replace it
@@ -292,7 +293,7 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
         report::refuse_out_dir_holding_inputs(out, &inputs)?;
     }
     match cmd {
-        CalibrateCommand::Radiance(a) => radiance(a, registry, ev),
+        CalibrateCommand::Radiance(a) => radiance(a, registry, reads, ev),
         CalibrateCommand::Apply(a) => {
             let req = ApplyRequest {
                 lut: a.lut.clone(),
@@ -312,9 +313,9 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
             "--sequence renders a scene: run it from the gloam command line".into(),
         )
         .into()),
-        CalibrateCommand::Agc(a) => agc(a, registry, ev),
-        CalibrateCommand::Ptc(a) => ptc(a, registry, ev),
-        CalibrateCommand::Mtf(a) => mtf(a, registry, ev),
+        CalibrateCommand::Agc(a) => agc(a, registry, reads, ev),
+        CalibrateCommand::Ptc(a) => ptc(a, registry, reads, ev),
+        CalibrateCommand::Mtf(a) => mtf(a, registry, reads, ev),
     }
 }
 
@@ -331,9 +332,10 @@ impl GrabberArgs {
     pub fn open<E: From<CalibError> + From<GrabError>>(
         &self,
         registry: &Registry,
+        reads: &gloam_io::ReadLog,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Box<dyn FrameGrabber>, E> {
-        let mut g = open_uri(registry, &self.grabber, self.seed)?;
+        let mut g = open_uri(registry, &self.grabber, self.seed, reads)?;
         if let Some(e) = self.exposure_s {
             g.set_exposure_s(e)?;
         }
@@ -366,6 +368,7 @@ fn written(set: OutputSet, main_json: &'static str, mut lines: Vec<String>) -> O
 fn radiance<E: From<CalibError> + From<GrabError>>(
     a: &RadianceArgs,
     registry: &Registry,
+    reads: &gloam_io::ReadLog,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let req = RadianceRequest {
@@ -378,8 +381,8 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
     // The output set first (a refused `--out` touches no camera), then
     // the grabber, then the source against it.
     let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
-    let lut = req.run(g.as_mut(), ev)?;
+    let mut g = a.grabber.open::<E>(registry, reads, ev)?;
+    let lut = req.run(g.as_mut(), reads, ev)?;
     report::write_radiance_report(set.dir(), &lut)?;
     let mut lines = Vec::new();
     for c in &lut.gains {
@@ -405,9 +408,12 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
 fn agc<E: From<CalibError> + From<GrabError>>(
     a: &AgcArgs,
     registry: &Registry,
+    reads: &gloam_io::ReadLog,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
-    let lut = a.lut.as_deref().map(crate::apply::load_lut).transpose()?;
+    let lut = (a.lut.as_deref())
+        .map(|p| crate::apply::load_lut(p, reads))
+        .transpose()?;
     let req = AgcRequest {
         source: a.source.request(),
         fixed_gain: a.fixed_gain,
@@ -417,8 +423,8 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     };
     req.validate()?;
     let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
-    let r = req.run(g.as_mut(), ev)?;
+    let mut g = a.grabber.open::<E>(registry, reads, ev)?;
+    let r = req.run(g.as_mut(), reads, ev)?;
     report::write_agc_report(set.dir(), &r)?;
     let summary = format!(
         "AGC: settled {}, max settling {} µs, overshoot {} %, hysteresis {:.3} %, linearity error {:.3} %",
@@ -468,9 +474,10 @@ pub const SEQUENCE_LUT_AUTO_RANGE: f64 = 0.8;
 pub struct SequenceRun<'a> {
     a: &'a AgcArgs,
     set: OutputSet,
-    preset: String,
     seed: u64,
-    config: gloam_sensor::SensorConfig,
+    /// The `sim:` grabber's preset, read once for the checks and the
+    /// capture.
+    sensor: gloam_sensor::ResolvedSensor,
     lut: Option<crate::radiance::Lut>,
     opts: crate::agc_sequence::AgcSequenceOptions,
 }
@@ -478,7 +485,10 @@ pub struct SequenceRun<'a> {
 /// `gloam calibrate agc --sequence`: checks the camera (a `sim:` grabber)
 /// and the LUT and opens the output set, before anything is rendered
 /// ([`SequenceRun`]).
-pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
+pub fn agc_sequence<'a>(
+    a: &'a AgcArgs,
+    reads: &gloam_io::ReadLog,
+) -> Result<SequenceRun<'a>, CalibError> {
     use crate::agc_sequence::AgcSequenceOptions;
     report::refuse_out_dir_holding_inputs(&a.out, &agc_inputs(a))?;
     let (preset, _, uri_seed, _) = crate::scope_run::sim_uri(&a.grabber.grabber).map_err(|_| {
@@ -492,18 +502,19 @@ pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
             "--sequence sets the exposure (the camera's, within the sequence's frame period); drop --exposure-s".into(),
         ));
     }
-    let config = gloam_sensor::load_preset_or_file(&preset)?;
+    let sensor = gloam_sensor::ResolvedSensor::load(&preset, reads)?;
+    let config = sensor.config();
     let camera = format!("simulated {preset}");
     let lut = match &a.lut {
         Some(path) => {
-            let lut = crate::apply::load_lut(path)?;
+            let lut = crate::apply::load_lut(path, reads)?;
             crate::apply::check_lut_fits_camera(&lut, &camera, config.digitizer.bits)
                 .map_err(|e| CalibError::file(path, e))?;
             Some(lut)
         }
         None => None,
     };
-    let opts = AgcSequenceOptions::for_sensor(&config)?.ok_or_else(|| {
+    let opts = AgcSequenceOptions::for_sensor(config)?.ok_or_else(|| {
         CalibError::Usage(format!(
             "--sequence: camera '{preset}' has no AGC ([agc] in its sensor file)"
         ))
@@ -513,9 +524,8 @@ pub fn agc_sequence(a: &AgcArgs) -> Result<SequenceRun<'_>, CalibError> {
     Ok(SequenceRun {
         a,
         set,
-        preset,
         seed,
-        config,
+        sensor,
         lut,
         opts,
     })
@@ -527,20 +537,15 @@ impl SequenceRun<'_> {
         self.set.dir()
     }
 
-    /// The camera (preset or sensor file) the sequence is captured through.
-    pub fn sensor(&self) -> &str {
-        &self.preset
+    /// The camera (preset or sensor file) the sequence is captured
+    /// through, read once when the run was checked.
+    pub fn sensor(&self) -> &gloam_sensor::ResolvedSensor {
+        &self.sensor
     }
 
     /// The camera's noise seed.
     pub fn seed(&self) -> u64 {
         self.seed
-    }
-
-    /// The camera's configuration, resolved once from
-    /// [`sensor`](Self::sensor) when the run was checked.
-    pub fn config(&self) -> &gloam_sensor::SensorConfig {
-        &self.config
     }
 
     /// With the sequence `captured` into [`dir`](Self::dir): measures a
@@ -551,6 +556,7 @@ impl SequenceRun<'_> {
         self,
         captured: CapturedSequence,
         registry: &Registry,
+        reads: &gloam_io::ReadLog,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Outcome, E> {
         use crate::agc_sequence::{
@@ -560,13 +566,13 @@ impl SequenceRun<'_> {
         let SequenceRun {
             a,
             set,
-            config,
+            sensor,
             lut,
             opts,
             ..
         } = self;
         let dir = set.dir();
-        let mut g = a.grabber.open::<E>(registry, ev)?;
+        let mut g = a.grabber.open::<E>(registry, reads, ev)?;
         g.set_exposure_s(captured.exposure_s)?;
         let mut lines = Vec::new();
         // The source gives the LUT's units (its lamp's spectrum) even when the
@@ -577,16 +583,23 @@ impl SequenceRun<'_> {
             ..a.source.request()
         };
         let (lut, mut src) = match lut {
-            Some(lut) => (lut, source.open(g.as_mut(), None, ev)?),
+            Some(lut) => (lut, source.open(g.as_mut(), None, reads, ev)?),
             None => {
                 let exposure_s = captured.exposure_s;
-                let (lut, src, line) =
-                    measure_sequence_lut(a, &opts, dir, exposure_s, g.as_mut(), &source, ev)?;
+                let (lut, src, line) = measure_sequence_lut(
+                    a,
+                    &opts,
+                    dir,
+                    exposure_s,
+                    g.as_mut(),
+                    (&source, reads),
+                    ev,
+                )?;
                 lines.push(line);
                 (lut, src)
             }
         };
-        let k = detected_per_band_radiance(src.as_mut(), &config)?;
+        let k = detected_per_band_radiance(src.as_mut(), sensor.config())?;
         let truth = SequenceLayers {
             groups: &captured.groups,
             layers: &captured.layers,
@@ -620,7 +633,7 @@ fn measure_sequence_lut(
     dir: &Path,
     exposure_s: f64,
     g: &mut dyn FrameGrabber,
-    source: &SourceRequest,
+    (source, reads): (&SourceRequest, &gloam_io::ReadLog),
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<
     (
@@ -646,7 +659,7 @@ fn measure_sequence_lut(
     let (lo, hi) = (gains.iter()).fold((f64::INFINITY, 0.0f64), |(l, h), &g| (l.min(g), h.max(g)));
     let gains = lut_gains_spanning(lo, hi, SEQUENCE_LUT_GAIN_RATIO);
     let top = gains.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mut src = source.open(g, Some(top), ev)?;
+    let mut src = source.open(g, Some(top), reads, ev)?;
     let ropts = RadianceOptions {
         gains: gains.clone(),
         exposure_s: Some(exposure_s),
@@ -717,6 +730,7 @@ fn linearised_line(r: &crate::agc::AgcReport) -> Option<String> {
 fn ptc<E: From<CalibError> + From<GrabError>>(
     a: &PtcArgs,
     registry: &Registry,
+    reads: &gloam_io::ReadLog,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let mut req = PtcRequest {
@@ -729,9 +743,9 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
     };
     req.validate()?;
     let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
-    let mut g = a.grabber.open::<E>(registry, ev)?;
+    let mut g = a.grabber.open::<E>(registry, reads, ev)?;
     req.dataset_dir = Some(set.dir().join("emva1288"));
-    let r = req.run(g.as_mut(), ev)?.report;
+    let r = req.run(g.as_mut(), reads, ev)?.report;
     report::write_ptc_report(set.dir(), &r)?;
     let mut lines: Vec<String> = r.warnings.iter().map(|w| format!("warning: {w}")).collect();
     lines.push(format!(
@@ -759,6 +773,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
 fn mtf<E: From<CalibError> + From<GrabError>>(
     a: &MtfArgs,
     registry: &Registry,
+    reads: &gloam_io::ReadLog,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
@@ -797,9 +812,13 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
         let pitch = a
             .pixel_pitch_um
             .ok_or_else(|| usage("--target usaf needs --pixel-pitch-um"))?;
-        let (curves, details) =
-            usaf_mtf(read_usaf_ctf(ctf_path)?, pitch, a.magnification, ctf_path)?;
-        report::write_mtf_report(dir, &curves, details)?;
+        let (curves, details) = usaf_mtf(
+            read_usaf_ctf(ctf_path, reads)?,
+            pitch,
+            a.magnification,
+            ctf_path,
+        )?;
+        report::write_mtf_report(dir, &curves, &details)?;
         return Ok(written(set, "mtf.json", vec![mtf_line(&curves[0])]));
     };
     let uri = (a.grabber.clone()).ok_or_else(|| usage("--target sine/edge needs --grabber"))?;
@@ -808,19 +827,19 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
         seed: a.seed,
         exposure_s: None,
     };
-    let mut g = ga.open::<E>(registry, ev)?;
+    let mut g = ga.open::<E>(registry, reads, ev)?;
     match req.run(g.as_mut(), (&uri, a.seed), ev)? {
         MtfDone::Voltage(r) => mtf_voltage(set, r),
         MtfDone::Digital {
             curve,
             mean_radiance_w_m2_sr,
         } => {
-            let details = serde_json::json!({
-                "mean_radiance_w_m2_sr": mean_radiance_w_m2_sr,
-                "grabber": g.describe(),
-            });
+            let details = crate::mtf_flow::MtfDetails::Digital {
+                mean_radiance_w_m2_sr,
+                grabber: g.describe(),
+            };
             let line = mtf_line(&curve);
-            report::write_mtf_report(dir, &[curve], details)?;
+            report::write_mtf_report(dir, &[curve], &details)?;
             Ok(written(set, "mtf.json", vec![line]))
         }
     }
@@ -842,7 +861,7 @@ fn mtf_voltage<E: From<CalibError>>(
     set: OutputSet,
     r: crate::mtf_flow::VoltageReport,
 ) -> Result<Outcome, E> {
-    report::write_mtf_report(set.dir(), &r.curves, r.details)?;
+    report::write_mtf_report(set.dir(), &r.curves, &r.details)?;
     let (c, p) = (&r.curves, &r.voltage.points);
     let mut lines = Vec::new();
     for (i, f) in r.frequencies_cy_per_px.iter().enumerate() {
@@ -1082,6 +1101,7 @@ mod tests {
         let r = run_calibrate::<CalibError>(
             &CalibrateCommand::Radiance(a),
             &gloam_simcam::registry(),
+            &gloam_io::ReadLog::off(),
             &mut |_| {},
         );
         let e = r.err().expect("a negative gain is refused");
@@ -1110,8 +1130,14 @@ mod tests {
 
     #[test]
     fn capture_keeps_each_frame_once_in_order_and_stops_when_interrupted() {
-        let mut g =
-            gloam_simcam::SimGrabber::from_preset("scientific-ccd", "uniform", 0, (16, 8)).unwrap();
+        let mut g = gloam_simcam::SimGrabber::from_preset(
+            "scientific-ccd",
+            "uniform",
+            0,
+            (16, 8),
+            &gloam_io::ReadLog::off(),
+        )
+        .unwrap();
         let mut kept = Vec::new();
         let (t, r) = capture(3).request().grab::<CalibError, _>(
             &mut g,

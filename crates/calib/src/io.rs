@@ -25,10 +25,11 @@ fn is_tiff(path: &Path) -> bool {
     )
 }
 
-/// Reads a grey image of any supported depth (u8, u16, f32 TIFF, …).
-pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
+/// Reads a grey image of any supported depth (u8, u16, f32 TIFF, …),
+/// noting it in `reads`.
+pub fn read_grey(path: &Path, reads: &gloam_io::ReadLog) -> Result<GreyImage, CalibError> {
     if is_tiff(path) {
-        let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+        let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES, reads)
             .map_err(|e| CalibError::file(path, e))?;
         let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes))
             .map_err(|e| CalibError::file(path, e))?;
@@ -61,7 +62,7 @@ pub fn read_grey(path: &Path) -> Result<GreyImage, CalibError> {
             data,
         });
     }
-    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES, reads)
         .map_err(|e| CalibError::file(path, e))?;
     if is_fits(&bytes) {
         let f = decode_fits_counts(&bytes).map_err(|e| CalibError::file(path, e))?;
@@ -194,8 +195,11 @@ pub fn decode_png_counts(bytes: &[u8]) -> Result<PngCounts, PngCountsError> {
 /// honoured), a FITS frame ([`decode_fits_counts`]), or a one-page TIFF
 /// (gloam's frame stacks: the scale its description states undone). A
 /// multi-page TIFF needs its page named: [`read_frame_counts`].
-pub fn read_counts(path: &Path) -> Result<(usize, usize, Vec<u16>), CalibError> {
-    read_frame_counts(path, &StoredAt::default())
+pub fn read_counts(
+    path: &Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<(usize, usize, Vec<u16>), CalibError> {
+    read_frame_counts(path, &StoredAt::default(), reads)
 }
 
 /// The frame formats gloam writes and reads back (`--frame-format`,
@@ -226,12 +230,13 @@ pub fn tiff_stated_shift(description: &str) -> Option<u8> {
 /// png|fits|tiff`): PNG with `sBIT`, FITS (BITPIX 8/16, BZERO), or page
 /// `at.page` of a TIFF (needed when it holds more than one), its samples
 /// shifted right by `at.sample_shift` (else by what the page's description
-/// states; else as they are).
+/// states; else as they are). `reads` notes the file.
 pub fn read_frame_counts(
     path: &Path,
     at: &StoredAt,
+    reads: &gloam_io::ReadLog,
 ) -> Result<(usize, usize, Vec<u16>), CalibError> {
-    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES, reads)
         .map_err(|e| CalibError::file(path, e))?;
     if is_tiff_bytes(&bytes) || (is_tiff(path) && !is_fits(&bytes)) {
         let mut pages = TiffPages::new(path, bytes)?;
@@ -289,9 +294,9 @@ impl TiffPages {
         })
     }
 
-    /// Opens the TIFF at `path`.
-    pub fn open(path: &Path) -> Result<Self, CalibError> {
-        let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+    /// Opens the TIFF at `path`, noting it in `reads`.
+    pub fn open(path: &Path, reads: &gloam_io::ReadLog) -> Result<Self, CalibError> {
+        let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES, reads)
             .map_err(|e| CalibError::file(path, e))?;
         Self::new(path, bytes)
     }
@@ -623,9 +628,15 @@ pub fn write_tiff_f32_described(
 }
 
 /// The ImageDescription of the TIFF at `path`; `None` when it is not a
-/// readable TIFF or has none.
+/// readable TIFF or has none. Not an input (apply checks what it would
+/// replace), so not noted.
 pub fn tiff_description(path: &Path) -> Option<String> {
-    let bytes = gloam_io::read_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES).ok()?;
+    let bytes = gloam_io::read_bounded(
+        path,
+        gloam_io::MAX_IMAGE_FILE_BYTES,
+        &gloam_io::ReadLog::off(),
+    )
+    .ok()?;
     let mut d = tiff::decoder::Decoder::new(std::io::Cursor::new(bytes)).ok()?;
     d.get_tag_ascii_string(tiff::tags::Tag::ImageDescription)
         .ok()
@@ -645,7 +656,12 @@ pub fn write_tiff_f32_pages(
 /// The line of `frames.jsonl` beside `image` that records it (for a
 /// page of a TIFF stack, the line whose `stored.page` is `page`); None
 /// when there is no `frames.jsonl` there or it has no line for the image.
-pub fn frame_record(image: &Path, page: Option<u64>) -> Result<Option<FrameLine>, CalibError> {
+/// `reads` notes the `frames.jsonl`.
+pub fn frame_record(
+    image: &Path,
+    page: Option<u64>,
+    reads: &gloam_io::ReadLog,
+) -> Result<Option<FrameLine>, CalibError> {
     let jl = gloam_io::frames::beside(image);
     let Some(name) = image.file_name().and_then(|n| n.to_str()) else {
         return Ok(None);
@@ -653,7 +669,7 @@ pub fn frame_record(image: &Path, page: Option<u64>) -> Result<Option<FrameLine>
     if !jl.exists() {
         return Ok(None);
     }
-    gloam_io::frames::find(&jl, name, page).map_err(|e| frames_read_error(e, ""))
+    gloam_io::frames::find(&jl, name, page, reads).map_err(|e| frames_read_error(e, ""))
 }
 
 /// A `frames.jsonl` that does not read, as calibration words it;
@@ -717,8 +733,12 @@ pub fn check_frame_crc(
 
 /// The gain recorded for `image` in the `frames.jsonl` beside it (lines
 /// of JSON objects with at least `"file"` and `"gain"`), matched by file
-/// name.
-pub fn gain_from_frames_jsonl(image: &Path, page: Option<u64>) -> Result<f64, CalibError> {
+/// name; `reads` notes the `frames.jsonl`.
+pub fn gain_from_frames_jsonl(
+    image: &Path,
+    page: Option<u64>,
+    reads: &gloam_io::ReadLog,
+) -> Result<f64, CalibError> {
     let jl = gloam_io::frames::beside(image);
     // A name that is not UTF-8 has a name, but no JSON line can hold it:
     // it was called "no file name".
@@ -733,7 +753,7 @@ pub fn gain_from_frames_jsonl(image: &Path, page: Option<u64>) -> Result<f64, Ca
             )
         })?;
     let note = format!(" (needed for the gain of {name}; pass --gain to override)");
-    match gloam_io::frames::find(&jl, name, page).map_err(|e| frames_read_error(e, &note))? {
+    match gloam_io::frames::find(&jl, name, page, reads).map_err(|e| frames_read_error(e, &note))? {
         Some(l) => l
             .number("gain")
             .ok_or_else(|| CalibError::file(&jl, format!("line {}: no numeric \"gain\"", l.line))),
@@ -795,9 +815,14 @@ pub fn check_record_fits_frame(
     if let Some(v) = stored.get("format") {
         let bytes = {
             let mut head = [0u8; 16];
-            let n = gloam_io::open_bounded(frame, gloam_io::MAX_IMAGE_FILE_BYTES)
-                .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-                .unwrap_or(0);
+            // The frame's own read noted it.
+            let n = gloam_io::open_bounded(
+                frame,
+                gloam_io::MAX_IMAGE_FILE_BYTES,
+                &gloam_io::ReadLog::off(),
+            )
+            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+            .unwrap_or(0);
             head[..n].to_vec()
         };
         let actual = if bytes.starts_with(PNG_SIGNATURE) {

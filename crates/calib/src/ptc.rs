@@ -473,7 +473,9 @@ fn declared_noise(
             "no conversion gain or excess noise: the [rig]'s camera '{camera}' gives none at gain {gain} ({e}); name the camera behind the grabber in [rig]"
         ))
     };
-    let cam = gloam_sensor::Camera::from_preset_or_file(&camera).map_err(|e| no_figures(&e))?;
+    // The source file's check noted a rig camera's file (`source.rs`).
+    let cam = gloam_sensor::Camera::from_preset_or_file(&camera, &gloam_io::ReadLog::off())
+        .map_err(|e| no_figures(&e))?;
     let chain = cam.chain();
     chain
         .describe_checked(Some(gain))

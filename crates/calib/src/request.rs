@@ -94,14 +94,16 @@ impl SourceRequest {
     }
 
     /// Opens the source; auto-ranges a sphere at `gain` (`None`: the
-    /// camera's current gain) when asked ([`open_for_grabber`]).
+    /// camera's current gain) when asked ([`open_for_grabber`]). `reads`
+    /// notes the source file and the files it names.
     pub fn open(
         &self,
         g: &mut dyn FrameGrabber,
         gain: Option<f64>,
+        reads: &gloam_io::ReadLog,
         ev: &mut Events<'_>,
     ) -> Result<Box<dyn CalibrationSource>, CalibError> {
-        let opened = open_for_grabber(&self.source, self.levels, self.auto_range, g, gain)?;
+        let opened = open_for_grabber(&self.source, self.levels, self.auto_range, g, gain, reads)?;
         if let (Some(top), Some(frac)) = (opened.auto_ranged_max_w_m2_sr, self.auto_range) {
             ev(Event::Note(format!(
                 "auto-range: brightest level set to {:.4e} W m⁻² sr⁻¹ ({:.0} % of full scale at {})",
@@ -115,7 +117,7 @@ impl SourceRequest {
 
     /// A manual source prompts on the terminal, where a bar would garble it.
     pub fn is_manual(&self) -> bool {
-        SourceFile::load(&self.source).is_ok_and(|f| f.is_manual())
+        SourceFile::load(&self.source, &gloam_io::ReadLog::off()).is_ok_and(|f| f.is_manual())
     }
 }
 
@@ -160,9 +162,15 @@ impl RadianceRequest {
         self.gains.iter().copied().fold(f64::NEG_INFINITY, f64::max)
     }
 
-    /// Opens the source on `g` and measures the LUT.
-    pub fn run(&self, g: &mut dyn FrameGrabber, ev: &mut Events<'_>) -> Result<Lut, CalibError> {
-        let mut src = self.source.open(g, Some(self.top_gain()), ev)?;
+    /// Opens the source on `g` and measures the LUT; `reads` notes the
+    /// files the source reads.
+    pub fn run(
+        &self,
+        g: &mut dyn FrameGrabber,
+        reads: &gloam_io::ReadLog,
+        ev: &mut Events<'_>,
+    ) -> Result<Lut, CalibError> {
+        let mut src = self.source.open(g, Some(self.top_gain()), reads, ev)?;
         let opts = RadianceOptions {
             gains: self.gains.clone(),
             frames: self.frames,
@@ -208,17 +216,19 @@ impl PtcRequest {
     }
 
     /// Opens the source on `g` (auto-ranged at the gain), checks its rig
-    /// against the camera and measures.
+    /// against the camera and measures; `reads` notes the files the source
+    /// reads.
     pub fn run(
         &self,
         g: &mut dyn FrameGrabber,
+        reads: &gloam_io::ReadLog,
         ev: &mut Events<'_>,
     ) -> Result<PtcDone, CalibError> {
         let source = SourceRequest {
             levels: self.source.levels.or(Some(crate::ptc::DEFAULT_LEVELS)),
             ..self.source.clone()
         };
-        let mut src = source.open(g, Some(self.gain), ev)?;
+        let mut src = source.open(g, Some(self.gain), reads, ev)?;
         // Only photon transfer reports in photons (QE), so only it checks
         // that the source's rig is the camera's.
         let mismatch =
@@ -266,13 +276,14 @@ impl AgcRequest {
     }
 
     /// Opens the source on `g` (auto-ranged at the fixed gain) and runs
-    /// the staircase.
+    /// the staircase; `reads` notes the files the source reads.
     pub fn run(
         &self,
         g: &mut dyn FrameGrabber,
+        reads: &gloam_io::ReadLog,
         ev: &mut Events<'_>,
     ) -> Result<AgcReport, CalibError> {
-        let mut src = self.source.open(g, self.fixed_gain, ev)?;
+        let mut src = self.source.open(g, self.fixed_gain, reads, ev)?;
         let opts = AgcOptions {
             fixed_gain: self.fixed_gain,
             frames_per_step: self.frames,
@@ -468,15 +479,18 @@ impl ScopeRequest {
     }
 }
 
-/// Opens grabber `uri` (noise seed `seed` for `sim:`), naming the URI if
+/// Opens grabber `uri` (noise seed `seed` for `sim:`; a file it reads noted
+/// in `reads`), naming the URI if
 /// it will not open.
 pub fn open_uri(
     registry: &Registry,
     uri: &str,
     seed: Option<u64>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<Box<dyn FrameGrabber>, CalibError> {
     let opts = OpenOptions {
         seed,
+        reads: reads.clone(),
         ..OpenOptions::default()
     };
     registry
@@ -542,11 +556,15 @@ impl GrabRequest {
         &self,
         registry: &Registry,
         dir: &Path,
+        reads: &gloam_io::ReadLog,
         ev: &mut dyn FnMut(Event<'_>),
     ) -> Result<Box<dyn FrameGrabber>, E> {
-        let mut g = open_uri(registry, &self.grabber, self.seed)?;
+        let mut g = open_uri(registry, &self.grabber, self.seed, reads)?;
         ev(Event::Note(format!("capturing from {}", g.describe())));
-        let camera = serde_json::json!({ "camera": g.describe(), "grabber": self.grabber });
+        let camera = crate::apply::CameraRecord {
+            camera: g.describe(),
+            grabber: self.grabber.clone(),
+        };
         report::write_json(&dir.join(crate::apply::CAMERA_FILE), &camera)?;
         if let Some(b) = self.bits {
             g.set_bits(b)?;

@@ -72,7 +72,8 @@ fn photons_per_radiance(r: &Rig) -> f64 {
 pub fn rig_mismatch(uri: &str, rig: Option<&Rig>, exposure_s: Option<f64>) -> Option<RigMismatch> {
     let rig = rig?;
     let gloam_simcam::SimUri { preset, .. } = gloam_simcam::SimUri::parse(uri).ok()?;
-    let mut cfg = gloam_sensor::load_preset_or_file(&preset).ok()?;
+    // The grabber's open noted a sensor file; this is the same one again.
+    let mut cfg = gloam_sensor::load_preset_or_file(&preset, &gloam_io::ReadLog::off()).ok()?;
     if let Some(e) = exposure_s {
         cfg.timing.exposure_s = e;
     }
@@ -91,7 +92,8 @@ mod tests {
     use super::*;
 
     fn ccd_rig() -> Rig {
-        let cfg = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        let cfg =
+            gloam_sensor::load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
         Rig::from_camera(&cfg, "scientific-ccd").unwrap()
     }
 

@@ -85,8 +85,11 @@ pub fn sim_uri(uri: &str) -> Result<SimCamera, CalibError> {
 
 /// The sensor as the scope sees it: its video line in the asked format
 /// and bandwidth, and its AGC off (a fixed gain holds the level).
-fn video_sensor(o: &ScopeOptions) -> Result<(SensorConfig, VideoFormat), CalibError> {
-    let mut cfg = SensorConfig::load_preset_or_file(&o.sensor)
+fn video_sensor(
+    o: &ScopeOptions,
+    reads: &gloam_io::ReadLog,
+) -> Result<(SensorConfig, VideoFormat), CalibError> {
+    let mut cfg = SensorConfig::load_preset_or_file(&o.sensor, reads)
         .map_err(|e| CalibError::Invalid(e.to_string()))?;
     cfg.noise.seed = o.seed;
     let Some(video) = cfg.video.as_mut() else {
@@ -117,8 +120,8 @@ fn video_sensor(o: &ScopeOptions) -> Result<(SensorConfig, VideoFormat), CalibEr
 pub const MAX_SCOPE_SIDE: u32 = 4096;
 
 /// Captures and scopes the lines.
-pub fn run_scope(o: &ScopeOptions) -> Result<ScopeResult, CalibError> {
-    let (cfg, format) = video_sensor(o)?;
+pub fn run_scope(o: &ScopeOptions, reads: &gloam_io::ReadLog) -> Result<ScopeResult, CalibError> {
+    let (cfg, format) = video_sensor(o, reads)?;
     let mut cam = Camera::new(cfg).map_err(|e| CalibError::Invalid(e.to_string()))?;
     if let Some(g) = o.gain {
         cam.set_override_gain(Some(g))

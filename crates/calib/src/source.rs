@@ -384,6 +384,8 @@ pub struct ManualSource {
     pub base_dir: PathBuf,
     input: Box<dyn BufRead>,
     output: Box<dyn Write>,
+    /// Where the spectrometer files the operator names are noted.
+    reads: gloam_io::ReadLog,
 }
 
 impl ManualSource {
@@ -406,6 +408,15 @@ impl ManualSource {
             base_dir,
             input,
             output,
+            reads: gloam_io::ReadLog::off(),
+        }
+    }
+
+    /// Notes the spectrometer files read in `reads`.
+    pub fn noting_reads(self, reads: &gloam_io::ReadLog) -> Self {
+        Self {
+            reads: reads.clone(),
+            ..self
         }
     }
 
@@ -470,7 +481,8 @@ impl CalibrationSource for ManualSource {
         } else {
             self.base_dir.join(path)
         };
-        let l = gloam_spectra::read_csv(&path).map_err(|e| CalibError::file(&path, e))?;
+        let l =
+            gloam_spectra::read_csv(&path, &self.reads).map_err(|e| CalibError::file(&path, e))?;
         Ok(make_level(lv.label, l, &self.camera, &self.lamp_name))
     }
     fn set_dark(&mut self) -> Result<Level, CalibError> {
@@ -563,24 +575,33 @@ pub struct SourceFile {
     parsed: FileToml,
     base_dir: PathBuf,
     label: String,
+    /// Where the files it names (spectra, sensor files) are noted.
+    reads: gloam_io::ReadLog,
 }
 
 impl SourceFile {
-    /// Reads and checks a source file.
-    pub fn load(path: &Path) -> Result<Self, CalibError> {
-        let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES)
+    /// Reads and checks a source file; `reads` notes it and the files it
+    /// names as they are read.
+    pub fn load(path: &Path, reads: &gloam_io::ReadLog) -> Result<Self, CalibError> {
+        let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads)
             .map_err(|e| CalibError::file(path, e))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Self::parse(&text, &base, &path.display().to_string())
+        let file = Self::parse(&text, &base, &path.display().to_string())?;
+        Ok(Self {
+            reads: reads.clone(),
+            ..file
+        })
     }
 
-    /// Parses source-file text; relative paths resolve against `base_dir`.
+    /// Parses source-file text; relative paths resolve against `base_dir`
+    /// (the files it names are read unnoted).
     pub fn parse(text: &str, base_dir: &Path, label: &str) -> Result<Self, CalibError> {
         let parsed: FileToml = toml::from_str(text).map_err(|e| CalibError::file(label, e))?;
         Ok(Self {
             parsed,
             base_dir: base_dir.to_path_buf(),
             label: label.to_string(),
+            reads: gloam_io::ReadLog::off(),
         })
     }
 
@@ -600,7 +621,7 @@ impl SourceFile {
         } else {
             name.to_string()
         };
-        gloam_spectra::lookup(&key).map_err(|e| self.err(e))
+        gloam_spectra::lookup(&key, &self.reads).map_err(|e| self.err(e))
     }
 
     fn camera(&self) -> Result<CameraBand, CalibError> {
@@ -653,7 +674,7 @@ impl SourceFile {
                 } else {
                     name.clone()
                 };
-                let cfg = gloam_sensor::load_preset_or_file(&key)
+                let cfg = gloam_sensor::load_preset_or_file(&key, &self.reads)
                     .map_err(|e| self.err(format!("[rig] camera: {e}")))?;
                 Rig::from_camera(&cfg, name).map_err(|e| self.err(e))?
             }
@@ -789,7 +810,8 @@ impl SourceFile {
                 if let Some(cs) = &dim.transmission_csv {
                     for c in cs {
                         let p = self.base_dir.join(c);
-                        let t = gloam_spectra::read_csv(&p).map_err(|e| self.err(e))?;
+                        let t =
+                            gloam_spectra::read_csv(&p, &self.reads).map_err(|e| self.err(e))?;
                         filters.push(NdFilter::Curve {
                             name: c.display().to_string(),
                             transmission: t,
@@ -862,7 +884,8 @@ impl SourceFile {
             self.base_dir.clone(),
             input,
             output,
-        ))
+        )
+        .noting_reads(&self.reads))
     }
 
     /// Opens whichever kind the file describes; a manual source prompts on
@@ -898,8 +921,9 @@ pub fn open_for_grabber(
     auto_range: Option<f64>,
     grabber: &mut dyn gloam_grabber::FrameGrabber,
     gain: Option<f64>,
+    reads: &gloam_io::ReadLog,
 ) -> Result<OpenedSource, CalibError> {
-    let file = SourceFile::load(path)?;
+    let file = SourceFile::load(path, reads)?;
     let Some(frac) = auto_range else {
         return Ok(OpenedSource {
             source: file.open(levels)?,
@@ -992,7 +1016,7 @@ densities = [0.0, 1.0]
             )
             .unwrap();
             let rig = f.rig().unwrap().unwrap();
-            let cfg = gloam_sensor::load_preset_or_file(preset).unwrap();
+            let cfg = gloam_sensor::load_preset_or_file(preset, &gloam_io::ReadLog::off()).unwrap();
             let chain = gloam_sensor::Chain::new(&cfg).unwrap();
             // Étendue × exposure of the chain: π τ A t / (4 N²), written out.
             let (n, tau) = (cfg.optics.f_number, cfg.optics.transmission);

@@ -21,9 +21,13 @@ pub struct Region {
 
 /// Reads ground-control regions: a JSON array of
 /// `{"name", "x", "y", "width", "height"}` objects (`.json`), or TOML with
-/// `[[region]]` tables of the same keys (any other extension).
-pub fn load_regions(path: &std::path::Path) -> Result<Vec<Region>, CalibError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES)
+/// `[[region]]` tables of the same keys (any other extension); `reads`
+/// notes the file.
+pub fn load_regions(
+    path: &std::path::Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<Vec<Region>, CalibError> {
+    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads)
         .map_err(|e| CalibError::file(path, e))?;
     let is_json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let regions: Vec<Region> = if is_json {

@@ -24,9 +24,16 @@ fn sphere() -> PathBuf {
 fn lut(uri: &str, gains: &[f64]) -> Lut {
     let mut g = gloam_simcam::open(uri).unwrap();
     let top = gains.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let mut s = open_for_grabber(&sphere(), Some(10), Some(0.8), g.as_mut(), Some(top))
-        .unwrap()
-        .source;
+    let mut s = open_for_grabber(
+        &sphere(),
+        Some(10),
+        Some(0.8),
+        g.as_mut(),
+        Some(top),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap()
+    .source;
     let opts = RadianceOptions {
         gains: gains.to_vec(),
         frames: 8,
@@ -45,6 +52,7 @@ fn agc(lut: &Lut) -> Result<AgcReport, CalibError> {
         Some(0.5),
         g.as_mut(),
         Some(GEN3_MIN_GAIN),
+        &gloam_io::ReadLog::off(),
     )
     .unwrap()
     .source;

@@ -21,7 +21,7 @@ const SEED: u64 = 5;
 
 #[test]
 fn voltage_and_digital_mtf_agree_with_the_analytic_chain() {
-    let mut cfg = SensorConfig::load_preset_or_file(FILE).unwrap();
+    let mut cfg = SensorConfig::load_preset_or_file(FILE, &gloam_io::ReadLog::off()).unwrap();
     cfg.noise.seed = SEED;
     let bandwidth = cfg.video.as_ref().unwrap().bandwidth_hz.unwrap();
     let mut cam = Camera::new(cfg).unwrap();
@@ -77,7 +77,8 @@ fn voltage_and_digital_mtf_agree_with_the_analytic_chain() {
 
     // The digital-count half: the ordinary sine flow through a grabber on
     // the same camera file, against the analytic MTF of the sampled line.
-    let mut g = SimGrabber::from_preset(FILE, "uniform", SEED, SIZE).unwrap();
+    let mut g =
+        SimGrabber::from_preset(FILE, "uniform", SEED, SIZE, &gloam_io::ReadLog::off()).unwrap();
     agc_off(&mut g).unwrap();
     g.set_gain(G).unwrap();
     let d = sine_mtf(

@@ -23,9 +23,16 @@ fn run(uri: &str, camera: &str, gain: f64, dataset: Option<&Path>) -> PtcResult 
     let dir = tempfile::tempdir().unwrap();
     let src = sphere(dir.path(), camera);
     let mut g = gloam_simcam::open(uri).unwrap();
-    let mut s = open_for_grabber(&src, Some(50), Some(1.4), g.as_mut(), Some(gain))
-        .unwrap()
-        .source;
+    let mut s = open_for_grabber(
+        &src,
+        Some(50),
+        Some(1.4),
+        g.as_mut(),
+        Some(gain),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap()
+    .source;
     let opts = PtcOptions {
         gain,
         exposure_s: None,
@@ -38,10 +45,11 @@ fn run(uri: &str, camera: &str, gain: f64, dataset: Option<&Path>) -> PtcResult 
 #[test]
 fn scientific_ccd_eta_is_the_presets_qe() {
     let qe_true = preset_qe_under_cie_a("scientific-ccd");
-    let k_true = gloam_sensor::Camera::from_preset_or_file("scientific-ccd")
-        .unwrap()
-        .chain()
-        .mean_dn_per_photoelectron(1.0);
+    let k_true =
+        gloam_sensor::Camera::from_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off())
+            .unwrap()
+            .chain()
+            .mean_dn_per_photoelectron(1.0);
     for seed in [0, 1, 2] {
         let r = run(
             &format!("sim:scientific-ccd?size=128x128&seed={seed}"),
@@ -77,7 +85,9 @@ fn gen3_reports_k_eff_and_conversion_gain() {
         gain,
         None,
     );
-    let cam = gloam_sensor::Camera::from_preset_or_file("gen3-gaas-iccd").unwrap();
+    let cam =
+        gloam_sensor::Camera::from_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off())
+            .unwrap();
     let chain = cam.chain();
     // The analytic K_eff by another path: the chain's variance and mean of a
     // uniform field, differenced between 1 and 6 photoelectrons per pixel

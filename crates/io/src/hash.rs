@@ -26,7 +26,7 @@ pub fn hash_file(path: &Path) -> Option<InputFile> {
     // Regular files only: /dev/zero has length 0 and never ends.
     if meta.is_file() && meta.len() <= MAX_HASHED_BYTES {
         let mut f =
-            crate::input::unrecorded(|| crate::input::open_bounded(path, MAX_HASHED_BYTES)).ok()?;
+            crate::input::open_bounded(path, MAX_HASHED_BYTES, &crate::ReadLog::off()).ok()?;
         let mut h = Sha256::new();
         let mut buf = vec![0u8; 1 << 16];
         loop {

@@ -5,20 +5,21 @@
 //! says which, so a bad path can never read forever or exhaust memory.
 //!
 //! Because every input goes through here, this is also where a run learns
-//! what it read: after [`record_reads`], every file opened or read is
-//! noted (with the SHA-256 of the bytes read, for whole-file reads), and
-//! [`reads`] lists them for the run's provenance. Reads inside
-//! [`unrecorded`] (hashing outputs, checking a previous output set) are
-//! not inputs and are left out.
+//! what it read: each read takes the [`ReadLog`] of the run it serves,
+//! which notes every file opened or read (with the SHA-256 of the bytes
+//! read, for whole-file reads) for the run's provenance. Reads that are
+//! not inputs (hashing outputs, checking a previous output set) pass
+//! [`ReadLog::off`]. The log is a value each run owns, not process state,
+//! so two runs in one process (Python, a sweep's parallel tasks) keep
+//! their inputs apart.
 
-use std::cell::{Cell, RefCell};
 use std::io::{Error, ErrorKind, Read};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use sha2::{Digest, Sha256};
 
-/// A file read while recording.
+/// A file read into a [`ReadLog`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FileRead {
     /// The path as the reader was given it.
@@ -29,112 +30,83 @@ pub struct FileRead {
     pub sha256: Option<String>,
 }
 
-/// Most reads one run records (a calibration over a stack of frames reads
-/// many); later reads are counted in [`reads_not_recorded`].
+/// Most reads one log records (a calibration over a stack of frames reads
+/// many); later reads are counted in [`ReadLog::not_recorded`].
 pub const MAX_RECORDED_READS: usize = 100_000;
 
+#[derive(Debug, Default)]
 struct Record {
     reads: Vec<FileRead>,
     dropped: usize,
 }
 
-static RECORD: Mutex<Option<Record>> = Mutex::new(None);
+/// The files one run read, in order (repeats included): made by whoever
+/// owns the run (a request, a sweep task), handed to every loader, read
+/// back for the provenance. Clones share one record and may be used from
+/// several threads; [`ReadLog::off`] records nothing.
+#[derive(Clone, Debug)]
+pub struct ReadLog(Option<Arc<Mutex<Record>>>);
 
-thread_local! {
-    static SUPPRESSED: Cell<u32> = const { Cell::new(0) };
-    /// Open [`collect_reads`] scopes of this thread, innermost last.
-    static COLLECTING: RefCell<Vec<Vec<FileRead>>> = const { RefCell::new(Vec::new()) };
+impl Default for ReadLog {
+    /// A new, empty log that records.
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
-/// Runs `f` and returns, with its result, the files it read on this thread
-/// (whether or not [`record_reads`] is on): what one sweep task read.
-pub fn collect_reads<T>(f: impl FnOnce() -> T) -> (T, Vec<FileRead>) {
-    struct Pop;
-    impl Drop for Pop {
-        fn drop(&mut self) {
-            COLLECTING.with(|c| c.borrow_mut().pop());
+impl ReadLog {
+    /// A new, empty log that records.
+    pub fn new() -> Self {
+        Self(Some(Arc::default()))
+    }
+
+    /// A log that records nothing: for reads that are not a run's inputs.
+    pub fn off() -> Self {
+        Self(None)
+    }
+
+    /// Whether reads into this log are recorded.
+    pub fn is_on(&self) -> bool {
+        self.0.is_some()
+    }
+
+    /// Every file recorded so far, in order.
+    pub fn reads(&self) -> Vec<FileRead> {
+        self.with(|r| r.reads.clone()).unwrap_or_default()
+    }
+
+    /// Reads past [`MAX_RECORDED_READS`], not listed by [`ReadLog::reads`].
+    pub fn not_recorded(&self) -> usize {
+        self.with(|r| r.dropped).unwrap_or(0)
+    }
+
+    /// Records `reads` as read by this run too (a sweep's tasks into the
+    /// sweep's log).
+    pub fn extend(&self, reads: &[FileRead]) {
+        for r in reads {
+            self.note(&r.path, r.bytes, r.sha256.clone());
         }
     }
-    COLLECTING.with(|c| c.borrow_mut().push(Vec::new()));
-    let pop = Pop;
-    let t = f();
-    let reads = COLLECTING
-        .with(|c| c.borrow_mut().last_mut().map(std::mem::take))
-        .unwrap_or_default();
-    drop(pop);
-    (t, reads)
-}
 
-/// Starts recording every file this process reads through this module
-/// (idempotent). The CLI calls it first thing.
-pub fn record_reads() {
-    if let Ok(mut r) = RECORD.lock() {
-        r.get_or_insert_with(|| Record {
-            reads: Vec::new(),
-            dropped: 0,
-        });
+    fn with<T>(&self, f: impl FnOnce(&mut Record) -> T) -> Option<T> {
+        // A poisoned lock still holds the reads made before the panic.
+        let m = self.0.as_ref()?;
+        let mut g = m.lock().unwrap_or_else(|p| p.into_inner());
+        Some(f(&mut g))
     }
-}
 
-/// Every file read since [`record_reads`], in order (repeats included).
-pub fn reads() -> Vec<FileRead> {
-    RECORD
-        .lock()
-        .ok()
-        .and_then(|r| r.as_ref().map(|r| r.reads.clone()))
-        .unwrap_or_default()
-}
-
-/// Reads past [`MAX_RECORDED_READS`], not listed by [`reads`].
-pub fn reads_not_recorded() -> usize {
-    RECORD
-        .lock()
-        .ok()
-        .and_then(|r| r.as_ref().map(|r| r.dropped))
-        .unwrap_or(0)
-}
-
-/// Runs `f` without recording the reads it makes on this thread (outputs
-/// being hashed or checked are not inputs).
-pub fn unrecorded<T>(f: impl FnOnce() -> T) -> T {
-    struct Restore;
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            SUPPRESSED.with(|s| s.set(s.get().saturating_sub(1)));
-        }
-    }
-    SUPPRESSED.with(|s| s.set(s.get() + 1));
-    let _restore = Restore;
-    f()
-}
-
-fn note(path: &Path, bytes: u64, sha256: Option<String>) {
-    if SUPPRESSED.with(|s| s.get()) > 0 {
-        return;
-    }
-    COLLECTING.with(|c| {
-        for scope in c.borrow_mut().iter_mut() {
-            if scope.len() < MAX_RECORDED_READS {
-                scope.push(FileRead {
+    fn note(&self, path: &Path, bytes: u64, sha256: Option<String>) {
+        self.with(|r| {
+            if r.reads.len() < MAX_RECORDED_READS {
+                r.reads.push(FileRead {
                     path: path.to_path_buf(),
                     bytes,
-                    sha256: sha256.clone(),
+                    sha256,
                 });
+            } else {
+                r.dropped += 1;
             }
-        }
-    });
-    if let Ok(mut r) = RECORD.lock()
-        && let Some(r) = r.as_mut()
-    {
-        if r.reads.len() < MAX_RECORDED_READS {
-            r.reads.push(FileRead {
-                path: path.to_path_buf(),
-                bytes,
-                sha256,
-            });
-        } else {
-            r.dropped += 1;
-        }
+        });
     }
 }
 
@@ -149,11 +121,6 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         })
 }
 
-fn is_recording() -> bool {
-    SUPPRESSED.with(|s| s.get()) == 0
-        && (COLLECTING.with(|c| !c.borrow().is_empty()) || RECORD.lock().is_ok_and(|r| r.is_some()))
-}
-
 /// Largest text input (scene TOML, spectrum CSV, sensor TOML), bytes.
 pub const MAX_TEXT_FILE_BYTES: u64 = 256 << 20;
 /// Largest mesh input (OBJ), bytes.
@@ -163,11 +130,16 @@ pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
 pub const MAX_IMAGE_FILE_BYTES: u64 = 4 << 30;
 
 /// The regular file `path` opened for streaming (hashing), refused like
-/// [`read_bounded`]; reads stop at `max_bytes + 1` bytes.
-pub fn open_bounded(path: &Path, max_bytes: u64) -> std::io::Result<std::io::Take<std::fs::File>> {
+/// [`read_bounded`]; reads stop at `max_bytes + 1` bytes. `reads` notes
+/// the file (unhashed).
+pub fn open_bounded(
+    path: &Path,
+    max_bytes: u64,
+    reads: &ReadLog,
+) -> std::io::Result<std::io::Take<std::fs::File>> {
     let meta = check_regular(path, max_bytes)?;
     let f = std::fs::File::open(path)?.take(max_bytes + 1);
-    note(path, meta.len(), None);
+    reads.note(path, meta.len(), None);
     Ok(f)
 }
 
@@ -198,8 +170,9 @@ fn check_regular(path: &Path, max_bytes: u64) -> std::io::Result<std::fs::Metada
     Ok(meta)
 }
 
-/// The bytes of the regular file `path`, at most `max_bytes` of them.
-pub fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+/// The bytes of the regular file `path`, at most `max_bytes` of them;
+/// `reads` notes the file with the hash of those bytes.
+pub fn read_bounded(path: &Path, max_bytes: u64, reads: &ReadLog) -> std::io::Result<Vec<u8>> {
     let meta = check_regular(path, max_bytes)?;
     let mut bytes = Vec::with_capacity(meta.len() as usize);
     // `take` holds the limit even if the file grows while it is read.
@@ -212,16 +185,16 @@ pub fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
             format!("grew past the {max_bytes}-byte limit while being read"),
         ));
     }
-    if is_recording() {
-        note(path, bytes.len() as u64, Some(sha256_hex(&bytes)));
+    if reads.is_on() {
+        reads.note(path, bytes.len() as u64, Some(sha256_hex(&bytes)));
     }
     Ok(bytes)
 }
 
 /// The UTF-8 text of the regular file `path` (see [`read_bounded`]); a
 /// byte that is not UTF-8 is reported with its line and column.
-pub fn read_text(path: &Path, max_bytes: u64) -> std::io::Result<String> {
-    let bytes = read_bounded(path, max_bytes)?;
+pub fn read_text(path: &Path, max_bytes: u64, reads: &ReadLog) -> std::io::Result<String> {
+    let bytes = read_bounded(path, max_bytes, reads)?;
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let b = e.as_bytes();
@@ -248,41 +221,55 @@ mod tests {
     #[test]
     fn directories_devices_and_oversized_files_are_refused_by_name() {
         let dir = tempfile::tempdir().unwrap();
-        let e = read_text(dir.path(), 10).unwrap_err();
+        let off = ReadLog::off();
+        let e = read_text(dir.path(), 10, &off).unwrap_err();
         assert!(e.to_string().contains("directory"), "{e}");
         if Path::new("/dev/zero").exists() {
-            let e = read_text(Path::new("/dev/zero"), 10).unwrap_err();
+            let e = read_text(Path::new("/dev/zero"), 10, &off).unwrap_err();
             assert!(e.to_string().contains("not a regular file"), "{e}");
         }
         let f = dir.path().join("big.csv");
         std::fs::write(&f, vec![b'1'; 11]).unwrap();
-        let e = read_text(&f, 10).unwrap_err();
+        let e = read_text(&f, 10, &off).unwrap_err();
         assert!(e.to_string().contains("limit"), "{e}");
-        assert_eq!(read_text(&f, 11).unwrap().len(), 11);
+        assert_eq!(read_text(&f, 11, &off).unwrap().len(), 11);
     }
 
     #[test]
-    fn reads_are_recorded_with_the_hash_of_the_bytes_read() {
+    fn reads_are_recorded_in_their_own_log_with_the_hash_of_the_bytes_read() {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("a.csv");
         std::fs::write(&f, b"abc").unwrap();
-        record_reads();
-        read_text(&f, 10).unwrap();
-        unrecorded(|| read_text(&f, 10).unwrap());
-        let mine: Vec<FileRead> = reads().into_iter().filter(|r| r.path == f).collect();
-        assert_eq!(mine.len(), 1, "{mine:?}");
+        let log = ReadLog::new();
+        let other = ReadLog::new();
+        read_text(&f, 10, &log).unwrap();
+        read_text(&f, 10, &ReadLog::off()).unwrap();
+        open_bounded(&f, 10, &log.clone()).unwrap();
+        let got = log.reads();
+        assert_eq!(got.len(), 2, "{got:?}");
+        assert!(other.reads().is_empty() && ReadLog::off().reads().is_empty());
         // FIPS 180-2, appendix B.1.
         assert_eq!(
-            mine[0].sha256.as_deref(),
+            got[0].sha256.as_deref(),
             Some("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad")
         );
-        assert_eq!(mine[0].bytes, 3);
-        // A scope collects this thread's reads, recording on or not.
-        let ((), got) = collect_reads(|| {
-            read_text(&f, 10).unwrap();
-        });
-        assert_eq!(got.len(), 1);
-        assert_eq!(got[0].sha256, mine[0].sha256);
+        assert_eq!((got[0].bytes, got[1].bytes), (3, 3));
+        assert_eq!(got[1].sha256, None);
+        other.extend(&got);
+        assert_eq!(other.reads(), got);
+    }
+
+    #[test]
+    fn a_log_keeps_at_most_its_limit_and_counts_the_rest() {
+        let log = ReadLog::new();
+        let one = FileRead {
+            path: "x".into(),
+            bytes: 1,
+            sha256: None,
+        };
+        log.extend(&vec![one; MAX_RECORDED_READS + 3]);
+        assert_eq!(log.reads().len(), MAX_RECORDED_READS);
+        assert_eq!(log.not_recorded(), 3);
     }
 
     #[test]
@@ -290,7 +277,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("s.toml");
         std::fs::write(&f, b"a = 1\nb = 2\nc = \xff\n").unwrap();
-        let e = read_text(&f, 100).unwrap_err();
+        let e = read_text(&f, 100, &ReadLog::off()).unwrap_err();
         assert!(e.to_string().contains("line 3, column 5"), "{e}");
     }
 }

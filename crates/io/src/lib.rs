@@ -24,8 +24,7 @@ pub use atomic::{EncodeError, FileError, write_atomic};
 pub use hash::{InputFile, MAX_HASHED_BYTES, hash_file};
 pub use input::{
     FileRead, MAX_IMAGE_FILE_BYTES, MAX_MESH_FILE_BYTES, MAX_RECORDED_READS, MAX_TEXT_FILE_BYTES,
-    collect_reads, open_bounded, read_bounded, read_text, reads, reads_not_recorded, record_reads,
-    sha256_hex, unrecorded,
+    ReadLog, open_bounded, read_bounded, read_text, sha256_hex,
 };
 pub use output_set::{ManifestProvenance, OutputSet, OutputSetError};
 

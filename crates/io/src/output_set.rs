@@ -390,8 +390,12 @@ fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
     };
     let entries = set_entries(target).map_err(|e| not_ours(chain(&e)))?;
     let manifest = target.join("manifest.json");
-    let text = crate::unrecorded(|| crate::read_text(&manifest, crate::MAX_TEXT_FILE_BYTES))
-        .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
+    let text = crate::read_text(
+        &manifest,
+        crate::MAX_TEXT_FILE_BYTES,
+        &crate::ReadLog::off(),
+    )
+    .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
     let listed: std::collections::HashSet<String> =
         serde_json::from_str::<serde_json::Value>(&text)
             .ok()

@@ -6,63 +6,15 @@
 
 use std::path::{Path, PathBuf};
 
-use gloam_grabber::FrameStatus;
-use gloam_sensor::Camera;
+use gloam_sensor::{Camera, Frame};
+use gloam_simcam::FrameExposureExt;
 use ndarray::Array2;
 use serde::Serialize;
 
 use crate::frame_files::FrameFormat;
 use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
 use crate::output::{OutputError, write_atomic};
-
-/// The record of frame `index` of an in-process simulated `camera`
-/// (just captured, so its chain state is the frame's), with its
-/// exposure warnings; `pixels` are the frame's counts in row order.
-pub fn record_of_sensor_frame(
-    index: u64,
-    file: String,
-    frame: &gloam_sensor::DigitizedFrame,
-    pixels: &[u16],
-    camera: &Camera,
-) -> FrameRecord {
-    let (h, w) = frame.pixels.dim();
-    let m = &frame.meta;
-    let g = m.gain_in_effect;
-    let chain = camera.chain();
-    let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-    let warnings =
-        gloam_sensor::levels::exposure_warnings(m.mean_dn, m.saturated_fraction, Some(black), sat);
-    FrameRecord {
-        index,
-        file,
-        seq: m.seq,
-        timestamp: (m.time_s * 1e6).round() as u64,
-        gain: g,
-        agc: m.agc_enabled,
-        bits: m.bits,
-        width: w as u32,
-        height: h as u32,
-        pixels_crc32c: gloam_grabber::pixels_crc32c(pixels),
-        status: FrameStatus::Ok,
-        mean_dn: m.mean_dn,
-        saturated_fraction: m.saturated_fraction,
-        saturated_at_dn: chain.saturated_threshold_dn(g),
-        black_dn: Some(black),
-        electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
-        nd_density: Some(camera.config().optics.nd_density),
-        // The duty in effect: the configured gate times the tube's and
-        // the AGC's cuts (as the simulated grabber records it).
-        gate_duty: (camera.config().photocathode.as_ref())
-            .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
-        exposure_us: None,
-        saturated_by: Some(m.saturation.saturated_by),
-        mcp_compressed_fraction: Some(m.saturation.mcp_compressed_fraction),
-        warnings,
-        sensor: Some(m.clone()),
-        stored: None,
-        sequence: None,
-    }
-}
+use gloam_sensor::ResolvedSensor;
 
 /// Why a capture's options are refused.
 #[derive(Debug, thiserror::Error)]
@@ -79,23 +31,37 @@ pub enum CaptureOptionsError {
     Gain(#[source] gloam_sensor::CaptureError),
 }
 
-/// Checks the sensor options of a capture (the sensor loads, `--gain` is
-/// in its range, at least one frame) before anything expensive runs.
+/// Reads the sensor `name` (a preset or sensor TOML) once for a run
+/// ([`ResolvedSensor`]), an error naming it; `reads` notes a sensor file.
+pub fn resolve_sensor(
+    name: &str,
+    reads: &gloam_io::ReadLog,
+) -> Result<ResolvedSensor, CaptureOptionsError> {
+    ResolvedSensor::load(name, reads).map_err(|source| CaptureOptionsError::Sensor {
+        sensor: name.to_string(),
+        source,
+    })
+}
+
+/// Checks the sensor options of a capture (`--gain` is in the sensor's
+/// range, at least one frame) before anything expensive runs; the sensor
+/// itself was checked when it was read ([`resolve_sensor`]).
 pub fn check_options(
-    sensor: &str,
+    sensor: &ResolvedSensor,
     gain: Option<f64>,
     frames: u32,
 ) -> Result<(), CaptureOptionsError> {
     if frames < 1 {
         return Err(CaptureOptionsError::NoFrames);
     }
-    let mut camera =
-        Camera::from_preset_or_file(sensor).map_err(|source| CaptureOptionsError::Sensor {
-            sensor: sensor.to_string(),
-            source,
-        })?;
     if let Some(g) = gain {
-        camera
+        let camera = sensor
+            .camera()
+            .map_err(|source| CaptureOptionsError::Sensor {
+                sensor: sensor.name().to_string(),
+                source,
+            });
+        camera?
             .set_override_gain(Some(g))
             .map_err(CaptureOptionsError::Gain)?;
     }
@@ -113,6 +79,10 @@ pub enum CaptureError {
     Camera(#[from] gloam_sensor::ConfigError),
     #[error(transparent)]
     Gain(gloam_sensor::CaptureError),
+    /// The camera's frame came without its own figures (`meta.sensor`),
+    /// which every in-process frame carries.
+    #[error("frame {index}: the camera gave no figures of its own")]
+    NoFigures { index: u32 },
     #[error("capturing frame {index}")]
     Frame {
         index: u32,
@@ -138,9 +108,11 @@ pub enum CaptureError {
 fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
     let path = out.join("report.json");
     // The report is this run's output, not an input.
-    let Ok(text) =
-        gloam_io::unrecorded(|| gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES))
-    else {
+    let Ok(text) = gloam_io::read_text(
+        &path,
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &gloam_io::ReadLog::off(),
+    ) else {
         return Ok(());
     };
     let mut report: serde_json::Value =
@@ -158,7 +130,8 @@ fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), Captur
 
 /// What to capture and how.
 pub struct FrameCapture<'a> {
-    pub sensor: &'a str,
+    /// The camera, read once by the request ([`ResolvedSensor`]).
+    pub sensor: &'a ResolvedSensor,
     pub frames: u32,
     pub gain: Option<f64>,
     pub agc: bool,
@@ -169,16 +142,6 @@ pub struct FrameCapture<'a> {
     pub auto_exposure: Option<crate::exposure::ExposureTarget>,
     /// How [`FrameCapture::run`] stores the frames (`--frame-format`).
     pub frame_format: FrameFormat,
-}
-
-/// One frame of a capture, as the camera made it.
-pub struct CapturedFrame {
-    /// Its line of `frames.jsonl` (file name, size, levels, warnings).
-    pub record: FrameRecord,
-    /// Its counts in row order.
-    pub pixels: Vec<u16>,
-    /// The camera's black level at the frame's gain, DN.
-    pub black_dn: f64,
 }
 
 /// What a capture found besides its frames: what to tell its user and
@@ -194,8 +157,8 @@ pub struct Captured {
 }
 
 impl FrameCapture<'_> {
-    /// [`check_options`] of this capture: refuses a sensor that does not
-    /// load, a gain outside its range or no frames, before the render.
+    /// [`check_options`] of this capture: refuses a gain outside the
+    /// sensor's range or no frames, before the render.
     pub fn check(&self) -> Result<(), CaptureOptionsError> {
         check_options(self.sensor, self.gain, self.frames)
     }
@@ -210,7 +173,7 @@ impl FrameCapture<'_> {
     pub fn capture(
         &self,
         detected: &Array2<f64>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         self.capture_changing(detected, None, &mut |_| Ok(()), on_frame)
     }
@@ -225,28 +188,22 @@ impl FrameCapture<'_> {
         first: &Array2<f64>,
         image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
         configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
-        let mut config = gloam_sensor::load_preset_or_file(self.sensor).map_err(|source| {
-            CaptureOptionsError::Sensor {
-                sensor: self.sensor.to_string(),
-                source,
-            }
-        })?;
+        let mut config = self.sensor.config().clone();
         configure(&mut config)?;
         self.capture_configured(config, first, image, on_frame)
     }
 
-    /// [`FrameCapture::capture_changing`] with the sensor already loaded
-    /// (from `self.sensor`) and configured: a caller that needs the
-    /// configuration before the first image (a sequence's exposure
-    /// window) loads it once.
+    /// [`FrameCapture::capture_changing`] with the sensor already
+    /// configured: a caller that needs the configuration before the first
+    /// image (a sequence's exposure window) adjusts `self.sensor`'s.
     pub fn capture_configured(
         &self,
         mut config: gloam_sensor::SensorConfig,
         first: &Array2<f64>,
         mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
-        on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
+        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
         let detected = first;
         if self.frames < 1 {
@@ -254,28 +211,7 @@ impl FrameCapture<'_> {
         }
         config.noise.seed = self.seed;
         let mut notes = Vec::new();
-        let exposure = match &self.auto_exposure {
-            Some(target) => {
-                let c = crate::exposure::choose(&config, detected, target)?;
-                crate::exposure::apply(&mut config, &c);
-                notes.push(format!(
-                    "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
-                    c.gain,
-                    c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
-                    c.exposure_s,
-                    c.nd_density,
-                    c.target.percentile,
-                    c.percentile_dn,
-                    c.median_dn,
-                    c.note
-                ));
-                if c.stops_out_of_range != 0.0 {
-                    notes.push(format!("warning: {}", c.note));
-                }
-                Some(c)
-            }
-            None => None,
-        };
+        let exposure = self.auto_expose(&mut config, detected, &mut notes)?;
         // Before the first frame: can this camera see this scene at any
         // gain it reaches? (`--exposure auto` has already chosen its fit.)
         let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
@@ -298,58 +234,27 @@ impl FrameCapture<'_> {
         if self.agc {
             camera.set_agc(true);
         }
-        tracing::debug!(sensor = self.sensor, frames = self.frames, "capturing");
-        let mut warned = std::collections::BTreeSet::new();
-        let mut per_frame = Vec::new();
-        let mut summary = SaturationSummary::default();
+        tracing::debug!(
+            sensor = self.sensor.name(),
+            frames = self.frames,
+            "capturing"
+        );
+        let mut tally = FrameTally::default();
         for i in 0..self.frames {
             let changed = image.as_mut().map(|f| f(i));
             let frame = camera
                 .capture_detected(changed.as_ref().unwrap_or(detected).view())
                 .map_err(|source| CaptureError::Frame { index: i, source })?;
-            let pixels: Vec<u16> = frame.pixels.iter().copied().collect();
             let file = self.frame_format.file_name(u64::from(i));
-            let m = &frame.meta;
-            let g = m.gain_in_effect;
-            let chain = camera.chain();
-            let (black, sat) = (chain.black_dn(g), chain.saturation_dn(g));
-            let args = (m.mean_dn, m.saturated_fraction, Some(black), sat);
-            let kinds = gloam_sensor::levels::warning_kinds(args.0, args.1, args.2, args.3);
-            let rec = record_of_sensor_frame(u64::from(i), file.clone(), &frame, &pixels, &camera);
-            // The record's warnings are these kinds' messages, in order.
-            for (w, k) in rec.warnings.iter().zip(&kinds) {
-                if warned.insert(*k) {
-                    let by = match k {
-                        gloam_sensor::levels::WarningKind::Saturated => format!(
-                            " (clipped at the {})",
-                            stage_name(m.saturation.saturated_by)
-                        ),
-                        _ => String::new(),
-                    };
-                    notes.push(format!("warning: frame {i}: {w}{by}"));
-                }
-            }
-            let median = median_dn(&pixels);
-            per_frame.push(serde_json::json!({
-                "file": file,
-                "gain": g,
-                "mean_dn": m.mean_dn,
-                "median_dn": median,
-                "median_above_black_of_full_scale": (median - black) / chain.max_code,
-                "saturated_fraction": m.saturated_fraction,
-                "saturated_by": m.saturation.saturated_by,
-                "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
-                "bright_source_in_view": m.saturation.bright_source_in_view,
-                "warnings": kinds,
-            }));
-            summary.add(&m.saturation);
-            tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
-            on_frame(CapturedFrame {
-                record: rec,
-                pixels,
-                black_dn: black,
-            })?;
+            let judged = frame.exposure();
+            let rec = FrameRecord::of_frame(u64::from(i), file, &frame, judged.warnings);
+            let max_code = camera.chain().max_code;
+            tally.add(i, &frame, &rec, judged.warning_kinds, max_code, &mut notes)?;
+            on_frame(frame, rec)?;
         }
+        let FrameTally {
+            per_frame, summary, ..
+        } = tally;
         if summary.frames > 1 && summary.frames_over_warning > 0 {
             notes.push(format!(
                 "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
@@ -361,7 +266,7 @@ impl FrameCapture<'_> {
             ));
         }
         let report = serde_json::json!({
-            "sensor": self.sensor,
+            "sensor": self.sensor.name(),
             "fit": fit,
             "exposure": exposure,
             "frames": per_frame,
@@ -373,6 +278,38 @@ impl FrameCapture<'_> {
             },
         });
         Ok(Captured { notes, report })
+    }
+
+    /// `--exposure auto`'s choice of gain, gate, exposure time and ND for
+    /// `detected`, applied to `config`, with its note (and a warning
+    /// when the scene is out of the camera's range) in `notes`; `None`
+    /// without it.
+    fn auto_expose(
+        &self,
+        config: &mut gloam_sensor::SensorConfig,
+        detected: &Array2<f64>,
+        notes: &mut Vec<String>,
+    ) -> Result<Option<crate::exposure::ExposureChoice>, CaptureError> {
+        let Some(target) = &self.auto_exposure else {
+            return Ok(None);
+        };
+        let c = crate::exposure::choose(config, detected, target)?;
+        crate::exposure::apply(config, &c);
+        notes.push(format!(
+            "exposure auto: gain {:.4}, gate duty {}, exposure {:.4e} s, ND {:.2} → p{} at {:.0} DN, median {:.0} DN ({})",
+            c.gain,
+            c.gate_duty.map_or("—".into(), |d| format!("{d:.3e}")),
+            c.exposure_s,
+            c.nd_density,
+            c.target.percentile,
+            c.percentile_dn,
+            c.median_dn,
+            c.note
+        ));
+        if c.stops_out_of_range != 0.0 {
+            notes.push(format!("warning: {}", c.note));
+        }
+        Ok(Some(c))
     }
 
     /// [`FrameCapture::capture`] into `out`: the frames in
@@ -391,13 +328,13 @@ impl FrameCapture<'_> {
     ) -> Result<Vec<String>, CaptureError> {
         let mut writer = None;
         let context = FrameContext {
-            camera: Some(self.sensor.to_string()),
+            camera: Some(self.sensor.name().to_string()),
             seed: Some(self.seed),
             provenance: provenance.cloned(),
             scene_utc,
             ..FrameContext::default()
         };
-        let captured = self.capture(detected, &mut |f| {
+        let captured = self.capture(detected, &mut |f, rec| {
             let w = match &mut writer {
                 Some(w) => w,
                 None => writer.insert(FrameWriter::with_format(
@@ -406,13 +343,71 @@ impl FrameCapture<'_> {
                     context.clone(),
                 )?),
             };
-            Ok(w.write(&f.record, &f.pixels)?)
+            Ok(w.write(&rec, &f.pixels)?)
         })?;
         if let Some(w) = writer {
             w.finish()?;
         }
         record_in_report(out, captured.report)?;
         Ok(captured.notes)
+    }
+}
+
+/// What a capture keeps of its frames for `report.json` and its user:
+/// each frame's levels, the saturation summary, and which kinds of
+/// exposure warning it has told.
+#[derive(Default)]
+struct FrameTally {
+    per_frame: Vec<serde_json::Value>,
+    summary: SaturationSummary,
+    warned: std::collections::BTreeSet<gloam_sensor::levels::WarningKind>,
+}
+
+impl FrameTally {
+    /// Adds frame `i`, recorded as `rec` with warnings of `kinds` (in the
+    /// record's order), from a camera whose top code is `max_code`; the
+    /// first warning of each kind goes to `notes`.
+    fn add(
+        &mut self,
+        i: u32,
+        frame: &Frame,
+        rec: &FrameRecord,
+        kinds: Vec<gloam_sensor::levels::WarningKind>,
+        max_code: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<(), CaptureError> {
+        let Some(m) = frame.sensor() else {
+            return Err(CaptureError::NoFigures { index: i });
+        };
+        for (w, k) in rec.warnings.iter().zip(&kinds) {
+            if self.warned.insert(*k) {
+                let by = match k {
+                    gloam_sensor::levels::WarningKind::Saturated => format!(
+                        " (clipped at the {})",
+                        stage_name(m.saturation.saturated_by)
+                    ),
+                    _ => String::new(),
+                };
+                notes.push(format!("warning: frame {i}: {w}{by}"));
+            }
+        }
+        let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
+        let median = median_dn(&frame.pixels);
+        self.per_frame.push(serde_json::json!({
+            "file": rec.file,
+            "gain": g,
+            "mean_dn": m.mean_dn,
+            "median_dn": median,
+            "median_above_black_of_full_scale": (median - black) / max_code,
+            "saturated_fraction": m.saturated_fraction,
+            "saturated_by": m.saturation.saturated_by,
+            "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
+            "bright_source_in_view": m.saturation.bright_source_in_view,
+            "warnings": kinds,
+        }));
+        self.summary.add(&m.saturation);
+        tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
+        Ok(())
     }
 }
 

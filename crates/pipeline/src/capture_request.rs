@@ -55,11 +55,14 @@ pub struct ValidCapture {
     grab: GrabRequest,
     format: FrameFormat,
     out: OutputDir,
+    /// The run's log of what it read (its provenance's inputs).
+    reads: gloam_io::ReadLog,
 }
 
 impl CaptureRequest {
-    /// Checks the grab's options and the frame format.
-    pub fn validate(&self) -> Result<ValidCapture, CaptureRequestError> {
+    /// Checks the grab's options and the frame format; the run notes what
+    /// it reads (a `sim:` camera's sensor file) in `reads`.
+    pub fn validate(&self, reads: &gloam_io::ReadLog) -> Result<ValidCapture, CaptureRequestError> {
         let format = crate::request::CameraOptions {
             frame_format: self.frame_format.clone(),
             ..Default::default()
@@ -71,6 +74,7 @@ impl CaptureRequest {
             grab: self.grab.clone(),
             format,
             out: self.out.clone(),
+            reads: reads.clone(),
         })
     }
 }
@@ -93,13 +97,13 @@ impl ValidCapture {
         fit_note: Arc<dyn Fn(&str) + Send + Sync>,
     ) -> Result<CaptureDone, CaptureRequestError> {
         let (grab, format) = (&self.grab, self.format);
-        let provenance = Provenance::of_this_run();
+        let provenance = Provenance::of_this_run(&self.reads);
         // The frames appear at once with manifest.json; Ctrl-C stops the
         // loop and publishes what was captured.
         let set = OutputSet::begin(&self.out.path, self.out.force, true)?;
         let dir = set.dir().to_path_buf();
         let grabbers = crate::grabbers_noting(fit_note);
-        let mut g = grab.open::<CaptureRequestError>(&grabbers, &dir, ev)?;
+        let mut g = grab.open::<CaptureRequestError>(&grabbers, &dir, &self.reads, ev)?;
         // FITS headers name the camera, its URI, the seed and this run.
         let context = FrameContext {
             camera: Some(grab.grabber.clone()),
@@ -115,7 +119,7 @@ impl ValidCapture {
             g.as_mut(),
             &gloam_io::output_set::interrupted,
             |index, f: &gloam_grabber::Frame, warnings| {
-                let rec = FrameRecord::of_grab(index, format.file_name(index), f, warnings);
+                let rec = FrameRecord::of_frame(index, format.file_name(index), f, warnings);
                 Ok(writer.write(&rec, &f.pixels)?)
             },
             ev,

@@ -418,7 +418,8 @@ mod tests {
     /// same frame.
     #[test]
     fn a_brighter_scene_gets_proportionally_less_exposure() {
-        let config = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let config =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         let target = ExposureTarget::default();
         let ramp = Array2::from_shape_fn((32, 32), |(r, c)| {
             1e17 * (1.0 + (r * 32 + c) as f64 / 1024.0)
@@ -450,7 +451,8 @@ mod tests {
     /// background illumination alone lifts the frame, but not to the goal.
     #[test]
     fn a_black_scene_is_reported_too_dim() {
-        let config = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let config =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         let dark = Array2::from_elem((16, 16), 0.0);
         let c = choose(&config, &dark, &ExposureTarget::default()).unwrap();
         assert!(c.stops_out_of_range > 0.0, "{c:?}");

@@ -405,9 +405,12 @@ mod tests {
         let mut cam = Camera::new(config.clone()).unwrap();
         cam.set_override_gain(Some(gain)).unwrap();
         let f = cam.capture_detected(detected.view()).unwrap();
-        let mut v: Vec<u16> = f.pixels.iter().copied().collect();
+        let mut v: Vec<u16> = f.pixels.to_vec();
         v.sort_unstable();
-        (f64::from(v[v.len() / 2]), f.meta.saturated_fraction)
+        (
+            f64::from(v[v.len() / 2]),
+            f.sensor().unwrap().saturated_fraction,
+        )
     }
 
     /// A smooth scene over `decades`: log-uniform radiance from `scale`,
@@ -427,7 +430,8 @@ mod tests {
         // The CCD blooms: its ramp spans less, or the spilled charge of
         // the top half fills every column.
         for (preset, decades) in [("gen3-gaas-iccd", 4.0), ("scientific-ccd", 1.0)] {
-            let config = gloam_sensor::load_preset_or_file(preset).unwrap();
+            let config =
+                gloam_sensor::load_preset_or_file(preset, &gloam_io::ReadLog::off()).unwrap();
             let chain = Camera::new(config.clone()).unwrap().chain().clone();
             let (lo, hi) = (chain.gain_min, chain.gain_max);
             // The ramp's middle saturates at the middle gain (the
@@ -476,7 +480,8 @@ mod tests {
     /// the named ND neither saturates nor sits in the noise.
     #[test]
     fn a_too_bright_scene_names_the_nd_that_fits() {
-        let mut config = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let mut config =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         let detected = ramp(2e14, 2.0);
         let fit = predict(&config, &detected, None).unwrap();
         assert_eq!(fit.verdict, FitVerdict::SaturatesAtEveryGain, "{fit:?}");
@@ -504,7 +509,8 @@ mod tests {
     /// not model; cause not yet traced), hence the wider median bound.
     #[test]
     fn a_lamp_in_view_saturates_its_halo() {
-        let config = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let config =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         let chain = Camera::new(config.clone()).unwrap().chain().clone();
         let g = chain.gain_min;
         let sat_pe = chain.describe(g).saturation_photoelectrons;
@@ -535,7 +541,8 @@ mod tests {
     /// A black scene is in the noise at every gain.
     #[test]
     fn a_black_scene_is_in_the_noise() {
-        let config = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        let config =
+            gloam_sensor::load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
         let fit = predict(&config, &Array2::from_elem((8, 8), 0.0), None).unwrap();
         assert_eq!(fit.verdict, FitVerdict::InTheNoiseAtEveryGain, "{fit:?}");
     }

@@ -310,7 +310,7 @@ mod tests {
             }
         }
         assert_eq!(shifts, [4, 8, 0]);
-        let mut pages = TiffPages::open(&path).unwrap();
+        let mut pages = TiffPages::open(&path, &gloam_io::ReadLog::off()).unwrap();
         // Out of order: the reader goes back to an earlier page.
         for k in [1usize, 2, 0, 2] {
             // By the shift frames.jsonl records, and by the one the page's
@@ -328,7 +328,7 @@ mod tests {
             }
         }
         // A stack must be given its page.
-        let e = read_frame_counts(&path, &StoredAt::default())
+        let e = read_frame_counts(&path, &StoredAt::default(), &gloam_io::ReadLog::off())
             .unwrap_err()
             .to_string();
         assert!(e.contains("holds 3 pages"), "{e}");

@@ -169,11 +169,15 @@ pub fn write_preview(path: &Path, radiance: &Array3<f64>) -> Result<(), OutputEr
 /// calibration file written by a library that does not know the run).
 pub fn add_provenance(path: &Path, provenance: &crate::Provenance) -> Result<(), OutputError> {
     // The file is this run's output, not an input.
-    let text = gloam_io::unrecorded(|| gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES))
-        .map_err(|source| OutputError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let text = gloam_io::read_text(
+        path,
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &gloam_io::ReadLog::off(),
+    )
+    .map_err(|source| OutputError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let json_err = |source| OutputError::Json {
         path: path.to_path_buf(),
         source,

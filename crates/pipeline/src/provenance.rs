@@ -1,13 +1,15 @@
 //! Where an output came from: the gloam version and commit, the command
 //! line, the UTC time, and every input file with its SHA-256 — those named
-//! on the command line and every file the run read through
-//! `gloam_io` (scene, OBJ, spectra, instance CSVs, sensor
+//! on the command line and every file the run read through `gloam_io`
+//! into its [`ReadLog`] (scene, OBJ, spectra, instance CSVs, sensor
 //! files, LUTs, regions, sweep files, calibration sources, tiles) —
-//! recorded in every report, calibration file and manifest.
+//! recorded in every report, calibration file and manifest. The log is
+//! the run's own (made by whoever starts the run, the CLI or Python), so
+//! two runs in one process keep their inputs apart.
 
 use std::path::Path;
 
-use gloam_io::{InputFile, hash_file};
+use gloam_io::{InputFile, ReadLog, hash_file};
 use serde::Serialize;
 
 /// The provenance block of an output.
@@ -28,6 +30,9 @@ pub struct Provenance {
     /// listed.
     #[serde(skip_serializing_if = "is_zero")]
     pub inputs_not_listed: usize,
+    /// The run's reads, listed by [`Provenance::add_inputs_read`].
+    #[serde(skip)]
+    reads: ReadLog,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -43,8 +48,9 @@ pub const VERSION_WITH_COMMIT: &str = concat!(
 );
 
 impl Provenance {
-    /// The provenance of this process's run.
-    pub fn of_this_run() -> Self {
+    /// The provenance of this process's run (its command line), whose
+    /// reads go to `reads`.
+    pub fn of_this_run(reads: &ReadLog) -> Self {
         // As the OS gave them: a path need not be UTF-8 (the command line
         // is recorded lossily, the files are found by their own bytes).
         use std::os::unix::ffi::OsStrExt;
@@ -62,23 +68,27 @@ impl Provenance {
             .iter()
             .map(|w| w.to_string_lossy().into_owned())
             .collect();
-        Self::of_words(lossy, candidates)
+        Self::of_words(lossy, candidates, reads)
     }
 
     /// The provenance of a run with `command_line` (its first word the
-    /// program).
-    pub fn of_command_line(command_line: Vec<String>) -> Self {
+    /// program), whose reads go to `reads`.
+    pub fn of_command_line(command_line: Vec<String>, reads: &ReadLog) -> Self {
         let candidates = command_line
             .iter()
             .skip(1)
             .map(|w| w.rsplit_once('=').map_or(w.as_str(), |(_, v)| v).into())
             .collect();
-        Self::of_words(command_line, candidates)
+        Self::of_words(command_line, candidates, reads)
     }
 
     /// `command_line` as recorded, with each word's (after an `=`, its
     /// value's) path: those that name regular files are hashed.
-    fn of_words(command_line: Vec<String>, candidates: Vec<std::path::PathBuf>) -> Self {
+    fn of_words(
+        command_line: Vec<String>,
+        candidates: Vec<std::path::PathBuf>,
+        reads: &ReadLog,
+    ) -> Self {
         let mut inputs: Vec<InputFile> = Vec::new();
         let mut seen: Vec<&Path> = Vec::new();
         for path in &candidates {
@@ -97,18 +107,24 @@ impl Provenance {
             utc: utc_now(),
             inputs,
             inputs_not_listed: 0,
+            reads: reads.clone(),
         }
     }
 
-    /// Adds every file read so far through `gloam_io` (since
-    /// `record_reads`) that is not listed yet — the same file reached by
+    /// The log this run's reads go to.
+    pub fn reads(&self) -> &ReadLog {
+        &self.reads
+    }
+
+    /// Adds every file read so far into the run's log that is not listed
+    /// yet — the same file reached by
     /// another path counts once. A file read whole is listed with the hash
     /// of the bytes the run read; a streamed one is hashed now.
     pub fn add_inputs_read(&mut self) {
         let canon = |p: &str| std::fs::canonicalize(p).unwrap_or_else(|_| p.into());
         let mut seen: std::collections::HashSet<std::path::PathBuf> =
             self.inputs.iter().map(|i| canon(&i.path)).collect();
-        for r in gloam_io::reads() {
+        for r in self.reads.reads() {
             let c = std::fs::canonicalize(&r.path).unwrap_or_else(|_| r.path.clone());
             if !seen.insert(c) {
                 continue;
@@ -123,7 +139,7 @@ impl Provenance {
             };
             self.inputs.extend(f);
         }
-        self.inputs_not_listed = gloam_io::reads_not_recorded();
+        self.inputs_not_listed = self.reads.not_recorded();
     }
 }
 
@@ -167,18 +183,53 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("scene.toml");
         std::fs::write(&f, b"abc").unwrap();
-        let p = Provenance::of_command_line(vec![
-            "gloam".into(),
-            "render".into(),
-            f.display().to_string(),
-            format!("--lut={}", f.display()),
-            "--out".into(),
-            dir.path().join("missing").display().to_string(),
-        ]);
+        let log = ReadLog::new();
+        let p = Provenance::of_command_line(
+            vec![
+                "gloam".into(),
+                "render".into(),
+                f.display().to_string(),
+                format!("--lut={}", f.display()),
+                "--out".into(),
+                dir.path().join("missing").display().to_string(),
+            ],
+            &log,
+        );
         assert_eq!(p.inputs.len(), 1, "{:?}", p.inputs);
         assert_eq!(p.inputs[0].bytes, 3);
         assert_eq!(p.inputs[0].sha256, sha256_hex(b"abc"));
         // ISO-8601 with a Z.
         assert!(p.utc.ends_with('Z') && p.utc.contains('T'), "{}", p.utc);
+    }
+
+    /// The files read into the run's own log are added once each (the
+    /// command line's file not again), with the hash of the bytes read;
+    /// another run's log adds nothing.
+    #[test]
+    fn inputs_read_come_from_the_runs_own_log() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.toml"), dir.path().join("b.obj"));
+        std::fs::write(&a, b"abc").unwrap();
+        std::fs::write(&b, b"v 0 0 0").unwrap();
+        let (log, other) = (ReadLog::new(), ReadLog::new());
+        let mut p =
+            Provenance::of_command_line(vec!["gloam".into(), a.display().to_string()], &log);
+        for f in [&a, &b, &b] {
+            gloam_io::read_bounded(f, 100, &log).unwrap();
+        }
+        gloam_io::read_bounded(&b, 100, &other).unwrap();
+        let mut q = Provenance::of_command_line(vec!["gloam".into()], &ReadLog::new());
+        p.add_inputs_read();
+        q.add_inputs_read();
+        let listed: Vec<(&str, &str)> = (p.inputs.iter())
+            .map(|i| (i.path.as_str(), i.sha256.as_str()))
+            .collect();
+        let (ha, hb) = (sha256_hex(b"abc"), sha256_hex(b"v 0 0 0"));
+        let (pa, pb) = (a.display().to_string(), b.display().to_string());
+        assert_eq!(
+            listed,
+            [(pa.as_str(), ha.as_str()), (pb.as_str(), hb.as_str())]
+        );
+        assert!(q.inputs.is_empty(), "{:?}", q.inputs);
     }
 }

@@ -28,7 +28,8 @@ use crate::render::{
 };
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
-use gloam_io::OutputSet;
+use gloam_io::{OutputSet, ReadLog};
+use gloam_sensor::ResolvedSensor;
 
 /// The scene of a request: a file to read, or one a front end holds
 /// already (Python's `Scene`).
@@ -140,7 +141,9 @@ impl RenderRequest {
     /// checked before the render: the tile, the settings, the camera (its
     /// sensor loads, its gain is in range), flags that need a camera or
     /// exclude each other, and `--target-error camera`'s conditions.
-    pub fn validate(&self) -> Result<ValidRender, RenderError> {
+    /// `reads` is the run's log: the scene, the files it names and the
+    /// sensor file are noted there, and the run's provenance lists them.
+    pub fn validate(&self, reads: &ReadLog) -> Result<ValidRender, RenderError> {
         let c = &self.camera;
         // Pairs that exclude each other (clap refuses them on the command
         // line first; a request from elsewhere is checked here).
@@ -162,7 +165,7 @@ impl RenderRequest {
         let (scene, scene_path, load_s) = match &self.scene {
             SceneInput::File(path) => {
                 let t = Instant::now();
-                let scene = Arc::new(gloam_scene::load(path)?);
+                let scene = Arc::new(gloam_scene::load(path, reads)?);
                 (scene, path.clone(), t.elapsed().as_secs_f64())
             }
             SceneInput::Loaded {
@@ -173,8 +176,12 @@ impl RenderRequest {
         };
         let tile = self.tile.as_deref().map(TileSpec::parse).transpose()?;
         let settings = self.settings.settings()?;
-        let camera = camera_of(c.sensor.as_deref(), &scene).map(str::to_string);
         let frame_format = c.frame_format()?;
+        // Read once: the detected band, the camera goal and the capture
+        // share it.
+        let camera = (camera_of(c.sensor.as_deref(), &scene))
+            .map(|name| crate::resolve_sensor(name, reads))
+            .transpose()?;
         // A tile is traced with the camera's band all the same (the effect
         // plan weighs every band, so a tile makes the whole render's
         // decisions) but captures nothing.
@@ -191,6 +198,7 @@ impl RenderRequest {
             layers: self.layers,
             out: self.out.clone(),
             settings,
+            reads: reads.clone(),
         };
         match valid.frame_capture() {
             Some(fc) => fc.check()?,
@@ -234,7 +242,7 @@ pub(crate) struct Capture {
 
 impl Capture {
     /// The capture through `sensor` with noise seed `seed`.
-    pub(crate) fn through<'a>(&self, sensor: &'a str, seed: u64) -> FrameCapture<'a> {
+    pub(crate) fn through<'a>(&self, sensor: &'a ResolvedSensor, seed: u64) -> FrameCapture<'a> {
         FrameCapture {
             sensor,
             frames: self.frames,
@@ -300,14 +308,16 @@ pub struct ValidRender {
     /// The settings, the default error target applied.
     pub settings: RenderSettings,
     pub target_error_source: Option<TargetErrorSource>,
-    /// The camera the render is for ([`camera_of`]).
-    pub camera: Option<String>,
+    /// The camera the render is for ([`camera_of`]), read once.
+    pub camera: Option<ResolvedSensor>,
     capture: Option<Capture>,
     /// `K` of `--target-error camera[:K]`.
     pub camera_k: Option<f64>,
     pub tile: Option<TileSpec>,
     pub layers: bool,
     pub out: Option<OutputDir>,
+    /// The run's log of what it read (its provenance's inputs).
+    reads: ReadLog,
 }
 
 /// What a render tells its front end as it runs. Every method has a
@@ -348,7 +358,7 @@ pub struct RenderDone {
 impl ValidRender {
     /// The capture of a render with a camera (not a tile).
     pub fn frame_capture(&self) -> Option<FrameCapture<'_>> {
-        let (sensor, c) = (self.camera.as_deref()?, self.capture.as_ref()?);
+        let (sensor, c) = (self.camera.as_ref()?, self.capture.as_ref()?);
         Some(c.through(sensor, self.settings.seed))
     }
 
@@ -357,14 +367,14 @@ impl ValidRender {
     /// publishes the set.
     pub fn run(self, events: &dyn Events) -> Result<RenderDone, RenderError> {
         let t_start = Instant::now();
-        let mut provenance = Provenance::of_this_run();
+        let mut provenance = Provenance::of_this_run(&self.reads);
         // Refused up front when the directory is in use; the files appear
         // at once when the set is published.
         let set = (self.out.as_ref())
             .map(|o| OutputSet::begin(&o.path, o.force, false))
             .transpose()?;
         let job = RenderJob {
-            camera: self.camera.as_deref(),
+            camera: self.camera.as_ref(),
             observer: events.preparation(),
             layers: self.layers,
             ..RenderJob::new(&self.scene, &self.settings)
@@ -421,8 +431,8 @@ impl ValidRender {
             let dir = set.dir();
             write_atomic(&dir.join("report.json"), report.to_pretty()?.as_bytes())?;
             if let Some(layers) = &rendered.layers {
-                let mut index = layers.json(self.settings.seed);
-                index["provenance"] = to_value(&provenance)?;
+                let mut index = layers.index(self.settings.seed);
+                index.provenance = Some(provenance.clone());
                 let index = serde_json::to_string_pretty(&index).map_err(RenderError::Encode)?;
                 write_atomic(&dir.join("layers.json"), index.as_bytes())?;
             }
@@ -433,7 +443,7 @@ impl ValidRender {
                 }
                 // No path: `dir` is the hidden staging directory until the
                 // set is published.
-                let (n, sensor) = (capture.frames, capture.sensor);
+                let (n, sensor) = (capture.frames, capture.sensor.name());
                 events.note(&format!("captured {n} frame(s) through '{sensor}'"));
             }
             set.publish(&provenance, None)?;
@@ -464,15 +474,14 @@ impl RenderDone {
             ));
         }
         if let Some(t) = &report.camera_target {
-            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
             lines.push(format!(
                 "--target-error camera:{}: each pixel rendered until its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
-                f("k"),
-                100.0 * f("asked_added_variance_fraction"),
-                f("gain"),
-                100.0 * f("added_variance_fraction_median"),
-                100.0 * f("added_variance_fraction_p99"),
-                f("mean_spp"),
+                t.k,
+                100.0 * t.asked_added_variance_fraction,
+                t.gain,
+                100.0 * t.added_variance_fraction_median,
+                100.0 * t.added_variance_fraction_p99,
+                t.mean_spp.unwrap_or(f64::NAN),
             ));
         }
         if let Some(b) = &e.bias
@@ -544,7 +553,7 @@ pub struct RenderReport {
     /// `--target-error camera[:K]`: what the camera's noise allowed and
     /// what the render added ([`CameraGoal::report`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<serde_json::Value>,
+    pub camera_target: Option<crate::camera_goal::CameraTarget>,
     pub provenance: Provenance,
 }
 

@@ -209,7 +209,7 @@ pub struct PoseRender {
     /// With `--target-error camera`: the pose's `camera_target`
     /// ([`crate::camera_goal::CameraGoal::report_layered`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<serde_json::Value>,
+    pub camera_target: Option<crate::camera_goal::CameraTarget>,
 }
 
 /// Captures `sequence` from the layers (`groups[i]`'s detected radiance,
@@ -390,7 +390,7 @@ type StateKeys = std::collections::HashMap<(Vec<[u64; 4]>, Option<usize>), usize
 struct PoseCache<'a> {
     job: &'a SceneSequence<'a>,
     capture: &'a FrameCapture<'a>,
-    camera: &'a str,
+    camera: &'a crate::ResolvedSensor,
     /// With `--target-error camera`: per pose, its frames' weightings.
     mixes: Vec<crate::camera_goal::Mixes>,
     /// The camera's level as frame 0's pose's goal decided it.
@@ -631,7 +631,7 @@ impl<'a> PoseCache<'a> {
         (
             crate::render::Layers,
             gloam_scene::plan::EffectPlan,
-            Option<serde_json::Value>,
+            Option<crate::camera_goal::CameraTarget>,
         ),
         SequenceError,
     > {
@@ -699,13 +699,8 @@ fn sequence_config(
     sequence: &Sequence,
     capture: &FrameCapture<'_>,
 ) -> Result<gloam_sensor::SensorConfig, SequenceError> {
-    let mut config = gloam_sensor::load_preset_or_file(capture.sensor)
-        .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
-            sensor: capture.sensor.to_string(),
-            source,
-        })
-        .map_err(CaptureError::from)?;
-    check_video_rate(sequence, capture.sensor, &config)?;
+    let mut config = capture.sensor.config().clone();
+    check_video_rate(sequence, capture.sensor.name(), &config)?;
     config.timing.frame_rate_hz = sequence.frame_rate_hz;
     config.timing.exposure_s = config.timing.exposure_s.min(sequence.frame_period_s());
     Ok(config)
@@ -770,52 +765,53 @@ fn capture_with(
     let mut gain_over_time = Vec::new();
     let (mut medians, mut throughput_over_time) = (Vec::new(), Vec::new());
     let t_capture = Instant::now();
-    let captured = capture.capture_configured(config, &first, Some(&mut image), &mut |mut f| {
-        if failed.borrow().is_some() {
-            // A pose's render failed: stop here; the error returned
-            // below is that failure, not this placeholder.
-            return Err(CaptureError::Encode(serde::de::Error::custom(
-                "stopped: a render failed",
-            )));
-        }
-        let i = f.record.index as usize;
-        if let Some(p) = places.borrow().get(i) {
-            gain_over_time.push((p.time_s, f.record.gain));
-            let mut p = p.clone();
-            if let Some(sky) = &p.sky {
-                // The camera's own median when its AGC metered one.
-                let median = (f.record.sensor.as_ref())
-                    .and_then(|m| m.median_dn)
-                    .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
-                    - f.black_dn;
-                p.median_above_black_dn = Some(median);
-                medians.push((p.time_s, median, sky.horizontal_lux));
+    let captured =
+        capture.capture_configured(config, &first, Some(&mut image), &mut |f, mut rec| {
+            if failed.borrow().is_some() {
+                // A pose's render failed: stop here; the error returned
+                // below is that failure, not this placeholder.
+                return Err(CaptureError::Encode(serde::de::Error::custom(
+                    "stopped: a render failed",
+                )));
             }
-            if let Some(d) = f.record.gate_duty {
-                throughput_over_time.push((p.time_s, f.record.gain * d));
+            let i = rec.index as usize;
+            if let Some(p) = places.borrow().get(i) {
+                gain_over_time.push((p.time_s, rec.gain));
+                let mut p = p.clone();
+                if let Some(sky) = &p.sky {
+                    // The camera's own median when its AGC metered one.
+                    let median = (rec.sensor.as_ref())
+                        .and_then(|m| m.median_dn)
+                        .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
+                        - rec.black_dn.unwrap_or(0.0);
+                    p.median_above_black_dn = Some(median);
+                    medians.push((p.time_s, median, sky.horizontal_lux));
+                }
+                if let Some(d) = rec.gate_duty {
+                    throughput_over_time.push((p.time_s, rec.gain * d));
+                }
+                rec.sequence = Some(p);
             }
-            f.record.sequence = Some(p);
-        }
-        let r = &f.record;
-        let black = r.black_dn.unwrap_or(0.0);
-        animation.add(
-            r.index,
-            r.width,
-            r.height,
-            &f.pixels,
-            black,
-            r.saturated_at_dn,
-        );
-        let w = match &mut writer {
-            Some(w) => w,
-            None => writer.insert(FrameWriter::with_format(
-                out,
-                capture.frame_format,
-                context.clone(),
-            )?),
-        };
-        Ok(w.write(&f.record, &f.pixels)?)
-    });
+            let r = &rec;
+            let black = r.black_dn.unwrap_or(0.0);
+            animation.add(
+                r.index,
+                r.width,
+                r.height,
+                &f.pixels,
+                black,
+                r.saturated_at_dn,
+            );
+            let w = match &mut writer {
+                Some(w) => w,
+                None => writer.insert(FrameWriter::with_format(
+                    out,
+                    capture.frame_format,
+                    context.clone(),
+                )?),
+            };
+            Ok(w.write(&rec, &f.pixels)?)
+        });
     if let Some(e) = failed.borrow_mut().take() {
         return Err(e);
     }
@@ -840,9 +836,9 @@ fn capture_with(
             sequence.frames,
             sequence.frame_rate_hz,
             // A sensor file's name, not its path: the title stays short.
-            Path::new(capture.sensor)
+            Path::new(capture.sensor.name())
                 .file_stem()
-                .map_or(capture.sensor.into(), |s| s.to_string_lossy())
+                .map_or(capture.sensor.name().into(), |s| s.to_string_lossy())
         ),
         ("time, s", gloam_calib::plot::Scale::Linear),
         ("gain in effect", gloam_calib::plot::Scale::Log10),
@@ -1069,6 +1065,14 @@ impl Animation {
 mod tests {
     use super::*;
 
+    /// The Gen III preset, read once for the tests' captures and renders.
+    fn gen3() -> &'static gloam_sensor::ResolvedSensor {
+        static G: std::sync::OnceLock<gloam_sensor::ResolvedSensor> = std::sync::OnceLock::new();
+        G.get_or_init(|| {
+            gloam_sensor::ResolvedSensor::load("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap()
+        })
+    }
+
     #[test]
     fn mixing_is_the_weighted_sum_in_f64() {
         let a = Array2::from_shape_fn((3, 4), |(r, c)| (r * 4 + c) as f64);
@@ -1098,7 +1102,7 @@ mod tests {
             Array2::from_elem((36, 48), 2e12),
         ];
         let capture = FrameCapture {
-            sensor: "gen3-gaas-iccd",
+            sensor: gen3(),
             frames: seq.frames,
             gain: None,
             agc: true,
@@ -1214,12 +1218,15 @@ value = 1e-4
         let scene_path = dir.join("scene.toml");
         std::fs::write(&scene_path, car_scene("", "")).unwrap();
         let sequence = gloam_scene::sequence::parse_sequence(seq, &dir.join("seq.toml")).unwrap();
-        (gloam_scene::load(&scene_path).unwrap(), sequence)
+        (
+            gloam_scene::load(&scene_path, &gloam_io::ReadLog::off()).unwrap(),
+            sequence,
+        )
     }
 
     fn quiet_capture(frames: u32) -> FrameCapture<'static> {
         FrameCapture {
-            sensor: "gen3-gaas-iccd",
+            sensor: gen3(),
             frames,
             gain: Some(100.0),
             agc: false,
@@ -1289,7 +1296,7 @@ value = 1e-4
         )
         .unwrap();
         let still = crate::render::RenderJob {
-            camera: Some("gen3-gaas-iccd"),
+            camera: Some(gen3()),
             layers: true,
             ..crate::render::RenderJob::new(&placed, &settings())
         }
@@ -1310,7 +1317,7 @@ value = 1e-4
         assert!(rel < 1e-9, "{rel}");
         // And the car is in the picture: the scene as written differs.
         let written = crate::render::RenderJob {
-            camera: Some("gen3-gaas-iccd"),
+            camera: Some(gen3()),
             ..crate::render::RenderJob::new(&scene, &settings())
         }
         .run(&|_, _| {}, &|| false)
@@ -1388,7 +1395,8 @@ value = 1e-4
             )
             .unwrap()
         };
-        let gen3 = gloam_sensor::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let gen3 =
+            gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         check_video_rate(&seq(25.0), "gen3", &gen3).unwrap();
         let e = check_video_rate(&seq(30.0), "gen3", &gen3).unwrap_err();
         assert!(
@@ -1402,7 +1410,8 @@ value = 1e-4
         check_video_rate(&seq(30.0), "rs170", &rs170).unwrap();
         check_video_rate(&seq(25.0), "rs170", &rs170).unwrap_err();
         // A camera without analogue video takes any rate.
-        let mut ccd = gloam_sensor::load_preset_or_file("scientific-ccd").unwrap();
+        let mut ccd =
+            gloam_sensor::load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
         ccd.video = None;
         check_video_rate(&seq(30.0), "ccd", &ccd).unwrap();
     }

@@ -36,7 +36,7 @@ fn main() {
     for arg in std::env::args().skip(1) {
         let (rss0, _) = rss();
         let (t, c) = (Instant::now(), cpu_seconds());
-        match gloam_scene::load(std::path::Path::new(&arg)) {
+        match gloam_scene::load(std::path::Path::new(&arg), &gloam_io::ReadLog::off()) {
             Ok(scene) => {
                 let (wall, cpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - c);
                 let (rss1, peak) = rss();

@@ -31,6 +31,8 @@ type R<T> = Result<T, SceneError>;
 struct Ctx<'a> {
     loc: Locator<'a>,
     path: &'a Path,
+    /// Where the files the scene names are noted.
+    reads: &'a gloam_io::ReadLog,
     /// Read once, when a size is first checked.
     memory: std::cell::OnceCell<Option<u64>>,
 }
@@ -126,10 +128,11 @@ pub const MAX_WAVELENGTH_NM: f64 = 1e6;
 /// Narrowest horizontal field of view, degrees.
 pub const MIN_FOV_DEG: f64 = 1e-3;
 
-pub(crate) fn build(text: &str, path: &Path) -> R<Scene> {
+pub(crate) fn build(text: &str, path: &Path, reads: &gloam_io::ReadLog) -> R<Scene> {
     let cx = Ctx {
         loc: Locator::new(text, path),
         path,
+        reads,
         memory: std::cell::OnceCell::new(),
     };
     let raw: RawScene = toml::from_str(text).map_err(|e| cx.loc.error_at(e.span(), e.message()))?;
@@ -467,7 +470,7 @@ fn named_spectrum(cx: &Ctx, field: &FieldPath, name: &str) -> R<Spectrum> {
     // Anything on disk by that name is read (and a directory or device
     // refused by name), not reported as missing.
     if p.exists() {
-        return gloam_spectra::read_csv(&p)
+        return gloam_spectra::read_csv(&p, cx.reads)
             .map_err(|e| cx.err(field, format!("spectrum file: {e}")));
     }
     Err(cx.err(
@@ -944,7 +947,7 @@ fn placements(
         }
         (None, Some(file)) => {
             let p = cx.resolve(file);
-            let list = read_placements_csv(&p, MAX_COORDINATE)
+            let list = read_placements_csv(&p, MAX_COORDINATE, cx.reads)
                 .map_err(|m| cx.err(&csvf, format!("placements file {m}")))?;
             Ok((Some(list), csvf))
         }
@@ -1440,7 +1443,7 @@ fn obj_geometry(rd: &GeometryReader, file: &str, sink: &mut FacetSink) -> R<()> 
         ignore_lines: false,
         ..Default::default()
     };
-    let bytes = gloam_io::read_bounded(&p, gloam_io::MAX_MESH_FILE_BYTES)
+    let bytes = gloam_io::read_bounded(&p, gloam_io::MAX_MESH_FILE_BYTES, cx.reads)
         .map_err(|e| cx.err(&at, format!("cannot read OBJ file {}: {e}", p.display())))?;
     // The face lines bound the facets: refuse an oversized mesh (or
     // placement count) before the OBJ parser allocates for it.
@@ -2008,7 +2011,7 @@ fn measured(
         return Err(cx.err(&pf, "missing file name"));
     };
     let path = cx.resolve(file);
-    let table = crate::photometry::Photometry::read(&path)
+    let table = crate::photometry::Photometry::read(&path, cx.reads)
         .map_err(|e| cx.err(&pf, format!("photometry file: {e}")))?;
     let shape = spectrum_parts(
         cx,

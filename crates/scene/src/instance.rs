@@ -281,13 +281,15 @@ pub(crate) enum RowError {
 pub(crate) fn read_placements_csv(
     path: &Path,
     max_coordinate: f64,
+    reads: &gloam_io::ReadLog,
 ) -> Result<Vec<Placement>, PlacementsError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        PlacementsError::Read {
-            path: path.to_path_buf(),
-            source,
-        }
-    })?;
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            PlacementsError::Read {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     parse_placements_csv(&text, path, max_coordinate, MAX_INSTANCES)
 }
 
@@ -401,7 +403,7 @@ pub fn available_memory_bytes() -> Option<u64> {
         kb.checked_mul(1024)
     });
     let read_u64 = |p: &str| -> Option<u64> {
-        gloam_io::read_text(std::path::Path::new(p), 1 << 16)
+        gloam_io::read_text(std::path::Path::new(p), 1 << 16, &gloam_io::ReadLog::off())
             .ok()?
             .trim()
             .parse()

@@ -28,21 +28,33 @@ pub use instance::{
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
 /// OBJ files, sensor files) are resolved against the scene file's directory.
-pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        SceneError::Io {
-            path: path.to_path_buf(),
-            what: "scene",
-            source,
-        }
-    })?;
-    parse_str(&text, path)
+/// `reads` notes the scene file and every file it leads to.
+pub fn load(path: &Path, reads: &gloam_io::ReadLog) -> Result<Scene, SceneError> {
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            SceneError::Io {
+                path: path.to_path_buf(),
+                what: "scene",
+                source,
+            }
+        })?;
+    parse_str_noting(&text, path, reads)
 }
 
 /// Parses and validates scene text; `path` names the file in errors and is
 /// the base for relative paths (it need not exist).
 pub fn parse_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
-    build::build(text, path)
+    parse_str_noting(text, path, &gloam_io::ReadLog::off())
+}
+
+/// [`parse_str`], noting the files the scene names (spectra, OBJ,
+/// placements, photometry) in `reads`.
+pub fn parse_str_noting(
+    text: &str,
+    path: &Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<Scene, SceneError> {
+    build::build(text, path, reads)
 }
 
 /// Length unit of a scene's geometry.

@@ -216,14 +216,16 @@ struct RawTrack {
 
 /// Reads and checks a sequence file (bounded read, errors as
 /// `file:line: field: message`).
-pub fn load_sequence(path: &Path) -> Result<Sequence, SceneError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        SceneError::Io {
-            path: path.to_path_buf(),
-            what: "sequence",
-            source,
-        }
-    })?;
+/// `reads` notes the file.
+pub fn load_sequence(path: &Path, reads: &gloam_io::ReadLog) -> Result<Sequence, SceneError> {
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            SceneError::Io {
+                path: path.to_path_buf(),
+                what: "sequence",
+                source,
+            }
+        })?;
     parse_sequence(&text, path)
 }
 

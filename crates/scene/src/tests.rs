@@ -469,6 +469,43 @@ fn obj_quads_kept_and_transformed() {
     assert_eq!(quads[1].vertices.len(), 3);
 }
 
+/// A load notes in its log the scene and the files it leads to (here a
+/// CSV spectrum and an OBJ mesh), each with the hash of its bytes.
+#[test]
+fn load_notes_the_scene_and_the_files_it_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_path(dir.path());
+    let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n";
+    let csv = "wavelength_nm,value\n400,0.2\n700,0.4\n";
+    std::fs::write(dir.path().join("t.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("paint.csv"), csv).unwrap();
+    let text = format!("{BASE}[objects.m]\nmaterial = \"grey\"\nobj = \"t.obj\"\n")
+        .replace("reflectance = 0.5", "reflectance = \"paint.csv\"");
+    std::fs::write(&path, &text).unwrap();
+    let log = gloam_io::ReadLog::new();
+    crate::load(&path, &log).unwrap();
+    let got: Vec<(String, Option<String>)> = log
+        .reads()
+        .into_iter()
+        .map(|r| {
+            let name = r.path.file_name().unwrap().to_string_lossy().into_owned();
+            (name, r.sha256)
+        })
+        .collect();
+    let sha = |s: &str| Some(gloam_io::sha256_hex(s.as_bytes()));
+    assert_eq!(
+        got,
+        [
+            (
+                path.file_name().unwrap().to_string_lossy().into_owned(),
+                sha(&text)
+            ),
+            ("paint.csv".into(), sha(csv)),
+            ("t.obj".into(), sha(obj)),
+        ]
+    );
+}
+
 // --- radiometry ----------------------------------------------------------------
 
 #[test]
@@ -857,7 +894,11 @@ fn file_order_of_materials_and_objects() {
 fn unreadable_file() {
     // The path, no made-up line, and the OS's reason once (as the source,
     // which `{:#}` chains).
-    let e = crate::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
+    let e = crate::load(
+        Path::new("/nonexistent/scene.toml"),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap_err();
     assert_eq!(
         e.to_string(),
         "/nonexistent/scene.toml: cannot read the scene file"

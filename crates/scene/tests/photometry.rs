@@ -22,7 +22,11 @@ fn data(name: &str) -> PathBuf {
 /// its author used, so agreement to 0.5 % is what the data support.
 #[test]
 fn published_road_luminaire_flux_matches_its_header() {
-    let p = Photometry::read(&data("road-luminaire-son-tpp-250w.ldt")).unwrap();
+    let p = Photometry::read(
+        &data("road-luminaire-son-tpp-250w.ldt"),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap();
     assert_eq!(p.symmetry, Symmetry::BilateralC90);
     assert_eq!(p.vertical_deg.len(), 25);
     assert_eq!(p.horizontal_deg.len(), 27);

@@ -14,7 +14,8 @@ fn sim(name: &str) -> PathBuf {
 
 #[test]
 fn panel_validation_scene() {
-    let s = load(&sim("panel-validation")).unwrap_or_else(|e| panic!("{e}"));
+    let s =
+        load(&sim("panel-validation"), &gloam_io::ReadLog::off()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.units, Units::Feet);
     assert_eq!(s.meters_per_unit, 0.3048);
     assert!(s.sky.is_none());
@@ -85,7 +86,7 @@ fn panel_validation_scene() {
 
 #[test]
 fn office_room_scene() {
-    let s = load(&sim("office-room")).unwrap_or_else(|e| panic!("{e}"));
+    let s = load(&sim("office-room"), &gloam_io::ReadLog::off()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.units, Units::Feet);
     assert!(
         s.facets.len() > 50 && s.facets.len() < 500,
@@ -192,7 +193,7 @@ fn check_person(s: &gloam_scene::Scene) {
 
 #[test]
 fn street_ies_scene_reads_its_luminaire() {
-    let s = load(&sim("street-ies")).unwrap_or_else(|e| panic!("{e}"));
+    let s = load(&sim("street-ies"), &gloam_io::ReadLog::off()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.point_sources.len(), 1);
     let p = &s.point_sources[0];
     let lum = p.luminaire.as_ref().expect("a measured luminaire");

@@ -19,7 +19,8 @@ fn chain(c: &mut Criterion) {
         );
     }
 
-    let cfg = SensorConfig::load_preset_or_file("gen3-gaas-iccd").expect("preset");
+    let cfg = SensorConfig::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off())
+        .expect("preset");
     let mut cam = Camera::new(cfg).expect("valid");
     let scene = test_scene(w, h, 2.0);
     let mut g = c.benchmark_group("sensor");

@@ -6,11 +6,11 @@
 //! refactor of the chain and `diff` the two outputs: any change in any
 //! result shows as a changed line.
 
-use gloam_sensor::{Camera, DigitizedFrame, SensorConfig, bench::test_scene};
+use gloam_sensor::{Camera, Frame, SensorConfig, bench::test_scene};
 use gloam_spectra::Spectrum;
-use ndarray::{Array2, Array3};
+use ndarray::Array3;
 
-fn fnv1a(pixels: &Array2<u16>) -> u64 {
+fn fnv1a(pixels: &[u16]) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     for &p in pixels.iter() {
         for b in p.to_le_bytes() {
@@ -21,20 +21,24 @@ fn fnv1a(pixels: &Array2<u16>) -> u64 {
     h
 }
 
-fn line(tag: &str, f: &DigitizedFrame) {
+fn line(tag: &str, f: &Frame) {
     let sum: u64 = f.pixels.iter().map(|&p| p as u64).sum();
     println!(
         "{tag}: fnv={:016x} sum={sum} mean={:016x} sat={:016x} gain={:016x} agc={:?} v={:?}",
         fnv1a(&f.pixels),
-        f.meta.mean_dn.to_bits(),
-        f.meta.saturated_fraction.to_bits(),
-        f.meta.gain_in_effect.to_bits(),
-        f.meta.agc_state,
-        f.meta.control_voltage_v.map(f64::to_bits),
+        f.sensor().unwrap().mean_dn.to_bits(),
+        f.sensor().unwrap().saturated_fraction.to_bits(),
+        f.sensor().unwrap().gain_in_effect.to_bits(),
+        f.sensor().unwrap().agc_state,
+        f.sensor().unwrap().control_voltage_v.map(f64::to_bits),
     );
     // The bright-source stages' account (shortest round-trip floats, so
     // exact).
-    println!("  {:?} mcp_v={:?}", f.meta.saturation, f.meta.mcp_voltage_v);
+    println!(
+        "  {:?} mcp_v={:?}",
+        f.sensor().unwrap().saturation,
+        f.sensor().unwrap().mcp_voltage_v
+    );
 }
 
 /// FNV-1a of the scope lines' electrons (bit patterns).

@@ -50,8 +50,10 @@ fn main() {
     };
     let band = Spectrum::constant(400.0, 700.0, 1.0).expect("band");
     for (label, img, radiance) in scenes {
-        let mut cam =
-            Camera::new(SensorConfig::load_preset_or_file(preset).expect("preset")).expect("valid");
+        let mut cam = Camera::new(
+            SensorConfig::load_preset_or_file(preset, &gloam_io::ReadLog::off()).expect("preset"),
+        )
+        .expect("valid");
         let mut ms = Vec::with_capacity(frames);
         let mut cpu0 = 0.0;
         for i in 0..frames.max(1) + 2 {

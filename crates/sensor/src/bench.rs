@@ -83,7 +83,8 @@ pub fn throughput_at(
     frames: usize,
     level: f64,
 ) -> Result<Throughput, ConfigError> {
-    let mut cfg = SensorConfig::load_preset_or_file(preset)?;
+    // A timing, not a run whose inputs are recorded.
+    let mut cfg = SensorConfig::load_preset_or_file(preset, &gloam_io::ReadLog::off())?;
     cfg.noise.enabled = true;
     let mut cam = Camera::new(cfg)?;
     let scene = test_scene(width, height, level);

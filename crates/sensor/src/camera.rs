@@ -16,15 +16,9 @@ use crate::stages::list::{InFlight, Stages};
 use crate::stages::{Chain, FrameNoise, Tube};
 
 pub use gloam_io::frame::SensorMeta;
+use gloam_io::frame::{DnLevels, FrameMeta, FrameStatus};
 
-/// One digitised frame: `height × width` digital counts, with the
-/// settings in effect — what the camera model's digitizer hands on (a
-/// frame grabber wraps it in its own `Frame`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct DigitizedFrame {
-    pub pixels: Array2<u16>,
-    pub meta: SensorMeta,
-}
+pub use gloam_io::frame::Frame;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Mode {
@@ -99,9 +93,12 @@ impl Camera {
         })
     }
 
-    /// A built-in preset or a TOML file.
-    pub fn from_preset_or_file(name_or_path: &str) -> Result<Self, ConfigError> {
-        Self::new(SensorConfig::load_preset_or_file(name_or_path)?)
+    /// A built-in preset or a TOML file (noted in `reads`).
+    pub fn from_preset_or_file(
+        name_or_path: &str,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self, ConfigError> {
+        Self::new(SensorConfig::load_preset_or_file(name_or_path, reads)?)
     }
 
     /// The derived chain with the analytic transfer.
@@ -214,7 +211,7 @@ impl Camera {
         &mut self,
         radiance_w_m2_sr: ArrayView3<f64>,
         band_shapes: &[Spectrum],
-    ) -> Result<DigitizedFrame, CaptureError> {
+    ) -> Result<Frame, CaptureError> {
         let (bands, rows, cols) = radiance_w_m2_sr.dim();
         if bands != band_shapes.len() {
             return Err(CaptureError::BandMismatch {
@@ -260,7 +257,7 @@ impl Camera {
     pub fn capture_detected(
         &mut self,
         detected_e_s_m2_sr: ArrayView2<f64>,
-    ) -> Result<DigitizedFrame, CaptureError> {
+    ) -> Result<Frame, CaptureError> {
         let (rows, cols) = detected_e_s_m2_sr.dim();
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
@@ -275,7 +272,7 @@ impl Camera {
         &mut self,
         radiance_w_m2_sr: ArrayView2<f64>,
         shape: &Spectrum,
-    ) -> Result<DigitizedFrame, CaptureError> {
+    ) -> Result<Frame, CaptureError> {
         let view = radiance_w_m2_sr.insert_axis(Axis(0));
         self.capture(view, std::slice::from_ref(shape))
     }
@@ -287,7 +284,7 @@ impl Camera {
     pub fn capture_photoelectrons(
         &mut self,
         pe_per_pixel: ArrayView2<f64>,
-    ) -> Result<DigitizedFrame, CaptureError> {
+    ) -> Result<Frame, CaptureError> {
         let (rows, cols) = pe_per_pixel.dim();
         if rows == 0 || cols == 0 {
             return Err(CaptureError::EmptyImage { rows, cols });
@@ -338,7 +335,7 @@ impl Camera {
         rows: usize,
         cols: usize,
         apply_vignette: bool,
-    ) -> Result<DigitizedFrame, CaptureError> {
+    ) -> Result<Frame, CaptureError> {
         let chain = &self.chain;
         // The tube's ABC: MCP voltage first, then the gate.
         let (mut abc, abc_out_of_range) = self.stages.abc_setting(chain.gain_min / self.gain);
@@ -419,11 +416,57 @@ impl Camera {
             );
             (self.gain, self.duty, self.agc_state) = (s.gain, s.duty, s.state);
         }
-        Ok(DigitizedFrame {
-            pixels: f.pixels,
-            meta,
+        let pixels = row_major(f.pixels);
+        Ok(Frame {
+            meta: self.frame_meta(meta, &pixels),
+            pixels,
         })
     }
+
+    /// The meta of a frame just made with the sensor's own figures `m`:
+    /// its levels and gate at its gain as the chain gives them, its start
+    /// (µs, rounded) as the frame clock's, no exposure (the figures' own
+    /// `exposure_s` says it).
+    fn frame_meta(&self, m: SensorMeta, pixels: &[u16]) -> FrameMeta {
+        let (chain, g) = (&self.chain, m.gain_in_effect);
+        FrameMeta {
+            seq: m.seq,
+            timestamp_us: (m.time_s * 1e6).round() as u64,
+            gain: g,
+            agc: m.agc_enabled,
+            bits: m.bits,
+            width: m.width as u32,
+            height: m.height as u32,
+            pixels_crc32c: gloam_io::frame::pixels_crc32c(pixels),
+            status: FrameStatus::Ok,
+            levels: Some(DnLevels {
+                black_dn: chain.black_dn(g),
+                saturation_dn: chain.saturation_dn(g),
+                saturated_at_dn: chain.saturated_threshold_dn(g),
+                electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
+            }),
+            exposure_us: None,
+            // The duty in effect: the configured gate times the tube's and
+            // the AGC's cuts.
+            gate_duty: (chain.config.photocathode.as_ref())
+                .map(|p| p.gate_duty * m.saturation.abc.duty_factor),
+            nd_density: Some(chain.config.optics.nd_density),
+            sensor: Some(m),
+        }
+    }
+}
+
+/// An array's counts in row order (no copy when they are laid out so).
+fn row_major(a: Array2<u16>) -> Vec<u16> {
+    let n = a.len();
+    if a.is_standard_layout() {
+        let (v, offset) = a.into_raw_vec_and_offset();
+        if offset.unwrap_or(0) == 0 && v.len() == n {
+            return v;
+        }
+        return v.into_iter().skip(offset.unwrap_or(0)).take(n).collect();
+    }
+    a.iter().copied().collect()
 }
 
 /// The first value that is not finite and ≥ 0, as an error.

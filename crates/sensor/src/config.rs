@@ -515,20 +515,45 @@ impl SensorConfig {
             .map(|(n, t)| Self::from_toml_str(t, &format!("preset '{n}'")))
     }
 
-    /// The preset `name_or_path`, or else the TOML file at that path.
-    pub fn load_preset_or_file(name_or_path: &str) -> Result<Self, ConfigError> {
+    /// The preset `name_or_path`, or else the TOML file at that path;
+    /// `reads` notes the file and the spectrum files it names.
+    pub fn load_preset_or_file(
+        name_or_path: &str,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self, ConfigError> {
         if let Some(r) = Self::preset(name_or_path) {
             return r;
         }
         match gloam_io::read_text(
             std::path::Path::new(name_or_path),
             gloam_io::MAX_TEXT_FILE_BYTES,
+            reads,
         ) {
-            Ok(text) => Self::from_toml_str(&text, name_or_path),
+            Ok(text) => {
+                let cfg = Self::from_toml_str(&text, name_or_path)?;
+                cfg.note_spectrum_files(reads);
+                Ok(cfg)
+            }
             Err(e) => Err(ConfigError::Unknown {
                 name: name_or_path.to_string(),
                 message: e.to_string(),
             }),
+        }
+    }
+
+    /// Notes in `reads` the CSV files the QE curves name (validation read
+    /// them without a log: it also serves presets and built configs).
+    fn note_spectrum_files(&self, reads: &gloam_io::ReadLog) {
+        let qe = [
+            self.photocathode.as_ref().map(|p| &p.qe),
+            self.ccd.qe.as_ref(),
+        ];
+        for r in qe.into_iter().flatten() {
+            if let SpectrumRef::Named(n) = r
+                && gloam_spectra::library::get(n).is_none()
+            {
+                let _ = gloam_spectra::lookup(n, reads);
+            }
         }
     }
 

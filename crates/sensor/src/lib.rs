@@ -11,21 +11,26 @@ mod error;
 pub mod kernel;
 pub mod levels;
 pub mod noise;
+mod resolved;
 pub mod scope;
 pub mod stages;
 
 pub use analytic::Description;
 pub use bench::{Throughput, throughput, throughput_at};
-pub use camera::{AgcState, Camera, DigitizedFrame, SensorMeta};
+pub use camera::{AgcState, Camera, Frame, SensorMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::{SensorEffect, sensor_effects};
 pub use error::{CaptureError, ConfigError, LineError, ScopeError};
+pub use resolved::ResolvedSensor;
 pub use stages::agc::median_dn;
 pub use stages::{Chain, image_irradiance_per_radiance};
 
 /// A built-in preset or a TOML file (see [`SensorConfig::load_preset_or_file`]).
-pub fn load_preset_or_file(name_or_path: &str) -> Result<SensorConfig, ConfigError> {
-    SensorConfig::load_preset_or_file(name_or_path)
+pub fn load_preset_or_file(
+    name_or_path: &str,
+    reads: &gloam_io::ReadLog,
+) -> Result<SensorConfig, ConfigError> {
+    SensorConfig::load_preset_or_file(name_or_path, reads)
 }
 
 /// Names and descriptions of the built-in presets.

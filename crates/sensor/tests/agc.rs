@@ -27,9 +27,9 @@ fn agc_step_response_has_the_configured_time_constant() {
     let mut log_g = Vec::new();
     for _ in 0..200 {
         let f = cam.capture_photoelectrons(hi.view()).unwrap();
-        assert!(f.meta.agc_enabled);
-        assert_eq!(f.meta.agc_state, AgcState::Tracking);
-        log_g.push(f.meta.gain_in_effect.ln());
+        assert!(f.sensor().unwrap().agc_enabled);
+        assert_eq!(f.sensor().unwrap().agc_state, AgcState::Tracking);
+        log_g.push(f.sensor().unwrap().gain_in_effect.ln());
     }
     let g_inf = log_g.last().unwrap();
     // Settles to half the gain for twice the light.
@@ -68,14 +68,16 @@ fn agc_in_darkness_rises_to_its_limit() {
     }
     let f = f.unwrap();
     let set = cam.config().agc.as_ref().unwrap().set_point_dn;
-    let signal = f.meta.mean_dn - cam.chain().black_dn(f.meta.gain_in_effect);
+    let signal =
+        f.sensor().unwrap().mean_dn - cam.chain().black_dn(f.sensor().unwrap().gain_in_effect);
     println!(
         "EBI-limited AGC: gain {:.0}, signal {signal:.0} DN (set-point {set}), {:?}",
-        f.meta.gain_in_effect, f.meta.agc_state
+        f.sensor().unwrap().gain_in_effect,
+        f.sensor().unwrap().agc_state
     );
     // Sparse, bright EBI events: the loop hunts between tracking and
     // protection below the limit instead of running away.
-    assert!(f.meta.gain_in_effect < cam.chain().gain_max);
+    assert!(f.sensor().unwrap().gain_in_effect < cam.chain().gain_max);
     assert!(signal > 0.0 && signal < 2.0 * set);
 
     // Without EBI nothing is left to servo on: the gain goes to its limit.
@@ -89,9 +91,9 @@ fn agc_in_darkness_rises_to_its_limit() {
     }
     let f = last.unwrap();
     let ch = cam.chain();
-    assert!((f.meta.gain_in_effect / ch.gain_max - 1.0).abs() < 1e-9);
-    assert_eq!(f.meta.agc_state, AgcState::AtMaxGain);
-    let v = f.meta.mcp_voltage_v.unwrap();
+    assert!((f.sensor().unwrap().gain_in_effect / ch.gain_max - 1.0).abs() < 1e-9);
+    assert_eq!(f.sensor().unwrap().agc_state, AgcState::AtMaxGain);
+    let v = f.sensor().unwrap().mcp_voltage_v.unwrap();
     assert!((v - cam.config().mcp.as_ref().unwrap().max_voltage_v).abs() < 1e-6);
     assert!(
         f.pixels
@@ -111,16 +113,16 @@ fn bright_source_protection_cuts_gain_fast() {
     // A lamp filling 20 % of the view at a flux that saturates any gain.
     let scene = ndarray::Array2::from_shape_fn((64, 64), |(r, _)| if r < 13 { 1e6 } else { 0.1 });
     let f0 = cam.capture_photoelectrons(scene.view()).unwrap();
-    assert!(f0.meta.saturated_fraction > 0.05);
-    let g0 = f0.meta.gain_in_effect;
+    assert!(f0.sensor().unwrap().saturated_fraction > 0.05);
+    let g0 = f0.sensor().unwrap().gain_in_effect;
     let f1 = cam.capture_photoelectrons(scene.view()).unwrap();
-    assert_eq!(f1.meta.agc_state, AgcState::Protecting);
-    assert!((f1.meta.gain_in_effect / g0 - 0.5).abs() < 1e-9);
-    let mut g = f1.meta.gain_in_effect;
+    assert_eq!(f1.sensor().unwrap().agc_state, AgcState::Protecting);
+    assert!((f1.sensor().unwrap().gain_in_effect / g0 - 0.5).abs() < 1e-9);
+    let mut g = f1.sensor().unwrap().gain_in_effect;
     for _ in 0..40 {
         let f = cam.capture_photoelectrons(scene.view()).unwrap();
-        assert!(f.meta.gain_in_effect <= g * (1.0 + 1e-12));
-        g = f.meta.gain_in_effect;
+        assert!(f.sensor().unwrap().gain_in_effect <= g * (1.0 + 1e-12));
+        g = f.sensor().unwrap().gain_in_effect;
     }
     assert!(
         (g / cam.chain().gain_min - 1.0).abs() < 1e-9,
@@ -136,19 +138,19 @@ fn override_fixes_gain_and_returns_to_agc() {
         let f = cam
             .capture_photoelectrons(uniform(32, 32, l).view())
             .unwrap();
-        assert_eq!(f.meta.gain_in_effect, 100.0);
-        assert_eq!(f.meta.agc_state, AgcState::Override);
-        assert!(!f.meta.agc_enabled);
+        assert_eq!(f.sensor().unwrap().gain_in_effect, 100.0);
+        assert_eq!(f.sensor().unwrap().agc_state, AgcState::Override);
+        assert!(!f.sensor().unwrap().agc_enabled);
     }
     cam.set_override_gain(None).unwrap();
     let f = cam
         .capture_photoelectrons(uniform(32, 32, 10.0).view())
         .unwrap();
-    assert!(f.meta.agc_enabled);
+    assert!(f.sensor().unwrap().agc_enabled);
     let f2 = cam
         .capture_photoelectrons(uniform(32, 32, 10.0).view())
         .unwrap();
-    assert!(f2.meta.gain_in_effect < f.meta.gain_in_effect);
+    assert!(f2.sensor().unwrap().gain_in_effect < f.sensor().unwrap().gain_in_effect);
     // Limits.
     let ch = cam.chain().clone();
     assert!(cam.set_override_gain(Some(ch.gain_min)).is_ok());

@@ -30,8 +30,8 @@ fn a_uniform_field_is_bit_identical_with_the_stages_off() {
             b.capture_photoelectrons(field.view()).unwrap(),
         );
         assert_eq!(fa.pixels, fb.pixels);
-        assert!(!fa.meta.saturation.bright_source_in_view);
-        assert_eq!(fa.meta.saturation.halo_fraction, 0.0);
+        assert!(!fa.sensor().unwrap().saturation.bright_source_in_view);
+        assert_eq!(fa.sensor().unwrap().saturation.halo_fraction, 0.0);
     }
 }
 
@@ -56,12 +56,13 @@ fn the_halo_reaches_twice_the_gap_around_a_lamp_and_no_further() {
     let mut off = camera(no_bright(cfg), Some(gmin));
     let f_on = on.capture_photoelectrons(scene.view()).unwrap();
     let f_off = off.capture_photoelectrons(scene.view()).unwrap();
-    assert!(f_on.meta.saturation.bright_source_in_view);
+    assert!(f_on.sensor().unwrap().saturation.bright_source_in_view);
     let b = gloam_sensor::stages::bright::BrightStages::of(on.chain()).unwrap();
     let radius = b.halo.as_ref().unwrap().radius_px;
     // 2 × 0.2 mm over 6.45 µm / 0.611 at the cathode: 37.9 px.
     assert!((radius - 0.4 / (6.45e-3 / 0.611)).abs() < 1e-9);
-    let lift = |c: usize| f_on.pixels[[64, c]] as f64 - f_off.pixels[[64, c]] as f64;
+    let lift =
+        |c: usize| f_on.view().unwrap()[[64, c]] as f64 - f_off.view().unwrap()[[64, c]] as f64;
     // Inside the disc (beyond the blur of the lamp itself) the halo lifts
     // the floor; well outside it, nothing.
     assert!(lift(64 + 20) >= 1.0, "inside: {}", lift(84));
@@ -89,16 +90,16 @@ fn the_abc_holds_the_mean_screen_current_to_its_limit() {
         last = Some(cam.capture_photoelectrons(field.view()).unwrap());
     }
     let f = last.unwrap();
-    let s = f.meta.saturation;
-    assert!((f.meta.gain_in_effect / cam.chain().gain_min - 1.0).abs() < 1e-9);
+    let s = &f.sensor().unwrap().saturation;
+    assert!((f.sensor().unwrap().gain_in_effect / cam.chain().gain_min - 1.0).abs() < 1e-9);
     assert!(s.abc.duty_factor < 1.0 && !s.abc_out_of_range);
-    let screen = eta * f.meta.gain_in_effect * s.abc.duty_factor * lambda;
+    let screen = eta * f.sensor().unwrap().gain_in_effect * s.abc.duty_factor * lambda;
     assert!(
         (screen / abc.limit_e_per_pixel - 1.0).abs() < 1e-3,
         "{screen} vs {}",
         abc.limit_e_per_pixel
     );
-    assert!(g_set > f.meta.gain_in_effect);
+    assert!(g_set > f.sensor().unwrap().gain_in_effect);
 }
 
 #[test]
@@ -117,18 +118,21 @@ fn pore_depletion_compresses_a_lamp_and_its_patch_recovers_with_tau() {
     let f = cam.capture_photoelectrons(scene.view()).unwrap();
     // The lamp's 16 pixels and the ring the optics blur spreads it into
     // (still hundreds of pe there); not the floor.
-    let c = f.meta.saturation.mcp_compressed_fraction;
+    let c = f.sensor().unwrap().saturation.mcp_compressed_fraction;
     assert!((16.0 / 1024.0..=100.0 / 1024.0).contains(&c), "{c}");
     assert_eq!(
-        f.meta.saturation.saturated_by,
+        f.sensor().unwrap().saturation.saturated_by,
         gloam_sensor::stages::bright::SaturatingStage::VideoClip
     );
     // The lamp goes out: a uniform floor, but the patch's reservoirs are
     // still depleted (ungated, no off-time to recover in).
     let floor = uniform(32, 32, 0.01);
     let f2 = cam.capture_photoelectrons(floor.view()).unwrap();
-    assert!(!f2.meta.saturation.bright_source_in_view);
-    let (patch, rest) = (f2.pixels[[1, 1]] as f64, f2.pixels[[20, 20]] as f64);
+    assert!(!f2.sensor().unwrap().saturation.bright_source_in_view);
+    let (patch, rest) = (
+        f2.view().unwrap()[[1, 1]] as f64,
+        f2.view().unwrap()[[20, 20]] as f64,
+    );
     let black = cam.chain().black_dn(gmax);
     // Emptied reservoirs refill as 1 − e^{−t/τ} over the 40 ms frame
     // (τ = 10 ms), so the patch gives the mean of that: 1 − (1 − e^{−4})/4.

@@ -26,7 +26,7 @@ fn mean_signal(cfg: &SensorConfig, l: f64, g: f64) -> f64 {
 
 #[test]
 fn nd_and_f_number_scale_the_signal_as_ten_to_minus_d_over_n_squared() {
-    let base = load_preset_or_file("scientific-ccd").unwrap();
+    let base = load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
     let l = 4e-4; // ~16 000 DN above black at f/2, gain 1: linear, far from clipping
     let s0 = mean_signal(&base, l, 1.0);
     assert!(s0 > 5_000.0 && s0 < 40_000.0, "{s0}");
@@ -53,7 +53,7 @@ fn nd_and_f_number_scale_the_signal_as_ten_to_minus_d_over_n_squared() {
 
 #[test]
 fn gate_duty_scales_an_intensified_camera_signal() {
-    let mut base = load_preset_or_file("gen2-s20-iccd").unwrap();
+    let mut base = load_preset_or_file("gen2-s20-iccd", &gloam_io::ReadLog::off()).unwrap();
     base.agc = None;
     base.mcp.as_mut().unwrap().output_current_limit_a_cm2 = None; // linear MCP
     base.photocathode.as_mut().unwrap().ebi_lm_cm2 = 0.0;

@@ -8,7 +8,7 @@ use ndarray::Array2;
 /// (no blur, no blooming, no vignetting, no DSNU), so a pixel clips exactly when its
 /// own charge passes full well.
 fn sharp_ccd(noise: bool) -> Camera {
-    let mut cfg = load_preset_or_file("scientific-ccd").unwrap();
+    let mut cfg = load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off()).unwrap();
     cfg.optics.diffraction = false;
     cfg.optics.vignetting = false;
     cfg.ccd.diffusion_um = 0.0;
@@ -37,8 +37,12 @@ fn saturated_fraction_counts_the_clipped_pixels() {
         let mut cam = sharp_ccd(false);
         assert_eq!(cam.chain().saturation_dn(1.0), 63_000.0);
         let f = cam.capture_photoelectrons(pe.view()).unwrap();
-        assert_eq!(f.meta.saturated_fraction, k as f64 / 4096.0, "k = {k}");
-        let px: Vec<u16> = f.pixels.iter().copied().collect();
+        assert_eq!(
+            f.sensor().unwrap().saturated_fraction,
+            k as f64 / 4096.0,
+            "k = {k}"
+        );
+        let px: Vec<u16> = f.pixels.to_vec();
         assert_eq!(px.iter().filter(|&&p| p == 63_000).count(), k);
         // The same count from the pixels through the shared definition.
         let at = cam.chain().saturated_threshold_dn(1.0);
@@ -51,7 +55,7 @@ fn saturated_fraction_counts_the_clipped_pixels() {
         // with probability 0.13 %, and an unclipped one (at 1000 e⁻) never counts.
         let mut cam = sharp_ccd(true);
         let f = cam.capture_photoelectrons(pe.view()).unwrap();
-        let n = (f.meta.saturated_fraction * 4096.0).round() as usize;
+        let n = (f.sensor().unwrap().saturated_fraction * 4096.0).round() as usize;
         assert!(n <= k && n + 2 >= k, "k = {k}: counted {n}");
     }
     // The 1 % warning: 40 of 4096 (0.977 %) is below it, 41 (1.001 %) above.
@@ -62,8 +66,8 @@ fn saturated_fraction_counts_the_clipped_pixels() {
             .unwrap();
         let c = cam.chain();
         gloam_sensor::levels::warning_kinds(
-            f.meta.mean_dn,
-            f.meta.saturated_fraction,
+            f.sensor().unwrap().mean_dn,
+            f.sensor().unwrap().saturated_fraction,
             Some(c.black_dn(1.0)),
             c.saturation_dn(1.0),
         )

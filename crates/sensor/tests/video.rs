@@ -103,7 +103,13 @@ fn scope_shows_a_correct_rs170_line() {
 
 /// Modulation above black of a sine at `f` cycles/pixel along columns
 /// (`vertical`: along rows), by least squares, skipping `margin` pixels.
-fn modulation(img: &Array2<u16>, f: f64, black: f64, vertical: bool, margin: usize) -> f64 {
+fn modulation(
+    img: &ndarray::ArrayView2<u16>,
+    f: f64,
+    black: f64,
+    vertical: bool,
+    margin: usize,
+) -> f64 {
     let (rows, cols) = img.dim();
     let (mut s0, mut n) = (0.0, 0.0);
     let (mut sc, mut ss, mut cc, mut csn, mut sn2) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -139,7 +145,7 @@ fn measure(cfg: &SensorConfig, f: f64, vertical: bool) -> (f64, f64) {
     });
     let frame = cam.capture_photoelectrons(scene.view()).unwrap();
     let black = cam.chain().black_dn(G);
-    let measured = modulation(&frame.pixels, f, black, vertical, 20) / m_in;
+    let measured = modulation(&frame.view().unwrap(), f, black, vertical, 20) / m_in;
     let analytic = if vertical {
         cam.chain().mtf(f, G)
     } else {

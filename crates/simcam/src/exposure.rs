@@ -1,4 +1,4 @@
-//! Where a grabbed frame sits in its range, by the sensor's exposure rules
+//! Where a frame sits in its range, by the sensor's exposure rules
 //! ([`gloam_sensor::levels`]). Here because this crate is where the sensor
 //! model and the grabbed frame meet; the frame itself stays model-free.
 
@@ -17,7 +17,8 @@ pub struct FrameExposure {
     pub warning_kinds: Vec<WarningKind>,
 }
 
-/// [`FrameExposureExt::exposure`] on a grabbed [`Frame`].
+/// [`FrameExposureExt::exposure`] on a [`Frame`], grabbed or made in
+/// process.
 pub trait FrameExposureExt {
     /// The frame's mean, saturated fraction and exposure warnings.
     fn exposure(&self) -> FrameExposure;
@@ -30,8 +31,15 @@ impl FrameExposureExt for Frame {
             Some(l) => (Some(l.black_dn), l.saturation_dn, l.saturated_at_dn),
             None => (None, top, top),
         };
-        let mean_dn = levels::mean_dn(&self.pixels);
-        let saturated_fraction = levels::saturated_fraction(&self.pixels, at);
+        // The sensor model's own figures when it made the frame (as its
+        // record takes them), else the counts'.
+        let (mean_dn, saturated_fraction) = match &self.meta.sensor {
+            Some(s) => (s.mean_dn, s.saturated_fraction),
+            None => (
+                levels::mean_dn(&self.pixels),
+                levels::saturated_fraction(&self.pixels, at),
+            ),
+        };
         FrameExposure {
             mean_dn,
             saturated_fraction,

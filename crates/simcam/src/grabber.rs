@@ -62,14 +62,16 @@ impl<S: FrameSource> SimGrabber<S> {
 }
 
 impl SimGrabber<Box<dyn FrameSource>> {
-    /// The sensor chain of `preset` looking at `rig`, noise seed `seed`.
+    /// The sensor chain of `preset` looking at `rig`, noise seed `seed`
+    /// (a sensor file noted in `reads`).
     pub fn from_preset(
         preset: &str,
         rig: &str,
         seed: u64,
         size: (u32, u32),
+        reads: &gloam_io::ReadLog,
     ) -> Result<Self, GrabError> {
-        let src = SensorSource::new(preset, rig, seed, size)?;
+        let src = SensorSource::new(preset, rig, seed, size, reads)?;
         Ok(Self::new(
             Box::new(src) as Box<dyn FrameSource>,
             format!(
@@ -80,13 +82,18 @@ impl SimGrabber<Box<dyn FrameSource>> {
     }
 
     /// The sensor chain of `preset` looking at a rendered scene.
-    pub fn from_scene(preset: &str, scene: SceneView, seed: u64) -> Result<Self, GrabError> {
+    pub fn from_scene(
+        preset: &str,
+        scene: SceneView,
+        seed: u64,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self, GrabError> {
         let (w, h) = scene.size();
         let label = format!(
             "simulated {preset} looking at scene '{}' (seed {seed}, {w}×{h})",
             scene.label
         );
-        let src = SensorSource::with_scene(preset, scene, seed)?;
+        let src = SensorSource::with_scene(preset, scene, seed, reads)?;
         Ok(Self::new(Box::new(src) as Box<dyn FrameSource>, label))
     }
 }
@@ -188,6 +195,8 @@ impl<S: FrameSource> FrameStream for SimGrabber<S> {
                 // device sends as `ChunkExposureTime` / `ChunkGateDuty`.
                 exposure_us: Some(f64::from(s.exposure_us)),
                 gate_duty: r.gate_duty,
+                nd_density: r.nd_density,
+                sensor: r.sensor,
             },
             pixels,
         })

@@ -37,7 +37,12 @@ pub fn open_sim(
     } = SimUri::parse(uri)?;
     let seed = opts.seed.unwrap_or(seed);
     match (scene_path, scene) {
-        (Some(_), Some(view)) => Ok(Box::new(SimGrabber::from_scene(&preset, view, seed)?)),
+        (Some(_), Some(view)) => Ok(Box::new(SimGrabber::from_scene(
+            &preset,
+            view,
+            seed,
+            &opts.reads,
+        )?)),
         (Some(_), None) => Err(GrabError::Unsupported(format!(
             "'{uri}': scenes need a renderer (the gloam CLI provides one)"
         ))),
@@ -46,6 +51,7 @@ pub fn open_sim(
             &rig,
             seed,
             size.unwrap_or(DEFAULT_RIG_SIZE),
+            &opts.reads,
         )?)),
     }
 }

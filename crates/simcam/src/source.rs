@@ -5,7 +5,7 @@
 use ndarray::Array2;
 
 use gloam_grabber::source::{CaptureSettings, FrameSource, Rendered, SourceInfo};
-use gloam_grabber::{DnLevels, GrabError, Stimulus};
+use gloam_grabber::{GrabError, Stimulus};
 use gloam_sensor::{Camera, SensorConfig};
 use gloam_spectra::Spectrum;
 
@@ -55,9 +55,16 @@ fn fault(e: impl std::error::Error + Send + Sync + 'static) -> GrabError {
 
 impl SensorSource {
     /// `preset`: a built-in sensor preset or a sensor TOML path; `rig`: a
-    /// built-in rig name; `seed`: the noise seed; `size`: the image size.
-    pub fn new(preset: &str, rig: &str, seed: u64, size: (u32, u32)) -> Result<Self, GrabError> {
-        let base = SensorConfig::load_preset_or_file(preset).map_err(cfg_err)?;
+    /// built-in rig name; `seed`: the noise seed; `size`: the image size;
+    /// `reads` notes a sensor file.
+    pub fn new(
+        preset: &str,
+        rig: &str,
+        seed: u64,
+        size: (u32, u32),
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self, GrabError> {
+        let base = SensorConfig::load_preset_or_file(preset, reads).map_err(cfg_err)?;
         Self::from_config(preset, base, rig, seed, size)
     }
 
@@ -73,7 +80,8 @@ impl SensorSource {
         let camera = Camera::new(base.clone()).map_err(cfg_err)?;
         let chain = camera.chain();
         let full = f64::from((1u32 << base.digitizer.bits.min(16)) - 1);
-        let lamp = gloam_spectra::lookup(DEFAULT_SPECTRUM).map_err(cfg_err)?;
+        let lamp =
+            gloam_spectra::lookup(DEFAULT_SPECTRUM, &gloam_io::ReadLog::off()).map_err(cfg_err)?;
         // Mean radiance that puts the image at ~25 % of full scale at the
         // reference gain (black level aside).
         let per_radiance = chain.pe_per_radiance(&lamp).unwrap_or(1.0)
@@ -148,10 +156,15 @@ impl SensorSource {
     /// layered scene sets the camera's frame rate to its own (the exposure
     /// held within one period), so its clock runs in real time at the
     /// camera's default rate and the AGC's time constants count in it.
-    pub fn with_scene(preset: &str, scene: SceneView, seed: u64) -> Result<Self, GrabError> {
+    pub fn with_scene(
+        preset: &str,
+        scene: SceneView,
+        seed: u64,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self, GrabError> {
         scene.validate()?;
         let size = scene.size();
-        let mut base = SensorConfig::load_preset_or_file(preset).map_err(cfg_err)?;
+        let mut base = SensorConfig::load_preset_or_file(preset, reads).map_err(cfg_err)?;
         if let SceneImage::Layers { frame_rate_hz, .. } = &scene.image {
             base.timing.frame_rate_hz = *frame_rate_hz;
             base.timing.exposure_s = base.timing.exposure_s.min(1.0 / frame_rate_hz);
@@ -326,27 +339,17 @@ impl FrameSource for SensorSource {
                 out.len()
             )));
         }
-        for (o, p) in out.iter_mut().zip(frame.pixels.iter()) {
-            *o = *p;
-        }
-        let g = frame.meta.gain_in_effect;
-        let gain_milli = (g * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
-        let chain = self.camera.chain();
+        out.copy_from_slice(&frame.pixels);
+        let m = frame.meta;
+        let gain_milli = (m.gain * 1000.0).round().clamp(0.0, f64::from(u32::MAX)) as u32;
+        let protecting = m.sensor.as_ref().map(|s| s.agc_state);
         Ok(Rendered {
             gain_milli,
-            levels: Some(DnLevels {
-                black_dn: chain.black_dn(g),
-                saturation_dn: chain.saturation_dn(g),
-                saturated_at_dn: chain.saturated_threshold_dn(g),
-                electrons_per_dn: Some(1.0 / chain.mean_dn_per_photoelectron(g)),
-            }),
-            bright_source_protection: frame.meta.agc_state == gloam_sensor::AgcState::Protecting,
-            gate_duty: self
-                .camera
-                .config()
-                .photocathode
-                .as_ref()
-                .map(|p| p.gate_duty * frame.meta.saturation.abc.duty_factor),
+            levels: m.levels,
+            bright_source_protection: protecting == Some(gloam_sensor::AgcState::Protecting),
+            gate_duty: m.gate_duty,
+            nd_density: m.nd_density,
+            sensor: m.sensor,
         })
     }
 }

@@ -59,7 +59,9 @@ pub fn render_stimulus(
         | Stimulus::Sine { spectrum, .. }
         | Stimulus::Edge { spectrum, .. } => spectrum.as_str(),
     };
-    let lamp = gloam_spectra::lookup(spectrum_name)
+    // Unlogged: a stimulus's spectrum file was noted when the source file
+    // naming it was read (`gloam_calib::source`).
+    let lamp = gloam_spectra::lookup(spectrum_name, &gloam_io::ReadLog::off())
         .map_err(|e| GrabError::InvalidSetting(format!("stimulus spectrum: {e}")))?;
     let window =
         Spectrum::constant(400.0, 1000.0, 1.0).map_err(|e| GrabError::CameraModel(Box::new(e)))?;

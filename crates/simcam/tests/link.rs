@@ -11,7 +11,14 @@ use gloam_grabber::{DeviceControl, FrameStream, Framing};
 #[test]
 fn pending_controls_and_naks() {
     use firmware_protocol::Control;
-    let src = gloam_simcam::SensorSource::new("gen2-s20-iccd", "uniform", 1, (32, 24)).unwrap();
+    let src = gloam_simcam::SensorSource::new(
+        "gen2-s20-iccd",
+        "uniform",
+        1,
+        (32, 24),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap();
     let (mut g, emu) = common::over_the_wire(src, Framing::Cobs);
     let t = Instant::now();
     g.set_control_raw(Control::McpVoltageMv, 900_000).unwrap();

@@ -69,8 +69,22 @@ fn sim_uri_opens_and_grabs() {
 #[test]
 fn same_seed_same_frames_in_process_and_over_the_link() {
     for framing in [Framing::Cobs, Framing::UsbTransfers] {
-        let mut sim = SimGrabber::from_preset("gen3-gaas-iccd", "sine", 11, (48, 32)).unwrap();
-        let src = SensorSource::new("gen3-gaas-iccd", "sine", 11, (48, 32)).unwrap();
+        let mut sim = SimGrabber::from_preset(
+            "gen3-gaas-iccd",
+            "sine",
+            11,
+            (48, 32),
+            &gloam_io::ReadLog::off(),
+        )
+        .unwrap();
+        let src = SensorSource::new(
+            "gen3-gaas-iccd",
+            "sine",
+            11,
+            (48, 32),
+            &gloam_io::ReadLog::off(),
+        )
+        .unwrap();
         let (mut wire, emu) = common::over_the_wire(src, framing);
         for g in [&mut sim as &mut dyn FrameGrabber, &mut wire] {
             g.set_bits(16).unwrap();
@@ -115,8 +129,22 @@ fn two_band_scene(w: usize, h: usize) -> SceneView {
 #[test]
 fn out_of_range_gains_are_refused_in_process_and_by_the_emulator() {
     // Gen III MCP: G = 1000 (V/800)^9 over 500–1000 V, so 14.552–7450.58.
-    let mut sim = SimGrabber::from_preset("gen3-gaas-iccd", "uniform", 1, (8, 8)).unwrap();
-    let src = SensorSource::new("gen3-gaas-iccd", "uniform", 1, (8, 8)).unwrap();
+    let mut sim = SimGrabber::from_preset(
+        "gen3-gaas-iccd",
+        "uniform",
+        1,
+        (8, 8),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap();
+    let src = SensorSource::new(
+        "gen3-gaas-iccd",
+        "uniform",
+        1,
+        (8, 8),
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap();
     let (mut wire, emu) = common::over_the_wire(src, Framing::Cobs);
     for g in [&mut sim as &mut dyn FrameGrabber, &mut wire] {
         for bad in [2.0, 14.551, 7451.0] {
@@ -144,7 +172,13 @@ fn out_of_range_gains_are_refused_in_process_and_by_the_emulator() {
 
 #[test]
 fn scene_view_is_grabbed_at_its_size_until_a_stimulus_replaces_it() {
-    let mut g = SimGrabber::from_scene("gen2-s20-iccd", two_band_scene(40, 30), 5).unwrap();
+    let mut g = SimGrabber::from_scene(
+        "gen2-s20-iccd",
+        two_band_scene(40, 30),
+        5,
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap();
     assert_eq!(g.frame_size(), (40, 30));
     g.set_gain(300.0).unwrap();
     let f = g.grab().unwrap();
@@ -164,7 +198,13 @@ fn scene_view_is_grabbed_at_its_size_until_a_stimulus_replaces_it() {
     assert!(left > 2.0 * right, "left {left} right {right}");
 
     // Same scene, same seed: the same frame (the scene is data, not a draw).
-    let mut g2 = SimGrabber::from_scene("gen2-s20-iccd", two_band_scene(40, 30), 5).unwrap();
+    let mut g2 = SimGrabber::from_scene(
+        "gen2-s20-iccd",
+        two_band_scene(40, 30),
+        5,
+        &gloam_io::ReadLog::off(),
+    )
+    .unwrap();
     g2.set_gain(300.0).unwrap();
     assert_eq!(g2.grab().unwrap().pixels, f.pixels);
 
@@ -187,7 +227,7 @@ fn bad_scenes_are_clear_errors() {
     }
     let mut nan = two_band_scene(8, 6);
     radiance(&mut nan)[[1, 4, 3]] = f64::NAN;
-    let e = SimGrabber::from_scene("gen2-s20-iccd", nan, 0)
+    let e = SimGrabber::from_scene("gen2-s20-iccd", nan, 0, &gloam_io::ReadLog::off())
         .err()
         .unwrap()
         .to_string();
@@ -195,7 +235,7 @@ fn bad_scenes_are_clear_errors() {
 
     let mut neg = two_band_scene(8, 6);
     radiance(&mut neg)[[0, 0, 0]] = -1.0;
-    let e = SimGrabber::from_scene("gen2-s20-iccd", neg, 0)
+    let e = SimGrabber::from_scene("gen2-s20-iccd", neg, 0, &gloam_io::ReadLog::off())
         .err()
         .unwrap()
         .to_string();
@@ -205,7 +245,7 @@ fn bad_scenes_are_clear_errors() {
     if let SceneImage::Bands { band_shapes, .. } = &mut shapes.image {
         band_shapes.pop();
     }
-    let e = SimGrabber::from_scene("gen2-s20-iccd", shapes, 0)
+    let e = SimGrabber::from_scene("gen2-s20-iccd", shapes, 0, &gloam_io::ReadLog::off())
         .err()
         .unwrap()
         .to_string();
@@ -221,6 +261,7 @@ fn bad_scenes_are_clear_errors() {
             },
         },
         0,
+        &gloam_io::ReadLog::off(),
     )
     .err()
     .unwrap()

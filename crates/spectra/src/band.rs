@@ -60,11 +60,12 @@ impl BandIntegral {
         spectrum: &str,
         (lo, hi): (f64, f64),
         weight: Option<&str>,
+        reads: &gloam_io::ReadLog,
     ) -> Result<Self, LookupError> {
-        let s = lookup(spectrum)?;
+        let s = lookup(spectrum, reads)?;
         let (integral, units) = match weight {
             Some(w) => (
-                s.integrate_weighted_band(&lookup(w)?, lo, hi),
+                s.integrate_weighted_band(&lookup(w, reads)?, lo, hi),
                 "spectrum units x weight units x nm",
             ),
             None => (s.integrate_band(lo, hi), "spectrum units x nm"),
@@ -100,7 +101,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("flat.csv");
         std::fs::write(&p, "300,2\n1100,2\n").unwrap();
-        let r = BandIntegral::of(p.to_str().unwrap(), (400.0, 700.0), None).unwrap();
+        let r = BandIntegral::of(
+            p.to_str().unwrap(),
+            (400.0, 700.0),
+            None,
+            &gloam_io::ReadLog::off(),
+        )
+        .unwrap();
         assert!((r.integral - 600.0).abs() < 1e-9, "{}", r.integral);
         assert_eq!(r.units, "spectrum units x nm");
     }

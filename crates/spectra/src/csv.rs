@@ -26,14 +26,16 @@ use std::path::Path;
 use crate::error::{CsvError, LineRowError};
 use crate::spectrum::{EmissionLine, Spectrum};
 
-/// Reads a spectrum from a CSV file (see the module docs for the format).
-pub fn read_csv(path: &Path) -> Result<Spectrum, CsvError> {
-    let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-        CsvError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
-    })?;
+/// Reads a spectrum from a CSV file (see the module docs for the format),
+/// noting it in `reads`.
+pub fn read_csv(path: &Path, reads: &gloam_io::ReadLog) -> Result<Spectrum, CsvError> {
+    let text =
+        gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
+            CsvError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     parse_csv(&text, path)
 }
 
@@ -440,7 +442,7 @@ mod tests {
 
     #[test]
     fn missing_file_names_path() {
-        let e = read_csv(Path::new("/nonexistent/x.csv"))
+        let e = read_csv(Path::new("/nonexistent/x.csv"), &gloam_io::ReadLog::off())
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("/nonexistent/x.csv: cannot read"), "{e}");

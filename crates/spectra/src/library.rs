@@ -204,14 +204,15 @@ pub fn get(name: &str) -> Option<Spectrum> {
     Some(s)
 }
 
-/// A built-in name, or else a path to a CSV file (see [`crate::read_csv`]).
-pub fn lookup(name_or_path: &str) -> Result<Spectrum, LookupError> {
+/// A built-in name, or else a path to a CSV file (see [`crate::read_csv`]),
+/// noted in `reads`.
+pub fn lookup(name_or_path: &str, reads: &gloam_io::ReadLog) -> Result<Spectrum, LookupError> {
     if let Some(s) = get(name_or_path) {
         return Ok(s);
     }
     let path = Path::new(name_or_path);
     if path.exists() {
-        return Ok(crate::csv::read_csv(path)?);
+        return Ok(crate::csv::read_csv(path, reads)?);
     }
     Err(LookupError::Unknown {
         name: name_or_path.to_string(),
@@ -464,8 +465,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.csv");
         std::fs::write(&p, "400,1\n500,1\n").unwrap();
-        assert_eq!(lookup(p.to_str().unwrap()).unwrap().integral(), 100.0);
-        let e = lookup("nope").unwrap_err().to_string();
+        let log = gloam_io::ReadLog::new();
+        assert_eq!(lookup(p.to_str().unwrap(), &log).unwrap().integral(), 100.0);
+        assert_eq!(log.reads().len(), 1);
+        let e = lookup("nope", &log).unwrap_err().to_string();
         assert!(e.contains("unknown spectrum 'nope'"), "{e}");
     }
 }

@@ -20,6 +20,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use gloam_io::ReadLog;
 use gloam_pipeline::output::{OutputError, write_atomic};
 
 use crate::spec::{SpecError, Sweep, Task};
@@ -118,16 +119,24 @@ pub type Figures = BTreeMap<String, f64>;
 pub trait Executor: Sync {
     /// The work shared by the tasks of one chunk (e.g. the scene's radiance).
     type Shared: Sync;
-    /// Computes the shared work of `task`'s chunk once.
-    fn prepare(&self, sweep: &Sweep, task: &Task) -> Result<Self::Shared, TaskError>;
+    /// Computes the shared work of `task`'s chunk once, noting the files
+    /// it reads in `reads` (the inputs of every task of the chunk).
+    fn prepare(
+        &self,
+        sweep: &Sweep,
+        task: &Task,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<Self::Shared, TaskError>;
     /// Runs one task, writing its output files into `out` (an empty
-    /// directory), and returns its figures.
+    /// directory), and returns its figures; the files it reads are noted
+    /// in `reads` (the task's own log).
     fn run(
         &self,
         sweep: &Sweep,
         task: &Task,
         shared: &Self::Shared,
         out: &Path,
+        reads: &gloam_io::ReadLog,
     ) -> Result<Figures, TaskError>;
 }
 
@@ -268,11 +277,18 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 pub(crate) fn sha256_file(path: &Path) -> Result<String, SweepError> {
-    let mut f = gloam_io::open_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES)
+    // Hashing, not reading an input.
+    let mut f = gloam_io::open_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES, &ReadLog::off())
         .map_err(io("reading", path))?;
     let mut h = Sha256::new();
     std::io::copy(&mut f, &mut h).map_err(io("reading", path))?;
     Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// The sweep directory's own files (its plan, its copy of the sweep
+/// file, task records) are state, not a task's inputs: read unlogged.
+fn own_file() -> ReadLog {
+    ReadLog::off()
 }
 
 fn host() -> String {
@@ -291,7 +307,7 @@ impl SweepDir {
         command_line: &[String],
         provenance: serde_json::Value,
     ) -> Result<Self, SweepError> {
-        let text = gloam_io::read_text(sweep_file, gloam_io::MAX_TEXT_FILE_BYTES)
+        let text = gloam_io::read_text(sweep_file, gloam_io::MAX_TEXT_FILE_BYTES, &own_file())
             .map_err(io("reading", sweep_file))?;
         let base_dir = sweep_file
             .parent()
@@ -345,21 +361,21 @@ impl SweepDir {
     /// Opens a planned sweep directory.
     pub fn open(dir: &Path) -> Result<Self, SweepError> {
         let pp = dir.join("plan.json");
-        let text = gloam_io::read_text(&pp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-            SweepError::NotASweep {
+        let text = gloam_io::read_text(&pp, gloam_io::MAX_TEXT_FILE_BYTES, &own_file()).map_err(
+            |source| SweepError::NotASweep {
                 plan: pp.clone(),
                 dir: dir.to_path_buf(),
                 source,
-            }
-        })?;
+            },
+        )?;
         let plan: PlanFile = serde_json::from_str(&text).map_err(json(&pp))?;
         if plan.format != PLAN_FORMAT {
             let (path, found) = (pp, plan.format);
             return Err(SweepError::Format { path, found });
         }
         let sp = dir.join("sweep.toml");
-        let text =
-            gloam_io::read_text(&sp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(io("reading", &sp))?;
+        let text = gloam_io::read_text(&sp, gloam_io::MAX_TEXT_FILE_BYTES, &own_file())
+            .map_err(io("reading", &sp))?;
         if sha256_hex(text.as_bytes()) != plan.sweep_sha256 {
             return Err(SweepError::Changed(sp));
         }
@@ -381,8 +397,8 @@ impl SweepDir {
 
     pub fn plan(&self) -> Result<PlanFile, SweepError> {
         let pp = self.dir.join("plan.json");
-        let text =
-            gloam_io::read_text(&pp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(io("reading", &pp))?;
+        let text = gloam_io::read_text(&pp, gloam_io::MAX_TEXT_FILE_BYTES, &own_file())
+            .map_err(io("reading", &pp))?;
         serde_json::from_str(&text).map_err(json(&pp))
     }
 
@@ -393,9 +409,10 @@ impl SweepDir {
     /// The task's record, if it has one that belongs to this task.
     pub fn record(&self, index: usize) -> Option<TaskRecord> {
         let p = self.task_dir(index).join(RECORD_FILE);
-        let r: TaskRecord =
-            serde_json::from_str(&gloam_io::read_text(&p, gloam_io::MAX_TEXT_FILE_BYTES).ok()?)
-                .ok()?;
+        let r: TaskRecord = serde_json::from_str(
+            &gloam_io::read_text(&p, gloam_io::MAX_TEXT_FILE_BYTES, &own_file()).ok()?,
+        )
+        .ok()?;
         (r.id == self.sweep.tasks.get(index)?.id).then_some(r)
     }
 
@@ -435,7 +452,7 @@ impl SweepDir {
         {
             return h.clone();
         }
-        let h = gloam_io::unrecorded(|| sha256_file(Path::new(path))).ok();
+        let h = sha256_file(Path::new(path)).ok();
         if let Ok(mut c) = self.input_hashes.lock() {
             c.insert(path.to_string(), h.clone());
         }
@@ -462,7 +479,9 @@ impl SweepDir {
         let rerun_because = self.why_rerun(index);
         let task = &self.sweep.tasks[index];
         let t0 = Instant::now();
-        let (shared, read) = gloam_io::collect_reads(|| exec.prepare(&self.sweep, task));
+        let read = ReadLog::new();
+        let shared = exec.prepare(&self.sweep, task, &read);
+        let read = read.reads();
         let o = match shared {
             Ok(s) => self.run_prepared(exec, index, Ok(&s), &read, t0),
             Err(e) => self.run_prepared::<E>(exec, index, Err(&chain(&*e)), &read, t0),
@@ -508,10 +527,10 @@ impl SweepDir {
             return Ok(outcomes);
         };
         let t0 = Instant::now();
-        let (shared, read) = gloam_io::collect_reads(|| {
-            exec.prepare(&self.sweep, &self.sweep.tasks[first])
-                .map_err(|e| chain(&*e))
-        });
+        let read = ReadLog::new();
+        let shared =
+            (exec.prepare(&self.sweep, &self.sweep.tasks[first], &read)).map_err(|e| chain(&*e));
+        let read = read.reads();
         let run_one = |i: usize| -> Result<Outcome, SweepError> {
             let t = if i == first { t0 } else { Instant::now() };
             let o = match &shared {
@@ -585,13 +604,15 @@ impl SweepDir {
             .prefix(&format!(".tmp-{index:05}-"))
             .tempdir_in(&tasks_dir)
             .map_err(io("creating a temporary directory in", &tasks_dir))?;
-        let (result, run_read) = gloam_io::collect_reads(|| match shared {
+        // The task's own log: tasks run in parallel, each with its reads.
+        let run_read = ReadLog::new();
+        let result = match shared {
             Ok(s) => exec
-                .run(&self.sweep, task, s, tmp.path())
+                .run(&self.sweep, task, s, tmp.path(), &run_read)
                 .map_err(|e| chain(&*e)),
             Err(e) => Err(e.to_string()),
-        });
-        let inputs = input_hashes(prepare_read.iter().chain(&run_read));
+        };
+        let inputs = input_hashes(prepare_read.iter().chain(&run_read.reads()));
         let mut record = TaskRecord {
             index,
             id: task.id.clone(),
@@ -689,7 +710,7 @@ fn input_hashes<'a>(
         }
         let h = match &r.sha256 {
             Some(h) => Some(h.clone()),
-            None => gloam_io::unrecorded(|| sha256_file(&r.path)).ok(),
+            None => sha256_file(&r.path).ok(),
         };
         if let Some(h) = h {
             inputs.insert(p, h);

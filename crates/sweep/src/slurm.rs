@@ -222,9 +222,15 @@ pub fn submit_and_record(
 /// The job submitted for the sweep in `dir`, if one was (and its record
 /// reads).
 pub fn read_submission(dir: &Path) -> Option<Submission> {
-    gloam_io::read_text(&dir.join(SUBMISSION_FILE), gloam_io::MAX_TEXT_FILE_BYTES)
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok())
+    // The sweep directory's own record, not an input.
+    let own = gloam_io::ReadLog::off();
+    gloam_io::read_text(
+        &dir.join(SUBMISSION_FILE),
+        gloam_io::MAX_TEXT_FILE_BYTES,
+        &own,
+    )
+    .ok()
+    .and_then(|t| serde_json::from_str(&t).ok())
 }
 
 /// Submits `script` with `sbatch --parsable`; returns the job id.

@@ -129,13 +129,17 @@ fn sha_hex(bytes: &[u8]) -> String {
 }
 
 impl Sweep {
-    /// Reads and plans a sweep file; relative paths resolve against its directory.
+    /// Reads and plans a sweep file; relative paths resolve against its
+    /// directory. (Named on the command line, so listed by it: unlogged.)
     pub fn load(path: &Path) -> Result<Sweep, SpecError> {
-        let text = gloam_io::read_text(path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
-            SpecError::Io {
-                path: path.to_path_buf(),
-                source,
-            }
+        let text = gloam_io::read_text(
+            path,
+            gloam_io::MAX_TEXT_FILE_BYTES,
+            &gloam_io::ReadLog::off(),
+        )
+        .map_err(|source| SpecError::Io {
+            path: path.to_path_buf(),
+            source,
         })?;
         let base_dir = path
             .parent()
@@ -255,20 +259,26 @@ impl Sweep {
         }
     }
 
-    /// The task's scene, with its dotted overrides applied.
-    pub fn load_scene(&self, task: &Task) -> Result<gloam_scene::Scene, TaskSceneError> {
+    /// The task's scene, with its dotted overrides applied; `reads` notes
+    /// the scene and the files it names.
+    pub fn load_scene(
+        &self,
+        task: &Task,
+        reads: &gloam_io::ReadLog,
+    ) -> Result<gloam_scene::Scene, TaskSceneError> {
         let rel = task.text("scene").ok_or(TaskSceneError::NoScene)?;
         let path = self.resolve(&rel);
         let overrides = task.scene_overrides();
         if overrides.is_empty() {
-            return Ok(gloam_scene::load(&path)?);
+            return Ok(gloam_scene::load(&path, reads)?);
         }
-        let text = gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|e| {
-            TaskSceneError::Read {
-                path: path.clone(),
-                source: e.into(),
-            }
-        })?;
+        let text =
+            gloam_io::read_text(&path, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|e| {
+                TaskSceneError::Read {
+                    path: path.clone(),
+                    source: e.into(),
+                }
+            })?;
         let mut doc: toml::Table = toml::from_str(&text).map_err(|e| TaskSceneError::Read {
             path: path.clone(),
             source: e.into(),
@@ -287,9 +297,11 @@ impl Sweep {
             .iter()
             .map(|(k, v)| format!("{k} = {}", scalar_text(v).unwrap_or_default()))
             .collect();
-        gloam_scene::parse_str(&text, &path).map_err(|source| TaskSceneError::Overridden {
-            overrides: desc.join(", "),
-            source,
+        gloam_scene::parse_str_noting(&text, &path, reads).map_err(|source| {
+            TaskSceneError::Overridden {
+                overrides: desc.join(", "),
+                source,
+            }
         })
     }
 

@@ -125,25 +125,28 @@ impl Merged {
         for d in &self.tiles {
             let p = d.join("radiance.npy");
             let bytes =
-                gloam_io::read_bounded(&p, gloam_io::MAX_IMAGE_FILE_BYTES).map_err(|e| {
-                    MergeError::Read {
+                gloam_io::read_bounded(&p, gloam_io::MAX_IMAGE_FILE_BYTES, provenance.reads())
+                    .map_err(|e| MergeError::Read {
                         path: p.clone(),
                         source: e.into(),
-                    }
-                })?;
-            tiles.push(serde_json::json!({
-                "dir": d.display().to_string(),
-                "radiance_npy_sha256": crate::run::sha256_hex(&bytes),
-            }));
+                    })?;
+            tiles.push(MergedTile {
+                dir: d.display().to_string(),
+                radiance_npy_sha256: crate::run::sha256_hex(&bytes),
+            });
         }
         provenance.add_inputs_read();
-        let report = serde_json::json!({
-            "scene": self.info.scene,
-            "image": {"width": self.info.width, "height": self.info.height, "bands": self.info.band_names},
-            "settings": self.info.settings,
-            "merged_from": tiles,
-            "provenance": provenance,
-        });
+        let report = MergeReport {
+            scene: &self.info.scene,
+            image: MergedImage {
+                width: self.info.width,
+                height: self.info.height,
+                bands: &self.info.band_names,
+            },
+            settings: &self.info.settings,
+            merged_from: tiles,
+            provenance,
+        };
         write_atomic(
             &dir.join("report.json"),
             serde_json::to_string_pretty(&report)
@@ -157,9 +160,33 @@ impl Merged {
     }
 }
 
-fn read_info(dir: &Path) -> Result<TileInfo, MergeError> {
+/// A merged image's `report.json`: the tiles' scene and settings, and each
+/// tile's directory with its radiance's hash.
+#[derive(serde::Serialize)]
+struct MergeReport<'a> {
+    scene: &'a str,
+    image: MergedImage<'a>,
+    settings: &'a serde_json::Value,
+    merged_from: Vec<MergedTile>,
+    provenance: &'a Provenance,
+}
+
+#[derive(serde::Serialize)]
+struct MergedImage<'a> {
+    width: u32,
+    height: u32,
+    bands: &'a [String],
+}
+
+#[derive(serde::Serialize)]
+struct MergedTile {
+    dir: String,
+    radiance_npy_sha256: String,
+}
+
+fn read_info(dir: &Path, reads: &gloam_io::ReadLog) -> Result<TileInfo, MergeError> {
     let p = dir.join(TILE_FILE);
-    let text = gloam_io::read_text(&p, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+    let text = gloam_io::read_text(&p, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
         MergeError::NoTileInfo {
             path: p.clone(),
             dir: dir.to_path_buf(),
@@ -195,7 +222,12 @@ fn read_info(dir: &Path) -> Result<TileInfo, MergeError> {
 
 /// Reads an `.npy` whose shape must be `shape`, refusing a file larger
 /// than that shape needs (no allocation from an untrusted header).
-fn read_npy_checked<A>(path: &Path, shape: &[usize], elem: usize) -> Result<A, MergeError>
+fn read_npy_checked<A>(
+    path: &Path,
+    shape: &[usize],
+    elem: usize,
+    reads: &gloam_io::ReadLog,
+) -> Result<A, MergeError>
 where
     A: ndarray_npy::ReadNpyExt + HasShape,
 {
@@ -208,8 +240,8 @@ where
     ensure_valid(len <= need as u64 + 65_536, path, || {
         format!("{len} bytes, more than a {shape:?} array needs")
     })?;
-    let f =
-        gloam_io::open_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES).map_err(|e| read(e.into()))?;
+    let f = gloam_io::open_bounded(path, gloam_io::MAX_IMAGE_FILE_BYTES, reads)
+        .map_err(|e| read(e.into()))?;
     let a = A::read_npy(std::io::BufReader::new(f)).map_err(|e| read(e.into()))?;
     ensure_valid(a.dims() == shape, path, || {
         format!("shape {:?}, expected {:?}", a.dims(), shape)
@@ -240,12 +272,15 @@ pub const TILE_FILES: [&str; 4] = [TILE_FILE, "radiance.npy", "stderr.npy", "spp
 /// `gloam render --tile` set) or its `task.json` (a sweep task): a whole
 /// tile that lists every file in [`TILE_FILES`] with the SHA-256 the file
 /// has now. Returns the render's inputs (path → SHA-256) from the record.
-pub fn verify_tile_manifest(dir: &Path) -> Result<BTreeMap<String, String>, MergeError> {
+pub fn verify_tile_manifest(
+    dir: &Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<BTreeMap<String, String>, MergeError> {
     let mp = dir.join("manifest.json");
     let tp = dir.join(crate::run::RECORD_FILE);
     let task = !mp.exists() && tp.is_file();
     let rp = if task { &tp } else { &mp };
-    let text = gloam_io::read_text(rp, gloam_io::MAX_TEXT_FILE_BYTES).map_err(|source| {
+    let text = gloam_io::read_text(rp, gloam_io::MAX_TEXT_FILE_BYTES, reads).map_err(|source| {
         MergeError::NoManifest {
             path: rp.clone(),
             source,
@@ -385,15 +420,15 @@ fn input_differences(a: &BTreeMap<String, String>, b: &BTreeMap<String, String>)
 /// manifest says, and all tiles must come from one render (the same scene
 /// and inputs, size, bands, settings and tile count); a refusal names the
 /// file, or what differs.
-pub fn merge(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
+pub fn merge(dirs: &[PathBuf], reads: &gloam_io::ReadLog) -> Result<Merged, MergeError> {
     if dirs.is_empty() {
         return Err(MergeError::NoTiles);
     }
     let mut tiles: Vec<(TileInfo, PathBuf)> = Vec::with_capacity(dirs.len());
     let mut inputs = Vec::with_capacity(dirs.len());
     for d in dirs {
-        inputs.push(verify_tile_manifest(d)?);
-        tiles.push((read_info(d)?, d.clone()));
+        inputs.push(verify_tile_manifest(d, reads)?);
+        tiles.push((read_info(d, reads)?, d.clone()));
     }
     let first = tiles[0].0.clone();
     for ((t, d), ins) in tiles.iter().zip(&inputs) {
@@ -436,16 +471,19 @@ pub fn merge(dirs: &[PathBuf]) -> Result<Merged, MergeError> {
             &d.join("radiance.npy"),
             &[nb, rows, w],
             8,
+            reads,
         )?);
         parts_e.push(read_npy_checked::<Array3<f64>>(
             &d.join("stderr.npy"),
             &[nb, rows, w],
             8,
+            reads,
         )?);
         parts_s.push(read_npy_checked::<Array2<u32>>(
             &d.join("spp.npy"),
             &[rows, w],
             4,
+            reads,
         )?);
     }
     let cat3 = |parts: &[Array3<f64>]| {

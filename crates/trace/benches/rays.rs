@@ -12,7 +12,7 @@ use gloam_trace::{DVec3, RenderSettings, Tracer};
 
 fn office() -> gloam_scene::Scene {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sims/office-room/scene.toml");
-    gloam_scene::load(&p).expect("loading the office room")
+    gloam_scene::load(&p, &gloam_io::ReadLog::off()).expect("loading the office room")
 }
 
 fn rays(c: &mut Criterion) {

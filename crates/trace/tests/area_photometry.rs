@@ -55,7 +55,7 @@ fn cos_ies(step_deg: f64, power: i32) -> String {
 fn scenes(dir: &Path, m: i32) -> (gloam_scene::Scene, gloam_scene::Scene) {
     std::fs::create_dir_all(dir).unwrap();
     std::fs::write(dir.join("cos.ies"), cos_ies(0.02, m + 1)).unwrap();
-    let a = gloam_spectra::lookup("cie-a").unwrap();
+    let a = gloam_spectra::library::get("cie-a").unwrap();
     // Luminance I0 / A from `cie-a`'s shape.
     let k = I0_CD / AREA_M2 / gloam_spectra::photopic(&a);
     let parse = |t: &str| {

@@ -11,7 +11,7 @@ use gloam_trace::{Indirect, RenderSettings};
 #[test]
 fn the_stated_cache_bias_is_the_bias_against_path_tracing() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sims/office-room/scene.toml");
-    let scene = gloam_scene::load(&path).unwrap();
+    let scene = gloam_scene::load(&path, &gloam_io::ReadLog::off()).unwrap();
     let base = RenderSettings {
         resolution_scale: 0.1,
         ..RenderSettings::default()

@@ -79,7 +79,7 @@ fn cos_m_as_an_ies_file_renders_like_shape_exponent() {
     let dir = std::env::temp_dir().join(format!("gloam-photometry-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     // The same luminous intensity on axis: I0 cd from `cie-a`'s shape.
-    let a = gloam_spectra::lookup("cie-a").unwrap();
+    let a = gloam_spectra::library::get("cie-a").unwrap();
     let k = I0_CD / gloam_spectra::photopic(&a);
     let analytic = render(
         &scene_text(&format!("shape_exponent = {M}\nscale = {k:e}")),

@@ -32,7 +32,7 @@ camera = "{camera}"
 /// transmission into the photon count, so this is the QE·T photon transfer
 /// must recover.
 pub fn preset_qe_under_cie_a(preset: &str) -> f64 {
-    let cfg = gloam_sensor::load_preset_or_file(preset).unwrap();
+    let cfg = gloam_sensor::load_preset_or_file(preset, &gloam_io::ReadLog::off()).unwrap();
     let Some(gloam_sensor::config::SpectrumRef::Table {
         wavelength_nm,
         value,

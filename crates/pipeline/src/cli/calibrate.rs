@@ -20,6 +20,7 @@ use crate::render::RenderError;
 use crate::request::Events;
 use crate::sequence::{SceneSequence, SequenceError, capture_scene_sequence};
 use crate::{FrameCapture, FrameContext, FrameFormat, Provenance, SettingArgs};
+use gloam_io::ReadLog;
 
 /// Why a calibration was refused or failed.
 #[derive(Debug, thiserror::Error)]
@@ -67,10 +68,11 @@ struct LoadedSequence {
 fn load_sequence(
     path: &Path,
     set: &[String],
+    reads: &ReadLog,
     events: &dyn Events,
 ) -> Result<LoadedSequence, CalibrateError> {
-    let mut sequence = gloam_scene::sequence::load_sequence(path)?;
-    let mut scene = gloam_scene::load(&sequence.scene)?;
+    let mut sequence = gloam_scene::sequence::load_sequence(path, reads)?;
+    let mut scene = gloam_scene::load(&sequence.scene, reads)?;
     sequence.bind_sky(&mut scene)?;
     for w in sequence.sky.iter().flat_map(|c| &c.warnings) {
         events.note(w);
@@ -103,11 +105,12 @@ fn capture(
     l: &LoadedSequence,
     run: &SequenceRun<'_>,
     frame_format: FrameFormat,
+    reads: &ReadLog,
     events: &dyn Events,
 ) -> Result<CapturedSequence, CalibrateError> {
     // The camera as the run resolved it once (not re-read by name).
-    let config = run.config();
     let (sensor, seed) = (run.sensor(), run.seed());
+    let config = sensor.config();
     let capture = FrameCapture {
         sensor,
         frames: l.sequence.frames,
@@ -122,9 +125,9 @@ fn capture(
     // FITS headers name the camera, the seed and this run, as `gloam
     // sequence`'s do.
     let context = FrameContext {
-        camera: Some(sensor.to_string()),
+        camera: Some(sensor.name().to_string()),
         seed: Some(seed),
-        provenance: Some(Provenance::of_this_run()),
+        provenance: Some(Provenance::of_this_run(reads)),
         scene_utc: crate::frames::scene_utc(&l.scene),
         ..FrameContext::default()
     };
@@ -166,16 +169,18 @@ pub fn run_calibrate_command(
     events: &dyn Events,
 ) -> Result<Vec<String>, CalibrateError> {
     let registry = crate::grabbers();
+    // This run's reads, for its manifest.
+    let reads = ReadLog::new();
     let outcome = match cmd {
         CalibrateCommand::Agc(a) if a.sequence.is_some() => {
             let path = a.sequence.as_deref().unwrap_or(Path::new(""));
-            let loaded = load_sequence(path, &a.set, events)?;
+            let loaded = load_sequence(path, &a.set, &reads, events)?;
             let frame_format = super::frame_format(a.frame_format.as_deref())?;
-            let run = agc_sequence(a)?;
-            let captured = capture(&loaded, &run, frame_format, events)?;
-            run.finish::<CalibrateError>(captured, &registry, ev)?
+            let run = agc_sequence(a, &reads)?;
+            let captured = capture(&loaded, &run, frame_format, &reads, events)?;
+            run.finish::<CalibrateError>(captured, &registry, &reads, ev)?
         }
-        _ => run_calibrate::<CalibrateError>(cmd, &registry, ev)?,
+        _ => run_calibrate::<CalibrateError>(cmd, &registry, &reads, ev)?,
     };
     let Outcome {
         set,
@@ -183,14 +188,15 @@ pub fn run_calibrate_command(
         lines,
     } = outcome;
     if let (Some(set), Some(main_json)) = (set, main_json) {
-        publish(set, main_json)?;
+        publish(set, main_json, &reads)?;
     }
     Ok(lines)
 }
 
-/// Adds the run's provenance to the set's main JSON and publishes the set.
-pub fn publish(set: OutputSet, main_json: &str) -> Result<(), CalibrateError> {
-    let provenance = Provenance::of_this_run();
+/// Adds the run's provenance (its reads from `reads`) to the set's main
+/// JSON and publishes the set.
+pub fn publish(set: OutputSet, main_json: &str, reads: &ReadLog) -> Result<(), CalibrateError> {
+    let provenance = Provenance::of_this_run(reads);
     crate::output::add_provenance(&set.dir().join(main_json), &provenance)?;
     Ok(set.publish(&provenance, None)?)
 }
@@ -204,9 +210,10 @@ pub fn run_scope_command(
     use gloam_calib::scope_run::{run_scope, write_scope};
     let opts = a.options()?;
     let set = OutputSet::begin(&a.out, a.force, false)?;
-    let r = run_scope(&opts)?;
+    let reads = gloam_io::ReadLog::new();
+    let r = run_scope(&opts, &reads)?;
     write_scope(set.dir(), &r)?;
-    publish(set, "scope.json")?;
+    publish(set, "scope.json", &reads)?;
     let readouts = (r.readouts.iter()).map(|(row, l)| {
         format!(
             "row {row}: sync {:.3} V, blanking {:.3} V, active {:.3}–{:.3} V, sync {:.3} µs, line {:.3} µs",

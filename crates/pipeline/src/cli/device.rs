@@ -37,6 +37,8 @@ pub enum DeviceSourceError {
         #[source]
         source: SceneViewError,
     },
+    #[error(transparent)]
+    SensorFile(#[from] crate::CaptureOptionsError),
     #[error("sensor '{sensor}'")]
     Sensor {
         sensor: String,
@@ -56,27 +58,37 @@ pub struct DeviceSource {
 /// `--sequence`: its scene's light-group layers, rendered once for the
 /// camera, and the sequence's weights for any exposure window (looped over
 /// its frames with `--loop`, else its last intensities held).
+/// A device serves frames and writes no manifest: what it reads is listed
+/// nowhere.
+fn unlisted() -> gloam_io::ReadLog {
+    gloam_io::ReadLog::off()
+}
+
 fn sequence_view(
     args: &DeviceArgs,
+    sensor: &crate::ResolvedSensor,
     path: &str,
     note: &dyn Fn(&str),
 ) -> Result<SceneView, DeviceSourceError> {
-    let seq = gloam_scene::sequence::load_sequence(Path::new(path)).map_err(|source| {
-        DeviceSourceError::Sequence {
-            path: path.into(),
-            source,
-        }
-    })?;
+    let seq =
+        gloam_scene::sequence::load_sequence(Path::new(path), &unlisted()).map_err(|source| {
+            DeviceSourceError::Sequence {
+                path: path.into(),
+                source,
+            }
+        })?;
     seq.check_static("gloam device --sequence")?;
     let scene = seq.scene.to_string_lossy().into_owned();
     note(&format!(
         "gloam device: rendering the light groups of {scene} …"
     ));
-    let (groups, layers) = crate::scene_view::render_scene_layers(&scene, &args.sensor, args.size)
-        .map_err(|source| DeviceSourceError::Layers {
-            scene: scene.clone(),
-            source,
-        })?;
+    let (groups, layers) =
+        crate::scene_view::render_scene_layers(&scene, sensor, args.size, &unlisted()).map_err(
+            |source| DeviceSourceError::Layers {
+                scene: scene.clone(),
+                source,
+            },
+        )?;
     seq.check_groups(groups.iter().map(String::as_str))?;
     let duration_s = f64::from(seq.frames) / seq.frame_rate_hz;
     let looped = args.loop_sequence;
@@ -110,8 +122,14 @@ pub fn device_source(
         source,
     };
     if let Some(path) = &args.sequence {
-        let view = sequence_view(args, path, note)?;
-        let source = SensorSource::with_scene(&args.sensor, view, args.seed).map_err(sensor)?;
+        let view = sequence_view(
+            args,
+            &crate::resolve_sensor(&args.sensor, &unlisted())?,
+            path,
+            note,
+        )?;
+        let source =
+            SensorSource::with_scene(&args.sensor, view, args.seed, &unlisted()).map_err(sensor)?;
         let view = format!("sequence '{path}'");
         return Ok(DeviceSource {
             source,
@@ -121,16 +139,18 @@ pub fn device_source(
     }
     if let Some(path) = &args.scene {
         note(&format!("gloam device: rendering {path} …"));
-        let scene = crate::render_scene_view(path, &args.sensor, args.size).map_err(|source| {
-            DeviceSourceError::View {
+        let resolved = crate::resolve_sensor(&args.sensor, &unlisted())?;
+        let scene = crate::render_scene_view(path, &resolved, args.size, &unlisted()).map_err(
+            |source| DeviceSourceError::View {
                 scene: path.clone(),
                 source,
-            }
-        })?;
-        if let Some(fit) = crate::scene_view_fit_note(&scene, &args.sensor) {
+            },
+        )?;
+        if let Some(fit) = crate::scene_view_fit_note(&scene, &resolved) {
             note(&format!("warning: {fit}"));
         }
-        let source = SensorSource::with_scene(&args.sensor, scene, args.seed).map_err(sensor)?;
+        let source = SensorSource::with_scene(&args.sensor, scene, args.seed, &unlisted())
+            .map_err(sensor)?;
         let view = format!("scene '{path}'");
         return Ok(DeviceSource {
             source,
@@ -140,7 +160,8 @@ pub fn device_source(
     }
     let rig = (args.rig.as_deref()).unwrap_or(gloam_simcam::DEFAULT_RIG);
     let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
-    let source = SensorSource::new(&args.sensor, rig, args.seed, size).map_err(sensor)?;
+    let source =
+        SensorSource::new(&args.sensor, rig, args.seed, size, &unlisted()).map_err(sensor)?;
     Ok(DeviceSource {
         source,
         view: format!("rig '{rig}'"),

@@ -123,15 +123,16 @@ pub struct Photometry {
 
 impl Photometry {
     /// Reads an IES or EULUMDAT file, by its extension (`.ies` / `.ldt`,
-    /// any case).
-    pub fn read(path: &Path) -> Result<Self, PhotometryError> {
+    /// any case), noting it in `reads`.
+    pub fn read(path: &Path, reads: &gloam_io::ReadLog) -> Result<Self, PhotometryError> {
         let name = path.display().to_string();
-        let text = gloam_io::read_text(path, MAX_PHOTOMETRY_FILE_BYTES).map_err(|source| {
-            PhotometryError::Io {
-                path: name.clone(),
-                source,
-            }
-        })?;
+        let text =
+            gloam_io::read_text(path, MAX_PHOTOMETRY_FILE_BYTES, reads).map_err(|source| {
+                PhotometryError::Io {
+                    path: name.clone(),
+                    source,
+                }
+            })?;
         let ext = path
             .extension()
             .and_then(|e| e.to_str())

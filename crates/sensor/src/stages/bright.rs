@@ -130,7 +130,8 @@ mod tests {
 
     #[test]
     fn gen3_limits_and_the_stage_that_clips() {
-        let cfg = SensorConfig::load_preset_or_file("gen3-gaas-iccd").unwrap();
+        let cfg =
+            SensorConfig::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         let chain = Chain::new(&cfg).unwrap();
         let b = BrightStages::of(&chain).unwrap();
         let g = chain.reference_gain;
@@ -146,7 +147,11 @@ mod tests {
         assert!(b.in_view(1.0, 11.0) && !b.in_view(1.0, 9.0) && !b.in_view(0.0, 0.0));
         assert!(
             BrightStages::of(
-                &Chain::new(&SensorConfig::load_preset_or_file("scientific-ccd").unwrap()).unwrap()
+                &Chain::new(
+                    &SensorConfig::load_preset_or_file("scientific-ccd", &gloam_io::ReadLog::off())
+                        .unwrap()
+                )
+                .unwrap()
             )
             .is_none()
         );

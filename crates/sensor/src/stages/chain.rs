@@ -25,7 +25,11 @@ pub fn resolve_spectrum(field: &str, r: &SpectrumRef) -> Result<Spectrum, Config
             }
             Spectrum::constant(200.0, 1200.0, *v).map_err(|e| err(e.to_string()))
         }
-        SpectrumRef::Named(n) => lookup(n).map_err(|e| err(e.to_string())),
+        // Unlogged: a loaded configuration's files were noted by its load
+        // (`SensorConfig::load_preset_or_file`).
+        SpectrumRef::Named(n) => {
+            lookup(n, &gloam_io::ReadLog::off()).map_err(|e| err(e.to_string()))
+        }
         SpectrumRef::Table {
             wavelength_nm,
             value,

@@ -62,7 +62,7 @@ mod tests {
         // Gen III GaAs cathodes: 1 350 µA/lm minimum (MIL-PRF-49052 class),
         // 1 800–2 200 µA/lm typical in tube datasheets (e.g. Photonis/Exosens
         // "Gen III" product notes, ITT F9800 series).
-        let qe = gloam_spectra::lookup("qe-gen3-gaas").unwrap();
+        let qe = gloam_spectra::library::get("qe-gen3-gaas").unwrap();
         let s_ua = luminous_sensitivity_a_lm(&qe) * 1e6;
         assert!((1000.0..2600.0).contains(&s_ua), "{s_ua} µA/lm");
     }

@@ -1,6 +1,6 @@
 #![allow(dead_code)]
 
-use gloam_sensor::{Camera, DigitizedFrame, SensorConfig};
+use gloam_sensor::{Camera, Frame, SensorConfig};
 use ndarray::Array2;
 
 /// A preset with fixed patterns and persistence off, so that a uniform
@@ -34,12 +34,12 @@ pub fn uniform(rows: usize, cols: usize, pe: f64) -> Array2<f64> {
 }
 
 /// Pixels of `f` inside a margin, as f64.
-pub fn interior(f: &DigitizedFrame, margin: usize) -> Vec<f64> {
-    let (r, c) = f.pixels.dim();
+pub fn interior(f: &Frame, margin: usize) -> Vec<f64> {
+    let (r, c) = f.view().unwrap().dim();
     let mut v = Vec::new();
     for y in margin..r - margin {
         for x in margin..c - margin {
-            v.push(f.pixels[[y, x]] as f64);
+            v.push(f.view().unwrap()[[y, x]] as f64);
         }
     }
     v

@@ -556,7 +556,8 @@ mod tests {
             env!("CARGO_MANIFEST_DIR"),
             "/../../sims/street-switch-on/scene.toml"
         );
-        let mut scene = gloam_scene::load(std::path::Path::new(path)).unwrap();
+        let mut scene =
+            gloam_scene::load(std::path::Path::new(path), &gloam_io::ReadLog::off()).unwrap();
         scene.camera.width = 80;
         scene.camera.height = 60;
         let t = Tracer::new(&scene, &RenderSettings::default()).unwrap();
