@@ -171,14 +171,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// `cmd` and all its subcommands taking negative numbers as values, so that
-/// `--spp -5` is refused by the flag's own check ("invalid value '-5' for
-/// '--spp'") rather than by clap's misleading "use '-- -5'" tip.
-fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
-    cmd.allow_negative_numbers(true)
-        .mut_subcommands(negative_numbers_are_values)
-}
-
 /// The stack the command runs on: its own thread's, so a small main-thread
 /// stack (`ulimit -s 64` aborted every command, even `--help`) does not
 /// decide it. Reserved, not committed: pages are touched as used.
@@ -203,12 +195,17 @@ fn main() -> ExitCode {
 
 fn gloam_main() -> ExitCode {
     use clap::{CommandFactory, FromArgMatches};
-    if let Err(e) = gloam_pipeline::cli::check_thread_env() {
+    use gloam_pipeline::cli::process::{clap_exit, negative_numbers_are_values};
+    if let Err(e) = gloam_pipeline::cli::process::start_workers() {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
-    let matches =
-        negative_numbers_are_values(cmd::capture::with_out_help(Cli::command())).get_matches();
+    let matches = match negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()))
+        .try_get_matches()
+    {
+        Ok(m) => m,
+        Err(e) => return clap_exit(e),
+    };
     // The subcommand path (`calibrate agc`): its words are not inputs.
     let mut words = Vec::new();
     let mut m = &matches;
@@ -224,13 +221,7 @@ fn gloam_main() -> ExitCode {
         Ok(c) => c,
         Err(e) => e.exit(),
     };
-    let filter = log_filter(&cli.log);
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        // Plain text when stderr is a file or pipe (CI logs, tests).
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    gloam_pipeline::cli::process::init_logging(&cli.log);
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e)
@@ -247,29 +238,6 @@ fn gloam_main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// The log filter: `RUST_LOG` when set (and not empty), else `--log`. A
-/// `RUST_LOG` that is not a filter — or not text — was dropped silently
-/// for `--log`'s; it is named on stderr now (`--log` itself warns through
-/// the filter's own parser).
-fn log_filter(log: &str) -> tracing_subscriber::EnvFilter {
-    use std::io::Write as _;
-    use tracing_subscriber::EnvFilter;
-    let Some(var) = std::env::var_os("RUST_LOG").filter(|v| !v.is_empty()) else {
-        return EnvFilter::new(log);
-    };
-    let parsed = match var.to_str() {
-        Some(text) => EnvFilter::try_new(text).map_err(|e| e.to_string()),
-        None => Err("it is not UTF-8".to_string()),
-    };
-    parsed.unwrap_or_else(|why| {
-        let _ = writeln!(
-            std::io::stderr(),
-            "warning: RUST_LOG={var:?} is not a log filter ({why}): ignored, logging at --log {log}"
-        );
-        EnvFilter::new(log)
-    })
 }
 
 #[cfg(test)]

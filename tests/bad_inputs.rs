@@ -2612,6 +2612,51 @@ const CASES: &[Case] = &[
     case!("sequence: a photocell on a group the scene lacks, with a clock", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 10\n[sky]\ntime_scale = 160\n[groups.nosuch]\nphotocell = { on_lux = 16 }\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "groups.nosuch", "has no light group 'nosuch'"]),
     case!("sequence: a move past the coordinate limit, with a clock", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 10\n[sky]\ntime_scale = 160\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0, 1e12, 0, 0]]\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:", "move[0].keys[0]", "limit of 1e12"]),
     case!("plan: a 0.001 nm step over the pilot's cache (memory before allocation)", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=0.001"], ["300001 wavelength samples", "spectral_step_nm = 0.001", "GiB"]),
+    // --- round 9 (issue 46)
+    // The sequence itself lasts 1e301 s: its rate is to blame, not the clock's scale.
+    case!("sequence: a sky clock over a frame rate of 1e-300 Hz", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 1e-300\nframes = 10\n[sky]\ntime_scale = 160\nrenders = 2\n", "s.toml" => "{base}\n[sky]\nutc = \"2025-10-21T22:08:00Z\"\nlatitude_deg = 43.08\nlongitude_deg = -77.67\nmoon = false\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:2:", "frame_rate_hz", "at 1e-300 Hz"]),
+    // An explicit cache is counted before the pilot (805 GB at 3001 samples).
+    case!("plan: indirect = cache at 0.1 nm over 4194304 texels", ["s.toml" => "{base}"], ["plan", "s.toml", "--set", "spectral_step_nm=0.1", "--set", "indirect=cache", "--set", "cache_texels=4194304", "--set", "cache_rays=1"], ["3001 wavelength samples", "4194304 texels", "GiB"]),
+    // Rounded up to the wire's 1 µs: run and recorded at 10× what was asked.
+    case!(
+        "capture: --exposure-s below a microsecond",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=4x4",
+            "--frames",
+            "1",
+            "--exposure-s",
+            "1e-7",
+            "--out",
+            "o"
+        ],
+        ["exposure 1e-7 s", "below the 1 µs"]
+    ),
+    case!(
+        "capture: --exposure-s subnormal",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=4x4",
+            "--frames",
+            "1",
+            "--exposure-s",
+            "1e-320",
+            "--out",
+            "o"
+        ],
+        ["exposure 1e-320 s", "below the 1 µs"]
+    ),
+    // A point's estimate takes no camera samples: --spp was accepted and ignored.
+    case!("probe: --spp with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--spp", "8"], ["--spp", "cannot be used with"]),
+    // Steps lost in rounding made identical tasks; an overflowing one an infinite value.
+    case!("sweep: a float range whose step is lost in rounding", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\ntolerance = { from = 0.01, count = 3, step = 1e-18 }\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:5:", "axes.tolerance", "lost in rounding", "identical tasks"]),
+    case!("sweep: a float range stepping past the largest float", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\n\"camera.fov_deg\" = { from = 1e308, count = 3, step = 1e308 }\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml:5:", "camera.fov_deg", "value 1 of the range", "not a finite number"]),
+    // Written into the script as it was, for Slurm to refuse at submission.
+    case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
 ];
 
 #[test]
@@ -2687,6 +2732,40 @@ fn odd_paths_and_environments_get_clear_errors() {
             .current_dir(dir.path());
         check(&format!("RAYON_NUM_THREADS={v}"), c, &["RAYON_NUM_THREADS"]);
     }
+    // Worker threads that cannot start (each a 2 MiB stack, 1024 of them
+    // under a 1 GiB address space): an error before any work, not
+    // rayon's panic in the first parallel loop (round 9).
+    std::fs::write(dir.path().join("s.toml"), BASE).unwrap();
+    let mut c = Command::new("sh");
+    c.args([
+        "-c",
+        "ulimit -v 1048576 && exec \"$0\" render s.toml --out o --spp 1",
+        BIN,
+    ])
+    .env("RAYON_NUM_THREADS", "1024")
+    .current_dir(dir.path());
+    check(
+        "RAYON_NUM_THREADS=1024 under ulimit -v",
+        c,
+        &["starting 1024 worker threads"],
+    );
+    // `--help` and `--version` whose stdout is full: clap dropped the
+    // write error and exited 0 with nothing written (round 9).
+    for arg in ["--help", "--version"] {
+        if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
+            let out = Command::new(BIN)
+                .arg(arg)
+                .stdin(Stdio::null())
+                .stdout(full)
+                .stderr(Stdio::piped())
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            if out.status.code() != Some(1) || !err.contains("writing to stdout") {
+                failures.push(format!("{arg} > /dev/full: {}: {err}", out.status));
+            }
+        }
+    }
     // A full stderr loses the message, not the run: exit 1, no panic.
     if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
         let status = Command::new(BIN)
@@ -2699,6 +2778,65 @@ fn odd_paths_and_environments_get_clear_errors() {
             .unwrap();
         if status.code() != Some(1) {
             failures.push(format!("stderr on /dev/full: exit {status}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Valid inputs at the edges that round 9 found refused with the wrong
+/// reason: each must succeed.
+#[test]
+fn valid_extremes_are_taken() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), BASE).unwrap();
+    let cases: &[(&str, &[&str])] = &[
+        // Its length overflows, its direction does not ("a zero vector").
+        (
+            "probe: a normal of 1e308,1e308,0",
+            &[
+                "probe",
+                "s.toml",
+                "--point",
+                "0,0,1",
+                "--normal",
+                "1e308,1e308,0",
+            ],
+        ),
+        (
+            "probe: a subnormal normal",
+            &[
+                "probe",
+                "s.toml",
+                "--point",
+                "0,0,1",
+                "--normal",
+                "0,0,1e-320",
+            ],
+        ),
+        // Under `auto` the render's cache is counted once the pilot
+        // chooses it: `plan` builds the pilot's alone (3001 × 1024 texels),
+        // and was refused for the 4194304 it might (805 GB).
+        (
+            "plan: 0.1 nm with 4194304 cache texels under auto",
+            &[
+                "plan",
+                "s.toml",
+                "--set",
+                "spectral_step_nm=0.1",
+                "--set",
+                "cache_texels=4194304",
+                "--set",
+                "cache_rays=1",
+            ],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, args) in cases {
+        let mut c = Command::new(BIN);
+        c.args(*args).current_dir(dir.path());
+        let (code, err) = finish(c);
+        if code != Some(0) {
+            failures.push(format!("{name}: exit {code:?}: {err}"));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

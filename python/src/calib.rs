@@ -217,17 +217,8 @@ fn mtf<'py>(
     match done {
         MtfDone::Digital { curve, .. } => to_py_as(py, &curve, "Mtf"),
         MtfDone::Voltage(r) => {
-            // mtf.json's document (`gloam_calib::report::write_mtf_report`).
-            let first = &r.curves[0];
-            let doc = serde_json::json!({
-                "method": first.method,
-                "frequencies_cy_per_px": first.frequencies_cy_per_px,
-                "mtf": first.mtf,
-                "mtf50": first.mtf50,
-                "mtf10": first.mtf10,
-                "curves": r.curves,
-                "details": r.details,
-            });
+            // mtf.json's document, as `gloam calibrate mtf` writes it.
+            let doc = gloam_calib::report::MtfDocument::new(&r.curves, &r.details).or_py()?;
             to_py_as(py, &doc, "Mtf")
         }
     }

@@ -19,10 +19,11 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     )?;
     // `--target-error camera[:K]`: what a camera run would cost, before it.
     let estimate = match &camera_target {
-        Some((k, capture)) => {
+        Some((k, sensor)) => {
             let spp_fixed = args.settings().names_spp();
+            let capture = args.capture(sensor);
             Some(gloam_pipeline::camera_goal::estimate(
-                &scene, &settings, spp_fixed, capture, *k,
+                &scene, &settings, spp_fixed, &capture, *k,
             )?)
         }
         None => None,
@@ -31,7 +32,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         let mut v = serde_json::to_value(&plan)?;
         v["preparation"] = serde_json::to_value(&prep)?;
         if let Some(e) = &estimate {
-            v["camera_target_estimate"] = e.clone();
+            v["camera_target_estimate"] = serde_json::to_value(e)?;
         }
         return print_json(&v);
     }
@@ -40,8 +41,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     out!("{plan}");
     outln!();
     outln!("{}", preparation_line(&prep));
-    if let (Some(e), Some((_, capture))) = (&estimate, &camera_target) {
-        outln!("{}", estimate_line(e, capture.sensor));
+    if let (Some(e), Some((_, sensor))) = (&estimate, &camera_target) {
+        outln!("{}", estimate_line(e, sensor.name()));
     }
     Ok(())
 }

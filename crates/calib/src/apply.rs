@@ -9,8 +9,19 @@ use crate::error::CalibError;
 use crate::radiance::Lut;
 
 /// The file beside a capture's frames naming the camera that took them
-/// (`{"camera": describe(), "grabber": uri}`).
+/// ([`CameraRecord`]).
 pub const CAMERA_FILE: &str = "camera.json";
+
+/// [`CAMERA_FILE`]'s document: the grabber's description of the camera
+/// and the URI it was opened with.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CameraRecord {
+    /// `FrameGrabber::describe()`: what [`camera_identity`] compares.
+    pub camera: String,
+    /// The grabber URI (not needed to check a LUT).
+    #[serde(default)]
+    pub grabber: String,
+}
 
 /// Reads a `lut.json` written by the radiance flow and checks it
 /// ([`Lut::check`]): a LUT whose numbers leave physics is refused at the
@@ -102,16 +113,13 @@ pub fn check_lut_fits_frame(
                 source,
             },
         )?;
-        let v: serde_json::Value =
+        let cam: CameraRecord =
             serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
                 path: cam_file.clone(),
                 what: "camera record",
                 source,
             })?;
-        let camera = v
-            .get("camera")
-            .and_then(|c| c.as_str())
-            .ok_or_else(|| CalibError::file(&cam_file, "no \"camera\""))?;
+        let camera = &cam.camera;
         if camera_identity(camera) != lut_camera {
             return Err(CalibError::LutCamera {
                 lut: lut_path.to_path_buf(),

@@ -474,9 +474,10 @@ pub const SEQUENCE_LUT_AUTO_RANGE: f64 = 0.8;
 pub struct SequenceRun<'a> {
     a: &'a AgcArgs,
     set: OutputSet,
-    preset: String,
     seed: u64,
-    config: gloam_sensor::SensorConfig,
+    /// The `sim:` grabber's preset, read once for the checks and the
+    /// capture.
+    sensor: gloam_sensor::ResolvedSensor,
     lut: Option<crate::radiance::Lut>,
     opts: crate::agc_sequence::AgcSequenceOptions,
 }
@@ -501,7 +502,8 @@ pub fn agc_sequence<'a>(
             "--sequence sets the exposure (the camera's, within the sequence's frame period); drop --exposure-s".into(),
         ));
     }
-    let config = gloam_sensor::load_preset_or_file(&preset, reads)?;
+    let sensor = gloam_sensor::ResolvedSensor::load(&preset, reads)?;
+    let config = sensor.config();
     let camera = format!("simulated {preset}");
     let lut = match &a.lut {
         Some(path) => {
@@ -512,7 +514,7 @@ pub fn agc_sequence<'a>(
         }
         None => None,
     };
-    let opts = AgcSequenceOptions::for_sensor(&config)?.ok_or_else(|| {
+    let opts = AgcSequenceOptions::for_sensor(config)?.ok_or_else(|| {
         CalibError::Usage(format!(
             "--sequence: camera '{preset}' has no AGC ([agc] in its sensor file)"
         ))
@@ -522,9 +524,8 @@ pub fn agc_sequence<'a>(
     Ok(SequenceRun {
         a,
         set,
-        preset,
         seed,
-        config,
+        sensor,
         lut,
         opts,
     })
@@ -536,20 +537,15 @@ impl SequenceRun<'_> {
         self.set.dir()
     }
 
-    /// The camera (preset or sensor file) the sequence is captured through.
-    pub fn sensor(&self) -> &str {
-        &self.preset
+    /// The camera (preset or sensor file) the sequence is captured
+    /// through, read once when the run was checked.
+    pub fn sensor(&self) -> &gloam_sensor::ResolvedSensor {
+        &self.sensor
     }
 
     /// The camera's noise seed.
     pub fn seed(&self) -> u64 {
         self.seed
-    }
-
-    /// The camera's configuration, resolved once from
-    /// [`sensor`](Self::sensor) when the run was checked.
-    pub fn config(&self) -> &gloam_sensor::SensorConfig {
-        &self.config
     }
 
     /// With the sequence `captured` into [`dir`](Self::dir): measures a
@@ -570,7 +566,7 @@ impl SequenceRun<'_> {
         let SequenceRun {
             a,
             set,
-            config,
+            sensor,
             lut,
             opts,
             ..
@@ -603,7 +599,7 @@ impl SequenceRun<'_> {
                 (lut, src)
             }
         };
-        let k = detected_per_band_radiance(src.as_mut(), &config)?;
+        let k = detected_per_band_radiance(src.as_mut(), sensor.config())?;
         let truth = SequenceLayers {
             groups: &captured.groups,
             layers: &captured.layers,
@@ -822,7 +818,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             a.magnification,
             ctf_path,
         )?;
-        report::write_mtf_report(dir, &curves, details)?;
+        report::write_mtf_report(dir, &curves, &details)?;
         return Ok(written(set, "mtf.json", vec![mtf_line(&curves[0])]));
     };
     let uri = (a.grabber.clone()).ok_or_else(|| usage("--target sine/edge needs --grabber"))?;
@@ -838,12 +834,12 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             curve,
             mean_radiance_w_m2_sr,
         } => {
-            let details = serde_json::json!({
-                "mean_radiance_w_m2_sr": mean_radiance_w_m2_sr,
-                "grabber": g.describe(),
-            });
+            let details = crate::mtf_flow::MtfDetails::Digital {
+                mean_radiance_w_m2_sr,
+                grabber: g.describe(),
+            };
             let line = mtf_line(&curve);
-            report::write_mtf_report(dir, &[curve], details)?;
+            report::write_mtf_report(dir, &[curve], &details)?;
             Ok(written(set, "mtf.json", vec![line]))
         }
     }
@@ -865,7 +861,7 @@ fn mtf_voltage<E: From<CalibError>>(
     set: OutputSet,
     r: crate::mtf_flow::VoltageReport,
 ) -> Result<Outcome, E> {
-    report::write_mtf_report(set.dir(), &r.curves, r.details)?;
+    report::write_mtf_report(set.dir(), &r.curves, &r.details)?;
     let (c, p) = (&r.curves, &r.voltage.points);
     let mut lines = Vec::new();
     for (i, f) in r.frequencies_cy_per_px.iter().enumerate() {

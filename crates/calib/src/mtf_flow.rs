@@ -187,7 +187,51 @@ pub struct VoltageReport {
     pub curves: Vec<MtfCurve>,
     pub voltage: VoltageMtf,
     pub frequencies_cy_per_px: Vec<f64>,
-    pub details: serde_json::Value,
+    pub details: MtfDetails,
+}
+
+/// The `details` block of `mtf.json`: how the flow that made the curves
+/// measured (one shape per flow, told apart by their keys).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum MtfDetails {
+    /// `--space voltage`: the scope's measurement beside the digital flow.
+    Voltage(Box<VoltageDetails>),
+    /// `--target usaf`: each bar's chart and image frequency.
+    Usaf { usaf: Vec<UsafRow> },
+    /// `--target sine/edge` in digital counts.
+    Digital {
+        mean_radiance_w_m2_sr: f64,
+        grabber: String,
+    },
+}
+
+/// The voltage-space flow's `details`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VoltageDetails {
+    /// Always `"voltage"`.
+    pub space: &'static str,
+    pub mean_radiance_w_m2_sr: f64,
+    pub gain: f64,
+    pub grabber: String,
+    pub pixel_clock_hz: f64,
+    /// The video amplifier's bandwidth; None for a chain without one.
+    pub video_bandwidth_hz: Option<f64>,
+    /// Image size / chart size.
+    pub magnification: f64,
+    /// (reflectance, volts) of the grey scale the scope read.
+    pub grey_scale_reflectance_volts: Vec<(f64, f64)>,
+    pub voltage_points: Vec<crate::mtf_voltage::VoltagePoint>,
+}
+
+/// One USAF bar in `details.usaf`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct UsafRow {
+    pub group: i32,
+    pub element: i32,
+    pub lp_per_mm: f64,
+    pub cycles_per_pixel: f64,
+    pub square_wave_modulation: f64,
 }
 
 /// Sine MTF in voltage space (the scope on a simulated camera modelled
@@ -246,17 +290,17 @@ pub fn voltage_mtf(
     digital.method = "digital count (sine)".into();
     let mut curves = vec![voltage.curve.clone(), digital];
     curves.extend(analytic_curves(&cam, &freqs, gain, size.0 as usize));
-    let details = serde_json::json!({
-        "space": "voltage",
-        "mean_radiance_w_m2_sr": level,
-        "gain": gain,
-        "grabber": g.describe(),
-        "pixel_clock_hz": voltage.pixel_clock_hz,
-        "video_bandwidth_hz": cam.chain().amplifier().map(|x| x.bandwidth_hz),
-        "magnification": v.magnification,
-        "grey_scale_reflectance_volts": voltage.grey_scale,
-        "voltage_points": voltage.points,
-    });
+    let details = MtfDetails::Voltage(Box::new(VoltageDetails {
+        space: "voltage",
+        mean_radiance_w_m2_sr: level,
+        gain,
+        grabber: g.describe(),
+        pixel_clock_hz: voltage.pixel_clock_hz,
+        video_bandwidth_hz: cam.chain().amplifier().map(|x| x.bandwidth_hz),
+        magnification: v.magnification,
+        grey_scale_reflectance_volts: voltage.grey_scale.clone(),
+        voltage_points: voltage.points.clone(),
+    }));
     Ok(VoltageReport {
         curves,
         voltage,
@@ -401,7 +445,7 @@ pub fn usaf_mtf(
     pixel_pitch_um: f64,
     magnification: f64,
     ctf: &Path,
-) -> Result<(Vec<MtfCurve>, serde_json::Value), CalibError> {
+) -> Result<(Vec<MtfCurve>, MtfDetails), CalibError> {
     if !(pixel_pitch_um > 0.0 && pixel_pitch_um.is_finite()) {
         return Err(CalibError::Usage(format!(
             "--pixel-pitch-um {pixel_pitch_um}: must be a positive pitch"
@@ -466,18 +510,21 @@ pub fn usaf_mtf(
             ));
         }
     }
-    let details = serde_json::json!({
-        "usaf": bars.iter().zip(&f).map(|(b, fp)| serde_json::json!({
-            "group": b.group, "element": b.element, "lp_per_mm": lp(b),
-            "cycles_per_pixel": fp, "square_wave_modulation": b.modulation,
-        })).collect::<Vec<_>>(),
-    });
+    let usaf = (bars.iter().zip(&f))
+        .map(|(b, &cycles_per_pixel)| UsafRow {
+            group: b.group,
+            element: b.element,
+            lp_per_mm: lp(b),
+            cycles_per_pixel,
+            square_wave_modulation: b.modulation,
+        })
+        .collect();
     Ok((
         vec![
             MtfCurve::new("usaf-coltman", f.clone(), m),
             MtfCurve::new("usaf-square-wave", f, c),
         ],
-        details,
+        MtfDetails::Usaf { usaf },
     ))
 }
 
@@ -544,6 +591,7 @@ mod tests {
             "{f:?}"
         );
         assert_eq!(curves[1].mtf, vec![0.9, 0.5]);
+        let details = serde_json::to_value(&details).unwrap();
         assert_eq!(details["usaf"][1]["lp_per_mm"], 4.0);
     }
 

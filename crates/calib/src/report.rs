@@ -9,6 +9,7 @@ use serde::Serialize;
 use crate::agc::AgcReport;
 use crate::error::CalibError;
 use crate::mtf::MtfCurve;
+use crate::mtf_flow::MtfDetails;
 use crate::plot::{Mark, Series, xy_plot};
 use crate::ptc::PtcResult;
 use crate::radiance::Lut;
@@ -315,25 +316,45 @@ fn write_ptc_plots(dir: &Path, r: &PtcResult) -> Result<(), CalibError> {
     Ok(())
 }
 
+/// `mtf.json`'s document: the first curve's values at the top (what a
+/// reader of one MTF wants), every curve under `curves`, and how they were
+/// measured under `details`. Python's `calibrate.mtf` returns the same.
+#[derive(Clone, Debug, Serialize)]
+pub struct MtfDocument<'a> {
+    pub method: &'a str,
+    pub frequencies_cy_per_px: &'a [f64],
+    pub mtf: &'a [f64],
+    pub mtf50: Option<f64>,
+    pub mtf10: Option<f64>,
+    pub curves: &'a [MtfCurve],
+    pub details: &'a MtfDetails,
+}
+
+impl<'a> MtfDocument<'a> {
+    /// The document of `curves` (the first leads); refused without one.
+    pub fn new(curves: &'a [MtfCurve], details: &'a MtfDetails) -> Result<Self, CalibError> {
+        let first = curves
+            .first()
+            .ok_or_else(|| CalibError::InsufficientData("no MTF curve".into()))?;
+        Ok(MtfDocument {
+            method: &first.method,
+            frequencies_cy_per_px: &first.frequencies_cy_per_px,
+            mtf: &first.mtf,
+            mtf50: first.mtf50,
+            mtf10: first.mtf10,
+            curves,
+            details,
+        })
+    }
+}
+
 /// `mtf.json` (frequencies, MTF values, mtf50, mtf10), `mtf.md`, `mtf.png`.
 pub fn write_mtf_report(
     dir: &Path,
     curves: &[MtfCurve],
-    extra: serde_json::Value,
+    details: &MtfDetails,
 ) -> Result<(), CalibError> {
-    let first = curves
-        .first()
-        .ok_or_else(|| CalibError::InsufficientData("no MTF curve".into()))?;
-    let json = serde_json::json!({
-        "method": first.method,
-        "frequencies_cy_per_px": first.frequencies_cy_per_px,
-        "mtf": first.mtf,
-        "mtf50": first.mtf50,
-        "mtf10": first.mtf10,
-        "curves": curves,
-        "details": extra,
-    });
-    write_json(&dir.join("mtf.json"), &json)?;
+    write_json(&dir.join("mtf.json"), &MtfDocument::new(curves, details)?)?;
     let mut md =
         String::from("# MTF\n\n| method | MTF50 (cy/px) | MTF10 (cy/px) |\n|---|---|---|\n");
     for c in curves {

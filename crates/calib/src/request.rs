@@ -545,7 +545,10 @@ impl GrabRequest {
     ) -> Result<Box<dyn FrameGrabber>, E> {
         let mut g = open_uri(registry, &self.grabber, self.seed, reads)?;
         ev(Event::Note(format!("capturing from {}", g.describe())));
-        let camera = serde_json::json!({ "camera": g.describe(), "grabber": self.grabber });
+        let camera = crate::apply::CameraRecord {
+            camera: g.describe(),
+            grabber: self.grabber.clone(),
+        };
         report::write_json(&dir.join(crate::apply::CAMERA_FILE), &camera)?;
         if let Some(b) = self.bits {
             g.set_bits(b)?;

@@ -443,13 +443,19 @@ fn slanted_edge_mtf_matches_the_analytic_mtf() {
     );
     assert!(worst < 0.03);
     let dir = tempfile::tempdir().unwrap();
-    report::write_mtf_report(dir.path(), &[c], serde_json::json!({})).unwrap();
+    let details = gloam_calib::mtf_flow::MtfDetails::Digital {
+        mean_radiance_w_m2_sr: 1.0,
+        grabber: "mock".into(),
+    };
+    report::write_mtf_report(dir.path(), &[c], &details).unwrap();
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("mtf.json")).unwrap())
             .unwrap();
     assert!(
         v["mtf50"].is_number() && v["mtf10"].is_number() && v["frequencies_cy_per_px"].is_array()
     );
+    assert_eq!(v["details"]["grabber"], "mock");
+    assert_eq!(v["curves"][0]["mtf50"], v["mtf50"]);
 }
 
 #[test]

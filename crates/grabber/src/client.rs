@@ -457,6 +457,8 @@ impl<T: Transport> ProtocolGrabber<T> {
                         // gate duty in effect (autogating is the camera's).
                         exposure_us: Some(f64::from(l.exposure_us)),
                         gate_duty: None,
+                        nd_density: None,
+                        sensor: None,
                     };
                     (l.seq, Ok(Frame { meta, pixels }))
                 }

@@ -613,6 +613,8 @@ impl GenicamGrabber {
                 levels: None,
                 exposure_us: chunk.exposure_us,
                 gate_duty: chunk.gate_duty,
+                nd_density: None,
+                sensor: None,
             },
             pixels,
         })

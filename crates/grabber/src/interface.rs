@@ -294,5 +294,13 @@ pub fn exposure_us(exposure_s: f64) -> Result<u32, GrabError> {
             "exposure {exposure_s} s must be positive"
         )));
     }
-    Ok((exposure_s * 1e6).round().clamp(1.0, f64::from(u32::MAX)) as u32)
+    let us = (exposure_s * 1e6).round();
+    // Rounded up to 1 µs, `--exposure-s 1e-7` (or 1e-320) was run and
+    // recorded at 10× (10³¹⁴×) what was asked, silently.
+    if us < 1.0 {
+        return Err(GrabError::InvalidSetting(format!(
+            "exposure {exposure_s:e} s is below the 1 µs the device takes (whole microseconds)"
+        )));
+    }
+    Ok(us.min(f64::from(u32::MAX)) as u32)
 }

@@ -23,20 +23,9 @@ pub use source::{CaptureSettings, FrameSource, SyntheticSource};
 pub use transport::{DeviceLink, Framing, LinkError, Transport};
 pub use uri::{GrabberUri, UriParts, UriSyntaxError};
 
-/// CRC-32C of pixels as little-endian `u16` bytes:
-/// [`FrameMeta::pixels_crc32c`]. The protocol's own engine, so the host and
-/// the device checksum frames with one implementation.
-pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
-    let mut d = firmware_protocol::Crc32c::new();
-    let mut buf = [0u8; 4096];
-    for block in pixels.chunks(buf.len() / 2) {
-        for (o, p) in buf.chunks_exact_mut(2).zip(block) {
-            o.copy_from_slice(&p.to_le_bytes());
-        }
-        d.update(&buf[..block.len() * 2]);
-    }
-    d.value()
-}
+/// CRC-32C of pixels as little-endian `u16` bytes (the one
+/// implementation, on the lowest floor with the frame).
+pub use gloam_io::frame::pixels_crc32c;
 
 /// Options for [`Registry::open`].
 #[derive(Clone, Debug, Default)]

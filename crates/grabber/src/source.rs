@@ -45,7 +45,7 @@ impl Default for CaptureSettings {
 }
 
 /// What a source reports with a frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Rendered {
     /// Gain actually in effect, thousandths (differs from the manual gain under AGC).
     pub gain_milli: u32,
@@ -56,6 +56,11 @@ pub struct Rendered {
     /// Fraction of the exposure the photocathode was gated on for this
     /// frame (configured duty × the tube's autogating), if it has one.
     pub gate_duty: Option<f64>,
+    /// Optical density of the camera's ND filter, if it has one.
+    pub nd_density: Option<f64>,
+    /// The sensor model's own figures of the frame, for a simulated
+    /// camera (its grabber passes them on; a wire does not carry them).
+    pub sensor: Option<gloam_io::frame::SensorMeta>,
 }
 
 /// Fixed facts about a source.
@@ -245,6 +250,8 @@ impl FrameSource for SyntheticSource {
             levels: None,
             bright_source_protection: false,
             gate_duty: None,
+            nd_density: None,
+            sensor: None,
         })
     }
 }

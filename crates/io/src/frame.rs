@@ -53,6 +53,15 @@ pub struct FrameMeta {
     /// device's `ChunkGateDuty`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gate_duty: Option<f64>,
+    /// Optical density of the ND filter in front of the camera, when the
+    /// camera says (simulated cameras).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nd_density: Option<f64>,
+    /// The simulated camera's own figures of this frame, when it came from
+    /// one in process (the sensor model makes them; the simulated grabber
+    /// passes them on unchanged). `None` for frames over a wire.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<SensorMeta>,
 }
 
 /// A camera's output levels at the settings of one frame, DN.
@@ -72,13 +81,51 @@ pub struct DnLevels {
     pub electrons_per_dn: Option<f64>,
 }
 
-/// One digitised frame, as a grabber hands it out: row-major `height ×
-/// width` digital counts with the settings in effect. The one frame type a
-/// grabbed frame is, whichever camera or link it came from.
+/// One digitised frame: row-major `height × width` digital counts with
+/// the settings in effect. The one frame type in gloam, whether the
+/// sensor model made it in process or a grabber received it over a link.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
     pub meta: FrameMeta,
     pub pixels: Vec<u16>,
+}
+
+/// A frame whose counts do not fill its `width × height`.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[error("frame of {width}×{height} carries {pixels} counts")]
+pub struct FrameShapeError {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: usize,
+}
+
+impl Frame {
+    /// The counts as a `height × width` array (rows first), without a
+    /// copy: for code that indexes pixels by row and column.
+    pub fn view(&self) -> Result<ndarray::ArrayView2<'_, u16>, FrameShapeError> {
+        let (w, h) = (self.meta.width as usize, self.meta.height as usize);
+        ndarray::ArrayView2::from_shape((h, w), &self.pixels).map_err(|_| FrameShapeError {
+            width: self.meta.width,
+            height: self.meta.height,
+            pixels: self.pixels.len(),
+        })
+    }
+}
+
+/// CRC-32C of pixels as little-endian `u16` bytes:
+/// [`FrameMeta::pixels_crc32c`]. The protocol's own engine, so the host,
+/// the device and the sensor model checksum frames with one
+/// implementation.
+pub fn pixels_crc32c(pixels: &[u16]) -> u32 {
+    let mut d = firmware_protocol::Crc32c::new();
+    let mut buf = [0u8; 4096];
+    for block in pixels.chunks(buf.len() / 2) {
+        for (o, p) in buf.chunks_exact_mut(2).zip(block) {
+            o.copy_from_slice(&p.to_le_bytes());
+        }
+        d.update(&buf[..block.len() * 2]);
+    }
+    d.value()
 }
 
 /// What the camera's gain loop (`gloam_sensor::stages::agc`) is doing

@@ -97,34 +97,43 @@ pub struct FrameRecord {
 }
 
 impl FrameRecord {
-    /// The record of a grabbed frame, with its exposure figures.
-    pub fn of_grab(index: u64, file: String, f: &Frame, warnings: Vec<String>) -> Self {
-        let top = f64::from((1u32 << f.meta.bits.min(16)) - 1);
-        let saturated_at_dn = f.meta.levels.map_or(top, |l| l.saturated_at_dn);
+    /// The record of frame `index` stored in `file`, with its exposure
+    /// `warnings`: its settings and levels as its meta says; with the
+    /// sensor model's own figures (`meta.sensor`, a frame made in
+    /// process) their mean, saturated fraction, clipping stage and MCP
+    /// compression, else the mean and saturated fraction of its counts.
+    pub fn of_frame(index: u64, file: String, f: &Frame, warnings: Vec<String>) -> Self {
+        let m = &f.meta;
+        let top = f64::from((1u32 << m.bits.min(16)) - 1);
+        let saturated_at_dn = m.levels.map_or(top, |l| l.saturated_at_dn);
+        let sensor = m.sensor.as_ref();
         Self {
             index,
             file,
-            seq: f.meta.seq,
-            timestamp: f.meta.timestamp_us,
-            gain: f.meta.gain,
-            agc: f.meta.agc,
-            bits: f.meta.bits,
-            width: f.meta.width,
-            height: f.meta.height,
-            pixels_crc32c: f.meta.pixels_crc32c,
-            status: f.meta.status,
-            mean_dn: mean_dn(&f.pixels),
-            saturated_fraction: saturated_fraction(&f.pixels, saturated_at_dn),
+            seq: m.seq,
+            timestamp: m.timestamp_us,
+            gain: m.gain,
+            agc: m.agc,
+            bits: m.bits,
+            width: m.width,
+            height: m.height,
+            pixels_crc32c: m.pixels_crc32c,
+            status: m.status,
+            mean_dn: sensor.map_or_else(|| mean_dn(&f.pixels), |s| s.mean_dn),
+            saturated_fraction: sensor.map_or_else(
+                || saturated_fraction(&f.pixels, saturated_at_dn),
+                |s| s.saturated_fraction,
+            ),
             saturated_at_dn,
-            black_dn: f.meta.levels.map(|l| l.black_dn),
-            electrons_per_dn: f.meta.levels.and_then(|l| l.electrons_per_dn),
-            nd_density: None,
-            gate_duty: f.meta.gate_duty,
-            exposure_us: f.meta.exposure_us,
-            saturated_by: None,
-            mcp_compressed_fraction: None,
+            black_dn: m.levels.map(|l| l.black_dn),
+            electrons_per_dn: m.levels.and_then(|l| l.electrons_per_dn),
+            nd_density: m.nd_density,
+            gate_duty: m.gate_duty,
+            exposure_us: m.exposure_us,
+            saturated_by: sensor.map(|s| s.saturation.saturated_by),
+            mcp_compressed_fraction: sensor.map(|s| s.saturation.mcp_compressed_fraction),
             warnings,
-            sensor: None,
+            sensor: m.sensor.clone(),
             stored: None,
             sequence: None,
         }
@@ -625,5 +634,89 @@ mod tests {
             }
         );
         assert_eq!(l(serde_json::json!({})).pixels_crc32c().unwrap(), None);
+    }
+
+    fn frame(sensor: Option<SensorMeta>) -> Frame {
+        use crate::frame::{DnLevels, FrameMeta};
+        Frame {
+            meta: FrameMeta {
+                seq: 3,
+                timestamp_us: 120_000,
+                gain: 40.0,
+                agc: false,
+                bits: 12,
+                width: 2,
+                height: 2,
+                pixels_crc32c: 9,
+                status: FrameStatus::Ok,
+                levels: Some(DnLevels {
+                    black_dn: 10.0,
+                    saturation_dn: 4095.0,
+                    saturated_at_dn: 4000.0,
+                    electrons_per_dn: Some(0.5),
+                }),
+                exposure_us: None,
+                gate_duty: Some(0.25),
+                nd_density: Some(1.5),
+                sensor,
+            },
+            pixels: vec![0, 100, 4000, 4095],
+        }
+    }
+
+    /// A frame's record is its meta; its mean and saturated fraction are
+    /// its counts' (4195 / 2 of 4 at or above 4000) unless the sensor
+    /// model's own figures come with it, which it then takes whole.
+    #[test]
+    fn a_record_is_its_frames_meta() {
+        use crate::frame::{AgcState, SaturationAccount};
+        let r = FrameRecord::of_frame(7, "f.png".into(), &frame(None), vec!["w".into()]);
+        assert_eq!((r.index, r.seq, r.timestamp, r.gain), (7, 3, 120_000, 40.0));
+        assert_eq!((r.width, r.height, r.pixels_crc32c), (2, 2, 9));
+        assert_eq!((r.mean_dn, r.saturated_fraction), (2048.75, 0.5));
+        assert_eq!((r.saturated_at_dn, r.black_dn), (4000.0, Some(10.0)));
+        assert_eq!((r.electrons_per_dn, r.gate_duty), (Some(0.5), Some(0.25)));
+        assert_eq!((r.nd_density, r.warnings.len()), (Some(1.5), 1));
+        assert!(r.sensor.is_none() && r.saturated_by.is_none());
+        let sensor = SensorMeta {
+            seq: 3,
+            time_s: 0.12,
+            exposure_s: 0.04,
+            gain_in_effect: 40.0,
+            mcp_voltage_v: None,
+            control_voltage_v: None,
+            agc_enabled: false,
+            agc_state: AgcState::Off,
+            bits: 12,
+            width: 2,
+            height: 2,
+            mean_dn: 2000.0,
+            saturated_fraction: 0.75,
+            noise: true,
+            saturation: SaturationAccount {
+                mcp_compressed_fraction: 0.125,
+                saturated_by: SaturatingStage::VideoClip,
+                ..SaturationAccount::default()
+            },
+            median_dn: None,
+        };
+        let r = FrameRecord::of_frame(7, "f.png".into(), &frame(Some(sensor.clone())), vec![]);
+        assert_eq!((r.mean_dn, r.saturated_fraction), (2000.0, 0.75));
+        assert_eq!(r.saturated_by, Some(SaturatingStage::VideoClip));
+        assert_eq!(r.mcp_compressed_fraction, Some(0.125));
+        assert_eq!(r.sensor, Some(sensor));
+    }
+
+    /// The 2-D view is rows first; counts that do not fill the frame are
+    /// an error naming both sizes.
+    #[test]
+    fn a_frame_views_as_rows_and_columns() {
+        let mut f = frame(None);
+        assert_eq!(f.view().unwrap()[[1, 0]], 4000);
+        f.meta.width = 3;
+        assert_eq!(
+            f.view().unwrap_err().to_string(),
+            "frame of 3×2 carries 4 counts"
+        );
     }
 }

@@ -266,8 +266,7 @@ impl CameraGoal {
         k: f64,
         capture: &crate::frames::FrameCapture<'_>,
     ) -> Result<Self, gloam_sensor::ConfigError> {
-        // Noted in the run's log by the capture's check.
-        let config = gloam_sensor::load_preset_or_file(capture.sensor, &gloam_io::ReadLog::off())?;
+        let config = capture.sensor.config().clone();
         Ok(Self {
             band: prepared.tracer().wavelengths().band_names.len() - 1,
             k,
@@ -323,15 +322,15 @@ impl CameraGoal {
     /// `report.json`'s `camera_target` for `rendered` (rendered to this
     /// goal): [`summary`] with the samples and the tracing time spent;
     /// `None` before the goal settled or without the detected band.
-    pub fn report(&self, rendered: &crate::render::Rendered) -> Option<serde_json::Value> {
+    pub fn report(&self, rendered: &crate::render::Rendered) -> Option<CameraTarget> {
         let (s, d, se) = (
             self.settled()?,
             rendered.detected.as_ref()?,
             rendered.detected_std_error.as_ref()?,
         );
         let mut v = summary(self.k, s, d, se);
-        v["mean_spp"] = rendered.radiance.error.mean_spp.into();
-        v["trace_seconds"] = rendered.radiance.stats.trace_seconds.into();
+        v.mean_spp = Some(rendered.radiance.error.mean_spp);
+        v.trace_seconds = Some(rendered.radiance.stats.trace_seconds);
         Some(v)
     }
 
@@ -346,7 +345,7 @@ impl CameraGoal {
         groups: &[Array2<f64>],
         mean_spp: f64,
         trace_seconds: f64,
-    ) -> Option<serde_json::Value> {
+    ) -> Option<CameraTarget> {
         let (s, mixes) = (self.settled()?, self.mixes.as_ref()?);
         let views: Vec<_> = groups.iter().map(|g| g.view()).collect();
         let [hi, _, _] = mixes.images(&views).ok()?;
@@ -355,10 +354,10 @@ impl CameraGoal {
             .and(&hi)
             .map_collect(|&se, &w, &m| if w > 0.0 { se * m / w } else { se });
         let mut v = summary(self.k, s, &hi, &se);
-        v["mean_spp"] = mean_spp.into();
-        v["trace_seconds"] = trace_seconds.into();
-        v["frames"] = mixes.frames().into();
-        v["at"] = "each pixel's brightest frame of this pose".into();
+        v.mean_spp = Some(mean_spp);
+        v.trace_seconds = Some(trace_seconds);
+        v.frames = Some(mixes.frames());
+        v.at = Some("each pixel's brightest frame of this pose");
         Some(v)
     }
 
@@ -562,7 +561,7 @@ pub fn estimate(
     spp_fixed: bool,
     capture: &crate::frames::FrameCapture<'_>,
     k: f64,
-) -> Result<serde_json::Value, EstimateError> {
+) -> Result<CameraEstimate, EstimateError> {
     let (w, h) = (
         f64::from(scene.camera.width),
         f64::from(scene.camera.height),
@@ -582,7 +581,7 @@ pub fn estimate(
             Some(k) => {
                 let goal = CameraGoal::new(&prepared, k, capture).map_err(|source| {
                     EstimateError::Sensor {
-                        sensor: capture.sensor.to_string(),
+                        sensor: capture.sensor.name().to_string(),
                         source,
                     }
                 })?;
@@ -606,36 +605,90 @@ pub fn estimate(
         let st = &o.radiance.stats;
         let px = f64::from(st.width) * f64::from(st.height);
         let per = full_px / px.max(1.0);
-        serde_json::json!({
-            "mean_spp": o.radiance.error.mean_spp,
-            "rays": st.rays.total() as f64 * per,
-            "trace_seconds": st.trace_seconds * per,
-            "pixels_at_trial_cap": o.radiance.spp.iter().filter(|&&n| n >= ESTIMATE_MAX_SPP).count(),
-        })
+        EstimateSide {
+            mean_spp: o.radiance.error.mean_spp,
+            rays: st.rays.total() as f64 * per,
+            trace_seconds: st.trace_seconds * per,
+            pixels_at_trial_cap: o
+                .radiance
+                .spp
+                .iter()
+                .filter(|&&n| n >= ESTIMATE_MAX_SPP)
+                .count(),
+        }
     };
     let (cs, rs) = (side(&c), side(&r));
-    let ratio = |key: &str| {
-        let (a, b) = (
-            cs[key].as_f64().unwrap_or(0.0),
-            rs[key].as_f64().unwrap_or(0.0),
-        );
-        if a > 0.0 { b / a } else { f64::NAN }
-    };
+    let ratio = |a: f64, b: f64| if a > 0.0 { b / a } else { f64::NAN };
     let st = &c.radiance.stats;
-    Ok(serde_json::json!({
-        "k": k,
-        "trial_width": st.width,
-        "trial_height": st.height,
-        "trial_max_spp": trial.max_spp,
-        "full_pixels": full_px,
-        "camera": cs,
-        "default_2_percent": rs,
-        "rays_saving": ratio("rays"),
-        "time_saving": ratio("trace_seconds"),
-        "gain": target.as_ref().map(|t| t["gain"].clone()),
-        "added_variance_fraction_p99": target.as_ref().map(|t| t["added_variance_fraction_p99"].clone()),
-        "method": "two trial renders at the pilot's size (field of view kept) through the camera, one to its noise and one to the 2 % default; spp as measured, rays and tracing time scaled by the full image's pixels",
-    }))
+    Ok(CameraEstimate {
+        k,
+        trial_width: st.width,
+        trial_height: st.height,
+        trial_max_spp: trial.max_spp,
+        full_pixels: full_px,
+        rays_saving: ratio(cs.rays, rs.rays),
+        time_saving: ratio(cs.trace_seconds, rs.trace_seconds),
+        camera: cs,
+        default_2_percent: rs,
+        gain: target.as_ref().map(|t| t.gain),
+        added_variance_fraction_p99: target.as_ref().map(|t| t.added_variance_fraction_p99),
+        method: "two trial renders at the pilot's size (field of view kept) through the camera, one to its noise and one to the 2 % default; spp as measured, rays and tracing time scaled by the full image's pixels",
+    })
+}
+
+/// `gloam plan --target-error camera`'s estimate of a camera run's cost
+/// (`camera_target_estimate` in `--json`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CameraEstimate {
+    pub k: f64,
+    pub trial_width: u32,
+    pub trial_height: u32,
+    pub trial_max_spp: u32,
+    pub full_pixels: f64,
+    /// The trial rendered to the camera's noise.
+    pub camera: EstimateSide,
+    /// The trial rendered to the 2 % default.
+    pub default_2_percent: EstimateSide,
+    /// Default's rays / camera's rays.
+    pub rays_saving: f64,
+    /// Default's tracing time / camera's.
+    pub time_saving: f64,
+    pub gain: Option<f64>,
+    pub added_variance_fraction_p99: Option<f64>,
+    pub method: &'static str,
+}
+
+/// One trial render of [`CameraEstimate`], scaled to the full image.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct EstimateSide {
+    pub mean_spp: f64,
+    pub rays: f64,
+    pub trace_seconds: f64,
+    pub pixels_at_trial_cap: usize,
+}
+
+/// `report.json`'s `camera_target` ([`summary`], with what the render
+/// spent).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CameraTarget {
+    pub k: f64,
+    pub asked_added_variance_fraction: f64,
+    pub gain: f64,
+    pub added_variance_fraction_median: f64,
+    pub added_variance_fraction_p99: f64,
+    pub added_variance_fraction_max: f64,
+    pub clipped_pixels: usize,
+    pub dark_pixels: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mean_spp: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trace_seconds: Option<f64>,
+    /// A sequence's pose: how many frames its bound covers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frames: Option<u64>,
+    /// A sequence's pose: where the fractions were taken.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub at: Option<&'static str>,
 }
 
 /// What `report.json`'s `camera_target` states: the chosen K, the gain the
@@ -650,7 +703,7 @@ pub fn summary(
     s: &Settled,
     detected: &Array2<f64>,
     std_error: &Array2<f64>,
-) -> serde_json::Value {
+) -> CameraTarget {
     let mut f: Vec<f64> = detected
         .iter()
         .zip(std_error.iter())
@@ -666,19 +719,23 @@ pub fn summary(
         .collect();
     f.sort_by(f64::total_cmp);
     let q = |p: f64| crate::fit::quantile_sorted(&f, p);
-    serde_json::json!({
-        "k": k,
-        "asked_added_variance_fraction": k * k,
-        "gain": s.gain,
-        "added_variance_fraction_median": q(0.5),
-        "added_variance_fraction_p99": q(0.99),
-        "added_variance_fraction_max": f.last().copied().unwrap_or(0.0),
-        "clipped_pixels": detected
+    CameraTarget {
+        k,
+        asked_added_variance_fraction: k * k,
+        gain: s.gain,
+        added_variance_fraction_median: q(0.5),
+        added_variance_fraction_p99: q(0.99),
+        added_variance_fraction_max: f.last().copied().unwrap_or(0.0),
+        clipped_pixels: detected
             .iter()
             .filter(|&&l| l * s.etendue_m2_sr_s >= s.saturation_pe)
             .count(),
-        "dark_pixels": detected.iter().filter(|&&l| l <= 0.0).count(),
-    })
+        dark_pixels: detected.iter().filter(|&&l| l <= 0.0).count(),
+        mean_spp: None,
+        trace_seconds: None,
+        frames: None,
+        at: None,
+    }
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@ use serde::Serialize;
 use crate::frame_files::FrameFormat;
 use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
 use crate::output::{OutputError, write_atomic};
+use gloam_sensor::ResolvedSensor;
 
 /// The record of frame `index` of an in-process simulated `camera`
 /// (just captured, so its chain state is the frame's), with its
@@ -79,26 +80,37 @@ pub enum CaptureOptionsError {
     Gain(#[source] gloam_sensor::CaptureError),
 }
 
-/// Checks the sensor options of a capture (the sensor loads, `--gain` is
-/// in its range, at least one frame) before anything expensive runs;
-/// `reads` notes a sensor file.
+/// Reads the sensor `name` (a preset or sensor TOML) once for a run
+/// ([`ResolvedSensor`]), an error naming it; `reads` notes a sensor file.
+pub fn resolve_sensor(
+    name: &str,
+    reads: &gloam_io::ReadLog,
+) -> Result<ResolvedSensor, CaptureOptionsError> {
+    ResolvedSensor::load(name, reads).map_err(|source| CaptureOptionsError::Sensor {
+        sensor: name.to_string(),
+        source,
+    })
+}
+
+/// Checks the sensor options of a capture (`--gain` is in the sensor's
+/// range, at least one frame) before anything expensive runs; the sensor
+/// itself was checked when it was read ([`resolve_sensor`]).
 pub fn check_options(
-    sensor: &str,
+    sensor: &ResolvedSensor,
     gain: Option<f64>,
     frames: u32,
-    reads: &gloam_io::ReadLog,
 ) -> Result<(), CaptureOptionsError> {
     if frames < 1 {
         return Err(CaptureOptionsError::NoFrames);
     }
-    let mut camera = Camera::from_preset_or_file(sensor, reads).map_err(|source| {
-        CaptureOptionsError::Sensor {
-            sensor: sensor.to_string(),
-            source,
-        }
-    })?;
     if let Some(g) = gain {
-        camera
+        let camera = sensor
+            .camera()
+            .map_err(|source| CaptureOptionsError::Sensor {
+                sensor: sensor.name().to_string(),
+                source,
+            });
+        camera?
             .set_override_gain(Some(g))
             .map_err(CaptureOptionsError::Gain)?;
     }
@@ -163,7 +175,8 @@ fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), Captur
 
 /// What to capture and how.
 pub struct FrameCapture<'a> {
-    pub sensor: &'a str,
+    /// The camera, read once by the request ([`ResolvedSensor`]).
+    pub sensor: &'a ResolvedSensor,
     pub frames: u32,
     pub gain: Option<f64>,
     pub agc: bool,
@@ -200,10 +213,9 @@ pub struct Captured {
 
 impl FrameCapture<'_> {
     /// [`check_options`] of this capture: refuses a sensor that does not
-    /// load, a gain outside its range or no frames, before the render
-    /// (a sensor file noted in `reads`).
-    pub fn check(&self, reads: &gloam_io::ReadLog) -> Result<(), CaptureOptionsError> {
-        check_options(self.sensor, self.gain, self.frames, reads)
+    /// load, a gain outside its range or no frames, before the render.
+    pub fn check(&self) -> Result<(), CaptureOptionsError> {
+        check_options(self.sensor, self.gain, self.frames)
     }
 
     /// Captures `frames` frames of the detected-electron radiance
@@ -233,23 +245,14 @@ impl FrameCapture<'_> {
         configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
         on_frame: &mut dyn FnMut(CapturedFrame) -> Result<(), CaptureError>,
     ) -> Result<Captured, CaptureError> {
-        // Noted in the run's log by `check`, before the render.
-        let reads = gloam_io::ReadLog::off();
-        let mut config =
-            gloam_sensor::load_preset_or_file(self.sensor, &reads).map_err(|source| {
-                CaptureOptionsError::Sensor {
-                    sensor: self.sensor.to_string(),
-                    source,
-                }
-            })?;
+        let mut config = self.sensor.config().clone();
         configure(&mut config)?;
         self.capture_configured(config, first, image, on_frame)
     }
 
-    /// [`FrameCapture::capture_changing`] with the sensor already loaded
-    /// (from `self.sensor`) and configured: a caller that needs the
-    /// configuration before the first image (a sequence's exposure
-    /// window) loads it once.
+    /// [`FrameCapture::capture_changing`] with the sensor already
+    /// configured: a caller that needs the configuration before the first
+    /// image (a sequence's exposure window) adjusts `self.sensor`'s.
     pub fn capture_configured(
         &self,
         mut config: gloam_sensor::SensorConfig,
@@ -307,7 +310,11 @@ impl FrameCapture<'_> {
         if self.agc {
             camera.set_agc(true);
         }
-        tracing::debug!(sensor = self.sensor, frames = self.frames, "capturing");
+        tracing::debug!(
+            sensor = self.sensor.name(),
+            frames = self.frames,
+            "capturing"
+        );
         let mut warned = std::collections::BTreeSet::new();
         let mut per_frame = Vec::new();
         let mut summary = SaturationSummary::default();
@@ -370,7 +377,7 @@ impl FrameCapture<'_> {
             ));
         }
         let report = serde_json::json!({
-            "sensor": self.sensor,
+            "sensor": self.sensor.name(),
             "fit": fit,
             "exposure": exposure,
             "frames": per_frame,
@@ -400,7 +407,7 @@ impl FrameCapture<'_> {
     ) -> Result<Vec<String>, CaptureError> {
         let mut writer = None;
         let context = FrameContext {
-            camera: Some(self.sensor.to_string()),
+            camera: Some(self.sensor.name().to_string()),
             seed: Some(self.seed),
             provenance: provenance.cloned(),
             scene_utc,

@@ -119,7 +119,7 @@ impl ValidCapture {
             g.as_mut(),
             &gloam_io::output_set::interrupted,
             |index, f: &gloam_grabber::Frame, warnings| {
-                let rec = FrameRecord::of_grab(index, format.file_name(index), f, warnings);
+                let rec = FrameRecord::of_frame(index, format.file_name(index), f, warnings);
                 Ok(writer.write(&rec, &f.pixels)?)
             },
             ev,

@@ -15,6 +15,8 @@ use gloam_spectra::Spectrum;
 use gloam_trace::RenderOutput;
 use ndarray::{Array2, Axis, s};
 
+use gloam_sensor::ResolvedSensor;
+
 /// Name of the band the sensor capture adds to a render.
 pub const DETECTED_BAND: &str = "sensor-detected";
 
@@ -40,18 +42,14 @@ pub enum DetectedError {
 /// `scene` with one more band, [`DETECTED_BAND`], whose response is
 /// `sensor`'s detector response (QE·λ/hc, e⁻ J⁻¹) over the span of the
 /// scene's bands.
-pub fn with_detected_band(scene: &Scene, sensor: &str) -> Result<Scene, DetectedError> {
+pub fn with_detected_band(scene: &Scene, sensor: &ResolvedSensor) -> Result<Scene, DetectedError> {
     if scene.band(DETECTED_BAND).is_some() {
         return Err(DetectedError::BandTaken);
     }
-    // Noted in the run's log by the capture's check.
-    let camera =
-        Camera::from_preset_or_file(sensor, &gloam_io::ReadLog::off()).map_err(|source| {
-            DetectedError::Sensor {
-                sensor: sensor.to_string(),
-                source,
-            }
-        })?;
+    let camera = Camera::new(sensor.config().clone()).map_err(|source| DetectedError::Sensor {
+        sensor: sensor.name().to_string(),
+        source,
+    })?;
     let lo_nm = scene
         .bands
         .iter()

@@ -16,7 +16,7 @@ pub use gloam_io::frames::FrameRecord;
 
 pub use crate::capture::{
     CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, SaturationSummary,
-    check_options, record_of_sensor_frame,
+    check_options, record_of_sensor_frame, resolve_sensor,
 };
 
 /// Why `frames.jsonl` or a frame was not written, naming the file.
@@ -379,10 +379,12 @@ mod tests {
                 levels,
                 exposure_us: None,
                 gate_duty: None,
+                nd_density: None,
+                sensor: None,
             },
             pixels: vec![100, 200],
         };
-        FrameRecord::of_grab(4, String::new(), &f, Vec::new())
+        FrameRecord::of_frame(4, String::new(), &f, Vec::new())
     }
 
     fn card<'a>(cards: &'a [FitsCard], key: &str) -> Option<&'a FitsCard> {

@@ -23,12 +23,13 @@ pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detect
 pub use frame_files::FrameFormat;
 pub use frames::{
     CaptureError, CaptureOptionsError, Captured, CapturedFrame, FrameCapture, FrameContext,
-    FrameRecord, FrameWriter, check_options,
+    FrameRecord, FrameWriter, check_options, resolve_sensor,
 };
 /// Most independent estimates a probe averages (each is a full estimate
 /// at the point): `gloam probe --samples` and Python's `probe(samples=)`
 /// alike (Python took 10⁹ and ran for hours).
 pub const MAX_PROBE_SAMPLES: u32 = 1_000_000;
+pub use gloam_sensor::ResolvedSensor;
 pub use provenance::Provenance;
 pub use render::{
     DEFAULT_TARGET_ERROR, Layers, PreparedRender, RenderError, RenderJob, Rendered, SettingArgs,

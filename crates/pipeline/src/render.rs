@@ -322,9 +322,9 @@ pub struct RenderJob<'a> {
     /// The scene as loaded (without the camera's band).
     pub scene: &'a Scene,
     pub settings: &'a RenderSettings,
-    /// The camera (preset name or sensor TOML) whose detected band the
-    /// render carries; see [`camera_of`].
-    pub camera: Option<&'a str>,
+    /// The camera whose detected band the render carries; see
+    /// [`camera_of`].
+    pub camera: Option<&'a crate::ResolvedSensor>,
     /// Told as preparation steps begin and end (a progress display).
     pub observer: Option<PrepObserver>,
     /// Also render one layer per light group (`--layers`, `layers.rs` in
@@ -364,8 +364,9 @@ impl<'a> RenderJob<'a> {
             None => Tracer::prepare_observed(traced, self.settings, true, observer)?,
         };
         let mut plan = tracer.effect_plan(self.scene);
-        if self.camera != self.scene.sensor.as_deref() {
-            plan.extend([camera_effect(self.camera, self.scene.sensor.as_deref())]);
+        let camera = self.camera.map(|c| c.name());
+        if camera != self.scene.sensor.as_deref() {
+            plan.extend([camera_effect(camera, self.scene.sensor.as_deref())]);
         }
         Ok(PreparedRender {
             tracer,
@@ -523,7 +524,7 @@ impl PreparedRender {
         goal: &crate::camera_goal::CameraGoal,
         progress: &(dyn Fn(u64, u64) + Sync),
         stop: &(dyn Fn() -> bool + Sync),
-    ) -> Result<(Layers, Option<serde_json::Value>), RenderError> {
+    ) -> Result<(Layers, Option<crate::camera_goal::CameraTarget>), RenderError> {
         let (map, groups) = self.layers.take().ok_or(LayerError::NoGroups)?;
         if !self.camera {
             return Err(RenderError::Trace(TraceError::BadInput(
@@ -615,46 +616,78 @@ impl Layers {
         (stack(&|o| &o.radiance), stack(&|o| &o.std_error))
     }
 
-    /// The `layers.json` index (without provenance, which the caller adds).
-    pub fn json(&self, seed: u64) -> serde_json::Value {
-        let groups: Vec<serde_json::Value> = self
-            .groups
-            .iter()
-            .zip(&self.outputs)
-            .enumerate()
-            .map(|(i, (g, o))| {
-                let means: serde_json::Map<String, serde_json::Value> = o
-                    .band_names
-                    .iter()
-                    .enumerate()
+    /// The `layers.json` index; the caller adds the provenance (and a
+    /// sequence the pose).
+    pub fn index(&self, seed: u64) -> LayersIndex {
+        let groups = (self.groups.iter().zip(&self.outputs).enumerate())
+            .map(|(index, (g, o))| LayerEntry {
+                index,
+                name: g.name.clone(),
+                sources: g.sources.clone(),
+                band_means_w_m2_sr: (o.band_names.iter().enumerate())
                     .map(|(b, n)| {
                         let band = o.radiance.index_axis(ndarray::Axis(0), b);
-                        (n.clone(), serde_json::json!(band.mean().unwrap_or(0.0)))
+                        (n.clone(), band.mean().unwrap_or(0.0))
                     })
-                    .collect();
-                serde_json::json!({
-                    "index": i,
-                    "name": g.name,
-                    "sources": g.sources,
-                    "band_means_w_m2_sr": means,
-                })
+                    .collect(),
             })
             .collect();
         let bands = (self.outputs.first())
             .map(|o| o.band_names.clone())
             .unwrap_or_default();
-        serde_json::json!({
-            "radiance": "layers.npy",
-            "std_error": "layers_stderr.npy",
-            "shape": "group × band × row × column (index 0 is groups[0]), W m⁻² sr⁻¹ like radiance.npy",
-            "bands": bands,
-            "groups": groups,
-            "sum": "the layers sum to radiance.npy up to floating-point summation order (same seed, same samples; difference ≤ 1e-12 of the peak)",
-            "method": "one pass: each path traced once, as the ordinary render (same light tree, plan, samples, random numbers), each term it adds (a light sample, an emitter or the sky seen, cached interreflection) attributed to its emitter's group; a negative penumbra sum clamped on the whole with the groups scaled to follow; the interreflection cache gathered once and its bounce series solved per group with the whole scene's bounces and tail",
-            "seed": seed,
-            "seconds": self.seconds,
-        })
+        LayersIndex {
+            radiance: "layers.npy",
+            std_error: "layers_stderr.npy",
+            shape: "group × band × row × column (index 0 is groups[0]), W m⁻² sr⁻¹ like radiance.npy",
+            bands,
+            groups,
+            sum: "the layers sum to radiance.npy up to floating-point summation order (same seed, same samples; difference ≤ 1e-12 of the peak)",
+            method: "one pass: each path traced once, as the ordinary render (same light tree, plan, samples, random numbers), each term it adds (a light sample, an emitter or the sky seen, cached interreflection) attributed to its emitter's group; a negative penumbra sum clamped on the whole with the groups scaled to follow; the interreflection cache gathered once and its bounce series solved per group with the whole scene's bounces and tail",
+            seed,
+            seconds: self.seconds,
+            pose: None,
+            provenance: None,
+        }
     }
+}
+
+/// `layers.json`: what `layers.npy` and `layers_stderr.npy` hold and how
+/// they were made.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LayersIndex {
+    pub radiance: &'static str,
+    pub std_error: &'static str,
+    pub shape: &'static str,
+    pub bands: Vec<String>,
+    pub groups: Vec<LayerEntry>,
+    pub sum: &'static str,
+    pub method: &'static str,
+    pub seed: u64,
+    pub seconds: f64,
+    /// A sequence's layers: the pose they were rendered in.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose: Option<LayersPose>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<crate::Provenance>,
+}
+
+/// One light group's layer in [`LayersIndex`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LayerEntry {
+    pub index: usize,
+    pub name: String,
+    pub sources: Vec<String>,
+    /// Mean radiance of each band over the image, W m⁻² sr⁻¹.
+    pub band_means_w_m2_sr: std::collections::BTreeMap<String, f64>,
+}
+
+/// The pose a sequence's `layers.json` describes.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LayersPose {
+    /// Always 0: the layers are frame 0's.
+    pub frame: u64,
+    pub moves: Vec<gloam_scene::sequence::Pose>,
+    pub note: &'static str,
 }
 
 /// What a render made.

@@ -29,6 +29,7 @@ use crate::render::{
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
 use gloam_io::{OutputSet, ReadLog};
+use gloam_sensor::ResolvedSensor;
 
 /// The scene of a request: a file to read, or one a front end holds
 /// already (Python's `Scene`).
@@ -175,8 +176,12 @@ impl RenderRequest {
         };
         let tile = self.tile.as_deref().map(TileSpec::parse).transpose()?;
         let settings = self.settings.settings()?;
-        let camera = camera_of(c.sensor.as_deref(), &scene).map(str::to_string);
         let frame_format = c.frame_format()?;
+        // Read once: the detected band, the camera goal and the capture
+        // share it.
+        let camera = (camera_of(c.sensor.as_deref(), &scene))
+            .map(|name| crate::resolve_sensor(name, reads))
+            .transpose()?;
         // A tile is traced with the camera's band all the same (the effect
         // plan weighs every band, so a tile makes the whole render's
         // decisions) but captures nothing.
@@ -196,7 +201,7 @@ impl RenderRequest {
             reads: reads.clone(),
         };
         match valid.frame_capture() {
-            Some(fc) => fc.check(reads)?,
+            Some(fc) => fc.check()?,
             None => c.refuse_flags_without_camera(valid.tile.is_some())?,
         }
         // `--target-error camera[:K]`: each pixel to the camera's own noise.
@@ -237,7 +242,7 @@ pub(crate) struct Capture {
 
 impl Capture {
     /// The capture through `sensor` with noise seed `seed`.
-    pub(crate) fn through<'a>(&self, sensor: &'a str, seed: u64) -> FrameCapture<'a> {
+    pub(crate) fn through<'a>(&self, sensor: &'a ResolvedSensor, seed: u64) -> FrameCapture<'a> {
         FrameCapture {
             sensor,
             frames: self.frames,
@@ -303,8 +308,8 @@ pub struct ValidRender {
     /// The settings, the default error target applied.
     pub settings: RenderSettings,
     pub target_error_source: Option<TargetErrorSource>,
-    /// The camera the render is for ([`camera_of`]).
-    pub camera: Option<String>,
+    /// The camera the render is for ([`camera_of`]), read once.
+    pub camera: Option<ResolvedSensor>,
     capture: Option<Capture>,
     /// `K` of `--target-error camera[:K]`.
     pub camera_k: Option<f64>,
@@ -353,7 +358,7 @@ pub struct RenderDone {
 impl ValidRender {
     /// The capture of a render with a camera (not a tile).
     pub fn frame_capture(&self) -> Option<FrameCapture<'_>> {
-        let (sensor, c) = (self.camera.as_deref()?, self.capture.as_ref()?);
+        let (sensor, c) = (self.camera.as_ref()?, self.capture.as_ref()?);
         Some(c.through(sensor, self.settings.seed))
     }
 
@@ -369,7 +374,7 @@ impl ValidRender {
             .map(|o| OutputSet::begin(&o.path, o.force, false))
             .transpose()?;
         let job = RenderJob {
-            camera: self.camera.as_deref(),
+            camera: self.camera.as_ref(),
             observer: events.preparation(),
             layers: self.layers,
             ..RenderJob::new(&self.scene, &self.settings)
@@ -426,8 +431,8 @@ impl ValidRender {
             let dir = set.dir();
             write_atomic(&dir.join("report.json"), report.to_pretty()?.as_bytes())?;
             if let Some(layers) = &rendered.layers {
-                let mut index = layers.json(self.settings.seed);
-                index["provenance"] = to_value(&provenance)?;
+                let mut index = layers.index(self.settings.seed);
+                index.provenance = Some(provenance.clone());
                 let index = serde_json::to_string_pretty(&index).map_err(RenderError::Encode)?;
                 write_atomic(&dir.join("layers.json"), index.as_bytes())?;
             }
@@ -438,7 +443,7 @@ impl ValidRender {
                 }
                 // No path: `dir` is the hidden staging directory until the
                 // set is published.
-                let (n, sensor) = (capture.frames, capture.sensor);
+                let (n, sensor) = (capture.frames, capture.sensor.name());
                 events.note(&format!("captured {n} frame(s) through '{sensor}'"));
             }
             set.publish(&provenance, None)?;
@@ -469,15 +474,14 @@ impl RenderDone {
             ));
         }
         if let Some(t) = &report.camera_target {
-            let f = |k: &str| t[k].as_f64().unwrap_or(f64::NAN);
             lines.push(format!(
                 "--target-error camera:{}: each pixel rendered until its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
-                f("k"),
-                100.0 * f("asked_added_variance_fraction"),
-                f("gain"),
-                100.0 * f("added_variance_fraction_median"),
-                100.0 * f("added_variance_fraction_p99"),
-                f("mean_spp"),
+                t.k,
+                100.0 * t.asked_added_variance_fraction,
+                t.gain,
+                100.0 * t.added_variance_fraction_median,
+                100.0 * t.added_variance_fraction_p99,
+                t.mean_spp.unwrap_or(f64::NAN),
             ));
         }
         if let Some(b) = &e.bias
@@ -549,7 +553,7 @@ pub struct RenderReport {
     /// `--target-error camera[:K]`: what the camera's noise allowed and
     /// what the render added ([`CameraGoal::report`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<serde_json::Value>,
+    pub camera_target: Option<crate::camera_goal::CameraTarget>,
     pub provenance: Provenance,
 }
 

@@ -33,7 +33,7 @@ pub enum SceneViewError {
 /// `reads` notes the scene and its files.
 pub fn render_scene_view(
     path: &str,
-    sensor: &str,
+    sensor: &crate::ResolvedSensor,
     size: Option<(u32, u32)>,
     reads: &gloam_io::ReadLog,
 ) -> Result<SceneView, SceneViewError> {
@@ -66,7 +66,7 @@ pub fn render_scene_view(
 /// Only the layers are traced (not the ordinary image they sum to).
 pub fn render_scene_layers(
     path: &str,
-    sensor: &str,
+    sensor: &crate::ResolvedSensor,
     size: Option<(u32, u32)>,
     reads: &gloam_io::ReadLog,
 ) -> Result<(Vec<String>, Vec<Array2<f64>>), SceneViewError> {
@@ -104,13 +104,11 @@ pub fn render_scene_layers(
 /// fit's note (the same words `render --sensor` prints) when it saturates
 /// or sits in the noise at every gain, `None` when some gain fits. A
 /// capture's gain is set later, so only the gain-independent verdicts speak.
-pub fn scene_view_fit_note(view: &SceneView, sensor: &str) -> Option<String> {
+pub fn scene_view_fit_note(view: &SceneView, sensor: &crate::ResolvedSensor) -> Option<String> {
     let SceneImage::Detected { e_s_m2_sr } = &view.image else {
         return None;
     };
-    // The grabber's open notes the sensor file; this is the same one again.
-    let config = gloam_sensor::load_preset_or_file(sensor, &gloam_io::ReadLog::off()).ok()?;
-    let fit = crate::fit::predict(&config, e_s_m2_sr, None).ok()?;
+    let fit = crate::fit::predict(sensor.config(), e_s_m2_sr, None).ok()?;
     matches!(
         fit.verdict,
         FitVerdict::SaturatesAtEveryGain | FitVerdict::InTheNoiseAtEveryGain
@@ -146,14 +144,17 @@ pub fn grabbers_noting(note: Arc<dyn Fn(&str) + Send + Sync>) -> Registry {
                     scene: Some(path),
                     ..
                 } => {
-                    let view =
-                        render_scene_view(&path, &preset, size, &opts.reads).map_err(|e| {
-                            GrabError::Scene {
-                                path,
-                                source: e.into(),
-                            }
-                        })?;
-                    if let Some(n) = scene_view_fit_note(&view, &preset) {
+                    let view = crate::resolve_sensor(&preset, &opts.reads)
+                        .map_err(|e| SceneViewError::from(RenderError::from(e)))
+                        .and_then(|sensor| {
+                            let view = render_scene_view(&path, &sensor, size, &opts.reads)?;
+                            Ok((scene_view_fit_note(&view, &sensor), view))
+                        });
+                    let (fit, view) = view.map_err(|e| GrabError::Scene {
+                        path,
+                        source: e.into(),
+                    })?;
+                    if let Some(n) = fit {
                         note(&n);
                     }
                     Some(view)

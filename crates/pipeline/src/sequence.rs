@@ -209,7 +209,7 @@ pub struct PoseRender {
     /// With `--target-error camera`: the pose's `camera_target`
     /// ([`crate::camera_goal::CameraGoal::report_layered`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<serde_json::Value>,
+    pub camera_target: Option<crate::camera_goal::CameraTarget>,
 }
 
 /// Captures `sequence` from the layers (`groups[i]`'s detected radiance,
@@ -390,7 +390,7 @@ type StateKeys = std::collections::HashMap<(Vec<[u64; 4]>, Option<usize>), usize
 struct PoseCache<'a> {
     job: &'a SceneSequence<'a>,
     capture: &'a FrameCapture<'a>,
-    camera: &'a str,
+    camera: &'a crate::ResolvedSensor,
     /// With `--target-error camera`: per pose, its frames' weightings.
     mixes: Vec<crate::camera_goal::Mixes>,
     /// The camera's level as frame 0's pose's goal decided it.
@@ -631,7 +631,7 @@ impl<'a> PoseCache<'a> {
         (
             crate::render::Layers,
             gloam_scene::plan::EffectPlan,
-            Option<serde_json::Value>,
+            Option<crate::camera_goal::CameraTarget>,
         ),
         SequenceError,
     > {
@@ -699,14 +699,8 @@ fn sequence_config(
     sequence: &Sequence,
     capture: &FrameCapture<'_>,
 ) -> Result<gloam_sensor::SensorConfig, SequenceError> {
-    // Noted in the run's log by the capture's check.
-    let mut config = gloam_sensor::load_preset_or_file(capture.sensor, &gloam_io::ReadLog::off())
-        .map_err(|source| crate::frames::CaptureOptionsError::Sensor {
-            sensor: capture.sensor.to_string(),
-            source,
-        })
-        .map_err(CaptureError::from)?;
-    check_video_rate(sequence, capture.sensor, &config)?;
+    let mut config = capture.sensor.config().clone();
+    check_video_rate(sequence, capture.sensor.name(), &config)?;
     config.timing.frame_rate_hz = sequence.frame_rate_hz;
     config.timing.exposure_s = config.timing.exposure_s.min(sequence.frame_period_s());
     Ok(config)
@@ -841,9 +835,9 @@ fn capture_with(
             sequence.frames,
             sequence.frame_rate_hz,
             // A sensor file's name, not its path: the title stays short.
-            Path::new(capture.sensor)
+            Path::new(capture.sensor.name())
                 .file_stem()
-                .map_or(capture.sensor.into(), |s| s.to_string_lossy())
+                .map_or(capture.sensor.name().into(), |s| s.to_string_lossy())
         ),
         ("time, s", gloam_calib::plot::Scale::Linear),
         ("gain in effect", gloam_calib::plot::Scale::Log10),
@@ -1070,6 +1064,14 @@ impl Animation {
 mod tests {
     use super::*;
 
+    /// The Gen III preset, read once for the tests' captures and renders.
+    fn gen3() -> &'static gloam_sensor::ResolvedSensor {
+        static G: std::sync::OnceLock<gloam_sensor::ResolvedSensor> = std::sync::OnceLock::new();
+        G.get_or_init(|| {
+            gloam_sensor::ResolvedSensor::load("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap()
+        })
+    }
+
     #[test]
     fn mixing_is_the_weighted_sum_in_f64() {
         let a = Array2::from_shape_fn((3, 4), |(r, c)| (r * 4 + c) as f64);
@@ -1099,7 +1101,7 @@ mod tests {
             Array2::from_elem((36, 48), 2e12),
         ];
         let capture = FrameCapture {
-            sensor: "gen3-gaas-iccd",
+            sensor: gen3(),
             frames: seq.frames,
             gain: None,
             agc: true,
@@ -1223,7 +1225,7 @@ value = 1e-4
 
     fn quiet_capture(frames: u32) -> FrameCapture<'static> {
         FrameCapture {
-            sensor: "gen3-gaas-iccd",
+            sensor: gen3(),
             frames,
             gain: Some(100.0),
             agc: false,
@@ -1293,7 +1295,7 @@ value = 1e-4
         )
         .unwrap();
         let still = crate::render::RenderJob {
-            camera: Some("gen3-gaas-iccd"),
+            camera: Some(gen3()),
             layers: true,
             ..crate::render::RenderJob::new(&placed, &settings())
         }
@@ -1314,7 +1316,7 @@ value = 1e-4
         assert!(rel < 1e-9, "{rel}");
         // And the car is in the picture: the scene as written differs.
         let written = crate::render::RenderJob {
-            camera: Some("gen3-gaas-iccd"),
+            camera: Some(gen3()),
             ..crate::render::RenderJob::new(&scene, &settings())
         }
         .run(&|_, _| {}, &|| false)

@@ -75,7 +75,7 @@ pub struct ValidSequence {
     settings: RenderSettings,
     /// `K` of `--target-error camera[:K]`.
     camera_k: Option<f64>,
-    camera: String,
+    camera: crate::ResolvedSensor,
     capture: Capture,
     load_s: f64,
     out: OutputDir,
@@ -121,7 +121,7 @@ impl SequenceRequest {
             return Err(SequenceRequestError::Frames { path, frames });
         }
         let frame_format = c.frame_format()?;
-        let Some(camera) = camera_of(c.sensor.as_deref(), &scene).map(str::to_string) else {
+        let Some(camera) = camera_of(c.sensor.as_deref(), &scene) else {
             c.refuse_flags_without_camera(false)?;
             let scene = sequence.scene.clone();
             return Err(SequenceRequestError::NoCamera { scene });
@@ -130,7 +130,9 @@ impl SequenceRequest {
             frames: sequence.frames,
             ..c.capture(frame_format)
         };
-        (capture.through(&camera, settings.seed).check(reads)).map_err(RenderError::from)?;
+        // Read once: the frames, the goal and the AGC summary share it.
+        let camera = crate::resolve_sensor(camera, reads).map_err(RenderError::from)?;
+        (capture.through(&camera, settings.seed).check()).map_err(RenderError::from)?;
         if camera_k.is_some() && !capture.noise {
             return Err(RenderError::CameraTarget(
                 "--target-error camera with --no-noise: frames without temporal noise hide no render error; give --target-error E (a relative error) or --spp N",
@@ -177,7 +179,7 @@ impl ValidSequence {
             keep_sky_renders: false,
         };
         let context = FrameContext {
-            camera: Some(self.camera.clone()),
+            camera: Some(self.camera.name().to_string()),
             seed: Some(self.settings.seed),
             provenance: Some(provenance.clone()),
             scene_utc: crate::frames::scene_utc(&self.scene),
@@ -197,13 +199,13 @@ impl ValidSequence {
         write_npy(&dir.join("layers.npy"), &radiance)?;
         write_npy(&dir.join("layers_stderr.npy"), &std_error)?;
         provenance.add_inputs_read();
-        let mut index = layers.json(self.settings.seed);
-        index["pose"] = serde_json::json!({
-            "frame": 0,
-            "moves": captured.first_poses,
-            "note": "the layers of frame 0's pose; with [[move]] each distinct pose was rendered so (report.json sequence.renders)",
+        let mut index = layers.index(self.settings.seed);
+        index.pose = Some(crate::render::LayersPose {
+            frame: 0,
+            moves: captured.first_poses.clone(),
+            note: "the layers of frame 0's pose; with [[move]] each distinct pose was rendered so (report.json sequence.renders)",
         });
-        index["provenance"] = serde_json::to_value(&provenance)?;
+        index.provenance = Some(provenance.clone());
         let index = serde_json::to_string_pretty(&index)?;
         write_atomic(&dir.join("layers.json"), index.as_bytes())?;
         let write_s = t_write.elapsed().as_secs_f64();
@@ -212,10 +214,7 @@ impl ValidSequence {
         // With a sky clock: how the AGC held the median over the sky's light.
         let agc_over_sky = match self.sequence.sky.is_some() && !r.medians_above_black_dn.is_empty()
         {
-            true => gloam_sensor::load_preset_or_file(&self.camera, &self.reads)
-                .ok()
-                .and_then(|c| c.agc)
-                .and_then(|agc| agc_over_sky(r, &agc)),
+            true => (self.camera.config().agc.clone()).and_then(|agc| agc_over_sky(r, &agc)),
             false => None,
         };
         let renders = r.renders.clone().unwrap_or_default();
@@ -270,7 +269,7 @@ impl ValidSequence {
                 frames: r.frames,
                 frame_rate_hz: r.frame_rate_hz,
                 groups: &r.groups,
-                camera: &self.camera,
+                camera: self.camera.name(),
                 moves: (seq.moves.iter())
                     .map(|m| MoveSummary {
                         objects: &m.objects,
@@ -340,7 +339,7 @@ impl ValidSequence {
             "sequence: {} frames at {} Hz through '{}', {} light groups; {} layered render{} ({} pose{} of {} moving bod{}, {} frames reused a render) {:.2} s, {:.2} s a render; mixing {:.2} ms/frame, camera {:.1} ms/frame; gain in effect {:.4}–{:.4}; {:.2} s in all → {}",
             r.frames,
             r.frame_rate_hz,
-            self.camera,
+            self.camera.name(),
             r.groups.len(),
             renders.renders,
             plural(renders.renders, "", "s"),
@@ -362,15 +361,14 @@ impl ValidSequence {
 }
 
 /// `--target-error camera:K`: what frame 0's pose was rendered to.
-fn camera_target_line(k: f64, t: &serde_json::Value) -> String {
-    let f = |key: &str| t[key].as_f64().unwrap_or(f64::NAN);
+fn camera_target_line(k: f64, t: &crate::camera_goal::CameraTarget) -> String {
     format!(
         "--target-error camera:{k}: frame 0's pose rendered until, at each pixel's brightest frame, its variance is under {:.0} % of the camera's frame variance at gain {:.4}: added {:.1} % (median), {:.1} % (99th percentile); mean {:.1} spp",
         100.0 * k * k,
-        f("gain"),
-        100.0 * f("added_variance_fraction_median"),
-        100.0 * f("added_variance_fraction_p99"),
-        f("mean_spp"),
+        t.gain,
+        100.0 * t.added_variance_fraction_median,
+        100.0 * t.added_variance_fraction_p99,
+        t.mean_spp.unwrap_or(f64::NAN),
     )
 }
 
@@ -430,7 +428,7 @@ pub struct SequenceRunReport<'a> {
     pub provenance: &'a Provenance,
     /// `--target-error camera[:K]`: frame 0's pose's camera target.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub camera_target: Option<&'a serde_json::Value>,
+    pub camera_target: Option<&'a crate::camera_goal::CameraTarget>,
 }
 
 #[derive(Serialize)]

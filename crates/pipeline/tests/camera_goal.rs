@@ -57,12 +57,18 @@ material = "panel"
 quad = { center = [2.6, 0.6, 4.0], size = [1.5, 1.5], normal = [0.0, 0.0, -1.0] }
 "#;
 
-const SENSOR: &str = "gen3-gaas-iccd";
+/// The Gen III preset, read once for every capture and render here.
+fn sensor() -> &'static gloam_pipeline::ResolvedSensor {
+    static S: std::sync::OnceLock<gloam_pipeline::ResolvedSensor> = std::sync::OnceLock::new();
+    S.get_or_init(|| {
+        gloam_pipeline::resolve_sensor("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap()
+    })
+}
 const FRAMES: u32 = 64;
 
 fn capture() -> FrameCapture<'static> {
     FrameCapture {
-        sensor: SENSOR,
+        sensor: sensor(),
         frames: FRAMES,
         gain: None,
         agc: false,
@@ -101,7 +107,7 @@ fn frames_of_a_camera_noise_render_match_a_converged_renders() {
     let scene = gloam_scene::parse_str(SCENE, Path::new("camera_goal.toml")).unwrap();
     let render = |settings: &RenderSettings, goal: bool| {
         let job = RenderJob {
-            camera: Some(SENSOR),
+            camera: Some(sensor()),
             ..RenderJob::new(&scene, settings)
         };
         let prepared = job.prepare().unwrap();

@@ -88,6 +88,9 @@ pub struct Sequence {
     pub scene: PathBuf,
     pub frame_rate_hz: f64,
     pub frames: u32,
+    /// The line of `frame_rate_hz`, for a sky clock the sequence's own
+    /// length makes too long (errors found once the clock is bound).
+    frame_rate_line: usize,
     /// Group name → its track, for the groups the file names.
     pub groups: BTreeMap<String, Track>,
     /// Group name → the line of its table, for errors found later (a name
@@ -268,11 +271,13 @@ pub fn parse_sequence(text: &str, path: &Path) -> Result<Sequence, SceneError> {
         groups.insert(name, track);
     }
     let moves = parse_moves(&loc, raw.moves)?;
+    let frame_rate_line = loc.error(&field(&["frame_rate_hz"]), "").line();
     Ok(Sequence {
         path: path.to_path_buf(),
         scene,
         frame_rate_hz: raw.frame_rate_hz,
         frames: raw.frames,
+        frame_rate_line,
         groups,
         group_lines,
         moves,

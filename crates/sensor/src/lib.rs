@@ -11,6 +11,7 @@ mod error;
 pub mod kernel;
 pub mod levels;
 pub mod noise;
+mod resolved;
 pub mod scope;
 pub mod stages;
 
@@ -20,6 +21,7 @@ pub use camera::{AgcState, Camera, DigitizedFrame, SensorMeta};
 pub use config::{PRESETS, SensorConfig, SensorKind};
 pub use effects::{SensorEffect, sensor_effects};
 pub use error::{CaptureError, ConfigError, LineError, ScopeError};
+pub use resolved::ResolvedSensor;
 pub use stages::agc::median_dn;
 pub use stages::{Chain, image_irradiance_per_radiance};
 

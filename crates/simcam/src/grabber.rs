@@ -195,6 +195,8 @@ impl<S: FrameSource> FrameStream for SimGrabber<S> {
                 // device sends as `ChunkExposureTime` / `ChunkGateDuty`.
                 exposure_us: Some(f64::from(s.exposure_us)),
                 gate_duty: r.gate_duty,
+                nd_density: r.nd_density,
+                sensor: r.sensor,
             },
             pixels,
         })

@@ -360,6 +360,8 @@ impl FrameSource for SensorSource {
                 .photocathode
                 .as_ref()
                 .map(|p| p.gate_duty * frame.meta.saturation.abc.duty_factor),
+            nd_density: Some(self.camera.config().optics.nd_density),
+            sensor: Some(frame.meta),
         })
     }
 }

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use gloam_grabber::GrabError;
 use gloam_pipeline::frames::FrameWriter;
 use gloam_pipeline::output::{write_npy, write_preview, write_tiff};
-use gloam_pipeline::{FrameCapture, FrameRecord};
+use gloam_pipeline::{FrameCapture, FrameRecord, ResolvedSensor};
 use gloam_simcam::FrameExposureExt;
 use gloam_trace::RenderOutput;
 use ndarray::Array2;
@@ -63,7 +63,9 @@ pub struct Rendered {
     rows: Range<u32>,
     scene: PathBuf,
     /// With `target_error = "camera[:K]"`: report.json's `camera_target`.
-    camera_target: Option<serde_json::Value>,
+    camera_target: Option<gloam_pipeline::camera_goal::CameraTarget>,
+    /// The task's camera, read once for the render and its capture.
+    sensor: Option<ResolvedSensor>,
 }
 
 /// Renders `task`'s scene (its tile's rows, and the camera's detected band
@@ -75,13 +77,15 @@ fn render_point(
 ) -> Result<Rendered, TaskError> {
     let scene = sweep.load_scene(task, reads)?;
     let settings = task.render_settings()?;
-    let sensor = sweep.sensor(task);
+    let sensor = (sweep.sensor(task).as_deref())
+        .map(|name| gloam_pipeline::resolve_sensor(name, reads))
+        .transpose()?;
     // The gain is checked per task (it differs within a chunk).
     if let Some(s) = &sensor {
-        gloam_pipeline::check_options(s, None, task.frames(), reads)?;
+        gloam_pipeline::check_options(s, None, task.frames())?;
     }
     let job = gloam_pipeline::RenderJob {
-        camera: sensor.as_deref(),
+        camera: sensor.as_ref(),
         ..gloam_pipeline::RenderJob::new(&scene, &settings)
     };
     let prepared = job.prepare()?;
@@ -108,6 +112,7 @@ fn render_point(
         rows,
         scene: sweep.resolve(&task.text("scene").unwrap_or_default()),
         camera_target,
+        sensor,
     })
 }
 
@@ -117,15 +122,13 @@ fn render_point(
 /// deterministic).
 fn write_camera_target(
     r: &Rendered,
-    target: &serde_json::Value,
+    target: &gloam_pipeline::camera_goal::CameraTarget,
     out: &Path,
 ) -> Result<(), TaskError> {
     write_npy(&out.join("radiance.npy"), &r.out.radiance)?;
     write_npy(&out.join("spp.npy"), &r.out.spp)?;
     let mut t = target.clone();
-    if let Some(o) = t.as_object_mut() {
-        o.remove("trace_seconds");
-    }
+    t.trace_seconds = None;
     gloam_pipeline::output::write_atomic(
         &out.join("camera_target.json"),
         serde_json::to_string_pretty(&t)?.as_bytes(),
@@ -134,7 +137,7 @@ fn write_camera_target(
 }
 
 /// The capture of `task`'s frames through `sensor`.
-fn capture_of<'a>(sensor: &'a str, task: &Task) -> FrameCapture<'a> {
+fn capture_of<'a>(sensor: &'a ResolvedSensor, task: &Task) -> FrameCapture<'a> {
     FrameCapture {
         sensor,
         frames: task.frames(),
@@ -174,18 +177,25 @@ impl Executor for Pipeline {
             Shared::Nothing => capture_stimulus(sweep, task, out, reads),
             Shared::Render(r) => match &r.detected {
                 Some(d) => {
-                    let sensor = sweep.sensor(task).ok_or(ExecError::NoSensor("render"))?;
-                    let mut f = capture_detected(&sensor, task, d, out)?;
+                    let sensor = r.sensor.as_ref().ok_or(ExecError::NoSensor("render"))?;
+                    let mut f = capture_detected(sensor, task, d, out)?;
                     // The camera target's figures (results.csv columns),
                     // and the render it chose, as `gloam render` writes it.
                     if let Some(t) = &r.camera_target {
                         write_camera_target(r, t, out)?;
-                        for key in [
-                            "added_variance_fraction_median",
-                            "added_variance_fraction_p99",
-                            "mean_spp",
+                        for (key, v) in [
+                            (
+                                "added_variance_fraction_median",
+                                Some(t.added_variance_fraction_median),
+                            ),
+                            (
+                                "added_variance_fraction_p99",
+                                Some(t.added_variance_fraction_p99),
+                            ),
+                            ("mean_spp", t.mean_spp),
                         ] {
-                            if let Some(v) = t[key].as_f64() {
+                            // JSON has no NaN: a non-finite figure was never a column.
+                            if let Some(v) = v.filter(|v| v.is_finite()) {
                                 f.insert(format!("camera_target_{key}"), v);
                             }
                         }
@@ -230,7 +240,7 @@ fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> Result<Figures, Task
 /// task): the one capture loop, [`FrameCapture::capture`], keeping the
 /// pixels for the task's noise figures.
 fn capture_detected(
-    sensor: &str,
+    sensor: &ResolvedSensor,
     task: &Task,
     detected: &Array2<f64>,
     out: &Path,
@@ -332,7 +342,7 @@ fn capture_stimulus(
             .grab()
             .map_err(|source| ExecError::Grab { frame: i, source })?;
         let file = format!("frame-{i:06}.png");
-        let rec = FrameRecord::of_grab(u64::from(i), file, &f, f.exposure().warnings);
+        let rec = FrameRecord::of_frame(u64::from(i), file, &f, f.exposure().warnings);
         writer.write(&rec, &f.pixels)?;
         black = f.meta.levels.map(|l| l.black_dn);
         gain = f.meta.gain;

@@ -51,6 +51,10 @@ pub enum SlurmError {
         "{option} '{value}' has characters Slurm does not take there (letters, digits, - _ : . , + only)"
     )]
     BadWord { option: &'static str, value: String },
+    #[error(
+        "--time '{value}' is not a Slurm time limit (MINUTES, MM:SS, HH:MM:SS, DAYS-HH, DAYS-HH:MM, DAYS-HH:MM:SS or UNLIMITED)"
+    )]
+    BadTime { value: String },
     #[error("the {what}'s path is not UTF-8")]
     NotUtf8 { what: &'static str },
     #[error("paths with newlines cannot go into an sbatch script")]
@@ -87,6 +91,28 @@ fn check_word(option: &'static str, v: &str) -> Result<(), SlurmError> {
         return Err(SlurmError::BadWord { option, value });
     }
     Ok(())
+}
+
+/// `Ok` when `t` is one of sbatch's time-limit forms: `--time abc` was
+/// written into the script, to be refused by Slurm at submission (or,
+/// with `--dry-run`, never).
+fn check_time(t: &str) -> Result<(), SlurmError> {
+    let digits = |p: &str| !p.is_empty() && p.len() <= 9 && p.bytes().all(|b| b.is_ascii_digit());
+    let fields = |p: &str, most: usize| {
+        let f: Vec<&str> = p.split(':').collect();
+        f.len() <= most && f.iter().all(|x| digits(x))
+    };
+    let ok = ["unlimited", "infinite"].contains(&t.to_ascii_lowercase().as_str())
+        || match t.split_once('-') {
+            Some((days, rest)) => digits(days) && fields(rest, 3),
+            None => fields(t, 3),
+        };
+    match ok {
+        true => Ok(()),
+        false => Err(SlurmError::BadTime {
+            value: t.to_string(),
+        }),
+    }
 }
 
 /// `Ok` when `n` (the value of `option`) is at least 1.
@@ -134,6 +160,7 @@ pub fn script(
     }
     if let Some(t) = &o.time {
         check_word("--time", t)?;
+        check_time(t)?;
         s.push_str(&format!("#SBATCH --time={t}\n"));
     }
     if let Some(c) = o.cpus_per_task {
@@ -360,5 +387,38 @@ mod tests {
         };
         assert!(script(Path::new("/d"), Path::new("/g"), 1, &bad).is_err());
         assert!(script(Path::new("/d"), Path::new("/g"), 0, &o).is_err());
+    }
+
+    #[test]
+    fn time_limits_are_sbatch_forms() {
+        // `man sbatch`, --time: every form it lists, and words it does not.
+        for t in [
+            "30",
+            "0",
+            "30:00",
+            "01:00:00",
+            "2-12",
+            "2-12:30",
+            "2-12:30:15",
+            "UNLIMITED",
+            "infinite",
+        ] {
+            assert!(check_time(t).is_ok(), "{t}");
+        }
+        for t in [
+            "abc",
+            "",
+            "1:2:3:4",
+            "1::2",
+            ":30",
+            "2-",
+            "-12",
+            "2-1:2:3:4",
+            "1.5",
+            "1-2-3",
+            "+30",
+        ] {
+            assert!(check_time(t).is_err(), "{t}");
+        }
     }
 }

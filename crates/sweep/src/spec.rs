@@ -459,6 +459,17 @@ pub enum ValueError {
     RangeNotNumbers,
     #[error("step 0 repeats one value `count` times (identical tasks)")]
     ZeroStep,
+    #[error(
+        "step {step:e} is lost in rounding: values {first} and {again} (from 0) of the range are both {value:e} (identical tasks)"
+    )]
+    RangeRepeats {
+        step: f64,
+        first: usize,
+        again: usize,
+        value: f64,
+    },
+    #[error("value {index} of the range (from + {index} × step) is not a finite number")]
+    RangeNotFinite { index: usize },
     #[error("values {first} and {again} (from 0) are the same value: identical tasks")]
     RepeatedValue { first: usize, again: usize },
     #[error("an axis is a list of values or a range {{ from, count[, step] }}")]
@@ -611,9 +622,9 @@ fn axis_values(key: &str, v: &toml::Value) -> Result<Vec<toml::Value>, ValueErro
                         Some(s) => s.as_float().or(s.as_integer().map(|i| i as f64)),
                     };
                     match (a, s) {
-                        (Some(a), Some(s)) if a.is_finite() && s.is_finite() => Ok((0..count)
-                            .map(|i| toml::Value::Float(a + i as f64 * s))
-                            .collect()),
+                        (Some(a), Some(s)) if a.is_finite() && s.is_finite() => {
+                            float_range(a, s, count)
+                        }
                         _ => Err(ValueError::RangeNotNumbers),
                     }
                 }
@@ -622,6 +633,31 @@ fn axis_values(key: &str, v: &toml::Value) -> Result<Vec<toml::Value>, ValueErro
         }
         _ => Err(ValueError::NotAnAxis),
     }
+}
+
+/// `count` values `a + i·s`. Each is finite, and no two are one number:
+/// a step lost in rounding (`from = 0.01, step = 1e-18`) made identical
+/// tasks, and `from = 1e308, step = 1e308` an infinite value.
+fn float_range(a: f64, s: f64, count: usize) -> Result<Vec<toml::Value>, ValueError> {
+    let mut out: Vec<toml::Value> = Vec::with_capacity(count);
+    let mut last = None;
+    for i in 0..count {
+        let v = a + i as f64 * s;
+        if !v.is_finite() {
+            return Err(ValueError::RangeNotFinite { index: i });
+        }
+        if last == Some(v) {
+            return Err(ValueError::RangeRepeats {
+                step: s,
+                first: i - 1,
+                again: i,
+                value: v,
+            });
+        }
+        last = Some(v);
+        out.push(toml::Value::Float(v));
+    }
+    Ok(out)
 }
 
 /// A text value of `key` as the task reads it, for finding one value

@@ -130,19 +130,23 @@ impl Merged {
                         path: p.clone(),
                         source: e.into(),
                     })?;
-            tiles.push(serde_json::json!({
-                "dir": d.display().to_string(),
-                "radiance_npy_sha256": crate::run::sha256_hex(&bytes),
-            }));
+            tiles.push(MergedTile {
+                dir: d.display().to_string(),
+                radiance_npy_sha256: crate::run::sha256_hex(&bytes),
+            });
         }
         provenance.add_inputs_read();
-        let report = serde_json::json!({
-            "scene": self.info.scene,
-            "image": {"width": self.info.width, "height": self.info.height, "bands": self.info.band_names},
-            "settings": self.info.settings,
-            "merged_from": tiles,
-            "provenance": provenance,
-        });
+        let report = MergeReport {
+            scene: &self.info.scene,
+            image: MergedImage {
+                width: self.info.width,
+                height: self.info.height,
+                bands: &self.info.band_names,
+            },
+            settings: &self.info.settings,
+            merged_from: tiles,
+            provenance,
+        };
         write_atomic(
             &dir.join("report.json"),
             serde_json::to_string_pretty(&report)
@@ -154,6 +158,30 @@ impl Merged {
         )?;
         Ok(())
     }
+}
+
+/// A merged image's `report.json`: the tiles' scene and settings, and each
+/// tile's directory with its radiance's hash.
+#[derive(serde::Serialize)]
+struct MergeReport<'a> {
+    scene: &'a str,
+    image: MergedImage<'a>,
+    settings: &'a serde_json::Value,
+    merged_from: Vec<MergedTile>,
+    provenance: &'a Provenance,
+}
+
+#[derive(serde::Serialize)]
+struct MergedImage<'a> {
+    width: u32,
+    height: u32,
+    bands: &'a [String],
+}
+
+#[derive(serde::Serialize)]
+struct MergedTile {
+    dir: String,
+    radiance_npy_sha256: String,
 }
 
 fn read_info(dir: &Path, reads: &gloam_io::ReadLog) -> Result<TileInfo, MergeError> {

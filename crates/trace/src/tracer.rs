@@ -154,8 +154,12 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
 /// count had its own bound, their product none (4 194 304 texels ×
 /// 65 536 rays ran for hours; a 0.001 nm step made the pilot's 1 024
 /// texels ask for 19 GB and abort, and 20 000 lamps at 0.1 nm took
-/// 0.5 GB). Counted for the most texels the settings let a pilot or a
-/// render build.
+/// 0.5 GB). Counted for the caches known before the pilot: its own, and
+/// the render's when `indirect = cache` asks for it; under `auto` the
+/// render's cache is counted once the pilot chooses it
+/// ([`check_render_cache_memory`]) — counted up front, a 0.01 nm step on
+/// a scene the pilot sends to path tracing (1.9 GB) was refused as
+/// needing 29 GiB.
 fn check_spectral_memory(
     scene: &Scene,
     settings: &RenderSettings,
@@ -172,8 +176,10 @@ fn check_spectral_memory(
         rays = texels * f64::from(crate::plan::PILOT_RAYS);
     }
     if render {
-        texels = texels.max(f64::from(settings.cache_texels));
         rays = rays.max(f64::from(settings.cache_texels) * f64::from(settings.cache_rays));
+    }
+    if requested == Indirect::Cache {
+        texels = texels.max(f64::from(settings.cache_texels));
     }
     if rays > MAX_CACHE_RAYS {
         return Err(TraceError::BadInput(format!(
@@ -181,6 +187,25 @@ fn check_spectral_memory(
             settings.cache_texels, settings.cache_rays
         )));
     }
+    refuse_spectral_bytes(scene, settings, n_wl, texels)
+}
+
+/// The memory check of [`check_spectral_memory`] for the render's cache
+/// once the pilot has chosen it (`indirect = auto`), before it is built.
+fn check_render_cache_memory(tracer: &Tracer, scene: &Scene) -> Result<(), TraceError> {
+    let n_wl = tracer.wl.nm.len() as f64;
+    let texels = f64::from(tracer.settings.cache_texels);
+    refuse_spectral_bytes(scene, &tracer.settings, n_wl, texels)
+}
+
+/// Refuses `n_wl` wavelength slots for a cache of `texels` texels and the
+/// scene's emitters past 80 % of the memory available.
+fn refuse_spectral_bytes(
+    scene: &Scene,
+    settings: &RenderSettings,
+    n_wl: f64,
+    texels: f64,
+) -> Result<(), TraceError> {
     let emissive = |m: usize| scene.materials.get(m).is_some_and(|m| m.emission.is_some());
     let emitters =
         scene.point_sources.len() + scene.facets.iter().filter(|f| emissive(f.material)).count();
@@ -190,7 +215,7 @@ fn check_spectral_memory(
         if bytes > avail as f64 * 0.8 {
             let gib = |b: f64| b / (1u64 << 30) as f64;
             return Err(TraceError::BadInput(format!(
-                "{n_wl} wavelength samples (spectral_step_nm = {}) for {emitters} emitter{} and a radiosity cache of up to {texels} texels need up to {:.1} GiB, more than 80 % of the {:.1} GiB available: coarsen the step, narrow the bands, or lower cache_texels (or set indirect = path or off)",
+                "{n_wl} wavelength samples (spectral_step_nm = {}) for {emitters} emitter{} and a radiosity cache of about {texels} texels need about {:.1} GiB, more than 80 % of the {:.1} GiB available: coarsen the step, narrow the bands, or lower cache_texels (or set indirect = path or off)",
                 gloam_spectra::num(settings.spectral_step_nm),
                 if emitters == 1 { "" } else { "s" },
                 gib(bytes),
@@ -383,6 +408,9 @@ impl Tracer {
             tracer
                 .preparation
                 .end(pilot_step, tracer.observer.clone().as_ref());
+        }
+        if solve && plan.decision.method == "cache" {
+            check_render_cache_memory(&tracer, scene)?;
         }
         tracer.adopt(plan, solve);
         if tracer.settings.path_guide && tracer.interreflection.method == "path" {

@@ -239,6 +239,8 @@ impl FrameStream for MockCamera {
             levels: None,
             exposure_us: None,
             gate_duty: None,
+            nd_density: None,
+            sensor: None,
         };
         self.seq += 1;
         if self.agc_on

@@ -109,8 +109,8 @@ fn capture(
     events: &dyn Events,
 ) -> Result<CapturedSequence, CalibrateError> {
     // The camera as the run resolved it once (not re-read by name).
-    let config = run.config();
     let (sensor, seed) = (run.sensor(), run.seed());
+    let config = sensor.config();
     let capture = FrameCapture {
         sensor,
         frames: l.sequence.frames,
@@ -125,7 +125,7 @@ fn capture(
     // FITS headers name the camera, the seed and this run, as `gloam
     // sequence`'s do.
     let context = FrameContext {
-        camera: Some(sensor.to_string()),
+        camera: Some(sensor.name().to_string()),
         seed: Some(seed),
         provenance: Some(Provenance::of_this_run(reads)),
         scene_utc: crate::frames::scene_utc(&l.scene),

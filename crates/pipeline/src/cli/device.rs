@@ -37,6 +37,8 @@ pub enum DeviceSourceError {
         #[source]
         source: SceneViewError,
     },
+    #[error(transparent)]
+    SensorFile(#[from] crate::CaptureOptionsError),
     #[error("sensor '{sensor}'")]
     Sensor {
         sensor: String,
@@ -64,6 +66,7 @@ fn unlisted() -> gloam_io::ReadLog {
 
 fn sequence_view(
     args: &DeviceArgs,
+    sensor: &crate::ResolvedSensor,
     path: &str,
     note: &dyn Fn(&str),
 ) -> Result<SceneView, DeviceSourceError> {
@@ -80,11 +83,12 @@ fn sequence_view(
         "gloam device: rendering the light groups of {scene} …"
     ));
     let (groups, layers) =
-        crate::scene_view::render_scene_layers(&scene, &args.sensor, args.size, &unlisted())
-            .map_err(|source| DeviceSourceError::Layers {
+        crate::scene_view::render_scene_layers(&scene, sensor, args.size, &unlisted()).map_err(
+            |source| DeviceSourceError::Layers {
                 scene: scene.clone(),
                 source,
-            })?;
+            },
+        )?;
     seq.check_groups(groups.iter().map(String::as_str))?;
     let duration_s = f64::from(seq.frames) / seq.frame_rate_hz;
     let looped = args.loop_sequence;
@@ -118,7 +122,12 @@ pub fn device_source(
         source,
     };
     if let Some(path) = &args.sequence {
-        let view = sequence_view(args, path, note)?;
+        let view = sequence_view(
+            args,
+            &crate::resolve_sensor(&args.sensor, &unlisted())?,
+            path,
+            note,
+        )?;
         let source =
             SensorSource::with_scene(&args.sensor, view, args.seed, &unlisted()).map_err(sensor)?;
         let view = format!("sequence '{path}'");
@@ -130,13 +139,14 @@ pub fn device_source(
     }
     if let Some(path) = &args.scene {
         note(&format!("gloam device: rendering {path} …"));
-        let scene = crate::render_scene_view(path, &args.sensor, args.size, &unlisted()).map_err(
+        let resolved = crate::resolve_sensor(&args.sensor, &unlisted())?;
+        let scene = crate::render_scene_view(path, &resolved, args.size, &unlisted()).map_err(
             |source| DeviceSourceError::View {
                 scene: path.clone(),
                 source,
             },
         )?;
-        if let Some(fit) = crate::scene_view_fit_note(&scene, &args.sensor) {
+        if let Some(fit) = crate::scene_view_fit_note(&scene, &resolved) {
             note(&format!("warning: {fit}"));
         }
         let source = SensorSource::with_scene(&args.sensor, scene, args.seed, &unlisted())

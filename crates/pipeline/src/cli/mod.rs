@@ -18,6 +18,7 @@ pub mod calibrate;
 pub mod capture;
 pub mod device;
 pub mod print;
+pub mod process;
 pub mod sequence;
 
 pub use sequence::SequenceArgs;
@@ -136,49 +137,6 @@ impl CameraArgs {
             auto_exposure: self.exposure.is_some(),
         }
     }
-
-    /// The camera the render is for ([`camera_of`]) and, unless the render
-    /// is a tile, its capture — checked now, not after the whole trace. A
-    /// tile is traced with the camera's band all the same (the effect plan
-    /// weighs every band, so a tile makes the whole render's decisions) but
-    /// captures nothing. `reads` notes a sensor file.
-    pub fn capture<'a>(
-        &'a self,
-        scene: &'a Scene,
-        seed: u64,
-        tile: bool,
-        reads: &gloam_io::ReadLog,
-    ) -> Result<(Option<&'a str>, Option<FrameCapture<'a>>), ArgError> {
-        let camera = camera_of(self.sensor.as_deref(), scene);
-        let frame_format = frame_format(self.frame_format.as_deref())?;
-        let capture = camera.filter(|_| !tile).map(|sensor| FrameCapture {
-            sensor,
-            frames: self.frames.unwrap_or(1),
-            gain: self.gain,
-            agc: self.agc,
-            noise: !self.no_noise,
-            seed,
-            auto_exposure: self.exposure.as_ref().map(|_| ExposureTarget::default()),
-            frame_format,
-        });
-        match &capture {
-            Some(c) => c.check(reads)?,
-            None => {
-                let given = [
-                    ("--frames", self.frames.is_some()),
-                    ("--gain", self.gain.is_some()),
-                    ("--agc", self.agc),
-                    ("--no-noise", self.no_noise),
-                    ("--exposure", self.exposure.is_some()),
-                    ("--frame-format", self.frame_format.is_some()),
-                ];
-                if let Some((flag, _)) = given.into_iter().find(|(_, g)| *g) {
-                    return Err(ArgError::NeedsCamera { flag, tile });
-                }
-            }
-        }
-        Ok((camera, capture))
-    }
 }
 
 /// `--frame-format` (`render`, `sequence`, `capture`): PNG when not
@@ -262,14 +220,14 @@ impl PlanArgs {
         }
     }
 
-    /// `K` and the camera's capture for `--target-error camera[:K]`, if
-    /// asked; refused with a relative error or without a camera. `reads`
-    /// notes a sensor file.
-    pub fn camera_target<'a>(
-        &'a self,
-        scene: &'a Scene,
+    /// `K` and the camera (read once, its capture checked) for
+    /// `--target-error camera[:K]`, if asked; refused with a relative error or without a camera.
+    /// `reads` notes a sensor file.
+    pub fn camera_target(
+        &self,
+        scene: &Scene,
         reads: &gloam_io::ReadLog,
-    ) -> Result<Option<(f64, FrameCapture<'a>)>, PlanArgError> {
+    ) -> Result<Option<(f64, crate::ResolvedSensor)>, PlanArgError> {
         let k = match self.target_error {
             None => return Ok(None),
             Some(crate::camera_goal::TargetError::Relative(e)) => {
@@ -280,7 +238,14 @@ impl PlanArgs {
         let sensor = camera_of(self.sensor.as_deref(), scene).ok_or(PlanArgError::NoCamera {
             scene: self.scene.clone(),
         })?;
-        let capture = FrameCapture {
+        let sensor = crate::resolve_sensor(sensor, reads)?;
+        self.capture(&sensor).check()?;
+        Ok(Some((k, sensor)))
+    }
+
+    /// The capture the camera target's estimate runs through `sensor`.
+    pub fn capture<'a>(&self, sensor: &'a crate::ResolvedSensor) -> FrameCapture<'a> {
+        FrameCapture {
             sensor,
             frames: 1,
             gain: self.gain,
@@ -289,9 +254,7 @@ impl PlanArgs {
             seed: 0,
             auto_exposure: self.exposure.as_ref().map(|_| ExposureTarget::default()),
             frame_format: crate::FrameFormat::default(),
-        };
-        capture.check(reads)?;
-        Ok(Some((k, capture)))
+        }
     }
 }
 
@@ -323,7 +286,9 @@ pub struct ProbeArgs {
     pub samples: u32,
     /// Camera samples per pixel for --pixel (default 4, as a fixed-count
     /// `render --spp`).
-    #[arg(long)]
+    // A point's estimate takes no camera samples: `--spp` there was
+    // accepted and ignored.
+    #[arg(long, conflicts_with_all = ["point", "normal"])]
     pub spp: Option<u32>,
     /// Seed (default 0).
     #[arg(long)]
@@ -399,24 +364,5 @@ fn malformed(
         value,
         expected,
         source,
-    }
-}
-
-/// Refuses a `RAYON_NUM_THREADS` past the tracer's own thread limit:
-/// rayon would try to start that many workers (100 000 hang the start).
-pub fn check_thread_env() -> Result<(), String> {
-    let Some(v) = std::env::var_os("RAYON_NUM_THREADS") else {
-        return Ok(());
-    };
-    let max = gloam_trace::tracer::MAX_THREADS;
-    match v.to_str().map(str::trim).map(str::parse::<u64>) {
-        Some(Ok(n)) if n as u128 > max as u128 => Err(format!(
-            "RAYON_NUM_THREADS={n}: at most {max} worker threads (unset it, or use --threads where a command has it)"
-        )),
-        Some(Ok(_)) => Ok(()),
-        _ => Err(format!(
-            "RAYON_NUM_THREADS={}: not a whole number of threads",
-            v.to_string_lossy()
-        )),
     }
 }

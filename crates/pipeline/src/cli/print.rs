@@ -28,22 +28,21 @@ pub fn scene_line(path: &std::path::Path, scene: &Scene) -> String {
 }
 
 /// One line: the camera target's estimate against the 2 % default.
-pub fn estimate_line(e: &serde_json::Value, sensor: &str) -> String {
-    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
-    let (c, r) = (&e["camera"], &e["default_2_percent"]);
+pub fn estimate_line(e: &crate::camera_goal::CameraEstimate, sensor: &str) -> String {
+    let (c, r) = (&e.camera, &e.default_2_percent);
     format!(
         "--target-error camera:{} through '{sensor}' (estimated from {}×{} trial renders): {:.1} spp vs {:.1} at the 2 % default, {:.1} vs {:.1} M rays (×{:.1}), {:.2} vs {:.2} s of tracing (×{:.1}) at full size",
-        f(&e["k"]),
-        e["trial_width"],
-        e["trial_height"],
-        f(&c["mean_spp"]),
-        f(&r["mean_spp"]),
-        f(&c["rays"]) / 1e6,
-        f(&r["rays"]) / 1e6,
-        f(&e["rays_saving"]),
-        f(&c["trace_seconds"]),
-        f(&r["trace_seconds"]),
-        f(&e["time_saving"]),
+        e.k,
+        e.trial_width,
+        e.trial_height,
+        c.mean_spp,
+        r.mean_spp,
+        c.rays / 1e6,
+        r.rays / 1e6,
+        e.rays_saving,
+        c.trace_seconds,
+        r.trace_seconds,
+        e.time_saving,
     )
 }
 

@@ -348,10 +348,18 @@ impl Sequence {
                 num(MAX_SKY_SPAN_S)
             )
         });
+        // A sequence that itself lasts more than the clock may run is the
+        // frames' rate to blame, not the clock's scale (`frame_rate_hz =
+        // 1e-300` was named `sky.time_scale`).
+        let (line, key) = if self.duration_s() > MAX_SKY_SPAN_S {
+            (self.frame_rate_line, "frame_rate_hz")
+        } else {
+            (clock.line, "sky.time_scale")
+        };
         match past.or(long) {
             Some(why) => Err(self.sky_err(
-                clock.line,
-                "sky.time_scale",
+                line,
+                key,
                 format!(
                     "the clock runs {} sky seconds ({} frames at {} Hz × {}) from {}, {why}",
                     num(span_s),

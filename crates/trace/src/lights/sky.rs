@@ -359,9 +359,7 @@ impl Tracer {
         samples: u32,
     ) -> Result<Option<SkyProbeResult>, TraceError> {
         let b = self.band_index(band)?;
-        let n = normal
-            .try_normalize()
-            .ok_or_else(|| TraceError::BadInput("the normal must be a non-zero vector".into()))?;
+        let n = crate::render::probe::unit_normal(normal)?;
         let Some(sky) = &self.sky else {
             return Ok(None);
         };

@@ -21,7 +21,7 @@ use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
 mod adaptive;
 mod estimate;
 mod film;
-mod probe;
+pub(crate) mod probe;
 #[cfg(test)]
 mod tests;
 

@@ -38,9 +38,7 @@ impl Tracer {
         samples: u32,
     ) -> Result<ProbeResult, TraceError> {
         let b = self.band_index(band)?;
-        let n = normal
-            .try_normalize()
-            .ok_or_else(|| TraceError::BadInput("the normal must be a non-zero vector".into()))?;
+        let n = unit_normal(normal)?;
         if !point.is_finite() {
             return Err(TraceError::BadInput("the point must be finite".into()));
         }
@@ -170,4 +168,20 @@ impl Tracer {
     pub fn project(&self, point: DVec3) -> Option<(f64, f64)> {
         self.camera.project(point - self.geom.origin)
     }
+}
+
+/// `normal` as a unit vector. One whose length overflows or underflows
+/// (`1e308,1e308,0`, `1e-320,0,0`) is scaled by its largest component
+/// first: it has a direction, and was called "a zero vector".
+pub(crate) fn unit_normal(normal: DVec3) -> Result<DVec3, TraceError> {
+    if !normal.is_finite() {
+        return Err(TraceError::BadInput(format!(
+            "the normal {},{},{} must be finite",
+            normal.x, normal.y, normal.z
+        )));
+    }
+    normal
+        .try_normalize()
+        .or_else(|| (normal / normal.abs().max_element()).try_normalize())
+        .ok_or_else(|| TraceError::BadInput("the normal must be a non-zero vector".into()))
 }

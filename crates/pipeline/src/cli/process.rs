@@ -1,0 +1,97 @@
+//! The `gloam` process's start and end: worker threads, logging, clap's
+//! own exits. Here rather than in `src/` so the binary stays a list of
+//! commands; each piece is what a hostile environment taught (see
+//! docs/reliability.md).
+
+use std::io::Write as _;
+use std::process::ExitCode;
+
+/// Refuses a `RAYON_NUM_THREADS` past the tracer's own thread limit:
+/// rayon would try to start that many workers (100 000 hang the start).
+fn check_thread_env() -> Result<(), String> {
+    let Some(v) = std::env::var_os("RAYON_NUM_THREADS") else {
+        return Ok(());
+    };
+    let max = gloam_trace::tracer::MAX_THREADS;
+    match v.to_str().map(str::trim).map(str::parse::<u64>) {
+        Some(Ok(n)) if n as u128 > max as u128 => Err(format!(
+            "RAYON_NUM_THREADS={n}: at most {max} worker threads (unset it, or use --threads where a command has it)"
+        )),
+        Some(Ok(_)) => Ok(()),
+        _ => Err(format!(
+            "RAYON_NUM_THREADS={}: not a whole number of threads",
+            v.to_string_lossy()
+        )),
+    }
+}
+
+/// Starts the worker pool up front, where a failure is an error: started
+/// lazily, a pool whose threads could not start (`RAYON_NUM_THREADS=1024`
+/// under `ulimit -v`) panicked in the first parallel loop.
+pub fn start_workers() -> Result<(), String> {
+    check_thread_env()?;
+    rayon::ThreadPoolBuilder::new().build_global().map_err(|e| {
+        format!(
+            "starting {} worker threads (RAYON_NUM_THREADS, else one per core): {e}; each needs its own stack, which an address-space or process limit (ulimit -v, -u) can refuse",
+            std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "the".into())
+        )
+    })
+}
+
+/// `cmd` and all its subcommands taking negative numbers as values, so that
+/// `--spp -5` is refused by the flag's own check ("invalid value '-5' for
+/// '--spp'") rather than by clap's misleading "use '-- -5'" tip.
+pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
+    cmd.allow_negative_numbers(true)
+        .mut_subcommands(negative_numbers_are_values)
+}
+
+/// Ends on a clap error, or prints `--help`/`--version`, whose write
+/// errors clap drops: `gloam --help > /dev/full` exited 0 with nothing
+/// written. A closed stdout ends quietly, as every command's output does.
+pub fn clap_exit(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if !matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+        e.exit()
+    }
+    match e.print().and_then(|()| std::io::stdout().flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(w) if w.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(w) => {
+            let _ = writeln!(std::io::stderr(), "error: writing to stdout: {w}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Logs to stderr at `RUST_LOG`'s filter when set (and not empty), else
+/// `--log`'s; plain text when stderr is a file or pipe (CI logs, tests).
+pub fn init_logging(log: &str) {
+    tracing_subscriber::fmt()
+        .with_env_filter(log_filter(log))
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .init();
+}
+
+/// The log filter: `RUST_LOG` when set (and not empty), else `--log`. A
+/// `RUST_LOG` that is not a filter — or not text — was dropped silently
+/// for `--log`'s; it is named on stderr now (`--log` itself warns through
+/// the filter's own parser).
+fn log_filter(log: &str) -> tracing_subscriber::EnvFilter {
+    use tracing_subscriber::EnvFilter;
+    let Some(var) = std::env::var_os("RUST_LOG").filter(|v| !v.is_empty()) else {
+        return EnvFilter::new(log);
+    };
+    let parsed = match var.to_str() {
+        Some(text) => EnvFilter::try_new(text).map_err(|e| e.to_string()),
+        None => Err("it is not UTF-8".to_string()),
+    };
+    parsed.unwrap_or_else(|why| {
+        let _ = writeln!(
+            std::io::stderr(),
+            "warning: RUST_LOG={var:?} is not a log filter ({why}): ignored, logging at --log {log}"
+        );
+        EnvFilter::new(log)
+    })
+}
