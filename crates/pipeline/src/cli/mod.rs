@@ -222,6 +222,7 @@ impl PlanArgs {
 
     /// `K` and the camera (read once, its capture checked) for
     /// `--target-error camera[:K]`, if asked; refused with a relative error or without a camera.
+    /// `reads` notes a sensor file.
     pub fn camera_target(
         &self,
         scene: &Scene,
