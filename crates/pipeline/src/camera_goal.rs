@@ -259,15 +259,15 @@ impl Settled {
 
 impl CameraGoal {
     /// The goal for `prepared`'s detected band (its last) through the
-    /// capture's camera: `sensor` (preset or TOML) with the capture's gain,
-    /// AGC and automatic exposure.
+    /// capture's camera (read and checked once, when the run resolved it)
+    /// with the capture's gain, AGC and automatic exposure.
     pub fn new(
         prepared: &crate::render::PreparedRender,
         k: f64,
         capture: &crate::frames::FrameCapture<'_>,
-    ) -> Result<Self, gloam_sensor::ConfigError> {
+    ) -> Self {
         let config = capture.sensor.config().clone();
-        Ok(Self {
+        Self {
             band: prepared.tracer().wavelengths().band_names.len() - 1,
             k,
             config,
@@ -276,7 +276,7 @@ impl CameraGoal {
             auto_exposure: capture.auto_exposure,
             settled: OnceLock::new(),
             mixes: None,
-        })
+        }
     }
 
     /// The goal for one pose of a sequence: `prepared` renders its layers,
@@ -536,12 +536,6 @@ pub const ESTIMATE_MAX_SPP: u32 = 64;
 pub enum EstimateError {
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
-    #[error("--target-error camera: sensor '{sensor}'")]
-    Sensor {
-        sensor: String,
-        #[source]
-        source: gloam_sensor::ConfigError,
-    },
 }
 
 /// `gloam plan`'s estimate of a camera run before rendering: two trial
@@ -579,12 +573,7 @@ pub fn estimate(
         let prepared = job.prepare()?;
         match goal_k {
             Some(k) => {
-                let goal = CameraGoal::new(&prepared, k, capture).map_err(|source| {
-                    EstimateError::Sensor {
-                        sensor: capture.sensor.name().to_string(),
-                        source,
-                    }
-                })?;
+                let goal = CameraGoal::new(&prepared, k, capture);
                 let r = prepared.render_to_goal(&goal, &|_, _| {}, &|| false)?;
                 let t = goal.report(&r);
                 Ok::<_, EstimateError>((r, t))

@@ -64,8 +64,6 @@ pub enum RenderError {
     #[error("{0}")]
     CameraTarget(&'static str),
     #[error(transparent)]
-    CameraGoal(#[from] gloam_sensor::ConfigError),
-    #[error(transparent)]
     OutputSet(#[from] gloam_io::OutputSetError),
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),

@@ -388,7 +388,7 @@ impl ValidRender {
         let rows: Option<Range<u32>> = self.tile.map(|t| t.rows(full.1)).transpose()?;
         let capture = self.frame_capture();
         let goal = match (self.camera_k, &capture) {
-            (Some(k), Some(c)) => Some(CameraGoal::new(&prepared, k, c)?),
+            (Some(k), Some(c)) => Some(CameraGoal::new(&prepared, k, c)),
             _ => None,
         };
         let progress = |done, total| events.tiles(done, total);

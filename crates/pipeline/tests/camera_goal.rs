@@ -112,7 +112,7 @@ fn frames_of_a_camera_noise_render_match_a_converged_renders() {
         };
         let prepared = job.prepare().unwrap();
         if goal {
-            let g = CameraGoal::new(&prepared, 0.3, &capture()).unwrap();
+            let g = CameraGoal::new(&prepared, 0.3, &capture());
             let r = prepared.render_to_goal(&g, &|_, _| {}, &|| false).unwrap();
             (r, g.settled().map(|s| s.gain))
         } else {

@@ -97,7 +97,7 @@ fn render_point(
     let (r, camera_target) = match (task.camera_target(), &sensor) {
         (Some(k), Some(s)) => {
             let goal =
-                gloam_pipeline::camera_goal::CameraGoal::new(&prepared, k, &capture_of(s, task))?;
+                gloam_pipeline::camera_goal::CameraGoal::new(&prepared, k, &capture_of(s, task));
             let r = prepared.render_to_goal(&goal, &|_, _| {}, &|| false)?;
             let target = goal.report(&r);
             (r, target)
