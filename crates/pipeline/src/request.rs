@@ -28,7 +28,7 @@ use crate::render::{
 };
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
-use gloam_io::{OutputSet, ReadLog};
+use gloam_io::{OutputSet, ReadLog, RunGuard};
 use gloam_sensor::ResolvedSensor;
 
 /// The scene of a request: a file to read, or one a front end holds
@@ -364,14 +364,14 @@ impl ValidRender {
 
     /// Renders, and with an output set writes the images, `tile.json`,
     /// `report.json`, `layers.json` and the camera's frames, then
-    /// publishes the set.
-    pub fn run(self, events: &dyn Events) -> Result<RenderDone, RenderError> {
+    /// publishes the set, which `guard` removes if the run is interrupted.
+    pub fn run(self, events: &dyn Events, guard: &RunGuard) -> Result<RenderDone, RenderError> {
         let t_start = Instant::now();
         let mut provenance = Provenance::of_this_run(&self.reads);
         // Refused up front when the directory is in use; the files appear
         // at once when the set is published.
         let set = (self.out.as_ref())
-            .map(|o| OutputSet::begin(&o.path, o.force, false))
+            .map(|o| OutputSet::begin(&o.path, o.force, false, guard))
             .transpose()?;
         let job = RenderJob {
             camera: self.camera.as_ref(),

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use gloam_io::OutputSet;
+use gloam_io::{OutputSet, RunGuard};
 use gloam_scene::sequence::Sequence;
 use gloam_scene::{Scene, SceneError};
 use gloam_trace::RenderSettings;
@@ -162,11 +162,15 @@ pub struct SequenceDone {
 impl ValidSequence {
     /// Opens the output set, renders the layers and captures the frames
     /// through the camera, writes frame 0's layers and `report.json`, and
-    /// publishes the set.
-    pub fn run(self, events: &dyn Events) -> Result<SequenceDone, SequenceRequestError> {
+    /// publishes the set, which `guard` removes if the run is interrupted.
+    pub fn run(
+        self,
+        events: &dyn Events,
+        guard: &RunGuard,
+    ) -> Result<SequenceDone, SequenceRequestError> {
         let t_start = Instant::now();
         let mut provenance = Provenance::of_this_run(&self.reads);
-        let set = OutputSet::begin(&self.out.path, self.out.force, false)?;
+        let set = OutputSet::begin(&self.out.path, self.out.force, false, guard)?;
         let dir = set.dir().to_path_buf();
         let progress = |d, t| events.tiles(d, t);
         let job = SceneSequence {
