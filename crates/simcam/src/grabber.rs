@@ -81,19 +81,20 @@ impl SimGrabber<Box<dyn FrameSource>> {
         ))
     }
 
-    /// The sensor chain of `preset` looking at a rendered scene.
+    /// The sensor chain of `sensor` (read once by the caller) looking at
+    /// a rendered scene.
     pub fn from_scene(
-        preset: &str,
+        sensor: &gloam_sensor::ResolvedSensor,
         scene: SceneView,
         seed: u64,
-        reads: &gloam_io::ReadLog,
     ) -> Result<Self, GrabError> {
         let (w, h) = scene.size();
         let label = format!(
-            "simulated {preset} looking at scene '{}' (seed {seed}, {w}×{h})",
+            "simulated {} looking at scene '{}' (seed {seed}, {w}×{h})",
+            sensor.name(),
             scene.label
         );
-        let src = SensorSource::with_scene(preset, scene, seed, reads)?;
+        let src = SensorSource::with_scene(sensor, scene, seed)?;
         Ok(Self::new(Box::new(src) as Box<dyn FrameSource>, label))
     }
 }

@@ -237,7 +237,7 @@ fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> Result<Figures, Task
 }
 
 /// Frames of a render through the task's camera (noise seeded by the
-/// task): the one capture loop, [`FrameCapture::capture`], keeping the
+/// task): the one capture loop, [`FrameCapture::start`]'s, keeping the
 /// pixels for the task's noise figures.
 fn capture_detected(
     sensor: &ResolvedSensor,
@@ -249,13 +249,15 @@ fn capture_detected(
     let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
     let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
-    let captured = capture.capture(detected, &mut |f, rec| {
+    let mut capturing = capture.start(detected)?;
+    // Bounded: the task's frames.
+    while let Some((f, rec)) = capturing.next_frame(None)? {
         writer.write(&rec, &f.pixels)?;
         (black, gain) = (rec.black_dn.unwrap_or(f64::NAN), rec.gain);
         sat += rec.saturated_fraction;
         frames.push(f.pixels);
-        Ok(())
-    })?;
+    }
+    let captured = capturing.finish();
     writer.finish()?;
     let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
     let mut f = crate::figures::frame_figures(&refs, Some(black));
