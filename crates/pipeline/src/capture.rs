@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::frame_files::FrameFormat;
 use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
-use crate::output::{OutputError, write_atomic};
+use crate::output::OutputError;
 use gloam_sensor::ResolvedSensor;
 
 /// Why a capture's options are refused.
@@ -103,31 +103,6 @@ pub enum CaptureError {
     Encode(#[source] serde_json::Error),
 }
 
-/// Adds `sensor_capture` (per-frame mean, saturated fraction, warnings) to
-/// the render's `report.json` in `out`, when there is one.
-fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
-    let path = out.join("report.json");
-    // The report is this run's output, not an input.
-    let Ok(text) = gloam_io::read_text(
-        &path,
-        gloam_io::MAX_TEXT_FILE_BYTES,
-        &gloam_io::ReadLog::off(),
-    ) else {
-        return Ok(());
-    };
-    let mut report: serde_json::Value =
-        serde_json::from_str(&text).map_err(|source| CaptureError::Report {
-            path: path.clone(),
-            source,
-        })?;
-    if let Some(obj) = report.as_object_mut() {
-        obj.insert("sensor_capture".into(), capture);
-        let text = serde_json::to_string_pretty(&report).map_err(CaptureError::Encode)?;
-        write_atomic(&path, text.as_bytes())?;
-    }
-    Ok(())
-}
-
 /// What to capture and how.
 pub struct FrameCapture<'a> {
     /// The camera, read once by the request ([`ResolvedSensor`]).
@@ -153,7 +128,59 @@ pub struct Captured {
     pub notes: Vec<String>,
     /// `report.json`'s `sensor_capture`: the exposure chosen, per-frame
     /// levels and the saturation summary.
-    pub report: serde_json::Value,
+    pub report: SensorCaptureReport,
+}
+
+/// `report.json`'s `sensor_capture`: what the camera made of the scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorCaptureReport {
+    /// The sensor preset or file, as given.
+    pub sensor: String,
+    /// The fit predicted before the first frame.
+    pub fit: crate::fit::Fit,
+    /// `--exposure auto`'s choice (null without it).
+    pub exposure: Option<crate::exposure::ExposureChoice>,
+    /// Each frame's levels.
+    pub frames: Vec<FrameLevels>,
+    pub saturation: SaturationSummary,
+    /// The levels the warnings are judged against.
+    pub thresholds: LevelThresholds,
+}
+
+/// One captured frame's levels in `sensor_capture.frames`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameLevels {
+    pub file: String,
+    pub gain: f64,
+    pub mean_dn: f64,
+    pub median_dn: f64,
+    /// (median − black) over the top code.
+    pub median_above_black_of_full_scale: f64,
+    pub saturated_fraction: f64,
+    pub saturated_by: gloam_io::frame::SaturatingStage,
+    pub mcp_compressed_fraction: f64,
+    pub bright_source_in_view: bool,
+    pub warnings: Vec<gloam_sensor::levels::WarningKind>,
+}
+
+/// The thresholds of the exposure warnings (`gloam_sensor::levels`).
+#[derive(Clone, Debug, Serialize)]
+pub struct LevelThresholds {
+    pub saturated_fraction_warning: f64,
+    pub near_full_scale_fraction: f64,
+    pub near_black_dn: f64,
+}
+
+impl LevelThresholds {
+    /// The thresholds this build judges frames by.
+    fn current() -> Self {
+        use gloam_sensor::levels::*;
+        Self {
+            saturated_fraction_warning: SATURATED_WARN_FRACTION,
+            near_full_scale_fraction: NEAR_FULL_SCALE_FRACTION,
+            near_black_dn: NEAR_BLACK_DN,
+        }
+    }
 }
 
 impl FrameCapture<'_> {
@@ -263,18 +290,17 @@ impl FrameCapture<'_> {
 
     /// [`FrameCapture::start`]'s frames into `out`: the frames in
     /// `frame_format` and `frames.jsonl` as frames are made, then
-    /// `frames-preview.png`, and `sensor_capture` added to
-    /// `out/report.json` when there is one; FITS headers carry
-    /// `provenance` and date frames from `scene_utc` (the scene's
-    /// `[sky] utc`) when given. Returns what its user should be told, as
-    /// lines; the front end prints them.
+    /// `frames-preview.png`; FITS headers carry `provenance` and date
+    /// frames from `scene_utc` (the scene's `[sky] utc`) when given.
+    /// Returns what its user should be told and `report.json`'s
+    /// `sensor_capture`, for the caller's report.
     pub fn run(
         &self,
         detected: &Array2<f64>,
         out: &Path,
         provenance: Option<&crate::Provenance>,
         scene_utc: Option<gloam_sky::time::UtcInstant>,
-    ) -> Result<Vec<String>, CaptureError> {
+    ) -> Result<Captured, CaptureError> {
         let mut writer = None;
         let context = FrameContext {
             camera: Some(self.sensor.name().to_string()),
@@ -300,8 +326,7 @@ impl FrameCapture<'_> {
         if let Some(w) = writer {
             w.finish()?;
         }
-        record_in_report(out, captured.report)?;
-        Ok(captured.notes)
+        Ok(captured)
     }
 }
 
@@ -372,18 +397,14 @@ impl Capturing<'_> {
                 100.0 * summary.mean_saturated_fraction
             ));
         }
-        let report = serde_json::json!({
-            "sensor": request.sensor.name(),
-            "fit": fit,
-            "exposure": exposure,
-            "frames": per_frame,
-            "saturation": summary,
-            "thresholds": {
-                "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
-                "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
-                "near_black_dn": gloam_sensor::levels::NEAR_BLACK_DN,
-            },
-        });
+        let report = SensorCaptureReport {
+            sensor: request.sensor.name().to_string(),
+            fit,
+            exposure,
+            frames: per_frame,
+            saturation: summary,
+            thresholds: LevelThresholds::current(),
+        };
         Captured { notes, report }
     }
 }
@@ -393,7 +414,7 @@ impl Capturing<'_> {
 /// exposure warning it has told.
 #[derive(Default)]
 struct FrameTally {
-    per_frame: Vec<serde_json::Value>,
+    per_frame: Vec<FrameLevels>,
     summary: SaturationSummary,
     warned: std::collections::BTreeSet<gloam_sensor::levels::WarningKind>,
 }
@@ -428,18 +449,18 @@ impl FrameTally {
         }
         let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
         let median = median_dn(&frame.pixels);
-        self.per_frame.push(serde_json::json!({
-            "file": rec.file,
-            "gain": g,
-            "mean_dn": m.mean_dn,
-            "median_dn": median,
-            "median_above_black_of_full_scale": (median - black) / max_code,
-            "saturated_fraction": m.saturated_fraction,
-            "saturated_by": m.saturation.saturated_by,
-            "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
-            "bright_source_in_view": m.saturation.bright_source_in_view,
-            "warnings": kinds,
-        }));
+        self.per_frame.push(FrameLevels {
+            file: rec.file.clone(),
+            gain: g,
+            mean_dn: m.mean_dn,
+            median_dn: median,
+            median_above_black_of_full_scale: (median - black) / max_code,
+            saturated_fraction: m.saturated_fraction,
+            saturated_by: m.saturation.saturated_by,
+            mcp_compressed_fraction: m.saturation.mcp_compressed_fraction,
+            bright_source_in_view: m.saturation.bright_source_in_view,
+            warnings: kinds,
+        });
         self.summary.add(&m.saturation);
         tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
         Ok(())

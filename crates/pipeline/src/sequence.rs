@@ -152,7 +152,7 @@ pub struct SequenceReport {
     /// Wall time in the camera model and writing frames, s (all frames).
     pub camera_s: f64,
     /// The capture's `sensor_capture` (fit, per-frame levels, saturation).
-    pub sensor_capture: serde_json::Value,
+    pub sensor_capture: crate::capture::SensorCaptureReport,
     #[serde(skip)]
     pub notes: Vec<String>,
     /// (time s, gain in effect) per frame: what `gain-over-time.png` draws.

@@ -428,7 +428,7 @@ pub struct SequenceRunReport<'a> {
     pub settings: Option<&'a RenderSettings>,
     pub effect_plan: &'a gloam_scene::plan::EffectPlan,
     pub sequence: SequenceSection<'a>,
-    pub sensor_capture: &'a serde_json::Value,
+    pub sensor_capture: &'a crate::capture::SensorCaptureReport,
     pub provenance: &'a Provenance,
     /// `--target-error camera[:K]`: frame 0's pose's camera target.
     #[serde(skip_serializing_if = "Option::is_none")]

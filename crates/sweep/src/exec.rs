@@ -266,32 +266,33 @@ fn capture_detected(
     // The camera fit predicted before the first frame: how much of the
     // frame saturates at this gain and at the least sensitive one, and
     // the ND that would fit (absent: none within reach, or not needed).
-    let fit = &captured.report["fit"];
+    let fit = &captured.report.fit;
     for (key, value) in [
         (
             "fit_saturated_fraction",
-            &fit["at_gain"]["saturated_fraction"],
+            Some(fit.at_gain.saturated_fraction),
         ),
         (
             "fit_saturated_fraction_at_gain_min",
-            &fit["at_gain_min"]["saturated_fraction"],
+            Some(fit.at_gain_min.saturated_fraction),
         ),
         (
             "fit_median_above_black_of_full_scale",
-            &fit["at_gain"]["median_above_black_of_full_scale"],
+            Some(fit.at_gain.median_above_black_of_full_scale),
         ),
-        ("fit_nd_density", &fit["nd_density_to_fit"]),
+        ("fit_nd_density", fit.nd_density_to_fit),
     ] {
-        if let Some(v) = value.as_f64() {
+        // A figure that is not a number was never recorded (JSON has none).
+        if let Some(v) = value.filter(|v| v.is_finite()) {
             f.insert(key.into(), v);
         }
     }
     // What the frames gave, to set beside it: the median above black over
     // full scale, averaged over the frames.
-    if let Some(frames) = captured.report["frames"].as_array() {
-        let m: Vec<f64> = frames
-            .iter()
-            .filter_map(|fr| fr["median_above_black_of_full_scale"].as_f64())
+    {
+        let m: Vec<f64> = (captured.report.frames.iter())
+            .map(|fr| fr.median_above_black_of_full_scale)
+            .filter(|v| v.is_finite())
             .collect();
         if !m.is_empty() {
             f.insert(
