@@ -189,7 +189,8 @@ impl<S: FrameSource> FrameStream for SimGrabber<S> {
                 bits: s.bits,
                 width: s.width,
                 height: s.height,
-                pixels_crc32c: gloam_grabber::pixels_crc32c(&pixels),
+                pixels_crc32c: (r.pixels_crc32c)
+                    .unwrap_or_else(|| gloam_grabber::pixels_crc32c(&pixels)),
                 status: FrameStatus::Ok,
                 levels: r.levels,
                 // As configured for this frame: the same values gloam's GigE

@@ -356,6 +356,8 @@ impl FrameSource for SensorSource {
             gate_duty: m.gate_duty,
             nd_density: m.nd_density,
             sensor: m.sensor,
+            // `out` holds the camera's pixels unchanged.
+            pixels_crc32c: Some(m.pixels_crc32c),
         })
     }
 }
