@@ -1181,7 +1181,8 @@ const CASES: &[Case] = &[
             "--out",
             "o"
         ],
-        ["frames"]
+        // The range clap states is the one the run allows (it said 0..=).
+        ["--frames", "1000001 is not in 1..=1000000"]
     ),
     case!(
         "capture: --frames 4294967296",
@@ -2492,6 +2493,9 @@ const CASES: &[Case] = &[
     case!("scene: object rotate_z_deg past the bound", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\nrotate_z_deg = -2e6\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.rotate_z_deg", "-2000000 degrees is past the limit of ±1e6"]),
     case!("scene: object rotate_z_deg infinite", ["s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\nrotate_z_deg = -inf\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.rotate_z_deg", "not a finite number"]),
     case!("scene: placements CSV rotate_z_deg 1e300", ["p.csv" => "x,y,z,rotate_z_deg,scale\n1,2,0,0,1\n4,5,0,1e300,1\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances_csv = \"p.csv\"\n"], ["plan", "s.toml"], ["s.toml:", "objects.m.instances_csv", "p.csv:3:", "rotate_z_deg = 1e300", "≤ 1e6 degrees"]),
+    // A NUL in a row was quoted raw: `found '1,2,0,0,1'` looked valid.
+    case!("scene: placements CSV row with a NUL", ["p.csv" => "x,y,z,rotate_z_deg,scale\n1,2\u{0},0,0,1\n", "s.toml" => "{base}\n[objects.m]\nmaterial = \"floor\"\nbox = { min = [-0.5, -0.5, 0.0], max = [0.5, 0.5, 1.0] }\ninstances_csv = \"p.csv\"\n"], ["plan", "s.toml"], ["p.csv:2:", "found '1,2\\u{0},0,0,1'"]),
+    case!("spectrum CSV row with a NUL", ["sp.csv" => "nm,value\n400,1\n500,1\u{0}\n", "s.toml" => "{base}\n[point_sources.l]\nposition = [1.0, 0.0, 6.0]\nspectrum = \"sp.csv\"\n"], ["plan", "s.toml"], ["sp.csv:3:", "found '500,1\\u{0}'"]),
     case!("scene: point source instance rotate_z_deg 1e300", ["s.toml" => "{base}\n[point_sources.lamp]\nposition = [1.0, 0.0, 6.0]\nvalue = 0.5\ninstances = [{ rotate_z_deg = 1e300 }]\n"], ["plan", "s.toml"], ["s.toml:", "point_sources.lamp.instances[0].rotate_z_deg", "past the limit of ±1e6"]),
     case!("sequence: a move key turning 1e300 degrees", ["q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25\nframes = 2\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 1e300]]\n", "s.toml" => "{base}"], ["sequence", "q.toml", "--out", "o"], ["q.toml:6:", "move[0]", "rotate_z_deg 1e300 is not a finite angle within ±1e6 degrees"]),
     // a sliver facet says what it is: its area and the threshold

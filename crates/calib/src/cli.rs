@@ -896,7 +896,7 @@ pub struct CaptureArgs {
     /// Good frames to capture.
     #[arg(long, default_value_t = 1)]
     /// At most 1 000 000 (nine hours at 30 frames/s; split longer runs).
-    #[arg(value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    #[arg(value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub frames: u64,
     /// Output directory (frame-NNNNNN.png + frames.jsonl).
     #[arg(long)]

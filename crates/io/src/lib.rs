@@ -17,7 +17,7 @@ pub use guard::RunGuard;
 pub use hash::{InputFile, MAX_HASHED_BYTES, hash_file};
 pub use input::{
     FileRead, MAX_IMAGE_FILE_BYTES, MAX_MESH_FILE_BYTES, MAX_RECORDED_READS, MAX_TEXT_FILE_BYTES,
-    ReadLog, open_bounded, read_bounded, read_text, sha256_hex,
+    ReadLog, open_bounded, read_bounded, read_text, sha256_hex, shown,
 };
 pub use output_set::{ManifestProvenance, OutputSet, OutputSetError};
 
