@@ -2710,6 +2710,11 @@ const CASES: &[Case] = &[
     ),
     // Written into the script as it was, for Slurm to refuse at submission.
     case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
+    // --- round 10 (issue 46)
+    // A BOM before the first line is taken as the CSV readers take one
+    // (it was a JSON error at column 1): the line's own field is then seen.
+    case!("calibrate apply: frames.jsonl with a BOM, its record checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "\u{feff}{\"file\":\"f.png\",\"gain\":1,\"bits\":99}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "\"bits\" 99"]),
+    case!("calibrate apply: a BOM before a later frames.jsonl line", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"g.png\",\"gain\":1}\n\u{feff}{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:2", "byte-order mark"]),
 ];
 
 #[test]
@@ -2757,6 +2762,37 @@ fn odd_paths_and_environments_get_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let odd = std::ffi::OsStr::from_bytes(b"sc\xffene.toml");
     let mut failures = Vec::new();
+    // A sensor file named by a path that is not UTF-8: every `--sensor`
+    // (and `sensor describe`) names the flag and the path's bytes, not
+    // clap's bare "invalid UTF-8 was detected" (round 10).
+    let sensor_flags: [&[&str]; 6] = [
+        &["render", "s.toml", "--out", "o", "--sensor"],
+        &["plan", "s.toml", "--target-error", "camera", "--sensor"],
+        &["sequence", "q.toml", "--out", "o", "--sensor"],
+        &["device", "--pty", "--sensor"],
+        &["scope", "--out", "o", "--sensor"],
+        &["sensor", "describe"],
+    ];
+    for args in sensor_flags {
+        let mut c = Command::new(BIN);
+        c.args(args)
+            .arg(std::ffi::OsStr::from_bytes(b"cam\xff.toml"))
+            .current_dir(dir.path());
+        let flag = if args[0] == "sensor" {
+            "<SENSOR>"
+        } else {
+            "--sensor"
+        };
+        // A usage error: clap's status 2, as for any other flag value.
+        let (code, err) = finish(c);
+        if code != Some(2) || !err.contains(flag) || !err.contains(r#""cam\xFF.toml" is not UTF-8"#)
+        {
+            failures.push(format!(
+                "{}: non-UTF-8 sensor path: exit {code:?}: {err}",
+                args[0]
+            ));
+        }
+    }
     let mut check = |name: &str, cmd: Command, expect: &[&str]| {
         let (code, err) = finish(cmd);
         let ok = code == Some(1)

@@ -97,7 +97,7 @@ pub struct CameraArgs {
     /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
     /// `sensor` entry, if any; `none` renders radiance only. Writes the
     /// frames, `frames.jsonl` and `frames-preview.png`.
-    #[arg(long, value_name = "PRESET_OR_FILE")]
+    #[arg(long, value_name = "PRESET_OR_FILE", value_parser = gloam_sensor::cli::preset_or_file())]
     pub sensor: Option<String>,
     /// How frames are stored: png (16-bit, counts scaled to 16 bits with
     /// sBIT; default), fits (one file per frame, with a header) or tiff
@@ -181,7 +181,8 @@ pub struct PlanArgs {
     pub target_error: Option<crate::camera_goal::TargetError>,
     /// The camera of the estimate (preset or sensor TOML; default the
     /// scene's `sensor`).
-    #[arg(long, value_name = "PRESET_OR_FILE", requires = "target_error")]
+    #[arg(long, value_name = "PRESET_OR_FILE", requires = "target_error",
+          value_parser = gloam_sensor::cli::preset_or_file())]
     pub sensor: Option<String>,
     /// The estimate's fixed tube gain (as `gloam render --gain`).
     #[arg(long, conflicts_with_all = ["agc", "exposure"], requires = "target_error")]
