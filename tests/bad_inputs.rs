@@ -2672,7 +2672,7 @@ const CASES: &[Case] = &[
         ],
         [
             "576 rows does not fit the 575 picture lines",
-            "at most 575 rows"
+            "give size=768x575 in 'sim:gen3-gaas-iccd?size=768x576'"
         ]
     ),
     // A whole capture per frame: 10⁹ ran for hours; 0 was taken as 1.
@@ -2715,6 +2715,66 @@ const CASES: &[Case] = &[
     // (it was a JSON error at column 1): the line's own field is then seen.
     case!("calibrate apply: frames.jsonl with a BOM, its record checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "\u{feff}{\"file\":\"f.png\",\"gain\":1,\"bits\":99}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "\"bits\" 99"]),
     case!("calibrate apply: a BOM before a later frames.jsonl line", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"g.png\",\"gain\":1}\n\u{feff}{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:2", "byte-order mark"]),
+    // BT.601's 768×576 CCIR frame on the 575 picture lines: the sensor's
+    // error said "give a frame of at most 575 rows", neither where nor how.
+    case!(
+        "scope: --size 768x576 on a CCIR camera",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "768x576",
+            "--out",
+            "o"
+        ],
+        [
+            "576 rows does not fit the 575 picture lines of CCIR",
+            "give --size 768x575"
+        ]
+    ),
+    case!(
+        "scope: --size 640x486 on RS-170",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--format",
+            "rs-170",
+            "--size",
+            "640x486",
+            "--out",
+            "o"
+        ],
+        [
+            "486 rows does not fit the 485 picture lines of RS-170",
+            "give --size 640x485"
+        ]
+    ),
+    case!(
+        "calibrate mtf --space voltage: a sim: frame of 576 rows",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=768x576",
+            "--target",
+            "sine",
+            "--space",
+            "voltage",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "576 rows does not fit the 575 picture lines",
+            "give size=768x575 in 'sim:gen3-gaas-iccd?size=768x576'"
+        ]
+    ),
 ];
 
 #[test]
@@ -2941,6 +3001,28 @@ fn valid_extremes_are_taken() {
         (
             "scope: a CCIR camera at its default size",
             &["scope", "--sensor", "gen3-gaas-iccd", "--out", "scope"],
+        ),
+        // A sim: URI without size= takes the format's frame, as --sensor
+        // does; 575 rows is the most the picture lines hold (round 10).
+        (
+            "scope: a CCIR sim: URI at its default size",
+            &[
+                "scope",
+                "--grabber",
+                "sim:gen3-gaas-iccd",
+                "--out",
+                "scope-sim",
+            ],
+        ),
+        (
+            "scope: a CCIR sim: URI of 575 rows",
+            &[
+                "scope",
+                "--grabber",
+                "sim:gen3-gaas-iccd?size=768x575",
+                "--out",
+                "scope-575",
+            ],
         ),
     ];
     let mut failures = Vec::new();
