@@ -2775,6 +2775,103 @@ const CASES: &[Case] = &[
             "give size=768x575 in 'sim:gen3-gaas-iccd?size=768x576'"
         ]
     ),
+    // Regions given twice were taken: a name twice, or one rectangle under
+    // two names (counted twice in the rank correlation).
+    case!("compare: two regions of one name", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":15,\"width\":4,\"height\":3},{\"name\":\"a\",\"x\":12,\"y\":18,\"width\":4,\"height\":3}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json", "regions 1 and 2 are both named 'a'"]),
+    case!("compare: one rectangle twice", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":15,\"width\":4,\"height\":3},{\"name\":\"b\",\"x\":0,\"y\":15,\"width\":4,\"height\":3}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json", "regions 1 and 2 are the same rectangle (0+4, 15+3)"]),
+    // A BOM before the JSON was "expected value at line 1 column 1": taken,
+    // as TOML and CSV take one, so the file's own fault is then seen.
+    case!("compare: a regions JSON with a BOM", ["a.tiff" => "{tiff}", "r.json" => "\u{feff}[{\"name\":\"a\",\"x\":0,\"y\":15,\"width\":4,\"height\":3},{\"name\":\"a\",\"x\":12,\"y\":18,\"width\":4,\"height\":3}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json", "both named 'a'"]),
+    // An integral past the largest float printed `inf` (JSON null), exit 0.
+    case!("spectra integrate: an integral that overflows", ["h.csv" => "wavelength_nm,value\n500,1e308\n600,1e308\n"], ["spectra", "integrate", "h.csv", "--band", "400:700"], ["h.csv over 400:700 nm", "past the largest number"]),
+    // A band starting with `-` was read as the flags `-1`….
+    case!(
+        "spectra integrate: --band -100:500",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "-100:500"],
+        ["'-100:500' for '--band", "0 <= LO < HI"]
+    ),
+    // The search's fields were named, not the flags.
+    case!(
+        "ephem --find: --min-hours -1",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "full",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--min-hours",
+            "-1"
+        ],
+        ["--min-hours = -1", "[0, 24]"]
+    ),
+    case!(
+        "ephem --find: --fraction-tolerance NaN",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "full",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--fraction-tolerance",
+            "nan"
+        ],
+        ["--fraction-tolerance must be a finite number"]
+    ),
+    case!(
+        "ephem --find: --min-moon-elevation-deg 91",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "full",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--min-moon-elevation-deg",
+            "91"
+        ],
+        ["--min-moon-elevation-deg = 91"]
+    ),
+    case!(
+        "ephem --find: --max-sun-elevation-deg 1",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "new",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--max-sun-elevation-deg",
+            "1"
+        ],
+        ["--max-sun-elevation-deg = 1"]
+    ),
 ];
 
 #[test]
@@ -3035,6 +3132,29 @@ fn valid_extremes_are_taken() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A tiny integral was printed in 30 digits (`0.000000000000170…`); it is
+/// written as every other number is (`gloam_spectra::num`, round 10).
+#[test]
+fn spectra_integrate_prints_a_tiny_integral_readably() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("t.csv"),
+        "wavelength_nm,value\n500,1\n500.0000000000001,2\n",
+    )
+    .unwrap();
+    let out = Command::new(BIN)
+        .args(["spectra", "integrate", "t.csv", "--band", "400:600"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    // The trapezoid over the rows' gap: (500.0000000000001 − 500) × 1.5.
+    let want = (500.000_000_000_000_1_f64 - 500.0) * 1.5;
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!("{want:e} (spectrum units x nm)\n")
+    );
 }
 
 /// A `RUST_LOG` that is not a log filter (or not UTF-8) is named, not
