@@ -2872,6 +2872,22 @@ const CASES: &[Case] = &[
         ],
         ["--max-sun-elevation-deg = 1"]
     ),
+    // A whole render given as a tile was "not listed … the tile set was altered".
+    case!("merge: a whole render given as a tile", ["r/manifest.json" => "{\"files\": [{\"path\": \"radiance.npy\", \"sha256\": \"00\"}], \"complete\": true}", "r/radiance.npy" => ""], ["merge", "r", "--out", "m"], ["r: not a tile", "holds no tile.json"]),
+    // What only a task checked was planned, written into sweep.sbatch and
+    // failed task by task on the cluster: now refused when planned.
+    case!("sweep: a scene that does not exist, planned", ["w.toml" => "[base]\nscene = \"nope.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 0 (seed=1)", "nope.toml", "cannot read the scene file"]),
+    case!("sweep: a dotted override the scene refuses, planned", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\n\"camera.width\" = [16, 0]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 1 (camera.width=0)", "with camera.width = 0 from the sweep", "camera.width: width must be at least 1 pixel"]),
+    case!("sweep: an unknown sensor, planned", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nsensor = [\"gen3-gaas-iccd\", \"nope\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 1 (sensor=nope)", "unknown sensor 'nope'"]),
+    case!("sweep: a gain outside the camera's range, planned", ["w.toml" => "[base]\nflow = \"capture\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [20, 1e9]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 1 (gain=1000000000)", "gain 1e9 is outside the range of 'gen3-gaas-iccd'"]),
+    // A point's estimate takes no camera samples, a pixel's no --samples:
+    // each was accepted and ignored, as --spp with --point was (round 9).
+    case!("probe: --set spp with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--set", "spp=5"], ["--set spp cannot be used with --point", "shapes pixels only"]),
+    case!("probe: --set target_error with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--set", "Target_Error = 0.5"], ["--set Target_Error cannot be used with --point"]),
+    case!("probe: --set resolution_scale with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--set", "resolution_scale=0.5"], ["--set resolution_scale cannot be used with --point"]),
+    case!("probe: --samples with --pixel", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "3,3", "--samples", "100"], ["'--pixel <PIXEL>' cannot be used with '--samples"]),
+    // `-1,0` was read as the flag `-1`.
+    case!("probe: --pixel -1,0", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "-1,0"], ["--pixel `-1,0`: expected COL,ROW"]),
 ];
 
 #[test]

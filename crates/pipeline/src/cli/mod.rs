@@ -41,7 +41,23 @@ pub enum ArgError {
     NeedsCamera { flag: &'static str, tile: bool },
     #[error(transparent)]
     Capture(#[from] CaptureOptionsError),
+    /// A setting that shapes only pixels, given to a point's estimate.
+    #[error(
+        "--set {key} cannot be used with --point: it shapes pixels only (a point's estimate takes no camera samples; it averages --samples estimates); use it with --pixel"
+    )]
+    PixelOnly { key: String },
 }
+
+/// The render settings a point's estimate does not use: it traces no
+/// camera ray. `--set spp=5` with `--point` was accepted and ignored, as
+/// `--spp` was before round 9.
+const PIXEL_ONLY_SETTINGS: [&str; 5] = [
+    "spp",
+    "max_spp",
+    "target_error",
+    "pixel_strata",
+    "resolution_scale",
+];
 
 /// `gloam render`.
 #[derive(Args)]
@@ -271,7 +287,7 @@ pub struct ProbeArgs {
     #[arg(long, allow_hyphen_values = true, required_unless_present = "pixel")]
     pub normal: Option<String>,
     /// Instead of a point: the radiance of pixel COL,ROW (as rendered).
-    #[arg(long, conflicts_with_all = ["point", "normal"])]
+    #[arg(long, conflicts_with_all = ["point", "normal"], allow_hyphen_values = true)]
     pub pixel: Option<String>,
     /// Band name (default: the scene's first band).
     #[arg(long)]
@@ -281,7 +297,9 @@ pub struct ProbeArgs {
     pub estimator: Option<String>,
     /// Independent estimates averaged at the point (the standard error
     /// comes from their spread).
-    #[arg(long, default_value_t = 16)]
+    // A pixel's radiance takes --spp camera samples: `--samples` there
+    // was accepted and ignored.
+    #[arg(long, default_value_t = 16, conflicts_with = "pixel")]
     /// At most 1 000 000 (each is a full estimate at the point).
     #[arg(value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::MAX_PROBE_SAMPLES)))]
     pub samples: u32,
@@ -324,8 +342,18 @@ impl ProbeArgs {
         }
     }
 
-    /// `--point` and `--normal` (clap requires both without `--pixel`).
+    /// `--point` and `--normal` (clap requires both without `--pixel`);
+    /// a `--set` of a setting that shapes pixels only is refused.
     pub fn point_normal(&self) -> Result<(DVec3, DVec3), ArgError> {
+        let keys = self.set.iter().filter_map(|kv| kv.split_once('='));
+        if let Some((k, _)) = keys
+            .into_iter()
+            .find(|(k, _)| PIXEL_ONLY_SETTINGS.contains(&k.trim().to_ascii_lowercase().as_str()))
+        {
+            return Err(ArgError::PixelOnly {
+                key: k.trim().to_string(),
+            });
+        }
         let triple = |flag, s: &Option<String>| {
             let s = s.as_deref().unwrap_or_default();
             let v = numbers::<f64>(s)
