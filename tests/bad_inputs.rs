@@ -2888,6 +2888,10 @@ const CASES: &[Case] = &[
     case!("probe: --samples with --pixel", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "3,3", "--samples", "100"], ["'--pixel <PIXEL>' cannot be used with '--samples"]),
     // `-1,0` was read as the flag `-1`.
     case!("probe: --pixel -1,0", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "-1,0"], ["--pixel `-1,0`: expected COL,ROW"]),
+    // A subnormal slope is positive; its 1/g overflowed and the reversed-LUT
+    // check blamed gains[1]. A LUT with a BOM was "not a gloam LUT".
+    case!("calibrate apply: a LUT slope of 5e-324", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 5e-324}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "5e-324", "too small"]),
+    case!("calibrate apply: a LUT with a BOM, its entry checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:{\n  \"grabber\"=>\u{feff}{\n  \"grabber\"&&\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 0}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "slope 0", "not positive"]),
 ];
 
 #[test]
