@@ -2676,7 +2676,7 @@ const CASES: &[Case] = &[
         ],
         [
             "576 rows does not fit the 575 picture lines",
-            "at most 575 rows"
+            "give size=768x575 in 'sim:gen3-gaas-iccd?size=768x576'"
         ]
     ),
     // A whole capture per frame: 10⁹ ran for hours; 0 was taken as 1.
@@ -2714,6 +2714,188 @@ const CASES: &[Case] = &[
     ),
     // Written into the script as it was, for Slurm to refuse at submission.
     case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
+    // --- round 10 (issue 46)
+    // A BOM before the first line is taken as the CSV readers take one
+    // (it was a JSON error at column 1): the line's own field is then seen.
+    case!("calibrate apply: frames.jsonl with a BOM, its record checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "\u{feff}{\"file\":\"f.png\",\"gain\":1,\"bits\":99}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:1", "\"bits\" 99"]),
+    case!("calibrate apply: a BOM before a later frames.jsonl line", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"g.png\",\"gain\":1}\n\u{feff}{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl:2", "byte-order mark"]),
+    // BT.601's 768×576 CCIR frame on the 575 picture lines: the sensor's
+    // error said "give a frame of at most 575 rows", neither where nor how.
+    case!(
+        "scope: --size 768x576 on a CCIR camera",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "768x576",
+            "--out",
+            "o"
+        ],
+        [
+            "576 rows does not fit the 575 picture lines of CCIR",
+            "give --size 768x575"
+        ]
+    ),
+    case!(
+        "scope: --size 640x486 on RS-170",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--format",
+            "rs-170",
+            "--size",
+            "640x486",
+            "--out",
+            "o"
+        ],
+        [
+            "486 rows does not fit the 485 picture lines of RS-170",
+            "give --size 640x485"
+        ]
+    ),
+    case!(
+        "calibrate mtf --space voltage: a sim: frame of 576 rows",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=768x576",
+            "--target",
+            "sine",
+            "--space",
+            "voltage",
+            "--frames",
+            "1",
+            "--out",
+            "o"
+        ],
+        [
+            "576 rows does not fit the 575 picture lines",
+            "give size=768x575 in 'sim:gen3-gaas-iccd?size=768x576'"
+        ]
+    ),
+    // Regions given twice were taken: a name twice, or one rectangle under
+    // two names (counted twice in the rank correlation).
+    case!("compare: two regions of one name", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":15,\"width\":4,\"height\":3},{\"name\":\"a\",\"x\":12,\"y\":18,\"width\":4,\"height\":3}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json", "regions 1 and 2 are both named 'a'"]),
+    case!("compare: one rectangle twice", ["a.tiff" => "{tiff}", "r.json" => "[{\"name\":\"a\",\"x\":0,\"y\":15,\"width\":4,\"height\":3},{\"name\":\"b\",\"x\":0,\"y\":15,\"width\":4,\"height\":3}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json", "regions 1 and 2 are the same rectangle (0+4, 15+3)"]),
+    // A BOM before the JSON was "expected value at line 1 column 1": taken,
+    // as TOML and CSV take one, so the file's own fault is then seen.
+    case!("compare: a regions JSON with a BOM", ["a.tiff" => "{tiff}", "r.json" => "\u{feff}[{\"name\":\"a\",\"x\":0,\"y\":15,\"width\":4,\"height\":3},{\"name\":\"a\",\"x\":12,\"y\":18,\"width\":4,\"height\":3}]"], ["compare", "a.tiff", "a.tiff", "--regions", "r.json"], ["r.json", "both named 'a'"]),
+    // An integral past the largest float printed `inf` (JSON null), exit 0.
+    case!("spectra integrate: an integral that overflows", ["h.csv" => "wavelength_nm,value\n500,1e308\n600,1e308\n"], ["spectra", "integrate", "h.csv", "--band", "400:700"], ["h.csv over 400:700 nm", "past the largest number"]),
+    // A band starting with `-` was read as the flags `-1`….
+    case!(
+        "spectra integrate: --band -100:500",
+        [],
+        ["spectra", "integrate", "cie-a", "--band", "-100:500"],
+        ["'-100:500' for '--band", "0 <= LO < HI"]
+    ),
+    // The search's fields were named, not the flags.
+    case!(
+        "ephem --find: --min-hours -1",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "full",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--min-hours",
+            "-1"
+        ],
+        ["--min-hours = -1", "[0, 24]"]
+    ),
+    case!(
+        "ephem --find: --fraction-tolerance NaN",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "full",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--fraction-tolerance",
+            "nan"
+        ],
+        ["--fraction-tolerance must be a finite number"]
+    ),
+    case!(
+        "ephem --find: --min-moon-elevation-deg 91",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "full",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--min-moon-elevation-deg",
+            "91"
+        ],
+        ["--min-moon-elevation-deg = 91"]
+    ),
+    case!(
+        "ephem --find: --max-sun-elevation-deg 1",
+        [],
+        [
+            "ephem",
+            "--lat",
+            "0",
+            "--lon",
+            "0",
+            "--find",
+            "new",
+            "--from",
+            "2025-01-01",
+            "--to",
+            "2025-02-01",
+            "--max-sun-elevation-deg",
+            "1"
+        ],
+        ["--max-sun-elevation-deg = 1"]
+    ),
+    // A whole render given as a tile was "not listed … the tile set was altered".
+    case!("merge: a whole render given as a tile", ["r/manifest.json" => "{\"files\": [{\"path\": \"radiance.npy\", \"sha256\": \"00\"}], \"complete\": true}", "r/radiance.npy" => ""], ["merge", "r", "--out", "m"], ["r: not a tile", "holds no tile.json"]),
+    // What only a task checked was planned, written into sweep.sbatch and
+    // failed task by task on the cluster: now refused when planned.
+    case!("sweep: a scene that does not exist, planned", ["w.toml" => "[base]\nscene = \"nope.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 0 (seed=1)", "nope.toml", "cannot read the scene file"]),
+    case!("sweep: a dotted override the scene refuses, planned", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\n\"camera.width\" = [16, 0]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 1 (camera.width=0)", "with camera.width = 0 from the sweep", "camera.width: width must be at least 1 pixel"]),
+    case!("sweep: an unknown sensor, planned", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nsensor = [\"gen3-gaas-iccd\", \"nope\"]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 1 (sensor=nope)", "unknown sensor 'nope'"]),
+    case!("sweep: a gain outside the camera's range, planned", ["w.toml" => "[base]\nflow = \"capture\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [20, 1e9]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run"], ["w.toml: task 1 (gain=1000000000)", "gain 1e9 is outside the range of 'gen3-gaas-iccd'"]),
+    // A point's estimate takes no camera samples, a pixel's no --samples:
+    // each was accepted and ignored, as --spp with --point was (round 9).
+    case!("probe: --set spp with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--set", "spp=5"], ["--set spp cannot be used with --point", "shapes pixels only"]),
+    case!("probe: --set target_error with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--set", "Target_Error = 0.5"], ["--set Target_Error cannot be used with --point"]),
+    case!("probe: --set resolution_scale with --point", ["s.toml" => "{base}"], ["probe", "s.toml", "--point", "0,0,1", "--normal", "0,0,1", "--set", "resolution_scale=0.5"], ["--set resolution_scale cannot be used with --point"]),
+    case!("probe: --samples with --pixel", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "3,3", "--samples", "100"], ["'--pixel <PIXEL>' cannot be used with '--samples"]),
+    // `-1,0` was read as the flag `-1`.
+    case!("probe: --pixel -1,0", ["s.toml" => "{base}"], ["probe", "s.toml", "--pixel", "-1,0"], ["--pixel `-1,0`: expected COL,ROW"]),
+    // A subnormal slope is positive; its 1/g overflowed and the reversed-LUT
+    // check blamed gains[1]. A LUT with a BOM was "not a gloam LUT".
+    case!("calibrate apply: a LUT slope of 5e-324", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 5e-324}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "5e-324", "too small"]),
+    case!("calibrate apply: a LUT with a BOM, its entry checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:{\n  \"grabber\"=>\u{feff}{\n  \"grabber\"&&\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 0}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "slope 0", "not positive"]),
 ];
 
 #[test]
@@ -2761,6 +2943,37 @@ fn odd_paths_and_environments_get_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let odd = std::ffi::OsStr::from_bytes(b"sc\xffene.toml");
     let mut failures = Vec::new();
+    // A sensor file named by a path that is not UTF-8: every `--sensor`
+    // (and `sensor describe`) names the flag and the path's bytes, not
+    // clap's bare "invalid UTF-8 was detected" (round 10).
+    let sensor_flags: [&[&str]; 6] = [
+        &["render", "s.toml", "--out", "o", "--sensor"],
+        &["plan", "s.toml", "--target-error", "camera", "--sensor"],
+        &["sequence", "q.toml", "--out", "o", "--sensor"],
+        &["device", "--pty", "--sensor"],
+        &["scope", "--out", "o", "--sensor"],
+        &["sensor", "describe"],
+    ];
+    for args in sensor_flags {
+        let mut c = Command::new(BIN);
+        c.args(args)
+            .arg(std::ffi::OsStr::from_bytes(b"cam\xff.toml"))
+            .current_dir(dir.path());
+        let flag = if args[0] == "sensor" {
+            "<SENSOR>"
+        } else {
+            "--sensor"
+        };
+        // A usage error: clap's status 2, as for any other flag value.
+        let (code, err) = finish(c);
+        if code != Some(2) || !err.contains(flag) || !err.contains(r#""cam\xFF.toml" is not UTF-8"#)
+        {
+            failures.push(format!(
+                "{}: non-UTF-8 sensor path: exit {code:?}: {err}",
+                args[0]
+            ));
+        }
+    }
     let mut check = |name: &str, cmd: Command, expect: &[&str]| {
         let (code, err) = finish(cmd);
         let ok = code == Some(1)
@@ -2910,6 +3123,28 @@ fn valid_extremes_are_taken() {
             "scope: a CCIR camera at its default size",
             &["scope", "--sensor", "gen3-gaas-iccd", "--out", "scope"],
         ),
+        // A sim: URI without size= takes the format's frame, as --sensor
+        // does; 575 rows is the most the picture lines hold (round 10).
+        (
+            "scope: a CCIR sim: URI at its default size",
+            &[
+                "scope",
+                "--grabber",
+                "sim:gen3-gaas-iccd",
+                "--out",
+                "scope-sim",
+            ],
+        ),
+        (
+            "scope: a CCIR sim: URI of 575 rows",
+            &[
+                "scope",
+                "--grabber",
+                "sim:gen3-gaas-iccd?size=768x575",
+                "--out",
+                "scope-575",
+            ],
+        ),
     ];
     let mut failures = Vec::new();
     for (name, args) in cases {
@@ -2921,6 +3156,29 @@ fn valid_extremes_are_taken() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A tiny integral was printed in 30 digits (`0.000000000000170…`); it is
+/// written as every other number is (`gloam_spectra::num`, round 10).
+#[test]
+fn spectra_integrate_prints_a_tiny_integral_readably() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("t.csv"),
+        "wavelength_nm,value\n500,1\n500.0000000000001,2\n",
+    )
+    .unwrap();
+    let out = Command::new(BIN)
+        .args(["spectra", "integrate", "t.csv", "--band", "400:600"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    // The trapezoid over the rows' gap: (500.0000000000001 − 500) × 1.5.
+    let want = (500.000_000_000_000_1_f64 - 500.0) * 1.5;
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!("{want:e} (spectrum units x nm)\n")
+    );
 }
 
 /// A `RUST_LOG` that is not a log filter (or not UTF-8) is named, not

@@ -17,7 +17,7 @@ use gloam_calib::request::{
 use gloam_calib::validate::{Region, compare_images};
 use gloam_grabber::FrameGrabber;
 
-use crate::convert::{from_py, to_py_as};
+use crate::convert::{Count, from_py, to_py_as};
 use crate::errors::{GloamError, OrPy};
 use crate::grabber::{Grabber, PyFrame};
 
@@ -53,18 +53,19 @@ fn set_exposure(g: &mut dyn FrameGrabber, exposure_s: Option<f64>) -> anyhow::Re
 /// as a ``RadianceCalibration`` (a dict with attribute access);
 /// ``Lut.from_dict`` makes it appliable. Ctrl-C stops it between frames.
 #[pyfunction]
-#[pyo3(signature = (grabber, source, gains, frames = gloam_calib::radiance::DEFAULT_FRAMES, levels = None, auto_range = None, exposure_s = None))]
+#[pyo3(signature = (grabber, source, gains, frames = Count(gloam_calib::radiance::DEFAULT_FRAMES), levels = None, auto_range = None, exposure_s = None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_radiance<'py>(
     py: Python<'py>,
     grabber: &Bound<'py, Grabber>,
     source: PathBuf,
     gains: Vec<f64>,
-    frames: usize,
-    levels: Option<usize>,
+    frames: Count<usize>,
+    levels: Option<Count<usize>>,
     auto_range: Option<f64>,
     exposure_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (frames, levels) = (frames.0, levels.map(|l| l.0));
     // `gloam calibrate radiance`'s request: the same checks and steps.
     let req = RadianceRequest {
         source: SourceRequest {
@@ -99,19 +100,20 @@ fn calibrate_radiance<'py>(
 /// ``calibrate_radiance``. Returns a ``PhotonTransfer`` (a dict with
 /// attribute access).
 #[pyfunction]
-#[pyo3(signature = (grabber, source, gain = gloam_calib::ptc::DEFAULT_GAIN, levels = gloam_calib::ptc::DEFAULT_LEVELS, spatial_frames = gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES, auto_range = None, exposure_s = None, dataset_dir = None))]
+#[pyo3(signature = (grabber, source, gain = gloam_calib::ptc::DEFAULT_GAIN, levels = Count(gloam_calib::ptc::DEFAULT_LEVELS), spatial_frames = Count(gloam_calib::ptc::DEFAULT_SPATIAL_FRAMES), auto_range = None, exposure_s = None, dataset_dir = None))]
 #[allow(clippy::too_many_arguments)]
 fn photon_transfer<'py>(
     py: Python<'py>,
     grabber: &Bound<'py, Grabber>,
     source: PathBuf,
     gain: f64,
-    levels: usize,
-    spatial_frames: usize,
+    levels: Count<usize>,
+    spatial_frames: Count<usize>,
     auto_range: Option<f64>,
     exposure_s: Option<f64>,
     dataset_dir: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (levels, spatial_frames) = (levels.0, spatial_frames.0);
     // `gloam calibrate ptc`'s request: the same checks and steps.
     let req = PtcRequest {
         source: SourceRequest {
@@ -157,7 +159,7 @@ fn photon_transfer<'py>(
 /// ``details`` (``magnification``: image size / chart size, for the
 /// object-space frequencies). ``frequencies`` default 0.04…0.48 there.
 #[pyfunction]
-#[pyo3(signature = (grabber, target = "edge", gain = None, radiance = None, modulation = DEFAULT_MODULATION, angle_deg = None, frequencies = None, frames = DEFAULT_FRAMES, spectrum = DEFAULT_SPECTRUM, space = "digital", scope_rows = None, magnification = 1.0))]
+#[pyo3(signature = (grabber, target = "edge", gain = None, radiance = None, modulation = DEFAULT_MODULATION, angle_deg = None, frequencies = None, frames = Count(DEFAULT_FRAMES), spectrum = DEFAULT_SPECTRUM, space = "digital", scope_rows = None, magnification = 1.0))]
 #[allow(clippy::too_many_arguments)]
 fn mtf<'py>(
     py: Python<'py>,
@@ -168,12 +170,13 @@ fn mtf<'py>(
     modulation: f64,
     angle_deg: Option<f64>,
     frequencies: Option<Vec<f64>>,
-    frames: usize,
+    frames: Count<usize>,
     spectrum: &str,
     space: &str,
-    scope_rows: Option<Vec<usize>>,
+    scope_rows: Option<Vec<Count<usize>>>,
     magnification: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (frames, scope_rows) = (frames.0, scope_rows.map(Count::all));
     let voltage = match space {
         "digital" => None,
         "voltage" => Some(VoltageOptions {
@@ -239,7 +242,7 @@ fn mtf<'py>(
 /// cursors read) and ``lines`` (per row: ``row``, ``field``, ``line``,
 /// ``time_s`` and ``volts`` as float64 arrays).
 #[pyfunction]
-#[pyo3(signature = (sensor = None, grabber = None, rig = None, frequency = 0.05, level = 0.4, rows = None, size = None, seed = None, gain = None, format = None, bandwidth_hz = None, frames = 1))]
+#[pyo3(signature = (sensor = None, grabber = None, rig = None, frequency = 0.05, level = 0.4, rows = None, size = None, seed = None, gain = None, format = None, bandwidth_hz = None, frames = Count(1)))]
 #[allow(clippy::too_many_arguments)]
 fn scope<'py>(
     py: Python<'py>,
@@ -248,14 +251,16 @@ fn scope<'py>(
     rig: Option<String>,
     frequency: f64,
     level: f64,
-    rows: Option<Vec<usize>>,
-    size: Option<(u32, u32)>,
-    seed: Option<u64>,
+    rows: Option<Vec<Count<usize>>>,
+    size: Option<(Count<u32>, Count<u32>)>,
+    seed: Option<Count<u64>>,
     gain: Option<f64>,
     format: Option<&str>,
     bandwidth_hz: Option<f64>,
-    frames: usize,
+    frames: Count<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (rows, size) = (rows.map(Count::all), size.map(|(w, h)| (w.0, h.0)));
+    let (seed, frames) = (seed.map(|s| s.0), frames.0);
     use gloam_sensor::stages::video_timing::VideoFormat;
     let format = match format {
         None => None,
@@ -314,19 +319,20 @@ fn scope<'py>(
 /// failing. Returns the ``agc.json`` document as an ``AgcLinearity`` (a
 /// dict with attribute access).
 #[pyfunction]
-#[pyo3(signature = (grabber, source, fixed_gain = None, frames = gloam_calib::agc::DEFAULT_FRAMES_PER_STEP, levels = None, auto_range = None, lut = None, allow_unsettled = false))]
+#[pyo3(signature = (grabber, source, fixed_gain = None, frames = Count(gloam_calib::agc::DEFAULT_FRAMES_PER_STEP), levels = None, auto_range = None, lut = None, allow_unsettled = false))]
 #[allow(clippy::too_many_arguments)]
 fn agc_linearity<'py>(
     py: Python<'py>,
     grabber: &Bound<'py, Grabber>,
     source: PathBuf,
     fixed_gain: Option<f64>,
-    frames: usize,
-    levels: Option<usize>,
+    frames: Count<usize>,
+    levels: Option<Count<usize>>,
     auto_range: Option<f64>,
     lut: Option<&Bound<'py, Lut>>,
     allow_unsettled: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let (frames, levels) = (frames.0, levels.map(|l| l.0));
     // `gloam calibrate agc`'s request: the same checks and steps.
     let req = AgcRequest {
         source: SourceRequest {

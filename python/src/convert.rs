@@ -53,12 +53,41 @@ pub fn from_py<T: serde::de::DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &st
         .map_err(|e| crate::errors::GloamError::new_err(format!("{what}: {e}")))
 }
 
-/// A count or seed from Python (`spp`, `samples`, `threads`, `seed`): an
+/// An integer argument from Python (counts, seeds, sizes, rows, jobs): an
 /// int, never a bool — `True` is an int to Python, and `spp=True` was
-/// taken as 1 sample.
+/// taken as 1 sample — and one that `T` cannot hold (`spp=2**70`,
+/// `frames=-1`) a `GloamError` (a `ValueError`) giving the range, where
+/// PyO3 raised a bare `OverflowError` ("can't convert negative int to
+/// unsigned"). PyO3 notes the argument ("while processing 'spp'"); the
+/// library then holds the value to its own limits.
 pub struct Count<T>(pub T);
 
-impl<'a, 'py, T: pyo3::conversion::FromPyObjectOwned<'py>> FromPyObject<'a, 'py> for Count<T> {
+impl<T> Count<T> {
+    /// The values of a list argument (`rows=[…]`).
+    pub fn all(v: Vec<Count<T>>) -> Vec<T> {
+        v.into_iter().map(|c| c.0).collect()
+    }
+}
+
+/// The range of an integer type, for [`Count`]'s message.
+pub trait IntRange {
+    const MIN: i128;
+    const MAX: i128;
+}
+
+macro_rules! int_range {
+    ($($t:ty),*) => {$(
+        impl IntRange for $t {
+            const MIN: i128 = <$t>::MIN as i128;
+            const MAX: i128 = <$t>::MAX as i128;
+        }
+    )*};
+}
+int_range!(u8, u16, u32, u64, usize, i32, i64);
+
+impl<'a, 'py, T: pyo3::conversion::FromPyObjectOwned<'py> + IntRange> FromPyObject<'a, 'py>
+    for Count<T>
+{
     type Error = PyErr;
     fn extract(obj: pyo3::Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
         if obj.is_instance_of::<PyBool>() {
@@ -71,7 +100,22 @@ impl<'a, 'py, T: pyo3::conversion::FromPyObjectOwned<'py>> FromPyObject<'a, 'py>
                 "{v} is a bool, not a count"
             )));
         }
-        obj.extract::<T>().map(Count).map_err(Into::into)
+        obj.extract::<T>().map(Count).map_err(|e| {
+            let e: PyErr = e.into();
+            if !e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) {
+                return e;
+            }
+            // 10**5000 has more digits than Python prints (and than help).
+            let v = match obj.str() {
+                Ok(s) if s.to_string().len() <= 24 => s.to_string(),
+                _ => "an int that large".to_string(),
+            };
+            crate::errors::GloamError::new_err(format!(
+                "{v} is out of range: a whole number from {} to {} here",
+                T::MIN,
+                T::MAX
+            ))
+        })
     }
 }
 

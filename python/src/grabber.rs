@@ -7,7 +7,7 @@ use numpy::prelude::*;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
 
-use crate::convert::{from_py, to_py_as};
+use crate::convert::{Count, from_py, to_py_as};
 use crate::errors::GloamError;
 use crate::interrupt::{SameThread, finish, signalled};
 
@@ -113,7 +113,8 @@ impl Grabber {
 /// manager); ``gloam grabbers`` lists the kinds this build has.
 #[pyfunction]
 #[pyo3(signature = (uri, seed = None))]
-fn open_grabber(py: Python<'_>, uri: &str, seed: Option<u64>) -> PyResult<Grabber> {
+fn open_grabber(py: Python<'_>, uri: &str, seed: Option<Count<u64>>) -> PyResult<Grabber> {
+    let seed = seed.map(|s| s.0);
     let opts = OpenOptions {
         seed,
         ..OpenOptions::default()
@@ -213,7 +214,8 @@ impl Grabber {
     }
 
     /// Digitizer bits; returns what the device took.
-    fn set_bits(&mut self, py: Python<'_>, bits: u8) -> PyResult<u8> {
+    fn set_bits(&mut self, py: Python<'_>, bits: Count<u8>) -> PyResult<u8> {
+        let bits = bits.0;
         self.run(py, |g| Ok(g.set_bits(bits)?))
     }
 

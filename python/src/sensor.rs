@@ -11,7 +11,7 @@ use gloam_io::frames::FrameRecord;
 use gloam_sensor::{Camera, SensorConfig};
 use gloam_simcam::FrameExposureExt;
 
-use crate::convert::to_py_as;
+use crate::convert::{Count, to_py_as};
 use crate::errors::{GloamError, OrPy};
 use crate::interrupt::{ProgressSink, SameThread, finish, signalled};
 use crate::render::RenderResult;
@@ -110,20 +110,21 @@ impl Sensor {
     /// tqdm bar, or a callable ``progress(done, total, "frames")``) is
     /// told after each frame; an exception it raises stops the capture.
     /// The GIL is released; Ctrl-C stops between frames.
-    #[pyo3(signature = (image, frames = 1, gain = None, agc = false, seed = 0, noise = true, input = "detected", progress = None))]
+    #[pyo3(signature = (image, frames = Count(1), gain = None, agc = false, seed = Count(0), noise = true, input = "detected", progress = None))]
     #[allow(clippy::too_many_arguments)]
     fn capture(
         &self,
         py: Python<'_>,
         image: &Bound<'_, PyAny>,
-        frames: u32,
+        frames: Count<u32>,
         gain: Option<f64>,
         agc: bool,
-        seed: u64,
+        seed: Count<u64>,
         noise: bool,
         input: &str,
         progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Capture> {
+        let (frames, seed) = (frames.0, seed.0);
         if frames == 0 {
             return Err(GloamError::new_err("frames must be at least 1"));
         }

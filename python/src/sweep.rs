@@ -10,7 +10,7 @@ use gloam_sweep::SweepDir;
 use gloam_sweep::exec::Pipeline;
 use gloam_sweep::run::{Outcome, RunSummary};
 
-use crate::convert::to_py_as;
+use crate::convert::{Count, to_py_as};
 use crate::interrupt::{ProgressSink, detached_with_stop};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -34,9 +34,10 @@ fn sweep<'py>(
     py: Python<'py>,
     path: PathBuf,
     out: PathBuf,
-    jobs: Option<usize>,
+    jobs: Option<Count<usize>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let jobs = jobs.map(|j| j.0);
     let sink = ProgressSink::new(py, progress, "sweep")?;
     let argv = vec![
         "python".to_string(),

@@ -57,6 +57,47 @@ def test_a_bool_is_not_a_count():
             gloam.probe(scene, (0, 0, 1), (0, 0, 1), **{kw: False})
 
 
+def test_an_int_out_of_range_is_a_value_error_naming_the_argument(repo, tmp_path):
+    # PyO3 raised a bare OverflowError ("can't convert negative int to
+    # unsigned", "int too big to convert") for spp=2**70, frames=-1 or
+    # seed=2**65 (round 10): every integer argument is a GloamError (a
+    # ValueError) with the range, and PyO3's note names the argument.
+    def refused(call, kw, value, lo, hi, given=None):
+        with pytest.raises(gloam.GloamError) as e:
+            call(**{kw: value if given is None else given})
+        shown = str(e.value) + " " + " ".join(getattr(e.value, "__notes__", []))
+        assert isinstance(e.value, ValueError) and not isinstance(e.value, OverflowError)
+        assert f"{value} is out of range: a whole number from {lo} to {hi}" in shown, shown
+        assert f"'{kw}'" in shown, shown
+
+    scene = gloam.Scene.from_toml(BAD.replace("reflectance = 1.7", "reflectance = 0.5"))
+    u32, u64 = 2**32 - 1, 2**64 - 1
+    refused(lambda **k: gloam.render(scene, **k), "spp", 2**70, 0, u32)
+    refused(lambda **k: gloam.render(scene, **k), "spp", -1, 0, u32)
+    refused(lambda **k: gloam.render(scene, **k), "seed", 2**65, 0, u64)
+    refused(lambda **k: gloam.render(scene, **k), "threads", -3, 0, u64)
+    refused(lambda **k: gloam.probe(scene, (0, 0, 1), (0, 0, 1), **k), "samples", 2**32, 0, u32)
+    s = gloam.Sensor.preset("gen3-gaas-iccd")
+    image = np.full((4, 4), 1e-6)
+    refused(lambda **k: s.capture(image, **k), "frames", -1, 0, u32)
+    refused(lambda **k: s.capture(image, **k), "seed", -1, 0, u64)
+    refused(lambda **k: gloam.scope(sensor="gen3-gaas-iccd", **k), "frames", -1, 0, u64)
+    refused(lambda **k: gloam.scope(sensor="gen3-gaas-iccd", **k), "seed", 2**64, 0, u64)
+    refused(lambda **k: gloam.scope(sensor="gen3-gaas-iccd", **k), "rows", -1, 0, u64, given=[3, -1])
+    refused(lambda **k: gloam.scope(sensor="gen3-gaas-iccd", **k), "size", 2**33, 0, u32, given=(2**33, 4))
+    refused(lambda **k: gloam.open_grabber("sim:gen3-gaas-iccd?size=4x4", **k), "seed", -5, 0, u64)
+    refused(lambda **k: gloam.sweep(tmp_path / "none.toml", tmp_path / "o", **k), "jobs", -1, 0, u64)
+    with gloam.open_grabber(CCD) as g:
+        refused(lambda **k: gloam.calibrate_radiance(g, repo / SPHERE, gains=[1], **k), "frames", 2**64, 0, u64)
+        refused(lambda **k: gloam.photon_transfer(g, repo / SPHERE, **k), "levels", -1, 0, u64)
+        refused(lambda **k: gloam.agc_linearity(g, repo / SPHERE, **k), "levels", -2, 0, u64)
+        refused(lambda **k: gloam.mtf(g, **k), "frames", -1, 0, u64)
+        refused(lambda **k: g.set_bits(**k), "bits", 256, 0, 255)
+    # A number too long to print whole is described, not printed.
+    with pytest.raises(gloam.GloamError, match="an int that large is out of range"):
+        gloam.render(scene, spp=10**5000)
+
+
 def test_errors_carry_the_cli_message(gloam_bin, tmp_path):
     p = tmp_path / "bad.toml"
     p.write_text(BAD)

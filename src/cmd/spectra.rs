@@ -25,7 +25,7 @@ pub fn run(cmd: SpectraCommand) -> anyhow::Result<()> {
             if a.json {
                 return print_json(&report);
             }
-            outln!("{} ({})", report.integral, report.units);
+            outln!("{} ({})", gloam_spectra::num(report.integral), report.units);
         }
     }
     Ok(())

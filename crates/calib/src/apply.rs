@@ -35,14 +35,17 @@ pub fn load_lut(path: &Path, reads: &gloam_io::ReadLog) -> Result<Lut, CalibErro
                 source,
             }
         })?;
-    let lut: Lut = serde_json::from_str(&text).map_err(|source| CalibError::NotJson {
+    // A BOM (an editor's) is taken, as TOML and CSV take one: it was "not
+    // a gloam LUT: expected value at line 1 column 1".
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let lut: Lut = serde_json::from_str(text).map_err(|source| CalibError::NotJson {
         path: path.to_path_buf(),
         what: "LUT",
         source,
     })?;
     lut.check().map_err(|p| CalibError::Line {
         path: path.to_path_buf(),
-        line: p.line_in(&text),
+        line: p.line_in(text),
         message: format!("--lut: {p}"),
     })?;
     Ok(lut)

@@ -954,7 +954,7 @@ pub enum Format {
 #[derive(Args)]
 pub struct ScopeArgs {
     /// Sensor preset or TOML file (or give --grabber sim:…).
-    #[arg(long, conflicts_with = "grabber")]
+    #[arg(long, conflicts_with = "grabber", value_parser = gloam_sensor::cli::preset_or_file())]
     pub sensor: Option<String>,
     /// A sim: grabber URI (sensor, rig, seed, size from it).
     #[arg(long)]

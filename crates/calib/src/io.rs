@@ -680,6 +680,12 @@ pub fn frames_read_error(e: gloam_io::frames::FramesReadError, open_note: &str) 
         E::Open { path, source } => CalibError::file(&path, format!("{source}{open_note}")),
         E::Read { path, source } => CalibError::file(&path, source),
         E::Json { path, line, source } => CalibError::file(&path, format!("line {line}: {source}")),
+        E::Bom { path, line } => CalibError::Line {
+            path,
+            line,
+            message: "starts with a byte-order mark (U+FEFF); only the file's first line may"
+                .to_string(),
+        },
         E::Twice {
             path,
             line,

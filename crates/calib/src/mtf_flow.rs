@@ -253,6 +253,13 @@ pub fn voltage_mtf(
         gloam_sensor::SensorConfig::load_preset_or_file(&preset, &gloam_io::ReadLog::off())?;
     cfg.noise.seed = v.seed.unwrap_or(seed);
     let mut cam = gloam_sensor::Camera::new(cfg)?;
+    // Before the grabber captures anything: the scope's frame must fit the
+    // format's picture lines (`size=768x576` was refused after the
+    // mean radiance's frames, with no word of the URI).
+    if let Some(t) = cam.chain().line_timing() {
+        let from = crate::scope_run::SizeFrom::Uri(v.uri.clone());
+        crate::scope_run::check_frame_fits(t.format, size, &from)?;
+    }
     let gain = req.gain.unwrap_or(cam.chain().reference_gain);
     cam.set_override_gain(Some(gain))?;
     g.set_gain(gain)?;

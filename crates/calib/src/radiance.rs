@@ -395,6 +395,18 @@ fn check_entry(c: &GainCalibration, i: usize, top: f64) -> Result<(), LutProblem
             ),
         );
     }
+    // A subnormal slope is positive, but its counts per radiance (1/g)
+    // overflow: the reversed-LUT check then blamed the next gain's entry.
+    if !(1.0 / g).is_finite() {
+        return bad(
+            at,
+            "g_w_m2_sr_per_dn",
+            format!(
+                "slope {g:e} W m⁻² sr⁻¹/DN at gain {} is too small: its counts per radiance (1/g) overflow",
+                c.gain
+            ),
+        );
+    }
     if !(g * top <= max) {
         return bad(
             at,
@@ -675,6 +687,15 @@ mod tests {
             "{}",
             problem(&l)
         );
+        l.gains[0].g_w_m2_sr_per_dn = 5e-324;
+        assert!(
+            problem(&l).starts_with(
+                "gains[0].g_w_m2_sr_per_dn: slope 5e-324 W m⁻² sr⁻¹/DN at gain 1 is too small"
+            ),
+            "{}",
+            problem(&l)
+        );
+        l.gains[0].g_w_m2_sr_per_dn = 2.5e-8;
         l.gains[0].fit_range_dn = [40_000.0, 500.0];
         assert!(problem(&l).starts_with("gains[0].fit_range_dn: [40000, 500]"));
         for top in [0.0, -1.0, 4095.5, 65_536.0, f64::INFINITY] {

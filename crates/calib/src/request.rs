@@ -27,7 +27,7 @@ use crate::ptc::{PtcOptions, PtcResult, photon_transfer};
 use crate::radiance::{Lut, RadianceOptions, calibrate_radiance};
 use crate::report;
 use crate::rig_check::rig_mismatch;
-use crate::scope_run::{ScopeOptions, sim_uri};
+use crate::scope_run::{ScopeOptions, SizeFrom, sim_uri};
 use crate::source::{CalibrationSource, SourceFile, open_for_grabber};
 
 /// Why a capture stopped at a signal (Ctrl-C, SIGTERM or SIGHUP): its
@@ -463,10 +463,16 @@ impl ScopeRequest {
                 self.frames
             )));
         }
+        let size_from = match (self.size, size, &self.grabber) {
+            (Some(_), _, _) => SizeFrom::Flag,
+            (None, Some(_), Some(uri)) => SizeFrom::Uri(uri.clone()),
+            _ => SizeFrom::Default,
+        };
         Ok(ScopeOptions {
             sensor,
             seed: self.seed.unwrap_or(seed),
             size: self.size.or(size),
+            size_from,
             rows: self.rows.clone(),
             rig: self.rig.clone().unwrap_or(rig),
             level_fraction: self.level_fraction,

@@ -38,6 +38,44 @@ pub struct ScopeOptions {
     pub bandwidth_hz: Option<f64>,
     /// Frames captured; the last is shown.
     pub frames: usize,
+    /// Where `size` came from, for the error of a frame too tall.
+    pub size_from: SizeFrom,
+}
+
+/// Where a scope's frame size came from: a frame taller than the format's
+/// picture lines is refused saying what to give there instead.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum SizeFrom {
+    /// The format's own frame (it fits).
+    #[default]
+    Default,
+    /// `--size` (Python's `size=`).
+    Flag,
+    /// The `size=` of this `sim:` URI.
+    Uri(String),
+}
+
+/// Refuses a `w`×`h` frame taller than `format`'s picture lines before
+/// anything is captured. The sensor's own error ("give a frame of at most
+/// 575 rows") said neither where nor how: 768×576, BT.601's CCIR frame, is
+/// the usual ask, and the line timing models 575 picture lines.
+pub fn check_frame_fits(
+    format: VideoFormat,
+    (w, h): (u32, u32),
+    from: &SizeFrom,
+) -> Result<(), CalibError> {
+    let lines = gloam_sensor::stages::video_timing::LineTiming::of(format).active_lines;
+    if h <= lines {
+        return Ok(());
+    }
+    let give = match from {
+        SizeFrom::Default | SizeFrom::Flag => format!("--size {w}x{lines}"),
+        SizeFrom::Uri(uri) => format!("size={w}x{lines} in '{uri}'"),
+    };
+    Err(CalibError::Invalid(format!(
+        "a frame of {h} rows does not fit the {lines} picture lines of {}: give {give} (at most {lines} rows)",
+        format.label()
+    )))
 }
 
 /// The lines and what the scope's cursors read off them.
@@ -144,6 +182,7 @@ pub fn run_scope(o: &ScopeOptions, reads: &gloam_io::ReadLog) -> Result<ScopeRes
             "size {w}x{h}: each side of the frame must be 1 to {MAX_SCOPE_SIDE} pixels"
         )));
     }
+    check_frame_fits(format, (w, h), &o.size_from)?;
     let rows = if o.rows.is_empty() {
         vec![h as usize / 2]
     } else {

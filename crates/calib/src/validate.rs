@@ -31,7 +31,10 @@ pub fn load_regions(
         .map_err(|e| CalibError::file(path, e))?;
     let is_json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let regions: Vec<Region> = if is_json {
-        serde_json::from_str(&text).map_err(|e| CalibError::file(path, e))?
+        // A BOM, as an editor may save one: taken, as TOML and CSV take it
+        // (it was "expected value at line 1 column 1").
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        serde_json::from_str(text).map_err(|e| CalibError::file(path, e))?
     } else {
         #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
@@ -42,6 +45,7 @@ pub fn load_regions(
             .map_err(|e| CalibError::file(path, e))?
             .region
     };
+    check_distinct(&regions).map_err(|e| CalibError::file(path, e))?;
     Ok(regions)
 }
 
@@ -60,8 +64,12 @@ pub struct RegionValues {
     pub synthetic: f64,
 }
 
-/// Mean of a region of a row-major `w × h` image, ignoring NaN pixels.
-pub fn region_mean(img: &[f64], w: usize, h: usize, r: &Region) -> Result<f64, CalibError> {
+/// The most pixels a comparison sums over all its regions (2³⁰, about a
+/// second): 10⁵ regions of half a 2048 × 2048 image ran for hours.
+pub const MAX_REGION_PIXELS: u64 = 1 << 30;
+
+/// Refuses a region that is empty or leaves the `w × h` image.
+fn check_inside(w: usize, h: usize, r: &Region) -> Result<(), CalibError> {
     // Checked sums: a region at x = usize::MAX must not wrap (or panic).
     let inside = |o: usize, n: usize, lim: usize| o.checked_add(n).is_some_and(|e| e <= lim);
     if r.width == 0 || r.height == 0 || !inside(r.x, r.width, w) || !inside(r.y, r.height, h) {
@@ -70,6 +78,64 @@ pub fn region_mean(img: &[f64], w: usize, h: usize, r: &Region) -> Result<f64, C
             r.name, r.x, r.width, r.y, r.height
         )));
     }
+    Ok(())
+}
+
+/// Refuses regions that would be ranked twice: a name or a rectangle
+/// given twice (both were taken, the rectangle then counting twice in the
+/// rank correlation).
+fn check_distinct(regions: &[Region]) -> Result<(), String> {
+    let mut names = std::collections::HashMap::new();
+    let mut rects = std::collections::HashMap::new();
+    for (i, r) in regions.iter().enumerate() {
+        if !r.name.is_empty() {
+            if let Some(first) = names.insert(r.name.as_str(), i) {
+                return Err(format!(
+                    "regions {} and {} are both named '{}'",
+                    first + 1,
+                    i + 1,
+                    r.name
+                ));
+            }
+        }
+        if let Some(first) = rects.insert((r.x, r.y, r.width, r.height), i) {
+            return Err(format!(
+                "regions {} and {} are the same rectangle ({}+{}, {}+{}): it would count twice in the rank correlation",
+                first + 1,
+                i + 1,
+                r.x,
+                r.width,
+                r.y,
+                r.height
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses regions given twice ([`check_distinct`]) or outside the image,
+/// and regions whose pixels add up past [`MAX_REGION_PIXELS`], before any
+/// is summed.
+fn check_regions(w: usize, h: usize, regions: &[Region]) -> Result<(), CalibError> {
+    check_distinct(regions).map_err(CalibError::Invalid)?;
+    let mut pixels = 0u64;
+    for r in regions {
+        check_inside(w, h, r)?;
+        // Inside the image, so the area is at most w × h.
+        pixels = pixels.saturating_add((r.width * r.height) as u64);
+    }
+    if pixels > MAX_REGION_PIXELS {
+        return Err(CalibError::Invalid(format!(
+            "the {} regions cover {pixels} pixels in all: at most {MAX_REGION_PIXELS} (2^30) are summed",
+            regions.len()
+        )));
+    }
+    Ok(())
+}
+
+/// Mean of a region of a row-major `w × h` image, ignoring NaN pixels.
+pub fn region_mean(img: &[f64], w: usize, h: usize, r: &Region) -> Result<f64, CalibError> {
+    check_inside(w, h, r)?;
     let (mut s, mut n) = (0.0, 0usize);
     for row in r.y..r.y + r.height {
         for v in &img[row * w + r.x..row * w + r.x + r.width] {
@@ -105,6 +171,7 @@ pub fn compare_images(
             "rank correlation needs at least 2 regions".into(),
         ));
     }
+    check_regions(w, h, regions)?;
     let mut rv = Vec::new();
     for (i, r) in regions.iter().enumerate() {
         rv.push(RegionValues {
@@ -164,6 +231,28 @@ mod tests {
             panel_radiance_no_imaging(&i, &r, 2.0, 120.0, (400.0, 700.0)).unwrap(),
             0.0
         );
+    }
+
+    /// Regions are bounded by the pixels they add up to, before any sum:
+    /// 2 049 distinct rectangles of a quarter of a 2048 × 1024 image is 2^30 + 2^19
+    /// pixels (refused); 2 048 of them is 2^30 (taken).
+    #[test]
+    fn regions_are_bounded_by_their_pixels() {
+        let (w, h) = (2048, 1024);
+        let rect = |i: usize| Region {
+            name: format!("r{i}"),
+            x: i % 1024,
+            y: i / 1024,
+            width: 1024,
+            height: 512,
+        };
+        let many: Vec<Region> = (0..2049).map(rect).collect();
+        let e = check_regions(w, h, &many).unwrap_err().to_string();
+        assert!(
+            e.ends_with("the 2049 regions cover 1074266112 pixels in all: at most 1073741824 (2^30) are summed"),
+            "{e}"
+        );
+        check_regions(w, h, &many[..2048]).unwrap();
     }
 
     #[test]

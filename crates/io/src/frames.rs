@@ -306,6 +306,13 @@ pub enum FramesReadError {
         #[source]
         source: serde_json::Error,
     },
+    /// A byte-order mark past the file's start (two logs joined with
+    /// `cat`, say): named, not a JSON error at column 1.
+    #[error(
+        "{}:{line}: starts with a byte-order mark (U+FEFF); only the file's first line may",
+        path.display()
+    )]
+    Bom { path: PathBuf, line: usize },
     /// A second line for one frame (one file, one page): refused, never
     /// resolved by order.
     #[error(
@@ -453,10 +460,22 @@ impl Iterator for Lines {
                     source,
                 })
                 .and_then(|line| {
+                    // A BOM at the file's start is taken, as in every CSV
+                    // reader (an editor may save one); elsewhere it is named.
+                    let line = match line.strip_prefix('\u{feff}') {
+                        Some(rest) if i == 0 => rest,
+                        Some(_) => {
+                            return Err(FramesReadError::Bom {
+                                path: self.path.clone(),
+                                line: i + 1,
+                            });
+                        }
+                        None => &line,
+                    };
                     if line.trim().is_empty() {
                         return Ok(None);
                     }
-                    serde_json::from_str(&line)
+                    serde_json::from_str(line)
                         .map(|value| Some(FrameLine { line: i + 1, value }))
                         .map_err(|source| FramesReadError::Json {
                             path: self.path.clone(),
@@ -590,6 +609,29 @@ mod tests {
             other => panic!("{other:?}"),
         }
         assert!(it.next().is_none(), "a failed read ends the lines");
+    }
+
+    /// A BOM before the first line is taken (as the CSV readers take
+    /// one); one before a later line is named at its line.
+    #[test]
+    fn a_bom_is_taken_at_the_start_only() {
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join(FRAMES_JSONL);
+        std::fs::write(
+            &path,
+            "\u{feff}{\"file\":\"a\"}\n\u{feff}{\"file\":\"b\"}\n",
+        )
+        .unwrap();
+        let mut it = lines(&path, &crate::ReadLog::off()).unwrap();
+        assert_eq!(it.next().unwrap().unwrap().file(), Some("a"));
+        let e = it.next().unwrap().unwrap_err();
+        assert!(matches!(e, FramesReadError::Bom { line: 2, .. }), "{e:?}");
+        assert!(
+            e.to_string().ends_with(
+                ":2: starts with a byte-order mark (U+FEFF); only the file's first line may"
+            ),
+            "{e}"
+        );
     }
 
     /// One frame, one line: a TIFF stack's pages are told apart, a

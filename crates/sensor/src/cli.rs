@@ -1,6 +1,7 @@
 //! The command line's arguments for `gloam sensor` (feature `cli`) and the
 //! preset listing it prints.
 
+use clap::builder::{OsStringValueParser, TypedValueParser};
 use clap::{Args, Subcommand};
 use serde::Serialize;
 
@@ -21,6 +22,7 @@ pub enum SensorCommand {
 #[derive(Args)]
 pub struct DescribeArgs {
     /// A built-in preset (see `gloam sensor list`) or a sensor TOML file.
+    #[arg(value_parser = preset_or_file())]
     pub sensor: String,
     /// Tube gain (MCP gain, EB gain, or analogue gain for a plain CCD);
     /// default: the configured fixed gain.
@@ -29,6 +31,21 @@ pub struct DescribeArgs {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The value parser of every `--sensor` (and `sensor describe`'s
+/// argument): a preset name or a sensor file's path, kept as text because
+/// the name is recorded in reports. A path that is not UTF-8 was clap's
+/// bare "invalid UTF-8 was detected in one or more arguments"; this names
+/// the flag (clap adds it), the path's bytes and what to do.
+pub fn preset_or_file() -> impl TypedValueParser<Value = String> {
+    OsStringValueParser::new().try_map(|os| {
+        os.into_string().map_err(|os| {
+            format!(
+                "the sensor file path {os:?} is not UTF-8 (a sensor is named in reports as text): rename the file or link to it by a UTF-8 name"
+            )
+        })
+    })
 }
 
 /// One line of `gloam sensor list`.

@@ -28,7 +28,7 @@ pub struct DeviceArgs {
     #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub gvsp_reorder: f64,
     /// Sensor preset (or sensor TOML file) behind the HAL.
-    #[arg(long, default_value = "gen2-s20-iccd")]
+    #[arg(long, default_value = "gen2-s20-iccd", value_parser = gloam_sensor::cli::preset_or_file())]
     pub sensor: String,
     /// Scene file the camera looks at: rendered once by the tracer (default
     /// settings) at the scene camera's resolution, or at --size.

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::report::{
     EphemReport, InputNames, NightsReport, QueryError, SkyReport, checked_site, parse_instant,
 };
-use crate::{Cloud, NightSearch, PhaseTarget, Site};
+use crate::{Cloud, NightSearch, PhaseTarget, Site, SkyError};
 
 /// Target phase for `--find`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -91,6 +91,37 @@ pub struct EphemArgs {
     pub json: bool,
 }
 
+/// A search criterion refused under its flag's name: the search's own
+/// check names its fields, and `--min-hours -1` was "min_usable_hours = -1
+/// is outside the valid range".
+fn as_flag(e: SkyError) -> SkyError {
+    let flag = |name| match name {
+        "min_moon_elevation_deg" => "--min-moon-elevation-deg",
+        "max_sun_elevation_deg" => "--max-sun-elevation-deg",
+        "fraction_tolerance" => "--fraction-tolerance",
+        "min_usable_hours" => "--min-hours",
+        other => other,
+    };
+    match e {
+        SkyError::OutOfRange {
+            name,
+            value,
+            min,
+            max,
+        } => SkyError::OutOfRange {
+            name: flag(name),
+            value,
+            min,
+            max,
+        },
+        SkyError::NotFinite { name, value } => SkyError::NotFinite {
+            name: flag(name),
+            value,
+        },
+        e => e,
+    }
+}
+
 /// What `gloam ephem` found: one instant, or the nights of a window.
 #[derive(Serialize)]
 #[serde(untagged)]
@@ -126,6 +157,7 @@ impl EphemArgs {
         search.max_sun_elevation_deg = self.max_sun_elevation_deg;
         search.fraction_tolerance = self.fraction_tolerance;
         search.min_usable_hours = self.min_hours;
+        search.validate().map_err(as_flag)?;
         let (from, to) = (self.from.as_deref(), self.to.as_deref());
         let (from, to) = (from.unwrap_or_default(), to.unwrap_or_default());
         Ok(Ephem::Nights(NightsReport::find(

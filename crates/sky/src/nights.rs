@@ -82,7 +82,7 @@ impl NightSearch {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    pub(crate) fn validate(&self) -> Result<()> {
         check_range(
             "min_moon_elevation_deg",
             self.min_moon_elevation_deg,

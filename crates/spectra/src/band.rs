@@ -70,6 +70,14 @@ impl BandIntegral {
             ),
             None => (s.integrate_band(lo, hi), "spectrum units x nm"),
         };
+        // Values of 1e308 over 100 nm printed `inf` (JSON `null`), exit 0.
+        if !integral.is_finite() {
+            return Err(LookupError::Overflow {
+                spectrum: spectrum.to_string(),
+                lo,
+                hi,
+            });
+        }
         Ok(Self {
             integral,
             units,
@@ -94,6 +102,25 @@ mod tests {
         assert_eq!(parse_band("x:700"), Err(BandError::Low("x".into())));
         assert_eq!(parse_band("700:400"), Err(BandError::Order(700.0, 400.0)));
         assert!(parse_band("0:inf").is_err());
+    }
+
+    /// An integral past the largest float is refused, not `inf`.
+    #[test]
+    fn an_overflowing_integral_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("huge.csv");
+        std::fs::write(&p, "500,1e308\n600,1e308\n").unwrap();
+        let e = BandIntegral::of(
+            p.to_str().unwrap(),
+            (400.0, 700.0),
+            None,
+            &gloam_io::ReadLog::off(),
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().ends_with("huge.csv over 400:700 nm is past the largest number (1.8e308): its values are too large to integrate"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -22,7 +22,9 @@ pub struct IntegrateArgs {
     /// (`wavelength_nm,value` rows, `line,wavelength_nm,value` for lines).
     pub spectrum: String,
     /// The band, `LO:HI` in nm (half-open: lines at HI are excluded).
-    #[arg(long, value_parser = parse_band)]
+    /// (A value, even when it starts with `-`: `-100:500` was read as the
+    /// flags `-1`….)
+    #[arg(long, value_parser = parse_band, allow_hyphen_values = true)]
     pub band: (f64, f64),
     /// Weight by this response (built-in name or CSV), e.g. `v-photopic`;
     /// the product of the two is integrated exactly.

@@ -78,4 +78,11 @@ pub enum LookupError {
     Unknown { name: String },
     #[error(transparent)]
     Csv(#[from] CsvError),
+    /// An integral that overflows (values near the largest float).
+    #[error(
+        "the integral of {spectrum} over {}:{} nm is past the largest number (1.8e308): its values are too large to integrate",
+        crate::num(*lo),
+        crate::num(*hi)
+    )]
+    Overflow { spectrum: String, lo: f64, hi: f64 },
 }

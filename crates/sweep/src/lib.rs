@@ -16,6 +16,7 @@ pub mod collect;
 pub mod command;
 pub mod exec;
 pub mod figures;
+pub mod preflight;
 pub mod run;
 pub mod slurm;
 pub mod spec;

@@ -58,6 +58,8 @@ pub enum SweepError {
         planned: usize,
         now: usize,
     },
+    #[error(transparent)]
+    Preflight(#[from] crate::preflight::PreflightError),
     #[error("task {index} is outside 0..{count}")]
     NoTask { index: usize, count: usize },
     #[error("chunk {index} is outside 0..{count}")]
@@ -315,6 +317,7 @@ impl SweepDir {
             .unwrap_or(Path::new("."));
         let base_dir = std::fs::canonicalize(base_dir).map_err(io("resolving", base_dir))?;
         let sweep = Sweep::parse(&text, sweep_file, &base_dir)?;
+        crate::preflight::check(&sweep)?;
         let sha = sha256_hex(text.as_bytes());
         if dir.join("plan.json").exists() {
             let old = Self::open(dir)?;

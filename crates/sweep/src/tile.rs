@@ -326,6 +326,14 @@ pub fn verify_tile_manifest(
     for name in TILE_FILES {
         let p = dir.join(name);
         let Some(want) = hashes.get(name) else {
+            // A whole render's set lists no tile.json because it has none:
+            // it is not a tile, not an altered one.
+            if name == TILE_FILE && !hashes.contains_key(TILE_FILE) && !p.exists() {
+                return Err(MergeError::invalid(
+                    dir,
+                    "not a tile: it holds no tile.json (a whole render, not `gloam render --tile K/N`)".into(),
+                ));
+            }
             return Err(MergeError::invalid(
                 &p,
                 format!(

@@ -41,7 +41,23 @@ pub enum ArgError {
     NeedsCamera { flag: &'static str, tile: bool },
     #[error(transparent)]
     Capture(#[from] CaptureOptionsError),
+    /// A setting that shapes only pixels, given to a point's estimate.
+    #[error(
+        "--set {key} cannot be used with --point: it shapes pixels only (a point's estimate takes no camera samples; it averages --samples estimates); use it with --pixel"
+    )]
+    PixelOnly { key: String },
 }
+
+/// The render settings a point's estimate does not use: it traces no
+/// camera ray. `--set spp=5` with `--point` was accepted and ignored, as
+/// `--spp` was before round 9.
+const PIXEL_ONLY_SETTINGS: [&str; 5] = [
+    "spp",
+    "max_spp",
+    "target_error",
+    "pixel_strata",
+    "resolution_scale",
+];
 
 /// `gloam render`.
 #[derive(Args)]
@@ -97,7 +113,7 @@ pub struct CameraArgs {
     /// `gloam sensor list`, or a sensor TOML file). Defaults to the scene's
     /// `sensor` entry, if any; `none` renders radiance only. Writes the
     /// frames, `frames.jsonl` and `frames-preview.png`.
-    #[arg(long, value_name = "PRESET_OR_FILE")]
+    #[arg(long, value_name = "PRESET_OR_FILE", value_parser = gloam_sensor::cli::preset_or_file())]
     pub sensor: Option<String>,
     /// How frames are stored: png (16-bit, counts scaled to 16 bits with
     /// sBIT; default), fits (one file per frame, with a header) or tiff
@@ -181,7 +197,8 @@ pub struct PlanArgs {
     pub target_error: Option<crate::camera_goal::TargetError>,
     /// The camera of the estimate (preset or sensor TOML; default the
     /// scene's `sensor`).
-    #[arg(long, value_name = "PRESET_OR_FILE", requires = "target_error")]
+    #[arg(long, value_name = "PRESET_OR_FILE", requires = "target_error",
+          value_parser = gloam_sensor::cli::preset_or_file())]
     pub sensor: Option<String>,
     /// The estimate's fixed tube gain (as `gloam render --gain`).
     #[arg(long, conflicts_with_all = ["agc", "exposure"], requires = "target_error")]
@@ -270,7 +287,7 @@ pub struct ProbeArgs {
     #[arg(long, allow_hyphen_values = true, required_unless_present = "pixel")]
     pub normal: Option<String>,
     /// Instead of a point: the radiance of pixel COL,ROW (as rendered).
-    #[arg(long, conflicts_with_all = ["point", "normal"])]
+    #[arg(long, conflicts_with_all = ["point", "normal"], allow_hyphen_values = true)]
     pub pixel: Option<String>,
     /// Band name (default: the scene's first band).
     #[arg(long)]
@@ -280,7 +297,9 @@ pub struct ProbeArgs {
     pub estimator: Option<String>,
     /// Independent estimates averaged at the point (the standard error
     /// comes from their spread).
-    #[arg(long, default_value_t = 16)]
+    // A pixel's radiance takes --spp camera samples: `--samples` there
+    // was accepted and ignored.
+    #[arg(long, default_value_t = 16, conflicts_with = "pixel")]
     /// At most 1 000 000 (each is a full estimate at the point).
     #[arg(value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::MAX_PROBE_SAMPLES)))]
     pub samples: u32,
@@ -323,8 +342,18 @@ impl ProbeArgs {
         }
     }
 
-    /// `--point` and `--normal` (clap requires both without `--pixel`).
+    /// `--point` and `--normal` (clap requires both without `--pixel`);
+    /// a `--set` of a setting that shapes pixels only is refused.
     pub fn point_normal(&self) -> Result<(DVec3, DVec3), ArgError> {
+        let keys = self.set.iter().filter_map(|kv| kv.split_once('='));
+        if let Some((k, _)) = keys
+            .into_iter()
+            .find(|(k, _)| PIXEL_ONLY_SETTINGS.contains(&k.trim().to_ascii_lowercase().as_str()))
+        {
+            return Err(ArgError::PixelOnly {
+                key: k.trim().to_string(),
+            });
+        }
         let triple = |flag, s: &Option<String>| {
             let s = s.as_deref().unwrap_or_default();
             let v = numbers::<f64>(s)
