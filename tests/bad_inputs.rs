@@ -2071,6 +2071,8 @@ const CASES: &[Case] = &[
     // --- calibration numerics held to physics (issue 46): a LUT whose
     // numbers leave physics, refused at its line wherever it is loaded
     case!("calibrate apply: LUT slope negative", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 1.25e-8=>\"g_w_m2_sr_per_dn\": -1.25e-8}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:23:", "--lut", "gains[1].g_w_m2_sr_per_dn", "not positive"]),
+    // The decoder's own message named no format ("could not be determined").
+    case!("calibrate apply: an NPY frame", ["l.json" => "{lpatch:\"source\": \"sphere\"=>\"source\": \"sphere\"}", "f.npy" => "\u{93}NUMPY"], ["calibrate", "apply", "--lut", "l.json", "--gain", "1", "f.npy", "o.tiff"], ["f.npy", "not an image gloam reads (a PNG, FITS or TIFF of grey counts)"]),
     case!("calibrate apply: LUT slope zero", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 0}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:9:", "gains[0].g_w_m2_sr_per_dn", "slope 0 "]),
     case!("calibrate apply: LUT slope 1e308", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 1e308}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:9:", "slope 1e308", "above 1e20"]),
     case!("calibrate apply: LUT slope past the radiance limit", ["l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 2e15}", "f.png" => ""], ["calibrate", "apply", "--lut", "l.json", "f.png", "o.tiff"], ["l.json:9:", "above 1e20"]),
