@@ -1563,6 +1563,8 @@ const CASES: &[Case] = &[
     case!("render --out: a manifest that does not list a file, --force", ["s.toml" => "{base}", "o/manifest.json" => "{\"files\":[]}", "o/notes.txt" => "mine"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
     case!("render --out: a manifest that is not JSON, --force", ["s.toml" => "{base}", "o/manifest.json" => "{", "o/notes.txt" => "mine"], ["render", "s.toml", "--out", "o", "--force"], ["o"]),
     case!("capture --out: a stray file, --force", ["o/notes.txt" => "mine"], ["capture", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--frames", "1", "--out", "o", "--force"], ["o", "--force"]),
+    // The error named only the hidden staging directory, not --out.
+    case!("render --out where no directory can be made", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "/proc/self/o", "--spp", "1"], ["--out /proc/self/o: creating its staging directory /proc/self/.o.partial-"]),
     case!("capture --out: a file", ["o" => "x"], ["capture", "--grabber", "sim:gen3-gaas-iccd?size=16x16", "--frames", "1", "--out", "o"], ["o"]),
     case!("calibrate ptc --out: a stray file, --force", ["o/notes.txt" => "mine"], ["calibrate", "ptc", "--grabber", "sim:scientific-ccd?size=16x16", "--out", "o", "--force"], ["o"]),
     case!(

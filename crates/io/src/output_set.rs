@@ -171,8 +171,9 @@ impl OutputSet {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        std::fs::create_dir_all(&parent)
-            .map_err(io_err(|| format!("creating {}", parent.display())))?;
+        std::fs::create_dir_all(&parent).map_err(io_err(|| {
+            format!("--out {}: creating {}", target.display(), parent.display())
+        }))?;
         if let Some(n) = target.file_name()
             && n.len() > NAME_MAX
         {
@@ -190,8 +191,13 @@ impl OutputSet {
             std::fs::remove_dir_all(&staging)
                 .map_err(io_err(|| format!("removing a stale {}", staging.display())))?;
         }
-        std::fs::create_dir(&staging)
-            .map_err(io_err(|| format!("creating {}", staging.display())))?;
+        std::fs::create_dir(&staging).map_err(io_err(|| {
+            format!(
+                "--out {}: creating its staging directory {}",
+                target.display(),
+                staging.display()
+            )
+        }))?;
         guard.stage(staging.clone(), polls_interrupt);
         Ok(Self {
             target: target.to_path_buf(),
