@@ -50,6 +50,9 @@ pub type Events<'e> = dyn FnMut(Event<'_>) + 'e;
 pub const MAX_LEVELS: usize = 10_000;
 /// Most frames taken at one setting (`--frames`, `--spatial-frames`).
 pub const MAX_FRAMES_PER_SETTING: usize = 100_000;
+/// Most gains one LUT calibrates (a camera's gain control has at most a
+/// few hundred useful settings; each gain is a whole staircase).
+pub const MAX_LUT_GAINS: usize = 1_000;
 
 fn usage(m: impl Into<String>) -> CalibError {
     CalibError::Usage(m.into())
@@ -150,8 +153,22 @@ impl RadianceRequest {
         if self.gains.is_empty() {
             return Err(usage("--gains needs at least one gain"));
         }
-        for &g in &self.gains {
+        check_count(
+            "--gains: the number of gains",
+            self.gains.len(),
+            MAX_LUT_GAINS,
+        )?;
+        for (i, &g) in self.gains.iter().enumerate() {
             check_gain("--gains", g)?;
+            // The LUT would hold the gain twice, which `calibrate apply`
+            // refuses: the run's captures at it were spent for nothing.
+            if let Some(j) = self.gains[..i].iter().position(|&e| e == g) {
+                return Err(usage(format!(
+                    "--gains: {g} is given twice (gains {} and {}); a LUT holds one line per gain",
+                    j + 1,
+                    i + 1
+                )));
+            }
         }
         check_count("--frames", self.frames, MAX_FRAMES_PER_SETTING)?;
         self.source.validate()
