@@ -131,6 +131,7 @@ pub fn measure_mtf(
     if req.target == GrabberTarget::Sine {
         check_sine_frequencies(&req.frequencies_cy_per_px)?;
     }
+    check_target_settings(req)?;
     prepare(g, req)?;
     let level = mean_radiance(g, req)?;
     let curve = match req.target {
@@ -346,12 +347,47 @@ pub const MAX_MTF: f64 = 1.05;
 /// 0.5 itself is accepted (at 0° its sine's phase cannot be measured and
 /// the fit says so; tilt it with `--angle-deg`).
 pub fn check_sine_frequencies(f: &[f64]) -> Result<(), CalibError> {
-    for &x in f {
+    if f.len() > MAX_SINE_FREQUENCIES {
+        return Err(CalibError::Usage(format!(
+            "--frequencies: {} frequencies, at most {MAX_SINE_FREQUENCIES} (each is a target shown and captured)",
+            f.len()
+        )));
+    }
+    for (i, &x) in f.iter().enumerate() {
         if !(x > 0.0 && x <= NYQUIST_CY_PER_PX) {
             return Err(CalibError::Usage(format!(
                 "--frequencies {x}: a sine target's frequency must lie in (0, {NYQUIST_CY_PER_PX}] cycles/pixel; above Nyquist it aliases onto a lower frequency, so its modulation is not MTF"
             )));
         }
+        // A curve with two points at one frequency has no slope there.
+        if f[..i].contains(&x) {
+            return Err(CalibError::Usage(format!(
+                "--frequencies {x}: given twice; an MTF curve has one point per frequency"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Most sine targets one measurement shows (`--frequencies`).
+pub const MAX_SINE_FREQUENCIES: usize = 256;
+
+/// The settings that need no camera: an angle the target can be drawn at
+/// and a mean radiance a target can have.
+pub fn check_target_settings(req: &MtfRequest) -> Result<(), CalibError> {
+    if let Some(a) = req.angle_deg
+        && !(a.is_finite() && a.abs() <= 90.0)
+    {
+        return Err(CalibError::Usage(format!(
+            "--angle-deg {a}: the target's tilt must be a finite angle within ±90°"
+        )));
+    }
+    if let Some(l) = req.radiance_w_m2_sr
+        && !(l.is_finite() && l > 0.0 && l <= crate::radiance::MAX_LUT_RADIANCE_W_M2_SR)
+    {
+        return Err(CalibError::Usage(format!(
+            "--radiance {l}: the mean target radiance must be a finite number in (0, 1e20] W m⁻² sr⁻¹"
+        )));
     }
     Ok(())
 }

@@ -20,8 +20,8 @@ use crate::CalibError;
 use crate::agc::{AgcOptions, AgcReport, agc_linearisation};
 use crate::capture::FrameLosses;
 use crate::mtf_flow::{
-    GrabberTarget, MtfRequest, VoltageReport, VoltageRequest, check_sine_frequencies, measure_mtf,
-    voltage_mtf,
+    GrabberTarget, MtfRequest, VoltageReport, VoltageRequest, check_sine_frequencies,
+    check_target_settings, measure_mtf, voltage_mtf,
 };
 use crate::ptc::{PtcOptions, PtcResult, photon_transfer};
 use crate::radiance::{Lut, RadianceOptions, calibrate_radiance};
@@ -359,6 +359,7 @@ impl MtfCalibration {
         if sine {
             check_sine_frequencies(&self.mtf.frequencies_cy_per_px)?;
         }
+        check_target_settings(&self.mtf)?;
         if let Some(g) = self.mtf.gain {
             check_gain("--gain", g)?;
         }
