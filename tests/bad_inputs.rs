@@ -2892,6 +2892,14 @@ const CASES: &[Case] = &[
     // check blamed gains[1]. A LUT with a BOM was "not a gloam LUT".
     case!("calibrate apply: a LUT slope of 5e-324", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 5e-324}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "5e-324", "too small"]),
     case!("calibrate apply: a LUT with a BOM, its entry checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:{\n  \"grabber\"=>\u{feff}{\n  \"grabber\"&&\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 0}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "slope 0", "not positive"]),
+    // Each field was held alone; an extreme finite one overflowed or
+    // vanished in a product, and frames came out black or saturated.
+    case!("sensor file: f_number 1e-300", ["c.toml" => "{spatch:f_number = 1.4=>f_number = 1e-300}"], ["sensor", "describe", "c.toml"], ["c.toml:24", "optics.f_number", "comes to inf"]),
+    case!("sensor file: an MCP exponent of 1e300", ["c.toml" => "{spatch:exponent = 9.0=>exponent = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:36", "`mcp`", "the least gain comes to 0"]),
+    case!("sensor file: a pixel pitch of 1e-300 µm", ["c.toml" => "{spatch:pixel_pitch_um = 6.45=>pixel_pitch_um = 1e-300}"], ["sensor", "describe", "c.toml"], ["c.toml:24", "optics.f_number", "comes to 0"]),
+    case!("sensor file: a read noise of 1e300", ["c.toml" => "{spatch:read_noise_e = 8.0=>read_noise_e = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:69", "ccd.read_noise_e", "comes to inf"]),
+    case!("sensor file: a screen voltage of 1e300", ["c.toml" => "{spatch:screen_voltage_v = 6000.0=>screen_voltage_v = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:36", "fill the range at the least gain", "comes to 0"]),
+    case!("capture: a sim: camera of f_number 1e-300", ["c.toml" => "{spatch:f_number = 1.4=>f_number = 1e-300}"], ["capture", "--grabber", "sim:c.toml?size=16x16", "--frames", "1", "--out", "o"], ["c.toml:24", "optics.f_number"]),
 ];
 
 #[test]
