@@ -2900,6 +2900,42 @@ const CASES: &[Case] = &[
     case!("sensor file: a read noise of 1e300", ["c.toml" => "{spatch:read_noise_e = 8.0=>read_noise_e = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:69", "ccd.read_noise_e", "comes to inf"]),
     case!("sensor file: a screen voltage of 1e300", ["c.toml" => "{spatch:screen_voltage_v = 6000.0=>screen_voltage_v = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:36", "fill the range at the least gain", "comes to 0"]),
     case!("capture: a sim: camera of f_number 1e-300", ["c.toml" => "{spatch:f_number = 1.4=>f_number = 1e-300}"], ["capture", "--grabber", "sim:c.toml?size=16x16", "--frames", "1", "--out", "o"], ["c.toml:24", "optics.f_number"]),
+    // A row given twice was scoped and written twice.
+    case!(
+        "scope: --rows 3,4,3",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "64x64",
+            "--rows",
+            "3,4,3",
+            "--out",
+            "o"
+        ],
+        ["--rows: row 3 is given twice (items 1 and 3)"]
+    ),
+    // The grabber's error was printed twice ("grabber: X: X").
+    case!(
+        "scope: an unknown rig, named once",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "64x64",
+            "--rig",
+            "bogus",
+            "--out",
+            "o"
+        ],
+        [
+            "error: grabber: invalid setting: unknown rig 'bogus' (known: uniform, sine, edge, dark)\n"
+        ]
+    ),
 ];
 
 #[test]
@@ -3182,6 +3218,28 @@ fn spectra_integrate_prints_a_tiny_integral_readably() {
     assert_eq!(
         String::from_utf8_lossy(&out.stdout),
         format!("{want:e} (spectrum units x nm)\n")
+    );
+}
+
+/// A row the scope's cursors cannot read (a line smeared by a 30 kHz video
+/// amplifier) printed nothing, exit 0: it is named now (round 10).
+#[test]
+fn scope_names_a_row_it_cannot_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(BIN)
+        .args(["scope", "--sensor", "gen3-gaas-iccd", "--size", "64x64"])
+        .args(["--bandwidth-hz", "3e4", "--rows", "3", "--out", "o"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "row 3: no sync pulse or blanking level could be read off the line at a video bandwidth of 30000 Hz (its trace is in scope.csv)\n"
     );
 }
 

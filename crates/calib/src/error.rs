@@ -8,7 +8,9 @@ use gloam_grabber::GrabError;
 /// Everything a calibration flow can fail with.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
-    #[error("grabber: {0}")]
+    /// The grabber's error is the source: "grabber: {0}" printed it twice
+    /// in a chain ("grabber: invalid setting: …: invalid setting: …").
+    #[error("grabber")]
     Grab(#[from] GrabError),
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
