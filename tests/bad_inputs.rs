@@ -2936,6 +2936,68 @@ const CASES: &[Case] = &[
             "error: grabber: invalid setting: unknown rig 'bogus' (known: uniform, sine, edge, dark)\n"
         ]
     ),
+    // A slanted edge far from vertical gave MTF50 0.02 cy/px (60°), exit 0.
+    case!(
+        "calibrate mtf: a slanted edge at 60°",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=64x64",
+            "--target",
+            "edge",
+            "--angle-deg",
+            "60",
+            "--out",
+            "o"
+        ],
+        ["--angle-deg 60", "1° to 30°"]
+    ),
+    case!(
+        "calibrate mtf: a slanted edge at 0.5°",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=64x64",
+            "--target",
+            "edge",
+            "--angle-deg",
+            "0.5",
+            "--out",
+            "o"
+        ],
+        ["--angle-deg 0.5", "1° to 30°"]
+    ),
+    // A frequency twice was measured twice.
+    case!(
+        "calibrate mtf: a sine frequency given twice",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--target",
+            "sine",
+            "--frequencies",
+            "0.1,0.2,0.1",
+            "--out",
+            "o"
+        ],
+        ["--frequencies: 0.1 is given twice (items 1 and 3)"]
+    ),
+    // 1e300 × full scale set a sphere of 1.6e297 W m⁻² sr⁻¹ and printed 303 digits.
+    case!("calibrate ptc: --auto-range 1e300", ["s.toml" => SPHERE], ["calibrate", "ptc", "--grabber", "sim:scientific-ccd?size=16x16", "--source", "s.toml", "--auto-range", "1e300", "--out", "o"], ["--auto-range 1e300", "at most 10"]),
+    // `--gain 1e300` printed 301 digits.
+    case!(
+        "sensor describe: --gain 1e300",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "1e300"],
+        ["--gain 1e300 is outside"]
+    ),
 ];
 
 #[test]
