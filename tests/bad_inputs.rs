@@ -792,7 +792,7 @@ const CASES: &[Case] = &[
             "--out",
             "o"
         ],
-        ["--frequencies 0.1: given twice"]
+        ["--frequencies: 0.1 is given twice (items 1 and 3)"]
     ),
     case!(
         "calibrate mtf: 257 sine frequencies",
@@ -846,7 +846,7 @@ const CASES: &[Case] = &[
         ["--radiance -1", "(0, 1e20]"]
     ),
     case!(
-        "calibrate mtf: a square edge",
+        "calibrate mtf: an edge too square for its rows",
         [],
         [
             "calibrate",
@@ -856,7 +856,7 @@ const CASES: &[Case] = &[
             "--grabber",
             "sim:scientific-ccd?size=64x48",
             "--angle-deg",
-            "0",
+            "1",
             "--out",
             "o"
         ],
@@ -3001,6 +3001,112 @@ const CASES: &[Case] = &[
     // check blamed gains[1]. A LUT with a BOM was "not a gloam LUT".
     case!("calibrate apply: a LUT slope of 5e-324", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 5e-324}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "5e-324", "too small"]),
     case!("calibrate apply: a LUT with a BOM, its entry checked", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1}\n", "l.json" => "{lpatch:{\n  \"grabber\"=>\u{feff}{\n  \"grabber\"&&\"g_w_m2_sr_per_dn\": 2.5e-8=>\"g_w_m2_sr_per_dn\": 0}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["l.json:", "gains[0].g_w_m2_sr_per_dn", "slope 0", "not positive"]),
+    // Each field was held alone; an extreme finite one overflowed or
+    // vanished in a product, and frames came out black or saturated.
+    case!("sensor file: f_number 1e-300", ["c.toml" => "{spatch:f_number = 1.4=>f_number = 1e-300}"], ["sensor", "describe", "c.toml"], ["c.toml:24", "optics.f_number", "comes to inf"]),
+    case!("sensor file: an MCP exponent of 1e300", ["c.toml" => "{spatch:exponent = 9.0=>exponent = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:36", "`mcp`", "the least gain comes to 0"]),
+    case!("sensor file: a pixel pitch of 1e-300 µm", ["c.toml" => "{spatch:pixel_pitch_um = 6.45=>pixel_pitch_um = 1e-300}"], ["sensor", "describe", "c.toml"], ["c.toml:24", "optics.f_number", "comes to 0"]),
+    case!("sensor file: a read noise of 1e300", ["c.toml" => "{spatch:read_noise_e = 8.0=>read_noise_e = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:69", "ccd.read_noise_e", "comes to inf"]),
+    case!("sensor file: a screen voltage of 1e300", ["c.toml" => "{spatch:screen_voltage_v = 6000.0=>screen_voltage_v = 1e300}"], ["sensor", "describe", "c.toml"], ["c.toml:36", "fill the range at the least gain", "comes to 0"]),
+    case!("capture: a sim: camera of f_number 1e-300", ["c.toml" => "{spatch:f_number = 1.4=>f_number = 1e-300}"], ["capture", "--grabber", "sim:c.toml?size=16x16", "--frames", "1", "--out", "o"], ["c.toml:24", "optics.f_number"]),
+    // A row given twice was scoped and written twice.
+    case!(
+        "scope: --rows 3,4,3",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "64x64",
+            "--rows",
+            "3,4,3",
+            "--out",
+            "o"
+        ],
+        ["--rows: row 3 is given twice (items 1 and 3)"]
+    ),
+    // The grabber's error was printed twice ("grabber: X: X").
+    case!(
+        "scope: an unknown rig, named once",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--size",
+            "64x64",
+            "--rig",
+            "bogus",
+            "--out",
+            "o"
+        ],
+        [
+            "error: grabber: invalid setting: unknown rig 'bogus' (known: uniform, sine, edge, dark)\n"
+        ]
+    ),
+    // A slanted edge far from vertical gave MTF50 0.02 cy/px (60°), exit 0.
+    case!(
+        "calibrate mtf: a slanted edge at 60°",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=64x64",
+            "--target",
+            "edge",
+            "--angle-deg",
+            "60",
+            "--out",
+            "o"
+        ],
+        ["--angle-deg 60", "1° to 30°"]
+    ),
+    case!(
+        "calibrate mtf: a slanted edge at 0.5°",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=64x64",
+            "--target",
+            "edge",
+            "--angle-deg",
+            "0.5",
+            "--out",
+            "o"
+        ],
+        ["--angle-deg 0.5", "1° to 30°"]
+    ),
+    // A frequency twice was measured twice.
+    case!(
+        "calibrate mtf: a sine frequency given twice",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--grabber",
+            "sim:scientific-ccd?size=16x16",
+            "--target",
+            "sine",
+            "--frequencies",
+            "0.1,0.2,0.1",
+            "--out",
+            "o"
+        ],
+        ["--frequencies: 0.1 is given twice (items 1 and 3)"]
+    ),
+    // 1e300 × full scale set a sphere of 1.6e297 W m⁻² sr⁻¹ and printed 303 digits.
+    case!("calibrate ptc: --auto-range 1e300", ["s.toml" => SPHERE], ["calibrate", "ptc", "--grabber", "sim:scientific-ccd?size=16x16", "--source", "s.toml", "--auto-range", "1e300", "--out", "o"], ["--auto-range 1e300", "at most 10"]),
+    // `--gain 1e300` printed 301 digits.
+    case!(
+        "sensor describe: --gain 1e300",
+        [],
+        ["sensor", "describe", "gen3-gaas-iccd", "--gain", "1e300"],
+        ["--gain 1e300 is outside"]
+    ),
 ];
 
 #[test]
@@ -3283,6 +3389,28 @@ fn spectra_integrate_prints_a_tiny_integral_readably() {
     assert_eq!(
         String::from_utf8_lossy(&out.stdout),
         format!("{want:e} (spectrum units x nm)\n")
+    );
+}
+
+/// A row the scope's cursors cannot read (a line smeared by a 30 kHz video
+/// amplifier) printed nothing, exit 0: it is named now (round 10).
+#[test]
+fn scope_names_a_row_it_cannot_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(BIN)
+        .args(["scope", "--sensor", "gen3-gaas-iccd", "--size", "64x64"])
+        .args(["--bandwidth-hz", "3e4", "--rows", "3", "--out", "o"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "row 3: no sync pulse or blanking level could be read off the line at a video bandwidth of 30000 Hz (its trace is in scope.csv)\n"
     );
 }
 

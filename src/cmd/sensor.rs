@@ -19,7 +19,7 @@ pub fn run(cmd: SensorCommand) -> anyhow::Result<()> {
             let cfg = SensorConfig::load_preset_or_file(&a.sensor, &gloam_io::ReadLog::off())?;
             let d = match Chain::new(&cfg)?.describe_checked(a.gain) {
                 Err(CaptureError::GainOutOfRange { gain, min, max, .. }) => {
-                    let name = &cfg.name;
+                    let (name, gain) = (&cfg.name, gloam_spectra::num(gain));
                     anyhow::bail!("--gain {gain} is outside {name}'s range {min:.4}–{max:.4}")
                 }
                 d => d?,

@@ -8,8 +8,8 @@ use gloam_grabber::GrabError;
 /// Everything a calibration flow can fail with.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
-    /// The grabber's error is the source: the message read "grabber: X: X"
-    /// when it was also in this one's text.
+    /// The grabber's error is the source: "grabber: {0}" printed it twice
+    /// in a chain ("grabber: invalid setting: …: invalid setting: …").
     #[error("grabber")]
     Grab(#[from] GrabError),
     #[error("{path}: {message}")]
@@ -169,9 +169,6 @@ mod tests {
     #[test]
     fn a_grabber_error_is_said_once() {
         let e = CalibError::from(GrabError::Unsupported("no such camera".into()));
-        assert_eq!(
-            gloam_io::output_set::chain(&e),
-            "grabber: no such camera"
-        );
+        assert_eq!(gloam_io::output_set::chain(&e), "grabber: no such camera");
     }
 }

@@ -473,6 +473,16 @@ impl ScopeRequest {
             (None, Some(u)) => sim_uri(u)?,
             (None, None) => return Err(usage("give --sensor PRESET_OR_FILE or --grabber sim:…")),
         };
+        // A row given twice was scoped (and written) twice.
+        if let Some((i, r)) =
+            (self.rows.iter().enumerate()).find(|(i, r)| self.rows[..*i].contains(r))
+        {
+            return Err(usage(format!(
+                "--rows: row {r} is given twice (items {} and {})",
+                self.rows.iter().position(|x| x == r).unwrap_or(0) + 1,
+                i + 1
+            )));
+        }
         // Each frame before the shown one is a whole capture: 10⁹ ran for
         // hours, and 0 was taken as 1.
         if !(1..=MAX_SCOPE_FRAMES).contains(&self.frames) {

@@ -910,6 +910,10 @@ pub struct OpenedSource {
     pub auto_ranged_max_w_m2_sr: Option<f64>,
 }
 
+/// The most `--auto-range` asks: ten times full scale (a photon-transfer
+/// sweep past saturation asks about 1.4).
+pub const MAX_AUTO_RANGE: f64 = 10.0;
+
 /// Opens the source file at `path` for `grabber`. With `auto_range =
 /// Some(f)` (simulated spheres only) the sphere is rescaled so its
 /// brightest level puts the camera at fraction `f` of full scale, measured
@@ -935,10 +939,13 @@ pub fn open_for_grabber(
             "--auto-range only applies to a simulated sphere source".into(),
         ));
     }
-    if !(frac > 0.0 && frac.is_finite()) {
-        return Err(CalibError::Invalid(
-            "--auto-range must be a positive fraction of full scale".into(),
-        ));
+    // 1e300 set a sphere of 1.6e297 W m⁻² sr⁻¹ and printed it as 1e302 %
+    // in 303 digits; past-saturation sweeps (PTC) ask 1.4 or so.
+    if !(frac > 0.0 && frac <= MAX_AUTO_RANGE) {
+        return Err(CalibError::Invalid(format!(
+            "--auto-range {}: must be a positive fraction of full scale, at most {MAX_AUTO_RANGE}",
+            gloam_spectra::num(frac)
+        )));
     }
     let mut s = file.open_sphere(levels)?;
     crate::capture::agc_off(grabber)?;

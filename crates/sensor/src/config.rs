@@ -494,7 +494,12 @@ impl SensorConfig {
                 message: format!("{field}{}", e.message().trim()),
             }
         })?;
-        cfg.validate().map_err(|e| match &e {
+        // The stages' derived figures too (`Chain::new`): an extreme
+        // finite value is named at its file and line like any other.
+        let checked = cfg
+            .validate()
+            .and_then(|()| crate::stages::Chain::new(&cfg).map(|_| ()));
+        checked.map_err(|e| match &e {
             ConfigError::Invalid { field, .. }
             | ConfigError::Missing { field, .. }
             | ConfigError::Spectrum { field, .. } => ConfigError::At {

@@ -217,6 +217,19 @@ pub fn run_scope_command(
     let r = run_scope(&opts, &reads)?;
     write_scope(set.dir(), &r)?;
     publish(set, "scope.json", &reads)?;
+    // A row the cursors cannot read (a line smeared by a narrow video
+    // bandwidth: `--bandwidth-hz 3e4`) printed nothing, exit 0.
+    let unread = r
+        .lines
+        .iter()
+        .map(|l| l.row)
+        .filter(|row| r.readouts.iter().all(|(r, _)| r != row));
+    let unread = unread.map(|row| {
+        format!(
+            "row {row}: no sync pulse or blanking level could be read off the line{} (its trace is in scope.csv)",
+            r.bandwidth_hz.map_or(String::new(), |b| format!(" at a video bandwidth of {} Hz", gloam_spectra::num(b)))
+        )
+    });
     let readouts = (r.readouts.iter()).map(|(row, l)| {
         format!(
             "row {row}: sync {:.3} V, blanking {:.3} V, active {:.3}–{:.3} V, sync {:.3} µs, line {:.3} µs",
@@ -235,5 +248,5 @@ pub fn run_scope_command(
         r.pixel_clock_hz / 1e6,
         a.out.join("scope.png").display()
     );
-    Ok((readouts.collect(), wrote))
+    Ok((readouts.chain(unread).collect(), wrote))
 }

@@ -306,7 +306,7 @@ impl Chain {
         let read_noise_e = (cfg.ccd.read_noise_e.powi(2) + transfer.noise_e.powi(2)).sqrt();
         let dark_e_per_frame = cfg.ccd.dark_current_e_s * cfg.timing.exposure_s;
 
-        Ok(Self {
+        let chain = Self {
             kind,
             tube,
             pitch_cathode_mm,
@@ -328,7 +328,89 @@ impl Chain {
             read_noise_e,
             stages,
             config: cfg.clone(),
-        })
+        };
+        chain.check_figures()?;
+        Ok(chain)
+    }
+
+    /// The figures the stages derive, finite (and the light and gain
+    /// positive): each field is checked alone, but an extreme finite one —
+    /// `f_number = 1e-300`, an MCP `exponent = 1e300`, a `1e-300` µm pixel
+    /// — overflowed or vanished in a product, and the camera gave black or
+    /// saturated frames (`sensor describe`: gain range 0 – inf, EBI NaN)
+    /// with exit 0. Each is named by the first field it comes from.
+    fn check_figures(&self) -> Result<(), ConfigError> {
+        let lit = self.config.optics.transmission > 0.0;
+        let gain = match self.kind {
+            SensorKind::Iccd => "mcp",
+            SensorKind::Ebccd => "ebccd",
+            SensorKind::Ccd => "digitizer",
+        };
+        let checks = [
+            (
+                "optics.f_number",
+                "the light on a pixel per radiance (from optics.f_number, optics.transmission and the pixel pitch)",
+                self.etendue_m2_sr_s,
+                lit,
+            ),
+            (
+                "ccd.pixel_pitch_um",
+                "the pixel pitch on the cathode",
+                self.pitch_cathode_mm,
+                true,
+            ),
+            (gain, "the least gain", self.gain_min, true),
+            (gain, "the greatest gain", self.gain_max, true),
+            (gain, "the reference gain", self.reference_gain, true),
+            (
+                "photocathode.ebi_lm_cm2",
+                "the EBI per pixel",
+                self.ebi_pe_ref,
+                false,
+            ),
+            (
+                "ccd.dark_current_e_s",
+                "the dark electrons per frame",
+                self.dark_e_per_frame,
+                false,
+            ),
+            (
+                "ccd.read_noise_e",
+                "the read noise (the CCD's and the video line's)",
+                self.read_noise_e,
+                false,
+            ),
+            (
+                "digitizer",
+                "the counts per electron",
+                self.base_dn_per_e,
+                true,
+            ),
+            ("digitizer", "the black level", self.black_dn, false),
+        ];
+        // At the least gain a photoelectron must stay below full scale: a
+        // screen voltage of 1e300 made it 7e296 DN, and the frames black.
+        let g = self.gain_min;
+        let dn_pe = self.mean_dn_per_photoelectron(g);
+        let full_pe = (self.saturation_dn(g) - self.black_dn(g)) / dn_pe;
+        let checks = checks.into_iter().chain([(
+            gain,
+            "the photoelectrons that fill the range at the least gain (the tube's gain, screen and coupling against the digitizer)",
+            if full_pe >= 1.0 { full_pe } else { 0.0 },
+            true,
+        )]);
+        for (field, what, v, positive) in checks {
+            if !v.is_finite() || (positive && v <= 0.0) {
+                return Err(ConfigError::invalid(
+                    field,
+                    format!(
+                        "{what} comes to {} with these values: a number this extreme leaves the model (check the table's values for ones far from any camera's)",
+                        gloam_spectra::num(v)
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The intensifier, for an ICCD.
