@@ -4,6 +4,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use gloam_io::RunGuard;
 
 /// `println!` that returns an error instead of panicking when stdout is
 /// closed (`gloam plan … | head -1`); `main` ends such a run quietly.
@@ -149,25 +150,25 @@ enum Command {
     // implementation lives in `src/cmd/<name>.rs`.
 }
 
-fn run(cli: Cli) -> anyhow::Result<()> {
+fn run(cli: Cli, guard: &RunGuard) -> anyhow::Result<()> {
     match cli.command {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Sensor(c) => cmd::sensor::run(c),
-        Command::Calibrate(c) => cmd::calibrate::run(c),
+        Command::Calibrate(c) => cmd::calibrate::run(c, guard),
         Command::Compare(args) => cmd::compare::run(args),
         Command::Device(args) => cmd::device::run(args),
-        Command::Capture(args) => cmd::capture::run(args),
+        Command::Capture(args) => cmd::capture::run(args, guard),
         Command::Grabbers(args) => cmd::grabbers::run(args),
         Command::Spectra(c) => cmd::spectra::run(c),
         Command::Ephem(args) => cmd::ephem::run(args),
         Command::Sky(args) => cmd::sky::run(args),
-        Command::Render(args) => cmd::render::run(args),
-        Command::Sequence(args) => cmd::sequence::run(args),
+        Command::Render(args) => cmd::render::run(args, guard),
+        Command::Sequence(args) => cmd::sequence::run(args, guard),
         Command::Probe(args) => cmd::probe::run(args),
-        Command::Bench(c) => cmd::bench::run(c),
+        Command::Bench(c) => cmd::bench::run(c, guard),
         Command::Sweep(args) => cmd::sweep::run(args),
-        Command::Merge(args) => cmd::merge::run(args),
-        Command::Scope(args) => cmd::scope::run(args),
+        Command::Merge(args) => cmd::merge::run(args, guard),
+        Command::Scope(args) => cmd::scope::run(args, guard),
     }
 }
 
@@ -206,23 +207,13 @@ fn gloam_main() -> ExitCode {
         Ok(m) => m,
         Err(e) => return clap_exit(e),
     };
-    // The subcommand path (`calibrate agc`): its words are not inputs.
-    let mut words = Vec::new();
-    let mut m = &matches;
-    while let Some((name, sub)) = m.subcommand() {
-        words.push(name.into());
-        m = sub;
-        if words.len() > 8 {
-            break;
-        }
-    }
-    gloam_io::output_set::set_command_words(words);
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(c) => c,
         Err(e) => e.exit(),
     };
     gloam_pipeline::cli::process::init_logging(&cli.log);
-    match run(cli) {
+    let guard = gloam_pipeline::cli::process::guard_this_run(&matches);
+    match run(cli, &guard) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e)
             if e.chain().any(|c| {

@@ -345,7 +345,8 @@ fn render<'py>(
     let valid = request.validate(&reads).or_py()?;
     let sink = ProgressSink::new(py, progress, "render")?;
     let done = detached_owned(py, &sink, move |stop, rep| {
-        Ok(valid.run(&Polled { stop, rep })?)
+        // No output set, no children: nothing for a guard to undo.
+        Ok(valid.run(&Polled { stop, rep }, &gloam_io::RunGuard::detached())?)
     })?;
     let report = done.report.to_value().or_py()?;
     let (mut out, detected) = (done.rendered.radiance, done.rendered.detected);

@@ -11,7 +11,7 @@ use gloam_pipeline::cli::calibrate::run_calibrate_command;
 
 use super::progress::Terminal;
 
-pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
+pub fn run(cmd: CalibrateCommand, guard: &gloam_io::RunGuard) -> anyhow::Result<()> {
     let mut bar: Option<indicatif::ProgressBar> = None;
     let mut ev = |e: Event<'_>| match e {
         Event::Note(line) => match &bar {
@@ -26,7 +26,7 @@ pub fn run(cmd: CalibrateCommand) -> anyhow::Result<()> {
             b.set_position(done as u64);
         }
     };
-    let r = run_calibrate_command(&cmd, &mut ev, &Terminal::default());
+    let r = run_calibrate_command(&cmd, &mut ev, &Terminal::default(), guard);
     if let Some(b) = bar {
         b.finish_and_clear();
     }

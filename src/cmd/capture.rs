@@ -8,7 +8,7 @@ use std::sync::Arc;
 use gloam_calib::cli::Event;
 pub use gloam_pipeline::cli::capture::{CaptureArgs, with_out_help};
 
-pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
+pub fn run(args: CaptureArgs, guard: &gloam_io::RunGuard) -> anyhow::Result<()> {
     let valid = args.request().validate(&gloam_io::ReadLog::new())?;
     let template = "{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}";
     let bar = super::progress::bar_or_hidden(template, args.grab.frames);
@@ -21,7 +21,7 @@ pub fn run(args: CaptureArgs) -> anyhow::Result<()> {
     };
     let fit_bar = bar.clone();
     let fit_note = Arc::new(move |note: &str| fit_bar.suspend(|| eprintln!("warning: {note}")));
-    let done = valid.run(&mut ev, fit_note);
+    let done = valid.run(&mut ev, fit_note, guard);
     bar.finish_and_clear();
     let done = done?;
     for line in &done.lines {

@@ -57,9 +57,6 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
 fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
     let bind = gloam_gige::parse_bind_addr(addr)
         .with_context(|| format!("--gige '{addr}': expected an IPv4 ADDR or ADDR:PORT"))?;
-    let cfg =
-        gloam_sensor::SensorConfig::load_preset_or_file(&args.sensor, &gloam_io::ReadLog::off())
-            .with_context(|| format!("sensor '{}'", args.sensor))?;
     let DeviceSource {
         source,
         view,
@@ -69,7 +66,11 @@ fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
     if info.max_width > 65_535 || info.max_height > 65_535 {
         bail!("frame too large for GigE Vision");
     }
-    let mcp_range_v = cfg.mcp.as_ref().map(|m| (m.min_voltage_v, m.max_voltage_v));
+    let mcp_range_v = source
+        .config()
+        .mcp
+        .as_ref()
+        .map(|m| (m.min_voltage_v, m.max_voltage_v));
     // A sequence's frame rate is the camera's default (its clock's).
     let rate_hz = source.frame_rate_hz();
     let facts = gloam_gige::camera_facts(&info, !from_scene, rate_hz, mcp_range_v);

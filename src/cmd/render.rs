@@ -15,10 +15,11 @@ pub use gloam_pipeline::cli::RenderArgs;
 
 use super::progress::Terminal;
 
-pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+pub fn run(args: RenderArgs, guard: &gloam_io::RunGuard) -> anyhow::Result<()> {
     // The wall time the user waits, preparation and writing included.
     let t_start = Instant::now();
-    let done = (args.request().validate(&gloam_io::ReadLog::new())?).run(&Terminal::default())?;
+    let done =
+        (args.request().validate(&gloam_io::ReadLog::new())?).run(&Terminal::default(), guard)?;
     for line in done.lines(&args.out, t_start.elapsed().as_secs_f64()) {
         eprintln!("{line}");
     }

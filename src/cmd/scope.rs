@@ -5,8 +5,8 @@
 
 pub use gloam_calib::cli::ScopeArgs;
 
-pub fn run(a: ScopeArgs) -> anyhow::Result<()> {
-    let (readouts, wrote) = gloam_pipeline::cli::calibrate::run_scope_command(&a)?;
+pub fn run(a: ScopeArgs, guard: &gloam_io::RunGuard) -> anyhow::Result<()> {
+    let (readouts, wrote) = gloam_pipeline::cli::calibrate::run_scope_command(&a, guard)?;
     for line in readouts {
         outln!("{line}");
     }

@@ -9,12 +9,12 @@ pub use gloam_pipeline::cli::SequenceArgs;
 
 use super::progress::Terminal;
 
-pub fn run(args: SequenceArgs) -> anyhow::Result<()> {
+pub fn run(args: SequenceArgs, guard: &gloam_io::RunGuard) -> anyhow::Result<()> {
     let terminal = Terminal::default();
     let done = (args
         .request()
         .validate(&gloam_io::ReadLog::new(), &terminal)?)
-    .run(&terminal)?;
+    .run(&terminal, guard)?;
     for line in &done.lines {
         eprintln!("{line}");
     }

@@ -45,12 +45,7 @@ impl SweepUi for Terminal {
 }
 
 pub fn run(args: SweepArgs) -> anyhow::Result<()> {
-    let provenance = || {
-        serde_json::to_value(gloam_pipeline::Provenance::of_this_run(
-            &gloam_io::ReadLog::off(),
-        ))
-    };
-    match gloam_sweep::command::run(args, provenance, &Terminal::default()) {
+    match gloam_sweep::command::run(args, &Terminal::default()) {
         // A closed pipe ends the command quietly, as `outln!` does.
         Err(SweepCommandError::Stdout(e)) => Err(crate::StdoutClosed(e).into()),
         r => Ok(r?),

@@ -329,7 +329,10 @@ pub struct AccuracyReport {
 /// or is interrupted leaves the previous set as it was). The cached
 /// references of the set it replaces are carried into the new one and
 /// reused where their key still matches (see the module docs).
-pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
+pub fn run(
+    args: &AccuracyOptions,
+    guard: &gloam_io::RunGuard,
+) -> Result<AccuracyReport, BenchError> {
     let t_start = Instant::now();
     ensure_valid!(
         args.budget_s.is_finite() && args.budget_s > 0.0,
@@ -340,9 +343,9 @@ pub fn run(args: &AccuracyOptions) -> Result<AccuracyReport, BenchError> {
     let reads = gloam_io::ReadLog::new();
     let scene = gloam_scene::load(&scene_path, &reads)?;
     let provenance = gloam_pipeline::Provenance::of_this_run(&reads);
-    let set = OutputSet::begin(&args.out, args.force, false)?;
+    let set = OutputSet::begin(&args.out, args.force, false, guard)?;
     carry_cached_references(&args.out, set.dir())?;
-    let report = sweep(args, set.dir(), t_start, &scene_path, &scene)?;
+    let report = sweep(args, set.dir(), t_start, (&scene_path, &scene), guard)?;
     set.publish(&provenance, None)?;
     Ok(report)
 }
@@ -377,8 +380,8 @@ fn sweep(
     args: &AccuracyOptions,
     dir: &Path,
     t_start: Instant,
-    scene_path: &Path,
-    scene: &Scene,
+    (scene_path, scene): (&Path, &Scene),
+    guard: &gloam_io::RunGuard,
 ) -> Result<AccuracyReport, BenchError> {
     let scene_path = scene_path.to_path_buf();
     let scene = scene.clone();
@@ -563,7 +566,15 @@ fn sweep(
     let skipped = planned.saturating_sub(rows.len());
     // 4b. Mitsuba 3 side by side, with its own time (it never shortens
     //     gloam's rows).
-    let mitsuba3 = mitsuba_rows(args, dir, &scene, obstacle.is_some(), &truths, &mut rows);
+    let mitsuba3 = mitsuba_rows(
+        args,
+        dir,
+        &scene,
+        obstacle.is_some(),
+        &truths,
+        &mut rows,
+        guard,
+    );
     // 5. The effect plan against every effect forced on.
     let effect_plan = if args.all_effects {
         Some(effect_plan_saving(&scenes[0], args.threads, &truths[0])?)
@@ -924,6 +935,7 @@ fn mitsuba_rows(
     referenced: bool,
     truths: &[Truth],
     rows: &mut Vec<Row>,
+    guard: &gloam_io::RunGuard,
 ) -> serde_json::Value {
     use super::accuracy_mitsuba as mi;
     let skip = |why: String| serde_json::json!({ "ran": false, "why": why });
@@ -941,7 +953,13 @@ fn mitsuba_rows(
     let direct = referenced.then(|| truths.get(1)).flatten();
     let limit_s = (0.5 * args.budget_s).max(60.0);
     eprintln!("bench accuracy: Mitsuba 3 side by side (up to {limit_s:.0} s) …");
-    match mi::side_by_side(scene, &dir.join("mitsuba3"), &truths[0], direct, limit_s) {
+    match mi::side_by_side(
+        scene,
+        &dir.join("mitsuba3"),
+        (&truths[0], direct),
+        limit_s,
+        guard,
+    ) {
         Ok(side) => {
             for r in &side.rungs {
                 let direct_only = r.max_depth == mi::DIRECT_ONLY_DEPTH;

@@ -218,9 +218,9 @@ fn export(
 pub fn side_by_side(
     scene: &Scene,
     dir: &Path,
-    whole: &Truth,
-    direct: Option<&Truth>,
+    (whole, direct): (&Truth, Option<&Truth>),
     time_limit_s: f64,
+    guard: &gloam_io::RunGuard,
 ) -> Result<SideBySide, BenchError> {
     // Checked before Mitsuba renders (and before an image is read back).
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
@@ -240,6 +240,7 @@ pub fn side_by_side(
         &log,
         &err,
         Duration::from_secs_f64(4.0 * time_limit_s + 60.0),
+        guard,
     )?;
     let json_path = dir.join("mitsuba.json");
     let text = gloam_io::read_text(

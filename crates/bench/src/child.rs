@@ -7,28 +7,34 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use gloam_io::RunGuard;
+
 use super::BenchError;
 
 /// While alive, a child started in its own process group is killed with
-/// its group if this process gets Ctrl-C or SIGTERM; dropped (the child
+/// its group if the run's guard hears Ctrl-C or SIGTERM; dropped (the child
 /// reaped or given up), its group is killed too — a case never outlives the
 /// bench that started it.
 pub struct Reaper {
     pgid: u32,
+    guard: RunGuard,
 }
 
 impl Reaper {
-    pub fn new(child: &std::process::Child) -> Self {
+    pub fn new(child: &std::process::Child, guard: &RunGuard) -> Self {
         let pgid = child.id();
-        gloam_io::output_set::kill_child_group_on_interrupt(pgid);
-        Self { pgid }
+        guard.watch_child_group(pgid);
+        Self {
+            pgid,
+            guard: guard.clone(),
+        }
     }
 }
 
 impl Drop for Reaper {
     fn drop(&mut self) {
-        gloam_io::output_set::forget_child_group(self.pgid);
-        gloam_io::output_set::kill_group(self.pgid);
+        self.guard.forget_child_group(self.pgid);
+        gloam_io::guard::kill_group(self.pgid);
     }
 }
 
@@ -115,6 +121,7 @@ pub fn run_mitsuba_script(
     stdout: &Path,
     stderr: &Path,
     timeout: Duration,
+    guard: &RunGuard,
 ) -> Result<(), BenchError> {
     let t0 = Instant::now();
     let mut cmd = Command::new("python3");
@@ -131,7 +138,7 @@ pub fn run_mitsuba_script(
     let mut child = cmd
         .spawn()
         .map_err(BenchError::io("starting python3 for", script))?;
-    let _reaper = Reaper::new(&child);
+    let _reaper = Reaper::new(&child, guard);
     let failed = |why: String| BenchError::Child {
         what: "Mitsuba 3".into(),
         why,

@@ -23,10 +23,12 @@ pub enum BenchCommandError {
 }
 
 /// Runs the benchmark `c` asks for; `out` writes text to stdout as given
-/// (a JSON document ends with a newline).
+/// (a JSON document ends with a newline). `guard` removes an output set
+/// and kills child processes if the run is interrupted.
 pub fn run(
     c: BenchCommand,
     out: &mut dyn FnMut(&str) -> std::io::Result<()>,
+    guard: &gloam_io::RunGuard,
 ) -> Result<(), BenchCommandError> {
     let mut json = |v: &dyn erased::Json| -> Result<(), BenchCommandError> {
         let text = v.pretty()?;
@@ -35,7 +37,7 @@ pub fn run(
     let text = match c {
         BenchCommand::Accuracy(a) => {
             let as_json = a.json;
-            let report = accuracy::run(&a.options()?)?;
+            let report = accuracy::run(&a.options()?, guard)?;
             if as_json {
                 return json(&report.summary);
             }
@@ -55,7 +57,7 @@ pub fn run(
                 return json(&scale::run_case(case, dir, w, h, spp, a.threads, &a.set)?);
             }
             let exe = std::env::current_exe().map_err(BenchCommandError::Exe)?;
-            let report = scale::run(&a.options(exe)?)?;
+            let report = scale::run(&a.options(exe)?, guard)?;
             if a.json {
                 return json(&report);
             }

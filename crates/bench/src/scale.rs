@@ -825,7 +825,12 @@ const MITSUBA_SCRIPT: &str = include_str!("scale_mitsuba.py");
 
 /// Renders the generated scene in `dir` with Mitsuba 3 (`scale_mitsuba.py`)
 /// within `timeout_s`; its JSON, or `{"error": …}`.
-fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
+fn run_mitsuba(
+    dir: &Path,
+    spp: u32,
+    timeout_s: f64,
+    guard: &gloam_io::RunGuard,
+) -> serde_json::Value {
     let go = || -> Result<serde_json::Value, BenchError> {
         let script = dir.join("scale_mitsuba.py");
         std::fs::write(&script, MITSUBA_SCRIPT).map_err(BenchError::io("writing", &script))?;
@@ -838,6 +843,7 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
             &out,
             &err,
             Duration::from_secs_f64(timeout_s),
+            guard,
         )?;
         Ok(serde_json::from_str(
             &gloam_io::read_text(&out, gloam_io::MAX_TEXT_FILE_BYTES, &crate::unlisted())
@@ -849,7 +855,12 @@ fn run_mitsuba(dir: &Path, spp: u32, timeout_s: f64) -> serde_json::Value {
 
 /// Runs one case in a child process with a timeout (and then in Mitsuba 3
 /// when `mitsuba`).
-fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, BenchError> {
+fn run_child(
+    opts: &ScaleOptions,
+    case: Case,
+    mitsuba: bool,
+    guard: &gloam_io::RunGuard,
+) -> Result<Row, BenchError> {
     let t0 = Instant::now();
     let mut row = Row {
         case: case.label(),
@@ -881,7 +892,7 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
     let stderr_path = work.path().join("stderr.txt");
     let mut cmd = case_command(opts, case, work.path(), (&stdout_path, &stderr_path))?;
     let mut child = cmd.spawn().map_err(BenchError::io("starting", &opts.exe))?;
-    let _reaper = super::child::Reaper::new(&child);
+    let _reaper = super::child::Reaper::new(&child, guard);
     let status = wait_with_timeout(
         &mut child,
         t0,
@@ -921,7 +932,7 @@ fn run_child(opts: &ScaleOptions, case: Case, mitsuba: bool) -> Result<Row, Benc
         && case.kind != Kind::Instances
         && work.path().join("scene").join("scene.toml").exists()
     {
-        row.mitsuba = Some(run_mitsuba(work.path(), opts.spp, opts.timeout_s));
+        row.mitsuba = Some(run_mitsuba(work.path(), opts.spp, opts.timeout_s, guard));
     }
     Ok(row)
 }
@@ -991,7 +1002,7 @@ fn mitsuba_check(skip: bool) -> (bool, String) {
 
 /// Runs every case (triangles first, then lamps), writes `scale.json` and
 /// `scale.png` into `opts.out`, and returns the report.
-pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
+pub fn run(opts: &ScaleOptions, guard: &gloam_io::RunGuard) -> Result<ScaleReport, BenchError> {
     check_options(opts)?;
     let cases = cases(opts);
     for c in &cases {
@@ -1003,7 +1014,7 @@ pub fn run(opts: &ScaleOptions) -> Result<ScaleReport, BenchError> {
     let mut rows = Vec::new();
     for c in cases {
         eprintln!("bench scale: {} …", c.label());
-        let row = run_child(opts, c, mitsuba)?;
+        let row = run_child(opts, c, mitsuba, guard)?;
         eprintln!(
             "bench scale: {} {} ({:.1} s)",
             c.label(),

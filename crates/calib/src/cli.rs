@@ -275,6 +275,7 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
     cmd: &CalibrateCommand,
     registry: &Registry,
     reads: &gloam_io::ReadLog,
+    guard: &gloam_io::RunGuard,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     // An --out set holding one of the run's inputs would replace it
@@ -293,7 +294,7 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
         report::refuse_out_dir_holding_inputs(out, &inputs)?;
     }
     match cmd {
-        CalibrateCommand::Radiance(a) => radiance(a, registry, reads, ev),
+        CalibrateCommand::Radiance(a) => radiance(a, registry, reads, guard, ev),
         CalibrateCommand::Apply(a) => {
             let req = ApplyRequest {
                 lut: a.lut.clone(),
@@ -313,9 +314,9 @@ pub fn run_calibrate<E: From<CalibError> + From<GrabError>>(
             "--sequence renders a scene: run it from the gloam command line".into(),
         )
         .into()),
-        CalibrateCommand::Agc(a) => agc(a, registry, reads, ev),
-        CalibrateCommand::Ptc(a) => ptc(a, registry, reads, ev),
-        CalibrateCommand::Mtf(a) => mtf(a, registry, reads, ev),
+        CalibrateCommand::Agc(a) => agc(a, registry, reads, guard, ev),
+        CalibrateCommand::Ptc(a) => ptc(a, registry, reads, guard, ev),
+        CalibrateCommand::Mtf(a) => mtf(a, registry, reads, guard, ev),
     }
 }
 
@@ -369,6 +370,7 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
     a: &RadianceArgs,
     registry: &Registry,
     reads: &gloam_io::ReadLog,
+    guard: &gloam_io::RunGuard,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let req = RadianceRequest {
@@ -380,7 +382,7 @@ fn radiance<E: From<CalibError> + From<GrabError>>(
     req.validate()?;
     // The output set first (a refused `--out` touches no camera), then
     // the grabber, then the source against it.
-    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let set = OutputSet::begin(&a.out, a.force, false, guard).map_err(CalibError::from)?;
     let mut g = a.grabber.open::<E>(registry, reads, ev)?;
     let lut = req.run(g.as_mut(), reads, ev)?;
     report::write_radiance_report(set.dir(), &lut)?;
@@ -409,6 +411,7 @@ fn agc<E: From<CalibError> + From<GrabError>>(
     a: &AgcArgs,
     registry: &Registry,
     reads: &gloam_io::ReadLog,
+    guard: &gloam_io::RunGuard,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let lut = (a.lut.as_deref())
@@ -422,7 +425,7 @@ fn agc<E: From<CalibError> + From<GrabError>>(
         allow_unsettled: a.allow_unsettled,
     };
     req.validate()?;
-    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let set = OutputSet::begin(&a.out, a.force, false, guard).map_err(CalibError::from)?;
     let mut g = a.grabber.open::<E>(registry, reads, ev)?;
     let r = req.run(g.as_mut(), reads, ev)?;
     report::write_agc_report(set.dir(), &r)?;
@@ -488,6 +491,7 @@ pub struct SequenceRun<'a> {
 pub fn agc_sequence<'a>(
     a: &'a AgcArgs,
     reads: &gloam_io::ReadLog,
+    guard: &gloam_io::RunGuard,
 ) -> Result<SequenceRun<'a>, CalibError> {
     use crate::agc_sequence::AgcSequenceOptions;
     report::refuse_out_dir_holding_inputs(&a.out, &agc_inputs(a))?;
@@ -519,7 +523,7 @@ pub fn agc_sequence<'a>(
             "--sequence: camera '{preset}' has no AGC ([agc] in its sensor file)"
         ))
     })?;
-    let set = OutputSet::begin(&a.out, a.force, false)?;
+    let set = OutputSet::begin(&a.out, a.force, false, guard)?;
     let seed = a.grabber.seed.unwrap_or(uri_seed);
     Ok(SequenceRun {
         a,
@@ -731,6 +735,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
     a: &PtcArgs,
     registry: &Registry,
     reads: &gloam_io::ReadLog,
+    guard: &gloam_io::RunGuard,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let mut req = PtcRequest {
@@ -742,7 +747,7 @@ fn ptc<E: From<CalibError> + From<GrabError>>(
         dataset_dir: None,
     };
     req.validate()?;
-    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let set = OutputSet::begin(&a.out, a.force, false, guard).map_err(CalibError::from)?;
     let mut g = a.grabber.open::<E>(registry, reads, ev)?;
     req.dataset_dir = Some(set.dir().join("emva1288"));
     let r = req.run(g.as_mut(), reads, ev)?.report;
@@ -774,6 +779,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
     a: &MtfArgs,
     registry: &Registry,
     reads: &gloam_io::ReadLog,
+    guard: &gloam_io::RunGuard,
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
@@ -802,7 +808,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
     if let Some(r) = &req {
         r.validate()?;
     }
-    let set = OutputSet::begin(&a.out, a.force, false).map_err(CalibError::from)?;
+    let set = OutputSet::begin(&a.out, a.force, false, guard).map_err(CalibError::from)?;
     let dir = set.dir();
     let Some(req) = req else {
         let ctf_path = a
@@ -890,7 +896,7 @@ pub struct CaptureArgs {
     /// Good frames to capture.
     #[arg(long, default_value_t = 1)]
     /// At most 1 000 000 (nine hours at 30 frames/s; split longer runs).
-    #[arg(value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    #[arg(value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub frames: u64,
     /// Output directory (frame-NNNNNN.png + frames.jsonl).
     #[arg(long)]
@@ -1043,7 +1049,6 @@ mod tests {
 
     use super::*;
     use crate::capture::FrameLosses;
-    use gloam_grabber::Frame;
 
     #[derive(Parser)]
     struct Scope {
@@ -1102,6 +1107,7 @@ mod tests {
             &CalibrateCommand::Radiance(a),
             &gloam_simcam::registry(),
             &gloam_io::ReadLog::off(),
+            &gloam_io::RunGuard::detached(),
             &mut |_| {},
         );
         let e = r.err().expect("a negative gain is refused");
@@ -1139,29 +1145,31 @@ mod tests {
         )
         .unwrap();
         let mut kept = Vec::new();
-        let (t, r) = capture(3).request().grab::<CalibError, _>(
-            &mut g,
-            &|| false,
-            |i, f: &Frame, _| {
-                kept.push((i, f.pixels.len()));
-                Ok(())
-            },
-            &mut |_| {},
-        );
-        r.unwrap();
+        let request = capture(3).request();
+        let mut grabbing = request.grabbing();
+        let guard = gloam_io::RunGuard::detached();
+        while let Some((i, f, _)) = grabbing.next_frame(&mut g, &guard, &mut |_| {}).unwrap() {
+            kept.push((i, f.pixels.len()));
+        }
         assert_eq!(kept, [(0, 128), (1, 128), (2, 128)]);
+        let t = grabbing.tally();
         assert_eq!((t.kept, t.losses), (3, FrameLosses::default()));
-        let (t, r) = capture(3).request().grab::<CalibError, _>(
-            &mut g,
-            &|| true,
-            |_, _: &Frame, _| Ok(()),
-            &mut |_| {},
+        // An interrupt the guard heard (a capture's set polls for it).
+        let dir = tempfile::tempdir().unwrap();
+        let staging = dir.path().join("s");
+        let set = gloam_io::OutputSet::begin(&staging, false, true, &guard).unwrap();
+        assert_eq!(
+            guard.on_interrupt(),
+            gloam_io::guard::AfterInterrupt::Continue
         );
+        let mut grabbing = request.grabbing();
+        let r = grabbing.next_frame(&mut g, &guard, &mut |_| {});
         assert_eq!(
             r.unwrap_err().to_string(),
             "interrupted (Ctrl-C, SIGTERM or SIGHUP)"
         );
-        assert_eq!(t.kept, 0);
+        assert_eq!(grabbing.tally().kept, 0);
+        drop(set);
         assert!(capture(0).request().check().is_err());
     }
 }

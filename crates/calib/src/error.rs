@@ -8,8 +8,8 @@ use gloam_grabber::GrabError;
 /// Everything a calibration flow can fail with.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
-    /// The grabber's error is the source: "grabber: {0}" printed it twice
-    /// in a chain ("grabber: invalid setting: …: invalid setting: …").
+    /// The grabber's error is the source: the message read "grabber: X: X"
+    /// when it was also in this one's text.
     #[error("grabber")]
     Grab(#[from] GrabError),
     #[error("{path}: {message}")]
@@ -157,5 +157,18 @@ impl CalibError {
             path: path.into(),
             message: message.to_string(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A grabber's error reads once in the chain the command line prints
+    /// ("grabber: X", not "grabber: X: X").
+    #[test]
+    fn a_grabber_error_is_said_once() {
+        let e = CalibError::from(GrabError::Unsupported("no such camera".into()));
+        assert_eq!(gloam_io::output_set::chain(&e), "grabber: no such camera");
     }
 }

@@ -85,7 +85,14 @@ fn grey_of_bytes(path: &Path, bytes: Vec<u8>) -> Result<GreyImage, CalibError> {
             data: p.counts.into_iter().map(f64::from).collect(),
         });
     }
-    let img = image::load_from_memory(&bytes).map_err(|e| CalibError::file(path, e))?;
+    let img = image::load_from_memory(&bytes).map_err(|e| match e {
+        // The decoder's own "could not be determined" names no format.
+        image::ImageError::Unsupported(_) => CalibError::file(
+            path,
+            "not an image gloam reads (a PNG, FITS or TIFF of grey counts)",
+        ),
+        e => CalibError::file(path, e),
+    })?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     let data = match img {
         image::DynamicImage::ImageLuma8(b) => b.into_raw().into_iter().map(f64::from).collect(),

@@ -20,8 +20,8 @@ use crate::CalibError;
 use crate::agc::{AgcOptions, AgcReport, agc_linearisation};
 use crate::capture::FrameLosses;
 use crate::mtf_flow::{
-    GrabberTarget, MtfRequest, VoltageReport, VoltageRequest, check_sine_frequencies, measure_mtf,
-    voltage_mtf,
+    GrabberTarget, MtfRequest, VoltageReport, VoltageRequest, check_sine_frequencies,
+    check_target_settings, measure_mtf, voltage_mtf,
 };
 use crate::ptc::{PtcOptions, PtcResult, photon_transfer};
 use crate::radiance::{Lut, RadianceOptions, calibrate_radiance};
@@ -50,6 +50,9 @@ pub type Events<'e> = dyn FnMut(Event<'_>) + 'e;
 pub const MAX_LEVELS: usize = 10_000;
 /// Most frames taken at one setting (`--frames`, `--spatial-frames`).
 pub const MAX_FRAMES_PER_SETTING: usize = 100_000;
+/// Most gains one LUT calibrates (a camera's gain control has at most a
+/// few hundred useful settings; each gain is a whole staircase).
+pub const MAX_LUT_GAINS: usize = 1_000;
 
 fn usage(m: impl Into<String>) -> CalibError {
     CalibError::Usage(m.into())
@@ -150,8 +153,22 @@ impl RadianceRequest {
         if self.gains.is_empty() {
             return Err(usage("--gains needs at least one gain"));
         }
-        for &g in &self.gains {
+        check_count(
+            "--gains: the number of gains",
+            self.gains.len(),
+            MAX_LUT_GAINS,
+        )?;
+        for (i, &g) in self.gains.iter().enumerate() {
             check_gain("--gains", g)?;
+            // The LUT would hold the gain twice, which `calibrate apply`
+            // refuses: the run's captures at it were spent for nothing.
+            if let Some(j) = self.gains[..i].iter().position(|&e| e == g) {
+                return Err(usage(format!(
+                    "--gains: {g} is given twice (gains {} and {}); a LUT holds one line per gain",
+                    j + 1,
+                    i + 1
+                )));
+            }
         }
         check_count("--frames", self.frames, MAX_FRAMES_PER_SETTING)?;
         self.source.validate()
@@ -342,6 +359,7 @@ impl MtfCalibration {
         if sine {
             check_sine_frequencies(&self.mtf.frequencies_cy_per_px)?;
         }
+        check_target_settings(&self.mtf)?;
         if let Some(g) = self.mtf.gain {
             check_gain("--gain", g)?;
         }
@@ -602,63 +620,95 @@ impl GrabRequest {
         Ok(g)
     }
 
-    /// Grabs `--frames` good frames, handing each to `keep` with its index
-    /// and exposure warnings; rides out up to `--max-consecutive-failures`
-    /// lost or damaged frames in a row, and stops when `interrupted()`.
-    /// Each kind of exposure warning is noted once (every frame keeps its
-    /// own through `keep`). The tally is returned even when the run failed.
-    pub fn grab<E: From<CalibError>, K: FnMut(u64, &Frame, Vec<String>) -> Result<(), E>>(
-        &self,
+    /// The grab loop, driven by its caller ([`Grabbing::next_frame`]):
+    /// the caller stores each frame where it belongs (a capture's files),
+    /// so nothing of the caller's is passed down here.
+    pub fn grabbing(&self) -> Grabbing<'_> {
+        Grabbing {
+            request: self,
+            tally: CaptureTally::default(),
+            consecutive: 0,
+            warned: std::collections::BTreeSet::new(),
+            status: String::new(),
+        }
+    }
+}
+
+/// A capture under way: `--frames` good frames, riding out up to
+/// `--max-consecutive-failures` lost or damaged frames in a row, stopping
+/// when the run's guard reports an interrupt. Each kind of exposure
+/// warning is noted once (every frame keeps its own).
+pub struct Grabbing<'r> {
+    request: &'r GrabRequest,
+    tally: CaptureTally,
+    consecutive: u64,
+    warned: std::collections::BTreeSet<gloam_sensor::levels::WarningKind>,
+    status: String,
+}
+
+impl Grabbing<'_> {
+    /// The next good frame, its index and its exposure warnings; `None`
+    /// once every frame asked for was kept. Counts the frame kept.
+    /// Bounded: each call returns after a good frame or at most
+    /// `--max-consecutive-failures` bad ones.
+    pub fn next_frame(
+        &mut self,
         g: &mut dyn FrameGrabber,
-        interrupted: &dyn Fn() -> bool,
-        mut keep: K,
+        guard: &gloam_io::RunGuard,
         ev: &mut dyn FnMut(Event<'_>),
-    ) -> (CaptureTally, Result<(), E>) {
-        let mut t = CaptureTally::default();
-        let mut consecutive = 0u64;
-        let mut warned = std::collections::BTreeSet::new();
-        let mut status = String::new();
-        let result = (|| {
-            while t.kept < self.frames {
-                if interrupted() {
-                    // One handler takes all three (the `ctrlc` crate does not say which):
-                    // a SIGTERM was recorded as "Ctrl-C".
-                    return Err(CalibError::Usage(INTERRUPTED.into()).into());
-                }
-                match g.grab() {
-                    Ok(f) => {
-                        consecutive = 0;
-                        let exposure = f.exposure();
-                        for (w, k) in exposure.warnings.iter().zip(&exposure.warning_kinds) {
-                            if warned.insert(*k) {
-                                ev(Event::Note(format!("warning: frame {}: {w}", t.kept)));
-                            }
-                        }
-                        t.frames_warned += u64::from(!exposure.warnings.is_empty());
-                        keep(t.kept, &f, exposure.warnings)?;
-                        t.kept += 1;
-                    }
-                    Err(e) if t.losses.count(&e) => {
-                        consecutive += 1;
-                        ev(Event::Note(format!("warning: {e}")));
-                        let l = &t.losses;
-                        status = format!("{} damaged, {} lost", l.damaged, l.lost);
-                        if consecutive >= self.max_consecutive_failures {
-                            let m =
-                                format!("{consecutive} lost or damaged frames in a row; giving up");
-                            return Err(CalibError::Usage(m).into());
-                        }
-                    }
-                    Err(e) => return Err(CalibError::Grabbing(Box::new(e)).into()),
-                }
-                ev(Event::Progress(
-                    &status,
-                    t.kept as usize,
-                    self.frames as usize,
-                ));
+    ) -> Result<Option<(u64, Frame, Vec<String>)>, CalibError> {
+        let t = &mut self.tally;
+        if t.kept >= self.request.frames {
+            return Ok(None);
+        }
+        loop {
+            if guard.interrupted() {
+                // One handler takes all three (the `ctrlc` crate does not say which):
+                // a SIGTERM was recorded as "Ctrl-C".
+                return Err(CalibError::Usage(INTERRUPTED.into()));
             }
-            Ok(())
-        })();
-        (t, result)
+            match g.grab() {
+                Ok(f) => {
+                    self.consecutive = 0;
+                    let exposure = f.exposure();
+                    for (w, k) in exposure.warnings.iter().zip(&exposure.warning_kinds) {
+                        if self.warned.insert(*k) {
+                            ev(Event::Note(format!("warning: frame {}: {w}", t.kept)));
+                        }
+                    }
+                    t.frames_warned += u64::from(!exposure.warnings.is_empty());
+                    let index = t.kept;
+                    t.kept += 1;
+                    ev(Event::Progress(
+                        &self.status,
+                        t.kept as usize,
+                        self.request.frames as usize,
+                    ));
+                    return Ok(Some((index, f, exposure.warnings)));
+                }
+                Err(e) if t.losses.count(&e) => {
+                    self.consecutive += 1;
+                    ev(Event::Note(format!("warning: {e}")));
+                    let l = &t.losses;
+                    self.status = format!("{} damaged, {} lost", l.damaged, l.lost);
+                    let n = self.consecutive;
+                    if n >= self.request.max_consecutive_failures {
+                        let m = format!("{n} lost or damaged frames in a row; giving up");
+                        return Err(CalibError::Usage(m));
+                    }
+                    ev(Event::Progress(
+                        &self.status,
+                        t.kept as usize,
+                        self.request.frames as usize,
+                    ));
+                }
+                Err(e) => return Err(CalibError::Grabbing(Box::new(e))),
+            }
+        }
+    }
+
+    /// How the capture went so far.
+    pub fn tally(&self) -> &CaptureTally {
+        &self.tally
     }
 }

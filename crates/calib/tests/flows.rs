@@ -458,6 +458,41 @@ fn slanted_edge_mtf_matches_the_analytic_mtf() {
     assert_eq!(v["curves"][0]["mtf50"], v["mtf50"]);
 }
 
+/// An intensified camera's edge image: a strong fixed pattern (20 % per
+/// pixel, a Gen III tube's fibre bundles) and few photons. Each pixel is
+/// flat-fielded between its own dark and bright response and the edge is
+/// placed from bands of rows, so the MTF still follows the analytic one;
+/// row centroids alone fitted a 5° edge on gen3-gaas-iccd at 7.2° (MTF50
+/// 0.07 cy/px against the sine targets' 0.23).
+#[test]
+fn slanted_edge_mtf_holds_through_a_fixed_pattern_and_noise() {
+    use rand::SeedableRng;
+    use rand_distr::Distribution;
+    let mut cam = MockCamera::new(11);
+    (cam.w, cam.h) = (256, 192);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
+    let n = rand_distr::Normal::new(0.0, 1.0).unwrap();
+    cam.prnu = (0..256 * 192)
+        .map(|_| (1.0f64 + 0.2 * n.sample(&mut rng)).max(0.2))
+        .collect();
+    cam.dsnu = vec![0.0; 256 * 192];
+    cam.photons_per_radiance = 40.0;
+    let opts = EdgeOptions {
+        dark_radiance_w_m2_sr: 1.0,
+        bright_radiance_w_m2_sr: 8.0,
+        angle_deg: 5.0,
+        spectrum: "tungsten-halogen-3200k".into(),
+        frames: 8,
+    };
+    let c = edge_mtf(&mut cam, &opts, &mut |_, _| {}).unwrap();
+    let worst = (c.frequencies_cy_per_px.iter().zip(&c.mtf))
+        .filter(|(f, _)| **f < 0.4)
+        .map(|(&f, &m)| (m - cam.mtf(f)).abs())
+        .fold(0.0, f64::max);
+    println!("noisy slanted edge: max |error| below 0.4 cy/px {worst:.4}");
+    assert!(worst < 0.06, "{worst}");
+}
+
 #[test]
 fn flat_field_has_no_edge() {
     let mut cam = MockCamera::new(10);

@@ -61,6 +61,10 @@ pub struct Rendered {
     /// The sensor model's own figures of the frame, for a simulated
     /// camera (its grabber passes them on; a wire does not carry them).
     pub sensor: Option<gloam_io::frame::SensorMeta>,
+    /// The pixels' CRC-32C when the source already computed it (a
+    /// simulated camera's frame carries one): a grabber passing the same
+    /// pixels on reuses it rather than hashing the frame again.
+    pub pixels_crc32c: Option<u32>,
 }
 
 /// Fixed facts about a source.
@@ -252,6 +256,7 @@ impl FrameSource for SyntheticSource {
             gate_duty: None,
             nd_density: None,
             sensor: None,
+            pixels_crc32c: None,
         })
     }
 }

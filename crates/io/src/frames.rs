@@ -575,6 +575,27 @@ mod tests {
         );
     }
 
+    /// A number reads back as the very float written: without
+    /// serde_json's `float_roundtrip`, 0.4601718756336968 (a pilot's share
+    /// in report.json) came back one ulp off.
+    #[test]
+    fn numbers_read_back_to_the_bit() {
+        let d = tempfile::tempdir().unwrap();
+        let mut log = FrameLog::create(d.path()).unwrap();
+        let hard = [0.4601718756336968, 0.46017187563369677, 1.0e-310, 5e-324];
+        for g in hard {
+            log.append(&Rec { file: "a", gain: g }).unwrap();
+        }
+        drop(log);
+        let path = d.path().join(FRAMES_JSONL);
+        let got: Vec<f64> = lines(&path, &crate::ReadLog::off())
+            .unwrap()
+            .map(|l| l.unwrap().number("gain").unwrap())
+            .collect();
+        let bits = |v: &[f64]| v.iter().map(|g| g.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&got), bits(&hard));
+    }
+
     /// Blank lines count in the numbering; a bad line names its number.
     #[test]
     fn lines_are_numbered_as_in_the_file() {

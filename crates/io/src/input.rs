@@ -110,6 +110,26 @@ impl ReadLog {
     }
 }
 
+/// `text` from an input as a message quotes it: control characters
+/// (a NUL, a carriage return, an escape sequence) spelled out, so the
+/// fault is visible — a row `1,2<NUL>` was quoted as `found '1,2'`, which
+/// looks valid on a terminal.
+pub fn shown(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return text.into();
+    }
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect::<String>()
+        .into()
+}
+
 /// SHA-256 of `bytes`, hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     use std::fmt::Write as _;

@@ -1,18 +1,10 @@
 #![doc = include_str!("../README.md")]
 
-/// `eprintln!` that never panics (std's does when stderr is full or
-/// closed): the message is lost, the run is not.
-macro_rules! eprintln {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($t)*);
-    }};
-}
-
 mod atomic;
 pub mod fits;
 pub mod frame;
 pub mod frames;
+pub mod guard;
 mod hash;
 mod input;
 pub mod npy;
@@ -21,10 +13,11 @@ pub mod png;
 pub mod tiff;
 
 pub use atomic::{EncodeError, FileError, write_atomic};
+pub use guard::RunGuard;
 pub use hash::{InputFile, MAX_HASHED_BYTES, hash_file};
 pub use input::{
     FileRead, MAX_IMAGE_FILE_BYTES, MAX_MESH_FILE_BYTES, MAX_RECORDED_READS, MAX_TEXT_FILE_BYTES,
-    ReadLog, open_bounded, read_bounded, read_text, sha256_hex,
+    ReadLog, open_bounded, read_bounded, read_text, sha256_hex, shown,
 };
 pub use output_set::{ManifestProvenance, OutputSet, OutputSetError};
 

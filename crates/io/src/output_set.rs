@@ -17,11 +17,10 @@
 //! just before the manifest is written.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde::Serialize;
 
+use crate::guard::RunGuard;
 use crate::hash::{InputFile, hash_file};
 
 /// The provenance a set's `manifest.json` carries under `"provenance"`,
@@ -32,69 +31,6 @@ pub trait ManifestProvenance: Serialize + Clone {
     /// scene's OBJ files are read after the run's provenance was first
     /// taken).
     fn add_inputs_read(&mut self);
-}
-
-/// Staging directories of this process, removed on Ctrl-C.
-static STAGING: Mutex<Vec<(PathBuf, bool)>> = Mutex::new(Vec::new());
-/// Process groups of this process's children (`gloam_bench::child::Reaper`),
-/// killed on Ctrl-C or SIGTERM so none outlives the parent.
-static CHILD_GROUPS: Mutex<Vec<u32>> = Mutex::new(Vec::new());
-
-/// Kills child process group `pgid` if this process is interrupted (until
-/// [`forget_child_group`]); installs the interrupt handler.
-pub fn kill_child_group_on_interrupt(pgid: u32) {
-    install_handler();
-    if let Ok(mut g) = CHILD_GROUPS.lock() {
-        g.push(pgid);
-    }
-}
-
-/// Stops tracking `pgid` (the child was reaped).
-pub fn forget_child_group(pgid: u32) {
-    if let Ok(mut g) = CHILD_GROUPS.lock() {
-        g.retain(|&p| p != pgid);
-    }
-}
-
-/// SIGKILL to every process of group `pgid`.
-pub fn kill_group(pgid: u32) {
-    #[cfg(unix)]
-    if let Ok(pid) = i32::try_from(pgid)
-        && pid > 0
-    {
-        // SAFETY: kill(2) with a negative pid signals that process group;
-        // no memory is shared with the callee.
-        unsafe {
-            libc::kill(-pid, libc::SIGKILL);
-        }
-    }
-}
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-static HANDLER: std::sync::Once = std::sync::Once::new();
-
-/// True once Ctrl-C was pressed during a run whose loop polls for it.
-pub fn interrupted() -> bool {
-    INTERRUPTED.load(Ordering::SeqCst)
-}
-
-fn install_handler() {
-    HANDLER.call_once(|| {
-        let _ = ctrlc::set_handler(|| {
-            let groups = CHILD_GROUPS.lock().map(|g| g.clone()).unwrap_or_default();
-            groups.into_iter().for_each(kill_group);
-            let staging = STAGING.lock().map(|s| s.clone()).unwrap_or_default();
-            if staging.iter().any(|(_, polls)| *polls) && !interrupted() {
-                // A loop will stop and publish what it has.
-                INTERRUPTED.store(true, Ordering::SeqCst);
-                return;
-            }
-            for (dir, _) in staging {
-                let _ = std::fs::remove_dir_all(dir);
-            }
-            eprintln!("interrupted: nothing was published");
-            std::process::exit(130);
-        });
-    });
 }
 
 /// The manifest a published set carries.
@@ -194,19 +130,24 @@ pub struct OutputSet {
     target: PathBuf,
     staging: PathBuf,
     published: bool,
+    /// The run's guard, which removes the staging directory on an interrupt.
+    guard: RunGuard,
 }
 
 impl OutputSet {
-    /// Starts a set for `target`. Refuses a non-empty `target` unless
-    /// `force`. `polls_interrupt`: the caller's loop checks
-    /// [`interrupted`] and publishes what it has, instead of Ctrl-C
-    /// discarding the set.
+    /// Starts a set for `target`, guarded by the run's `guard`. Refuses a
+    /// non-empty `target` unless `force`, and a `target` that holds or is
+    /// inside an input named on the guard's command line.
+    /// `polls_interrupt`: the caller's loop checks
+    /// [`RunGuard::interrupted`] and publishes what it has, instead of
+    /// Ctrl-C discarding the set.
     pub fn begin(
         target: &Path,
         force: bool,
         polls_interrupt: bool,
+        guard: &RunGuard,
     ) -> Result<Self, OutputSetError> {
-        refuse_target_inside_inputs(target, std::env::args_os().skip(1))?;
+        refuse_target_inside_inputs(target, guard.arguments())?;
         if let Ok(meta) = std::fs::symlink_metadata(target) {
             if meta.file_type().is_symlink() {
                 return Err(OutputSetError::Link(target.to_path_buf()));
@@ -222,7 +163,7 @@ impl OutputSet {
                 return Err(OutputSetError::NotEmpty(target.to_path_buf()));
             }
             if non_empty {
-                refuse_inputs_inside(target, std::env::args_os().skip(1))?;
+                refuse_inputs_inside(target, guard.arguments())?;
                 refuse_unless_output_set(target)?;
             }
         }
@@ -230,8 +171,9 @@ impl OutputSet {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        std::fs::create_dir_all(&parent)
-            .map_err(io_err(|| format!("creating {}", parent.display())))?;
+        std::fs::create_dir_all(&parent).map_err(io_err(|| {
+            format!("--out {}: creating {}", target.display(), parent.display())
+        }))?;
         if let Some(n) = target.file_name()
             && n.len() > NAME_MAX
         {
@@ -249,16 +191,19 @@ impl OutputSet {
             std::fs::remove_dir_all(&staging)
                 .map_err(io_err(|| format!("removing a stale {}", staging.display())))?;
         }
-        std::fs::create_dir(&staging)
-            .map_err(io_err(|| format!("creating {}", staging.display())))?;
-        install_handler();
-        if let Ok(mut s) = STAGING.lock() {
-            s.push((staging.clone(), polls_interrupt));
-        }
+        std::fs::create_dir(&staging).map_err(io_err(|| {
+            format!(
+                "--out {}: creating its staging directory {}",
+                target.display(),
+                staging.display()
+            )
+        }))?;
+        guard.stage(staging.clone(), polls_interrupt);
         Ok(Self {
             target: target.to_path_buf(),
             staging,
             published: false,
+            guard: guard.clone(),
         })
     }
 
@@ -323,9 +268,7 @@ impl OutputSet {
         std::fs::rename(&self.staging, &self.target)
             .map_err(io_err(|| format!("publishing {}", self.target.display())))?;
         self.published = true;
-        if let Ok(mut s) = STAGING.lock() {
-            s.retain(|(d, _)| d != &self.staging);
-        }
+        self.guard.unstage(&self.staging);
         if had_old {
             std::fs::remove_dir_all(&old).map_err(io_err(|| {
                 format!("removing the previous set {}", old.display())
@@ -426,29 +369,14 @@ fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
     Ok(())
 }
 
-/// The command's own words (`calibrate`, `agc`), in order: an argument
-/// that is the next of them is the command's name, not an input, even
-/// where a directory of that name exists (`gloam calibrate agc --out agc`).
-static COMMAND_WORDS: std::sync::OnceLock<Vec<std::ffi::OsString>> = std::sync::OnceLock::new();
-
-/// Declares the subcommand path the binary parsed (once, at start-up).
-pub fn set_command_words(words: Vec<std::ffi::OsString>) {
-    let _ = COMMAND_WORDS.set(words);
-}
-
 /// The existing paths named on the command line, as given and resolved
-/// (links and `..` gone): every argument but the command's own words and
-/// the `--out` value, which names the target, not an input. Bounded by
-/// the first 10 000 arguments.
-fn named_paths(args: impl Iterator<Item = std::ffi::OsString>) -> Vec<(PathBuf, PathBuf)> {
+/// (links and `..` gone): every argument (the command's own words are not
+/// among them, [`RunGuard::for_command_line`]) but the `--out` value,
+/// which names the target, not an input.
+fn named_paths(args: &[std::ffi::OsString]) -> Vec<(PathBuf, PathBuf)> {
     let mut after_out = false;
-    let mut words = COMMAND_WORDS.get().into_iter().flatten().peekable();
     let mut out = Vec::new();
-    for a in args.take(10_000) {
-        if words.peek().is_some_and(|w| **w == a) {
-            words.next();
-            continue;
-        }
+    for a in args {
         let is_out_value = std::mem::replace(&mut after_out, a == "--out");
         if is_out_value || a.to_string_lossy().starts_with("--out=") || a.is_empty() {
             continue;
@@ -464,10 +392,7 @@ fn named_paths(args: impl Iterator<Item = std::ffi::OsString>) -> Vec<(PathBuf, 
 /// Refuses a `target` that holds (or is) any existing path named on the
 /// command line — an input the run reads (`gloam merge t1 t2 --out t1`,
 /// `gloam render sd/s.toml --out sd`).
-fn refuse_inputs_inside(
-    target: &Path,
-    args: impl Iterator<Item = std::ffi::OsString>,
-) -> Result<(), OutputSetError> {
+fn refuse_inputs_inside(target: &Path, args: &[std::ffi::OsString]) -> Result<(), OutputSetError> {
     let Ok(t) = target.canonicalize() else {
         return Ok(());
     };
@@ -516,7 +441,7 @@ pub fn resolved_as_far_as_it_exists(path: &Path) -> Option<PathBuf> {
 /// resolved paths (links and `..` gone).
 fn refuse_target_inside_inputs(
     target: &Path,
-    args: impl Iterator<Item = std::ffi::OsString>,
+    args: &[std::ffi::OsString],
 ) -> Result<(), OutputSetError> {
     let Some(t) = resolved_as_far_as_it_exists(target) else {
         return Ok(());
@@ -537,9 +462,7 @@ impl Drop for OutputSet {
     fn drop(&mut self) {
         if !self.published {
             let _ = std::fs::remove_dir_all(&self.staging);
-            if let Ok(mut s) = STAGING.lock() {
-                s.retain(|(d, _)| d != &self.staging);
-            }
+            self.guard.unstage(&self.staging);
         }
     }
 }
@@ -585,7 +508,7 @@ mod tests {
         assert!(sa.len() <= NAME_MAX && sb.len() <= NAME_MAX && sa != sb);
         assert_eq!(staging_name("o", 7), ".o.partial-7");
         let out = dir.path().join(&a);
-        let set = OutputSet::begin(&out, false, false).unwrap();
+        let set = OutputSet::begin(&out, false, false, &RunGuard::detached()).unwrap();
         std::fs::write(set.dir().join("x.txt"), b"x").unwrap();
         set.publish(&prov(), None).unwrap();
         assert!(out.join("x.txt").is_file());
@@ -611,7 +534,7 @@ mod tests {
     fn a_set_appears_whole_and_replaces_the_old_one_only_with_force() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out");
-        let set = OutputSet::begin(&out, false, false).unwrap();
+        let set = OutputSet::begin(&out, false, false, &RunGuard::detached()).unwrap();
         std::fs::write(set.dir().join("a.txt"), b"first").unwrap();
         assert!(!out.exists(), "nothing is visible before publishing");
         set.publish(&prov(), None).unwrap();
@@ -623,10 +546,12 @@ mod tests {
         assert_eq!(m["files"][0]["sha256"], crate::sha256_hex(b"first"));
 
         // A non-empty --out is refused without --force.
-        let err = OutputSet::begin(&out, false, false).err().unwrap();
+        let err = OutputSet::begin(&out, false, false, &RunGuard::detached())
+            .err()
+            .unwrap();
         assert!(format!("{err}").contains("--force"), "{err}");
         // With --force, a smaller set leaves no stale file of the old one.
-        let set = OutputSet::begin(&out, true, false).unwrap();
+        let set = OutputSet::begin(&out, true, false, &RunGuard::detached()).unwrap();
         std::fs::write(set.dir().join("b.txt"), b"second").unwrap();
         set.publish(&prov(), Some("interrupted")).unwrap();
         assert!(!out.join("a.txt").exists());
@@ -647,7 +572,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out");
         // A set with a subdirectory (an EMVA dataset's images/) is ours.
-        let set = OutputSet::begin(&out, false, false).unwrap();
+        let set = OutputSet::begin(&out, false, false, &RunGuard::detached()).unwrap();
         std::fs::create_dir(set.dir().join("images")).unwrap();
         std::fs::write(set.dir().join("images/a.tif"), b"x").unwrap();
         std::fs::write(set.dir().join("r.json"), b"{}").unwrap();
@@ -661,7 +586,7 @@ mod tests {
             .map(|f| f["path"].as_str().unwrap())
             .collect();
         assert_eq!(paths, ["images/a.tif", "r.json"]);
-        OutputSet::begin(&out, true, false)
+        OutputSet::begin(&out, true, false, &RunGuard::detached())
             .unwrap()
             .publish(&prov(), None)
             .unwrap();
@@ -672,7 +597,12 @@ mod tests {
 
         // A file the set did not write: refused, named, and left alone.
         std::fs::write(out.join("notes.txt"), b"mine").unwrap();
-        let err = format!("{:#}", OutputSet::begin(&out, true, false).err().unwrap());
+        let err = format!(
+            "{:#}",
+            OutputSet::begin(&out, true, false, &RunGuard::detached())
+                .err()
+                .unwrap()
+        );
         assert!(
             err.contains("notes.txt") && err.contains("--force"),
             "{err}"
@@ -685,7 +615,9 @@ mod tests {
         std::fs::write(scene_dir.join("s.toml"), b"units = 'm'").unwrap();
         let err = format!(
             "{:#}",
-            OutputSet::begin(&scene_dir, true, false).err().unwrap()
+            OutputSet::begin(&scene_dir, true, false, &RunGuard::detached())
+                .err()
+                .unwrap()
         );
         assert!(err.contains("manifest.json"), "{err}");
         assert!(scene_dir.join("s.toml").exists());
@@ -716,7 +648,7 @@ mod tests {
             dir.path().join("via/merged"),
             dir.path().join("t1/sub"),
         ] {
-            let err = refuse_target_inside_inputs(&inside, args(&inside).into_iter())
+            let err = refuse_target_inside_inputs(&inside, &args(&inside))
                 .unwrap_err()
                 .to_string();
             assert!(
@@ -731,14 +663,14 @@ mod tests {
             t1.clone(),
             dir.path().join("t10"),
         ] {
-            refuse_target_inside_inputs(&outside, args(&outside).into_iter())
+            refuse_target_inside_inputs(&outside, &args(&outside))
                 .unwrap_or_else(|e| panic!("{}: {e}", outside.display()));
         }
         // A file argument is not a directory the set could sit inside.
         std::fs::write(dir.path().join("s.toml"), "").unwrap();
         let out = dir.path().join("s.toml/o");
         let a = vec!["render".into(), dir.path().join("s.toml").into_os_string()];
-        refuse_target_inside_inputs(&out, a.into_iter()).unwrap();
+        refuse_target_inside_inputs(&out, &a).unwrap();
     }
 
     #[cfg(unix)]
@@ -751,7 +683,12 @@ mod tests {
         let link = dir.path().join("link");
         std::os::unix::fs::symlink(&real, &link).unwrap();
         for force in [false, true] {
-            let err = format!("{:#}", OutputSet::begin(&link, force, false).err().unwrap());
+            let err = format!(
+                "{:#}",
+                OutputSet::begin(&link, force, false, &RunGuard::detached())
+                    .err()
+                    .unwrap()
+            );
             assert!(err.contains("symbolic link"), "{err}");
         }
         assert!(
@@ -764,7 +701,7 @@ mod tests {
 
         // `gloam merge t1 t2 --out t1 --force`: t1 is an input.
         let t1 = dir.path().join("t1");
-        OutputSet::begin(&t1, false, false)
+        OutputSet::begin(&t1, false, false, &RunGuard::detached())
             .unwrap()
             .publish(&prov(), None)
             .unwrap();
@@ -779,19 +716,16 @@ mod tests {
                 }
             })
             .collect();
-        let err = format!(
-            "{:#}",
-            refuse_inputs_inside(&t1, cwd_args.clone().into_iter()).unwrap_err()
-        );
+        let err = format!("{:#}", refuse_inputs_inside(&t1, &cwd_args).unwrap_err());
         assert!(err.contains("holds the input"), "{err}");
         // The value of --out alone is not an input.
-        assert!(refuse_inputs_inside(&t1, cwd_args.into_iter().skip(3)).is_ok());
+        assert!(refuse_inputs_inside(&t1, &cwd_args[3..]).is_ok());
         // A file inside the target named as an input, too.
         let inner = t1.join("manifest.json").into_os_string();
-        assert!(refuse_inputs_inside(&t1, [inner].into_iter()).is_err());
+        assert!(refuse_inputs_inside(&t1, &[inner]).is_err());
         // Paths elsewhere are fine.
         let other = dir.path().join("real").into_os_string();
-        assert!(refuse_inputs_inside(&t1, [other].into_iter()).is_ok());
+        assert!(refuse_inputs_inside(&t1, &[other]).is_ok());
     }
 
     #[test]
@@ -799,7 +733,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out");
         {
-            let set = OutputSet::begin(&out, false, false).unwrap();
+            let set = OutputSet::begin(&out, false, false, &RunGuard::detached()).unwrap();
             std::fs::write(set.dir().join("a.txt"), b"x").unwrap();
         }
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);

@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::frame_files::FrameFormat;
 use crate::frames::{FrameContext, FrameLogError, FrameRecord, FrameWriter};
-use crate::output::{OutputError, write_atomic};
+use crate::output::OutputError;
 use gloam_sensor::ResolvedSensor;
 
 /// Why a capture's options are refused.
@@ -103,31 +103,6 @@ pub enum CaptureError {
     Encode(#[source] serde_json::Error),
 }
 
-/// Adds `sensor_capture` (per-frame mean, saturated fraction, warnings) to
-/// the render's `report.json` in `out`, when there is one.
-fn record_in_report(out: &Path, capture: serde_json::Value) -> Result<(), CaptureError> {
-    let path = out.join("report.json");
-    // The report is this run's output, not an input.
-    let Ok(text) = gloam_io::read_text(
-        &path,
-        gloam_io::MAX_TEXT_FILE_BYTES,
-        &gloam_io::ReadLog::off(),
-    ) else {
-        return Ok(());
-    };
-    let mut report: serde_json::Value =
-        serde_json::from_str(&text).map_err(|source| CaptureError::Report {
-            path: path.clone(),
-            source,
-        })?;
-    if let Some(obj) = report.as_object_mut() {
-        obj.insert("sensor_capture".into(), capture);
-        let text = serde_json::to_string_pretty(&report).map_err(CaptureError::Encode)?;
-        write_atomic(&path, text.as_bytes())?;
-    }
-    Ok(())
-}
-
 /// What to capture and how.
 pub struct FrameCapture<'a> {
     /// The camera, read once by the request ([`ResolvedSensor`]).
@@ -153,7 +128,59 @@ pub struct Captured {
     pub notes: Vec<String>,
     /// `report.json`'s `sensor_capture`: the exposure chosen, per-frame
     /// levels and the saturation summary.
-    pub report: serde_json::Value,
+    pub report: SensorCaptureReport,
+}
+
+/// `report.json`'s `sensor_capture`: what the camera made of the scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct SensorCaptureReport {
+    /// The sensor preset or file, as given.
+    pub sensor: String,
+    /// The fit predicted before the first frame.
+    pub fit: crate::fit::Fit,
+    /// `--exposure auto`'s choice (null without it).
+    pub exposure: Option<crate::exposure::ExposureChoice>,
+    /// Each frame's levels.
+    pub frames: Vec<FrameLevels>,
+    pub saturation: SaturationSummary,
+    /// The levels the warnings are judged against.
+    pub thresholds: LevelThresholds,
+}
+
+/// One captured frame's levels in `sensor_capture.frames`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameLevels {
+    pub file: String,
+    pub gain: f64,
+    pub mean_dn: f64,
+    pub median_dn: f64,
+    /// (median − black) over the top code.
+    pub median_above_black_of_full_scale: f64,
+    pub saturated_fraction: f64,
+    pub saturated_by: gloam_io::frame::SaturatingStage,
+    pub mcp_compressed_fraction: f64,
+    pub bright_source_in_view: bool,
+    pub warnings: Vec<gloam_sensor::levels::WarningKind>,
+}
+
+/// The thresholds of the exposure warnings (`gloam_sensor::levels`).
+#[derive(Clone, Debug, Serialize)]
+pub struct LevelThresholds {
+    pub saturated_fraction_warning: f64,
+    pub near_full_scale_fraction: f64,
+    pub near_black_dn: f64,
+}
+
+impl LevelThresholds {
+    /// The thresholds this build judges frames by.
+    fn current() -> Self {
+        use gloam_sensor::levels::*;
+        Self {
+            saturated_fraction_warning: SATURATED_WARN_FRACTION,
+            near_full_scale_fraction: NEAR_FULL_SCALE_FRACTION,
+            near_black_dn: NEAR_BLACK_DN,
+        }
+    }
 }
 
 impl FrameCapture<'_> {
@@ -163,59 +190,37 @@ impl FrameCapture<'_> {
         check_options(self.sensor, self.gain, self.frames)
     }
 
-    /// Captures `frames` frames of the detected-electron radiance
-    /// `detected` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]), handing
-    /// each to `on_frame` as it is made (so a long capture holds one frame
-    /// at a time); writes and prints nothing. [`FrameCapture::run`] writes
-    /// them; the sweep also keeps their pixels for its noise figures.
+    /// Starts capturing `frames` frames of the detected-electron radiance
+    /// `first` (e⁻ s⁻¹ m⁻² sr⁻¹, from [`take_detected_band`]) through the
+    /// request's camera: automatic exposure and the fit judge `first`.
+    /// The caller asks for each frame in turn ([`Capturing::next_frame`]),
+    /// so a long capture holds one frame at a time and the caller keeps
+    /// frames where it needs them (files, a sweep's noise figures); writes
+    /// and prints nothing. [`FrameCapture::run`] writes them.
     ///
     /// [`take_detected_band`]: crate::take_detected_band
-    pub fn capture(
-        &self,
-        detected: &Array2<f64>,
-        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
-    ) -> Result<Captured, CaptureError> {
-        self.capture_changing(detected, None, &mut |_| Ok(()), on_frame)
+    pub fn start<'c>(&'c self, first: &'c Array2<f64>) -> Result<Capturing<'c>, CaptureError> {
+        self.start_configured(self.sensor.config().clone(), first)
     }
 
-    /// [`FrameCapture::capture`] of a scene that changes: frame `i` sees
-    /// `image(i)` (a sequence's mix of light-group layers), the camera's
-    /// AGC and lag running across frames; `configure` adjusts the camera
-    /// first (a sequence sets its frame rate). The fit and any automatic
-    /// exposure judge `first`, the first frame's image.
-    pub fn capture_changing(
-        &self,
-        first: &Array2<f64>,
-        image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
-        configure: &mut dyn FnMut(&mut gloam_sensor::SensorConfig) -> Result<(), CaptureError>,
-        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
-    ) -> Result<Captured, CaptureError> {
-        let mut config = self.sensor.config().clone();
-        configure(&mut config)?;
-        self.capture_configured(config, first, image, on_frame)
-    }
-
-    /// [`FrameCapture::capture_changing`] with the sensor already
-    /// configured: a caller that needs the configuration before the first
-    /// image (a sequence's exposure window) adjusts `self.sensor`'s.
-    pub fn capture_configured(
-        &self,
+    /// [`FrameCapture::start`] with the sensor already configured: a
+    /// caller that needs the configuration before the first image (a
+    /// sequence's exposure window) adjusts `self.sensor`'s.
+    pub fn start_configured<'c>(
+        &'c self,
         mut config: gloam_sensor::SensorConfig,
-        first: &Array2<f64>,
-        mut image: Option<&mut dyn FnMut(u32) -> Array2<f64>>,
-        on_frame: &mut dyn FnMut(Frame, FrameRecord) -> Result<(), CaptureError>,
-    ) -> Result<Captured, CaptureError> {
-        let detected = first;
+        first: &'c Array2<f64>,
+    ) -> Result<Capturing<'c>, CaptureError> {
         if self.frames < 1 {
             return Err(CaptureOptionsError::NoFrames.into());
         }
         config.noise.seed = self.seed;
         let mut notes = Vec::new();
-        let exposure = self.auto_expose(&mut config, detected, &mut notes)?;
+        let exposure = self.auto_expose(&mut config, first, &mut notes)?;
         // Before the first frame: can this camera see this scene at any
         // gain it reaches? (`--exposure auto` has already chosen its fit.)
         let start_gain = self.gain.or(exposure.as_ref().map(|c| c.gain));
-        let fit = crate::fit::predict(&config, detected, start_gain)?;
+        let fit = crate::fit::predict(&config, first, start_gain)?;
         let fixable_by_agc = matches!(
             fit.verdict,
             crate::fit::FitVerdict::SaturatesAtThisGain
@@ -239,45 +244,16 @@ impl FrameCapture<'_> {
             frames = self.frames,
             "capturing"
         );
-        let mut tally = FrameTally::default();
-        for i in 0..self.frames {
-            let changed = image.as_mut().map(|f| f(i));
-            let frame = camera
-                .capture_detected(changed.as_ref().unwrap_or(detected).view())
-                .map_err(|source| CaptureError::Frame { index: i, source })?;
-            let file = self.frame_format.file_name(u64::from(i));
-            let judged = frame.exposure();
-            let rec = FrameRecord::of_frame(u64::from(i), file, &frame, judged.warnings);
-            let max_code = camera.chain().max_code;
-            tally.add(i, &frame, &rec, judged.warning_kinds, max_code, &mut notes)?;
-            on_frame(frame, rec)?;
-        }
-        let FrameTally {
-            per_frame, summary, ..
-        } = tally;
-        if summary.frames > 1 && summary.frames_over_warning > 0 {
-            notes.push(format!(
-                "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
-                summary.frames_over_warning,
-                summary.frames,
-                100.0 * gloam_sensor::levels::SATURATED_WARN_FRACTION,
-                100.0 * summary.max_saturated_fraction,
-                100.0 * summary.mean_saturated_fraction
-            ));
-        }
-        let report = serde_json::json!({
-            "sensor": self.sensor.name(),
-            "fit": fit,
-            "exposure": exposure,
-            "frames": per_frame,
-            "saturation": summary,
-            "thresholds": {
-                "saturated_fraction_warning": gloam_sensor::levels::SATURATED_WARN_FRACTION,
-                "near_full_scale_fraction": gloam_sensor::levels::NEAR_FULL_SCALE_FRACTION,
-                "near_black_dn": gloam_sensor::levels::NEAR_BLACK_DN,
-            },
-        });
-        Ok(Captured { notes, report })
+        Ok(Capturing {
+            request: self,
+            first,
+            camera,
+            fit,
+            exposure,
+            notes,
+            tally: FrameTally::default(),
+            next: 0,
+        })
     }
 
     /// `--exposure auto`'s choice of gain, gate, exposure time and ND for
@@ -312,20 +288,19 @@ impl FrameCapture<'_> {
         Ok(Some(c))
     }
 
-    /// [`FrameCapture::capture`] into `out`: the frames in
+    /// [`FrameCapture::start`]'s frames into `out`: the frames in
     /// `frame_format` and `frames.jsonl` as frames are made, then
-    /// `frames-preview.png`, and `sensor_capture` added to
-    /// `out/report.json` when there is one; FITS headers carry
-    /// `provenance` and date frames from `scene_utc` (the scene's
-    /// `[sky] utc`) when given. Returns what its user should be told, as
-    /// lines; the front end prints them.
+    /// `frames-preview.png`; FITS headers carry `provenance` and date
+    /// frames from `scene_utc` (the scene's `[sky] utc`) when given.
+    /// Returns what its user should be told and `report.json`'s
+    /// `sensor_capture`, for the caller's report.
     pub fn run(
         &self,
         detected: &Array2<f64>,
         out: &Path,
         provenance: Option<&crate::Provenance>,
         scene_utc: Option<gloam_sky::time::UtcInstant>,
-    ) -> Result<Vec<String>, CaptureError> {
+    ) -> Result<Captured, CaptureError> {
         let mut writer = None;
         let context = FrameContext {
             camera: Some(self.sensor.name().to_string()),
@@ -334,7 +309,9 @@ impl FrameCapture<'_> {
             scene_utc,
             ..FrameContext::default()
         };
-        let captured = self.capture(detected, &mut |f, rec| {
+        let mut capturing = self.start(detected)?;
+        // Bounded: `frames` of them.
+        while let Some((f, rec)) = capturing.next_frame(None)? {
             let w = match &mut writer {
                 Some(w) => w,
                 None => writer.insert(FrameWriter::with_format(
@@ -343,13 +320,92 @@ impl FrameCapture<'_> {
                     context.clone(),
                 )?),
             };
-            Ok(w.write(&rec, &f.pixels)?)
-        })?;
+            w.write(&rec, &f.pixels)?;
+        }
+        let captured = capturing.finish();
         if let Some(w) = writer {
             w.finish()?;
         }
-        record_in_report(out, captured.report)?;
-        Ok(captured.notes)
+        Ok(captured)
+    }
+}
+
+/// A capture under way ([`FrameCapture::start`]): the camera, its fit and
+/// exposure, and what the frames so far told.
+pub struct Capturing<'c> {
+    request: &'c FrameCapture<'c>,
+    first: &'c Array2<f64>,
+    camera: Camera,
+    fit: crate::fit::Fit,
+    exposure: Option<crate::exposure::ExposureChoice>,
+    notes: Vec<String>,
+    tally: FrameTally,
+    next: u32,
+}
+
+impl Capturing<'_> {
+    /// The next frame and its record, of `image` (a sequence's mix of
+    /// light-group layers at this frame; `None`: the first image), the
+    /// camera's AGC and lag running across frames; `None` once every frame
+    /// asked for was made.
+    pub fn next_frame(
+        &mut self,
+        image: Option<&Array2<f64>>,
+    ) -> Result<Option<(Frame, FrameRecord)>, CaptureError> {
+        let i = self.next;
+        if i >= self.request.frames {
+            return Ok(None);
+        }
+        self.next += 1;
+        let frame = (self.camera)
+            .capture_detected(image.unwrap_or(self.first).view())
+            .map_err(|source| CaptureError::Frame { index: i, source })?;
+        let file = self.request.frame_format.file_name(u64::from(i));
+        let judged = frame.exposure();
+        let rec = FrameRecord::of_frame(u64::from(i), file, &frame, judged.warnings);
+        let max_code = self.camera.chain().max_code;
+        let kinds = judged.warning_kinds;
+        (self.tally).add(i, &frame, &rec, kinds, max_code, &mut self.notes)?;
+        Ok(Some((frame, rec)))
+    }
+
+    /// The index of the frame [`Self::next_frame`] makes next.
+    pub fn next_index(&self) -> u32 {
+        self.next
+    }
+
+    /// What the capture found besides its frames.
+    pub fn finish(self) -> Captured {
+        let Capturing {
+            request,
+            fit,
+            exposure,
+            mut notes,
+            tally,
+            ..
+        } = self;
+        let FrameTally {
+            per_frame, summary, ..
+        } = tally;
+        if summary.frames > 1 && summary.frames_over_warning > 0 {
+            notes.push(format!(
+                "warning: {} of {} frames saturated more than {} % of their pixels (worst {:.2} %, mean {:.2} %)",
+                summary.frames_over_warning,
+                summary.frames,
+                100.0 * gloam_sensor::levels::SATURATED_WARN_FRACTION,
+                100.0 * summary.max_saturated_fraction,
+                100.0 * summary.mean_saturated_fraction
+            ));
+        }
+        let report = SensorCaptureReport {
+            sensor: request.sensor.name().to_string(),
+            fit,
+            exposure,
+            frames: per_frame,
+            saturation: summary,
+            thresholds: LevelThresholds::current(),
+        };
+        Captured { notes, report }
     }
 }
 
@@ -358,7 +414,7 @@ impl FrameCapture<'_> {
 /// exposure warning it has told.
 #[derive(Default)]
 struct FrameTally {
-    per_frame: Vec<serde_json::Value>,
+    per_frame: Vec<FrameLevels>,
     summary: SaturationSummary,
     warned: std::collections::BTreeSet<gloam_sensor::levels::WarningKind>,
 }
@@ -393,18 +449,18 @@ impl FrameTally {
         }
         let (g, black) = (rec.gain, rec.black_dn.unwrap_or(0.0));
         let median = median_dn(&frame.pixels);
-        self.per_frame.push(serde_json::json!({
-            "file": rec.file,
-            "gain": g,
-            "mean_dn": m.mean_dn,
-            "median_dn": median,
-            "median_above_black_of_full_scale": (median - black) / max_code,
-            "saturated_fraction": m.saturated_fraction,
-            "saturated_by": m.saturation.saturated_by,
-            "mcp_compressed_fraction": m.saturation.mcp_compressed_fraction,
-            "bright_source_in_view": m.saturation.bright_source_in_view,
-            "warnings": kinds,
-        }));
+        self.per_frame.push(FrameLevels {
+            file: rec.file.clone(),
+            gain: g,
+            mean_dn: m.mean_dn,
+            median_dn: median,
+            median_above_black_of_full_scale: (median - black) / max_code,
+            saturated_fraction: m.saturated_fraction,
+            saturated_by: m.saturation.saturated_by,
+            mcp_compressed_fraction: m.saturation.mcp_compressed_fraction,
+            bright_source_in_view: m.saturation.bright_source_in_view,
+            warnings: kinds,
+        });
         self.summary.add(&m.saturation);
         tracing::debug!(frame = i, gain = g, mean_dn = m.mean_dn, "captured");
         Ok(())

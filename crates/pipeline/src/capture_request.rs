@@ -10,7 +10,7 @@ use std::sync::Arc;
 use gloam_calib::CalibError;
 use gloam_calib::request::{CaptureTally, Events, GrabRequest};
 use gloam_grabber::{GrabError, PacketResends};
-use gloam_io::OutputSet;
+use gloam_io::{OutputSet, RunGuard};
 use serde::Serialize;
 
 use crate::frames::{FrameContext, FrameLogError, instrument_of_grabber};
@@ -90,17 +90,19 @@ impl ValidCapture {
     /// Opens the output set and the grabber, grabs the frames into their
     /// files and `frames.jsonl`, writes `report.json` and publishes the
     /// set. `fit_note` hears a `sim:…?scene=` camera that cannot fit its
-    /// scene at any gain, before its first frame.
+    /// scene at any gain, before its first frame. The grab stops at an
+    /// interrupt `guard` reports, and the set keeps what was captured.
     pub fn run(
         self,
         ev: &mut Events<'_>,
         fit_note: Arc<dyn Fn(&str) + Send + Sync>,
+        guard: &RunGuard,
     ) -> Result<CaptureDone, CaptureRequestError> {
         let (grab, format) = (&self.grab, self.format);
         let provenance = Provenance::of_this_run(&self.reads);
         // The frames appear at once with manifest.json; Ctrl-C stops the
         // loop and publishes what was captured.
-        let set = OutputSet::begin(&self.out.path, self.out.force, true)?;
+        let set = OutputSet::begin(&self.out.path, self.out.force, true, guard)?;
         let dir = set.dir().to_path_buf();
         let grabbers = crate::grabbers_noting(fit_note);
         let mut g = grab.open::<CaptureRequestError>(&grabbers, &dir, &self.reads, ev)?;
@@ -115,15 +117,17 @@ impl ValidCapture {
         // Appended as frames are written: an interrupted capture lists
         // every frame it kept.
         let mut writer = FrameWriter::with_format(&dir, format, context)?;
-        let (tally, result) = grab.grab::<CaptureRequestError, _>(
-            g.as_mut(),
-            &gloam_io::output_set::interrupted,
-            |index, f: &gloam_grabber::Frame, warnings| {
-                let rec = FrameRecord::of_frame(index, format.file_name(index), f, warnings);
-                Ok(writer.write(&rec, &f.pixels)?)
-            },
-            ev,
-        );
+        let mut grabbing = grab.grabbing();
+        let result = (|| -> Result<(), CaptureRequestError> {
+            // Bounded: each step keeps a frame or ends the loop, at most
+            // --frames of them.
+            while let Some((index, f, warnings)) = grabbing.next_frame(g.as_mut(), guard, ev)? {
+                let rec = FrameRecord::of_frame(index, format.file_name(index), &f, warnings);
+                writer.write(&rec, &f.pixels)?;
+            }
+            Ok(())
+        })();
+        let tally = grabbing.tally();
         // Read before the grabber closes: a stream's counts end with it.
         let resends = Resends::of(&grab.grabber, g.packet_resends());
         drop(g);
@@ -133,7 +137,7 @@ impl ValidCapture {
             let why = result.as_ref().err().map(chain);
             // The contact sheet of what was kept (frames-preview.png).
             writer.finish()?;
-            let report = CaptureReport::of(grab, &tally, &resends, why.as_deref(), &provenance);
+            let report = CaptureReport::of(grab, tally, &resends, why.as_deref(), &provenance);
             // Every object's keys in order, as report.json has always had them.
             let value = serde_json::to_value(&report)?;
             crate::output::write_atomic(&dir.join(REPORT), &serde_json::to_vec_pretty(&value)?)?;

@@ -15,8 +15,8 @@ use gloam_io::tiff::TiffStack;
 pub use gloam_io::frames::FrameRecord;
 
 pub use crate::capture::{
-    CaptureError, CaptureOptionsError, Captured, FrameCapture, SaturationSummary, check_options,
-    resolve_sensor,
+    CaptureError, CaptureOptionsError, Captured, Capturing, FrameCapture, SaturationSummary,
+    check_options, resolve_sensor,
 };
 
 /// Why `frames.jsonl` or a frame was not written, naming the file.

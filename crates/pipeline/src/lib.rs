@@ -22,8 +22,8 @@ pub mod tile;
 pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detected_band};
 pub use frame_files::FrameFormat;
 pub use frames::{
-    CaptureError, CaptureOptionsError, Captured, FrameCapture, FrameContext, FrameRecord,
-    FrameWriter, check_options, resolve_sensor,
+    CaptureError, CaptureOptionsError, Captured, Capturing, FrameCapture, FrameContext,
+    FrameRecord, FrameWriter, check_options, resolve_sensor,
 };
 /// Most independent estimates a probe averages (each is a full estimate
 /// at the point): `gloam probe --samples` and Python's `probe(samples=)`

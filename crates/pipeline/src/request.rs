@@ -28,7 +28,7 @@ use crate::render::{
 };
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
-use gloam_io::{OutputSet, ReadLog};
+use gloam_io::{OutputSet, ReadLog, RunGuard};
 use gloam_sensor::ResolvedSensor;
 
 /// The scene of a request: a file to read, or one a front end holds
@@ -364,14 +364,14 @@ impl ValidRender {
 
     /// Renders, and with an output set writes the images, `tile.json`,
     /// `report.json`, `layers.json` and the camera's frames, then
-    /// publishes the set.
-    pub fn run(self, events: &dyn Events) -> Result<RenderDone, RenderError> {
+    /// publishes the set, which `guard` removes if the run is interrupted.
+    pub fn run(self, events: &dyn Events, guard: &RunGuard) -> Result<RenderDone, RenderError> {
         let t_start = Instant::now();
         let mut provenance = Provenance::of_this_run(&self.reads);
         // Refused up front when the directory is in use; the files appear
         // at once when the set is published.
         let set = (self.out.as_ref())
-            .map(|o| OutputSet::begin(&o.path, o.force, false))
+            .map(|o| OutputSet::begin(&o.path, o.force, false, guard))
             .transpose()?;
         let job = RenderJob {
             camera: self.camera.as_ref(),
@@ -415,7 +415,7 @@ impl ValidRender {
         // The scene's OBJ, spectrum and instance files were read after the
         // provenance was first taken.
         provenance.add_inputs_read();
-        let report = RenderReport {
+        let mut report = RenderReport {
             target_error_source: self.target_error_source,
             camera_target: goal.as_ref().and_then(|g| g.report(&rendered)),
             ..RenderReport::of(
@@ -429,7 +429,6 @@ impl ValidRender {
         };
         if let Some(set) = set {
             let dir = set.dir();
-            write_atomic(&dir.join("report.json"), report.to_pretty()?.as_bytes())?;
             if let Some(layers) = &rendered.layers {
                 let mut index = layers.index(self.settings.seed);
                 index.provenance = Some(provenance.clone());
@@ -438,14 +437,17 @@ impl ValidRender {
             }
             if let (Some(capture), Some(detected)) = (&capture, &rendered.detected) {
                 let utc = scene_utc(&self.scene);
-                for line in capture.run(detected, dir, Some(&provenance), utc)? {
-                    events.note(&line);
+                let captured = capture.run(detected, dir, Some(&provenance), utc)?;
+                for line in &captured.notes {
+                    events.note(line);
                 }
+                report.sensor_capture = Some(captured.report);
                 // No path: `dir` is the hidden staging directory until the
                 // set is published.
                 let (n, sensor) = (capture.frames, capture.sensor.name());
                 events.note(&format!("captured {n} frame(s) through '{sensor}'"));
             }
+            write_atomic(&dir.join("report.json"), report.to_pretty()?.as_bytes())?;
             set.publish(&provenance, None)?;
         }
         Ok(RenderDone {
@@ -554,6 +556,9 @@ pub struct RenderReport {
     /// what the render added ([`CameraGoal::report`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_target: Option<crate::camera_goal::CameraTarget>,
+    /// With a camera: what it made of the scene ([`FrameCapture::run`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_capture: Option<crate::capture::SensorCaptureReport>,
     pub provenance: Provenance,
 }
 
@@ -666,6 +671,7 @@ impl RenderReport {
             bands,
             target_error_source: None,
             camera_target: None,
+            sensor_capture: None,
             provenance,
         }
     }

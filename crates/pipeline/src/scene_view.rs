@@ -148,20 +148,24 @@ pub fn grabbers_noting(note: Arc<dyn Fn(&str) + Send + Sync>) -> Registry {
                         .map_err(|e| SceneViewError::from(RenderError::from(e)))
                         .and_then(|sensor| {
                             let view = render_scene_view(&path, &sensor, size, &opts.reads)?;
-                            Ok((scene_view_fit_note(&view, &sensor), view))
+                            Ok((scene_view_fit_note(&view, &sensor), view, sensor))
                         });
-                    let (fit, view) = view.map_err(|e| GrabError::Scene {
+                    let (fit, view, sensor) = view.map_err(|e| GrabError::Scene {
                         path,
                         source: e.into(),
                     })?;
                     if let Some(n) = fit {
                         note(&n);
                     }
-                    Some(view)
+                    Some((view, sensor))
                 }
                 _ => None,
             };
-            gloam_simcam::open_sim(uri, opts, view)
+            // The camera is the sensor the scene was rendered through.
+            match view {
+                Some((view, sensor)) => gloam_simcam::open_sim(uri, opts, Some((view, &sensor))),
+                None => gloam_simcam::open_sim(uri, opts, None),
+            }
         }),
     );
     r

@@ -16,7 +16,6 @@
 //! or not yet started) share its render, which is kept from the pose's
 //! first frame to its last and then dropped.
 
-use std::cell::RefCell;
 use std::path::Path;
 use std::time::Instant;
 
@@ -153,7 +152,7 @@ pub struct SequenceReport {
     /// Wall time in the camera model and writing frames, s (all frames).
     pub camera_s: f64,
     /// The capture's `sensor_capture` (fit, per-frame levels, saturation).
-    pub sensor_capture: serde_json::Value,
+    pub sensor_capture: crate::capture::SensorCaptureReport,
     #[serde(skip)]
     pub notes: Vec<String>,
     /// (time s, gain in effect) per frame: what `gain-over-time.png` draws.
@@ -737,85 +736,70 @@ fn capture_with(
         let weights = sequence.weights(names(), f.start_s, f.start_s + f.window_s);
         feed(&f, &weights, &mut first)?;
     }
-    let places: RefCell<Vec<SequenceFrame>> = RefCell::new(Vec::new());
-    let mix_s = RefCell::new(0.0f64);
-    let failed: RefCell<Option<SequenceError>> = RefCell::new(None);
-    let mut image = |i: u32| {
+    let mut places: Vec<SequenceFrame> = Vec::new();
+    let mut mix_s = 0.0f64;
+    let mut writer = None;
+    let mut animation = Animation::new(sequence.frames, sequence.frame_rate_hz);
+    let mut gain_over_time = Vec::new();
+    let (mut medians, mut throughput_over_time) = (Vec::new(), Vec::new());
+    let t_capture = Instant::now();
+    let mut capturing = capture.start_configured(config, &first)?;
+    // Bounded: the capture's frames, one image each.
+    while capturing.next_index() < capture.frames {
         let t = Instant::now();
-        let f = frame(i, true);
+        let f = frame(capturing.next_index(), true);
         let weights = sequence.weights(names(), f.start_s, f.start_s + f.window_s);
         let mut img = Array2::zeros(want);
-        if failed.borrow().is_none() {
-            if let Err(e) = feed(&f, &weights, &mut img) {
-                *failed.borrow_mut() = Some(e);
-            }
-        }
-        places.borrow_mut().push(SequenceFrame {
+        feed(&f, &weights, &mut img)?;
+        places.push(SequenceFrame {
             time_s: f.start_s,
             window_s: f.window_s,
             light_groups: groups.iter().cloned().zip(weights).collect(),
             sky: sky_at_frame(sequence, f.mid_s()),
             median_above_black_dn: None,
         });
-        *mix_s.borrow_mut() += t.elapsed().as_secs_f64();
-        img
-    };
-    let mut writer = None;
-    let mut animation = Animation::new(sequence.frames, sequence.frame_rate_hz);
-    let mut gain_over_time = Vec::new();
-    let (mut medians, mut throughput_over_time) = (Vec::new(), Vec::new());
-    let t_capture = Instant::now();
-    let captured =
-        capture.capture_configured(config, &first, Some(&mut image), &mut |f, mut rec| {
-            if failed.borrow().is_some() {
-                // A pose's render failed: stop here; the error returned
-                // below is that failure, not this placeholder.
-                return Err(CaptureError::Encode(serde::de::Error::custom(
-                    "stopped: a render failed",
-                )));
+        mix_s += t.elapsed().as_secs_f64();
+        let Some((f, mut rec)) = capturing.next_frame(Some(&img))? else {
+            break;
+        };
+        let i = rec.index as usize;
+        if let Some(p) = places.get(i) {
+            gain_over_time.push((p.time_s, rec.gain));
+            let mut p = p.clone();
+            if let Some(sky) = &p.sky {
+                // The camera's own median when its AGC metered one.
+                let median = (rec.sensor.as_ref())
+                    .and_then(|m| m.median_dn)
+                    .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
+                    - rec.black_dn.unwrap_or(0.0);
+                p.median_above_black_dn = Some(median);
+                medians.push((p.time_s, median, sky.horizontal_lux));
             }
-            let i = rec.index as usize;
-            if let Some(p) = places.borrow().get(i) {
-                gain_over_time.push((p.time_s, rec.gain));
-                let mut p = p.clone();
-                if let Some(sky) = &p.sky {
-                    // The camera's own median when its AGC metered one.
-                    let median = (rec.sensor.as_ref())
-                        .and_then(|m| m.median_dn)
-                        .unwrap_or_else(|| gloam_sensor::median_dn(&f.pixels))
-                        - rec.black_dn.unwrap_or(0.0);
-                    p.median_above_black_dn = Some(median);
-                    medians.push((p.time_s, median, sky.horizontal_lux));
-                }
-                if let Some(d) = rec.gate_duty {
-                    throughput_over_time.push((p.time_s, rec.gain * d));
-                }
-                rec.sequence = Some(p);
+            if let Some(d) = rec.gate_duty {
+                throughput_over_time.push((p.time_s, rec.gain * d));
             }
-            let r = &rec;
-            let black = r.black_dn.unwrap_or(0.0);
-            animation.add(
-                r.index,
-                r.width,
-                r.height,
-                &f.pixels,
-                black,
-                r.saturated_at_dn,
-            );
-            let w = match &mut writer {
-                Some(w) => w,
-                None => writer.insert(FrameWriter::with_format(
-                    out,
-                    capture.frame_format,
-                    context.clone(),
-                )?),
-            };
-            Ok(w.write(&rec, &f.pixels)?)
-        });
-    if let Some(e) = failed.borrow_mut().take() {
-        return Err(e);
+            rec.sequence = Some(p);
+        }
+        let r = &rec;
+        let black = r.black_dn.unwrap_or(0.0);
+        animation.add(
+            r.index,
+            r.width,
+            r.height,
+            &f.pixels,
+            black,
+            r.saturated_at_dn,
+        );
+        let w = match &mut writer {
+            Some(w) => w,
+            None => writer.insert(
+                FrameWriter::with_format(out, capture.frame_format, context.clone())
+                    .map_err(CaptureError::from)?,
+            ),
+        };
+        w.write(&rec, &f.pixels).map_err(CaptureError::from)?;
     }
-    let captured = captured?;
+    let captured = capturing.finish();
     if let Some(w) = writer {
         w.finish().map_err(CaptureError::from)?;
     }
@@ -827,7 +811,6 @@ fn capture_with(
         crate::output::write_atomic(&path, &bytes)
             .map_err(|source| SequenceError::Preview { path, source })?;
     }
-    let mix_s = *mix_s.borrow();
     let camera_s = t_capture.elapsed().as_secs_f64() - mix_s;
     gloam_calib::plot::xy_plot_scaled(
         &out.join("gain-over-time.png"),
@@ -845,7 +828,7 @@ fn capture_with(
         &gain_series(&gain_over_time, throughput_over_time),
     )
     .map_err(SequenceError::Plot)?;
-    plot_sky(sequence, &places.borrow(), out)?;
+    plot_sky(sequence, &places, out)?;
     Ok(SequenceReport {
         frames: sequence.frames,
         frame_rate_hz: sequence.frame_rate_hz,

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use gloam_io::OutputSet;
+use gloam_io::{OutputSet, RunGuard};
 use gloam_scene::sequence::Sequence;
 use gloam_scene::{Scene, SceneError};
 use gloam_trace::RenderSettings;
@@ -162,11 +162,15 @@ pub struct SequenceDone {
 impl ValidSequence {
     /// Opens the output set, renders the layers and captures the frames
     /// through the camera, writes frame 0's layers and `report.json`, and
-    /// publishes the set.
-    pub fn run(self, events: &dyn Events) -> Result<SequenceDone, SequenceRequestError> {
+    /// publishes the set, which `guard` removes if the run is interrupted.
+    pub fn run(
+        self,
+        events: &dyn Events,
+        guard: &RunGuard,
+    ) -> Result<SequenceDone, SequenceRequestError> {
         let t_start = Instant::now();
         let mut provenance = Provenance::of_this_run(&self.reads);
-        let set = OutputSet::begin(&self.out.path, self.out.force, false)?;
+        let set = OutputSet::begin(&self.out.path, self.out.force, false, guard)?;
         let dir = set.dir().to_path_buf();
         let progress = |d, t| events.tiles(d, t);
         let job = SceneSequence {
@@ -424,7 +428,7 @@ pub struct SequenceRunReport<'a> {
     pub settings: Option<&'a RenderSettings>,
     pub effect_plan: &'a gloam_scene::plan::EffectPlan,
     pub sequence: SequenceSection<'a>,
-    pub sensor_capture: &'a serde_json::Value,
+    pub sensor_capture: &'a crate::capture::SensorCaptureReport,
     pub provenance: &'a Provenance,
     /// `--target-error camera[:K]`: frame 0's pose's camera target.
     #[serde(skip_serializing_if = "Option::is_none")]

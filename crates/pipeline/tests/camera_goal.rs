@@ -83,15 +83,14 @@ fn capture() -> FrameCapture<'static> {
 fn frame_stats(detected: &Array2<f64>) -> (Vec<f64>, Vec<f64>) {
     let n = detected.len();
     let (mut sum, mut sq) = (vec![0.0; n], vec![0.0; n]);
-    capture()
-        .capture(detected, &mut |f, _| {
-            for (i, &p) in f.pixels.iter().enumerate() {
-                sum[i] += p as f64;
-                sq[i] += (p as f64).powi(2);
-            }
-            Ok(())
-        })
-        .unwrap();
+    let request = capture();
+    let mut capturing = request.start(detected).unwrap();
+    while let Some((f, _)) = capturing.next_frame(None).unwrap() {
+        for (i, &p) in f.pixels.iter().enumerate() {
+            sum[i] += p as f64;
+            sq[i] += (p as f64).powi(2);
+        }
+    }
     let k = FRAMES as f64;
     let mean: Vec<f64> = sum.iter().map(|s| s / k).collect();
     let var = sq

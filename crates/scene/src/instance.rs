@@ -318,7 +318,7 @@ pub(crate) fn parse_placements_csv(
             return Err(err(
                 line_no,
                 RowError::NotNumbers {
-                    text: line.to_string(),
+                    text: gloam_io::shown(line).into_owned(),
                     after_header: seen_row,
                 },
             ));

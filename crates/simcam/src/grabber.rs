@@ -81,19 +81,20 @@ impl SimGrabber<Box<dyn FrameSource>> {
         ))
     }
 
-    /// The sensor chain of `preset` looking at a rendered scene.
+    /// The sensor chain of `sensor` (read once by the caller) looking at
+    /// a rendered scene.
     pub fn from_scene(
-        preset: &str,
+        sensor: &gloam_sensor::ResolvedSensor,
         scene: SceneView,
         seed: u64,
-        reads: &gloam_io::ReadLog,
     ) -> Result<Self, GrabError> {
         let (w, h) = scene.size();
         let label = format!(
-            "simulated {preset} looking at scene '{}' (seed {seed}, {w}×{h})",
+            "simulated {} looking at scene '{}' (seed {seed}, {w}×{h})",
+            sensor.name(),
             scene.label
         );
-        let src = SensorSource::with_scene(preset, scene, seed, reads)?;
+        let src = SensorSource::with_scene(sensor, scene, seed)?;
         Ok(Self::new(Box::new(src) as Box<dyn FrameSource>, label))
     }
 }
@@ -188,7 +189,8 @@ impl<S: FrameSource> FrameStream for SimGrabber<S> {
                 bits: s.bits,
                 width: s.width,
                 height: s.height,
-                pixels_crc32c: gloam_grabber::pixels_crc32c(&pixels),
+                pixels_crc32c: (r.pixels_crc32c)
+                    .unwrap_or_else(|| gloam_grabber::pixels_crc32c(&pixels)),
                 status: FrameStatus::Ok,
                 levels: r.levels,
                 // As configured for this frame: the same values gloam's GigE

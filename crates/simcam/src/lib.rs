@@ -21,12 +21,14 @@ pub use stimulus::{DEFAULT_RIG_SIZE, DEFAULT_SPECTRUM, render_stimulus, rig_stim
 pub use uri::{DEFAULT_RIG, DEFAULT_SIM_PRESET, RIGS, SimUri};
 
 /// Opens a `sim:` URI: the rig it names, or `scene` when the caller
-/// rendered the URI's scene (a scene URI without one is refused, naming
-/// who renders scenes). `opts.seed` overrides the URI's.
+/// rendered the URI's scene through the sensor it resolved from the URI
+/// (the camera then uses that configuration, not a second read of the
+/// preset; a scene URI without one is refused, naming who renders
+/// scenes). `opts.seed` overrides the URI's.
 pub fn open_sim(
     uri: &str,
     opts: &OpenOptions,
-    scene: Option<SceneView>,
+    scene: Option<(SceneView, &gloam_sensor::ResolvedSensor)>,
 ) -> Result<Box<dyn FrameGrabber>, GrabError> {
     let SimUri {
         preset,
@@ -37,12 +39,9 @@ pub fn open_sim(
     } = SimUri::parse(uri)?;
     let seed = opts.seed.unwrap_or(seed);
     match (scene_path, scene) {
-        (Some(_), Some(view)) => Ok(Box::new(SimGrabber::from_scene(
-            &preset,
-            view,
-            seed,
-            &opts.reads,
-        )?)),
+        (Some(_), Some((view, sensor))) => {
+            Ok(Box::new(SimGrabber::from_scene(sensor, view, seed)?))
+        }
         (Some(_), None) => Err(GrabError::Unsupported(format!(
             "'{uri}': scenes need a renderer (the gloam CLI provides one)"
         ))),

@@ -151,25 +151,25 @@ impl SensorSource {
         })
     }
 
-    /// `preset` looking at a rendered scene: frames have the scene's size.
+    /// `sensor` (read once by the caller, who rendered the scene through
+    /// it) looking at a rendered scene: frames have the scene's size.
     /// A stimulus presented later (calibration) replaces the scene. A
     /// layered scene sets the camera's frame rate to its own (the exposure
     /// held within one period), so its clock runs in real time at the
     /// camera's default rate and the AGC's time constants count in it.
     pub fn with_scene(
-        preset: &str,
+        sensor: &gloam_sensor::ResolvedSensor,
         scene: SceneView,
         seed: u64,
-        reads: &gloam_io::ReadLog,
     ) -> Result<Self, GrabError> {
         scene.validate()?;
         let size = scene.size();
-        let mut base = SensorConfig::load_preset_or_file(preset, reads).map_err(cfg_err)?;
+        let mut base = sensor.config().clone();
         if let SceneImage::Layers { frame_rate_hz, .. } = &scene.image {
             base.timing.frame_rate_hz = *frame_rate_hz;
             base.timing.exposure_s = base.timing.exposure_s.min(1.0 / frame_rate_hz);
         }
-        let mut src = Self::from_config(preset, base, crate::uri::DEFAULT_RIG, seed, size)?;
+        let mut src = Self::from_config(sensor.name(), base, crate::uri::DEFAULT_RIG, seed, size)?;
         let (w, h) = size;
         src.view = View::Scene {
             view: scene,
@@ -177,6 +177,12 @@ impl SensorSource {
             frame: 0,
         };
         Ok(src)
+    }
+
+    /// The camera's configuration as built (a layered scene's frame rate
+    /// and exposure applied).
+    pub fn config(&self) -> &SensorConfig {
+        &self.base
     }
 
     /// The camera's frame rate as built, Hz (a layered scene's own rate).
@@ -350,6 +356,8 @@ impl FrameSource for SensorSource {
             gate_duty: m.gate_duty,
             nd_density: m.nd_density,
             sensor: m.sensor,
+            // `out` holds the camera's pixels unchanged.
+            pixels_crc32c: Some(m.pixels_crc32c),
         })
     }
 }

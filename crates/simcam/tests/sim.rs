@@ -172,13 +172,7 @@ fn out_of_range_gains_are_refused_in_process_and_by_the_emulator() {
 
 #[test]
 fn scene_view_is_grabbed_at_its_size_until_a_stimulus_replaces_it() {
-    let mut g = SimGrabber::from_scene(
-        "gen2-s20-iccd",
-        two_band_scene(40, 30),
-        5,
-        &gloam_io::ReadLog::off(),
-    )
-    .unwrap();
+    let mut g = SimGrabber::from_scene(&gen2(), two_band_scene(40, 30), 5).unwrap();
     assert_eq!(g.frame_size(), (40, 30));
     g.set_gain(300.0).unwrap();
     let f = g.grab().unwrap();
@@ -198,13 +192,7 @@ fn scene_view_is_grabbed_at_its_size_until_a_stimulus_replaces_it() {
     assert!(left > 2.0 * right, "left {left} right {right}");
 
     // Same scene, same seed: the same frame (the scene is data, not a draw).
-    let mut g2 = SimGrabber::from_scene(
-        "gen2-s20-iccd",
-        two_band_scene(40, 30),
-        5,
-        &gloam_io::ReadLog::off(),
-    )
-    .unwrap();
+    let mut g2 = SimGrabber::from_scene(&gen2(), two_band_scene(40, 30), 5).unwrap();
     g2.set_gain(300.0).unwrap();
     assert_eq!(g2.grab().unwrap().pixels, f.pixels);
 
@@ -227,7 +215,7 @@ fn bad_scenes_are_clear_errors() {
     }
     let mut nan = two_band_scene(8, 6);
     radiance(&mut nan)[[1, 4, 3]] = f64::NAN;
-    let e = SimGrabber::from_scene("gen2-s20-iccd", nan, 0, &gloam_io::ReadLog::off())
+    let e = SimGrabber::from_scene(&gen2(), nan, 0)
         .err()
         .unwrap()
         .to_string();
@@ -235,7 +223,7 @@ fn bad_scenes_are_clear_errors() {
 
     let mut neg = two_band_scene(8, 6);
     radiance(&mut neg)[[0, 0, 0]] = -1.0;
-    let e = SimGrabber::from_scene("gen2-s20-iccd", neg, 0, &gloam_io::ReadLog::off())
+    let e = SimGrabber::from_scene(&gen2(), neg, 0)
         .err()
         .unwrap()
         .to_string();
@@ -245,7 +233,7 @@ fn bad_scenes_are_clear_errors() {
     if let SceneImage::Bands { band_shapes, .. } = &mut shapes.image {
         band_shapes.pop();
     }
-    let e = SimGrabber::from_scene("gen2-s20-iccd", shapes, 0, &gloam_io::ReadLog::off())
+    let e = SimGrabber::from_scene(&gen2(), shapes, 0)
         .err()
         .unwrap()
         .to_string();
@@ -253,7 +241,7 @@ fn bad_scenes_are_clear_errors() {
     let mut detected = ndarray::Array2::from_elem((6, 8), 1e12);
     detected[[5, 7]] = f64::INFINITY;
     let e = SimGrabber::from_scene(
-        "gen2-s20-iccd",
+        &gen2(),
         SceneView {
             label: "d".into(),
             image: SceneImage::Detected {
@@ -261,7 +249,6 @@ fn bad_scenes_are_clear_errors() {
             },
         },
         0,
-        &gloam_io::ReadLog::off(),
     )
     .err()
     .unwrap()
@@ -305,7 +292,12 @@ fn bad_scenes_are_clear_errors() {
         std::sync::Arc::new(|uri, opts| {
             let SimUri { size, .. } = SimUri::parse(uri)?;
             let (w, h) = size.unwrap_or((4, 4));
-            open_sim(uri, opts, Some(two_band_scene(w as usize, h as usize)))
+            let sensor = gen2();
+            open_sim(
+                uri,
+                opts,
+                Some((two_band_scene(w as usize, h as usize), &sensor)),
+            )
         }),
     );
     let g = rendering
@@ -321,4 +313,9 @@ fn bad_scenes_are_clear_errors() {
         matches!(e, GrabError::Unsupported(_)) && e.to_string().contains("gloam-simcam"),
         "{e}"
     );
+}
+
+/// The Gen II camera, read once as a front end reads it.
+fn gen2() -> gloam_sensor::ResolvedSensor {
+    gloam_sensor::ResolvedSensor::load("gen2-s20-iccd", &gloam_io::ReadLog::off()).unwrap()
 }

@@ -108,10 +108,14 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<Spectrum, CsvError> {
             return Err(err(
                 line_no,
                 if seen_data_or_header {
-                    format!("expected two numbers 'wavelength_nm,value', found '{line}'")
+                    format!(
+                        "expected two numbers 'wavelength_nm,value', found '{}'",
+                        gloam_io::shown(line)
+                    )
                 } else {
                     format!(
-                        "expected two numbers 'wavelength_nm,value', found '{line}' (a header row must name its columns, e.g. 'wavelength_nm,value'; this looks like a mistyped data row)"
+                        "expected two numbers 'wavelength_nm,value', found '{}' (a header row must name its columns, e.g. 'wavelength_nm,value'; this looks like a mistyped data row)",
+                        gloam_io::shown(line)
                     )
                 },
             ));

@@ -54,13 +54,9 @@ pub enum SweepCommandError {
     Stdout(#[source] std::io::Error),
 }
 
-/// Runs `gloam sweep` as `args` ask; `provenance` gives the run's
-/// (recorded in a new plan).
-pub fn run(
-    args: SweepArgs,
-    provenance: impl FnOnce() -> Result<serde_json::Value, serde_json::Error>,
-    ui: &dyn SweepUi,
-) -> Result<(), SweepCommandError> {
+/// Runs `gloam sweep` as `args` ask (a new plan records this run's
+/// provenance).
+pub fn run(args: SweepArgs, ui: &dyn SweepUi) -> Result<(), SweepCommandError> {
     match args.command {
         Some(SweepCommand::Run(r)) => run_tasks(r, ui),
         Some(SweepCommand::Status(s)) => status(s, ui),
@@ -77,7 +73,10 @@ pub fn run(
             ));
             Ok(())
         }
-        None => plan_and_run(args, provenance()?, ui),
+        None => {
+            let provenance = gloam_pipeline::Provenance::of_this_run(&gloam_io::ReadLog::off());
+            plan_and_run(args, serde_json::to_value(provenance)?, ui)
+        }
     }
 }
 

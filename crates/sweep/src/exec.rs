@@ -237,7 +237,7 @@ fn write_radiance(task: &Task, r: &Rendered, out: &Path) -> Result<Figures, Task
 }
 
 /// Frames of a render through the task's camera (noise seeded by the
-/// task): the one capture loop, [`FrameCapture::capture`], keeping the
+/// task): the one capture loop, [`FrameCapture::start`]'s, keeping the
 /// pixels for the task's noise figures.
 fn capture_detected(
     sensor: &ResolvedSensor,
@@ -249,13 +249,15 @@ fn capture_detected(
     let mut writer = FrameWriter::create(out)?;
     let mut frames: Vec<Vec<u16>> = Vec::new();
     let (mut black, mut gain, mut sat) = (f64::NAN, f64::NAN, 0.0);
-    let captured = capture.capture(detected, &mut |f, rec| {
+    let mut capturing = capture.start(detected)?;
+    // Bounded: the task's frames.
+    while let Some((f, rec)) = capturing.next_frame(None)? {
         writer.write(&rec, &f.pixels)?;
         (black, gain) = (rec.black_dn.unwrap_or(f64::NAN), rec.gain);
         sat += rec.saturated_fraction;
         frames.push(f.pixels);
-        Ok(())
-    })?;
+    }
+    let captured = capturing.finish();
     writer.finish()?;
     let refs: Vec<&[u16]> = frames.iter().map(Vec::as_slice).collect();
     let mut f = crate::figures::frame_figures(&refs, Some(black));
@@ -264,32 +266,33 @@ fn capture_detected(
     // The camera fit predicted before the first frame: how much of the
     // frame saturates at this gain and at the least sensitive one, and
     // the ND that would fit (absent: none within reach, or not needed).
-    let fit = &captured.report["fit"];
+    let fit = &captured.report.fit;
     for (key, value) in [
         (
             "fit_saturated_fraction",
-            &fit["at_gain"]["saturated_fraction"],
+            Some(fit.at_gain.saturated_fraction),
         ),
         (
             "fit_saturated_fraction_at_gain_min",
-            &fit["at_gain_min"]["saturated_fraction"],
+            Some(fit.at_gain_min.saturated_fraction),
         ),
         (
             "fit_median_above_black_of_full_scale",
-            &fit["at_gain"]["median_above_black_of_full_scale"],
+            Some(fit.at_gain.median_above_black_of_full_scale),
         ),
-        ("fit_nd_density", &fit["nd_density_to_fit"]),
+        ("fit_nd_density", fit.nd_density_to_fit),
     ] {
-        if let Some(v) = value.as_f64() {
+        // A figure that is not a number was never recorded (JSON has none).
+        if let Some(v) = value.filter(|v| v.is_finite()) {
             f.insert(key.into(), v);
         }
     }
     // What the frames gave, to set beside it: the median above black over
     // full scale, averaged over the frames.
-    if let Some(frames) = captured.report["frames"].as_array() {
-        let m: Vec<f64> = frames
-            .iter()
-            .filter_map(|fr| fr["median_above_black_of_full_scale"].as_f64())
+    {
+        let m: Vec<f64> = (captured.report.frames.iter())
+            .map(|fr| fr.median_above_black_of_full_scale)
+            .filter(|v| v.is_finite())
             .collect();
         if !m.is_empty() {
             f.insert(

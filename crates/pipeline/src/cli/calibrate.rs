@@ -20,7 +20,7 @@ use crate::render::RenderError;
 use crate::request::Events;
 use crate::sequence::{SceneSequence, SequenceError, capture_scene_sequence};
 use crate::{FrameCapture, FrameContext, FrameFormat, Provenance, SettingArgs};
-use gloam_io::ReadLog;
+use gloam_io::{ReadLog, RunGuard};
 
 /// Why a calibration was refused or failed.
 #[derive(Debug, thiserror::Error)]
@@ -162,11 +162,13 @@ fn capture(
 /// Runs one `gloam calibrate` flow (`calibrate agc --sequence` with its
 /// render), publishes its output set with the run's provenance and
 /// returns the lines to print. `ev` hears the flow (notes, progress);
-/// `events` the sequence's render.
+/// `events` the sequence's render; `guard` removes the set if the run
+/// is interrupted.
 pub fn run_calibrate_command(
     cmd: &CalibrateCommand,
     ev: &mut dyn FnMut(Event<'_>),
     events: &dyn Events,
+    guard: &RunGuard,
 ) -> Result<Vec<String>, CalibrateError> {
     let registry = crate::grabbers();
     // This run's reads, for its manifest.
@@ -176,11 +178,11 @@ pub fn run_calibrate_command(
             let path = a.sequence.as_deref().unwrap_or(Path::new(""));
             let loaded = load_sequence(path, &a.set, &reads, events)?;
             let frame_format = super::frame_format(a.frame_format.as_deref())?;
-            let run = agc_sequence(a, &reads)?;
+            let run = agc_sequence(a, &reads, guard)?;
             let captured = capture(&loaded, &run, frame_format, &reads, events)?;
             run.finish::<CalibrateError>(captured, &registry, &reads, ev)?
         }
-        _ => run_calibrate::<CalibrateError>(cmd, &registry, &reads, ev)?,
+        _ => run_calibrate::<CalibrateError>(cmd, &registry, &reads, guard, ev)?,
     };
     let Outcome {
         set,
@@ -206,10 +208,11 @@ pub fn publish(set: OutputSet, main_json: &str, reads: &ReadLog) -> Result<(), C
 /// where the plot went (stderr) to print.
 pub fn run_scope_command(
     a: &gloam_calib::cli::ScopeArgs,
+    guard: &RunGuard,
 ) -> Result<(Vec<String>, String), CalibrateError> {
     use gloam_calib::scope_run::{run_scope, write_scope};
     let opts = a.options()?;
-    let set = OutputSet::begin(&a.out, a.force, false)?;
+    let set = OutputSet::begin(&a.out, a.force, false, guard)?;
     let reads = gloam_io::ReadLog::new();
     let r = run_scope(&opts, &reads)?;
     write_scope(set.dir(), &r)?;

@@ -122,14 +122,10 @@ pub fn device_source(
         source,
     };
     if let Some(path) = &args.sequence {
-        let view = sequence_view(
-            args,
-            &crate::resolve_sensor(&args.sensor, &unlisted())?,
-            path,
-            note,
-        )?;
-        let source =
-            SensorSource::with_scene(&args.sensor, view, args.seed, &unlisted()).map_err(sensor)?;
+        // Read once: the layers are rendered through it, the camera is it.
+        let resolved = crate::resolve_sensor(&args.sensor, &unlisted())?;
+        let view = sequence_view(args, &resolved, path, note)?;
+        let source = SensorSource::with_scene(&resolved, view, args.seed).map_err(sensor)?;
         let view = format!("sequence '{path}'");
         return Ok(DeviceSource {
             source,
@@ -149,8 +145,7 @@ pub fn device_source(
         if let Some(fit) = crate::scene_view_fit_note(&scene, &resolved) {
             note(&format!("warning: {fit}"));
         }
-        let source = SensorSource::with_scene(&args.sensor, scene, args.seed, &unlisted())
-            .map_err(sensor)?;
+        let source = SensorSource::with_scene(&resolved, scene, args.seed).map_err(sensor)?;
         let view = format!("scene '{path}'");
         return Ok(DeviceSource {
             source,

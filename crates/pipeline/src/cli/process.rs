@@ -6,6 +6,9 @@
 use std::io::Write as _;
 use std::process::ExitCode;
 
+use gloam_io::RunGuard;
+use gloam_io::guard::AfterInterrupt;
+
 /// Refuses a `RAYON_NUM_THREADS` past the tracer's own thread limit:
 /// rayon would try to start that many workers (100 000 hang the start).
 fn check_thread_env() -> Result<(), String> {
@@ -36,6 +39,43 @@ pub fn start_workers() -> Result<(), String> {
             std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "the".into())
         )
     })
+}
+
+/// The process's [`RunGuard`], made from the command line `matches` was
+/// parsed from, and the interrupt handler (Ctrl-C, SIGTERM, SIGHUP) that
+/// acts on it: child processes killed; a polling loop (a capture) left to
+/// stop and publish what it has; otherwise every unpublished set removed
+/// and the process ended with 130. The guard is the binary's: a library
+/// holds no process-wide list of sets or children.
+pub fn guard_this_run(matches: &clap::ArgMatches) -> RunGuard {
+    // The subcommand path (`calibrate agc`): its words are not inputs.
+    let mut words = Vec::new();
+    let mut m = matches;
+    while let Some((name, sub)) = m.subcommand() {
+        words.push(name.into());
+        m = sub;
+        if words.len() > 8 {
+            break;
+        }
+    }
+    let guard = RunGuard::for_command_line(std::env::args_os().skip(1), &words);
+    let on_signal = guard.clone();
+    let installed = ctrlc::set_handler(move || match on_signal.on_interrupt() {
+        AfterInterrupt::Continue => {}
+        AfterInterrupt::Exit { had_sets } => {
+            let what = if had_sets {
+                ": nothing was published"
+            } else {
+                ""
+            };
+            let _ = writeln!(std::io::stderr(), "interrupted{what}");
+            std::process::exit(130);
+        }
+    });
+    if let Err(e) = installed {
+        tracing::warn!("no interrupt handler ({e}): Ctrl-C leaves a partial output set behind");
+    }
+    guard
 }
 
 /// `cmd` and all its subcommands taking negative numbers as values, so that
