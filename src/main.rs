@@ -202,8 +202,9 @@ fn gloam_main() -> ExitCode {
         return ExitCode::FAILURE;
     }
     let matches = match negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()))
-        .try_get_matches()
-    {
+        .try_get_matches_from(gloam_pipeline::cli::process::args_with_signed_exponents(
+            std::env::args_os(),
+        )) {
         Ok(m) => m,
         Err(e) => return clap_exit(e),
     };

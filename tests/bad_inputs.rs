@@ -792,7 +792,7 @@ const CASES: &[Case] = &[
             "--out",
             "o"
         ],
-        ["--frequencies: 0.1 is given twice (items 1 and 3)"]
+        ["--frequencies 0.1: given twice"]
     ),
     case!(
         "calibrate mtf: 257 sine frequencies",

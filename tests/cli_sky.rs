@@ -197,6 +197,20 @@ fn sky_json_matches_the_library_and_the_anchors() {
     }
 }
 
+/// A latitude with a signed exponent is a value (clap alone took
+/// `-1e-3` for a flag `-1`): the same sky as `--lat=-1e-3`.
+#[test]
+fn a_signed_exponent_is_a_value() {
+    let at = |lat: &[&str]| {
+        let mut a = vec!["sky"];
+        a.extend_from_slice(lat);
+        a.extend(["--lon", LON, "--utc", FULL, "--json"]);
+        ok_json(&a)
+    };
+    let (spaced, joined) = (at(&["--lat", "-1e-3"]), at(&["--lat=-1e-3"]));
+    assert_eq!(spaced, joined);
+}
+
 #[test]
 fn sky_overcast_and_text_output() {
     let clear = ok_json(&["sky", "--lat", LAT, "--lon", LON, "--utc", FULL, "--json"]);

@@ -8,8 +8,8 @@ use gloam_grabber::GrabError;
 /// Everything a calibration flow can fail with.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
-    /// The grabber's error is the source: "grabber: {0}" printed it twice
-    /// in a chain ("grabber: invalid setting: …: invalid setting: …").
+    /// The grabber's error is the source: the message read "grabber: X: X"
+    /// when it was also in this one's text.
     #[error("grabber")]
     Grab(#[from] GrabError),
     #[error("{path}: {message}")]

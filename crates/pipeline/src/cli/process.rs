@@ -78,6 +78,34 @@ pub fn guard_this_run(matches: &clap::ArgMatches) -> RunGuard {
     guard
 }
 
+/// The command line with `--flag -1e-3` written `--flag=-1e-3`: clap takes
+/// `-1.5` and `-1e3` as a flag's value but not a number whose exponent has
+/// a sign, and `gloam sky --lat -1e-3` failed with "unexpected argument
+/// '-1'". Only a long flag followed by a whole signed float is joined.
+pub fn args_with_signed_exponents(
+    args: impl IntoIterator<Item = std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::new();
+    for a in args {
+        let joins = a.to_str().is_some_and(|v| {
+            v.starts_with('-')
+                && (v.contains("e-") || v.contains("e+") || v.contains("E-") || v.contains("E+"))
+                && v.parse::<f64>().is_ok()
+        }) && out
+            .last()
+            .and_then(|f| f.to_str())
+            .is_some_and(|f| f.starts_with("--") && f.len() > 2 && !f.contains('='));
+        match out.last_mut() {
+            Some(flag) if joins => {
+                flag.push("=");
+                flag.push(&a);
+            }
+            _ => out.push(a),
+        }
+    }
+    out
+}
+
 /// `cmd` and all its subcommands taking negative numbers as values, so that
 /// `--spp -5` is refused by the flag's own check ("invalid value '-5' for
 /// '--spp'") rather than by clap's misleading "use '-- -5'" tip.
