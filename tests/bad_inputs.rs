@@ -850,6 +850,8 @@ const CASES: &[Case] = &[
         ]
     ),
     case!("calibrate agc: a fixed gain outside the camera, said once", ["s.toml" => SPHERE], ["calibrate", "agc", "--grabber", "sim:gen3-gaas-iccd?size=64x48", "--source", "s.toml", "--levels", "5", "--fixed-gain", "1e9", "--out", "o"], ["grabber: invalid setting: gain 1e9 is outside the range of 'gen3-gaas-iccd'"]),
+    // Round 12: a task was named with its gain in 301 digits.
+    case!("sweep: a gain of 1e300 named as such", ["w.toml" => "[base]\nframes = 1\nscene = \"s.toml\"\nsensor = \"gen3-gaas-iccd\"\nspp = 1\n[axes]\ngain = [1e300]\n", "s.toml" => "{base}"], ["sweep", "w.toml", "--out", "o"], ["w.toml: task 0 (gain=1e300): --gain: gain 1e300 is outside the range"]),
     case!("calibrate mtf: CTF file a FIFO", ["c.csv" => "{fifo}"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--out", "o"], ["c.csv", "not a regular file"]),
     case!("sky --spectra-out: a directory", ["d/x" => ""], ["sky", "--lat", "43", "--lon", "-77", "--utc", "2025-10-07T05:00:00Z", "--spectra-out", "d"], ["d", "directory"]),
     case!("sky --spectra-out: a FIFO is never replaced", ["p.csv" => "{fifo}"], ["sky", "--lat", "43", "--lon", "-77", "--utc", "2025-10-07T05:00:00Z", "--spectra-out", "p.csv"], ["p.csv", "not a regular file"]),

@@ -770,9 +770,15 @@ impl Task {
         if self.axes.is_empty() {
             return "the base".into();
         }
+        // A long number in exponent form: `gain = [1e300]` was named in
+        // 301 digits.
+        let shown = |v: &str| match v.parse::<f64>() {
+            Ok(x) if v.len() > 20 => gloam_spectra::num(x),
+            _ => v.to_string(),
+        };
         self.axes
             .iter()
-            .map(|(k, v)| format!("{k}={v}"))
+            .map(|(k, v)| format!("{k}={}", shown(v)))
             .collect::<Vec<_>>()
             .join(" ")
     }
