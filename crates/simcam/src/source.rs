@@ -204,6 +204,15 @@ impl SensorSource {
             return Ok(());
         }
         let mut cfg = self.base.clone();
+        // Another bit depth keeps the top bits, as a camera's Mono8 does:
+        // the offset and the conversion gain scale with the code range. Kept
+        // in DN of the configured depth, a 500 DN black put every pixel of
+        // an 8-bit frame at its top code.
+        let k = 2f64.powi(i32::from(s.bits) - i32::from(cfg.digitizer.bits));
+        cfg.digitizer.offset_dn *= k;
+        if let Some(e) = cfg.digitizer.e_per_dn.as_mut() {
+            *e /= k;
+        }
         cfg.digitizer.bits = s.bits;
         cfg.timing.exposure_s = f64::from(s.exposure_us) / 1e6;
         if cfg.timing.exposure_s > 1.0 / cfg.timing.frame_rate_hz {

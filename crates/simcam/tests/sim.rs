@@ -319,3 +319,20 @@ fn bad_scenes_are_clear_errors() {
 fn gen2() -> gloam_sensor::ResolvedSensor {
     gloam_sensor::ResolvedSensor::load("gen2-s20-iccd", &gloam_io::ReadLog::off()).unwrap()
 }
+
+/// Another bit depth keeps the top bits: an 8-bit frame's mean is the
+/// 16-bit one's over 256 (its 500 DN black once put every 8-bit pixel at
+/// the top code).
+#[test]
+fn an_8_bit_frame_is_the_top_bits_of_the_16_bit_one() {
+    let mean = |bits: u8| {
+        let mut g = open("sim:scientific-ccd?size=48x48&seed=3").unwrap();
+        g.set_bits(bits).unwrap();
+        g.set_gain(2.0).unwrap();
+        let f = g.grab().unwrap();
+        f.pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / f.pixels.len() as f64
+    };
+    let (m16, m8) = (mean(16), mean(8));
+    assert!((m8 * 256.0 / m16 - 1.0).abs() < 0.01, "{m8} × 256 vs {m16}");
+    assert!(m8 < 250.0, "{m8}");
+}
