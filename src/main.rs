@@ -201,10 +201,10 @@ fn gloam_main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
-    let matches = match negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()))
-        .try_get_matches_from(gloam_pipeline::cli::process::args_with_signed_exponents(
-            std::env::args_os(),
-        )) {
+    let mut command = negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()));
+    let args =
+        gloam_pipeline::cli::process::args_with_signed_exponents(&mut command, std::env::args_os());
+    let matches = match command.try_get_matches_from(args) {
         Ok(m) => m,
         Err(e) => return clap_exit(e),
     };

@@ -48,8 +48,9 @@ pub enum AfterInterrupt {
 
 /// Most command-line arguments looked at for inputs.
 const MAX_ARGUMENTS: usize = 10_000;
-/// Most subcommand words (`calibrate agc`) a command line has.
-const MAX_COMMAND_WORDS: usize = 8;
+/// Most subcommand words (`calibrate agc`) a command line has: the
+/// binary's walk of its parsed subcommands stops there too.
+pub const MAX_COMMAND_WORDS: usize = 8;
 
 impl RunGuard {
     /// A guard for a command line: `args` after the program name, and the

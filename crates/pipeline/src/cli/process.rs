@@ -51,12 +51,11 @@ pub fn guard_this_run(matches: &clap::ArgMatches) -> RunGuard {
     // The subcommand path (`calibrate agc`): its words are not inputs.
     let mut words = Vec::new();
     let mut m = matches;
-    while let Some((name, sub)) = m.subcommand() {
+    while let Some((name, sub)) = m.subcommand()
+        && words.len() < gloam_io::guard::MAX_COMMAND_WORDS
+    {
         words.push(name.into());
         m = sub;
-        if words.len() > 8 {
-            break;
-        }
     }
     let guard = RunGuard::for_command_line(std::env::args_os().skip(1), &words);
     let on_signal = guard.clone();
@@ -81,27 +80,49 @@ pub fn guard_this_run(matches: &clap::ArgMatches) -> RunGuard {
 /// The command line with `--flag -1e-3` written `--flag=-1e-3`: clap takes
 /// `-1.5` and `-1e3` as a flag's value but not a number whose exponent has
 /// a sign, and `gloam sky --lat -1e-3` failed with "unexpected argument
-/// '-1'". Only a long flag followed by a whole signed float is joined.
+/// '-1'". Only a long flag that takes a value in the (sub)command reached so
+/// far, followed by a whole signed float, is joined: `--json -1e-3` stays
+/// two words for clap to judge. `cmd` is built here (global flags reach
+/// the subcommands).
 pub fn args_with_signed_exponents(
+    cmd: &mut clap::Command,
     args: impl IntoIterator<Item = std::ffi::OsString>,
 ) -> Vec<std::ffi::OsString> {
+    cmd.build();
+    let mut at: &clap::Command = cmd;
     let mut out: Vec<std::ffi::OsString> = Vec::new();
-    for a in args {
-        let joins = a.to_str().is_some_and(|v| {
+    // The last word is a long flag (no `=`) whose value comes next.
+    let mut value_next = false;
+    for (i, a) in args.into_iter().enumerate() {
+        let text = a.to_str();
+        let signed_exponent = text.is_some_and(|v| {
             v.starts_with('-')
                 && (v.contains("e-") || v.contains("e+") || v.contains("E-") || v.contains("E+"))
                 && v.parse::<f64>().is_ok()
-        }) && out
-            .last()
-            .and_then(|f| f.to_str())
-            .is_some_and(|f| f.starts_with("--") && f.len() > 2 && !f.contains('='));
-        match out.last_mut() {
-            Some(flag) if joins => {
-                flag.push("=");
-                flag.push(&a);
-            }
-            _ => out.push(a),
+        });
+        if let Some(flag) = out.last_mut().filter(|_| value_next && signed_exponent) {
+            flag.push("=");
+            flag.push(&a);
+            value_next = false;
+            continue;
         }
+        if i > 0
+            && !value_next
+            && let Some(sub) = text.and_then(|v| at.find_subcommand(v))
+        {
+            at = sub;
+        }
+        value_next = text
+            .and_then(|v| v.strip_prefix("--"))
+            .filter(|name| !name.is_empty() && !name.contains('='))
+            .and_then(|name| {
+                at.get_arguments().find(|arg| {
+                    arg.get_long() == Some(name)
+                        || arg.get_all_aliases().is_some_and(|al| al.contains(&name))
+                })
+            })
+            .is_some_and(|arg| arg.get_action().takes_values());
+        out.push(a);
     }
     out
 }
@@ -162,4 +183,68 @@ fn log_filter(log: &str) -> tracing_subscriber::EnvFilter {
         );
         EnvFilter::new(log)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::args_with_signed_exponents;
+    use std::ffi::OsString;
+
+    fn joined(args: &[&str]) -> Vec<String> {
+        let mut cmd = clap::Command::new("g")
+            .arg(
+                clap::Arg::new("json")
+                    .long("json")
+                    .action(clap::ArgAction::SetTrue),
+            )
+            .subcommand(
+                clap::Command::new("sky")
+                    .arg(
+                        clap::Arg::new("lat")
+                            .long("lat")
+                            .allow_negative_numbers(true),
+                    )
+                    .arg(
+                        clap::Arg::new("quiet")
+                            .long("quiet")
+                            .action(clap::ArgAction::SetTrue),
+                    )
+                    .arg(clap::Arg::new("at").allow_negative_numbers(true)),
+            );
+        let words = args.iter().map(OsString::from);
+        args_with_signed_exponents(&mut cmd, words)
+            .into_iter()
+            .map(|w| w.into_string().unwrap())
+            .collect()
+    }
+
+    /// Joined only after a flag that takes a value, in the subcommand
+    /// the words reached; a flag without a value keeps its neighbour.
+    #[test]
+    fn only_a_flag_that_takes_a_value_is_joined() {
+        assert_eq!(
+            joined(&["g", "sky", "--lat", "-1e-3"]),
+            ["g", "sky", "--lat=-1e-3"]
+        );
+        assert_eq!(
+            joined(&["g", "sky", "--quiet", "-1e-3"]),
+            ["g", "sky", "--quiet", "-1e-3"]
+        );
+        // `--lat` is the subcommand's flag, unknown before it.
+        assert_eq!(joined(&["g", "--lat", "-1e-3"]), ["g", "--lat", "-1e-3"]);
+        // Not a signed exponent, or already joined: untouched.
+        assert_eq!(
+            joined(&["g", "sky", "--lat", "-1.5"]),
+            ["g", "sky", "--lat", "-1.5"]
+        );
+        assert_eq!(
+            joined(&["g", "sky", "--lat=-1e-3"]),
+            ["g", "sky", "--lat=-1e-3"]
+        );
+        // A value equal to a subcommand's name is a value, not a descent.
+        assert_eq!(
+            joined(&["g", "sky", "--lat", "sky", "--json", "-1e+2"]),
+            ["g", "sky", "--lat", "sky", "--json", "-1e+2"]
+        );
+    }
 }
