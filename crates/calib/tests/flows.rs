@@ -418,17 +418,22 @@ fn sine_target_above_mtf_1_05_is_refused() {
     assert!((c.mtf[0] - want).abs() < 0.01, "{} vs {want}", c.mtf[0]);
 }
 
+/// A 5° slanted edge (ISO 12233's slant) under a tungsten-halogen lamp.
+fn edge_at_5_deg(dark_w_m2_sr: f64, bright_w_m2_sr: f64, frames: usize) -> EdgeOptions {
+    EdgeOptions {
+        dark_radiance_w_m2_sr: dark_w_m2_sr,
+        bright_radiance_w_m2_sr: bright_w_m2_sr,
+        angle_deg: 5.0,
+        spectrum: "tungsten-halogen-3200k".into(),
+        frames,
+    }
+}
+
 #[test]
 fn slanted_edge_mtf_matches_the_analytic_mtf() {
     let mut cam = MockCamera::new(9);
     cam.photons_per_radiance = 600.0;
-    let opts = EdgeOptions {
-        dark_radiance_w_m2_sr: 1.0,
-        bright_radiance_w_m2_sr: 8.0,
-        angle_deg: 5.0,
-        spectrum: "tungsten-halogen-3200k".into(),
-        frames: 8,
-    };
+    let opts = edge_at_5_deg(1.0, 8.0, 8);
     let c = edge_mtf(&mut cam, &opts, &mut |_, _| {}).unwrap();
     let worst = c
         .frequencies_cy_per_px
@@ -477,13 +482,7 @@ fn slanted_edge_mtf_holds_through_a_fixed_pattern_and_noise() {
         .collect();
     cam.dsnu = vec![0.0; 256 * 192];
     cam.photons_per_radiance = 40.0;
-    let opts = EdgeOptions {
-        dark_radiance_w_m2_sr: 1.0,
-        bright_radiance_w_m2_sr: 8.0,
-        angle_deg: 5.0,
-        spectrum: "tungsten-halogen-3200k".into(),
-        frames: 8,
-    };
+    let opts = edge_at_5_deg(1.0, 8.0, 8);
     let c = edge_mtf(&mut cam, &opts, &mut |_, _| {}).unwrap();
     let worst = (c.frequencies_cy_per_px.iter().zip(&c.mtf))
         .filter(|(f, _)| **f < 0.4)
@@ -496,13 +495,7 @@ fn slanted_edge_mtf_holds_through_a_fixed_pattern_and_noise() {
 #[test]
 fn flat_field_has_no_edge() {
     let mut cam = MockCamera::new(10);
-    let opts = EdgeOptions {
-        dark_radiance_w_m2_sr: 3.0,
-        bright_radiance_w_m2_sr: 3.0,
-        angle_deg: 5.0,
-        spectrum: "tungsten-halogen-3200k".into(),
-        frames: 2,
-    };
+    let opts = edge_at_5_deg(3.0, 3.0, 2);
     assert!(edge_mtf(&mut cam, &opts, &mut |_, _| {}).is_err());
 }
 
