@@ -1448,14 +1448,8 @@ fn obj_geometry(rd: &GeometryReader, file: &str, sink: &mut FacetSink) -> R<()> 
     // The face lines bound the facets: refuse an oversized mesh (or
     // placement count) before the OBJ parser allocates for it.
     rd.budget(count_obj_faces(&bytes), "obj")?;
-    if let Some((k, kind)) = obj_non_surface(&bytes) {
-        return Err(cx.err(
-            &at,
-            format!(
-                "OBJ file {}:{k}: a {kind} is not a surface; remove it (only faces, `f`, become facets)",
-                p.display()
-            ),
-        ));
+    if let Some((k, what)) = obj_line_error(&bytes) {
+        return Err(cx.err(&at, format!("OBJ file {}:{k}: {what}", p.display())));
     }
     let (models, _mtl) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
         // Materials come from the scene file, not from .mtl files.
@@ -1488,24 +1482,53 @@ fn obj_geometry(rd: &GeometryReader, file: &str, sink: &mut FacetSink) -> R<()> 
     Ok(())
 }
 
-/// Line (`l`) and point (`p`) elements are not surfaces: the OBJ parser
-/// would turn a 3-vertex polyline into a facet. The first one's line
-/// (from 1) and kind, to refuse it, never render it.
-fn obj_non_surface(bytes: &[u8]) -> Option<(usize, &'static str)> {
-    bytes.split(|&b| b == b'\n').enumerate().find_map(|(k, l)| {
-        let l = l.trim_ascii_start();
-        match l.first() {
-            Some(b'l') | Some(b'p') if l.get(1).is_some_and(|b| b.is_ascii_whitespace()) => Some((
-                k + 1,
-                if l[0] == b'l' {
-                    "line element (`l`)"
-                } else {
-                    "point element (`p`)"
-                },
-            )),
+/// The first line (from 1) the OBJ parser would take wrongly or report
+/// without its line, and why: a line (`l`) or point (`p`) element, which
+/// the parser would turn into a facet, not a surface; a vertex (`v`)
+/// whose coordinates are not finite numbers; a face (`f`) whose vertex
+/// index is not a number, 0, or refers past the vertices defined so far
+/// (1-based, negative from the last). Comments (`#`) end a line. One
+/// pass, no allocation per line.
+fn obj_line_error(bytes: &[u8]) -> Option<(usize, String)> {
+    let mut vertices = 0i64;
+    for (k, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = line.split(|&b| b == b'#').next().unwrap_or(line);
+        let mut words = line
+            .split(|b| b.is_ascii_whitespace())
+            .filter(|w| !w.is_empty());
+        let what = match words.next() {
+            Some(b"l") => Some("a line element (`l`) is not a surface; remove it (only faces, `f`, become facets)".to_string()),
+            Some(b"p") => Some("a point element (`p`) is not a surface; remove it (only faces, `f`, become facets)".to_string()),
+            Some(b"v") => {
+                vertices += 1;
+                words.take(3).find_map(|w| {
+                    let text = String::from_utf8_lossy(w);
+                    match text.parse::<f32>() {
+                        Ok(x) if x.is_finite() => None,
+                        Ok(_) => Some(format!("vertex {vertices} has the coordinate '{text}', not a finite number (|x| ≤ 3.4e38 in an OBJ's 32-bit floats)")),
+                        Err(_) => Some(format!("vertex {vertices} has the coordinate '{text}', not a number")),
+                    }
+                })
+            }
+            Some(b"f") => words.find_map(|w| {
+                let index = w.split(|&b| b == b'/').next().unwrap_or(w);
+                let text = String::from_utf8_lossy(index);
+                match text.parse::<i64>() {
+                    Err(_) => Some(format!("the face's vertex '{}' is not an index", String::from_utf8_lossy(w))),
+                    Ok(0) => Some("a face's vertex index is 0; OBJ counts vertices from 1 (or back from -1)".to_string()),
+                    Ok(i) if i.unsigned_abs() > vertices.unsigned_abs() => Some(format!(
+                        "the face's vertex index {i} refers past the {vertices} vertices defined before it"
+                    )),
+                    Ok(_) => None,
+                }
+            }),
             _ => None,
+        };
+        if let Some(what) = what {
+            return Some((k + 1, what));
         }
-    })
+    }
+    None
 }
 
 /// Faces of a parsed OBJ mesh (all triangles when it lists no arities).

@@ -1637,15 +1637,15 @@ fn over_limit_instance_counts_are_refused_before_allocating() {
         "200001 placements × 100 facets: 20000100 facets here plus 1 before it would exceed the limit of 20000000 facets",
     );
     assert!(!m.contains("out of bounds"), "{m}");
-    // Fewer placements fit, and the file is parsed: the bad indices are
-    // found.
+    // Fewer placements fit, and the file is read: the bad indices are
+    // found, with their line.
     std::fs::write(dir.path().join("p.csv"), "0,0,0,0,1\n".repeat(1000)).unwrap();
     expect_err_at(
         &text,
         &path,
         next_line() + 2,
         "objects.m.obj",
-        "out of bounds",
+        "m.obj:1: the face's vertex index 1 refers past the 0 vertices",
     );
 }
 
