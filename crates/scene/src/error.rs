@@ -265,35 +265,39 @@ fn path_in_table(table: &DeTable, offset: usize, path: &mut FieldPath) {
         }
     }
     if hit.is_none() {
-        // Header tables: the entry whose subtree contains the offset.
-        for (k, v) in table.iter() {
-            if matches!(v.get_ref(), DeValue::Table(t) if table_holds(t, offset)) {
-                hit = Some((k, v));
-                break;
-            }
-        }
+        // Header tables (`[a]`, `[[a]]`): the entry whose subtree holds
+        // the offset.
+        hit = table.iter().find(|(_, v)| value_holds(v.get_ref(), offset));
     }
     let Some((k, v)) = hit else { return };
     path.0.push(Seg::Key(k.get_ref().to_string()));
     path_in_value(v, offset, path);
 }
 
-fn table_holds(t: &DeTable, offset: usize) -> bool {
-    t.iter().any(|(k, v)| {
-        contains(&k.span(), offset)
-            || contains(&v.span(), offset)
-            || matches!(v.get_ref(), DeValue::Table(t2) if table_holds(t2, offset))
-    })
+/// Whether a table, or an array of tables (`[[move]]`), holds `offset` in
+/// one of its keys or values, at any depth.
+fn value_holds(v: &DeValue, offset: usize) -> bool {
+    match v {
+        DeValue::Table(t) => t.iter().any(|(k, v)| {
+            contains(&k.span(), offset)
+                || contains(&v.span(), offset)
+                || value_holds(v.get_ref(), offset)
+        }),
+        DeValue::Array(a) => a
+            .iter()
+            .any(|e| contains(&e.span(), offset) || value_holds(e.get_ref(), offset)),
+        _ => false,
+    }
 }
 
 fn path_in_value(v: &Spanned<DeValue>, offset: usize, path: &mut FieldPath) {
     match v.get_ref() {
         DeValue::Table(t) => path_in_table(t, offset, path),
         DeValue::Array(a) => {
-            if let Some((i, e)) = a
-                .iter()
-                .enumerate()
+            // An element of an array of tables may span only its header.
+            if let Some((i, e)) = (a.iter().enumerate())
                 .find(|(_, e)| contains(&e.span(), offset))
+                .or_else(|| (a.iter().enumerate()).find(|(_, e)| value_holds(e.get_ref(), offset)))
             {
                 path.0.push(Seg::Index(i));
                 path_in_value(e, offset, path);

@@ -1102,6 +1102,13 @@ mod tests {
                 5,
                 "intensity 1e300 must be",
             ),
+            // Issue 46, round 12: a key under `[[move]]` was placed in
+            // "(document)".
+            (
+                "scene = \"s\"\nframe_rate_hz = 25\nframes = 3\n[[move]]\nobjects = [\"car\"]\nkeys = [[0, 1, 2, 3]]\n[[move]]\nobjects = [\"van\"]\nkeys = [[0, 1, 2, 3]]\nframe_rate = 3\n",
+                10,
+                "move[1].frame_rate: unknown field `frame_rate`",
+            ),
         ] {
             let e = parse_sequence(text, p).unwrap_err();
             let msg = e.to_string();
