@@ -77,9 +77,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
     let mut f = builder
         .tempfile_in(dir)
         .map_err(|e| FileError::new(dir, e))?;
-    f.write_all(bytes)
+    // Through the plain file: the temporary file's own writer adds its
+    // random name to an error ("…/.tmpaTYVIX: No space left on device at
+    // path …/.tmpaTYVIX"); the file being written is `path`.
+    f.as_file_mut()
+        .write_all(bytes)
         .and_then(|_| f.as_file().sync_all())
-        .map_err(|e| FileError::new(f.path(), e))?;
+        .map_err(|e| FileError::new(path, e))?;
     f.persist(path)
         .map(|_| ())
         .map_err(|e| FileError::new(path, e.error))

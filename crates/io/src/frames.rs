@@ -475,7 +475,7 @@ impl Iterator for Lines {
                     if line.trim().is_empty() {
                         return Ok(None);
                     }
-                    serde_json::from_str(line)
+                    crate::json::parse_value(line)
                         .map(|value| Some(FrameLine { line: i + 1, value }))
                         .map_err(|source| FramesReadError::Json {
                             path: self.path.clone(),

@@ -7,6 +7,7 @@ pub mod frames;
 pub mod guard;
 mod hash;
 mod input;
+pub mod json;
 pub mod npy;
 pub mod output_set;
 pub mod png;

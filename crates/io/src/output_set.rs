@@ -72,6 +72,12 @@ pub enum OutputSetError {
         input.display()
     )]
     InsideInput { target: PathBuf, input: PathBuf },
+    #[error(
+        "--out {}: inside {}, a published gloam output set (its manifest.json lists every file in it, and a set written inside would leave it one --force refuses to replace); write the output outside it",
+        target.display(),
+        set.display()
+    )]
+    InsideSet { target: PathBuf, set: PathBuf },
     /// `--force` on a directory that is not a previous output set.
     #[error(
         "--out {}: {why}; --force replaces only a previous gloam output set (a directory whose manifest.json lists every file in it) — choose another --out",
@@ -148,6 +154,7 @@ impl OutputSet {
         guard: &RunGuard,
     ) -> Result<Self, OutputSetError> {
         refuse_target_inside_inputs(target, guard.arguments())?;
+        refuse_target_inside_a_set(target)?;
         if let Ok(meta) = std::fs::symlink_metadata(target) {
             if meta.file_type().is_symlink() {
                 return Err(OutputSetError::Link(target.to_path_buf()));
@@ -339,18 +346,17 @@ fn refuse_unless_output_set(target: &Path) -> Result<(), OutputSetError> {
         &crate::ReadLog::off(),
     )
     .map_err(|_| not_ours("it holds no readable manifest.json".into()))?;
-    let listed: std::collections::HashSet<String> =
-        serde_json::from_str::<serde_json::Value>(&text)
-            .ok()
-            .and_then(|v| {
-                v.get("files")?.as_array().map(|files| {
-                    files
-                        .iter()
-                        .filter_map(|f| f.get("path")?.as_str().map(String::from))
-                        .collect()
-                })
+    let listed: std::collections::HashSet<String> = crate::json::parse_value(&text)
+        .ok()
+        .and_then(|v| {
+            v.get("files")?.as_array().map(|files| {
+                files
+                    .iter()
+                    .filter_map(|f| f.get("path")?.as_str().map(String::from))
+                    .collect()
             })
-            .ok_or_else(|| not_ours("its manifest.json is not a gloam manifest".into()))?;
+        })
+        .ok_or_else(|| not_ours("its manifest.json is not a gloam manifest".into()))?;
     let strays: Vec<&str> = entries
         .iter()
         .filter(|(rel, is_dir)| !is_dir && rel != "manifest.json" && !listed.contains(rel))
@@ -451,6 +457,38 @@ fn refuse_target_inside_inputs(
         Some((input, _)) => Err(OutputSetError::InsideInput {
             target: target.to_path_buf(),
             input,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a `target` inside a published gloam output set (a directory
+/// above it whose `manifest.json` is a gloam manifest): `render --out
+/// real/inner` left `real` holding files its manifest does not list, and
+/// `--force` on `real` was then refused. Bounded by the path's components.
+fn refuse_target_inside_a_set(target: &Path) -> Result<(), OutputSetError> {
+    let Some(t) = resolved_as_far_as_it_exists(target) else {
+        return Ok(());
+    };
+    let is_set = |dir: &Path| {
+        let manifest = dir.join("manifest.json");
+        manifest.is_file()
+            && crate::read_text(
+                &manifest,
+                crate::MAX_TEXT_FILE_BYTES,
+                &crate::ReadLog::off(),
+            )
+            .ok()
+            .and_then(|text| crate::json::parse_value(&text).ok())
+            .is_some_and(|v| {
+                v.get("complete").is_some_and(|c| c.is_boolean())
+                    && v.get("files").is_some_and(|f| f.is_array())
+            })
+    };
+    match t.ancestors().skip(1).find(|dir| is_set(dir)) {
+        Some(set) => Err(OutputSetError::InsideSet {
+            target: target.to_path_buf(),
+            set: set.to_path_buf(),
         }),
         None => Ok(()),
     }
@@ -621,6 +659,39 @@ mod tests {
         );
         assert!(err.contains("manifest.json"), "{err}");
         assert!(scene_dir.join("s.toml").exists());
+    }
+
+    /// Issue 46, round 12: `render --out real/inner` wrote a set inside a
+    /// published one, which `--force` then refused to replace.
+    #[test]
+    fn a_target_inside_a_published_set_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real");
+        let set = OutputSet::begin(&real, false, false, &RunGuard::detached()).unwrap();
+        std::fs::write(set.dir().join("a.txt"), "a").unwrap();
+        set.publish(&prov(), None).unwrap();
+        for inner in [real.join("inner"), real.join("x/y/inner")] {
+            let err = OutputSet::begin(&inner, false, false, &RunGuard::detached())
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(err.contains("a published gloam output set"), "{err}");
+            assert!(err.contains(&real.display().to_string()), "{err}");
+        }
+        // Beside it, and over it with --force: allowed.
+        OutputSet::begin(
+            &dir.path().join("beside"),
+            false,
+            false,
+            &RunGuard::detached(),
+        )
+        .unwrap();
+        OutputSet::begin(&real, true, false, &RunGuard::detached()).unwrap();
+        // A manifest.json that is not a gloam manifest is not a set.
+        let other = dir.path().join("other");
+        std::fs::create_dir(&other).unwrap();
+        std::fs::write(other.join("manifest.json"), r#"{"name":"npm"}"#).unwrap();
+        OutputSet::begin(&other.join("inner"), false, false, &RunGuard::detached()).unwrap();
     }
 
     /// The twin of `holds the input`: a target inside a directory named on
