@@ -408,3 +408,41 @@ fn a_terminated_capture_says_it_was_a_signal_not_only_ctrl_c() {
     let why = m["stopped_because"].as_str().unwrap_or_default();
     assert!(why.contains("SIGTERM"), "stopped_because: {why}");
 }
+
+/// Issue 46, round 12: under `ulimit -f` a write past the limit raised
+/// SIGXFSZ, which ended the run without a word (exit 153) and left its
+/// staging directory. Now the write fails (`EFBIG`): an error naming the
+/// file, and nothing left behind.
+#[test]
+fn a_file_size_limit_is_an_error_that_leaves_nothing_behind() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let mut cmd = Command::new(BIN);
+    cmd.args(["render", "--spp", "1", "--out"])
+        .arg(&out)
+        .arg(scene("office-room"))
+        .args(["--set", "resolution_scale=0.25"]);
+    // SAFETY: setrlimit only, between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            let lim = libc::rlimit {
+                rlim_cur: 4096,
+                rlim_max: 4096,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("error:") && err.contains("File too large"),
+        "{err}"
+    );
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}

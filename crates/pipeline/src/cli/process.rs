@@ -127,6 +127,32 @@ pub fn args_with_signed_exponents(
     out
 }
 
+/// What clap's "invalid UTF-8 was detected in one or more arguments"
+/// leaves out: which argument, and of which flag. The first argument that
+/// is not UTF-8, named with its flag (`--set`, or `--band` before it) and
+/// shown with its bytes escaped. Paths take any bytes; a text flag's value
+/// (a setting, a URI, a band, a number) cannot.
+pub fn non_utf8_argument(args: &[std::ffi::OsString]) -> Option<String> {
+    let at = args.iter().skip(1).position(|a| a.to_str().is_none())? + 1;
+    let shown = format!("{:?}", args[at]);
+    let lossy = args[at].to_string_lossy();
+    let flag = match lossy.split_once('=') {
+        Some((f, _)) if f.starts_with("--") => Some(f.to_string()),
+        _ => args[at - 1]
+            .to_str()
+            .filter(|p| p.starts_with('-') && at > 1)
+            .map(str::to_string),
+    };
+    Some(match flag {
+        Some(f) => format!(
+            "{f}: its value {shown} is not UTF-8 text; this flag takes text (only file paths may hold other bytes)"
+        ),
+        None => {
+            format!("argument {at} ({shown}) is not UTF-8 text, and this command takes it as text")
+        }
+    })
+}
+
 /// `cmd` and all its subcommands taking negative numbers as values, so that
 /// `--spp -5` is refused by the flag's own check ("invalid value '-5' for
 /// '--spp'") rather than by clap's misleading "use '-- -5'" tip.
@@ -187,7 +213,23 @@ fn log_filter(log: &str) -> tracing_subscriber::EnvFilter {
 
 #[cfg(test)]
 mod tests {
-    use super::args_with_signed_exponents;
+    use super::{args_with_signed_exponents, non_utf8_argument};
+    use std::os::unix::ffi::OsStringExt;
+
+    #[test]
+    fn a_non_utf8_argument_is_named_with_its_flag() {
+        let bad = || OsString::from_vec(b"v\xff".to_vec());
+        let line = |words: Vec<OsString>| non_utf8_argument(&words).unwrap_or_default();
+        let m = line(vec!["g".into(), "probe".into(), "--band".into(), bad()]);
+        assert!(m.starts_with("--band: its value \"v\\xFF\""), "{m}");
+        let mut set = OsString::from("--set=");
+        set.push(bad());
+        let m = line(vec!["g".into(), "render".into(), set]);
+        assert!(m.starts_with("--set: "), "{m}");
+        let m = line(vec!["g".into(), bad()]);
+        assert!(m.starts_with("argument 1 "), "{m}");
+        assert!(non_utf8_argument(&["g".into(), "render".into()]).is_none());
+    }
     use std::ffi::OsString;
 
     fn joined(args: &[&str]) -> Vec<String> {
