@@ -30,8 +30,9 @@ pub use gloam_io::frame::pixels_crc32c;
 /// Options for [`Registry::open`].
 #[derive(Clone, Debug, Default)]
 pub struct OpenOptions {
-    /// Noise seed for `sim:` grabbers (overrides `?seed=`); ignored by
-    /// hardware (the emulator takes its seed on its own command line).
+    /// Noise seed for `sim:` grabbers (a URI's own `seed=` must agree);
+    /// refused by hardware (the emulator takes its seed on its own
+    /// command line).
     pub seed: Option<u64>,
     /// Protocol client tuning for `serial:` and `usb:`.
     pub client: ClientOptions,
@@ -143,6 +144,12 @@ pub fn open(uri: &str) -> Result<Box<dyn FrameGrabber>, GrabError> {
 
 /// The constructor of the transports' schemes.
 fn open_transport(uri: &str, opts: &OpenOptions) -> Result<Box<dyn FrameGrabber>, GrabError> {
+    // A seed given for a real camera was neither applied nor refused.
+    if let Some(seed) = opts.seed {
+        return Err(GrabError::Unsupported(format!(
+            "--seed {seed}: '{uri}' is a real device, whose noise no seed sets (a seed is for simulated cameras, sim:…); drop --seed"
+        )));
+    }
     match GrabberUri::parse(uri)? {
         GrabberUri::Serial { path, baud } => {
             let t = serial::SerialTransport::open(&path, baud)?;

@@ -24,7 +24,8 @@ pub use uri::{DEFAULT_RIG, DEFAULT_SIM_PRESET, RIGS, SimUri};
 /// rendered the URI's scene through the sensor it resolved from the URI
 /// (the camera then uses that configuration, not a second read of the
 /// preset; a scene URI without one is refused, naming who renders
-/// scenes). `opts.seed` overrides the URI's.
+/// scenes). `opts.seed` (`--seed`) stands in for a URI without `seed=`
+/// and must agree with one that has it.
 pub fn open_sim(
     uri: &str,
     opts: &OpenOptions,
@@ -37,7 +38,7 @@ pub fn open_sim(
         size,
         scene: scene_path,
     } = SimUri::parse(uri)?;
-    let seed = opts.seed.unwrap_or(seed);
+    let seed = uri::agreed_seed(uri, seed, opts.seed)?;
     match (scene_path, scene) {
         (Some(_), Some((view, sensor))) => {
             Ok(Box::new(SimGrabber::from_scene(sensor, view, seed)?))

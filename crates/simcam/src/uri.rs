@@ -59,6 +59,24 @@ fn bad(uri: &str, why: impl std::fmt::Display) -> GrabError {
     uri_error(uri, why, SIM_FORMS)
 }
 
+/// The seed a `sim:` camera runs with: `flag` (`--seed`) when the URI
+/// gives no `seed=`, the URI's `seed` otherwise — and a flag that
+/// contradicts the URI's is refused: `--seed 5` on `…&seed=4` ran with 5
+/// while the capture's report recorded the URI.
+pub fn agreed_seed(uri: &str, parsed: u64, flag: Option<u64>) -> Result<u64, GrabError> {
+    let given = uri.split_once('?').is_some_and(|(_, q)| {
+        q.split('&')
+            .any(|p| p.split_once('=').map_or(p, |(k, _)| k) == "seed")
+    });
+    match flag {
+        Some(f) if given && f != parsed => Err(GrabError::InvalidSetting(format!(
+            "grabber URI '{uri}': --seed {f} contradicts its seed={parsed}; give the seed once"
+        ))),
+        Some(f) => Ok(f),
+        None => Ok(parsed),
+    }
+}
+
 /// Whether `uri` is of the `sim:` scheme (well formed or not).
 pub fn is_sim(uri: &str) -> bool {
     uri.split_once(':').is_some_and(|(s, _)| s == SCHEME)
