@@ -3098,6 +3098,43 @@ const CASES: &[Case] = &[
         ["sensor", "describe", "gen3-gaas-iccd", "--gain", "1e300"],
         ["--gain 1e300 is outside"]
     ),
+    // --- round 12 (issue 46): the lead's part
+    // `--seed 5` silently ran a URI's `seed=4`, whose report named 4.
+    case!(
+        "capture: --seed against the URI's seed=",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=32x24&seed=4",
+            "--seed",
+            "5",
+            "--out",
+            "o"
+        ],
+        ["seed=4", "--seed 5", "contradicts"]
+    ),
+    // A seed for a real device was neither applied nor refused.
+    case!(
+        "capture: --seed on a serial device",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "serial:/dev/null",
+            "--seed",
+            "5",
+            "--out",
+            "o"
+        ],
+        ["--seed 5", "real device"]
+    ),
+    // A set written inside a published one left that one unreplaceable.
+    case!("render: --out inside a published set", ["s.toml" => "{base}", "real/manifest.json" => "{\"complete\": true, \"provenance\": {}, \"files\": []}"], ["render", "s.toml", "--spp", "1", "--out", "real/inner"], ["--out real/inner", "real, a published gloam output set"]),
+    // A key inside `[[move]]` was placed in "(document)".
+    case!("sequence: an unknown key under [[move]]", ["s.toml" => "{base}", "q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25.0\nframes = 2\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0.0, 0.0, 0.0, 0.0]]\nspeed = 3\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:7", "move[0].speed", "unknown field"]),
+    // A duplicated key in a frame record was read as its last value.
+    case!("apply: a frames.jsonl line with a key twice", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"gain\":300}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl", "line 1", "`gain` is given twice"]),
 ];
 
 #[test]

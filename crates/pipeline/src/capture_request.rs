@@ -118,16 +118,25 @@ impl ValidCapture {
         // every frame it kept.
         let mut writer = FrameWriter::with_format(&dir, format, context)?;
         let mut grabbing = grab.grabbing();
+        // Frames whose file and frames.jsonl line were written: a frame
+        // grabbed but not stored (a full disk) is not reported captured.
+        let mut stored = 0u64;
         let result = (|| -> Result<(), CaptureRequestError> {
             // Bounded: each step keeps a frame or ends the loop, at most
             // --frames of them.
             while let Some((index, f, warnings)) = grabbing.next_frame(g.as_mut(), guard, ev)? {
                 let rec = FrameRecord::of_frame(index, format.file_name(index), &f, warnings);
                 writer.write(&rec, &f.pixels)?;
+                stored += 1;
             }
             Ok(())
         })();
-        let tally = grabbing.tally();
+        let grabbed = grabbing.tally();
+        let tally = &CaptureTally {
+            kept: stored.min(grabbed.kept),
+            frames_warned: grabbed.frames_warned,
+            losses: grabbed.losses,
+        };
         // Read before the grabber closes: a stream's counts end with it.
         let resends = Resends::of(&grab.grabber, g.packet_resends());
         drop(g);
