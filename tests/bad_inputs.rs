@@ -3213,6 +3213,48 @@ fn odd_paths_and_environments_get_clear_errors() {
             ));
         }
     }
+    // Round 12: a text flag's value that is not UTF-8 is named with its
+    // flag (clap said only "invalid UTF-8 was detected in one or more
+    // arguments").
+    let mut c = Command::new(BIN);
+    c.args(["render", "s.toml", "--out", "o", "--set"])
+        .arg(std::ffi::OsStr::from_bytes(b"drop=\xff"))
+        .current_dir(dir.path());
+    let (code, err) = finish(c);
+    if code != Some(2) || !err.contains(r#"--set: its value "drop=\xFF" is not UTF-8"#) {
+        failures.push(format!("render: non-UTF-8 --set: exit {code:?}: {err}"));
+    }
+    // Round 12: a device flag of the other transport was ignored (a fault
+    // the user asked for never injected); a usage error now.
+    for (args, other) in [
+        (
+            &["device", "--pty", "--gvsp-loss", "0.5"][..],
+            "--gvsp-loss",
+        ),
+        (
+            &["device", "--gige", "127.0.0.1:0", "--fault-drop", "0.5"][..],
+            "--fault-drop",
+        ),
+        (
+            &["device", "--gige", "127.0.0.1:0", "--baud", "9600"][..],
+            "--baud",
+        ),
+        (
+            &["device", "--pty", "--fault-reset-every", "0"][..],
+            "--fault-reset-every",
+        ),
+        (
+            &["device", "--pty", "--fault-delay-ms", "99999999999"][..],
+            "--fault-delay-ms",
+        ),
+    ] {
+        let mut c = Command::new(BIN);
+        c.args(args).current_dir(dir.path());
+        let (code, err) = finish(c);
+        if code != Some(2) || !err.contains(other) {
+            failures.push(format!("{}: exit {code:?}: {err}", args.join(" ")));
+        }
+    }
     let mut check = |name: &str, cmd: Command, expect: &[&str]| {
         let (code, err) = finish(cmd);
         let ok = code == Some(1)

@@ -19,8 +19,9 @@ pub use gloam_simcam::cli::DeviceArgs;
 /// Prints the address a client connects to as stdout's first line.
 fn announce(what: &str) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
-    writeln!(out, "{what}")?;
-    Ok(out.flush()?)
+    writeln!(out, "{what}")
+        .and_then(|()| out.flush())
+        .context("writing to stdout (the device's address, its first line)")
 }
 
 fn source(args: &DeviceArgs) -> anyhow::Result<DeviceSource> {
@@ -38,7 +39,10 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
         bail!("--baud must be positive");
     }
     let DeviceSource {
-        mut source, view, ..
+        mut source,
+        sensor,
+        view,
+        ..
     } = source(&args)?;
     let info = source.info();
     let pty = PtyDevice::open().context("opening a pseudo-terminal")?;
@@ -46,7 +50,7 @@ pub fn run(args: DeviceArgs) -> anyhow::Result<()> {
     announce(&path)?;
     eprintln!(
         "gloam device: emulating {} ({view}, seed {}, {}×{}) at {} baud on {path}; connect with --grabber serial:{path} — Ctrl-C to stop",
-        args.sensor, args.seed, info.max_width, info.max_height, args.baud
+        sensor, args.seed, info.max_width, info.max_height, args.baud
     );
     let (stats, stop) = (EmulatorStats::default(), AtomicBool::new(false));
     let config = args.emulator_config();
@@ -59,6 +63,7 @@ fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
         .with_context(|| format!("--gige '{addr}': expected an IPv4 ADDR or ADDR:PORT"))?;
     let DeviceSource {
         source,
+        sensor,
         view,
         from_scene,
     } = source(args)?;
@@ -75,14 +80,8 @@ fn gige(args: &DeviceArgs, addr: &str) -> anyhow::Result<()> {
     let rate_hz = source.frame_rate_hz();
     let facts = gloam_gige::camera_facts(&info, !from_scene, rate_hz, mcp_range_v);
     let (name, seed) = (&info.name, args.seed);
-    let identity = gloam_gige::simulated_identity(
-        name,
-        &args.sensor,
-        &view,
-        seed,
-        args.serial_number,
-        *bind.ip(),
-    );
+    let identity =
+        gloam_gige::simulated_identity(name, &sensor, &view, seed, args.serial_number, *bind.ip());
     let faults = StreamFaults {
         loss: args.gvsp_loss,
         reorder: args.gvsp_reorder,

@@ -93,7 +93,8 @@ pub struct ExposureChoice {
     pub median_goal_saturated_fraction: f64,
     /// Stops of light the scene lacks (positive: too dim at the most
     /// sensitive setting) or has too much of (negative: too bright at the
-    /// least sensitive); 0 when the target was reached.
+    /// least sensitive); 0 when the target was reached; infinite (`null`
+    /// in report.json) when the scene holds no light the camera detects.
     pub stops_out_of_range: f64,
     pub note: String,
 }
@@ -329,7 +330,21 @@ pub fn choose(
     let (s_lo, m_lo) = eval(t_lo)?;
     let signal = |m: &Measured| m.signal();
     let want = |m: &Measured| goal(m.black, m.saturation) - m.black;
-    let (setting, m, stops, note) = if signal(&m_hi) < want(&m_hi) {
+    let (setting, m, stops, note) = if !detected.iter().any(|&v| v > 0.0) {
+        // No light at all: the frame is the camera's own background, and
+        // a stop count (0.9 for a black scene on gen3-gaas-iccd) would
+        // measure that background, not the scene. Infinitely short of
+        // light: `null` in report.json.
+        (
+            s_hi,
+            m_hi,
+            f64::INFINITY,
+            format!(
+                "the scene holds no light in this camera's band (its detected radiance is 0 at every pixel): nothing to expose for; the camera is left at its most sensitive setting (gain {:.4}, ungated, no ND), whose frame is its own background",
+                s_hi.gain
+            ),
+        )
+    } else if signal(&m_hi) < want(&m_hi) {
         // Too dim even at the most sensitive setting.
         let stops = (want(&m_hi) / signal(&m_hi).max(1e-9)).log2();
         (
@@ -447,16 +462,28 @@ mod tests {
         assert!((b.percentile_dn - a.percentile_dn).abs() <= 0.01 * (goal - a.black_dn) + 2.0);
     }
 
-    /// A black scene: at the most sensitive setting the tube's equivalent
-    /// background illumination alone lifts the frame, but not to the goal.
+    /// A black scene holds no light: no stop count (the tube's equivalent
+    /// background illumination alone lifts the frame, and round 12 of
+    /// issue 46 found that called "0.9 stops too dim"). A scene with a
+    /// little light is too dim by a finite count of stops.
     #[test]
-    fn a_black_scene_is_reported_too_dim() {
+    fn a_black_scene_holds_no_light_and_a_dim_one_is_too_dim() {
         let config =
             gloam_sensor::load_preset_or_file("gen3-gaas-iccd", &gloam_io::ReadLog::off()).unwrap();
         let dark = Array2::from_elem((16, 16), 0.0);
         let c = choose(&config, &dark, &ExposureTarget::default()).unwrap();
-        assert!(c.stops_out_of_range > 0.0, "{c:?}");
+        assert!(c.stops_out_of_range.is_infinite(), "{c:?}");
         assert_eq!(c.gate_duty, Some(1.0));
+        assert!(c.note.contains("holds no light"), "{}", c.note);
+        let v = serde_json::to_value(&c).unwrap();
+        assert!(v["stops_out_of_range"].is_null(), "{v}");
+        let mut dim = dark;
+        dim[[3, 3]] = 1e-3;
+        let c = choose(&config, &dim, &ExposureTarget::default()).unwrap();
+        assert!(
+            c.stops_out_of_range.is_finite() && c.stops_out_of_range > 0.0,
+            "{c:?}"
+        );
         assert!(c.note.contains("too dim"), "{}", c.note);
     }
 }

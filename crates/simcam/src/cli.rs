@@ -11,14 +11,29 @@ use gloam_grabber::uri::parse_size;
 #[derive(Args)]
 pub struct DeviceArgs {
     /// Expose the emulated device on a pseudo-terminal; its path (the side a
-    /// client opens) is the first line of stdout.
-    #[arg(long, conflicts_with = "gige")]
+    /// client opens) is the first line of stdout. The GigE faults are not
+    /// its (a flag that would be ignored is refused).
+    #[arg(long, conflicts_with_all = ["gige", "gvsp_loss", "gvsp_reorder"])]
     pub pty: bool,
     /// Serve the simulated camera as a GigE Vision device: GVCP on
     /// ADDR[:PORT] (port 3956 by default), GVSP from the same address, with
     /// GenICam SFNC features and per-frame chunk data; any GenICam client
     /// (Aravis, gloam's own genicam: grabber) streams from it.
-    #[arg(long, value_name = "ADDR[:PORT]")]
+    /// The serial link's line rate and faults are not its (a flag that
+    /// would be ignored is refused).
+    #[arg(
+        long,
+        value_name = "ADDR[:PORT]",
+        conflicts_with_all = [
+            "baud",
+            "fault_drop",
+            "fault_corrupt",
+            "fault_truncate",
+            "fault_delay_ms",
+            "fault_delay_p",
+            "fault_reset_every",
+        ]
+    )]
     pub gige: Option<String>,
     /// GigE fault injection: probability of dropping each GVSP packet.
     #[arg(long, default_value_t = 0.0, value_parser = probability)]
@@ -27,9 +42,11 @@ pub struct DeviceArgs {
     /// the next one.
     #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub gvsp_reorder: f64,
-    /// Sensor preset (or sensor TOML file) behind the HAL.
-    #[arg(long, default_value = "gen2-s20-iccd", value_parser = gloam_sensor::cli::preset_or_file())]
-    pub sensor: String,
+    /// Sensor preset (or sensor TOML file) behind the HAL. Default: the
+    /// scene's (or the sequence scene's) own `sensor` entry, as `render`
+    /// and `sequence` take it, else gen2-s20-iccd.
+    #[arg(long, value_parser = gloam_sensor::cli::preset_or_file())]
+    pub sensor: Option<String>,
     /// Scene file the camera looks at: rendered once by the tracer (default
     /// settings) at the scene camera's resolution, or at --size.
     #[arg(long, conflicts_with = "rig")]
@@ -72,14 +89,16 @@ pub struct DeviceArgs {
     /// Fault injection: probability of truncating each outgoing message.
     #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub fault_truncate: f64,
-    /// Fault injection: stall the link this long before a message…
-    #[arg(long, default_value_t = 0)]
+    /// Fault injection: stall the link this long before a message (at most
+    /// 600 000 ms, ten minutes)…
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=600_000))]
     pub fault_delay_ms: u64,
     /// …with this probability per message.
     #[arg(long, default_value_t = 0.01, value_parser = probability)]
     pub fault_delay_p: f64,
-    /// Fault injection: power-cycle the device in the middle of every N-th frame.
-    #[arg(long)]
+    /// Fault injection: power-cycle the device in the middle of every N-th
+    /// frame (N ≥ 1; 0 used to mean "never" without a word).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub fault_reset_every: Option<u64>,
     /// Seed of the fault generator.
     #[arg(long, default_value_t = 1)]
@@ -112,6 +131,9 @@ fn probability(s: &str) -> Result<f64, BadValue> {
         Err(BadValue(format!("{p} is not a probability in 0..=1")))
     }
 }
+
+/// The camera of a device given no `--sensor` and no scene naming one.
+pub const DEFAULT_DEVICE_SENSOR: &str = "gen2-s20-iccd";
 
 impl DeviceArgs {
     /// The emulator's link and faults (`--pty`): a delay probability

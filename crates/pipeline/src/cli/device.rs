@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use gloam_grabber::GrabError;
 use gloam_scene::SceneError;
-use gloam_simcam::cli::DeviceArgs;
+use gloam_simcam::cli::{DEFAULT_DEVICE_SENSOR, DeviceArgs};
 use gloam_simcam::{DEFAULT_RIG_SIZE, LayerWeights, SceneImage, SceneView, SensorSource};
 
 use crate::scene_view::SceneViewError;
@@ -51,6 +51,8 @@ pub enum DeviceSourceError {
 /// messages, and whether it shows a (fixed-size) rendered scene.
 pub struct DeviceSource {
     pub source: SensorSource,
+    /// The camera's preset or file: `--sensor`, else the scene's own.
+    pub sensor: String,
     pub view: String,
     pub from_scene: bool,
 }
@@ -111,31 +113,60 @@ fn sequence_view(
     })
 }
 
+/// The device's camera: `--sensor`, else the `sensor` entry of the scene
+/// it looks at (`--scene`, or `--sequence`'s scene), as `render` and
+/// `sequence` take it, else [`DEFAULT_DEVICE_SENSOR`]. A scene naming
+/// gen3-gaas-iccd was served through gen2-s20-iccd without a word.
+fn camera_name(args: &DeviceArgs) -> Result<String, DeviceSourceError> {
+    if let Some(s) = &args.sensor {
+        return Ok(s.clone());
+    }
+    let scene = match (&args.scene, &args.sequence) {
+        (Some(path), _) => Some(PathBuf::from(path)),
+        (None, Some(path)) => Some(
+            gloam_scene::sequence::load_sequence(Path::new(path), &unlisted())
+                .map_err(|source| DeviceSourceError::Sequence {
+                    path: path.into(),
+                    source,
+                })?
+                .scene,
+        ),
+        (None, None) => None,
+    };
+    let named = match scene {
+        Some(p) => gloam_scene::load(&p, &unlisted())?.sensor,
+        None => None,
+    };
+    Ok(named.unwrap_or_else(|| DEFAULT_DEVICE_SENSOR.to_string()))
+}
+
 /// The source from `--scene`, `--sequence` or `--rig`; `note` hears what
 /// takes time and a scene the camera cannot fit at any gain.
 pub fn device_source(
     args: &DeviceArgs,
     note: &dyn Fn(&str),
 ) -> Result<DeviceSource, DeviceSourceError> {
+    let camera = camera_name(args)?;
     let sensor = |source| DeviceSourceError::Sensor {
-        sensor: args.sensor.clone(),
+        sensor: camera.clone(),
         source,
     };
     if let Some(path) = &args.sequence {
         // Read once: the layers are rendered through it, the camera is it.
-        let resolved = crate::resolve_sensor(&args.sensor, &unlisted())?;
+        let resolved = crate::resolve_sensor(&camera, &unlisted())?;
         let view = sequence_view(args, &resolved, path, note)?;
         let source = SensorSource::with_scene(&resolved, view, args.seed).map_err(sensor)?;
         let view = format!("sequence '{path}'");
         return Ok(DeviceSource {
             source,
+            sensor: camera,
             view,
             from_scene: true,
         });
     }
     if let Some(path) = &args.scene {
         note(&format!("gloam device: rendering {path} …"));
-        let resolved = crate::resolve_sensor(&args.sensor, &unlisted())?;
+        let resolved = crate::resolve_sensor(&camera, &unlisted())?;
         let scene = crate::render_scene_view(path, &resolved, args.size, &unlisted()).map_err(
             |source| DeviceSourceError::View {
                 scene: path.clone(),
@@ -149,16 +180,17 @@ pub fn device_source(
         let view = format!("scene '{path}'");
         return Ok(DeviceSource {
             source,
+            sensor: camera,
             view,
             from_scene: true,
         });
     }
     let rig = (args.rig.as_deref()).unwrap_or(gloam_simcam::DEFAULT_RIG);
     let size = args.size.unwrap_or(DEFAULT_RIG_SIZE);
-    let source =
-        SensorSource::new(&args.sensor, rig, args.seed, size, &unlisted()).map_err(sensor)?;
+    let source = SensorSource::new(&camera, rig, args.seed, size, &unlisted()).map_err(sensor)?;
     Ok(DeviceSource {
         source,
+        sensor: camera,
         view: format!("rig '{rig}'"),
         from_scene: false,
     })
