@@ -941,6 +941,14 @@ impl<T: Transport> crate::interface::DeviceControl for ProtocolGrabber<T> {
                 "gain {gain} must be positive"
             )));
         }
+        // The wire carries thousandths in 32 bits: a gain past that was
+        // sent as 4294967295 and refused in those units.
+        let wire_max = f64::from(u32::MAX) / 1000.0;
+        if gain > wire_max {
+            return Err(GrabError::InvalidSetting(format!(
+                "gain {gain:e} is above {wire_max}, the largest the protocol carries (thousandths in 32 bits)"
+            )));
+        }
         let milli = (gain * 1000.0).round().clamp(1.0, f64::from(u32::MAX)) as u32;
         let has_agc = self
             .caps
@@ -953,7 +961,7 @@ impl<T: Transport> crate::interface::DeviceControl for ProtocolGrabber<T> {
         })
         .map_err(|e| match e {
             GrabError::InvalidSetting(m) => GrabError::InvalidSetting(format!(
-                "gain {gain} refused by the device ({m}); it is outside the camera's range"
+                "gain {gain} refused by the device ({m}, in thousandths); it is outside the camera's range"
             )),
             e => e,
         })?;
@@ -986,7 +994,13 @@ impl<T: Transport> crate::interface::DeviceControl for ProtocolGrabber<T> {
 
     fn set_exposure_s(&mut self, exposure_s: f64) -> Result<f64, GrabError> {
         let us = crate::interface::exposure_us(exposure_s)?;
-        self.with_session(|g| g.set_control(Control::ExposureUs, us, "exposure"))?;
+        self.with_session(|g| g.set_control(Control::ExposureUs, us, "exposure"))
+            .map_err(|e| match e {
+                GrabError::InvalidSetting(m) => GrabError::InvalidSetting(format!(
+                    "exposure {exposure_s} s refused by the device ({m}, in microseconds); it is outside the camera's range"
+                )),
+                e => e,
+            })?;
         self.desired.exposure_us = Some(us);
         Ok(f64::from(us) / 1e6)
     }

@@ -302,5 +302,12 @@ pub fn exposure_us(exposure_s: f64) -> Result<u32, GrabError> {
             "exposure {exposure_s:e} s is below the 1 µs the device takes (whole microseconds)"
         )));
     }
-    Ok(us.min(f64::from(u32::MAX)) as u32)
+    // Past 32 bits of microseconds the value was clamped without a word.
+    if us > f64::from(u32::MAX) {
+        return Err(GrabError::InvalidSetting(format!(
+            "exposure {exposure_s:e} s is above the {} s the device takes (whole microseconds in 32 bits)",
+            f64::from(u32::MAX) / 1e6
+        )));
+    }
+    Ok(us as u32)
 }

@@ -258,6 +258,26 @@ pub fn list_grabbers() -> GrabberList {
 mod tests {
     use super::*;
 
+    /// Round 12 of issue 46: an exposure past 32 bits of microseconds was
+    /// clamped without a word, and a seed for a real device ignored.
+    #[test]
+    fn exposures_are_whole_microseconds_in_32_bits_and_devices_take_no_seed() {
+        assert_eq!(interface::exposure_us(4294.967295).unwrap(), u32::MAX);
+        let e = interface::exposure_us(4294.968).unwrap_err().to_string();
+        assert!(e.contains("above the 4294.967295 s"), "{e}");
+        assert!(interface::exposure_us(1e-7).is_err());
+        let opts = OpenOptions {
+            seed: Some(3),
+            ..OpenOptions::default()
+        };
+        let e = Registry::transports()
+            .open("serial:/dev/null", &opts)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("--seed 3") && e.contains("real device"), "{e}");
+    }
+
     /// A scheme nobody registered is named with the ones that are; the
     /// generic syntax is checked first.
     #[test]
