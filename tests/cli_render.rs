@@ -267,3 +267,42 @@ fn a_small_main_stack_still_renders() {
     let read = |d: &Path| std::fs::read(d.join("radiance.npy")).unwrap();
     assert!(read(&small) == read(&normal), "the images differ");
 }
+
+/// Round 12 of issue 46: `--threads 1024` whose pool could not start (a
+/// 2 GB address space holds no 1 024 stacks) rendered on the default pool
+/// and reported `threads: 1024`; now it is refused, naming the flag's
+/// setting and the limit.
+#[cfg(unix)]
+#[test]
+fn a_thread_pool_that_cannot_start_is_an_error_not_another_pool() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempfile::tempdir().unwrap();
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad_inputs/base.toml");
+    let mut cmd = Command::new(BIN);
+    cmd.arg("render")
+        .arg(&base)
+        .args(["--spp", "1", "--threads", "1024", "--out"])
+        .arg(dir.path().join("o"))
+        .env("RAYON_NUM_THREADS", "2");
+    // SAFETY: setrlimit only, between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            let lim = libc::rlimit {
+                rlim_cur: 2_000_000_000,
+                rlim_max: 2_000_000_000,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("threads = 1024") && err.contains("could not start"),
+        "{err}"
+    );
+    assert!(!dir.path().join("o").exists());
+}

@@ -114,7 +114,7 @@ impl Tracer {
     /// States the radiosity cache's bias on the whole image (pixels
     /// seeing an emitter left out, as in the error), and the error with
     /// the bias and the noise together.
-    pub(super) fn state_cache_bias(&self, film: &mut Film, s: &Samples) {
+    pub(super) fn state_cache_bias(&self, film: &mut Film, s: &Samples) -> Result<(), TraceError> {
         let skip: Vec<bool> = s.ests.iter().map(|e| e.sees_emitter).collect();
         let by_band: Vec<Vec<f64>> = film
             .image
@@ -123,7 +123,7 @@ impl Tracer {
             .map(|band| band.iter().copied().collect())
             .collect();
         let error = &mut film.error;
-        error.bias = with_pool(self.settings.threads, || self.cache_bias(&by_band, &skip));
+        error.bias = with_pool(self.settings.threads, || self.cache_bias(&by_band, &skip))?;
         let noise = error
             .rel_std_error_rms_target_pixels
             .unwrap_or(error.rel_std_error_rms);
@@ -131,5 +131,6 @@ impl Tracer {
             .bias
             .as_ref()
             .map(|b| noise.hypot(b.relative_bias_bound));
+        Ok(())
     }
 }

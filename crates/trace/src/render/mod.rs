@@ -128,16 +128,24 @@ pub fn probe_point(
     Tracer::new(scene, settings)?.probe_point(point, normal, band, samples)
 }
 
-fn with_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
+/// Runs `f` on a pool of `threads` workers (the global pool when `None`).
+/// A pool that cannot start is an error: the render used to run on the
+/// global pool instead while its report said `threads: N`.
+fn with_pool<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> Result<T, TraceError> {
     match threads {
         Some(n) => match rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build()
         {
-            Ok(pool) => pool.install(f),
-            Err(_) => f(),
+            Ok(pool) => Ok(pool.install(f)),
+            Err(e) => Err(TraceError::BadInput(format!(
+                "threads = {n}: the worker threads could not start ({e}); each needs its own stack, which an address-space or process limit (ulimit -v, -u) can refuse — ask for fewer"
+            ))),
         },
-        None => f(),
+        None => Ok(f()),
     }
 }
 
@@ -402,14 +410,14 @@ impl Tracer {
         let (samples, threads) = with_pool(self.settings.threads, || {
             let s = self.sample_image(&region, groups, goal, progress, &halt);
             (s, rayon::current_num_threads())
-        });
+        })?;
         let mut samples = samples?;
         if halt.stopped() {
             return Err(TraceError::Interrupted);
         }
         let mut film = self.develop(&samples, &region);
         if !region.partial && !halt.now() {
-            self.state_cache_bias(&mut film, &samples);
+            self.state_cache_bias(&mut film, &samples)?;
         }
         let deposits = if self.settings.drop.direct_view {
             Vec::new()
