@@ -867,10 +867,14 @@ impl Scratch {
         gloam_io::output_set::OutputSet::begin(&name, false, false, guard)
             .map(Self)
             .map_err(|e| {
+                // The system's reason, not the output set's "--out …" wording.
+                let mut cause: &dyn std::error::Error = &e;
+                while let Some(c) = cause.source() {
+                    cause = c;
+                }
                 BenchError::Invalid(format!(
-                    "creating a scratch directory in {} (TMPDIR, else /tmp): {}",
-                    tmp.display(),
-                    gloam_io::output_set::chain(&e)
+                    "creating a scratch directory in {} (TMPDIR, else /tmp): {cause}; set TMPDIR to a writable directory",
+                    tmp.display()
                 ))
             })
     }

@@ -537,6 +537,14 @@ impl CalibrationSource for ManualSource {
     }
 }
 
+/// Largest ND density a [dimming] list takes (1e300 was accepted: a
+/// second dark level labelled in 300 digits).
+pub const MAX_ND_DENSITY: f64 = 10.0;
+/// A sphere's lamp flux, W, and diameter, m: from a micro-lamp to a
+/// stadium floodlight, from a 1 mm sphere to a 100 m room.
+pub const SPHERE_FLUX_W: (f64, f64) = (1e-9, 1e6);
+pub const SPHERE_DIAMETER_M: (f64, f64) = (1e-3, 100.0);
+
 // ---------------------------------------------------------------- file format
 
 #[derive(Debug, Deserialize)]
@@ -768,6 +776,22 @@ impl SourceFile {
                 "need lamp_flux_w > 0, 0 < reflectance < 1, 0 < port_fraction < 1, sphere_diameter_m > 0",
             ));
         }
+        // Physical ranges: a 1e-200 m sphere reached the grabber as a NaN
+        // radiance, and a 1e-300 W lamp was reported as "saturated".
+        let num = gloam_spectra::num;
+        for (name, v, (lo, hi), unit) in [
+            ("lamp_flux_w", flux, SPHERE_FLUX_W, "W"),
+            ("sphere_diameter_m", d, SPHERE_DIAMETER_M, "m"),
+        ] {
+            if !(lo..=hi).contains(&v) {
+                return Err(self.err(format!(
+                    "source.{name} = {}: must be from {} to {} {unit}",
+                    num(v),
+                    num(lo),
+                    num(hi)
+                )));
+            }
+        }
         let band = s
             .flux_band_nm
             .unwrap_or([STIMULUS_BAND_NM.0, STIMULUS_BAND_NM.1]);
@@ -815,6 +839,31 @@ impl SourceFile {
             }
             Ok((1..=n).map(|i| i as f64 / n as f64).collect())
         };
+        // The other method's list was silently ignored.
+        let unused = match dim.method.as_str() {
+            "aperture" if dim.densities.is_some() => Some("densities"),
+            "aperture" if dim.transmission_csv.is_some() => Some("transmission_csv"),
+            "nd" if dim.fractions.is_some() => Some("fractions"),
+            _ => None,
+        };
+        if let Some(key) = unused {
+            return Err(self.err(format!(
+                "dimming.{key} is not read with method = \"{}\"; remove it or change the method",
+                dim.method
+            )));
+        }
+        // A step listed twice was measured twice and weighed double in the fit.
+        let repeated = |what: &str, v: &[f64]| -> Result<(), CalibError> {
+            for (i, x) in v.iter().enumerate() {
+                if let Some(j) = v[..i].iter().position(|y| y == x) {
+                    return Err(self.err(format!(
+                        "dimming.{what}[{i}] = {} repeats dimming.{what}[{j}]; list each step once",
+                        gloam_spectra::num(*x)
+                    )));
+                }
+            }
+            Ok(())
+        };
         Ok(match dim.method.as_str() {
             "aperture" => {
                 let fr = match &dim.fractions {
@@ -827,17 +876,22 @@ impl SourceFile {
                 if fr.iter().any(|&x| !(x > 0.0 && x <= 1.0)) {
                     return Err(self.err("aperture fractions must lie in (0, 1]"));
                 }
+                repeated("fractions", &fr)?;
                 Dimming::Aperture(fr)
             }
             "nd" => {
                 let mut filters = Vec::new();
                 if let Some(ds) = &dim.densities {
                     for &d in ds {
-                        if !(d.is_finite() && d >= 0.0) {
-                            return Err(self.err(format!("ND density {d} must be ≥ 0")));
+                        if !(d.is_finite() && (0.0..=MAX_ND_DENSITY).contains(&d)) {
+                            return Err(self.err(format!(
+                                "ND density {} must be from 0 to {MAX_ND_DENSITY} (a transmission down to 1e-{MAX_ND_DENSITY})",
+                                gloam_spectra::num(d)
+                            )));
                         }
                         filters.push(NdFilter::Density(d));
                     }
+                    repeated("densities", ds)?;
                 }
                 if let Some(cs) = &dim.transmission_csv {
                     for c in cs {
