@@ -172,8 +172,14 @@ impl Sweep {
             v
         };
         let mut base = BTreeMap::new();
+        // Each key's field and line, for errors about a task's keys.
+        let mut key_lines: BTreeMap<String, (String, usize)> = BTreeMap::new();
         for (k, v) in ordered(raw.base) {
             let field = format!("base.{}", k.get_ref());
+            key_lines.insert(
+                k.get_ref().clone(),
+                (field.clone(), line_of(text, k.span().start)),
+            );
             check_value(k.get_ref(), v.get_ref())
                 .map_err(|m| err(Some(k.span()), &field, m.to_string()))?;
             base.insert(k.get_ref().clone(), v.into_inner());
@@ -196,6 +202,7 @@ impl Sweep {
                     format!("'{name}' is both in [base] and an axis; keep one"),
                 ));
             }
+            key_lines.insert(name.clone(), (field, line_of(text, k.span().start)));
             axes.push(Axis {
                 name,
                 values,
@@ -219,9 +226,15 @@ impl Sweep {
             let mut task = new_task(index, &axes, &base);
             let line = axes.first().map_or(1, |a| a.line);
             task.check().map_err(|m| {
+                // The key the conflict is about, at its own line ([base] or
+                // [axes]), not the [axes] table's first line.
+                let (field, line) = m
+                    .key()
+                    .and_then(|k| key_lines.get(k).map(|(f, l)| (f.as_str(), *l)))
+                    .unwrap_or(("axes", line));
                 err(
                     None,
-                    "axes",
+                    field,
                     format!("task {index} ({}): {m}", task.describe()),
                 )
                 .relocated(line)
@@ -565,6 +578,11 @@ pub enum Conflict {
     GainAndAgc,
     #[error("gain and agc need a sensor")]
     GainWithoutSensor,
+    /// `frames` and `noise` were taken without a camera and did nothing.
+    #[error(
+        "`{0}` is a camera key and needs a sensor (without one the task renders radiance only)"
+    )]
+    CameraKeyWithoutSensor(&'static str),
     #[error(
         "target_error = \"camera\" needs a sensor (the render is sampled to the camera's noise)"
     )]
@@ -573,6 +591,21 @@ pub enum Conflict {
         "target_error = \"camera\" with noise = false: frames without temporal noise hide no render error; give a relative target_error or spp"
     )]
     CameraTargetWithoutNoise,
+}
+
+impl Conflict {
+    /// The key a conflict is blamed on, when one key is at fault.
+    fn key(&self) -> Option<&'static str> {
+        match self {
+            Conflict::TileWithSensor => Some("tile"),
+            Conflict::SizeInRender => Some("size"),
+            Conflict::GainAndAgc => Some("agc"),
+            Conflict::CameraTargetWithoutSensor => Some("target_error"),
+            Conflict::CameraTargetWithoutNoise => Some("noise"),
+            Conflict::CameraKeyWithoutSensor(k) => Some(k),
+            _ => None,
+        }
+    }
 }
 
 /// An axis's values: a list of scalars, or `{ from, count[, step] }`.
@@ -941,6 +974,13 @@ impl Task {
         }
         if !has("sensor") && (has("gain") || has("agc")) && self.flow() == Flow::Render {
             return Err(Conflict::GainWithoutSensor);
+        }
+        if !has("sensor") && self.flow() == Flow::Render {
+            for key in ["frames", "noise"] {
+                if has(key) {
+                    return Err(Conflict::CameraKeyWithoutSensor(key));
+                }
+            }
         }
         if self.camera_target().is_some() {
             if !has("sensor") {
