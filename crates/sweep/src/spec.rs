@@ -356,9 +356,28 @@ fn parse_overridden(
         .iter()
         .map(|(k, v)| format!("{k} = {}", scalar_text(v).unwrap_or_default()))
         .collect();
-    gloam_scene::parse_str_noting(&text, path, reads).map_err(|source| TaskSceneError::Overridden {
-        overrides: desc.join(", "),
-        source,
+    gloam_scene::parse_str_noting(&text, path, reads).map_err(|source| {
+        // An error at an overridden key: its line in the rewritten text is
+        // no line of the scene file (camera.foo was blamed at base.toml:8,
+        // `width = 32`); the sweep's override is named instead.
+        if let gloam_scene::SceneError::Invalid { field, message, .. } = &source
+            && overrides.iter().any(|(k, _)| {
+                field == k
+                    || field.starts_with(&format!("{k}."))
+                    || field.starts_with(&format!("{k}["))
+            })
+        {
+            return TaskSceneError::OverriddenKey {
+                overrides: desc.join(", "),
+                scene: path.to_path_buf(),
+                field: field.clone(),
+                message: message.clone(),
+            };
+        }
+        TaskSceneError::Overridden {
+            overrides: desc.join(", "),
+            source,
+        }
     })
 }
 
@@ -472,6 +491,13 @@ pub enum TaskSceneError {
     },
     #[error(transparent)]
     Rewrite(#[from] toml::ser::Error),
+    #[error("with {overrides} from the sweep (the sweep's value, not a line of {}): {field}: {message}", scene.display())]
+    OverriddenKey {
+        overrides: String,
+        scene: PathBuf,
+        field: String,
+        message: String,
+    },
     #[error("with {overrides} from the sweep")]
     Overridden {
         overrides: String,
