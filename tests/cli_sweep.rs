@@ -87,12 +87,17 @@ fn twelve_task_sweep_runs_locally_and_a_killed_run_finishes_only_the_missing_tas
     assert_eq!(csv.lines().count(), 13, "{csv}");
     assert!(csv.lines().skip(1).all(|l| l.contains(",done,")), "{csv}");
     let header = csv.lines().next().unwrap();
+    // One name per column (a `seed` axis and the noise seed were both `seed`).
+    let names: Vec<&str> = header.split(',').collect();
+    let unique: std::collections::BTreeSet<&str> = names.iter().copied().collect();
+    assert_eq!(unique.len(), names.len(), "{header}");
     for col in [
         "scene",
         "sensor",
         "gain",
         "mean_dn",
         "snr",
+        "noise_seed",
         "outputs_sha256",
     ] {
         assert!(

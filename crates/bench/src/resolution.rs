@@ -65,7 +65,8 @@ pub fn parse_scales(list: &str) -> Result<Vec<f64>, BenchError> {
     if list.trim().is_empty() {
         return Err(bad("the list is empty".into()));
     }
-    list.split(',')
+    let scales: Vec<(&str, f64)> = list
+        .split(',')
         .map(|w| {
             let w = w.trim();
             let x: f64 = w
@@ -76,9 +77,19 @@ pub fn parse_scales(list: &str) -> Result<Vec<f64>, BenchError> {
                     "`{w}` is not a positive finite scale ≤ {MAX_SCALE}"
                 )));
             }
-            Ok(x)
+            Ok((w, x))
         })
-        .collect()
+        .collect::<Result<_, _>>()?;
+    // A repeated scale ran the same renders twice, out of the budget the
+    // others share (as `bench scale --triangles 1e3,1e3` was refused).
+    for (i, (w, x)) in scales.iter().enumerate() {
+        if let Some((v, _)) = scales[..i].iter().find(|(_, y)| y == x) {
+            return Err(bad(format!(
+                "`{v}` and `{w}` are the same scale; give each once"
+            )));
+        }
+    }
+    Ok(scales.into_iter().map(|(_, x)| x).collect())
 }
 
 /// One scale's figures (JSON `resolution[…]`).

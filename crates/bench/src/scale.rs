@@ -853,6 +853,37 @@ fn run_mitsuba(
     go().unwrap_or_else(|e| serde_json::json!({ "error": gloam_io::output_set::chain(&e) }))
 }
 
+/// A case's scratch directory in `$TMPDIR` (its generated scene, up to
+/// tens of MB, and the child's output), removed when dropped and — being
+/// staged with the run's guard — on SIGINT, SIGTERM or SIGHUP too: a
+/// `tempfile::TempDir` is not dropped when the signal handler ends the
+/// process, and each interrupted run left one behind. Never published.
+struct Scratch(gloam_io::output_set::OutputSet);
+
+impl Scratch {
+    fn new(guard: &gloam_io::RunGuard) -> Result<Self, BenchError> {
+        let tmp = std::env::temp_dir();
+        let name = tmp.join(format!("gloam-bench-scale-{}", std::process::id()));
+        gloam_io::output_set::OutputSet::begin(&name, false, false, guard)
+            .map(Self)
+            .map_err(|e| {
+                // The system's reason, not the output set's "--out …" wording.
+                let mut cause: &dyn std::error::Error = &e;
+                while let Some(c) = cause.source() {
+                    cause = c;
+                }
+                BenchError::Invalid(format!(
+                    "creating a scratch directory in {} (TMPDIR, else /tmp): {cause}; set TMPDIR to a writable directory",
+                    tmp.display()
+                ))
+            })
+    }
+
+    fn path(&self) -> &Path {
+        self.0.dir()
+    }
+}
+
 /// Runs one case in a child process with a timeout (and then in Mitsuba 3
 /// when `mitsuba`).
 fn run_child(
@@ -884,10 +915,7 @@ fn run_child(
         ));
         return Ok(row);
     }
-    let work = tempfile::tempdir().map_err(BenchError::io(
-        "creating a scratch directory in",
-        &std::env::temp_dir(),
-    ))?;
+    let work = Scratch::new(guard)?;
     let stdout_path = work.path().join("stdout.json");
     let stderr_path = work.path().join("stderr.txt");
     let mut cmd = case_command(opts, case, work.path(), (&stdout_path, &stderr_path))?;
@@ -1009,7 +1037,6 @@ pub fn run(opts: &ScaleOptions, guard: &gloam_io::RunGuard) -> Result<ScaleRepor
         c.check()?;
     }
     refuse_foreign_outputs(&opts.out)?;
-    std::fs::create_dir_all(&opts.out).map_err(BenchError::io("creating", &opts.out))?;
     let (mitsuba, mitsuba_note) = mitsuba_check(opts.no_mitsuba);
     let mut rows = Vec::new();
     for c in cases {
@@ -1023,6 +1050,9 @@ pub fn run(opts: &ScaleOptions, guard: &gloam_io::RunGuard) -> Result<ScaleRepor
         );
         rows.push(row);
     }
+    // Created only now, with something to write: an interrupted or
+    // failed run left an empty --out behind.
+    std::fs::create_dir_all(&opts.out).map_err(BenchError::io("creating", &opts.out))?;
     let json_path = opts.out.join("scale.json");
     let png_path = opts.out.join("scale.png");
     let mut report = ScaleReport {

@@ -26,6 +26,11 @@ pub enum CalibError {
     Invalid(String),
     #[error("aborted by the operator at {0}")]
     Aborted(String),
+    /// Standard input closed at a prompt: nobody typed q.
+    #[error(
+        "end of input at {0}: standard input closed before an answer (run at a terminal, or give one line per prompt)"
+    )]
+    EndOfInput(String),
     #[error("I/O: {0}")]
     Io(String),
     /// A file that could not be read (missing, not a regular file, too

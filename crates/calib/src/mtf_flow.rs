@@ -488,6 +488,15 @@ pub fn read_usaf_ctf(path: &Path, reads: &gloam_io::ReadLog) -> Result<Vec<UsafB
     parse_usaf_ctf(&text, path)
 }
 
+/// `--magnification` accepted: a chart imaged from 1e4× smaller to 1e4×
+/// larger (outside it no USAF bar lands between a pixel's worth of cycles
+/// and Nyquist at any real pitch).
+pub const MIN_MAGNIFICATION: f64 = 1e-4;
+pub const MAX_MAGNIFICATION: f64 = 1e4;
+/// `--pixel-pitch-um` accepted, µm.
+pub const MIN_PIXEL_PITCH_UM: f64 = 0.1;
+pub const MAX_PIXEL_PITCH_UM: f64 = 1000.0;
+
 /// Sine MTF from USAF bar contrasts: each bar's chart frequency (lp/mm)
 /// goes to the image through `magnification` (image size / chart size) and
 /// to cycles per pixel at `pixel_pitch_um`, then Coltman's series turns the
@@ -503,14 +512,23 @@ pub fn usaf_mtf(
     magnification: f64,
     ctf: &Path,
 ) -> Result<(Vec<MtfCurve>, MtfDetails), CalibError> {
-    if !(pixel_pitch_um > 0.0 && pixel_pitch_um.is_finite()) {
+    // Ranges, not just signs: --magnification 1e300 put the bars at
+    // 1e-302 cycles/pixel and was accepted as a measurement.
+    let num = gloam_spectra::num;
+    if !(MIN_PIXEL_PITCH_UM..=MAX_PIXEL_PITCH_UM).contains(&pixel_pitch_um) {
         return Err(CalibError::Usage(format!(
-            "--pixel-pitch-um {pixel_pitch_um}: must be a positive pitch"
+            "--pixel-pitch-um {}: must be a pitch from {} to {} µm",
+            num(pixel_pitch_um),
+            num(MIN_PIXEL_PITCH_UM),
+            num(MAX_PIXEL_PITCH_UM)
         )));
     }
-    if !(magnification > 0.0 && magnification.is_finite()) {
+    if !(MIN_MAGNIFICATION..=MAX_MAGNIFICATION).contains(&magnification) {
         return Err(CalibError::Usage(format!(
-            "--magnification {magnification}: must be positive (image size / chart size)"
+            "--magnification {}: must be from {} to {} (image size / chart size)",
+            num(magnification),
+            num(MIN_MAGNIFICATION),
+            num(MAX_MAGNIFICATION)
         )));
     }
     let lp = |b: &UsafBar| usaf_lp_per_mm(b.group, b.element);
@@ -530,10 +548,13 @@ pub fn usaf_mtf(
             return Err(at(
                 b,
                 format!(
-                    "group {} element {} ({:.4} lp/mm) is {fp:.4} cycles/pixel at --pixel-pitch-um {pixel_pitch_um} and --magnification {magnification}, above Nyquist ({NYQUIST_CY_PER_PX}): its bars alias, so their contrast is not MTF; leave the row out",
+                    "group {} element {} ({} lp/mm) is {} cycles/pixel at --pixel-pitch-um {} and --magnification {}, above Nyquist ({NYQUIST_CY_PER_PX}): its bars alias, so their contrast is not MTF; leave the row out",
                     b.group,
                     b.element,
-                    lp(b)
+                    num(lp(b)),
+                    num(fp),
+                    num(pixel_pitch_um),
+                    num(magnification)
                 ),
             ));
         }
@@ -740,7 +761,13 @@ mod tests {
         let e = usaf_mtf(vec![bar(0, 1, 0.5, 1)], 0.0, 1.0, p).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "--pixel-pitch-um 0: must be a positive pitch"
+            "--pixel-pitch-um 0: must be a pitch from 0.1 to 1000 µm"
+        );
+        // A magnification of 1e300 put the bars at 1e-302 cycles/pixel.
+        let e = usaf_mtf(vec![bar(0, 1, 0.5, 1)], 10.0, 1e300, p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--magnification 1e300: must be from 0.0001 to 10000 (image size / chart size)"
         );
     }
 

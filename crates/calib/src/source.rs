@@ -15,7 +15,7 @@
 //! `L = ∫ L_src(λ) β(λ) τ_ND(λ) τ_BP(λ) dλ` over the camera band, with β the
 //! camera's relative spectral response (peak 1) and τ_BP an optional bandpass.
 
-use std::io::{BufRead, Write};
+use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
 
 use gloam_grabber::Stimulus;
@@ -420,29 +420,48 @@ impl ManualSource {
         }
     }
 
+    /// One answer typed at `prompt`, at most [`MAX_ANSWER_BYTES`] long: a
+    /// stream without newlines (the wrong program piped in, a device) grew
+    /// one line until the process aborted.
     fn ask(&mut self, prompt: &str) -> Result<String, CalibError> {
         write!(self.output, "{prompt}").map_err(|e| CalibError::Io(e.to_string()))?;
         self.output
             .flush()
             .map_err(|e| CalibError::Io(e.to_string()))?;
-        let mut line = String::new();
-        let n = self
-            .input
-            .read_line(&mut line)
-            .map_err(|e| CalibError::Io(e.to_string()))?;
-        let t = line.trim().to_string();
+        let prompt = prompt.trim();
+        let mut line = Vec::new();
+        let n = (&mut self.input)
+            .take(MAX_ANSWER_BYTES + 1)
+            .read_until(b'\n', &mut line)
+            .map_err(|e| CalibError::Io(format!("reading the answer to '{prompt}': {e}")))?;
         if n == 0 {
-            return Err(CalibError::Aborted(format!(
-                "'{}' (end of input)",
-                prompt.trim()
+            return Err(CalibError::EndOfInput(format!("'{prompt}'")));
+        }
+        if line.last() == Some(&b'\n') {
+            line.pop();
+        }
+        if line.len() as u64 > MAX_ANSWER_BYTES {
+            return Err(CalibError::Invalid(format!(
+                "the answer to '{prompt}' is longer than {MAX_ANSWER_BYTES} bytes without a newline; \
+                 type Enter, a path or q (is standard input the terminal?)"
             )));
         }
+        let Ok(text) = String::from_utf8(line) else {
+            return Err(CalibError::Invalid(format!(
+                "the answer to '{prompt}' is not UTF-8 text; type Enter, a path or q"
+            )));
+        };
+        let t = text.trim().to_string();
         if t.eq_ignore_ascii_case("q") || t.eq_ignore_ascii_case("quit") {
-            return Err(CalibError::Aborted(format!("'{}'", prompt.trim())));
+            return Err(CalibError::Aborted(format!("'{prompt}'")));
         }
         Ok(t)
     }
 }
+
+/// Longest answer a manual prompt takes, bytes: a path or `q` is far
+/// shorter.
+pub const MAX_ANSWER_BYTES: u64 = 64 * 1024;
 
 impl CalibrationSource for ManualSource {
     fn describe(&self) -> String {
@@ -470,19 +489,32 @@ impl CalibrationSource for ManualSource {
                 ))?;
                 p
             }
-            None => PathBuf::from(self.ask(&format!(
-                "Level {}/{n} ({}): set the source, measure the exit port, and type the spectrometer CSV path (q to abort): ",
-                i + 1,
-                lv.label
-            ))?),
+            None => {
+                let typed = self.ask(&format!(
+                    "Level {}/{n} ({}): set the source, measure the exit port, and type the spectrometer CSV path (q to abort): ",
+                    i + 1,
+                    lv.label
+                ))?;
+                // An empty line read as the path "" and failed as ": : cannot read".
+                if typed.is_empty() {
+                    return Err(CalibError::Source(format!(
+                        "level {}/{n} ({}): no spectrometer CSV path typed (an empty line); \
+                         type the path of the level's measured spectrum, or q to abort",
+                        i + 1,
+                        lv.label
+                    )));
+                }
+                PathBuf::from(typed)
+            }
         };
         let path = if path.is_absolute() {
             path
         } else {
             self.base_dir.join(path)
         };
-        let l =
-            gloam_spectra::read_csv(&path, &self.reads).map_err(|e| CalibError::file(&path, e))?;
+        // The CSV error names the file; the level says which prompt it was.
+        let l = gloam_spectra::read_csv(&path, &self.reads)
+            .map_err(|e| CalibError::Source(format!("level {}/{n} ({}): {e}", i + 1, lv.label)))?;
         Ok(make_level(lv.label, l, &self.camera, &self.lamp_name))
     }
     fn set_dark(&mut self) -> Result<Level, CalibError> {
@@ -504,6 +536,14 @@ impl CalibrationSource for ManualSource {
         &self.lamp_name
     }
 }
+
+/// Largest ND density a [dimming] list takes (1e300 was accepted: a
+/// second dark level labelled in 300 digits).
+pub const MAX_ND_DENSITY: f64 = 10.0;
+/// A sphere's lamp flux, W, and diameter, m: from a micro-lamp to a
+/// stadium floodlight, from a 1 mm sphere to a 100 m room.
+pub const SPHERE_FLUX_W: (f64, f64) = (1e-9, 1e6);
+pub const SPHERE_DIAMETER_M: (f64, f64) = (1e-3, 100.0);
 
 // ---------------------------------------------------------------- file format
 
@@ -736,6 +776,22 @@ impl SourceFile {
                 "need lamp_flux_w > 0, 0 < reflectance < 1, 0 < port_fraction < 1, sphere_diameter_m > 0",
             ));
         }
+        // Physical ranges: a 1e-200 m sphere reached the grabber as a NaN
+        // radiance, and a 1e-300 W lamp was reported as "saturated".
+        let num = gloam_spectra::num;
+        for (name, v, (lo, hi), unit) in [
+            ("lamp_flux_w", flux, SPHERE_FLUX_W, "W"),
+            ("sphere_diameter_m", d, SPHERE_DIAMETER_M, "m"),
+        ] {
+            if !(lo..=hi).contains(&v) {
+                return Err(self.err(format!(
+                    "source.{name} = {}: must be from {} to {} {unit}",
+                    num(v),
+                    num(lo),
+                    num(hi)
+                )));
+            }
+        }
         let band = s
             .flux_band_nm
             .unwrap_or([STIMULUS_BAND_NM.0, STIMULUS_BAND_NM.1]);
@@ -783,6 +839,31 @@ impl SourceFile {
             }
             Ok((1..=n).map(|i| i as f64 / n as f64).collect())
         };
+        // The other method's list was silently ignored.
+        let unused = match dim.method.as_str() {
+            "aperture" if dim.densities.is_some() => Some("densities"),
+            "aperture" if dim.transmission_csv.is_some() => Some("transmission_csv"),
+            "nd" if dim.fractions.is_some() => Some("fractions"),
+            _ => None,
+        };
+        if let Some(key) = unused {
+            return Err(self.err(format!(
+                "dimming.{key} is not read with method = \"{}\"; remove it or change the method",
+                dim.method
+            )));
+        }
+        // A step listed twice was measured twice and weighed double in the fit.
+        let repeated = |what: &str, v: &[f64]| -> Result<(), CalibError> {
+            for (i, x) in v.iter().enumerate() {
+                if let Some(j) = v[..i].iter().position(|y| y == x) {
+                    return Err(self.err(format!(
+                        "dimming.{what}[{i}] = {} repeats dimming.{what}[{j}]; list each step once",
+                        gloam_spectra::num(*x)
+                    )));
+                }
+            }
+            Ok(())
+        };
         Ok(match dim.method.as_str() {
             "aperture" => {
                 let fr = match &dim.fractions {
@@ -795,17 +876,22 @@ impl SourceFile {
                 if fr.iter().any(|&x| !(x > 0.0 && x <= 1.0)) {
                     return Err(self.err("aperture fractions must lie in (0, 1]"));
                 }
+                repeated("fractions", &fr)?;
                 Dimming::Aperture(fr)
             }
             "nd" => {
                 let mut filters = Vec::new();
                 if let Some(ds) = &dim.densities {
                     for &d in ds {
-                        if !(d.is_finite() && d >= 0.0) {
-                            return Err(self.err(format!("ND density {d} must be ≥ 0")));
+                        if !(d.is_finite() && (0.0..=MAX_ND_DENSITY).contains(&d)) {
+                            return Err(self.err(format!(
+                                "ND density {} must be from 0 to {MAX_ND_DENSITY} (a transmission down to 1e-{MAX_ND_DENSITY})",
+                                gloam_spectra::num(d)
+                            )));
                         }
                         filters.push(NdFilter::Density(d));
                     }
+                    repeated("densities", ds)?;
                 }
                 if let Some(cs) = &dim.transmission_csv {
                     for c in cs {
@@ -1083,7 +1169,44 @@ label = "lamp 2"
         assert!((a.band_radiance_w_m2_sr - 0.6).abs() < 1e-12);
         let b = s.set_level(1).unwrap();
         assert!((b.band_radiance_w_m2_sr - 0.6).abs() < 1e-12);
-        // End of input: a clear abort, not a hang or panic.
-        assert!(matches!(s.set_level(0), Err(CalibError::Aborted(_))));
+        // End of input: said as such, not a hang, a panic or an operator's abort.
+        assert!(matches!(s.set_level(0), Err(CalibError::EndOfInput(_))));
+    }
+    /// A stream without newlines is refused at the bound, naming the
+    /// prompt, instead of growing one line until the allocation fails; an
+    /// empty path names its level instead of failing as ": : cannot read".
+    #[test]
+    fn manual_answers_are_bounded_and_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "[source]\nkind = \"manual\"\n[[source.levels]]\nlabel = \"b\"\n";
+        let f = SourceFile::parse(text, dir.path(), "m.toml").unwrap();
+        let long = vec![0u8; MAX_ANSWER_BYTES as usize + 10];
+        let mut s = f
+            .open_manual(
+                None,
+                Box::new(std::io::Cursor::new(long)),
+                Box::new(Vec::new()),
+            )
+            .unwrap();
+        let e = s.set_dark().unwrap_err().to_string();
+        assert!(
+            e.contains("Dark:") && e.contains("longer than 65536 bytes"),
+            "{e}"
+        );
+        let mut s = f
+            .open_manual(
+                None,
+                Box::new(std::io::Cursor::new("\n\n")),
+                Box::new(Vec::new()),
+            )
+            .unwrap();
+        s.set_dark().unwrap();
+        let e = s.set_level(0).unwrap_err().to_string();
+        assert!(
+            e.contains("level 1/1 (b): no spectrometer CSV path typed"),
+            "{e}"
+        );
+        let e = s.set_level(0).unwrap_err().to_string();
+        assert!(e.starts_with("end of input at 'Level 1/1 (b)"), "{e}");
     }
 }

@@ -101,6 +101,7 @@ impl SweepArgs {
             time: self.time.clone(),
             cpus_per_task: self.cpus_per_task,
             max_parallel: self.max_parallel,
+            jobs: self.jobs,
         }
     }
 }

@@ -125,7 +125,9 @@ pub fn collect(sd: &SweepDir) -> Result<Collected, CollectError> {
     let axis_names: Vec<String> = sweep.axes.iter().map(|a| a.name.clone()).collect();
     let mut columns: Vec<String> = vec!["index".into(), "id".into()];
     columns.extend(axis_names.iter().cloned());
-    columns.extend(["status".to_string(), "seed".to_string()]);
+    // `noise_seed`, not `seed`: a `seed` axis made two columns of one name
+    // (and the JSON row kept only the derived one).
+    columns.extend(["status".to_string(), "noise_seed".to_string()]);
     columns.extend(figure_names.iter().cloned());
     columns.extend(["outputs_sha256".to_string(), "error".to_string()]);
 
@@ -169,7 +171,7 @@ pub fn collect(sd: &SweepDir) -> Result<Collected, CollectError> {
         row.push(status.into());
         row.push(t.seed.to_string());
         obj.insert("status".into(), status.into());
-        obj.insert("seed".into(), t.seed.into());
+        obj.insert("noise_seed".into(), t.seed.into());
         for f in &figure_names {
             let v = r.as_ref().and_then(|r| r.figures.get(f).copied().flatten());
             row.push(v.map(|x| format!("{x:e}")).unwrap_or_default());

@@ -27,6 +27,7 @@ pub struct PreflightError {
 pub fn check(sweep: &Sweep) -> Result<(), PreflightError> {
     let off = gloam_io::ReadLog::off();
     let mut scenes = BTreeSet::new();
+    let mut geometry = BTreeSet::new();
     let mut sensors = BTreeMap::new();
     for task in &sweep.tasks {
         let refuse = |source: Box<dyn std::error::Error + Send + Sync>| PreflightError {
@@ -35,8 +36,14 @@ pub fn check(sweep: &Sweep) -> Result<(), PreflightError> {
             describe: task.describe(),
             source,
         };
-        if task.flow() == Flow::Render && scenes.insert(scene_key(task)) {
-            sweep.load_scene(task, &off).map_err(|e| refuse(e.into()))?;
+        if task.flow() == Flow::Render && scenes.insert(scene_key(task, false)) {
+            // A task differing from a loaded one only in `camera.*` keys: its
+            // camera alone is checked (the whole scene when that check fails,
+            // for the build's own message).
+            let cheap = !geometry.insert(scene_key(task, true)) && sweep.check_camera(task).is_ok();
+            if !cheap {
+                sweep.load_scene(task, &off).map_err(|e| refuse(e.into()))?;
+            }
         }
         let Some(name) = sweep.sensor(task) else {
             continue;
@@ -51,10 +58,14 @@ pub fn check(sweep: &Sweep) -> Result<(), PreflightError> {
     Ok(())
 }
 
-/// The scene and its overrides: tasks that share them load one scene.
-fn scene_key(task: &Task) -> String {
+/// The scene and its overrides: tasks that share them load one scene
+/// (`beside_camera`: only the overrides outside `camera.*`).
+fn scene_key(task: &Task, beside_camera: bool) -> String {
     let mut key = task.text("scene").unwrap_or_default();
     for (k, v) in task.scene_overrides() {
+        if beside_camera && k.starts_with("camera.") {
+            continue;
+        }
         key.push_str(&format!("\n{k}={v}"));
     }
     key

@@ -20,6 +20,10 @@ pub struct SlurmOptions {
     pub cpus_per_task: Option<u32>,
     /// At most this many array tasks at once (`--array=…%K`).
     pub max_parallel: Option<u32>,
+    /// `--jobs`: tasks at once within each array task's chunk, passed to
+    /// `sweep run` (the script dropped it).
+    #[serde(default)]
+    pub jobs: Option<usize>,
 }
 
 /// `DIR/slurm.json`: the submitted job.
@@ -169,8 +173,9 @@ pub fn script(
         s.push_str(&format!("export RAYON_NUM_THREADS={c}\n"));
     }
     s.push_str("set -eu\n");
+    let jobs = o.jobs.map(|j| format!(" --jobs {j}")).unwrap_or_default();
     s.push_str(&format!(
-        "exec {} sweep run {} --chunk \"$SLURM_ARRAY_TASK_ID\"\n",
+        "exec {} sweep run {} --chunk \"$SLURM_ARRAY_TASK_ID\"{jobs}\n",
         sh_quote(exe_s),
         sh_quote(dir_s)
     ));
@@ -372,6 +377,7 @@ mod tests {
             time: Some("00:10:00".into()),
             cpus_per_task: Some(4),
             max_parallel: Some(3),
+            jobs: None,
         };
         let s = script(Path::new("/data/sw eep"), Path::new("/opt/gloam"), 12, &o).unwrap();
         assert!(s.contains("#SBATCH --array=0-11%3\n"), "{s}");
@@ -381,6 +387,16 @@ mod tests {
         assert!(s.contains(
             "exec '/opt/gloam' sweep run '/data/sw eep' --chunk \"$SLURM_ARRAY_TASK_ID\"\n"
         ));
+        // --jobs reaches each array task's `sweep run`.
+        let j = SlurmOptions {
+            jobs: Some(7),
+            ..Default::default()
+        };
+        let s = script(Path::new("/d"), Path::new("/g"), 1, &j).unwrap();
+        assert!(
+            s.contains("--chunk \"$SLURM_ARRAY_TASK_ID\" --jobs 7\n"),
+            "{s}"
+        );
         let bad = SlurmOptions {
             partition: Some("a\n#SBATCH --x".into()),
             ..Default::default()
