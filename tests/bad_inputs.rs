@@ -2830,6 +2830,24 @@ const CASES: &[Case] = &[
     ),
     // Written into the script as it was, for Slurm to refuse at submission.
     case!("sweep: --time that is no Slurm time limit", ["s.toml" => "{base}", "w.toml" => "[base]\nscene = \"s.toml\"\nspp = 1\n[axes]\nseed = [1, 2]\n"], ["sweep", "w.toml", "--out", "o", "--slurm", "--dry-run", "--time", "abc"], ["--time 'abc'", "not a Slurm time limit"]),
+    // --- round 12 (issue 46): scene, trace, spectra, sky
+    // An area luminaire's radiance I/(A cos γ) was never held to the
+    // emission limit: a 1e-5 m facet rendered 1e22, a 1e-9 m one infinite pixels.
+    case!("scene: an area luminaire whose radiance I/(A cos γ) passes 1e20", ["b.ies" => "IESNA:LM-63-2002\n[TEST] x\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 100\n0 45 90\n0\n1e15 1e15 1e15\n", "s.toml" => "{base}\n[materials.lum]\nemission = { photometry = \"b.ies\", spectrum = \"hps\" }\n[objects.lum]\nmaterial = \"lum\"\nquad = { center = [0.0, 0.0, 3.0], size = [1e-5, 1e-5], normal = [0.0, 0.0, 1.0] }\n"], ["plan", "s.toml"], ["s.toml:", "objects.lum", "measured luminaire 'lum' (material 'lum')", "out of range (at most 1e20)", "luminous area of"]),
+    case!("scene: an area luminaire made too small by its placement's scale", ["b.ies" => "IESNA:LM-63-2002\n[TEST] x\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 100\n0 45 90\n0\n1e15 1e15 1e15\n", "s.toml" => "{base}\n[materials.lum]\nemission = { photometry = \"b.ies\", spectrum = \"hps\" }\n[objects.lum]\nmaterial = \"lum\"\nquad = { center = [0.0, 0.0, 3.0], size = [1e-2, 1e-2], normal = [0.0, 0.0, 1.0] }\ninstances = [ { scale = 1e-3 } ]\n"], ["plan", "s.toml"], ["objects.lum", "placement 0", "at most 1e20"]),
+    // TILT=INCLUDE multiplied the intensity (×10) after the 1e20 check.
+    case!("scene: a point source over 1e20 only after its TILT factor", ["t.ies" => "IESNA:LM-63-2002\n[TEST] x\nTILT=INCLUDE\n1\n2\n0 90\n10 10\n1 -1 1 3 1 1 2 0 0 0\n1 1 100\n0 45 90\n0\n1e15 1e15 1e15\n", "s.toml" => "{base}\n[point_sources.p]\nposition = [0.0, 0.0, 8.0]\nphotometry = \"t.ies\"\nspectrum = \"hps\"\nscale = 7e8\n"], ["plan", "s.toml"], ["point_sources.p.photometry", "after the file's TILT factor 10", "at most 1e20"]),
+    // The C0 axis along the facet's normal was replaced by the default.
+    case!("scene: an area luminaire's c0_direction along its facet's normal", ["b.ies" => "IESNA:LM-63-2002\n[TEST] x\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 100\n0 45 90\n0\n1e15 1e15 1e15\n", "s.toml" => "{base}\n[materials.lum]\nemission = { photometry = \"b.ies\", spectrum = \"hps\", c0_direction = [1.0, 0.0, 0.0] }\n[objects.lum]\nmaterial = \"lum\"\nquad = { center = [0.0, 0.0, 3.0], size = [1.0, 1.0], normal = [-1.0, 0.0, 0.0] }\n"], ["plan", "s.toml"], ["objects.lum.material", "facet 0", "c0_direction [1, 0, 0] parallel to the facet's normal"]),
+    // A sequence key (≤ 1e12) times emission near 1e20 made 1e31.
+    case!("sequence: a group key times its source's emission past 1e20", ["s.toml" => "{patch:value = 1.0, shape_exponent=>value = 1e19, shape_exponent}", "q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25.0\nframes = 2\n[groups.panel]\nkeys = [[0.0, 1e12]]\n"], ["sequence", "q.toml", "--out", "o", "--spp", "1"], ["q.toml:4:", "groups.panel.keys", "largest key 1e12", "objects.panel", "at most 1e20"]),
+    // A placement's scale skipped the size check its object's scale got,
+    // and a 1e-90 square was called collinear.
+    case!("scene: a placement's scale shrinking a facet below the smallest", ["s.toml" => "{base}\n[objects.t]\nmaterial = \"floor\"\nquad = { center = [0.0, 0.0, 0.0], size = [1e-58, 1e-58], normal = [0.0, 0.0, 1.0] }\ninstances = [ { scale = 1e-6 } ]\n"], ["plan", "s.toml"], ["objects.t.instances[0]", "facet 0 of the prototype", "degenerate", "below the 1e-60"]),
+    case!("scene: a 1e-90 square is too small, not collinear", ["s.toml" => "{base}\n[objects.t]\nmaterial = \"floor\"\nquad = { center = [0.0, 0.0, 1.0], size = [1e-90, 1e-90], normal = [0.0, 0.0, 1.0] }\n"], ["plan", "s.toml"], ["objects.t.quad", "degenerate: the facet is 1", "e-90 units across"]),
+    // Numbers printed in hundreds of digits.
+    case!("scene: camera.up of 1e-320 printed short", ["s.toml" => "{patch:up = [0.0, 0.0, 1.0]=>up = [0.0, 0.0, 1e-320]}"], ["plan", "s.toml"], ["camera.up", "up [0, 0, 1e-320] is zero"]),
+    case!("photometry: a candela value of 1e22 printed short", ["b.ies" => "IESNA:LM-63-2002\n[TEST] x\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 100\n0 45 90\n0\n1e22 1 1\n", "s.toml" => "{base}\n[point_sources.p]\nposition = [0.0, 0.0, 8.0]\nphotometry = \"b.ies\"\nspectrum = \"hps\"\n"], ["plan", "s.toml"], ["candela value 1e22 (entry 1)"]),
     // --- round 10 (issue 46)
     // A BOM before the first line is taken as the CSV readers take one
     // (it was a JSON error at column 1): the line's own field is then seen.

@@ -9,7 +9,7 @@ use glam::DVec3;
 use gloam_spectra::{Spectrum, library};
 
 use crate::error::{FieldPath, Locator, Seg};
-use crate::geometry::{box_faces, check_facet, quad_vertices};
+use crate::geometry::{MIN_FACET_SIZE, box_faces, check_facet, longest_edge, quad_vertices};
 use crate::instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_SHARED_FACETS, Placement,
     SHARE_ABOVE_FACETS, SharedInstances, Xform, available_memory_bytes, bounds, box_corners,
@@ -162,12 +162,22 @@ pub(crate) fn build(text: &str, path: &Path, reads: &gloam_io::ReadLog) -> R<Sce
     }
 
     refuse_coincident_facets(&cx, &of, &facets, &objects)?;
+    check_luminaire_radiance(&cx, &of, &facets, &objects, &materials, units)?;
     refuse_coincident_shared(&cx, &of, &facets, &shared, &objects)?;
 
     let (point_sources, point_source_groups) = point_sources(&cx, &root, &raw)?;
 
     let mut distant_sources = Vec::new();
     let df = root.key("distant_sources");
+    if raw.distant_sources.len() > MAX_DISTANT_SOURCES {
+        return Err(cx.err(
+            &df,
+            format!(
+                "{} distant sources: at most {MAX_DISTANT_SOURCES} (each is evaluated at every shading point; a sky is one [sky] table)",
+                raw.distant_sources.len()
+            ),
+        ));
+    }
     for (name, d) in cx.ordered(&df, &raw.distant_sources) {
         distant_sources.push(distant_source(&cx, &df.key(name), name, d)?);
     }
@@ -252,6 +262,15 @@ fn point_sources(
 fn bands(cx: &Ctx, root: &FieldPath, raw: &RawScene) -> R<Vec<Band>> {
     let mut bands = Vec::new();
     let bf = root.key("bands");
+    if raw.bands.len() > MAX_BANDS {
+        return Err(cx.err(
+            &bf,
+            format!(
+                "{} bands: at most {MAX_BANDS} (each band is a plane of every image and a sum of every pixel)",
+                raw.bands.len()
+            ),
+        ));
+    }
     for (name, b) in cx.ordered(&bf, &raw.bands) {
         bands.push(band(cx, &bf.key(name), name, b)?);
     }
@@ -597,6 +616,120 @@ fn spectrum_parts(cx: &Ctx, field: &FieldPath, p: Parts, kind: Kind) -> R<Spectr
     Ok(s)
 }
 
+/// The largest value of a spectrum, continuum or line (NaN when one is).
+pub(crate) fn spectrum_peak(s: &Spectrum) -> f64 {
+    s.values()
+        .iter()
+        .chain(s.lines().iter().map(|l| &l.value))
+        .fold(
+            0.0f64,
+            |m, &v| if v.is_nan() { f64::NAN } else { m.max(v.abs()) },
+        )
+}
+
+/// The largest `I(γ, C) / (I_max cos γ)` a facet of this luminaire can
+/// emit (the tracer's [`crate::AreaLuminaire::relative_radiance`], `cos γ`
+/// held at its minimum): per interval of the vertical angles that reaches
+/// the front hemisphere, the interval's larger candela over the cosine at
+/// its far end — an upper bound of the bilinear table over `cos γ`.
+fn luminaire_radiance_factor(t: &crate::photometry::Photometry) -> f64 {
+    let nv = t.vertical_deg.len();
+    if nv == 0 || t.max_candela <= 0.0 {
+        return 0.0;
+    }
+    let planes = t.candela.len() / nv;
+    let mut worst = 0.0f64;
+    for v in 0..nv {
+        if t.vertical_deg[v] > 90.0 {
+            break;
+        }
+        let far = t.vertical_deg[(v + 1).min(nv - 1)].min(90.0);
+        let cos = far
+            .to_radians()
+            .cos()
+            .max(crate::AreaLuminaire::MIN_COS_GAMMA);
+        for h in 0..planes {
+            let row = &t.candela[h * nv..(h + 1) * nv];
+            let c = row[v].max(row[(v + 1).min(nv - 1)]);
+            worst = worst.max(c / cos);
+        }
+    }
+    worst / t.max_candela
+}
+
+/// Holds each measured area luminaire's radiance `I / (A cos γ)` — what
+/// the tracer emits — to [`MAX_EMISSION`]: the intensity alone is checked
+/// where the file is read, but a small luminous area (written so, or made
+/// so by the object's or a placement's scale) multiplies it without bound
+/// (1.7e39, infinite f32 pixels, in issue 46). Per object and placement,
+/// after units: the peak intensity × the largest TILT factor over its
+/// facets × [`luminaire_radiance_factor`] / area in m².
+fn check_luminaire_radiance(
+    cx: &Ctx,
+    of: &FieldPath,
+    facets: &[Facet],
+    objects: &[ObjectInfo],
+    materials: &[Material],
+    units: Units,
+) -> R<()> {
+    let m2 = units.meters_per_unit().powi(2);
+    for o in objects {
+        let m = &materials[o.material];
+        let Some((e, lum)) = m
+            .emission
+            .as_ref()
+            .and_then(|e| Some((e, e.luminaire.as_ref()?)))
+        else {
+            continue;
+        };
+        if o.shared || o.prototype_facets == 0 {
+            continue;
+        }
+        let intensity = spectrum_peak(&e.radiance_w_m2_sr_nm);
+        let rel = luminaire_radiance_factor(&lum.table);
+        for k in 0..o.instances {
+            let start = o.first_facet + k * o.prototype_facets;
+            let fs = &facets[start..start + o.prototype_facets];
+            let area_su: f64 = fs.iter().map(Facet::area).sum();
+            let area = area_su * m2;
+            let tilt = fs
+                .iter()
+                .map(|f| lum.tilt_factor(f.normal()))
+                .fold(0.0f64, f64::max);
+            let radiance = intensity * tilt * rel / area;
+            if radiance.is_nan() || radiance > MAX_EMISSION {
+                let at = if o.instanced {
+                    format!(", placement {k}")
+                } else {
+                    String::new()
+                };
+                return Err(cx.err(
+                    &of.key(&o.name),
+                    format!(
+                        "measured luminaire '{}' (material '{}'{at}): radiance up to {radiance:e} W m⁻² sr⁻¹ nm⁻¹ is out of range (at most {MAX_EMISSION:e}): peak intensity {intensity:e} W sr⁻¹ nm⁻¹ × tilt factor {} × {} (largest I/(I_max cos γ), cos γ held ≥ {}) over a luminous area of {area:e} m²; enlarge the object or lower the material's scale",
+                        o.name,
+                        m.name,
+                        num(tilt),
+                        num(rel),
+                        crate::AreaLuminaire::MIN_COS_GAMMA,
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Most `[bands.NAME]` tables: a camera has a few, a hyperspectral cube
+/// a few hundred; the pilot's work grows with their square (2 000 took
+/// 28 s to plan a 32 × 24 render in issue 46).
+pub const MAX_BANDS: usize = 512;
+
+/// Most `[distant_sources.NAME]` tables: each is evaluated at every
+/// shading point, outside the light tree (80 000 took 35 s at 32 × 24 in
+/// issue 46; a scene has the Sun, the Moon and a few beams).
+pub const MAX_DISTANT_SOURCES: usize = 1000;
+
 /// Largest spectral radiance (W m⁻² sr⁻¹ nm⁻¹) or intensity (W sr⁻¹ nm⁻¹)
 /// a source may have, continuum or line.
 pub const MAX_EMISSION: f64 = 1e20;
@@ -613,6 +746,20 @@ fn add_lines(
     named: Option<&str>,
     unit: &str,
 ) -> R<Spectrum> {
+    let limit = gloam_spectra::MAX_LINES;
+    if lines.len() + s.lines().len() > limit {
+        return Err(cx.err(
+            field,
+            format!(
+                "{} emission lines{}: at most {limit} in one spectrum",
+                lines.len(),
+                match s.lines().len() {
+                    0 => String::new(),
+                    n => format!(" (and {n} from its spectrum)"),
+                }
+            ),
+        ));
+    }
     let mut out: Vec<gloam_spectra::EmissionLine> = Vec::with_capacity(lines.len());
     for (i, entry) in lines.iter().enumerate() {
         let at = field.index(i);
@@ -779,6 +926,7 @@ fn measured_emission(cx: &Ctx, f: &FieldPath, e: &RawEmission) -> R<Emission> {
         luminaire: Some(crate::AreaLuminaire {
             table: std::sync::Arc::new(table),
             c0_direction,
+            c0_given: e.c0_direction.is_some(),
             file: path,
         }),
     })
@@ -1045,6 +1193,8 @@ fn object(
         obj_geometry(&reader, file, &mut sink)?;
     }
     let prototype_facets = sink.facets.len() - if placements.is_some() { 0 } else { before };
+    let own_facets = &sink.facets[sink.facets.len() - prototype_facets..];
+    refuse_c0_along_normal(cx, field, name, &materials[material], own_facets)?;
     let shared = budget.share(prototype_facets);
     if let Some(placements) = &placements {
         budget.check(cx, prototype_facets, &placements_field)?;
@@ -1171,6 +1321,47 @@ fn check_shared_budget(
                 }
             ),
         ));
+    }
+    Ok(())
+}
+
+/// Refuses a measured luminaire whose given `c0_direction` is parallel to
+/// one of the object's facet normals (after the object's own transform):
+/// its C0 axis has no projection in that facet's plane, and the default
+/// (+x, else +y) silently took its place. A placement turns axis and facet
+/// together (a similarity), so checking the prototype covers every
+/// placement.
+fn refuse_c0_along_normal(
+    cx: &Ctx,
+    field: &FieldPath,
+    name: &str,
+    material: &Material,
+    facets: &[Facet],
+) -> R<()> {
+    let Some(lum) = (material.emission.as_ref()).and_then(|e| e.luminaire.as_ref()) else {
+        return Ok(());
+    };
+    if !lum.c0_given {
+        return Ok(());
+    }
+    for (i, f) in facets.iter().enumerate() {
+        let n = f.normal();
+        if perpendicular(lum.c0_direction, n).is_none() {
+            let c = lum.c0_direction;
+            return Err(cx.err(
+                &field.key("material"),
+                format!(
+                    "object '{name}', facet {i} (normal [{}, {}, {}]): material '{}' has c0_direction [{}, {}, {}] parallel to the facet's normal, so its C0 axis has no direction in the facet's plane; give a c0_direction along the facet",
+                    num(n.x),
+                    num(n.y),
+                    num(n.z),
+                    material.name,
+                    num(c.x),
+                    num(c.y),
+                    num(c.z)
+                ),
+            ));
+        }
     }
     Ok(())
 }
@@ -1615,8 +1806,10 @@ fn check_shared(
 ) -> R<()> {
     let corners = box_corners(bounds(prototype));
     let has_quads = prototype.iter().any(|f| f.vertices.len() > 3);
+    let smallest = smallest_facet(prototype);
     for pl in placements {
         let x = pl.xform;
+        let shrinks = smallest * x.min_scale() < MIN_FACET_SIZE;
         if let Some(v) = corners
             .iter()
             .map(|&c| x.point(c))
@@ -1632,7 +1825,7 @@ fn check_shared(
                 ),
             ));
         }
-        if x.scale_is_extreme() || (has_quads && !x.is_similarity()) {
+        if shrinks || x.scale_is_extreme() || (has_quads && !x.is_similarity()) {
             for (j, f) in prototype.iter().enumerate() {
                 let mut placed = [DVec3::ZERO; 4];
                 let n = f.vertices.len().min(4);
@@ -1686,6 +1879,15 @@ fn check_shared(
     Ok(())
 }
 
+/// The longest edge of the prototype's smallest facet (infinite when it
+/// has none).
+fn smallest_facet(prototype: &[Facet]) -> f64 {
+    prototype
+        .iter()
+        .map(|f| longest_edge(&f.vertices))
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// Appends one transformed copy of `prototype` per placement (in placement
 /// order).
 fn expand(
@@ -1696,9 +1898,14 @@ fn expand(
     facets: &mut Vec<Facet>,
 ) -> R<()> {
     facets.reserve(prototype.len() * placements.len());
+    let smallest = smallest_facet(prototype);
     for pl in placements {
         let x = pl.xform;
-        let check = !x.is_similarity() || x.scale_is_extreme();
+        // A scale that shrinks a facet below the smallest a scene holds
+        // is checked too (a 1e-80 quad placed at 1e-6 was taken, the
+        // same scale on the object refused).
+        let check =
+            !x.is_similarity() || x.scale_is_extreme() || smallest * x.min_scale() < MIN_FACET_SIZE;
         for (j, f) in prototype.iter().enumerate() {
             let verts: Vec<DVec3> = f.vertices.iter().map(|&p| x.point(p)).collect();
             // The scene's coordinate limit holds after the transform, as
@@ -1829,10 +2036,23 @@ fn tilted(cx: &Ctx, field: &FieldPath, mut p: PointSource) -> R<PointSource> {
         return Ok(p);
     };
     let k = tilt.factor_for_nadir(p.direction);
+    let pf = field.key("photometry");
     p.intensity_w_sr_nm = p
         .intensity_w_sr_nm
         .scaled(k)
-        .map_err(|e| cx.err(&field.key("photometry"), format!("tilt factor {k}: {e}")))?;
+        .map_err(|e| cx.err(&pf, format!("tilt factor {}: {e}", num(k))))?;
+    // The file's intensity was held to the limit before this factor (up
+    // to ×10): hold the tilted one too.
+    let peak = spectrum_peak(&p.intensity_w_sr_nm);
+    if peak.is_nan() || peak > MAX_EMISSION {
+        return Err(cx.err(
+            &pf,
+            format!(
+                "intensity {peak:e} W sr⁻¹ nm⁻¹ after the file's TILT factor {} (at this placement's direction) is out of range (at most {MAX_EMISSION:e}); lower scale",
+                num(k)
+            ),
+        ));
+    }
     Ok(p)
 }
 
@@ -2099,7 +2319,12 @@ fn camera(cx: &Ctx, field: &FieldPath, c: &RawCamera) -> R<Camera> {
     if view.normalize().cross(up).length() < 1e-9 {
         return Err(cx.err(
             &field.key("up"),
-            format!("up {up} is zero or parallel to the view direction"),
+            format!(
+                "up [{}, {}, {}] is zero or parallel to the view direction",
+                num(up.x),
+                num(up.y),
+                num(up.z)
+            ),
         ));
     }
     let fov = cx.finite(&field.key("fov_deg"), c.fov_deg)?;

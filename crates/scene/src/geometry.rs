@@ -13,6 +13,20 @@ pub const PLANARITY_TOLERANCE: f64 = 1e-5;
 /// of each corner triangle of a quad) before it counts as degenerate.
 const AREA_TOLERANCE: f64 = 1e-9;
 
+/// Smallest facet a scene may hold: its longest edge, scene units. Below
+/// about 1e-77 the squared lengths the area test takes underflow, and a
+/// square of 1e-90 was called "collinear"; 1e-60 keeps every product the
+/// tracer forms (areas, solid angles, their squares) in range.
+pub const MIN_FACET_SIZE: f64 = 1e-60;
+
+/// The longest edge of a facet's vertices (0 for fewer than two).
+pub(crate) fn longest_edge(v: &[DVec3]) -> f64 {
+    let n = v.len();
+    (0..n)
+        .map(|i| (v[(i + 1) % n] - v[i]).length())
+        .fold(0.0, f64::max)
+}
+
 /// Newell's vector Σ vᵢ × vᵢ₊₁: normal × twice the area for planar polygons.
 pub(crate) fn newell(v: &[DVec3]) -> DVec3 {
     let n = v.len();
@@ -58,6 +72,10 @@ pub enum FacetError {
     NonFinite { index: usize, vertex: DVec3 },
     #[error("zero area: all vertices coincide")]
     AllCoincide,
+    #[error(
+        "degenerate: the facet is {longest:e} units across, below the {MIN_FACET_SIZE:e} a facet must span (its area would underflow)"
+    )]
+    TooSmall { longest: f64 },
     #[error("zero-length edge: vertices {first} and {second} coincide")]
     ZeroEdge { first: usize, second: usize },
     /// Zero area, or a sliver: an area not above `threshold`
@@ -116,6 +134,9 @@ pub fn check_facet(v: &[DVec3]) -> Result<(), FacetError> {
         .fold(0.0, f64::max);
     if longest == 0.0 {
         return Err(FacetError::AllCoincide);
+    }
+    if longest < MIN_FACET_SIZE {
+        return Err(FacetError::TooSmall { longest });
     }
     for i in 0..n {
         for j in i + 1..n {

@@ -186,6 +186,11 @@ impl Xform {
         )
     }
 
+    /// The smallest scale factor's magnitude.
+    pub(crate) fn min_scale(&self) -> f64 {
+        self.scale.abs().min_element()
+    }
+
     /// True when a scale factor is outside 1e-6..=1e6: areas (squares of
     /// lengths) of a prototype's facets may then vanish or overflow.
     pub(crate) fn scale_is_extreme(&self) -> bool {
@@ -387,11 +392,20 @@ pub(crate) fn facet_bytes(name: &str) -> usize {
         + heap_chunk(name.len())
 }
 
-/// Bytes of memory this process may still allocate: the smaller of
-/// `MemAvailable` (`/proc/meminfo`) and the room left under a cgroup v2
-/// memory limit. `None` where neither can be read (not Linux). Every size
-/// check in gloam (scene expansion, render, capture, bench) asks this.
+/// Bytes of memory this process may still allocate: the smallest of
+/// `MemAvailable` (`/proc/meminfo`), the room left under a cgroup v2
+/// memory limit, and the room left under `RLIMIT_AS` (`ulimit -v`, see
+/// [`address_space_room`]: an allocation past it aborts — an 8192² render
+/// under a 1.5 GB limit died in 0.8 s). `None` where
+/// none can be read (not Linux). Every size check in gloam (scene
+/// expansion, render, capture, bench) asks this.
 pub fn available_memory_bytes() -> Option<u64> {
+    available_memory().map(|(b, _)| b)
+}
+
+/// [`available_memory_bytes`] and what sets it, for messages:
+/// `"MemAvailable"`, `"the cgroup's memory.max"` or `"RLIMIT_AS (ulimit -v)"`.
+pub fn available_memory() -> Option<(u64, &'static str)> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
         let kb: u64 = s
             .lines()
@@ -411,10 +425,41 @@ pub fn available_memory_bytes() -> Option<u64> {
     };
     let cgroup = read_u64("/sys/fs/cgroup/memory.max")
         .map(|max| max.saturating_sub(read_u64("/sys/fs/cgroup/memory.current").unwrap_or(0)));
-    match (meminfo, cgroup) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
-    }
+    [
+        meminfo.map(|b| (b, "MemAvailable")),
+        cgroup.map(|b| (b, "the cgroup's memory.max")),
+        address_space_room().map(|b| (b, "RLIMIT_AS (ulimit -v)")),
+    ]
+    .into_iter()
+    .flatten()
+    .min_by_key(|&(b, _)| b)
+}
+
+/// Bytes left under the soft `RLIMIT_AS` (`/proc/self/limits`, "Max
+/// address space"): the limit less the process's resident memory
+/// (`VmRSS`, `/proc/self/status`), of which a fifth is kept for address
+/// space reserved but not yet used (the allocator's arenas, thread stacks:
+/// `VmSize` is 1.4 GB at start under a 1.5 GB limit, yet 0.96 GB more
+/// were allocated before the abort); `None` when unlimited or unreadable.
+fn address_space_room() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let soft: u64 = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?
+        .trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let rss_kb: u64 = status
+        .lines()
+        .find(|l| l.starts_with("VmRSS:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    Some(soft.saturating_sub(rss_kb.saturating_mul(1024)) / 5 * 4)
 }
 
 /// Why an expansion does not fit: too many items, or not enough memory.

@@ -16,14 +16,14 @@ pub mod plan;
 mod raw;
 pub mod sequence;
 
-pub use build::MAX_COORDINATE;
+pub use build::{MAX_BANDS, MAX_COORDINATE, MAX_DISTANT_SOURCES};
 pub use error::SceneError;
-pub use geometry::{FacetError, PLANARITY_TOLERANCE, check_facet};
+pub use geometry::{FacetError, MIN_FACET_SIZE, PLANARITY_TOLERANCE, check_facet};
 pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP, SUN_GROUP, TWILIGHT_GROUP};
 pub use instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_ROTATION_DEG, MAX_SHARED_FACETS,
-    PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory_bytes,
-    box_corners,
+    PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory,
+    available_memory_bytes, box_corners,
 };
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,
@@ -419,6 +419,9 @@ pub struct AreaLuminaire {
     /// facet by [`AreaLuminaire::c0_for`], and turned by each placement of
     /// an instanced object: [`Scene::luminaire_c0`]).
     pub c0_direction: DVec3,
+    /// Whether the file gave `c0_direction` (the default +x may fall back
+    /// to +y on a facet facing ±x; a given axis along a normal is refused).
+    pub c0_given: bool,
     /// The file it was read from (as resolved against the scene).
     pub file: std::path::PathBuf,
 }

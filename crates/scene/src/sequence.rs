@@ -565,6 +565,74 @@ impl Sequence {
         Ok(())
     }
 
+    /// Refuses a group whose brightest moment — its largest key × its
+    /// flicker's peak `1 + depth` — times the emission of one of its
+    /// sources passes [`crate::build::MAX_EMISSION`]: each factor is held
+    /// to its own bound (keys to [`MAX_INTENSITY`], emission to 1e20), but
+    /// the frames see their product (1e31 in issue 46). For a measured
+    /// area luminaire the emission counted is its peak intensity.
+    pub fn check_emission(&self, scene: &Scene) -> Result<(), SceneError> {
+        use crate::build::{MAX_EMISSION, spectrum_peak};
+        let lg = &scene.light_groups;
+        for (name, track) in &self.groups {
+            let Some(gi) = lg.groups.iter().position(|g| &g.name == name) else {
+                continue;
+            };
+            let key = track.keys.iter().map(|k| k.1).fold(0.0f64, f64::max);
+            let factor = key * track.flicker.map_or(1.0, |f| 1.0 + f.depth);
+            if factor <= 1.0 {
+                continue;
+            }
+            let mut sources: Vec<(String, &gloam_spectra::Spectrum)> = Vec::new();
+            for (k, o) in scene.objects.iter().enumerate() {
+                if lg.object.get(k) == Some(&Some(gi)) {
+                    if let Some(e) = &scene.materials[o.material].emission {
+                        sources.push((format!("objects.{}", o.name), &e.radiance_w_m2_sr_nm));
+                    }
+                }
+            }
+            for (t, g) in scene.point_source_groups.iter().enumerate() {
+                if lg.point_table.get(t) == Some(&gi) {
+                    for p in &scene.point_sources[g.first..g.first + g.instances] {
+                        sources.push((format!("point_sources.{}", g.name), &p.intensity_w_sr_nm));
+                    }
+                }
+            }
+            for (d, src) in scene.distant_sources.iter().enumerate() {
+                if lg.distant.get(d) == Some(&gi) {
+                    sources.push((
+                        format!("distant_sources.{}", src.name),
+                        &src.irradiance_w_m2_nm,
+                    ));
+                }
+            }
+            for (source, s) in sources {
+                let peak = spectrum_peak(s);
+                let seen = peak * factor;
+                if seen.is_nan() || seen > MAX_EMISSION {
+                    let flicker = match track.flicker {
+                        Some(f) if f.depth > 0.0 => {
+                            format!(" × flicker peak {}", num(1.0 + f.depth))
+                        }
+                        _ => String::new(),
+                    };
+                    return Err(SceneError::Invalid {
+                        path: self.path.clone(),
+                        line: self.group_lines.get(name).copied().unwrap_or(1),
+                        column: 1,
+                        field: format!("groups.{name}.keys"),
+                        message: format!(
+                            "the largest key {}{flicker} times {source}'s peak emission {peak:e} (scene {}) gives {seen:e} per nm, out of range (at most {MAX_EMISSION:e}); lower the keys or the source",
+                            num(key),
+                            self.scene.display()
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Each of `scene_groups`' mean relative intensity over the window
     /// `[t0, t1]` s (1 for a group the file does not name).
     pub fn weights<'a>(

@@ -2000,3 +2000,54 @@ fn the_plan_sees_the_materials_of_shared_instances() {
         "{plan}"
     );
 }
+
+/// Issue 46 round 12: counts that made preparation quadratic or a render
+/// hours long have limits, named with the count and the limit.
+#[test]
+fn bands_distant_sources_and_lines_have_limits() {
+    let mut t = BASE.to_string();
+    for i in 0..=crate::MAX_BANDS {
+        t.push_str(&format!("[bands.b{i}]\nlo_nm = 500\nhi_nm = 600\n"));
+    }
+    let e = parse(&t).unwrap_err().to_string();
+    assert!(e.contains("bands: at most 512"), "{e}");
+
+    let mut t = BASE.to_string();
+    for i in 0..=crate::MAX_DISTANT_SOURCES {
+        t.push_str(&format!(
+            "[distant_sources.d{i}]\ndirection = [0.0, 0.0, -1.0]\nvalue = 1e-3\n"
+        ));
+    }
+    let e = parse(&t).unwrap_err().to_string();
+    assert!(e.contains("1001 distant sources: at most 1000"), "{e}");
+
+    let lines: Vec<String> = (0..=gloam_spectra::MAX_LINES)
+        .map(|i| format!("[{}, 1e-6]", 400.0 + i as f64 * 1e-3))
+        .collect();
+    let t = format!(
+        "{BASE}\n[point_sources.p]\nposition = [0.0, 0.0, 3.0]\nlines = [{}]\n",
+        lines.join(", ")
+    );
+    let e = parse(&t).unwrap_err().to_string();
+    assert!(e.contains("10001 emission lines: at most 10000"), "{e}");
+}
+
+/// A placement's scale that shrinks a facet below MIN_FACET_SIZE is
+/// refused as the object's own scale is, and a tiny square is called too
+/// small, not collinear.
+#[test]
+fn placement_scale_below_the_smallest_facet_is_refused() {
+    let quad = "[objects.t]\nmaterial = \"grey\"\nquad = { center = [0.0, 0.0, 0.0], size = [1e-58, 1e-58], normal = [0.0, 0.0, 1.0] }\n";
+    for inst in ["", "instancing = \"shared\"\n"] {
+        let t = format!("{BASE}{quad}instances = [ {{ scale = 1e-6 }} ]\n{inst}");
+        let e = parse(&t).unwrap_err().to_string();
+        assert!(
+            e.contains("degenerate") && e.contains("below the 1e-60"),
+            "{e}"
+        );
+    }
+    let t = format!("{BASE}{quad}scale = [1e-6, 1e-6, 1e-6]\n");
+    let e = parse(&t).unwrap_err().to_string();
+    assert!(e.contains("degenerate") && !e.contains("collinear"), "{e}");
+    assert!(parse(&format!("{BASE}{quad}")).is_ok());
+}

@@ -27,6 +27,8 @@ pub enum SpectrumError {
         "emission line {index}: a line at {wavelength_nm} nm is already present (give each line's wavelength once, with the summed value)"
     )]
     DuplicateLine { index: usize, wavelength_nm: f64 },
+    #[error("{count} emission lines: at most {limit} in one spectrum")]
+    TooManyLines { count: usize, limit: usize },
     #[error(
         "the spectrum integrates to zero over {lo_nm}–{hi_nm} nm, so it cannot be normalised there"
     )]

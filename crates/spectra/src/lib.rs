@@ -14,7 +14,7 @@ pub use csv::{data_rows, parse_csv, read_csv};
 pub use error::{CsvError, LineRowError, LookupError, SpectrumError};
 pub use library::{LibraryEntry, lookup};
 pub use radiometry::*;
-pub use spectrum::{EmissionLine, Spectrum};
+pub use spectrum::{EmissionLine, MAX_LINES, Spectrum};
 
 /// A number for a message: as Rust writes it for ordinary magnitudes, in
 /// exponent form past them (`1e300`, `1e-300`), where `{}` writes 301

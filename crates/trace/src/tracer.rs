@@ -51,9 +51,6 @@ pub const MAX_PIXELS: u64 = 1 << 26;
 /// sized by it; a 67 108 864 × 1 camera passes [`MAX_PIXELS`]).
 pub const MAX_SIDE: u32 = 16384;
 
-/// Bytes a render holds per pixel and band (radiance, standard error and
-/// two accumulators, f64).
-const BYTES_PER_PIXEL_BAND: u64 = 32;
 /// A radiosity cache's bytes per texel and wavelength slot (its direct,
 /// smooth, radiance and indirect arrays and the solve's work arrays:
 /// 64 measured, a 524 288-texel cache of 61 slots peaking at 2.0 GB).
@@ -94,7 +91,7 @@ fn shared_inputs(
         .collect()
 }
 
-fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError> {
+fn check_size(scene: &Scene, settings: &RenderSettings, groups: usize) -> Result<(), TraceError> {
     if let Some(t) = settings.threads.filter(|&t| t > MAX_THREADS) {
         return Err(TraceError::BadInput(format!(
             "threads = {t}: at most {MAX_THREADS} worker threads (this machine has {})",
@@ -134,14 +131,24 @@ fn check_size(scene: &Scene, settings: &RenderSettings) -> Result<(), TraceError
             scene.camera.width, scene.camera.height, settings.resolution_scale
         )));
     }
-    let bytes = pixels as u64 * (scene.bands.len() as u64 * BYTES_PER_PIXEL_BAND + 4);
-    if let Some(avail) = gloam_scene::available_memory_bytes() {
+    // Every per-pixel buffer of the render, measured (32 bytes per band
+    // were counted, and a legal 8192² render aborted at 10.6 GB).
+    let nb = scene.bands.len();
+    let per_pixel = crate::render::render_bytes_per_pixel(n_wl as usize, nb, groups);
+    let bytes = pixels as u64 * per_pixel;
+    if let Some((avail, what)) = gloam_scene::available_memory() {
         if bytes > avail / 10 * 8 {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             return Err(TraceError::BadInput(format!(
-                "a {w}×{h} render of {} bands needs about {:.1} GiB, more than 80 % of the {:.1} GiB available",
-                scene.bands.len(),
-                bytes as f64 / (1u64 << 30) as f64,
-                avail as f64 / (1u64 << 30) as f64
+                "a {w}×{h} render of {nb} band{} at {n_wl} wavelength samples{} needs about {:.1} GiB ({per_pixel} bytes a pixel), more than 80 % of the {:.1} GiB available (set by {what}): lower the resolution (camera size or resolution_scale), or coarsen spectral_step_nm",
+                if nb == 1 { "" } else { "s" },
+                if groups > 0 {
+                    format!(" and {groups} light groups")
+                } else {
+                    String::new()
+                },
+                gib(bytes),
+                gib(avail)
             )));
         }
     }
@@ -187,7 +194,25 @@ fn check_spectral_memory(
             settings.cache_texels, settings.cache_rays
         )));
     }
-    refuse_spectral_bytes(scene, settings, n_wl, texels)
+    // Advise only what lowers the count (the pilot's 1 024 texels are
+    // there whatever cache_texels says; `indirect = path` was advised to
+    // runs that had set it).
+    let mut help = vec!["coarsen the step", "narrow the bands"];
+    if requested == Indirect::Cache && f64::from(settings.cache_texels) >= texels && texels > 0.0 {
+        help.push("lower cache_texels");
+    }
+    if pilot && settings.diffuse_bounces > 0 {
+        help.push("set indirect = path (no pilot cache)");
+    }
+    if texels > 0.0 {
+        help.push("set indirect = off");
+    }
+    let cache = if pilot && texels <= f64::from(crate::plan::PILOT_TEXELS) {
+        "the pilot's radiosity cache"
+    } else {
+        "a radiosity cache"
+    };
+    refuse_spectral_bytes(scene, settings, n_wl, texels, cache, &help)
 }
 
 /// The memory check of [`check_spectral_memory`] for the render's cache
@@ -195,7 +220,20 @@ fn check_spectral_memory(
 fn check_render_cache_memory(tracer: &Tracer, scene: &Scene) -> Result<(), TraceError> {
     let n_wl = tracer.wl.nm.len() as f64;
     let texels = f64::from(tracer.settings.cache_texels);
-    refuse_spectral_bytes(scene, &tracer.settings, n_wl, texels)
+    let help = [
+        "coarsen the step",
+        "narrow the bands",
+        "lower cache_texels",
+        "set indirect = path or off",
+    ];
+    refuse_spectral_bytes(
+        scene,
+        &tracer.settings,
+        n_wl,
+        texels,
+        "the render's radiosity cache",
+        &help,
+    )
 }
 
 /// Refuses `n_wl` wavelength slots for a cache of `texels` texels and the
@@ -205,6 +243,8 @@ fn refuse_spectral_bytes(
     settings: &RenderSettings,
     n_wl: f64,
     texels: f64,
+    cache: &str,
+    help: &[&str],
 ) -> Result<(), TraceError> {
     let emissive = |m: usize| scene.materials.get(m).is_some_and(|m| m.emission.is_some());
     let emitters =
@@ -215,11 +255,17 @@ fn refuse_spectral_bytes(
         if bytes > avail as f64 * 0.8 {
             let gib = |b: f64| b / (1u64 << 30) as f64;
             return Err(TraceError::BadInput(format!(
-                "{n_wl} wavelength samples (spectral_step_nm = {}) for {emitters} emitter{} and a radiosity cache of about {texels} texels need about {:.1} GiB, more than 80 % of the {:.1} GiB available: coarsen the step, narrow the bands, or lower cache_texels (or set indirect = path or off)",
+                "{n_wl} wavelength samples (spectral_step_nm = {}) for {emitters} emitter{}{} need about {:.1} GiB, more than 80 % of the {:.1} GiB available: {}",
                 gloam_spectra::num(settings.spectral_step_nm),
                 if emitters == 1 { "" } else { "s" },
+                if texels > 0.0 {
+                    format!(" and {cache} of {texels} texels")
+                } else {
+                    String::new()
+                },
                 gib(bytes),
-                gib(avail as f64)
+                gib(avail as f64),
+                help.join(", or ")
             )));
         }
     }
@@ -385,7 +431,7 @@ impl Tracer {
         if scene.bands.is_empty() {
             return Err(TraceError::NoBands);
         }
-        check_size(scene, settings)?;
+        check_size(scene, settings, layers.map_or(0, |m| m.groups))?;
         let wl = Wavelengths::for_scene(scene, settings.spectral_step_nm);
         let mut world = build_world(scene, settings, wl, &mut prep, observer.as_ref())?;
         if let Some(map) = layers {

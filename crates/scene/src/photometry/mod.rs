@@ -444,7 +444,8 @@ pub(crate) fn check_candela(values: &[f64]) -> Result<f64, (usize, String)> {
     for (i, &v) in values.iter().enumerate() {
         if !(v.is_finite() && (0.0..=MAX_CANDELA).contains(&v)) {
             let msg = format!(
-                "candela value {v} (entry {}) must be finite, ≥ 0 and ≤ {MAX_CANDELA:e} after the multipliers",
+                "candela value {} (entry {}) must be finite, ≥ 0 and ≤ {MAX_CANDELA:e} after the multipliers",
+                crate::build::num(v),
                 i + 1
             );
             return Err((i, msg));

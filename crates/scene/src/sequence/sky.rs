@@ -237,6 +237,7 @@ impl Sequence {
     /// them (every render fills the same groups). Does nothing without a
     /// clock; refuses one over a scene without `[sky]`.
     pub fn bind_sky(&mut self, scene: &mut Scene) -> Result<(), SceneError> {
+        self.check_emission(scene)?;
         if self.sky.is_some() {
             // Before the clock's readings (seconds of sky): a group — a
             // photocell's too — the scene lacks, or a photocell on the

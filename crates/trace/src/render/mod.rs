@@ -20,6 +20,7 @@ use crate::tracer::{PathState, RayCounts, TraceError, Tracer, stream};
 
 mod adaptive;
 mod estimate;
+pub(crate) use estimate::render_bytes_per_pixel;
 mod film;
 pub(crate) mod probe;
 #[cfg(test)]
