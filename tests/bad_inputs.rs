@@ -3137,6 +3137,21 @@ const CASES: &[Case] = &[
         ["--gain 1e300 is outside"]
     ),
     // --- round 12 (issue 46): the lead's part
+    // `--page` on an image with no frames.jsonl blamed a file that does not exist.
+    case!("calibrate apply: --page without a frames.jsonl", ["d/f.tif" => "{tiff}", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.tif", "o.tiff", "--page", "3"], ["d/f.tif", "--page 3", "no frames.jsonl beside it"]),
+    // A baud past 32 bits was called "not a positive integer".
+    case!(
+        "capture: a baud past 32 bits",
+        [],
+        [
+            "capture",
+            "--grabber",
+            "serial:/dev/null?baud=99999999999999",
+            "--out",
+            "o"
+        ],
+        ["baud 99999999999999 is too large", "4294967295"]
+    ),
     // `--seed 5` silently ran a URI's `seed=4`, whose report named 4.
     case!(
         "capture: --seed against the URI's seed=",

@@ -1,5 +1,6 @@
 //! End-to-end tests of `gloam render` and `gloam probe` through the binary.
 
+mod common;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -275,7 +276,6 @@ fn a_small_main_stack_still_renders() {
 #[cfg(unix)]
 #[test]
 fn a_thread_pool_that_cannot_start_is_an_error_not_another_pool() {
-    use std::os::unix::process::CommandExt;
     let dir = tempfile::tempdir().unwrap();
     let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad_inputs/base.toml");
     let mut cmd = Command::new(BIN);
@@ -284,19 +284,7 @@ fn a_thread_pool_that_cannot_start_is_an_error_not_another_pool() {
         .args(["--spp", "1", "--threads", "1024", "--out"])
         .arg(dir.path().join("o"))
         .env("RAYON_NUM_THREADS", "2");
-    // SAFETY: setrlimit only, between fork and exec.
-    unsafe {
-        cmd.pre_exec(|| {
-            let lim = libc::rlimit {
-                rlim_cur: 2_000_000_000,
-                rlim_max: 2_000_000_000,
-            };
-            if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
+    common::limited(&mut cmd, libc::RLIMIT_AS, 2_000_000_000);
     let o = cmd.output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");

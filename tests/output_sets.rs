@@ -3,6 +3,7 @@
 //! without `--force`, a killed run never leaves a set that mixes runs, and
 //! every report names the version, commit, command and hashed inputs.
 
+mod common;
 use std::io::Read;
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
@@ -415,7 +416,6 @@ fn a_terminated_capture_says_it_was_a_signal_not_only_ctrl_c() {
 /// file, and nothing left behind.
 #[test]
 fn a_file_size_limit_is_an_error_that_leaves_nothing_behind() {
-    use std::os::unix::process::CommandExt;
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("o");
     let mut cmd = Command::new(BIN);
@@ -423,19 +423,7 @@ fn a_file_size_limit_is_an_error_that_leaves_nothing_behind() {
         .arg(&out)
         .arg(scene("office-room"))
         .args(["--set", "resolution_scale=0.25"]);
-    // SAFETY: setrlimit only, between fork and exec.
-    unsafe {
-        cmd.pre_exec(|| {
-            let lim = libc::rlimit {
-                rlim_cur: 4096,
-                rlim_max: 4096,
-            };
-            if libc::setrlimit(libc::RLIMIT_FSIZE, &lim) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
+    common::limited(&mut cmd, libc::RLIMIT_FSIZE, 4096);
     let o = cmd.output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");

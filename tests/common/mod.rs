@@ -91,3 +91,27 @@ pub fn fits_date_unix_s(date: &str) -> f64 {
     let days = era * 146_097 + doe - 719_468;
     days as f64 * 86_400.0 + h * 3600.0 + mi * 60.0 + s
 }
+
+/// `cmd` run under a resource limit (`libc::RLIMIT_AS`, `RLIMIT_FSIZE`,
+/// …) of `bytes`, set in the child between fork and exec.
+#[cfg(unix)]
+pub fn limited(
+    cmd: &mut std::process::Command,
+    resource: libc::__rlimit_resource_t,
+    bytes: u64,
+) -> &mut std::process::Command {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: setrlimit only, between fork and exec.
+    unsafe {
+        cmd.pre_exec(move || {
+            let lim = libc::rlimit {
+                rlim_cur: bytes,
+                rlim_max: bytes,
+            };
+            if libc::setrlimit(resource, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        })
+    }
+}

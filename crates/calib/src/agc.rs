@@ -407,7 +407,9 @@ fn linearised(
     let linearised = errs.len();
     if outside > 0 && outside >= linearised {
         let [lo, hi] = agc_gain_range;
-        let lut_gains = lut_gain_range(lut).map_or("none".into(), |(a, b)| format!("{a}–{b}"));
+        // Gains as the other messages print them (not in 17 digits).
+        let (lo, hi) = (crate::error::gain_text(lo), crate::error::gain_text(hi));
+        let lut_gains = crate::apply::lut_gains_text(lut);
         return Err(CalibError::LutNotForCamera {
             lut_camera: camera_identity(&lut.grabber).to_string(),
             camera: camera_identity(&grabber.describe()).to_string(),

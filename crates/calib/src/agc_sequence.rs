@@ -705,7 +705,9 @@ pub fn linearise_sequence(
     ];
     if outside * 2 >= frames.len() {
         let [lo, hi] = gain_range;
-        let lut_gains = lut_gain_range(lut).map_or("none".into(), |(a, b)| format!("{a}–{b}"));
+        // Gains as the other messages print them (not in 17 digits).
+        let (lo, hi) = (crate::error::gain_text(lo), crate::error::gain_text(hi));
+        let lut_gains = crate::apply::lut_gains_text(lut);
         return Err(CalibError::LutNotForCamera {
             lut_camera: crate::apply::camera_identity(&lut.grabber).to_string(),
             camera: crate::apply::camera_identity(camera).to_string(),

@@ -210,6 +210,17 @@ pub fn check_lut_fits_camera(lut: &Lut, described: &str, bits: u8) -> Result<(),
     Ok(())
 }
 
+/// The LUT's gains as messages print them (`40–50`, or `none`).
+pub(crate) fn lut_gains_text(lut: &Lut) -> String {
+    lut_gain_range(lut).map_or("none".into(), |(a, b)| {
+        format!(
+            "{}–{}",
+            crate::error::gain_text(a),
+            crate::error::gain_text(b)
+        )
+    })
+}
+
 /// The lowest and highest gain a LUT was calibrated at (`None`: no gains).
 pub fn lut_gain_range(lut: &Lut) -> Option<(f64, f64)> {
     let g = lut.gains.iter().map(|c| c.gain);
@@ -284,6 +295,16 @@ pub fn apply_lut_to_frame(
     let lut = load_lut(lut_path, &reads)?;
     let record = crate::io::frame_record(input, page, &reads)?;
     if let (Some(p), None) = (page, &record) {
+        // Without a frames.jsonl beside the image there is no record to
+        // miss a line: the record itself is what is missing.
+        if !frames_jsonl(input).exists() {
+            return Err(CalibError::file(
+                input,
+                format!(
+                    "--page {p}: no frames.jsonl beside it, so no record of its pages' gains and scale; --page applies a page of a stack `gloam capture` wrote (a single image: leave --page out)"
+                ),
+            ));
+        }
         return Err(CalibError::file(
             frames_jsonl(input),
             format!(

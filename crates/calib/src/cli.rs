@@ -722,9 +722,23 @@ fn linearised_line(r: &crate::agc::AgcReport) -> Option<String> {
             r.linearised_rms_error_percent,
             r.linearised_max_error_percent,
         ) {
+            // The frames linearised lie within both the AGC's range and the
+            // LUT's: the AGC's whole range (575.67 beside a LUT to 300)
+            // read as if those frames had been measured too.
             (Some(rms), Some(max)) => format!(
-                "linearised radiance vs true: residual RMS {rms:.2} %, max {max:.2} % over {} settled AGC frames at gains {lo}–{hi} (LUT gains {}–{}){outside}",
-                r.frames_linearised, lut[0], lut[1]
+                "linearised radiance vs true: residual RMS {rms:.2} %, max {max:.2} % over {} {} AGC frames at gains within {}–{} (the AGC visited {}–{}; LUT gains {}–{}){outside}",
+                r.frames_linearised,
+                if r.all_settled {
+                    "settled"
+                } else {
+                    "unsettled"
+                },
+                crate::error::gain_text(lo.max(lut[0])),
+                crate::error::gain_text(hi.min(lut[1])),
+                crate::error::gain_text(lo),
+                crate::error::gain_text(hi),
+                crate::error::gain_text(lut[0]),
+                crate::error::gain_text(lut[1])
             ),
             _ => format!("linearised radiance vs true: no settled AGC frame to linearise{outside}"),
         },

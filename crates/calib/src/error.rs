@@ -88,9 +88,7 @@ pub enum CalibError {
     /// A LUT that cannot linearise a camera's frames: made on another
     /// camera, for another bit depth, or over gains the frames were not
     /// taken at. Converting anyway would give wrong radiances silently.
-    #[error(
-        "a LUT made with '{lut_camera}' cannot linearise frames of '{camera}': {reason}; make one on this camera with `gloam calibrate radiance` at {gains}"
-    )]
+    #[error("{}", lut_not_for_camera(.lut_camera, .camera, .reason, .gains))]
     LutNotForCamera {
         lut_camera: String,
         camera: String,
@@ -163,6 +161,25 @@ impl CalibError {
             message: message.to_string(),
         }
     }
+}
+
+/// [`CalibError::LutNotForCamera`]'s text: the camera named twice only
+/// when the LUT's is another ("a LUT made with X cannot linearise frames
+/// of X" said of a gain range read as a camera mismatch).
+fn lut_not_for_camera(lut_camera: &str, camera: &str, reason: &str, gains: &str) -> String {
+    let lead = if lut_camera == camera {
+        format!("this LUT of '{camera}' cannot linearise these frames")
+    } else {
+        format!("a LUT made with '{lut_camera}' cannot linearise frames of '{camera}'")
+    };
+    format!("{lead}: {reason}; make one on this camera with `gloam calibrate radiance` at {gains}")
+}
+
+/// A gain as messages print it: four decimals at most, no trailing zeros
+/// (14.5519, 40), not the 17 digits of a float's shortest form.
+pub(crate) fn gain_text(g: f64) -> String {
+    let s = format!("{g:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 #[cfg(test)]

@@ -154,6 +154,18 @@ pub fn region_mean(img: &[f64], w: usize, h: usize, r: &Region) -> Result<f64, C
     Ok(s / n as f64)
 }
 
+/// `e` said of one of the two images compared, and of region `r`'s
+/// rectangle.
+fn in_image(e: CalibError, image: &str, r: &Region) -> CalibError {
+    match e {
+        CalibError::InsufficientData(m) => CalibError::InsufficientData(format!(
+            "{image}: {m} (x {}, width {}, y {}, height {})",
+            r.x, r.width, r.y, r.height
+        )),
+        e => e,
+    }
+}
+
 /// Compares two equally sized images over regions: Spearman ρ of the region
 /// means (ties get average ranks) and the RMS of their differences.
 pub fn compare_images(
@@ -180,8 +192,11 @@ pub fn compare_images(
             } else {
                 r.name.clone()
             },
-            truth: region_mean(truth, w, h, r)?,
-            synthetic: region_mean(synthetic, w, h, r)?,
+            // Which image and where: "region 'd' holds no finite pixel"
+            // did not say which of the two.
+            truth: region_mean(truth, w, h, r).map_err(|e| in_image(e, "the truth image", r))?,
+            synthetic: region_mean(synthetic, w, h, r)
+                .map_err(|e| in_image(e, "the synthetic image", r))?,
         });
     }
     let t: Vec<f64> = rv.iter().map(|r| r.truth).collect();
@@ -272,5 +287,16 @@ mod tests {
         let c = compare_images(&t, &s, 5, 1, &regions).unwrap();
         assert!((c.spearman_rho - 0.820_782_681_668_123_3).abs() < 1e-12);
         assert!((c.rms - (16.0f64 * 4.0 + 4.0).sqrt() / 5f64.sqrt()).abs() < 1e-12);
+        // Round 12 of issue 46: a region with no finite pixel names the
+        // image that has none, and the region's rectangle.
+        let mut nan = s;
+        nan[4] = f64::NAN;
+        let e = compare_images(&t, &nan, 5, 1, &regions)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("the synthetic image: region '' holds no finite pixel (x 4, width 1"),
+            "{e}"
+        );
     }
 }

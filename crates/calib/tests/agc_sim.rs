@@ -131,4 +131,12 @@ fn a_lut_over_other_gains_is_refused_with_the_gains_the_agc_visited() {
     assert!(m.contains("135 of 135 settled AGC frames"), "{m}");
     assert!(m.contains("calibrated gains 40–50"), "{m}");
     assert!(m.contains("the AGC visited 14.552–"), "{m}");
+    // Round 12 of issue 46: one camera is not named as two, and no gain
+    // runs to 17 digits.
+    assert!(m.starts_with("this LUT of '"), "{m}");
+    let longest = (m.split(|c: char| !(c.is_ascii_digit() || c == '.')))
+        .map(str::len)
+        .max()
+        .unwrap_or(0);
+    assert!(longest <= 10, "{m}");
 }

@@ -199,9 +199,23 @@ impl GrabberUri {
                 for (k, v) in params {
                     match k {
                         "baud" => {
-                            baud = v.parse().ok().filter(|b| *b > 0).ok_or_else(|| {
-                                bad(uri, format!("baud '{v}' is not a positive integer"))
-                            })?
+                            // A whole number past 32 bits is too large, not
+                            // "not a positive integer".
+                            baud = match v.parse::<u128>() {
+                                Ok(b) if b > 0 && b <= u128::from(u32::MAX) => b as u32,
+                                Ok(b) if b > 0 => {
+                                    return Err(bad(
+                                        uri,
+                                        format!("baud {b} is too large: at most {}", u32::MAX),
+                                    ));
+                                }
+                                _ => {
+                                    return Err(bad(
+                                        uri,
+                                        format!("baud '{v}' is not a positive integer"),
+                                    ));
+                                }
+                            }
                         }
                         _ => return Err(bad(uri, format!("unknown parameter '{k}'"))),
                     }

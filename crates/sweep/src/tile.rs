@@ -293,7 +293,10 @@ pub fn verify_tile_manifest(
             source,
         }
     };
-    let m: serde_json::Value = serde_json::from_str(&text).map_err(not_a("gloam manifest"))?;
+    // A key given twice (`"complete": false, "complete": true`) was read
+    // as its last value: refused, as a contradicting record.
+    let m: serde_json::Value =
+        gloam_io::json::parse_value(&text).map_err(not_a("gloam manifest"))?;
     let (whole, hashes, inputs): (bool, BTreeMap<String, String>, BTreeMap<String, String>) =
         if task {
             let r: crate::run::TaskRecord =
@@ -373,10 +376,25 @@ pub fn differences(a: &TileInfo, b: &TileInfo) -> Vec<String> {
         ));
     }
     if a.band_names != b.band_names {
+        // At most a few names each: a forged list of 100 000 printed a
+        // 400 KB error line.
+        let few = |names: &[String]| {
+            const SHOWN: usize = 8;
+            let head = names
+                .iter()
+                .take(SHOWN)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(",");
+            match names.len() {
+                n if n > SHOWN => format!("{n} bands: {head},…"),
+                _ => head,
+            }
+        };
         d.push(format!(
             "bands ({} vs {})",
-            a.band_names.join(","),
-            b.band_names.join(",")
+            few(&a.band_names),
+            few(&b.band_names)
         ));
     }
     if a.settings != b.settings {
@@ -522,6 +540,32 @@ pub fn merge(dirs: &[PathBuf], reads: &gloam_io::ReadLog) -> Result<Merged, Merg
 
 #[cfg(test)]
 mod tests {
+
+    /// Round 12 of issue 46: a forged tile of 100 000 band names printed
+    /// every one of them (a 400 KB error line); a few are shown, with the
+    /// count.
+    #[test]
+    fn band_lists_that_differ_are_shown_short() {
+        let tile = |names: Vec<String>| TileInfo {
+            format: "gloam-tile/1".into(),
+            tile: 1,
+            of: 2,
+            rows: [0, 1],
+            width: 4,
+            height: 2,
+            band_names: names,
+            scene: "s.toml".into(),
+            scene_sha256: None,
+            settings: serde_json::Value::Null,
+        };
+        let d = differences(
+            &tile(vec!["vis".into(); 100_000]),
+            &tile(vec!["vis".into()]),
+        );
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].starts_with("bands (100000 bands: vis,vis"), "{}", d[0]);
+        assert!(d[0].len() < 200, "{}", d[0].len());
+    }
     use super::*;
 
     #[test]
