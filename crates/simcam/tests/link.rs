@@ -32,8 +32,18 @@ fn pending_controls_and_naks() {
         matches!(e, gloam_grabber::GrabError::InvalidSetting(_)),
         "{e}"
     );
+    // Past the wire's 32 bits of thousandths: refused before it is sent.
     let e = g.set_gain(1e9).unwrap_err();
-    assert!(e.to_string().contains("out of range"), "{e}");
+    assert!(
+        e.to_string().contains("largest the protocol carries"),
+        "{e}"
+    );
+    // On the wire but past the camera's range: the device's NAK, in its units.
+    let e = g.set_gain(1e6).unwrap_err();
+    assert!(
+        e.to_string().contains("out of range, in thousandths"),
+        "{e}"
+    );
     // The emulator renders stimuli (its own extension request).
     assert!(g.present(&gloam_grabber::Stimulus::Dark).unwrap());
     g.grab().unwrap();
