@@ -218,10 +218,11 @@ fn gloam_main() -> ExitCode {
     let mut command = negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()));
     let args =
         gloam_pipeline::cli::process::args_with_signed_exponents(&mut command, std::env::args_os());
-    let words = args.clone();
     let matches = match command.try_get_matches_from(args) {
         Ok(m) => m,
         Err(e) if e.kind() == clap::error::ErrorKind::InvalidUtf8 => {
+            // The raw command line: the pre-pass joins only UTF-8 words.
+            let words: Vec<_> = std::env::args_os().collect();
             match gloam_pipeline::cli::process::non_utf8_argument(&words) {
                 Some(what) => {
                     eprintln!("error: {what}");

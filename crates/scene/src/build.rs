@@ -598,11 +598,7 @@ fn spectrum_parts(cx: &Ctx, field: &FieldPath, p: Parts, kind: Kind) -> R<Spectr
     if matches!(kind, Kind::Radiance | Kind::Intensity | Kind::Irradiance) {
         // A source so bright that its band integrals (and the radiance they
         // feed) overflow to inf would give a silently wrong image.
-        let peak = s
-            .values()
-            .iter()
-            .chain(s.lines().iter().map(|l| &l.value))
-            .fold(0.0f64, |m, &v| m.max(v.abs()));
+        let peak = spectrum_peak(&s);
         if peak.is_nan() || peak > MAX_EMISSION {
             return Err(cx.err(
                 field,
@@ -2291,11 +2287,7 @@ fn measured(
     let intensity = shape
         .scaled(table.max_candela * scale / cd_per_unit)
         .map_err(|e| cx.err(&pf, e.to_string()))?;
-    let peak = intensity
-        .values()
-        .iter()
-        .chain(intensity.lines().iter().map(|l| &l.value))
-        .fold(0.0f64, |m, &v| m.max(v.abs()));
+    let peak = spectrum_peak(&intensity);
     if peak.is_nan() || peak > MAX_EMISSION {
         return Err(cx.err(
             &pf,
