@@ -372,8 +372,9 @@ pub(crate) fn parse_placements_csv(
 }
 
 /// glibc's chunk size for a heap allocation of `n` bytes (an estimate for
-/// other allocators).
-fn heap_chunk(n: usize) -> usize {
+/// other allocators): what every memory estimate in gloam (a scene's
+/// facets, a render's pixels) counts per block.
+pub fn heap_chunk(n: usize) -> usize {
     if n == 0 {
         0
     } else {

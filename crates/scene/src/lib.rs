@@ -23,7 +23,7 @@ pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP, SUN_GROUP, TWIL
 pub use instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_ROTATION_DEG, MAX_SHARED_FACETS,
     PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory,
-    available_memory_bytes, box_corners,
+    available_memory_bytes, box_corners, heap_chunk,
 };
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,

@@ -36,16 +36,6 @@ pub(super) struct PixelEstimate {
     pub(super) layer_sq: Vec<f64>,
 }
 
-/// A heap block's bytes for `n` requested: the allocator's 16-byte
-/// granule, its header, and its 32-byte least block.
-fn heap_chunk(n: usize) -> u64 {
-    if n == 0 {
-        0
-    } else {
-        ((n + 8 + 15) & !15).max(32) as u64
-    }
-}
-
 /// Bytes a render holds per pixel at its peak, for `nwl` wavelength
 /// slots, `nb` bands and `groups` light groups (0 without `--layers`):
 /// the pixel's [`PixelEstimate`] (its spectrum, band and replicate sums,
@@ -58,10 +48,11 @@ fn heap_chunk(n: usize) -> u64 {
 pub(crate) fn render_bytes_per_pixel(nwl: usize, nb: usize, groups: usize) -> u64 {
     let inline = 2 * std::mem::size_of::<PixelEstimate>()
         + std::mem::size_of::<Option<crate::direct_view::ViewTerm>>();
-    let heap = heap_chunk(8 * nwl)
+    use gloam_scene::heap_chunk;
+    let heap = (heap_chunk(8 * nwl)
         + 4 * heap_chunk(8 * nb)
         + heap_chunk(nb)
-        + 2 * heap_chunk(8 * groups * nb);
+        + 2 * heap_chunk(8 * groups * nb)) as u64;
     // Images: radiance and error (f64, then f32 to write), the stated
     // errors and relative errors of the adaptive rounds.
     let images = 64 * nb as u64;
