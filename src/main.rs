@@ -75,19 +75,6 @@ fn no_huge_pages() {
     }
 }
 
-/// A write past the file-size limit (`ulimit -f`) fails with `EFBIG`, an
-/// error that names the file and removes the staging directory, instead of
-/// SIGXFSZ ending the process without a word and leaving the staging
-/// directory behind.
-fn file_size_limit_is_an_error() {
-    #[cfg(unix)]
-    // SAFETY: sets this process's disposition of one signal to "ignore";
-    // no handler runs, no memory of ours is touched.
-    unsafe {
-        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
-    }
-}
-
 /// A failed write to stdout. A closed pipe ends the command quietly with
 /// success, as `head` expects of the writer it cut off (ripgrep does the
 /// same); other write errors are reported.
@@ -193,7 +180,7 @@ const MAIN_STACK_BYTES: usize = 64 << 20;
 fn main() -> ExitCode {
     keep_freed_pages();
     no_huge_pages();
-    file_size_limit_is_an_error();
+    gloam_pipeline::cli::process::file_size_limit_is_an_error();
     let spawned = std::thread::Builder::new()
         .name("gloam".into())
         .stack_size(MAIN_STACK_BYTES)
@@ -210,28 +197,15 @@ fn main() -> ExitCode {
 
 fn gloam_main() -> ExitCode {
     use clap::{CommandFactory, FromArgMatches};
-    use gloam_pipeline::cli::process::{clap_exit, negative_numbers_are_values};
+    use gloam_pipeline::cli::process::{negative_numbers_are_values, parse_command_line};
     if let Err(e) = gloam_pipeline::cli::process::start_workers() {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
-    let mut command = negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()));
-    let args =
-        gloam_pipeline::cli::process::args_with_signed_exponents(&mut command, std::env::args_os());
-    let matches = match command.try_get_matches_from(args) {
+    let command = negative_numbers_are_values(cmd::capture::with_out_help(Cli::command()));
+    let matches = match parse_command_line(command) {
         Ok(m) => m,
-        Err(e) if e.kind() == clap::error::ErrorKind::InvalidUtf8 => {
-            // The raw command line: the pre-pass joins only UTF-8 words.
-            let words: Vec<_> = std::env::args_os().collect();
-            match gloam_pipeline::cli::process::non_utf8_argument(&words) {
-                Some(what) => {
-                    eprintln!("error: {what}");
-                    return ExitCode::from(2);
-                }
-                None => return clap_exit(e),
-            }
-        }
-        Err(e) => return clap_exit(e),
+        Err(exit) => return exit,
     };
     let cli = match Cli::from_arg_matches(&matches) {
         Ok(c) => c,

@@ -3188,6 +3188,84 @@ const CASES: &[Case] = &[
     case!("sequence: an unknown key under [[move]]", ["s.toml" => "{base}", "q.toml" => "scene = \"s.toml\"\nframe_rate_hz = 25.0\nframes = 2\n[[move]]\nobjects = [\"panel\"]\nkeys = [[0.0, 0.0, 0.0, 0.0]]\nspeed = 3\n"], ["sequence", "q.toml", "--out", "o"], ["q.toml:7", "move[0].speed", "unknown field"]),
     // A duplicated key in a frame record was read as its last value.
     case!("apply: a frames.jsonl line with a key twice", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"gain\":300}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl", "line 1", "`gain` is given twice"]),
+    // --- round 13 (issue 46): scene files (IES, EULUMDAT, placements, groups)
+    // --- round 13 (issue 46): bench and sweep
+    // --- round 13 (issue 46): the open findings of round 12
+    // `max_spp` below the first round's samples was exceeded, and beside a
+    // fixed count it was ignored.
+    case!("render: max_spp below a fixed spp with an error target", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "16", "--target-error", "0.05", "--set", "max_spp=8"], ["--set max_spp=8", "below spp 16"]),
+    case!("render: max_spp beside a fixed spp", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--spp", "16", "--set", "max_spp=8"], ["--set max_spp=8", "fixed 16 per pixel"]),
+    case!("render: max_spp on a tile", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--tile", "1/2", "--set", "max_spp=8"], ["--set max_spp=8", "fixed 4 per pixel"]),
+    case!("render: max_spp of one sample", ["s.toml" => "{base}"], ["render", "s.toml", "--out", "o", "--set", "max_spp=1"], ["--set max_spp=1", "at least 2"]),
+    // A nested source's unknown key printed the TOML parser's quoted line
+    // under a caret; now its file, line and field on one line.
+    case!("calibrate radiance: an unknown key in a nested source table", ["src.toml" => "[source]\nkind = \"sphere\"\n[[source.levels]]\nlabel = \"a\"\nbogus_key = 3\n"], ["calibrate", "radiance", "--grabber", "sim:gen3-gaas-iccd?size=16x12", "--source", "src.toml", "--gains", "1", "--out", "o"], ["src.toml:5: field `source.levels[0].bogus_key`", "unknown field"]),
+    // Flags the chosen MTF target or scope rig does not read were ignored.
+    case!("calibrate mtf: usaf given camera flags", ["c.csv" => "0,1,0.9\n"], ["calibrate", "mtf", "--target", "usaf", "--ctf", "c.csv", "--pixel-pitch-um", "10", "--frames", "16", "--grabber", "sim:gen3-gaas-iccd", "--out", "o"], ["--target usaf does not use --grabber, --frames", "it reads --ctf"]),
+    case!(
+        "calibrate mtf: edge given sine frequencies",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "edge",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=64x64",
+            "--frequencies",
+            "0.1,0.2",
+            "--out",
+            "o"
+        ],
+        ["--target edge does not use --frequencies"]
+    ),
+    case!(
+        "calibrate mtf: sine given a magnification without voltage space",
+        [],
+        [
+            "calibrate",
+            "mtf",
+            "--target",
+            "sine",
+            "--grabber",
+            "sim:gen3-gaas-iccd?size=64x64",
+            "--magnification",
+            "0.5",
+            "--out",
+            "o"
+        ],
+        ["--target sine does not use --magnification"]
+    ),
+    case!(
+        "scope: a frequency for the edge rig",
+        [],
+        [
+            "scope",
+            "--sensor",
+            "gen3-gaas-iccd",
+            "--rig",
+            "edge",
+            "--frequency",
+            "0.1",
+            "--out",
+            "o"
+        ],
+        ["--frequency is not used by rig 'edge'"]
+    ),
+    case!(
+        "scope: a level for the dark rig",
+        [],
+        [
+            "scope",
+            "--grabber",
+            "sim:gen3-gaas-iccd?rig=dark",
+            "--level",
+            "0.5",
+            "--out",
+            "o"
+        ],
+        ["--level is not used by rig 'dark'"]
+    ),
 ];
 
 #[test]

@@ -203,7 +203,10 @@ fn sweep_files_with_mistakes_get_located_errors() {
             format!("[base]\nscene = {scene:?}\n[axes]\ntile = [\"1/4\", \"5/4\"]\n"),
             ":4: axes.tile[1]:",
         ),
-        ("[bsae]\nscene = \"x\"\n".to_string(), ":1: (top level):"),
+        (
+            "[bsae]\nscene = \"x\"\n".to_string(),
+            ":1: bsae: unknown field `bsae`",
+        ),
     ];
     for (i, (text, want)) in cases.iter().enumerate() {
         let p = write(&format!("s{i}.toml"), text);

@@ -116,7 +116,11 @@ pub struct AccuracyArgs {
     /// files). Its cached references are carried over and reused.
     #[arg(long)]
     pub force: bool,
-    /// Total wall-time budget, seconds (the sweep stops cleanly when spent).
+    /// Wall-time budget, seconds: the optional rows stop when it is spent.
+    /// The reference (at least 256 spp), each estimator's first rung and
+    /// Mitsuba 3 (up to the larger of half the budget and 60 s) run
+    /// whatever it is; summary.md and `over_budget_s` say by how much a run
+    /// went past it.
     #[arg(long, default_value_t = 120.0)]
     pub budget_s: f64,
     /// Also render with every effect forced on and report the time the

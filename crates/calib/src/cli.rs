@@ -218,34 +218,37 @@ pub struct MtfArgs {
     /// full scale on simulated cameras).
     #[arg(long)]
     pub radiance: Option<f64>,
-    /// Sine modulation in radiance.
-    #[arg(long, default_value_t = mtf_flow::DEFAULT_MODULATION)]
-    pub modulation: f64,
+    /// Sine modulation in radiance (default 0.8).
+    #[arg(long)]
+    pub modulation: Option<f64>,
     /// Target angle, degrees (sine: from the row axis, default 0; edge: from the column axis, default 5).
     #[arg(long)]
     pub angle_deg: Option<f64>,
     /// Sine frequencies, cycles/pixel, comma-separated (default 0.02…0.48 step 0.02).
     #[arg(long, value_delimiter = ',')]
     pub frequencies: Vec<f64>,
-    /// Frames averaged per target.
-    #[arg(long, default_value_t = mtf_flow::DEFAULT_FRAMES, value_parser = count_up_to(MAX_FRAMES_PER_SETTING))]
-    pub frames: usize,
-    /// Relative spectrum of the targets (built-in name).
-    #[arg(long, default_value = mtf_flow::DEFAULT_SPECTRUM)]
-    pub spectrum: String,
+    /// Frames averaged per target (sine and edge; default 8).
+    #[arg(long, value_parser = count_up_to(MAX_FRAMES_PER_SETTING))]
+    pub frames: Option<usize>,
+    /// Relative spectrum of the targets, a built-in name (sine and edge;
+    /// default cie-a).
+    #[arg(long)]
+    pub spectrum: Option<String>,
     /// usaf: CSV of `group,element,modulation` (measured bar contrast).
     #[arg(long)]
     pub ctf: Option<PathBuf>,
     /// usaf: pixel pitch, µm.
     #[arg(long)]
     pub pixel_pitch_um: Option<f64>,
-    /// usaf: optical magnification (image size / chart size).
-    #[arg(long, default_value_t = 1.0)]
-    pub magnification: f64,
-    /// sine: measure in digital counts, or in voltage space (scope line +
-    /// grey-scale curve) beside digital counts and the analytic MTF.
-    #[arg(long, value_enum, default_value = "digital")]
-    pub space: Space,
+    /// usaf and sine --space voltage: optical magnification (image size /
+    /// chart size; default 1).
+    #[arg(long)]
+    pub magnification: Option<f64>,
+    /// sine: measure in digital counts (the default), or in voltage space
+    /// (scope line + grey-scale curve) beside digital counts and the
+    /// analytic MTF.
+    #[arg(long, value_enum)]
+    pub space: Option<Space>,
     /// --space voltage: frame rows the scope isolates (default: 4 middle rows).
     #[arg(long, value_delimiter = ',')]
     pub scope_rows: Vec<usize>,
@@ -255,6 +258,100 @@ pub struct MtfArgs {
     /// manifest.json lists every file there; never inputs, links or other files).
     #[arg(long)]
     pub force: bool,
+}
+
+impl MtfArgs {
+    fn voltage(&self) -> bool {
+        self.space == Some(Space::Voltage)
+    }
+
+    fn magnification(&self) -> f64 {
+        self.magnification.unwrap_or(1.0)
+    }
+
+    /// A flag the chosen target does not read, refused: it was ignored,
+    /// and the report looked as if it had been applied.
+    fn refuse_unused(&self) -> Result<(), CalibError> {
+        let given = [
+            ("--grabber", self.grabber.is_some()),
+            ("--seed", self.seed.is_some()),
+            ("--gain", self.gain.is_some()),
+            ("--radiance", self.radiance.is_some()),
+            ("--modulation", self.modulation.is_some()),
+            ("--angle-deg", self.angle_deg.is_some()),
+            ("--frequencies", !self.frequencies.is_empty()),
+            ("--frames", self.frames.is_some()),
+            ("--spectrum", self.spectrum.is_some()),
+            ("--ctf", self.ctf.is_some()),
+            ("--pixel-pitch-um", self.pixel_pitch_um.is_some()),
+            ("--magnification", self.magnification.is_some()),
+            ("--space", self.space.is_some()),
+            ("--scope-rows", !self.scope_rows.is_empty()),
+        ];
+        let (name, reads): (&str, &[&str]) = match self.target {
+            Target::Usaf => ("usaf", &["--ctf", "--pixel-pitch-um", "--magnification"]),
+            // `--space voltage` on an edge has its own refusal (validate).
+            Target::Edge => (
+                "edge",
+                &[
+                    "--grabber",
+                    "--seed",
+                    "--gain",
+                    "--radiance",
+                    "--angle-deg",
+                    "--frames",
+                    "--spectrum",
+                    "--space",
+                ],
+            ),
+            Target::Sine if self.voltage() => (
+                "sine --space voltage",
+                &[
+                    "--grabber",
+                    "--seed",
+                    "--gain",
+                    "--radiance",
+                    "--modulation",
+                    "--angle-deg",
+                    "--frequencies",
+                    "--frames",
+                    "--spectrum",
+                    "--space",
+                    "--scope-rows",
+                    "--magnification",
+                ],
+            ),
+            Target::Sine => (
+                "sine",
+                &[
+                    "--grabber",
+                    "--seed",
+                    "--gain",
+                    "--radiance",
+                    "--modulation",
+                    "--angle-deg",
+                    "--frequencies",
+                    "--frames",
+                    "--spectrum",
+                    "--space",
+                ],
+            ),
+        };
+        let unused: Vec<&str> = given
+            .iter()
+            .filter(|(flag, g)| *g && !reads.contains(flag))
+            .map(|(flag, _)| *flag)
+            .collect();
+        if unused.is_empty() {
+            return Ok(());
+        }
+        Err(CalibError::Usage(format!(
+            "--target {name} does not use {}: drop {} (it reads {})",
+            unused.join(", "),
+            if unused.len() == 1 { "it" } else { "them" },
+            reads.join(", ")
+        )))
+    }
 }
 
 /// What a calibration leaves its front end: the output set, written but
@@ -797,6 +894,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
     ev: &mut dyn FnMut(Event<'_>),
 ) -> Result<Outcome, E> {
     let usage = |m: &str| CalibError::Usage(m.into());
+    a.refuse_unused()?;
     let target = match a.target {
         Target::Usaf => None,
         Target::Sine => Some(GrabberTarget::Sine),
@@ -807,15 +905,17 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
             target,
             gain: a.gain,
             radiance_w_m2_sr: a.radiance,
-            modulation: a.modulation,
+            modulation: a.modulation.unwrap_or(mtf_flow::DEFAULT_MODULATION),
             angle_deg: a.angle_deg,
             frequencies_cy_per_px: a.frequencies.clone(),
-            frames: a.frames,
-            spectrum: a.spectrum.clone(),
+            frames: a.frames.unwrap_or(mtf_flow::DEFAULT_FRAMES),
+            spectrum: (a.spectrum.as_deref())
+                .unwrap_or(mtf_flow::DEFAULT_SPECTRUM)
+                .to_string(),
         },
-        voltage: (a.space == Space::Voltage).then(|| VoltageOptions {
+        voltage: a.voltage().then(|| VoltageOptions {
             scope_rows: a.scope_rows.clone(),
-            magnification: a.magnification,
+            magnification: a.magnification(),
         }),
     });
     // Before the output set opens: nothing is measured above Nyquist.
@@ -835,7 +935,7 @@ fn mtf<E: From<CalibError> + From<GrabError>>(
         let (curves, details) = usaf_mtf(
             read_usaf_ctf(ctf_path, reads)?,
             pitch,
-            a.magnification,
+            a.magnification(),
             ctf_path,
         )?;
         report::write_mtf_report(dir, &curves, &details)?;
@@ -976,12 +1076,13 @@ pub struct ScopeArgs {
     /// Rig the camera looks at: uniform, sine, edge, dark (default sine).
     #[arg(long)]
     pub rig: Option<String>,
-    /// Sine bars across the line, cycles/pixel.
-    #[arg(long, default_value_t = 0.05)]
-    pub frequency: f64,
-    /// Mean signal, fraction of the range above black.
-    #[arg(long, default_value_t = 0.4)]
-    pub level: f64,
+    /// Sine bars across the line, cycles/pixel (rig sine; default 0.05).
+    #[arg(long)]
+    pub frequency: Option<f64>,
+    /// Mean signal, fraction of the range above black (every rig but dark;
+    /// default 0.4).
+    #[arg(long)]
+    pub level: Option<f64>,
     /// Frame rows to show, comma-separated (default: the middle row).
     #[arg(long, value_delimiter = ',')]
     pub rows: Vec<usize>,
@@ -1022,12 +1123,12 @@ impl ScopeArgs {
                 })?),
                 None => None,
             };
-        ScopeRequest {
+        let o = ScopeRequest {
             sensor: self.sensor.clone(),
             grabber: self.grabber.clone(),
             rig: self.rig.clone(),
-            frequency_cy_per_px: self.frequency,
-            level_fraction: self.level,
+            frequency_cy_per_px: self.frequency.unwrap_or(0.05),
+            level_fraction: self.level.unwrap_or(0.4),
             rows: self.rows.clone(),
             size,
             seed: self.seed,
@@ -1039,7 +1140,27 @@ impl ScopeArgs {
             bandwidth_hz: self.bandwidth_hz,
             frames: self.frames,
         }
-        .validate()
+        .validate()?;
+        // A flag the rig does not read was ignored, and the trace looked
+        // as if it had been applied.
+        let unused = match o.rig.as_str() {
+            "sine" => None,
+            "dark" if self.level.is_some() => Some("--level"),
+            _ if self.frequency.is_some() => Some("--frequency"),
+            _ => None,
+        };
+        if let Some(flag) = unused {
+            return Err(CalibError::Usage(format!(
+                "{flag} is not used by rig '{}'{}: drop it",
+                o.rig,
+                if flag == "--level" {
+                    " (it shows the dark signal)"
+                } else {
+                    " (only the sine rig has a frequency)"
+                }
+            )));
+        }
+        Ok(o)
     }
 }
 

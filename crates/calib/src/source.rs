@@ -636,7 +636,12 @@ impl SourceFile {
     /// Parses source-file text; relative paths resolve against `base_dir`
     /// (the files it names are read unnoted).
     pub fn parse(text: &str, base_dir: &Path, label: &str) -> Result<Self, CalibError> {
-        let parsed: FileToml = toml::from_str(text).map_err(|e| CalibError::file(label, e))?;
+        // One line with the file's line and field, not the parser's quoted
+        // line under a caret.
+        let parsed: FileToml = toml::from_str(text).map_err(|e| {
+            let (line, message) = gloam_io::toml_place::place(text, &e);
+            CalibError::file(format!("{label}:{line}"), message)
+        })?;
         Ok(Self {
             parsed,
             base_dir: base_dir.to_path_buf(),

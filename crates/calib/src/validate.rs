@@ -42,7 +42,10 @@ pub fn load_regions(
             region: Vec<Region>,
         }
         toml::from_str::<File>(&text)
-            .map_err(|e| CalibError::file(path, e))?
+            .map_err(|e| {
+                let (line, message) = gloam_io::toml_place::place(&text, &e);
+                CalibError::file(format!("{}:{line}", path.display()), message)
+            })?
             .region
     };
     check_distinct(&regions).map_err(|e| CalibError::file(path, e))?;

@@ -12,6 +12,7 @@ pub mod npy;
 pub mod output_set;
 pub mod png;
 pub mod tiff;
+pub mod toml_place;
 
 pub use atomic::{EncodeError, FileError, write_atomic};
 pub use guard::RunGuard;

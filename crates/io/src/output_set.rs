@@ -111,6 +111,31 @@ pub enum OutputSetError {
 }
 
 /// `Result::map_err` for a file-system step: what it was doing, lazily.
+/// Bytes free to an unprivileged writer on the filesystem holding `path`
+/// (`statvfs`'s `f_bavail`), or `None` where it cannot be read.
+pub fn free_disk_bytes(path: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).ok()?;
+    // SAFETY: `c` is a valid NUL-terminated path; `st` is written by the
+    // call and read only when it succeeds.
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    (unsafe { libc::statvfs(c.as_ptr(), &mut st) } == 0)
+        .then(|| st.f_bavail.saturating_mul(st.f_frsize))
+}
+
+/// Bytes of the regular files directly in `dir` (a set being written),
+/// at most [`MAX_SET_ENTRIES`] of them.
+pub fn files_bytes(dir: &Path) -> u64 {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    entries
+        .flatten()
+        .take(MAX_SET_ENTRIES)
+        .filter_map(|e| e.metadata().ok().filter(|m| m.is_file()).map(|m| m.len()))
+        .sum()
+}
+
 fn io_err(doing: impl FnOnce() -> String) -> impl FnOnce(std::io::Error) -> OutputSetError {
     move |source| OutputSetError::Io {
         doing: doing(),

@@ -5,6 +5,7 @@
 //! the output set, published whole — or, when the run stops early, with
 //! what was kept.
 
+use std::path::Path;
 use std::sync::Arc;
 
 use gloam_calib::CalibError;
@@ -48,6 +49,54 @@ pub enum CaptureRequestError {
     Output(#[from] crate::output::OutputError),
     #[error("encoding report.json")]
     Encode(#[from] serde_json::Error),
+    /// The frames would not fit the disk: stopped after the first, whose
+    /// size gave the estimate, instead of when the disk filled.
+    #[error(
+        "the {frames} frames need about {} ({} each, as the first took) and {} is free on the filesystem of {}: capture fewer frames (--frames), or to a disk with room",
+        bytes_text(*need_bytes),
+        bytes_text(*per_frame_bytes),
+        bytes_text(*free_bytes),
+        out.display()
+    )]
+    NoRoom {
+        frames: u64,
+        need_bytes: u64,
+        per_frame_bytes: u64,
+        free_bytes: u64,
+        out: std::path::PathBuf,
+    },
+}
+
+/// Bytes as the disk message prints them (`1.23 GB`, `456 kB`).
+fn bytes_text(bytes: u64) -> String {
+    let b = bytes as f64;
+    match b {
+        b if b >= 1e9 => format!("{:.2} GB", b / 1e9),
+        b if b >= 1e6 => format!("{:.1} MB", b / 1e6),
+        b => format!("{:.0} kB", (b / 1e3).ceil()),
+    }
+}
+
+/// After the first frame is stored: whether the other `frames − 1` fit the
+/// free space of `dir`'s filesystem at the first one's size (the files in
+/// `dir` so far: the frame, its `frames.jsonl` line). An hour-long capture
+/// that cannot fit stops now, not when the disk is full.
+fn check_room(dir: &Path, frames: u64, out: &Path) -> Result<(), CaptureRequestError> {
+    let per_frame_bytes = gloam_io::output_set::files_bytes(dir);
+    let Some(free_bytes) = gloam_io::output_set::free_disk_bytes(dir) else {
+        return Ok(());
+    };
+    let rest = per_frame_bytes.saturating_mul(frames.saturating_sub(1));
+    if rest <= free_bytes {
+        return Ok(());
+    }
+    Err(CaptureRequestError::NoRoom {
+        frames,
+        need_bytes: per_frame_bytes.saturating_mul(frames),
+        per_frame_bytes,
+        free_bytes,
+        out: out.to_path_buf(),
+    })
 }
 
 /// A checked capture request.
@@ -128,6 +177,9 @@ impl ValidCapture {
                 let rec = FrameRecord::of_frame(index, format.file_name(index), &f, warnings);
                 writer.write(&rec, &f.pixels)?;
                 stored += 1;
+                if stored == 1 {
+                    check_room(&dir, grab.frames, &self.out.path)?;
+                }
             }
             Ok(())
         })();
@@ -310,5 +362,38 @@ impl<'a> CaptureReport<'a> {
             stopped_by: stopped,
             provenance,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first frame's bytes times the frames asked, against the free
+    /// space `statvfs` reports for the directory (no disk has 10¹⁸ bytes
+    /// free; every disk a test runs on has 10 kB).
+    #[test]
+    fn a_capture_that_cannot_fit_stops_after_its_first_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("frame-000000.png"), vec![0u8; 4000]).unwrap();
+        std::fs::write(dir.path().join("frames.jsonl"), vec![b'x'; 1000]).unwrap();
+        let free = gloam_io::output_set::free_disk_bytes(dir.path()).unwrap();
+        assert!(free > 10_000, "{free}");
+        check_room(dir.path(), 2, Path::new("o")).unwrap();
+        let frames = free / 5000 + 2;
+        let e = check_room(dir.path(), frames, Path::new("o")).unwrap_err();
+        match &e {
+            CaptureRequestError::NoRoom {
+                per_frame_bytes,
+                need_bytes,
+                ..
+            } => assert_eq!((*per_frame_bytes, *need_bytes), (5000, 5000 * frames)),
+            other => panic!("{other}"),
+        }
+        let text = e.to_string();
+        assert!(
+            text.contains("5 kB each") && text.contains("--frames"),
+            "{text}"
+        );
     }
 }

@@ -71,6 +71,9 @@ pub enum RenderError {
     Encode(#[source] serde_json::Error),
     #[error(transparent)]
     Capture(#[from] crate::CaptureError),
+    /// `max_spp` that would not bound the render it was given to.
+    #[error("`--set {pair}`: {why}")]
+    MaxSpp { pair: String, why: String },
 }
 
 /// The render settings a front end was given: `KEY=VALUE` pairs (`--set`,
@@ -232,23 +235,67 @@ impl SettingArgs {
         &self,
         mut s: RenderSettings,
         whole_image: bool,
-    ) -> (RenderSettings, Option<TargetErrorSource>) {
+    ) -> Result<(RenderSettings, Option<TargetErrorSource>), RenderError> {
         // `--target-error camera[:K]`: the first round is one sample per
         // replicate unless the count is fixed (a camera's noise mostly asks
         // for no more; see camera_goal.rs).
-        if self.camera_target().is_some() {
+        let source = if self.camera_target().is_some() {
             if !self.names_spp() {
                 s.spp = 2;
             }
-            return (s, Some(TargetErrorSource::Given));
-        }
-        let source = if self.names_sampling() || !whole_image {
+            Some(TargetErrorSource::Given)
+        } else if self.names_sampling() || !whole_image {
             s.target_error.map(|_| TargetErrorSource::Given)
         } else {
             s.target_error = Some(DEFAULT_TARGET_ERROR);
             Some(TargetErrorSource::Default)
         };
-        (s, source)
+        self.hold_to_max_spp(&mut s, source.is_some())?;
+        Ok((s, source))
+    }
+
+    /// A `max_spp` the user gave, held to what it can mean: it caps an
+    /// adaptive render's samples, first round included (that round's
+    /// default count is lowered to it; a fixed `spp` above it is refused,
+    /// as is a `max_spp` beside a fixed-count render, which would ignore
+    /// it). At least 2: an adaptive render measures its error from two
+    /// replicates.
+    fn hold_to_max_spp(&self, s: &mut RenderSettings, adaptive: bool) -> Result<(), RenderError> {
+        let Some(pair) = pair_setting(&self.set, "max_spp") else {
+            return Ok(());
+        };
+        let refuse = |why: String| {
+            Err(RenderError::MaxSpp {
+                pair: pair.clone(),
+                why,
+            })
+        };
+        if !adaptive {
+            return refuse(format!(
+                "max_spp caps an adaptive render's samples (--target-error); this render takes a fixed {} per pixel: give --spp alone, or --target-error beside max_spp",
+                s.spp
+            ));
+        }
+        if s.max_spp < 2 {
+            return refuse(
+                "an adaptive render takes at least 2 samples a pixel (two replicates measure its error)"
+                    .into(),
+            );
+        }
+        // The first round samples two replicates of ⌈spp/2⌉ each.
+        let first_round = s.spp.div_ceil(2) * 2;
+        if first_round > s.max_spp {
+            if self.names_spp() {
+                return refuse(format!(
+                    "max_spp {} is below spp {}, the samples every pixel takes in the first round ({first_round}: two replicates of {}): give max_spp ≥ {first_round}",
+                    s.max_spp,
+                    s.spp,
+                    first_round / 2
+                ));
+            }
+            s.spp = s.max_spp / 2 * 2;
+        }
+        Ok(())
     }
 }
 
@@ -744,6 +791,7 @@ mod tests {
         // As `gloam render` resolves them: the settings, then the default.
         let resolve = |a: SettingArgs, whole_image: bool| {
             a.with_default_error(a.settings().unwrap(), whole_image)
+                .unwrap()
         };
         let (s, src) = resolve(args(None, None, &["seed=3"]), true);
         assert_eq!(s.target_error, Some(DEFAULT_TARGET_ERROR));
@@ -770,6 +818,50 @@ mod tests {
         );
         let (s, _) = resolve(args(None, None, &["target_error=0.1"]), true);
         assert_eq!(s.target_error, Some(0.1));
+    }
+
+    #[test]
+    fn max_spp_caps_the_first_round_or_is_refused() {
+        let args = |spp: Option<u32>, set: &[&str]| SettingArgs {
+            spp,
+            set: set.iter().map(|s| s.to_string()).collect(),
+            ..Default::default()
+        };
+        let resolve = |a: SettingArgs, whole_image: bool| {
+            a.with_default_error(a.settings().unwrap(), whole_image)
+        };
+        // The default adaptive render's first round (4) lowered to the cap.
+        // (Even: two replicates of 1 each, not of 2.)
+        let (s, _) = resolve(args(None, &["max_spp=3"]), true).unwrap();
+        assert_eq!(
+            (s.spp, s.max_spp, s.target_error),
+            (2, 3, Some(DEFAULT_TARGET_ERROR))
+        );
+        // An odd fixed spp takes one more in its first round.
+        let e = resolve(args(Some(5), &["max_spp=5", "target_error=0.05"]), true);
+        assert!(
+            e.unwrap_err()
+                .to_string()
+                .contains("(6: two replicates of 3)")
+        );
+        // Above the first round: as given.
+        let (s, _) = resolve(args(None, &["max_spp=64"]), true).unwrap();
+        assert_eq!((s.spp, s.max_spp), (4, 64));
+        let refused = |a: SettingArgs, whole: bool, says: &str| {
+            let e = resolve(a, whole).unwrap_err().to_string();
+            assert!(e.contains("max_spp") && e.contains(says), "{e}");
+        };
+        // A fixed spp above it, beside an error target.
+        refused(
+            args(Some(16), &["max_spp=8", "target_error=0.05"]),
+            true,
+            "below spp 16",
+        );
+        // A fixed-count render would ignore it: a named spp, a tile.
+        refused(args(Some(16), &["max_spp=8"]), true, "fixed 16 per pixel");
+        refused(args(None, &["max_spp=8"]), false, "fixed 4 per pixel");
+        // One sample gives no second replicate.
+        refused(args(None, &["max_spp=1"]), true, "at least 2");
     }
 
     #[test]

@@ -220,7 +220,7 @@ impl RenderRequest {
         }
         // A tile or a capture keeps the fixed default spp (see with_default_error).
         let whole_image = valid.tile.is_none() && valid.capture.is_none();
-        let (settings, source) = (self.settings).with_default_error(valid.settings, whole_image);
+        let (settings, source) = (self.settings).with_default_error(valid.settings, whole_image)?;
         Ok(ValidRender {
             settings,
             target_error_source: source,

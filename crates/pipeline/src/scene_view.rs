@@ -37,7 +37,19 @@ pub fn render_scene_view(
     size: Option<(u32, u32)>,
     reads: &gloam_io::ReadLog,
 ) -> Result<SceneView, SceneViewError> {
-    let mut scene = gloam_scene::load(Path::new(path), reads)?;
+    let scene = gloam_scene::load(Path::new(path), reads)?;
+    scene_view_of(scene, path, sensor, size)
+}
+
+/// [`render_scene_view`] of a scene already loaded (from `path`, which
+/// labels the view): a caller that read the scene for its `sensor` entry
+/// does not read it twice.
+pub fn scene_view_of(
+    mut scene: gloam_scene::Scene,
+    path: &str,
+    sensor: &crate::ResolvedSensor,
+    size: Option<(u32, u32)>,
+) -> Result<SceneView, SceneViewError> {
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;
@@ -59,18 +71,16 @@ pub fn render_scene_view(
     })
 }
 
-/// Renders `path` as [`render_scene_view`] does, but one detected-radiance
+/// Renders a loaded scene as [`scene_view_of`] does, but one detected-radiance
 /// layer per light group (e⁻ s⁻¹ m⁻² sr⁻¹, row × column) instead of their
 /// sum: the group names in the scene's order and their layers, which any
 /// weighting of the groups mixes into a frame (`gloam device --sequence`).
 /// Only the layers are traced (not the ordinary image they sum to).
 pub fn render_scene_layers(
-    path: &str,
+    mut scene: gloam_scene::Scene,
     sensor: &crate::ResolvedSensor,
     size: Option<(u32, u32)>,
-    reads: &gloam_io::ReadLog,
 ) -> Result<(Vec<String>, Vec<Array2<f64>>), SceneViewError> {
-    let mut scene = gloam_scene::load(Path::new(path), reads)?;
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;

@@ -114,7 +114,7 @@ impl SequenceRequest {
         // frame each pixel sees (camera_goal.rs); its first round 2 spp.
         let camera_k = self.settings.camera_target();
         let settings = self.settings.settings()?;
-        let (settings, _) = self.settings.with_default_error(settings, false);
+        let (settings, _) = self.settings.with_default_error(settings, false)?;
         let c = &self.camera;
         if c.frames.is_some() {
             let (path, frames) = (sequence.path.clone(), sequence.frames);

@@ -463,6 +463,32 @@ fn address_space_room() -> Option<u64> {
     Some(soft.saturating_sub(rss_kb.saturating_mul(1024)) / 5 * 4)
 }
 
+/// Bytes of address space left unreserved under the soft `RLIMIT_AS`
+/// (`ulimit -v`): the limit less `VmSize`, what the limit counts. Thread
+/// stacks are reserved whole, so a pool's stacks are checked against
+/// this, not against [`available_memory`] (which counts resident memory).
+/// `None` when unlimited or unreadable.
+pub fn address_space_unreserved() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let soft: u64 = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?
+        .trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let size_kb: u64 = status
+        .lines()
+        .find(|l| l.starts_with("VmSize:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    Some(soft.saturating_sub(size_kb.saturating_mul(1024)))
+}
+
 /// Why an expansion does not fit: too many items, or not enough memory.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub(crate) enum BudgetError {

@@ -22,8 +22,8 @@ pub use geometry::{FacetError, MIN_FACET_SIZE, PLANARITY_TOLERANCE, check_facet}
 pub use groups::{LightGroup, LightGroups, MOON_GROUP, SKY_GROUP, SUN_GROUP, TWILIGHT_GROUP};
 pub use instance::{
     Instancing, MAX_FACETS, MAX_INSTANCES, MAX_POINT_SOURCES, MAX_ROTATION_DEG, MAX_SHARED_FACETS,
-    PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, available_memory,
-    available_memory_bytes, box_corners, heap_chunk,
+    PLACEMENTS_CSV_HEADER, SHARE_ABOVE_FACETS, SharedInstances, address_space_unreserved,
+    available_memory, available_memory_bytes, box_corners, heap_chunk,
 };
 
 /// Reads and validates a scene file. Relative paths inside it (CSV spectra,

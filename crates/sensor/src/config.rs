@@ -10,6 +10,7 @@
 //! sources of their numbers) and are compiled in, so `gloam sensor list` works
 //! anywhere.
 
+use gloam_io::toml_place::{field_at_offset, line_of_offset};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
@@ -1046,63 +1047,6 @@ pub enum Readout<'a> {
     },
     /// Direct digital readout at `e_per_dn`.
     Direct { e_per_dn: f64 },
-}
-
-/// 1-based line of a byte offset in `text`.
-fn line_of_offset(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
-}
-
-/// The dotted path (`agc.metering`, `ccd.qe.value[3]`) of the deepest key
-/// or value of `text` holding byte `offset`; `None` outside every entry.
-fn field_at_offset(text: &str, offset: usize) -> Option<String> {
-    use toml::de::{DeTable, DeValue};
-    type Spanned<'a> = toml::Spanned<DeValue<'a>>;
-    let holds = |r: &std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
-    fn table_holds(t: &DeTable, holds: &dyn Fn(&std::ops::Range<usize>) -> bool) -> bool {
-        t.iter().any(|(k, v)| {
-            holds(&k.span())
-                || holds(&v.span())
-                || matches!(v.get_ref(), DeValue::Table(t2) if table_holds(t2, holds))
-        })
-    }
-    fn in_value(v: &Spanned, holds: &dyn Fn(&std::ops::Range<usize>) -> bool, path: &mut String) {
-        match v.get_ref() {
-            DeValue::Table(t) => in_table(t, holds, path),
-            DeValue::Array(a) => {
-                if let Some((i, e)) = a.iter().enumerate().find(|(_, e)| holds(&e.span())) {
-                    path.push_str(&format!("[{i}]"));
-                    in_value(e, holds, path);
-                }
-            }
-            _ => {}
-        }
-    }
-    fn in_table(t: &DeTable, holds: &dyn Fn(&std::ops::Range<usize>) -> bool, path: &mut String) {
-        let hit = t
-            .iter()
-            .find(|(k, v)| holds(&k.span()) || holds(&v.span()))
-            .or_else(|| {
-                t.iter().find(
-                    |(_, v)| matches!(v.get_ref(), DeValue::Table(t2) if table_holds(t2, holds)),
-                )
-            });
-        if let Some((k, v)) = hit {
-            if !path.is_empty() {
-                path.push('.');
-            }
-            path.push_str(k.get_ref());
-            in_value(v, holds, path);
-        }
-    }
-    let root = DeTable::parse(text).ok()?;
-    let mut path = String::new();
-    in_table(root.get_ref(), &holds, &mut path);
-    (!path.is_empty()).then_some(path)
 }
 
 /// 1-based line of the deepest key of the dotted `field` present in `text`

@@ -4,6 +4,7 @@
 //! Every value is checked when the file is read, so a bad gain or an
 //! unknown setting fails before any task runs, with `file:line: field:`.
 
+use gloam_io::toml_place::line_of_offset as line_of;
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -103,14 +104,6 @@ struct Raw {
     axes: Option<BTreeMap<Spanned<String>, Spanned<toml::Value>>>,
 }
 
-fn line_of(text: &str, offset: usize) -> usize {
-    let mut o = offset.min(text.len());
-    while !text.is_char_boundary(o) {
-        o -= 1;
-    }
-    text[..o].matches('\n').count() + 1
-}
-
 /// The canonical text of a scalar (what a `--set KEY=VALUE` would say).
 pub fn scalar_text(v: &toml::Value) -> Option<String> {
     match v {
@@ -158,12 +151,15 @@ impl Sweep {
             message,
         };
         let raw: Raw = toml::from_str(text).map_err(|e| {
-            let field = if e.message().contains("unknown field") {
-                "(top level)"
-            } else {
-                "(toml)"
+            let at = e
+                .span()
+                .and_then(|s| gloam_io::toml_place::field_at_offset(text, s.start));
+            let field = match at {
+                Some(f) => f,
+                None if e.message().contains("unknown field") => "(top level)".into(),
+                None => "(toml)".into(),
             };
-            err(e.span(), field, e.message().trim().to_string())
+            err(e.span(), &field, e.message().trim().to_string())
         })?;
         // File order, not alphabetical: the product's order follows the file.
         let ordered = |m: Option<BTreeMap<Spanned<String>, Spanned<toml::Value>>>| {

@@ -153,6 +153,41 @@ pub fn non_utf8_argument(args: &[std::ffi::OsString]) -> Option<String> {
     })
 }
 
+/// The command line parsed by `cmd` ([`args_with_signed_exponents`]
+/// first), or the exit of a run that ends here: clap's error, `--help`, or
+/// a word that is not UTF-8 named with its flag ([`non_utf8_argument`]).
+pub fn parse_command_line(mut cmd: clap::Command) -> Result<clap::ArgMatches, ExitCode> {
+    let args = args_with_signed_exponents(&mut cmd, std::env::args_os());
+    match cmd.try_get_matches_from(args) {
+        Ok(m) => Ok(m),
+        Err(e) if e.kind() == clap::error::ErrorKind::InvalidUtf8 => {
+            // The raw command line: the pre-pass joins only UTF-8 words.
+            let words: Vec<_> = std::env::args_os().collect();
+            match non_utf8_argument(&words) {
+                Some(what) => {
+                    let _ = writeln!(std::io::stderr(), "error: {what}");
+                    Err(ExitCode::from(2))
+                }
+                None => Err(clap_exit(e)),
+            }
+        }
+        Err(e) => Err(clap_exit(e)),
+    }
+}
+
+/// A write past the file-size limit (`ulimit -f`) fails with `EFBIG`, an
+/// error that names the file and removes the staging directory, instead of
+/// SIGXFSZ ending the process without a word and leaving the staging
+/// directory behind. Called first thing in `main`.
+pub fn file_size_limit_is_an_error() {
+    #[cfg(unix)]
+    // SAFETY: sets this process's disposition of one signal to "ignore";
+    // no handler runs, no memory of ours is touched.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+}
+
 /// `cmd` and all its subcommands taking negative numbers as values, so that
 /// `--spp -5` is refused by the flag's own check ("invalid value '-5' for
 /// '--spp'") rather than by clap's misleading "use '-- -5'" tip.

@@ -129,6 +129,30 @@ pub fn probe_point(
     Tracer::new(scene, settings)?.probe_point(point, normal, band, samples)
 }
 
+/// A render worker's stack (rayon's, set so it is known: std's default).
+const WORKER_STACK_BYTES: usize = 2 << 20;
+/// What a worker takes besides: its guard page and the signal stack std
+/// maps for each thread (a failure to map that one aborts the process, so
+/// the pool is checked before it starts).
+const WORKER_EXTRA_BYTES: u64 = 128 << 10;
+
+/// Whether `n` workers' stacks fit the address space left under
+/// `ulimit -v` (with an eighth kept for the allocator); why not.
+fn pool_fits(n: usize) -> Result<(), String> {
+    let Some(left) = gloam_scene::address_space_unreserved() else {
+        return Ok(());
+    };
+    let need = (n as u64).saturating_mul(WORKER_STACK_BYTES as u64 + WORKER_EXTRA_BYTES);
+    if need <= left / 8 * 7 {
+        return Ok(());
+    }
+    Err(format!(
+        "their stacks need {} MB of address space and {} MB is left under RLIMIT_AS",
+        need >> 20,
+        left >> 20
+    ))
+}
+
 /// Runs `f` on a pool of `threads` workers (the global pool when `None`).
 /// A pool that cannot start is an error: the render used to run on the
 /// global pool instead while its report said `threads: N`.
@@ -137,10 +161,13 @@ fn with_pool<T: Send>(
     f: impl FnOnce() -> T + Send,
 ) -> Result<T, TraceError> {
     match threads {
-        Some(n) => match rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build()
-        {
+        Some(n) => match pool_fits(n.max(1)).and_then(|()| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n.max(1))
+                .stack_size(WORKER_STACK_BYTES)
+                .build()
+                .map_err(|e| e.to_string())
+        }) {
             Ok(pool) => Ok(pool.install(f)),
             Err(e) => Err(TraceError::BadInput(format!(
                 "threads = {n}: the worker threads could not start ({e}); each needs its own stack, which an address-space or process limit (ulimit -v, -u) can refuse — ask for fewer"
