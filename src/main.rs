@@ -225,7 +225,10 @@ fn gloam_main() -> ExitCode {
         }
         Err(e) => {
             // Plain `error: cause: cause…` on stderr, never a backtrace.
-            eprintln!("error: {e:#}");
+            eprintln!(
+                "error: {}",
+                gloam_pipeline::cli::process::short_numbers(&format!("{e:#}"))
+            );
             ExitCode::FAILURE
         }
     }

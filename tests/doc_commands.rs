@@ -6,7 +6,8 @@
 //! [`NOT_RUN`] with the reason, and every command that writes writes
 //! under `out/` and can be run again ([`every_shown_command_runs_or_says_why_not`]).
 //!
-//! Blocks run in document order, one `bash -euo pipefail` per block, in a
+//! Blocks run in document order (a block repeated word for word runs
+//! once), one `bash -euo pipefail` per block, in a
 //! scratch directory that links a fixed list of the checkout's tracked
 //! top-level entries (`sims/`, `docs/`, …; never a user's leftovers), with the built `gloam` first on `PATH`. A block
 //! such as ```` ```csv file=my-lamp.csv ```` is written to that file first,
@@ -125,6 +126,7 @@ fn run_blocks(files: &[PathBuf]) {
         eprintln!("note: `unshare -n` is not available; doc blocks run without a private network");
     }
     let mut ran = 0;
+    let mut seen: std::collections::HashMap<String, (String, usize)> = Default::default();
     // What the scratch directory may hold besides the links: `out/` and
     // the files `file=` blocks write.
     let mut allowed: Vec<String> = LINKED.iter().map(|s| s.to_string()).collect();
@@ -154,6 +156,18 @@ fn run_blocks(files: &[PathBuf]) {
             if lang != "sh" && lang != "bash" {
                 continue;
             }
+            // A block shown again word for word (a sample's README and the
+            // guide that walks through it) has run in this directory: its
+            // outputs are there, as the reader's would be.
+            if let Some((first, at)) = seen.get(&b.text) {
+                eprintln!(
+                    "{rel}:{}: ok (the block of {first}:{at}, already run)",
+                    b.line
+                );
+                ran += 1;
+                continue;
+            }
+            seen.insert(b.text.clone(), (rel.clone(), b.line));
             let script = format!(
                 "{PRELUDE}\nip link set lo up 2>/dev/null || true\n{}",
                 b.text

@@ -10,8 +10,11 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     // The scene error already reads `file:line: field: message`.
     let scene = gloam_scene::load(&args.scene, &gloam_io::ReadLog::off())?;
     let settings = args.settings().settings()?;
-    // Checked before the plan's preparation: a bad camera is refused now.
-    let camera_target = args.camera_target(&scene, &gloam_io::ReadLog::off())?;
+    // Checked before the plan's preparation: a bad camera is refused now,
+    // the scene's own `sensor` at its line (render would refuse it).
+    let off = gloam_io::ReadLog::off();
+    gloam_pipeline::resolve_scene_sensor(args.sensor.as_deref(), &scene, &args.scene, &off)?;
+    let camera_target = args.camera_target(&scene, &off)?;
     let (plan, prep) = gloam_trace::plan::effect_plan_observed(
         &scene,
         &settings,

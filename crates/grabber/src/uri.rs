@@ -49,7 +49,16 @@ impl std::fmt::Display for UriSyntaxError {
                 f,
                 "empty parameter in '{query}' (a stray '&' at its start or end, or '&&')"
             ),
-            Self::NoValue { param } => write!(f, "parameter '{param}' needs a value"),
+            Self::NoValue { param } => write!(
+                f,
+                "parameter '{param}' needs a value{}",
+                // `scene=a&b.toml` split at its '&'.
+                if param.contains(['.', '/']) {
+                    " ('&' separates a URI's parameters: a path holding '&' cannot be named here; give the file a name or a link without it)"
+                } else {
+                    ""
+                }
+            ),
             Self::EmptyKey { param } => write!(f, "parameter '{param}' has no name before '='"),
             Self::BadKey { key } => write!(
                 f,

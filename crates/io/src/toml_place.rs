@@ -66,6 +66,16 @@ pub fn field_at_offset(text: &str, offset: usize) -> Option<String> {
     (!path.is_empty()).then_some(path)
 }
 
+/// 1-based line of the top-level key `key` of `text`, if it is there.
+pub fn line_of_key(text: &str, key: &str) -> Option<usize> {
+    let root = DeTable::parse(text).ok()?;
+    let (k, _) = root
+        .get_ref()
+        .iter()
+        .find(|(k, _)| k.get_ref().as_ref() == key)?;
+    Some(line_of_offset(text, k.span().start))
+}
+
 /// A parse or field error of `text` (read from `origin`) on one line:
 /// `origin:LINE: field `f`: message` (the field when the error's span
 /// lies in an entry).
@@ -118,6 +128,11 @@ mod tests {
             field_at_offset("[a]\nb = [1, 2, 3]\n", 15).as_deref(),
             Some("a.b[2]")
         );
+        assert_eq!(
+            line_of_key("# c\nunits = \"m\"\nsensor = \"x\"\n", "sensor"),
+            Some(3)
+        );
+        assert_eq!(line_of_key("units = 1\n", "sensor"), None);
         // An array of tables, whose header alone spans the table.
         let text = "[s]\nk = 1\n[[s.l]]\nx = 1\n[[s.l]]\ny = 2\n";
         let at = text.find("y =").unwrap();

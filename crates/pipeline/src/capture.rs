@@ -29,6 +29,47 @@ pub enum CaptureOptionsError {
     },
     #[error("--gain")]
     Gain(#[source] gloam_sensor::CaptureError),
+    /// The scene's own `sensor` entry names no camera gloam can read.
+    #[error("{at}: sensor")]
+    SceneSensor {
+        /// `scene.toml:LINE`.
+        at: String,
+        #[source]
+        source: Box<CaptureOptionsError>,
+    },
+}
+
+/// [`resolve_sensor`] of the camera a render of `scene` (read from
+/// `scene_path`) is made for: `given` (`--sensor`), else the scene's own
+/// `sensor` entry, whose error is placed at that entry's line (an unknown
+/// preset in a scene was refused without naming the scene).
+pub fn resolve_scene_sensor(
+    given: Option<&str>,
+    scene: &gloam_scene::Scene,
+    scene_path: &std::path::Path,
+    reads: &gloam_io::ReadLog,
+) -> Result<Option<ResolvedSensor>, CaptureOptionsError> {
+    let Some(name) = crate::render::camera_of(given, scene) else {
+        return Ok(None);
+    };
+    resolve_sensor(name, reads).map(Some).map_err(|e| {
+        if given.is_some() {
+            return e;
+        }
+        // Read again only on this error, for the entry's line.
+        let line = gloam_io::read_text(
+            scene_path,
+            gloam_io::MAX_TEXT_FILE_BYTES,
+            &gloam_io::ReadLog::off(),
+        )
+        .ok()
+        .and_then(|text| gloam_io::toml_place::line_of_key(&text, "sensor"))
+        .unwrap_or(1);
+        CaptureOptionsError::SceneSensor {
+            at: format!("{}:{line}", scene_path.display()),
+            source: Box::new(e),
+        }
+    })
 }
 
 /// Reads the sensor `name` (a preset or sensor TOML) once for a run

@@ -16,7 +16,7 @@ pub use gloam_io::frames::FrameRecord;
 
 pub use crate::capture::{
     CaptureError, CaptureOptionsError, Captured, Capturing, FrameCapture, SaturationSummary,
-    check_options, resolve_sensor,
+    check_options, resolve_scene_sensor, resolve_sensor,
 };
 
 /// Why `frames.jsonl` or a frame was not written, naming the file.

@@ -23,7 +23,7 @@ pub use detected::{DETECTED_BAND, DetectedError, take_detected_band, with_detect
 pub use frame_files::FrameFormat;
 pub use frames::{
     CaptureError, CaptureOptionsError, Captured, Capturing, FrameCapture, FrameContext,
-    FrameRecord, FrameWriter, check_options, resolve_sensor,
+    FrameRecord, FrameWriter, check_options, resolve_scene_sensor, resolve_sensor,
 };
 /// Most independent estimates a probe averages (each is a full estimate
 /// at the point): `gloam probe --samples` and Python's `probe(samples=)`

@@ -24,7 +24,6 @@ use crate::frames::{FrameCapture, scene_utc};
 use crate::output::write_atomic;
 use crate::render::{
     DEFAULT_TARGET_ERROR, RenderError, RenderJob, Rendered, SettingArgs, TargetErrorSource,
-    camera_of,
 };
 use crate::tile::{TileSpec, write_tile_info};
 use crate::{FrameFormat, Provenance};
@@ -88,7 +87,7 @@ impl PartialEq for SceneInput {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CameraOptions {
     /// Preset name or sensor TOML; `None` the scene's own `sensor`, `"none"`
-    /// radiance only ([`camera_of`]).
+    /// radiance only ([`camera_of`](crate::render::camera_of)).
     pub sensor: Option<String>,
     /// `png` (default), `fits` or `tiff`.
     pub frame_format: Option<String>,
@@ -179,9 +178,7 @@ impl RenderRequest {
         let frame_format = c.frame_format()?;
         // Read once: the detected band, the camera goal and the capture
         // share it.
-        let camera = (camera_of(c.sensor.as_deref(), &scene))
-            .map(|name| crate::resolve_sensor(name, reads))
-            .transpose()?;
+        let camera = crate::resolve_scene_sensor(c.sensor.as_deref(), &scene, &scene_path, reads)?;
         // A tile is traced with the camera's band all the same (the effect
         // plan weighs every band, so a tile makes the whole render's
         // decisions) but captures nothing.
@@ -308,7 +305,7 @@ pub struct ValidRender {
     /// The settings, the default error target applied.
     pub settings: RenderSettings,
     pub target_error_source: Option<TargetErrorSource>,
-    /// The camera the render is for ([`camera_of`]), read once.
+    /// The camera the render is for ([`camera_of`](crate::render::camera_of)), read once.
     pub camera: Option<ResolvedSensor>,
     capture: Option<Capture>,
     /// `K` of `--target-error camera[:K]`.

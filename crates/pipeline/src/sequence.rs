@@ -47,11 +47,12 @@ pub enum SequenceError {
     Plot(#[source] gloam_calib::CalibError),
     /// An analogue camera's video standard fixes its frame rate.
     #[error(
-        "{}: frame_rate_hz = {sequence_hz} Hz, but camera '{sensor}' outputs {format} video at {format_hz:.3} frames/s: give the sequence that frame rate or use a camera without a [video] stage",
+        "{}:{line}: frame_rate_hz = {sequence_hz} Hz, but camera '{sensor}' outputs {format} video at {format_hz:.3} frames/s: give the sequence that frame rate or use a camera without a [video] stage",
         path.display()
     )]
     VideoRate {
         path: std::path::PathBuf,
+        line: usize,
         sequence_hz: f64,
         sensor: String,
         format: &'static str,
@@ -102,6 +103,7 @@ pub fn check_video_rate(
     if (sequence.frame_rate_hz / format_hz - 1.0).abs() > VIDEO_RATE_TOLERANCE {
         return Err(SequenceError::VideoRate {
             path: sequence.path.clone(),
+            line: sequence.frame_rate_line(),
             sequence_hz: sequence.frame_rate_hz,
             sensor: sensor.to_string(),
             format: video.format.label(),

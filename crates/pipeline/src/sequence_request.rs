@@ -17,7 +17,7 @@ use gloam_trace::RenderSettings;
 use serde::Serialize;
 
 use crate::output::{write_atomic, write_npy};
-use crate::render::{RenderError, SettingArgs, camera_of};
+use crate::render::{RenderError, SettingArgs};
 use crate::request::{CameraOptions, Capture, Events, OutputDir};
 use crate::sequence::{
     AGC_SET_RANGE_FACTOR, ANIMATION_MAX_FRAMES, ANIMATION_MAX_WIDTH_PX, AgcOverSky, PoseRenders,
@@ -121,7 +121,11 @@ impl SequenceRequest {
             return Err(SequenceRequestError::Frames { path, frames });
         }
         let frame_format = c.frame_format()?;
-        let Some(camera) = camera_of(c.sensor.as_deref(), &scene) else {
+        // Read once: the frames, the goal and the AGC summary share it.
+        let camera =
+            crate::resolve_scene_sensor(c.sensor.as_deref(), &scene, &sequence.scene, reads)
+                .map_err(RenderError::from)?;
+        let Some(camera) = camera else {
             c.refuse_flags_without_camera(false)?;
             let scene = sequence.scene.clone();
             return Err(SequenceRequestError::NoCamera { scene });
@@ -130,8 +134,6 @@ impl SequenceRequest {
             frames: sequence.frames,
             ..c.capture(frame_format)
         };
-        // Read once: the frames, the goal and the AGC summary share it.
-        let camera = crate::resolve_sensor(camera, reads).map_err(RenderError::from)?;
         (capture.through(&camera, settings.seed).check()).map_err(RenderError::from)?;
         if camera_k.is_some() && !capture.noise {
             return Err(RenderError::CameraTarget(

@@ -530,6 +530,12 @@ fn pose_keys(loc: &Locator, kf: &FieldPath, raw: &[Vec<f64>]) -> Result<Vec<Pose
 }
 
 impl Sequence {
+    /// The line of `frame_rate_hz` in the sequence file, for errors found
+    /// once a camera is known (an analogue camera's fixed video rate).
+    pub fn frame_rate_line(&self) -> usize {
+        self.frame_rate_line
+    }
+
     /// Seconds from one frame's start to the next.
     pub fn frame_period_s(&self) -> f64 {
         1.0 / self.frame_rate_hz

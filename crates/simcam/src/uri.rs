@@ -106,7 +106,15 @@ impl SimUri {
             Some(esc) => Err(bad(
                 uri,
                 format!(
-                    "{what} '{text}' holds '{esc}': sim: URIs are not percent-decoded, write the character itself"
+                    "{what} '{text}' holds '{esc}': sim: URIs are not percent-decoded{}",
+                    if matches!(
+                        esc.to_ascii_uppercase().as_str(),
+                        "%26" | "%3F" | "%23" | "%3D"
+                    ) {
+                        " and cannot hold '&', '?', '#' or '=' (they separate the URI's parts): give the file a name or a link without them"
+                    } else {
+                        ", write the character itself"
+                    }
                 ),
             )),
             None => Ok(()),

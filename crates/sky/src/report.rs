@@ -150,7 +150,8 @@ pub fn fmt_site(s: &Site) -> String {
         "{:.4}° {ns}, {:.4}° {ew}, {} m",
         s.latitude_deg.abs(),
         lon.abs(),
-        s.height_m
+        // `1e-300`, not 300 zeros.
+        gloam_spectra::num(s.height_m)
     )
 }
 

@@ -196,13 +196,61 @@ pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
         .mut_subcommands(negative_numbers_are_values)
 }
 
+/// `text` with every number written in more than [`LONG_NUMBER`]
+/// characters rewritten in exponent form (`1e300`, `-1e-320`): a value
+/// echoed with `{}` somewhere in a message (a clap value parser, a
+/// `--fault-drop` range, a scope level) printed 300 digits. The one
+/// place every error of the command line passes; a run of digits inside
+/// a word or a path (`run-2026…/`) is left as written.
+pub fn short_numbers(text: &str) -> String {
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let (mut i, mut copied) = (0, 0);
+    let joined = |c: u8| c.is_ascii_alphanumeric() || c == b'_' || c == b'/';
+    // Bounded: `i` advances on every step.
+    while i < b.len() {
+        let starts = (b[i].is_ascii_digit()
+            || (b[i] == b'-' && b.get(i + 1).is_some_and(u8::is_ascii_digit)))
+            && (i == 0 || !joined(b[i - 1]));
+        if !starts {
+            i += 1;
+            continue;
+        }
+        let mut j = i + 1;
+        while j < b.len() && (b[j].is_ascii_digit() || b[j] == b'.') {
+            j += 1;
+        }
+        // A trailing full stop ends the sentence, not the number.
+        let end = if b[j - 1] == b'.' { j - 1 } else { j };
+        let long = end - i > LONG_NUMBER && (j == b.len() || !joined(b[j]));
+        match text[i..end].parse::<f64>() {
+            Ok(x) if long => {
+                out.push_str(&text[copied..i]);
+                out.push_str(&format!("{x:e}"));
+                copied = end;
+            }
+            _ => {}
+        }
+        i = j;
+    }
+    out.push_str(&text[copied..]);
+    out
+}
+
+/// Characters past which a number in a message is rewritten
+/// ([`short_numbers`]): longer than any 64-bit count or 17-digit float.
+const LONG_NUMBER: usize = 24;
+
 /// Ends on a clap error, or prints `--help`/`--version`, whose write
 /// errors clap drops: `gloam --help > /dev/full` exited 0 with nothing
 /// written. A closed stdout ends quietly, as every command's output does.
 pub fn clap_exit(e: clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
     if !matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
-        e.exit()
+        // As `e.exit()` would, with its numbers short (`--fault-drop
+        // 1e300` echoed 301 digits).
+        let _ = write!(std::io::stderr(), "{}", short_numbers(&e.to_string()));
+        return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
     }
     match e.print().and_then(|()| std::io::stdout().flush()) {
         Ok(()) => ExitCode::SUCCESS,
@@ -248,8 +296,29 @@ fn log_filter(log: &str) -> tracing_subscriber::EnvFilter {
 
 #[cfg(test)]
 mod tests {
-    use super::{args_with_signed_exponents, non_utf8_argument};
+    use super::{args_with_signed_exponents, non_utf8_argument, short_numbers};
     use std::os::unix::ffi::OsStringExt;
+
+    #[test]
+    fn long_numbers_in_messages_are_written_short() {
+        let huge = format!("{}", 1e300_f64);
+        let tiny = format!("{}", -1e-320_f64);
+        assert!(huge.len() > 300 && tiny.len() > 300);
+        let m = short_numbers(&format!(
+            "--fault-drop {huge} is not a probability; {tiny}."
+        ));
+        assert_eq!(m, "--fault-drop 1e300 is not a probability; -1e-320.");
+        // Counts, 17-digit floats, paths and words keep their digits.
+        for kept in [
+            "frames 18446744073709551615, gain 0.12345678901234567",
+            "run/20261207224300123456789012345/x",
+            "id_20261207224300123456789012345",
+        ] {
+            assert_eq!(short_numbers(kept), kept);
+        }
+        assert_eq!(short_numbers(""), "");
+        assert_eq!(short_numbers("-"), "-");
+    }
 
     #[test]
     fn a_non_utf8_argument_is_named_with_its_flag() {
