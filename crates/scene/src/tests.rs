@@ -1650,6 +1650,28 @@ fn over_limit_instance_counts_are_refused_before_allocating() {
 }
 
 #[test]
+fn placements_csv_refuses_an_empty_column_by_number() {
+    let parse = |t: &str| {
+        crate::instance::parse_placements_csv(t, Path::new("p.csv"), 1e12, 10)
+            .map(|v| v.len())
+            .map_err(|e| e.to_string())
+    };
+    for (text, want) in [
+        ("0,0,0,0,1\n1,0,0,0,1,\n", "p.csv:2: column 6 is empty"),
+        ("1,,0,0,1\n", "p.csv:1: column 2 is empty"),
+        (",1,0,0,0,1\n", "p.csv:1: column 1 is empty"),
+        ("1 ; ;0 0 1\n", "p.csv:1: column 2 is empty"),
+    ] {
+        let e = parse(text).unwrap_err();
+        assert!(e.starts_with(want), "{e}\n  should start: {want}");
+    }
+    assert!(parse("1,,0,0,1\n").unwrap_err().ends_with("found 5"));
+    assert!(parse("1,0,0,0,1,\n").unwrap_err().ends_with("found 6"));
+    // Spaces and tabs around or between columns are not empty columns.
+    assert_eq!(parse("1, 0 ,0,\t0,1\n2 0  0\t0 1\n"), Ok(2));
+}
+
+#[test]
 fn size_budget_counts_items_and_memory() {
     use crate::instance::check_budget;
     assert!(check_budget(0, 10, 10, 100, Some(1000), "facets").is_ok());
