@@ -1049,7 +1049,7 @@ fn camera_projection_round_trip_and_frustum() {
 // --- the effect plan -----------------------------------------------------------------
 
 const OUTDOOR: &str = r#"units = "m"
-sensor = "gen3-iccd"
+sensor = "gen3-gaas-iccd"
 
 [camera]
 position = [0.0, -20.0, 1.7]
@@ -1165,7 +1165,7 @@ fn plan_outdoor_scene() {
     assert!(p.is_enabled("atmosphere"));
     assert!(p.get("atmosphere").unwrap().reason.contains("23 km"));
     assert!(p.is_enabled("sensor"));
-    assert!(p.get("sensor").unwrap().reason.contains("gen3-iccd"));
+    assert!(p.get("sensor").unwrap().reason.contains("gen3-gaas-iccd"));
     assert!(!p.is_enabled("no-such-effect"));
 }
 
@@ -1228,6 +1228,20 @@ fn documented_example_parses_and_enables_every_effect() {
     let close = body[open..].find("```").unwrap();
     let text = &body[open..open + close];
     let s = parse(text).unwrap_or_else(|e| panic!("{e}"));
+    // The example names a real camera preset (`gloam sensor list`; the
+    // scene crate does not read sensors, so the names are listed here).
+    let presets = [
+        "gen2-s20-iccd",
+        "gen3-gaas-iccd",
+        "s25-ebccd",
+        "scientific-ccd",
+    ];
+    assert!(
+        presets
+            .iter()
+            .any(|p| text.contains(&format!("sensor = \"{p}\""))),
+        "the complete example's sensor is not a preset"
+    );
     let p = plan(&s);
     // Every effect but distant sources (parallel light has no place on
     // a night street; its own section shows one) and the Sun's two (the
