@@ -11,7 +11,9 @@
 //! an emissive object or an emissive material merges sources into a named
 //! group (an object's own key wins over its material's). A scene with a
 //! `[sky]` also has the groups `moon` (the direct beam) and `sky` (the
-//! dome: night-sky glow and scattered light). Equal names are one group.
+//! dome: night-sky glow and scattered light), and `sun` and `twilight`
+//! when its Sun lights the scene; those four names are the sky's own and
+//! no other source may be named or grouped so. Equal names are one group.
 
 use std::collections::BTreeMap;
 
@@ -27,6 +29,10 @@ pub const SKY_GROUP: &str = "sky";
 pub const SUN_GROUP: &str = "sun";
 /// The twilight sky's group name (sunlight scattered by the sky).
 pub const TWILIGHT_GROUP: &str = "twilight";
+
+/// The groups a `[sky]` renders into; with a `[sky]` no other source
+/// may be named or grouped so.
+pub const SKY_GROUPS: [&str; 4] = [MOON_GROUP, SKY_GROUP, SUN_GROUP, TWILIGHT_GROUP];
 
 /// One light group: its name and the scene tables it gathers
 /// (`point_sources.NAME`, `objects.NAME`, `sky.moon`, `sky.dome`).
@@ -125,6 +131,22 @@ pub(crate) fn light_groups(
         let g = named(root.key("materials").key(name).key("group"), &m.group)?;
         mat_group.insert(name.as_str(), g);
     }
+    // With a `[sky]` its groups' names are its own: a lamp named or grouped
+    // `moon` would otherwise join the Moon's layer (and a sequence keying
+    // `moon` would dim both).
+    let has_sky = raw.sky.is_some();
+    let reserved = |field: &FieldPath, name: &str| -> Result<(), SceneError> {
+        if has_sky && SKY_GROUPS.contains(&name) {
+            return Err(err(
+                field,
+                format!(
+                    "light group '{name}' is the sky's own (with a [sky], {} name its moon, dome, Sun and twilight layers): give this source another group name",
+                    SKY_GROUPS.join(", ")
+                ),
+            ));
+        }
+        Ok(())
+    };
     let mut out = LightGroups::default();
     for o in objects {
         let field = root.key("objects").key(&o.name);
@@ -147,16 +169,31 @@ pub(crate) fn light_groups(
             .get(materials[o.material].name.as_str())
             .cloned()
             .flatten();
+        let blame = match (&own, &mat) {
+            (Some(_), _) => field.key("group"),
+            (None, Some(_)) => root
+                .key("materials")
+                .key(&materials[o.material].name)
+                .key("group"),
+            (None, None) => field.clone(),
+        };
         let name = own.or(mat).unwrap_or_else(|| o.name.clone());
         check_name(&name).map_err(|m| err(&field, m.to_string()))?;
+        reserved(&blame, &name)?;
         let i = out.index(&name, format!("objects.{}", o.name));
         out.object.push(Some(i));
     }
     for t in point_tables {
         let field = root.key("point_sources").key(&t.name);
         let own = raw.point_sources.get(&t.name).and_then(|r| r.group.clone());
+        let blame = if own.is_some() {
+            field.key("group")
+        } else {
+            field.clone()
+        };
         let name = named(field.key("group"), &own)?.unwrap_or_else(|| t.name.clone());
         check_name(&name).map_err(|m| err(&field, m.to_string()))?;
+        reserved(&blame, &name)?;
         let i = out.index(&name, format!("point_sources.{}", t.name));
         out.point_table.push(i);
     }
@@ -164,8 +201,14 @@ pub(crate) fn light_groups(
         let name = &d.name;
         let field = root.key("distant_sources").key(name);
         let own = raw.distant_sources.get(name).and_then(|r| r.group.clone());
+        let blame = if own.is_some() {
+            field.key("group")
+        } else {
+            field.clone()
+        };
         let group = named(field.key("group"), &own)?.unwrap_or_else(|| name.clone());
         check_name(&group).map_err(|m| err(&field, m.to_string()))?;
+        reserved(&blame, &group)?;
         let i = out.index(&group, format!("distant_sources.{name}"));
         out.distant.push(i);
     }
@@ -284,5 +327,40 @@ group = "signs"
         let e = parse("[point_sources.a]\nposition = [0, 0, 1]\nvalue = 1\ngroup = \"../up\"\n")
             .unwrap_err();
         assert_eq!(e.field(), "point_sources.a.group");
+    }
+
+    #[test]
+    fn the_skys_group_names_are_refused_for_other_sources_with_a_sky() {
+        let sky = "[sky]\nutc = \"2025-10-07T05:00:00Z\"\nlatitude_deg = 43\nlongitude_deg = -77\n";
+        let glow_moon = "[objects.panel]\nmaterial = \"glow\"\nquad = { center = [0, 0, 2], size = [1, 1], normal = [0, 0, -1] }\n[materials.glow2]\nreflectance = 0.0\nemission = { value = 1.0 }\ngroup = \"moon\"\n[objects.p2]\nmaterial = \"glow2\"\nquad = { center = [1, 0, 2], size = [1, 1], normal = [0, 0, -1] }\n";
+        for (extra, field) in [
+            (
+                "[point_sources.moon]\nposition = [0, 0, 1]\nvalue = 1\n",
+                "point_sources.moon",
+            ),
+            (
+                "[point_sources.a]\nposition = [0, 0, 1]\nvalue = 1\ngroup = \"sky\"\n",
+                "point_sources.a.group",
+            ),
+            (
+                "[distant_sources.sun]\ndirection = [0, 0, -1]\nvalue = 1\n",
+                "distant_sources.sun",
+            ),
+            (
+                "[distant_sources.d]\ndirection = [0, 0, -1]\nvalue = 1\ngroup = \"moon\"\n",
+                "distant_sources.d.group",
+            ),
+            (
+                "[objects.twilight]\nmaterial = \"glow\"\nquad = { center = [0, 0, 2], size = [1, 1], normal = [0, 0, -1] }\n",
+                "objects.twilight",
+            ),
+            (glow_moon, "materials.glow2.group"),
+        ] {
+            let e = parse(&format!("{extra}{sky}")).unwrap_err();
+            assert_eq!(e.field(), field, "{e}");
+            assert!(e.to_string().contains("is the sky's own"), "{e}");
+            // Without a [sky] the names are free.
+            assert!(parse(extra).is_ok(), "{extra}");
+        }
     }
 }

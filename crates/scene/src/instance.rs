@@ -263,6 +263,10 @@ pub(crate) enum RowError {
     #[error("expected 5 columns ({PLACEMENTS_CSV_HEADER}), found {found}")]
     Columns { found: usize },
     #[error(
+        "column {column} is empty (a doubled or trailing separator?): expected 5 columns ({PLACEMENTS_CSV_HEADER}), found {found}"
+    )]
+    EmptyColumn { column: usize, found: usize },
+    #[error(
         "{axis} = {value} must be a finite number with |{axis}| ≤ {max_coordinate:e} scene units"
     )]
     Coordinate {
@@ -314,6 +318,9 @@ pub(crate) fn parse_placements_csv(
     let mut out = Vec::new();
     let mut seen_row = false;
     for (line_no, line, fields) in gloam_spectra::data_rows(text) {
+        if let (Some(column), found) = empty_column(line) {
+            return Err(err(line_no, RowError::EmptyColumn { column, found }));
+        }
         let parsed: Option<Vec<f64>> = fields.iter().map(|f| f.parse().ok()).collect();
         let Some(nums) = parsed else {
             if !seen_row && fields.join(",").eq_ignore_ascii_case(PLACEMENTS_CSV_HEADER) {
@@ -369,6 +376,23 @@ pub(crate) fn parse_placements_csv(
         });
     }
     Ok(out)
+}
+
+/// A row's first empty column (1-based) and its column count, empty ones
+/// included. A comma or semicolon ends a column, so two with only spaces
+/// between (or one at either end of the row) leave an empty one; runs of
+/// spaces and tabs separate columns without making empty ones.
+fn empty_column(line: &str) -> (Option<usize>, usize) {
+    let mut first_empty = None;
+    let mut count = 0usize;
+    for piece in line.split([',', ';']) {
+        let n = piece.split_whitespace().count();
+        if n == 0 {
+            first_empty.get_or_insert(count + 1);
+        }
+        count += n.max(1);
+    }
+    (first_empty, count)
 }
 
 /// glibc's chunk size for a heap allocation of `n` bytes (an estimate for

@@ -1049,7 +1049,7 @@ fn camera_projection_round_trip_and_frustum() {
 // --- the effect plan -----------------------------------------------------------------
 
 const OUTDOOR: &str = r#"units = "m"
-sensor = "gen3-iccd"
+sensor = "gen3-gaas-iccd"
 
 [camera]
 position = [0.0, -20.0, 1.7]
@@ -1165,7 +1165,7 @@ fn plan_outdoor_scene() {
     assert!(p.is_enabled("atmosphere"));
     assert!(p.get("atmosphere").unwrap().reason.contains("23 km"));
     assert!(p.is_enabled("sensor"));
-    assert!(p.get("sensor").unwrap().reason.contains("gen3-iccd"));
+    assert!(p.get("sensor").unwrap().reason.contains("gen3-gaas-iccd"));
     assert!(!p.is_enabled("no-such-effect"));
 }
 
@@ -1228,6 +1228,20 @@ fn documented_example_parses_and_enables_every_effect() {
     let close = body[open..].find("```").unwrap();
     let text = &body[open..open + close];
     let s = parse(text).unwrap_or_else(|e| panic!("{e}"));
+    // The example names a real camera preset (`gloam sensor list`; the
+    // scene crate does not read sensors, so the names are listed here).
+    let presets = [
+        "gen2-s20-iccd",
+        "gen3-gaas-iccd",
+        "s25-ebccd",
+        "scientific-ccd",
+    ];
+    assert!(
+        presets
+            .iter()
+            .any(|p| text.contains(&format!("sensor = \"{p}\""))),
+        "the complete example's sensor is not a preset"
+    );
     let p = plan(&s);
     // Every effect but distant sources (parallel light has no place on
     // a night street; its own section shows one) and the Sun's two (the
@@ -1647,6 +1661,28 @@ fn over_limit_instance_counts_are_refused_before_allocating() {
         "objects.m.obj",
         "m.obj:1: the face's vertex index 1 refers past the 0 vertices",
     );
+}
+
+#[test]
+fn placements_csv_refuses_an_empty_column_by_number() {
+    let parse = |t: &str| {
+        crate::instance::parse_placements_csv(t, Path::new("p.csv"), 1e12, 10)
+            .map(|v| v.len())
+            .map_err(|e| e.to_string())
+    };
+    for (text, want) in [
+        ("0,0,0,0,1\n1,0,0,0,1,\n", "p.csv:2: column 6 is empty"),
+        ("1,,0,0,1\n", "p.csv:1: column 2 is empty"),
+        (",1,0,0,0,1\n", "p.csv:1: column 1 is empty"),
+        ("1 ; ;0 0 1\n", "p.csv:1: column 2 is empty"),
+    ] {
+        let e = parse(text).unwrap_err();
+        assert!(e.starts_with(want), "{e}\n  should start: {want}");
+    }
+    assert!(parse("1,,0,0,1\n").unwrap_err().ends_with("found 5"));
+    assert!(parse("1,0,0,0,1,\n").unwrap_err().ends_with("found 6"));
+    // Spaces and tabs around or between columns are not empty columns.
+    assert_eq!(parse("1, 0 ,0,\t0,1\n2 0  0\t0 1\n"), Ok(2));
 }
 
 #[test]

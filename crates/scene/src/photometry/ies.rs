@@ -46,6 +46,17 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
     let symmetry =
         symmetry_of(&horizontal).map_err(|m| err(hl[0], "horizontal angles", m.to_string()))?;
     let (mut candela, cl) = read_list(&mut tok, values, "candela values")?;
+    // Numbers past the table are the mark of a wrong angle count (a file
+    // whose count is one short reads shifted, not short): refuse them.
+    if let Some((line, n)) = tok.leftover() {
+        return Err(err(
+            line,
+            "candela values",
+            format!(
+                "{n} numbers after the candela table: the angle counts (line {pt_line}) say {nv} × {nh} values"
+            ),
+        ));
+    }
     let k = multiplier * ballast * ballast_lamp;
     candela.iter_mut().for_each(|c| *c *= k);
     let max_candela = check_candela(&candela).map_err(|(i, m)| err(cl[i], "candela values", m))?;
@@ -187,7 +198,17 @@ fn header(tok: &mut Tokens, path: &str) -> Result<Header, PhotometryError> {
         (ballast_lamp, blf_line, "ballast-lamp photometric factor"),
     ] {
         if v <= 0.0 {
-            return Err(err(l, f, format!("{v} must be > 0")));
+            return Err(err(l, f, format!("{} must be > 0", crate::build::num(v))));
+        }
+        if v < MIN_FACTOR {
+            return Err(err(
+                l,
+                f,
+                format!(
+                    "{} is below {MIN_FACTOR:e}: the lamp would emit nothing visible (a mistyped exponent?)",
+                    crate::build::num(v)
+                ),
+            ));
         }
     }
     Ok(Header {
@@ -216,6 +237,12 @@ fn read_list(
     }
     Ok((out, lines))
 }
+
+/// Smallest candela multiplier, ballast factor and ballast-lamp factor
+/// accepted: real files use about 0.001–1000 (a relative file's multiplier
+/// is its lamp lumens / 1000); below 1e-12 a lamp of even 1e12 cd emits
+/// less than 1 cd, so the value is a typo (1e-320 renders black).
+pub const MIN_FACTOR: f64 = 1e-12;
 
 /// Largest TILT=INCLUDE multiplying factor accepted.
 pub const MAX_TILT_FACTOR: f64 = 10.0;

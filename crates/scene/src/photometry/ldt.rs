@@ -94,6 +94,25 @@ pub(super) fn parse(text: &str, path: &str) -> Result<Photometry, PhotometryErro
     for l in i_first..i_first + values {
         candela.push(f.number(l, "luminous intensity (cd/klm)")? * klm);
     }
+    // Lines past the table (other than blank ones) are the mark of a wrong
+    // count: refuse them rather than read a shifted table.
+    let end = i_first - 1 + values;
+    if let Some(k) = f.lines[end..]
+        .iter()
+        .position(|l| !l.trim().trim_matches('\u{1a}').is_empty())
+    {
+        let extra = f.lines[end + k..]
+            .iter()
+            .filter(|l| !l.trim().trim_matches('\u{1a}').is_empty())
+            .count();
+        return Err(f.err(
+            end + k + 1,
+            "luminous intensity distribution",
+            format!(
+                "{extra} non-empty lines after the intensity table, which ends at line {end}: the counts (Isym line 3, Mc line 4, Ng line 6) say {stored} planes × {ng} intensities"
+            ),
+        ));
+    }
     if symmetry == Symmetry::BilateralC90 {
         (horizontal, candela) = mirror_c90(&horizontal, &candela, ng);
     }

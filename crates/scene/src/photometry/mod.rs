@@ -391,6 +391,22 @@ impl<'a> Tokens<'a> {
         check_count(v, max).map_err(|m| self.err(line.max(self.line), field, m.to_string()))
     }
 
+    /// The tokens left in the text: how many and the line of the first
+    /// (`None` when only separators remain). A DOS end-of-file mark
+    /// (Ctrl-Z) is not a token. Bounded by the text's length.
+    pub(crate) fn leftover(&mut self) -> Option<(usize, usize)> {
+        let mut first = None;
+        let mut n = 0usize;
+        while let Some((l, s)) = self.next_raw() {
+            if s.bytes().all(|b| b == 0x1a) {
+                continue;
+            }
+            first.get_or_insert(l);
+            n += 1;
+        }
+        first.map(|l| (l, n))
+    }
+
     /// How many more tokens the text holds (a bound for claimed counts).
     pub(crate) fn remaining_at_most(&self) -> usize {
         // Each token needs at least one character and one separator.

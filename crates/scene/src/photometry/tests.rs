@@ -312,6 +312,24 @@ fn bad_ies_files_are_refused_by_line_and_field() {
             "ballast factor: 0 must be > 0",
         ),
         (
+            good.replace("1 1000 1 7 4", "1 1000 1e-320 7 4"),
+            "bad.ies:5: candela multiplier: 1e-320 is below 1e-12",
+        ),
+        (
+            good.replace("1.0 1.0 10", "1.0 5e-13 10"),
+            "bad.ies:6: ballast-lamp photometric factor: 5e-13 is below 1e-12",
+        ),
+        (
+            good.clone() + "77 88\n99\n",
+            "bad.ies:13: candela values: 3 numbers after the candela table: the angle counts (line 5) say 7 × 4 values",
+        ),
+        (
+            // One horizontal angle too few: the table reads shifted and
+            // the last plane is left over.
+            "IESNA:LM-63-2002\n[TEST] x\nTILT=NONE\n1 -1 1 3 1 1 1 0.5 0.5 0\n1 1 100\n0 45 90\n0 90\n1000 500 0\n1000 500 0\n".to_string(),
+            "bad.ies:8: candela values: 4 numbers after the candela table: the angle counts (line 4) say 3 × 1 values",
+        ),
+        (
             good[..good.len() - 20].to_string(),
             "the file ends here (truncated?)",
         ),
@@ -382,6 +400,18 @@ fn every_truncation_and_byte_flip_is_an_error_not_a_panic() {
 }
 
 #[test]
+fn trailing_blank_lines_and_a_dos_eof_mark_are_accepted() {
+    let ldt = ldt_text(Symmetry::Quadrant);
+    for t in [ldt.clone() + "\r\n  \r\n", ldt.clone() + "\u{1a}"] {
+        assert!(Photometry::parse_ldt(&t, "x.ldt").is_ok());
+    }
+    let ies = ies_text(Symmetry::Quadrant, 1.0, "TILT=NONE");
+    for t in [ies.clone() + "\n \n", ies.clone() + "\u{1a}"] {
+        assert!(Photometry::parse_ies(&t, "x.ies").is_ok());
+    }
+}
+
+#[test]
 fn bad_ldt_files_are_refused_by_line_and_field() {
     let good = ldt_text(Symmetry::Quadrant);
     let set = |line: usize, v: &str| {
@@ -425,6 +455,10 @@ fn bad_ldt_files_are_refused_by_line_and_field() {
             "bad.ldt:64: luminous intensity (cd/klm): candela value -10 (entry 3)",
         ),
         (good[..good.len() - 10].to_string(), "truncated?"),
+        (
+            good.clone() + "\r\n1\r\n2\r\n",
+            "bad.ldt:91: luminous intensity distribution: 2 non-empty lines after the intensity table, which ends at line 89",
+        ),
     ];
     for (text, want) in cases {
         let e = match Photometry::parse_ldt(&text, "bad.ldt") {
