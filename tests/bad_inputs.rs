@@ -3190,6 +3190,14 @@ const CASES: &[Case] = &[
     case!("apply: a frames.jsonl line with a key twice", ["d/f.png" => "{capture:g1/frame-000000.png}", "d/frames.jsonl" => "{\"file\":\"f.png\",\"gain\":1,\"gain\":300}\n", "l.json" => "{lpatch:}"], ["calibrate", "apply", "--lut", "l.json", "d/f.png", "o.tiff"], ["d/frames.jsonl", "line 1", "`gain` is given twice"]),
     // --- round 13 (issue 46): scene files (IES, EULUMDAT, placements, groups)
     // --- round 13 (issue 46): bench and sweep
+    // `--budget-s 1e300` was accepted and summary.md printed 301 digits.
+    case!("bench accuracy: a budget of 1e300 s", ["s.toml" => "{base}"], ["bench", "accuracy", "s.toml", "--out", "o", "--no-mitsuba", "--budget-s", "1e300"], ["--budget-s 1e300", "at most 1e6"]),
+    case!("bench accuracy: a budget of -1e-300 s", ["s.toml" => "{base}"], ["bench", "accuracy", "s.toml", "--out", "o", "--no-mitsuba", "--budget-s", "-1e-300"], ["--budget-s -1e-300", "positive"]),
+    // A capture-flow conflict in [base] was blamed on the first axis.
+    case!("sweep: a scene in a capture flow's base", ["w.toml" => "[base]\nscene = \"s.toml\"\nflow = \"capture\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [100, 200]\n", "s.toml" => "{base}"], ["sweep", "w.toml", "--out", "o"], ["w.toml:2: base.scene:", "capture flow takes no scene"]),
+    case!("sweep: spp in a capture flow's base", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\nspp = 1\n[axes]\ngain = [100, 200]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml:3: base.spp:", "takes no render settings"]),
+    case!("sweep: a scene key in a capture flow's base", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n\"camera.width\" = 8\n[axes]\ngain = [100, 200]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml:3: base.camera.width:", "capture flow takes no scene"]),
+    case!("sweep: spp as a capture flow's axis", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [100, 200]\nspp = [1, 2]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml:5: axes.spp:", "takes no render settings"]),
     // --- round 13 (issue 46): the open findings of round 12
     // `max_spp` below the first round's samples was exceeded, and beside a
     // fixed count it was ignored.
