@@ -3196,6 +3196,14 @@ const CASES: &[Case] = &[
     case!("scene: a lamp named moon under a [sky]", ["s.toml" => "{base}\n[point_sources.moon]\nposition = [0.0, 0.0, 5.0]\nvalue = 0.1\n[sky]\nutc = \"2024-03-14T04:30:00Z\"\nlatitude_deg = 32.2\nlongitude_deg = -110.9\n"], ["plan", "s.toml"], ["s.toml:", "point_sources.moon", "light group 'moon' is the sky's own"]),
     case!("scene: a distant source grouped sky under a [sky]", ["s.toml" => "{base}\n[distant_sources.d]\ndirection = [0.0, 0.0, -1.0]\nvalue = 0.1\ngroup = \"sky\"\n[sky]\nutc = \"2024-03-14T04:30:00Z\"\nlatitude_deg = 32.2\nlongitude_deg = -110.9\n"], ["plan", "s.toml"], ["s.toml:", "distant_sources.d.group", "light group 'sky' is the sky's own"]),
     // --- round 13 (issue 46): bench and sweep
+    // `--budget-s 1e300` was accepted and summary.md printed 301 digits.
+    case!("bench accuracy: a budget of 1e300 s", ["s.toml" => "{base}"], ["bench", "accuracy", "s.toml", "--out", "o", "--no-mitsuba", "--budget-s", "1e300"], ["--budget-s 1e300", "at most 1e6"]),
+    case!("bench accuracy: a budget of -1e-300 s", ["s.toml" => "{base}"], ["bench", "accuracy", "s.toml", "--out", "o", "--no-mitsuba", "--budget-s", "-1e-300"], ["--budget-s -1e-300", "positive"]),
+    // A capture-flow conflict in [base] was blamed on the first axis.
+    case!("sweep: a scene in a capture flow's base", ["w.toml" => "[base]\nscene = \"s.toml\"\nflow = \"capture\"\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [100, 200]\n", "s.toml" => "{base}"], ["sweep", "w.toml", "--out", "o"], ["w.toml:2: base.scene:", "capture flow takes no scene"]),
+    case!("sweep: spp in a capture flow's base", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\nspp = 1\n[axes]\ngain = [100, 200]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml:3: base.spp:", "takes no render settings"]),
+    case!("sweep: a scene key in a capture flow's base", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n\"camera.width\" = 8\n[axes]\ngain = [100, 200]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml:3: base.camera.width:", "capture flow takes no scene"]),
+    case!("sweep: spp as a capture flow's axis", ["w.toml" => "[base]\nsensor = \"gen3-gaas-iccd\"\n[axes]\ngain = [100, 200]\nspp = [1, 2]\n"], ["sweep", "w.toml", "--out", "o"], ["w.toml:5: axes.spp:", "takes no render settings"]),
     // --- round 13 (issue 46): the open findings of round 12
     // `max_spp` below the first round's samples was exceeded, and beside a
     // fixed count it was ignored.

@@ -322,6 +322,11 @@ pub struct AccuracyOptions {
     pub force: bool,
 }
 
+/// Longest `--budget-s` (about 11.6 days, as `bench scale --timeout-s`):
+/// a wall-time budget, not "forever" (1e300 was accepted and summary.md
+/// printed it with 301 digits).
+pub const MAX_BUDGET_S: f64 = 1e6;
+
 /// What `--budget-s` does not stop: a sweep without them has no figures.
 pub const BUDGET_EXEMPT: &str = "the reference (at least 256 spp), each estimator's first rung and Mitsuba 3 (up to the larger of half the budget and 60 s) run whatever the budget";
 
@@ -343,8 +348,9 @@ pub fn run(
 ) -> Result<AccuracyReport, BenchError> {
     let t_start = Instant::now();
     ensure_valid!(
-        args.budget_s.is_finite() && args.budget_s > 0.0,
-        "--budget-s must be a positive number of seconds"
+        args.budget_s.is_finite() && args.budget_s > 0.0 && args.budget_s <= MAX_BUDGET_S,
+        "--budget-s {}: must be a positive number of seconds, at most {MAX_BUDGET_S:e}",
+        gloam_spectra::num(args.budget_s)
     );
     let scene_path = args.scene.clone();
     // The run's reads: the scene and its files, listed in the manifest.
@@ -785,7 +791,7 @@ fn resolution_only_report(
         args.budget_s,
         if summary.over_budget_s > 0.05 {
             format!(
-                "; {:.1} s past the budget: a scale starts when its predicted time fits what is left, the first whatever the budget",
+                "; {:.1} s past the budget: a scale starts when its predicted time fits what is left, the first (and one after a render too small to predict from) whatever the budget",
                 summary.over_budget_s
             )
         } else {

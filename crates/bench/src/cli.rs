@@ -120,7 +120,7 @@ pub struct AccuracyArgs {
     /// The reference (at least 256 spp), each estimator's first rung and
     /// Mitsuba 3 (up to the larger of half the budget and 60 s) run
     /// whatever it is; summary.md and `over_budget_s` say by how much a run
-    /// went past it.
+    /// went past it. At most 1e6 s.
     #[arg(long, default_value_t = 120.0)]
     pub budget_s: f64,
     /// Also render with every effect forced on and report the time the

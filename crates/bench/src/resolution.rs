@@ -194,14 +194,14 @@ pub fn run(
     let elapsed = || t_start.elapsed().as_secs_f64();
     let closed_form = closed_form_obstacle(scene).is_none();
     let mut axis = ResolutionAxis::default();
-    // Render seconds per pixel of the last scale (predicts the next).
-    let mut render_per_px: Option<f64> = None;
+    // The last scale's render timing (predicts the next).
+    let mut last: Option<RenderTiming> = None;
     for (i, &scale) in scales.iter().enumerate() {
         let scaled = scaled_scene(scene, scale);
         let px = (scaled.camera.width * scaled.camera.height) as f64;
-        let render_guess = render_per_px.map_or(0.0, |c| c * px);
+        let (render_guess, trusted) = predict_render_s(last, px);
         let left = deadline_s - elapsed();
-        if render_guess > left {
+        if trusted && render_guess > left {
             axis.skipped.push(Skipped {
                 resolution_scale: scale,
                 why: format!(
@@ -241,7 +241,12 @@ pub fn run(
         let t0 = Instant::now();
         let out = Tracer::new(scene, &settings)?.render(&|_, _| {})?;
         let time_s = t0.elapsed().as_secs_f64();
-        render_per_px = Some(time_s / px);
+        let trace_s = out.stats.trace_seconds.clamp(0.0, time_s);
+        last = Some(RenderTiming {
+            px,
+            fixed_s: time_s - trace_s,
+            trace_s,
+        });
         ensure_valid!(
             out.radiance.dim() == truth.image.dim(),
             "resolution_scale {scale}: the render is {:?}, the truth {:?} (band × row × column)",
@@ -252,6 +257,41 @@ pub fn run(
             .push(figures(scale, &scaled, &out, &truth, time_s));
     }
     Ok(axis)
+}
+
+/// Below this many pixels a render's time is mostly fixed cost (thread
+/// start, the adaptive sampler's rounds), so its per-pixel rate
+/// extrapolated to a larger scale can be off by orders of magnitude (a
+/// 1×1 render's 0.03 s × 768 predicted 21 s for a render of 0.03 s): such
+/// a prediction never skips a scale.
+pub const MIN_PREDICTING_PIXELS: f64 = 256.0;
+
+/// A render's timing at one scale, what the next scale's is predicted from.
+#[derive(Clone, Copy, Debug)]
+struct RenderTiming {
+    /// The render's pixels.
+    px: f64,
+    /// Wall time outside sampling (the tracer's preparation and the rest):
+    /// taken as fixed, as it does not grow with the pixel count.
+    fixed_s: f64,
+    /// The render's sampling time (`RenderStats::trace_seconds`): taken as
+    /// proportional to the pixel count.
+    trace_s: f64,
+}
+
+/// The predicted wall time of a render of `px` pixels after `last`:
+/// `fixed + sampling per pixel × px` (so the fixed cost is not scaled by
+/// the pixel ratio), and whether it may skip the scale — only when `last`
+/// had at least [`MIN_PREDICTING_PIXELS`]. Without a trusted prediction
+/// the time reserved is the last render's own (0 before the first).
+fn predict_render_s(last: Option<RenderTiming>, px: f64) -> (f64, bool) {
+    let Some(t) = last else {
+        return (0.0, false);
+    };
+    if t.px < MIN_PREDICTING_PIXELS {
+        return (t.fixed_s + t.trace_s, false);
+    }
+    (t.fixed_s + t.trace_s / t.px.max(1.0) * px, true)
 }
 
 /// Weighted sums over the pixels `weight` counts (first band): render,
@@ -677,4 +717,33 @@ pub fn markdown(axis: &ResolutionAxis) -> String {
         );
     }
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prediction_does_not_scale_the_fixed_cost() {
+        // Round 13: a 1×1 render of 0.03 s (mostly fixed cost) predicted
+        // scale 1 (768 pixels) at ~21 s and skipped it.
+        let tiny = RenderTiming {
+            px: 1.0,
+            fixed_s: 0.025,
+            trace_s: 0.005,
+        };
+        let (s, trusted) = predict_render_s(Some(tiny), 768.0);
+        assert!(!trusted, "a 1-pixel render must not skip a scale");
+        assert!(s < 0.1, "{s}");
+        // From a render large enough to trust: fixed + per-pixel.
+        let big = RenderTiming {
+            px: 1024.0,
+            fixed_s: 2.0,
+            trace_s: 1.0,
+        };
+        let (s, trusted) = predict_render_s(Some(big), 4096.0);
+        assert!(trusted);
+        assert!((s - 6.0).abs() < 1e-12, "{s}");
+        assert_eq!(predict_render_s(None, 4096.0), (0.0, false));
+    }
 }

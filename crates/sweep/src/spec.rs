@@ -582,7 +582,7 @@ pub struct SizeError {
 }
 
 /// Keys a task allows on their own but not together.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum Conflict {
     #[error("the render flow needs a scene")]
     RenderWithoutScene,
@@ -592,10 +592,12 @@ pub enum Conflict {
     SizeInRender,
     #[error("the capture flow needs a sensor")]
     CaptureWithoutSensor,
-    #[error("the capture flow takes no scene, tile or scene keys")]
-    CaptureWithScene,
-    #[error("the capture flow takes no render settings")]
-    CaptureWithSettings,
+    /// The key named (the first of them): the error is blamed on its line,
+    /// in [base] or [axes], not on the [axes] table's first key.
+    #[error("the capture flow takes no scene, tile or scene keys (`{0}` is one)")]
+    CaptureWithScene(String),
+    #[error("the capture flow takes no render settings (`{0}` is one)")]
+    CaptureWithSettings(String),
     #[error("a fixed gain and agc = true exclude each other")]
     GainAndAgc,
     #[error("gain and agc need a sensor")]
@@ -617,8 +619,9 @@ pub enum Conflict {
 
 impl Conflict {
     /// The key a conflict is blamed on, when one key is at fault.
-    fn key(&self) -> Option<&'static str> {
+    fn key(&self) -> Option<&str> {
         match self {
+            Conflict::CaptureWithScene(k) | Conflict::CaptureWithSettings(k) => Some(k),
             Conflict::TileWithSensor => Some("tile"),
             Conflict::SizeInRender => Some("size"),
             Conflict::GainAndAgc => Some("agc"),
@@ -983,11 +986,16 @@ impl Task {
                 if !has("sensor") {
                     return Err(Conflict::CaptureWithoutSensor);
                 }
-                if has("scene") || has("tile") || !self.scene_overrides().is_empty() {
-                    return Err(Conflict::CaptureWithScene);
+                let scene_key = ["scene", "tile"]
+                    .into_iter()
+                    .find(|k| has(k))
+                    .map(String::from)
+                    .or_else(|| self.scene_overrides().into_iter().next().map(|(k, _)| k));
+                if let Some(k) = scene_key {
+                    return Err(Conflict::CaptureWithScene(k));
                 }
-                if !self.setting_pairs().is_empty() {
-                    return Err(Conflict::CaptureWithSettings);
+                if let Some((k, _)) = self.setting_pairs().into_iter().next() {
+                    return Err(Conflict::CaptureWithSettings(k));
                 }
             }
         }
@@ -1187,5 +1195,23 @@ seed = { from = 7, count = 2 }
                 .contains("capture flow takes no render settings"),
             "{e}"
         );
+        // Round 13: a capture-flow conflict in [base] is blamed on the key
+        // at fault and its line, not on the first axis.
+        let e = parse(
+            "[base]\nscene = \"s.toml\"\nflow = \"capture\"\nsensor = \"x\"\n[axes]\ngain = [100, 200]\n",
+        )
+        .unwrap_err();
+        assert!(e.to_string().starts_with("t.toml:2: base.scene:"), "{e}");
+        let e = parse("[base]\nsensor = \"x\"\nspp = 1\n[axes]\ngain = [100, 200]\n").unwrap_err();
+        assert!(e.to_string().starts_with("t.toml:3: base.spp:"), "{e}");
+        let e = parse("[base]\nsensor = \"x\"\n\"camera.width\" = 8\n[axes]\ngain = [100, 200]\n")
+            .unwrap_err();
+        assert!(
+            e.to_string().starts_with("t.toml:3: base.camera.width:"),
+            "{e}"
+        );
+        let e =
+            parse("[base]\nsensor = \"x\"\n[axes]\ngain = [100, 200]\nspp = [1, 2]\n").unwrap_err();
+        assert!(e.to_string().starts_with("t.toml:5: axes.spp:"), "{e}");
     }
 }
