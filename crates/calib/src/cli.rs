@@ -260,6 +260,24 @@ pub struct MtfArgs {
     pub force: bool,
 }
 
+/// The flags `calibrate mtf --target sine` reads: the first
+/// [`SINE_FLAGS`], and with `--space voltage` the scope's too.
+const SINE_VOLTAGE_FLAGS: &[&str] = &[
+    "--grabber",
+    "--seed",
+    "--gain",
+    "--radiance",
+    "--modulation",
+    "--angle-deg",
+    "--frequencies",
+    "--frames",
+    "--spectrum",
+    "--space",
+    "--scope-rows",
+    "--magnification",
+];
+const SINE_FLAGS: usize = 10;
+
 impl MtfArgs {
     fn voltage(&self) -> bool {
         self.space == Some(Space::Voltage)
@@ -304,38 +322,8 @@ impl MtfArgs {
                     "--space",
                 ],
             ),
-            Target::Sine if self.voltage() => (
-                "sine --space voltage",
-                &[
-                    "--grabber",
-                    "--seed",
-                    "--gain",
-                    "--radiance",
-                    "--modulation",
-                    "--angle-deg",
-                    "--frequencies",
-                    "--frames",
-                    "--spectrum",
-                    "--space",
-                    "--scope-rows",
-                    "--magnification",
-                ],
-            ),
-            Target::Sine => (
-                "sine",
-                &[
-                    "--grabber",
-                    "--seed",
-                    "--gain",
-                    "--radiance",
-                    "--modulation",
-                    "--angle-deg",
-                    "--frequencies",
-                    "--frames",
-                    "--spectrum",
-                    "--space",
-                ],
-            ),
+            Target::Sine if self.voltage() => ("sine --space voltage", SINE_VOLTAGE_FLAGS),
+            Target::Sine => ("sine", &SINE_VOLTAGE_FLAGS[..SINE_FLAGS]),
         };
         let unused: Vec<&str> = given
             .iter()

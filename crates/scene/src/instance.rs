@@ -467,24 +467,34 @@ pub fn available_memory() -> Option<(u64, &'static str)> {
 /// `VmSize` is 1.4 GB at start under a 1.5 GB limit, yet 0.96 GB more
 /// were allocated before the abort); `None` when unlimited or unreadable.
 fn address_space_room() -> Option<u64> {
+    let (soft, rss_kb) = (soft_address_limit()?, status_kb("VmRSS:")?);
+    Some(soft.saturating_sub(rss_kb.saturating_mul(1024)) / 5 * 4)
+}
+
+/// The soft `RLIMIT_AS` in bytes (`/proc/self/limits`, "Max address
+/// space"); `None` when unlimited or unreadable.
+fn soft_address_limit() -> Option<u64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let soft: u64 = limits
+    limits
         .lines()
         .find(|l| l.starts_with("Max address space"))?
         .trim_start_matches("Max address space")
         .split_whitespace()
         .next()?
         .parse()
-        .ok()?;
+        .ok()
+}
+
+/// A `/proc/self/status` figure in kB (`key` with its colon: `VmRSS:`).
+fn status_kb(key: &str) -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let rss_kb: u64 = status
+    status
         .lines()
-        .find(|l| l.starts_with("VmRSS:"))?
+        .find(|l| l.starts_with(key))?
         .split_whitespace()
         .nth(1)?
         .parse()
-        .ok()?;
-    Some(soft.saturating_sub(rss_kb.saturating_mul(1024)) / 5 * 4)
+        .ok()
 }
 
 /// Bytes of address space left unreserved under the soft `RLIMIT_AS`
@@ -493,23 +503,7 @@ fn address_space_room() -> Option<u64> {
 /// this, not against [`available_memory`] (which counts resident memory).
 /// `None` when unlimited or unreadable.
 pub fn address_space_unreserved() -> Option<u64> {
-    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let soft: u64 = limits
-        .lines()
-        .find(|l| l.starts_with("Max address space"))?
-        .trim_start_matches("Max address space")
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()?;
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let size_kb: u64 = status
-        .lines()
-        .find(|l| l.starts_with("VmSize:"))?
-        .split_whitespace()
-        .nth(1)?
-        .parse()
-        .ok()?;
+    let (soft, size_kb) = (soft_address_limit()?, status_kb("VmSize:")?);
     Some(soft.saturating_sub(size_kb.saturating_mul(1024)))
 }
 
