@@ -161,6 +161,13 @@ impl CalibError {
             message: message.to_string(),
         }
     }
+
+    /// A TOML error of `text`, read from `origin`, at its line and field
+    /// (`origin:LINE: field `f`: message`, `gloam_io::toml_place`).
+    pub(crate) fn toml(origin: impl std::fmt::Display, text: &str, e: &toml::de::Error) -> Self {
+        let (line, message) = gloam_io::toml_place::place(text, e);
+        Self::file(format!("{origin}:{line}"), message)
+    }
 }
 
 /// [`CalibError::LutNotForCamera`]'s text: the camera named twice only

@@ -638,10 +638,8 @@ impl SourceFile {
     pub fn parse(text: &str, base_dir: &Path, label: &str) -> Result<Self, CalibError> {
         // One line with the file's line and field, not the parser's quoted
         // line under a caret.
-        let parsed: FileToml = toml::from_str(text).map_err(|e| {
-            let (line, message) = gloam_io::toml_place::place(text, &e);
-            CalibError::file(format!("{label}:{line}"), message)
-        })?;
+        let parsed: FileToml =
+            toml::from_str(text).map_err(|e| CalibError::toml(label, text, &e))?;
         Ok(Self {
             parsed,
             base_dir: base_dir.to_path_buf(),

@@ -42,10 +42,7 @@ pub fn load_regions(
             region: Vec<Region>,
         }
         toml::from_str::<File>(&text)
-            .map_err(|e| {
-                let (line, message) = gloam_io::toml_place::place(&text, &e);
-                CalibError::file(format!("{}:{line}", path.display()), message)
-            })?
+            .map_err(|e| CalibError::toml(path.display(), &text, &e))?
             .region
     };
     check_distinct(&regions).map_err(|e| CalibError::file(path, e))?;

@@ -110,7 +110,6 @@ pub enum OutputSetError {
     Manifest(#[source] serde_json::Error),
 }
 
-/// `Result::map_err` for a file-system step: what it was doing, lazily.
 /// Bytes free to an unprivileged writer on the filesystem holding `path`
 /// (`statvfs`'s `f_bavail`), or `None` where it cannot be read.
 pub fn free_disk_bytes(path: &Path) -> Option<u64> {
@@ -136,6 +135,7 @@ pub fn files_bytes(dir: &Path) -> u64 {
         .sum()
 }
 
+/// `Result::map_err` for a file-system step: what it was doing, lazily.
 fn io_err(doing: impl FnOnce() -> String) -> impl FnOnce(std::io::Error) -> OutputSetError {
     move |source| OutputSetError::Io {
         doing: doing(),

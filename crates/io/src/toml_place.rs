@@ -66,14 +66,25 @@ pub fn field_at_offset(text: &str, offset: usize) -> Option<String> {
     (!path.is_empty()).then_some(path)
 }
 
-/// 1-based line of the top-level key `key` of `text`, if it is there.
-pub fn line_of_key(text: &str, key: &str) -> Option<usize> {
-    let root = DeTable::parse(text).ok()?;
-    let (k, _) = root
-        .get_ref()
-        .iter()
-        .find(|(k, _)| k.get_ref().as_ref() == key)?;
-    Some(line_of_offset(text, k.span().start))
+/// 1-based line of the deepest key of the dotted `field` present in `text`
+/// (a missing field is placed at its table; line 1 when nothing is found).
+pub fn line_of_field(text: &str, field: &str) -> usize {
+    let Ok(root) = DeTable::parse(text) else {
+        return 1;
+    };
+    let mut table = root.get_ref();
+    let mut offset = None;
+    for k in field.split('.') {
+        let Some((key, v)) = table.iter().find(|(key, _)| key.get_ref().as_ref() == k) else {
+            break;
+        };
+        offset = Some(key.span().start);
+        match v.get_ref() {
+            DeValue::Table(t) => table = t,
+            _ => break,
+        }
+    }
+    offset.map_or(1, |o| line_of_offset(text, o))
 }
 
 /// A parse or field error of `text` (read from `origin`) on one line:
@@ -129,10 +140,11 @@ mod tests {
             Some("a.b[2]")
         );
         assert_eq!(
-            line_of_key("# c\nunits = \"m\"\nsensor = \"x\"\n", "sensor"),
-            Some(3)
+            line_of_field("# c\nunits = \"m\"\nsensor = \"x\"\n", "sensor"),
+            3
         );
-        assert_eq!(line_of_key("units = 1\n", "sensor"), None);
+        assert_eq!(line_of_field("units = 1\n", "sensor"), 1);
+        assert_eq!(line_of_field("[a]\nx = 1\n[b]\ny = 2\n", "b.y"), 4);
         // An array of tables, whose header alone spans the table.
         let text = "[s]\nk = 1\n[[s.l]]\nx = 1\n[[s.l]]\ny = 2\n";
         let at = text.find("y =").unwrap();

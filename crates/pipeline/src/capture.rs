@@ -62,9 +62,9 @@ pub fn resolve_scene_sensor(
             gloam_io::MAX_TEXT_FILE_BYTES,
             &gloam_io::ReadLog::off(),
         )
-        .ok()
-        .and_then(|text| gloam_io::toml_place::line_of_key(&text, "sensor"))
-        .unwrap_or(1);
+        .map_or(1, |text| {
+            gloam_io::toml_place::line_of_field(&text, "sensor")
+        });
         CaptureOptionsError::SceneSensor {
             at: format!("{}:{line}", scene_path.display()),
             source: Box::new(e),

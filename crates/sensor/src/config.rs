@@ -10,7 +10,7 @@
 //! sources of their numbers) and are compiled in, so `gloam sensor list` works
 //! anywhere.
 
-use gloam_io::toml_place::{field_at_offset, line_of_offset};
+use gloam_io::toml_place::{line_of_field, place};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
@@ -483,16 +483,12 @@ impl SensorConfig {
     /// Parses and validates TOML; `origin` names the file or preset in errors.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ConfigError> {
         let cfg: SensorConfig = toml::from_str(text).map_err(|e| {
-            let line = e.span().map_or(1, |r| line_of_offset(text, r.start));
             // The field too, as semantic errors name it: `unknown variant
             // `mode`` alone did not say that it was `agc.metering`.
-            let field = e
-                .span()
-                .and_then(|r| field_at_offset(text, r.start))
-                .map_or(String::new(), |f| format!("field `{f}`: "));
+            let (line, message) = place(text, &e);
             ConfigError::Parse {
                 origin: format!("{origin}:{line}"),
-                message: format!("{field}{}", e.message().trim()),
+                message,
             }
         })?;
         // The stages' derived figures too (`Chain::new`): an extreme
@@ -1047,28 +1043,6 @@ pub enum Readout<'a> {
     },
     /// Direct digital readout at `e_per_dn`.
     Direct { e_per_dn: f64 },
-}
-
-/// 1-based line of the deepest key of the dotted `field` present in `text`
-/// (a missing field is placed at its table; line 1 when nothing is found).
-fn line_of_field(text: &str, field: &str) -> usize {
-    use toml::de::{DeTable, DeValue};
-    let Ok(root) = DeTable::parse(text) else {
-        return 1;
-    };
-    let mut table = root.get_ref();
-    let mut offset = None;
-    for k in field.split('.') {
-        let Some((key, v)) = table.iter().find(|(key, _)| key.get_ref().as_ref() == k) else {
-            break;
-        };
-        offset = Some(key.span().start);
-        match v.get_ref() {
-            DeValue::Table(t) => table = t,
-            _ => break,
-        }
-    }
-    offset.map_or(1, |o| line_of_offset(text, o))
 }
 
 fn missing(field: &str, why: &str) -> ConfigError {

@@ -226,7 +226,7 @@ pub fn short_numbers(text: &str) -> String {
         match text[i..end].parse::<f64>() {
             Ok(x) if long => {
                 out.push_str(&text[copied..i]);
-                out.push_str(&format!("{x:e}"));
+                out.push_str(&gloam_spectra::num(x));
                 copied = end;
             }
             _ => {}
